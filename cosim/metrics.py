@@ -1,0 +1,142 @@
+"""Figures of merit of a run: tracking error as in the paper, fixed point against float, and the
+capstan fit of a characterisation.
+
+Tracking error (paper Sec. VI-C): e = T_ref - T_out, with T_out as the output sensor reads it;
+RMS and peak of |e| in N and in % of the maximum reference tension of the evaluated window (the
+paper: 0.65 N = 4.3 % and 2 N = 13.3 % of 15 N).
+
+Fixed against float: the co-simulated fixed-point chain (RTL + firmware) against the double
+reference on the same scenario and plant; the current command compared in LSB of its Q3.12 word
+(1/4096 A) and T_out in N.
+
+Capstan fit (paper Eq. 1-3 quasi-static, Fig. 2): along the sheath the output is held between
+T_in*exp(-mu*phi) (pulling) and T_in*exp(+mu*phi) (releasing) and stays put in between (the dead
+zone at reversals), i.e. the play operator
+    T_out[k] = min(max(T_out[k-1], T_in[k]*exp(-mu*phi)), T_in[k]*exp(+mu*phi)),
+plus a constant sensor offset (the paper saw 0.5 N from the rollers of its sensor). The fit
+returns mu*phi (and mu for a known phi) by least squares on T_out.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+# LSB of the Q3.12 current command (contract.md).
+CURRENT_LSB_A = 1.0 / 4096.0
+
+# The paper's results (Sec. VI-C, Fig. 14).
+PAPER_RMS_PCT = 4.3
+PAPER_PEAK_PCT = 13.3
+PAPER_RMS_N = 0.65
+PAPER_PEAK_N = 2.0
+PAPER_MAX_REF_N = 15.0
+
+
+def tracking_error(
+    t_s: np.ndarray, t_ref_n: np.ndarray, t_out_n: np.ndarray, settle_s: float = 0.0
+) -> dict[str, float]:
+    """RMS and peak of T_ref - T_out over t >= settle_s, in N and in % of max |T_ref| there."""
+    t_s = np.asarray(t_s, dtype=np.float64)
+    mask = t_s >= settle_s
+    if not np.any(mask):
+        raise ValueError(f"settle_s = {settle_s:g} s leaves no sample (run ends at {t_s[-1]:g} s)")
+    err = np.asarray(t_ref_n, dtype=np.float64)[mask] - np.asarray(t_out_n, dtype=np.float64)[mask]
+    max_ref = float(np.max(np.abs(np.asarray(t_ref_n)[mask])))
+    rms = float(np.sqrt(np.mean(err * err)))
+    peak = float(np.max(np.abs(err)))
+    scale = 100.0 / max_ref if max_ref > 0 else float("nan")
+    return {
+        "rms_error_n": rms,
+        "rms_error_pct": rms * scale,
+        "peak_error_n": peak,
+        "peak_error_pct": peak * scale,
+        "max_ref_n": max_ref,
+    }
+
+
+def fixed_vs_float(
+    current_fixed_a: np.ndarray,
+    current_float_a: np.ndarray,
+    t_out_fixed_n: np.ndarray,
+    t_out_float_n: np.ndarray,
+    full_scale_n: float,
+) -> dict[str, float]:
+    """RMS and maximum differences of the current command (LSB) and of T_out (N, % of full
+    scale) between the fixed-point run and the float reference, sample by sample."""
+    n = min(len(current_fixed_a), len(current_float_a), len(t_out_fixed_n), len(t_out_float_n))
+    if n == 0:
+        raise ValueError("fixed_vs_float: no samples to compare")
+    du = (np.asarray(current_fixed_a[:n]) - np.asarray(current_float_a[:n])) / CURRENT_LSB_A
+    dt = np.asarray(t_out_fixed_n[:n]) - np.asarray(t_out_float_n[:n])
+    t_out_rms = float(np.sqrt(np.mean(dt * dt)))
+    return {
+        "current_rms_lsb": float(np.sqrt(np.mean(du * du))),
+        "current_max_lsb": float(np.max(np.abs(du))),
+        "t_out_rms_n": t_out_rms,
+        "t_out_max_n": float(np.max(np.abs(dt))),
+        "full_scale_n": float(full_scale_n),
+        "t_out_rms_pct_fs": 100.0 * t_out_rms / full_scale_n,
+    }
+
+
+def capstan_play(t_in_n: np.ndarray, mu_phi: float, t_out0_n: float = 0.0) -> np.ndarray:
+    """Quasi-static output tension of the capstan model with dead zone (see module docstring)."""
+    lo = math.exp(-mu_phi)
+    hi = math.exp(mu_phi)
+    t_in = np.asarray(t_in_n, dtype=np.float64)
+    out = np.empty_like(t_in)
+    y = t_out0_n
+    for k, x in enumerate(t_in.tolist()):
+        y = min(max(y, x * lo), x * hi)
+        out[k] = y
+    return out
+
+
+def fit_capstan(
+    t_in_n: np.ndarray, t_out_n: np.ndarray, phi_rad: float | None = None, decimate: int = 10
+) -> dict[str, float]:
+    """Least-squares fit of mu*phi and a sensor offset to a (T_in, T_out) record.
+
+    Returns mu_phi, offset_n, rms_residual_n, efficiency exp(-mu*phi), and mu when phi_rad is
+    given. `decimate` thins the record first (the quasi-static model needs no 10 kHz detail).
+    """
+    t_in = np.asarray(t_in_n, dtype=np.float64)[::decimate]
+    t_out = np.asarray(t_out_n, dtype=np.float64)[::decimate]
+    if t_in.size < 10:
+        raise ValueError("fit_capstan: need at least 10 samples after decimation")
+
+    def cost(mu_phi: float) -> tuple[float, float]:
+        model = capstan_play(t_in, mu_phi, t_out0_n=float(t_out[0]))
+        offset = float(np.mean(t_out - model))
+        r = t_out - model - offset
+        return float(np.mean(r * r)), offset
+
+    # Golden-section search on [0, 3] (mu*phi of a real sheath is well inside: 0.075*2pi = 0.47).
+    a, b = 0.0, 3.0
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = cost(c)[0], cost(d)[0]
+    for _ in range(60):
+        if fc < fd:
+            b, d, fd = d, c, fc
+            c = b - g * (b - a)
+            fc = cost(c)[0]
+        else:
+            a, c, fc = c, d, fd
+            d = a + g * (b - a)
+            fd = cost(d)[0]
+    mu_phi = 0.5 * (a + b)
+    mse, offset = cost(mu_phi)
+    result = {
+        "mu_phi": mu_phi,
+        "offset_n": offset,
+        "rms_residual_n": math.sqrt(mse),
+        "efficiency": math.exp(-mu_phi),
+    }
+    if phi_rad is not None:
+        if not phi_rad > 0:
+            raise ValueError(f"fit_capstan: phi_rad must be > 0 to give mu; got {phi_rad!r}")
+        result["mu"] = mu_phi / phi_rad
+    return result

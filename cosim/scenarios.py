@@ -1,0 +1,368 @@
+"""The paper's experiments as co-simulation scenarios, and the configuration of a run.
+
+A scenario says what the world does: the reference tension T_ref(t) that the processor's
+compensator receives and the end-effector trajectory (x, y, z)(t) that moves the sheath. Both are
+computed up front for every FPGA sample (numpy arrays), so that the closed loop only indexes them.
+
+Coordinates follow the paper's Fig. 6 and 7 (Sec. III): the actuator outlet A is at the origin,
+the sheath leaves it along +Y, and the end-effector C sits at (x, y, z) in metres with its own
+outlet also along +Y. Loop routing keeps phi = 2*pi for any C in the loop's plane (x = 0).
+
+Scenarios (paper Sec. VI):
+
+- ``characterize`` (Fig. 11): T_ref ramped from 0 to 24 N and back in 3 s, five times, with the
+  end-effector held in the loop's plane (phi = 2*pi with loop routing); the capstan model fitted
+  to (T_in, T_out) returns mu.
+- ``positions`` (Fig. 12, 13): the same ramp, two cycles at each of five end-effector positions;
+  the fitted friction mu*phi per position shows the spread, with and without loop routing.
+  The paper's text does not give the coordinates of Fig. 12; the five positions below are our
+  choice (named assumption): a spread over the workspace of a 1 m sheath, four of them in the
+  loop's plane and one out of it.
+- ``fig14`` (Fig. 14): a sinusoidal T_ref between 2 N and 15 N (0.5 Hz) while the end-effector
+  moves in 3-D (a slow Lissajous path, mostly in the loop's plane with a small out-of-plane
+  swing), 30 s. The paper gives the maximum (15 N) and that the end-effector moved; frequency,
+  minimum and path are our choice (named assumption), kept slow enough for the actuator.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
+
+import numpy as np
+
+SCENARIO_NAMES = ("characterize", "positions", "fig14")
+COMPENSATORS = ("none", "paper", "smooth")
+
+# The paper's bench: Table I (Maxon RE25 k_t 23.4 mNm/A, 5.4:1 gearhead, efficiency ~0.9
+# assumed, spool radius ~10 mm). Kff = r / (N * eta * k_t) in A/N (contract.md).
+SPOOL_RADIUS_M = 0.010
+GEAR_RATIO = 5.4
+GEAR_EFFICIENCY = 0.9
+TORQUE_CONSTANT_NM_PER_A = 0.0234
+KFF_A_PER_N = SPOOL_RADIUS_M / (GEAR_RATIO * GEAR_EFFICIENCY * TORQUE_CONSTANT_NM_PER_A)
+
+# Friction identified in the paper (Sec. VI-A, Fig. 11) and the sheath of Table I.
+MU_PAPER = 0.075
+SHEATH_LENGTH_M = 1.0
+
+# Ramp of the characterisation (Sec. VI-A): "increased up to 24 N and decreased, over 3 seconds,
+# and repeated 5 times".
+RAMP_PEAK_N = 24.0
+RAMP_PERIOD_S = 3.0
+RAMP_CYCLES = 5
+
+# Fig. 14: maximum reference 15 N (Sec. VI-C); the rest is our choice (see module docstring).
+FIG14_MAX_N = 15.0
+FIG14_MIN_N = 2.0
+FIG14_FREQ_HZ = 0.5
+FIG14_DURATION_S = 30.0
+
+# Fig. 12 stand-in: (x, y, z) in m, see module docstring.
+POSITIONS_M = (
+    (0.0, 0.60, 0.00),
+    (0.0, 0.40, 0.25),
+    (0.0, 0.40, -0.25),
+    (0.0, 0.25, 0.00),
+    (0.20, 0.50, 0.00),
+)
+POSITION_CYCLES = 2
+# Start (and home) position of the characterisation and of fig14: in the loop's plane.
+HOME_M = (0.0, 0.50, 0.0)
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A stretch of a scenario during which the end-effector holds one position."""
+
+    t_start_s: float
+    t_end_s: float
+    position_m: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """What the world does during a run: reference tension and end-effector trajectory."""
+
+    name: str
+    duration_s: float
+    description: str
+    t_ref: Callable[[np.ndarray], np.ndarray]
+    trajectory: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
+    # Start-up excluded from the tracking metrics (the loop starts from a slack cable).
+    settle_s: float = 0.0
+    # Positions held in turn (for the per-position friction fit); empty if not relevant.
+    segments: tuple[Segment, ...] = ()
+
+    def sample_times(self, sample_rate_hz: float, duration_s: float | None = None) -> np.ndarray:
+        """Times of the FPGA samples t_k = k / f_s, k = 0 .. n-1, for the run's duration."""
+        n = n_samples(duration_s if duration_s is not None else self.duration_s, sample_rate_hz)
+        return np.arange(n, dtype=np.float64) / sample_rate_hz
+
+
+def n_samples(duration_s: float, sample_rate_hz: float) -> int:
+    """Number of samples of a run (at least one)."""
+    return max(1, int(round(duration_s * sample_rate_hz)))
+
+
+def _triangle(t: np.ndarray, peak: float, period_s: float) -> np.ndarray:
+    """0 -> peak -> 0 in each period (the characterisation ramp)."""
+    phase = np.mod(t, period_s) / period_s
+    return peak * (1.0 - np.abs(2.0 * phase - 1.0))
+
+
+def _hold(position: tuple[float, float, float]):
+    def trajectory(t: np.ndarray):
+        one = np.ones_like(t)
+        return position[0] * one, position[1] * one, position[2] * one
+
+    return trajectory
+
+
+def _characterize(cycles: int = RAMP_CYCLES) -> Scenario:
+    return Scenario(
+        name="characterize",
+        duration_s=cycles * RAMP_PERIOD_S,
+        description=(
+            f"T_ref ramped 0 -> {RAMP_PEAK_N:g} N -> 0 in {RAMP_PERIOD_S:g} s, {cycles} times, "
+            f"end-effector held at {HOME_M} m (paper Fig. 11)"
+        ),
+        t_ref=lambda t: _triangle(t, RAMP_PEAK_N, RAMP_PERIOD_S),
+        trajectory=_hold(HOME_M),
+        segments=(Segment(0.0, cycles * RAMP_PERIOD_S, HOME_M),),
+    )
+
+
+def _positions() -> Scenario:
+    seg_s = POSITION_CYCLES * RAMP_PERIOD_S
+    segments = tuple(Segment(i * seg_s, (i + 1) * seg_s, p) for i, p in enumerate(POSITIONS_M))
+    starts = np.array([s.t_start_s for s in segments])
+    pos = np.array([s.position_m for s in segments])
+    move_s = 0.2  # the end-effector moves to the next position while T_ref is near zero
+
+    def trajectory(t: np.ndarray):
+        idx = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(segments) - 1)
+        prev = np.maximum(idx - 1, 0)
+        # Smooth (cosine) move over the first move_s of a segment, from the previous position.
+        a = np.clip((t - starts[idx]) / move_s, 0.0, 1.0)
+        w = 0.5 - 0.5 * np.cos(np.pi * a)
+        w = np.where(idx == 0, 1.0, w)
+        p = pos[prev] + (pos[idx] - pos[prev]) * w[:, None]
+        return p[:, 0], p[:, 1], p[:, 2]
+
+    return Scenario(
+        name="positions",
+        duration_s=len(segments) * seg_s,
+        description=(
+            f"the characterisation ramp, {POSITION_CYCLES} cycles at each of {len(segments)} "
+            "end-effector positions (paper Fig. 12, 13)"
+        ),
+        t_ref=lambda t: _triangle(t, RAMP_PEAK_N, RAMP_PERIOD_S),
+        trajectory=trajectory,
+        segments=segments,
+    )
+
+
+def _fig14() -> Scenario:
+    mid = 0.5 * (FIG14_MAX_N + FIG14_MIN_N)
+    amp = 0.5 * (FIG14_MAX_N - FIG14_MIN_N)
+    ramp_in_s = 0.5  # T_ref rises from 0 to the sine's minimum, so the loop starts gently
+
+    def t_ref(t: np.ndarray) -> np.ndarray:
+        sine = mid - amp * np.cos(2.0 * np.pi * FIG14_FREQ_HZ * t)
+        # Before the first minimum the reference eases in from zero (raised cosine).
+        ease = np.clip(t / ramp_in_s, 0.0, 1.0)
+        return sine * (0.5 - 0.5 * np.cos(np.pi * ease))
+
+    def trajectory(t: np.ndarray):
+        # A slow Lissajous path around HOME_M: in-plane (y, z) swings of 0.15 m and 0.2 m and an
+        # out-of-plane (x) swing of 0.05 m, periods 10 s, 7.5 s and 15 s.
+        x = HOME_M[0] + 0.05 * np.sin(2.0 * np.pi * t / 15.0)
+        y = HOME_M[1] + 0.15 * np.sin(2.0 * np.pi * t / 10.0)
+        z = HOME_M[2] + 0.20 * np.sin(2.0 * np.pi * t / 7.5)
+        return x, y, z
+
+    return Scenario(
+        name="fig14",
+        duration_s=FIG14_DURATION_S,
+        description=(
+            f"sinusoidal T_ref {FIG14_MIN_N:g} .. {FIG14_MAX_N:g} N at {FIG14_FREQ_HZ:g} Hz while "
+            "the end-effector moves in 3-D (paper Fig. 14)"
+        ),
+        t_ref=t_ref,
+        trajectory=trajectory,
+        settle_s=1.0,
+    )
+
+
+def get_scenario(name: str) -> Scenario:
+    """The scenario called `name` (one of SCENARIO_NAMES)."""
+    if name == "characterize":
+        return _characterize()
+    if name == "positions":
+        return _positions()
+    if name == "fig14":
+        return _fig14()
+    raise ValueError(f"scenario must be one of {', '.join(SCENARIO_NAMES)}; got {name!r}")
+
+
+# --- configuration of a run -----------------------------------------------------------------
+
+
+@dataclass
+class ControllerParams:
+    """The tension loop's gains and limits in SI units (the RTL holds them in fixed point).
+
+    Kff from the bench (contract.md); Kp and Ki chosen for a loop that tracks T_c within a few
+    milliseconds against the FMU's drive, motor and cable (tuned in co-simulation; see README).
+    """
+
+    kff_a_per_n: float = KFF_A_PER_N
+    kp_a_per_n: float = 0.05
+    ki_a_per_n_s: float = 20.0
+    i_limit_a: float = 2.5
+    slew_n_per_sample: float = 0.0  # 0 = slew limit off
+
+
+@dataclass
+class CompensatorParams:
+    """The friction compensator's configuration (firmware): mu, phi, smooth band."""
+
+    mu: float = MU_PAPER
+    # None: phi of the sheath at the scenario's start position (calibrated once, as in the
+    # paper, where the compensator uses the friction identified in the characterisation).
+    phi_rad: float | None = None
+    band_n: float = 1.0  # smooth inverse: tension band over which T_c changes branch
+    hysteresis_n: float = 0.02  # direction detector's dead band on T_ref
+
+
+@dataclass
+class SimConfig:
+    """Everything a run needs besides the scenario: rates, plant, controller, compensator."""
+
+    sample_rate_hz: float = 10_000.0  # FPGA tension loop (issue 4 default)
+    firmware_rate_hz: float = 1_000.0  # processor's compensator tick (issue 5 default)
+    plant: dict[str, float] = field(default_factory=dict)  # FMU parameter overrides by name
+    controller: ControllerParams = field(default_factory=ControllerParams)
+    compensator: CompensatorParams = field(default_factory=CompensatorParams)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict, source: str = "params") -> SimConfig:
+        """Build a configuration from a (partial) dict; unknown keys and bad values are errors."""
+        if not isinstance(data, dict):
+            raise ValueError(f"{source}: expected a JSON object at the top level")
+        cfg = cls()
+        known = {f.name for f in fields(cls)}
+        for key in data:
+            if key not in known:
+                raise ValueError(f"{source}: unknown key {key!r} (allowed: {', '.join(known)})")
+        for key in ("sample_rate_hz", "firmware_rate_hz"):
+            if key in data:
+                setattr(cfg, key, _number(data[key], f"{source}: {key}", 1.0, 1e6))
+        if "plant" in data:
+            plant = data["plant"]
+            if not isinstance(plant, dict):
+                raise ValueError(f"{source}: plant must be an object of FMU parameter values")
+            cfg.plant = {
+                str(k): _number(v, f"{source}: plant.{k}", -1e9, 1e9) for k, v in plant.items()
+            }
+        cfg.controller = _sub(ControllerParams, data.get("controller", {}), f"{source}.controller")
+        cfg.compensator = _sub(
+            CompensatorParams, data.get("compensator", {}), f"{source}.compensator"
+        )
+        cfg.validate(source)
+        return cfg
+
+    def validate(self, source: str = "params") -> None:
+        """Raise ValueError naming the first variable that is out of its allowed range."""
+        ratio = self.sample_rate_hz / self.firmware_rate_hz
+        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
+            raise ValueError(
+                f"{source}: sample_rate_hz / firmware_rate_hz must be a whole number >= 1; got "
+                f"{self.sample_rate_hz:g} / {self.firmware_rate_hz:g}"
+            )
+        c = self.controller
+        _number(c.kff_a_per_n, f"{source}: controller.kff_a_per_n", 0.0, 7.99)
+        _number(c.kp_a_per_n, f"{source}: controller.kp_a_per_n", 0.0, 7.99)
+        _number(c.ki_a_per_n_s, f"{source}: controller.ki_a_per_n_s", 0.0, 1e5)
+        _number(c.i_limit_a, f"{source}: controller.i_limit_a", 0.0, 7.99)
+        _number(c.slew_n_per_sample, f"{source}: controller.slew_n_per_sample", 0.0, 127.0)
+        k = self.compensator
+        _number(k.mu, f"{source}: compensator.mu", 0.0, 1.0)
+        if k.phi_rad is not None:
+            _number(k.phi_rad, f"{source}: compensator.phi_rad", 0.0, 4.0 * math.pi)
+        _number(k.band_n, f"{source}: compensator.band_n", 1e-3, 64.0)
+        _number(k.hysteresis_n, f"{source}: compensator.hysteresis_n", 0.0, 16.0)
+
+    @property
+    def decimation(self) -> int:
+        """FPGA samples per firmware tick."""
+        return int(round(self.sample_rate_hz / self.firmware_rate_hz))
+
+
+def _number(value, name: str, lo: float, hi: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{name} must be a number in [{lo:g}, {hi:g}]; got {value!r}")
+    v = float(value)
+    if not math.isfinite(v) or v < lo or v > hi:
+        raise ValueError(f"{name} must be in [{lo:g}, {hi:g}]; got {value!r}")
+    return v
+
+
+def _sub(cls, data, source: str):
+    if not isinstance(data, dict):
+        raise ValueError(f"{source} must be a JSON object")
+    obj = cls()
+    known = {f.name: f for f in fields(cls)}
+    for key, value in data.items():
+        if key not in known:
+            raise ValueError(f"{source}: unknown key {key!r} (allowed: {', '.join(known)})")
+        if value is None and key == "phi_rad":
+            obj = replace(obj, phi_rad=None)
+            continue
+        obj = replace(obj, **{key: _number(value, f"{source}.{key}", -1e9, 1e9)})
+    return obj
+
+
+def load_params(path: str | Path | None) -> SimConfig:
+    """The default configuration, overridden by the JSON file `path` when given."""
+    if path is None:
+        return SimConfig()
+    p = Path(path)
+    try:
+        data = json.loads(p.read_text())
+    except FileNotFoundError:
+        raise ValueError(f"--params: file {p} does not exist") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"--params: {p} is not valid JSON ({exc})") from None
+    return SimConfig.from_dict(data, source=str(p))
+
+
+@dataclass
+class Inputs:
+    """The scenario sampled at the FPGA rate: what the closed loop indexes per sample."""
+
+    t_s: np.ndarray
+    t_ref_n: np.ndarray  # at every FPGA sample; the firmware reads it at its own ticks
+    x_m: np.ndarray
+    y_m: np.ndarray
+    z_m: np.ndarray
+
+
+def sample_inputs(scenario: Scenario, cfg: SimConfig, duration_s: float | None = None) -> Inputs:
+    """Evaluate the scenario's reference and trajectory at every FPGA sample."""
+    t = scenario.sample_times(cfg.sample_rate_hz, duration_s)
+    x, y, z = scenario.trajectory(t)
+    return Inputs(
+        t_s=t,
+        t_ref_n=np.asarray(scenario.t_ref(t), dtype=np.float64),
+        x_m=np.asarray(x, dtype=np.float64),
+        y_m=np.asarray(y, dtype=np.float64),
+        z_m=np.asarray(z, dtype=np.float64),
+    )
