@@ -1,0 +1,41 @@
+# hdl/: the RTL of the tension loop, its register map and synthesis for two boards.
+#
+#   make regmap     regenerate the register map outputs from hdl/regmap/bowden_regs.json
+#   make lint-hdl   verilator --lint-only --quiet -Wall on every RTL module (part of make lint)
+#   make synth      yosys + nextpnr for ice40-up5k and ecp5-25f; fails when timing is not met
+#   make bench-hdl  LUT/DSP/Fmax per board next to the previous run (part of make bench)
+
+HDL_RTL := $(sort $(wildcard hdl/rtl/*.v))
+HDL_BOARD_STUBS := $(sort $(wildcard hdl/boards/stubs/*.v))
+HDL_BOARD_TOPS := $(sort $(wildcard hdl/boards/*_top.v))
+REGMAP_SRC := hdl/regmap/bowden_regs.json hdl/regmap/gen_regmap.py
+REGMAP_OUT := hdl/rtl/bowden_regs.v firmware/include/bowden_regs.h cosim/regmap.py
+
+LINT_TARGETS += lint-hdl
+BENCH_TARGETS += bench-hdl
+
+.PHONY: regmap regmap-check lint-hdl synth bench-hdl
+
+regmap: $(VENV_STAMP)
+	$(PY) hdl/regmap/gen_regmap.py
+
+regmap-check: $(VENV_STAMP)
+	$(PY) hdl/regmap/gen_regmap.py --check
+
+# Each module is linted as its own top, so unused ports and signals of every module show.
+lint-hdl: $(VENV_STAMP) regmap-check
+	@set -e; for f in $(HDL_RTL); do \
+	  m=$$(basename $$f .v); \
+	  verilator --lint-only --quiet -Wall -Ihdl/rtl --top-module $$m $(HDL_RTL); \
+	done; \
+	for f in $(HDL_BOARD_TOPS); do \
+	  m=$$(basename $$f .v); \
+	  verilator --lint-only --quiet -Wall -Ihdl/rtl --top-module $$m $(HDL_RTL) $(HDL_BOARD_STUBS) $$f; \
+	done
+	@echo "lint-hdl: $(words $(HDL_RTL)) RTL modules and $(words $(HDL_BOARD_TOPS)) board tops clean"
+
+synth: $(VENV_STAMP)
+	$(PY) hdl/synth/synth.py --all
+
+bench-hdl: $(VENV_STAMP)
+	$(PY) hdl/synth/synth.py --all --bench

@@ -1,0 +1,74 @@
+"""The register map: generated files match their one source, and the Python map is usable."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+
+import pytest
+
+from cosim import regmap
+from cosim.paths import HDL_DIR
+
+GEN = HDL_DIR / "regmap" / "gen_regmap.py"
+
+
+def _generator():
+    spec = importlib.util.spec_from_file_location("gen_regmap", GEN)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_generated_files_are_fresh():
+    """Every committed output equals what the generator makes from bowden_regs.json now."""
+    gen = _generator()
+    for path, text in gen.outputs(gen.load()).items():
+        assert path.exists(), f"{path} missing: run make regmap"
+        assert path.read_text() == text, f"{path} is stale: run make regmap"
+
+
+def test_check_mode_detects_a_stale_file(tmp_path, monkeypatch):
+    """The --check mode reports an edited output and leaves it untouched."""
+    gen = _generator()
+    stale = tmp_path / "regmap.py"
+    stale.write_text("# edited by hand\n")
+    monkeypatch.setattr(gen, "outputs", lambda spec: {stale: "generated\n"})
+    monkeypatch.setattr(gen, "ROOT", tmp_path)
+    assert gen.main(["--check"]) == 1
+    assert stale.read_text() == "# edited by hand\n"
+    assert gen.main([]) == 0
+    assert stale.read_text() == "generated\n"
+
+
+def test_source_rejects_overlapping_addresses(tmp_path):
+    """A table with two registers at one address is an error naming both."""
+    gen = _generator()
+    spec = json.loads(gen.SOURCE.read_text())
+    spec["registers"][1]["addr"] = spec["registers"][0]["addr"]
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(spec))
+    with pytest.raises(ValueError, match="CTRL.*already used by ID"):
+        gen.load(bad)
+
+
+def test_python_map_matches_contract_names():
+    """Every register name of the contract exists, word aligned, with distinct addresses."""
+    names = (
+        "ID CTRL STATUS FAULT TC KFF KP KI_TS I_LIMIT SLEW WDT_TIMEOUT ADC_OFFSET ADC_GAIN "
+        "ADC_MIN ADC_MAX ADC_STALE SAMPLE_COUNT T_IN U INTEG"
+    ).split()
+    addrs = [getattr(regmap, n) for n in names]
+    assert all(a % 4 == 0 for a in addrs)
+    assert len(set(addrs)) == len(addrs)
+    assert regmap.REGISTERS["TC"].fields[0].frac == 8  # Q7.8 on the bus (contract)
+    assert regmap.REGISTERS["U"].fields[0].frac == 12  # Q3.12 (contract)
+
+
+def test_encode_decode_round_trip_and_range_error():
+    """Signed fields sign-extend on decode; out-of-range values raise naming the register."""
+    assert regmap.decode("TC", regmap.encode("TC", -32768)) == -32768
+    assert regmap.decode("TC", 0xFFFFFFFF) == -1
+    assert regmap.decode("I_LIMIT", regmap.encode("I_LIMIT", 32767)) == 32767
+    with pytest.raises(ValueError, match="TC=32768 outside allowed -32768..32767"):
+        regmap.encode("TC", 32768)
