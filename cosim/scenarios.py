@@ -223,7 +223,7 @@ class ControllerParams:
     kff_a_per_n: float = KFF_A_PER_N
     kp_a_per_n: float = 0.05
     ki_a_per_n_s: float = 20.0
-    i_limit_a: float = 2.5
+    i_limit_a: float = 4.0  # ESCON 36/2 peak current (RTL reset value of I_LIMIT)
     slew_n_per_sample: float = 0.0  # 0 = slew limit off
 
 
@@ -235,8 +235,11 @@ class CompensatorParams:
     # None: phi of the sheath at the scenario's start position (calibrated once, as in the
     # paper, where the compensator uses the friction identified in the characterisation).
     phi_rad: float | None = None
-    band_n: float = 1.0  # smooth inverse: tension band over which T_c changes branch
-    hysteresis_n: float = 0.02  # direction detector's dead band on T_ref
+    # Defaults of the firmware (firmware/include/comp.h): B = 2 N, H = 4 LSB of Q7.8.
+    band_n: float = 2.0  # smooth inverse: tension band over which T_c changes branch
+    hysteresis_n: float = 4.0 / 256.0  # direction detector's dead band on T_ref
+    offset_n: float = 0.0  # output sensor offset the compensator aims around (audit extension)
+    mu_slope_per_n: float = 0.0  # friction rising with tension (audit extension)
 
 
 @dataclass
@@ -297,8 +300,10 @@ class SimConfig:
         _number(k.mu, f"{source}: compensator.mu", 0.0, 1.0)
         if k.phi_rad is not None:
             _number(k.phi_rad, f"{source}: compensator.phi_rad", 0.0, 4.0 * math.pi)
-        _number(k.band_n, f"{source}: compensator.band_n", 1e-3, 64.0)
-        _number(k.hysteresis_n, f"{source}: compensator.hysteresis_n", 0.0, 16.0)
+        _number(k.band_n, f"{source}: compensator.band_n", 1.0 / 256.0, 128.0)
+        _number(k.hysteresis_n, f"{source}: compensator.hysteresis_n", 1.0 / 256.0, 32.0)
+        _number(k.offset_n, f"{source}: compensator.offset_n", -64.0, 64.0)
+        _number(k.mu_slope_per_n, f"{source}: compensator.mu_slope_per_n", -1 / 128, 1 / 128)
 
     @property
     def decimation(self) -> int:
