@@ -1,0 +1,469 @@
+/* The plant's physics; equations and assumptions in fmu/README.md (section numbers below). */
+#include "bowden_physics.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "bowden_geometry.h"
+
+#define TWO_PI 6.283185307179586476925286766559
+
+/* At most this many internal steps per communication step (1 s at a 1e-7 s max_step... the
+   bound only stops a runaway request, such as a step of a year). */
+#define BOWDEN_MAX_SUBSTEPS 100000000.0
+
+/* Newton iterations of the cable compatibility (README, "Cable compatibility"). The residual
+   is piecewise linear in T_in, so Newton ends in (number of kinks crossed + 1) iterations; the
+   bracket turns any cycling into bisection, which 60 iterations take below 1e-18 of the range. */
+#define BOWDEN_NEWTON_MAX 60
+
+void bowden_model_defaults(BowdenModel *m)
+{
+    const BowdenParams p = BOWDEN_PARAMS_DEFAULT;
+    const BowdenInputs u = BOWDEN_INPUTS_DEFAULT;
+    memset(m, 0, sizeof(*m));
+    m->p = p;
+    m->u = u;
+}
+
+/* ---- sensor noise: xorshift64* seeded through splitmix64, Box-Muller (README, "Sensors") -- */
+
+static uint64_t splitmix64(uint64_t x)
+{
+    x += 0x9E3779B97F4A7C15ULL;
+    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
+    return x ^ (x >> 31);
+}
+
+static uint64_t rng_next(uint64_t *state)
+{
+    uint64_t x = *state;
+    x ^= x >> 12;
+    x ^= x << 25;
+    x ^= x >> 27;
+    *state = x;
+    return x * 0x2545F4914F6CDD1DULL;
+}
+
+/* Uniform in (0, 1]: the top 53 bits plus one, so that log() never sees 0. */
+static double rng_uniform(uint64_t *state)
+{
+    return ((double)(rng_next(state) >> 11) + 1.0) * (1.0 / 9007199254740992.0);
+}
+
+static void rng_gauss_pair(uint64_t *state, double *g1, double *g2)
+{
+    double r = sqrt(-2.0 * log(rng_uniform(state)));
+    double a = TWO_PI * rng_uniform(state);
+    *g1 = r * cos(a);
+    *g2 = r * sin(a);
+}
+
+/* ---- geometry ----------------------------------------------------------------------------- */
+
+static int update_geometry(BowdenModel *m, char *msg, size_t msg_len)
+{
+    double phi;
+    BowdenGeomStatus st;
+    if (m->geom_valid && m->u.x == m->geom_x_m && m->u.y == m->geom_y_m &&
+        m->u.z == m->geom_z_m) {
+        return 0;
+    }
+    st = bowden_geometry_phi(m->u.x, m->u.y, m->u.z, m->p.sheath_length, m->p.loop_routing,
+                             &phi);
+    if (st != BOWDEN_GEOM_OK) {
+        if (st == BOWDEN_GEOM_OUTSIDE) {
+            snprintf(msg, msg_len,
+                     "position x, y, z = (%g, %g, %g) m is outside the reachable workspace: "
+                     "allowed is sqrt(x^2 + y^2 + z^2) <= sheath_length = %g m and y >= 0 "
+                     "(paper Eq. 13, half-sphere in front of the actuator)",
+                     m->u.x, m->u.y, m->u.z, m->p.sheath_length);
+        } else {
+            snprintf(msg, msg_len, "position x, y, z = (%g, %g, %g) m must be finite", m->u.x,
+                     m->u.y, m->u.z);
+        }
+        m->geom_valid = 0;
+        return 1;
+    }
+    m->geom_x_m = m->u.x;
+    m->geom_y_m = m->u.y;
+    m->geom_z_m = m->u.z;
+    m->phi_geom_rad = phi;
+    m->geom_valid = 1;
+    return 0;
+}
+
+/* Bending angle seen by the friction: geometry plus the phi_offset_per_z effect. */
+static double effective_phi(const BowdenModel *m)
+{
+    double phi = m->phi_geom_rad + m->p.phi_offset_per_z * m->u.z;
+    return phi > 0.0 ? phi : 0.0;
+}
+
+/* ---- sheath friction (README, "Sheath friction") ------------------------------------------ */
+
+typedef struct {
+    double dphi;        /* bending per segment [rad] */
+    double mu_base;     /* friction coefficient before the tension-dependent part */
+    double slope;       /* mu_tension_slope [1/N] */
+    double e_plus;      /* exp(+mu dphi), valid when slope == 0 */
+    double e_minus;     /* exp(-mu dphi) */
+} Friction;
+
+static Friction friction_now(BowdenModel *m)
+{
+    Friction f;
+    double mu = m->p.mu + m->p.mu_viscous * fabs(m->cable_speed_m_s) + m->p.mu_drift * m->time_s;
+    f.dphi = effective_phi(m) / BOWDEN_N_SEG;
+    f.mu_base = mu;
+    f.slope = m->p.mu_tension_slope;
+    if (mu < 0.0) {
+        mu = 0.0; /* a drifting or negative-slope coefficient stops at frictionless */
+    }
+    if (mu != m->cache_mu || f.dphi != m->cache_dphi) {
+        m->cache_mu = mu;
+        m->cache_dphi = f.dphi;
+        m->exp_plus = exp(mu * f.dphi);
+        m->exp_minus = 1.0 / m->exp_plus;
+    }
+    f.e_plus = m->exp_plus;
+    f.e_minus = m->exp_minus;
+    return f;
+}
+
+/* Tension profile for inlet tension t_in_n given the previous profile `old` (Eq. 1-3 on each
+ * segment): node k stays where it was unless that violates the capstan bound to node k-1,
+ * T_{k-1} exp(-mu dphi) <= T_k <= T_{k-1} exp(+mu dphi), in which case it slips to the bound.
+ * Writes the profile to out[] and d out / d t_in_n to dout[]; returns the stretch
+ * integral ds * sum of segment means (trapezoid) in N m. */
+static double profile(const Friction *f, const double *old, double t_in_n, double ds_m,
+                      double *out, double *dout)
+{
+    double sum = 0.0;
+    int k;
+    out[0] = t_in_n;
+    dout[0] = 1.0;
+    for (k = 1; k <= BOWDEN_N_SEG; k++) {
+        double ep = f->e_plus, em = f->e_minus;
+        double lo, hi;
+        if (f->slope != 0.0) {
+            double mu = f->mu_base + f->slope * out[k - 1];
+            ep = exp((mu > 0.0 ? mu : 0.0) * f->dphi);
+            em = 1.0 / ep;
+        }
+        lo = out[k - 1] * em;
+        hi = out[k - 1] * ep;
+        if (old[k] < lo) {
+            out[k] = lo;
+            dout[k] = dout[k - 1] * em;
+        } else if (old[k] > hi) {
+            out[k] = hi;
+            dout[k] = dout[k - 1] * ep;
+        } else {
+            out[k] = old[k];
+            dout[k] = 0.0;
+        }
+        sum += 0.5 * (out[k - 1] + out[k]);
+    }
+    return sum * ds_m;
+}
+
+/* Cable displacement at the inlet relative to the sheath: the stretch of the cable inside the
+   sheath plus the deflection of the load cell that holds its end. */
+static double inlet_displacement(const BowdenModel *m, double stretch_nm, double t_out_n)
+{
+    return stretch_nm / m->p.cable_EA + t_out_n / m->p.loadcell_stiffness;
+}
+
+/* Drive mode 0: find T_in so that spool take-up = stretch of free cable + inlet displacement
+ * (README, "Cable compatibility"), and the matching profile. take_up_m <= 0: slack cable. */
+static void solve_tension(BowdenModel *m, const Friction *f, double take_up_m)
+{
+    double trial[BOWDEN_N_SEG + 1], dtrial[BOWDEN_N_SEG + 1];
+    const double ea = m->p.cable_EA;
+    const double ds = m->p.sheath_length / BOWDEN_N_SEG;
+    double lo = 0.0, hi, t;
+    int it;
+
+    if (take_up_m <= 0.0) {
+        memset(m->tension_n, 0, sizeof(m->tension_n));
+        return;
+    }
+    /* g(T) >= T*free_length/EA - take_up, so g(hi) >= 0 */
+    hi = ea * take_up_m / m->p.free_length;
+    t = m->tension_n[0];
+    if (!(t > lo && t < hi)) {
+        t = 0.5 * hi;
+    }
+    for (it = 0; it < BOWDEN_NEWTON_MAX; it++) {
+        double stretch = profile(f, m->tension_n, t, ds, trial, dtrial);
+        double dsum = 0.0, g, dg, t_next;
+        int k;
+        g = t * m->p.free_length / ea + inlet_displacement(m, stretch, trial[BOWDEN_N_SEG]) -
+            take_up_m;
+        for (k = 1; k <= BOWDEN_N_SEG; k++) {
+            dsum += 0.5 * (dtrial[k - 1] + dtrial[k]);
+        }
+        dg = m->p.free_length / ea + dsum * ds / ea +
+             dtrial[BOWDEN_N_SEG] / m->p.loadcell_stiffness;
+        if (g > 0.0) {
+            hi = t;
+        } else {
+            lo = t;
+        }
+        t_next = t - g / dg;
+        if (!(t_next > lo && t_next < hi)) {
+            t_next = 0.5 * (lo + hi);
+        }
+        if (fabs(t_next - t) <= 1e-12 * (1.0 + t)) {
+            break;
+        }
+        t = t_next;
+    }
+    profile(f, m->tension_n, t, ds, trial, dtrial);
+    memcpy(m->tension_n, trial, sizeof(m->tension_n));
+}
+
+/* ---- sensors ------------------------------------------------------------------------------ */
+
+/* Write the grid samples of the lagged output-sensor signal that fall in (ta, tb]. */
+static void delay_push(BowdenModel *m, double ta_s, double ya, double tb_s, double yb)
+{
+    for (;;) {
+        double tg = m->delay_t0_s + (double)m->delay_count * BOWDEN_DELAY_DT_S;
+        double frac;
+        if (tg > tb_s) {
+            break;
+        }
+        frac = tb_s > ta_s ? (tg - ta_s) / (tb_s - ta_s) : 1.0;
+        m->delay_buf_n[m->delay_count % BOWDEN_DELAY_LEN] = ya + (yb - ya) * frac;
+        m->delay_count++;
+    }
+}
+
+/* The lagged signal sensor_delay ago, interpolated linearly on the grid. */
+static double delay_read(const BowdenModel *m)
+{
+    double td, kf, frac;
+    int64_t k0, last;
+    if (m->p.sensor_delay <= 0.0) {
+        return m->sensor_lag_n;
+    }
+    td = m->time_s - m->p.sensor_delay - m->delay_t0_s;
+    if (td <= 0.0) {
+        return m->delay_buf_n[0]; /* before the start the sensor read the initial value */
+    }
+    kf = td / BOWDEN_DELAY_DT_S;
+    k0 = (int64_t)floor(kf);
+    last = m->delay_count - 1;
+    if (k0 >= last) {
+        double t_last = (double)last * BOWDEN_DELAY_DT_S;
+        double span = (m->time_s - m->delay_t0_s) - t_last;
+        double y_last = m->delay_buf_n[last % BOWDEN_DELAY_LEN];
+        frac = span > 0.0 ? (td - t_last) / span : 1.0;
+        return y_last + (m->sensor_lag_n - y_last) * frac;
+    }
+    frac = kf - (double)k0;
+    return m->delay_buf_n[k0 % BOWDEN_DELAY_LEN] +
+           (m->delay_buf_n[(k0 + 1) % BOWDEN_DELAY_LEN] - m->delay_buf_n[k0 % BOWDEN_DELAY_LEN]) *
+               frac;
+}
+
+static void compute_outputs(BowdenModel *m)
+{
+    double phi = effective_phi(m);
+    m->y.T_in = m->tension_n[0];
+    m->y.T_out = m->tension_n[BOWDEN_N_SEG];
+    m->y.T_in_meas = m->y.T_in + m->noise_in_n;
+    m->y.T_out_meas = m->p.sensor_gain * delay_read(m) + m->p.sensor_offset + m->noise_out_n;
+    m->y.phi = phi;
+    m->y.motor_angle = m->motor_angle_rad;
+    m->y.motor_speed = m->motor_speed_rad_s;
+    m->y.current = m->current_a;
+}
+
+static int outputs_finite(const BowdenModel *m, char *msg, size_t msg_len)
+{
+    const double v[] = {m->y.T_in,  m->y.T_out,       m->y.T_in_meas,   m->y.T_out_meas,
+                        m->y.phi,   m->y.motor_angle, m->y.motor_speed, m->y.current};
+    size_t i;
+    for (i = 0; i < sizeof(v) / sizeof(v[0]); i++) {
+        if (!isfinite(v[i])) {
+            snprintf(msg, msg_len,
+                     "numerical failure at t = %g s: an output is not finite; reduce max_step "
+                     "(allowed 1e-07 .. 0.001 s, now %g s)",
+                     m->time_s, m->p.max_step);
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* ---- drive, motor, cable (README, "Drive and motor", "Cable compatibility") ---------------- */
+
+/* Quasi-static current that holds T_in against the gearhead (the inverse of Kff). */
+static double holding_current(const BowdenModel *m, double t_in_n)
+{
+    return t_in_n * m->p.spool_radius /
+           (m->p.gear_ratio * m->p.gear_efficiency * m->p.torque_constant);
+}
+
+/* Motor angle at which the cable takes up `take_up_m` at the spool. */
+static double angle_from_take_up(const BowdenModel *m, double take_up_m)
+{
+    return take_up_m * m->p.gear_ratio / m->p.spool_radius;
+}
+
+/* Drive mode 1: the inlet tension is prescribed; the motor follows kinematically. */
+static void prescribed_tension_substep(BowdenModel *m, const Friction *f, double h)
+{
+    double trial[BOWDEN_N_SEG + 1], dtrial[BOWDEN_N_SEG + 1];
+    const double ds = m->p.sheath_length / BOWDEN_N_SEG;
+    double t_in = m->u.T_in_cmd > 0.0 ? m->u.T_in_cmd : 0.0; /* a cable cannot push */
+    double stretch = profile(f, m->tension_n, t_in, ds, trial, dtrial);
+    double disp = inlet_displacement(m, stretch, trial[BOWDEN_N_SEG]);
+    double angle = angle_from_take_up(m, t_in * m->p.free_length / m->p.cable_EA + disp);
+    memcpy(m->tension_n, trial, sizeof(m->tension_n));
+    m->motor_speed_rad_s = h > 0.0 ? (angle - m->motor_angle_rad) / h : 0.0;
+    m->motor_angle_rad = angle;
+    m->current_a = holding_current(m, t_in);
+}
+
+static void current_command_substep(BowdenModel *m, const Friction *f, double h)
+{
+    const BowdenParams *p = &m->p;
+    double target = m->u.current_cmd;
+    double load_torque, torque;
+    if (target > p->current_limit) {
+        target = p->current_limit;
+    } else if (target < -p->current_limit) {
+        target = -p->current_limit;
+    }
+    /* current loop: first-order lag, exact for a command held over the step */
+    m->current_a += (target - m->current_a) * m->alpha_current;
+    /* motor, gearhead, spool; the efficiency divides the load torque in both directions */
+    load_torque = m->tension_n[0] * p->spool_radius / (p->gear_ratio * p->gear_efficiency);
+    torque = p->torque_constant * m->current_a - load_torque - p->motor_damping * m->motor_speed_rad_s;
+    /* semi-implicit Euler: speed first, then angle with the new speed */
+    m->motor_speed_rad_s += h * torque / p->motor_inertia;
+    m->motor_angle_rad += h * m->motor_speed_rad_s;
+    solve_tension(m, f, m->motor_angle_rad * p->spool_radius / p->gear_ratio);
+}
+
+static void substep(BowdenModel *m, double h)
+{
+    const double ds = m->p.sheath_length / BOWDEN_N_SEG;
+    Friction f = friction_now(m);
+    double t0 = m->time_s, y0 = m->sensor_lag_n, stretch = 0.0, disp;
+    int k;
+
+    if (m->p.drive_mode == 1) {
+        prescribed_tension_substep(m, &f, h);
+    } else {
+        current_command_substep(m, &f, h);
+    }
+    for (k = 1; k <= BOWDEN_N_SEG; k++) {
+        stretch += 0.5 * (m->tension_n[k - 1] + m->tension_n[k]);
+    }
+    disp = inlet_displacement(m, stretch * ds, m->tension_n[BOWDEN_N_SEG]);
+    m->cable_speed_m_s = (disp - m->inlet_disp_m) / h;
+    m->inlet_disp_m = disp;
+    m->time_s = t0 + h;
+    m->sensor_lag_n += (m->tension_n[BOWDEN_N_SEG] - m->sensor_lag_n) * m->alpha_sensor;
+    delay_push(m, t0, y0, m->time_s, m->sensor_lag_n);
+}
+
+static void update_step_constants(BowdenModel *m, double h)
+{
+    if (h == m->cache_h_s) {
+        return;
+    }
+    m->cache_h_s = h;
+    m->alpha_current = 1.0 - exp(-h * TWO_PI * m->p.current_bandwidth);
+    m->alpha_sensor = m->p.sensor_tau > 0.0 ? 1.0 - exp(-h / m->p.sensor_tau) : 1.0;
+}
+
+/* ---- public ------------------------------------------------------------------------------- */
+
+int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg_len)
+{
+    double stretch = 0.0;
+    int k;
+    if (!isfinite(start_time_s)) {
+        snprintf(msg, msg_len, "startTime = %g must be finite", start_time_s);
+        return 1;
+    }
+    m->time_s = start_time_s;
+    m->geom_valid = 0;
+    m->cache_h_s = -1.0;
+    m->cache_mu = -1.0;
+    m->cache_dphi = -1.0;
+    if (update_geometry(m, msg, msg_len)) {
+        return 1;
+    }
+    m->current_a = 0.0;
+    m->motor_angle_rad = 0.0;
+    m->motor_speed_rad_s = 0.0;
+    m->cable_speed_m_s = 0.0;
+    memset(m->tension_n, 0, sizeof(m->tension_n));
+    m->rng_state = splitmix64((uint64_t)(uint32_t)m->p.seed);
+    if (m->rng_state == 0) {
+        m->rng_state = 0x9E3779B97F4A7C15ULL; /* xorshift must not start at 0 */
+    }
+    m->noise_in_n = 0.0;
+    m->noise_out_n = 0.0;
+    if (m->p.drive_mode == 1) {
+        /* the prescribed tension was applied by loading from rest */
+        Friction f = friction_now(m);
+        prescribed_tension_substep(m, &f, 0.0);
+        m->motor_speed_rad_s = 0.0;
+    }
+    for (k = 1; k <= BOWDEN_N_SEG; k++) {
+        stretch += 0.5 * (m->tension_n[k - 1] + m->tension_n[k]);
+    }
+    m->inlet_disp_m =
+        inlet_displacement(m, stretch * m->p.sheath_length / BOWDEN_N_SEG, m->tension_n[BOWDEN_N_SEG]);
+    m->sensor_lag_n = m->tension_n[BOWDEN_N_SEG];
+    m->delay_t0_s = start_time_s;
+    m->delay_buf_n[0] = m->sensor_lag_n;
+    m->delay_count = 1;
+    compute_outputs(m);
+    return outputs_finite(m, msg, msg_len);
+}
+
+int bowden_model_step(BowdenModel *m, double step_s, char *msg, size_t msg_len)
+{
+    double n_sub_f, h;
+    long n_sub, i;
+    if (!(step_s > 0.0) || !isfinite(step_s)) {
+        snprintf(msg, msg_len, "communicationStepSize = %g s must be > 0 and finite", step_s);
+        return 1;
+    }
+    n_sub_f = ceil(step_s / m->p.max_step - 1e-9);
+    if (n_sub_f > BOWDEN_MAX_SUBSTEPS) {
+        snprintf(msg, msg_len,
+                 "communicationStepSize = %g s needs more than 1e8 internal steps of max_step = "
+                 "%g s; allowed communicationStepSize <= %g s",
+                 step_s, m->p.max_step, BOWDEN_MAX_SUBSTEPS * m->p.max_step);
+        return 1;
+    }
+    if (update_geometry(m, msg, msg_len)) {
+        return 1;
+    }
+    n_sub = n_sub_f < 1.0 ? 1 : (long)n_sub_f;
+    h = step_s / (double)n_sub;
+    update_step_constants(m, h);
+    for (i = 0; i < n_sub; i++) {
+        substep(m, h);
+    }
+    if (m->p.noise_std > 0.0) {
+        double g1, g2;
+        rng_gauss_pair(&m->rng_state, &g1, &g2);
+        m->noise_in_n = m->p.noise_std * g1;
+        m->noise_out_n = m->p.noise_std * g2;
+    }
+    compute_outputs(m);
+    return outputs_finite(m, msg, msg_len);
+}

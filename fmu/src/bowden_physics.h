@@ -1,0 +1,69 @@
+/* The plant's physics: ESCON-style current loop, RE25 motor with gearhead and spool, elastic
+ * Dyneema cable through a sheath with distributed Coulomb friction, isometric output at a load
+ * cell, tension sensors. The equations and every assumption are written out in fmu/README.md.
+ *
+ * Contract with the FMI plumbing (fmi2_plumbing.c), which holds nothing model specific:
+ *   - BowdenModel holds p (parameters), u (inputs), y (outputs): the structs generated from the
+ *     variable table in fmu/gen_model.py, addressed by value reference via BOWDEN_VAR_TABLE.
+ *   - The whole model state is plain data inside BowdenModel (no pointers), so saving and
+ *     restoring the FMU state is a copy of the struct.
+ *   - bowden_model_defaults, bowden_model_init and bowden_model_step; init and step return 0 or
+ *     write a message naming the variable and its allowed range and return non-zero.
+ */
+#ifndef BOWDEN_PHYSICS_H
+#define BOWDEN_PHYSICS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "bowden_vars.h"
+
+/* Sheath segments of the distributed friction model (README, "Sheath friction"). The
+   exponential factors are exact per segment, so the quasi-static slopes do not depend on it;
+   it sets how finely the tension profile, and so the sheath's stretch, is resolved. */
+#define BOWDEN_N_SEG 32
+
+/* Delay line of the output sensor: a fixed grid of BOWDEN_DELAY_DT_S, long enough for the
+   largest sensor_delay (0.2 s, gen_model.py) plus two samples of interpolation. */
+#define BOWDEN_DELAY_DT_S 25e-6
+#define BOWDEN_DELAY_LEN 8192
+
+typedef struct {
+    BowdenParams p;
+    BowdenInputs u;
+    BowdenOutputs y;
+
+    /* state */
+    double time_s;
+    double current_a;                       /* drive current (first-order lag state) */
+    double motor_angle_rad;                 /* motor shaft */
+    double motor_speed_rad_s;
+    double tension_n[BOWDEN_N_SEG + 1];     /* tension at the nodes, 0 = inlet .. N = outlet */
+    double inlet_disp_m;                    /* cable displacement at the sheath inlet */
+    double cable_speed_m_s;                 /* d(inlet_disp_m)/dt */
+    double sensor_lag_n;                    /* output sensor after its first-order lag */
+    double delay_buf_n[BOWDEN_DELAY_LEN];   /* ring buffer of sensor_lag_n on the grid */
+    double delay_t0_s;                      /* time of grid sample 0 */
+    int64_t delay_count;                    /* grid samples written so far */
+    uint64_t rng_state;                     /* xorshift64* state of the sensor noise */
+    double noise_in_n, noise_out_n;         /* noise held over the communication step */
+
+    /* caches of derived values (recomputed when their inputs change) */
+    double geom_x_m, geom_y_m, geom_z_m;
+    double phi_geom_rad;
+    int geom_valid;
+    double cache_h_s, alpha_current, alpha_sensor;
+    double cache_mu, cache_dphi, exp_plus, exp_minus;
+} BowdenModel;
+
+/* Parameters and inputs at their start values, state at rest. */
+void bowden_model_defaults(BowdenModel *m);
+
+/* Check the parameters and inputs, start the state at rest at time start_time_s (zero tension,
+   or the prescribed input tension in drive_mode 1) and compute the outputs. */
+int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg_len);
+
+/* Advance by step_s with the inputs held, in internal steps of at most p.max_step. */
+int bowden_model_step(BowdenModel *m, double step_s, char *msg, size_t msg_len);
+
+#endif /* BOWDEN_PHYSICS_H */
