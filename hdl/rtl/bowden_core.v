@@ -1,0 +1,176 @@
+`resetall
+`timescale 1ns / 1ps
+`default_nettype none
+
+/*
+ * Bowden-cable tension controller core: registers, the PI + feedforward loop and the drive
+ * outputs. Used as is by the board tops and by the co-simulation.
+ *
+ * A sample tick every CLKS_PER_SAMPLE clocks (the first CLKS_PER_SAMPLE clocks after reset)
+ * starts one loop computation on the most recent ADC sample; cmd_valid pulses LATENCY (9)
+ * clocks later with the new command. CLKS_PER_SAMPLE may be as low as 9, which the
+ * co-simulation uses to spend few simulated clocks per sample.
+ */
+module bowden_core #(
+    parameter CLK_HZ = 48000000,                  // system clock, Hz
+    parameter SAMPLE_HZ = 10000,                  // loop rate, Hz
+    parameter CLKS_PER_SAMPLE = CLK_HZ / SAMPLE_HZ,  // clocks per sample tick (>= 9)
+    parameter PWM_HZ = 5000,                      // PWM set value frequency, Hz (ESCON <= 5 kHz)
+    parameter [15:0] PWM_IMAX_Q12 = 16384,        // current at 90 % duty, Q3.12 A (4 A)
+    parameter [15:0] WDT_RAMP_STEP = 16'd41,      // watchdog ramp, Q3.12 A per sample
+    parameter ADDR_W = 8                          // register byte address width
+) (
+    input  wire              clk,
+    input  wire              rst,
+
+    /*
+     * AXI4-Lite slave: the register map (hdl/regmap/bowden_regs.json)
+     */
+    input  wire [ADDR_W-1:0] s_axil_awaddr,
+    input  wire [2:0]        s_axil_awprot,
+    input  wire              s_axil_awvalid,
+    output wire              s_axil_awready,
+    input  wire [31:0]       s_axil_wdata,
+    input  wire [3:0]        s_axil_wstrb,
+    input  wire              s_axil_wvalid,
+    output wire              s_axil_wready,
+    output wire [1:0]        s_axil_bresp,
+    output wire              s_axil_bvalid,
+    input  wire              s_axil_bready,
+    input  wire [ADDR_W-1:0] s_axil_araddr,
+    input  wire [2:0]        s_axil_arprot,
+    input  wire              s_axil_arvalid,
+    output wire              s_axil_arready,
+    output wire [31:0]       s_axil_rdata,
+    output wire [1:0]        s_axil_rresp,
+    output wire              s_axil_rvalid,
+    input  wire              s_axil_rready,
+
+    /*
+     * Raw load-cell ADC samples
+     */
+    input  wire              adc_valid,
+    input  wire [23:0]       adc_data,     // signed 24-bit code
+
+    /*
+     * Drive
+     */
+    output wire [15:0]       cmd_current,  // Q3.12 A
+    output wire              cmd_enable,
+    output wire              cmd_valid,    // one clock when cmd_current is new
+    output wire              fault,        // a fault is latched
+    output wire              pwm,          // ESCON PWM set value
+    output wire              sample_tick   // one clock at the start of each sample
+);
+
+localparam CNT_W = $clog2(CLKS_PER_SAMPLE);
+localparam integer TICK_LAST_INT = CLKS_PER_SAMPLE - 1;
+localparam [CNT_W-1:0] TICK_LAST = TICK_LAST_INT[CNT_W-1:0];  // fits: < 2^CNT_W
+
+// --- sample tick ---------------------------------------------------------------------------
+
+reg [CNT_W-1:0] tick_cnt_reg, tick_cnt_next;
+reg             tick_reg, tick_next;
+
+always @* begin
+    tick_next = (tick_cnt_reg == TICK_LAST);
+    tick_cnt_next = tick_next ? {CNT_W{1'b0}} : tick_cnt_reg + 1'b1;
+end
+
+always @(posedge clk) begin
+    tick_cnt_reg <= tick_cnt_next;
+    tick_reg <= tick_next;
+    if (rst) begin
+        tick_cnt_reg <= {CNT_W{1'b0}};
+        tick_reg <= 1'b0;
+    end
+end
+
+// --- registers -----------------------------------------------------------------------------
+
+wire              reg_wr_en, reg_wr_err, reg_rd_en, reg_rd_err;
+wire [ADDR_W-1:0] reg_wr_addr, reg_rd_addr;
+wire [31:0]       reg_wr_data, reg_rd_data;
+wire [3:0]        reg_wr_strb;
+
+axil_regbus #(.ADDR_W(ADDR_W)) axil (
+    .clk(clk), .rst(rst),
+    .s_axil_awaddr(s_axil_awaddr), .s_axil_awprot(s_axil_awprot),
+    .s_axil_awvalid(s_axil_awvalid), .s_axil_awready(s_axil_awready),
+    .s_axil_wdata(s_axil_wdata), .s_axil_wstrb(s_axil_wstrb),
+    .s_axil_wvalid(s_axil_wvalid), .s_axil_wready(s_axil_wready),
+    .s_axil_bresp(s_axil_bresp), .s_axil_bvalid(s_axil_bvalid), .s_axil_bready(s_axil_bready),
+    .s_axil_araddr(s_axil_araddr), .s_axil_arprot(s_axil_arprot),
+    .s_axil_arvalid(s_axil_arvalid), .s_axil_arready(s_axil_arready),
+    .s_axil_rdata(s_axil_rdata), .s_axil_rresp(s_axil_rresp),
+    .s_axil_rvalid(s_axil_rvalid), .s_axil_rready(s_axil_rready),
+    .reg_wr_en(reg_wr_en), .reg_wr_addr(reg_wr_addr), .reg_wr_data(reg_wr_data),
+    .reg_wr_strb(reg_wr_strb), .reg_wr_err(reg_wr_err),
+    .reg_rd_en(reg_rd_en), .reg_rd_addr(reg_rd_addr), .reg_rd_data(reg_rd_data),
+    .reg_rd_err(reg_rd_err)
+);
+
+wire        ctrl_enable, ctrl_integ_reset, ctrl_fault_clear, ctrl_slew_en, tc_wr;
+wire [15:0] tc, kff, kp, ki_ts, wdt_timeout, adc_gain, adc_stale, oc_timeout;
+wire [14:0] i_limit, slew;
+wire [23:0] adc_offset, adc_min, adc_max;
+
+wire [15:0] u, t_in, tc_eff;
+wire [31:0] integ, sample_count;
+wire [3:0]  faults;
+wire        out_en, out_valid, saturated, wdt_ramp;
+
+bowden_regs #(.ADDR_W(ADDR_W)) regs (
+    .clk(clk), .rst(rst),
+    .reg_wr_en(reg_wr_en), .reg_wr_addr(reg_wr_addr), .reg_wr_data(reg_wr_data),
+    .reg_wr_strb(reg_wr_strb), .reg_wr_err(reg_wr_err),
+    .reg_rd_en(reg_rd_en), .reg_rd_addr(reg_rd_addr), .reg_rd_data(reg_rd_data),
+    .reg_rd_err(reg_rd_err),
+    .ctrl_enable(ctrl_enable), .ctrl_integ_reset(ctrl_integ_reset),
+    .ctrl_fault_clear(ctrl_fault_clear), .ctrl_slew_en(ctrl_slew_en),
+    .hw_status_out_en(out_en), .hw_status_saturated(saturated),
+    .hw_status_fault_active(|faults), .hw_status_wdt_ramp(wdt_ramp),
+    .hw_fault_adc_stale(faults[0]), .hw_fault_adc_range(faults[1]),
+    .hw_fault_watchdog(faults[2]), .hw_fault_overcurrent(faults[3]),
+    .tc(tc), .tc_wr(tc_wr), .kff(kff), .kp(kp), .ki_ts(ki_ts), .i_limit(i_limit), .slew(slew),
+    .wdt_timeout(wdt_timeout), .adc_offset(adc_offset), .adc_gain(adc_gain),
+    .adc_min(adc_min), .adc_max(adc_max), .adc_stale(adc_stale), .oc_timeout(oc_timeout),
+    .hw_sample_count(sample_count), .hw_t_in(t_in), .hw_u(u), .hw_integ(integ),
+    .hw_tc_eff(tc_eff)
+);
+
+// --- loop and drive ------------------------------------------------------------------------
+
+tension_loop #(.WDT_RAMP_STEP(WDT_RAMP_STEP)) loop (
+    .clk(clk), .rst(rst),
+    .tick(tick_reg),
+    .adc_valid(adc_valid), .adc_data(adc_data),
+    .enable(ctrl_enable), .slew_en(ctrl_slew_en), .integ_reset(ctrl_integ_reset),
+    .fault_clear(ctrl_fault_clear), .tc_wr(tc_wr),
+    .tc(tc), .kff(kff), .kp(kp), .ki_ts(ki_ts), .i_limit(i_limit), .slew(slew),
+    .wdt_timeout(wdt_timeout), .adc_offset(adc_offset), .adc_gain(adc_gain),
+    .adc_min(adc_min), .adc_max(adc_max), .adc_stale(adc_stale), .oc_timeout(oc_timeout),
+    .u(u), .out_en(out_en), .out_valid(out_valid),
+    .saturated(saturated), .wdt_ramp(wdt_ramp), .faults(faults),
+    .t_in(t_in), .integ(integ), .tc_eff(tc_eff), .sample_count(sample_count)
+);
+
+wire [31:0] pwm_duty;
+
+pwm_escon #(.PERIOD_CLKS(CLK_HZ / PWM_HZ), .IMAX_Q12(PWM_IMAX_Q12)) pwm_out (
+    .clk(clk), .rst(rst),
+    .u(u), .enable(out_en), .pwm(pwm), .duty_clks(pwm_duty)
+);
+
+// The duty read-back serves the PWM's own testbench only.
+wire unused_duty = &{1'b0, pwm_duty};
+
+assign cmd_current = u;
+assign cmd_enable = out_en;
+assign cmd_valid = out_valid;
+assign fault = |faults;
+assign sample_tick = tick_reg;
+
+endmodule
+
+`resetall

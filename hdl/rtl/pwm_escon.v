@@ -1,0 +1,95 @@
+`resetall
+`timescale 1ns / 1ps
+`default_nettype none
+
+/*
+ * ESCON-style PWM set value for the current command.
+ *
+ * Maxon ESCON drives read a PWM set value where 10 % duty is -I_max, 90 % is +I_max and 50 % is
+ * 0 A (ESCON "PWM set value" with 10..90 % mapping, configured in ESCON Studio). Here:
+ *     duty_clks = PERIOD_CLKS/2 + floor(clamp(u, +-IMAX_Q12) * K / 2^SHIFT)
+ * with K = round(SPAN * 2^SHIFT / IMAX_Q12), SPAN = 2*PERIOD_CLKS/5 (40 % of the period), and
+ * SHIFT the largest that keeps K below 2^15 so the product fits one 16 x 16 DSP multiply. The
+ * duty value changes only at the end of a period, so no pulse is ever cut short. While
+ * `enable` is low the output stays at 50 % (0 A), which is also the state after reset.
+ */
+module pwm_escon #(
+    parameter PERIOD_CLKS = 9600,     // PWM period in clocks (48 MHz / 5 kHz)
+    parameter [15:0] IMAX_Q12 = 16384 // current at 90 % duty, Q3.12 A (ESCON setting, 4 A)
+) (
+    input  wire        clk,
+    input  wire        rst,
+
+    input  wire [15:0] u,         // Q3.12 A current command
+    input  wire        enable,    // 0: 50 % duty (0 A)
+    output wire        pwm,       // PWM set value
+    output wire [31:0] duty_clks  // high time of the current period in clocks (for test)
+);
+
+localparam HALF = PERIOD_CLKS / 2;
+localparam SPAN = (2 * PERIOD_CLKS) / 5;
+
+// Largest shift s with round(SPAN * 2^s / IMAX) < 2^15 (32-bit integer arithmetic: SPAN * 2^s
+// stays below 2^31 for any SPAN < 2^15 and IMAX_Q12 >= 1).
+function integer calc_shift;
+    input integer span;
+    input integer imax;
+    integer s;
+    begin
+        s = 0;
+        while ((((span << (s + 1)) + imax / 2) / imax) < 32768 && s < 24)
+            s = s + 1;
+        calc_shift = s;
+    end
+endfunction
+
+localparam integer IMAX = {16'd0, IMAX_Q12};
+localparam SHIFT = calc_shift(SPAN, IMAX);
+localparam integer K_INT = ((SPAN << SHIFT) + IMAX / 2) / IMAX;
+localparam [15:0] K = K_INT[15:0];  // < 2^15 by the choice of SHIFT
+localparam CNT_W = $clog2(PERIOD_CLKS);
+
+reg  [CNT_W-1:0] cnt_reg, cnt_next;
+reg  [31:0]      duty_reg, duty_next;
+reg  [15:0]      u_c;
+
+wire signed [31:0] prod;
+mul_s16 mul (.clk(clk), .a(u_c), .b(K), .p(prod));
+
+// floor(prod / 2^SHIFT), |.| <= SPAN: the 90 % / 10 % ends of the range.
+wire signed [31:0] offset = prod >>> SHIFT;
+
+always @* begin
+    // Clamp to +-IMAX so the duty never leaves 10..90 %.
+    if (!enable) begin
+        u_c = 16'd0;
+    end else if ($signed(u) > $signed(IMAX_Q12)) begin
+        u_c = IMAX_Q12;
+    end else if ($signed(u) < -$signed(IMAX_Q12)) begin
+        u_c = -IMAX_Q12;
+    end else begin
+        u_c = u;
+    end
+
+    cnt_next = (cnt_reg == PERIOD_CLKS - 1) ? {CNT_W{1'b0}} : cnt_reg + 1'b1;
+    duty_next = duty_reg;
+    if (cnt_reg == PERIOD_CLKS - 1) begin
+        duty_next = HALF + offset;
+    end
+end
+
+always @(posedge clk) begin
+    cnt_reg <= cnt_next;
+    duty_reg <= duty_next;
+    if (rst) begin
+        cnt_reg <= {CNT_W{1'b0}};
+        duty_reg <= HALF;
+    end
+end
+
+assign pwm = {{(32 - CNT_W){1'b0}}, cnt_reg} < duty_reg;
+assign duty_clks = duty_reg;
+
+endmodule
+
+`resetall

@@ -1,0 +1,425 @@
+`resetall
+`timescale 1ns / 1ps
+`default_nettype none
+
+/*
+ * Fixed-point PI + feedforward tension loop with ADC calibration, faults and watchdog.
+ *
+ * Every sample tick (one-clock pulse on `tick`):
+ *   T_in = sat16(round((raw - ADC_OFFSET) * ADC_GAIN / 2^20))          Q7.8 N
+ *   T_c' = T_c, or T_c moved towards T_c by at most SLEW (CTRL.SLEW_EN)  Q7.8 N
+ *   e    = sat16(T_c' - T_in)                                          Q7.8 N
+ *   I'   = clamp(I + KI_TS*e, +-I_LIMIT), or I when the previous output was saturated
+ *          in the direction KI_TS*e pushes (conditional integration, the anti-windup)   Q3.28 A
+ *   u    = clamp(round(Kff*T_c' + Kp*e + I'), +-I_LIMIT)                 Q3.12 A
+ * The exact bit-level definition is the Python model cosim/rtl_model.py; hdl/README.md has
+ * the formats and why this anti-windup scheme.
+ *
+ * Two registered multipliers (mul_s16) compute the five products in a fixed schedule; the
+ * results appear LATENCY clocks after the tick, marked by `out_valid`. Ticks must be at least
+ * LATENCY clocks apart. Configuration read after the tick clock is snapshotted at the tick, so
+ * a register write that lands at or before the tick edge is used by that sample, and one that
+ * lands later by the next.
+ */
+module tension_loop #(
+    parameter [15:0] WDT_RAMP_STEP = 16'd41  // watchdog ramp-down of u, Q3.12 A per sample
+                                             // (41/4096 A: 4 A reach zero in 40 ms at 10 kHz)
+) (
+    input  wire        clk,
+    input  wire        rst,
+
+    /*
+     * Sample timing
+     */
+    input  wire        tick,        // start of a sample, one clock, >= LATENCY clocks apart
+
+    /*
+     * Raw load-cell ADC stream
+     */
+    input  wire        adc_valid,   // a new sample on adc_data
+    input  wire [23:0] adc_data,    // signed 24-bit two's complement code
+
+    /*
+     * Configuration (register fields)
+     */
+    input  wire        enable,       // CTRL.ENABLE
+    input  wire        slew_en,      // CTRL.SLEW_EN
+    input  wire        integ_reset,  // CTRL.INTEG_RESET write pulse
+    input  wire        fault_clear,  // CTRL.FAULT_CLEAR write pulse
+    input  wire        tc_wr,        // TC written (watchdog refresh)
+    input  wire [15:0] tc,           // Q7.8 N
+    input  wire [15:0] kff,          // Q2.13 A/N
+    input  wire [15:0] kp,           // Q2.13 A/N
+    input  wire [15:0] ki_ts,        // 2^-20 A/N per sample
+    input  wire [14:0] i_limit,      // UQ3.12 A
+    input  wire [14:0] slew,         // UQ7.8 N per sample
+    input  wire [15:0] wdt_timeout,  // samples, 0 = off
+    input  wire [23:0] adc_offset,   // code
+    input  wire [15:0] adc_gain,     // 2^-20 Q7.8-LSB per code
+    input  wire [23:0] adc_min,      // code
+    input  wire [23:0] adc_max,      // code
+    input  wire [15:0] adc_stale,    // samples, 0 = off
+    input  wire [15:0] oc_timeout,   // samples, 0 = off
+
+    /*
+     * Drive command
+     */
+    output wire [15:0] u,            // Q3.12 A current command
+    output wire        out_en,       // drive enable
+    output wire        out_valid,    // one clock: u, out_en and the read-backs are new
+
+    /*
+     * Status and read-back
+     */
+    output wire        saturated,
+    output wire        wdt_ramp,
+    output wire [3:0]  faults,       // {overcurrent, watchdog, adc_range, adc_stale}
+    output wire [15:0] t_in,         // Q7.8 N
+    output wire [31:0] integ,        // Q3.28 A
+    output wire [15:0] tc_eff,       // Q7.8 N
+    output wire [31:0] sample_count
+);
+
+localparam LATENCY = 9;  // clocks from tick to out_valid; documented minimum tick spacing
+
+localparam [3:0] F_WDT = 4'b0100;  // fault bits: {overcurrent, watchdog, adc_range, adc_stale}
+
+// Schedule: seq_reg[k] is high in clock k+1 after the tick (clock 0).
+reg  [LATENCY-2:0] seq_reg, seq_next;
+
+// Events between ticks, consumed at the tick.
+reg  [23:0] raw_reg, raw_next;
+reg         fresh_reg, fresh_next;
+reg         tcw_pend_reg, tcw_pend_next;
+reg         irst_pend_reg, irst_pend_next;
+reg         fclr_pend_reg, fclr_pend_next;
+
+// Counters and latched faults (updated at the tick).
+reg  [15:0] stale_cnt_reg, stale_cnt_next;
+reg  [15:0] wdt_cnt_reg, wdt_cnt_next;
+reg  [15:0] oc_cnt_reg, oc_cnt_next;
+reg  [3:0]  fault_reg, fault_next;
+reg  [31:0] sample_cnt_reg, sample_cnt_next;
+
+// Snapshot at the tick.
+reg         run_reg, run_next;
+reg         ramp_reg, ramp_next;
+reg  [8:0]  diff_lo_reg, diff_lo_next;
+reg  [15:0] gain_s_reg, gain_s_next;
+reg  [15:0] kp_s_reg, kp_s_next;
+reg  [15:0] ki_s_reg, ki_s_next;
+reg  [14:0] lim_s_reg, lim_s_next;
+reg  [15:0] tce_s_reg, tce_s_next;
+reg  [31:0] iprev_reg, iprev_next;
+
+// Pipeline.
+reg  [40:0] cal_acc_reg, cal_acc_next;
+reg  [31:0] ff_reg, ff_next;
+reg  [33:0] fp_reg, fp_next;
+reg  [31:0] inew_reg, inew_next;
+reg  [24:0] r_reg, r_next;
+
+// Results.
+reg  [15:0] t_in_reg, t_in_next;
+reg  [15:0] u_reg, u_next;
+reg         out_en_reg, out_en_next;
+reg         sat_hi_reg, sat_hi_next;
+reg         sat_lo_reg, sat_lo_next;
+reg         ramp_st_reg, ramp_st_next;
+reg  [31:0] integ_reg, integ_next;
+reg  [15:0] tc_eff_reg, tc_eff_next;
+reg         out_valid_reg, out_valid_next;
+
+// Multiplier operands.
+reg  [15:0] m1_a, m1_b, m2_a, m2_b;
+wire signed [31:0] m1_p, m2_p;
+
+mul_s16 mul1 (.clk(clk), .a(m1_a), .b(m1_b), .p(m1_p));
+mul_s16 mul2 (.clk(clk), .a(m2_a), .b(m2_b), .p(m2_p));
+
+// --- combinational helpers -------------------------------------------------------------------
+
+// Sample at or before the tick edge.
+wire [23:0] raw_now = adc_valid ? adc_data : raw_reg;
+wire        fresh_now = fresh_reg | adc_valid;
+wire        fclr_now = fclr_pend_reg | fault_clear;
+wire        tcw_now = tcw_pend_reg | tc_wr;
+wire        irst_now = irst_pend_reg | integ_reset;
+
+// raw - offset in 25 bits: exact for any two 24-bit codes.
+wire signed [24:0] diff_now = $signed({raw_now[23], raw_now}) -
+                              $signed({adc_offset[23], adc_offset});
+
+// Slew limit: T_c' = clamp(T_c, T_c'[n-1] - SLEW, T_c'[n-1] + SLEW), 17-bit exact; the result
+// lies between T_c'[n-1] and T_c, both 16-bit, so it fits Q7.8 without saturation.
+wire signed [16:0] tc_s17 = $signed({tc[15], tc});
+wire signed [16:0] prev_hi = $signed({tc_eff_reg[15], tc_eff_reg}) + $signed({2'b00, slew});
+wire signed [16:0] prev_lo = $signed({tc_eff_reg[15], tc_eff_reg}) - $signed({2'b00, slew});
+wire [16:0] tce_slew = (tc_s17 > prev_hi) ? prev_hi :
+                       (tc_s17 < prev_lo) ? prev_lo : tc_s17;
+wire [15:0] tce_now = slew_en ? tce_slew[15:0] : tc;
+
+// Counters saturate at 2^16 - 1 so a long fault never wraps to "fine".
+wire [15:0] stale_base = fclr_now ? 16'd0 : stale_cnt_reg;
+wire [15:0] wdt_base = fclr_now ? 16'd0 : wdt_cnt_reg;
+wire [15:0] oc_base = fclr_now ? 16'd0 : oc_cnt_reg;
+wire [15:0] stale_now = fresh_now ? 16'd0 :
+                        (&stale_base) ? stale_base : stale_base + 16'd1;
+wire [15:0] wdt_now = (!enable || tcw_now) ? 16'd0 :
+                      (&wdt_base) ? wdt_base : wdt_base + 16'd1;
+wire range_bad = ($signed(raw_now) < $signed(adc_min)) || ($signed(raw_now) > $signed(adc_max));
+wire [3:0] detect = {(oc_timeout != 16'd0) && (oc_base >= oc_timeout),
+                     (wdt_timeout != 16'd0) && (wdt_now >= wdt_timeout),
+                     range_bad,
+                     (adc_stale != 16'd0) && (stale_now >= adc_stale)};
+wire [3:0] faults_now = (fclr_now ? 4'd0 : fault_reg) | (enable ? detect : 4'd0);
+
+// Calibration sum: (hi*g << 9) + lo*g + 2^19 (rounding), 41 bits exact (|diff*g| < 2^40).
+wire signed [40:0] cal_sum = $signed(cal_acc_reg) + {{9{m1_p[31]}}, m1_p};
+// round(x / 2^20) fits Q7.8 unless bits 40..35 differ: saturate to the Q7.8 range.
+wire cal_ovf = !((&cal_sum[40:35]) || !(|cal_sum[40:35]));
+wire [15:0] t_in_now = cal_ovf ? {cal_sum[40], {15{~cal_sum[40]}}} : cal_sum[35:20];
+
+// Error in 17 bits, saturated to Q7.8 (beyond +-128 N only the integration rate is limited).
+wire signed [16:0] e_full = $signed({tce_s_reg[15], tce_s_reg}) - $signed({t_in_reg[15], t_in_reg});
+wire e_ovf = e_full[16] != e_full[15];
+wire [15:0] e_now = e_ovf ? {e_full[16], {15{~e_full[16]}}} : e_full[15:0];
+
+// Integrator candidate I + KI_TS*e, 33 bits exact, clamped to +-I_LIMIT in Q3.28.
+wire signed [32:0] lim28 = $signed({2'b00, lim_s_reg, 16'd0});
+wire signed [32:0] i_sum = $signed({iprev_reg[31], iprev_reg}) + $signed({m2_p[31], m2_p});
+wire signed [32:0] i_clamped = (i_sum > lim28) ? lim28 : (i_sum < -lim28) ? -lim28 : i_sum;
+
+// Feedforward + proportional in 21 fractional bits plus the rounding half (2^8 for >> 9).
+wire signed [33:0] fp_now = $signed({{2{ff_reg[31]}}, ff_reg}) +
+                            $signed({{2{m1_p[31]}}, m1_p}) + 34'sd256;
+
+// Conditional integration: hold I while the last output was saturated the way KI_TS*e pushes.
+wire pi_pos = !m2_p[31] && (m2_p != 32'd0);
+wire windup = (sat_hi_reg && pi_pos) || (sat_lo_reg && m2_p[31]);
+
+// Rounded sum, Q3.12 in 25 bits: |fp| < 2^32, |I >> 7| < 2^24, so 34 bits hold the sum.
+wire signed [33:0] v_sum = $signed(fp_reg) + $signed({{9{inew_reg[31]}}, inew_reg[31:7]});
+
+// Output saturation at +-I_LIMIT.
+wire signed [24:0] lim12 = $signed({10'd0, lim_s_reg});
+wire r_hi = $signed(r_reg) > lim12;
+wire r_lo = $signed(r_reg) < -lim12;
+wire [15:0] u_sat = r_hi ? {1'b0, lim_s_reg} : r_lo ? -{1'b0, lim_s_reg} : r_reg[15:0];
+
+// Watchdog ramp of the previous command towards zero.
+wire signed [15:0] step = $signed(WDT_RAMP_STEP);
+wire [15:0] u_ramp = ($signed(u_reg) > step) ? u_reg - step :
+                     ($signed(u_reg) < -step) ? u_reg + step : 16'd0;
+
+// Bits dropped on purpose: the fraction below the rounding point, and the sign bit of values
+// proven in range (slew result between two Q7.8 values, clamped integrator within +-2^31).
+wire unused_bits = &{1'b0, tce_slew[16], cal_sum[19:0], i_clamped[32], v_sum[8:0]};
+
+always @* begin
+    seq_next = {seq_reg[LATENCY-3:0], tick};
+
+    raw_next = raw_now;
+    fresh_next = tick ? 1'b0 : fresh_now;
+    tcw_pend_next = tick ? 1'b0 : tcw_now;
+    irst_pend_next = tick ? 1'b0 : irst_now;
+    fclr_pend_next = tick ? 1'b0 : fclr_now;
+
+    stale_cnt_next = stale_cnt_reg;
+    wdt_cnt_next = wdt_cnt_reg;
+    oc_cnt_next = oc_cnt_reg;
+    fault_next = fault_reg;
+    sample_cnt_next = sample_cnt_reg;
+
+    run_next = run_reg;
+    ramp_next = ramp_reg;
+    diff_lo_next = diff_lo_reg;
+    gain_s_next = gain_s_reg;
+    kp_s_next = kp_s_reg;
+    ki_s_next = ki_s_reg;
+    lim_s_next = lim_s_reg;
+    tce_s_next = tce_s_reg;
+    iprev_next = iprev_reg;
+
+    cal_acc_next = cal_acc_reg;
+    ff_next = ff_reg;
+    fp_next = fp_reg;
+    inew_next = inew_reg;
+    r_next = r_reg;
+
+    t_in_next = t_in_reg;
+    u_next = u_reg;
+    out_en_next = out_en_reg;
+    sat_hi_next = sat_hi_reg;
+    sat_lo_next = sat_lo_reg;
+    ramp_st_next = ramp_st_reg;
+    integ_next = integ_reg;
+    tc_eff_next = tc_eff_reg;
+    out_valid_next = 1'b0;
+
+    m1_a = 16'd0;
+    m1_b = 16'd0;
+    m2_a = 16'd0;
+    m2_b = 16'd0;
+
+    // Clock 0: the tick. Faults and counters, snapshot, first products.
+    if (tick) begin
+        sample_cnt_next = sample_cnt_reg + 32'd1;
+        stale_cnt_next = stale_now;
+        wdt_cnt_next = wdt_now;
+        oc_cnt_next = oc_base;
+        fault_next = faults_now;
+        run_next = enable && (faults_now == 4'd0);
+        ramp_next = enable && (faults_now == F_WDT);
+        diff_lo_next = diff_now[8:0];
+        gain_s_next = adc_gain;
+        kp_s_next = kp;
+        ki_s_next = ki_ts;
+        lim_s_next = i_limit;
+        tce_s_next = tce_now;
+        iprev_next = irst_now ? 32'd0 : integ_reg;
+        m1_a = diff_now[24:9];
+        m1_b = adc_gain;
+        m2_a = tce_now;
+        m2_b = kff;
+    end
+
+    // Clock 1: low 9 bits of the difference (non-negative) times the gain.
+    if (seq_reg[0]) begin
+        m1_a = {7'd0, diff_lo_reg};
+        m1_b = gain_s_reg;
+    end
+
+    // Clock 2: high partial product and feedforward arrive.
+    if (seq_reg[1]) begin
+        cal_acc_next = {m1_p, 9'd0} + 41'd524288;  // + 2^19: round half up at >> 20
+        ff_next = m2_p;
+    end
+
+    // Clock 3: T_in.
+    if (seq_reg[2]) begin
+        t_in_next = t_in_now;
+    end
+
+    // Clock 4: error, P and I products.
+    if (seq_reg[3]) begin
+        m1_a = e_now;
+        m1_b = kp_s_reg;
+        m2_a = e_now;
+        m2_b = ki_s_reg;
+    end
+
+    // Clock 6: feedforward + proportional, new integrator.
+    if (seq_reg[5]) begin
+        fp_next = fp_now;
+        inew_next = windup ? iprev_reg : i_clamped[31:0];
+    end
+
+    // Clock 7: rounded output (arithmetic shift = floor; the +2^8 in fp made it round).
+    if (seq_reg[6]) begin
+        r_next = v_sum[33:9];
+    end
+
+    // Clock 8: saturate, apply the mode.
+    if (seq_reg[7]) begin
+        out_valid_next = 1'b1;
+        if (run_reg) begin
+            u_next = u_sat;
+            integ_next = inew_reg;
+            sat_hi_next = r_hi;
+            sat_lo_next = r_lo;
+            out_en_next = 1'b1;
+            ramp_st_next = 1'b0;
+            tc_eff_next = tce_s_reg;
+            // Consecutive saturated samples, saturating at 2^16 - 1.
+            oc_cnt_next = !(r_hi || r_lo) ? 16'd0 :
+                          (&oc_cnt_reg) ? oc_cnt_reg : oc_cnt_reg + 16'd1;
+        end else begin
+            u_next = ramp_reg ? u_ramp : 16'd0;
+            out_en_next = ramp_reg && (u_ramp != 16'd0);
+            ramp_st_next = ramp_reg && (u_ramp != 16'd0);
+            integ_next = 32'd0;
+            sat_hi_next = 1'b0;
+            sat_lo_next = 1'b0;
+            tc_eff_next = 16'd0;
+            oc_cnt_next = 16'd0;
+        end
+    end
+end
+
+always @(posedge clk) begin
+    seq_reg <= seq_next;
+    raw_reg <= raw_next;
+    fresh_reg <= fresh_next;
+    tcw_pend_reg <= tcw_pend_next;
+    irst_pend_reg <= irst_pend_next;
+    fclr_pend_reg <= fclr_pend_next;
+    stale_cnt_reg <= stale_cnt_next;
+    wdt_cnt_reg <= wdt_cnt_next;
+    oc_cnt_reg <= oc_cnt_next;
+    fault_reg <= fault_next;
+    sample_cnt_reg <= sample_cnt_next;
+    run_reg <= run_next;
+    ramp_reg <= ramp_next;
+    diff_lo_reg <= diff_lo_next;
+    gain_s_reg <= gain_s_next;
+    kp_s_reg <= kp_s_next;
+    ki_s_reg <= ki_s_next;
+    lim_s_reg <= lim_s_next;
+    tce_s_reg <= tce_s_next;
+    iprev_reg <= iprev_next;
+    cal_acc_reg <= cal_acc_next;
+    ff_reg <= ff_next;
+    fp_reg <= fp_next;
+    inew_reg <= inew_next;
+    r_reg <= r_next;
+    t_in_reg <= t_in_next;
+    u_reg <= u_next;
+    out_en_reg <= out_en_next;
+    sat_hi_reg <= sat_hi_next;
+    sat_lo_reg <= sat_lo_next;
+    ramp_st_reg <= ramp_st_next;
+    integ_reg <= integ_next;
+    tc_eff_reg <= tc_eff_next;
+    out_valid_reg <= out_valid_next;
+
+    if (rst) begin
+        seq_reg <= {(LATENCY-1){1'b0}};
+        raw_reg <= 24'd0;
+        fresh_reg <= 1'b0;
+        tcw_pend_reg <= 1'b0;
+        irst_pend_reg <= 1'b0;
+        fclr_pend_reg <= 1'b0;
+        stale_cnt_reg <= 16'd0;
+        wdt_cnt_reg <= 16'd0;
+        oc_cnt_reg <= 16'd0;
+        fault_reg <= 4'd0;
+        sample_cnt_reg <= 32'd0;
+        run_reg <= 1'b0;
+        ramp_reg <= 1'b0;
+        t_in_reg <= 16'd0;
+        u_reg <= 16'd0;
+        out_en_reg <= 1'b0;
+        sat_hi_reg <= 1'b0;
+        sat_lo_reg <= 1'b0;
+        ramp_st_reg <= 1'b0;
+        integ_reg <= 32'd0;
+        tc_eff_reg <= 16'd0;
+        out_valid_reg <= 1'b0;
+    end
+end
+
+assign u = u_reg;
+assign out_en = out_en_reg;
+assign out_valid = out_valid_reg;
+assign saturated = sat_hi_reg | sat_lo_reg;
+assign wdt_ramp = ramp_st_reg;
+assign faults = fault_reg;
+assign t_in = t_in_reg;
+assign integ = integ_reg;
+assign tc_eff = tc_eff_reg;
+assign sample_count = sample_cnt_reg;
+
+endmodule
+
+`resetall
