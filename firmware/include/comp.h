@@ -1,0 +1,143 @@
+/*
+ * comp.h - the feedforward friction compensator of Jeong & Cho (IROS 2015), Sec. IV, in fixed point.
+ *
+ * Paper law (Eq. 15-16):  T_c = T_ref * exp(sign(delta) * mu * phi),  delta = dT_ref/dt,
+ * keeping the last sign of delta when delta = 0. It inverts the capstan friction of the sheath
+ * (Eq. 1-3): loading, T_out = T_in * exp(-mu*phi); unloading, T_out = T_in * exp(+mu*phi).
+ *
+ * Three modes:
+ *  - COMP_MODE_NONE:   T_c = T_ref (no compensation; the baseline of the co-simulation).
+ *  - COMP_MODE_PAPER:  Eq. 15 with the direction from the detector below; T_c jumps at a reversal.
+ *  - COMP_MODE_SMOOTH: a smooth inverse in the spirit of Agrawal et al. (ICRA 2010, "smooth
+ *    backlash inverse"): after a reversal the gain moves from one branch to the other linearly in
+ *    the distance T_ref travels, over a tension band B, instead of jumping.
+ *
+ * Direction detector (hysteresis band H): the detector tracks the extreme of T_ref since the last
+ * reversal and declares a reversal when T_ref has moved back from it by at least H. A noisy or
+ * dithering T_ref whose peak-to-peak amplitude is below H never flips it. With H = 1 LSB
+ * (1/256 N) it is exactly Eq. 16: the sign of the first difference, held when the difference is 0.
+ * Before the first reversal the direction is "loading" (+1): a cable starts slack and is pulled.
+ *
+ * Extensions the model audit can emit (off by default):
+ *  - offset_n: the output tension sensor reads offset_n above the cable (the paper's Fig. 11 shows
+ *    ~0.5 N); the compensator aims the measured output at T_ref: T_eff = T_ref - offset_n.
+ *  - mu_slope_per_n: friction coefficient rising with tension, mu_eff = mu + mu_slope*|T_eff|
+ *    (|T_eff| clamped to 127.996 N), so the gain is exp(+-mu_eff*phi). It is applied through a
+ *    table of 65 nodes (every 2 N) computed at configuration, linearly interpolated per step.
+ *
+ * Full law of a step, with T_eff = T_ref - offset_n (mode NONE: T_c = T_ref):
+ *   G_up(T) = exp(+mu_eff(T)*phi), G_dn(T) = exp(-mu_eff(T)*phi),
+ *   w = s / B in [0, 1] (PAPER: w = 1 loading, 0 unloading; SMOOTH: s moves by |dT_ref| per step
+ *   towards B when loading and towards 0 when unloading),
+ *   T_c = sat_Q7.8( T_eff * (G_dn + w*(G_up - G_dn)) ).
+ *
+ * Smoothness bound (SMOOTH mode): between two consecutive steps whose references differ by d,
+ *   |dT_c| <= d * (G_up,max + T_max*((G_up - G_dn)_max/B + G_up,max*|mu_slope|*phi)) + 2 LSB,
+ * with T_max the larger |T_eff| of the two steps (the first term is the reference moving on a
+ * branch, the second the blend, the third the tension-dependent friction; 2 LSB of rounding).
+ *
+ * Accuracy against the double twin (comp_f64.h) fed the same Q7.8 references: with
+ * mu_slope = 0, |T_c - T_c,f64| <= COMP_ERR_BOUND_LSB; with a slope, add the interpolation error
+ * T_max * h^2/8 * (mu_slope*phi)^2 * G_up,max with h = 2 N (cosim.firmware.error_bound_n).
+ */
+#ifndef BOWDEN_COMP_H
+#define BOWDEN_COMP_H
+
+#include "bowden_q.h"
+
+/* Mode of the compensator (int32 in the config so the layout is fixed for ctypes). */
+#define COMP_MODE_NONE 0
+#define COMP_MODE_PAPER 1
+#define COMP_MODE_SMOOTH 2
+
+/* Configuration limits (checked in one place, comp_config_check). */
+#define COMP_MU_MAX_Q28 ((q3_28_t)Q3_28_ONE)               /* mu in [0, 1] */
+#define COMP_PHI_MAX_Q24 ((q7_24_t)210828714L)             /* phi in [0, 4*pi] rad */
+#define COMP_MU_SLOPE_MAX_Q28 ((q3_28_t)(Q3_28_ONE / 128)) /* |mu_slope| <= 1/128 per N */
+#define COMP_EXPONENT_MAX_Q28 ((q3_28_t)(4L * Q3_28_ONE))  /* mu_eff*phi <= 4 (gain <= 54.6) */
+#define COMP_OFFSET_MAX_Q8 ((q7_8w_t)(64 * Q7_8_ONE))      /* |offset| <= 64 N */
+#define COMP_HYST_MIN_Q8 ((q7_8w_t)1)                      /* H in [1/256 N, 32 N] */
+#define COMP_HYST_MAX_Q8 ((q7_8w_t)(32 * Q7_8_ONE))
+#define COMP_BAND_MIN_Q8 ((q7_8w_t)1) /* B in [1/256 N, 128 N] */
+#define COMP_BAND_MAX_Q8 ((q7_8w_t)(128 * Q7_8_ONE))
+
+/* Gain table: nodes every 2 N (512 LSB of Q7.8) over |T_eff| in [0, 128] N. */
+#define COMP_TAB_SHIFT 9
+#define COMP_TAB_NODES 65
+
+/* Bound of |T_c(fixed) - T_c(double twin)| in Q7.8 LSB with mu_slope = 0: 0.5 LSB of final
+ * rounding, plus gain and blend quantization below 0.01 LSB; held by the unit tests. */
+#define COMP_ERR_BOUND_LSB 1
+
+/* Status codes of comp_configure (0 is success; each error names the offending field). */
+#define COMP_OK 0
+#define COMP_ERR_NULL 1       /* a null pointer */
+#define COMP_ERR_MODE 2       /* mode not NONE, PAPER or SMOOTH */
+#define COMP_ERR_MU 3         /* mu outside [0, 1] */
+#define COMP_ERR_PHI 4        /* phi outside [0, 4*pi] rad */
+#define COMP_ERR_MU_SLOPE 5   /* |mu_slope| > 1/128 per N, or mu + mu_slope*128 N < 0 */
+#define COMP_ERR_EXPONENT 6   /* mu_eff*phi > 4 somewhere in [0, 128] N */
+#define COMP_ERR_OFFSET 7     /* |offset| > 64 N */
+#define COMP_ERR_HYSTERESIS 8 /* H outside [1/256, 32] N */
+#define COMP_ERR_BAND 9       /* B outside [1/256, 128] N (a band of zero is rejected) */
+
+/* Configuration, built from comp_config_default() then changed field by field. */
+typedef struct {
+    int32_t mode;                  /* COMP_MODE_* */
+    q3_28_t mu_q28;                /* friction coefficient mu, Q3.28, [0, 1] */
+    q7_24_t phi_rad_q24;           /* total bending angle phi, Q7.24 rad, [0, 4*pi] */
+    q3_28_t mu_slope_per_n_q28;    /* d(mu)/d|T|, Q3.28 per N, [-1/128, 1/128] */
+    q7_8w_t offset_n_q8;           /* output sensor offset, Q7.8 N, [-64, 64] */
+    q7_8w_t hysteresis_n_q8;       /* detector band H, Q7.8 N, [1/256, 32] */
+    q7_8w_t band_n_q8;             /* smooth inverse band B, Q7.8 N, [1/256, 128] */
+} comp_config_t;
+
+/* The compensator: configuration in force, gain tables and the state of the last step. */
+typedef struct {
+    comp_config_t cfg;
+    uq8_24_t g_up[COMP_TAB_NODES]; /* exp(+mu_eff*phi) at |T| = 2 N * index, UQ8.24 */
+    uq8_24_t g_dn[COMP_TAB_NODES]; /* exp(-mu_eff*phi) */
+    uint32_t inv_band;             /* floor(2^(31+m) / B[LSB]) with m = floor(log2 B) */
+    int32_t band_shift;            /* m + 1: w = (s * inv_band) >> (m + 1) is s/B in Q1.30 */
+    int32_t prev_ref;              /* T_ref of the last step, Q7.8 in 32 bits */
+    int32_t extreme;               /* extreme of T_ref since the last reversal, Q7.8 */
+    int32_t blend;                 /* s in Q7.8 LSB, [0, B]: B = loading branch, 0 = unloading */
+    int32_t dir;                   /* +1 loading, -1 unloading (sign of delta, held at 0) */
+    int32_t started;               /* 0 until the first step */
+} comp_t;
+
+/* Defaults: PAPER mode, mu = 0.075 (paper Fig. 11), phi = 2*pi (loop routing), no slope, no offset,
+ * H = 4 LSB (1/64 N: above the +-1 LSB dither of a quantized constant), B = 2 N. */
+void comp_config_default(comp_config_t *cfg);
+
+/* Check a configuration without applying it; returns COMP_OK or the COMP_ERR_* of the first bad
+ * field in the order of the struct. */
+int32_t comp_config_check(const comp_config_t *cfg);
+
+/* Put the compensator in the default configuration and reset its state. */
+void comp_init(comp_t *c);
+
+/*
+ * Apply a configuration: on success recompute the gain tables (fxp_exp_uq8_24, ~10k instructions),
+ * keep the detector's direction and put the blend fully on the current branch; on error return the
+ * COMP_ERR_* code and leave the compensator (configuration and state) untouched.
+ */
+int32_t comp_configure(comp_t *c, const comp_config_t *cfg);
+
+/* Forget the history: the next step starts in the loading direction on its branch. */
+void comp_reset(comp_t *c);
+
+/*
+ * One step of the compensator at the processor's rate: T_ref (Q7.8 N) in, T_c (Q7.8 N) out.
+ * Scaling and overflow: T_eff = T_ref - offset in 32 bits (|T_eff| < 2^17); gains are UQ8.24
+ * (<= 54.6 * 2^24 < 2^30); the interpolation and blend products are < 2^62 in 64 bits; the product
+ * T_eff * G (Q15.32, < 2^47) is rounded to Q7.8 and saturated to [-128, 127.996] N, so no input
+ * overflows. About 60-90 host instructions (see the callgrind benchmark).
+ */
+q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref);
+
+/* Current direction (+1 loading, -1 unloading) and blend weight s/B in Q1.30 (for telemetry). */
+int32_t comp_direction(const comp_t *c);
+int32_t comp_blend_q1_30(const comp_t *c);
+
+#endif /* BOWDEN_COMP_H */

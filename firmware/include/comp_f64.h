@@ -1,0 +1,46 @@
+/*
+ * comp_f64.h - the double-precision twin of the compensator (host only: it uses libm's exp).
+ *
+ * The same law as comp.h (Eq. 15-16, the hysteresis detector, the smooth inverse and the audit's
+ * extensions) in double, without quantization: it is the oracle the fixed-point compensator is
+ * held against, and the compensator of the co-simulation's float reference. Its configuration
+ * uses SI units and is checked against the same limits, returning the same COMP_ERR_* codes.
+ * Differences from the fixed-point step, by design: no quantization of T_c (only the saturation
+ * to the Q7.8 range [-128, 127.99609375] N is kept), gains exp(+-mu_eff*phi) evaluated exactly
+ * at |T_eff| rather than interpolated from a table.
+ */
+#ifndef BOWDEN_COMP_F64_H
+#define BOWDEN_COMP_F64_H
+
+#include <stdint.h>
+
+typedef struct {
+    int32_t mode;              /* COMP_MODE_* (comp.h) */
+    double mu;                 /* [0, 1] */
+    double phi_rad;            /* [0, 4*pi] */
+    double mu_slope_per_n;     /* [-1/128, 1/128] 1/N, with mu + 128*slope >= 0 */
+    double offset_n;           /* [-64, 64] N */
+    double hysteresis_n;       /* [1/256, 32] N */
+    double band_n;             /* [1/256, 128] N */
+} comp_f64_config_t;
+
+typedef struct {
+    comp_f64_config_t cfg;
+    double prev_ref;
+    double extreme;
+    double blend;   /* s in N, [0, B] */
+    int32_t dir;
+    int32_t started;
+} comp_f64_t;
+
+/* Same defaults as comp_config_default. */
+void comp_f64_config_default(comp_f64_config_t *cfg);
+/* COMP_OK or the COMP_ERR_* of the first bad field (NaN is out of every range). */
+int32_t comp_f64_config_check(const comp_f64_config_t *cfg);
+void comp_f64_init(comp_f64_t *c);
+int32_t comp_f64_configure(comp_f64_t *c, const comp_f64_config_t *cfg);
+void comp_f64_reset(comp_f64_t *c);
+/* One step: T_ref in N (any finite value) -> T_c in N, saturated to [-128, 127.99609375]. */
+double comp_step_f64(comp_f64_t *c, double t_ref_n);
+
+#endif /* BOWDEN_COMP_F64_H */

@@ -1,0 +1,241 @@
+/* comp.c - the fixed-point friction compensator; the law, formats and bounds are in comp.h. */
+#include "comp.h"
+
+#include "fxp.h"
+
+void comp_config_default(comp_config_t *cfg)
+{
+    if (cfg == 0) {
+        return;
+    }
+    cfg->mode = COMP_MODE_PAPER;
+    cfg->mu_q28 = (q3_28_t)20132659L;       /* 0.075 (paper Fig. 11) = round(0.075 * 2^28) */
+    cfg->phi_rad_q24 = (q7_24_t)105414357L; /* 2*pi (loop routing) = round(2*pi * 2^24) */
+    cfg->mu_slope_per_n_q28 = 0;
+    cfg->offset_n_q8 = 0;
+    cfg->hysteresis_n_q8 = 4;         /* 1/64 N */
+    cfg->band_n_q8 = 2 * Q7_8_ONE;    /* 2 N */
+}
+
+/* mu_eff * phi in Q3.28 at |T| = t_n newtons (integer), in 64 bits for the range check. */
+static int64_t exponent_q28(const comp_config_t *cfg, int32_t t_n)
+{
+    int64_t mu_eff = (int64_t)cfg->mu_q28 + (int64_t)cfg->mu_slope_per_n_q28 * t_n; /* Q3.28 */
+    /* Q3.28 * Q7.24 = Q10.52 (< 2^60 for the accepted ranges); >> 24 with rounding -> Q3.28. */
+    return (mu_eff * cfg->phi_rad_q24 + (INT64_C(1) << 23)) >> 24;
+}
+
+int32_t comp_config_check(const comp_config_t *cfg)
+{
+    if (cfg == 0) {
+        return COMP_ERR_NULL;
+    }
+    if (cfg->mode != COMP_MODE_NONE && cfg->mode != COMP_MODE_PAPER &&
+        cfg->mode != COMP_MODE_SMOOTH) {
+        return COMP_ERR_MODE;
+    }
+    if (cfg->mu_q28 < 0 || cfg->mu_q28 > COMP_MU_MAX_Q28) {
+        return COMP_ERR_MU;
+    }
+    if (cfg->phi_rad_q24 < 0 || cfg->phi_rad_q24 > COMP_PHI_MAX_Q24) {
+        return COMP_ERR_PHI;
+    }
+    if (cfg->mu_slope_per_n_q28 < -COMP_MU_SLOPE_MAX_Q28 ||
+        cfg->mu_slope_per_n_q28 > COMP_MU_SLOPE_MAX_Q28 ||
+        (int64_t)cfg->mu_q28 + (int64_t)cfg->mu_slope_per_n_q28 * 128 < 0) {
+        return COMP_ERR_MU_SLOPE;
+    }
+    /* mu_eff is linear in |T|, so its largest value is at one end of [0, 128] N. */
+    if (exponent_q28(cfg, 0) > COMP_EXPONENT_MAX_Q28 ||
+        exponent_q28(cfg, 128) > COMP_EXPONENT_MAX_Q28) {
+        return COMP_ERR_EXPONENT;
+    }
+    if (cfg->offset_n_q8 < -COMP_OFFSET_MAX_Q8 || cfg->offset_n_q8 > COMP_OFFSET_MAX_Q8) {
+        return COMP_ERR_OFFSET;
+    }
+    if (cfg->hysteresis_n_q8 < COMP_HYST_MIN_Q8 || cfg->hysteresis_n_q8 > COMP_HYST_MAX_Q8) {
+        return COMP_ERR_HYSTERESIS;
+    }
+    if (cfg->band_n_q8 < COMP_BAND_MIN_Q8 || cfg->band_n_q8 > COMP_BAND_MAX_Q8) {
+        return COMP_ERR_BAND;
+    }
+    return COMP_OK;
+}
+
+/*
+ * inv_band = floor(2^(31+m) / B) with m = floor(log2 B), so inv_band lies in (2^30, 2^31] and
+ * w = (s * inv_band) >> (m+1) is s/B in Q1.30, below the exact ratio by less than 2 LSB of Q1.30
+ * (the floor of inv_band costs s/2^(31+m) < 1 LSB, the final shift < 1 LSB) for any B in [1, 2^15].
+ * The dividend 2^(31+m) (up to 2^46) is divided in two 32-bit steps, because the target has no
+ * 64-bit divide instruction: 2^(31+m) = N1 * 2^16 with N1 = 2^(15+m) <= 2^30, and the remainder
+ * r1 < B <= 2^15 keeps r1 << 16 < 2^31.
+ */
+static void set_inv_band(comp_t *c, uint32_t band)
+{
+    uint32_t m = 0;
+    while ((band >> (m + 1U)) != 0U) {
+        ++m;
+    }
+    uint32_t n1 = UINT32_C(1) << (15U + m);
+    uint32_t q1 = n1 / band;
+    uint32_t r1 = n1 % band;
+    c->inv_band = (q1 << 16) + ((r1 << 16) / band);
+    c->band_shift = (int32_t)(m + 1U);
+}
+
+static void blend_to_branch(comp_t *c)
+{
+    c->blend = (c->dir > 0) ? c->cfg.band_n_q8 : 0;
+}
+
+void comp_reset(comp_t *c)
+{
+    if (c == 0) {
+        return;
+    }
+    c->prev_ref = 0;
+    c->extreme = 0;
+    c->dir = 1;
+    c->started = 0;
+    blend_to_branch(c);
+}
+
+int32_t comp_configure(comp_t *c, const comp_config_t *cfg)
+{
+    if (c == 0) {
+        return COMP_ERR_NULL;
+    }
+    int32_t err = comp_config_check(cfg);
+    if (err != COMP_OK) {
+        return err;
+    }
+    c->cfg = *cfg;
+    for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
+        /* Node i sits at |T| = 2i N (512 LSB of Q7.8 per node). */
+        q3_28_t x = (q3_28_t)exponent_q28(cfg, 2 * i); /* checked <= 4 above */
+        c->g_up[i] = fxp_exp_uq8_24(x);
+        c->g_dn[i] = fxp_exp_uq8_24(-x);
+    }
+    set_inv_band(c, (uint32_t)cfg->band_n_q8);
+    blend_to_branch(c);
+    return COMP_OK;
+}
+
+void comp_init(comp_t *c)
+{
+    if (c == 0) {
+        return;
+    }
+    comp_config_t cfg;
+    comp_config_default(&cfg);
+    c->dir = 1;
+    (void)comp_configure(c, &cfg); /* the defaults are valid (unit-tested) */
+    comp_reset(c);
+}
+
+/* Linear interpolation in a gain table at |T| = a LSB (a in [0, 32767]), UQ8.24.
+ * Scaling and overflow: the node difference (< 2^30) times the fraction (< 2^9) is < 2^39 in int64;
+ * the result lies between the two nodes. */
+static inline uq8_24_t tab_interp(const uq8_24_t *tab, uint32_t a)
+{
+    uint32_t i = a >> COMP_TAB_SHIFT;
+    int64_t frac = (int64_t)(a & ((1U << COMP_TAB_SHIFT) - 1U));
+    int64_t lo = tab[i];
+    return (uq8_24_t)(lo + (((int64_t)tab[i + 1U] - lo) * frac >> COMP_TAB_SHIFT));
+}
+
+q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
+{
+    const int32_t ref = t_ref;
+    const comp_config_t *cfg = &c->cfg;
+    if (c->started == 0) {
+        c->started = 1;
+        c->prev_ref = ref;
+        c->extreme = ref;
+    }
+    int32_t diff = ref - c->prev_ref; /* |diff| <= 65535 */
+    c->prev_ref = ref;
+
+    /* Direction detector with hysteresis H (Eq. 16; exact for H = 1 LSB). */
+    if (c->dir > 0) {
+        if (ref > c->extreme) {
+            c->extreme = ref;
+        } else if (c->extreme - ref >= cfg->hysteresis_n_q8) {
+            c->dir = -1;
+            c->extreme = ref;
+        }
+    } else {
+        if (ref < c->extreme) {
+            c->extreme = ref;
+        } else if (ref - c->extreme >= cfg->hysteresis_n_q8) {
+            c->dir = 1;
+            c->extreme = ref;
+        }
+    }
+
+    if (cfg->mode == COMP_MODE_NONE) {
+        return t_ref;
+    }
+
+    /* Blend position s in [0, B]: PAPER jumps to the branch, SMOOTH travels |diff| towards it. */
+    int32_t s;
+    if (cfg->mode == COMP_MODE_PAPER) {
+        s = (c->dir > 0) ? cfg->band_n_q8 : 0;
+    } else {
+        int32_t step = (diff < 0) ? -diff : diff;
+        if (c->dir > 0) {
+            s = c->blend + step; /* < 2^17: no overflow */
+            if (s > cfg->band_n_q8) {
+                s = cfg->band_n_q8;
+            }
+        } else {
+            s = c->blend - step;
+            if (s < 0) {
+                s = 0;
+            }
+        }
+    }
+    c->blend = s;
+
+    int32_t t_eff = ref - cfg->offset_n_q8; /* |t_eff| <= 32768 + 16384 */
+    uint32_t a = (uint32_t)((t_eff < 0) ? -t_eff : t_eff);
+    if (a > (uint32_t)Q7_8_MAX) {
+        a = (uint32_t)Q7_8_MAX; /* mu_eff saturates at 127.996 N (see comp.h) */
+    }
+
+    uq8_24_t g;
+    if (s >= cfg->band_n_q8) {
+        g = tab_interp(c->g_up, a);
+    } else if (s <= 0) {
+        g = tab_interp(c->g_dn, a);
+    } else {
+        uq8_24_t gu = tab_interp(c->g_up, a);
+        uq8_24_t gd = tab_interp(c->g_dn, a);
+        /* w = s/B in Q1.30 (< 2^30, s < B here); s * inv_band < 2^46; (gu - gd) * w < 2^60;
+         * the truncations cost < 1 LSB of UQ8.24. */
+        uint64_t w = ((uint64_t)(uint32_t)s * c->inv_band) >> c->band_shift;
+        g = gd + (uq8_24_t)(((uint64_t)(gu - gd) * w) >> 30);
+    }
+
+    /* T_c = T_eff * G: Q7.8 (32-bit) * UQ8.24 = Q15.32 in int64 (< 2^47); round to Q7.8. */
+    int64_t tc = ((int64_t)t_eff * (int64_t)g + (INT64_C(1) << 23)) >> 24;
+    if (tc > Q7_8_MAX) {
+        tc = Q7_8_MAX;
+    } else if (tc < Q7_8_MIN) {
+        tc = Q7_8_MIN;
+    }
+    return (q7_8_t)tc;
+}
+
+int32_t comp_direction(const comp_t *c)
+{
+    return c->dir;
+}
+
+int32_t comp_blend_q1_30(const comp_t *c)
+{
+    if (c->blend >= c->cfg.band_n_q8) {
+        return (int32_t)Q1_30_ONE;
+    }
+    return (int32_t)(((uint64_t)(uint32_t)c->blend * c->inv_band) >> c->band_shift);
+}

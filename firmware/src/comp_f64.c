@@ -1,0 +1,153 @@
+/* comp_f64.c - double twin of comp.c (host only); see comp_f64.h. */
+#include "comp_f64.h"
+
+#include <math.h>
+
+#include "comp.h"
+
+#define PI_D 3.14159265358979323846
+#define Q7_8_MAX_N (32767.0 / 256.0)
+#define Q7_8_MIN_N (-128.0)
+
+void comp_f64_config_default(comp_f64_config_t *cfg)
+{
+    if (cfg == 0) {
+        return;
+    }
+    cfg->mode = COMP_MODE_PAPER;
+    cfg->mu = 0.075;
+    cfg->phi_rad = 2.0 * PI_D;
+    cfg->mu_slope_per_n = 0.0;
+    cfg->offset_n = 0.0;
+    cfg->hysteresis_n = 4.0 / 256.0;
+    cfg->band_n = 2.0;
+}
+
+/* !(lo <= v && v <= hi) is also true for NaN. */
+static int out_of(double v, double lo, double hi)
+{
+    return !(lo <= v && v <= hi);
+}
+
+int32_t comp_f64_config_check(const comp_f64_config_t *cfg)
+{
+    if (cfg == 0) {
+        return COMP_ERR_NULL;
+    }
+    if (cfg->mode != COMP_MODE_NONE && cfg->mode != COMP_MODE_PAPER &&
+        cfg->mode != COMP_MODE_SMOOTH) {
+        return COMP_ERR_MODE;
+    }
+    if (out_of(cfg->mu, 0.0, 1.0)) {
+        return COMP_ERR_MU;
+    }
+    if (out_of(cfg->phi_rad, 0.0, 4.0 * PI_D)) {
+        return COMP_ERR_PHI;
+    }
+    if (out_of(cfg->mu_slope_per_n, -1.0 / 128.0, 1.0 / 128.0) ||
+        cfg->mu + 128.0 * cfg->mu_slope_per_n < 0.0) {
+        return COMP_ERR_MU_SLOPE;
+    }
+    if (cfg->mu * cfg->phi_rad > 4.0 ||
+        (cfg->mu + 128.0 * cfg->mu_slope_per_n) * cfg->phi_rad > 4.0) {
+        return COMP_ERR_EXPONENT;
+    }
+    if (out_of(cfg->offset_n, -64.0, 64.0)) {
+        return COMP_ERR_OFFSET;
+    }
+    if (out_of(cfg->hysteresis_n, 1.0 / 256.0, 32.0)) {
+        return COMP_ERR_HYSTERESIS;
+    }
+    if (out_of(cfg->band_n, 1.0 / 256.0, 128.0)) {
+        return COMP_ERR_BAND;
+    }
+    return COMP_OK;
+}
+
+void comp_f64_reset(comp_f64_t *c)
+{
+    if (c == 0) {
+        return;
+    }
+    c->prev_ref = 0.0;
+    c->extreme = 0.0;
+    c->dir = 1;
+    c->started = 0;
+    c->blend = c->cfg.band_n;
+}
+
+int32_t comp_f64_configure(comp_f64_t *c, const comp_f64_config_t *cfg)
+{
+    if (c == 0) {
+        return COMP_ERR_NULL;
+    }
+    int32_t err = comp_f64_config_check(cfg);
+    if (err != COMP_OK) {
+        return err;
+    }
+    c->cfg = *cfg;
+    c->blend = (c->dir > 0) ? cfg->band_n : 0.0;
+    return COMP_OK;
+}
+
+void comp_f64_init(comp_f64_t *c)
+{
+    if (c == 0) {
+        return;
+    }
+    comp_f64_config_t cfg;
+    comp_f64_config_default(&cfg);
+    c->dir = 1;
+    (void)comp_f64_configure(c, &cfg);
+    comp_f64_reset(c);
+}
+
+double comp_step_f64(comp_f64_t *c, double t_ref_n)
+{
+    const comp_f64_config_t *cfg = &c->cfg;
+    if (c->started == 0) {
+        c->started = 1;
+        c->prev_ref = t_ref_n;
+        c->extreme = t_ref_n;
+    }
+    double diff = t_ref_n - c->prev_ref;
+    c->prev_ref = t_ref_n;
+
+    if (c->dir > 0) {
+        if (t_ref_n > c->extreme) {
+            c->extreme = t_ref_n;
+        } else if (c->extreme - t_ref_n >= cfg->hysteresis_n) {
+            c->dir = -1;
+            c->extreme = t_ref_n;
+        }
+    } else {
+        if (t_ref_n < c->extreme) {
+            c->extreme = t_ref_n;
+        } else if (t_ref_n - c->extreme >= cfg->hysteresis_n) {
+            c->dir = 1;
+            c->extreme = t_ref_n;
+        }
+    }
+
+    if (cfg->mode == COMP_MODE_NONE) {
+        return t_ref_n;
+    }
+
+    double s;
+    if (cfg->mode == COMP_MODE_PAPER) {
+        s = (c->dir > 0) ? cfg->band_n : 0.0;
+    } else {
+        double step = fabs(diff);
+        s = (c->dir > 0) ? fmin(cfg->band_n, c->blend + step) : fmax(0.0, c->blend - step);
+    }
+    c->blend = s;
+
+    double t_eff = t_ref_n - cfg->offset_n;
+    double a = fmin(fabs(t_eff), Q7_8_MAX_N); /* mu_eff saturates as in the fixed-point table */
+    double x = (cfg->mu + cfg->mu_slope_per_n * a) * cfg->phi_rad;
+    double gu = exp(x);
+    double gd = exp(-x);
+    double g = gd + (gu - gd) * (s / cfg->band_n);
+    double tc = t_eff * g;
+    return fmin(Q7_8_MAX_N, fmax(Q7_8_MIN_N, tc));
+}

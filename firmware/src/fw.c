@@ -1,0 +1,285 @@
+/* fw.c - configuration, start-up and the periodic tick of fw.h. */
+#include "fw.h"
+
+#include "bowden_regs.h"
+
+void fw_config_default(fw_config_t *cfg)
+{
+    if (cfg == 0) {
+        return;
+    }
+    cfg->tick_rate_hz = 1000U;
+    cfg->sample_rate_hz = 10000U;
+    cfg->source = FW_SOURCE_HOST;
+    comp_config_default(&cfg->comp);
+    wave_config_default(&cfg->wave);
+    cfg->loop.kff = BOWDEN_KFF_RESET;
+    cfg->loop.kp = BOWDEN_KP_RESET;
+    cfg->loop.ki_ts = BOWDEN_KI_TS_RESET;
+    cfg->loop.i_limit = BOWDEN_I_LIMIT_RESET;
+    cfg->loop.slew = BOWDEN_SLEW_RESET;
+    cfg->loop.slew_en = BOWDEN_CTRL_SLEW_EN_RESET;
+    cfg->loop.wdt_timeout = BOWDEN_WDT_TIMEOUT_RESET;
+    cfg->loop.adc_offset = BOWDEN_ADC_OFFSET_RESET;
+    cfg->loop.adc_gain = BOWDEN_ADC_GAIN_RESET;
+    cfg->loop.adc_min = BOWDEN_ADC_MIN_RESET;
+    cfg->loop.adc_max = BOWDEN_ADC_MAX_RESET;
+    cfg->loop.adc_stale = BOWDEN_ADC_STALE_RESET;
+    cfg->loop.oc_timeout = BOWDEN_OC_TIMEOUT_RESET;
+}
+
+/* v within the register field's [min, max] (bowden_regs.h), compared in 64 bits. */
+static int in_field(int32_t v, int64_t min, int64_t max)
+{
+    return (int64_t)v >= min && (int64_t)v <= max;
+}
+
+static int32_t loop_config_check(const fw_loop_config_t *l, uint32_t samples_per_tick)
+{
+    if (!in_field(l->kff, BOWDEN_KFF_MIN, BOWDEN_KFF_MAX)) {
+        return FW_ERR_KFF;
+    }
+    if (!in_field(l->kp, BOWDEN_KP_MIN, BOWDEN_KP_MAX)) {
+        return FW_ERR_KP;
+    }
+    if (!in_field(l->ki_ts, BOWDEN_KI_TS_MIN, BOWDEN_KI_TS_MAX)) {
+        return FW_ERR_KI_TS;
+    }
+    if (!in_field(l->i_limit, BOWDEN_I_LIMIT_MIN, BOWDEN_I_LIMIT_MAX)) {
+        return FW_ERR_I_LIMIT;
+    }
+    if (!in_field(l->slew, BOWDEN_SLEW_MIN, BOWDEN_SLEW_MAX)) {
+        return FW_ERR_SLEW;
+    }
+    if (l->slew_en != 0 && l->slew_en != 1) {
+        return FW_ERR_SLEW_EN;
+    }
+    /* The watchdog must survive one late tick: timeout > 2 tick periods (0 disables it). */
+    if (!in_field(l->wdt_timeout, BOWDEN_WDT_TIMEOUT_MIN, BOWDEN_WDT_TIMEOUT_MAX) ||
+        (l->wdt_timeout != 0 && (uint32_t)l->wdt_timeout <= 2U * samples_per_tick)) {
+        return FW_ERR_WDT_TIMEOUT;
+    }
+    if (!in_field(l->adc_offset, BOWDEN_ADC_OFFSET_MIN, BOWDEN_ADC_OFFSET_MAX)) {
+        return FW_ERR_ADC_OFFSET;
+    }
+    if (!in_field(l->adc_gain, BOWDEN_ADC_GAIN_MIN, BOWDEN_ADC_GAIN_MAX)) {
+        return FW_ERR_ADC_GAIN;
+    }
+    if (!in_field(l->adc_min, BOWDEN_ADC_MIN_MIN, BOWDEN_ADC_MIN_MAX)) {
+        return FW_ERR_ADC_MIN;
+    }
+    if (!in_field(l->adc_max, BOWDEN_ADC_MAX_MIN, BOWDEN_ADC_MAX_MAX) || l->adc_max < l->adc_min) {
+        return FW_ERR_ADC_MAX;
+    }
+    if (!in_field(l->adc_stale, BOWDEN_ADC_STALE_MIN, BOWDEN_ADC_STALE_MAX)) {
+        return FW_ERR_ADC_STALE;
+    }
+    if (!in_field(l->oc_timeout, BOWDEN_OC_TIMEOUT_MIN, BOWDEN_OC_TIMEOUT_MAX)) {
+        return FW_ERR_OC_TIMEOUT;
+    }
+    return FW_OK;
+}
+
+int32_t fw_config_check(const fw_config_t *cfg)
+{
+    if (cfg == 0) {
+        return FW_ERR_NULL;
+    }
+    if (cfg->sample_rate_hz < 1U || cfg->sample_rate_hz > 1000000U) {
+        return FW_ERR_SAMPLE_RATE;
+    }
+    if (cfg->tick_rate_hz < 1U || cfg->tick_rate_hz > 65535U ||
+        cfg->tick_rate_hz > cfg->sample_rate_hz) {
+        return FW_ERR_TICK_RATE;
+    }
+    if (cfg->source != FW_SOURCE_HOST && cfg->source != FW_SOURCE_WAVE) {
+        return FW_ERR_SOURCE;
+    }
+    int32_t err = comp_config_check(&cfg->comp);
+    if (err != COMP_OK) {
+        return err;
+    }
+    err = wave_config_check(&cfg->wave, cfg->tick_rate_hz);
+    if (err != WAVE_OK) {
+        return err;
+    }
+    /* Ceiling of the FPGA samples per tick. */
+    uint32_t spt = (cfg->sample_rate_hz + cfg->tick_rate_hz - 1U) / cfg->tick_rate_hz;
+    return loop_config_check(&cfg->loop, spt);
+}
+
+int32_t fw_configure(fw_t *fw, const fw_config_t *cfg)
+{
+    if (fw == 0) {
+        return FW_ERR_NULL;
+    }
+    int32_t err = fw_config_check(cfg);
+    if (err != FW_OK) {
+        return err;
+    }
+    /* Both checks passed above, so neither of these can fail half-way. */
+    (void)comp_configure(&fw->comp, &cfg->comp);
+    (void)wave_configure(&fw->wave, &cfg->wave, cfg->tick_rate_hz);
+    fw->cfg = *cfg;
+    return FW_OK;
+}
+
+void fw_init(fw_t *fw, const hal_t *hal)
+{
+    fw_config_t cfg;
+    fw_config_default(&cfg);
+    fw->hal = hal;
+    comp_init(&fw->comp);
+    (void)fw_configure(fw, &cfg); /* the defaults are valid (unit-tested) */
+    fw->tel = (fw_telemetry_t){0};
+}
+
+static uint32_t ctrl_run_word(const fw_t *fw)
+{
+    return BOWDEN_CTRL_ENABLE_MASK |
+           ((fw->cfg.loop.slew_en != 0) ? BOWDEN_CTRL_SLEW_EN_MASK : 0U);
+}
+
+/* Signed words are written sign-extended, as the registers read back (contract.md). */
+static void write_word(const fw_t *fw, uint32_t addr, int32_t value)
+{
+    hal_write(fw->hal, addr, (uint32_t)value);
+}
+
+void fw_start(fw_t *fw)
+{
+    const fw_loop_config_t *l = &fw->cfg.loop;
+    write_word(fw, BOWDEN_REG_CTRL, 0);
+    write_word(fw, BOWDEN_REG_KFF, l->kff);
+    write_word(fw, BOWDEN_REG_KP, l->kp);
+    write_word(fw, BOWDEN_REG_KI_TS, l->ki_ts);
+    write_word(fw, BOWDEN_REG_I_LIMIT, l->i_limit);
+    write_word(fw, BOWDEN_REG_SLEW, l->slew);
+    write_word(fw, BOWDEN_REG_WDT_TIMEOUT, l->wdt_timeout);
+    write_word(fw, BOWDEN_REG_ADC_OFFSET, l->adc_offset);
+    write_word(fw, BOWDEN_REG_ADC_GAIN, l->adc_gain);
+    write_word(fw, BOWDEN_REG_ADC_MIN, l->adc_min);
+    write_word(fw, BOWDEN_REG_ADC_MAX, l->adc_max);
+    write_word(fw, BOWDEN_REG_ADC_STALE, l->adc_stale);
+    write_word(fw, BOWDEN_REG_OC_TIMEOUT, l->oc_timeout);
+    write_word(fw, BOWDEN_REG_TC, 0);
+    hal_write(fw->hal, BOWDEN_REG_CTRL,
+              BOWDEN_CTRL_FAULT_CLEAR_MASK | BOWDEN_CTRL_INTEG_RESET_MASK);
+    hal_write(fw->hal, BOWDEN_REG_CTRL, ctrl_run_word(fw));
+    comp_reset(&fw->comp);
+    (void)wave_configure(&fw->wave, &fw->cfg.wave, fw->cfg.tick_rate_hz); /* phase to phase0 */
+    fw->tel = (fw_telemetry_t){0};
+}
+
+void fw_stop(fw_t *fw)
+{
+    write_word(fw, BOWDEN_REG_TC, 0);
+    write_word(fw, BOWDEN_REG_CTRL, 0);
+}
+
+void fw_fault_clear(fw_t *fw)
+{
+    hal_write(fw->hal, BOWDEN_REG_CTRL, ctrl_run_word(fw) | BOWDEN_CTRL_FAULT_CLEAR_MASK);
+}
+
+/* Low 16 bits of a register word as a signed Q value. */
+static int32_t word_s16(uint32_t w)
+{
+    return (int32_t)(int16_t)(uint16_t)(w & 0xFFFFU);
+}
+
+q7_8_t fw_tick(fw_t *fw, q7_8_t host_t_ref)
+{
+    fw_telemetry_t *t = &fw->tel;
+    t->status = hal_read(fw->hal, BOWDEN_REG_STATUS);
+    t->fault = hal_read(fw->hal, BOWDEN_REG_FAULT);
+    t->t_in = word_s16(hal_read(fw->hal, BOWDEN_REG_T_IN));
+    t->u = word_s16(hal_read(fw->hal, BOWDEN_REG_U));
+    t->sample_count = hal_read(fw->hal, BOWDEN_REG_SAMPLE_COUNT);
+    if (t->fault != 0U) {
+        ++t->fault_ticks;
+    }
+
+    q7_8_t t_ref = (fw->cfg.source == FW_SOURCE_WAVE) ? wave_next_q7_8(&fw->wave) : host_t_ref;
+    q7_8_t t_c = comp_step_q7_8(&fw->comp, t_ref);
+    write_word(fw, BOWDEN_REG_TC, t_c); /* refreshes the watchdog */
+
+    ++t->ticks;
+    t->t_ref = t_ref;
+    t->t_c = t_c;
+    t->direction = comp_direction(&fw->comp);
+    t->blend_q30 = comp_blend_q1_30(&fw->comp);
+    return t_c;
+}
+
+const char *fw_strerror(int32_t code)
+{
+    switch (code) {
+    case FW_OK:
+        return "ok";
+    case COMP_ERR_NULL:
+    case WAVE_ERR_NULL:
+    case FW_ERR_NULL:
+        return "null pointer";
+    case COMP_ERR_MODE:
+        return "comp.mode: must be 0 (none), 1 (paper) or 2 (smooth)";
+    case COMP_ERR_MU:
+        return "comp.mu: outside [0, 1]";
+    case COMP_ERR_PHI:
+        return "comp.phi_rad: outside [0, 4*pi] rad";
+    case COMP_ERR_MU_SLOPE:
+        return "comp.mu_slope_per_n: outside [-1/128, 1/128] 1/N or mu + 128 N * slope < 0";
+    case COMP_ERR_EXPONENT:
+        return "comp.mu: mu_eff * phi exceeds 4 (gain exp(4) = 54.6) somewhere in [0, 128] N";
+    case COMP_ERR_OFFSET:
+        return "comp.offset_n: outside [-64, 64] N";
+    case COMP_ERR_HYSTERESIS:
+        return "comp.hysteresis_n: outside [1/256, 32] N";
+    case COMP_ERR_BAND:
+        return "comp.band_n: outside [1/256, 128] N (a band of zero is not allowed)";
+    case WAVE_ERR_KIND:
+        return "wave.kind: must be 0 (constant), 1 (sine) or 2 (triangle)";
+    case WAVE_ERR_RATE:
+        return "wave.rate_hz: outside [1, 65535] Hz";
+    case WAVE_ERR_FREQ:
+        return "wave.freq_hz: above half the tick rate (Nyquist)";
+    case WAVE_ERR_MEAN:
+        return "wave.mean_n: outside [-128, 127.996] N";
+    case WAVE_ERR_AMPLITUDE:
+        return "wave.amplitude_n: outside [0, 128] N";
+    case FW_ERR_SOURCE:
+        return "source: must be 0 (host) or 1 (wave)";
+    case FW_ERR_TICK_RATE:
+        return "tick_rate_hz: outside [1, 65535] Hz or above sample_rate_hz";
+    case FW_ERR_SAMPLE_RATE:
+        return "sample_rate_hz: outside [1, 1000000] Hz";
+    case FW_ERR_KFF:
+        return "loop.kff: outside the KFF register [-32768, 32767] (Q2.13 A/N)";
+    case FW_ERR_KP:
+        return "loop.kp: outside the KP register [-32768, 32767] (Q2.13 A/N)";
+    case FW_ERR_KI_TS:
+        return "loop.ki_ts: outside the KI_TS register [-32768, 32767] (Q(-4).20 A/N)";
+    case FW_ERR_I_LIMIT:
+        return "loop.i_limit: outside the I_LIMIT register [0, 32767] (UQ3.12 A)";
+    case FW_ERR_SLEW:
+        return "loop.slew: outside the SLEW register [0, 32767] (UQ7.8 N per sample)";
+    case FW_ERR_SLEW_EN:
+        return "loop.slew_en: must be 0 or 1";
+    case FW_ERR_WDT_TIMEOUT:
+        return "loop.wdt_timeout: outside [0, 65535] samples or not above two tick periods";
+    case FW_ERR_ADC_OFFSET:
+        return "loop.adc_offset: outside the 24-bit ADC_OFFSET register";
+    case FW_ERR_ADC_GAIN:
+        return "loop.adc_gain: outside the ADC_GAIN register [-32768, 32767]";
+    case FW_ERR_ADC_MIN:
+        return "loop.adc_min: outside the 24-bit ADC_MIN register";
+    case FW_ERR_ADC_MAX:
+        return "loop.adc_max: outside the 24-bit ADC_MAX register or below adc_min";
+    case FW_ERR_ADC_STALE:
+        return "loop.adc_stale: outside [0, 65535] samples";
+    case FW_ERR_OC_TIMEOUT:
+        return "loop.oc_timeout: outside [0, 65535] samples";
+    default:
+        return "unknown status code";
+    }
+}

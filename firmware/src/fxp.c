@@ -1,0 +1,89 @@
+/* fxp.c - integer-only exponential and sine; see fxp.h for formats and error bounds. */
+#include "fxp.h"
+
+/* 1/ln2 in Q2.30 (1.4426950408889634, rounded). */
+#define INV_LN2_Q30 INT64_C(1549082005)
+/* ln2 in Q0.60 (0.6931471805599453094..., rounded): the reduction keeps 60 fraction bits so the
+ * error of k*ln2 (|k| <= 8) stays below 2^-56. */
+#define LN2_Q60 INT64_C(799144290325165979)
+/* pi/2 in Q1.30. */
+#define HALF_PI_Q30 INT64_C(1686629713)
+
+/* Arithmetic right shift with rounding to nearest (ties away from -inf), for int64. */
+static int64_t shr_round_i64(int64_t v, unsigned s)
+{
+    return (v + (INT64_C(1) << (s - 1U))) >> s;
+}
+
+uq8_24_t fxp_exp_uq8_24(q3_28_t x)
+{
+    if (x > FXP_EXP_X_MAX_Q28) {
+        x = FXP_EXP_X_MAX_Q28;
+    } else if (x < -FXP_EXP_X_MAX_Q28) {
+        x = -FXP_EXP_X_MAX_Q28;
+    }
+    /* k = round(x / ln2): Q3.28 * Q2.30 = Q5.58, |k| <= 8. */
+    int32_t k = (int32_t)shr_round_i64((int64_t)x * INV_LN2_Q30, 58U);
+    /* r = x - k*ln2 in Q3.60: x << 32 < 2^63, k*ln2 < 2^63. */
+    int64_t r60 = ((int64_t)x * (INT64_C(1) << 32)) - (int64_t)k * LN2_Q60;
+    int32_t r = (int32_t)shr_round_i64(r60, 30U); /* Q1.30, |r| <= 0.347 */
+    /* exp(r) = 1 + r(1 + r/2(1 + r/3(... (1 + r/11)))) in Q1.30; p stays in [0.7, 1.5]. */
+    int32_t p = (int32_t)Q1_30_ONE;
+    for (int32_t n = 11; n >= 1; --n) {
+        int32_t rp = (int32_t)shr_round_i64((int64_t)r * p, 30U); /* |r*p| < 0.53 */
+        /* rp / n rounded to nearest (C division truncates toward zero). */
+        int32_t q = (rp >= 0) ? (rp + n / 2) / n : -((-rp + n / 2) / n);
+        p = (int32_t)Q1_30_ONE + q;
+    }
+    /* exp(x) = exp(r) * 2^k; Q1.30 -> UQ8.24 is a right shift by 6, so shift by k - 6. */
+    int32_t shift = k - 6;
+    uint64_t g;
+    if (shift >= 0) {
+        g = (uint64_t)p << (unsigned)shift;
+    } else {
+        g = (uint64_t)shr_round_i64(p, (unsigned)(-shift));
+    }
+    return g > UINT32_MAX ? UINT32_MAX : (uq8_24_t)g;
+}
+
+/* sin(a) for a in [0, pi/2] in Q1.30: a(1 - a^2/6(1 - a^2/20(1 - ... (1 - a^2/156)))).
+ * a^2 <= (pi/2)^2 = 2.467 does not fit Q1.30, so it is kept in Q2.29; each a^2*p/den <= 0.42 is
+ * formed in int64 (a^2 * p < 2^61) and divided by multiplying with 1/den in Q1.30. */
+static q1_30_t sin_quarter_q1_30(int32_t a)
+{
+    static const int64_t inv_den_q30[6] = {
+        6882960, /* 2^30/156 */
+        9761289, /* 2^30/110 */
+        14913081, /* 2^30/72 */
+        25565282, /* 2^30/42 */
+        53687091, /* 2^30/20 */
+        178956971, /* 2^30/6 */
+    };
+    int64_t a2 = shr_round_i64((int64_t)a * a, 31U); /* Q2.29 */
+    int64_t p = Q1_30_ONE;
+    for (unsigned i = 0; i < 6U; ++i) {
+        int64_t a2p = shr_round_i64(a2 * p, 29U); /* Q.30, < 2.5 * 2^30 */
+        p = Q1_30_ONE - shr_round_i64(a2p * inv_den_q30[i], 30U);
+    }
+    return (q1_30_t)shr_round_i64((int64_t)a * p, 30U);
+}
+
+q1_30_t fxp_sin_q1_30(uint32_t phase)
+{
+    uint32_t quadrant = phase >> 30;
+    uint32_t frac = phase & 0x3FFFFFFFUL; /* UQ0.30 of a quarter turn */
+    if ((quadrant & 1U) != 0U) {
+        frac = 0x40000000UL - frac; /* sin(pi - a) = sin(a); frac may reach exactly 2^30 */
+    }
+    int32_t a = (int32_t)shr_round_i64((int64_t)frac * HALF_PI_Q30, 30U); /* a <= pi/2 */
+    q1_30_t s = sin_quarter_q1_30(a);
+    return (quadrant >= 2U) ? -s : s;
+}
+
+q1_30_t fxp_triangle_q1_30(uint32_t phase)
+{
+    uint32_t quadrant = phase >> 30;
+    int32_t frac = (int32_t)(phase & 0x3FFFFFFFUL);
+    int32_t v = ((quadrant & 1U) != 0U) ? (int32_t)Q1_30_ONE - frac : frac;
+    return (quadrant >= 2U) ? -v : v;
+}

@@ -1,0 +1,78 @@
+/* wave.c - the reference generator of wave.h. */
+#include "wave.h"
+
+#include "fxp.h"
+
+void wave_config_default(wave_config_t *cfg)
+{
+    if (cfg == 0) {
+        return;
+    }
+    cfg->kind = WAVE_SINE;
+    cfg->mean_n_q8 = (q7_8w_t)(15 * Q7_8_ONE / 2);
+    cfg->amplitude_n_q8 = (q7_8w_t)(15 * Q7_8_ONE / 2);
+    cfg->freq_hz_q16 = (uq16_16_t)(1UL << 15); /* 0.5 Hz */
+    cfg->phase0 = 0U;
+}
+
+int32_t wave_config_check(const wave_config_t *cfg, uint32_t rate_hz)
+{
+    if (cfg == 0) {
+        return WAVE_ERR_NULL;
+    }
+    if (cfg->kind != WAVE_CONSTANT && cfg->kind != WAVE_SINE && cfg->kind != WAVE_TRIANGLE) {
+        return WAVE_ERR_KIND;
+    }
+    if (rate_hz < 1U || rate_hz > 65535U) {
+        return WAVE_ERR_RATE;
+    }
+    /* freq <= rate / 2, in UQ16.16: freq_q16 <= rate * 2^15 (< 2^31). */
+    if (cfg->freq_hz_q16 > rate_hz * 32768U) {
+        return WAVE_ERR_FREQ;
+    }
+    if (cfg->mean_n_q8 < Q7_8_MIN || cfg->mean_n_q8 > Q7_8_MAX) {
+        return WAVE_ERR_MEAN;
+    }
+    if (cfg->amplitude_n_q8 < 0 || cfg->amplitude_n_q8 > 128 * Q7_8_ONE) {
+        return WAVE_ERR_AMPLITUDE;
+    }
+    return WAVE_OK;
+}
+
+int32_t wave_configure(wave_t *w, const wave_config_t *cfg, uint32_t rate_hz)
+{
+    if (w == 0) {
+        return WAVE_ERR_NULL;
+    }
+    int32_t err = wave_config_check(cfg, rate_hz);
+    if (err != WAVE_OK) {
+        return err;
+    }
+    w->cfg = *cfg;
+    w->phase = cfg->phase0;
+    /* inc = floor(freq_q16 * 2^16 / rate) in two 32-bit divisions (no 64-bit divide on the
+     * target): q1 = freq_q16 / rate <= 2^15 so q1 << 16 <= 2^31; r1 < rate < 2^16. */
+    uint32_t q1 = cfg->freq_hz_q16 / rate_hz;
+    uint32_t r1 = cfg->freq_hz_q16 % rate_hz;
+    w->inc = (q1 << 16) + ((r1 << 16) / rate_hz);
+    return WAVE_OK;
+}
+
+q7_8_t wave_next_q7_8(wave_t *w)
+{
+    q1_30_t shape = 0;
+    if (w->cfg.kind == WAVE_SINE) {
+        shape = fxp_sin_q1_30(w->phase);
+    } else if (w->cfg.kind == WAVE_TRIANGLE) {
+        shape = fxp_triangle_q1_30(w->phase);
+    }
+    w->phase += w->inc; /* wraps modulo one turn by design */
+    int64_t v = (int64_t)w->cfg.mean_n_q8 +
+                (((int64_t)w->cfg.amplitude_n_q8 * shape + (INT64_C(1) << 29)) >> 30);
+    if (v > Q7_8_MAX) {
+        v = Q7_8_MAX;
+    } else if (v < Q7_8_MIN) {
+        v = Q7_8_MIN;
+    }
+    return (q7_8_t)v;
+}

@@ -1,0 +1,104 @@
+/* test_fxp.c - unit tests of the integer exponential and waveform shapes against libm. */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+
+#include "fxp.h"
+#include "unit.h"
+
+#define PI_D 3.14159265358979323846
+
+/* Error of fxp_exp_uq8_24 against the exact exp(x), on a dense grid over the whole domain. */
+static void test_exp_error_bound(void)
+{
+    double worst_ratio = 0.0;
+    double worst_abs = 0.0;
+    double worst_x = 0.0;
+    const int32_t step = 4099; /* odd step: about 720k points over [-5.5, 5.5] */
+    for (int64_t xi = -FXP_EXP_X_MAX_Q28; xi <= FXP_EXP_X_MAX_Q28; xi += step) {
+        double x = (double)xi / 268435456.0;
+        double exact = exp(x) * 16777216.0; /* in LSB of UQ8.24 */
+        double err = fabs((double)fxp_exp_uq8_24((q3_28_t)xi) - exact);
+        double bound = 0.5 + FXP_EXP_ERR_REL_PPB * 1e-9 * exact;
+        if (err / bound > worst_ratio) {
+            worst_ratio = err / bound;
+            worst_x = x;
+        }
+        if (fabs(x) <= 4.0 && err > worst_abs) {
+            worst_abs = err;
+        }
+    }
+    printf("  fxp_exp_uq8_24: worst error / documented bound = %.3f (at x = %.4f); "
+           "max |error| over [-4, 4] = %.2f LSB = %.2e\n",
+           worst_ratio, worst_x, worst_abs, worst_abs / 16777216.0);
+    CHECK(worst_ratio <= 1.0, "error %.3f of the bound at x = %.9f", worst_ratio, worst_x);
+}
+
+/* Special points: exp(0) = 1 exactly, and the values the compensator's defaults use. */
+static void test_exp_exact_points(void)
+{
+    CHECK(fxp_exp_uq8_24(0) == UQ8_24_ONE, "exp(0) = %lu", (unsigned long)fxp_exp_uq8_24(0));
+    /* mu*phi of the paper: 0.075 * 2*pi = 0.4712: exp = 1.60199, exp(-) = 0.62422. */
+    q3_28_t x = (q3_28_t)llround(0.075 * 2.0 * PI_D * 268435456.0);
+    double up = fxp_exp_uq8_24(x) / 16777216.0;
+    double dn = fxp_exp_uq8_24(-x) / 16777216.0;
+    CHECK(fabs(up - exp(0.075 * 2.0 * PI_D)) < 1e-7, "up %.9f", up);
+    CHECK(fabs(dn - exp(-0.075 * 2.0 * PI_D)) < 1e-7, "dn %.9f", dn);
+}
+
+/* The documented clamp of the domain to [-5.5, 5.5], driven to the int32 limits. */
+static void test_exp_saturates_at_domain_ends(void)
+{
+    uq8_24_t hi = fxp_exp_uq8_24(FXP_EXP_X_MAX_Q28);
+    uq8_24_t lo = fxp_exp_uq8_24(-FXP_EXP_X_MAX_Q28);
+    CHECK(fxp_exp_uq8_24(INT32_MAX) == hi, "exp(INT32_MAX) %lu != exp(5.5) %lu",
+          (unsigned long)fxp_exp_uq8_24(INT32_MAX), (unsigned long)hi);
+    CHECK(fxp_exp_uq8_24(INT32_MIN) == lo, "exp(INT32_MIN) %lu", (unsigned long)lo);
+    CHECK(fxp_exp_uq8_24(FXP_EXP_X_MAX_Q28 + 1) == hi, "just above the domain");
+    CHECK(fabs(hi / 16777216.0 - exp(5.5)) < 2e-7 * exp(5.5), "exp(5.5) = %.6f", hi / 16777216.0);
+    CHECK(hi < UINT32_MAX, "exp(5.5) stays below the UQ8.24 ceiling");
+}
+
+/* exp is monotonic in fixed point too (the gain tables rely on G_up >= G_dn). */
+static void test_exp_monotonic(void)
+{
+    uq8_24_t prev = fxp_exp_uq8_24(-FXP_EXP_X_MAX_Q28);
+    int bad = 0;
+    for (int64_t xi = -FXP_EXP_X_MAX_Q28; xi <= FXP_EXP_X_MAX_Q28; xi += 65537) {
+        uq8_24_t g = fxp_exp_uq8_24((q3_28_t)xi);
+        bad += (g < prev);
+        prev = g;
+    }
+    CHECK(bad == 0, "%d decreasing steps", bad);
+}
+
+static void test_sin_and_triangle(void)
+{
+    double worst = 0.0;
+    for (uint64_t ph = 0; ph <= UINT32_MAX; ph += 65521) {
+        double exact = sin(2.0 * PI_D * (double)ph / 4294967296.0);
+        double err = fabs(fxp_sin_q1_30((uint32_t)ph) / 1073741824.0 - exact);
+        worst = err > worst ? err : worst;
+    }
+    printf("  fxp_sin_q1_30: max |error| = %.2e\n", worst);
+    CHECK(worst < 1e-8, "sin worst %.3e", worst);
+    /* Full scale at the quarter turns: exactly +-1.0 within rounding, never beyond. */
+    CHECK(abs(fxp_sin_q1_30(0x40000000UL) - (int32_t)Q1_30_ONE) <= 4, "sin(pi/2) = %ld",
+          (long)fxp_sin_q1_30(0x40000000UL));
+    CHECK(fxp_sin_q1_30(0x40000000UL) <= (int32_t)Q1_30_ONE, "sin(pi/2) <= 1");
+    CHECK(fxp_sin_q1_30(0xC0000000UL) >= -(int32_t)Q1_30_ONE, "sin(3pi/2) >= -1");
+    CHECK(fxp_sin_q1_30(0) == 0, "sin(0)");
+    CHECK(fxp_triangle_q1_30(0x40000000UL) == (int32_t)Q1_30_ONE, "tri peak");
+    CHECK(fxp_triangle_q1_30(0xC0000000UL) == -(int32_t)Q1_30_ONE, "tri trough");
+    CHECK(fxp_triangle_q1_30(0x20000000UL) == (int32_t)Q1_30_ONE / 2, "tri eighth");
+    CHECK(fxp_triangle_q1_30(0x80000000UL) == 0, "tri half");
+}
+
+const unit_test_t fxp_tests[] = {
+    {"exp_error_bound", test_exp_error_bound},
+    {"exp_exact_points", test_exp_exact_points},
+    {"exp_saturates_at_domain_ends", test_exp_saturates_at_domain_ends},
+    {"exp_monotonic", test_exp_monotonic},
+    {"sin_and_triangle", test_sin_and_triangle},
+};
+const int fxp_tests_count = (int)(sizeof fxp_tests / sizeof fxp_tests[0]);
