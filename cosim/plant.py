@@ -68,7 +68,13 @@ class Plant:
         instance_name: str = "plant",
     ) -> None:
         from fmpy import extract, read_model_description
-        from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+        from fmpy.fmi2 import (
+            FMU2Slave,
+            fmi2CallbackAllocateMemoryTYPE,
+            fmi2CallbackFreeMemoryTYPE,
+            fmi2CallbackFunctions,
+            fmi2CallbackLoggerTYPE,
+        )
 
         path = Path(fmu_path) if fmu_path is not None else FMU_PATH
         if not path.exists():
@@ -78,22 +84,22 @@ class Plant:
         self.variables = {v.name: v for v in self.model_description.modelVariables}
         self.messages: list[str] = []
 
-        def _log(_env, _name, status, _category, message):
-            self.messages.append(message.decode("utf-8", "replace"))
+        def _log(_env, _name, _status, _category, fmt, arg):
+            # The FMU always logs format "%s" with one preformatted string (fmi2_plumbing.c).
+            text = arg if fmt == b"%s" and arg is not None else fmt
+            self.messages.append(text.decode("utf-8", "replace"))
 
-        self._callbacks = fmi2CallbackFunctions()
-        self._logger = fmi2CallbackLoggerTYPE(_log)
-        self._callbacks.logger = self._logger
-        self._callbacks.allocateMemory = ctypes.CFUNCTYPE(c_void_p, c_size_t, c_size_t)(
-            ctypes.CDLL(None).calloc
+        # fmpy's native logger proxy keeps one global Python logger, which a closed Plant would
+        # leave dangling; this logger reads the one variadic argument itself instead.
+        logger_type = ctypes.CFUNCTYPE(
+            None, c_void_p, c_char_p, c_int, c_char_p, c_char_p, c_char_p
         )
-        self._callbacks.freeMemory = ctypes.CFUNCTYPE(None, c_void_p)(ctypes.CDLL(None).free)
-        try:  # fmpy's proxy formats the variadic message before it reaches Python
-            from fmpy.logging import addLoggerProxy
-
-            addLoggerProxy(ctypes.byref(self._callbacks))
-        except Exception:  # noqa: BLE001 (without the proxy the raw format string is logged)
-            pass
+        self._logger = logger_type(_log)
+        self._callbacks = fmi2CallbackFunctions()
+        self._callbacks.logger = ctypes.cast(self._logger, fmi2CallbackLoggerTYPE)
+        libc = ctypes.CDLL(None)
+        self._callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(libc.calloc)
+        self._callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(libc.free)
 
         self._fmu = FMU2Slave(
             guid=self.model_description.guid,
@@ -240,6 +246,3 @@ class Plant:
 def output_names() -> tuple[str, ...]:
     """Names of the outputs in the order of the array Plant.step returns."""
     return OUTPUT_NAMES
-
-
-_ = c_char_p  # the logger's string arguments arrive as bytes through fmpy's callback type

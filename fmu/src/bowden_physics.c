@@ -18,6 +18,9 @@
    bracket turns any cycling into bisection, which 60 iterations take below 1e-18 of the range. */
 #define BOWDEN_NEWTON_MAX 60
 
+/* Time constant of the cable-speed estimate that mu_viscous uses [s] (assumed; README). */
+#define BOWDEN_SPEED_TAU_S 0.01
+
 void bowden_model_defaults(BowdenModel *m)
 {
     const BowdenParams p = BOWDEN_PARAMS_DEFAULT;
@@ -356,7 +359,7 @@ static void substep(BowdenModel *m, double h)
 {
     const double ds = m->p.sheath_length / BOWDEN_N_SEG;
     Friction f = friction_now(m);
-    double t0 = m->time_s, y0 = m->sensor_lag_n, stretch = 0.0, disp;
+    double t0 = m->time_s, y0 = m->sensor_lag_n, stretch = 0.0;
     int k;
 
     if (m->p.drive_mode == 1) {
@@ -367,9 +370,7 @@ static void substep(BowdenModel *m, double h)
     for (k = 1; k <= BOWDEN_N_SEG; k++) {
         stretch += 0.5 * (m->tension_n[k - 1] + m->tension_n[k]);
     }
-    disp = inlet_displacement(m, stretch * ds, m->tension_n[BOWDEN_N_SEG]);
-    m->cable_speed_m_s = (disp - m->inlet_disp_m) / h;
-    m->inlet_disp_m = disp;
+    m->inlet_disp_m = inlet_displacement(m, stretch * ds, m->tension_n[BOWDEN_N_SEG]);
     m->time_s = t0 + h;
     m->sensor_lag_n += (m->tension_n[BOWDEN_N_SEG] - m->sensor_lag_n) * m->alpha_sensor;
     delay_push(m, t0, y0, m->time_s, m->sensor_lag_n);
@@ -435,7 +436,7 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
 
 int bowden_model_step(BowdenModel *m, double step_s, char *msg, size_t msg_len)
 {
-    double n_sub_f, h;
+    double n_sub_f, h, disp0;
     long n_sub, i;
     if (!(step_s > 0.0) || !isfinite(step_s)) {
         snprintf(msg, msg_len, "communicationStepSize = %g s must be > 0 and finite", step_s);
@@ -455,9 +456,16 @@ int bowden_model_step(BowdenModel *m, double step_s, char *msg, size_t msg_len)
     n_sub = n_sub_f < 1.0 ? 1 : (long)n_sub_f;
     h = step_s / (double)n_sub;
     update_step_constants(m, h);
+    disp0 = m->inlet_disp_m;
     for (i = 0; i < n_sub; i++) {
         substep(m, h);
     }
+    /* Cable speed for mu_viscous: the mean over the communication step (inputs are held, so in
+       drive mode 1 the cable moves in the first internal step only), low-pass filtered with
+       BOWDEN_SPEED_TAU_S. Unfiltered, the explicit speed -> friction -> stretch coupling
+       chatters between stick and slip from one step to the next. */
+    m->cable_speed_m_s += ((m->inlet_disp_m - disp0) / step_s - m->cable_speed_m_s) *
+                          (1.0 - exp(-step_s / BOWDEN_SPEED_TAU_S));
     if (m->p.noise_std > 0.0) {
         double g1, g2;
         rng_gauss_pair(&m->rng_state, &g1, &g2);

@@ -1,5 +1,7 @@
 /* FMI 2.0 co-simulation plumbing for BowdenPlant: instance life cycle, variable access by value
  * reference through the generated table, FMU state save/restore and serialisation, logging.
+ * Every log message is passed as format "%s" plus one preformatted string, so that a logger
+ * written in a language without varargs (ctypes) can read it as a sixth argument.
  * Nothing here is model specific beyond the contract of bowden_physics.h. Every fmi2 function
  * is exported (tools such as fmpy resolve all of them when loading); those that do not apply to
  * a co-simulation FMU return fmi2Error with a log message.
@@ -109,9 +111,11 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     }
     if (fmuGUID == NULL || strcmp(fmuGUID, BOWDEN_GUID) != 0) {
         if (functions->logger) {
+            char msg[200];
+            snprintf(msg, sizeof(msg), "fmuGUID %.60s does not match this binary's %s",
+                     fmuGUID ? fmuGUID : "(null)", BOWDEN_GUID);
             functions->logger(functions->componentEnvironment, instanceName, fmi2Error,
-                              "logStatusError", "fmuGUID %s does not match this binary's %s",
-                              fmuGUID ? fmuGUID : "(null)", BOWDEN_GUID);
+                              "logStatusError", "%s", msg);
         }
         return NULL;
     }

@@ -1,0 +1,126 @@
+"""Each effect parameter is off by default and changes the outputs as its name says."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from cosim.plant import Plant
+
+MU = 0.075
+PHI = 2 * math.pi
+EFF = math.exp(-MU * PHI)
+
+
+def ramp(plant: Plant, tension_n: np.ndarray, dt_s: float = 1e-4) -> np.ndarray:
+    out = np.empty((len(tension_n), 8))
+    for k, value in enumerate(tension_n.tolist()):
+        plant.u[Plant.T_IN_CMD] = value
+        out[k] = plant.step(dt_s)
+    return out
+
+
+def loading_mu(out: np.ndarray, k: int, phi: float = PHI) -> float:
+    """Friction coefficient seen at sample k on the loading line."""
+    return -math.log(out[k, Plant.T_OUT] / out[k, Plant.T_IN]) / phi
+
+
+def test_effects_are_off_by_default(make_plant):
+    plant = make_plant({"drive_mode": 1})
+    out = ramp(plant, np.linspace(0, 20, 2000))
+    assert np.array_equal(out[:, Plant.T_OUT_MEAS], out[:, Plant.T_OUT])
+    assert np.array_equal(out[:, Plant.T_IN_MEAS], out[:, Plant.T_IN])
+    assert loading_mu(out, -1) == pytest.approx(MU, rel=1e-12)
+
+
+def test_sensor_offset_shifts_only_the_output_sensor(make_plant):
+    plant = make_plant({"drive_mode": 1, "sensor_offset": 0.5})
+    out = ramp(plant, np.linspace(0, 20, 500))
+    assert np.allclose(out[:, Plant.T_OUT_MEAS] - out[:, Plant.T_OUT], 0.5, atol=1e-12)
+    assert np.array_equal(out[:, Plant.T_IN_MEAS], out[:, Plant.T_IN])
+
+
+def test_sensor_gain_scales_the_output_sensor(make_plant):
+    plant = make_plant({"drive_mode": 1, "sensor_gain": 1.1})
+    out = ramp(plant, np.linspace(0, 20, 500))
+    assert np.allclose(out[:, Plant.T_OUT_MEAS], 1.1 * out[:, Plant.T_OUT], rtol=1e-12)
+
+
+def test_mu_viscous_raises_friction_with_cable_speed(make_plant):
+    """The same 0 -> 20 N ramp in 2 s, 0.2 s and 0.02 s: the faster, the more friction."""
+    seen = []
+    for n in (20000, 2000, 200):
+        plant = make_plant({"drive_mode": 1, "mu_viscous": 5.0})
+        out = ramp(plant, np.linspace(0, 20, n))
+        seen.append(loading_mu(out, -1))
+    # At 20 N the cable inside the sheath has stretched about 2 mm (mostly 16 N * 1 m / EA of
+    # 8000 N), so the slow ramp moves it at about 1 mm/s and the middle one at about 10 mm/s
+    # (a little less: the added friction lowers the stretch).
+    assert seen[0] == pytest.approx(MU + 5.0 * 0.001, abs=3e-4)
+    assert seen[1] == pytest.approx(MU + 5.0 * 0.009, abs=3e-3)
+    assert seen[2] > seen[1] + 0.1
+
+
+def test_mu_tension_slope_makes_friction_grow_with_tension(make_plant):
+    plant = make_plant({"drive_mode": 1, "mu_tension_slope": 0.002})
+    out = ramp(plant, np.linspace(0, 20, 2000))
+    low = loading_mu(out, 99)  # about 1 N
+    high = loading_mu(out, -1)  # 20 N
+    assert low == pytest.approx(MU + 0.002 * 0.8, abs=0.002)
+    assert high > low + 0.015
+
+
+def test_phi_offset_per_z_changes_the_bending_angle_with_z(make_plant):
+    base = make_plant({"drive_mode": 1}, {"x": 0.0, "y": 0.5, "z": -0.3})
+    tilted = make_plant({"drive_mode": 1, "phi_offset_per_z": 0.8}, {"x": 0.0, "y": 0.5, "z": -0.3})
+    assert tilted.y[Plant.PHI] == pytest.approx(base.y[Plant.PHI] + 0.8 * -0.3, abs=1e-12)
+    out = ramp(tilted, np.linspace(0, 20, 200))
+    assert out[-1, Plant.T_OUT] / out[-1, Plant.T_IN] == pytest.approx(
+        math.exp(-MU * (PHI - 0.24)), rel=1e-9
+    )
+
+
+def test_sensor_tau_lags_the_output_sensor(make_plant):
+    tau = 0.01
+    plant = make_plant({"drive_mode": 1, "sensor_tau": tau})
+    out = ramp(plant, np.full(300, 10.0))  # a step to 10 N at t = 0
+    final = 10.0 * EFF
+    assert out[0, Plant.T_OUT] == pytest.approx(final)
+    k_tau = round(tau / 1e-4) - 1  # sample at t = tau
+    assert out[k_tau, Plant.T_OUT_MEAS] == pytest.approx(final * (1 - math.exp(-1)), rel=1e-6)
+    assert out[-1, Plant.T_OUT_MEAS] == pytest.approx(final * (1 - math.exp(-3)), rel=1e-6)
+
+
+def test_sensor_delay_delays_the_output_sensor(make_plant):
+    delay = 0.0125
+    plant = make_plant({"drive_mode": 1, "sensor_delay": delay})
+    out = ramp(plant, np.concatenate([np.full(100, 0.0), np.linspace(0, 20, 400)]))
+    t = np.arange(1, len(out) + 1) * 1e-4
+    # T_out_meas(t) = T_out(t - delay): compare on the true signal shifted by 125 samples
+    shift = round(delay / 1e-4)
+    assert np.allclose(out[shift:, Plant.T_OUT_MEAS], out[:-shift, Plant.T_OUT], atol=1e-9)
+    assert np.all(out[t < 0.01 + delay, Plant.T_OUT_MEAS] == 0.0)
+
+
+def test_mu_drift_changes_friction_over_time(make_plant):
+    plant = make_plant({"drive_mode": 1, "mu_drift": 0.002})
+    ramp(plant, np.full(10000, 5.0), dt_s=1e-3)  # hold 10 s
+    plant.u[Plant.T_IN_CMD] = 0.0
+    plant.step(1e-3)  # release completely, then load again at t ~ 10 s
+    out = ramp(plant, np.linspace(0, 20, 100), dt_s=1e-3)
+    assert loading_mu(out, -1) == pytest.approx(MU + 0.002 * plant.time_s, rel=1e-3)
+
+
+def test_noise_is_seeded_and_deterministic(make_plant):
+    runs = []
+    for seed in (7, 7, 8):
+        plant = make_plant({"drive_mode": 1, "noise_std": 0.3, "seed": seed})
+        runs.append(ramp(plant, np.full(4000, 10.0)))
+    assert np.array_equal(runs[0], runs[1])
+    assert not np.array_equal(runs[0][:, Plant.T_OUT_MEAS], runs[2][:, Plant.T_OUT_MEAS])
+    noise = runs[0][:, Plant.T_IN_MEAS] - runs[0][:, Plant.T_IN]
+    assert np.std(noise) == pytest.approx(0.3, rel=0.05)
+    assert abs(np.mean(noise)) < 0.02
+    assert np.array_equal(runs[0][:, Plant.T_OUT], runs[2][:, Plant.T_OUT])  # truth unaffected
