@@ -180,9 +180,12 @@ static double inlet_displacement(const BowdenModel *m, double stretch_nm, double
     return stretch_nm / m->p.cable_EA + t_out_n / m->p.loadcell_stiffness;
 }
 
-/* Drive mode 0: find T_in so that spool take-up = stretch of free cable + inlet displacement
- * (README, "Cable compatibility"), and the matching profile. take_up_m <= 0: slack cable. */
-static void solve_tension(BowdenModel *m, const Friction *f, double take_up_m)
+/* Drive mode 0: find T_in and the profile such that the spool take-up equals the stretch of
+ * the free cable plus the inlet displacement (README, "Cable compatibility"), where the take-up
+ * itself depends on T_in through the implicit motor step: take_up = take_up0 - compliance*T_in
+ * (compliance = 0 gives the take-up as fixed). Returns T_in; take_up0 <= 0: slack cable. */
+static double solve_tension(BowdenModel *m, const Friction *f, double take_up0_m,
+                            double compliance_m_n)
 {
     double trial[BOWDEN_N_SEG + 1], dtrial[BOWDEN_N_SEG + 1];
     const double ea = m->p.cable_EA;
@@ -190,12 +193,12 @@ static void solve_tension(BowdenModel *m, const Friction *f, double take_up_m)
     double lo = 0.0, hi, t;
     int it;
 
-    if (take_up_m <= 0.0) {
+    if (take_up0_m <= 0.0) {
         memset(m->tension_n, 0, sizeof(m->tension_n));
-        return;
+        return 0.0;
     }
-    /* g(T) >= T*free_length/EA - take_up, so g(hi) >= 0 */
-    hi = ea * take_up_m / m->p.free_length;
+    /* g(T) >= T*(free_length/EA + compliance) - take_up0, so g(hi) >= 0 */
+    hi = take_up0_m / (m->p.free_length / ea + compliance_m_n);
     t = m->tension_n[0];
     if (!(t > lo && t < hi)) {
         t = 0.5 * hi;
@@ -204,12 +207,12 @@ static void solve_tension(BowdenModel *m, const Friction *f, double take_up_m)
         double stretch = profile(f, m->tension_n, t, ds, trial, dtrial);
         double dsum = 0.0, g, dg, t_next;
         int k;
-        g = t * m->p.free_length / ea + inlet_displacement(m, stretch, trial[BOWDEN_N_SEG]) -
-            take_up_m;
+        g = t * (m->p.free_length / ea + compliance_m_n) +
+            inlet_displacement(m, stretch, trial[BOWDEN_N_SEG]) - take_up0_m;
         for (k = 1; k <= BOWDEN_N_SEG; k++) {
             dsum += 0.5 * (dtrial[k - 1] + dtrial[k]);
         }
-        dg = m->p.free_length / ea + dsum * ds / ea +
+        dg = m->p.free_length / ea + compliance_m_n + dsum * ds / ea +
              dtrial[BOWDEN_N_SEG] / m->p.loadcell_stiffness;
         if (g > 0.0) {
             hi = t;
@@ -227,6 +230,7 @@ static void solve_tension(BowdenModel *m, const Friction *f, double take_up_m)
     }
     profile(f, m->tension_n, t, ds, trial, dtrial);
     memcpy(m->tension_n, trial, sizeof(m->tension_n));
+    return t;
 }
 
 /* ---- sensors ------------------------------------------------------------------------------ */
@@ -337,8 +341,10 @@ static void prescribed_tension_substep(BowdenModel *m, const Friction *f, double
 static void current_command_substep(BowdenModel *m, const Friction *f, double h)
 {
     const BowdenParams *p = &m->p;
+    const double lever = p->spool_radius / p->gear_ratio;       /* cable m per motor rad */
+    const double load_gain = lever / p->gear_efficiency;        /* motor N m per N of T_in */
     double target = m->u.current_cmd;
-    double load_torque, torque;
+    double stiff, angle_free, angle_per_n, t_in, angle;
     if (target > p->current_limit) {
         target = p->current_limit;
     } else if (target < -p->current_limit) {
@@ -346,13 +352,19 @@ static void current_command_substep(BowdenModel *m, const Friction *f, double h)
     }
     /* current loop: first-order lag, exact for a command held over the step */
     m->current_a += (target - m->current_a) * m->alpha_current;
-    /* motor, gearhead, spool; the efficiency divides the load torque in both directions */
-    load_torque = m->tension_n[0] * p->spool_radius / (p->gear_ratio * p->gear_efficiency);
-    torque = p->torque_constant * m->current_a - load_torque - p->motor_damping * m->motor_speed_rad_s;
-    /* semi-implicit Euler: speed first, then angle with the new speed */
-    m->motor_speed_rad_s += h * torque / p->motor_inertia;
-    m->motor_angle_rad += h * m->motor_speed_rad_s;
-    solve_tension(m, f, m->motor_angle_rad * p->spool_radius / p->gear_ratio);
+    /* Motor, gearhead and spool by backward Euler, coupled implicitly to the cable (README,
+       "Integration"): with w' = (a' - a)/h,
+         J (w' - w)/h = k_t i - load_gain T_in(a') - b w'
+       gives a' = angle_free - angle_per_n * T_in(a'), solved together with the cable. */
+    stiff = p->motor_inertia / (h * h) + p->motor_damping / h;
+    angle_free = m->motor_angle_rad +
+                 (p->motor_inertia * m->motor_speed_rad_s / h + p->torque_constant * m->current_a) /
+                     stiff;
+    angle_per_n = load_gain / stiff;
+    t_in = solve_tension(m, f, lever * angle_free, lever * angle_per_n);
+    angle = angle_free - angle_per_n * t_in;
+    m->motor_speed_rad_s = (angle - m->motor_angle_rad) / h;
+    m->motor_angle_rad = angle;
 }
 
 static void substep(BowdenModel *m, double h)
