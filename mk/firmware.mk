@@ -57,11 +57,12 @@ $(FW_BENCH): firmware/bench/bench_comp.c $(FW_TARGET_SRC) $(FW_HDR)
 	$(FW_CC) $(FW_WARN) -O2 -g $(FW_INC) firmware/bench/bench_comp.c $(FW_TARGET_SRC) -o $@
 
 firmware-lint: $(VENV_STAMP)
+	@mkdir -p $(FW_M4_OUT)/lint
 	@set -e; for f in $(FW_TARGET_SRC) $(FW_HOST_SRC) $(FW_TEST_SRC) firmware/bench/*.c; do \
 	  $(FW_CC) $(FW_WARN) $(FW_LINT_EXTRA) $(FW_INC) -fsyntax-only $$f; \
 	done; \
 	for f in $(FW_TARGET_SRC) firmware/tools/target_sizes.c; do \
-	  $(FW_ZIG_CC) $(FW_M4_FLAGS) $(FW_WARN) $(FW_LINT_EXTRA) -Ifirmware/include -fsyntax-only $$f; \
+	  $(FW_ZIG_CC) $(FW_M4_FLAGS) $(FW_WARN) $(FW_LINT_EXTRA) -Ifirmware/include -c $$f -o $(FW_M4_OUT)/lint/$$(basename $$f .c).o; \
 	done
 	@echo "firmware-lint: C sources clean on the host ($(FW_CC)) and for the Cortex-M4 (zig cc)"
 

@@ -1,0 +1,81 @@
+"""The Cortex-M4 build (`make firmware-target`, zig cc): no libm, no floating point, size report.
+
+The library is compiled for a Cortex-M4 without FPU features, so a float or double operation
+would appear as an __aeabi_f*/__aeabi_d* helper reference; firmware/tools/elf_report.py (a small
+ELF/ar reader) rejects those and libm names. A float-using probe compiled with the same flags
+shows that the check does catch them.
+"""
+
+import importlib.util
+import shlex
+import subprocess
+import sys
+
+import pytest
+
+from cosim.paths import BUILD_DIR, REPO_ROOT
+
+M4 = BUILD_DIR / "firmware" / "cortex-m4"
+ZIG_CC = [sys.executable, "-m", "ziglang", "cc"]
+M4_FLAGS = shlex.split(
+    "-target thumb-freestanding-eabihf -mcpu=cortex_m4 -ffreestanding -O2 "
+    "-fno-unwind-tables -fno-asynchronous-unwind-tables"
+)
+
+
+def _elf_report():
+    spec = importlib.util.spec_from_file_location(
+        "elf_report", REPO_ROOT / "firmware" / "tools" / "elf_report.py"
+    )
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # dataclasses look their module up while the class is built
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.fixture(scope="module")
+def target_build():
+    run = subprocess.run(
+        ["make", "-s", "firmware-target"], cwd=REPO_ROOT, capture_output=True, text=True
+    )
+    print(run.stdout)
+    assert run.returncode == 0, run.stdout + run.stderr
+    return run.stdout
+
+
+def test_fw_target_has_no_libm_or_soft_float(target_build):
+    er = _elf_report()
+    objs = er.read_objects(M4 / "libbowden_fw.a")
+    assert {o.name for o in objs} == {"fxp.o", "comp.o", "hal.o", "wave.o", "fw.o"}
+    assert all(o.data[18] == 40 for o in objs)  # e_machine = EM_ARM
+    assert er.forbidden(objs) == []
+    defined = {s.name for o in objs for s in o.symbols if s.defined}
+    assert {"comp_step_q7_8", "fw_tick", "fxp_exp_uq8_24", "hal_init_mmio"} <= defined
+    external = {s.name for o in objs for s in o.symbols if not s.defined} - defined
+    # Only the run-time's memory helpers for structure copies, nothing else.
+    assert external <= {"__aeabi_memcpy4", "__aeabi_memclr4", "__aeabi_memcpy", "__aeabi_memset"}
+
+
+def test_fw_target_size_report_printed_and_written(target_build):
+    text = (M4 / "size.txt").read_text()
+    assert "libm / soft-float references: none" in text
+    assert "comp_step_q7_8" in text and "RAM per instance" in text
+    assert "total" in target_build and "comp_t" in target_build  # printed by make
+    total = next(line for line in text.splitlines() if line.startswith("total"))
+    text_bytes = int(total.split()[1])
+    assert 1000 < text_bytes < 16384, total
+
+
+def test_fw_float_probe_is_caught(tmp_path, target_build):
+    """Negative control: the same flags on code using float and double produce references that
+    the check reports, so a clean report means something."""
+    src = tmp_path / "probe.c"
+    src.write_text(
+        "float probe_f(float a, int b) { return a * (float)b; }\n"
+        "double probe_d(double a) { return a / 3.0; }\n"
+    )
+    obj = tmp_path / "probe.o"
+    subprocess.run([*ZIG_CC, *M4_FLAGS, "-c", str(src), "-o", str(obj)], check=True)
+    bad = {name for _, name in _elf_report().forbidden(_elf_report().read_objects(obj))}
+    assert any(n.startswith("__aeabi_f") for n in bad), bad
+    assert any(n.startswith("__aeabi_d") for n in bad), bad
