@@ -221,15 +221,25 @@ def encode(name: str, value: int) -> int:
 
     Raises ValueError naming the register and the allowed range when `value` does not fit.
     """
-    field = REGISTERS[name].fields[0]
+    fields = REGISTERS[name].fields
+    if len(fields) != 1:
+        raise ValueError(f"{name} has bit fields: build the word from {name}_<FIELD>")
+    field = fields[0]
     if not field.min <= value <= field.max:
         raise ValueError(f"{name}={value} outside allowed {field.min}..{field.max}")
     return (value << field.lsb) & 0xFFFFFFFF
 
 
 def decode(name: str, word: int) -> int:
-    """Value of the single-field register `name` from the 32-bit word read back."""
-    field = REGISTERS[name].fields[0]
+    """Value of the single-field register `name` from the 32-bit word read back.
+
+    Registers with named bit fields (CTRL, STATUS, FAULT) raise ValueError: mask the word
+    with the field constants instead.
+    """
+    fields = REGISTERS[name].fields
+    if len(fields) != 1:
+        raise ValueError(f"{name} has bit fields: mask the word with {name}_<FIELD>")
+    field = fields[0]
     value = (word >> field.lsb) & ((1 << field.width) - 1)
     if field.signed and value >> (field.width - 1):
         value -= 1 << field.width

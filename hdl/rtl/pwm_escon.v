@@ -48,6 +48,8 @@ localparam SHIFT = calc_shift(SPAN, IMAX);
 localparam integer K_INT = ((SPAN << SHIFT) + IMAX / 2) / IMAX;
 localparam [15:0] K = K_INT[15:0];  // < 2^15 by the choice of SHIFT
 localparam CNT_W = $clog2(PERIOD_CLKS);
+localparam integer LAST_INT = PERIOD_CLKS - 1;
+localparam [CNT_W-1:0] LAST = LAST_INT[CNT_W-1:0];  // fits: < 2^CNT_W
 
 reg  [CNT_W-1:0] cnt_reg, cnt_next;
 reg  [31:0]      duty_reg, duty_next;
@@ -71,9 +73,9 @@ always @* begin
         u_c = u;
     end
 
-    cnt_next = (cnt_reg == PERIOD_CLKS - 1) ? {CNT_W{1'b0}} : cnt_reg + 1'b1;
+    cnt_next = (cnt_reg == LAST) ? {CNT_W{1'b0}} : cnt_reg + 1'b1;
     duty_next = duty_reg;
-    if (cnt_reg == PERIOD_CLKS - 1) begin
+    if (cnt_reg == LAST) begin
         duty_next = HALF + offset;
     end
 end

@@ -72,3 +72,12 @@ def test_encode_decode_round_trip_and_range_error():
     assert regmap.decode("I_LIMIT", regmap.encode("I_LIMIT", 32767)) == 32767
     with pytest.raises(ValueError, match="TC=32768 outside allowed -32768..32767"):
         regmap.encode("TC", 32768)
+
+
+def test_bit_field_registers_refuse_single_value_decoding():
+    """decode/encode of CTRL, STATUS or FAULT would silently drop fields: they raise instead."""
+    for name in ("CTRL", "STATUS", "FAULT"):
+        with pytest.raises(ValueError, match=f"{name} has bit fields"):
+            regmap.decode(name, 0xF)
+        with pytest.raises(ValueError, match=f"{name} has bit fields"):
+            regmap.encode(name, 1)
