@@ -224,11 +224,13 @@ static double solve_tension(BowdenModel *m, const Friction *f, double take_up0_m
             t_next = 0.5 * (lo + hi);
         }
         if (fabs(t_next - t) <= 1e-12 * (1.0 + t)) {
-            break;
+            break; /* trial[] is the profile of t, which the next step would not change */
         }
         t = t_next;
     }
-    profile(f, m->tension_n, t, ds, trial, dtrial);
+    if (it == BOWDEN_NEWTON_MAX) {
+        profile(f, m->tension_n, t, ds, trial, dtrial);
+    }
     memcpy(m->tension_n, trial, sizeof(m->tension_n));
     return t;
 }
