@@ -1,0 +1,47 @@
+"""cosim.plant.Plant, the per-sample handle the co-simulation uses."""
+
+from __future__ import annotations
+
+import pytest
+
+from cosim.plant import INPUT_NAMES, OUTPUT_NAMES, Plant
+
+
+def test_outputs_by_index_and_name_agree(make_plant):
+    plant = make_plant({"drive_mode": 1})
+    plant.u[Plant.T_IN_CMD] = 10.0
+    y = plant.step(1e-4)
+    for i, name in enumerate(OUTPUT_NAMES):
+        assert y[i] == plant.output(name) == pytest.approx(plant.get(name), abs=0.0)
+    assert y[Plant.T_IN] == 10.0
+    assert plant.time_s == pytest.approx(1e-4)
+
+
+def test_parameters_by_name(make_plant):
+    plant = make_plant({"mu": 0.1, "loop_routing": False, "drive_mode": 1, "seed": 9})
+    assert plant.get("mu") == 0.1
+    assert plant.get("loop_routing") is False or plant.get("loop_routing") == 0
+    assert plant.get("drive_mode") == 1 and plant.get("seed") == 9
+
+
+def test_inputs_set_by_name_reach_the_fmu(make_plant):
+    plant = make_plant({"drive_mode": 1})
+    plant.set("T_in_cmd", 5.0)
+    assert plant.u[INPUT_NAMES.index("T_in_cmd")] == 5.0
+    plant.step(1e-4)
+    assert plant.output("T_in") == 5.0
+
+
+def test_unknown_names_are_refused(make_plant, fmu_path):
+    plant = make_plant()
+    with pytest.raises(KeyError, match="no variable 'friction'"):
+        plant.set("friction", 1.0)
+    with pytest.raises(KeyError, match="no variable 'tension'"):
+        plant.get("tension")
+    with pytest.raises(KeyError, match="no variable 'nope'"):
+        Plant({"nope": 1}, fmu_path=fmu_path)
+
+
+def test_missing_fmu_file_is_named(tmp_path):
+    with pytest.raises(FileNotFoundError, match="run `make fmu` first"):
+        Plant(fmu_path=tmp_path / "missing.fmu")
