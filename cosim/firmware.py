@@ -301,24 +301,40 @@ class CompensatorParams:
             values[name] = v
         return CompF64Config(mode=self.mode_code(), **values)
 
-    def max_exponent(self) -> float:
-        return max(self.mu, self.mu + FULL_SCALE_N * self.mu_slope_per_n) * self.phi_rad
+    def gains(self, t_n: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """G_up and G_dn at output tension |T| (comp.h): the capstan relation integrated with
+        mu(T) = mu + mu_slope_per_n*T; exp(+-mu*phi) without a slope."""
+        a = np.minimum(np.abs(np.asarray(t_n, dtype=float)), Q7_8_MAX * Q7_8_LSB_N)
+        x = self.mu * self.phi_rad
+        e = math.exp(x)
+        q = self.phi_rad * math.expm1(x) / x if x > 0 else self.phi_rad
+        c = self.mu_slope_per_n * q * a
+        return e / (1.0 - c), 1.0 / (e + c)
+
+    def _gain_stats(self) -> tuple[float, float, float, float]:
+        """Largest G_up, G_up - G_dn, |dG/dT| and |d2G/dT2| of either branch over [0, 128] N."""
+        x = self.mu * self.phi_rad
+        e = math.exp(x)
+        q = self.phi_rad * math.expm1(x) / x if x > 0 else self.phi_rad
+        k = self.mu_slope_per_n * q
+        a = np.linspace(0.0, FULL_SCALE_N, 513)
+        du, dd = 1.0 - k * a, e + k * a
+        gu, gd = e / du, 1.0 / dd
+        d1 = np.maximum(np.abs(e * k / du**2), np.abs(k / dd**2))
+        d2 = np.maximum(np.abs(2 * e * k * k / du**3), np.abs(2 * k * k / dd**3))
+        return float(gu.max()), float((gu - gd).max()), float(d1.max()), float(d2.max())
 
     def error_bound_n(self) -> float:
         """Documented bound of |T_c fixed - T_c twin| in N (comp.h): 1 LSB, plus the linear
         interpolation of the gain table when the friction slope is not zero."""
-        b = self.mu_slope_per_n * self.phi_rad
-        interp = FULL_SCALE_N * TABLE_STEP_N**2 / 8.0 * b * b * math.exp(self.max_exponent())
-        return ERR_BOUND_LSB * Q7_8_LSB_N + interp
+        d2 = self._gain_stats()[3]
+        return ERR_BOUND_LSB * Q7_8_LSB_N + FULL_SCALE_N * TABLE_STEP_N**2 / 8.0 * d2
 
-    def step_bound_n(self, dref_n: float, tmax_n: float) -> float:
+    def step_bound_n(self, dref_n, tmax_n):
         """Documented bound of |T_c[k] - T_c[k-1]| in N in smooth mode (comp.h), for a reference
-        step dref_n and the larger |T_ref - offset| tmax_n of the two steps."""
-        x = self.max_exponent()
-        gu = math.exp(x)
-        spread = gu - math.exp(-x)
-        slope = gu * abs(self.mu_slope_per_n) * self.phi_rad
-        return abs(dref_n) * (gu + tmax_n * (spread / self.band_n + slope)) + 2 * Q7_8_LSB_N
+        step dref_n and the larger |T_ref - offset| tmax_n of the two steps (floats or arrays)."""
+        gu_max, spread, d1, _ = self._gain_stats()
+        return np.abs(dref_n) * (gu_max + tmax_n * (spread / self.band_n + d1)) + 2 * Q7_8_LSB_N
 
 
 def _params(params: CompensatorParams | None, overrides: dict) -> CompensatorParams:

@@ -21,24 +21,30 @@
  * Extensions the model audit can emit (off by default):
  *  - offset_n: the output tension sensor reads offset_n above the cable (the paper's Fig. 11 shows
  *    ~0.5 N); the compensator aims the measured output at T_ref: T_eff = T_ref - offset_n.
- *  - mu_slope_per_n: friction coefficient rising with tension, mu_eff = mu + mu_slope*|T_eff|
- *    (|T_eff| clamped to 127.996 N), so the gain is exp(+-mu_eff*phi). It is applied through a
- *    table of 65 nodes (every 2 N) computed at configuration, linearly interpolated per step.
- *
+ *  - mu_slope_per_n = s: friction coefficient varying with the local tension along the sheath,
+ *    mu(T) = mu + s*T (the plant FMU's `mu_tension_slope`). Integrating the capstan relation
+ *    dT/dphi = -+(mu + s*T)*T (Eq. 1 with this mu) along the sheath gives, for an output tension T,
+ *      loading:   T_in = T * G_up(T),  G_up(T) = E / (1 - s*q*T)
+ *      unloading: T_in = T * G_dn(T),  G_dn(T) = 1 / (E + s*q*T)
+ *    with E = exp(mu*phi) and q = (E - 1)/mu = phi*(exp(mu*phi) - 1)/(mu*phi) (q = phi at mu = 0);
+ *    with s = 0 these are exp(+-mu*phi). They are tabulated at configuration at 65 nodes every 2 N
+ *    of |T_eff| (clamped to 127.996 N) and linearly interpolated per step.
  * Full law of a step, with T_eff = T_ref - offset_n (mode NONE: T_c = T_ref):
- *   G_up(T) = exp(+mu_eff(T)*phi), G_dn(T) = exp(-mu_eff(T)*phi),
+ *   G_up, G_dn as above (exp(+-mu*phi) without a slope),
  *   w = s / B in [0, 1] (PAPER: w = 1 loading, 0 unloading; SMOOTH: s moves by |dT_ref| per step
  *   towards B when loading and towards 0 when unloading),
  *   T_c = sat_Q7.8( T_eff * (G_dn + w*(G_up - G_dn)) ).
  *
  * Smoothness bound (SMOOTH mode): between two consecutive steps whose references differ by d,
- *   |dT_c| <= d * (G_up,max + T_max*((G_up - G_dn)_max/B + G_up,max*|mu_slope|*phi)) + 2 LSB,
- * with T_max the larger |T_eff| of the two steps (the first term is the reference moving on a
- * branch, the second the blend, the third the tension-dependent friction; 2 LSB of rounding).
+ *   |dT_c| <= d * (G_up,max + T_max*((G_up - G_dn)_max/B + G'_max)) + 2 LSB,
+ * with T_max the larger |T_eff| of the two steps and G'_max the largest |dG/dT| of either branch
+ * over [0, 128] N (0 without a slope): the first term is the reference moving on a branch, the
+ * second the blend, the third the tension-dependent friction; 2 LSB of rounding.
  *
  * Accuracy against the double twin (comp_f64.h) fed the same Q7.8 references: with
  * mu_slope = 0, |T_c - T_c,f64| <= COMP_ERR_BOUND_LSB; with a slope, add the interpolation error
- * T_max * h^2/8 * (mu_slope*phi)^2 * G_up,max with h = 2 N (cosim.firmware.error_bound_n).
+ * T_max * h^2/8 * G''_max with h = 2 N and G''_max the largest |d2G/dT2| of either branch
+ * (cosim.firmware.CompensatorParams.error_bound_n).
  */
 #ifndef BOWDEN_COMP_H
 #define BOWDEN_COMP_H
@@ -54,7 +60,9 @@
 #define COMP_MU_MAX_Q28 ((q3_28_t)Q3_28_ONE)               /* mu in [0, 1] */
 #define COMP_PHI_MAX_Q24 ((q7_24_t)210828714L)             /* phi in [0, 4*pi] rad */
 #define COMP_MU_SLOPE_MAX_Q28 ((q3_28_t)(Q3_28_ONE / 128)) /* |mu_slope| <= 1/128 per N */
-#define COMP_EXPONENT_MAX_Q28 ((q3_28_t)(4L * Q3_28_ONE))  /* mu_eff*phi <= 4 (gain <= 54.6) */
+#define COMP_EXPONENT_MAX_Q28 ((q3_28_t)(4L * Q3_28_ONE))  /* mu*phi <= 4 (gain <= 54.6) */
+#define COMP_GAIN_MAX ((uq8_24_t)916004956UL) /* every gain <= e^4 (UQ8.24, floor) */
+#define COMP_GAIN_MIN ((uq8_24_t)307286UL)    /* every gain >= e^-4 (UQ8.24, ceiling) */
 #define COMP_OFFSET_MAX_Q8 ((q7_8w_t)(64 * Q7_8_ONE))      /* |offset| <= 64 N */
 #define COMP_HYST_MIN_Q8 ((q7_8w_t)1)                      /* H in [1/256 N, 32 N] */
 #define COMP_HYST_MAX_Q8 ((q7_8w_t)(32 * Q7_8_ONE))
@@ -75,8 +83,9 @@
 #define COMP_ERR_MODE 2       /* mode not NONE, PAPER or SMOOTH */
 #define COMP_ERR_MU 3         /* mu outside [0, 1] */
 #define COMP_ERR_PHI 4        /* phi outside [0, 4*pi] rad */
-#define COMP_ERR_MU_SLOPE 5   /* |mu_slope| > 1/128 per N, or mu + mu_slope*128 N < 0 */
-#define COMP_ERR_EXPONENT 6   /* mu_eff*phi > 4 somewhere in [0, 128] N */
+#define COMP_ERR_MU_SLOPE 5   /* |mu_slope| > 1/128 per N, mu + mu_slope*128 N < 0, or a gain
+                               * outside [e^-4, e^4] somewhere in [0, 128] N */
+#define COMP_ERR_EXPONENT 6   /* mu*phi > 4 */
 #define COMP_ERR_OFFSET 7     /* |offset| > 64 N */
 #define COMP_ERR_HYSTERESIS 8 /* H outside [1/256, 32] N */
 #define COMP_ERR_BAND 9       /* B outside [1/256, 128] N (a band of zero is rejected) */
@@ -95,8 +104,8 @@ typedef struct {
 /* The compensator: configuration in force, gain tables and the state of the last step. */
 typedef struct {
     comp_config_t cfg;
-    uq8_24_t g_up[COMP_TAB_NODES]; /* exp(+mu_eff*phi) at |T| = 2 N * index, UQ8.24 */
-    uq8_24_t g_dn[COMP_TAB_NODES]; /* exp(-mu_eff*phi) */
+    uq8_24_t g_up[COMP_TAB_NODES]; /* G_up at |T| = 2 N * index, UQ8.24 */
+    uq8_24_t g_dn[COMP_TAB_NODES]; /* G_dn at |T| = 2 N * index, UQ8.24 */
     uint32_t inv_band;             /* floor(2^(31+m) / B[LSB]) with m = floor(log2 B) */
     int32_t band_shift;            /* m + 1: w = (s * inv_band) >> (m + 1) is s/B in Q1.30 */
     int32_t prev_ref;              /* T_ref of the last step, Q7.8 in 32 bits */
@@ -111,14 +120,15 @@ typedef struct {
 void comp_config_default(comp_config_t *cfg);
 
 /* Check a configuration without applying it; returns COMP_OK or the COMP_ERR_* of the first bad
- * field in the order of the struct. */
+ * field in the order of the struct. With a friction slope it builds the gain tables on the stack
+ * (520 bytes) to check every gain. */
 int32_t comp_config_check(const comp_config_t *cfg);
 
 /* Put the compensator in the default configuration and reset its state. */
 void comp_init(comp_t *c);
 
 /*
- * Apply a configuration: on success recompute the gain tables (fxp_exp_uq8_24, ~10k instructions),
+ * Apply a configuration: on success recompute the gain tables (up to ~100k instructions),
  * keep the detector's direction and put the blend fully on the current branch; on error return the
  * COMP_ERR_* code and leave the compensator (configuration and state) untouched.
  */

@@ -6,8 +6,8 @@
  * held against, and the compensator of the co-simulation's float reference. Its configuration
  * uses SI units and is checked against the same limits, returning the same COMP_ERR_* codes.
  * Differences from the fixed-point step, by design: no quantization of T_c (only the saturation
- * to the Q7.8 range [-128, 127.99609375] N is kept), gains exp(+-mu_eff*phi) evaluated exactly
- * at |T_eff| rather than interpolated from a table.
+ * to the Q7.8 range [-128, 127.99609375] N is kept), gains G_up and G_dn (comp.h) evaluated
+ * exactly at |T_eff| rather than interpolated from a table.
  */
 #ifndef BOWDEN_COMP_F64_H
 #define BOWDEN_COMP_F64_H

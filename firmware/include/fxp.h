@@ -32,6 +32,22 @@
 uq8_24_t fxp_exp_uq8_24(q3_28_t x);
 
 /*
+ * (exp(x) - 1) / x for x in Q3.28, x in [0, 4] (1 at x = 0), returned in UQ6.26.
+ * Scaling and overflow: x is clamped to [0, 4], so the result lies in [1, 13.4] (< 64); Horner
+ * form 1 + x/2(1 + x/3(1 + ... x/30)), truncation error < 1e-15; each x*p/2^28 < 54 * 2^26 fits
+ * uint32 before the 32-bit division by k; rounding error below 30 LSB of UQ6.26 (5e-7).
+ * Configuration time only.
+ */
+uint32_t fxp_expm1_x_uq6_26(q3_28_t x);
+
+/*
+ * round(num / den) in UQ8.24, for 64-bit num and den with den in (0, 2^62): bit-serial long
+ * division (no 64-bit divide instruction or run-time helper on the target). Saturates to
+ * UINT32_MAX (255.99999994) when the ratio reaches 256 or den is 0. Configuration time only.
+ */
+uq8_24_t fxp_div_uq8_24(uint64_t num, uint64_t den);
+
+/*
  * sin(2*pi*phase/2^32) in Q1.30, for a phase in turns as an unsigned 32-bit fraction (UQ0.32).
  * Scaling and overflow: quarter-wave symmetry maps the phase to a = [0, pi/2] in Q1.30 (pi/2 =
  * 1.5708 < 2); a degree-13 Taylor polynomial in Horner form with Q1.30 products (each < 2^61 in

@@ -17,15 +17,56 @@ void comp_config_default(comp_config_t *cfg)
     cfg->band_n_q8 = 2 * Q7_8_ONE;    /* 2 N */
 }
 
-/* mu_eff * phi in Q3.28 at |T| = t_n newtons (integer), in 64 bits for the range check. */
-static int64_t exponent_q28(const comp_config_t *cfg, int32_t t_n)
+/* mu * phi in Q3.28, in 64 bits for the range check. Scaling and overflow: Q3.28 * Q7.24 =
+ * Q10.52, < 2^60 for mu <= 1 and phi <= 4*pi; >> 24 with rounding -> Q3.28. */
+static int64_t exponent_q28(const comp_config_t *cfg)
 {
-    int64_t mu_eff = (int64_t)cfg->mu_q28 + (int64_t)cfg->mu_slope_per_n_q28 * t_n; /* Q3.28 */
-    /* Q3.28 * Q7.24 = Q10.52 (< 2^60 for the accepted ranges); >> 24 with rounding -> Q3.28. */
-    return (mu_eff * cfg->phi_rad_q24 + (INT64_C(1) << 23)) >> 24;
+    return ((int64_t)cfg->mu_q28 * cfg->phi_rad_q24 + (INT64_C(1) << 23)) >> 24;
 }
 
-int32_t comp_config_check(const comp_config_t *cfg)
+/*
+ * The gain tables G_up, G_dn at |T| = 2i N (comp.h). Returns COMP_ERR_MU_SLOPE when a gain leaves
+ * [e^-4, e^4] or a denominator is not positive. Expects the fields already range-checked.
+ * Scaling and overflow: E = exp(mu*phi) in UQ8.24 (<= 54.6 * 2^24 < 2^30); q = phi*(E-1)/(mu*phi)
+ * in Q.24 (<= 4*pi * 13.4 = 168 rad: < 2^32 in int64); k = s*q in Q.52 per N (|s| <= 2^21 in Q3.28,
+ * so |k| < 2^53.4); c = k*T (T <= 128 N) in Q.52, |c| < 2^60.4; the numerators E*2^28 (< 2^58) and
+ * 2^52 and the denominators 2^52 - c and E*2^28 + c stay below 2^62 for fxp_div_uq8_24.
+ */
+static int32_t build_tables(const comp_config_t *cfg, uq8_24_t *up, uq8_24_t *dn)
+{
+    q3_28_t x = (q3_28_t)exponent_q28(cfg); /* checked <= 4 */
+    uq8_24_t e = fxp_exp_uq8_24(x);
+    if (cfg->mu_slope_per_n_q28 == 0) {
+        uq8_24_t einv = fxp_exp_uq8_24(-x);
+        for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
+            up[i] = e;
+            dn[i] = einv;
+        }
+        return COMP_OK;
+    }
+    /* phi (Q7.24) * (E-1)/x (UQ6.26) = Q.50 -> Q.24. */
+    int64_t q24 = ((int64_t)cfg->phi_rad_q24 * fxp_expm1_x_uq6_26(x) + (INT64_C(1) << 25)) >> 26;
+    int64_t k52 = (int64_t)cfg->mu_slope_per_n_q28 * q24;
+    int64_t e52 = (int64_t)e * (INT64_C(1) << 28);
+    const int64_t one52 = INT64_C(1) << 52;
+    for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
+        int64_t c = k52 * (2 * i);
+        int64_t d_up = one52 - c;
+        int64_t d_dn = e52 + c;
+        if (d_up <= 0 || d_dn <= 0) {
+            return COMP_ERR_MU_SLOPE;
+        }
+        up[i] = fxp_div_uq8_24((uint64_t)e52, (uint64_t)d_up);
+        dn[i] = fxp_div_uq8_24((uint64_t)one52, (uint64_t)d_dn);
+        if (up[i] > COMP_GAIN_MAX || dn[i] < COMP_GAIN_MIN) {
+            return COMP_ERR_MU_SLOPE;
+        }
+    }
+    return COMP_OK;
+}
+
+/* The checks of the fields alone (no table). */
+static int32_t check_fields(const comp_config_t *cfg)
 {
     if (cfg == 0) {
         return COMP_ERR_NULL;
@@ -45,9 +86,7 @@ int32_t comp_config_check(const comp_config_t *cfg)
         (int64_t)cfg->mu_q28 + (int64_t)cfg->mu_slope_per_n_q28 * 128 < 0) {
         return COMP_ERR_MU_SLOPE;
     }
-    /* mu_eff is linear in |T|, so its largest value is at one end of [0, 128] N. */
-    if (exponent_q28(cfg, 0) > COMP_EXPONENT_MAX_Q28 ||
-        exponent_q28(cfg, 128) > COMP_EXPONENT_MAX_Q28) {
+    if (exponent_q28(cfg) > COMP_EXPONENT_MAX_Q28) {
         return COMP_ERR_EXPONENT;
     }
     if (cfg->offset_n_q8 < -COMP_OFFSET_MAX_Q8 || cfg->offset_n_q8 > COMP_OFFSET_MAX_Q8) {
@@ -60,6 +99,17 @@ int32_t comp_config_check(const comp_config_t *cfg)
         return COMP_ERR_BAND;
     }
     return COMP_OK;
+}
+
+int32_t comp_config_check(const comp_config_t *cfg)
+{
+    int32_t err = check_fields(cfg);
+    if (err != COMP_OK || cfg->mu_slope_per_n_q28 == 0) {
+        return err;
+    }
+    uq8_24_t up[COMP_TAB_NODES];
+    uq8_24_t dn[COMP_TAB_NODES];
+    return build_tables(cfg, up, dn);
 }
 
 /*
@@ -105,16 +155,20 @@ int32_t comp_configure(comp_t *c, const comp_config_t *cfg)
     if (c == 0) {
         return COMP_ERR_NULL;
     }
-    int32_t err = comp_config_check(cfg);
+    int32_t err = check_fields(cfg);
+    if (err != COMP_OK) {
+        return err;
+    }
+    uq8_24_t up[COMP_TAB_NODES];
+    uq8_24_t dn[COMP_TAB_NODES];
+    err = build_tables(cfg, up, dn);
     if (err != COMP_OK) {
         return err;
     }
     c->cfg = *cfg;
     for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
-        /* Node i sits at |T| = 2i N (512 LSB of Q7.8 per node). */
-        q3_28_t x = (q3_28_t)exponent_q28(cfg, 2 * i); /* checked <= 4 above */
-        c->g_up[i] = fxp_exp_uq8_24(x);
-        c->g_dn[i] = fxp_exp_uq8_24(-x);
+        c->g_up[i] = up[i];
+        c->g_dn[i] = dn[i];
     }
     set_inv_band(c, (uint32_t)cfg->band_n_q8);
     blend_to_branch(c);
@@ -200,7 +254,7 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
     int32_t t_eff = ref - cfg->offset_n_q8; /* |t_eff| <= 32768 + 16384 */
     uint32_t a = (uint32_t)((t_eff < 0) ? -t_eff : t_eff);
     if (a > (uint32_t)Q7_8_MAX) {
-        a = (uint32_t)Q7_8_MAX; /* mu_eff saturates at 127.996 N (see comp.h) */
+        a = (uint32_t)Q7_8_MAX; /* the gain tables end at 127.996 N (see comp.h) */
     }
 
     uq8_24_t g;

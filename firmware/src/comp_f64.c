@@ -23,6 +23,17 @@ void comp_f64_config_default(comp_f64_config_t *cfg)
     cfg->band_n = 2.0;
 }
 
+/* G_up and G_dn at |T| = a (comp.h: the capstan relation with mu(T) = mu + s*T integrated). */
+static void gains(const comp_f64_config_t *cfg, double a, double *gu, double *gd)
+{
+    double x = cfg->mu * cfg->phi_rad;
+    double e = exp(x);
+    double q = (x > 0.0) ? cfg->phi_rad * expm1(x) / x : cfg->phi_rad;
+    double c = cfg->mu_slope_per_n * q * a;
+    *gu = e / (1.0 - c);
+    *gd = 1.0 / (e + c);
+}
+
 /* !(lo <= v && v <= hi) is also true for NaN. */
 static int out_of(double v, double lo, double hi)
 {
@@ -48,9 +59,20 @@ int32_t comp_f64_config_check(const comp_f64_config_t *cfg)
         cfg->mu + 128.0 * cfg->mu_slope_per_n < 0.0) {
         return COMP_ERR_MU_SLOPE;
     }
-    if (cfg->mu * cfg->phi_rad > 4.0 ||
-        (cfg->mu + 128.0 * cfg->mu_slope_per_n) * cfg->phi_rad > 4.0) {
+    if (cfg->mu * cfg->phi_rad > 4.0) {
         return COMP_ERR_EXPONENT;
+    }
+    if (cfg->mu_slope_per_n != 0.0) {
+        /* Both gains are monotonic in |T|: check the end of the table (and its denominators). */
+        double x = cfg->mu * cfg->phi_rad;
+        double q = (x > 0.0) ? cfg->phi_rad * expm1(x) / x : cfg->phi_rad;
+        double c = cfg->mu_slope_per_n * q * 128.0;
+        double gu;
+        double gd;
+        gains(cfg, 128.0, &gu, &gd);
+        if (1.0 - c <= 0.0 || exp(x) + c <= 0.0 || gu > exp(4.0) || gd < exp(-4.0)) {
+            return COMP_ERR_MU_SLOPE;
+        }
     }
     if (out_of(cfg->offset_n, -64.0, 64.0)) {
         return COMP_ERR_OFFSET;
@@ -143,10 +165,10 @@ double comp_step_f64(comp_f64_t *c, double t_ref_n)
     c->blend = s;
 
     double t_eff = t_ref_n - cfg->offset_n;
-    double a = fmin(fabs(t_eff), Q7_8_MAX_N); /* mu_eff saturates as in the fixed-point table */
-    double x = (cfg->mu + cfg->mu_slope_per_n * a) * cfg->phi_rad;
-    double gu = exp(x);
-    double gd = exp(-x);
+    double a = fmin(fabs(t_eff), Q7_8_MAX_N); /* the fixed-point table ends there too */
+    double gu;
+    double gd;
+    gains(cfg, a, &gu, &gd);
     double g = gd + (gu - gd) * (s / cfg->band_n);
     double tc = t_eff * g;
     return fmin(Q7_8_MAX_N, fmax(Q7_8_MIN_N, tc));

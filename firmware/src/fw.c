@@ -228,9 +228,10 @@ const char *fw_strerror(int32_t code)
     case COMP_ERR_PHI:
         return "comp.phi_rad: outside [0, 4*pi] rad";
     case COMP_ERR_MU_SLOPE:
-        return "comp.mu_slope_per_n: outside [-1/128, 1/128] 1/N or mu + 128 N * slope < 0";
+        return "comp.mu_slope_per_n: outside [-1/128, 1/128] 1/N, mu + 128 N * slope < 0, or a "
+               "gain beyond [exp(-4), exp(4)] below 128 N";
     case COMP_ERR_EXPONENT:
-        return "comp.mu: mu_eff * phi exceeds 4 (gain exp(4) = 54.6) somewhere in [0, 128] N";
+        return "comp.mu: mu * phi exceeds 4 (gain exp(4) = 54.6)";
     case COMP_ERR_OFFSET:
         return "comp.offset_n: outside [-64, 64] N";
     case COMP_ERR_HYSTERESIS:

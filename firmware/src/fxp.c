@@ -46,6 +46,48 @@ uq8_24_t fxp_exp_uq8_24(q3_28_t x)
     return g > UINT32_MAX ? UINT32_MAX : (uq8_24_t)g;
 }
 
+uint32_t fxp_expm1_x_uq6_26(q3_28_t x)
+{
+    if (x < 0) {
+        x = 0;
+    } else if (x > 4 * (q3_28_t)Q3_28_ONE) {
+        x = 4 * (q3_28_t)Q3_28_ONE;
+    }
+    const uint32_t one = UINT32_C(1) << 26;
+    uint32_t p = one;
+    for (uint32_t k = 30; k >= 2U; --k) {
+        /* x (Q3.28, <= 2^30) * p (UQ6.26, < 13.5 * 2^26) >> 28 = x*p in UQ6.26 (< 54 * 2^26). */
+        uint32_t xp = (uint32_t)(((uint64_t)(uint32_t)x * p + (UINT64_C(1) << 27)) >> 28);
+        p = one + (xp + k / 2U) / k;
+    }
+    return p;
+}
+
+uq8_24_t fxp_div_uq8_24(uint64_t num, uint64_t den)
+{
+    if (den == 0U || den >= (UINT64_C(1) << 62)) {
+        return UINT32_MAX;
+    }
+    /* floor(num * 2^25 / den), one quotient bit per step; the remainder stays below den < 2^62,
+     * so shifting it left never overflows. 89 steps: 64 bits of num, then 25 zero bits. */
+    uint64_t q = 0U;
+    uint64_t r = 0U;
+    for (int i = 63 + 25; i >= 0; --i) {
+        uint64_t bit = (i >= 25) ? (num >> (unsigned)(i - 25)) & 1U : 0U;
+        r = (r << 1) | bit;
+        q <<= 1;
+        if (r >= den) {
+            r -= den;
+            q |= 1U;
+        }
+        if (q >= (UINT64_C(1) << 33)) {
+            return UINT32_MAX; /* ratio >= 256 */
+        }
+    }
+    q = (q + 1U) >> 1; /* round the 25th bit */
+    return (q > UINT32_MAX) ? UINT32_MAX : (uq8_24_t)q;
+}
+
 /* sin(a) for a in [0, pi/2] in Q1.30: a(1 - a^2/6(1 - a^2/20(1 - ... (1 - a^2/156)))).
  * a^2 <= (pi/2)^2 = 2.467 does not fit Q1.30, so it is kept in Q2.29; each a^2*p/den <= 0.42 is
  * formed in int64 (a^2 * p < 2^61) and divided by multiplying with 1/den in Q1.30. */

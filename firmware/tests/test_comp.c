@@ -57,30 +57,49 @@ static int configure_both(comp_t *c, comp_f64_t *d, const cfg_pair_t *p)
     return e1 == COMP_OK && e2 == COMP_OK;
 }
 
-/* Largest gain and gain spread over [0, 128] N, for the documented bounds. */
-static double max_exponent(const comp_f64_config_t *d)
+/* Gains of the twin's law (comp.h) and their first and second derivatives in |T|, scanned over
+ * [0, 128] N for the documented bounds. */
+typedef struct {
+    double gu_max;     /* largest G_up */
+    double spread_max; /* largest G_up - G_dn */
+    double d1_max;     /* largest |dG/dT| of either branch, 1/N */
+    double d2_max;     /* largest |d2G/dT2| of either branch, 1/N^2 */
+} gain_stats_t;
+
+static gain_stats_t gain_stats(const comp_f64_config_t *d)
 {
-    double x0 = d->mu * d->phi_rad;
-    double x1 = (d->mu + 128.0 * d->mu_slope_per_n) * d->phi_rad;
-    return x0 > x1 ? x0 : x1;
+    gain_stats_t g = {0.0, 0.0, 0.0, 0.0};
+    double x = d->mu * d->phi_rad;
+    double e = exp(x);
+    double q = (x > 0.0) ? d->phi_rad * expm1(x) / x : d->phi_rad;
+    double k = d->mu_slope_per_n * q;
+    for (double a = 0.0; a <= 128.0; a += 0.25) {
+        double du = 1.0 - k * a;
+        double dd = e + k * a;
+        double gu = e / du;
+        double gd = 1.0 / dd;
+        g.gu_max = fmax(g.gu_max, gu);
+        g.spread_max = fmax(g.spread_max, gu - gd);
+        g.d1_max = fmax(g.d1_max, fmax(fabs(e * k / (du * du)), fabs(k / (dd * dd))));
+        g.d2_max = fmax(g.d2_max, fmax(fabs(2 * e * k * k / (du * du * du)),
+                                       fabs(2 * k * k / (dd * dd * dd))));
+    }
+    return g;
 }
 
 /* Documented bound of |fixed - twin| in LSB (comp.h): 1 LSB plus the table interpolation. */
 static double err_bound_lsb(const comp_f64_config_t *d)
 {
-    double b = d->mu_slope_per_n * d->phi_rad;
-    double h = 2.0;
-    return COMP_ERR_BOUND_LSB + 128.0 * h * h / 8.0 * b * b * exp(max_exponent(d)) * 256.0;
+    const double h = 2.0;
+    return COMP_ERR_BOUND_LSB + 128.0 * h * h / 8.0 * gain_stats(d).d2_max * 256.0;
 }
 
 /* Documented per-tick bound of |dT_c| in N in SMOOTH mode (comp.h). */
-static double step_bound_n(const comp_f64_config_t *d, double dref_n, double tmax_n)
+static double step_bound_n(const comp_f64_config_t *d, const gain_stats_t *gs, double dref_n,
+                           double tmax_n)
 {
-    double x = max_exponent(d);
-    double gu = exp(x);
-    double spread = gu - exp(-x);
-    return fabs(dref_n) *
-               (gu + tmax_n * (spread / d->band_n + gu * fabs(d->mu_slope_per_n) * d->phi_rad)) +
+    const gain_stats_t g = *gs;
+    return fabs(dref_n) * (g.gu_max + tmax_n * (g.spread_max / d->band_n + g.d1_max)) +
            2.0 * LSB_N;
 }
 
@@ -170,8 +189,9 @@ static void test_bad_config_rejected_and_previous_kept(void)
         {"mu_eff < 0 at 128 N", make_cfg(1, 0.075, 1.0, -0.075 / 128 - tiny_q28, 0, 0.01, 2),
          COMP_ERR_MU_SLOPE},
         {"mu*phi > 4", make_cfg(1, 0.5, 8.1, 0, 0, 0.01, 2), COMP_ERR_EXPONENT},
-        {"mu_eff*phi > 4 at 128 N", make_cfg(1, 0.1, 4.0 * PI_D, 0.002, 0, 0.01, 2),
-         COMP_ERR_EXPONENT},
+        {"capstan diverges below 128 N", make_cfg(1, 0.1, 4.0 * PI_D, 0.002, 0, 0.01, 2),
+         COMP_ERR_MU_SLOPE},
+        {"gain > e^4 at 128 N", make_cfg(1, 0.3, 4.0 * PI_D, 2e-5, 0, 0.01, 2), COMP_ERR_MU_SLOPE},
         {"offset > 64 N", make_cfg(1, 0.075, 6.0, 0, 64.0 + LSB_N, 0.01, 2), COMP_ERR_OFFSET},
         {"offset < -64 N", make_cfg(1, 0.075, 6.0, 0, -64.0 - LSB_N, 0.01, 2), COMP_ERR_OFFSET},
         {"hysteresis 0", make_cfg(1, 0.075, 6.0, 0, 0, 0.0, 2), COMP_ERR_HYSTERESIS},
@@ -214,7 +234,7 @@ static void test_limits_accepted(void)
         make_cfg(COMP_MODE_PAPER, 0.0, 0.0, 0.0, 0.0, LSB_N, LSB_N),
         make_cfg(COMP_MODE_PAPER, 1.0, 4.0, 0.0, 64.0, 32.0, 128.0),
         make_cfg(COMP_MODE_SMOOTH, 0.3, 4.0 * PI_D, 0.0, -64.0, 1.0, 128.0),
-        make_cfg(COMP_MODE_SMOOTH, 1.0 / 128, 1.0, 1.0 / 128, 0.0, 1.0, 1.0),
+        make_cfg(COMP_MODE_SMOOTH, 1.0 / 128, 0.5, 1.0 / 128, 0.0, 1.0, 1.0),
         make_cfg(COMP_MODE_SMOOTH, 0.5, 1.0, -1.0 / 256, 0.0, 1.0, 1.0),
         make_cfg(COMP_MODE_NONE, 0.075, 2.0 * PI_D, 0.0, 0.0, 1.0, 1.0),
     };
@@ -240,7 +260,8 @@ static const struct {
     {"paper offset", COMP_MODE_PAPER, 0.075, 2 * PI_D, 0, 0.5, LSB_N, 2},
     {"smooth offset -64", COMP_MODE_SMOOTH, 0.075, 2 * PI_D, 0, -64.0, LSB_N, 2},
     {"smooth slope", COMP_MODE_SMOOTH, 0.075, 2 * PI_D, 0.0005, 0.5, LSB_N, 2},
-    {"paper slope max", COMP_MODE_PAPER, 0.02, 1.0, 1.0 / 128, 0, LSB_N, 2},
+    {"paper slope max", COMP_MODE_PAPER, 0.02, 0.5, 1.0 / 128, 0, LSB_N, 2},
+    {"smooth slope offset -64", COMP_MODE_SMOOTH, 0.075, 2 * PI_D, 0.0005, -64.0, LSB_N, 3},
     {"smooth slope negative", COMP_MODE_SMOOTH, 0.2, 2 * PI_D, -0.001, 0, LSB_N, 5},
     {"none", COMP_MODE_NONE, 0.075, 2 * PI_D, 0, 0.5, LSB_N, 2},
 };
@@ -411,6 +432,7 @@ static void test_smooth_inverse_step_bound(void)
         comp_f64_t d;
         configure_both(&c, &d, &p);
         configure_both(&cp, &d, &pp);
+        const gain_stats_t gs = gain_stats(&p.d);
         seq_sine(cases[k].amp, cases[k].mean, cases[k].freq, 1000.0);
         int16_t prev = comp_step_q7_8(&c, seq[0]);
         int16_t prevp = comp_step_q7_8(&cp, seq[0]);
@@ -423,7 +445,7 @@ static void test_smooth_inverse_step_bound(void)
             double dref = (seq[i] - seq[i - 1]) * LSB_N;
             double tmax = fmax(fabs(seq[i] * LSB_N - p.d.offset_n),
                                fabs(seq[i - 1] * LSB_N - p.d.offset_n));
-            double bound = step_bound_n(&p.d, dref, tmax);
+            double bound = step_bound_n(&p.d, &gs, dref, tmax);
             double jump = fabs((t - prev) * LSB_N);
             worst_ratio = fmax(worst_ratio, jump / bound);
             worst_jump = abs(t - prev) > worst_jump ? abs(t - prev) : worst_jump;
@@ -448,13 +470,14 @@ static void test_smooth_inverse_step_bound(void)
         comp_t c;
         comp_f64_t d;
         configure_both(&c, &d, &p);
+        const gain_stats_t gs = gain_stats(&p.d);
         seq_random_walk(300);
         int16_t prev = comp_step_q7_8(&c, seq[0]);
         double worst_ratio = 0.0;
         for (int i = 1; i < NSEQ; ++i) {
             int16_t t = comp_step_q7_8(&c, seq[i]);
             double tmax = fmax(fabs(seq[i] * LSB_N), fabs(seq[i - 1] * LSB_N));
-            double bound = step_bound_n(&p.d, (seq[i] - seq[i - 1]) * LSB_N, tmax);
+            double bound = step_bound_n(&p.d, &gs, (seq[i] - seq[i - 1]) * LSB_N, tmax);
             worst_ratio = fmax(worst_ratio, fabs((t - prev) * LSB_N) / bound);
             prev = t;
         }

@@ -94,7 +94,54 @@ static void test_sin_and_triangle(void)
     CHECK(fxp_triangle_q1_30(0x80000000UL) == 0, "tri half");
 }
 
+/* (e^x - 1)/x in UQ6.26 over [0, 4], its clamps at both ends of the domain, and the error claim. */
+static void test_expm1_x(void)
+{
+    double worst = 0.0;
+    for (int64_t xi = 0; xi <= 4 * (int64_t)Q3_28_ONE; xi += 1048573) {
+        double x = (double)xi / 268435456.0;
+        double exact = (xi == 0) ? 1.0 : expm1(x) / x;
+        double err = fabs(fxp_expm1_x_uq6_26((q3_28_t)xi) / 67108864.0 - exact) * 67108864.0;
+        worst = err > worst ? err : worst;
+    }
+    printf("  fxp_expm1_x_uq6_26: max |error| = %.1f LSB of UQ6.26\n", worst);
+    CHECK(worst <= 30.0, "worst %.1f LSB", worst);
+    CHECK(fxp_expm1_x_uq6_26(0) == (1U << 26), "f(0) = 1 exactly");
+    CHECK(fxp_expm1_x_uq6_26(-5) == (1U << 26) && fxp_expm1_x_uq6_26(INT32_MIN) == (1U << 26),
+          "clamped below 0");
+    CHECK(fxp_expm1_x_uq6_26(INT32_MAX) == fxp_expm1_x_uq6_26(4 * (q3_28_t)Q3_28_ONE),
+          "clamped above 4");
+}
+
+/* The long division against exact ratios, its rounding, and its saturation at 256 and den = 0. */
+static void test_div_uq8_24(void)
+{
+    uint32_t rng = 12345U;
+    int bad = 0;
+    for (int i = 0; i < 200000; ++i) {
+        rng ^= rng << 13;
+        rng ^= rng >> 17;
+        rng ^= rng << 5;
+        uint64_t den = ((uint64_t)rng << 22) | (rng & 0x3FFFFFU); /* up to 2^54 */
+        den = den ? den : 1U;
+        uint64_t num = den * (rng % 250U) + (den >> (rng % 7U));
+        double exact = (double)num / (double)den * 16777216.0;
+        bad += fabs((double)fxp_div_uq8_24(num, den) - exact) > 0.5 + exact * 1e-15 + 1e-9;
+    }
+    CHECK(bad == 0, "%d ratios off by more than half an LSB", bad);
+    CHECK(fxp_div_uq8_24(3, 2) == 25165824U, "1.5");
+    CHECK(fxp_div_uq8_24(1, 3) == 5592405U, "1/3 rounds down");
+    CHECK(fxp_div_uq8_24(2, 3) == 11184811U, "2/3 rounds up");
+    CHECK(fxp_div_uq8_24(256, 1) == UINT32_MAX, "ratio 256 saturates");
+    CHECK(fxp_div_uq8_24(UINT64_MAX, 3) == UINT32_MAX, "huge ratio saturates");
+    CHECK(fxp_div_uq8_24(255, 1) == 255U << 24, "ratio 255 fits");
+    CHECK(fxp_div_uq8_24(5, 0) == UINT32_MAX, "den = 0 saturates");
+    CHECK(fxp_div_uq8_24((UINT64_C(1) << 61) * 3, UINT64_C(1) << 61) == 3U << 24, "large operands");
+}
+
 const unit_test_t fxp_tests[] = {
+    {"expm1_x", test_expm1_x},
+    {"div_uq8_24", test_div_uq8_24},
     {"exp_error_bound", test_exp_error_bound},
     {"exp_exact_points", test_exp_exact_points},
     {"exp_saturates_at_domain_ends", test_exp_saturates_at_domain_ends},
