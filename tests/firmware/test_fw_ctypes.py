@@ -167,6 +167,17 @@ def test_fw_make_compensator_f64_from_scenario_params():
         assert abs(twin.step(float(np.round(t * 256) * LSB)) - fixed.step(float(t))) <= LSB
 
 
+def test_fw_make_firmware_for_the_cosim():
+    """make_firmware: the tick computes what the fixed-point compensator computes."""
+    p = SimpleNamespace(mu=0.075, band_n=2.0, hysteresis_n=4 * LSB)
+    f = fw.make_firmware("smooth", p, 2 * math.pi, tick_rate_hz=1000, sample_rate_hz=10000)
+    f.start()
+    assert f.drain_writes()[-1] == (regmap.CTRL, regmap.CTRL_ENABLE)
+    comp = fw.make_compensator("smooth", p, 2 * math.pi)
+    for t in np.linspace(0, 15, 300):
+        assert f.tick(float(t)) == comp.step_word(fw.tension_word(float(t)))
+
+
 def test_fw_exp_error_bound_through_ctypes():
     """fxp_exp_uq8_24 on random points: |error| <= 2^-25 + 2e-9 * exp(x) (fxp.h)."""
     lib = fw.load_library()
