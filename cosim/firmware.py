@@ -470,13 +470,16 @@ class WaveParams:
         freq = _fixed("wave.freq_hz", self.freq_hz, 16)
         if freq < 0:
             raise FirmwareConfigError(-1, f"wave.freq_hz: negative ({self.freq_hz})")
-        phase = _fixed("wave.phase0_turns", self.phase0_turns % 1.0, 32) if self.freq_hz else 0
+        turns = float(self.phase0_turns)
+        if not math.isfinite(turns):
+            raise FirmwareConfigError(-1, f"wave.phase0_turns: not a finite number ({turns!r})")
+        phase = int(round((turns % 1.0) * 2**32)) % 2**32  # UQ0.32 turns
         return WaveConfig(
             kind=WAVE_KINDS[self.kind],
             mean_n_q8=_fixed("wave.mean_n", self.mean_n, 8),
             amplitude_n_q8=_fixed("wave.amplitude_n", self.amplitude_n, 8),
             freq_hz_q16=min(freq, 2**32 - 1),
-            phase0=min(max(phase, 0), 2**32 - 1),
+            phase0=phase,
         )
 
 

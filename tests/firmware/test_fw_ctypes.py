@@ -240,6 +240,18 @@ def test_fw_wave_source():
     assert np.max(np.abs(np.array(refs) - exact)) <= LSB
 
 
+def test_fw_wave_phase_and_triangle():
+    """A triangle starting three quarters into its turn: -amplitude first, then rising."""
+    wave = fw.WaveParams(kind="triangle", mean_n=10.0, amplitude_n=4.0, freq_hz=250.0)
+    wave.phase0_turns = 0.75
+    f = fw.Firmware(fw.FirmwareConfig(source="wave", wave=wave))
+    refs = []
+    for _ in range(4):
+        f.tick()
+        refs.append(f.telemetry()["t_ref_n"])
+    assert refs == [6.0, 10.0, 14.0, 10.0]
+
+
 @pytest.mark.parametrize(
     ("config", "field"),
     [
