@@ -79,7 +79,7 @@ VARIABLES: list[Var] = [
         "Motor torque constant (Maxon RE25 20 W: 23.4 mNm/A)"),
     Var("motor_inertia", "Real", PARAM, 1.1e-6, "kg.m2", 1e-9, 1.0,
         "Inertia at the motor shaft: RE25 rotor 10.3 g cm^2 + gearhead and spool (assumed)"),
-    Var("motor_damping", "Real", PARAM, 7e-5, "N.m.s/rad", 0.0, 1.0,
+    Var("motor_damping", "Real", PARAM, 4e-4, "N.m.s/rad", 0.0, 1.0,
         "Viscous damping at the motor shaft lumping gearhead and cable losses (assumed)"),
     Var("current_bandwidth", "Real", PARAM, 2000.0, "Hz", 1.0, 1e5,
         "Bandwidth of the ESCON current loop, modelled as a first-order lag (assumed)"),
