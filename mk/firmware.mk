@@ -1,7 +1,8 @@
 # --- firmware: the friction compensator and the processor's side of the FPGA (firmware/README.md)
 #
 #   make firmware         build/firmware/host/libbowden_fw.so (ctypes, cosim/firmware.py) and the
-#                         host unit-test program build/firmware/host/fw_unit_tests (run by pytest)
+#                         host unit-test program build/firmware/host/fw_unit_tests (run by pytest),
+#                         also built with UBSan + ASan (fw_unit_tests_san): no overflow, no UB
 #   make firmware-lint    every C file with -Wall -Wextra -Wpedantic -Werror, on the host and for
 #                         the Cortex-M4 (part of `make lint`)
 #   make firmware-target  Cortex-M4 static library (zig cc) and build/firmware/cortex-m4/size.txt;
@@ -13,6 +14,8 @@ FW_HOST_OUT := $(FW_OUT)/host
 FW_M4_OUT := $(FW_OUT)/cortex-m4
 FW_SO := $(FW_HOST_OUT)/libbowden_fw.so
 FW_UNIT := $(FW_HOST_OUT)/fw_unit_tests
+FW_UNIT_SAN := $(FW_HOST_OUT)/fw_unit_tests_san
+FW_SAN := -fsanitize=undefined,address -fno-sanitize-recover=all
 FW_BENCH := $(FW_HOST_OUT)/bench_comp
 FW_M4_LIB := $(FW_M4_OUT)/libbowden_fw.a
 FW_M4_SIZE := $(FW_M4_OUT)/size.txt
@@ -42,7 +45,7 @@ BUILD_TARGETS += firmware
 LINT_TARGETS += firmware-lint
 BENCH_TARGETS += bench-firmware
 
-firmware: $(FW_SO) $(FW_UNIT)
+firmware: $(FW_SO) $(FW_UNIT) $(FW_UNIT_SAN)
 
 $(FW_SO): $(FW_TARGET_SRC) $(FW_HOST_SRC) $(FW_HDR)
 	@mkdir -p $(dir $@)
@@ -51,6 +54,13 @@ $(FW_SO): $(FW_TARGET_SRC) $(FW_HOST_SRC) $(FW_HDR)
 $(FW_UNIT): $(FW_TARGET_SRC) $(FW_HOST_SRC) $(FW_TEST_SRC) $(FW_HDR)
 	@mkdir -p $(dir $@)
 	$(FW_CC) $(FW_WARN) -O2 $(FW_INC) $(FW_TARGET_SRC) $(FW_HOST_SRC) $(FW_TEST_SRC) -lm -o $@
+
+# The same tests under the undefined-behaviour and address sanitizers: signed overflow, shifts
+# out of range, out-of-bounds table reads would abort the program.
+$(FW_UNIT_SAN): $(FW_TARGET_SRC) $(FW_HOST_SRC) $(FW_TEST_SRC) $(FW_HDR)
+	@mkdir -p $(dir $@)
+	$(FW_CC) $(FW_WARN) -O1 -g $(FW_SAN) $(FW_INC) $(FW_TARGET_SRC) $(FW_HOST_SRC) $(FW_TEST_SRC) \
+	  -lm -o $@
 
 $(FW_BENCH): firmware/bench/bench_comp.c $(FW_TARGET_SRC) $(FW_HDR)
 	@mkdir -p $(dir $@)

@@ -11,6 +11,7 @@ import pytest
 from cosim.paths import BUILD_DIR
 
 UNIT = BUILD_DIR / "firmware" / "host" / "fw_unit_tests"
+UNIT_SAN = BUILD_DIR / "firmware" / "host" / "fw_unit_tests_san"
 
 
 def _names() -> list[str]:
@@ -37,3 +38,14 @@ def test_fw_unit_program_counts_every_test():
     assert run.returncode == 0, run.stdout
     assert run.stdout.rstrip().splitlines()[-1].startswith(f"{len(names)} tests, ")
     assert sum(line.startswith("PASS ") for line in run.stdout.splitlines()) == len(names)
+
+
+def test_fw_unit_program_under_sanitizers():
+    """The whole program built with UBSan and ASan (no recovery): every test passes without a
+    signed overflow, an out-of-range shift or an out-of-bounds access anywhere, including the
+    full-scale and random-word runs of the compensator."""
+    assert UNIT_SAN.exists(), f"{UNIT_SAN} is missing: run `make firmware`"
+    run = subprocess.run([str(UNIT_SAN)], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-4000:]
+    assert "runtime error" not in run.stderr and "AddressSanitizer" not in run.stderr
+    assert run.stdout.rstrip().endswith("0 failed")
