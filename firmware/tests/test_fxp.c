@@ -28,7 +28,7 @@ static void test_exp_error_bound(void)
             worst_abs = err;
         }
     }
-    printf("  fxp_exp_uq8_24: worst error / documented bound = %.3f (at x = %.4f); "
+    printf("  fxp_exp_uq8_24: worst error / documented bound = %.5f (at x = %.4f); "
            "max |error| over [-4, 4] = %.2f LSB = %.2e\n",
            worst_ratio, worst_x, worst_abs, worst_abs / 16777216.0);
     CHECK(worst_ratio <= 1.0, "error %.3f of the bound at x = %.9f", worst_ratio, worst_x);
