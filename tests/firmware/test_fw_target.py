@@ -35,8 +35,12 @@ def _elf_report():
 
 @pytest.fixture(scope="module")
 def target_build():
+    # -o: never re-create the venv from inside a test (make test has just set it up).
     run = subprocess.run(
-        ["make", "-s", "firmware-target"], cwd=REPO_ROOT, capture_output=True, text=True
+        ["make", "-s", "-o", ".venv/.installed", "firmware-target"],
+        cwd=REPO_ROOT,
+        capture_output=True,
+        text=True,
     )
     print(run.stdout)
     assert run.returncode == 0, run.stdout + run.stderr
