@@ -44,7 +44,13 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "func", None) is None:
         parser.print_help()
         return 2
-    return int(args.func(args) or 0)
+    try:
+        return int(args.func(args) or 0)
+    except OSError as exc:
+        # A folder that cannot be created, a file that cannot be read or written: say which.
+        where = f": {exc.filename}" if exc.filename else ""
+        print(f"bowden {args.command}: {exc.strerror or exc}{where}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

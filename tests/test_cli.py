@@ -50,3 +50,12 @@ def test_doctor_rejects_a_verilator_too_old_for_cocotb(tmp_path: Path):
     out = _bowden("doctor", env=env)
     assert out.returncode != 0
     assert "too old" in out.stdout
+
+
+def test_an_unwritable_output_folder_is_a_clear_error_not_a_traceback(tmp_path: Path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    out = _bowden("workspace", "--grid", "5", "--out", str(blocker / "sub"))
+    assert out.returncode == 1
+    assert "Traceback" not in out.stderr
+    assert "bowden workspace:" in out.stderr and str(blocker) in out.stderr
