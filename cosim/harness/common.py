@@ -1,0 +1,62 @@
+"""Pieces shared by the fixed-point co-simulation (cocotb) and the float reference: the plant
+handle set up for a run, and the pre-allocated record of a run."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..scenarios import SimConfig
+
+# Recorded per FPGA sample (float64 arrays); `trace_columns` maps them to the trace format.
+RECORD_FIELDS = (
+    "t_s",
+    "T_ref_N",
+    "T_c_N",
+    "T_in_N",
+    "T_out_N",
+    "T_in_true_N",
+    "T_out_true_N",
+    "x_m",
+    "y_m",
+    "z_m",
+    "current_A",
+    "motor_angle_rad",
+    "phi_rad",
+)
+
+
+@dataclass
+class Record:
+    """Pre-allocated buffers of one run, filled sample by sample."""
+
+    arrays: dict[str, np.ndarray]
+
+    @classmethod
+    def allocate(cls, n: int) -> Record:
+        return cls({name: np.zeros(n, dtype=np.float64) for name in RECORD_FIELDS})
+
+    def save(self, path) -> None:
+        np.savez(path, **self.arrays)
+
+    @classmethod
+    def load(cls, path) -> Record:
+        with np.load(path) as data:
+            return cls({name: data[name].copy() for name in data.files})
+
+    def trace_columns(self) -> dict[str, np.ndarray]:
+        """The columns of the trace format (cosim.trace.COLUMNS) plus the extras we keep."""
+        return dict(self.arrays)
+
+
+def open_plant(cfg: SimConfig, loop_routing: bool, position_m: tuple[float, float, float]):
+    """The plant FMU (cosim.plant.Plant) instantiated for a closed-loop run: drive mode 0
+    (current command), loop routing as asked, the run's parameter overrides, the end-effector at
+    its start position, initialised at t = 0."""
+    from ..plant import Plant  # noqa: PLC0415 (the FMU's handle is imported when a run starts)
+
+    params: dict[str, float | int | bool] = {"drive_mode": 0, "loop_routing": bool(loop_routing)}
+    params.update(cfg.plant)
+    x, y, z = (float(v) for v in position_m)
+    return Plant(params=params, inputs={"x": x, "y": y, "z": z})

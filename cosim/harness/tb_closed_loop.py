@@ -1,0 +1,241 @@
+"""The closed-loop co-simulation testbench (cocotb 2.x): RTL + firmware + plant FMU.
+
+Started by cosim.harness.runner inside the simulator; the run's specification is the JSON file
+named by BOWDEN_COSIM_SPEC (scenario, compensator, loop routing, configuration, output paths).
+
+Timing of one FPGA sample k, in clocks (C = CLKS_PER_SAMPLE = L + 1, where L is the RTL loop's
+latency from its tick to the command, rtl_model.LATENCY_CLKS; cosim/harness/runner.py):
+
+    edge Ck         tick k: the RTL takes the ADC sample of t_k and the T_c in force
+    edge Ck + L     the command u_k is out (cmd_current, Q3.12)
+    Ck + L + 0.5    the harness wakes (one Timer per sample, half a clock after the edge):
+                    reads u_k, steps the FMU over [t_k, t_k+1) with u_k held, quantizes T_in_meas
+                    with the ideal ADC (rtl_model.adc_code_from_tension) and hands the code over
+                    (adc_word = {flipped toggle, code}: a one-clock adc_valid in cosim_top.v);
+                    at every D-th sample (k = i*D) it also wakes the firmware task.
+    edge Ck + C     tick k+1 takes that ADC sample.
+
+The firmware task (processor, 1 kHz): fills the firmware's register shadow with the words it
+read over AXI4-Lite after its previous tick (STATUS, FAULT, T_IN, U, SAMPLE_COUNT), calls the
+firmware tick with T_ref(t_k), and performs the writes of its write log over AXI4-Lite
+(cocotbext-axi) right away: the TC write lands a few clocks after tick k+1, so tick k+2 is the
+first to use it (TC_LATENCY_SAMPLES = 2, the same in the float reference). Then it reads the
+registers for the next tick, and TC_EFF, the T_c the RTL used at its last tick, which must be the
+value just written: a write that misses tick k+2 or a T_c the RTL did not take is counted and
+fails the run. Bus transactions happen only at this rate.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+
+import cocotb
+import numpy as np
+from cocotb.clock import Clock
+from cocotb.simtime import get_sim_time
+from cocotb.triggers import Event, RisingEdge, Timer
+from cocotbext.axi import AxiLiteBus, AxiLiteMaster
+
+from cosim import regmap, rtl_model
+from cosim.harness.common import Record, open_plant
+from cosim.harness.fwbridge import FirmwareBridge
+from cosim.harness.progress import Progress
+from cosim.reference import TC_LATENCY_SAMPLES
+from cosim.scenarios import SimConfig, get_scenario, sample_inputs
+
+# Registers the firmware's tick reads (fw.h: STATUS, FAULT, T_IN, U, SAMPLE_COUNT).
+SHADOW_READS = (regmap.STATUS, regmap.FAULT, regmap.T_IN, regmap.U, regmap.SAMPLE_COUNT)
+
+
+def _signed16(word: int) -> int:
+    return word - 0x10000 if word & 0x8000 else word
+
+
+@cocotb.test()
+async def closed_loop(dut):
+    """Run one scenario in closed loop and write the record (.npz) and the cost split (JSON)."""
+    spec = json.loads(Path(os.environ["BOWDEN_COSIM_SPEC"]).read_text())
+    cfg = SimConfig.from_dict(spec["config"], source="spec")
+    scen = get_scenario(spec["scenario"])
+    inp = sample_inputs(scen, cfg, spec["duration_s"])
+    n = len(inp.t_s)
+    dt_s = 1.0 / cfg.sample_rate_hz
+    dec = cfg.decimation
+    cps = int(spec["clks_per_sample"])
+    clk_ns = int(spec["clk_period_ns"])
+
+    cost = {"rtl_s": 0.0, "fmu_s": 0.0, "firmware_s": 0.0, "harness_s": 0.0, "total_s": 0.0}
+    rec = Record.allocate(n).arrays
+
+    plant = open_plant(cfg, spec["loop_routing"], (inp.x_m[0], inp.y_m[0], inp.z_m[0]))
+    fw = FirmwareBridge(cfg, spec["compensator"], spec["phi_rad"])
+    adc_offset, adc_gain = fw.adc_offset, fw.adc_gain
+
+    # --- reset, AXI master, firmware start-up ----------------------------------------------
+    Clock(dut.clk, clk_ns, unit="ns").start()
+    dut.adc_word.value = 0
+    dut.rst.value = 1
+    for _ in range(4):
+        await RisingEdge(dut.clk)
+    axi = AxiLiteMaster(AxiLiteBus.from_prefix(dut, "s_axil"), dut.clk, dut.rst)
+    dut.rst.value = 0
+    for _ in range(2):
+        await RisingEdge(dut.clk)
+    ident = await axi.read_dword(regmap.ID)
+    assert (ident >> 16) == regmap.ID_MAGIC, f"ID register reads {ident:#010x}"
+
+    # The plant at rest gives the ADC samples of the start-up (kept coming every sample, so the
+    # stale-ADC fault sees a live converter); start-up writes: gains, calibration, enable.
+    code0 = rtl_model.adc_code_from_tension(plant.y[plant.T_IN_MEAS], adc_offset, adc_gain)
+    sample_ns = cps * clk_ns
+    starting = [True]
+
+    async def adc_keeper():
+        level = 0
+        while starting[0]:
+            level ^= 1 << 24
+            dut.adc_word.value = level | (code0 & 0xFFFFFF)
+            await RisingEdge(dut.cmd_valid)
+            await Timer(clk_ns // 2, unit="ns")
+
+    keeper = cocotb.start_soon(adc_keeper())
+    for addr, value in fw.start():
+        await axi.write_dword(addr, value)
+    for addr in SHADOW_READS:
+        fw.shadow_set(addr, await axi.read_dword(addr))
+    starting[0] = False
+    await keeper
+    # The keeper stopped half a clock after a command edge: the loop starts in that phase.
+    toggle = dut.adc_word.value.to_unsigned() & (1 << 24)
+
+    # --- the firmware task ------------------------------------------------------------------
+    fw_wake = Event()
+    fw_state = {"k": 0, "late_writes": 0, "tc_mismatch": 0, "ticks": 0, "wake_ns": 0}
+    fw_state["busy"] = False
+    tc_new = [0.0]
+
+    async def firmware_task():
+        while True:
+            await fw_wake.wait()
+            fw_wake.clear()
+            fw_state["busy"] = True
+            k = fw_state["k"]
+            t_fw = time.perf_counter()
+            tc_n, writes = fw.tick(float(inp.t_ref_n[k]))
+            cost["firmware_s"] += time.perf_counter() - t_fw
+            tc_new[0] = tc_n
+            # Tick k+2 is at C(k+2) clocks; the wake-up was at Ck + L + 0.5 = C(k+1) - 0.5.
+            deadline = fw_state["wake_ns"] + (TC_LATENCY_SAMPLES - 1) * sample_ns + clk_ns // 2
+            for addr, value in writes:
+                await axi.write_dword(addr, value)
+            if get_sim_time("ns") > deadline:
+                fw_state["late_writes"] += 1
+            for addr in SHADOW_READS:
+                fw.shadow_set(addr, await axi.read_dword(addr))
+            # TC_EFF shows the T_c of the last tick 9 clocks after it: wait for tick k+2's.
+            seen_ns = fw_state["wake_ns"] + TC_LATENCY_SAMPLES * sample_ns + clk_ns
+            now_ns = get_sim_time("ns")
+            if now_ns < seen_ns:
+                await Timer(int(seen_ns - now_ns), unit="ns")
+            tc_eff = _signed16((await axi.read_dword(regmap.TC_EFF)) & 0xFFFF) / 256.0
+            if tc_eff != tc_n:
+                fw_state["tc_mismatch"] += 1
+            fw_state["ticks"] += 1
+            fw_state["busy"] = False
+
+    cocotb.start_soon(firmware_task())
+
+    # --- the sample loop --------------------------------------------------------------------
+    bar = Progress(n, "fixed point (RTL)", cfg.sample_rate_hz, enabled=bool(spec["progress"]))
+    u_sig, adc_sig = dut.cmd_current, dut.adc_word
+    step = plant.step
+    pu, py = plant.u, plant.y
+    T_IN, T_OUT, T_IN_MEAS, T_OUT_MEAS = plant.T_IN, plant.T_OUT, plant.T_IN_MEAS, plant.T_OUT_MEAS
+    PHI, ANGLE = plant.PHI, plant.MOTOR_ANGLE
+    xs, ys, zs = inp.x_m.tolist(), inp.y_m.tolist(), inp.z_m.tolist()
+    out_tc, out_u = rec["T_c_N"], rec["current_A"]
+    out_tin, out_tout = rec["T_in_N"], rec["T_out_N"]
+    out_tin_true, out_tout_true = rec["T_in_true_N"], rec["T_out_true_N"]
+    out_angle, out_phi = rec["motor_angle_rad"], rec["phi_rad"]
+    u_words = np.zeros(n, dtype=np.int32)
+    adc_code = rtl_model.adc_code_from_tension
+    timer = Timer(sample_ns, unit="ns")
+    perf = time.perf_counter
+    fmu_s = 0.0
+    await_s = 0.0
+    tc = 0.0  # T_c in force in the RTL (for the trace), Q7.8 value in N
+    t_start = perf()
+    quiet_s = 0.0
+    quiet_n = 0
+    for k in range(n):
+        if k:
+            busy = fw_state["busy"]
+            t_a = perf()
+            await timer  # the RTL runs CLKS_PER_SAMPLE clocks (and the firmware task, if woken)
+            t_b = perf() - t_a
+            await_s += t_b
+            if not busy and k % dec:
+                quiet_s += t_b
+                quiet_n += 1
+        if k >= TC_LATENCY_SAMPLES and (k - TC_LATENCY_SAMPLES) % dec == 0:
+            tc = tc_new[0]
+        word = u_sig.value.to_signed()
+        u_words[k] = word
+        u_a = word / 4096.0
+        out_tc[k] = tc
+        out_u[k] = u_a
+        out_tin[k] = py[T_IN_MEAS]
+        out_tout[k] = py[T_OUT_MEAS]
+        out_tin_true[k] = py[T_IN]
+        out_tout_true[k] = py[T_OUT]
+        out_angle[k] = py[ANGLE]
+        out_phi[k] = py[PHI]
+        pu[0] = u_a
+        pu[2] = xs[k]
+        pu[3] = ys[k]
+        pu[4] = zs[k]
+        t_c = perf()
+        step(dt_s)
+        fmu_s += perf() - t_c
+        toggle ^= 1 << 24
+        adc_sig.value = toggle | (adc_code(py[T_IN_MEAS], adc_offset, adc_gain) & 0xFFFFFF)
+        if k % dec == 0:
+            fw_state["k"] = k
+            fw_state["wake_ns"] = get_sim_time("ns")
+            fw_wake.set()
+        if (k & 1023) == 0:
+            bar.update(k)
+    t_end = perf()
+    bar.close(n)
+
+    plant.close()
+    rec["t_s"][:] = inp.t_s
+    rec["T_ref_N"][:] = inp.t_ref_n
+    rec["x_m"][:] = inp.x_m
+    rec["y_m"][:] = inp.y_m
+    rec["z_m"][:] = inp.z_m
+    rec["u_word"] = u_words.astype(np.float64)
+    # The RTL's own cost: a sample's wait when no bus transaction or firmware tick shares it
+    # (Verilator plus cocotb's per-clock scheduling); the rest of the waits (AXI driver
+    # coroutines) and all glue are the harness's.
+    total = t_end - t_start
+    rtl_s = (quiet_s / quiet_n) * (n - 1) if quiet_n else await_s
+    cost["rtl_s"] = rtl_s
+    cost["fmu_s"] = fmu_s
+    cost["total_s"] = total
+    cost["harness_s"] = total - rtl_s - fmu_s - cost["firmware_s"]
+    cost["late_writes"] = fw_state["late_writes"]
+    cost["tc_mismatch"] = fw_state["tc_mismatch"]
+    cost["firmware_ticks"] = fw_state["ticks"]
+    cost["samples"] = n
+    Record(rec).save(spec["record_path"])
+    Path(spec["cost_path"]).write_text(json.dumps(cost, indent=2))
+    assert fw_state["late_writes"] == 0, (
+        f"{fw_state['late_writes']} firmware TC writes missed sample tick k+{TC_LATENCY_SAMPLES}"
+    )
+    assert fw_state["tc_mismatch"] == 0, (
+        f"{fw_state['tc_mismatch']} firmware ticks: TC_EFF read back differs from the T_c written"
+    )

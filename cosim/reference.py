@@ -1,0 +1,216 @@
+"""The float (double) reference of the closed loop: the oracle of the fixed-point chain.
+
+Same scenario, same plant FMU (its own instance), same timing as the co-simulation, but with
+- the compensator's double twin (firmware comp_f64, through cosim.firmware) in place of the
+  firmware's fixed-point tick, and
+- `cosim.rtl_model.FloatTensionLoop`, the double model of the RTL's PI + feedforward loop
+  (hdl/rtl/tension_loop.v: same equations and conditional-integration anti-windup, no
+  quantization), with the run's gains in SI units, in place of the RTL; the ADC is ideal.
+
+Timing, identical to the co-simulation harness (cosim/harness/tb_closed_loop.py):
+- FPGA sample k at t_k = k / f_s: the loop computes u_k from T_c in force and the input tension
+  measured at t_k; the plant integrates [t_k, t_k+1) with u_k held (zero-order hold) and
+  returns the sensors at t_k+1 for sample k+1.
+- Firmware tick i at sample k = i*D (D = f_s / f_fw): T_c,i = comp(T_ref(t_k)); the write reaches
+  the loop for sample k + 2 (TC_LATENCY_SAMPLES), as the AXI write does in the co-simulation.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import regmap, rtl_model
+from .harness.common import Record, open_plant
+from .harness.fwbridge import CompensatorF64, loop_words
+from .harness.progress import Progress
+from .rtl_model import FloatTensionLoop
+from .scenarios import Scenario, SimConfig, sample_inputs
+
+# Samples between a firmware tick and the first FPGA sample that uses its T_c: the tick runs
+# right after sample k's command is out, half a clock before tick k+1; its AXI write lands a few
+# clocks later, so tick k+2 is the first to use it (checked in every co-simulation run through
+# the TC_EFF read-back, cosim/harness/tb_closed_loop.py).
+TC_LATENCY_SAMPLES = 2
+
+
+def make_float_loop(cfg: SimConfig) -> FloatTensionLoop:
+    """The double model of the RTL's loop (cosim.rtl_model.FloatTensionLoop) with the gains the
+    firmware programs: the register words (fwbridge.loop_words) taken as real numbers, so that
+    the comparison measures the fixed-point arithmetic, not the choice of gain words."""
+    words = loop_words(cfg.controller, cfg.sample_rate_hz)
+    return FloatTensionLoop(
+        kff_a_per_n=words["kff"] / (1 << rtl_model.GAIN_FRAC),
+        kp_a_per_n=words["kp"] / (1 << rtl_model.GAIN_FRAC),
+        ki_ts_a_per_n=words["ki_ts"] / (1 << rtl_model.KI_TS_FRAC),
+        i_limit_a=words["i_limit"] / (1 << rtl_model.CURRENT_FRAC),
+    )
+
+
+def make_float_compensator(mode: str, cfg: SimConfig, phi_rad: float) -> CompensatorF64:
+    """The compensator's double twin (firmware comp_f64), configured like the firmware."""
+    return CompensatorF64(mode, cfg.compensator, phi_rad)
+
+
+def resolve_phi(scen: Scenario, cfg: SimConfig, loop_routing: bool) -> float:
+    """The bending angle the compensator is configured with: cfg.compensator.phi_rad, or the
+    sheath's phi at the scenario's start position as the plant FMU computes it (the compensator
+    is calibrated there once, as the paper's is by its characterisation, Sec. VI-A)."""
+    if cfg.compensator.phi_rad is not None:
+        return float(cfg.compensator.phi_rad)
+    x, y, z = scen.trajectory(np.zeros(1))
+    plant = open_plant(cfg, loop_routing, (x[0], y[0], z[0]))
+    try:
+        return float(plant.y[plant.PHI])
+    finally:
+        plant.close()
+
+
+def run_reference(
+    scen: Scenario,
+    cfg: SimConfig,
+    compensator: str,
+    loop_routing: bool,
+    phi_rad: float,
+    duration_s: float | None = None,
+    progress: bool = True,
+) -> dict[str, np.ndarray]:
+    """Run the float reference; return its record (the arrays of cosim.harness.common)."""
+    inp = sample_inputs(scen, cfg, duration_s)
+    n = len(inp.t_s)
+    dt = 1.0 / cfg.sample_rate_hz
+    dec = cfg.decimation
+    rec = Record.allocate(n).arrays
+    plant = open_plant(cfg, loop_routing, (inp.x_m[0], inp.y_m[0], inp.z_m[0]))
+    comp = make_float_compensator(compensator, cfg, phi_rad)
+    loop = make_float_loop(cfg)
+    bar = Progress(n, "float reference", cfg.sample_rate_hz, enabled=progress)
+
+    # The host hands T_ref to the firmware as a Q7.8 word (fw_tick); the twin gets the same
+    # words, so that both see a reversal at the same tick (comp.h: the twin is the oracle "fed
+    # the same Q7.8 references").
+    t_ref_q = (np.clip(np.round(inp.t_ref_n * 256.0), -32768, 32767) / 256.0).tolist()
+    xs, ys, zs = inp.x_m.tolist(), inp.y_m.tolist(), inp.z_m.tolist()
+    out_tc, out_u = rec["T_c_N"], rec["current_A"]
+    out_tin, out_tout = rec["T_in_N"], rec["T_out_N"]
+    out_tin_true, out_tout_true = rec["T_in_true_N"], rec["T_out_true_N"]
+    out_angle, out_phi = rec["motor_angle_rad"], rec["phi_rad"]
+    T_IN, T_OUT, T_IN_MEAS, T_OUT_MEAS = plant.T_IN, plant.T_OUT, plant.T_IN_MEAS, plant.T_OUT_MEAS
+    PHI, ANGLE = plant.PHI, plant.MOTOR_ANGLE
+    pu = plant.u
+    step = plant.step
+
+    tc_new = 0.0  # T_c computed at the last firmware tick, in force from the next sample
+    tc = 0.0
+    tc_eff = 0.0  # T_c after the slew limit, as the loop uses it
+    slew = float(cfg.controller.slew_n_per_sample)
+    y = plant.y
+    t_in_meas = y[T_IN_MEAS]
+    for k in range(n):
+        if k >= TC_LATENCY_SAMPLES and (k - TC_LATENCY_SAMPLES) % dec == 0:
+            tc = tc_new
+        if slew > 0.0:  # RTL's slew limit on T_c (CTRL.SLEW_EN, SLEW per sample)
+            tc_eff = min(max(tc, tc_eff - slew), tc_eff + slew)
+        else:
+            tc_eff = tc
+        u = loop.step(tc_eff, t_in_meas)
+        if k % dec == 0:
+            tc_new = comp.step(t_ref_q[k])
+        # Record sample k: the sensors as the loop saw them and the command it gave.
+        out_tc[k] = tc_eff
+        out_u[k] = u
+        out_tin[k] = t_in_meas
+        out_tout[k] = y[T_OUT_MEAS]
+        out_tin_true[k] = y[T_IN]
+        out_tout_true[k] = y[T_OUT]
+        out_angle[k] = y[ANGLE]
+        out_phi[k] = y[PHI]
+        pu[0] = u
+        pu[2] = xs[k]
+        pu[3] = ys[k]
+        pu[4] = zs[k]
+        y = step(dt)
+        t_in_meas = y[T_IN_MEAS]
+        if (k & 1023) == 0:
+            bar.update(k)
+    bar.close(n)
+    rec["t_s"][:] = inp.t_s
+    rec["T_ref_N"][:] = inp.t_ref_n
+    rec["x_m"][:] = inp.x_m
+    rec["y_m"][:] = inp.y_m
+    rec["z_m"][:] = inp.z_m
+    plant.close()
+    if not math.isfinite(float(np.sum(out_u))):
+        raise RuntimeError("float reference: the current command is not finite")
+    return rec
+
+
+def run_model_chain(
+    scen: Scenario,
+    cfg: SimConfig,
+    compensator: str,
+    loop_routing: bool,
+    phi_rad: float,
+    duration_s: float | None = None,
+) -> dict[str, np.ndarray]:
+    """The fixed-point chain without a simulator: the firmware (host build) and the RTL's
+    bit-exact Python model (cosim.rtl_model.TensionLoopModel) against the FMU, with the
+    co-simulation's timing. The RTL co-simulation must give the same command word at every
+    sample (tests/cosim); it is also a quick way to try a configuration."""
+    from .harness.fwbridge import FirmwareBridge  # noqa: PLC0415
+
+    inp = sample_inputs(scen, cfg, duration_s)
+    n = len(inp.t_s)
+    dt = 1.0 / cfg.sample_rate_hz
+    dec = cfg.decimation
+    rec = Record.allocate(n).arrays
+    plant = open_plant(cfg, loop_routing, (inp.x_m[0], inp.y_m[0], inp.z_m[0]))
+    fw = FirmwareBridge(cfg, compensator, phi_rad)
+    model = rtl_model.TensionLoopModel()
+    names = {reg.addr: name for name, reg in regmap.REGISTERS.items()}
+
+    def apply(writes):
+        for addr, value in writes:
+            name = names[addr]
+            if name != "CTRL":
+                value = regmap.decode(name, value)
+            model.write(name, value)
+
+    code0 = rtl_model.adc_code_from_tension(plant.y[plant.T_IN_MEAS], fw.adc_offset, fw.adc_gain)
+    apply(fw.start())
+    for _ in range(2):  # the start-up's CTRL pulses take effect at a tick
+        model.adc_sample(code0)
+        model.tick()
+    pending: list = []
+    code = code0
+    y = plant.y
+    words = np.zeros(n)
+    for k in range(n):
+        if k >= TC_LATENCY_SAMPLES and (k - TC_LATENCY_SAMPLES) % dec == 0:
+            apply(pending)
+            pending = []
+        model.adc_sample(code)
+        out = model.tick()
+        words[k] = out.u
+        u = out.u / 4096.0
+        rec["T_c_N"][k] = out.tc_eff / 256.0
+        rec["current_A"][k] = u
+        rec["T_in_N"][k] = y[plant.T_IN_MEAS]
+        rec["T_out_N"][k] = y[plant.T_OUT_MEAS]
+        rec["T_in_true_N"][k] = y[plant.T_IN]
+        rec["T_out_true_N"][k] = y[plant.T_OUT]
+        rec["motor_angle_rad"][k] = y[plant.MOTOR_ANGLE]
+        rec["phi_rad"][k] = y[plant.PHI]
+        plant.u[0] = u
+        plant.u[2], plant.u[3], plant.u[4] = inp.x_m[k], inp.y_m[k], inp.z_m[k]
+        y = plant.step(dt)
+        code = rtl_model.adc_code_from_tension(y[plant.T_IN_MEAS], fw.adc_offset, fw.adc_gain)
+        if k % dec == 0:
+            _, pending = fw.tick(float(inp.t_ref_n[k]))
+    plant.close()
+    rec["t_s"][:] = inp.t_s
+    rec["T_ref_N"][:] = inp.t_ref_n
+    rec["x_m"][:], rec["y_m"][:], rec["z_m"][:] = inp.x_m, inp.y_m, inp.z_m
+    rec["u_word"] = words
+    return rec

@@ -1,0 +1,24 @@
+# --- cosim: closed-loop co-simulation of RTL + firmware + plant FMU (cosim/README.md) ----------
+#
+#   make cosim-build  Verilator model of the co-simulation top (build/cosim/verilator), reused by
+#                     `bowden sim`, `bowden demo` and the tests/cosim suite
+#   make bench-cosim  closed-loop speed: simulated seconds per wall second of the 30 s fig14 run,
+#                     cost split RTL / FMU / firmware / harness (part of `make bench`)
+#   make demo         (top-level) runs `bowden demo`: fig14 for paper/smooth with loop routing and
+#                     paper without, outputs in build/demo/
+
+COSIM_RTL := $(sort $(wildcard hdl/rtl/*.v)) cosim/harness/cosim_top.v
+COSIM_STAMP := $(BUILD)/cosim/verilator/.built
+
+.PHONY: cosim-build bench-cosim
+BUILD_TARGETS += cosim-build
+BENCH_TARGETS += bench-cosim
+
+cosim-build: $(COSIM_STAMP)
+
+$(COSIM_STAMP): $(VENV_STAMP) $(COSIM_RTL) cosim/harness/runner.py
+	$(PY) -m cosim.harness.runner build
+	@touch $@
+
+bench-cosim: $(COSIM_STAMP) fmu firmware
+	$(PY) -m cosim.cosim_bench
