@@ -13,7 +13,7 @@ import sys
 from . import __version__
 
 # Modules that provide subcommands, in the order `bowden --help` lists them.
-SUBCOMMANDS: list[str] = ["workspace"]
+SUBCOMMANDS: list[str] = ["workspace", "sim", "demo"]
 
 
 def _doctor(args: argparse.Namespace) -> int:

@@ -297,11 +297,14 @@ class SimConfig:
                 f"{self.sample_rate_hz:g} / {self.firmware_rate_hz:g}"
             )
         c = self.controller
-        _number(c.kff_a_per_n, f"{source}: controller.kff_a_per_n", 0.0, 7.99)
-        _number(c.kp_a_per_n, f"{source}: controller.kp_a_per_n", 0.0, 7.99)
-        _number(c.ki_a_per_n_s, f"{source}: controller.ki_a_per_n_s", 0.0, 1e5)
-        _number(c.i_limit_a, f"{source}: controller.i_limit_a", 0.0, 7.99)
-        _number(c.slew_n_per_sample, f"{source}: controller.slew_n_per_sample", 0.0, 127.0)
+        # Ranges of the register words (hdl/regmap/bowden_regs.json): KFF and KP Q2.13, KI_TS
+        # +-1/32 A/N per sample, I_LIMIT UQ3.12, SLEW UQ7.8.
+        _number(c.kff_a_per_n, f"{source}: controller.kff_a_per_n", 0.0, 3.9998)
+        _number(c.kp_a_per_n, f"{source}: controller.kp_a_per_n", 0.0, 3.9998)
+        ki_max = self.sample_rate_hz / 32.0
+        _number(c.ki_a_per_n_s, f"{source}: controller.ki_a_per_n_s", 0.0, ki_max)
+        _number(c.i_limit_a, f"{source}: controller.i_limit_a", 0.0, 7.9997)
+        _number(c.slew_n_per_sample, f"{source}: controller.slew_n_per_sample", 0.0, 127.99)
         k = self.compensator
         _number(k.mu, f"{source}: compensator.mu", 0.0, 1.0)
         if k.phi_rad is not None:

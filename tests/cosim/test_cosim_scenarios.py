@@ -73,7 +73,11 @@ def test_cosim_scenarios_params_file_overrides_and_validation(tmp_path):
     assert cfg.decimation == 10
     cases = [
         ({"sample_rate_hz": 10_000, "firmware_rate_hz": 3000}, "must be a whole number"),
-        ({"controller": {"i_limit_a": 9.0}}, r"controller.i_limit_a must be in \[0, 7.99\]"),
+        ({"controller": {"i_limit_a": 9.0}}, r"controller.i_limit_a must be in \[0, 7.9997\]"),
+        (
+            {"controller": {"ki_a_per_n_s": 400.0}},
+            r"controller.ki_a_per_n_s must be in \[0, 312.5\]",
+        ),
         ({"compensator": {"mu": -0.1}}, r"compensator.mu must be in \[0, 1\]"),
         ({"compensator": {"phi_rad": 20.0}}, r"compensator.phi_rad must be in \[0, 12.56"),
         ({"compensator": {"band_n": 0.0}}, r"compensator.band_n must be in"),

@@ -1,0 +1,299 @@
+"""`bowden sim SCENARIO`: one closed-loop co-simulation run and its float reference.
+
+The fixed-point run is the real RTL (cocotb on Verilator or Icarus), the real firmware (host
+build through ctypes) and the plant FMU in closed loop (cosim.harness). The float reference runs
+the same scenario against the same FMU with the compensator's double twin and a double model of
+the PI + feedforward loop (cosim.reference). The run writes, in --out DIR:
+
+- ``result.json``: scenario, compensator, loop_routing, samples, sim_seconds, wall_seconds,
+  rms_error_n, rms_error_pct, peak_error_n, peak_error_pct (T_ref - T_out of the fixed-point run,
+  paper Sec. VI-C), fixed_vs_float {current_rms_lsb, current_max_lsb, t_out_rms_n, t_out_max_n,
+  ...}, the float reference's own errors, the friction fit of characterize/positions, and the
+  cost split of the wall time;
+- ``trace.csv`` + ``trace.meta.json`` (the fixed-point run, cosim.trace format) and
+  ``reference.csv`` + ``reference.meta.json`` (the float reference);
+- ``tracking.png``, ``fixed_vs_float.png`` and, for characterize/positions, ``capstan.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import metrics, plots
+from . import trace as trace_mod
+from .scenarios import COMPENSATORS, SCENARIO_NAMES, SimConfig, get_scenario, load_params
+
+# Default compensator per scenario: the characterisations measure the plant itself.
+DEFAULT_COMPENSATOR = {"characterize": "none", "positions": "none", "fig14": "paper"}
+SIMULATORS = ("verilator", "icarus")
+# Full scale of the load cell path (contract.md: default calibration, about +-64 N).
+FULL_SCALE_N = 64.0
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "sim",
+        help="closed-loop co-simulation of RTL + firmware + plant FMU (a paper experiment)",
+        description=__doc__.split("\n\n")[0],
+    )
+    p.add_argument("scenario", choices=SCENARIO_NAMES, help="the experiment to run")
+    p.add_argument(
+        "--compensator",
+        choices=COMPENSATORS,
+        default=None,
+        help="friction compensator (default: none for characterize/positions, paper for fig14)",
+    )
+    p.add_argument(
+        "--no-loop-routing",
+        dest="loop_routing",
+        action="store_false",
+        help="route the sheath without the loop (phi follows the end-effector)",
+    )
+    p.add_argument("--simulator", choices=SIMULATORS, default="verilator")
+    p.add_argument("--params", default=None, help="JSON file of parameter overrides")
+    p.add_argument("--duration", type=float, default=None, help="simulated seconds (default: all)")
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--no-reference", action="store_true", help="skip the float reference")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    try:
+        cfg = load_params(args.params)
+        if args.duration is not None and not (
+            math.isfinite(args.duration) and 0 < args.duration <= 3600
+        ):
+            raise ValueError(f"--duration must be in (0, 3600] s; got {args.duration!r}")
+    except ValueError as exc:
+        print(f"bowden sim: {exc}", file=sys.stderr)
+        return 2
+    try:
+        result = run(
+            scenario=args.scenario,
+            compensator=args.compensator,
+            loop_routing=args.loop_routing,
+            simulator=args.simulator,
+            cfg=cfg,
+            duration_s=args.duration,
+            out_dir=Path(args.out),
+            reference=not args.no_reference,
+            progress=not args.quiet,
+        )
+    except (RuntimeError, ValueError, OSError) as exc:
+        print(f"bowden sim: {exc}", file=sys.stderr)
+        return 1
+    print(summary_table([result]))
+    print(f"wrote {Path(args.out) / 'result.json'}")
+    return 0
+
+
+def run(
+    scenario: str,
+    compensator: str | None = None,
+    loop_routing: bool = True,
+    simulator: str = "verilator",
+    cfg: SimConfig | None = None,
+    duration_s: float | None = None,
+    out_dir: Path | None = None,
+    reference: bool = True,
+    progress: bool = True,
+    write_files: bool = True,
+) -> dict:
+    """Run the fixed-point co-simulation (and the float reference), write the outputs, return
+    the result dict (the content of result.json). wall_seconds is the wall time of the
+    co-simulation run (simulator start-up included, the up-to-date check of the build not)."""
+    from .harness import runner  # noqa: PLC0415 (cocotb is only needed for a run)
+    from .reference import resolve_phi, run_reference  # noqa: PLC0415
+
+    cfg = cfg or SimConfig()
+    cfg.validate()
+    if simulator not in SIMULATORS:
+        raise ValueError(f"simulator must be one of {', '.join(SIMULATORS)}; got {simulator!r}")
+    scen = get_scenario(scenario)
+    compensator = compensator or DEFAULT_COMPENSATOR[scenario]
+    if compensator not in COMPENSATORS:
+        raise ValueError(
+            f"compensator must be one of {', '.join(COMPENSATORS)}; got {compensator!r}"
+        )
+    duration = scen.duration_s if duration_s is None else float(duration_s)
+    phi_rad = resolve_phi(scen, cfg, loop_routing)
+    out_dir = Path(out_dir) if out_dir is not None else None
+
+    run_spec = {
+        "scenario": scenario,
+        "compensator": compensator,
+        "loop_routing": bool(loop_routing),
+        "duration_s": duration,
+        "phi_rad": phi_rad,
+        "config": cfg.to_dict(),
+    }
+    runner.build(simulator)  # reused when up to date; not part of the run's wall time
+    t0 = time.perf_counter()
+    fixed, cost = runner.run_closed_loop(
+        run_spec,
+        simulator=simulator,
+        work_dir=out_dir / "sim" if out_dir is not None else None,
+        progress=progress,
+    )
+    wall_fixed = time.perf_counter() - t0
+    ref = None
+    if reference:
+        ref = run_reference(scen, cfg, compensator, loop_routing, phi_rad, duration, progress)
+
+    result = evaluate(scen, cfg, run_spec, fixed, ref, wall_fixed, cost)
+    if write_files and out_dir is not None:
+        write_outputs(out_dir, scen, cfg, run_spec, fixed, ref, result)
+    return result
+
+
+def evaluate(scen, cfg, run_spec, fixed, ref, wall_s, cost) -> dict:
+    """The figures of result.json from the records of the two runs."""
+    n = len(fixed["t_s"])
+    err = metrics.tracking_error(fixed["t_s"], fixed["T_ref_N"], fixed["T_out_N"], scen.settle_s)
+    result = {
+        "scenario": run_spec["scenario"],
+        "compensator": run_spec["compensator"],
+        "loop_routing": run_spec["loop_routing"],
+        "samples": n,
+        "sim_seconds": n / cfg.sample_rate_hz,
+        "wall_seconds": wall_s,
+        "rms_error_n": err["rms_error_n"],
+        "rms_error_pct": err["rms_error_pct"],
+        "peak_error_n": err["peak_error_n"],
+        "peak_error_pct": err["peak_error_pct"],
+        "max_ref_n": err["max_ref_n"],
+        "settle_s": scen.settle_s,
+        "sample_rate_hz": cfg.sample_rate_hz,
+        "firmware_rate_hz": cfg.firmware_rate_hz,
+        "compensator_phi_rad": run_spec["phi_rad"],
+        "compensator_mu": cfg.compensator.mu,
+        "simulated_per_wall": (n / cfg.sample_rate_hz) / wall_s if wall_s > 0 else None,
+        # The closed loop alone (the simulator's start-up excluded), split by component.
+        "loop_wall_seconds": cost.get("total_s"),
+        "cost_s": {k: cost[k] for k in ("rtl_s", "fmu_s", "firmware_s", "harness_s", "bus_s")},
+        "clks_per_sample": cost.get("clks_per_sample"),
+        "checks": {
+            "tc_latency_samples": cost.get("tc_latency_samples"),
+            "late_tc_writes": cost.get("late_writes"),
+            "tc_eff_mismatches": cost.get("tc_mismatch"),
+            "tc_eff_checks": cost.get("tc_checks"),
+        },
+    }
+    if ref is not None:
+        result["fixed_vs_float"] = metrics.fixed_vs_float(
+            fixed["current_A"], ref["current_A"], fixed["T_out_N"], ref["T_out_N"], FULL_SCALE_N
+        )
+        result["fixed_vs_float"]["t_out_rms_pct_max_ref"] = (
+            100.0 * result["fixed_vs_float"]["t_out_rms_n"] / err["max_ref_n"]
+            if err["max_ref_n"] > 0
+            else None
+        )
+        ref_err = metrics.tracking_error(ref["t_s"], ref["T_ref_N"], ref["T_out_N"], scen.settle_s)
+        result["float_reference"] = {k: ref_err[k] for k in sorted(ref_err)}
+    if scen.segments:
+        result["friction_fit"] = friction_fits(scen, cfg, fixed)
+    return result
+
+
+def friction_fits(scen, cfg, rec) -> list[dict]:
+    """Capstan fit (metrics.fit_capstan) per position segment, on the sensors' T_in and T_out."""
+    fits = []
+    for seg in scen.segments:
+        i0 = int(round(seg.t_start_s * cfg.sample_rate_hz))
+        i1 = min(len(rec["t_s"]), int(round(seg.t_end_s * cfg.sample_rate_hz)))
+        if i1 - i0 < 100:
+            continue
+        # The first 0.3 s of a segment are the move to the position (scenarios._positions).
+        i0 += int(round(0.3 * cfg.sample_rate_hz)) if scen.name == "positions" else 0
+        phi = float(np.mean(rec["phi_rad"][i0:i1]))
+        fit = metrics.fit_capstan(rec["T_in_N"][i0:i1], rec["T_out_N"][i0:i1], phi_rad=phi)
+        fits.append({"position_m": list(seg.position_m), "phi_rad": phi, **fit})
+    return fits
+
+
+def write_outputs(out_dir: Path, scen, cfg, run_spec, fixed, ref, result) -> None:
+    out_dir.mkdir(parents=True, exist_ok=True)
+    meta = {
+        "sample_rate_hz": cfg.sample_rate_hz,
+        "sheath_length_m": float(cfg.plant.get("sheath_length", 1.0)),
+        "loop_routing": bool(run_spec["loop_routing"]),
+        "mu": float(cfg.plant.get("mu", cfg.compensator.mu)),
+        "source": "cosim",
+        "scenario": run_spec["scenario"],
+        "compensator": run_spec["compensator"],
+    }
+    trace_mod.write_trace(out_dir / "trace.csv", trace_columns(fixed), {**meta, "chain": "fixed"})
+    if ref is not None:
+        trace_mod.write_trace(
+            out_dir / "reference.csv", trace_columns(ref), {**meta, "chain": "float"}
+        )
+    title = (
+        f"{run_spec['scenario']}: compensator {run_spec['compensator']}, loop routing "
+        f"{'on' if run_spec['loop_routing'] else 'off'} (RMS {result['rms_error_pct']:.1f} %, "
+        f"peak {result['peak_error_pct']:.1f} % of {result['max_ref_n']:.0f} N)"
+    )
+    plots.plot_tracking(out_dir / "tracking.png", fixed, ref, title)
+    if ref is not None:
+        plots.plot_fixed_vs_float(out_dir / "fixed_vs_float.png", fixed, ref, title)
+    if scen.segments:
+        segs = []
+        for seg in scen.segments:
+            i0 = int(round(seg.t_start_s * cfg.sample_rate_hz))
+            i1 = int(round(seg.t_end_s * cfg.sample_rate_hz))
+            if i0 < len(fixed["t_s"]):
+                segs.append((f"{tuple(round(v, 2) for v in seg.position_m)} m", slice(i0, i1)))
+        plots.plot_capstan(
+            out_dir / "capstan.png", fixed["T_in_N"], fixed["T_out_N"], segs, title.split(" (")[0]
+        )
+    (out_dir / "result.json").write_text(json.dumps(result, indent=2) + "\n")
+
+
+def trace_columns(rec) -> dict[str, np.ndarray]:
+    """A record's arrays in the trace format (required columns first, then the extras)."""
+    cols = {name: np.asarray(rec[name]) for name in trace_mod.COLUMNS}
+    for extra in ("T_in_true_N", "T_out_true_N", "phi_rad"):
+        if extra in rec:
+            cols[extra] = np.asarray(rec[extra])
+    return cols
+
+
+def summary_table(results: list[dict], paper: bool = False) -> str:
+    """A plain-text table of runs: errors, fixed vs float, speed."""
+    head = (
+        f"{'scenario':<13}{'compensator':<12}{'loop':<6}{'RMS N':>8}{'RMS %':>8}{'peak N':>8}"
+        f"{'peak %':>8}{'du rms/max LSB':>16}{'dT_out rms N':>14}{'sim/wall':>10}"
+    )
+    lines = [head, "-" * len(head)]
+    for r in results:
+        fvf = r.get("fixed_vs_float")
+        du = f"{fvf['current_rms_lsb']:.2f}/{fvf['current_max_lsb']:.0f}" if fvf else "-"
+        dt = f"{fvf['t_out_rms_n']:.4f}" if fvf else "-"
+        speed = r.get("simulated_per_wall")
+        lines.append(
+            f"{r['scenario']:<13}{r['compensator']:<12}{'on' if r['loop_routing'] else 'off':<6}"
+            f"{r['rms_error_n']:>8.3f}{r['rms_error_pct']:>8.1f}{r['peak_error_n']:>8.3f}"
+            f"{r['peak_error_pct']:>8.1f}{du:>16}{dt:>14}"
+            f"{(f'x{speed:.2f}' if speed else '-'):>10}"
+        )
+    if paper:
+        lines.append(
+            f"{'paper Fig.14':<13}{'paper':<12}{'on':<6}{metrics.PAPER_RMS_N:>8.3f}"
+            f"{metrics.PAPER_RMS_PCT:>8.1f}{metrics.PAPER_PEAK_N:>8.3f}"
+            f"{metrics.PAPER_PEAK_PCT:>8.1f}{'(measured)':>16}"
+        )
+    for r in results:
+        for fit in r.get("friction_fit", []):
+            lines.append(
+                f"  friction fit at {tuple(round(v, 2) for v in fit['position_m'])} m: "
+                f"mu*phi = {fit['mu_phi']:.3f} (phi {fit['phi_rad']:.2f} rad, mu "
+                f"{fit.get('mu', float('nan')):.4f}), efficiency {fit['efficiency']:.3f}"
+            )
+    return "\n".join(lines)
