@@ -1,0 +1,171 @@
+"""The closed loop: RTL (cocotb on Verilator) + firmware (host build) + plant FMU, on shortened
+fig14 runs, held against the float reference and the RTL's bit-exact model chain.
+
+The Verilator model is built once per session (build/cosim/verilator, reused by fingerprint);
+each fixed-point run is a few simulated seconds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cosim import metrics, reference, sim
+from cosim.harness import runner
+from cosim.scenarios import SimConfig, get_scenario
+
+# 4 s of fig14: the rise from rest, reversals at 1 s (max), 2 s (min) and 3 s (max), and enough
+# end-effector motion for phi to move without loop routing (settle_s = 1 s is excluded).
+DURATION_S = 4.0
+# Error budget of fixed point against float (issue 6): current command within a few LSB of
+# Q3.12 per sample, T_out within 0.5 % of full scale RMS.
+CURRENT_MAX_LSB = 4.0
+T_OUT_RMS_PCT_FS = 0.5
+
+
+@pytest.fixture(scope="session")
+def built():
+    """Build (or reuse) the co-simulation's Verilator model once for the session."""
+    runner.build("verilator")
+
+
+_CACHE: dict = {}
+
+
+def _run(compensator: str, loop_routing: bool) -> dict:
+    """One shortened fig14 run through `sim.run` (RTL + float reference), cached per session."""
+    key = (compensator, loop_routing)
+    if key not in _CACHE:
+        _CACHE[key] = sim.run(
+            scenario="fig14",
+            compensator=compensator,
+            loop_routing=loop_routing,
+            duration_s=DURATION_S,
+            progress=False,
+            write_files=False,
+        )
+    return _CACHE[key]
+
+
+@pytest.mark.parametrize(
+    ("compensator", "loop_routing"),
+    [("none", True), ("paper", True), ("smooth", True), ("smooth", False)],
+)
+def test_cosim_fixed_point_within_budget_of_float(built, compensator, loop_routing):
+    result = _run(compensator, loop_routing)
+    fvf = result["fixed_vs_float"]
+    assert result["samples"] == int(DURATION_S * 10_000)
+    assert fvf["current_max_lsb"] <= CURRENT_MAX_LSB, fvf
+    assert fvf["t_out_rms_pct_fs"] <= T_OUT_RMS_PCT_FS, fvf
+    # The T_c writes landed where the float reference assumes (TC_EFF read back over AXI).
+    checks = result["checks"]
+    assert checks["late_tc_writes"] == 0 and checks["tc_eff_mismatches"] == 0, checks
+    assert checks["tc_eff_checks"] >= int(DURATION_S * 1000) // 10 - 1, checks
+
+
+def test_cosim_compensation_beats_none(built):
+    none = _run("none", True)
+    for comp in ("paper", "smooth"):
+        res = _run(comp, True)
+        assert res["rms_error_pct"] < 0.5 * none["rms_error_pct"], (comp, res, none)
+        assert res["peak_error_pct"] < none["peak_error_pct"], (comp, res, none)
+
+
+def test_cosim_smooth_beats_paper_on_peak_error(built):
+    paper, smooth = _run("paper", True), _run("smooth", True)
+    assert smooth["peak_error_pct"] < paper["peak_error_pct"], (smooth, paper)
+
+
+def test_cosim_loop_routing_beats_no_loop_routing(built):
+    # With the smooth compensator the error is the compensator's friction model: phi stays 2*pi
+    # with the loop, and moves with the end-effector without it. (With the paper law, the
+    # actuator's response to the jump of T_c dominates; see cosim/README.md.)
+    loop, free = _run("smooth", True), _run("smooth", False)
+    assert loop["rms_error_pct"] < free["rms_error_pct"], (loop, free)
+    assert loop["peak_error_pct"] < free["peak_error_pct"], (loop, free)
+
+
+def test_cosim_rtl_matches_the_bit_exact_model_chain(built):
+    """The RTL co-simulation gives the command word of the firmware + rtl_model chain at every
+    sample: the harness's timing (ADC hand-over, command read, TC write latency) is the one the
+    models assume."""
+    scen = get_scenario("fig14")
+    cfg = SimConfig()
+    duration = 1.5  # the rise and the first reversal (the paper law's jump of T_c)
+    phi = reference.resolve_phi(scen, cfg, True)
+    spec = {
+        "scenario": "fig14",
+        "compensator": "paper",
+        "loop_routing": True,
+        "duration_s": duration,
+        "phi_rad": phi,
+        "config": cfg.to_dict(),
+    }
+    fixed, _ = runner.run_closed_loop(spec, progress=False)
+    model = reference.run_model_chain(scen, cfg, "paper", True, phi, duration)
+    diff = np.flatnonzero(fixed["u_word"] != model["u_word"])
+    assert diff.size == 0, (
+        f"{diff.size} samples differ, first at {diff[0]}: RTL {fixed['u_word'][diff[0]]}, "
+        f"model {model['u_word'][diff[0]]}"
+    )
+    assert np.abs(model["u_word"]).max() > 4000  # the loop did drive the cable (> 1 A)
+
+
+def test_cosim_characterize_fits_the_papers_mu(built):
+    """One ramp of the characterisation through the RTL: the capstan fit returns mu = 0.075."""
+    result = sim.run(scenario="characterize", duration_s=3.0, progress=False, write_files=False)
+    (fit,) = result["friction_fit"]
+    assert fit["phi_rad"] == pytest.approx(2 * np.pi)
+    assert fit["mu"] == pytest.approx(0.075, rel=0.03)
+
+
+def test_cosim_positions_spread_smaller_with_loop_routing():
+    """Paper Fig. 13: the friction (mu*phi fitted per position) spreads less with the loop. Run
+    on the float reference (fast), which the fixed-point chain tracks within the budget above."""
+    scen = get_scenario("positions")
+    cfg = SimConfig()
+    spreads = {}
+    for loop_routing in (True, False):
+        rec = reference.run_reference(scen, cfg, "none", loop_routing, 0.0, progress=False)
+        fits = sim.friction_fits(scen, cfg, rec)
+        mu_phi = np.array([f["mu_phi"] for f in fits])
+        assert len(fits) == len(scen.segments)
+        # The fit recovers the plant's mu at every position (phi from the FMU's geometry).
+        np.testing.assert_allclose([f["mu"] for f in fits], 0.075, rtol=0.03)
+        spreads[loop_routing] = float(np.ptp(mu_phi))
+    assert spreads[True] < 0.2 * spreads[False], spreads
+
+
+def test_cosim_metrics_of_result_match_the_trace(built, tmp_path):
+    """`bowden sim` writes result.json whose figures are those of its trace.csv."""
+    import json
+
+    from cosim import trace
+
+    out = tmp_path / "run"
+    result = sim.run(
+        scenario="fig14", compensator="smooth", duration_s=1.5, out_dir=out, progress=False
+    )
+    on_disk = json.loads((out / "result.json").read_text())
+    for key in (
+        "scenario",
+        "compensator",
+        "loop_routing",
+        "samples",
+        "sim_seconds",
+        "wall_seconds",
+        "rms_error_n",
+        "rms_error_pct",
+        "peak_error_n",
+        "peak_error_pct",
+        "fixed_vs_float",
+    ):
+        assert key in on_disk, key
+    assert on_disk["rms_error_n"] == result["rms_error_n"]
+    tr = trace.read_trace(out / "trace.csv")
+    assert tr.meta["sample_rate_hz"] == 10_000.0 and tr.meta["loop_routing"] is True
+    again = metrics.tracking_error(tr["t_s"], tr["T_ref_N"], tr["T_out_N"], on_disk["settle_s"])
+    assert again["rms_error_n"] == pytest.approx(on_disk["rms_error_n"], rel=1e-6)
+    assert again["peak_error_n"] == pytest.approx(on_disk["peak_error_n"], rel=1e-6)
+    for png in ("tracking.png", "fixed_vs_float.png"):
+        assert (out / png).stat().st_size > 10_000
