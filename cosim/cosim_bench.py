@@ -1,0 +1,82 @@
+"""Closed-loop speed benchmark (`make bench-cosim`, part of `make bench`).
+
+Runs the 30 s fig14 scenario (compensator paper, loop routing) through the RTL on Verilator at
+the default 10 kHz loop with the firmware and the FMU, and prints simulated seconds per wall
+second and the cost split: RTL (Verilator and cocotb's per-clock scheduling, calibrated on bare
+samples), FMU steps, firmware ticks, and the harness (AXI4-Lite driver coroutines and per-sample
+glue). Targets (issue 6): real time or better, and harness <= RTL + FMU + firmware. A benchmark
+prints figures and does not fail on a slow or busy machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m cosim.cosim_bench", description=__doc__)
+    parser.add_argument("--duration", type=float, default=30.0, help="simulated seconds")
+    parser.add_argument("--compensator", default="paper", choices=("none", "paper", "smooth"))
+    args = parser.parse_args(argv)
+
+    from .harness import runner  # noqa: PLC0415
+    from .reference import resolve_phi  # noqa: PLC0415
+    from .scenarios import SimConfig, get_scenario  # noqa: PLC0415
+
+    cfg = SimConfig()
+    scen = get_scenario("fig14")
+    runner.build("verilator")
+    spec = {
+        "scenario": "fig14",
+        "compensator": args.compensator,
+        "loop_routing": True,
+        "duration_s": args.duration,
+        "phi_rad": resolve_phi(scen, cfg, True),
+        "config": cfg.to_dict(),
+    }
+    t0 = time.perf_counter()
+    _, cost = runner.run_closed_loop(spec, progress=False)
+    wall = time.perf_counter() - t0
+    sim_s = cost["samples"] / cfg.sample_rate_hz
+    loop = cost["total_s"]
+    parts = {k: cost[k] for k in ("rtl_s", "fmu_s", "firmware_s", "harness_s")}
+    own = parts["rtl_s"] + parts["fmu_s"] + parts["firmware_s"]
+    n = cost["samples"]
+    try:
+        load = os.getloadavg()[0]
+    except OSError:
+        load = float("nan")
+
+    print(f"closed-loop co-simulation benchmark: fig14 {args.compensator}, loop routing, ", end="")
+    print(f"{sim_s:g} s simulated at {cfg.sample_rate_hz:g} Hz, Verilator,")
+    print(f"  {cost['clks_per_sample']} clocks per sample, load average {load:.2f} (2 cores)")
+    print(f"  wall time, whole run (simulator start-up included): {wall:7.2f} s")
+    print(f"  wall time, closed loop:                             {loop:7.2f} s")
+    print(f"  simulated seconds per wall second (whole run):      {sim_s / wall:7.2f}")
+    print(f"  simulated seconds per wall second (closed loop):    {sim_s / loop:7.2f}")
+    print("  cost split of the closed loop:")
+    for name, label in (
+        ("rtl_s", "RTL (Verilator + cocotb clocks)"),
+        ("fmu_s", "FMU (doStep through ctypes)"),
+        ("firmware_s", "firmware (fw_tick, ctypes)"),
+        ("harness_s", "harness (AXI driver + glue)"),
+    ):
+        v = parts[name]
+        print(f"    {label:<34}{v:8.2f} s {100 * v / loop:5.1f} %  {1e6 * v / n:7.1f} us/sample")
+    print(f"    of which AXI4-Lite (cocotbext-axi){cost['bus_s']:8.2f} s")
+    print(
+        f"  target real time (wall <= {sim_s:g} s):  "
+        f"{'met' if wall <= sim_s else 'NOT met'} ({wall:.1f} s)"
+    )
+    print(
+        f"  target harness <= RTL + FMU + firmware ({own:.2f} s): "
+        f"{'met' if parts['harness_s'] <= own else 'NOT met'} ({parts['harness_s']:.2f} s)"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
