@@ -35,7 +35,7 @@ ADC_CODE_MIN = -(1 << 23)
 ADC_CODE_MAX = (1 << 23) - 1
 
 #: Clocks from the sample tick to `out_valid` in tension_loop.v; ticks must be this far apart.
-LATENCY_CLKS = 13
+LATENCY_CLKS = 15
 #: Default watchdog ramp of u towards zero, Q3.12 A per sample (tension_loop WDT_RAMP_STEP).
 WDT_RAMP_STEP = 41
 

@@ -104,7 +104,8 @@ def gen_verilog(spec: dict) -> str:
     out.extend("// " + line for line in textwrap.wrap(spec["description"], 96))
     w("//")
     w("// Register bus: a write (reg_wr_en) takes effect at the clock edge; a read (reg_rd_en)")
-    w("// returns reg_rd_data and reg_rd_err on the next cycle. Unmapped addresses read 0 and")
+    w("// returns reg_rd_data and reg_rd_err two cycles later (the address is registered before")
+    w("// the read multiplexer, which keeps the iCE40 at 48 MHz). Unmapped addresses read 0 and")
     w("// report an error (SLVERR on AXI4-Lite); writes to read-only registers are ignored.")
     w("")
     w("`resetall")
@@ -158,6 +159,10 @@ def gen_verilog(spec: dict) -> str:
     w("")
     w("wire [ADDR_W-3:0] wr_word = reg_wr_addr[ADDR_W-1:2];")
     w("wire [ADDR_W-3:0] rd_word = reg_rd_addr[ADDR_W-1:2];")
+    n = len(spec["registers"])
+    w(f"reg  [{n - 1}:0]        rd_sel;   // one-hot register select of the read in flight")
+    w("reg               rd_miss;  // the read address is unmapped")
+    w("reg               rd_pend;  // a read is in its second cycle")
     w("")
     w("// Write data with the byte strobes applied to the stored value: bit i is written when")
     w("// strobe i/8 is set.")
@@ -185,7 +190,33 @@ def gen_verilog(spec: dict) -> str:
     w("reg  [31:0] rd_data_reg, rd_data_next;")
     w("reg         rd_err_reg, rd_err_next;")
     w("reg         wr_hit;")
-    w("reg         rd_hit;")
+    w("")
+    w("// Read value of every register.")
+    for reg in spec["registers"]:
+        parts = []
+        pos = 32
+        for f in sorted(reg["fields"], key=lambda f: -f["lsb"]):
+            name = port(reg, f)
+            wd, lsb = f["width"], f["lsb"]
+            if f["access"] == "const":
+                src = f"{wd}'h{reset_bits(f):X}"
+            elif f["access"] == "rw":
+                src = f"{name}_reg"
+            elif f["access"] == "ro":
+                src = f"hw_{name}"
+            else:
+                src = f"{wd}'d0"  # write-1 pulses read as 0
+            top = lsb + wd
+            if top < pos:
+                if f["signed"] and f["access"] != "w1p" and lsb == 0 and len(reg["fields"]) == 1:
+                    parts.append(f"{{{pos - top}{{{src}[{wd - 1}]}}}}")  # sign extension
+                else:
+                    parts.append(f"{pos - top}'d0")
+            parts.append(src)
+            pos = lsb
+        if pos > 0:
+            parts.append(f"{pos}'d0")
+        w(f"wire [31:0] rword_{reg['name'].lower()} = {{{', '.join(parts)}}};")
     w("")
     w("always @* begin")
     for reg in spec["registers"]:
@@ -221,36 +252,13 @@ def gen_verilog(spec: dict) -> str:
     w("        endcase")
     w("    end")
     w("")
-    w("    rd_data_next = 32'd0;")
-    w("    rd_hit = 1'b0;")
-    w("    case (rd_word)")
-    for reg in spec["registers"]:
-        w(f"        A_{reg['name']}: begin")
-        w("            rd_hit = 1'b1;")
-        for f in reg["fields"]:
-            name = port(reg, f)
-            wd, lsb = f["width"], f["lsb"]
-            hi = lsb + wd - 1
-            if f["access"] == "const":
-                src = f"{wd}'h{reset_bits(f):X}"
-            elif f["access"] == "rw":
-                src = f"{name}_reg"
-            elif f["access"] == "ro":
-                src = f"hw_{name}"
-            else:
-                continue  # write-1 pulses read as 0
-            if f["signed"] and wd < 32 and lsb == 0:
-                w(f"            // sign-extended: {f.get('format', '')}")
-                w(f"            rd_data_next = {{{{{32 - wd}{{{src}[{wd - 1}]}}}}, {src}}};")
-            elif wd == 1:
-                w(f"            rd_data_next[{lsb}] = {src};")
-            else:
-                w(f"            rd_data_next[{hi}:{lsb}] = {src};")
-        w("        end")
-    w("        default: rd_hit = 1'b0;")
-    w("    endcase")
-    w("    rd_err_next = ~rd_hit;")
-    w("    if (!reg_rd_en) begin")
+    w("    // One-hot select registered in the first read cycle: an AND-OR multiplexer here.")
+    w("    rd_data_next = 32'd0")
+    for i, reg in enumerate(spec["registers"]):
+        w(f"        | ({{32{{rd_sel[{i}]}}}} & rword_{reg['name'].lower()})")
+    out[-1] += ";"
+    w("    rd_err_next = rd_miss;")
+    w("    if (!rd_pend) begin")
     w("        rd_data_next = rd_data_reg;")
     w("        rd_err_next = rd_err_reg;")
     w("    end")
@@ -265,9 +273,19 @@ def gen_verilog(spec: dict) -> str:
             n = reg["name"].lower()
             w(f"    {n}_wr_reg <= {n}_wr_next;")
     w("    rd_data_reg <= rd_data_next;")
+    w("    rd_pend <= reg_rd_en;")
+    w("    if (reg_rd_en) begin")
+    for i, reg in enumerate(spec["registers"]):
+        w(f"        rd_sel[{i}] <= (rd_word == A_{reg['name']});")
+    w("        rd_miss <= !(")
+    for i, reg in enumerate(spec["registers"]):
+        sep = " ||" if i < len(spec["registers"]) - 1 else ");"
+        w(f"            (rd_word == A_{reg['name']}){sep}")
+    w("    end")
     w("    rd_err_reg <= rd_err_next;")
     w("")
     w("    if (rst) begin")
+    w("        rd_pend <= 1'b0;")
     for reg in spec["registers"]:
         for f in reg["fields"]:
             if f["access"] in ("rw", "w1p"):

@@ -7,7 +7,7 @@
  *
  * One transaction of each kind at a time: a write is taken when address and data are both
  * valid (and the previous response has been accepted), a read when the address is valid and no
- * read data is waiting. The register file answers a read on the next clock. Decode errors give
+ * read is in flight. The register file answers a read two clocks later. Decode errors give
  * SLVERR; everything else OKAY.
  */
 module axil_regbus #(
@@ -59,20 +59,19 @@ localparam [1:0] RESP_SLVERR = 2'b10;
 reg       bvalid_reg, bvalid_next;
 reg [1:0] bresp_reg, bresp_next;
 reg       rvalid_reg, rvalid_next;
+reg       rwait_reg, rwait_next;  // read issued, data next clock
 
 wire wr_go = s_axil_awvalid && s_axil_wvalid && !bvalid_reg;
-wire rd_go = s_axil_arvalid && !rvalid_reg;
+wire rd_go = s_axil_arvalid && !rvalid_reg && !rwait_reg;
 
 always @* begin
     bvalid_next = bvalid_reg && !s_axil_bready;
     bresp_next = bresp_reg;
-    rvalid_next = rvalid_reg && !s_axil_rready;
+    rvalid_next = (rvalid_reg && !s_axil_rready) || rwait_reg;
+    rwait_next = rd_go;
     if (wr_go) begin
         bvalid_next = 1'b1;
         bresp_next = reg_wr_err ? RESP_SLVERR : RESP_OKAY;
-    end
-    if (rd_go) begin
-        rvalid_next = 1'b1;
     end
 end
 
@@ -80,10 +79,12 @@ always @(posedge clk) begin
     bvalid_reg <= bvalid_next;
     bresp_reg <= bresp_next;
     rvalid_reg <= rvalid_next;
+    rwait_reg <= rwait_next;
     if (rst) begin
         bvalid_reg <= 1'b0;
         bresp_reg <= RESP_OKAY;
         rvalid_reg <= 1'b0;
+        rwait_reg <= 1'b0;
     end
 end
 

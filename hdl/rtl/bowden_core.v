@@ -7,16 +7,16 @@
  * outputs. Used as is by the board tops and by the co-simulation.
  *
  * A sample tick every CLKS_PER_SAMPLE clocks (the first CLKS_PER_SAMPLE clocks after reset)
- * starts one loop computation on the most recent ADC sample; cmd_valid pulses LATENCY (13)
- * clocks later with the new command. CLKS_PER_SAMPLE may be as low as 13, which the
+ * starts one loop computation on the most recent ADC sample; cmd_valid pulses LATENCY (15)
+ * clocks later with the new command. CLKS_PER_SAMPLE may be as low as 15, which the
  * co-simulation uses to spend few simulated clocks per sample.
  */
 module bowden_core #(
     parameter CLK_HZ = 48000000,                  // system clock, Hz
     parameter SAMPLE_HZ = 10000,                  // loop rate, Hz
-    parameter CLKS_PER_SAMPLE = CLK_HZ / SAMPLE_HZ,  // clocks per sample tick (>= 13)
+    parameter CLKS_PER_SAMPLE = CLK_HZ / SAMPLE_HZ,  // clocks per sample tick (>= 15)
     parameter PWM_HZ = 5000,                      // PWM set value frequency, Hz (ESCON <= 5 kHz)
-    parameter [15:0] PWM_IMAX_Q12 = 16384,        // current at 90 % duty, Q3.12 A (4 A)
+    parameter PWM_IMAX_Q12 = 16384,               // current at 90 % duty, Q3.12 A (4 A)
     parameter [15:0] WDT_RAMP_STEP = 16'd41,      // watchdog ramp, Q3.12 A per sample
     parameter ADDR_W = 8                          // register byte address width
 ) (

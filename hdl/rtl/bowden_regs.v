@@ -5,7 +5,8 @@
 // integer bits, n fractional bits; UQm.n unsigned.
 //
 // Register bus: a write (reg_wr_en) takes effect at the clock edge; a read (reg_rd_en)
-// returns reg_rd_data and reg_rd_err on the next cycle. Unmapped addresses read 0 and
+// returns reg_rd_data and reg_rd_err two cycles later (the address is registered before
+// the read multiplexer, which keeps the iCE40 at 48 MHz). Unmapped addresses read 0 and
 // report an error (SLVERR on AXI4-Lite); writes to read-only registers are ignored.
 
 `resetall
@@ -93,6 +94,9 @@ localparam [ADDR_W-3:0] A_TC_EFF = 6'd21;
 
 wire [ADDR_W-3:0] wr_word = reg_wr_addr[ADDR_W-1:2];
 wire [ADDR_W-3:0] rd_word = reg_rd_addr[ADDR_W-1:2];
+reg  [21:0]        rd_sel;   // one-hot register select of the read in flight
+reg               rd_miss;  // the read address is unmapped
+reg               rd_pend;  // a read is in its second cycle
 
 // Write data with the byte strobes applied to the stored value: bit i is written when
 // strobe i/8 is set.
@@ -135,7 +139,30 @@ wire [15:0] oc_timeout_wval = (reg_wr_data[15:0] & wr_mask[15:0]) | (oc_timeout_
 reg  [31:0] rd_data_reg, rd_data_next;
 reg         rd_err_reg, rd_err_next;
 reg         wr_hit;
-reg         rd_hit;
+
+// Read value of every register.
+wire [31:0] rword_id = {32'h424F0100};
+wire [31:0] rword_ctrl = {28'd0, ctrl_slew_en_reg, 1'd0, 1'd0, ctrl_enable_reg};
+wire [31:0] rword_status = {28'd0, hw_status_wdt_ramp, hw_status_fault_active, hw_status_saturated, hw_status_out_en};
+wire [31:0] rword_fault = {28'd0, hw_fault_overcurrent, hw_fault_watchdog, hw_fault_adc_range, hw_fault_adc_stale};
+wire [31:0] rword_tc = {{16{tc_reg[15]}}, tc_reg};
+wire [31:0] rword_kff = {{16{kff_reg[15]}}, kff_reg};
+wire [31:0] rword_kp = {{16{kp_reg[15]}}, kp_reg};
+wire [31:0] rword_ki_ts = {{16{ki_ts_reg[15]}}, ki_ts_reg};
+wire [31:0] rword_i_limit = {17'd0, i_limit_reg};
+wire [31:0] rword_slew = {17'd0, slew_reg};
+wire [31:0] rword_wdt_timeout = {16'd0, wdt_timeout_reg};
+wire [31:0] rword_adc_offset = {{8{adc_offset_reg[23]}}, adc_offset_reg};
+wire [31:0] rword_adc_gain = {{16{adc_gain_reg[15]}}, adc_gain_reg};
+wire [31:0] rword_adc_min = {{8{adc_min_reg[23]}}, adc_min_reg};
+wire [31:0] rword_adc_max = {{8{adc_max_reg[23]}}, adc_max_reg};
+wire [31:0] rword_adc_stale = {16'd0, adc_stale_reg};
+wire [31:0] rword_oc_timeout = {16'd0, oc_timeout_reg};
+wire [31:0] rword_sample_count = {hw_sample_count};
+wire [31:0] rword_t_in = {{16{hw_t_in[15]}}, hw_t_in};
+wire [31:0] rword_u = {{16{hw_u[15]}}, hw_u};
+wire [31:0] rword_integ = {hw_integ};
+wire [31:0] rword_tc_eff = {{16{hw_tc_eff[15]}}, hw_tc_eff};
 
 always @* begin
     ctrl_enable_next = ctrl_enable_reg;
@@ -247,119 +274,32 @@ always @* begin
         endcase
     end
 
-    rd_data_next = 32'd0;
-    rd_hit = 1'b0;
-    case (rd_word)
-        A_ID: begin
-            rd_hit = 1'b1;
-            rd_data_next[31:0] = 32'h424F0100;
-        end
-        A_CTRL: begin
-            rd_hit = 1'b1;
-            rd_data_next[0] = ctrl_enable_reg;
-            rd_data_next[3] = ctrl_slew_en_reg;
-        end
-        A_STATUS: begin
-            rd_hit = 1'b1;
-            rd_data_next[0] = hw_status_out_en;
-            rd_data_next[1] = hw_status_saturated;
-            rd_data_next[2] = hw_status_fault_active;
-            rd_data_next[3] = hw_status_wdt_ramp;
-        end
-        A_FAULT: begin
-            rd_hit = 1'b1;
-            rd_data_next[0] = hw_fault_adc_stale;
-            rd_data_next[1] = hw_fault_adc_range;
-            rd_data_next[2] = hw_fault_watchdog;
-            rd_data_next[3] = hw_fault_overcurrent;
-        end
-        A_TC: begin
-            rd_hit = 1'b1;
-            // sign-extended: Q7.8
-            rd_data_next = {{16{tc_reg[15]}}, tc_reg};
-        end
-        A_KFF: begin
-            rd_hit = 1'b1;
-            // sign-extended: Q2.13
-            rd_data_next = {{16{kff_reg[15]}}, kff_reg};
-        end
-        A_KP: begin
-            rd_hit = 1'b1;
-            // sign-extended: Q2.13
-            rd_data_next = {{16{kp_reg[15]}}, kp_reg};
-        end
-        A_KI_TS: begin
-            rd_hit = 1'b1;
-            // sign-extended: Q(-4).20
-            rd_data_next = {{16{ki_ts_reg[15]}}, ki_ts_reg};
-        end
-        A_I_LIMIT: begin
-            rd_hit = 1'b1;
-            rd_data_next[14:0] = i_limit_reg;
-        end
-        A_SLEW: begin
-            rd_hit = 1'b1;
-            rd_data_next[14:0] = slew_reg;
-        end
-        A_WDT_TIMEOUT: begin
-            rd_hit = 1'b1;
-            rd_data_next[15:0] = wdt_timeout_reg;
-        end
-        A_ADC_OFFSET: begin
-            rd_hit = 1'b1;
-            // sign-extended: Q23.0
-            rd_data_next = {{8{adc_offset_reg[23]}}, adc_offset_reg};
-        end
-        A_ADC_GAIN: begin
-            rd_hit = 1'b1;
-            // sign-extended: Q(-5).20
-            rd_data_next = {{16{adc_gain_reg[15]}}, adc_gain_reg};
-        end
-        A_ADC_MIN: begin
-            rd_hit = 1'b1;
-            // sign-extended: Q23.0
-            rd_data_next = {{8{adc_min_reg[23]}}, adc_min_reg};
-        end
-        A_ADC_MAX: begin
-            rd_hit = 1'b1;
-            // sign-extended: Q23.0
-            rd_data_next = {{8{adc_max_reg[23]}}, adc_max_reg};
-        end
-        A_ADC_STALE: begin
-            rd_hit = 1'b1;
-            rd_data_next[15:0] = adc_stale_reg;
-        end
-        A_OC_TIMEOUT: begin
-            rd_hit = 1'b1;
-            rd_data_next[15:0] = oc_timeout_reg;
-        end
-        A_SAMPLE_COUNT: begin
-            rd_hit = 1'b1;
-            rd_data_next[31:0] = hw_sample_count;
-        end
-        A_T_IN: begin
-            rd_hit = 1'b1;
-            // sign-extended: Q7.8
-            rd_data_next = {{16{hw_t_in[15]}}, hw_t_in};
-        end
-        A_U: begin
-            rd_hit = 1'b1;
-            // sign-extended: Q3.12
-            rd_data_next = {{16{hw_u[15]}}, hw_u};
-        end
-        A_INTEG: begin
-            rd_hit = 1'b1;
-            rd_data_next[31:0] = hw_integ;
-        end
-        A_TC_EFF: begin
-            rd_hit = 1'b1;
-            // sign-extended: Q7.8
-            rd_data_next = {{16{hw_tc_eff[15]}}, hw_tc_eff};
-        end
-        default: rd_hit = 1'b0;
-    endcase
-    rd_err_next = ~rd_hit;
-    if (!reg_rd_en) begin
+    // One-hot select registered in the first read cycle: an AND-OR multiplexer here.
+    rd_data_next = 32'd0
+        | ({32{rd_sel[0]}} & rword_id)
+        | ({32{rd_sel[1]}} & rword_ctrl)
+        | ({32{rd_sel[2]}} & rword_status)
+        | ({32{rd_sel[3]}} & rword_fault)
+        | ({32{rd_sel[4]}} & rword_tc)
+        | ({32{rd_sel[5]}} & rword_kff)
+        | ({32{rd_sel[6]}} & rword_kp)
+        | ({32{rd_sel[7]}} & rword_ki_ts)
+        | ({32{rd_sel[8]}} & rword_i_limit)
+        | ({32{rd_sel[9]}} & rword_slew)
+        | ({32{rd_sel[10]}} & rword_wdt_timeout)
+        | ({32{rd_sel[11]}} & rword_adc_offset)
+        | ({32{rd_sel[12]}} & rword_adc_gain)
+        | ({32{rd_sel[13]}} & rword_adc_min)
+        | ({32{rd_sel[14]}} & rword_adc_max)
+        | ({32{rd_sel[15]}} & rword_adc_stale)
+        | ({32{rd_sel[16]}} & rword_oc_timeout)
+        | ({32{rd_sel[17]}} & rword_sample_count)
+        | ({32{rd_sel[18]}} & rword_t_in)
+        | ({32{rd_sel[19]}} & rword_u)
+        | ({32{rd_sel[20]}} & rword_integ)
+        | ({32{rd_sel[21]}} & rword_tc_eff);
+    rd_err_next = rd_miss;
+    if (!rd_pend) begin
         rd_data_next = rd_data_reg;
         rd_err_next = rd_err_reg;
     end
@@ -385,9 +325,58 @@ always @(posedge clk) begin
     adc_stale_reg <= adc_stale_next;
     oc_timeout_reg <= oc_timeout_next;
     rd_data_reg <= rd_data_next;
+    rd_pend <= reg_rd_en;
+    if (reg_rd_en) begin
+        rd_sel[0] <= (rd_word == A_ID);
+        rd_sel[1] <= (rd_word == A_CTRL);
+        rd_sel[2] <= (rd_word == A_STATUS);
+        rd_sel[3] <= (rd_word == A_FAULT);
+        rd_sel[4] <= (rd_word == A_TC);
+        rd_sel[5] <= (rd_word == A_KFF);
+        rd_sel[6] <= (rd_word == A_KP);
+        rd_sel[7] <= (rd_word == A_KI_TS);
+        rd_sel[8] <= (rd_word == A_I_LIMIT);
+        rd_sel[9] <= (rd_word == A_SLEW);
+        rd_sel[10] <= (rd_word == A_WDT_TIMEOUT);
+        rd_sel[11] <= (rd_word == A_ADC_OFFSET);
+        rd_sel[12] <= (rd_word == A_ADC_GAIN);
+        rd_sel[13] <= (rd_word == A_ADC_MIN);
+        rd_sel[14] <= (rd_word == A_ADC_MAX);
+        rd_sel[15] <= (rd_word == A_ADC_STALE);
+        rd_sel[16] <= (rd_word == A_OC_TIMEOUT);
+        rd_sel[17] <= (rd_word == A_SAMPLE_COUNT);
+        rd_sel[18] <= (rd_word == A_T_IN);
+        rd_sel[19] <= (rd_word == A_U);
+        rd_sel[20] <= (rd_word == A_INTEG);
+        rd_sel[21] <= (rd_word == A_TC_EFF);
+        rd_miss <= !(
+            (rd_word == A_ID) ||
+            (rd_word == A_CTRL) ||
+            (rd_word == A_STATUS) ||
+            (rd_word == A_FAULT) ||
+            (rd_word == A_TC) ||
+            (rd_word == A_KFF) ||
+            (rd_word == A_KP) ||
+            (rd_word == A_KI_TS) ||
+            (rd_word == A_I_LIMIT) ||
+            (rd_word == A_SLEW) ||
+            (rd_word == A_WDT_TIMEOUT) ||
+            (rd_word == A_ADC_OFFSET) ||
+            (rd_word == A_ADC_GAIN) ||
+            (rd_word == A_ADC_MIN) ||
+            (rd_word == A_ADC_MAX) ||
+            (rd_word == A_ADC_STALE) ||
+            (rd_word == A_OC_TIMEOUT) ||
+            (rd_word == A_SAMPLE_COUNT) ||
+            (rd_word == A_T_IN) ||
+            (rd_word == A_U) ||
+            (rd_word == A_INTEG) ||
+            (rd_word == A_TC_EFF));
+    end
     rd_err_reg <= rd_err_next;
 
     if (rst) begin
+        rd_pend <= 1'b0;
         ctrl_enable_reg <= 1'd0;
         ctrl_integ_reset_reg <= 1'd0;
         ctrl_fault_clear_reg <= 1'd0;

@@ -15,7 +15,7 @@
  */
 module pwm_escon #(
     parameter PERIOD_CLKS = 9600,     // PWM period in clocks (48 MHz / 5 kHz)
-    parameter [15:0] IMAX_Q12 = 16384 // current at 90 % duty, Q3.12 A (ESCON setting, 4 A)
+    parameter IMAX_Q12 = 16384        // current at 90 % duty, Q3.12 A, 1..32767 (ESCON: 4 A)
 ) (
     input  wire        clk,
     input  wire        rst,
@@ -43,7 +43,8 @@ function integer calc_shift;
     end
 endfunction
 
-localparam integer IMAX = {16'd0, IMAX_Q12};
+localparam integer IMAX = IMAX_Q12;
+localparam [15:0] IMAX16 = IMAX[15:0];  // fits: 1..32767
 localparam SHIFT = calc_shift(SPAN, IMAX);
 localparam integer K_INT = ((SPAN << SHIFT) + IMAX / 2) / IMAX;
 localparam [15:0] K = K_INT[15:0];  // < 2^15 by the choice of SHIFT
@@ -65,10 +66,10 @@ always @* begin
     // Clamp to +-IMAX so the duty never leaves 10..90 %.
     if (!enable) begin
         u_c = 16'd0;
-    end else if ($signed(u) > $signed(IMAX_Q12)) begin
-        u_c = IMAX_Q12;
-    end else if ($signed(u) < -$signed(IMAX_Q12)) begin
-        u_c = -IMAX_Q12;
+    end else if ($signed(u) > $signed(IMAX16)) begin
+        u_c = IMAX16;
+    end else if ($signed(u) < -$signed(IMAX16)) begin
+        u_c = -IMAX16;
     end else begin
         u_c = u;
     end

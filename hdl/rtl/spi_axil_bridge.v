@@ -139,6 +139,7 @@ always @(posedge clk) begin
         sck_sync_reg <= 3'b000;
         cs_sync_reg <= 2'b11;
         bit_cnt_reg <= 6'd0;
+        shift_out_reg <= 32'd0;
         miso_reg <= 1'b0;
         awvalid_reg <= 1'b0;
         wvalid_reg <= 1'b0;

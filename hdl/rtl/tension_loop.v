@@ -16,7 +16,7 @@
  * the formats and why this anti-windup scheme.
  *
  * Two registered multipliers (mul_s16) compute the five products in a fixed schedule; the
- * results appear LATENCY (13) clocks after the tick, marked by `out_valid`. Ticks must be at least
+ * results appear LATENCY (15) clocks after the tick, marked by `out_valid`. Ticks must be at least
  * LATENCY clocks apart. Configuration read after the tick clock is snapshotted at the tick, so
  * a register write that lands at or before the tick edge is used by that sample, and one that
  * lands later by the next.
@@ -80,7 +80,7 @@ module tension_loop #(
     output wire [31:0] sample_count
 );
 
-localparam LATENCY = 13;  // clocks from tick to out_valid; documented minimum tick spacing
+localparam LATENCY = 15;  // clocks from tick to out_valid; documented minimum tick spacing
 
 localparam [3:0] F_WDT = 4'b0100;  // fault bits: {overcurrent, watchdog, adc_range, adc_stale}
 
@@ -96,9 +96,9 @@ reg         irst_pend_reg, irst_pend_next;
 reg         fclr_pend_reg, fclr_pend_next;
 
 // Counters and latched faults.
-reg  [15:0] stale_cnt_reg, stale_cnt_next;
-reg  [15:0] wdt_cnt_reg, wdt_cnt_next;
-reg  [15:0] oc_cnt_reg, oc_cnt_next;
+reg  [16:0] stale_cnt_reg, stale_cnt_next;
+reg  [16:0] wdt_cnt_reg, wdt_cnt_next;
+reg  [16:0] oc_cnt_reg, oc_cnt_next;
 reg  [3:0]  fault_reg, fault_next;
 reg  [31:0] sample_cnt_reg, sample_cnt_next;
 
@@ -111,6 +111,7 @@ reg  [15:0] kp_s_reg, kp_s_next;
 reg  [15:0] ki_s_reg, ki_s_next;
 reg  [15:0] gain_s_reg, gain_s_next;
 reg  [14:0] lim_s_reg, lim_s_next;
+reg  [15:0] nlim_reg, nlim_next;  // -I_LIMIT, computed once per sample off the critical paths
 reg  [15:0] stale_to_s_reg, stale_to_s_next;
 reg  [15:0] wdt_to_s_reg, wdt_to_s_next;
 reg  [15:0] oc_to_s_reg, oc_to_s_next;
@@ -136,8 +137,14 @@ reg  [33:0] fp_reg, fp_next;
 reg  [32:0] isum_reg, isum_next;
 reg         pi_pos_reg, pi_pos_next;
 reg         pi_neg_reg, pi_neg_next;
+reg         ihi_reg, ihi_next;
+reg         ilo_reg, ilo_next;
 reg  [31:0] inew_reg, inew_next;
 reg  [24:0] r_reg, r_next;
+reg         rhi_reg, rhi_next;
+reg         rlo_reg, rlo_next;
+reg  [15:0] u_ramp_reg, u_ramp_next;
+reg         ramp_nz_reg, ramp_nz_next;
 
 // Results.
 reg  [15:0] t_in_reg, t_in_next;
@@ -166,22 +173,21 @@ wire        fclr_now = fclr_pend_reg | fault_clear;
 wire        tcw_now = tcw_pend_reg | tc_wr;
 wire        irst_now = irst_pend_reg | integ_reset;
 
-// Counters saturate at 2^16 - 1 so a long fault never wraps to "fine".
-wire [15:0] stale_base = fclr_now ? 16'd0 : stale_cnt_reg;
-wire [15:0] wdt_base = fclr_now ? 16'd0 : wdt_cnt_reg;
-wire [15:0] stale_now = fresh_now ? 16'd0 :
-                        (&stale_base) ? stale_base : stale_base + 16'd1;
-wire [15:0] wdt_now = (!enable || tcw_now) ? 16'd0 :
-                      (&wdt_base) ? wdt_base : wdt_base + 16'd1;
+// Counters stop at 2^16 so a long fault never wraps to "fine"; every threshold is below 2^16,
+// so for the checks (count >= threshold) this equals the model's saturation at 2^16 - 1.
+wire [16:0] stale_base = fclr_now ? 17'd0 : stale_cnt_reg;
+wire [16:0] wdt_base = fclr_now ? 17'd0 : wdt_cnt_reg;
+wire [16:0] stale_now = fresh_now ? 17'd0 : stale_base + {16'd0, !stale_base[16]};
+wire [16:0] wdt_now = (!enable || tcw_now) ? 17'd0 : wdt_base + {16'd0, !wdt_base[16]};
 wire range_bad = ($signed(raw_now) < $signed(adc_min)) || ($signed(raw_now) > $signed(adc_max));
 
 // --- later clocks ---------------------------------------------------------------------------
 
 // Clock 1: fault detection on the snapshot (thresholds of 0 switch a check off).
-wire [3:0] detect = {(oc_to_s_reg != 16'd0) && (oc_cnt_reg >= oc_to_s_reg),
-                     (wdt_to_s_reg != 16'd0) && (wdt_cnt_reg >= wdt_to_s_reg),
+wire [3:0] detect = {(oc_to_s_reg != 16'd0) && (oc_cnt_reg >= {1'b0, oc_to_s_reg}),
+                     (wdt_to_s_reg != 16'd0) && (wdt_cnt_reg >= {1'b0, wdt_to_s_reg}),
                      range_s_reg,
-                     (stale_to_s_reg != 16'd0) && (stale_cnt_reg >= stale_to_s_reg)};
+                     (stale_to_s_reg != 16'd0) && (stale_cnt_reg >= {1'b0, stale_to_s_reg})};
 wire [3:0] faults_now = fbase_s_reg | det_reg;
 
 // Clock 2: slew limit, T_c' = clamp(T_c, T_c'[n-1] - SLEW, T_c'[n-1] + SLEW); the result lies
@@ -199,24 +205,23 @@ wire signed [16:0] e_full = $signed({tce_s_reg[15], tce_s_reg}) -
 wire e_ovf = e_full[16] != e_full[15];
 wire [15:0] e_now = e_ovf ? {e_full[16], {15{~e_full[16]}}} : e_full[15:0];
 
-// Clock 10: integrator, clamped to +-I_LIMIT in Q3.28 (33-bit compare, exact), held while the
-// previous output was saturated in the direction KI_TS*e pushes (conditional integration).
+// Clocks 10-11: integrator, clamped to +-I_LIMIT in Q3.28 (33-bit compare, exact), held while
+// the previous output was saturated in the direction KI_TS*e pushes (conditional integration).
 wire signed [32:0] lim28 = $signed({2'b00, lim_s_reg, 16'd0});
-wire [32:0] i_clamped = ($signed(isum_reg) > lim28) ? lim28 :
-                        ($signed(isum_reg) < -lim28) ? -lim28 : isum_reg;
+wire signed [32:0] nlim28 = $signed({nlim_reg[15], nlim_reg, 16'd0});
+wire [32:0] i_clamped = ihi_reg ? lim28 : ilo_reg ? nlim28 : isum_reg;
 wire windup = (sat_hi_reg && pi_pos_reg) || (sat_lo_reg && pi_neg_reg);
 
-// Clock 11: rounded sum, Q3.12 in 25 bits: |fp| < 2^32, |I >> 7| < 2^24, so 34 bits hold it
+// Clock 12: rounded sum, Q3.12 in 25 bits: |fp| < 2^32, |I >> 7| < 2^24, so 34 bits hold it
 // (the +2^8 in ff_reg turns the arithmetic shift's floor into rounding).
 wire signed [33:0] v_sum = $signed(fp_reg) + $signed({{9{inew_reg[31]}}, inew_reg[31:7]});
 
-// Clock 12: output saturation at +-I_LIMIT.
+// Clocks 13-14: output saturation at +-I_LIMIT.
 wire signed [24:0] lim12 = $signed({10'd0, lim_s_reg});
-wire r_hi = $signed(r_reg) > lim12;
-wire r_lo = $signed(r_reg) < -lim12;
-wire [15:0] u_sat = r_hi ? {1'b0, lim_s_reg} : r_lo ? -{1'b0, lim_s_reg} : r_reg[15:0];
+wire signed [24:0] nlim12 = $signed({{9{nlim_reg[15]}}, nlim_reg});
+wire [15:0] u_sat = rhi_reg ? {1'b0, lim_s_reg} : rlo_reg ? nlim_reg : r_reg[15:0];
 
-// Watchdog ramp of the previous command towards zero.
+// Watchdog ramp of the previous command towards zero (computed in clock 13 into u_ramp_reg).
 wire signed [15:0] step = $signed(WDT_RAMP_STEP);
 wire [15:0] u_ramp = ($signed(u_reg) > step) ? u_reg - step :
                      ($signed(u_reg) < -step) ? u_reg + step : 16'd0;
@@ -248,6 +253,7 @@ always @* begin
     ki_s_next = ki_s_reg;
     gain_s_next = gain_s_reg;
     lim_s_next = lim_s_reg;
+    nlim_next = nlim_reg;
     stale_to_s_next = stale_to_s_reg;
     wdt_to_s_next = wdt_to_s_reg;
     oc_to_s_next = oc_to_s_reg;
@@ -272,8 +278,14 @@ always @* begin
     isum_next = isum_reg;
     pi_pos_next = pi_pos_reg;
     pi_neg_next = pi_neg_reg;
+    ihi_next = ihi_reg;
+    ilo_next = ilo_reg;
     inew_next = inew_reg;
     r_next = r_reg;
+    rhi_next = rhi_reg;
+    rlo_next = rlo_reg;
+    u_ramp_next = u_ramp_reg;
+    ramp_nz_next = ramp_nz_reg;
 
     t_in_next = t_in_reg;
     u_next = u_reg;
@@ -295,7 +307,7 @@ always @* begin
         sample_cnt_next = sample_cnt_reg + 32'd1;
         stale_cnt_next = stale_now;
         wdt_cnt_next = wdt_now;
-        oc_cnt_next = fclr_now ? 16'd0 : oc_cnt_reg;
+        oc_cnt_next = fclr_now ? 17'd0 : oc_cnt_reg;
         en_s_next = enable;
         slew_en_s_next = slew_en;
         tc_s_next = tc;
@@ -322,6 +334,7 @@ always @* begin
         cmp_lo_next = $signed({tc_s_reg[15], tc_s_reg}) < $signed(lo_s_reg);
         m1_a = diff_reg[24:9];
         m1_b = gain_s_reg;
+        nlim_next = -{1'b0, lim_s_reg};
     end
 
     // Clock 2: faults latch, mode, T_c'; low 9 bits of the difference (non-negative) times gain.
@@ -373,39 +386,53 @@ always @* begin
         pi_neg_next = m2_p[31];
     end
 
-    // Clock 10: new integrator.
+    // Clock 10: integrator clamp comparisons.
     if (seq_reg[9]) begin
+        ihi_next = $signed(isum_reg) > lim28;
+        ilo_next = $signed(isum_reg) < nlim28;
+    end
+
+    // Clock 11: new integrator.
+    if (seq_reg[10]) begin
         inew_next = windup ? iprev_reg : i_clamped[31:0];
     end
 
-    // Clock 11: rounded output before saturation.
-    if (seq_reg[10]) begin
+    // Clock 12: rounded output before saturation.
+    if (seq_reg[11]) begin
         r_next = v_sum[33:9];
     end
 
-    // Clock 12: saturate, apply the mode.
-    if (seq_reg[11]) begin
+    // Clock 13: saturation comparisons.
+    if (seq_reg[12]) begin
+        rhi_next = $signed(r_reg) > lim12;
+        rlo_next = $signed(r_reg) < nlim12;
+        u_ramp_next = u_ramp;
+        ramp_nz_next = u_ramp != 16'd0;
+    end
+
+    // Clock 14: saturate, apply the mode.
+    if (seq_reg[13]) begin
         out_valid_next = 1'b1;
         if (run_reg) begin
             u_next = u_sat;
             integ_next = inew_reg;
-            sat_hi_next = r_hi;
-            sat_lo_next = r_lo;
+            sat_hi_next = rhi_reg;
+            sat_lo_next = rlo_reg;
             out_en_next = 1'b1;
             ramp_st_next = 1'b0;
             tc_eff_next = tce_s_reg;
-            // Consecutive saturated samples, saturating at 2^16 - 1.
-            oc_cnt_next = !(r_hi || r_lo) ? 16'd0 :
-                          (&oc_cnt_reg) ? oc_cnt_reg : oc_cnt_reg + 16'd1;
+            // Consecutive saturated samples, stopping at 2^16.
+            oc_cnt_next = !(rhi_reg || rlo_reg) ? 17'd0 :
+                          oc_cnt_reg + {16'd0, !oc_cnt_reg[16]};
         end else begin
-            u_next = ramp_reg ? u_ramp : 16'd0;
-            out_en_next = ramp_reg && (u_ramp != 16'd0);
-            ramp_st_next = ramp_reg && (u_ramp != 16'd0);
+            u_next = ramp_reg ? u_ramp_reg : 16'd0;
+            out_en_next = ramp_reg && ramp_nz_reg;
+            ramp_st_next = ramp_reg && ramp_nz_reg;
             integ_next = 32'd0;
             sat_hi_next = 1'b0;
             sat_lo_next = 1'b0;
             tc_eff_next = 16'd0;
-            oc_cnt_next = 16'd0;
+            oc_cnt_next = 17'd0;
         end
     end
 end
@@ -430,6 +457,7 @@ always @(posedge clk) begin
     ki_s_reg <= ki_s_next;
     gain_s_reg <= gain_s_next;
     lim_s_reg <= lim_s_next;
+    nlim_reg <= nlim_next;
     stale_to_s_reg <= stale_to_s_next;
     wdt_to_s_reg <= wdt_to_s_next;
     oc_to_s_reg <= oc_to_s_next;
@@ -453,8 +481,14 @@ always @(posedge clk) begin
     isum_reg <= isum_next;
     pi_pos_reg <= pi_pos_next;
     pi_neg_reg <= pi_neg_next;
+    ihi_reg <= ihi_next;
+    ilo_reg <= ilo_next;
     inew_reg <= inew_next;
     r_reg <= r_next;
+    rhi_reg <= rhi_next;
+    rlo_reg <= rlo_next;
+    u_ramp_reg <= u_ramp_next;
+    ramp_nz_reg <= ramp_nz_next;
     t_in_reg <= t_in_next;
     u_reg <= u_next;
     out_en_reg <= out_en_next;
@@ -472,9 +506,9 @@ always @(posedge clk) begin
         tcw_pend_reg <= 1'b0;
         irst_pend_reg <= 1'b0;
         fclr_pend_reg <= 1'b0;
-        stale_cnt_reg <= 16'd0;
-        wdt_cnt_reg <= 16'd0;
-        oc_cnt_reg <= 16'd0;
+        stale_cnt_reg <= 17'd0;
+        wdt_cnt_reg <= 17'd0;
+        oc_cnt_reg <= 17'd0;
         fault_reg <= 4'd0;
         sample_cnt_reg <= 32'd0;
         run_reg <= 1'b0;

@@ -1,6 +1,6 @@
 """Testbench of hdl/rtl/bowden_core.v: AXI4-Lite registers (cocotbext-axi) and the loop.
 
-The core runs at its minimum of 13 clocks per sample, as the co-simulation runs it. A monitor
+The core runs at its minimum of 15 clocks per sample, as the co-simulation runs it. A monitor
 watches the bus and ports every clock and replays into the bit-exact model what the RTL sees at
 each clock edge: ADC samples, sample ticks and register writes, in the RTL's order (a write that
 completes on a tick edge counts for the next sample). Every cmd_valid is compared to the model.
@@ -21,7 +21,7 @@ from hdl_sim import SIMULATORS, rtl, run_cocotb
 from cosim import regmap
 from cosim.rtl_model import FAULT_WATCHDOG, TensionLoopModel, adc_code_from_tension
 
-CLKS_PER_SAMPLE = 13
+CLKS_PER_SAMPLE = 15
 ADDR_TO_NAME = {reg.addr: name for name, reg in regmap.REGISTERS.items()}
 RESP_OKAY, RESP_SLVERR = 0, 2
 
@@ -212,8 +212,8 @@ async def loop_through_axi_against_model(dut):
         else:
             await tb.read(rng.choice(["U", "T_IN", "INTEG", "SAMPLE_COUNT"]))
         await ClockCycles(dut.clk, rng.randint(0, 12))
-    assert tb.compared > 250, f"only {tb.compared} samples compared"
-    assert tb.model.sample_count > 250
+    assert tb.compared > 200, f"only {tb.compared} samples compared"
+    assert tb.model.sample_count > 200
 
 
 @cocotb.test()
@@ -259,7 +259,7 @@ async def readback_and_watchdog_over_axi(dut):
 
 @pytest.mark.parametrize("simulator", SIMULATORS)
 def test_bowden_core(simulator):
-    """Build bowden_core at 13 clocks per sample and run the coroutines above."""
+    """Build bowden_core at 15 clocks per sample and run the coroutines above."""
     sources = rtl("bowden_core", "axil_regbus", "bowden_regs", "tension_loop", "mul_s16")
     sources += rtl("pwm_escon")
     params = {"CLKS_PER_SAMPLE": CLKS_PER_SAMPLE, "CLK_HZ": 1_000_000, "PWM_HZ": 5000}
