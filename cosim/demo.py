@@ -34,6 +34,12 @@ def add_parser(subparsers) -> None:
     p.add_argument("--out", default=str(BUILD_DIR / "demo"), help="output folder")
     p.add_argument("--duration", type=float, default=None, help="simulated seconds per run")
     p.add_argument("--simulator", choices=("verilator", "icarus"), default="verilator")
+    p.add_argument(
+        "--bus",
+        choices=("cocotbext-axi", "lean"),
+        default="cocotbext-axi",
+        help="AXI4-Lite driver of the testbench (same results; lean is faster)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=main)
 
@@ -54,6 +60,7 @@ def main(args: argparse.Namespace) -> int:
                 compensator=compensator,
                 loop_routing=loop_routing,
                 simulator=args.simulator,
+                bus=args.bus,
                 duration_s=args.duration,
                 out_dir=out / folder,
                 progress=not args.quiet,

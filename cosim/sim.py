@@ -33,6 +33,8 @@ from .scenarios import COMPENSATORS, SCENARIO_NAMES, SimConfig, get_scenario, lo
 # Default compensator per scenario: the characterisations measure the plant itself.
 DEFAULT_COMPENSATOR = {"characterize": "none", "positions": "none", "fig14": "paper"}
 SIMULATORS = ("verilator", "icarus")
+# AXI4-Lite drivers of the testbench (cosim/harness/tb_closed_loop.py): identical results.
+BUSES = ("cocotbext-axi", "lean")
 # Full scale of the load cell path (contract.md: default calibration, about +-64 N).
 FULL_SCALE_N = 64.0
 
@@ -57,6 +59,12 @@ def add_parser(subparsers) -> None:
         help="route the sheath without the loop (phi follows the end-effector)",
     )
     p.add_argument("--simulator", choices=SIMULATORS, default="verilator")
+    p.add_argument(
+        "--bus",
+        choices=BUSES,
+        default="cocotbext-axi",
+        help="AXI4-Lite driver: cocotbext-axi (default) or the lean one (same results, faster)",
+    )
     p.add_argument("--params", default=None, help="JSON file of parameter overrides")
     p.add_argument("--duration", type=float, default=None, help="simulated seconds (default: all)")
     p.add_argument("--out", required=True, help="output folder")
@@ -81,6 +89,7 @@ def main(args: argparse.Namespace) -> int:
             compensator=args.compensator,
             loop_routing=args.loop_routing,
             simulator=args.simulator,
+            bus=args.bus,
             cfg=cfg,
             duration_s=args.duration,
             out_dir=Path(args.out),
@@ -100,6 +109,7 @@ def run(
     compensator: str | None = None,
     loop_routing: bool = True,
     simulator: str = "verilator",
+    bus: str = "cocotbext-axi",
     cfg: SimConfig | None = None,
     duration_s: float | None = None,
     out_dir: Path | None = None,
@@ -117,6 +127,8 @@ def run(
     cfg.validate()
     if simulator not in SIMULATORS:
         raise ValueError(f"simulator must be one of {', '.join(SIMULATORS)}; got {simulator!r}")
+    if bus not in BUSES:
+        raise ValueError(f"bus must be one of {', '.join(BUSES)}; got {bus!r}")
     scen = get_scenario(scenario)
     compensator = compensator or DEFAULT_COMPENSATOR[scenario]
     if compensator not in COMPENSATORS:
@@ -134,6 +146,7 @@ def run(
         "duration_s": duration,
         "phi_rad": phi_rad,
         "config": cfg.to_dict(),
+        "bus": bus,
     }
     runner.build(simulator)  # reused when up to date; not part of the run's wall time
     t0 = time.perf_counter()
@@ -180,6 +193,7 @@ def evaluate(scen, cfg, run_spec, fixed, ref, wall_s, cost) -> dict:
         "loop_wall_seconds": cost.get("total_s"),
         "cost_s": {k: cost[k] for k in ("rtl_s", "fmu_s", "firmware_s", "harness_s", "bus_s")},
         "clks_per_sample": cost.get("clks_per_sample"),
+        "bus": run_spec["bus"],
         "checks": {
             "tc_latency_samples": cost.get("tc_latency_samples"),
             "late_tc_writes": cost.get("late_writes"),

@@ -85,10 +85,11 @@ def test_cosim_loop_routing_beats_no_loop_routing(built):
     assert loop["peak_error_pct"] < free["peak_error_pct"], (loop, free)
 
 
-def test_cosim_rtl_matches_the_bit_exact_model_chain(built):
+@pytest.mark.parametrize("bus", ["cocotbext-axi", "lean"])
+def test_cosim_rtl_matches_the_bit_exact_model_chain(built, bus):
     """The RTL co-simulation gives the command word of the firmware + rtl_model chain at every
-    sample: the harness's timing (ADC hand-over, command read, TC write latency) is the one the
-    models assume."""
+    sample, with either AXI4-Lite driver: the harness's timing (ADC hand-over, command read, TC
+    write latency) is the one the models assume."""
     scen = get_scenario("fig14")
     cfg = SimConfig()
     duration = 1.5  # the rise and the first reversal (the paper law's jump of T_c)
@@ -100,8 +101,10 @@ def test_cosim_rtl_matches_the_bit_exact_model_chain(built):
         "duration_s": duration,
         "phi_rad": phi,
         "config": cfg.to_dict(),
+        "bus": bus,
     }
-    fixed, _ = runner.run_closed_loop(spec, progress=False)
+    fixed, cost = runner.run_closed_loop(spec, progress=False)
+    assert cost["late_writes"] == 0 and cost["tc_mismatch"] == 0, cost
     model = reference.run_model_chain(scen, cfg, "paper", True, phi, duration)
     diff = np.flatnonzero(fixed["u_word"] != model["u_word"])
     assert diff.size == 0, (
