@@ -170,7 +170,9 @@ def run(
 def evaluate(scen, cfg, run_spec, fixed, ref, wall_s, cost) -> dict:
     """The figures of result.json from the records of the two runs."""
     n = len(fixed["t_s"])
-    err = metrics.tracking_error(fixed["t_s"], fixed["T_ref_N"], fixed["T_out_N"], scen.settle_s)
+    # Runs shorter than the start-up window are evaluated whole.
+    settle = scen.settle_s if fixed["t_s"][-1] > scen.settle_s else 0.0
+    err = metrics.tracking_error(fixed["t_s"], fixed["T_ref_N"], fixed["T_out_N"], settle)
     result = {
         "scenario": run_spec["scenario"],
         "compensator": run_spec["compensator"],
@@ -183,7 +185,7 @@ def evaluate(scen, cfg, run_spec, fixed, ref, wall_s, cost) -> dict:
         "peak_error_n": err["peak_error_n"],
         "peak_error_pct": err["peak_error_pct"],
         "max_ref_n": err["max_ref_n"],
-        "settle_s": scen.settle_s,
+        "settle_s": settle,
         "sample_rate_hz": cfg.sample_rate_hz,
         "firmware_rate_hz": cfg.firmware_rate_hz,
         "compensator_phi_rad": run_spec["phi_rad"],
@@ -210,7 +212,7 @@ def evaluate(scen, cfg, run_spec, fixed, ref, wall_s, cost) -> dict:
             if err["max_ref_n"] > 0
             else None
         )
-        ref_err = metrics.tracking_error(ref["t_s"], ref["T_ref_N"], ref["T_out_N"], scen.settle_s)
+        ref_err = metrics.tracking_error(ref["t_s"], ref["T_ref_N"], ref["T_out_N"], settle)
         result["float_reference"] = {k: ref_err[k] for k in sorted(ref_err)}
     if scen.segments:
         result["friction_fit"] = friction_fits(scen, cfg, fixed)

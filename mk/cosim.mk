@@ -7,7 +7,8 @@
 #   make demo         (top-level) runs `bowden demo`: fig14 for paper/smooth with loop routing and
 #                     paper without, outputs in build/demo/
 
-COSIM_RTL := $(sort $(wildcard hdl/rtl/*.v)) cosim/harness/cosim_top.v
+COSIM_RTL := $(sort $(wildcard hdl/rtl/*.v)) cosim/harness/cosim_top.v cosim/harness/cosim_top.vlt \
+  cosim/rtl_model.py
 COSIM_STAMP := $(BUILD)/cosim/verilator/.built
 
 .PHONY: cosim-build bench-cosim

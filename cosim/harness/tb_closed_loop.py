@@ -86,6 +86,11 @@ async def closed_loop(dut):
     # --- reset, AXI master, firmware start-up ----------------------------------------------
     Clock(dut.clk, clk_ns, unit="ns").start()
     dut.adc_word.value = 0
+    # Every input defined before reset (Icarus starts them at X; Verilator at 0).
+    for name in ("awaddr", "awprot", "awvalid", "wdata", "wstrb", "wvalid", "bready"):
+        getattr(dut, f"s_axil_{name}").value = 0
+    for name in ("araddr", "arprot", "arvalid", "rready"):
+        getattr(dut, f"s_axil_{name}").value = 0
     dut.rst.value = 1
     for _ in range(4):
         await RisingEdge(dut.clk)
