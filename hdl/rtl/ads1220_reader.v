@@ -56,13 +56,14 @@ reg               valid_reg, valid_next;
 reg  [1:0]        drdy_sync_reg;
 reg  [1:0]        dout_sync_reg;
 
+localparam [SCLK_HALF_CLKS-1:0] RING_START = {1'b1, {(SCLK_HALF_CLKS-1){1'b0}}};
 wire half_done = ring_reg[0];
 wire drdy = !drdy_sync_reg[1];
 
 always @* begin
     state_next = state_reg;
     wait_next = wait_reg;
-    // Restarted on every state change, so each transfer starts with a full half period.
+    // Held at its start value outside transfers, so each transfer starts with a full half period.
     ring_next = {ring_reg[0], ring_reg[SCLK_HALF_CLKS-1:1]};
     wait_hit_next = (wait_reg == WAIT_LAST);  // registered: the wait may run one clock longer
     sclk_next = sclk_reg;
@@ -74,6 +75,7 @@ always @* begin
 
     case (state_reg)
         S_WAIT, S_WAIT2: begin
+            ring_next = RING_START;
             wait_next = wait_reg + 1'b1;
             if (wait_hit_reg) begin
                 wait_next = {WAIT_W{1'b0}};
@@ -83,6 +85,7 @@ always @* begin
             end
         end
         S_IDLE: begin
+            ring_next = RING_START;
             if (drdy) begin
                 state_next = S_READ;
                 bits_next = 6'd24;
@@ -120,9 +123,6 @@ always @* begin
             end
         end
     endcase
-    if (state_next != state_reg) begin
-        ring_next = {{(SCLK_HALF_CLKS-1){1'b0}}, 1'b1} << (SCLK_HALF_CLKS - 1);
-    end
 end
 
 always @(posedge clk) begin
@@ -141,7 +141,7 @@ always @(posedge clk) begin
     if (rst) begin
         state_reg <= S_WAIT;
         wait_reg <= {WAIT_W{1'b0}};
-        ring_reg <= {{(SCLK_HALF_CLKS-1){1'b0}}, 1'b1} << (SCLK_HALF_CLKS - 1);
+        ring_reg <= RING_START;
         wait_hit_reg <= 1'b0;
         sclk_reg <= 1'b0;
         din_reg <= 1'b0;

@@ -73,6 +73,14 @@ reg         wvalid_reg, wvalid_next;
 reg         arvalid_reg, arvalid_next;
 reg  [31:0] wdata_reg, wdata_next;
 
+// Decodes of the bit count, registered: SCK edges are at least 8 clocks apart, so the flags
+// have settled long before the next edge uses them, and no edge sees a long decode path.
+reg        in_cmd_reg;    // bit_cnt < 8
+reg        last_cmd_reg;  // bit_cnt == 7: this rising edge completes the command byte
+reg        last_wr_reg;   // bit_cnt == 39: this rising edge completes a write frame
+reg        done_reg;      // bit_cnt == 48: the frame is complete
+reg        data_out_reg;  // bit_cnt >= 16: read data goes out on MISO
+
 wire [5:0] bits_after = bit_cnt_reg + 6'd1;
 wire [7:0] cmd_now = {cmd_reg[6:0], mosi};
 
@@ -91,17 +99,17 @@ always @* begin
         bit_cnt_next = 6'd0;
         miso_next = 1'b0;
     end else begin
-        if (sck_rise && bit_cnt_reg != 6'd48) begin
+        if (sck_rise && !done_reg) begin
             bit_cnt_next = bits_after;
-            if (bit_cnt_reg < 6'd8) begin
+            if (in_cmd_reg) begin
                 cmd_next = cmd_now;
             end else begin
                 shift_in_next = {shift_in_reg[30:0], mosi};
             end
-            if (bits_after == 6'd8 && !cmd_now[7]) begin
+            if (last_cmd_reg && !cmd_now[7]) begin
                 arvalid_next = 1'b1;  // read: fetch during the dummy byte
             end
-            if (bits_after == 6'd40 && cmd_reg[7]) begin
+            if (last_wr_reg && cmd_reg[7]) begin
                 awvalid_next = 1'b1;
                 wvalid_next = 1'b1;
                 wdata_next = {shift_in_reg[30:0], mosi};
@@ -109,7 +117,7 @@ always @* begin
         end
         // Mode 0: MISO changes on the falling edge before the bit is sampled.
         if (sck_fall) begin
-            if (bit_cnt_reg >= 6'd16) begin
+            if (data_out_reg) begin
                 miso_next = shift_out_reg[31];
                 shift_out_next = {shift_out_reg[30:0], 1'b0};
             end else begin
@@ -127,6 +135,11 @@ always @(posedge clk) begin
     cs_sync_reg <= {cs_sync_reg[0], spi_cs_n};
     mosi_sync_reg <= {mosi_sync_reg[0], spi_mosi};
     bit_cnt_reg <= bit_cnt_next;
+    in_cmd_reg <= bit_cnt_reg < 6'd8;
+    last_cmd_reg <= bit_cnt_reg == 6'd7;
+    last_wr_reg <= bit_cnt_reg == 6'd39;
+    done_reg <= bit_cnt_reg == 6'd48;
+    data_out_reg <= bit_cnt_reg >= 6'd16;
     cmd_reg <= cmd_next;
     shift_in_reg <= shift_in_next;
     shift_out_reg <= shift_out_next;

@@ -115,6 +115,9 @@ reg  [15:0] nlim_reg, nlim_next;  // -I_LIMIT, computed once per sample off the 
 reg  [15:0] stale_to_s_reg, stale_to_s_next;
 reg  [15:0] wdt_to_s_reg, wdt_to_s_next;
 reg  [15:0] oc_to_s_reg, oc_to_s_next;
+reg  [23:0] raw_s_reg, raw_s_next;
+reg  [23:0] min_s_reg, min_s_next;
+reg  [23:0] max_s_reg, max_s_next;
 reg         range_s_reg, range_s_next;
 reg  [3:0]  fbase_s_reg, fbase_s_next;
 reg  [24:0] diff_reg, diff_next;
@@ -145,6 +148,10 @@ reg         rhi_reg, rhi_next;
 reg         rlo_reg, rlo_next;
 reg  [15:0] u_ramp_reg, u_ramp_next;
 reg         ramp_nz_reg, ramp_nz_next;
+reg         ugt_reg, ugt_next;
+reg         ult_reg, ult_next;
+reg  [15:0] u_dn_reg, u_dn_next;
+reg  [15:0] u_up_reg, u_up_next;
 
 // Results.
 reg  [15:0] t_in_reg, t_in_next;
@@ -179,11 +186,13 @@ wire [16:0] stale_base = fclr_now ? 17'd0 : stale_cnt_reg;
 wire [16:0] wdt_base = fclr_now ? 17'd0 : wdt_cnt_reg;
 wire [16:0] stale_now = fresh_now ? 17'd0 : stale_base + {16'd0, !stale_base[16]};
 wire [16:0] wdt_now = (!enable || tcw_now) ? 17'd0 : wdt_base + {16'd0, !wdt_base[16]};
-wire range_bad = ($signed(raw_now) < $signed(adc_min)) || ($signed(raw_now) > $signed(adc_max));
 
 // --- later clocks ---------------------------------------------------------------------------
 
-// Clock 1: fault detection on the snapshot (thresholds of 0 switch a check off).
+// Clock 1: range check of the sample. Clock 2: fault detection on the snapshot (thresholds
+// of 0 switch a check off).
+wire range_bad = ($signed(raw_s_reg) < $signed(min_s_reg)) ||
+                 ($signed(raw_s_reg) > $signed(max_s_reg));
 wire [3:0] detect = {(oc_to_s_reg != 16'd0) && (oc_cnt_reg >= {1'b0, oc_to_s_reg}),
                      (wdt_to_s_reg != 16'd0) && (wdt_cnt_reg >= {1'b0, wdt_to_s_reg}),
                      range_s_reg,
@@ -192,6 +201,8 @@ wire [3:0] faults_now = fbase_s_reg | det_reg;
 
 // Clock 2: slew limit, T_c' = clamp(T_c, T_c'[n-1] - SLEW, T_c'[n-1] + SLEW); the result lies
 // between T_c'[n-1] and T_c, both Q7.8, so its low 16 bits are exact.
+wire [17:0] tc_above = {hi_s_reg[16], hi_s_reg} - {{2{tc_s_reg[15]}}, tc_s_reg};
+wire [17:0] tc_below = {{2{tc_s_reg[15]}}, tc_s_reg} - {lo_s_reg[16], lo_s_reg};
 wire [16:0] tce_slew = cmp_hi_reg ? hi_s_reg : cmp_lo_reg ? lo_s_reg : {tc_s_reg[15], tc_s_reg};
 
 // Clock 5: round(x / 2^20) fits Q7.8 unless bits 40..35 differ: saturate to the Q7.8 range.
@@ -209,6 +220,8 @@ wire [15:0] e_now = e_ovf ? {e_full[16], {15{~e_full[16]}}} : e_full[15:0];
 // the previous output was saturated in the direction KI_TS*e pushes (conditional integration).
 wire signed [32:0] lim28 = $signed({2'b00, lim_s_reg, 16'd0});
 wire signed [32:0] nlim28 = $signed({nlim_reg[15], nlim_reg, 16'd0});
+wire [33:0] i_above = {lim28[32], lim28} - {isum_reg[32], isum_reg};
+wire [33:0] i_below = {isum_reg[32], isum_reg} - {nlim28[32], nlim28};
 wire [32:0] i_clamped = ihi_reg ? lim28 : ilo_reg ? nlim28 : isum_reg;
 wire windup = (sat_hi_reg && pi_pos_reg) || (sat_lo_reg && pi_neg_reg);
 
@@ -219,16 +232,22 @@ wire signed [33:0] v_sum = $signed(fp_reg) + $signed({{9{inew_reg[31]}}, inew_re
 // Clocks 13-14: output saturation at +-I_LIMIT.
 wire signed [24:0] lim12 = $signed({10'd0, lim_s_reg});
 wire signed [24:0] nlim12 = $signed({{9{nlim_reg[15]}}, nlim_reg});
+// Comparisons as subtractions, whose sign bit comes out of one carry chain (yosys otherwise
+// builds some of them from LUT trees on the iCE40): r > lim <=> lim - r < 0.
+wire [25:0] r_above = {lim12[24], lim12} - {r_reg[24], r_reg};
+wire [25:0] r_below = {r_reg[24], r_reg} - {nlim12[24], nlim12};
 wire [15:0] u_sat = rhi_reg ? {1'b0, lim_s_reg} : rlo_reg ? nlim_reg : r_reg[15:0];
 
-// Watchdog ramp of the previous command towards zero (computed in clock 13 into u_ramp_reg).
+// Watchdog ramp of the previous command towards zero: comparisons and both steps in clock 12,
+// the choice in clock 13 (u_ramp is nonzero exactly when |u| > step).
 wire signed [15:0] step = $signed(WDT_RAMP_STEP);
-wire [15:0] u_ramp = ($signed(u_reg) > step) ? u_reg - step :
-                     ($signed(u_reg) < -step) ? u_reg + step : 16'd0;
+wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : 16'd0;
 
 // Bits dropped on purpose: the fraction below the rounding point, and the sign bit of values
 // proven in range (slew result between two Q7.8 values, clamped integrator within +-2^31).
-wire unused_bits = &{1'b0, tce_slew[16], cal_sum_reg[19:0], i_clamped[32], v_sum[8:0]};
+wire unused_bits = &{1'b0, tce_slew[16], cal_sum_reg[19:0], i_clamped[32], v_sum[8:0],
+                     r_above[24:0], r_below[24:0], i_above[32:0], i_below[32:0],
+                     tc_above[16:0], tc_below[16:0]};
 
 always @* begin
     seq_next = {seq_reg[LATENCY-3:0], tick};
@@ -257,6 +276,9 @@ always @* begin
     stale_to_s_next = stale_to_s_reg;
     wdt_to_s_next = wdt_to_s_reg;
     oc_to_s_next = oc_to_s_reg;
+    raw_s_next = raw_s_reg;
+    min_s_next = min_s_reg;
+    max_s_next = max_s_reg;
     range_s_next = range_s_reg;
     fbase_s_next = fbase_s_reg;
     diff_next = diff_reg;
@@ -286,6 +308,10 @@ always @* begin
     rlo_next = rlo_reg;
     u_ramp_next = u_ramp_reg;
     ramp_nz_next = ramp_nz_reg;
+    ugt_next = ugt_reg;
+    ult_next = ult_reg;
+    u_dn_next = u_dn_reg;
+    u_up_next = u_up_reg;
 
     t_in_next = t_in_reg;
     u_next = u_reg;
@@ -319,7 +345,9 @@ always @* begin
         stale_to_s_next = adc_stale;
         wdt_to_s_next = wdt_timeout;
         oc_to_s_next = oc_timeout;
-        range_s_next = range_bad;
+        raw_s_next = raw_now;
+        min_s_next = adc_min;
+        max_s_next = adc_max;
         fbase_s_next = fclr_now ? 4'd0 : fault_reg;
         diff_next = $signed({raw_now[23], raw_now}) - $signed({adc_offset[23], adc_offset});
         hi_s_next = $signed({tc_eff_reg[15], tc_eff_reg}) + $signed({2'b00, slew});
@@ -327,28 +355,30 @@ always @* begin
         iprev_next = irst_now ? 32'd0 : integ_reg;
     end
 
-    // Clock 1: detection, slew comparisons, high part of the difference times the gain.
+    // Clock 1: range, slew comparisons, high part of the difference times the gain.
     if (seq_reg[0]) begin
-        det_next = en_s_reg ? detect : 4'd0;
-        cmp_hi_next = $signed({tc_s_reg[15], tc_s_reg}) > $signed(hi_s_reg);
-        cmp_lo_next = $signed({tc_s_reg[15], tc_s_reg}) < $signed(lo_s_reg);
+        range_s_next = range_bad;
+        cmp_hi_next = tc_above[17];
+        cmp_lo_next = tc_below[17];
         m1_a = diff_reg[24:9];
         m1_b = gain_s_reg;
         nlim_next = -{1'b0, lim_s_reg};
     end
 
-    // Clock 2: faults latch, mode, T_c'; low 9 bits of the difference (non-negative) times gain.
+    // Clock 2: detection, T_c'; low 9 bits of the difference (non-negative) times the gain.
     if (seq_reg[1]) begin
-        fault_next = faults_now;
-        run_next = en_s_reg && (faults_now == 4'd0);
-        ramp_next = en_s_reg && (faults_now == F_WDT);
+        det_next = en_s_reg ? detect : 4'd0;
         tce_s_next = slew_en_s_reg ? tce_slew[15:0] : tc_s_reg;
         m1_a = {7'd0, diff_reg[8:0]};
         m1_b = gain_s_reg;
     end
 
-    // Clock 3: feedforward product; high partial product arrives (+ 2^19: round at >> 20).
+    // Clock 3: faults latch and the mode; feedforward product; high partial product arrives
+    // (+ 2^19: round at >> 20).
     if (seq_reg[2]) begin
+        fault_next = faults_now;
+        run_next = en_s_reg && (faults_now == 4'd0);
+        ramp_next = en_s_reg && (faults_now == F_WDT);
         m2_a = tce_s_reg;
         m2_b = kff_s_reg;
         cal_acc_next = {m1_p, 9'd0} + 41'd524288;
@@ -388,8 +418,8 @@ always @* begin
 
     // Clock 10: integrator clamp comparisons.
     if (seq_reg[9]) begin
-        ihi_next = $signed(isum_reg) > lim28;
-        ilo_next = $signed(isum_reg) < nlim28;
+        ihi_next = i_above[33];
+        ilo_next = i_below[33];
     end
 
     // Clock 11: new integrator.
@@ -400,14 +430,18 @@ always @* begin
     // Clock 12: rounded output before saturation.
     if (seq_reg[11]) begin
         r_next = v_sum[33:9];
+        ugt_next = $signed(u_reg) > step;
+        ult_next = $signed(u_reg) < -step;
+        u_dn_next = u_reg - step;
+        u_up_next = u_reg + step;
     end
 
     // Clock 13: saturation comparisons.
     if (seq_reg[12]) begin
-        rhi_next = $signed(r_reg) > lim12;
-        rlo_next = $signed(r_reg) < nlim12;
+        rhi_next = r_above[25];
+        rlo_next = r_below[25];
         u_ramp_next = u_ramp;
-        ramp_nz_next = u_ramp != 16'd0;
+        ramp_nz_next = ugt_reg || ult_reg;
     end
 
     // Clock 14: saturate, apply the mode.
@@ -461,6 +495,9 @@ always @(posedge clk) begin
     stale_to_s_reg <= stale_to_s_next;
     wdt_to_s_reg <= wdt_to_s_next;
     oc_to_s_reg <= oc_to_s_next;
+    raw_s_reg <= raw_s_next;
+    min_s_reg <= min_s_next;
+    max_s_reg <= max_s_next;
     range_s_reg <= range_s_next;
     fbase_s_reg <= fbase_s_next;
     diff_reg <= diff_next;
@@ -489,6 +526,10 @@ always @(posedge clk) begin
     rlo_reg <= rlo_next;
     u_ramp_reg <= u_ramp_next;
     ramp_nz_reg <= ramp_nz_next;
+    ugt_reg <= ugt_next;
+    ult_reg <= ult_next;
+    u_dn_reg <= u_dn_next;
+    u_up_reg <= u_up_next;
     t_in_reg <= t_in_next;
     u_reg <= u_next;
     out_en_reg <= out_en_next;

@@ -1,0 +1,70 @@
+"""Synthesis figures of both boards (yosys + nextpnr, fixed seed): timing met, within budget.
+
+Runs hdl/synth/synth.py, which reuses build/synth/<board>/summary.json when the RTL, the
+constraints and the script are unchanged, so this takes seconds after the first `make synth`.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from cosim.paths import BUILD_DIR, HDL_DIR
+
+KEYS = {"luts", "ffs", "dsps", "brams", "fmax_mhz", "target_mhz"}
+
+
+@pytest.fixture(scope="module")
+def summaries():
+    """Synthesize (or reuse) both boards; the script's exit status says whether they pass."""
+    result = subprocess.run(
+        [sys.executable, str(HDL_DIR / "synth" / "synth.py"), "--all"],
+        capture_output=True,
+        text=True,
+    )
+    print(result.stdout, result.stderr)
+    boards = ("ice40-up5k", "ecp5-25f")
+    out = {b: json.loads((BUILD_DIR / "synth" / b / "summary.json").read_text()) for b in boards}
+    return result.returncode, out
+
+
+def test_synth_script_passes(summaries):
+    """make synth's check: every board meets its target clock and LUT budget."""
+    code, _ = summaries
+    assert code == 0, "hdl/synth/synth.py reported a board missing its target"
+
+
+@pytest.mark.parametrize(
+    ("board", "target_mhz", "max_lut_fraction"),
+    [("ice40-up5k", 48.0, 0.60), ("ecp5-25f", 100.0, 1.0)],
+)
+def test_board_figures(summaries, board, target_mhz, max_lut_fraction):
+    """Fmax at or above the target (issue 4), LUTs in budget, the multipliers in DSP blocks."""
+    s = summaries[1][board]
+    assert KEYS <= s.keys()
+    assert s["target_mhz"] == target_mhz
+    assert s["fmax_mhz"] >= target_mhz, f"{board}: {s['fmax_mhz']} MHz < {target_mhz}"
+    assert s["luts"] <= max_lut_fraction * s["lut_capacity"]
+    # Two loop multipliers and the PWM scaling: three 16 x 16 DSP multiplies.
+    assert s["dsps"] == 3
+    assert s["seed"] == 1
+
+
+def test_ice40_dsps_are_fully_registered(summaries):
+    """Every SB_MAC16 has its input and output registers inside, so nextpnr times through it."""
+    netlist = json.loads((BUILD_DIR / "synth" / "ice40-up5k" / "ice40_up5k_top.json").read_text())
+    macs = [
+        cell
+        for module in netlist["modules"].values()
+        for cell in module["cells"].values()
+        if cell["type"] == "SB_MAC16"
+    ]
+    assert len(macs) == 3
+    for cell in macs:
+        p = {k: int(v, 2) if isinstance(v, str) else v for k, v in cell["parameters"].items()}
+        assert p["A_REG"] == 1 and p["B_REG"] == 1, "DSP operands not registered inside"
+        # Output select 1 or 3 = registered 32-bit product (SB_MAC16 user guide, TN1295).
+        assert p["TOPOUTPUT_SELECT"] in (1, 3) and p["BOTOUTPUT_SELECT"] in (1, 3), p
