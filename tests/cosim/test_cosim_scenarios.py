@@ -107,3 +107,40 @@ def test_cosim_sim_cli_rejects_bad_input_before_running(tmp_path, capsys):
     assert cli.main(["sim", "fig14", "--out", str(tmp_path), "--params", str(bad)]) == 2
     assert "controller.kp_a_per_n must be in [0, 3.9998]; got 9" in capsys.readouterr().err
     assert not (tmp_path / "result.json").exists()
+
+
+def test_cosim_demo_table_prints_the_figures_of_the_json(tmp_path):
+    from cosim import demo
+
+    paths = []
+    for i, (comp, loop) in enumerate((("paper", True), ("smooth", True), ("paper", False))):
+        result = {
+            "scenario": "fig14",
+            "compensator": comp,
+            "loop_routing": loop,
+            "rms_error_n": 0.5 + i / 7,
+            "rms_error_pct": 3.0 + i / 3,
+            "peak_error_n": 2.0 + i / 9,
+            "peak_error_pct": 13.0 + i / 11,
+            "fixed_vs_float": {
+                "current_rms_lsb": 0.75,
+                "current_max_lsb": 2.0,
+                "t_out_rms_n": 3e-4,
+            },
+            "simulated_per_wall": 1.1,
+        }
+        path = tmp_path / f"r{i}.json"
+        path.write_text(json.dumps(result))
+        paths.append(path)
+    table = demo.table_from_files(paths)
+    for i, path in enumerate(paths):
+        r = json.loads(path.read_text())
+        row = [line for line in table.splitlines() if line.startswith("fig14")][i].split()
+        assert row[1] == r["compensator"] and row[2] == ("on" if r["loop_routing"] else "off")
+        assert [float(v) for v in row[3:7]] == [
+            round(r["rms_error_n"], 3),
+            round(r["rms_error_pct"], 1),
+            round(r["peak_error_n"], 3),
+            round(r["peak_error_pct"], 1),
+        ]
+    assert "paper Fig.14" in table and "4.3" in table and "13.3" in table
