@@ -201,6 +201,8 @@ def evaluate(scen, cfg, run_spec, fixed, ref, wall_s, cost) -> dict:
             "late_tc_writes": cost.get("late_writes"),
             "tc_eff_mismatches": cost.get("tc_mismatch"),
             "tc_eff_checks": cost.get("tc_checks"),
+            "rtl_fault_word_at_end": cost.get("fault_word"),
+            "rtl_status_word_at_end": cost.get("status_word"),
         },
     }
     if ref is not None:

@@ -234,6 +234,11 @@ async def closed_loop(dut):
             next_report = perf() + 0.2
     t_end = perf()
     progress_path.write_text(str(n))
+    # Latched faults at the end (stale or out-of-range ADC, watchdog, over-current): a healthy
+    # run has none; the caller reports the word.
+    await Timer(4 * sample_ns, unit="ns")  # let the firmware task's last transactions finish
+    fault_word = await axi.read_dword(regmap.FAULT)
+    status_word = await axi.read_dword(regmap.STATUS)
 
     plant.close()
     rec["t_s"][:] = inp.t_s
@@ -259,6 +264,8 @@ async def closed_loop(dut):
     cost["firmware_ticks"] = fw_state["ticks"]
     cost["samples"] = n
     cost["clks_per_sample"] = cps
+    cost["fault_word"] = fault_word
+    cost["status_word"] = status_word
     cost["tc_latency_samples"] = TC_LATENCY_SAMPLES
     Record(rec).save(spec["record_path"])
     Path(spec["cost_path"]).write_text(json.dumps(cost, indent=2))

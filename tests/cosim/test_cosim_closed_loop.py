@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cosim import metrics, reference, sim
+from cosim import metrics, reference, regmap, sim
 from cosim.harness import runner
 from cosim.scenarios import SimConfig, get_scenario
 
@@ -61,6 +61,9 @@ def test_cosim_fixed_point_within_budget_of_float(built, compensator, loop_routi
     checks = result["checks"]
     assert checks["late_tc_writes"] == 0 and checks["tc_eff_mismatches"] == 0, checks
     assert checks["tc_eff_checks"] >= int(DURATION_S * 1000) // 10 - 1, checks
+    # No fault latched in the RTL, and its loop still drives the output (STATUS.OUT_EN).
+    assert checks["rtl_fault_word_at_end"] == 0, checks
+    assert checks["rtl_status_word_at_end"] & regmap.STATUS_OUT_EN, checks
 
 
 def test_cosim_compensation_beats_none(built):
