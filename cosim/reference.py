@@ -23,7 +23,7 @@ import numpy as np
 
 from . import regmap, rtl_model
 from .harness.common import Record, open_plant
-from .harness.fwbridge import CompensatorF64, loop_words
+from .harness.fwbridge import loop_words, make_compensator_f64, t_ref_word
 from .harness.progress import Progress
 from .rtl_model import FloatTensionLoop
 from .scenarios import Scenario, SimConfig, sample_inputs
@@ -48,9 +48,9 @@ def make_float_loop(cfg: SimConfig) -> FloatTensionLoop:
     )
 
 
-def make_float_compensator(mode: str, cfg: SimConfig, phi_rad: float) -> CompensatorF64:
+def make_float_compensator(mode: str, cfg: SimConfig, phi_rad: float):
     """The compensator's double twin (firmware comp_f64), configured like the firmware."""
-    return CompensatorF64(mode, cfg.compensator, phi_rad)
+    return make_compensator_f64(mode, cfg.compensator, phi_rad)
 
 
 def resolve_phi(scen: Scenario, cfg: SimConfig, loop_routing: bool) -> float:
@@ -90,7 +90,7 @@ def run_reference(
     # The host hands T_ref to the firmware as a Q7.8 word (fw_tick); the twin gets the same
     # words, so that both see a reversal at the same tick (comp.h: the twin is the oracle "fed
     # the same Q7.8 references").
-    t_ref_q = (np.clip(np.round(inp.t_ref_n * 256.0), -32768, 32767) / 256.0).tolist()
+    t_ref = inp.t_ref_n.tolist()
     xs, ys, zs = inp.x_m.tolist(), inp.y_m.tolist(), inp.z_m.tolist()
     out_tc, out_u = rec["T_c_N"], rec["current_A"]
     out_tin, out_tout = rec["T_in_N"], rec["T_out_N"]
@@ -116,7 +116,7 @@ def run_reference(
             tc_eff = tc
         u = loop.step(tc_eff, t_in_meas)
         if k % dec == 0:
-            tc_new = comp.step(t_ref_q[k])
+            tc_new = comp.step(t_ref_word(t_ref[k]) / 256.0)
         # Record sample k: the sensors as the loop saw them and the command it gave.
         out_tc[k] = tc_eff
         out_u[k] = u
