@@ -77,18 +77,21 @@ EHXPLLL #(
 );
 
 // Reset until the PLL has locked and for 2^8 clocks after (ECP5 flip-flops start at zero).
+// The reset itself comes from a flip-flop: it fans out to most of the design.
 reg [7:0] por_reg;
 reg       lock_sync_reg, lock_reg;
-wire rst = !(&por_reg);
+reg       rst_reg;
+wire rst = rst_reg;
 
 always @(posedge clk) begin
     lock_sync_reg <= pll_locked;
     lock_reg <= lock_sync_reg;
     if (!lock_reg) begin
         por_reg <= 8'd0;
-    end else if (rst) begin
+    end else if (!(&por_reg)) begin
         por_reg <= por_reg + 8'd1;
     end
+    rst_reg <= !(&por_reg);
 end
 
 wire [7:0]  axil_awaddr, axil_araddr;

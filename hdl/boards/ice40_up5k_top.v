@@ -48,13 +48,16 @@ SB_HFOSC #(
 );
 
 // Power-on reset: iCE40 flip-flops start at zero, so this counter holds reset for 2^8 clocks.
+// The reset itself comes from a flip-flop: it fans out to most of the design.
 reg [7:0] por_reg;
-wire rst = !(&por_reg);
+reg       rst_reg;
+wire rst = rst_reg;
 
 always @(posedge clk) begin
-    if (rst) begin
+    if (!(&por_reg)) begin
         por_reg <= por_reg + 8'd1;
     end
+    rst_reg <= !(&por_reg);
 end
 
 wire [7:0]  axil_awaddr, axil_araddr;

@@ -104,9 +104,10 @@ def gen_verilog(spec: dict) -> str:
     out.extend("// " + line for line in textwrap.wrap(spec["description"], 96))
     w("//")
     w("// Register bus: a write (reg_wr_en) takes effect at the clock edge; a read (reg_rd_en)")
-    w("// returns reg_rd_data and reg_rd_err two cycles later (the address is registered before")
-    w("// the read multiplexer, which keeps the iCE40 at 48 MHz). Unmapped addresses read 0 and")
-    w("// report an error (SLVERR on AXI4-Lite); writes to read-only registers are ignored.")
+    w("// returns reg_rd_data and reg_rd_err with reg_rd_valid three cycles later: a registered")
+    w("// one-hot select, then groups of four registers, then the final OR, which keeps the iCE40")
+    w("// at 48 MHz. Unmapped addresses read 0 and report an error (SLVERR on AXI4-Lite);")
+    w("// writes to read-only registers are ignored.")
     w("")
     w("`resetall")
     w("`timescale 1ns / 1ps")
@@ -130,6 +131,7 @@ def gen_verilog(spec: dict) -> str:
     w("    input  wire [ADDR_W-1:0] reg_rd_addr,")
     w("    output wire [31:0]       reg_rd_data,")
     w("    output wire              reg_rd_err,")
+    w("    output wire              reg_rd_valid,")
     ports: list[str] = []
     for reg in spec["registers"]:
         for f in reg["fields"]:
@@ -163,6 +165,11 @@ def gen_verilog(spec: dict) -> str:
     w(f"reg  [{n - 1}:0]        rd_sel;   // one-hot register select of the read in flight")
     w("reg               rd_miss;  // the read address is unmapped")
     w("reg               rd_pend;  // a read is in its second cycle")
+    ngrp = (n + 3) // 4
+    w(f"reg  [31:0]       rd_grp [0:{ngrp - 1}];  // OR of each group of four registers")
+    w("reg               rd_miss2;")
+    w("reg               rd_pend2;  // a read is in its third cycle")
+    w("reg               rd_valid;  // reg_rd_data holds a new read")
     w("")
     w("// Write data with the byte strobes applied to the stored value: bit i is written when")
     w("// strobe i/8 is set.")
@@ -252,13 +259,11 @@ def gen_verilog(spec: dict) -> str:
     w("        endcase")
     w("    end")
     w("")
-    w("    // One-hot select registered in the first read cycle: an AND-OR multiplexer here.")
-    w("    rd_data_next = 32'd0")
-    for i, reg in enumerate(spec["registers"]):
-        w(f"        | ({{32{{rd_sel[{i}]}}}} & rword_{reg['name'].lower()})")
-    out[-1] += ";"
-    w("    rd_err_next = rd_miss;")
-    w("    if (!rd_pend) begin")
+    w("    // Third read cycle: OR of the group results.")
+    ngrp = (len(spec["registers"]) + 3) // 4
+    w("    rd_data_next = " + " | ".join(f"rd_grp[{g}]" for g in range(ngrp)) + ";")
+    w("    rd_err_next = rd_miss2;")
+    w("    if (!rd_pend2) begin")
     w("        rd_data_next = rd_data_reg;")
     w("        rd_err_next = rd_err_reg;")
     w("    end")
@@ -274,6 +279,20 @@ def gen_verilog(spec: dict) -> str:
             w(f"    {n}_wr_reg <= {n}_wr_next;")
     w("    rd_data_reg <= rd_data_next;")
     w("    rd_pend <= reg_rd_en;")
+    w("    rd_pend2 <= rd_pend;")
+    w("    rd_valid <= rd_pend2;")
+    w("    rd_miss2 <= rd_miss;")
+    w("    // Second read cycle: AND-OR of the one-hot select within groups of four registers.")
+    regs = spec["registers"]
+    for g in range(0, len(regs), 4):
+        terms = [
+            f"({{32{{rd_sel[{i}]}}}} & rword_{regs[i]['name'].lower()})"
+            for i in range(g, min(g + 4, len(regs)))
+        ]
+        w(f"    rd_grp[{g // 4}] <= " + terms[0])
+        for t in terms[1:]:
+            w(f"        | {t}")
+        out[-1] += ";"
     w("    if (reg_rd_en) begin")
     for i, reg in enumerate(spec["registers"]):
         w(f"        rd_sel[{i}] <= (rd_word == A_{reg['name']});")
@@ -286,6 +305,8 @@ def gen_verilog(spec: dict) -> str:
     w("")
     w("    if (rst) begin")
     w("        rd_pend <= 1'b0;")
+    w("        rd_pend2 <= 1'b0;")
+    w("        rd_valid <= 1'b0;")
     for reg in spec["registers"]:
         for f in reg["fields"]:
             if f["access"] in ("rw", "w1p"):
@@ -306,6 +327,7 @@ def gen_verilog(spec: dict) -> str:
     w("assign reg_wr_err = reg_wr_en & ~wr_hit;")
     w("assign reg_rd_data = rd_data_reg;")
     w("assign reg_rd_err = rd_err_reg;")
+    w("assign reg_rd_valid = rd_valid;")
     w("")
     w("// Unused write-data bits: registers narrower than 32 bits ignore the rest.")
     w("wire unused_wr_bits = &{1'b0, reg_wr_data, wr_mask, reg_wr_addr[1:0], reg_rd_addr[1:0]};")

@@ -7,7 +7,7 @@
  *
  * One transaction of each kind at a time: a write is taken when address and data are both
  * valid (and the previous response has been accepted), a read when the address is valid and no
- * read is in flight. The register file answers a read two clocks later. Decode errors give
+ * read is in flight. The register file answers a read with reg_rd_valid. Decode errors give
  * SLVERR; everything else OKAY.
  */
 module axil_regbus #(
@@ -50,7 +50,8 @@ module axil_regbus #(
     output wire              reg_rd_en,
     output wire [ADDR_W-1:0] reg_rd_addr,
     input  wire [31:0]       reg_rd_data,
-    input  wire              reg_rd_err
+    input  wire              reg_rd_err,
+    input  wire              reg_rd_valid
 );
 
 localparam [1:0] RESP_OKAY = 2'b00;
@@ -59,7 +60,7 @@ localparam [1:0] RESP_SLVERR = 2'b10;
 reg       bvalid_reg, bvalid_next;
 reg [1:0] bresp_reg, bresp_next;
 reg       rvalid_reg, rvalid_next;
-reg       rwait_reg, rwait_next;  // read issued, data next clock
+reg       rwait_reg, rwait_next;  // read issued, waiting for reg_rd_valid
 
 wire wr_go = s_axil_awvalid && s_axil_wvalid && !bvalid_reg;
 wire rd_go = s_axil_arvalid && !rvalid_reg && !rwait_reg;
@@ -67,8 +68,8 @@ wire rd_go = s_axil_arvalid && !rvalid_reg && !rwait_reg;
 always @* begin
     bvalid_next = bvalid_reg && !s_axil_bready;
     bresp_next = bresp_reg;
-    rvalid_next = (rvalid_reg && !s_axil_rready) || rwait_reg;
-    rwait_next = rd_go;
+    rvalid_next = (rvalid_reg && !s_axil_rready) || reg_rd_valid;
+    rwait_next = (rwait_reg && !reg_rd_valid) || rd_go;
     if (wr_go) begin
         bvalid_next = 1'b1;
         bresp_next = reg_wr_err ? RESP_SLVERR : RESP_OKAY;

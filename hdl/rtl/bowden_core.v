@@ -88,7 +88,7 @@ end
 
 // --- registers -----------------------------------------------------------------------------
 
-wire              reg_wr_en, reg_wr_err, reg_rd_en, reg_rd_err;
+wire              reg_wr_en, reg_wr_err, reg_rd_en, reg_rd_err, reg_rd_valid;
 wire [ADDR_W-1:0] reg_wr_addr, reg_rd_addr;
 wire [31:0]       reg_wr_data, reg_rd_data;
 wire [3:0]        reg_wr_strb;
@@ -107,7 +107,7 @@ axil_regbus #(.ADDR_W(ADDR_W)) axil (
     .reg_wr_en(reg_wr_en), .reg_wr_addr(reg_wr_addr), .reg_wr_data(reg_wr_data),
     .reg_wr_strb(reg_wr_strb), .reg_wr_err(reg_wr_err),
     .reg_rd_en(reg_rd_en), .reg_rd_addr(reg_rd_addr), .reg_rd_data(reg_rd_data),
-    .reg_rd_err(reg_rd_err)
+    .reg_rd_err(reg_rd_err), .reg_rd_valid(reg_rd_valid)
 );
 
 wire        ctrl_enable, ctrl_integ_reset, ctrl_fault_clear, ctrl_slew_en, tc_wr;
@@ -125,7 +125,7 @@ bowden_regs #(.ADDR_W(ADDR_W)) regs (
     .reg_wr_en(reg_wr_en), .reg_wr_addr(reg_wr_addr), .reg_wr_data(reg_wr_data),
     .reg_wr_strb(reg_wr_strb), .reg_wr_err(reg_wr_err),
     .reg_rd_en(reg_rd_en), .reg_rd_addr(reg_rd_addr), .reg_rd_data(reg_rd_data),
-    .reg_rd_err(reg_rd_err),
+    .reg_rd_err(reg_rd_err), .reg_rd_valid(reg_rd_valid),
     .ctrl_enable(ctrl_enable), .ctrl_integ_reset(ctrl_integ_reset),
     .ctrl_fault_clear(ctrl_fault_clear), .ctrl_slew_en(ctrl_slew_en),
     .hw_status_out_en(out_en), .hw_status_saturated(saturated),

@@ -5,9 +5,10 @@
 // integer bits, n fractional bits; UQm.n unsigned.
 //
 // Register bus: a write (reg_wr_en) takes effect at the clock edge; a read (reg_rd_en)
-// returns reg_rd_data and reg_rd_err two cycles later (the address is registered before
-// the read multiplexer, which keeps the iCE40 at 48 MHz). Unmapped addresses read 0 and
-// report an error (SLVERR on AXI4-Lite); writes to read-only registers are ignored.
+// returns reg_rd_data and reg_rd_err with reg_rd_valid three cycles later: a registered
+// one-hot select, then groups of four registers, then the final OR, which keeps the iCE40
+// at 48 MHz. Unmapped addresses read 0 and report an error (SLVERR on AXI4-Lite);
+// writes to read-only registers are ignored.
 
 `resetall
 `timescale 1ns / 1ps
@@ -31,6 +32,7 @@ module bowden_regs #(
     input  wire [ADDR_W-1:0] reg_rd_addr,
     output wire [31:0]       reg_rd_data,
     output wire              reg_rd_err,
+    output wire              reg_rd_valid,
 
     /*
      * Fields (outputs: register contents; hw_ inputs: live values read back)
@@ -97,6 +99,10 @@ wire [ADDR_W-3:0] rd_word = reg_rd_addr[ADDR_W-1:2];
 reg  [21:0]        rd_sel;   // one-hot register select of the read in flight
 reg               rd_miss;  // the read address is unmapped
 reg               rd_pend;  // a read is in its second cycle
+reg  [31:0]       rd_grp [0:5];  // OR of each group of four registers
+reg               rd_miss2;
+reg               rd_pend2;  // a read is in its third cycle
+reg               rd_valid;  // reg_rd_data holds a new read
 
 // Write data with the byte strobes applied to the stored value: bit i is written when
 // strobe i/8 is set.
@@ -274,32 +280,10 @@ always @* begin
         endcase
     end
 
-    // One-hot select registered in the first read cycle: an AND-OR multiplexer here.
-    rd_data_next = 32'd0
-        | ({32{rd_sel[0]}} & rword_id)
-        | ({32{rd_sel[1]}} & rword_ctrl)
-        | ({32{rd_sel[2]}} & rword_status)
-        | ({32{rd_sel[3]}} & rword_fault)
-        | ({32{rd_sel[4]}} & rword_tc)
-        | ({32{rd_sel[5]}} & rword_kff)
-        | ({32{rd_sel[6]}} & rword_kp)
-        | ({32{rd_sel[7]}} & rword_ki_ts)
-        | ({32{rd_sel[8]}} & rword_i_limit)
-        | ({32{rd_sel[9]}} & rword_slew)
-        | ({32{rd_sel[10]}} & rword_wdt_timeout)
-        | ({32{rd_sel[11]}} & rword_adc_offset)
-        | ({32{rd_sel[12]}} & rword_adc_gain)
-        | ({32{rd_sel[13]}} & rword_adc_min)
-        | ({32{rd_sel[14]}} & rword_adc_max)
-        | ({32{rd_sel[15]}} & rword_adc_stale)
-        | ({32{rd_sel[16]}} & rword_oc_timeout)
-        | ({32{rd_sel[17]}} & rword_sample_count)
-        | ({32{rd_sel[18]}} & rword_t_in)
-        | ({32{rd_sel[19]}} & rword_u)
-        | ({32{rd_sel[20]}} & rword_integ)
-        | ({32{rd_sel[21]}} & rword_tc_eff);
-    rd_err_next = rd_miss;
-    if (!rd_pend) begin
+    // Third read cycle: OR of the group results.
+    rd_data_next = rd_grp[0] | rd_grp[1] | rd_grp[2] | rd_grp[3] | rd_grp[4] | rd_grp[5];
+    rd_err_next = rd_miss2;
+    if (!rd_pend2) begin
         rd_data_next = rd_data_reg;
         rd_err_next = rd_err_reg;
     end
@@ -326,6 +310,32 @@ always @(posedge clk) begin
     oc_timeout_reg <= oc_timeout_next;
     rd_data_reg <= rd_data_next;
     rd_pend <= reg_rd_en;
+    rd_pend2 <= rd_pend;
+    rd_valid <= rd_pend2;
+    rd_miss2 <= rd_miss;
+    // Second read cycle: AND-OR of the one-hot select within groups of four registers.
+    rd_grp[0] <= ({32{rd_sel[0]}} & rword_id)
+        | ({32{rd_sel[1]}} & rword_ctrl)
+        | ({32{rd_sel[2]}} & rword_status)
+        | ({32{rd_sel[3]}} & rword_fault);
+    rd_grp[1] <= ({32{rd_sel[4]}} & rword_tc)
+        | ({32{rd_sel[5]}} & rword_kff)
+        | ({32{rd_sel[6]}} & rword_kp)
+        | ({32{rd_sel[7]}} & rword_ki_ts);
+    rd_grp[2] <= ({32{rd_sel[8]}} & rword_i_limit)
+        | ({32{rd_sel[9]}} & rword_slew)
+        | ({32{rd_sel[10]}} & rword_wdt_timeout)
+        | ({32{rd_sel[11]}} & rword_adc_offset);
+    rd_grp[3] <= ({32{rd_sel[12]}} & rword_adc_gain)
+        | ({32{rd_sel[13]}} & rword_adc_min)
+        | ({32{rd_sel[14]}} & rword_adc_max)
+        | ({32{rd_sel[15]}} & rword_adc_stale);
+    rd_grp[4] <= ({32{rd_sel[16]}} & rword_oc_timeout)
+        | ({32{rd_sel[17]}} & rword_sample_count)
+        | ({32{rd_sel[18]}} & rword_t_in)
+        | ({32{rd_sel[19]}} & rword_u);
+    rd_grp[5] <= ({32{rd_sel[20]}} & rword_integ)
+        | ({32{rd_sel[21]}} & rword_tc_eff);
     if (reg_rd_en) begin
         rd_sel[0] <= (rd_word == A_ID);
         rd_sel[1] <= (rd_word == A_CTRL);
@@ -377,6 +387,8 @@ always @(posedge clk) begin
 
     if (rst) begin
         rd_pend <= 1'b0;
+        rd_pend2 <= 1'b0;
+        rd_valid <= 1'b0;
         ctrl_enable_reg <= 1'd0;
         ctrl_integ_reset_reg <= 1'd0;
         ctrl_fault_clear_reg <= 1'd0;
@@ -419,6 +431,7 @@ assign oc_timeout = oc_timeout_reg;
 assign reg_wr_err = reg_wr_en & ~wr_hit;
 assign reg_rd_data = rd_data_reg;
 assign reg_rd_err = rd_err_reg;
+assign reg_rd_valid = rd_valid;
 
 // Unused write-data bits: registers narrower than 32 bits ignore the rest.
 wire unused_wr_bits = &{1'b0, reg_wr_data, wr_mask, reg_wr_addr[1:0], reg_rd_addr[1:0]};

@@ -48,6 +48,7 @@ localparam [15:0] IMAX16 = IMAX[15:0];  // fits: 1..32767
 localparam SHIFT = calc_shift(SPAN, IMAX);
 localparam integer K_INT = ((SPAN << SHIFT) + IMAX / 2) / IMAX;
 localparam [15:0] K = K_INT[15:0];  // < 2^15 by the choice of SHIFT
+
 localparam CNT_W = $clog2(PERIOD_CLKS);
 localparam integer LAST_INT = PERIOD_CLKS - 1;
 localparam [CNT_W-1:0] LAST = LAST_INT[CNT_W-1:0];  // fits: < 2^CNT_W
@@ -55,23 +56,32 @@ localparam [CNT_W-1:0] LAST = LAST_INT[CNT_W-1:0];  // fits: < 2^CNT_W
 reg  [CNT_W-1:0] cnt_reg, cnt_next;
 reg  [31:0]      duty_reg, duty_next;
 reg  [15:0]      u_c;
+reg  [15:0]      u_c_reg;  // clamped command, registered so the DSP keeps its own input register
+reg  [15:0]      u_reg;    // command, and its comparisons with +-IMAX, one clock earlier
+reg              en_reg;
+reg              gt_reg;
+reg              lt_reg;
+
+// u > IMAX and u < -IMAX as the sign of a 17-bit subtraction (one carry chain each).
+wire [16:0] above = {1'b0, IMAX16} - {u[15], u};
+wire [16:0] below = {u[15], u} + {1'b0, IMAX16};
 
 wire signed [31:0] prod;
-mul_s16 mul (.clk(clk), .a(u_c), .b(K), .p(prod));
+mul_s16 mul (.clk(clk), .a(u_c_reg), .b(K), .p(prod));
 
 // floor(prod / 2^SHIFT), |.| <= SPAN: the 90 % / 10 % ends of the range.
 wire signed [31:0] offset = prod >>> SHIFT;
 
 always @* begin
     // Clamp to +-IMAX so the duty never leaves 10..90 %.
-    if (!enable) begin
+    if (!en_reg) begin
         u_c = 16'd0;
-    end else if ($signed(u) > $signed(IMAX16)) begin
+    end else if (gt_reg) begin
         u_c = IMAX16;
-    end else if ($signed(u) < -$signed(IMAX16)) begin
+    end else if (lt_reg) begin
         u_c = -IMAX16;
     end else begin
-        u_c = u;
+        u_c = u_reg;
     end
 
     cnt_next = (cnt_reg == LAST) ? {CNT_W{1'b0}} : cnt_reg + 1'b1;
@@ -84,6 +94,11 @@ end
 always @(posedge clk) begin
     cnt_reg <= cnt_next;
     duty_reg <= duty_next;
+    u_c_reg <= u_c;
+    u_reg <= u;
+    en_reg <= enable;
+    gt_reg <= above[16];
+    lt_reg <= below[16];
     if (rst) begin
         cnt_reg <= {CNT_W{1'b0}};
         duty_reg <= HALF;
@@ -91,6 +106,9 @@ always @(posedge clk) begin
 end
 
 assign pwm = {{(32 - CNT_W){1'b0}}, cnt_reg} < duty_reg;
+
+// Only the signs of the comparisons are needed.
+wire unused_cmp = &{1'b0, above[15:0], below[15:0]};
 assign duty_clks = duty_reg;
 
 endmodule

@@ -118,7 +118,8 @@ reg  [15:0] oc_to_s_reg, oc_to_s_next;
 reg  [23:0] raw_s_reg, raw_s_next;
 reg  [23:0] min_s_reg, min_s_next;
 reg  [23:0] max_s_reg, max_s_next;
-reg         range_s_reg, range_s_next;
+reg         lo_bad_reg, lo_bad_next;
+reg         hi_bad_reg, hi_bad_next;
 reg  [3:0]  fbase_s_reg, fbase_s_next;
 reg  [24:0] diff_reg, diff_next;
 reg  [16:0] hi_s_reg, hi_s_next;
@@ -191,11 +192,11 @@ wire [16:0] wdt_now = (!enable || tcw_now) ? 17'd0 : wdt_base + {16'd0, !wdt_bas
 
 // Clock 1: range check of the sample. Clock 2: fault detection on the snapshot (thresholds
 // of 0 switch a check off).
-wire range_bad = ($signed(raw_s_reg) < $signed(min_s_reg)) ||
-                 ($signed(raw_s_reg) > $signed(max_s_reg));
+wire [24:0] below_min = {raw_s_reg[23], raw_s_reg} - {min_s_reg[23], min_s_reg};
+wire [24:0] above_max = {max_s_reg[23], max_s_reg} - {raw_s_reg[23], raw_s_reg};
 wire [3:0] detect = {(oc_to_s_reg != 16'd0) && (oc_cnt_reg >= {1'b0, oc_to_s_reg}),
                      (wdt_to_s_reg != 16'd0) && (wdt_cnt_reg >= {1'b0, wdt_to_s_reg}),
-                     range_s_reg,
+                     lo_bad_reg || hi_bad_reg,
                      (stale_to_s_reg != 16'd0) && (stale_cnt_reg >= {1'b0, stale_to_s_reg})};
 wire [3:0] faults_now = fbase_s_reg | det_reg;
 
@@ -245,7 +246,7 @@ wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : 16'd0;
 
 // Bits dropped on purpose: the fraction below the rounding point, and the sign bit of values
 // proven in range (slew result between two Q7.8 values, clamped integrator within +-2^31).
-wire unused_bits = &{1'b0, tce_slew[16], cal_sum_reg[19:0], i_clamped[32], v_sum[8:0],
+wire unused_bits = &{1'b0, tce_slew[16], below_min[23:0], above_max[23:0], cal_sum_reg[19:0], i_clamped[32], v_sum[8:0],
                      r_above[24:0], r_below[24:0], i_above[32:0], i_below[32:0],
                      tc_above[16:0], tc_below[16:0]};
 
@@ -279,7 +280,8 @@ always @* begin
     raw_s_next = raw_s_reg;
     min_s_next = min_s_reg;
     max_s_next = max_s_reg;
-    range_s_next = range_s_reg;
+    lo_bad_next = lo_bad_reg;
+    hi_bad_next = hi_bad_reg;
     fbase_s_next = fbase_s_reg;
     diff_next = diff_reg;
     hi_s_next = hi_s_reg;
@@ -357,7 +359,8 @@ always @* begin
 
     // Clock 1: range, slew comparisons, high part of the difference times the gain.
     if (seq_reg[0]) begin
-        range_s_next = range_bad;
+        lo_bad_next = below_min[24];  // raw < ADC_MIN
+        hi_bad_next = above_max[24];  // raw > ADC_MAX
         cmp_hi_next = tc_above[17];
         cmp_lo_next = tc_below[17];
         m1_a = diff_reg[24:9];
@@ -498,7 +501,8 @@ always @(posedge clk) begin
     raw_s_reg <= raw_s_next;
     min_s_reg <= min_s_next;
     max_s_reg <= max_s_next;
-    range_s_reg <= range_s_next;
+    lo_bad_reg <= lo_bad_next;
+    hi_bad_reg <= hi_bad_next;
     fbase_s_reg <= fbase_s_next;
     diff_reg <= diff_next;
     hi_s_reg <= hi_s_next;

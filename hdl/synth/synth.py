@@ -47,7 +47,8 @@ BOARDS = {
         name="ice40-up5k",
         top="ice40_up5k_top",
         family="ice40",
-        nextpnr_args=("--up5k", "--package", "sg48"),
+        # --opt-timing: post-placement timing optimisation (nextpnr-ice40 option).
+        nextpnr_args=("--up5k", "--package", "sg48", "--opt-timing"),
         constraints=HDL / "boards" / "ice40_up5k.pcf",
         target_mhz=48.0,
         lut_capacity=5280,  # iCE40UP5K: 5280 LUT4 (Lattice FPGA-DS-02008)
