@@ -125,21 +125,47 @@ def test_cosim_characterize_fits_the_papers_mu(built):
     assert fit["mu"] == pytest.approx(0.075, rel=0.03)
 
 
-def test_cosim_positions_spread_smaller_with_loop_routing():
-    """Paper Fig. 13: the friction (mu*phi fitted per position) spreads less with the loop. Run
-    on the float reference (fast), which the fixed-point chain tracks within the budget above."""
+def test_cosim_positions_spread_smaller_with_loop_routing(built):
+    """Paper Fig. 13 through the RTL (lean bus driver, same results as cocotbext-axi): the friction
+    mu*phi fitted per end-effector position spreads far less with the loop."""
     scen = get_scenario("positions")
-    cfg = SimConfig()
     spreads = {}
     for loop_routing in (True, False):
-        rec = reference.run_reference(scen, cfg, "none", loop_routing, 0.0, progress=False)
-        fits = sim.friction_fits(scen, cfg, rec)
-        mu_phi = np.array([f["mu_phi"] for f in fits])
+        result = sim.run(
+            scenario="positions",
+            loop_routing=loop_routing,
+            bus="lean",
+            reference=False,
+            progress=False,
+            write_files=False,
+        )
+        fits = result["friction_fit"]
         assert len(fits) == len(scen.segments)
         # The fit recovers the plant's mu at every position (phi from the FMU's geometry).
         np.testing.assert_allclose([f["mu"] for f in fits], 0.075, rtol=0.03)
-        spreads[loop_routing] = float(np.ptp(mu_phi))
-    assert spreads[True] < 0.2 * spreads[False], spreads
+        spreads[loop_routing] = float(np.ptp([f["mu_phi"] for f in fits]))
+    assert spreads[True] < 0.1 * spreads[False], spreads
+
+
+def test_cosim_params_reach_the_plant_and_the_compensator(built, tmp_path):
+    """--params overrides: the plant's mu (FMU parameter) shows in the characterisation's fit,
+    and the compensator's phi is the one given."""
+    import json
+
+    from cosim.scenarios import load_params
+
+    p = tmp_path / "params.json"
+    p.write_text(json.dumps({"plant": {"mu": 0.09}, "compensator": {"phi_rad": 6.0}}))
+    result = sim.run(
+        scenario="characterize",
+        cfg=load_params(p),
+        duration_s=3.0,
+        bus="lean",
+        progress=False,
+        write_files=False,
+    )
+    assert result["friction_fit"][0]["mu"] == pytest.approx(0.09, rel=0.03)
+    assert result["compensator_phi_rad"] == 6.0
 
 
 def test_cosim_metrics_of_result_match_the_trace(built, tmp_path):
