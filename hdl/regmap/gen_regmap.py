@@ -166,7 +166,8 @@ def gen_verilog(spec: dict) -> str:
     w("reg               rd_miss;  // the read address is unmapped")
     w("reg               rd_pend;  // a read is in its second cycle")
     ngrp = (n + 3) // 4
-    w(f"reg  [31:0]       rd_grp [0:{ngrp - 1}];  // OR of each group of four registers")
+    for g in range(ngrp):
+        w(f"reg  [31:0]       rd_grp{g};  // OR of registers {4 * g}..{min(4 * g + 3, n - 1)}")
     w("reg               rd_miss2;")
     w("reg               rd_pend2;  // a read is in its third cycle")
     w("reg               rd_valid;  // reg_rd_data holds a new read")
@@ -261,7 +262,7 @@ def gen_verilog(spec: dict) -> str:
     w("")
     w("    // Third read cycle: OR of the group results.")
     ngrp = (len(spec["registers"]) + 3) // 4
-    w("    rd_data_next = " + " | ".join(f"rd_grp[{g}]" for g in range(ngrp)) + ";")
+    w("    rd_data_next = " + " | ".join(f"rd_grp{g}" for g in range(ngrp)) + ";")
     w("    rd_err_next = rd_miss2;")
     w("    if (!rd_pend2) begin")
     w("        rd_data_next = rd_data_reg;")
@@ -289,7 +290,7 @@ def gen_verilog(spec: dict) -> str:
             f"({{32{{rd_sel[{i}]}}}} & rword_{regs[i]['name'].lower()})"
             for i in range(g, min(g + 4, len(regs)))
         ]
-        w(f"    rd_grp[{g // 4}] <= " + terms[0])
+        w(f"    rd_grp{g // 4} <= " + terms[0])
         for t in terms[1:]:
             w(f"        | {t}")
         out[-1] += ";"

@@ -99,7 +99,12 @@ wire [ADDR_W-3:0] rd_word = reg_rd_addr[ADDR_W-1:2];
 reg  [21:0]        rd_sel;   // one-hot register select of the read in flight
 reg               rd_miss;  // the read address is unmapped
 reg               rd_pend;  // a read is in its second cycle
-reg  [31:0]       rd_grp [0:5];  // OR of each group of four registers
+reg  [31:0]       rd_grp0;  // OR of registers 0..3
+reg  [31:0]       rd_grp1;  // OR of registers 4..7
+reg  [31:0]       rd_grp2;  // OR of registers 8..11
+reg  [31:0]       rd_grp3;  // OR of registers 12..15
+reg  [31:0]       rd_grp4;  // OR of registers 16..19
+reg  [31:0]       rd_grp5;  // OR of registers 20..21
 reg               rd_miss2;
 reg               rd_pend2;  // a read is in its third cycle
 reg               rd_valid;  // reg_rd_data holds a new read
@@ -281,7 +286,7 @@ always @* begin
     end
 
     // Third read cycle: OR of the group results.
-    rd_data_next = rd_grp[0] | rd_grp[1] | rd_grp[2] | rd_grp[3] | rd_grp[4] | rd_grp[5];
+    rd_data_next = rd_grp0 | rd_grp1 | rd_grp2 | rd_grp3 | rd_grp4 | rd_grp5;
     rd_err_next = rd_miss2;
     if (!rd_pend2) begin
         rd_data_next = rd_data_reg;
@@ -314,27 +319,27 @@ always @(posedge clk) begin
     rd_valid <= rd_pend2;
     rd_miss2 <= rd_miss;
     // Second read cycle: AND-OR of the one-hot select within groups of four registers.
-    rd_grp[0] <= ({32{rd_sel[0]}} & rword_id)
+    rd_grp0 <= ({32{rd_sel[0]}} & rword_id)
         | ({32{rd_sel[1]}} & rword_ctrl)
         | ({32{rd_sel[2]}} & rword_status)
         | ({32{rd_sel[3]}} & rword_fault);
-    rd_grp[1] <= ({32{rd_sel[4]}} & rword_tc)
+    rd_grp1 <= ({32{rd_sel[4]}} & rword_tc)
         | ({32{rd_sel[5]}} & rword_kff)
         | ({32{rd_sel[6]}} & rword_kp)
         | ({32{rd_sel[7]}} & rword_ki_ts);
-    rd_grp[2] <= ({32{rd_sel[8]}} & rword_i_limit)
+    rd_grp2 <= ({32{rd_sel[8]}} & rword_i_limit)
         | ({32{rd_sel[9]}} & rword_slew)
         | ({32{rd_sel[10]}} & rword_wdt_timeout)
         | ({32{rd_sel[11]}} & rword_adc_offset);
-    rd_grp[3] <= ({32{rd_sel[12]}} & rword_adc_gain)
+    rd_grp3 <= ({32{rd_sel[12]}} & rword_adc_gain)
         | ({32{rd_sel[13]}} & rword_adc_min)
         | ({32{rd_sel[14]}} & rword_adc_max)
         | ({32{rd_sel[15]}} & rword_adc_stale);
-    rd_grp[4] <= ({32{rd_sel[16]}} & rword_oc_timeout)
+    rd_grp4 <= ({32{rd_sel[16]}} & rword_oc_timeout)
         | ({32{rd_sel[17]}} & rword_sample_count)
         | ({32{rd_sel[18]}} & rword_t_in)
         | ({32{rd_sel[19]}} & rword_u);
-    rd_grp[5] <= ({32{rd_sel[20]}} & rword_integ)
+    rd_grp5 <= ({32{rd_sel[20]}} & rword_integ)
         | ({32{rd_sel[21]}} & rword_tc_eff);
     if (reg_rd_en) begin
         rd_sel[0] <= (rd_word == A_ID);

@@ -183,10 +183,12 @@ wire        irst_now = irst_pend_reg | integ_reset;
 
 // Counters stop at 2^16 so a long fault never wraps to "fine"; every threshold is below 2^16,
 // so for the checks (count >= threshold) this equals the model's saturation at 2^16 - 1.
-wire [16:0] stale_base = fclr_now ? 17'd0 : stale_cnt_reg;
-wire [16:0] wdt_base = fclr_now ? 17'd0 : wdt_cnt_reg;
-wire [16:0] stale_now = fresh_now ? 17'd0 : stale_base + {16'd0, !stale_base[16]};
-wire [16:0] wdt_now = (!enable || tcw_now) ? 17'd0 : wdt_base + {16'd0, !wdt_base[16]};
+// A fault clear restarts a counter from zero: the increment is computed in parallel and the
+// clear chooses 1 after it, which keeps the clear off the carry chain.
+wire [16:0] stale_inc = stale_cnt_reg + {16'd0, !stale_cnt_reg[16]};
+wire [16:0] wdt_inc = wdt_cnt_reg + {16'd0, !wdt_cnt_reg[16]};
+wire [16:0] stale_now = fresh_now ? 17'd0 : fclr_now ? 17'd1 : stale_inc;
+wire [16:0] wdt_now = (!enable || tcw_now) ? 17'd0 : fclr_now ? 17'd1 : wdt_inc;
 
 // --- later clocks ---------------------------------------------------------------------------
 

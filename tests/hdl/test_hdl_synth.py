@@ -65,6 +65,11 @@ def test_ice40_dsps_are_fully_registered(summaries):
     assert len(macs) == 3
     for cell in macs:
         p = {k: int(v, 2) if isinstance(v, str) else v for k, v in cell["parameters"].items()}
-        assert p["A_REG"] == 1 and p["B_REG"] == 1, "DSP operands not registered inside"
-        # Output select 1 or 3 = registered 32-bit product (SB_MAC16 user guide, TN1295).
-        assert p["TOPOUTPUT_SELECT"] in (1, 3) and p["BOTOUTPUT_SELECT"] in (1, 3), p
+        # A constant operand (the PWM scale factor) needs no register.
+        b_const = all(bit in ("0", "1") for bit in cell["connections"]["B"])
+        assert p["A_REG"] == 1, "DSP operand A not registered inside"
+        assert p["B_REG"] == 1 or b_const, "DSP operand B not registered inside"
+        # The product register went into the DSP's 16 x 16 pipeline register.
+        assert p["PIPELINE_16x16_MULT_REG1"] == 1 or p["PIPELINE_16x16_MULT_REG2"] == 1, p
+        # Output select 3: the 16 x 16 product (not the unregistered adder or 8 x 8 outputs).
+        assert p["TOPOUTPUT_SELECT"] == 3 and p["BOTOUTPUT_SELECT"] == 3, p
