@@ -104,7 +104,8 @@ def run_reference(
     tc_new = 0.0  # T_c computed at the last firmware tick, in force from the next sample
     tc = 0.0
     tc_eff = 0.0  # T_c after the slew limit, as the loop uses it
-    slew = float(cfg.controller.slew_n_per_sample)
+    words = loop_words(cfg.controller, cfg.sample_rate_hz)
+    slew = words["slew"] / 256.0 if words["slew_en"] else 0.0  # the SLEW word, as programmed
     y = plant.y
     t_in_meas = y[T_IN_MEAS]
     for k in range(n):

@@ -46,7 +46,7 @@ from cocotbext.axi import AxiLiteBus, AxiLiteMaster
 from cosim import regmap, rtl_model
 from cosim.harness.axil import LeanAxiLiteMaster
 from cosim.harness.common import Record, open_plant
-from cosim.harness.fwbridge import FirmwareBridge
+from cosim.harness.fwbridge import FirmwareBridge, loop_words
 from cosim.reference import TC_LATENCY_SAMPLES
 from cosim.scenarios import SimConfig, get_scenario, sample_inputs
 
@@ -171,7 +171,9 @@ async def closed_loop(dut):
             if now_ns < seen_ns:
                 await Timer(int(seen_ns - now_ns), unit="ns")
             tc_eff = _signed16((await axi.read_dword(regmap.TC_EFF)) & 0xFFFF) / 256.0
-            if tc_eff != tc_n:
+            # Between the wake-ups of samples k+2 and k+3, TC_EFF holds tick k+2's T_c: the T_c
+            # written (or, with the slew limit, the slewed value the trace records).
+            if k + TC_LATENCY_SAMPLES < n and tc_eff != out_tc[k + TC_LATENCY_SAMPLES]:
                 fw_state["tc_mismatch"] += 1
             fw_state["checks"] += 1
 
@@ -196,7 +198,10 @@ async def closed_loop(dut):
     perf = time.perf_counter
     fmu_s = 0.0
     await_s = 0.0
-    tc = 0.0  # T_c in force in the RTL (for the trace), Q7.8 value in N
+    tc_set = 0.0  # T_c written and in force in the RTL, Q7.8 value in N
+    tc = 0.0  # T_c after the RTL's slew limit (TC_EFF), recorded in the trace
+    words = loop_words(cfg.controller, cfg.sample_rate_hz)
+    slew_n = words["slew"] / 256.0 if words["slew_en"] else 0.0
     t_start = perf()
     for k in range(n):
         if k:
@@ -204,7 +209,13 @@ async def closed_loop(dut):
             await timer  # the RTL runs CLKS_PER_SAMPLE clocks (and the firmware task, if woken)
             await_s += perf() - t_a
         if k >= TC_LATENCY_SAMPLES and (k - TC_LATENCY_SAMPLES) % dec == 0:
-            tc = tc_new[0]
+            tc_set = tc_new[0]
+        # T_c as the RTL uses it: the slew limit (CTRL.SLEW_EN) moves it by at most SLEW per
+        # sample towards the value written; exact in double (Q7.8 values).
+        if slew_n > 0.0:
+            tc = min(max(tc_set, tc - slew_n), tc + slew_n)
+        else:
+            tc = tc_set
         word = u_sig.value.to_signed()
         u_words[k] = word
         u_a = word / 4096.0
