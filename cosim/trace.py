@@ -222,3 +222,33 @@ def read_trace(csv_path: str | Path) -> Trace:
 
 def _is_number(v: object) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """`python -m cosim.trace FILE.csv...`: validate traces; print a line per file."""
+    import sys  # noqa: PLC0415
+
+    paths = sys.argv[1:] if argv is None else argv
+    if not paths:
+        print("usage: python -m cosim.trace TRACE.csv [...]", file=sys.stderr)
+        return 2
+    status = 0
+    for p in paths:
+        try:
+            tr = read_trace(p)
+        except TraceError as exc:
+            print(f"invalid: {exc}", file=sys.stderr)
+            status = 1
+            continue
+        t = tr["t_s"]
+        print(
+            f"ok: {p}: {len(tr)} samples, {t[-1] - t[0]:.3f} s at "
+            f"{tr.meta['sample_rate_hz']:g} Hz, "
+            f"loop_routing {tr.meta['loop_routing']}, mu {tr.meta['mu']:g}, "
+            f"T_out {tr['T_out_N'].min():.2f} .. {tr['T_out_N'].max():.2f} N"
+        )
+    return status
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -96,3 +96,17 @@ def test_cosim_trace_rejects_bad_csv_contents(tmp_path):
         tr.read_trace(_write_raw(tmp_path, f"{header}\n{good}\n{row_late}\n"))
     with pytest.raises(tr.TraceError, match="empty file"):
         tr.read_trace(_write_raw(tmp_path, ""))
+
+
+def test_cosim_trace_command_line_validates_files(tmp_path, capsys):
+    good = tr.write_trace(tmp_path / "good.csv", _columns(), META)
+    bad = tmp_path / "bad.csv"
+    bad.write_text(",".join(tr.COLUMNS[:3]) + "\n")
+    tr.meta_path(bad).write_text(json.dumps(META))
+    assert tr.main([str(good)]) == 0
+    assert "ok: " in capsys.readouterr().out
+    assert tr.main([str(good), str(bad)]) == 1
+    out = capsys.readouterr()
+    assert out.out.startswith("ok: ") and "invalid: " in out.err
+    assert "header lacks column(s) T_in_N" in out.err
+    assert tr.main([]) == 2
