@@ -9,7 +9,7 @@ import numpy as np
 
 from ..scenarios import SimConfig
 
-# Recorded per FPGA sample (float64 arrays); `trace_columns` maps them to the trace format.
+# Recorded per FPGA sample (float64 arrays); cosim.sim.trace_columns maps them to the trace format.
 RECORD_FIELDS = (
     "t_s",
     "T_ref_N",
@@ -44,10 +44,6 @@ class Record:
     def load(cls, path) -> Record:
         with np.load(path) as data:
             return cls({name: data[name].copy() for name in data.files})
-
-    def trace_columns(self) -> dict[str, np.ndarray]:
-        """The columns of the trace format (cosim.trace.COLUMNS) plus the extras we keep."""
-        return dict(self.arrays)
 
 
 def open_plant(cfg: SimConfig, loop_routing: bool, position_m: tuple[float, float, float]):
