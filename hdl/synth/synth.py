@@ -230,16 +230,20 @@ def main(argv: list[str] | None = None) -> int:
             f"Fmax {summary['fmax_mhz']} MHz (target {summary['target_mhz']}) [{state}]"
         )
     if args.bench:
-        print(f"{'board':<12} {'LUTs':>7} {'DSPs':>5} {'Fmax MHz':>9}   previous run")
+        print(
+            f"{'board':<12} {'LUTs':>6} {'DSPs':>5} {'Fmax MHz':>9} {'target':>7} "
+            f"{'yosys s':>8} {'pnr s':>6}   previous run: LUTs DSPs Fmax"
+        )
         for summary, prev, _ in rows:
             before = (
-                f"{prev['luts']:>7} {prev['dsps']:>5} {prev['fmax_mhz']:>9}"
+                f"{prev['luts']:>6} {prev['dsps']:>4} {prev['fmax_mhz']:>7}"
                 if prev
                 else "(none recorded)"
             )
             print(
-                f"{summary['board']:<12} {summary['luts']:>7} {summary['dsps']:>5} "
-                f"{summary['fmax_mhz']:>9}   {before}"
+                f"{summary['board']:<12} {summary['luts']:>6} {summary['dsps']:>5} "
+                f"{summary['fmax_mhz']:>9} {summary['target_mhz']:>7} "
+                f"{summary['yosys_s']:>8} {summary['nextpnr_s']:>6}   {before}"
             )
     for problem in problems:
         print(problem, file=sys.stderr)
