@@ -92,3 +92,21 @@ def test_saturation_and_recovery_track_float():
     within = sum(abs(e) <= 2.0 / 4096 for e in errors)
     assert within >= 0.99 * len(errors), f"only {within} of {len(errors)} samples within 2 LSB"
     assert max(abs(e) for e in errors) <= 0.05, "a saturation decision diverged for long"
+
+
+def test_slew_limit_moves_tc_by_at_most_slew_per_sample():
+    """With CTRL.SLEW_EN, T_c' steps towards T_c by SLEW per sample and then holds it."""
+    model = TensionLoopModel()
+    model.write("WDT_TIMEOUT", 0)
+    model.write("SLEW", 100)
+    model.write("TC", 1000)
+    model.write("CTRL", 1 | 8)  # ENABLE | SLEW_EN
+    seen = []
+    for _ in range(15):
+        model.adc_sample(0)
+        seen.append(model.tick().tc_eff)
+    assert seen[:10] == [100 * (k + 1) for k in range(10)]
+    assert seen[10:] == [1000] * 5
+    model.write("TC", -32768)  # full-scale step down, still limited
+    model.adc_sample(0)
+    assert model.tick().tc_eff == 900
