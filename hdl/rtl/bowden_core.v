@@ -67,6 +67,14 @@ localparam CNT_W = $clog2(CLKS_PER_SAMPLE);
 localparam integer TICK_LAST_INT = CLKS_PER_SAMPLE - 1;
 localparam [CNT_W-1:0] TICK_LAST = TICK_LAST_INT[CNT_W-1:0];  // fits: < 2^CNT_W
 
+// Parameter check: a tick spacing below the loop latency would start a sample before the last
+// one finished. Verilog-2005 has no elaboration-time $error, so a missing module stands in.
+generate
+    if (CLKS_PER_SAMPLE < 15) begin : g_check
+        bowden_core_CLKS_PER_SAMPLE_must_be_at_least_15 error_CLKS_PER_SAMPLE ();
+    end
+endgenerate
+
 // --- sample tick ---------------------------------------------------------------------------
 
 reg [CNT_W-1:0] tick_cnt_reg, tick_cnt_next;
