@@ -7,7 +7,7 @@
  *
  * Every sample tick (one-clock pulse on `tick`):
  *   T_in = sat16(round((raw - ADC_OFFSET) * ADC_GAIN / 2^20))          Q7.8 N
- *   T_c' = T_c, or T_c moved towards T_c by at most SLEW (CTRL.SLEW_EN)  Q7.8 N
+ *   T_c' = T_c, or T_c'[n-1] moved towards T_c by at most SLEW (SLEW_EN)  Q7.8 N
  *   e    = sat16(T_c' - T_in)                                          Q7.8 N
  *   I'   = clamp(I + KI_TS*e, +-I_LIMIT), or I when the previous output was saturated
  *          in the direction KI_TS*e pushes (conditional integration, the anti-windup)   Q3.28 A
@@ -17,9 +17,10 @@
  *
  * Two registered multipliers (mul_s16) compute the five products in a fixed schedule; the
  * results appear LATENCY (15) clocks after the tick, marked by `out_valid`. Ticks must be at least
- * LATENCY clocks apart. Configuration read after the tick clock is snapshotted at the tick, so
- * a register write that lands at or before the tick edge is used by that sample, and one that
- * lands later by the next.
+ * LATENCY clocks apart. All configuration is taken at the tick edge: a register updated on an
+ * edge before it is used by that sample, one updated on the tick edge or later by the next
+ * (write pulses such as the TC strobe follow the same rule). An ADC sample whose valid clock is
+ * the tick clock counts for that tick.
  */
 module tension_loop #(
     parameter [15:0] WDT_RAMP_STEP = 16'd41  // watchdog ramp-down of u, Q3.12 A per sample
