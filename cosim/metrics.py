@@ -9,6 +9,12 @@ Fixed against float: the co-simulated fixed-point chain (RTL + firmware) against
 reference on the same scenario and plant; the current command compared in LSB of its Q3.12 word
 (1/4096 A) and T_out in N.
 
+Error split at reversals (why a compensator or a routing wins): the paper blames its peak error
+on "abrupt change of input tension when the direction of increment of reference tension changes"
+(Sec. VI-C), while a wrong bending angle (no loop routing) spoils the friction model everywhere.
+`reversal_split` separates the two: the error in a window after each reversal of T_ref, and the
+error elsewhere.
+
 Capstan fit (paper Eq. 1-3 quasi-static, Fig. 2): along the sheath the output is held between
 T_in*exp(-mu*phi) (pulling) and T_in*exp(+mu*phi) (releasing) and stays put in between (the dead
 zone at reversals), i.e. the play operator
@@ -54,6 +60,59 @@ def tracking_error(
         "peak_error_pct": peak * scale,
         "max_ref_n": max_ref,
     }
+
+
+# Window after a reversal of T_ref counted as "near the reversal": the dead zone plus the loop's
+# settling after the jump of T_c last about 0.25 s on fig14 (0.5 Hz reference, see README).
+REVERSAL_WINDOW_S = 0.3
+
+
+def reversal_times(t_s: np.ndarray, t_ref_n: np.ndarray, band_n: float) -> np.ndarray:
+    """Times at which T_ref changes direction, found with a hysteresis of `band_n` (a reversal
+    counts once T_ref has moved band_n back from its extreme), reported at the extreme itself."""
+    if band_n <= 0:
+        raise ValueError(f"reversal_times: band_n must be > 0 N, got {band_n}")
+    ref = np.asarray(t_ref_n, dtype=np.float64).tolist()
+    times = []
+    direction = 0  # +1 rising, -1 falling, 0 until T_ref has moved band_n from its start
+    k_ext = 0  # the extreme in the current direction
+    for k, v in enumerate(ref):
+        if direction == 0:
+            if abs(v - ref[0]) >= band_n:
+                direction = 1 if v > ref[0] else -1
+                k_ext = k
+        elif (v - ref[k_ext]) * direction > 0:
+            k_ext = k
+        elif (ref[k_ext] - v) * direction >= band_n:
+            times.append(float(t_s[k_ext]))
+            direction = -direction
+            k_ext = k
+    return np.asarray(times)
+
+
+def reversal_split(
+    t_s: np.ndarray,
+    t_ref_n: np.ndarray,
+    t_out_n: np.ndarray,
+    settle_s: float = 0.0,
+    window_s: float = REVERSAL_WINDOW_S,
+) -> dict[str, float]:
+    """RMS and peak of T_ref - T_out within `window_s` after each reversal of T_ref and away from
+    reversals (t >= settle_s in both), in N. The reversal hysteresis is 1 % of max |T_ref|."""
+    t = np.asarray(t_s, dtype=np.float64)
+    ref = np.asarray(t_ref_n, dtype=np.float64)
+    err = ref - np.asarray(t_out_n, dtype=np.float64)
+    revs = reversal_times(t, ref, band_n=max(0.01 * float(np.max(np.abs(ref))), 1e-9))
+    near = np.zeros(t.shape, dtype=bool)
+    for tr in revs.tolist():
+        near |= (t >= tr) & (t < tr + window_s)
+    valid = t >= settle_s
+    out = {"reversal_window_s": float(window_s), "reversals": int(np.sum(revs >= settle_s))}
+    for name, mask in (("near_reversal", near & valid), ("away", ~near & valid)):
+        e = err[mask]
+        out[f"rms_{name}_n"] = float(np.sqrt(np.mean(e * e))) if e.size else 0.0
+        out[f"peak_{name}_n"] = float(np.max(np.abs(e))) if e.size else 0.0
+    return out
 
 
 def fixed_vs_float(

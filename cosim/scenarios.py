@@ -19,9 +19,15 @@ Scenarios (paper Sec. VI):
   choice (named assumption): a spread over the workspace of a 1 m sheath, four of them in the
   loop's plane and one out of it.
 - ``fig14`` (Fig. 14): a sinusoidal T_ref between 2 N and 15 N (0.5 Hz) while the end-effector
-  moves in 3-D (a slow Lissajous path, mostly in the loop's plane with a small out-of-plane
-  swing), 30 s. The paper gives the maximum (15 N) and that the end-effector moved; frequency,
-  minimum and path are our choice (named assumption), kept slow enough for the actuator.
+  moves in 3-D, 30 s. The paper gives the maximum (15 N) and that the end-effector "changes its
+  position in 3-D space"; frequency, minimum and path are our choice (named assumption). The path
+  is a slow Lissajous figure that sweeps the same region as the Fig. 12 positions below
+  (y 0.25 .. 0.75 m, z -0.3 .. +0.3 m, x -0.1 .. +0.1 m), so that the experiment of Fig. 14 sees
+  the friction change that Fig. 13 measures: without loop routing phi then moves over about
+  2.6 .. 5.3 rad around the 4.2 rad the compensator is calibrated with; with it, 2*pi .. 2*pi+0.02.
+  A path that stays near the calibration point (an earlier choice, +-0.15 m in y) hides that
+  change, and the paper law then does better without the loop only because its smaller mu*phi
+  makes smaller jumps of T_c at reversals (see cosim/README.md, "Why").
 """
 
 from __future__ import annotations
@@ -60,6 +66,8 @@ FIG14_MAX_N = 15.0
 FIG14_MIN_N = 2.0
 FIG14_FREQ_HZ = 0.5
 FIG14_DURATION_S = 30.0
+# Half-widths (x, y, z) of the end-effector's path in fig14: the region of POSITIONS_M.
+FIG14_SWING_M = (0.10, 0.25, 0.30)
 
 # Fig. 12 stand-in: (x, y, z) in m, see module docstring.
 POSITIONS_M = (
@@ -178,11 +186,12 @@ def _fig14() -> Scenario:
         return sine * (0.5 - 0.5 * np.cos(np.pi * ease))
 
     def trajectory(t: np.ndarray):
-        # A slow Lissajous path around HOME_M: in-plane (y, z) swings of 0.15 m and 0.2 m and an
-        # out-of-plane (x) swing of 0.05 m, periods 10 s, 7.5 s and 15 s.
-        x = HOME_M[0] + 0.05 * np.sin(2.0 * np.pi * t / 15.0)
-        y = HOME_M[1] + 0.15 * np.sin(2.0 * np.pi * t / 10.0)
-        z = HOME_M[2] + 0.20 * np.sin(2.0 * np.pi * t / 7.5)
+        # A slow Lissajous path around HOME_M over the region of the Fig. 12 positions: in-plane
+        # (y, z) swings of 0.25 m and 0.3 m and an out-of-plane (x) swing of 0.1 m, periods
+        # 10 s, 7.5 s and 15 s (|C| <= 0.82 m, inside the 1 m workspace).
+        x = HOME_M[0] + FIG14_SWING_M[0] * np.sin(2.0 * np.pi * t / 15.0)
+        y = HOME_M[1] + FIG14_SWING_M[1] * np.sin(2.0 * np.pi * t / 10.0)
+        z = HOME_M[2] + FIG14_SWING_M[2] * np.sin(2.0 * np.pi * t / 7.5)
         return x, y, z
 
     return Scenario(

@@ -185,6 +185,11 @@ def evaluate(scen, cfg, run_spec, fixed, ref, wall_s, cost) -> dict:
         "peak_error_n": err["peak_error_n"],
         "peak_error_pct": err["peak_error_pct"],
         "max_ref_n": err["max_ref_n"],
+        # Where the error is: after reversals (the jump of T_c, actuator bandwidth) or away from
+        # them (the friction model, i.e. phi; what loop routing fixes). metrics.reversal_split.
+        "error_split": metrics.reversal_split(
+            fixed["t_s"], fixed["T_ref_N"], fixed["T_out_N"], settle
+        ),
         "settle_s": settle,
         "sample_rate_hz": cfg.sample_rate_hz,
         "firmware_rate_hz": cfg.firmware_rate_hz,
@@ -287,7 +292,8 @@ def summary_table(results: list[dict], paper: bool = False) -> str:
     """A plain-text table of runs: errors, fixed vs float, speed."""
     head = (
         f"{'scenario':<13}{'compensator':<12}{'loop':<6}{'RMS N':>8}{'RMS %':>8}{'peak N':>8}"
-        f"{'peak %':>8}{'du rms/max LSB':>16}{'dT_out rms N':>14}{'sim/wall':>10}"
+        f"{'peak %':>8}{'rev RMS N':>10}{'away RMS N':>11}{'du rms/max LSB':>16}"
+        f"{'dT_out rms N':>14}{'sim/wall':>10}"
     )
     lines = [head, "-" * len(head)]
     for r in results:
@@ -295,17 +301,20 @@ def summary_table(results: list[dict], paper: bool = False) -> str:
         du = f"{fvf['current_rms_lsb']:.2f}/{fvf['current_max_lsb']:.0f}" if fvf else "-"
         dt = f"{fvf['t_out_rms_n']:.4f}" if fvf else "-"
         speed = r.get("simulated_per_wall")
+        split = r.get("error_split")
+        split_near = f"{split['rms_near_reversal_n']:.3f}" if split else "-"
+        split_away = f"{split['rms_away_n']:.3f}" if split else "-"
         lines.append(
             f"{r['scenario']:<13}{r['compensator']:<12}{'on' if r['loop_routing'] else 'off':<6}"
             f"{r['rms_error_n']:>8.3f}{r['rms_error_pct']:>8.1f}{r['peak_error_n']:>8.3f}"
-            f"{r['peak_error_pct']:>8.1f}{du:>16}{dt:>14}"
+            f"{r['peak_error_pct']:>8.1f}{split_near:>10}{split_away:>11}{du:>16}{dt:>14}"
             f"{(f'x{speed:.2f}' if speed else '-'):>10}"
         )
     if paper:
         lines.append(
             f"{'paper Fig.14':<13}{'paper':<12}{'on':<6}{metrics.PAPER_RMS_N:>8.3f}"
             f"{metrics.PAPER_RMS_PCT:>8.1f}{metrics.PAPER_PEAK_N:>8.3f}"
-            f"{metrics.PAPER_PEAK_PCT:>8.1f}{'(measured)':>16}"
+            f"{metrics.PAPER_PEAK_PCT:>8.1f}{'':>21}{'(measured)':>16}"
         )
     for r in results:
         for fit in r.get("friction_fit", []):

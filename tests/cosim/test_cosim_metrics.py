@@ -63,3 +63,30 @@ def test_cosim_metrics_fit_capstan_recovers_mu_and_offset():
     assert fit["offset_n"] == pytest.approx(0.5, abs=1e-3)
     with pytest.raises(ValueError, match="phi_rad must be > 0"):
         metrics.fit_capstan(t_in, t_out, phi_rad=0.0)
+
+
+def test_cosim_metrics_reversal_times_of_a_sine_with_a_quantized_plateau():
+    t = np.arange(40_000) / 10_000.0
+    ref = 8.5 - 6.5 * np.cos(2 * np.pi * 0.5 * t)  # extremes at 1 s (max), 2 s (min), 3 s (max)
+    ref = np.round(ref * 256) / 256  # Q7.8 steps: flat runs at the extremes must not chatter
+    revs = metrics.reversal_times(t, ref, band_n=0.15)
+    assert len(revs) == 3
+    np.testing.assert_allclose(revs, [1.0, 2.0, 3.0], atol=0.02)
+    with pytest.raises(ValueError, match="band_n"):
+        metrics.reversal_times(t, ref, band_n=0.0)
+
+
+def test_cosim_metrics_reversal_split_puts_each_error_where_it_occurs():
+    t = np.arange(40_000) / 10_000.0
+    ref = 8.5 - 6.5 * np.cos(2 * np.pi * 0.5 * t)
+    # A 2 N error during 0.1 s after each reversal, and 0.1 N everywhere else.
+    err = np.full_like(t, 0.1)
+    for tr in (1.0, 2.0, 3.0):
+        err[(t >= tr) & (t < tr + 0.1)] = 2.0
+    out = metrics.reversal_split(t, ref, ref - err, settle_s=0.5, window_s=0.3)
+    assert out["reversals"] == 3
+    assert out["peak_near_reversal_n"] == pytest.approx(2.0)
+    assert out["peak_away_n"] == pytest.approx(0.1)
+    # Near: a third of each 0.3 s window at 2 N, the rest at 0.1 N.
+    assert out["rms_near_reversal_n"] == pytest.approx(math.sqrt((4.0 + 2 * 0.01) / 3), rel=0.01)
+    assert out["rms_away_n"] == pytest.approx(0.1)
