@@ -15,12 +15,8 @@ on "abrupt change of input tension when the direction of increment of reference 
 `reversal_split` separates the two: the error in a window after each reversal of T_ref, and the
 error elsewhere.
 
-Capstan fit (paper Eq. 1-3 quasi-static, Fig. 2): along the sheath the output is held between
-T_in*exp(-mu*phi) (pulling) and T_in*exp(+mu*phi) (releasing) and stays put in between (the dead
-zone at reversals), i.e. the play operator
-    T_out[k] = min(max(T_out[k-1], T_in[k]*exp(-mu*phi)), T_in[k]*exp(+mu*phi)),
-plus a constant sensor offset (the paper saw 0.5 N from the rollers of its sensor). The fit
-returns mu*phi (and mu for a known phi) by least squares on T_out.
+Capstan fit (paper Eq. 1-3 quasi-static, Fig. 2): cosim.capstan_fit, with a constant sensor
+offset (the paper saw 0.5 N from the rollers of its sensor), reported per position.
 """
 
 from __future__ import annotations
@@ -28,6 +24,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from . import capstan_fit
 
 # LSB of the Q3.12 current command (contract.md).
 CURRENT_LSB_A = 1.0 / 4096.0
@@ -140,62 +138,15 @@ def fixed_vs_float(
     }
 
 
-def capstan_play(t_in_n: np.ndarray, mu_phi: float, t_out0_n: float = 0.0) -> np.ndarray:
-    """Quasi-static output tension of the capstan model with dead zone (see module docstring)."""
-    lo = math.exp(-mu_phi)
-    hi = math.exp(mu_phi)
-    t_in = np.asarray(t_in_n, dtype=np.float64)
-    out = np.empty_like(t_in)
-    y = t_out0_n
-    for k, x in enumerate(t_in.tolist()):
-        y = min(max(y, x * lo), x * hi)
-        out[k] = y
-    return out
-
-
-def fit_capstan(
-    t_in_n: np.ndarray, t_out_n: np.ndarray, phi_rad: float | None = None, decimate: int = 10
-) -> dict[str, float]:
-    """Least-squares fit of mu*phi and a sensor offset to a (T_in, T_out) record.
-
-    Returns mu_phi, offset_n, rms_residual_n, efficiency exp(-mu*phi), and mu when phi_rad is
-    given. `decimate` thins the record first (the quasi-static model needs no 10 kHz detail).
-    """
-    t_in = np.asarray(t_in_n, dtype=np.float64)[::decimate]
-    t_out = np.asarray(t_out_n, dtype=np.float64)[::decimate]
-    if t_in.size < 10:
-        raise ValueError("fit_capstan: need at least 10 samples after decimation")
-
-    def cost(mu_phi: float) -> tuple[float, float]:
-        model = capstan_play(t_in, mu_phi, t_out0_n=float(t_out[0]))
-        offset = float(np.mean(t_out - model))
-        r = t_out - model - offset
-        return float(np.mean(r * r)), offset
-
-    # Golden-section search on [0, 3] (mu*phi of a real sheath is well inside: 0.075*2pi = 0.47).
-    a, b = 0.0, 3.0
-    g = (math.sqrt(5.0) - 1.0) / 2.0
-    c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = cost(c)[0], cost(d)[0]
-    for _ in range(60):
-        if fc < fd:
-            b, d, fd = d, c, fc
-            c = b - g * (b - a)
-            fc = cost(c)[0]
-        else:
-            a, c, fc = c, d, fd
-            d = a + g * (b - a)
-            fd = cost(d)[0]
-    mu_phi = 0.5 * (a + b)
-    mse, offset = cost(mu_phi)
-    result = {
+def fit_capstan(t_in_n: np.ndarray, t_out_n: np.ndarray, phi_rad: float) -> dict[str, float]:
+    """The capstan fit of cosim.capstan_fit (with a sensor offset) as a result.json entry:
+    mu, mu_phi, offset_n, rms_residual_n and the efficiency exp(-mu*phi)."""
+    fit = capstan_fit.fit_capstan(t_in_n, t_out_n, phi_rad, fit_offset=True)
+    mu_phi = fit.mu * fit.phi_rad
+    return {
+        "mu": fit.mu,
         "mu_phi": mu_phi,
-        "offset_n": offset,
-        "rms_residual_n": math.sqrt(mse),
+        "offset_n": fit.offset_n,
+        "rms_residual_n": fit.rms_residual_n,
         "efficiency": math.exp(-mu_phi),
     }
-    if phi_rad is not None:
-        if not phi_rad > 0:
-            raise ValueError(f"fit_capstan: phi_rad must be > 0 to give mu; got {phi_rad!r}")
-        result["mu"] = mu_phi / phi_rad
-    return result

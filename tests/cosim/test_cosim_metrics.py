@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from cosim import metrics
+from cosim.capstan_fit import capstan_output
 
 
 def test_cosim_metrics_tracking_error_of_a_sine_error():
@@ -42,26 +43,17 @@ def test_cosim_metrics_fixed_vs_float_counts_lsb():
     assert out["t_out_rms_pct_fs"] == pytest.approx(100 * 0.01 / 64.0)
 
 
-def test_cosim_metrics_capstan_play_has_both_slopes_and_the_dead_zone():
-    mu_phi = 0.075 * 2 * math.pi
-    t_in = np.concatenate([np.linspace(0, 24, 300), np.linspace(24, 0, 300)])
-    out = metrics.capstan_play(t_in, mu_phi)
-    assert out[299] == pytest.approx(24 * math.exp(-mu_phi))  # loading slope
-    # Dead zone: the output holds until T_in*exp(+mu*phi) comes down to it.
-    hold = t_in[300:] * math.exp(mu_phi) >= out[299]
-    np.testing.assert_allclose(out[300:][hold], out[299])
-    np.testing.assert_allclose(out[300:][~hold], t_in[300:][~hold] * math.exp(mu_phi))
-
-
 def test_cosim_metrics_fit_capstan_recovers_mu_and_offset():
     mu, phi = 0.075, 2 * math.pi
     t = np.arange(15_000) / 1000.0
     t_in = 24.0 * (1.0 - np.abs(2.0 * np.mod(t, 3.0) / 3.0 - 1.0))
-    t_out = metrics.capstan_play(t_in, mu * phi) + 0.5
+    t_out = capstan_output(t_in, mu, phi) + 0.5
     fit = metrics.fit_capstan(t_in, t_out, phi_rad=phi)
     assert fit["mu"] == pytest.approx(mu, rel=1e-3)
+    assert fit["mu_phi"] == pytest.approx(mu * phi, rel=1e-3)
+    assert fit["efficiency"] == pytest.approx(math.exp(-mu * phi), rel=1e-3)
     assert fit["offset_n"] == pytest.approx(0.5, abs=1e-3)
-    with pytest.raises(ValueError, match="phi_rad must be > 0"):
+    with pytest.raises(ValueError, match="phi_rad = 0.0 must be > 0"):
         metrics.fit_capstan(t_in, t_out, phi_rad=0.0)
 
 
