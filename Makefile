@@ -63,8 +63,8 @@ doctor: $(VENV_STAMP)
 lint: $(VENV_STAMP) $(LINT_TARGETS)
 
 lint-py: $(VENV_STAMP)
-	$(VENV)/bin/ruff check cosim tests
-	$(VENV)/bin/ruff format --check cosim tests
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
 
 # --- build, test, demo, bench --------------------------------------------------------------
 

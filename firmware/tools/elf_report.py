@@ -153,9 +153,7 @@ def report(lib: Path, sizes_obj: Path | None) -> tuple[str, list[tuple[str, str]
         s = obj.sizes()
         for k in total:
             total[k] += s[k]
-        lines.append(
-            f"{obj.name:<12} {s['text']:>7} {s['rodata']:>7} {s['data']:>7} {s['bss']:>7}"
-        )
+        lines.append(f"{obj.name:<12} {s['text']:>7} {s['rodata']:>7} {s['data']:>7} {s['bss']:>7}")
     lines.append(
         f"{'total':<12} {total['text']:>7} {total['rodata']:>7} {total['data']:>7} "
         f"{total['bss']:>7}"
@@ -171,7 +169,7 @@ def report(lib: Path, sizes_obj: Path | None) -> tuple[str, list[tuple[str, str]
         lines += ["", "RAM per instance (sizeof on the target):"]
         for sym in sobj.symbols:
             if sym.defined and sym.name.startswith("sizeof_"):
-                lines.append(f"  {sym.name[len('sizeof_'):]:<28} {sobj.read_u32(sym):>6}")
+                lines.append(f"  {sym.name[len('sizeof_') :]:<28} {sobj.read_u32(sym):>6}")
     defined = {s.name for o in objs for s in o.symbols if s.defined}
     external = sorted({s.name for o in objs for s in o.symbols if not s.defined} - defined)
     lines += ["", "external references: " + (", ".join(external) if external else "none")]

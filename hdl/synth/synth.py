@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -117,7 +118,10 @@ def synthesize(board: Board) -> dict:
     netlist = out / f"{board.top}.json"
     stat = out / "stat.json"
     report = out / "report.json"
-    reads = "; ".join(f"read_verilog {p}" for p in sources(board))
+    # Paths relative to the tool's working folder: yowasp's WebAssembly sandbox maps the working
+    # folder and its parents, but maps /tmp to a folder of its own, so an absolute path into a
+    # checkout under /tmp would not be found.
+    reads = "; ".join(f"read_verilog {os.path.relpath(p, out)}" for p in sources(board))
     dsp = " -dsp" if board.family == "ice40" else ""
     script = (
         f"{reads}; synth_{board.family} -top {board.top}{dsp} -json {netlist.name}; "
@@ -132,7 +136,7 @@ def synthesize(board: Board) -> dict:
         "--json",
         netlist.name,
         "--pcf" if board.family == "ice40" else "--lpf",
-        str(board.constraints),
+        os.path.relpath(board.constraints, out),
         "--freq",
         str(board.target_mhz),
         "--seed",
