@@ -4,9 +4,9 @@
 
 /*
  * iCE40 UP5K board top (pinout of the 1BitSquared iCEBreaker, UP5K-SG48; see
- * ice40_up5k.pcf): bowden_core at 48 MHz from the internal oscillator, an external MCU on
- * PMOD1A through the SPI bridge, an ADS1220 load-cell ADC on PMOD1B, and the ESCON drive
- * (PWM set value, enable) on PMOD2.
+ * ice40_up5k.pcf): bowden_system (bowden_core) at 48 MHz from the internal oscillator, an
+ * external MCU on PMOD1A through the SPI bridge, an ADS1220 load-cell ADC on PMOD1B, and the
+ * ESCON drive (PWM set value, enable) on PMOD2.
  */
 module ice40_up5k_top (
     /*
@@ -60,50 +60,20 @@ always @(posedge clk) begin
     rst_reg <= !(&por_reg);
 end
 
-wire [7:0]  axil_awaddr, axil_araddr;
-wire [2:0]  axil_awprot, axil_arprot;
-wire        axil_awvalid, axil_awready, axil_wvalid, axil_wready, axil_bvalid, axil_bready;
-wire        axil_arvalid, axil_arready, axil_rvalid, axil_rready;
-wire [31:0] axil_wdata, axil_rdata;
-wire [3:0]  axil_wstrb;
-wire [1:0]  axil_bresp, axil_rresp;
-
-spi_axil_bridge #(.ADDR_W(8)) spi (
-    .clk(clk), .rst(rst),
-    .spi_sck(mcu_sck), .spi_cs_n(mcu_cs_n), .spi_mosi(mcu_mosi), .spi_miso(mcu_miso),
-    .m_axil_awaddr(axil_awaddr), .m_axil_awprot(axil_awprot), .m_axil_awvalid(axil_awvalid),
-    .m_axil_awready(axil_awready), .m_axil_wdata(axil_wdata), .m_axil_wstrb(axil_wstrb),
-    .m_axil_wvalid(axil_wvalid), .m_axil_wready(axil_wready), .m_axil_bresp(axil_bresp),
-    .m_axil_bvalid(axil_bvalid), .m_axil_bready(axil_bready), .m_axil_araddr(axil_araddr),
-    .m_axil_arprot(axil_arprot), .m_axil_arvalid(axil_arvalid), .m_axil_arready(axil_arready),
-    .m_axil_rdata(axil_rdata), .m_axil_rresp(axil_rresp), .m_axil_rvalid(axil_rvalid),
-    .m_axil_rready(axil_rready)
-);
-
-wire        adc_valid;
-wire [23:0] adc_data;
-
-ads1220_reader #(.SCLK_HALF_CLKS(8)) adc (
-    .clk(clk), .rst(rst),
-    .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
-    .adc_drdy_n(adc_drdy_n), .adc_valid(adc_valid), .adc_data(adc_data)
-);
-
 wire [15:0] cmd_current;
 wire        cmd_valid, fault, sample_tick;
 
-bowden_core #(.CLK_HZ(CLK_HZ)) core (
+// SCLK = 48 MHz / 2 / 8 = 3 MHz (ADS1220 allows up to ~6.6 MHz).
+bowden_system #(
+    .CLK_HZ(CLK_HZ), .ADC_SCLK_HALF_CLKS(8), .ADC_WAIT_CLKS(16384)
+) system (
     .clk(clk), .rst(rst),
-    .s_axil_awaddr(axil_awaddr), .s_axil_awprot(axil_awprot), .s_axil_awvalid(axil_awvalid),
-    .s_axil_awready(axil_awready), .s_axil_wdata(axil_wdata), .s_axil_wstrb(axil_wstrb),
-    .s_axil_wvalid(axil_wvalid), .s_axil_wready(axil_wready), .s_axil_bresp(axil_bresp),
-    .s_axil_bvalid(axil_bvalid), .s_axil_bready(axil_bready), .s_axil_araddr(axil_araddr),
-    .s_axil_arprot(axil_arprot), .s_axil_arvalid(axil_arvalid), .s_axil_arready(axil_arready),
-    .s_axil_rdata(axil_rdata), .s_axil_rresp(axil_rresp), .s_axil_rvalid(axil_rvalid),
-    .s_axil_rready(axil_rready),
-    .adc_valid(adc_valid), .adc_data(adc_data),
-    .cmd_current(cmd_current), .cmd_enable(drive_enable), .cmd_valid(cmd_valid),
-    .fault(fault), .pwm(drive_pwm), .sample_tick(sample_tick)
+    .mcu_sck(mcu_sck), .mcu_cs_n(mcu_cs_n), .mcu_mosi(mcu_mosi), .mcu_miso(mcu_miso),
+    .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
+    .adc_drdy_n(adc_drdy_n),
+    .drive_pwm(drive_pwm), .drive_enable(drive_enable),
+    .cmd_current(cmd_current), .cmd_valid(cmd_valid), .fault(fault),
+    .sample_tick(sample_tick)
 );
 
 assign led_fault = !fault;

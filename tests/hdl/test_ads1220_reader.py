@@ -5,43 +5,11 @@ from __future__ import annotations
 import cocotb
 import pytest
 from cocotb.clock import Clock
-from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
-from hdl_sim import SIMULATORS, rtl, run_cocotb
+from cocotb.triggers import ClockCycles, RisingEdge
+from hdl_sim import SIMULATORS, Ads1220, rtl, run_cocotb
 
 CONFIG = bytes([0x0E, 0xD4, 0x40, 0x00])
 CODES = [0x123456, -1, -(1 << 23), (1 << 23) - 1, 0]
-
-
-class Ads1220:
-    """SPI mode 1 slave: samples DIN and drives DOUT's next bit on SCLK edges; DRDY on demand."""
-
-    def __init__(self, dut):
-        self.dut = dut
-        self.received: list[int] = []
-        self.out_bits: list[int] = []
-        dut.adc_dout.value = 0
-        dut.adc_drdy_n.value = 1
-
-    async def run(self) -> None:
-        d = self.dut
-        byte, nbits = 0, 0
-        while True:
-            await RisingEdge(d.adc_sclk)
-            d.adc_dout.value = self.out_bits.pop(0) if self.out_bits else 0
-            await FallingEdge(d.adc_sclk)
-            if not int(d.adc_cs_n.value):
-                d.adc_drdy_n.value = 1  # DRDY returns high on the first falling SCLK edge
-                byte = (byte << 1) | int(d.adc_din.value)
-                nbits += 1
-                if nbits == 8:
-                    self.received.append(byte)
-                    byte, nbits = 0, 0
-
-    def convert(self, code: int) -> None:
-        """A conversion result becomes ready."""
-        word = code & 0xFFFFFF
-        self.out_bits = [(word >> (23 - i)) & 1 for i in range(24)]
-        self.dut.adc_drdy_n.value = 0
 
 
 @cocotb.test()

@@ -16,18 +16,13 @@ import pytest
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
 from cocotbext.axi import AxiLiteBus, AxiLiteMaster
-from hdl_sim import SIMULATORS, rtl, run_cocotb
+from hdl_sim import ADDR_TO_NAME, SIMULATORS, replay_write, rtl, run_cocotb, signed
 
 from cosim import regmap
 from cosim.rtl_model import FAULT_WATCHDOG, TensionLoopModel, adc_code_from_tension
 
 CLKS_PER_SAMPLE = 15
-ADDR_TO_NAME = {reg.addr: name for name, reg in regmap.REGISTERS.items()}
 RESP_OKAY, RESP_SLVERR = 0, 2
-
-
-def _signed(value: int, bits: int) -> int:
-    return value - (1 << bits) if value >> (bits - 1) else value
 
 
 class CoreTb:
@@ -61,25 +56,6 @@ class CoreTb:
         self.expected.clear()
         self.dut.rst.value = 0
 
-    def _replay_write(self) -> None:
-        d = self.dut
-        addr = int(d.s_axil_awaddr.value) & ~3
-        name = ADDR_TO_NAME.get(addr)
-        if name is None:
-            return
-        reg = regmap.REGISTERS[name]
-        if name == "CTRL":
-            self.model.write("CTRL", int(d.s_axil_wdata.value) & int(d.s_axil_wstrb.value))
-            return
-        if name not in self.model.regs:
-            return  # read-only
-        f = reg.fields[0]
-        strb = int(d.s_axil_wstrb.value)
-        mask = sum(0xFF << (8 * i) for i in range(4) if strb >> i & 1)
-        old = self.model.regs[name] & ((1 << f.width) - 1)
-        bits = ((int(d.s_axil_wdata.value) & mask) | (old & ~mask)) & ((1 << f.width) - 1)
-        self.model.write(name, _signed(bits, f.width) if f.signed else bits)
-
     async def monitor(self) -> None:
         """Mid-cycle, look at what the next rising edge captures and replay it in order."""
         d = self.dut
@@ -90,17 +66,22 @@ class CoreTb:
             if d.cmd_valid.value:
                 assert self.expected, "cmd_valid without a sample tick"
                 exp = self.expected.popleft()
-                got = (_signed(int(d.cmd_current.value), 16), bool(d.cmd_enable.value))
+                got = (signed(int(d.cmd_current.value), 16), bool(d.cmd_enable.value))
                 want = (exp.u, exp.out_en)
                 assert got == want, f"sample {exp.sample_count}: RTL {got} != model {want}"
                 assert bool(d.fault.value) == (exp.faults != 0)
                 self.compared += 1
             if d.adc_valid.value:
-                self.model.adc_sample(_signed(int(d.adc_data.value), 24))
+                self.model.adc_sample(signed(int(d.adc_data.value), 24))
             if d.sample_tick.value:
                 self.expected.append(self.model.tick())
             if d.s_axil_awvalid.value and d.s_axil_wvalid.value and d.s_axil_awready.value:
-                self._replay_write()
+                replay_write(
+                    self.model,
+                    int(d.s_axil_awaddr.value),
+                    int(d.s_axil_wdata.value),
+                    int(d.s_axil_wstrb.value),
+                )
 
     async def adc_stream(self, tension_n, rng: random.Random) -> None:
         """ADC samples at random phases, tension from `tension_n(k)`.

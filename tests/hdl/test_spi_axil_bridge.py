@@ -9,45 +9,9 @@ import pytest
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge
 from cocotbext.axi import AxiLiteBus, AxiLiteRam
-from hdl_sim import SIMULATORS, rtl, run_cocotb
+from hdl_sim import SIMULATORS, SpiMaster, rtl, run_cocotb
 
 HALF_SCK_CLKS = 8  # SCK = clk / 16, inside the bridge's clk / 8 limit
-
-
-class SpiMaster:
-    """Bit-banged SPI mode 0 master (drive on SCK low, sample on the rising edge)."""
-
-    def __init__(self, dut):
-        self.dut = dut
-        dut.spi_sck.value = 0
-        dut.spi_cs_n.value = 1
-        dut.spi_mosi.value = 0
-
-    async def frame(self, tx: bytes, cut_after_bits: int | None = None) -> bytes:
-        d = self.dut
-        d.spi_cs_n.value = 0
-        await ClockCycles(d.clk, HALF_SCK_CLKS)
-        rx = 0
-        nbits = 8 * len(tx) if cut_after_bits is None else cut_after_bits
-        for i in range(nbits):
-            d.spi_mosi.value = (tx[i // 8] >> (7 - i % 8)) & 1
-            await ClockCycles(d.clk, HALF_SCK_CLKS)
-            d.spi_sck.value = 1
-            rx = (rx << 1) | int(d.spi_miso.value)
-            await ClockCycles(d.clk, HALF_SCK_CLKS)
-            d.spi_sck.value = 0
-        await ClockCycles(d.clk, HALF_SCK_CLKS)
-        d.spi_cs_n.value = 1
-        await ClockCycles(d.clk, 4 * HALF_SCK_CLKS)
-        return rx.to_bytes(len(tx), "big")
-
-    async def write(self, word_addr: int, value: int) -> None:
-        await self.frame(bytes([0x80 | word_addr]) + value.to_bytes(4, "big"))
-
-    async def read(self, word_addr: int) -> int:
-        rx = await self.frame(bytes([word_addr]) + bytes(5))
-        assert rx[:2] == b"\x00\x00", f"MISO not low during command and dummy: {rx.hex()}"
-        return int.from_bytes(rx[2:], "big")
 
 
 @cocotb.test()
@@ -55,7 +19,7 @@ async def frames_reach_the_bus(dut):
     """Writes land in memory at word address * 4, reads return memory; cut frames are dropped."""
     cocotb.start_soon(Clock(dut.clk, 10, unit="ns").start())
     dut.rst.value = 1
-    spi = SpiMaster(dut)
+    spi = SpiMaster(dut, "spi", HALF_SCK_CLKS)
     await FallingEdge(dut.clk)
     # Created once reset is driven: the model watches it and must not see X.
     ram = AxiLiteRam(AxiLiteBus.from_prefix(dut, "m_axil"), dut.clk, dut.rst, size=256)

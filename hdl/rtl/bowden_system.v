@@ -1,0 +1,105 @@
+`resetall
+`timescale 1ns / 1ps
+`default_nettype none
+
+/*
+ * Board-independent Bowden tension controller: bowden_core with its register map reached by an
+ * external MCU through the SPI bridge, and its load-cell samples from an ADS1220 front-end.
+ * A board top adds only its clock, its reset and its indicators.
+ *
+ * MCU -> spi_axil_bridge -> AXI4-Lite -> bowden_core <- ads1220_reader <- ADS1220
+ *                                            |
+ *                                            +-> ESCON drive (PWM set value, enable)
+ */
+module bowden_system #(
+    parameter CLK_HZ = 48000000,      // system clock, Hz
+    parameter ADC_SCLK_HALF_CLKS = 8, // ADS1220 SCLK half period, clocks (48 MHz -> 3 MHz)
+    parameter ADC_WAIT_CLKS = 16384   // ADS1220 wait after power-up and after RESET, clocks
+) (
+    input  wire        clk,
+    input  wire        rst,
+
+    /*
+     * MCU (SPI slave, mode 0; SCK below clk / 8)
+     */
+    input  wire        mcu_sck,
+    input  wire        mcu_cs_n,
+    input  wire        mcu_mosi,
+    output wire        mcu_miso,
+
+    /*
+     * ADS1220 (SPI mode 1)
+     */
+    output wire        adc_sclk,
+    output wire        adc_cs_n,
+    output wire        adc_din,
+    input  wire        adc_dout,
+    input  wire        adc_drdy_n,
+
+    /*
+     * ESCON drive
+     */
+    output wire        drive_pwm,     // PWM set value
+    output wire        drive_enable,
+
+    /*
+     * Command and status
+     */
+    output wire [15:0] cmd_current,   // Q3.12 A, for a board with a DAC
+    output wire        cmd_valid,     // one clock when cmd_current is new
+    output wire        fault,         // a fault is latched
+    output wire        sample_tick    // one clock at the start of each sample
+);
+
+// --- MCU register access -------------------------------------------------------------------
+
+wire [7:0]  axil_awaddr, axil_araddr;
+wire [2:0]  axil_awprot, axil_arprot;
+wire        axil_awvalid, axil_awready, axil_wvalid, axil_wready, axil_bvalid, axil_bready;
+wire        axil_arvalid, axil_arready, axil_rvalid, axil_rready;
+wire [31:0] axil_wdata, axil_rdata;
+wire [3:0]  axil_wstrb;
+wire [1:0]  axil_bresp, axil_rresp;
+
+spi_axil_bridge #(.ADDR_W(8)) spi (
+    .clk(clk), .rst(rst),
+    .spi_sck(mcu_sck), .spi_cs_n(mcu_cs_n), .spi_mosi(mcu_mosi), .spi_miso(mcu_miso),
+    .m_axil_awaddr(axil_awaddr), .m_axil_awprot(axil_awprot), .m_axil_awvalid(axil_awvalid),
+    .m_axil_awready(axil_awready), .m_axil_wdata(axil_wdata), .m_axil_wstrb(axil_wstrb),
+    .m_axil_wvalid(axil_wvalid), .m_axil_wready(axil_wready), .m_axil_bresp(axil_bresp),
+    .m_axil_bvalid(axil_bvalid), .m_axil_bready(axil_bready), .m_axil_araddr(axil_araddr),
+    .m_axil_arprot(axil_arprot), .m_axil_arvalid(axil_arvalid), .m_axil_arready(axil_arready),
+    .m_axil_rdata(axil_rdata), .m_axil_rresp(axil_rresp), .m_axil_rvalid(axil_rvalid),
+    .m_axil_rready(axil_rready)
+);
+
+// --- load-cell ADC -------------------------------------------------------------------------
+
+wire        adc_valid;
+wire [23:0] adc_data;
+
+ads1220_reader #(.SCLK_HALF_CLKS(ADC_SCLK_HALF_CLKS), .WAIT_CLKS(ADC_WAIT_CLKS)) adc (
+    .clk(clk), .rst(rst),
+    .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
+    .adc_drdy_n(adc_drdy_n), .adc_valid(adc_valid), .adc_data(adc_data)
+);
+
+// --- core ----------------------------------------------------------------------------------
+
+bowden_core #(.CLK_HZ(CLK_HZ)) core (
+    .clk(clk), .rst(rst),
+    .s_axil_awaddr(axil_awaddr), .s_axil_awprot(axil_awprot), .s_axil_awvalid(axil_awvalid),
+    .s_axil_awready(axil_awready), .s_axil_wdata(axil_wdata), .s_axil_wstrb(axil_wstrb),
+    .s_axil_wvalid(axil_wvalid), .s_axil_wready(axil_wready), .s_axil_bresp(axil_bresp),
+    .s_axil_bvalid(axil_bvalid), .s_axil_bready(axil_bready), .s_axil_araddr(axil_araddr),
+    .s_axil_arprot(axil_arprot), .s_axil_arvalid(axil_arvalid), .s_axil_arready(axil_arready),
+    .s_axil_rdata(axil_rdata), .s_axil_rresp(axil_rresp), .s_axil_rvalid(axil_rvalid),
+    .s_axil_rready(axil_rready),
+    .adc_valid(adc_valid), .adc_data(adc_data),
+    .cmd_current(cmd_current), .cmd_enable(drive_enable), .cmd_valid(cmd_valid),
+    .fault(fault), .pwm(drive_pwm), .sample_tick(sample_tick)
+);
+
+endmodule
+
+`resetall

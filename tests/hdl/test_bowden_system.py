@@ -1,0 +1,207 @@
+"""Testbench of hdl/rtl/bowden_system.v: the board-level wiring, end to end.
+
+An MCU (the shared SpiMaster) writes the loop registers over the SPI bridge and reads them
+back; a behavioural ADS1220 (the shared Ads1220) streams load-cell codes into ads1220_reader;
+the drive pins are checked against the bit-exact model (cosim.rtl_model.TensionLoopModel) and
+the ESCON PWM formula (hdl/README.md). A monitor replays into the model, every clock, the ADC
+samples, sample ticks and register writes the core sees on bowden_system's internal nets
+(adc_valid/adc_data, axil_*), and checks that every sample the core receives is the code the
+ADS1220 sent, and every command (cmd_current, drive_enable, fault) equals the model.
+
+Parameters are shrunk so that the test runs in seconds: CLK_HZ 1 MHz gives 100 clocks per
+sample and a 200-clock PWM period; the ADS1220 SCLK runs at clk / 8 after a 64-clock wait.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import cocotb
+import pytest
+from cocotb.clock import Clock
+from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
+from hdl_sim import SIMULATORS, Ads1220, SpiMaster, replay_write, rtl, run_cocotb, signed
+
+from cosim import regmap
+from cosim.rtl_model import FAULT_ADC_STALE, TensionLoopModel, adc_code_from_tension
+
+CLK_HZ = 1_000_000
+CLKS_PER_SAMPLE = CLK_HZ // 10_000  # bowden_core's default SAMPLE_HZ
+PWM_PERIOD_CLKS = CLK_HZ // 5000  # bowden_core's default PWM_HZ
+PWM_IMAX_Q12 = 16384  # bowden_core's default: 4 A at 90 % duty
+ADC_PERIOD_CLKS = 250  # one conversion every 2.5 samples (ADS1220 at 2000 SPS: every 5)
+CONFIG = [0x06, 0x43, 0x0E, 0xD4, 0x40, 0x00, 0x08]  # RESET, WREG 0..3, START/SYNC
+
+
+def pwm_duty_clks(u: int, enable: bool) -> int:
+    """High time of one PWM period for command u (Q3.12 A), as hdl/rtl/pwm_escon.v defines it.
+
+    duty = PERIOD/2 + floor(clamp(u, +-IMAX) * K / 2^SHIFT), K = round(SPAN * 2^SHIFT / IMAX),
+    SPAN = 2 * PERIOD / 5, SHIFT the largest with K < 2^15; 50 % while disabled.
+    """
+    half, span = PWM_PERIOD_CLKS // 2, 2 * PWM_PERIOD_CLKS // 5
+    shift = 0
+    while ((span << (shift + 1)) + PWM_IMAX_Q12 // 2) // PWM_IMAX_Q12 < 32768 and shift < 24:
+        shift += 1
+    k = ((span << shift) + PWM_IMAX_Q12 // 2) // PWM_IMAX_Q12
+    uc = max(-PWM_IMAX_Q12, min(PWM_IMAX_Q12, u)) if enable else 0
+    return half + ((uc * k) >> shift)
+
+
+class SystemTb:
+    """Clock, reset, MCU, ADS1220, and the monitor that replays the core's inputs into the model."""
+
+    def __init__(self, dut):
+        self.dut = dut
+        self.model = TensionLoopModel()
+        self.expected: deque = deque()
+        self.sent: deque = deque()  # codes the ADS1220 made ready, not yet seen by the core
+        self.compared = 0
+        self.samples_seen = 0
+        self.mcu = SpiMaster(dut, "mcu", half_sck_clks=8)
+        self.adc = Ads1220(dut)
+        self.adc_on = False
+        self.tension_n = 0.0
+
+    async def start(self) -> None:
+        d = self.dut
+        cocotb.start_soon(Clock(d.clk, 10, unit="ns").start())
+        d.rst.value = 1
+        await ClockCycles(d.clk, 3)
+        await FallingEdge(d.clk)
+        self.model.reset()
+        d.rst.value = 0
+        cocotb.start_soon(self.adc.run())
+        cocotb.start_soon(self.monitor())
+        cocotb.start_soon(self.conversions())
+
+    async def monitor(self) -> None:
+        """Mid-cycle, look at what the next rising edge captures and replay it in order."""
+        d = self.dut
+        while True:
+            await FallingEdge(d.clk)
+            if d.cmd_valid.value:
+                assert self.expected, "cmd_valid without a sample tick"
+                exp = self.expected.popleft()
+                got = (signed(int(d.cmd_current.value), 16), bool(d.drive_enable.value))
+                want = (exp.u, exp.out_en)
+                assert got == want, f"sample {exp.sample_count}: RTL {got} != model {want}"
+                assert bool(d.fault.value) == (exp.faults != 0)
+                self.compared += 1
+            if d.adc_valid.value:
+                code = signed(int(d.adc_data.value), 24)
+                assert self.sent, f"the core got ADC code {code} that the ADS1220 did not send"
+                assert code == self.sent.popleft(), "ADC code changed on its way to the core"
+                self.model.adc_sample(code)
+                self.samples_seen += 1
+            if d.sample_tick.value:
+                self.expected.append(self.model.tick())
+            if d.axil_awvalid.value and d.axil_wvalid.value and d.axil_awready.value:
+                replay_write(
+                    self.model,
+                    int(d.axil_awaddr.value),
+                    int(d.axil_wdata.value),
+                    int(d.axil_wstrb.value),
+                )
+
+    async def conversions(self) -> None:
+        """While `adc_on`, one ADS1220 conversion of `tension_n` every ADC_PERIOD_CLKS."""
+        while True:
+            await ClockCycles(self.dut.clk, ADC_PERIOD_CLKS)
+            if self.adc_on:
+                code = adc_code_from_tension(self.tension_n)
+                self.sent.append(code)
+                self.adc.convert(code)
+
+    async def write(self, name: str, value: int) -> None:
+        """MCU register write of a field value (two's complement for signed fields)."""
+        await self.mcu.write(regmap.REGISTERS[name].addr // 4, value)
+
+    async def read(self, name: str) -> int:
+        """MCU register read, decoded as the field's value (sign-extended when signed)."""
+        return regmap.decode(name, await self.mcu.read(regmap.REGISTERS[name].addr // 4))
+
+    async def pwm_high_clks(self) -> int:
+        """High time in clocks of the next full PWM period on drive_pwm."""
+        d = self.dut
+        await FallingEdge(d.clk)
+        for _ in range(2 * PWM_PERIOD_CLKS):  # a low clock, then the first high one
+            was_low = not d.drive_pwm.value
+            await FallingEdge(d.clk)
+            if was_low and d.drive_pwm.value:
+                break
+        else:
+            raise AssertionError("no PWM period starts on drive_pwm")
+        for high in range(1, PWM_PERIOD_CLKS):
+            await FallingEdge(d.clk)
+            if not d.drive_pwm.value:
+                return high
+        raise AssertionError("drive_pwm stuck high")
+
+
+@cocotb.test()
+async def mcu_and_adc_drive_the_loop(dut):
+    """SPI writes and ADS1220 samples through the board wiring: commands and PWM as the model."""
+    tb = SystemTb(dut)
+    await tb.start()
+    # The front-end configures the ADC over adc_din before anything else.
+    for _ in range(3000):
+        await RisingEdge(dut.clk)
+        if len(tb.adc.received) == len(CONFIG):
+            break
+    assert tb.adc.received == CONFIG, [hex(b) for b in tb.adc.received]
+    assert await tb.mcu.read(regmap.ID // 4) == 0x424F0100
+
+    # Disabled: 50 % duty (0 A), drive off.
+    assert await tb.pwm_high_clks() == PWM_PERIOD_CLKS // 2
+    assert not dut.drive_enable.value and not dut.fault.value
+
+    # Configure as firmware would, then enable with tension steps: every command is checked.
+    tb.tension_n = 8.0
+    tb.adc_on = True
+    await tb.write("KP", round(0.2 * 2**13))  # 0.2 A/N, Q2.13
+    await tb.write("KI_TS", round(0.01 * 2**20))  # 0.01 A/N per sample
+    await tb.write("TC", 12 * 256)  # 12 N, Q7.8
+    await tb.write("CTRL", regmap.CTRL_ENABLE)
+    for tc_n, t_n in ((12, 14.0), (20, 14.0), (-5, 3.5), (30, 10.0)):
+        tb.tension_n = t_n
+        await tb.write("TC", tc_n * 256)
+        await ClockCycles(dut.clk, 10 * CLKS_PER_SAMPLE)
+    assert dut.drive_enable.value
+    assert tb.model.u != 0
+
+    # Steady state (no integral action, constant tension): read-backs and the PWM duty.
+    await tb.write("KI_TS", 0)
+    await tb.write("CTRL", regmap.CTRL_ENABLE | regmap.CTRL_INTEG_RESET)
+    tb.tension_n = 10.0
+    await tb.write("TC", 15 * 256)
+    await ClockCycles(dut.clk, 5 * CLKS_PER_SAMPLE)
+    m = tb.model
+    # u = Kff*T_c + Kp*e (README "The loop"): 0.088 A/N * 15 N + 0.2 A/N * 5 N = 2.32 A.
+    assert abs(m.u / 4096 - 2.32) < 2e-3, m.u
+    assert await tb.read("U") == m.u
+    assert await tb.read("T_IN") == m.t_in == 10 * 256
+    assert await tb.read("KP") == round(0.2 * 2**13)
+    assert await tb.mcu.read(regmap.STATUS // 4) == regmap.STATUS_OUT_EN
+    high = await tb.pwm_high_clks()
+    assert high == pwm_duty_clks(m.u, True), (high, m.u)
+    # 50 % + 40 % * u / 4 A (README "Drive and ADC interfaces"), to one clock.
+    assert abs(high - PWM_PERIOD_CLKS * (0.5 + 0.4 * m.u / PWM_IMAX_Q12)) <= 1
+
+    # The ADC stops: ADC_STALE (10 samples) latches, the drive drops, the PWM returns to 50 %.
+    tb.adc_on = False
+    await ClockCycles(dut.clk, 15 * CLKS_PER_SAMPLE)
+    assert dut.fault.value and not dut.drive_enable.value
+    assert await tb.mcu.read(regmap.FAULT // 4) == FAULT_ADC_STALE == m.faults
+    assert await tb.pwm_high_clks() == PWM_PERIOD_CLKS // 2
+    assert tb.compared > 80, f"only {tb.compared} samples compared"
+    assert tb.samples_seen > 20 and not tb.sent
+
+
+@pytest.mark.parametrize("simulator", SIMULATORS)
+def test_bowden_system(simulator):
+    """Build bowden_system with short clocks per sample and ADC waits; run the coroutine above."""
+    sources = rtl("bowden_system", "spi_axil_bridge", "ads1220_reader", "bowden_core")
+    sources += rtl("axil_regbus", "bowden_regs", "tension_loop", "mul_s16", "pwm_escon")
+    params = {"CLK_HZ": CLK_HZ, "ADC_SCLK_HALF_CLKS": 4, "ADC_WAIT_CLKS": 64}
+    run_cocotb("bowden_system", "test_bowden_system", sources, simulator, parameters=params)
