@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from . import regmap, rtl_model
-from .harness.common import Record, open_plant
+from .harness.common import Record, open_plant, plant_rows, store_plant_rows
 from .harness.fwbridge import loop_words, make_compensator_f64, t_ref_word
 from .harness.progress import Progress
 from .rtl_model import FloatTensionLoop
@@ -93,11 +93,8 @@ def run_reference(
     t_ref = inp.t_ref_n.tolist()
     xs, ys, zs = inp.x_m.tolist(), inp.y_m.tolist(), inp.z_m.tolist()
     out_tc, out_u = rec["T_c_N"], rec["current_A"]
-    out_tin, out_tout = rec["T_in_N"], rec["T_out_N"]
-    out_tin_true, out_tout_true = rec["T_in_true_N"], rec["T_out_true_N"]
-    out_angle, out_phi = rec["motor_angle_rad"], rec["phi_rad"]
-    T_IN, T_OUT, T_IN_MEAS, T_OUT_MEAS = plant.T_IN, plant.T_OUT, plant.T_IN_MEAS, plant.T_OUT_MEAS
-    PHI, ANGLE = plant.PHI, plant.MOTOR_ANGLE
+    rows, y_row = plant_rows(plant, n)
+    T_IN_MEAS = plant.T_IN_MEAS
     pu = plant.u
     step = plant.step
 
@@ -121,12 +118,7 @@ def run_reference(
         # Record sample k: the sensors as the loop saw them and the command it gave.
         out_tc[k] = tc_eff
         out_u[k] = u
-        out_tin[k] = t_in_meas
-        out_tout[k] = y[T_OUT_MEAS]
-        out_tin_true[k] = y[T_IN]
-        out_tout_true[k] = y[T_OUT]
-        out_angle[k] = y[ANGLE]
-        out_phi[k] = y[PHI]
+        rows[k] = y_row
         pu[0] = u
         pu[2] = xs[k]
         pu[3] = ys[k]
@@ -136,6 +128,7 @@ def run_reference(
         if (k & 1023) == 0:
             bar.update(k)
     bar.close(n)
+    store_plant_rows(rec, rows)
     rec["t_s"][:] = inp.t_s
     rec["T_ref_N"][:] = inp.t_ref_n
     rec["x_m"][:] = inp.x_m
@@ -187,6 +180,7 @@ def run_model_chain(
     code = code0
     y = plant.y
     words = np.zeros(n)
+    rows, y_row = plant_rows(plant, n)
     for k in range(n):
         if k >= TC_LATENCY_SAMPLES and (k - TC_LATENCY_SAMPLES) % dec == 0:
             apply(pending)
@@ -197,12 +191,7 @@ def run_model_chain(
         u = out.u / 4096.0
         rec["T_c_N"][k] = out.tc_eff / 256.0
         rec["current_A"][k] = u
-        rec["T_in_N"][k] = y[plant.T_IN_MEAS]
-        rec["T_out_N"][k] = y[plant.T_OUT_MEAS]
-        rec["T_in_true_N"][k] = y[plant.T_IN]
-        rec["T_out_true_N"][k] = y[plant.T_OUT]
-        rec["motor_angle_rad"][k] = y[plant.MOTOR_ANGLE]
-        rec["phi_rad"][k] = y[plant.PHI]
+        rows[k] = y_row
         plant.u[0] = u
         plant.u[2], plant.u[3], plant.u[4] = inp.x_m[k], inp.y_m[k], inp.z_m[k]
         y = plant.step(dt)
@@ -210,6 +199,7 @@ def run_model_chain(
         if k % dec == 0:
             _, pending = fw.tick(float(inp.t_ref_n[k]))
     plant.close()
+    store_plant_rows(rec, rows)
     rec["t_s"][:] = inp.t_s
     rec["T_ref_N"][:] = inp.t_ref_n
     rec["x_m"][:], rec["y_m"][:], rec["z_m"][:] = inp.x_m, inp.y_m, inp.z_m

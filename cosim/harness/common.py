@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..plant import OUTPUT_NAMES
 from ..scenarios import SimConfig
 
 # Recorded per FPGA sample (float64 arrays); cosim.sim.trace_columns maps them to the trace format.
@@ -25,6 +26,31 @@ RECORD_FIELDS = (
     "motor_angle_rad",
     "phi_rad",
 )
+
+
+# Plant outputs recorded at every sample (the sensors as the loop saw them, the true tensions, the
+# motor angle and phi): FMU output name -> record field.
+PLANT_RECORD = (
+    ("T_in_meas", "T_in_N"),
+    ("T_out_meas", "T_out_N"),
+    ("T_in", "T_in_true_N"),
+    ("T_out", "T_out_true_N"),
+    ("motor_angle", "motor_angle_rad"),
+    ("phi", "phi_rad"),
+)
+
+
+def plant_rows(plant, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A buffer for the plant's whole output array at each of n samples, and a numpy view of the
+    plant's output array (cosim.plant.Plant.y, refilled in place by every step): the per-sample
+    loop copies a row with one `rows[k] = view`; store_plant_rows files the columns afterwards."""
+    return np.zeros((n, len(OUTPUT_NAMES))), np.ctypeslib.as_array(plant.y)
+
+
+def store_plant_rows(rec: dict[str, np.ndarray], rows: np.ndarray) -> None:
+    """Copy the recorded plant outputs into the record's fields (PLANT_RECORD)."""
+    for name, field in PLANT_RECORD:
+        rec[field][:] = rows[:, OUTPUT_NAMES.index(name)]
 
 
 @dataclass

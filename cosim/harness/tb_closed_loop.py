@@ -45,7 +45,7 @@ from cocotbext.axi import AxiLiteBus, AxiLiteMaster
 
 from cosim import regmap, rtl_model
 from cosim.harness.axil import LeanAxiLiteMaster
-from cosim.harness.common import Record, open_plant
+from cosim.harness.common import Record, open_plant, plant_rows, store_plant_rows
 from cosim.harness.fwbridge import FirmwareBridge, loop_words
 from cosim.reference import TC_LATENCY_SAMPLES
 from cosim.scenarios import SimConfig, get_scenario, sample_inputs
@@ -185,13 +185,10 @@ async def closed_loop(dut):
     u_sig, adc_sig = dut.cmd_current, dut.adc_word
     step = plant.step
     pu, py = plant.u, plant.y
-    T_IN, T_OUT, T_IN_MEAS, T_OUT_MEAS = plant.T_IN, plant.T_OUT, plant.T_IN_MEAS, plant.T_OUT_MEAS
-    PHI, ANGLE = plant.PHI, plant.MOTOR_ANGLE
+    T_IN_MEAS = plant.T_IN_MEAS
     xs, ys, zs = inp.x_m.tolist(), inp.y_m.tolist(), inp.z_m.tolist()
     out_tc, out_u = rec["T_c_N"], rec["current_A"]
-    out_tin, out_tout = rec["T_in_N"], rec["T_out_N"]
-    out_tin_true, out_tout_true = rec["T_in_true_N"], rec["T_out_true_N"]
-    out_angle, out_phi = rec["motor_angle_rad"], rec["phi_rad"]
+    rows, y_row = plant_rows(plant, n)
     u_words = np.zeros(n, dtype=np.int32)
     adc_code = rtl_model.adc_code_from_tension
     timer = Timer(sample_ns, unit="ns")
@@ -221,12 +218,7 @@ async def closed_loop(dut):
         u_a = word / 4096.0
         out_tc[k] = tc
         out_u[k] = u_a
-        out_tin[k] = py[T_IN_MEAS]
-        out_tout[k] = py[T_OUT_MEAS]
-        out_tin_true[k] = py[T_IN]
-        out_tout_true[k] = py[T_OUT]
-        out_angle[k] = py[ANGLE]
-        out_phi[k] = py[PHI]
+        rows[k] = y_row
         pu[0] = u_a
         pu[2] = xs[k]
         pu[3] = ys[k]
@@ -252,6 +244,7 @@ async def closed_loop(dut):
     status_word = await axi.read_dword(regmap.STATUS)
 
     plant.close()
+    store_plant_rows(rec, rows)
     rec["t_s"][:] = inp.t_s
     rec["T_ref_N"][:] = inp.t_ref_n
     rec["x_m"][:] = inp.x_m
