@@ -19,19 +19,14 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))  # run as a script from any folder: the cosim package
+
+from cosim.plant import FMU_PATH, OUTPUT_NAMES  # noqa: E402
+
 INPUT_CSV = HERE / "reference" / "BowdenPlant_in.csv"
 REF_CSV = HERE / "reference" / "BowdenPlant_ref.csv"
 START_VALUES = {"noise_std": 0.05, "seed": 42, "sensor_tau": 0.002, "sensor_delay": 0.001}
-OUTPUTS = [
-    "T_in",
-    "T_out",
-    "T_in_meas",
-    "T_out_meas",
-    "phi",
-    "motor_angle",
-    "motor_speed",
-    "current",
-]
+OUTPUTS = list(OUTPUT_NAMES)  # every output of the FMU, in the order cosim.plant reads them
 STOP_TIME_S = 0.4
 STEP_S = 1e-4
 OUTPUT_INTERVAL_S = 1e-3
@@ -72,9 +67,6 @@ def simulate(fmu_path: str | Path) -> np.ndarray:
 
 def main(argv: list[str]) -> int:
     from fmpy.util import write_csv
-
-    sys.path.insert(0, str(HERE.parent))
-    from cosim.plant import FMU_PATH
 
     fmu_path = argv[1] if len(argv) > 1 else FMU_PATH
     INPUT_CSV.parent.mkdir(exist_ok=True)
