@@ -15,6 +15,8 @@ import os
 import sys
 import time
 
+from .scenarios import COMPENSATORS
+
 
 def bench_one(duration_s: float, compensator: str, bus: str) -> None:
     """One closed-loop run and its figures."""
@@ -77,7 +79,7 @@ def bench_one(duration_s: float, compensator: str, bus: str) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m cosim.cosim_bench", description=__doc__)
     parser.add_argument("--duration", type=float, default=30.0, help="simulated seconds")
-    parser.add_argument("--compensator", default="paper", choices=("none", "paper", "smooth"))
+    parser.add_argument("--compensator", default="paper", choices=COMPENSATORS)
     parser.add_argument(
         "--bus", choices=("cocotbext-axi", "lean", "both"), default="both", help="AXI driver"
     )

@@ -22,8 +22,9 @@ import math
 import numpy as np
 
 from . import regmap, rtl_model
+from .firmware import make_compensator_f64, tension_word
 from .harness.common import Record, open_plant, plant_rows, store_plant_rows
-from .harness.fwbridge import loop_words, make_compensator_f64, t_ref_word
+from .harness.fwbridge import loop_words
 from .harness.progress import Progress
 from .rtl_model import FloatTensionLoop
 from .scenarios import Scenario, SimConfig, sample_inputs
@@ -46,11 +47,6 @@ def make_float_loop(cfg: SimConfig) -> FloatTensionLoop:
         ki_ts_a_per_n=words["ki_ts"] / (1 << rtl_model.KI_TS_FRAC),
         i_limit_a=words["i_limit"] / (1 << rtl_model.CURRENT_FRAC),
     )
-
-
-def make_float_compensator(mode: str, cfg: SimConfig, phi_rad: float):
-    """The compensator's double twin (firmware comp_f64), configured like the firmware."""
-    return make_compensator_f64(mode, cfg.compensator, phi_rad)
 
 
 def resolve_phi(scen: Scenario, cfg: SimConfig, loop_routing: bool) -> float:
@@ -83,7 +79,8 @@ def run_reference(
     dec = cfg.decimation
     rec = Record.allocate(n).arrays
     plant = open_plant(cfg, loop_routing, (inp.x_m[0], inp.y_m[0], inp.z_m[0]))
-    comp = make_float_compensator(compensator, cfg, phi_rad)
+    # The compensator's double twin (firmware comp_f64), configured like the firmware.
+    comp = make_compensator_f64(compensator, cfg.compensator, phi_rad)
     loop = make_float_loop(cfg)
     bar = Progress(n, "float reference", cfg.sample_rate_hz, enabled=progress)
 
@@ -114,7 +111,7 @@ def run_reference(
             tc_eff = tc
         u = loop.step(tc_eff, t_in_meas)
         if k % dec == 0:
-            tc_new = comp.step(t_ref_word(t_ref[k]) / 256.0)
+            tc_new = comp.step(tension_word(t_ref[k]) / 256.0)
         # Record sample k: the sensors as the loop saw them and the command it gave.
         out_tc[k] = tc_eff
         out_u[k] = u

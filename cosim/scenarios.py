@@ -40,8 +40,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .firmware import MODES
+
 SCENARIO_NAMES = ("characterize", "positions", "fig14")
-COMPENSATORS = ("none", "paper", "smooth")
+# The firmware's compensator modes (firmware/include/comp.h, mirrored by cosim.firmware).
+COMPENSATORS = tuple(MODES)
 
 # The paper's bench: Table I (Maxon RE25 k_t 23.4 mNm/A, 5.4:1 gearhead, efficiency ~0.9
 # assumed, spool radius ~10 mm). Kff = r / (N * eta * k_t) in A/N (contract.md).

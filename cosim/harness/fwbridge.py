@@ -1,16 +1,14 @@
 """The firmware as the co-simulation drives it, on top of cosim.firmware (the firmware part's
 ctypes wrapper of build/firmware/host/libbowden_fw.so): configuration from a SimConfig (the
 loop's register words from the controller's SI gains), the register shadow, the tick and the
-write log (contract.md: no C -> Python callbacks), and the compensator's double twin for the
-float reference.
+write log (contract.md: no C -> Python callbacks). The compensator's double twin and the Q7.8
+words of T_ref come from cosim.firmware directly.
 """
 
 from __future__ import annotations
 
 from .. import firmware, regmap, rtl_model
-from ..scenarios import CompensatorParams, ControllerParams, SimConfig
-
-COMPENSATOR_MODES = ("none", "paper", "smooth")
+from ..scenarios import ControllerParams, SimConfig
 
 
 def _field_word(reg: str, value: float) -> int:
@@ -38,16 +36,10 @@ def loop_words(ctrl: ControllerParams, sample_rate_hz: float) -> dict[str, int]:
     }
 
 
-def _check_mode(mode: str) -> None:
-    if mode not in COMPENSATOR_MODES:
-        raise ValueError(f"compensator must be one of {', '.join(COMPENSATOR_MODES)}; got {mode!r}")
-
-
 class FirmwareBridge:
     """One firmware instance on a register shadow, configured for a co-simulation run."""
 
     def __init__(self, cfg: SimConfig, compensator: str, phi_rad: float) -> None:
-        _check_mode(compensator)
         words = loop_words(cfg.controller, cfg.sample_rate_hz)
         self.fw = firmware.make_firmware(
             compensator,
@@ -80,15 +72,3 @@ class FirmwareBridge:
         and the register writes to perform."""
         tc_word = self.fw.tick(t_ref_n)
         return tc_word / 256.0, self._drain()
-
-
-def make_compensator_f64(mode: str, params: CompensatorParams, phi_rad: float):
-    """The compensator's double twin configured as the fixed-point one holds its parameters
-    (cosim.firmware.make_compensator_f64)."""
-    _check_mode(mode)
-    return firmware.make_compensator_f64(mode, params, phi_rad)
-
-
-def t_ref_word(t_ref_n: float) -> int:
-    """T_ref as the Q7.8 word the host hands to fw_tick (cosim.firmware.tension_word)."""
-    return firmware.tension_word(t_ref_n)
