@@ -1,11 +1,14 @@
 """`bowden demo` (what `make demo` runs): the paper's Fig. 14 experiment in closed-loop
-co-simulation, three ways, next to the paper's figures.
+co-simulation, three ways, on the board's chain and on the ideal interface, next to the paper's
+figures.
 
 Runs `fig14` (30 s, RTL on Verilator + firmware + plant FMU, and the float reference) for the
-compensator `paper` and `smooth` with loop routing, and `paper` without loop routing, writes each
-run under build/demo/<name>/ (result.json, trace.csv, plots), then prints the comparison table.
-The table is printed from the result.json files just written, so the figures it shows are the
-ones on disk.
+compensator `paper` and `smooth` with loop routing, and `paper` without loop routing, through the
+interface stage `--interface` (default `board`: the board's ADC and PWM -> ESCON, cosim.interface)
+and, unless that is already `ideal`, again through the ideal interface, so that the cost of the
+real one shows side by side. Each run is written under build/demo/<name>/ (result.json,
+trace.csv, plots; `_ideal` for the ideal interface), then the comparison table is printed from
+the result.json files just written, so the figures it shows are the ones on disk.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import json
 import sys
 from pathlib import Path
 
+from .interface import INTERFACES
 from .paths import BUILD_DIR
 
 # (folder, compensator, loop routing)
@@ -33,6 +37,12 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("--out", default=str(BUILD_DIR / "demo"), help="output folder")
     p.add_argument("--duration", type=float, default=None, help="simulated seconds per run")
+    p.add_argument(
+        "--interface",
+        choices=INTERFACES,
+        default="board",
+        help="plant <-> core for the main runs (default board); ideal runs are added beside",
+    )
     p.add_argument("--simulator", choices=("verilator", "icarus"), default="verilator")
     p.add_argument(
         "--bus",
@@ -49,9 +59,16 @@ def main(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     paths = []
-    for folder, compensator, loop_routing in DEMO_RUNS:
+    interfaces = [args.interface] + (["ideal"] if args.interface != "ideal" else [])
+    runs = [
+        (folder if iface == args.interface else f"{folder}_{iface}", comp, loop, iface)
+        for iface in interfaces
+        for folder, comp, loop in DEMO_RUNS
+    ]
+    for folder, compensator, loop_routing, interface in runs:
         print(
-            f"== fig14, compensator {compensator}, loop routing {'on' if loop_routing else 'off'}",
+            f"== fig14, compensator {compensator}, loop routing {'on' if loop_routing else 'off'}"
+            f", interface {interface}",
             file=sys.stderr,
         )
         try:
@@ -59,6 +76,7 @@ def main(args: argparse.Namespace) -> int:
                 scenario="fig14",
                 compensator=compensator,
                 loop_routing=loop_routing,
+                interface=interface,
                 simulator=args.simulator,
                 bus=args.bus,
                 duration_s=args.duration,

@@ -5,12 +5,16 @@ Same scenario, same plant FMU (its own instance), same timing as the co-simulati
   firmware's fixed-point tick, and
 - `cosim.rtl_model.FloatTensionLoop`, the double model of the RTL's PI + feedforward loop
   (hdl/rtl/tension_loop.v: same equations and conditional-integration anti-windup, no
-  quantization), with the run's gains in SI units, in place of the RTL; the ADC is ideal.
+  quantization), with the run's gains in SI units, in place of the RTL;
+- the same interface stage (cosim.interface: the board's ADC and PWM -> ESCON, or the ideal
+  one), in its float form: the ADC's value instead of its 24-bit code, the PWM duty of the
+  command in amperes instead of the duty in board clocks.
 
 Timing, identical to the co-simulation harness (cosim/harness/tb_closed_loop.py):
-- FPGA sample k at t_k = k / f_s: the loop computes u_k from T_c in force and the input tension
-  measured at t_k; the plant integrates [t_k, t_k+1) with u_k held (zero-order hold) and
-  returns the sensors at t_k+1 for sample k+1.
+- FPGA sample k at t_k = k / f_s: the loop computes u_k from T_c in force and the latest ADC
+  sample; the interface stage turns u_k into the plant's current over [t_k, t_k+1) (u_k itself
+  with the ideal interface) and, from the sensors at t_k+1, gives the ADC sample of tick k+1
+  (with the ideal interface, T_in_meas(t_k+1) at every sample).
 - Firmware tick i at sample k = i*D (D = f_s / f_fw): T_c,i = comp(T_ref(t_k)); the write reaches
   the loop for sample k + 2 (TC_LATENCY_SAMPLES), as the AXI write does in the co-simulation.
 """
@@ -26,6 +30,7 @@ from .firmware import make_compensator_f64, tension_word
 from .harness.common import Record, open_plant, plant_rows, store_plant_rows
 from .harness.fwbridge import loop_words
 from .harness.progress import Progress
+from .interface import make_chain
 from .rtl_model import FloatTensionLoop
 from .scenarios import Scenario, SimConfig, sample_inputs
 
@@ -71,11 +76,12 @@ def run_reference(
     phi_rad: float,
     duration_s: float | None = None,
     progress: bool = True,
+    interface: str = "board",
 ) -> dict[str, np.ndarray]:
-    """Run the float reference; return its record (the arrays of cosim.harness.common)."""
+    """Run the float reference with the interface stage `interface` (cosim.interface.INTERFACES);
+    return its record (the arrays of cosim.harness.common)."""
     inp = sample_inputs(scen, cfg, duration_s)
     n = len(inp.t_s)
-    dt = 1.0 / cfg.sample_rate_hz
     dec = cfg.decimation
     rec = Record.allocate(n).arrays
     plant = open_plant(cfg, loop_routing, (inp.x_m[0], inp.y_m[0], inp.z_m[0]))
@@ -101,7 +107,9 @@ def run_reference(
     words = loop_words(cfg.controller, cfg.sample_rate_hz)
     slew = words["slew"] / 256.0 if words["slew_en"] else 0.0  # the SLEW word, as programmed
     y = plant.y
-    t_in_meas = y[T_IN_MEAS]
+    chain = make_chain(cfg, interface, fixed=False)
+    t_in_meas = chain.start(y[T_IN_MEAS])  # the ADC sample in force (N)
+    drive, sense = chain.drive, chain.sense
     for k in range(n):
         if k >= TC_LATENCY_SAMPLES and (k - TC_LATENCY_SAMPLES) % dec == 0:
             tc = tc_new
@@ -116,12 +124,15 @@ def run_reference(
         out_tc[k] = tc_eff
         out_u[k] = u
         rows[k] = y_row
-        pu[0] = u
         pu[2] = xs[k]
         pu[3] = ys[k]
         pu[4] = zs[k]
-        y = step(dt)
-        t_in_meas = y[T_IN_MEAS]
+        for dt_seg, current_a in drive(k, u):
+            pu[0] = current_a
+            y = step(dt_seg)
+        sample = sense(k, y[T_IN_MEAS])
+        if sample is not None:
+            t_in_meas = sample
         if (k & 1023) == 0:
             bar.update(k)
     bar.close(n)
@@ -144,16 +155,16 @@ def run_model_chain(
     loop_routing: bool,
     phi_rad: float,
     duration_s: float | None = None,
+    interface: str = "board",
 ) -> dict[str, np.ndarray]:
     """The fixed-point chain without a simulator: the firmware (host build) and the RTL's
     bit-exact Python model (cosim.rtl_model.TensionLoopModel) against the FMU, with the
-    co-simulation's timing. The RTL co-simulation must give the same command word at every
-    sample (tests/cosim); it is also a quick way to try a configuration."""
+    co-simulation's timing and interface stage. The RTL co-simulation must give the same command
+    word at every sample (tests/cosim); it is also a quick way to try a configuration."""
     from .harness.fwbridge import FirmwareBridge  # noqa: PLC0415
 
     inp = sample_inputs(scen, cfg, duration_s)
     n = len(inp.t_s)
-    dt = 1.0 / cfg.sample_rate_hz
     dec = cfg.decimation
     rec = Record.allocate(n).arrays
     plant = open_plant(cfg, loop_routing, (inp.x_m[0], inp.y_m[0], inp.z_m[0]))
@@ -168,7 +179,8 @@ def run_model_chain(
                 value = regmap.decode(name, value)
             model.write(name, value)
 
-    code0 = rtl_model.adc_code_from_tension(plant.y[plant.T_IN_MEAS], fw.adc_offset, fw.adc_gain)
+    chain = make_chain(cfg, interface, True, fw.adc_offset, fw.adc_gain)
+    code0 = chain.start(plant.y[plant.T_IN_MEAS])
     apply(fw.start())
     for _ in range(2):  # the start-up's CTRL pulses take effect at a tick
         model.adc_sample(code0)
@@ -182,17 +194,19 @@ def run_model_chain(
         if k >= TC_LATENCY_SAMPLES and (k - TC_LATENCY_SAMPLES) % dec == 0:
             apply(pending)
             pending = []
-        model.adc_sample(code)
+        if code is not None:
+            model.adc_sample(code)
         out = model.tick()
         words[k] = out.u
         u = out.u / 4096.0
         rec["T_c_N"][k] = out.tc_eff / 256.0
         rec["current_A"][k] = u
         rows[k] = y_row
-        plant.u[0] = u
         plant.u[2], plant.u[3], plant.u[4] = inp.x_m[k], inp.y_m[k], inp.z_m[k]
-        y = plant.step(dt)
-        code = rtl_model.adc_code_from_tension(y[plant.T_IN_MEAS], fw.adc_offset, fw.adc_gain)
+        for dt_seg, current_a in chain.drive(k, out.u):
+            plant.u[0] = current_a
+            y = plant.step(dt_seg)
+        code = chain.sense(k, y[plant.T_IN_MEAS])
         if k % dec == 0:
             _, pending = fw.tick(float(inp.t_ref_n[k]))
     plant.close()

@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from .firmware import MODES
+from .interface import ADC_PARTS
 
 SCENARIO_NAMES = ("characterize", "positions", "fig14")
 # The firmware's compensator modes (firmware/include/comp.h, mirrored by cosim.firmware).
@@ -261,6 +262,23 @@ class CompensatorParams:
 
 
 @dataclass
+class BoardParams:
+    """The board's sensing and actuation chain (cosim.interface, `--interface board|adc`): the
+    load-cell ADC and the ESCON's PWM set value, with their datasheet defaults."""
+
+    adc: str = "ads1220"  # a part of cosim.interface.ADC_PARTS
+    adc_period_s: float | None = None  # None: the part's conversion period
+    adc_phase_s: float = 0.0  # first conversion window starts at t = phase
+    sclk_half_clks: float = 8  # reader SCLK half period, board clocks (48 MHz -> 3 MHz)
+    clk_hz: float = 48e6  # board clock (iCE40 UP5K top): PWM resolution, reader timing
+    pwm_hz: float = 5000.0  # ESCON PWM set value frequency (bowden_core PWM_HZ)
+    pwm_imax_q12: float = 16384  # current at 90 % duty, Q3.12 (bowden_core PWM_IMAX_Q12)
+    escon_imax_a: float = 4.0  # ESCON set value range: 10 % = -I, 90 % = +I
+    escon_duty_resolution: float = 0.001  # the ESCON's duty measurement step (0: continuous)
+    escon_duty_error: float = 0.0  # constant duty error of the ESCON's measurement (0..1)
+
+
+@dataclass
 class SimConfig:
     """Everything a run needs besides the scenario: rates, plant, controller, compensator."""
 
@@ -269,6 +287,7 @@ class SimConfig:
     plant: dict[str, float] = field(default_factory=dict)  # FMU parameter overrides by name
     controller: ControllerParams = field(default_factory=ControllerParams)
     compensator: CompensatorParams = field(default_factory=CompensatorParams)
+    board: BoardParams = field(default_factory=BoardParams)
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -297,6 +316,7 @@ class SimConfig:
         cfg.compensator = _sub(
             CompensatorParams, data.get("compensator", {}), f"{source}.compensator"
         )
+        cfg.board = _sub(BoardParams, data.get("board", {}), f"{source}.board")
         cfg.validate(source)
         return cfg
 
@@ -325,6 +345,27 @@ class SimConfig:
         _number(k.hysteresis_n, f"{source}: compensator.hysteresis_n", 1.0 / 256.0, 32.0)
         _number(k.offset_n, f"{source}: compensator.offset_n", -64.0, 64.0)
         _number(k.mu_slope_per_n, f"{source}: compensator.mu_slope_per_n", -1 / 128, 1 / 128)
+        b = self.board
+        if b.adc not in ADC_PARTS:
+            raise ValueError(
+                f"{source}: board.adc must be one of {', '.join(ADC_PARTS)}; got {b.adc!r}"
+            )
+        if b.adc_period_s is not None:
+            _number(b.adc_period_s, f"{source}: board.adc_period_s", 1e-6, 0.1)
+        _number(b.adc_phase_s, f"{source}: board.adc_phase_s", 0.0, 0.1)
+        _integer(b.sclk_half_clks, f"{source}: board.sclk_half_clks", 1, 1024)
+        _number(b.clk_hz, f"{source}: board.clk_hz", 1e5, 1e9)
+        _number(b.pwm_hz, f"{source}: board.pwm_hz", 10.0, 5000.0)
+        ratio = self.sample_rate_hz / b.pwm_hz
+        if abs(ratio - round(ratio)) > 1e-9:
+            raise ValueError(
+                f"{source}: board.pwm_hz must divide sample_rate_hz ({self.sample_rate_hz:g}); "
+                f"got {b.pwm_hz:g}"
+            )
+        _integer(b.pwm_imax_q12, f"{source}: board.pwm_imax_q12", 1, 32767)
+        _number(b.escon_imax_a, f"{source}: board.escon_imax_a", 0.01, 100.0)
+        _number(b.escon_duty_resolution, f"{source}: board.escon_duty_resolution", 0.0, 0.1)
+        _number(b.escon_duty_error, f"{source}: board.escon_duty_error", -0.1, 0.1)
 
     @property
     def decimation(self) -> int:
@@ -341,6 +382,13 @@ def _number(value, name: str, lo: float, hi: float) -> float:
     return v
 
 
+def _integer(value, name: str, lo: int, hi: int) -> int:
+    v = _number(value, name, lo, hi)
+    if v != int(v):
+        raise ValueError(f"{name} must be a whole number in [{lo}, {hi}]; got {value!r}")
+    return int(v)
+
+
 def _sub(cls, data, source: str):
     if not isinstance(data, dict):
         raise ValueError(f"{source} must be a JSON object")
@@ -349,8 +397,13 @@ def _sub(cls, data, source: str):
     for key, value in data.items():
         if key not in known:
             raise ValueError(f"{source}: unknown key {key!r} (allowed: {', '.join(known)})")
-        if value is None and key == "phi_rad":
-            obj = replace(obj, phi_rad=None)
+        if value is None and key in ("phi_rad", "adc_period_s"):
+            obj = replace(obj, **{key: None})
+            continue
+        if key == "adc":
+            if not isinstance(value, str):
+                raise ValueError(f"{source}.adc must be the name of an ADC; got {value!r}")
+            obj = replace(obj, adc=value)
             continue
         obj = replace(obj, **{key: _number(value, f"{source}.{key}", -1e9, 1e9)})
     return obj

@@ -28,6 +28,7 @@ import numpy as np
 
 from . import metrics, plots
 from . import trace as trace_mod
+from .interface import INTERFACES
 from .scenarios import COMPENSATORS, SCENARIO_NAMES, SimConfig, get_scenario, load_params
 
 # Default compensator per scenario: the characterisations measure the plant itself.
@@ -57,6 +58,12 @@ def add_parser(subparsers) -> None:
         dest="loop_routing",
         action="store_false",
         help="route the sheath without the loop (phi follows the end-effector)",
+    )
+    p.add_argument(
+        "--interface",
+        choices=INTERFACES,
+        default="board",
+        help="plant <-> core: the board's ADC and PWM -> ESCON (default), its ADC only, or ideal",
     )
     p.add_argument("--simulator", choices=SIMULATORS, default="verilator")
     p.add_argument(
@@ -88,6 +95,7 @@ def main(args: argparse.Namespace) -> int:
             scenario=args.scenario,
             compensator=args.compensator,
             loop_routing=args.loop_routing,
+            interface=args.interface,
             simulator=args.simulator,
             bus=args.bus,
             cfg=cfg,
@@ -111,6 +119,7 @@ def run(
     simulator: str = "verilator",
     bus: str = "cocotbext-axi",
     cfg: SimConfig | None = None,
+    interface: str = "board",
     duration_s: float | None = None,
     out_dir: Path | None = None,
     reference: bool = True,
@@ -129,6 +138,8 @@ def run(
         raise ValueError(f"simulator must be one of {', '.join(SIMULATORS)}; got {simulator!r}")
     if bus not in BUSES:
         raise ValueError(f"bus must be one of {', '.join(BUSES)}; got {bus!r}")
+    if interface not in INTERFACES:
+        raise ValueError(f"interface must be one of {', '.join(INTERFACES)}; got {interface!r}")
     scen = get_scenario(scenario)
     compensator = compensator or DEFAULT_COMPENSATOR[scenario]
     if compensator not in COMPENSATORS:
@@ -143,6 +154,7 @@ def run(
         "scenario": scenario,
         "compensator": compensator,
         "loop_routing": bool(loop_routing),
+        "interface": interface,
         "duration_s": duration,
         "phi_rad": phi_rad,
         "config": cfg.to_dict(),
@@ -159,7 +171,9 @@ def run(
     wall_fixed = time.perf_counter() - t0
     ref = None
     if reference:
-        ref = run_reference(scen, cfg, compensator, loop_routing, phi_rad, duration, progress)
+        ref = run_reference(
+            scen, cfg, compensator, loop_routing, phi_rad, duration, progress, interface
+        )
 
     result = evaluate(scen, cfg, run_spec, fixed, ref, wall_fixed, cost)
     if write_files and out_dir is not None:
@@ -177,6 +191,7 @@ def evaluate(scen, cfg, run_spec, fixed, ref, wall_s, cost) -> dict:
         "scenario": run_spec["scenario"],
         "compensator": run_spec["compensator"],
         "loop_routing": run_spec["loop_routing"],
+        "interface": run_spec["interface"],
         "samples": n,
         "sim_seconds": n / cfg.sample_rate_hz,
         "wall_seconds": wall_s,
@@ -252,6 +267,7 @@ def write_outputs(out_dir: Path, scen, cfg, run_spec, fixed, ref, result) -> Non
         "source": "cosim",
         "scenario": run_spec["scenario"],
         "compensator": run_spec["compensator"],
+        "interface": run_spec["interface"],
     }
     trace_mod.write_trace(out_dir / "trace.csv", trace_columns(fixed), {**meta, "chain": "fixed"})
     if ref is not None:
@@ -293,7 +309,7 @@ def summary_table(results: list[dict], paper: bool = False) -> str:
     head = (
         f"{'scenario':<13}{'compensator':<12}{'loop':<6}{'RMS N':>8}{'RMS %':>8}{'peak N':>8}"
         f"{'peak %':>8}{'rev RMS N':>10}{'away RMS N':>11}{'du rms/max LSB':>16}"
-        f"{'dT_out rms N':>14}{'sim/wall':>10}"
+        f"{'dT_out rms N':>14}{'sim/wall':>10}  interface"
     )
     lines = [head, "-" * len(head)]
     for r in results:
@@ -308,7 +324,7 @@ def summary_table(results: list[dict], paper: bool = False) -> str:
             f"{r['scenario']:<13}{r['compensator']:<12}{'on' if r['loop_routing'] else 'off':<6}"
             f"{r['rms_error_n']:>8.3f}{r['rms_error_pct']:>8.1f}{r['peak_error_n']:>8.3f}"
             f"{r['peak_error_pct']:>8.1f}{split_near:>10}{split_away:>11}{du:>16}{dt:>14}"
-            f"{(f'x{speed:.2f}' if speed else '-'):>10}"
+            f"{(f'x{speed:.2f}' if speed else '-'):>10}  {r.get('interface', '-')}"
         )
     if paper:
         lines.append(

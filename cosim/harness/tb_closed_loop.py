@@ -9,11 +9,14 @@ latency from its tick to the command, rtl_model.LATENCY_CLKS; cosim/harness/runn
     edge Ck         tick k: the RTL takes the ADC sample of t_k and the T_c in force
     edge Ck + L     the command u_k is out (cmd_current, Q3.12)
     Ck + L + 0.5    the harness wakes (one Timer per sample, half a clock after the edge):
-                    reads u_k, steps the FMU over [t_k, t_k+1) with u_k held, quantizes T_in_meas
-                    with the ideal ADC (rtl_model.adc_code_from_tension) and hands the code over
-                    (adc_word = {flipped toggle, code}: a one-clock adc_valid in cosim_top.v);
-                    at every D-th sample (k = i*D) it also wakes the firmware task.
-    edge Ck + C     tick k+1 takes that ADC sample.
+                    reads u_k, hands it to the interface stage (cosim.interface: the board's
+                    PWM -> ESCON, or the ideal drive), steps the FMU over [t_k, t_k+1) with the
+                    current the stage gives (one or two pieces), and hands over the ADC sample the
+                    stage gives for tick k+1, if any (the board's ADC at its DRDY times, or the
+                    ideal ADC's code of T_in_meas(t_k+1)): adc_word = {flipped toggle, code}, a
+                    one-clock adc_valid in cosim_top.v; at every D-th sample (k = i*D) it also
+                    wakes the firmware task.
+    edge Ck + C     tick k+1 takes that ADC sample (or keeps the last one).
 
 The firmware task (processor, 1 kHz): fills the firmware's register shadow with the words it
 read over AXI4-Lite after its previous tick (STATUS, FAULT, T_IN, U, SAMPLE_COUNT), calls the
@@ -43,10 +46,11 @@ from cocotb.simtime import get_sim_time
 from cocotb.triggers import Event, RisingEdge, Timer
 from cocotbext.axi import AxiLiteBus, AxiLiteMaster
 
-from cosim import regmap, rtl_model
+from cosim import regmap
 from cosim.harness.axil import LeanAxiLiteMaster
 from cosim.harness.common import Record, open_plant, plant_rows, store_plant_rows
 from cosim.harness.fwbridge import FirmwareBridge, loop_words
+from cosim.interface import make_chain
 from cosim.reference import TC_LATENCY_SAMPLES
 from cosim.scenarios import SimConfig, get_scenario, sample_inputs
 
@@ -71,7 +75,6 @@ async def closed_loop(dut):
     scen = get_scenario(spec["scenario"])
     inp = sample_inputs(scen, cfg, spec["duration_s"])
     n = len(inp.t_s)
-    dt_s = 1.0 / cfg.sample_rate_hz
     dec = cfg.decimation
     cps = int(spec["clks_per_sample"])
     clk_ns = int(spec["clk_period_ns"])
@@ -118,7 +121,8 @@ async def closed_loop(dut):
 
     # The plant at rest gives the ADC samples of the start-up (kept coming every sample, so the
     # stale-ADC fault sees a live converter); start-up writes: gains, calibration, enable.
-    code0 = rtl_model.adc_code_from_tension(plant.y[plant.T_IN_MEAS], adc_offset, adc_gain)
+    chain = make_chain(cfg, spec.get("interface", "board"), True, adc_offset, adc_gain)
+    code0 = chain.start(plant.y[plant.T_IN_MEAS])
     sample_ns = cps * clk_ns
     starting = [True]
 
@@ -190,7 +194,7 @@ async def closed_loop(dut):
     out_tc, out_u = rec["T_c_N"], rec["current_A"]
     rows, y_row = plant_rows(plant, n)
     u_words = np.zeros(n, dtype=np.int32)
-    adc_code = rtl_model.adc_code_from_tension
+    drive, sense = chain.drive, chain.sense
     timer = Timer(sample_ns, unit="ns")
     perf = time.perf_counter
     fmu_s = 0.0
@@ -219,15 +223,18 @@ async def closed_loop(dut):
         out_tc[k] = tc
         out_u[k] = u_a
         rows[k] = y_row
-        pu[0] = u_a
         pu[2] = xs[k]
         pu[3] = ys[k]
         pu[4] = zs[k]
-        t_c = perf()
-        step(dt_s)
-        fmu_s += perf() - t_c
-        toggle ^= 1 << 24
-        adc_sig.value = toggle | (adc_code(py[T_IN_MEAS], adc_offset, adc_gain) & 0xFFFFFF)
+        for dt_seg, current_a in drive(k, word):
+            pu[0] = current_a
+            t_c = perf()
+            step(dt_seg)
+            fmu_s += perf() - t_c
+        code = sense(k, py[T_IN_MEAS])
+        if code is not None:
+            toggle ^= 1 << 24
+            adc_sig.value = toggle | (code & 0xFFFFFF)
         if k % dec == 0:
             fw_state["k"] = k
             fw_state["wake_ns"] = get_sim_time("ns")
