@@ -239,6 +239,8 @@ class PwmEscon:
         if self.pending and self.pending[0][0] == k:
             _, new = self.pending.pop(0)
             old, self.current = self.current, new
+            if new == old:
+                return ((self.dt, new),)
             if self.frac >= 1.0:
                 return ((self.dt, old),)
             return ((self.frac * self.dt, old), ((1.0 - self.frac) * self.dt, new))

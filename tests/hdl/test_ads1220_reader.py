@@ -5,11 +5,14 @@ from __future__ import annotations
 import cocotb
 import pytest
 from cocotb.clock import Clock
-from cocotb.triggers import ClockCycles, RisingEdge
+from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
 from hdl_sim import SIMULATORS, Ads1220, rtl, run_cocotb
+
+from cosim.interface import reader_latency_clks
 
 CONFIG = bytes([0x0E, 0xD4, 0x40, 0x00])
 CODES = [0x123456, -1, -(1 << 23), (1 << 23) - 1, 0]
+SCLK_HALF_CLKS = 4
 
 
 @cocotb.test()
@@ -29,13 +32,16 @@ async def configures_and_streams(dut):
     await ClockCycles(dut.clk, 50)
     for code in CODES:
         adc.received.clear()
-        adc.convert(code)
-        for _ in range(2000):
+        await FallingEdge(dut.clk)
+        adc.convert(code)  # DRDY falls between two clock edges
+        clks = 0
+        while not int(dut.adc_valid.value):
             await RisingEdge(dut.clk)
-            if int(dut.adc_valid.value):
-                break
-        else:
-            raise AssertionError(f"no sample for code {code}")
+            clks += 1
+            assert clks < 2000, f"no sample for code {code}"
+        # The co-simulation's word-level ADC (cosim.interface) hands each result to the core
+        # this many clocks after DRDY: the reader takes exactly that long.
+        assert clks == reader_latency_clks(24, SCLK_HALF_CLKS), clks
         got = int(dut.adc_data.value)
         got = got - (1 << 24) if got >> 23 else got
         assert got == code, f"sample {got}, ADC sent {code}"
@@ -46,5 +52,5 @@ async def configures_and_streams(dut):
 @pytest.mark.parametrize("simulator", SIMULATORS)
 def test_ads1220_reader(simulator):
     """Build ads1220_reader with short waits and run the coroutine above."""
-    params = {"SCLK_HALF_CLKS": 4, "WAIT_CLKS": 64}
+    params = {"SCLK_HALF_CLKS": SCLK_HALF_CLKS, "WAIT_CLKS": 64}
     run_cocotb("ads1220_reader", "test_ads1220_reader", rtl("ads1220_reader"), simulator, params)

@@ -22,7 +22,7 @@ from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
 from hdl_sim import SIMULATORS, Ads1220, SpiMaster, replay_write, rtl, run_cocotb, signed
 
-from cosim import regmap
+from cosim import interface, regmap
 from cosim.rtl_model import FAULT_ADC_STALE, TensionLoopModel, adc_code_from_tension
 
 CLK_HZ = 1_000_000
@@ -34,18 +34,9 @@ CONFIG = [0x06, 0x43, 0x0E, 0xD4, 0x40, 0x00, 0x08]  # RESET, WREG 0..3, START/S
 
 
 def pwm_duty_clks(u: int, enable: bool) -> int:
-    """High time of one PWM period for command u (Q3.12 A), as hdl/rtl/pwm_escon.v defines it.
-
-    duty = PERIOD/2 + floor(clamp(u, +-IMAX) * K / 2^SHIFT), K = round(SPAN * 2^SHIFT / IMAX),
-    SPAN = 2 * PERIOD / 5, SHIFT the largest with K < 2^15; 50 % while disabled.
-    """
-    half, span = PWM_PERIOD_CLKS // 2, 2 * PWM_PERIOD_CLKS // 5
-    shift = 0
-    while ((span << (shift + 1)) + PWM_IMAX_Q12 // 2) // PWM_IMAX_Q12 < 32768 and shift < 24:
-        shift += 1
-    k = ((span << shift) + PWM_IMAX_Q12 // 2) // PWM_IMAX_Q12
-    uc = max(-PWM_IMAX_Q12, min(PWM_IMAX_Q12, u)) if enable else 0
-    return half + ((uc * k) >> shift)
+    """High time of one PWM period for command u (Q3.12 A), as hdl/rtl/pwm_escon.v defines it:
+    the co-simulation's word-level model (cosim.interface.pwm_duty_clks), at this build's clock."""
+    return interface.pwm_duty_clks(u, PWM_PERIOD_CLKS, PWM_IMAX_Q12, enable)
 
 
 class SystemTb:
@@ -62,6 +53,7 @@ class SystemTb:
         self.adc = Ads1220(dut)
         self.adc_on = False
         self.tension_n = 0.0
+        self.pwm_periods = 0
 
     async def start(self) -> None:
         d = self.dut
@@ -74,6 +66,7 @@ class SystemTb:
         cocotb.start_soon(self.adc.run())
         cocotb.start_soon(self.monitor())
         cocotb.start_soon(self.conversions())
+        cocotb.start_soon(self.pwm_monitor())
 
     async def monitor(self) -> None:
         """Mid-cycle, look at what the next rising edge captures and replay it in order."""
@@ -103,6 +96,32 @@ class SystemTb:
                     int(d.axil_wdata.value),
                     int(d.axil_wstrb.value),
                 )
+
+    async def pwm_monitor(self) -> None:
+        """The rule the co-simulation's word-level PWM model uses (cosim.interface.PwmEscon):
+        every PWM period starts at a sample tick and carries the command of the tick before
+        (the last cmd_current / drive_enable out before the period starts)."""
+        d = self.dut
+        clk, last_tick, u, en, start, carried = 0, None, 0, False, None, None
+        prev = 1  # a period under way when the monitor starts is not checked
+        while True:
+            await FallingEdge(d.clk)
+            clk += 1
+            pwm = int(d.drive_pwm.value)
+            if d.sample_tick.value:
+                last_tick = clk
+            if pwm and not prev:  # a period starts (duty >= 10 %, so it starts high)
+                if start is not None:
+                    self.pwm_periods += 1
+                assert last_tick == clk, f"PWM period starts at clock {clk}, tick at {last_tick}"
+                start, carried = clk, pwm_duty_clks(u, en)
+            if not pwm and prev and start is not None:
+                assert clk - start == carried, (
+                    f"PWM high {clk - start} clocks, the command of the tick before gives {carried}"
+                )
+            prev = pwm
+            if d.cmd_valid.value:
+                u, en = signed(int(d.cmd_current.value), 16), bool(d.drive_enable.value)
 
     async def conversions(self) -> None:
         """While `adc_on`, one ADS1220 conversion of `tension_n` every ADC_PERIOD_CLKS."""
@@ -195,6 +214,7 @@ async def mcu_and_adc_drive_the_loop(dut):
     assert await tb.mcu.read(regmap.FAULT // 4) == FAULT_ADC_STALE == m.faults
     assert await tb.pwm_high_clks() == PWM_PERIOD_CLKS // 2
     assert tb.compared > 80, f"only {tb.compared} samples compared"
+    assert tb.pwm_periods > 40, f"only {tb.pwm_periods} PWM periods checked"
     assert tb.samples_seen > 20 and not tb.sent
 
 
