@@ -2,15 +2,23 @@
 
 Each subcommand lives in its own module, which provides `add_parser(subparsers)`; the parser
 it adds sets `func(args) -> int`. A module is listed in SUBCOMMANDS only once it works.
+
+For every subcommand: a bad argument is one line on stderr and exit status 2 (cosim.cliargs);
+SIGINT (Ctrl-C) or SIGTERM stops the run and every process it started (cosim.procs), prints one
+line and exits with 128 + the signal number, keeping the files already written.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import signal
 import sys
+import threading
 
-from . import __version__
+from . import __version__, procs
+from .cliargs import ArgumentParser, harden
 
 # Modules that provide subcommands, in the order `bowden --help` lists them.
 SUBCOMMANDS: list[str] = ["workspace", "sim", "demo"]
@@ -22,8 +30,40 @@ def _doctor(args: argparse.Namespace) -> int:
     return doctor_main()
 
 
+class Interrupted(BaseException):
+    """SIGINT or SIGTERM arrived: unwinds the run like KeyboardInterrupt (no `except Exception`
+    catches it)."""
+
+    def __init__(self, signum: int):
+        self.signum = signum
+        super().__init__(signal.Signals(signum).name)
+
+
+def _raise_interrupted(signum, _frame):
+    # A second Ctrl-C while the run is being stopped would only interrupt the stopping.
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, signal.SIG_IGN)
+    raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def _signals_interrupt():
+    """SIGINT and SIGTERM raise Interrupted in the main thread while the command runs."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {
+        sig: signal.signal(sig, _raise_interrupted) for sig in (signal.SIGINT, signal.SIGTERM)
+    }
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="bowden",
         description="Bowden-cable tension control: co-simulation, model audit and bench tool.",
     )
@@ -35,17 +75,30 @@ def build_parser() -> argparse.ArgumentParser:
     doctor.set_defaults(func=_doctor)
     for name in SUBCOMMANDS:
         importlib.import_module(f"cosim.{name}").add_parser(sub)
-    return parser
+    return harden(parser)
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version, or a bad argument (one line printed)
+        return exc.code if isinstance(exc.code, int) else 2
     if getattr(args, "func", None) is None:
         parser.print_help()
         return 2
     try:
-        return int(args.func(args) or 0)
+        with _signals_interrupt():
+            return int(args.func(args) or 0)
+    except (Interrupted, KeyboardInterrupt) as exc:
+        signum = exc.signum if isinstance(exc, Interrupted) else int(signal.SIGINT)
+        procs.stop_all()  # whatever the command's own handler has not stopped yet
+        print(
+            f"bowden {args.command}: interrupted by {signal.Signals(signum).name}: stopped the run "
+            "and every process it started; files already written are kept",
+            file=sys.stderr,
+        )
+        return 128 + signum
     except OSError as exc:
         # A folder that cannot be created, a file that cannot be read or written: say which.
         where = f": {exc.filename}" if exc.filename else ""

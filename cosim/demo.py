@@ -18,8 +18,9 @@ import json
 import sys
 from pathlib import Path
 
+from .cliargs import output_dir
 from .interface import INTERFACES
-from .paths import BUILD_DIR
+from .paths import BUILD_DIR, require_project
 
 # (folder, compensator, loop routing)
 DEMO_RUNS = (
@@ -35,7 +36,7 @@ def add_parser(subparsers) -> None:
         help="the paper's Fig. 14 in co-simulation: paper/smooth with loop routing, paper without",
         description=__doc__.split("\n\n")[0],
     )
-    p.add_argument("--out", default=str(BUILD_DIR / "demo"), help="output folder")
+    p.add_argument("--out", type=output_dir, default=BUILD_DIR / "demo", help="output folder")
     p.add_argument("--duration", type=float, default=None, help="simulated seconds per run")
     p.add_argument(
         "--interface",
@@ -56,7 +57,14 @@ def add_parser(subparsers) -> None:
 
 def main(args: argparse.Namespace) -> int:
     from . import sim  # noqa: PLC0415
+    from .scenarios import SimConfig  # noqa: PLC0415
 
+    try:
+        sim.check_duration(args.duration, SimConfig())
+        require_project()
+    except ValueError as exc:
+        print(f"bowden demo: {exc}", file=sys.stderr)
+        return 2
     out = Path(args.out)
     paths = []
     interfaces = [args.interface] + (["ideal"] if args.interface != "ideal" else [])

@@ -41,7 +41,10 @@ PAPER_MAX_REF_N = 15.0
 def tracking_error(
     t_s: np.ndarray, t_ref_n: np.ndarray, t_out_n: np.ndarray, settle_s: float = 0.0
 ) -> dict[str, float]:
-    """RMS and peak of T_ref - T_out over t >= settle_s, in N and in % of max |T_ref| there."""
+    """RMS and peak of T_ref - T_out over t >= settle_s, in N and in % of max |T_ref| there.
+
+    The percentages are None when T_ref is zero over the whole window (no scale to divide by):
+    a figure with no value, written as null in result.json, never NaN."""
     t_s = np.asarray(t_s, dtype=np.float64)
     mask = t_s >= settle_s
     if not np.any(mask):
@@ -50,12 +53,12 @@ def tracking_error(
     max_ref = float(np.max(np.abs(np.asarray(t_ref_n)[mask])))
     rms = float(np.sqrt(np.mean(err * err)))
     peak = float(np.max(np.abs(err)))
-    scale = 100.0 / max_ref if max_ref > 0 else float("nan")
+    scale = 100.0 / max_ref if max_ref > 0 else None
     return {
         "rms_error_n": rms,
-        "rms_error_pct": rms * scale,
+        "rms_error_pct": rms * scale if scale is not None else None,
         "peak_error_n": peak,
-        "peak_error_pct": peak * scale,
+        "peak_error_pct": peak * scale if scale is not None else None,
         "max_ref_n": max_ref,
     }
 

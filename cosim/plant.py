@@ -19,10 +19,12 @@ the FMU's own message, which names the variable and its allowed range.
 from __future__ import annotations
 
 import ctypes
+import functools
 import shutil
 import tempfile
 from collections.abc import Mapping
 from ctypes import c_char_p, c_double, c_int, c_size_t, c_uint, c_void_p
+from dataclasses import dataclass
 from pathlib import Path
 
 from .paths import BUILD_DIR
@@ -45,6 +47,55 @@ OUTPUT_NAMES = (
 
 class PlantError(RuntimeError):
     """An FMI call of the plant failed; the message is the FMU's log message."""
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One variable of the FMU as its modelDescription.xml declares it."""
+
+    name: str
+    type: str  # Real | Integer | Boolean
+    causality: str  # parameter | input | output
+    start: float | int | bool | None
+    lo: float | None  # allowed range (the FMU refuses values outside it)
+    hi: float | None
+    unit: str | None
+
+
+def fmu_variables(fmu_path: str | Path | None = None) -> dict[str, Variable]:
+    """The FMU's variables by name, read from its modelDescription.xml (no instance): the
+    allowed ranges that `Plant` would enforce, for checking a configuration before a run."""
+    path = Path(fmu_path) if fmu_path is not None else FMU_PATH
+    if not path.is_file():
+        raise FileNotFoundError(f"{path} does not exist: run `make fmu` first")
+    return _fmu_variables(str(path.resolve()), path.stat().st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=4)
+def _fmu_variables(path: str, _mtime_ns: int) -> dict[str, Variable]:
+    from fmpy import read_model_description  # noqa: PLC0415
+
+    def number(text, kind):
+        if text is None:
+            return None
+        return int(text) if kind == "Integer" else float(text)
+
+    out = {}
+    for v in read_model_description(path).modelVariables:
+        if v.type == "Boolean":
+            start = None if v.start is None else str(v.start).lower() == "true"
+        else:
+            start = number(v.start, v.type)
+        out[v.name] = Variable(
+            name=v.name,
+            type=v.type,
+            causality=v.causality,
+            start=start,
+            lo=number(v.min, v.type),
+            hi=number(v.max, v.type),
+            unit=getattr(v, "unit", None),
+        )
+    return out
 
 
 class Plant:

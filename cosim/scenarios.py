@@ -40,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .cliargs import shown
 from .firmware import MODES
 from .interface import ADC_PARTS
 
@@ -261,6 +262,56 @@ class CompensatorParams:
     mu_slope_per_n: float = 0.0  # friction rising with tension (audit extension)
 
 
+# Rates in whole Hz: the firmware takes them as unsigned integers (fw.h), and its checks bound them
+# (fw.c: sample rate 1 .. 1e6 Hz, tick rate 1 .. 65535 Hz).
+RATE_RANGES_HZ = {"sample_rate_hz": (1, 1_000_000), "firmware_rate_hz": (1, 65_535)}
+
+# FMU parameters a params file may not set, and why: the command line, the scenario or the closed
+# loop own them, and result.json and the trace's sidecar report them from there.
+PLANT_OWNED = {
+    "loop_routing": "is set on the command line (--no-loop-routing) and reported in result.json",
+    "drive_mode": "is fixed by the closed loop, which drives the motor by its current command "
+    "(drive_mode 0)",
+}
+
+
+def field_ranges(sample_rate_hz: float) -> dict[str, tuple[float, float]]:
+    """Allowed range of every controller, compensator and board field, by dotted name.
+
+    Controller: the register words (hdl/regmap/bowden_regs.json): KFF and KP Q2.13, KI_TS
+    +-1/32 A/N per sample (so Ki up to sample_rate_hz / 32 A/(N s)), I_LIMIT UQ3.12, SLEW UQ7.8.
+    Compensator: the firmware's checks (firmware/include/comp.h)."""
+    return {
+        "controller.kff_a_per_n": (0.0, 3.9998),
+        "controller.kp_a_per_n": (0.0, 3.9998),
+        "controller.ki_a_per_n_s": (0.0, sample_rate_hz / 32.0),
+        "controller.i_limit_a": (0.0, 7.9997),
+        "controller.slew_n_per_sample": (0.0, 127.99),
+        "compensator.mu": (0.0, 1.0),
+        "compensator.phi_rad": (0.0, 4.0 * math.pi),
+        "compensator.band_n": (1.0 / 256.0, 128.0),
+        "compensator.hysteresis_n": (1.0 / 256.0, 32.0),
+        "compensator.offset_n": (-64.0, 64.0),
+        "compensator.mu_slope_per_n": (-1 / 128, 1 / 128),
+        # The board's chain (cosim.interface): conversion timing, reader and PWM clocks, ESCON.
+        "board.adc_period_s": (1e-6, 0.1),
+        "board.adc_phase_s": (0.0, 0.1),
+        "board.sclk_half_clks": (1, 1024),
+        "board.clk_hz": (1e5, 1e9),
+        "board.pwm_hz": (10.0, 5000.0),
+        "board.pwm_imax_q12": (1, 32767),
+        "board.escon_imax_a": (0.01, 100.0),
+        "board.escon_duty_resolution": (0.0, 0.1),
+        "board.escon_duty_error": (-0.1, 0.1),
+    }
+
+
+# Fields that take null (the default: the scenario's phi, the ADC part's own period) and fields
+# that are whole numbers (clock counts, register words).
+NULLABLE_FIELDS = {"compensator.phi_rad", "board.adc_period_s"}
+WHOLE_FIELDS = {"board.sclk_half_clks", "board.pwm_imax_q12"}
+
+
 @dataclass
 class BoardParams:
     """The board's sensing and actuation chain (cosim.interface, `--interface board|adc`): the
@@ -294,78 +345,59 @@ class SimConfig:
 
     @classmethod
     def from_dict(cls, data: dict, source: str = "params") -> SimConfig:
-        """Build a configuration from a (partial) dict; unknown keys and bad values are errors."""
+        """Build a configuration from a (partial) dict; unknown keys and bad values are errors
+        (ValueError: one line naming `source`, the key and its allowed range)."""
         if not isinstance(data, dict):
             raise ValueError(f"{source}: expected a JSON object at the top level")
         cfg = cls()
-        known = {f.name for f in fields(cls)}
+        known = [f.name for f in fields(cls)]
         for key in data:
             if key not in known:
                 raise ValueError(f"{source}: unknown key {key!r} (allowed: {', '.join(known)})")
-        for key in ("sample_rate_hz", "firmware_rate_hz"):
+        for key, (lo, hi) in RATE_RANGES_HZ.items():
             if key in data:
-                setattr(cfg, key, _number(data[key], f"{source}: {key}", 1.0, 1e6))
+                value = _number(data[key], f"{source}: {key}", lo, hi, whole=True)
+                setattr(cfg, key, float(value))
         if "plant" in data:
-            plant = data["plant"]
-            if not isinstance(plant, dict):
-                raise ValueError(f"{source}: plant must be an object of FMU parameter values")
-            cfg.plant = {
-                str(k): _number(v, f"{source}: plant.{k}", -1e9, 1e9) for k, v in plant.items()
-            }
-        cfg.controller = _sub(ControllerParams, data.get("controller", {}), f"{source}.controller")
-        cfg.compensator = _sub(
-            CompensatorParams, data.get("compensator", {}), f"{source}.compensator"
+            cfg.plant = plant_overrides(data["plant"], f"{source}: plant")
+        ranges = field_ranges(cfg.sample_rate_hz)
+        cfg.controller = _sub(
+            ControllerParams, data.get("controller", {}), source, "controller", ranges
         )
-        cfg.board = _sub(BoardParams, data.get("board", {}), f"{source}.board")
+        cfg.compensator = _sub(
+            CompensatorParams, data.get("compensator", {}), source, "compensator", ranges
+        )
+        cfg.board = _sub(BoardParams, data.get("board", {}), source, "board", ranges)
         cfg.validate(source)
         return cfg
 
     def validate(self, source: str = "params") -> None:
         """Raise ValueError naming the first variable that is out of its allowed range."""
+        for key, (lo, hi) in RATE_RANGES_HZ.items():
+            _number(getattr(self, key), f"{source}: {key}", lo, hi, whole=True)
         ratio = self.sample_rate_hz / self.firmware_rate_hz
         if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
             raise ValueError(
                 f"{source}: sample_rate_hz / firmware_rate_hz must be a whole number >= 1; got "
                 f"{self.sample_rate_hz:g} / {self.firmware_rate_hz:g}"
             )
-        c = self.controller
-        # Ranges of the register words (hdl/regmap/bowden_regs.json): KFF and KP Q2.13, KI_TS
-        # +-1/32 A/N per sample, I_LIMIT UQ3.12, SLEW UQ7.8.
-        _number(c.kff_a_per_n, f"{source}: controller.kff_a_per_n", 0.0, 3.9998)
-        _number(c.kp_a_per_n, f"{source}: controller.kp_a_per_n", 0.0, 3.9998)
-        ki_max = self.sample_rate_hz / 32.0
-        _number(c.ki_a_per_n_s, f"{source}: controller.ki_a_per_n_s", 0.0, ki_max)
-        _number(c.i_limit_a, f"{source}: controller.i_limit_a", 0.0, 7.9997)
-        _number(c.slew_n_per_sample, f"{source}: controller.slew_n_per_sample", 0.0, 127.99)
-        k = self.compensator
-        _number(k.mu, f"{source}: compensator.mu", 0.0, 1.0)
-        if k.phi_rad is not None:
-            _number(k.phi_rad, f"{source}: compensator.phi_rad", 0.0, 4.0 * math.pi)
-        _number(k.band_n, f"{source}: compensator.band_n", 1.0 / 256.0, 128.0)
-        _number(k.hysteresis_n, f"{source}: compensator.hysteresis_n", 1.0 / 256.0, 32.0)
-        _number(k.offset_n, f"{source}: compensator.offset_n", -64.0, 64.0)
-        _number(k.mu_slope_per_n, f"{source}: compensator.mu_slope_per_n", -1 / 128, 1 / 128)
+        for name, (lo, hi) in field_ranges(self.sample_rate_hz).items():
+            group, key = name.split(".")
+            value = getattr(getattr(self, group), key)
+            if name in NULLABLE_FIELDS and value is None:
+                continue
+            _number(value, f"{source}: {name}", lo, hi, whole=name in WHOLE_FIELDS)
         b = self.board
-        if b.adc not in ADC_PARTS:
+        if not isinstance(b.adc, str) or b.adc not in ADC_PARTS:
             raise ValueError(
                 f"{source}: board.adc must be one of {', '.join(ADC_PARTS)}; got {b.adc!r}"
             )
-        if b.adc_period_s is not None:
-            _number(b.adc_period_s, f"{source}: board.adc_period_s", 1e-6, 0.1)
-        _number(b.adc_phase_s, f"{source}: board.adc_phase_s", 0.0, 0.1)
-        _integer(b.sclk_half_clks, f"{source}: board.sclk_half_clks", 1, 1024)
-        _number(b.clk_hz, f"{source}: board.clk_hz", 1e5, 1e9)
-        _number(b.pwm_hz, f"{source}: board.pwm_hz", 10.0, 5000.0)
         ratio = self.sample_rate_hz / b.pwm_hz
         if abs(ratio - round(ratio)) > 1e-9:
             raise ValueError(
                 f"{source}: board.pwm_hz must divide sample_rate_hz ({self.sample_rate_hz:g}); "
                 f"got {b.pwm_hz:g}"
             )
-        _integer(b.pwm_imax_q12, f"{source}: board.pwm_imax_q12", 1, 32767)
-        _number(b.escon_imax_a, f"{source}: board.escon_imax_a", 0.01, 100.0)
-        _number(b.escon_duty_resolution, f"{source}: board.escon_duty_resolution", 0.0, 0.1)
-        _number(b.escon_duty_error, f"{source}: board.escon_duty_error", -0.1, 0.1)
 
     @property
     def decimation(self) -> int:
@@ -373,54 +405,120 @@ class SimConfig:
         return int(round(self.sample_rate_hz / self.firmware_rate_hz))
 
 
-def _number(value, name: str, lo: float, hi: float) -> float:
+def _show(value, limit: int = 60) -> str:
+    """A value from a params file as it was written there (JSON), on one line, shortened."""
+    try:
+        text = json.dumps(value)
+    except (TypeError, ValueError):
+        text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _number(value, name: str, lo: float, hi: float, whole: bool = False) -> float:
+    kind = "a whole number" if whole else "a number"
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f"{name} must be a number in [{lo:g}, {hi:g}]; got {value!r}")
+        raise ValueError(f"{name} must be {kind} in [{lo:g}, {hi:g}]; got {_show(value)}")
     v = float(value)
     if not math.isfinite(v) or v < lo or v > hi:
-        raise ValueError(f"{name} must be in [{lo:g}, {hi:g}]; got {value!r}")
+        raise ValueError(f"{name} must be in [{lo:g}, {hi:g}]; got {_show(value)}")
+    if whole and v != math.floor(v):
+        raise ValueError(f"{name} must be {kind} in [{lo:g}, {hi:g}]; got {_show(value)}")
     return v
 
 
-def _integer(value, name: str, lo: int, hi: int) -> int:
-    v = _number(value, name, lo, hi)
-    if v != int(v):
-        raise ValueError(f"{name} must be a whole number in [{lo}, {hi}]; got {value!r}")
-    return int(v)
+def plant_overrides(plant, source: str) -> dict[str, float | int]:
+    """FMU parameter overrides checked against the FMU's own modelDescription.xml: parameters
+    only, not those the command line or the closed loop own (PLANT_OWNED), each of its type and
+    within its range; Integer parameters take whole numbers only (nothing is truncated)."""
+    from .plant import fmu_variables  # noqa: PLC0415 (reads the built FMU)
+
+    if not isinstance(plant, dict):
+        raise ValueError(f"{source} must be an object of FMU parameter values by name")
+    variables = fmu_variables()
+    settable = [
+        v.name
+        for v in variables.values()
+        if v.causality == "parameter" and v.name not in PLANT_OWNED
+    ]
+    out: dict[str, float | int] = {}
+    for key, value in plant.items():
+        var = variables.get(key)
+        if key in PLANT_OWNED:
+            raise ValueError(f"{source}.{key} {PLANT_OWNED[key]}; a params file cannot set it")
+        if var is None or var.causality != "parameter":
+            what = (
+                f"is an FMU {var.causality} (the scenario and the loop drive it)"
+                if var is not None
+                else "is not a parameter of the FMU"
+            )
+            raise ValueError(f"{source}: {key!r} {what}; parameters: {', '.join(settable)}")
+        if var.type == "Boolean":
+            if not isinstance(value, bool):
+                raise ValueError(f"{source}.{key} must be true or false; got {_show(value)}")
+            out[key] = value
+            continue
+        lo = var.lo if var.lo is not None else -math.inf
+        hi = var.hi if var.hi is not None else math.inf
+        v = _number(value, f"{source}.{key}", lo, hi, whole=var.type == "Integer")
+        out[key] = int(v) if var.type == "Integer" else v
+    return out
 
 
-def _sub(cls, data, source: str):
+def _sub(cls, data, source: str, group: str, ranges: dict[str, tuple[float, float]]):
     if not isinstance(data, dict):
-        raise ValueError(f"{source} must be a JSON object")
+        raise ValueError(f"{source}: {group} must be a JSON object")
     obj = cls()
     known = {f.name: f for f in fields(cls)}
     for key, value in data.items():
         if key not in known:
-            raise ValueError(f"{source}: unknown key {key!r} (allowed: {', '.join(known)})")
-        if value is None and key in ("phi_rad", "adc_period_s"):
+            raise ValueError(
+                f"{source}: {group}: unknown key {key!r} (allowed: {', '.join(known)})"
+            )
+        name = f"{group}.{key}"
+        if value is None and name in NULLABLE_FIELDS:
             obj = replace(obj, **{key: None})
             continue
-        if key == "adc":
+        if name == "board.adc":
             if not isinstance(value, str):
-                raise ValueError(f"{source}.adc must be the name of an ADC; got {value!r}")
+                raise ValueError(
+                    f"{source}: board.adc must be the name of an ADC ({', '.join(ADC_PARTS)}); "
+                    f"got {_show(value)}"
+                )
             obj = replace(obj, adc=value)
             continue
-        obj = replace(obj, **{key: _number(value, f"{source}.{key}", -1e9, 1e9)})
+        lo, hi = ranges[name]
+        number = _number(value, f"{source}: {name}", lo, hi, whole=name in WHOLE_FIELDS)
+        obj = replace(obj, **{key: int(number) if name in WHOLE_FIELDS else number})
     return obj
 
 
 def load_params(path: str | Path | None) -> SimConfig:
-    """The default configuration, overridden by the JSON file `path` when given."""
+    """The default configuration, overridden by the JSON file `path` when given; ValueError (one
+    line naming the file and what is wrong) for a file that cannot be used."""
     if path is None:
         return SimConfig()
     p = Path(path)
+    name = shown(p)
     try:
-        data = json.loads(p.read_text())
+        raw = p.read_bytes()
     except FileNotFoundError:
-        raise ValueError(f"--params: file {p} does not exist") from None
+        raise ValueError(f"--params: file {name} does not exist") from None
+    except OSError as exc:
+        raise ValueError(f"--params: cannot read {name} ({exc.strerror or exc})") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"--params: {name} is not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset "
+            f"{exc.start}); expected a JSON object"
+        ) from None
+    try:
+        data = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise ValueError(f"--params: {p} is not valid JSON ({exc})") from None
-    return SimConfig.from_dict(data, source=str(p))
+        raise ValueError(f"--params: {name} is not valid JSON ({exc})") from None
+    except RecursionError:
+        raise ValueError(f"--params: {name} is nested too deeply to be a params file") from None
+    return SimConfig.from_dict(data, source=name)
 
 
 @dataclass

@@ -20,7 +20,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import shutil
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -28,7 +31,9 @@ import numpy as np
 
 from . import metrics, plots
 from . import trace as trace_mod
+from .cliargs import output_dir
 from .interface import INTERFACES
+from .paths import require_project
 from .scenarios import COMPENSATORS, SCENARIO_NAMES, SimConfig, get_scenario, load_params
 
 # Default compensator per scenario: the characterisations measure the plant itself.
@@ -38,6 +43,39 @@ SIMULATORS = ("verilator", "icarus")
 BUSES = ("cocotbext-axi", "lean")
 # Full scale of the load cell path (contract.md: default calibration, about +-64 N).
 FULL_SCALE_N = 64.0
+# Shortest run: ten firmware ticks. The harness reads back the T_c the RTL used (TC_EFF) at every
+# tenth tick (tb_closed_loop.SHADOW_REFRESH_TICKS), so a shorter run checks nothing of the loop,
+# and the metrics need the reference to have left zero (every scenario starts at T_ref = 0).
+MIN_FIRMWARE_TICKS = 10
+MAX_DURATION_S = 3600.0
+
+
+def check_duration(duration_s: float | None, cfg: SimConfig, option: str = "--duration") -> None:
+    """ValueError naming `option` unless the run lasts MIN_FIRMWARE_TICKS firmware ticks to
+    MAX_DURATION_S (None: the scenario's own duration)."""
+    if duration_s is None:
+        return
+    lo = MIN_FIRMWARE_TICKS / cfg.firmware_rate_hz
+    if not (math.isfinite(duration_s) and lo <= duration_s <= MAX_DURATION_S):
+        raise ValueError(
+            f"{option} must be in [{lo:g}, {MAX_DURATION_S:g}] s (at least {MIN_FIRMWARE_TICKS} "
+            f"firmware ticks of 1/{cfg.firmware_rate_hz:g} s); got {duration_s!r}"
+        )
+
+
+def check_reach(scen, cfg: SimConfig, duration_s: float | None) -> None:
+    """ValueError when the scenario's end-effector leaves the workspace of the plant's sheath
+    (|C| <= L, y >= 0; paper Eq. 13): plant.sheath_length of a params file is too short."""
+    from .scenarios import SHEATH_LENGTH_M, sample_inputs  # noqa: PLC0415
+
+    length = float(cfg.plant.get("sheath_length", SHEATH_LENGTH_M))
+    inp = sample_inputs(scen, cfg, duration_s)
+    reach = float(np.max(np.sqrt(inp.x_m**2 + inp.y_m**2 + inp.z_m**2)))
+    if reach > length:
+        raise ValueError(
+            f"plant.sheath_length = {length:g} m is shorter than the reach of scenario "
+            f"{scen.name} ({reach:.3f} m from the outlet); allowed: >= {reach:.3f} m"
+        )
 
 
 def add_parser(subparsers) -> None:
@@ -74,7 +112,7 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("--params", default=None, help="JSON file of parameter overrides")
     p.add_argument("--duration", type=float, default=None, help="simulated seconds (default: all)")
-    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--out", required=True, type=output_dir, help="output folder")
     p.add_argument("--no-reference", action="store_true", help="skip the float reference")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=main)
@@ -83,11 +121,10 @@ def add_parser(subparsers) -> None:
 def main(args: argparse.Namespace) -> int:
     try:
         cfg = load_params(args.params)
-        if args.duration is not None and not (
-            math.isfinite(args.duration) and 0 < args.duration <= 3600
-        ):
-            raise ValueError(f"--duration must be in (0, 3600] s; got {args.duration!r}")
-    except ValueError as exc:
+        check_duration(args.duration, cfg)
+        check_reach(get_scenario(args.scenario), cfg, args.duration)
+        require_project()
+    except (ValueError, FileNotFoundError) as exc:
         print(f"bowden sim: {exc}", file=sys.stderr)
         return 2
     try:
@@ -146,9 +183,12 @@ def run(
         raise ValueError(
             f"compensator must be one of {', '.join(COMPENSATORS)}; got {compensator!r}"
         )
+    check_duration(duration_s, cfg, "duration_s")
+    check_reach(scen, cfg, duration_s)
     duration = scen.duration_s if duration_s is None else float(duration_s)
     phi_rad = resolve_phi(scen, cfg, loop_routing)
-    out_dir = Path(out_dir) if out_dir is not None else None
+    # Absolute: the simulator runs in a folder of its own and reads the paths it is given.
+    out_dir = Path(out_dir).absolute() if out_dir is not None else None
 
     run_spec = {
         "scenario": scenario,
@@ -258,12 +298,31 @@ def friction_fits(scen, cfg, rec) -> list[dict]:
 
 
 def write_outputs(out_dir: Path, scen, cfg, run_spec, fixed, ref, result) -> None:
+    """Write the run's files into out_dir as one set: they are written in a staging folder
+    inside it and moved in place at the end, result.json last, so that an interrupted or failed
+    write leaves the files of an earlier run whole (never half a trace)."""
     out_dir.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=".writing-", dir=out_dir))
+    try:
+        _write_files(stage, scen, cfg, run_spec, fixed, ref, result)
+        names = sorted(p.name for p in stage.iterdir() if p.name != "result.json")
+        for name in [*names, "result.json"]:
+            os.replace(stage / name, out_dir / name)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def _write_files(out_dir: Path, scen, cfg, run_spec, fixed, ref, result) -> None:
+    from .plant import fmu_variables  # noqa: PLC0415
+
+    # The plant's own values (the FMU's defaults unless the params file set them), not the
+    # compensator's belief: the sidecar describes the plant the trace was recorded on.
+    fmu = fmu_variables()
     meta = {
         "sample_rate_hz": cfg.sample_rate_hz,
-        "sheath_length_m": float(cfg.plant.get("sheath_length", 1.0)),
+        "sheath_length_m": float(cfg.plant.get("sheath_length", fmu["sheath_length"].start)),
         "loop_routing": bool(run_spec["loop_routing"]),
-        "mu": float(cfg.plant.get("mu", cfg.compensator.mu)),
+        "mu": float(cfg.plant.get("mu", fmu["mu"].start)),
         "source": "cosim",
         "scenario": run_spec["scenario"],
         "compensator": run_spec["compensator"],
@@ -276,8 +335,8 @@ def write_outputs(out_dir: Path, scen, cfg, run_spec, fixed, ref, result) -> Non
         )
     title = (
         f"{run_spec['scenario']}: compensator {run_spec['compensator']}, loop routing "
-        f"{'on' if run_spec['loop_routing'] else 'off'} (RMS {result['rms_error_pct']:.1f} %, "
-        f"peak {result['peak_error_pct']:.1f} % of {result['max_ref_n']:.0f} N)"
+        f"{'on' if run_spec['loop_routing'] else 'off'} (RMS {_pct(result['rms_error_pct'])} %, "
+        f"peak {_pct(result['peak_error_pct'])} % of {result['max_ref_n']:.0f} N)"
     )
     plots.plot_tracking(out_dir / "tracking.png", fixed, ref, title)
     if ref is not None:
@@ -292,7 +351,9 @@ def write_outputs(out_dir: Path, scen, cfg, run_spec, fixed, ref, result) -> Non
         plots.plot_capstan(
             out_dir / "capstan.png", fixed["T_in_N"], fixed["T_out_N"], segs, title.split(" (")[0]
         )
-    (out_dir / "result.json").write_text(json.dumps(result, indent=2) + "\n")
+    # allow_nan=False: a NaN or an infinity is not JSON (strict readers refuse it); a figure
+    # that has no value is null (metrics), anything else is a bug to be seen here.
+    (out_dir / "result.json").write_text(json.dumps(result, indent=2, allow_nan=False) + "\n")
 
 
 def trace_columns(rec) -> dict[str, np.ndarray]:
@@ -302,6 +363,11 @@ def trace_columns(rec) -> dict[str, np.ndarray]:
         if extra in rec:
             cols[extra] = np.asarray(rec[extra])
     return cols
+
+
+def _pct(value: float | None) -> str:
+    """A percentage with one decimal, '-' when it has no value (T_ref zero throughout)."""
+    return "-" if value is None else f"{value:.1f}"
 
 
 def summary_table(results: list[dict], paper: bool = False) -> str:
@@ -322,8 +388,8 @@ def summary_table(results: list[dict], paper: bool = False) -> str:
         split_away = f"{split['rms_away_n']:.3f}" if split else "-"
         lines.append(
             f"{r['scenario']:<13}{r['compensator']:<12}{'on' if r['loop_routing'] else 'off':<6}"
-            f"{r['rms_error_n']:>8.3f}{r['rms_error_pct']:>8.1f}{r['peak_error_n']:>8.3f}"
-            f"{r['peak_error_pct']:>8.1f}{split_near:>10}{split_away:>11}{du:>16}{dt:>14}"
+            f"{r['rms_error_n']:>8.3f}{_pct(r['rms_error_pct']):>8}{r['peak_error_n']:>8.3f}"
+            f"{_pct(r['peak_error_pct']):>8}{split_near:>10}{split_away:>11}{du:>16}{dt:>14}"
             f"{(f'x{speed:.2f}' if speed else '-'):>10}  {r.get('interface', '-')}"
         )
     if paper:

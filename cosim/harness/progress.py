@@ -53,6 +53,13 @@ class Progress:
         )
         self.stream.flush()
 
+    def abandon(self) -> None:
+        """End the bar's line where it stands (the run was interrupted), so that the next message
+        starts on a line of its own."""
+        if self.enabled and self._last > -1e9:
+            self.stream.write("\n")
+            self.stream.flush()
+
     def close(self, done: int | None = None) -> None:
         if not self.enabled:
             return

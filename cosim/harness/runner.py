@@ -14,11 +14,12 @@ import hashlib
 import json
 import os
 import shutil
+import subprocess
 import tempfile
 import threading
 from pathlib import Path
 
-from .. import rtl_model
+from .. import procs, rtl_model
 from ..paths import BUILD_DIR, HDL_DIR
 from ..toolchain import setup_env
 
@@ -53,7 +54,9 @@ def _make_runner(simulator: str, reuse: bool):
       cosim_top's ports, so only those are made public (cosim_top.vlt), and the model is compiled
       with -O2 rather than -Os. Measured on this machine: 48 -> 15 us per 10-clock sample.
     - reuse: build() only records its arguments (which test() needs) and runs no command, when the
-      build folder holds a build of the same fingerprint.
+      build folder holds a build of the same fingerprint;
+    - every command (the build's, the simulator) runs in a process group of its own through
+      cosim.procs, so that an interrupted `bowden` stops the simulator too.
 
     (Overrides a private method of cocotb_tools 2.1.0, pinned in requirements.txt; the build fails
     loudly if its command changes shape.)"""
@@ -73,17 +76,27 @@ def _make_runner(simulator: str, reuse: bool):
                 cmds[1] += ["OPT_FAST=-O2", "OPT_GLOBAL=-O2"]
             return cmds
 
+        def _execute_cmds(self, cmds, cwd, stdout=None):
+            stderr = None if stdout is None else subprocess.STDOUT
+            for cmd in cmds:
+                status = procs.run(cmd, cwd=cwd, env=self.env, stdout=stdout, stderr=stderr)
+                if status != 0:
+                    raise RuntimeError(f"Command failed with return code: {status}")
+
     return ProjectRunner()
 
 
 def _fingerprint(simulator: str, parameters: dict, args: list[str]) -> str:
-    """What the build depends on: sources' contents, parameters, arguments, tool versions."""
+    """What the build depends on: sources' names and contents, parameters, arguments (with the
+    harness's folder taken out: an installed package reuses the build of the same sources), tool
+    versions."""
     import cocotb  # noqa: PLC0415
 
     h = hashlib.sha256()
     for path in [*rtl_sources(), HARNESS_DIR / "cosim_top.vlt"]:
-        h.update(str(path).encode())
+        h.update(path.name.encode())
         h.update(path.read_bytes())
+    args = [a.replace(str(HARNESS_DIR), "<harness>") for a in args]
     h.update(json.dumps([simulator, parameters, args, cocotb.__version__]).encode())
     return h.hexdigest()
 
@@ -127,7 +140,11 @@ def build(simulator: str = "verilator", clks_per_sample: int = CLKS_PER_SAMPLE):
         always=True,
         log_file=None if reuse else out / "build.log",
     )
-    stamp.write_text(fingerprint)
+    if not reuse:
+        # Written once per build, atomically: parallel runs read it while others reuse the build.
+        tmp_stamp = stamp.with_name(f"{stamp.name}.{os.getpid()}")
+        tmp_stamp.write_text(fingerprint)
+        os.replace(tmp_stamp, stamp)
     return runner
 
 
@@ -151,7 +168,8 @@ def run_closed_loop(
         tmp = tempfile.TemporaryDirectory(prefix="bowden-cosim-")
         work = Path(tmp.name)
     else:
-        work = Path(work_dir)
+        # Absolute: the simulator runs in another folder and reads the paths of the spec.
+        work = Path(work_dir).absolute()
     work.mkdir(parents=True, exist_ok=True)
     spec = dict(run_spec)
     spec["record_path"] = str(work / "fixed_record.npz")
@@ -195,9 +213,16 @@ def run_closed_loop(
     try:
         worker = threading.Thread(target=target, daemon=True)
         worker.start()
-        while worker.is_alive():
-            worker.join(0.25)
-            bar.update(_read_progress(spec["progress_path"]))
+        try:
+            while worker.is_alive():
+                worker.join(0.25)
+                bar.update(_read_progress(spec["progress_path"]))
+        except BaseException:
+            # Interrupted (SIGINT, SIGTERM through cosim.cli): the simulator runs in the worker
+            # thread, in a process group of its own; end it before going on.
+            procs.stop_all()
+            bar.abandon()
+            raise
         bar.close(_read_progress(spec["progress_path"]))
         if "error" in outcome:
             raise RuntimeError(

@@ -103,7 +103,10 @@ def test_cosim_sim_cli_rejects_bad_input_before_running(tmp_path, capsys):
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"controller": {"kp_a_per_n": 9}}))
     assert cli.main(["sim", "fig14", "--out", str(tmp_path), "--duration", "-1"]) == 2
-    assert "--duration must be in (0, 3600] s; got -1.0" in capsys.readouterr().err
+    assert (
+        "--duration must be in [0.01, 3600] s (at least 10 firmware ticks"
+        in capsys.readouterr().err
+    )
     assert cli.main(["sim", "fig14", "--out", str(tmp_path), "--params", str(bad)]) == 2
     assert "controller.kp_a_per_n must be in [0, 3.9998]; got 9" in capsys.readouterr().err
     assert not (tmp_path / "result.json").exists()
