@@ -230,13 +230,43 @@ def _check(code: int) -> None:
         raise FirmwareConfigError(code, strerror(code))
 
 
-def _fixed(name: str, value: float, frac_bits: int) -> int:
-    """round(value * 2^frac_bits), clamped to int32 so that the firmware's own range check
-    (not a Python overflow) rejects out-of-range values."""
+def _real(name: str, value) -> float:
+    """`value` as a finite float; FirmwareConfigError naming `name` otherwise (a bool is not a
+    number here: True would silently mean 1)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise FirmwareConfigError(-1, f"{name}: expected a number; got {value!r}")
     v = float(value)
     if not math.isfinite(v):
         raise FirmwareConfigError(-1, f"{name}: not a finite number ({value!r})")
+    return v
+
+
+def _fixed(name: str, value: float, frac_bits: int) -> int:
+    """round(value * 2^frac_bits), saturated to int32 so that the firmware's own range check
+    (not a Python overflow) rejects out-of-range values with the field's range. The saturation
+    is decided before the product, which overflows a double for |value| near 1e300."""
+    v = _real(name, value)
+    limit = 2**31 / 2.0**frac_bits
+    if v >= limit:
+        return 2**31 - 1
+    if v <= -limit:
+        return -(2**31)
     return int(max(-(2**31), min(2**31 - 1, round(v * (1 << frac_bits)))))
+
+
+def _whole(name: str, value, lo: int, hi: int, what: str) -> int:
+    """A whole number in [lo, hi] (the C field's type); FirmwareConfigError naming `name` for a
+    fraction (nothing is truncated), a non-number or a value beyond the type."""
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        v = int(value)
+    else:
+        f = _real(name, value)
+        if f != math.floor(f):
+            raise FirmwareConfigError(-1, f"{name}: {value!r} is not a whole number ({what})")
+        v = int(f)
+    if not lo <= v <= hi:
+        raise FirmwareConfigError(-1, f"{name}: {value!r} is outside [{lo}, {hi}] ({what})")
+    return v
 
 
 def tension_word(t_n: float) -> int:
@@ -264,7 +294,7 @@ class CompensatorParams:
     band_n: float = 2.0  # smooth inverse band B, [1/256, 128] N
 
     def mode_code(self) -> int:
-        if self.mode not in MODES:
+        if not isinstance(self.mode, str) or self.mode not in MODES:
             raise FirmwareConfigError(-1, f"comp.mode: {self.mode!r} is not one of {list(MODES)}")
         return MODES[self.mode]
 
@@ -295,10 +325,7 @@ class CompensatorParams:
     def to_c_f64(self) -> CompF64Config:
         values = {}
         for name in ("mu", "phi_rad", "mu_slope_per_n", "offset_n", "hysteresis_n", "band_n"):
-            v = float(getattr(self, name))
-            if not math.isfinite(v):
-                raise FirmwareConfigError(-1, f"comp.{name}: not a finite number ({v!r})")
-            values[name] = v
+            values[name] = _real(f"comp.{name}", getattr(self, name))
         return CompF64Config(mode=self.mode_code(), **values)
 
     def gains(self, t_n: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -463,16 +490,14 @@ class WaveParams:
     phase0_turns: float = 0.0
 
     def to_c(self) -> WaveConfig:
-        if self.kind not in WAVE_KINDS:
+        if not isinstance(self.kind, str) or self.kind not in WAVE_KINDS:
             raise FirmwareConfigError(
                 -1, f"wave.kind: {self.kind!r} is not one of {list(WAVE_KINDS)}"
             )
         freq = _fixed("wave.freq_hz", self.freq_hz, 16)
         if freq < 0:
             raise FirmwareConfigError(-1, f"wave.freq_hz: negative ({self.freq_hz})")
-        turns = float(self.phase0_turns)
-        if not math.isfinite(turns):
-            raise FirmwareConfigError(-1, f"wave.phase0_turns: not a finite number ({turns!r})")
+        turns = _real("wave.phase0_turns", self.phase0_turns)
         phase = int(round((turns % 1.0) * 2**32)) % 2**32  # UQ0.32 turns
         return WaveConfig(
             kind=WAVE_KINDS[self.kind],
@@ -502,20 +527,19 @@ class FirmwareConfig:
             ("tick_rate_hz", self.tick_rate_hz),
             ("sample_rate_hz", self.sample_rate_hz),
         ):
-            if not 0 <= int(value) < 2**32:
-                raise FirmwareConfigError(-1, f"{name}: {value} is not an unsigned 32-bit rate")
-            setattr(c, name, int(value))
-        if self.source not in SOURCES:
+            setattr(c, name, _whole(name, value, 0, 2**32 - 1, "an unsigned 32-bit rate in Hz"))
+        if not isinstance(self.source, str) or self.source not in SOURCES:
             raise FirmwareConfigError(-1, f"source: {self.source!r} is not one of {list(SOURCES)}")
         c.source = SOURCES[self.source]
         c.comp = self.comp.to_c()
         c.wave = self.wave.to_c()
         for name, value in self.loop.items():
-            if name not in LOOP_FIELDS:
+            if not isinstance(name, str) or name not in LOOP_FIELDS:
                 raise FirmwareConfigError(
                     -1, f"loop.{name}: unknown, expected one of {LOOP_FIELDS}"
                 )
-            setattr(c.loop, name, int(max(-(2**31), min(2**31 - 1, int(value)))))
+            word = _whole(f"loop.{name}", value, -(2**31), 2**31 - 1, "a 32-bit register word")
+            setattr(c.loop, name, word)
         return c
 
 
@@ -530,8 +554,8 @@ def make_firmware(
     """The firmware (host source for T_ref) with the compensator configured from a scenario's
     compensator parameters, as the co-simulation drives it; call start() and drain the writes."""
     config = FirmwareConfig(
-        tick_rate_hz=int(round(tick_rate_hz)),
-        sample_rate_hz=int(round(sample_rate_hz)),
+        tick_rate_hz=tick_rate_hz,  # whole numbers of Hz (checked, not rounded)
+        sample_rate_hz=sample_rate_hz,
         source="host",
         comp=_params_from(mode, params, phi_rad),
         loop=dict(loop or {}),
