@@ -489,3 +489,79 @@ int bowden_model_step(BowdenModel *m, double step_s, char *msg, size_t msg_len)
     compute_outputs(m);
     return outputs_finite(m, msg, msg_len);
 }
+
+int bowden_model_check_state(const BowdenModel *m, char *msg, size_t msg_len)
+{
+    const struct {
+        const char *name;
+        double value;
+    } reals[] = {
+        {"time_s", m->time_s},
+        {"current_a", m->current_a},
+        {"motor_angle_rad", m->motor_angle_rad},
+        {"motor_speed_rad_s", m->motor_speed_rad_s},
+        {"inlet_disp_m", m->inlet_disp_m},
+        {"cable_speed_m_s", m->cable_speed_m_s},
+        {"sensor_lag_n", m->sensor_lag_n},
+        {"delay_t0_s", m->delay_t0_s},
+        {"noise_in_n", m->noise_in_n},
+        {"noise_out_n", m->noise_out_n},
+        {"geom_x_m", m->geom_x_m},
+        {"geom_y_m", m->geom_y_m},
+        {"geom_z_m", m->geom_z_m},
+        {"phi_geom_rad", m->phi_geom_rad},
+        {"cache_h_s", m->cache_h_s},
+        {"alpha_current", m->alpha_current},
+        {"alpha_sensor", m->alpha_sensor},
+        {"cache_mu", m->cache_mu},
+        {"cache_dphi", m->cache_dphi},
+        {"exp_plus", m->exp_plus},
+        {"exp_minus", m->exp_minus},
+        {"T_in", m->y.T_in},
+        {"T_out", m->y.T_out},
+        {"T_in_meas", m->y.T_in_meas},
+        {"T_out_meas", m->y.T_out_meas},
+        {"phi", m->y.phi},
+        {"motor_angle", m->y.motor_angle},
+        {"motor_speed", m->y.motor_speed},
+        {"current", m->y.current},
+    };
+    size_t i;
+    for (i = 0; i < sizeof(reals) / sizeof(reals[0]); i++) {
+        if (!isfinite(reals[i].value)) {
+            snprintf(msg, msg_len, "state member %s = %g is not finite", reals[i].name,
+                     reals[i].value);
+            return 1;
+        }
+    }
+    for (i = 0; i <= BOWDEN_N_SEG; i++) {
+        /* A11: tension is >= 0 everywhere. */
+        if (!isfinite(m->tension_n[i]) || m->tension_n[i] < 0.0) {
+            snprintf(msg, msg_len, "state member tension_n[%u] = %g is not a tension >= 0",
+                     (unsigned)i, m->tension_n[i]);
+            return 1;
+        }
+    }
+    for (i = 0; i < BOWDEN_DELAY_LEN; i++) {
+        if (!isfinite(m->delay_buf_n[i])) {
+            snprintf(msg, msg_len, "state member delay_buf_n[%u] = %g is not finite", (unsigned)i,
+                     m->delay_buf_n[i]);
+            return 1;
+        }
+    }
+    /* The delay line is indexed with delay_count - 1 and grows from 1 at init. */
+    if (m->delay_count < 1) {
+        snprintf(msg, msg_len, "state member delay_count = %lld must be >= 1",
+                 (long long)m->delay_count);
+        return 1;
+    }
+    if (m->rng_state == 0) {
+        snprintf(msg, msg_len, "state member rng_state = 0 (xorshift64* never reaches 0)");
+        return 1;
+    }
+    if (m->geom_valid != 0 && m->geom_valid != 1) {
+        snprintf(msg, msg_len, "state member geom_valid = %d must be 0 or 1", m->geom_valid);
+        return 1;
+    }
+    return 0;
+}

@@ -66,4 +66,10 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
 /* Advance by step_s with the inputs held, in internal steps of at most p.max_step. */
 int bowden_model_step(BowdenModel *m, double step_s, char *msg, size_t msg_len);
 
+/* Check a state that did not come from init and step (a deserialised FMU state): every real of
+   the state and the outputs finite, tensions >= 0, counters and the noise generator in their
+   domain. Parameters and inputs are checked against their ranges by the caller (the variable
+   table). Returns 0, or writes a message naming the first bad member and returns non-zero. */
+int bowden_model_check_state(const BowdenModel *m, char *msg, size_t msg_len);
+
 #endif /* BOWDEN_PHYSICS_H */

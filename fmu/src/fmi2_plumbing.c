@@ -493,6 +493,54 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate FMUstate,
     return fmi2OK;
 }
 
+/* A deserialised state: instance state, every parameter and input of the variable table within
+   its range (as the setters require), then the model's own state (bowden_model_check_state). */
+static int saved_state_valid(Instance *inst, const SavedState *s)
+{
+    char msg[300];
+    size_t vr;
+    if (s->state < STATE_INSTANTIATED || s->state > STATE_ERROR) {
+        LOG_ERROR(inst, "serialised state rejected: instance state %d is not one of 0 .. %d",
+                  (int)s->state, (int)STATE_ERROR);
+        return 0;
+    }
+    if (!isfinite(s->start_time_s)) {
+        LOG_ERROR(inst, "serialised state rejected: start time %g is not finite",
+                  s->start_time_s);
+        return 0;
+    }
+    for (vr = 0; vr < BOWDEN_N_VARS; vr++) {
+        const BowdenVarInfo *info = &VARS[vr];
+        const char *field = (const char *)&s->model + info->offset;
+        double v;
+        if (info->causality == BOWDEN_OUTPUT) {
+            continue; /* checked with the model's state */
+        }
+        if (info->kind == BOWDEN_REAL) {
+            memcpy(&v, field, sizeof(v));
+        } else {
+            int iv;
+            memcpy(&iv, field, sizeof(iv));
+            v = (double)iv;
+            if (info->kind == BOWDEN_BOOLEAN && iv != 0 && iv != 1) {
+                LOG_ERROR(inst, "serialised state rejected: %s = %d is not a Boolean",
+                          info->name, iv);
+                return 0;
+            }
+        }
+        if (!isfinite(v) || (info->has_range && (v < info->lo || v > info->hi))) {
+            LOG_ERROR(inst, "serialised state rejected: %s = %g; allowed range is [%g, %g]",
+                      info->name, v, info->lo, info->hi);
+            return 0;
+        }
+    }
+    if (bowden_model_check_state(&s->model, msg, sizeof(msg))) {
+        LOG_ERROR(inst, "serialised state rejected: %s", msg);
+        return 0;
+    }
+    return 1;
+}
+
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedState[], size_t size,
                                    fmi2FMUstate *FMUstate)
 {
@@ -511,6 +559,12 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
     if (s->magic != STATE_MAGIC || s->size != sizeof(SavedState)) {
         free(s);
         LOG_ERROR(inst, "the bytes are not a state serialised by this BowdenPlant binary");
+        return fmi2Error;
+    }
+    /* The bytes come from outside (a file, another process): a state with a NaN, a negative
+       tension or a parameter out of its range would make every later step wrong or worse. */
+    if (!saved_state_valid(inst, s)) {
+        free(s);
         return fmi2Error;
     }
     free(*FMUstate);

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import math
+import struct
+
 import numpy as np
 import pytest
 
@@ -91,3 +94,49 @@ def test_variable_step_is_exact_in_drive_mode_1(make_plant):
         a.step(1e-4)
         b.step(3.7e-3)
         assert a.y[Plant.T_OUT] == pytest.approx(b.y[Plant.T_OUT], rel=1e-12)
+
+
+def _blob_with(blob: bytes, old: float, new: float) -> bytes:
+    """The serialised state with every copy of the double `old` replaced by `new`."""
+    pattern = struct.pack("<d", old)
+    assert pattern in blob, f"{old!r} not found in the state"
+    return blob.replace(pattern, struct.pack("<d", new))
+
+
+@pytest.mark.parametrize(
+    ("what", "old_value", "new_value", "message"),
+    [
+        ("state", "current", math.nan, "is not finite"),
+        ("state", "current", math.inf, "is not finite"),
+        ("parameter", 0.075, math.nan, "mu = nan; allowed range is [0, 1]"),
+        ("parameter", 0.075, 5.0, "mu = 5; allowed range is [0, 1]"),
+        ("input", 0.6, 1e300, "y = 1e+300; allowed range is [-10, 10]"),
+        ("tension", "T_out", -1.0, "is not a tension >= 0"),
+    ],
+)
+def test_deserialised_state_with_nan_or_out_of_range_values_is_refused(
+    make_plant, what, old_value, new_value, message
+):
+    """issue 13, item 12: fmi2DeSerializeFMUstate checks what it is given (the bytes may come
+    from a file); a refused state leaves the instance as it was."""
+    a = make_plant(STATEFUL)
+    b = make_plant(STATEFUL)
+    _drive(a, 800)
+    fmu_a, fmu_b = a._fmu, b._fmu
+    state = fmu_a.getFMUState()
+    blob = bytes(fmu_a.serializeFMUState(state))
+    fmu_a.freeFMUState(state)
+    if isinstance(old_value, str):  # an output and the state member it copies
+        old_value = a.y[Plant.CURRENT if old_value == "current" else Plant.T_OUT]
+        assert old_value > 0.1
+    bad = _blob_with(blob, old_value, new_value)
+    with pytest.raises(Exception, match="deSerialize|fmi2DeSerializeFMUstate|status"):
+        fmu_b.deSerializeFMUstate(bad)
+    assert message in b.messages[-1], b.messages[-1]
+    assert b.messages[-1].startswith("serialised state rejected")
+    # The untouched bytes still restore: the check refuses only what is wrong.
+    restored = fmu_b.deSerializeFMUstate(blob)
+    fmu_b.setFMUState(restored)
+    fmu_b.freeFMUState(restored)
+    b.time_s = a.time_s
+    assert np.array_equal(_drive(a, 100, 800), _drive(b, 100, 800))
