@@ -12,12 +12,20 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from .cliargs import output_dir
 from .geometry import bending_angle, hemisphere_grid
+
+# The plant FMU's range of sheath_length (fmu/gen_model.py; a test holds the two equal): beyond
+# it the maps would describe a sheath the plant refuses, and squares of lengths far beyond it
+# overflow.
+LENGTH_RANGE_M = (0.01, 10.0)
+GRID_RANGE = (5, 201)
 
 
 @dataclass(frozen=True)
@@ -89,11 +97,19 @@ def run(out_dir: Path, length_m: float = 1.0, grid: int = 31) -> list[Spread]:
 
 
 def main(args: argparse.Namespace) -> int:
-    if not (args.length > 0 and math.isfinite(args.length)):
-        print(f"bowden workspace: --length = {args.length} must be > 0 (m)")
+    lo, hi = LENGTH_RANGE_M
+    if not (math.isfinite(args.length) and lo <= args.length <= hi):
+        print(
+            f"bowden workspace: --length must be in [{lo:g}, {hi:g}] m; got {args.length!r}",
+            file=sys.stderr,
+        )
         return 2
-    if not 5 <= args.grid <= 201:
-        print(f"bowden workspace: --grid = {args.grid} must be in 5 .. 201")
+    if not GRID_RANGE[0] <= args.grid <= GRID_RANGE[1]:
+        print(
+            f"bowden workspace: --grid must be in [{GRID_RANGE[0]}, {GRID_RANGE[1]}]; "
+            f"got {args.grid}",
+            file=sys.stderr,
+        )
         return 2
     out = Path(args.out)
     results = run(out, args.length, args.grid)
@@ -117,7 +133,9 @@ def add_parser(subparsers) -> None:
         help="bending angle over the workspace with and without loop routing (paper Fig. 8)",
         description=__doc__.split("\n\n")[0],
     )
-    p.add_argument("--out", required=True, help="output folder for the two PNG maps")
+    p.add_argument(
+        "--out", required=True, type=output_dir, help="output folder for the two PNG maps"
+    )
     p.add_argument("--length", type=float, default=1.0, help="sheath length L in m (default 1)")
     p.add_argument("--grid", type=int, default=31, help="grid points along x (default 31)")
     p.set_defaults(func=main)
