@@ -18,7 +18,7 @@ import sys
 import threading
 
 from . import __version__, procs
-from .cliargs import ArgumentParser, harden
+from .cliargs import ArgumentParser, harden, subparsers
 
 # Modules that provide subcommands, in the order `bowden --help` lists them.
 SUBCOMMANDS: list[str] = ["workspace", "sim", "demo"]
@@ -81,7 +81,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
+        if extra:  # named by the subcommand's parser: `bowden sim: unrecognized arguments: ...`
+            command = subparsers(parser).get(getattr(args, "command", None) or "", parser)
+            command.error(f"unrecognized arguments: {' '.join(extra)}")
     except SystemExit as exc:  # --help, --version, or a bad argument (one line printed)
         return exc.code if isinstance(exc.code, int) else 2
     if getattr(args, "func", None) is None:

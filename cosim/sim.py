@@ -287,10 +287,10 @@ def friction_fits(scen, cfg, rec) -> list[dict]:
     for seg in scen.segments:
         i0 = int(round(seg.t_start_s * cfg.sample_rate_hz))
         i1 = min(len(rec["t_s"]), int(round(seg.t_end_s * cfg.sample_rate_hz)))
-        if i1 - i0 < 100:
-            continue
         # The first 0.3 s of a segment are the move to the position (scenarios._positions).
         i0 += int(round(0.3 * cfg.sample_rate_hz)) if scen.name == "positions" else 0
+        if i1 - i0 < 100:  # too little of the segment was run to fit (a short --duration)
+            continue
         phi = float(np.mean(rec["phi_rad"][i0:i1]))
         fit = metrics.fit_capstan(rec["T_in_N"][i0:i1], rec["T_out_N"][i0:i1], phi_rad=phi)
         fits.append({"position_m": list(seg.position_m), "phi_rad": phi, **fit})

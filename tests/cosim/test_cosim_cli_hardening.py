@@ -18,7 +18,7 @@ from pathlib import Path
 import psutil
 import pytest
 
-from cosim import cli
+from cosim import cli, sim
 
 # The shortest run bowden accepts at the default rates (sim.MIN_FIRMWARE_TICKS at 1 kHz).
 MIN_DURATION_S = 0.01
@@ -260,3 +260,20 @@ def test_a_signal_stops_the_run_and_its_simulator_and_keeps_what_was_written(tmp
     assert not left, [(p.pid, p.name()) for p in left]
     assert earlier.read_text() == '{"earlier": "run"}\n'
     assert (out / "sim" / "spec.json").is_file()  # written before the signal, kept
+
+
+def test_a_short_positions_run_skips_the_fits_it_cannot_make():
+    """Found by the run suite (tests/test_cli_fuzz.py): `bowden sim positions --duration 0.05`
+    tried to fit the first segment after its 0.3 s move, on no samples, and failed."""
+    import numpy as np
+
+    from cosim.scenarios import SimConfig, get_scenario
+
+    n = 500
+    rec = {
+        "t_s": np.arange(n) / 10_000.0,
+        "phi_rad": np.full(n, 6.3),
+        "T_in_N": np.linspace(0, 5, n),
+        "T_out_N": np.linspace(0, 4, n),
+    }
+    assert sim.friction_fits(get_scenario("positions"), SimConfig(), rec) == []
