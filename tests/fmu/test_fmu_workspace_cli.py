@@ -37,3 +37,12 @@ def test_workspace_command_rejects_bad_length(tmp_path):
     # Errors go to stderr, one line, with the allowed range (issue 13, item 6).
     assert res.stdout == ""
     assert res.stderr == "bowden workspace: --length must be in [0.01, 10] m; got -1.0\n"
+
+
+def test_workspace_length_range_is_the_fmus_sheath_length_range(fmu_path):
+    from cosim.plant import fmu_variables
+    from cosim.workspace import LENGTH_RANGE_M
+
+    var = fmu_variables(fmu_path)["sheath_length"]
+    assert LENGTH_RANGE_M == (var.lo, var.hi)
+    assert main(["workspace", "--out", "x", "--length", "1e300"]) == 2
