@@ -38,11 +38,17 @@ def test_cosim_trace_round_trip_keeps_values_columns_and_meta(tmp_path):
 @pytest.mark.parametrize(
     ("meta_change", "message"),
     [
-        ({"sample_rate_hz": 0}, "sample_rate_hz must be a number > 0"),
-        ({"sheath_length_m": -1.0}, "sheath_length_m must be a number > 0"),
+        (
+            {"sample_rate_hz": 0},
+            r"sample_rate_hz = 0 is outside the allowed range \(0, 1e\+06\] Hz",
+        ),
+        (
+            {"sheath_length_m": -1.0},
+            r"sheath_length_m = -1.0 is outside the allowed range \[0.01, 10\] m",
+        ),
         ({"loop_routing": 1}, "loop_routing must be true or false"),
-        ({"mu": -0.1}, "mu must be a number >= 0"),
-        ({"mu": None}, "mu must be a number >= 0"),
+        ({"mu": -0.1}, r"mu = -0.1 is outside the allowed range \[0, 1\]"),
+        ({"mu": None}, r"mu must be a number in \[0, 1\]; got None"),
     ],
 )
 def test_cosim_trace_rejects_bad_meta_values(tmp_path, meta_change, message):
@@ -87,11 +93,11 @@ def test_cosim_trace_rejects_bad_csv_contents(tmp_path):
         tr.read_trace(_write_raw(tmp_path, f"{header}\n{good[:-2]}\n"))
     with pytest.raises(tr.TraceError, match="t_s must be strictly increasing"):
         tr.read_trace(_write_raw(tmp_path, f"{header}\n{row2}\n{good}\n"))
-    with pytest.raises(tr.TraceError, match="column T_out_N data row 2 is nan"):
+    with pytest.raises(tr.TraceError, match=r":3: column T_out_N is 'nan', not a number"):
         bad = row2.split(",")
         bad[4] = "nan"
         tr.read_trace(_write_raw(tmp_path, f"{header}\n{good}\n{','.join(bad)}\n"))
-    with pytest.raises(tr.TraceError, match="t_s step between data rows 1 and 2 is 0.002 s"):
+    with pytest.raises(tr.TraceError, match=r":3: t_s step from the previous row is 0.002 s"):
         row_late = ",".join(["0.002"] + ["0"] * (len(tr.COLUMNS) - 1))
         tr.read_trace(_write_raw(tmp_path, f"{header}\n{good}\n{row_late}\n"))
     with pytest.raises(tr.TraceError, match="empty file"):
