@@ -1,0 +1,132 @@
+"""The audit's vocabulary: one object per cause, one-to-one with the plant FMU's effect
+parameters (fmu/README.md, "Effects").
+
+Each candidate has the same shape (STYLE.md, "Model identification"): its FMU parameter with unit
+and fit bounds, the value that means "absent", a typical size (the optimiser's scale), the
+equation it adds, and `applicable(data)`, which says why it cannot be fitted on some data. Fitting
+and prediction go through one model (cosim.audit.model: the FMU twin with these parameters), so
+adding a cause is adding one object to VOCABULARY.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Effect:
+    """A candidate cause of the residual and the FMU parameter it maps to."""
+
+    cause: str  # name in the audit's vocabulary (issue 9)
+    fmu_param: str  # the plant FMU's parameter (fmu/gen_model.py)
+    unit: str
+    bounds: tuple[float, float]  # fit bounds, inside the FMU's allowed range
+    off: float  # value when the effect is absent
+    scale: float  # typical size: the optimiser's scale and first step
+    equation: str  # what it adds to the model, in the FMU README's notation
+    needs_positions: bool = False  # only observable when the end-effector moves
+    discrete: bool = False  # fitted on a grid of whole samples (the delay)
+    compensator_key: str | None = None  # the `--params` compensator field it sets, if any
+
+    def applicable(self, has_positions: bool, z_span_m: float) -> str | None:
+        """None when the effect can be fitted on these data, else why not."""
+        if self.needs_positions and not has_positions:
+            return "the data have no positions (x_m, y_m, z_m)"
+        if self.needs_positions and z_span_m < MIN_Z_SPAN_M:
+            return f"z spans only {z_span_m * 1000:.0f} mm (at least {MIN_Z_SPAN_M * 1000:.0f} mm)"
+        return None
+
+    def describe(self, value: float) -> str:
+        """`fmu_param = value unit`, with the unit scaled for reading."""
+        if self.unit == "s":
+            return f"{self.fmu_param} = {value * 1000:.3g} ms"
+        unit = f" {self.unit}" if self.unit and self.unit != "1" else ""
+        return f"{self.fmu_param} = {value:.4g}{unit}"
+
+
+# phi_offset_per_z is only observable when z moves by at least this much (5 cm: a phi change of
+# 0.05 rad per rad/m, under 1 % of the 2 pi of a loop).
+MIN_Z_SPAN_M = 0.05
+
+VOCABULARY: tuple[Effect, ...] = (
+    Effect(
+        "sensor_offset",
+        "sensor_offset",
+        "N",
+        (-50.0, 50.0),
+        0.0,
+        0.5,
+        "T_out_meas = ... + sensor_offset",
+        compensator_key="offset_n",
+    ),
+    Effect(
+        "sensor_gain",
+        "sensor_gain",
+        "1",
+        (0.5, 2.0),
+        1.0,
+        0.05,
+        "T_out_meas = sensor_gain * T_out + ...",
+    ),
+    Effect(
+        "viscous_friction",
+        "mu_viscous",
+        "s/m",
+        (0.0, 50.0),
+        0.0,
+        1.0,
+        "mu_eff = mu + mu_viscous * |v_c| (v_c: cable speed at the inlet)",
+    ),
+    Effect(
+        "tension_dependent_friction",
+        "mu_tension_slope",
+        "1/N",
+        (-0.02, 0.02),
+        0.0,
+        0.001,
+        "mu_eff = mu + mu_tension_slope * T (per segment)",
+        compensator_key="mu_slope_per_n",
+    ),
+    Effect(
+        "bending_angle_error",
+        "phi_offset_per_z",
+        "rad/m",
+        (-10.0, 10.0),
+        0.0,
+        0.5,
+        "phi_eff = phi(x, y, z) + phi_offset_per_z * z",
+        needs_positions=True,
+    ),
+    Effect(
+        "lag",
+        "sensor_tau",
+        "s",
+        (0.0, 0.2),
+        0.0,
+        0.005,
+        "T_out_meas = Lag_{sensor_tau}[T_out] (first order)",
+    ),
+    Effect(
+        "time_delay",
+        "sensor_delay",
+        "s",
+        (0.0, 0.2),
+        0.0,
+        0.005,
+        "T_out_meas = Delay_{sensor_delay}[T_out]",
+        discrete=True,
+    ),
+    Effect(
+        "friction_drift",
+        "mu_drift",
+        "1/s",
+        (-0.01, 0.01),
+        0.0,
+        1e-4,
+        "mu_eff = mu + mu_drift * t",
+    ),
+)
+
+BY_CAUSE = {e.cause: e for e in VOCABULARY}
+BY_PARAM = {e.fmu_param: e for e in VOCABULARY}
+CAUSES = tuple(e.cause for e in VOCABULARY)

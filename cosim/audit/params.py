@@ -1,0 +1,141 @@
+"""Close the loop: the `--params` file implied by the extended model, and what it changes in the
+fig14 experiment.
+
+The file (cosim/scenarios.py SimConfig format) has two parts:
+
+- ``plant``: the fitted mu and every finding's FMU parameter, so that `bowden sim --params FILE`
+  simulates the rig the data came from (never loop_routing or drive_mode: the command line and the
+  scenario own those);
+- ``compensator``: what the firmware's compensator can take from the findings (comp.h, "Extensions
+  the model audit can emit"): mu, the output sensor's offset (offset_n) and the tension-dependent
+  friction (mu_slope_per_n). Effects with no compensator parameter are listed in the notes.
+
+The change in fig14 tracking error is measured with the float reference (cosim.reference, the
+same FMU and loop as the co-simulation without the RTL, seconds instead of minutes) on a plant
+carrying the found effects, with the default compensator and with the emitted one.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from ..scenarios import CompensatorParams, SimConfig
+from .core import AuditResult
+from .effects import BY_PARAM
+
+# fig14 is evaluated after the loop's start-up, as `bowden sim` does (scenarios: settle_s).
+FIG14_DEFAULT_DURATION_S = 10.0
+FIG14_COMPENSATOR = "paper"  # the default of `bowden sim fig14`
+
+
+def emitted_params(result: AuditResult) -> tuple[dict, list[str]]:
+    """The `--params` content of the extended model, and notes on what it leaves out."""
+    p = result.extended.params
+    d = result.data
+    plant: dict[str, float] = {"mu": round(p["mu"], 6)}
+    if d.inputs.sheath_length_m != 1.0:
+        plant["sheath_length"] = d.inputs.sheath_length_m
+    comp: dict[str, float] = {"mu": round(p["mu"], 6)}
+    notes = []
+    if not d.has_positions:
+        notes.append(
+            "the data have no positions: mu is the value for the FMU's phi at x = 0, y = L/2, "
+            "z = 0 (only mu*phi was observable)"
+        )
+    for f in result.findings:
+        e = f.effect
+        plant[e.fmu_param] = round(float(p[e.fmu_param]), 9)
+        if e.compensator_key is None:
+            notes.append(
+                f"{e.cause} ({e.describe(p[e.fmu_param])}) has no compensator parameter: the plant "
+                "carries it, the compensator does not correct it"
+            )
+            continue
+        value = float(p[e.fmu_param])
+        lo, hi = _compensator_range(e.compensator_key)
+        if not lo <= value <= hi:
+            notes.append(
+                f"{e.cause}: {e.compensator_key} = {value:.4g} is outside the compensator's range "
+                f"[{lo:g}, {hi:g}]; left at its default"
+            )
+            continue
+        trial = {**comp, e.compensator_key: round(value, 9)}
+        why = _compensator_refuses(trial, result)
+        if why:
+            notes.append(
+                f"{e.cause}: the compensator refuses {e.compensator_key} = {value:.4g} "
+                f"({why}); left at its default"
+            )
+            continue
+        comp = trial
+    return {"plant": plant, "compensator": comp}, notes
+
+
+def _compensator_refuses(comp: dict[str, float], result: AuditResult) -> str | None:
+    """Why the firmware's compensator would refuse this configuration at fig14's start position
+    (its own check, comp_config_check through cosim.firmware), or None."""
+    from ..firmware import make_compensator_f64  # noqa: PLC0415
+    from ..geometry import bending_angle  # noqa: PLC0415
+    from ..scenarios import HOME_M  # noqa: PLC0415
+
+    d = result.data
+    phi = float(bending_angle(*HOME_M, d.inputs.sheath_length_m, d.inputs.loop_routing))
+    try:
+        make_compensator_f64("paper", CompensatorParams(**comp), phi)
+    except (ValueError, RuntimeError) as exc:
+        return str(exc)
+    return None
+
+
+def _compensator_range(key: str) -> tuple[float, float]:
+    return {"offset_n": (-64.0, 64.0), "mu_slope_per_n": (-1 / 128, 1 / 128)}[key]
+
+
+def write_params(path: Path, params: dict) -> None:
+    """Write the file after checking it the way `bowden sim --params` will."""
+    SimConfig.from_dict(json.loads(json.dumps(params)), source=str(path))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(params, indent=2) + "\n")
+
+
+def fig14_change(params: dict, loop_routing: bool, duration_s: float, progress: bool) -> dict:
+    """Tracking error of fig14 (float reference, paper law) on the plant of `params`, with the
+    default compensator and with the emitted one."""
+    from ..metrics import tracking_error  # noqa: PLC0415
+    from ..reference import resolve_phi, run_reference  # noqa: PLC0415
+    from ..scenarios import get_scenario  # noqa: PLC0415
+
+    scen = get_scenario("fig14")
+    runs = {}
+    for name, comp in (("default", {}), ("emitted", params["compensator"])):
+        cfg = SimConfig.from_dict({"plant": params["plant"], "compensator": comp}, "emitted")
+        phi = resolve_phi(scen, cfg, loop_routing)
+        rec = run_reference(scen, cfg, FIG14_COMPENSATOR, loop_routing, phi, duration_s, progress)
+        settle = scen.settle_s if duration_s > 2 * scen.settle_s else 0.0
+        runs[name] = tracking_error(rec["t_s"], rec["T_ref_N"], rec["T_out_N"], settle)
+    d, e = runs["default"], runs["emitted"]
+    change = e["rms_error_n"] - d["rms_error_n"]
+    rel = 100.0 * change / d["rms_error_n"] if d["rms_error_n"] > 0 else math.nan
+    default_mu = CompensatorParams().mu
+    text = (
+        f"fig14 ({duration_s:g} s, float reference, compensator `{FIG14_COMPENSATOR}`, plant = the "
+        f"extended model): RMS tracking error {d['rms_error_n']:.3f} N "
+        f"({d['rms_error_pct']:.1f} %) with the default compensator (mu = {default_mu:g}), "
+        f"{e['rms_error_n']:.3f} N "
+        f"({e['rms_error_pct']:.1f} %) with the emitted parameters: {change:+.3f} N "
+        f"({rel:+.0f} %); peak {d['peak_error_n']:.3f} -> {e['peak_error_n']:.3f} N."
+    )
+    return {
+        "duration_s": duration_s,
+        "compensator": FIG14_COMPENSATOR,
+        "default": {k: float(v) for k, v in d.items()},
+        "emitted": {k: float(v) for k, v in e.items()},
+        "rms_change_n": float(change),
+        "rms_change_pct": None if math.isnan(rel) else float(rel),
+        "text": text,
+    }
+
+
+__all__ = ["BY_PARAM", "emitted_params", "fig14_change", "write_params"]

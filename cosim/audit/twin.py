@@ -1,0 +1,232 @@
+"""A fast twin of the plant FMU in drive mode 1, for fitting; and the FMU run that reports.
+
+The audit fits models by simulating the whole record many times, which the FMU through ctypes
+(about 10 us a sample) cannot afford; `simulate` runs the same equations as
+fmu/src/bowden_physics.c in drive mode 1 (the inlet tension prescribed, fmu/README.md "Drive mode
+1") compiled with numba, about 0.05 us per sample and node. Every figure the audit reports comes
+from `run_fmu`, the FMU itself, and a test holds the two together.
+
+What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effects"):
+
+- the sheath as BOWDEN_N_SEG = 32 segments; each node keeps its tension unless the capstan bound
+  to its neighbour, T_{k-1} exp(-mu dphi) <= T_k <= T_{k-1} exp(+mu dphi), pushes it (Eq. 1-3,
+  the dead zone at reversals included), with dphi = max(0, phi(x, y, z) + phi_offset_per_z z)/32;
+- mu_eff = mu + mu_viscous |v_c| + mu_drift t (+ mu_tension_slope T_{k-1} per segment), with
+  v_c the rate of the cable's inlet displacement (stretch in the sheath / EA + T_out / k_lc)
+  low-pass filtered with 10 ms, as the FMU computes it after each step and uses in the next;
+- the output sensor: first-order lag sensor_tau (exact for a step held over the sample),
+  pure delay sensor_delay (a whole number of samples here, which the FMU then reproduces
+  exactly), gain and offset.
+
+Assumptions of the twin that the FMU does not make: the friction of a step uses the time at its
+start for mu_drift (the FMU moves it on by each 50 us internal step: a change of mu_drift * 1 ms),
+and the cable's axial rigidity and the load cell's stiffness are the FMU's defaults (they enter
+only through v_c, so only mu_viscous depends on them).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+from scipy.signal import lfilter
+
+# Constants of fmu/src/bowden_physics.[ch] and the FMU's defaults (fmu/gen_model.py); a test
+# compares them with the built FMU.
+N_SEG = 32  # BOWDEN_N_SEG
+SPEED_TAU_S = 0.01  # BOWDEN_SPEED_TAU_S, filter of the cable speed v_c
+CABLE_EA_N = 8000.0  # cable_EA default
+LOADCELL_N_PER_M = 2e5  # loadcell_stiffness default
+
+
+@dataclass(frozen=True)
+class PlantInputs:
+    """What drives the twin and the FMU, one value per sample at a fixed step dt_s."""
+
+    t_in_n: np.ndarray  # inlet tension (T_in_cmd of drive mode 1)
+    phi_rad: np.ndarray  # bending angle from the geometry (before phi_offset_per_z)
+    z_m: np.ndarray  # z of the end-effector (for phi_offset_per_z)
+    position_m: np.ndarray | None  # (n, 3) positions for the FMU, None: constant phi
+    t0_s: float  # time of the first sample
+    dt_s: float  # sample period
+    sheath_length_m: float
+    loop_routing: bool
+
+
+@njit(cache=True)
+def _exp_small(x):
+    """exp(x) for a per-segment friction angle +-mu*dphi (typically 0.02 rad): a degree-6 Taylor
+    polynomial (Horner, multiplications only) for |x| <= 0.06 rad, relative error < 6e-13; libm
+    beyond. Called for exp(+x) and exp(-x), two independent chains instead of exp and a division.
+    """
+    if x < -0.06 or x > 0.06:
+        return math.exp(x)
+    s = 1.0 + x * 0.16666666666666666
+    s = 1.0 + x * 0.2 * s
+    s = 1.0 + x * 0.25 * s
+    s = 1.0 + x * 0.3333333333333333 * s
+    s = 1.0 + x * 0.5 * s
+    return 1.0 + x * s
+
+
+@njit(cache=True)
+def _friction(t_in, dphi_geom, z, phi_off, mu, mu_visc, slope, drift, t0, dt, ds, ea, klc, n_seg):
+    """T_out (true) at every sample: the drive-mode-1 physics of bowden_physics.c."""
+    n = t_in.shape[0]
+    out = np.empty(n)
+    tens = np.zeros(n_seg + 1)
+    alpha_speed = 1.0 - math.exp(-dt / 0.01)
+    speed = 0.0
+    disp_prev = 0.0
+    for k in range(n):
+        # friction_now(): mu from the cable speed of the last step and the time at the step start
+        t = t0 + (k - 1) * dt if k > 0 else t0
+        mu_base = mu + mu_visc * abs(speed) + drift * t
+        mu_c = mu_base if mu_base > 0.0 else 0.0
+        phi = dphi_geom[k] + phi_off * z[k]
+        dphi = (phi if phi > 0.0 else 0.0) / n_seg
+        ep = math.exp(mu_c * dphi)
+        em = 1.0 / ep
+        tin = t_in[k] if t_in[k] > 0.0 else 0.0
+        tens[0] = tin
+        stretch = 0.0
+        for j in range(1, n_seg + 1):
+            if slope != 0.0:
+                m = mu_base + slope * tens[j - 1]
+                if m > 0.0:
+                    ep = _exp_small(m * dphi)
+                    em = _exp_small(-m * dphi)
+                else:
+                    ep = 1.0
+                    em = 1.0
+            lo = tens[j - 1] * em
+            hi = tens[j - 1] * ep
+            if tens[j] < lo:
+                tens[j] = lo
+            elif tens[j] > hi:
+                tens[j] = hi
+            stretch += 0.5 * (tens[j - 1] + tens[j])
+        out[k] = tens[n_seg]
+        disp = stretch * ds / ea + tens[n_seg] / klc
+        if k > 0:
+            speed += ((disp - disp_prev) / dt - speed) * alpha_speed
+        disp_prev = disp
+    return out
+
+
+def friction_output(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndarray:
+    """True T_out of the twin (no sensor): the friction part of the model."""
+    p = _full(params)
+    return _friction(
+        np.ascontiguousarray(inputs.t_in_n, dtype=np.float64),
+        np.ascontiguousarray(inputs.phi_rad, dtype=np.float64),
+        np.ascontiguousarray(inputs.z_m, dtype=np.float64),
+        float(p["phi_offset_per_z"]),
+        float(p["mu"]),
+        float(p["mu_viscous"]),
+        float(p["mu_tension_slope"]),
+        float(p["mu_drift"]),
+        float(inputs.t0_s),
+        float(inputs.dt_s),
+        inputs.sheath_length_m / N_SEG,
+        CABLE_EA_N,
+        LOADCELL_N_PER_M,
+        N_SEG,
+    )
+
+
+def sensor_output(t_out_n: np.ndarray, params: Mapping[str, float], dt_s: float) -> np.ndarray:
+    """The output sensor of the FMU applied to a true T_out: lag, delay, gain, offset."""
+    p = _full(params)
+    y = np.asarray(t_out_n, dtype=np.float64)
+    tau = float(p["sensor_tau"])
+    if tau > 0.0:
+        a = math.exp(-dt_s / tau)
+        y = lfilter([1.0 - a], [1.0, -a], y, zi=[a * y[0]])[0]
+    m = delay_samples(float(p["sensor_delay"]), dt_s)
+    if m > 0:
+        y = np.concatenate([np.full(min(m, len(y)), y[0]), y[: max(0, len(y) - m)]])
+    return float(p["sensor_gain"]) * y + float(p["sensor_offset"])
+
+
+def delay_samples(delay_s: float, dt_s: float) -> int:
+    """The delay as a whole number of samples (the twin's resolution is one sample)."""
+    return int(round(delay_s / dt_s))
+
+
+def simulate(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndarray:
+    """T_out as the output sensor reads it (without noise), for FMU parameters `params`
+    (names of fmu/gen_model.py; missing effects are off)."""
+    return sensor_output(friction_output(inputs, params), params, inputs.dt_s)
+
+
+# The parameters of the friction part (the rest only change the sensor's reading).
+FRICTION_PARAMS = ("mu", "mu_viscous", "mu_tension_slope", "phi_offset_per_z", "mu_drift")
+
+# Every parameter the twin knows, with its value when the effect is off.
+OFF = {
+    "mu": 0.075,
+    "sensor_offset": 0.0,
+    "sensor_gain": 1.0,
+    "mu_viscous": 0.0,
+    "mu_tension_slope": 0.0,
+    "phi_offset_per_z": 0.0,
+    "sensor_tau": 0.0,
+    "sensor_delay": 0.0,
+    "mu_drift": 0.0,
+}
+
+
+def _full(params: Mapping[str, float]) -> dict[str, float]:
+    unknown = set(params) - set(OFF)
+    if unknown:
+        raise KeyError(f"the twin has no parameter {sorted(unknown)[0]!r}")
+    return {**OFF, **params}
+
+
+def run_fmu(inputs: PlantInputs, params: Mapping[str, float], fmu_path=None) -> np.ndarray:
+    """T_out_meas from the plant FMU itself (cosim.plant.Plant, drive mode 1, no noise), driven
+    by the same inputs as the twin; the FMU starts at t0_s loaded from rest, as the twin."""
+    from ..plant import Plant  # noqa: PLC0415 (needs the built FMU)
+
+    p = _full(params)
+    fmu_params: dict[str, float | int | bool] = {
+        "drive_mode": 1,
+        "loop_routing": bool(inputs.loop_routing),
+        "sheath_length": float(inputs.sheath_length_m),
+        **{k: float(v) for k, v in p.items()},
+    }
+    # The FMU's delay reads its own time grid; a whole number of samples keeps it on a sample.
+    fmu_params["sensor_delay"] = delay_samples(p["sensor_delay"], inputs.dt_s) * inputs.dt_s
+    n = len(inputs.t_in_n)
+    pos = inputs.position_m
+    if pos is None:
+        pos = np.tile(fixed_position(inputs.sheath_length_m), (n, 1))
+    out = np.empty(n)
+    tin = inputs.t_in_n.tolist()
+    xs, ys, zs = pos[:, 0].tolist(), pos[:, 1].tolist(), pos[:, 2].tolist()
+    with Plant(
+        fmu_params,
+        inputs={"T_in_cmd": tin[0], "x": xs[0], "y": ys[0], "z": zs[0]},
+        fmu_path=fmu_path,
+        start_time_s=float(inputs.t0_s),
+        instance_name="audit",
+    ) as plant:
+        out[0] = plant.y[plant.T_OUT_MEAS]
+        u, step, dt, idx = plant.u, plant.step, float(inputs.dt_s), plant.T_OUT_MEAS
+        for k in range(1, n):
+            u[1] = tin[k]
+            u[2] = xs[k]
+            u[3] = ys[k]
+            u[4] = zs[k]
+            out[k] = step(dt)[idx]
+    return out
+
+
+def fixed_position(sheath_length_m: float) -> np.ndarray:
+    """The position the FMU holds when the data have none: in the loop's plane (x = 0), half the
+    sheath's length in front of the actuator (phi = 2 pi with loop routing)."""
+    return np.array([0.0, 0.5 * sheath_length_m, 0.0])
