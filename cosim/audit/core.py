@@ -49,9 +49,11 @@ from .effects import VOCABULARY, Effect
 MAX_RATE_HZ = 2000.0
 # The shortest record that gives enough blocks of each role.
 MIN_DURATION_S = 10.0
-# Savitzky-Golay smoothing of the input tension: cubic over 21 ms (a -3 dB point near 60 Hz,
-# above any tension the cable transmits; 0.03 N of sensor noise drops to about 0.01 N).
-SMOOTH_S = 0.021
+# Savitzky-Golay smoothing of the input tension: cubic over 41 ms (a -3 dB point near 30 Hz,
+# above the tension changes a Bowden cable transmits; 0.03 N of sensor noise drops to about
+# 0.008 N). 21 ms left enough noise in the input to blur a 6 ms lag and a 6 ms delay into each
+# other (separation z 1.1 against 5.9 at 41 ms on the same FMU data).
+SMOOTH_S = 0.041
 SMOOTH_ORDER = 3
 # Blocks: the record (after the warm-up, where the model's initial state may differ from the
 # rig's) is cut into blocks of about BLOCK_TARGET_COUNT, between BLOCK_MIN_S and BLOCK_MAX_S long,
@@ -73,7 +75,10 @@ class DecisionRule:
     - remove at least `min_explained_pct` % of the residual mean square,
     - with a paired z (paired_z: against the sensor's noise) of at least `min_z`,
     - and remove at least `min_effect_rms_n` of RMS (1/256 N: one LSB of the project's Q7.8
-      tensions; a smaller effect is below what the controller can act on).
+      tensions; a smaller effect is below what the controller can act on) and at least
+      `min_effect_noise_ratio` times the noise floor: the input's smoothed sensor noise, passed
+      through the friction model, leaves a structured residual of about 0.33 sigma on FMU data
+      with no effect (0.0315 against 0.0299 N), part of which any candidate can absorb.
     The largest such candidate is taken. It is marked ambiguous when the runner-up stops being
     significant once it is in the model and the two differ by a paired z under `separation_z`.
     At most `max_findings` rounds.
@@ -82,25 +87,35 @@ class DecisionRule:
     min_explained_pct: float = 2.0
     min_z: float = 4.0
     min_effect_rms_n: float = 1.0 / 256.0
+    min_effect_noise_ratio: float = 0.3
     separation_z: float = 2.0
     max_findings: int = 4
+
+    def min_rms_n(self, noise_floor_n: float) -> float:
+        """The smallest RMS a finding must remove on data with this noise floor."""
+        return max(self.min_effect_rms_n, self.min_effect_noise_ratio * noise_floor_n)
 
     def text(self) -> str:
         return (
             f"a finding removes >= {self.min_explained_pct:g} % of the selection blocks' residual "
             f"mean square, with paired z >= {self.min_z:g} against the sensor noise and >= "
-            f"{self.min_effect_rms_n * 1000:.1f} mN RMS; the largest is taken, then the next round"
+            f"{self.min_effect_rms_n * 1000:.1f} mN RMS and {self.min_effect_noise_ratio:g} x the "
+            "noise floor; the largest is taken, then the next round"
         )
 
 
 RULE = DecisionRule()
 
 # The unexplained residual is "white" when no autocorrelation at lags up to WHITE_LAGS_S exceeds
-# WHITE_MAX_ACF (a correlated part of under about 10 % of its variance); a signal "correlates"
-# with it at |r| >= CORRELATE_MIN_R.
+# WHITE_MAX_ACF (a correlated part of under about 15 % of its variance: the input's smoothed
+# sensor noise, passed through the friction model, leaves about 0.1 on FMU data with no effect).
+# A signal "correlates" with it when |r| >= CORRELATE_MIN_R and |r| is at least CORRELATE_Z
+# standard errors, the standard error from Bartlett's formula (a slow signal such as a position
+# held for seconds has few independent values, and a slow residual meets it by chance).
 WHITE_LAGS_S = 0.1
-WHITE_MAX_ACF = 0.1
+WHITE_MAX_ACF = 0.15
 CORRELATE_MIN_R = 0.1
+CORRELATE_Z = 3.0
 
 
 class AuditError(ValueError):
@@ -556,7 +571,7 @@ def run(
             z = paired_z(data, r0, m.residual(data))
             rms_removed = math.sqrt(max(removed, 0.0))
             sig = pct >= rule.min_explained_pct and z >= rule.min_z
-            sig = sig and rms_removed >= rule.min_effect_rms_n
+            sig = sig and rms_removed >= rule.min_rms_n(data.noise_floor_n)
             cands.append(Candidate(e, m, pct, rms_removed, z, sig))
         sig = sorted((c for c in cands if c.significant), key=lambda c: -c.explained_pct)
         chosen = sig[0] if sig else None
@@ -567,12 +582,13 @@ def run(
         current = chosen.model
         steps.append(current)
     dropped: list[str] = []
+    withouts = {found[0].cause: steps[0]} if len(found) == 1 else {}
     if len(found) > 1:
         tick("checking each finding against the model without it")
-        found, steps, dropped = _backward(data, found, steps, rule)
+        found, steps, dropped, withouts = _backward(data, found, steps, rule)
         current = steps[-1]
         rounds = [r for r in rounds if r.chosen is None or r.chosen.effect in found]
-    findings = _findings(data, rounds, steps, rule)
+    findings = _findings(data, rounds, steps, withouts, rule)
 
     tick("running the nominal model through the FMU")
     fmu_base = twin.run_fmu(data.inputs, baseline.params)
@@ -611,33 +627,32 @@ def _passes(data: AuditData, without: Model, with_: Model, rule: DecisionRule) -
     return (
         pct >= rule.min_explained_pct
         and z >= rule.min_z
-        and math.sqrt(max(removed, 0.0)) >= rule.min_effect_rms_n
+        and math.sqrt(max(removed, 0.0)) >= rule.min_rms_n(data.noise_floor_n)
     )
 
 
 def _backward(data, found, steps, rule):
     """Drop any finding that the others make unnecessary (the rule, applied to the model without
-    it), then refit the models of the remaining findings in their order."""
+    it), refitting the models of the remaining findings in their order; repeat until none drops.
+    Also returns the model without each remaining finding (for its share of the residual)."""
     found = list(found)
     dropped: list[str] = []
-    changed = True
-    while changed and len(found) > 1:
-        changed = False
+    while True:
         full = steps[-1]
-        for e in list(found):
+        withouts: dict[str, Model] = {}
+        for e in found:
             rest = tuple(f for f in found if f is not e)
-            without = fit_model(
-                data, rest, {k: v for k, v in full.params.items() if k != e.fmu_param}
-            )
-            if not _passes(data, without, full, rule):
+            start = {k: v for k, v in full.params.items() if k != e.fmu_param}
+            withouts[e.cause] = fit_model(data, rest, start) if rest else steps[0]
+            if len(found) > 1 and not _passes(data, withouts[e.cause], full, rule):
                 found.remove(e)
                 dropped.append(e.cause)
                 steps = [steps[0]]
                 for i in range(1, len(found) + 1):
-                    steps.append(fit_model(data, tuple(found[:i]), without.params))
-                changed = True
+                    steps.append(fit_model(data, tuple(found[:i]), withouts[e.cause].params))
                 break
-    return found, steps, dropped
+        else:
+            return found, steps, dropped, withouts
 
 
 def phi_text(data: AuditData, mu: float) -> tuple[float | None, str]:
@@ -654,8 +669,15 @@ def phi_text(data: AuditData, mu: float) -> tuple[float | None, str]:
     return phi, f"no positions: phi fitted as a constant with the sidecar's mu = {data.mu_given:g}"
 
 
-def _findings(data: AuditData, rounds: list[Round], steps: list[Model], rule) -> list[Finding]:
+def _findings(
+    data: AuditData, rounds: list[Round], steps: list[Model], withouts: dict, rule
+) -> list[Finding]:
+    """The findings in order of importance. explains_pct: the share of the baseline's residual
+    mean square on the report blocks that the extended model loses when this finding is taken
+    out (and the rest refitted); with interacting effects the shares may add up to more than the
+    total gain."""
     base_ms = steps[0].ms(data, REPORT)
+    full_ms = steps[-1].ms(data, REPORT)
     out: list[Finding] = []
     for i, rnd in enumerate(rounds):
         c = rnd.chosen
@@ -675,12 +697,12 @@ def _findings(data: AuditData, rounds: list[Round], steps: list[Model], rule) ->
             )
             if runner.significant and not still and sep < rule.separation_z:
                 ambiguous = runner.effect.cause
-        before, after = steps[i].ms(data, REPORT), steps[i + 1].ms(data, REPORT)
+        before = withouts[c.effect.cause].ms(data, REPORT)
         out.append(
             Finding(
                 effect=c.effect,
                 value=float(c.model.params[c.effect.fmu_param]),
-                explains_pct=100.0 * (before - after) / base_ms if base_ms > 0 else 0.0,
+                explains_pct=100.0 * (before - full_ms) / base_ms if base_ms > 0 else 0.0,
                 selection_pct=c.explained_pct,
                 z=c.z,
                 runner_up=runner.effect.cause if runner else None,
@@ -714,6 +736,16 @@ def _evidence(result: AuditResult, f: Finding) -> str:
     return text + "."
 
 
+def _acf(x: np.ndarray) -> np.ndarray:
+    """Autocorrelation at lags 0 .. n/4 (FFT)."""
+    xc = np.asarray(x, dtype=float) - np.mean(x)
+    var = float(xc @ xc)
+    if var == 0.0:
+        return np.zeros(1)
+    full = fftconvolve(xc, xc[::-1], mode="full")[len(xc) - 1 :] / var
+    return full[: max(1, len(xc) // 4)]
+
+
 def describe_residual(data: AuditData, resid: np.ndarray) -> dict:
     """Size, whiteness, dominant frequency and correlated signals of a residual, on the
     held-out (selection and report) blocks; the spectrum over the scored record."""
@@ -745,13 +777,19 @@ def describe_residual(data: AuditData, resid: np.ndarray) -> dict:
     if data.has_positions:
         for j, name in enumerate(trace_mod.POSITION_COLUMNS):
             signals[name] = data.positions_m[:, j]
-    corr = {}
+    corr, se = {}, {}
+    acf_r = _acf(r)
     for name, sig in signals.items():
         s = sig[held]
         if np.std(s) > 0 and np.std(r) > 0:
             corr[name] = float(np.corrcoef(r, s)[0, 1])
+            # Bartlett: var(r_xy) ~ (1/n) sum_k rho_x(k) rho_y(k) over all lags
+            lags_n = min(len(acf_r), len(s))
+            bartlett = 2.0 * float(acf_r[:lags_n] @ _acf(s)[:lags_n]) - 1.0
+            se[name] = math.sqrt(max(bartlett, 1.0) / len(s))
     correlates = sorted(
-        (n for n, c in corr.items() if abs(c) >= CORRELATE_MIN_R), key=lambda n: -abs(corr[n])
+        (n for n, c in corr.items() if abs(c) >= CORRELATE_MIN_R and abs(c) >= CORRELATE_Z * se[n]),
+        key=lambda n: -abs(corr[n]),
     )
     return {
         "rms_n": rms,
@@ -762,4 +800,5 @@ def describe_residual(data: AuditData, resid: np.ndarray) -> dict:
         "peak_to_median_psd": peak_ratio,
         "correlates": correlates,
         "correlations": {n: round(c, 4) for n, c in corr.items()},
+        "correlation_se": {n: round(v, 4) for n, v in se.items()},
     }
