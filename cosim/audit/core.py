@@ -336,26 +336,38 @@ def fit_model(
     stride = max(1, math.ceil(len(fit_idx) / MAX_FIT_RESIDUALS))
     idx = fit_idx[::stride]
     nfev = 0
-    if delay is not None:
-        # scan the delay with the rest held, fit the rest; then the neighbouring delays with the
-        # rest refitted, since mu and the delay trade off near the optimum
-        params[delay.fmu_param] = _scan_delay(data, params, fit_idx)
-    if names:
-        params, nfev = _least_squares(data, params, names, idx)
-    if delay is not None:
+    if delay is None:
+        if names:
+            params, nfev = _least_squares(data, params, names, idx)
+    else:
+        # Coordinate descent: scan the delay with the rest held, refit the rest, until the scan
+        # stays; then walk to neighbouring delays (the rest refitted) while that fits better, as
+        # mu and the delay trade off near the optimum.
         dt = data.inputs.dt_s
-        best = (_sse(data, params, idx), params)
-        m0 = twin.delay_samples(params[delay.fmu_param], dt)
-        for m in (m0 - 1, m0 + 1):
-            if m < 0 or m * dt > delay.bounds[1]:
-                continue
-            trial = {**params, delay.fmu_param: m * dt}
+        m = twin.delay_samples(_scan_delay(data, params, fit_idx), dt)
+        for _ in range(6):
+            params[delay.fmu_param] = m * dt
             if names:
-                trial, n_eval = _least_squares(data, trial, names, idx)
+                params, n_eval = _least_squares(data, params, names, idx)
                 nfev += n_eval
-            sse = _sse(data, trial, idx)
-            if sse < best[0]:
+            m_new = twin.delay_samples(_scan_delay(data, params, fit_idx), dt)
+            if m_new == m:
+                break
+            m = m_new
+        best = (_sse(data, params, idx), params)
+        m_max = int(round(delay.bounds[1] / dt))
+        for step in (-1, 1):
+            m = twin.delay_samples(best[1][delay.fmu_param], dt) + step
+            while 0 <= m <= m_max:
+                trial = {**best[1], delay.fmu_param: m * dt}
+                if names:
+                    trial, n_eval = _least_squares(data, trial, names, idx)
+                    nfev += n_eval
+                sse = _sse(data, trial, idx)
+                if sse >= best[0]:
+                    break
                 best = (sse, trial)
+                m += step
         params = best[1]
     pred = twin.simulate(data.inputs, params)
     return Model(effects=tuple(effects), params=params, prediction=pred, nfev=nfev)

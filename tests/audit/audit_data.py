@@ -26,7 +26,9 @@ def session(seed: int, duration_s: float, rate_hz: float = RATE_HZ):
     freqs = rng.uniform([0.15, 0.5, 1.2], [0.4, 1.1, 2.5])
     amps = rng.uniform([4.0, 1.5, 0.5], [6.0, 3.0, 1.2])
     phases = rng.uniform(0, 2 * np.pi, 3)
-    t_in = 11.0 + sum(a * np.sin(2 * np.pi * f * t + p) for a, f, p in zip(amps, freqs, phases, strict=True))
+    t_in = 11.0 + sum(
+        a * np.sin(2 * np.pi * f * t + p) for a, f, p in zip(amps, freqs, phases, strict=True)
+    )
     t_in = np.maximum(t_in, 0.5)
     pos = np.empty((n, 3))
     k = 0
@@ -58,13 +60,21 @@ def fmu_record(
     """Write `name` (t_s, T_in_N, T_out_N and, with positions, x_m, y_m, z_m) and a sidecar
     without mu; `hum` = (amplitude N, frequency Hz) adds mains pickup to the output sensor."""
     t, t_in, pos = session(seed, duration_s)
-    params = {"drive_mode": 1, "noise_std": noise_std_n, "seed": seed, "mu": mu,
-              "loop_routing": loop_routing, **effects}
+    params = {
+        "drive_mode": 1,
+        "noise_std": noise_std_n,
+        "seed": seed,
+        "mu": mu,
+        "loop_routing": loop_routing,
+        **effects,
+    }
     if not positions:
         pos = np.tile([0.0, 0.5, 0.0], (len(t), 1))
     out_in = np.empty(len(t))
     out_out = np.empty(len(t))
-    with Plant(params, inputs={"T_in_cmd": t_in[0], "x": pos[0, 0], "y": pos[0, 1], "z": pos[0, 2]}) as p:
+    with Plant(
+        params, inputs={"T_in_cmd": t_in[0], "x": pos[0, 0], "y": pos[0, 1], "z": pos[0, 2]}
+    ) as p:
         out_in[0], out_out[0] = p.y[p.T_IN_MEAS], p.y[p.T_OUT_MEAS]
         u = p.u
         for k in range(1, len(t)):

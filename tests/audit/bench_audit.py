@@ -1,0 +1,72 @@
+"""`make bench-audit`: wall time of `bowden audit` on 60 s of 1 kHz data (issue 9 target: at most
+30 s on this machine), end to end (reading, fitting, the FMU runs, report and plots), for data
+with no effect, one effect and two effects. Prints the machine's load: the figures move with it.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from audit_data import fmu_record  # noqa: E402
+
+TARGET_S = 30.0
+CASES = (
+    ("no effect", {}),
+    ("lag 10 ms", {"sensor_tau": 0.010}),
+    ("offset 0.5 N + tension slope 1.2e-3/N", {"sensor_offset": 0.5, "mu_tension_slope": 0.0012}),
+)
+
+
+def main() -> int:
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="bench_audit_") as tmp:
+        for i, (name, effect) in enumerate(CASES):
+            folder = Path(tmp) / f"case{i}"
+            folder.mkdir()
+            path = fmu_record(folder, effect, seed=900 + i, duration_s=60.0)
+            load0 = os.getloadavg()[0]
+            t0 = time.perf_counter()
+            out = subprocess.run(
+                [sys.executable, "-m", "cosim", "audit", str(path), "--quiet"],
+                capture_output=True,
+                text=True,
+                check=False,
+            )
+            wall = time.perf_counter() - t0
+            if out.returncode != 0:
+                print(out.stdout + out.stderr)
+                return 1
+            found = [
+                ln.split()[0]
+                for ln in out.stdout.splitlines()
+                if ln.startswith("  ")
+                and ln.split()
+                and ln.split()[0]
+                in {
+                    "sensor_offset",
+                    "sensor_gain",
+                    "lag",
+                    "time_delay",
+                    "viscous_friction",
+                    "tension_dependent_friction",
+                    "bending_angle_error",
+                    "friction_drift",
+                }
+            ]
+            rows.append((name, wall, load0, ", ".join(found) or "none"))
+    print(f"{'60 s of 1 kHz data':<40}{'wall s':>8}{'load':>7}  target <= {TARGET_S:g} s  found")
+    for name, wall, load, found in rows:
+        verdict = "met" if wall <= TARGET_S else "NOT met"
+        print(f"{name:<40}{wall:>8.1f}{load:>7.1f}  {verdict:<16}{found}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,69 @@
+"""`make audit-sweep`: the many-seed sweep of issue 9's acceptance, too long for `make test`.
+
+For every cause of the vocabulary and SEEDS seeds each (and for no effect), FMU data of 30 s are
+made with the effect at a random magnitude (the ranges of test_audit_causes.py), audited, and the
+outcome printed: the cause named, its value against the hidden one, held-out RMS before/after and
+the noise floor. Exits non-zero when a cause is missed or a wrong one is named.
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from audit_data import fmu_record  # noqa: E402
+from test_audit_causes import SEEDS, _magnitude  # noqa: E402
+
+from cosim import trace  # noqa: E402
+from cosim.audit import core  # noqa: E402
+
+N_SEEDS = int(sys.argv[1]) if len(sys.argv) > 1 else 3
+
+
+def main() -> int:
+    bad = 0
+    print(
+        f"{'cause':<28}{'seed':>6}  {'hidden':<30}{'found':<44}{'before':>8}{'after':>8}"
+        f"{'floor':>8}{'s':>6}"
+    )
+    cases = [(c, 1000 * (i + 1) + s) for i, c in enumerate(SEEDS) for s in range(N_SEEDS)]
+    cases += [(None, 9000 + s) for s in range(N_SEEDS)]
+    for cause, seed in cases:
+        rng = np.random.default_rng(seed)
+        effect = _magnitude(cause, rng) if cause else {}
+        noise, mu = rng.uniform(0.02, 0.04), rng.uniform(0.06, 0.1)
+        with tempfile.TemporaryDirectory() as tmp:
+            path = fmu_record(Path(tmp), effect, seed, 30.0, noise_std_n=noise, mu=mu)
+            t0 = time.perf_counter()
+            res = core.run(core.prepare(trace.read_trace(path, "measured"), str(path)))
+            wall = time.perf_counter() - t0
+        found = [f.effect.cause for f in res.findings]
+        ok = found == ([cause] if cause else []) and not any(f.ambiguous_with for f in res.findings)
+        bad += not ok
+        hidden = ", ".join(f"{k}={v:.4g}" for k, v in effect.items()) or "none"
+        shown = (
+            ", ".join(
+                f"{f.effect.cause}={f.value:.4g}"
+                + (f" (or {f.ambiguous_with})" if f.ambiguous_with else "")
+                for f in res.findings
+            )
+            or "none"
+        )
+        print(
+            f"{cause or 'none':<28}{seed:>6}  {hidden:<30}{shown:<44}"
+            f"{res.holdout_rms_before_n:>8.4f}{res.holdout_rms_after_n:>8.4f}"
+            f"{res.data.noise_floor_n:>8.4f}{wall:>6.1f}{'' if ok else '  WRONG'}",
+            flush=True,
+        )
+    print(f"{len(cases) - bad} of {len(cases)} cases right")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
