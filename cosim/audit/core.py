@@ -49,12 +49,13 @@ from .effects import VOCABULARY, Effect
 MAX_RATE_HZ = 2000.0
 # The shortest record that gives enough blocks of each role.
 MIN_DURATION_S = 10.0
-# Savitzky-Golay smoothing of the input tension: cubic over 41 ms (a -3 dB point near 30 Hz,
-# above the tension changes a Bowden cable transmits; 0.03 N of sensor noise drops to about
-# 0.008 N). 21 ms left enough noise in the input to blur a 6 ms lag and a 6 ms delay into each
-# other (separation z 1.1 against 5.9 at 41 ms on the same FMU data).
+# Savitzky-Golay smoothing of the input tension: quintic over 41 ms (0.03 N of sensor noise drops
+# to about 0.01 N). Measured on FMU data and on a rig of triangle ramps: a cubic over 21 ms left
+# enough noise to blur a 6 ms lag and a 6 ms delay into each other (separation z 1.1, 2.6 here);
+# a cubic over 41 ms rounds the corners of triangle ramps enough to look like viscous friction
+# (0.39 sigma of residual removed by it on the rig, 0.22 sigma here).
 SMOOTH_S = 0.041
-SMOOTH_ORDER = 3
+SMOOTH_ORDER = 5
 # Blocks: the record (after the warm-up, where the model's initial state may differ from the
 # rig's) is cut into blocks of about BLOCK_TARGET_COUNT, between BLOCK_MIN_S and BLOCK_MAX_S long,
 # whose roles repeat ROLE_PATTERN.

@@ -1,0 +1,213 @@
+"""`bowden audit` from the command line: audit.json in the issue's shape (strict JSON, no NaN),
+report.md and its plots, the summary, --emit-params accepted by `bowden sim --params` with the
+fig14 comparison, a `bowden sim` trace read the same way, and one clear error line per bad input.
+Also the twin against the FMU for every effect parameter."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from audit_data import fmu_record
+
+from cosim import sim, trace
+from cosim.audit import twin
+from cosim.geometry import bending_angle
+from cosim.scenarios import load_params
+
+
+def _bowden(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    env = dict(os.environ)
+    root = str(Path(__file__).resolve().parents[2])
+    env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")
+    return subprocess.run(
+        [sys.executable, "-m", "cosim", *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        env=env,
+        check=False,
+    )
+
+
+def _no_nan(obj) -> None:
+    if isinstance(obj, float):
+        assert math.isfinite(obj)
+    elif isinstance(obj, dict):
+        for v in obj.values():
+            _no_nan(v)
+    elif isinstance(obj, list):
+        for v in obj:
+            _no_nan(v)
+
+
+@pytest.fixture(scope="module")
+def offset_run(tmp_path_factory):
+    """One audit, run from another folder with relative paths, of FMU data with a 0.4 N offset
+    of the output sensor, with --emit-params."""
+    root = tmp_path_factory.mktemp("cli")
+    data_dir = root / "data"
+    data_dir.mkdir()
+    fmu_record(data_dir, {"sensor_offset": 0.4}, 601, 20.0, noise_std_n=0.03, mu=0.08)
+    work = root / "work"
+    work.mkdir()
+    out = _bowden(
+        "audit",
+        "../data/rig.csv",
+        "--out",
+        "report",
+        "--emit-params",
+        "params/rig.json",
+        "--fig14-duration",
+        "3",
+        cwd=work,
+    )
+    return work, out
+
+
+def test_cli_writes_audit_json_in_the_issue_shape(offset_run):
+    work, out = offset_run
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "Traceback" not in out.stderr
+    text = (work / "report" / "audit.json").read_text()
+    data = json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in audit.json"))
+    _no_nan(data)
+    assert set(data["baseline"]) >= {"params", "rms_n"} and "mu" in data["baseline"]["params"]
+    (finding,) = data["findings"]
+    assert set(finding) >= {"cause", "params", "explains_pct", "evidence"}
+    assert finding["cause"] == "sensor_offset"
+    assert finding["params"]["sensor_offset"] == pytest.approx(0.4, abs=0.03)
+    assert set(data["extended"]) >= {"params", "rms_n"}
+    gain = data["gain"]
+    assert set(gain) >= {"holdout_rms_before_n", "holdout_rms_after_n", "gain_pct"}
+    assert gain["holdout_rms_after_n"] < gain["holdout_rms_before_n"]
+    u = data["unexplained"]
+    assert set(u) >= {"rms_n", "white", "peak_hz", "correlates"}
+    assert isinstance(u["white"], bool) and isinstance(u["correlates"], list)
+    assert "report blocks" in data["split"]["text"] or data["split"]["report_blocks_s"]
+
+
+def test_cli_summary_report_and_plots(offset_run):
+    work, out = offset_run
+    assert "sensor_offset" in out.stdout and "held-out" in out.stdout
+    assert "audit [" in out.stderr  # the progress display
+    report = (work / "report" / "report.md").read_text()
+    linked = [line.split("](")[1].rstrip(")") for line in report.splitlines() if "](" in line]
+    assert len(linked) >= 5
+    for name in linked:
+        png = work / "report" / name
+        assert png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
+    assert "## Gain on held-out data" in report and "report blocks" in report
+
+
+def test_cli_emits_params_that_bowden_sim_accepts(offset_run):
+    work, out = offset_run
+    path = work / "params" / "rig.json"
+    params = json.loads(path.read_text())
+    cfg = load_params(path)
+    assert cfg.plant["sensor_offset"] == pytest.approx(0.4, abs=0.03)
+    assert cfg.compensator.offset_n == pytest.approx(cfg.plant["sensor_offset"])
+    assert "loop_routing" not in params["plant"] and "drive_mode" not in params["plant"]
+    fig = json.loads((work / "report" / "audit.json").read_text())["fig14"]
+    # the smooth inverse that knows the offset tracks the measured output better; the paper
+    # law's change is reported whichever way it goes (its reversal jumps grow with mu*phi)
+    assert fig["smooth"]["emitted"]["rms_error_n"] < fig["smooth"]["default"]["rms_error_n"]
+    assert math.isfinite(fig["paper"]["rms_change_n"])
+    assert "fig14 tracking error" in out.stdout
+
+
+def test_cli_reads_a_bowden_sim_trace(tmp_path):
+    from cosim.reference import resolve_phi, run_reference
+    from cosim.scenarios import SimConfig, get_scenario
+
+    scen, cfg = get_scenario("fig14"), SimConfig()
+    rec = run_reference(scen, cfg, "paper", True, resolve_phi(scen, cfg, True), 11.0, False)
+    meta = {
+        "sample_rate_hz": 10_000.0,
+        "sheath_length_m": 1.0,
+        "loop_routing": True,
+        "mu": 0.075,
+        "source": "cosim",
+        "scenario": "fig14",
+    }
+    path = trace.write_trace(tmp_path / "trace.csv", sim.trace_columns(rec), meta)
+    out = _bowden("audit", str(path), "--quiet")
+    assert out.returncode == 0, out.stderr[-2000:]
+    data = json.loads((tmp_path / "trace_audit" / "audit.json").read_text())
+    assert data["decimation"] == 5 and data["data"]["mu_given"] == 0.075
+    assert data["findings"] == []  # the plant of a default `bowden sim` run has no effect
+    assert data["gain"]["holdout_rms_before_n"] < 0.005
+
+
+@pytest.mark.parametrize(
+    ("args", "code", "message"),
+    [
+        (["missing.csv"], 2, "missing.csv: no such file"),
+        (["short.csv"], 2, "the audit needs at least 10 s"),
+        (["outside.csv"], 2, "data row 3: position x, y, z = (0, 1.5, 0) m is outside"),
+        (["short.csv", "--fig14-duration", "nan"], 2, "--fig14-duration must be in [2, 30] s"),
+        (["short.csv", "--out", ""], 2, "--out must name a folder"),
+    ],
+)
+def test_cli_bad_input_is_one_clear_line(tmp_path, args, code, message):
+    t = np.arange(3000) / 1000.0
+    cols = "t_s,T_in_N,T_out_N,x_m,y_m,z_m"
+    rows = np.column_stack([t, 5 + np.sin(t), 3 + np.sin(t), 0 * t, 0.5 + 0 * t, 0 * t])
+    np.savetxt(tmp_path / "short.csv", rows, fmt="%.6f", delimiter=",", header=cols, comments="")
+    long_t = np.arange(12000) / 1000.0
+    rows = np.column_stack(
+        [long_t, 5 + 0 * long_t, 3 + 0 * long_t, 0 * long_t, 0.5 + 0 * long_t, 0 * long_t]
+    )
+    rows[1, 4] = 1.5
+    np.savetxt(tmp_path / "outside.csv", rows, fmt="%.6f", delimiter=",", header=cols, comments="")
+    out = _bowden("audit", *args, cwd=tmp_path)
+    assert out.returncode == code, out.stdout + out.stderr
+    assert "Traceback" not in out.stderr
+    lines = [ln for ln in out.stderr.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("bowden audit: "), out.stderr
+    assert message in lines[0], lines[0]
+
+
+def test_emit_params_into_a_file_where_a_folder_is_needed_is_one_clear_line(tmp_path):
+    fmu_record(tmp_path, {}, 602, 12.0)
+    (tmp_path / "blocker").write_text("a file")
+    out = _bowden("audit", "rig.csv", "--emit-params", "blocker/p.json", "--quiet", cwd=tmp_path)
+    assert out.returncode == 1
+    assert "Traceback" not in out.stderr
+    assert out.stderr.strip().startswith("bowden audit:") and "blocker" in out.stderr
+
+
+@pytest.mark.parametrize(
+    "effect",
+    [
+        {},
+        {"sensor_offset": 0.5, "sensor_gain": 1.05},
+        {"mu_viscous": 2.0},
+        {"mu_tension_slope": 0.0015},
+        {"phi_offset_per_z": 0.8},
+        {"sensor_tau": 0.008},
+        {"sensor_delay": 0.007},
+        {"mu_drift": -4e-4, "mu_tension_slope": -0.001, "sensor_tau": 0.004},
+    ],
+)
+def test_twin_agrees_with_the_fmu(effect):
+    """The fitting twin and the FMU that reports, on the same inputs (4 s at 1 kHz, moving)."""
+    n, dt = 4000, 1e-3
+    t = np.arange(n) * dt
+    rng = np.random.default_rng(7)
+    t_in = 10 + 6 * np.sin(2 * np.pi * 0.9 * t) + 2 * np.sin(2 * np.pi * 2.7 * t + 1)
+    t_in = t_in + 0.01 * rng.standard_normal(n)
+    x, y, z = 0.05 * np.sin(t), 0.5 + 0.2 * np.sin(0.7 * t), 0.3 * np.sin(1.3 * t)
+    inputs = twin.PlantInputs(
+        t_in, bending_angle(x, y, z, 1.0, True), z, np.column_stack([x, y, z]), 0.0, dt, 1.0, True
+    )
+    params = {"mu": 0.08, **effect}
+    a = twin.simulate(inputs, params)
+    b = twin.run_fmu(inputs, params)
+    assert np.max(np.abs(a - b)) < 1e-4, np.max(np.abs(a - b))
