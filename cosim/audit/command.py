@@ -107,9 +107,14 @@ def main(args: argparse.Namespace) -> int:
                 "notes": notes,
             }
             result.extras["fig14"] = fig
-    except FileNotFoundError as exc:
+    except FileNotFoundError as exc:  # the FMU is not built
         bar.close()
         print(f"bowden audit: {exc}", file=sys.stderr)
+        return 1
+    except OSError as exc:  # --emit-params cannot be written
+        bar.close()
+        where = f": {exc.filename}" if exc.filename else ""
+        print(f"bowden audit: {exc.strerror or exc}{where}", file=sys.stderr)
         return 1
     except (RuntimeError, ValueError) as exc:
         bar.close()

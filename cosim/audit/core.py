@@ -77,9 +77,12 @@ class DecisionRule:
     - with a paired z (paired_z: against the sensor's noise) of at least `min_z`,
     - and remove at least `min_effect_rms_n` of RMS (1/256 N: one LSB of the project's Q7.8
       tensions; a smaller effect is below what the controller can act on) and at least
-      `min_effect_noise_ratio` times the noise floor: the input's smoothed sensor noise, passed
-      through the friction model, leaves a structured residual of about 0.33 sigma on FMU data
-      with no effect (0.0315 against 0.0299 N), part of which any candidate can absorb.
+      `min_effect_noise_ratio` times the combined sensor noise sqrt(sigma_out^2 + sigma_in^2):
+      the input's sensor noise, smoothed, still passes through the dead zone of the friction
+      model as a structured residual (the errors-in-variables bias of a hysteresis), which a
+      candidate can partly absorb: on FMU data with no effect an offset of 0.011 N took 0.28
+      sigma_out of it, and two candidates took 0.5 sigma_out on a closed-loop `bowden sim` trace
+      while explaining nothing on its report blocks.
     The largest such candidate is taken. It is marked ambiguous when the runner-up stops being
     significant once it is in the model and the two differ by a paired z under `separation_z`.
     At most `max_findings` rounds.
@@ -88,20 +91,22 @@ class DecisionRule:
     min_explained_pct: float = 2.0
     min_z: float = 4.0
     min_effect_rms_n: float = 1.0 / 256.0
-    min_effect_noise_ratio: float = 0.3
+    min_effect_noise_ratio: float = 0.5
     separation_z: float = 2.0
     max_findings: int = 4
 
-    def min_rms_n(self, noise_floor_n: float) -> float:
-        """The smallest RMS a finding must remove on data with this noise floor."""
-        return max(self.min_effect_rms_n, self.min_effect_noise_ratio * noise_floor_n)
+    def min_rms_n(self, noise_out_n: float, noise_in_n: float) -> float:
+        """The smallest RMS a finding must remove on data with these sensor noises."""
+        return max(
+            self.min_effect_rms_n, self.min_effect_noise_ratio * math.hypot(noise_out_n, noise_in_n)
+        )
 
     def text(self) -> str:
         return (
             f"a finding removes >= {self.min_explained_pct:g} % of the selection blocks' residual "
             f"mean square, with paired z >= {self.min_z:g} against the sensor noise and >= "
             f"{self.min_effect_rms_n * 1000:.1f} mN RMS and {self.min_effect_noise_ratio:g} x the "
-            "noise floor; the largest is taken, then the next round"
+            "combined sensor noise; the largest is taken, then the next round"
         )
 
 
@@ -584,7 +589,7 @@ def run(
             z = paired_z(data, r0, m.residual(data))
             rms_removed = math.sqrt(max(removed, 0.0))
             sig = pct >= rule.min_explained_pct and z >= rule.min_z
-            sig = sig and rms_removed >= rule.min_rms_n(data.noise_floor_n)
+            sig = sig and rms_removed >= rule.min_rms_n(data.noise_floor_n, data.input_noise_n)
             cands.append(Candidate(e, m, pct, rms_removed, z, sig))
         sig = sorted((c for c in cands if c.significant), key=lambda c: -c.explained_pct)
         chosen = sig[0] if sig else None
@@ -640,7 +645,7 @@ def _passes(data: AuditData, without: Model, with_: Model, rule: DecisionRule) -
     return (
         pct >= rule.min_explained_pct
         and z >= rule.min_z
-        and math.sqrt(max(removed, 0.0)) >= rule.min_rms_n(data.noise_floor_n)
+        and math.sqrt(max(removed, 0.0)) >= rule.min_rms_n(data.noise_floor_n, data.input_noise_n)
     )
 
 

@@ -119,7 +119,7 @@ def to_dict(result: AuditResult) -> dict:
             "min_z": result.rule.min_z,
             "min_effect_rms_n": result.rule.min_effect_rms_n,
             "min_effect_noise_ratio": result.rule.min_effect_noise_ratio,
-            "min_effect_rms_here_n": _num(result.rule.min_rms_n(d.noise_floor_n)),
+            "min_effect_rms_here_n": _num(result.rule.min_rms_n(d.noise_floor_n, d.input_noise_n)),
             "separation_z": result.rule.separation_z,
         },
         "baseline": {
