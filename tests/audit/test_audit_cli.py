@@ -142,7 +142,11 @@ def test_cli_reads_a_bowden_sim_trace(tmp_path):
     data = json.loads((tmp_path / "trace_audit" / "audit.json").read_text())
     assert data["decimation"] == 5 and data["data"]["mu_given"] == 0.075
     assert data["findings"] == []  # the plant of a default `bowden sim` run has no effect
-    assert data["gain"]["holdout_rms_before_n"] < 0.005
+    # The board's sensing chain (ADS1220 model at its DRDY times, the default interface) makes
+    # the recorded T_in an older, quantized view of the cable: about 0.02 N of residual that no
+    # cause explains, 0.1 % of the 15 N reference (0.0002 N with the ideal interface).
+    assert data["gain"]["holdout_rms_before_n"] < 0.05
+    assert data["unexplained"]["rms_n"] < 0.05
 
 
 @pytest.mark.parametrize(
