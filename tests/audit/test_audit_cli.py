@@ -154,7 +154,7 @@ def test_cli_reads_a_bowden_sim_trace(tmp_path):
     [
         (["missing.csv"], 2, "missing.csv: no such file"),
         (["short.csv"], 2, "the audit needs at least 10 s"),
-        (["outside.csv"], 2, "data row 3: position x, y, z = (0, 1.5, 0) m is outside"),
+        (["outside.csv"], 2, "data row 2: position x, y, z = (0, 1.5, 0) m is outside"),
         (["short.csv", "--fig14-duration", "nan"], 2, "--fig14-duration must be in [2, 30] s"),
         (["short.csv", "--out", ""], 2, "--out must name a folder"),
     ],
