@@ -30,7 +30,7 @@ N_SEEDS = int(sys.argv[1]) if len(sys.argv) > 1 else 3
 def main() -> int:
     bad = 0
     print(
-        f"{'cause':<28}{'seed':>6}  {'hidden':<30}{'found':<44}{'before':>8}{'after':>8}"
+        f"{'case':<28}{'seed':>6}  {'hidden':<30}{'found (explains_pct)':<44}{'before':>8}{'after':>8}"
         f"{'floor':>8}{'s':>6}"
     )
     cases = [(c, 1000 * (i + 1) + s) for i, c in enumerate(SEEDS) for s in range(N_SEEDS)]
@@ -64,12 +64,15 @@ def main() -> int:
         hidden = ", ".join(f"{k}={v:.4g}" for k, v in effect.items()) or "none"
         shown = (
             ", ".join(
-                f"{f.effect.cause}={f.value:.4g}"
+                f"{f.effect.cause}={f.value:.4g} ({f.explains_pct:.0f} %)"
                 + (f" (or {f.ambiguous_with})" if f.ambiguous_with else "")
                 for f in res.findings
             )
             or "none"
         )
+        if cause == "hum":
+            hidden = f"{hum[0]:.3f} N at 50 Hz"
+            shown += f"; left peaks at {res.unexplained['peak_hz']:.2f} Hz"
         print(
             f"{cause or 'none':<28}{seed:>6}  {hidden:<30}{shown:<44}"
             f"{res.holdout_rms_before_n:>8.4f}{res.holdout_rms_after_n:>8.4f}"
