@@ -30,8 +30,8 @@ N_SEEDS = int(sys.argv[1]) if len(sys.argv) > 1 else 3
 def main() -> int:
     bad = 0
     print(
-        f"{'case':<28}{'seed':>6}  {'hidden':<30}{'found (explains_pct)':<44}{'before':>8}{'after':>8}"
-        f"{'floor':>8}{'s':>6}"
+        f"{'case':<28}{'seed':>6}  {'hidden':<30}{'found (explains_pct)':<44}"
+        f"{'before':>8}{'after':>8}{'floor':>8}{'s':>6}"
     )
     cases = [(c, 1000 * (i + 1) + s) for i, c in enumerate(SEEDS) for s in range(N_SEEDS)]
     cases += [(None, 9000 + s) for s in range(N_SEEDS)]
