@@ -10,6 +10,7 @@ import sys
 import time
 from pathlib import Path
 
+from ..cliargs import output_dir
 from .params import FIG14_DEFAULT_DURATION_S
 
 
@@ -25,7 +26,10 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("data", help="measured trace: CSV with t_s, T_in_N, T_out_N (and more)")
     p.add_argument(
-        "--out", default=None, help="output folder (default: DATA's folder/<stem>_audit)"
+        "--out",
+        default=None,
+        type=output_dir,
+        help="output folder (default: DATA's folder/<stem>_audit)",
     )
     p.add_argument(
         "--emit-params",
@@ -81,9 +85,6 @@ def main(args: argparse.Namespace) -> int:
         )
         return 2
     out_dir = Path(args.out) if args.out else data_path.with_name(data_path.stem + "_audit")
-    if args.out is not None and not str(args.out).strip():
-        print("bowden audit: --out must name a folder; got ''", file=sys.stderr)
-        return 2
     try:
         tr = trace.read_trace(data_path, mode="measured")
         data = core.prepare(tr, str(data_path))

@@ -155,8 +155,9 @@ def test_cli_reads_a_bowden_sim_trace(tmp_path):
         (["missing.csv"], 2, "missing.csv: no such file"),
         (["short.csv"], 2, "the audit needs at least 10 s"),
         (["outside.csv"], 2, "data row 2: position x, y, z = (0, 1.5, 0) m is outside"),
-        (["short.csv", "--fig14-duration", "nan"], 2, "--fig14-duration must be in [2, 30] s"),
-        (["short.csv", "--out", ""], 2, "--out must name a folder"),
+        (["short.csv", "--fig14-duration", "1"], 2, "--fig14-duration must be in [2, 30] s"),
+        (["short.csv", "--fig14-duration", "nan"], 2, "--fig14-duration: expected a finite"),
+        (["short.csv", "--out", ""], 2, "--out: expected the name of a folder"),
     ],
 )
 def test_cli_bad_input_is_one_clear_line(tmp_path, args, code, message):
@@ -174,7 +175,7 @@ def test_cli_bad_input_is_one_clear_line(tmp_path, args, code, message):
     assert out.returncode == code, out.stdout + out.stderr
     assert "Traceback" not in out.stderr
     lines = [ln for ln in out.stderr.splitlines() if ln.strip()]
-    assert len(lines) == 1 and lines[0].startswith("bowden audit: "), out.stderr
+    assert len(lines) == 1 and lines[0].startswith("bowden audit"), out.stderr
     assert message in lines[0], lines[0]
 
 
