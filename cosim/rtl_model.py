@@ -9,8 +9,8 @@ Per sample tick (`TensionLoopModel.tick`):
     T_in = sat16(floor(((raw - ADC_OFFSET) * ADC_GAIN + 2^19) / 2^20))
     T_c' = T_c, or clamp(T_c, T_c'[n-1] - SLEW, T_c'[n-1] + SLEW) with CTRL.SLEW_EN
     e    = sat16(T_c' - T_in)
-    I'   = I if the previous output was saturated high and KI_TS*e > 0 (or low and < 0),
-           else clamp(I + KI_TS*e, +-I_LIMIT*2^16)                 (Q3.28, anti-windup)
+    I'   = clamp(I + s, +-I_LIMIT*2^16), s = 0 if the previous output was saturated high and
+           KI_TS*e > 0 (or low and < 0), else s = KI_TS*e          (Q3.28, anti-windup)
     r    = floor((Kff*T_c' + Kp*e + 2^8 + floor(I' / 2^7)) / 2^9)   (Q3.12, rounded)
     u    = clamp(r, +-I_LIMIT); saturated high/low = r > I_LIMIT / r < -I_LIMIT
 
@@ -223,9 +223,9 @@ class TensionLoopModel:
             pp = e * r["KP"]
             pi = e * r["KI_TS"]
             windup = (self.sat_hi and pi > 0) or (self.sat_lo and pi < 0)
-            if not windup:
-                integ_prev = _clamp(integ_prev + pi, -(lim << 16), lim << 16)
-            self.integ = integ_prev
+            # A held integrator is clamped too: I_LIMIT may have been lowered since it was stored.
+            step = 0 if windup else pi
+            self.integ = _clamp(integ_prev + step, -(lim << 16), lim << 16)
             r_out = (ff + pp + 256 + (self.integ >> 7)) >> 9
             self.u = _clamp(r_out, -lim, lim)
             self.sat_hi, self.sat_lo = r_out > lim, r_out < -lim

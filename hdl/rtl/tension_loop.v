@@ -9,8 +9,8 @@
  *   T_in = sat16(round((raw - ADC_OFFSET) * ADC_GAIN / 2^20))          Q7.8 N
  *   T_c' = T_c, or T_c'[n-1] moved towards T_c by at most SLEW (SLEW_EN)  Q7.8 N
  *   e    = sat16(T_c' - T_in)                                          Q7.8 N
- *   I'   = clamp(I + KI_TS*e, +-I_LIMIT), or I when the previous output was saturated
- *          in the direction KI_TS*e pushes (conditional integration, the anti-windup)   Q3.28 A
+ *   I'   = clamp(I + KI_TS*e, +-I_LIMIT), or clamp(I, +-I_LIMIT) when the previous output
+ *          was saturated in the direction KI_TS*e pushes (conditional integration)     Q3.28 A
  *   u    = clamp(round(Kff*T_c' + Kp*e + I'), +-I_LIMIT)                 Q3.12 A
  * The exact bit-level definition is the Python model cosim/rtl_model.py; hdl/README.md has
  * the formats and why this anti-windup scheme.
@@ -126,6 +126,9 @@ reg  [24:0] diff_reg, diff_next;
 reg  [16:0] hi_s_reg, hi_s_next;
 reg  [16:0] lo_s_reg, lo_s_next;
 reg  [31:0] iprev_reg, iprev_next;
+reg         iphi_reg, iphi_next;  // I entering the sample > +I_LIMIT (I_LIMIT lowered)
+reg         iplo_reg, iplo_next;  // I entering the sample < -I_LIMIT
+reg  [31:0] ihold_reg, ihold_next;  // clamp(I, +-I_LIMIT): the integrator when it holds
 
 // Pipeline.
 reg  [3:0]  det_reg, det_next;
@@ -228,6 +231,10 @@ wire [33:0] i_above = {lim28[32], lim28} - {isum_reg[32], isum_reg};
 wire [33:0] i_below = {isum_reg[32], isum_reg} - {nlim28[32], nlim28};
 wire [32:0] i_clamped = ihi_reg ? lim28 : ilo_reg ? nlim28 : isum_reg;
 wire windup = (sat_hi_reg && pi_pos_reg) || (sat_lo_reg && pi_neg_reg);
+// A held integrator is clamped too: I_LIMIT may have been lowered since I was stored (found by
+// the formal proof of hdl/formal/tension_loop.sby), so I' = clamp(I + (windup ? 0 : KI_TS*e)).
+wire [33:0] ip_above = {lim28[32], lim28} - {{2{iprev_reg[31]}}, iprev_reg};
+wire [33:0] ip_below = {{2{iprev_reg[31]}}, iprev_reg} - {nlim28[32], nlim28};
 
 // Clock 12: rounded sum, Q3.12 in 25 bits: |fp| < 2^32, |I >> 7| < 2^24, so 34 bits hold it
 // (the +2^8 in ff_reg turns the arithmetic shift's floor into rounding).
@@ -251,6 +258,7 @@ wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : 16'd0;
 // proven in range (slew result between two Q7.8 values, clamped integrator within +-2^31).
 wire unused_bits = &{1'b0, tce_slew[16], below_min[23:0], above_max[23:0], cal_sum_reg[19:0], i_clamped[32], v_sum[8:0],
                      r_above[24:0], r_below[24:0], i_above[32:0], i_below[32:0],
+                     ip_above[32:0], ip_below[32:0],
                      tc_above[16:0], tc_below[16:0]};
 
 always @* begin
@@ -290,6 +298,9 @@ always @* begin
     hi_s_next = hi_s_reg;
     lo_s_next = lo_s_reg;
     iprev_next = iprev_reg;
+    iphi_next = iphi_reg;
+    iplo_next = iplo_reg;
+    ihold_next = ihold_reg;
 
     det_next = det_reg;
     cmp_hi_next = cmp_hi_reg;
@@ -371,16 +382,18 @@ always @* begin
         nlim_next = -{1'b0, lim_s_reg};
     end
 
-    // Clock 2: detection, T_c'; low 9 bits of the difference (non-negative) times the gain.
+    // Clock 2: detection, T_c', the held integrator's clamp comparisons; low 9 bits of the difference (non-negative) times the gain.
     if (seq_reg[1]) begin
         det_next = en_s_reg ? detect : 4'd0;
+        iphi_next = ip_above[33];  // I > +I_LIMIT
+        iplo_next = ip_below[33];  // I < -I_LIMIT
         tce_s_next = slew_en_s_reg ? tce_slew[15:0] : tc_s_reg;
         m1_a = {7'd0, diff_reg[8:0]};
         m1_b = gain_s_reg;
     end
 
     // Clock 3: faults latch and the mode; feedforward product; high partial product arrives
-    // (+ 2^19: round at >> 20).
+    // (+ 2^19: round at >> 20); the held integrator, clamped.
     if (seq_reg[2]) begin
         fault_next = faults_now;
         run_next = en_s_reg && (faults_now == 4'd0);
@@ -388,6 +401,7 @@ always @* begin
         m2_a = tce_s_reg;
         m2_b = kff_s_reg;
         cal_acc_next = {m1_p, 9'd0} + 41'd524288;
+        ihold_next = iphi_reg ? lim28[31:0] : iplo_reg ? nlim28[31:0] : iprev_reg;
     end
 
     // Clock 4: calibration sum, (hi*g << 9) + lo*g + 2^19, 41 bits exact (|diff*g| < 2^40).
@@ -430,7 +444,7 @@ always @* begin
 
     // Clock 11: new integrator.
     if (seq_reg[10]) begin
-        inew_next = windup ? iprev_reg : i_clamped[31:0];
+        inew_next = windup ? ihold_reg : i_clamped[31:0];
     end
 
     // Clock 12: rounded output before saturation.
@@ -511,6 +525,9 @@ always @(posedge clk) begin
     hi_s_reg <= hi_s_next;
     lo_s_reg <= lo_s_next;
     iprev_reg <= iprev_next;
+    iphi_reg <= iphi_next;
+    iplo_reg <= iplo_next;
+    ihold_reg <= ihold_next;
     det_reg <= det_next;
     cmp_hi_reg <= cmp_hi_next;
     cmp_lo_reg <= cmp_lo_next;
@@ -583,6 +600,257 @@ assign t_in = t_in_reg;
 assign integ = integ_reg;
 assign tc_eff = tc_eff_reg;
 assign sample_count = sample_cnt_reg;
+
+`ifdef FORMAL
+// --- formal properties (hdl/formal/tension_loop.sby; hdl/README.md says what is proven) ----
+//
+// Safety properties 1, 3 and 4 of issue 12 against a spec-level shadow of the inputs
+// (f_* registers, written from the ports, not from the pipeline). The environment (reset at
+// start, ticks at least LATENCY clocks apart) is assumed when this module is the top of the
+// proof and asserted when it sits inside bowden_core, which must then guarantee it.
+`ifdef FORMAL_TENSION_LOOP_TOP
+`define TL_ENV assume
+`else
+`define TL_ENV assert
+`endif
+
+reg f_past_valid = 1'b0;
+always @(posedge clk) f_past_valid <= 1'b1;
+
+always @* if (!f_past_valid) assume(rst);
+
+// Clocks since the last tick, saturating at LATENCY (LATENCY also after reset: idle).
+localparam [3:0] F_LAT = LATENCY;
+reg [3:0] f_since_tick = F_LAT;
+always @(posedge clk) begin
+    if (rst) f_since_tick <= F_LAT;
+    else if (tick) f_since_tick <= 4'd1;
+    else if (f_since_tick != F_LAT) f_since_tick <= f_since_tick + 4'd1;
+end
+always @* if (f_past_valid && !rst && tick) `TL_ENV(f_since_tick == F_LAT);
+
+// One sample in flight at a time: the schedule is the position in the sample.
+wire [LATENCY-2:0] f_seq_exp = (f_since_tick == F_LAT) ? {(LATENCY-1){1'b0}} :
+                               {{(LATENCY-2){1'b0}}, 1'b1} << (f_since_tick - 4'd1);
+always @* if (f_past_valid) assert(seq_reg == f_seq_exp);
+
+// --- shadow of the events of a sample (taken from the ports) ------------------------------
+
+reg        f_fresh, f_tcw, f_fclr, f_irst; // since the last tick
+reg [23:0] f_raw;                          // latest ADC sample
+reg        f_en_s, f_fclr_s;               // snapshot at the tick
+reg [23:0] f_raw_s, f_min_s, f_max_s;
+reg [15:0] f_stale_to_s, f_wdt_to_s, f_oc_to_s;
+reg [14:0] f_lim_s;
+reg [15:0] f_stale, f_wdt, f_oc;          // the counters as the register map defines them
+reg [3:0]  f_fault_tick;                   // FAULT at the tick
+reg [14:0] f_ulim;                         // I_LIMIT of the sample that made u (run)
+reg        f_sat_hi, f_sat_lo;             // the last command was clipped high / low
+reg signed [31:0] f_pi;                    // integrator increment KI_TS*e of this sample
+reg [31:0] f_iprev;                        // integrator entering this sample
+
+wire [23:0] f_raw_now = adc_valid ? adc_data : f_raw;
+wire        f_fresh_now = f_fresh || adc_valid;
+wire        f_tcw_now = f_tcw || tc_wr;
+wire        f_fclr_now = f_fclr || fault_clear;
+wire        f_irst_now = f_irst || integ_reset;
+wire [15:0] f_stale_base = f_fclr_now ? 16'd0 : f_stale;
+wire [15:0] f_wdt_base = f_fclr_now ? 16'd0 : f_wdt;
+wire [15:0] f_stale_now = f_fresh_now ? 16'd0 :
+                          f_stale_base + {15'd0, f_stale_base != 16'hFFFF};
+wire [15:0] f_wdt_now = (!enable || f_tcw_now) ? 16'd0 :
+                        f_wdt_base + {15'd0, f_wdt_base != 16'hFFFF};
+// Detection from the snapshot: the register map's definition of each fault.
+wire f_range_bad = ($signed(f_raw_s) < $signed(f_min_s)) || ($signed(f_raw_s) > $signed(f_max_s));
+wire [3:0] f_detect = {(f_oc_to_s != 16'd0) && (f_oc >= f_oc_to_s),
+                      (f_wdt_to_s != 16'd0) && (f_wdt >= f_wdt_to_s),
+                      f_range_bad,
+                      (f_stale_to_s != 16'd0) && (f_stale >= f_stale_to_s)};
+wire [3:0] f_fault_exp = (f_fclr_s ? 4'd0 : f_fault_tick) | (f_en_s ? f_detect : 4'd0);
+
+// The watchdog ramp of a command: towards zero by WDT_RAMP_STEP, never past it.
+function [15:0] f_ramp;
+    input [15:0] x;
+    begin
+        if ($signed(x) > $signed(WDT_RAMP_STEP)) f_ramp = x - WDT_RAMP_STEP;
+        else if ($signed(x) < -$signed(WDT_RAMP_STEP)) f_ramp = x + WDT_RAMP_STEP;
+        else f_ramp = 16'd0;
+    end
+endfunction
+
+wire f_run_done = seq_reg[13] && run_reg;   // the clock a running sample sets u
+wire f_stop_done = seq_reg[13] && !run_reg;
+
+always @(posedge clk) begin
+    f_fresh <= tick ? 1'b0 : f_fresh_now;
+    f_tcw <= tick ? 1'b0 : f_tcw_now;
+    f_fclr <= tick ? 1'b0 : f_fclr_now;
+    f_irst <= tick ? 1'b0 : f_irst_now;
+    f_raw <= f_raw_now;
+    if (tick) begin
+        f_en_s <= enable;
+        f_fclr_s <= f_fclr_now;
+        f_raw_s <= f_raw_now;
+        f_min_s <= adc_min;
+        f_max_s <= adc_max;
+        f_stale_to_s <= adc_stale;
+        f_wdt_to_s <= wdt_timeout;
+        f_oc_to_s <= oc_timeout;
+        f_lim_s <= i_limit;
+        f_stale <= f_stale_now;
+        f_wdt <= f_wdt_now;
+        if (f_fclr_now) f_oc <= 16'd0;
+        f_fault_tick <= fault_reg;
+        f_iprev <= f_irst_now ? 32'd0 : integ_reg;
+    end
+    if (seq_reg[8]) f_pi <= m2_p;
+    if (f_run_done) begin
+        f_ulim <= lim_s_reg;
+        f_sat_hi <= rhi_reg;
+        f_sat_lo <= rlo_reg;
+        f_oc <= (rhi_reg || rlo_reg) ? f_oc + {15'd0, f_oc != 16'hFFFF} : 16'd0;
+    end
+    if (f_stop_done) begin
+        f_sat_hi <= 1'b0;
+        f_sat_lo <= 1'b0;
+        f_oc <= 16'd0;
+    end
+    if (rst) begin
+        f_fresh <= 1'b0;
+        f_tcw <= 1'b0;
+        f_fclr <= 1'b0;
+        f_irst <= 1'b0;
+        f_raw <= 24'd0;
+        f_stale <= 16'd0;
+        f_wdt <= 16'd0;
+        f_oc <= 16'd0;
+        f_ulim <= 15'd0;
+        f_sat_hi <= 1'b0;
+        f_sat_lo <= 1'b0;
+    end
+end
+
+// The shadow counters are the RTL's (which stop at 2^16, above every threshold).
+always @* if (f_past_valid && !rst) begin
+    assert(f_stale == (stale_cnt_reg[16] ? 16'hFFFF : stale_cnt_reg[15:0]));
+    assert(f_wdt == (wdt_cnt_reg[16] ? 16'hFFFF : wdt_cnt_reg[15:0]));
+    assert(f_oc == (oc_cnt_reg[16] ? 16'hFFFF : oc_cnt_reg[15:0]));
+    assert(raw_reg == f_raw);
+    assert(fresh_reg == f_fresh && tcw_pend_reg == f_tcw && fclr_pend_reg == f_fclr);
+    assert(irst_pend_reg == f_irst);
+    assert(sat_hi_reg == f_sat_hi && sat_lo_reg == f_sat_lo);
+    assert(!(sat_hi_reg && sat_lo_reg));
+end
+
+// While a sample is in flight its snapshot is the shadow's (helpers for the induction).
+wire f_busy = f_since_tick != F_LAT;
+always @* if (f_past_valid && !rst && f_busy) begin
+    assert(en_s_reg == f_en_s && lim_s_reg == f_lim_s && iprev_reg == f_iprev);
+    assert(fbase_s_reg == (f_fclr_s ? 4'd0 : f_fault_tick));
+    if (f_since_tick >= 4'd2) assert(nlim_reg == -{1'b0, lim_s_reg});
+    if (f_since_tick >= 4'd10) begin
+        assert(pi_pos_reg == ($signed(f_pi) > 0));
+        assert(pi_neg_reg == ($signed(f_pi) < 0));
+    end
+    if (f_since_tick <= 4'd3) assert(fault_reg == f_fault_tick);
+end
+
+// --- property 1: the current command ------------------------------------------------------
+
+wire signed [15:0] f_u = $signed(u_reg);
+wire signed [16:0] f_lim_pos = $signed({2'b00, f_ulim});
+always @* if (f_past_valid) begin
+    // Never beyond the I_LIMIT it was computed with (a watchdog ramp only shrinks it).
+    assert(f_u <= f_lim_pos && f_u >= -f_lim_pos);
+    // Zero whenever the drive is disabled.
+    if (!out_en_reg) assert(u_reg == 16'd0);
+end
+
+// A running sample clips to the I_LIMIT taken at its tick.
+always @(posedge clk) if (f_past_valid && !$past(rst) && $past(f_run_done)) begin
+    assert(out_en_reg);
+    assert(f_ulim == $past(f_lim_s));
+end
+
+// A stopped sample: zero, or one ramp step towards zero under a watchdog-only fault.
+always @(posedge clk) if (f_past_valid && !$past(rst) && $past(f_stop_done)) begin
+    if ($past(f_en_s) && $past(fault_reg) == F_WDT) begin
+        assert(u_reg == f_ramp($past(u_reg)));
+        assert(out_en_reg == (u_reg != 16'd0));
+        assert(ramp_st_reg == out_en_reg);
+    end else begin
+        assert(u_reg == 16'd0 && !out_en_reg && !ramp_st_reg);
+    end
+end
+
+// u and the drive enable change only when a sample ends (or at reset).
+always @(posedge clk) if (f_past_valid && !$past(rst) && !$past(seq_reg[13])) begin
+    assert($stable(u_reg) && $stable(out_en_reg) && $stable(integ_reg));
+end
+
+// --- property 3: the integrator -----------------------------------------------------------
+
+wire signed [32:0] f_ilim = $signed({2'b00, f_ulim, 16'd0});
+always @* if (f_past_valid) begin
+    assert($signed(integ_reg) <= f_ilim && $signed(integ_reg) >= -f_ilim);
+    if (!out_en_reg || wdt_ramp) assert(integ_reg == 32'd0);
+end
+
+// Anti-windup: after a command clipped high, no integration upwards (and low, downwards): the
+// integrator holds, only clamped to the sample's I_LIMIT.
+wire signed [32:0] f_ilim_s = $signed({2'b00, f_lim_s, 16'd0});
+wire signed [32:0] f_iprev_c = ($signed(f_iprev) > f_ilim_s) ? f_ilim_s :
+                               ($signed(f_iprev) < -f_ilim_s) ? -f_ilim_s : $signed(f_iprev);
+wire f_hold = (f_sat_hi && $signed(f_pi) > 0) || (f_sat_lo && $signed(f_pi) < 0);
+always @(posedge clk) if (f_past_valid && !$past(rst) && $past(f_run_done) && $past(f_hold))
+    assert(integ_reg == $past(f_iprev_c[31:0]));
+
+// --- property 4: faults ---------------------------------------------------------------------
+
+// FAULT changes only on the third clock of a sample, to exactly the register map's definition:
+// latched bits stay until FAULT_CLEAR, new bits come only while enabled.
+always @(posedge clk) if (f_past_valid && !$past(rst)) begin
+    if ($past(seq_reg[2])) assert(fault_reg == $past(f_fault_exp));
+    else assert($stable(fault_reg));
+end
+
+// Any fault but the watchdog alone: u = 0 and the drive disabled within F_SAFE_CLKS clocks of
+// latching (the end of the sample that found it, 15 clocks after its tick), ramp or not.
+localparam F_SAFE_CLKS = 11;
+reg [3:0] f_hard_age;
+always @(posedge clk) begin
+    if (rst || (fault_reg & ~F_WDT) == 4'd0) f_hard_age <= 4'd0;
+    else if (f_hard_age != 4'd15) f_hard_age <= f_hard_age + 4'd1;
+end
+always @* if (f_past_valid && !rst && f_hard_age >= F_SAFE_CLKS)
+    assert(u_reg == 16'd0 && !out_en_reg && !ramp_st_reg);
+
+// Reset: outputs safe on the next clock.
+always @(posedge clk) if (f_past_valid && $past(rst)) begin
+    assert(u_reg == 16'd0 && !out_en_reg && fault_reg == 4'd0 && integ_reg == 32'd0);
+end
+
+// --- covers: each property's interesting case is reachable ---------------------------------
+
+always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
+    cover(out_en_reg && f_ulim != 15'd0 && f_u == f_lim_pos);             // clipped high
+    cover(out_en_reg && f_ulim != 15'd0 && f_u == -f_lim_pos);            // clipped low
+    cover(f_ulim != 15'd0 && $signed(integ_reg) == f_ilim);               // integrator clamp
+    cover($past(f_run_done) && $past(f_sat_hi) && $signed($past(f_pi)) > 0 &&
+          integ_reg != 32'd0 && integ_reg == $past(f_iprev));            // windup held
+    cover($past(f_run_done) && $past(f_hold) && integ_reg != $past(f_iprev)); // held, clamped
+    cover($rose(fault_reg[0]));                                           // ADC stale
+    cover($rose(fault_reg[1]));                                           // ADC range
+    cover($rose(fault_reg[3]));                                           // over-current
+    cover($rose(fault_reg[2]) && out_en_reg && u_reg != 16'd0);           // watchdog trips
+    cover(ramp_st_reg && $past(ramp_st_reg) && $changed(u_reg));          // ramping
+    cover(fault_reg == F_WDT && $fell(out_en_reg) && $past(ramp_st_reg)); // ramp done
+    cover(fault_reg == (F_WDT | 4'b0010) && $fell(out_en_reg));           // watchdog + range
+    cover($past(fault_reg) != 4'd0 && fault_reg == 4'd0);                 // fault cleared
+end
+
+`undef TL_ENV
+`endif
 
 endmodule
 

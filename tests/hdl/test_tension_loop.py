@@ -251,6 +251,71 @@ async def windup_and_recovery(dut):
 
 
 @cocotb.test()
+async def held_integrator_follows_a_lowered_limit(dut):
+    """I_LIMIT lowered while the output is clipped high: the held integrator is clamped to it.
+
+    Found by the formal proof (hdl/formal/tension_loop.sby): the anti-windup held I unclamped,
+    so after I_LIMIT dropped from 4 A to 1 A the integrator stayed near 4 A, outside its clamp.
+    """
+    tb = LoopTb(dut)
+    await tb.start()
+    tb.write("WDT_TIMEOUT", 0)
+    tb.write("OC_TIMEOUT", 0)
+    tb.write("KP", 0)
+    tb.write("KI_TS", 32767)  # 1/32 A/N per sample
+    await _enable(tb)
+    tb.write("TC", 20 * 256)  # 20 N asked (1.76 A feedforward), 0 N measured: clips high
+    for _ in range(80):
+        await tb.sample(_code(tb, 0))
+    assert tb.last.saturated and tb.last.u == 16384
+    assert tb.last.integ > 4096 << 16, "the integrator should be above the lower limit"
+    tb.write("I_LIMIT", 4096)  # 1 A, still clipped high with e > 0: the integrator holds
+    await tb.sample(_code(tb, 0))
+    assert tb.last.u == 4096 and tb.last.integ == 4096 << 16, vars(tb.last)
+    await tb.sample(_code(tb, 0))
+    assert tb.last.u == 4096 and tb.last.integ == 4096 << 16, vars(tb.last)
+
+
+@cocotb.test()
+async def watchdog_with_another_fault_goes_to_zero(dut):
+    """Watchdog ramping, then an ADC fault: u is zero and the drive off at once, no ramp.
+
+    And the other order: an ADC fault first, the watchdog after it, keeps u at zero.
+    """
+    tb = LoopTb(dut)
+    await tb.start()
+    tb.write("WDT_TIMEOUT", 3)
+    tb.write("KP", 8192)  # 1 A/N: a large command to ramp down from
+    await _enable(tb)
+    for _ in range(3):
+        tb.write("TC", 2 * 256)
+        await tb.sample(_code(tb, 0))
+    assert tb.last.faults == 0 and tb.last.u > 20 * WDT_RAMP_STEP
+    while not tb.last.wdt_ramp:
+        await tb.sample(_code(tb, 0))
+    u_ramp = tb.last.u
+    await tb.sample(_code(tb, 0))
+    assert tb.last.wdt_ramp and tb.last.u == u_ramp - WDT_RAMP_STEP
+    await tb.sample((1 << 23) - 1)  # clipped code, outside ADC_MAX
+    assert tb.last.faults == FAULT_WATCHDOG | FAULT_ADC_RANGE
+    assert tb.last.u == 0 and not tb.last.out_en and not tb.last.wdt_ramp
+    for _ in range(3):
+        await tb.sample(_code(tb, 0))
+        assert tb.last.u == 0 and not tb.last.out_en
+    # Clear, run, then the range fault first and the watchdog on top of it.
+    tb.write("CTRL", regmap.CTRL_ENABLE | regmap.CTRL_FAULT_CLEAR)
+    tb.write("TC", 2 * 256)
+    await tb.sample(_code(tb, 0))
+    assert tb.last.faults == 0 and tb.last.out_en and tb.last.u > 0
+    await tb.sample(-(1 << 23))
+    assert tb.last.faults == FAULT_ADC_RANGE and tb.last.u == 0
+    while not tb.last.faults & FAULT_WATCHDOG:
+        await tb.sample(_code(tb, 0))
+    assert tb.last.faults == FAULT_WATCHDOG | FAULT_ADC_RANGE
+    assert tb.last.u == 0 and not tb.last.out_en and not tb.last.wdt_ramp
+
+
+@cocotb.test()
 async def reset_in_mid_run(dut):
     """Reset during operation leaves the output disabled with registers at reset values."""
     tb = LoopTb(dut)
