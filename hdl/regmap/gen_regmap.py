@@ -333,10 +333,125 @@ def gen_verilog(spec: dict) -> str:
     w("// Unused write-data bits: registers narrower than 32 bits ignore the rest.")
     w("wire unused_wr_bits = &{1'b0, reg_wr_data, wr_mask, reg_wr_addr[1:0], reg_rd_addr[1:0]};")
     w("")
+    out.extend(gen_formal(spec))
     w("endmodule")
     w("")
     w("`resetall")
     return "\n".join(out) + "\n"
+
+
+def gen_formal(spec: dict) -> list[str]:
+    """The register map's contract as formal properties (issue 12, property 6), from the table.
+
+    Written as a word-level model independent of the field-level logic above: one word address
+    f_a, free and fixed (anyconst), stands for every address; its shadow f_w starts at the
+    table's reset word and takes every write with its byte strobes. Every rw field output equals
+    its bits of the shadow, write pulses follow their writes by one clock, unmapped addresses
+    answer an error, and a read returns the shadow's rw and const bits three clocks later. Writes
+    to other words, read-only registers and unmapped addresses therefore change nothing.
+    """
+    regs = spec["registers"]
+    out: list[str] = []
+    w = out.append
+
+    def masks(reg: dict) -> tuple[int, int, int]:
+        reset = rw = const = 0
+        for f in reg["fields"]:
+            m = ((1 << f["width"]) - 1) << f["lsb"]
+            if f["access"] in ("rw", "const"):
+                reset |= reset_bits(f) << f["lsb"]
+            if f["access"] == "rw":
+                rw |= m
+            elif f["access"] == "const":
+                const |= m
+        return reset, rw, const
+
+    w("`ifdef FORMAL")
+    w("// --- formal contract of the map (hdl/formal/bowden_core.sby), generated from the table ---")
+    w("reg f_past_valid = 1'b0;")
+    w("always @(posedge clk) f_past_valid <= 1'b1;")
+    w("always @* if (!f_past_valid) assume(rst);")
+    w("")
+    w("(* anyconst *) reg [ADDR_W-3:0] f_a;  // the word address under watch")
+    w("reg [31:0] f_w;  // its shadow")
+    tables = {"f_reset": [], "f_rw_mask": [], "f_const_mask": []}
+    for reg in regs:
+        reset, rw, const = masks(reg)
+        for key, value in zip(tables, (reset, rw, const)):
+            tables[key].append(f"(f_a == A_{reg['name']}) ? 32'h{value:08X} :")
+    for key, rows in tables.items():
+        w(f"wire [31:0] {key} =")
+        out.extend("    " + row for row in rows)
+        w("    32'd0;")
+    for sig, word in (("f_a_mapped", "f_a"), ("f_wr_mapped", "wr_word")):
+        w(f"wire {sig} = " + " ||".join(f"\n    ({word} == A_{reg['name']})" for reg in regs) + ";")
+    w("")
+    w("wire [31:0] f_strb = {{8{reg_wr_strb[3]}}, {8{reg_wr_strb[2]}}, {8{reg_wr_strb[1]}},")
+    w("                      {8{reg_wr_strb[0]}}};")
+    w("wire f_wr_a = reg_wr_en && wr_word == f_a;")
+    w("reg [2:0] f_rd_a;    // a read of f_a one, two, three clocks ago")
+    w("reg [31:0] f_w_rd1, f_w_rd2;  // the shadow when those reads sampled the registers")
+    w("always @(posedge clk) begin")
+    w("    if (f_wr_a) f_w <= (f_w & ~f_strb) | (reg_wr_data & f_strb);")
+    w("    f_rd_a <= {f_rd_a[1:0], reg_rd_en && rd_word == f_a};")
+    w("    f_w_rd1 <= f_w;")
+    w("    f_w_rd2 <= f_w_rd1;")
+    w("    if (rst) begin")
+    w("        f_w <= f_reset;")
+    w("        f_rd_a <= 3'd0;")
+    w("    end")
+    w("end")
+    w("")
+    w("always @* if (f_past_valid && !rst) begin")
+    for reg in regs:
+        for f in reg["fields"]:
+            if f["access"] != "rw":
+                continue
+            hi, lo = f["lsb"] + f["width"] - 1, f["lsb"]
+            sl = f"[{hi}:{lo}]" if f["width"] > 1 else f"[{lo}]"
+            w(f"    if (f_a == A_{reg['name']}) assert({port(reg, f)} == f_w{sl});")
+    w("    assert(reg_wr_err == (reg_wr_en && !f_wr_mapped));")
+    w("    if (f_rd_a[2]) begin")
+    w("        assert(reg_rd_valid);")
+    w("        assert(reg_rd_err == !f_a_mapped);")
+    w("        assert((reg_rd_data & f_rw_mask) == (f_w_rd2 & f_rw_mask));")
+    w("        assert((reg_rd_data & f_const_mask) == (f_reset & f_const_mask));")
+    w("        if (!f_a_mapped) assert(reg_rd_data == 32'd0);")
+    w("    end")
+    w("end")
+    w("")
+    w("// Write pulses: one clock after their write, never otherwise.")
+    w("always @(posedge clk) if (f_past_valid) begin")
+    w("    if ($past(rst)) begin")
+    for reg in regs:
+        for f in reg["fields"]:
+            if f["access"] == "w1p":
+                w(f"        assert(!{port(reg, f)});")
+        if reg.get("wr_pulse"):
+            w(f"        assert(!{reg['name'].lower()}_wr);")
+    w("    end else begin")
+    for reg in regs:
+        for f in reg["fields"]:
+            if f["access"] == "w1p":
+                w(
+                    f"        assert({port(reg, f)} == $past(reg_wr_en && wr_word == A_{reg['name']}"
+                    f" && reg_wr_data[{f['lsb']}] && reg_wr_strb[{f['lsb'] // 8}]));"
+                )
+        if reg.get("wr_pulse"):
+            n = reg["name"]
+            w(f"        assert({n.lower()}_wr == $past(reg_wr_en && wr_word == A_{n}));")
+    w("        assert(reg_rd_valid == $past(rd_pend2));")
+    w("    end")
+    w("end")
+    w("")
+    w("always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin")
+    w("    cover(f_rd_a[2] && f_rw_mask != 32'd0 && (f_w_rd2 & f_rw_mask) != (f_reset & f_rw_mask));")
+    w("    cover(f_rd_a[2] && !f_a_mapped);")
+    w("    cover(reg_wr_err);")
+    w("end")
+    w("`endif")
+    w("")
+    return out
 
 
 # --- C ------------------------------------------------------------------------------------------

@@ -109,6 +109,85 @@ assign reg_rd_addr = s_axil_araddr;
 // Protection attributes carry no meaning for these registers.
 wire unused_prot = &{1'b0, s_axil_awprot, s_axil_arprot};
 
+`ifdef FORMAL
+// --- formal properties (hdl/formal/bowden_core.sby; hdl/README.md says what is proven) -----
+//
+// Property 5 of issue 12, slave side: under the AXI4-Lite rules for the master (assumed), every
+// request gets exactly one response, in order, within a bounded time, never a response without
+// a request, and the response code is the register file's error flag for that address.
+
+reg f_past_valid = 1'b0;
+always @(posedge clk) f_past_valid <= 1'b1;
+always @* if (!f_past_valid) assume(rst);
+
+// The master: no valid during reset; a valid stays, with its payload, until it is taken.
+always @* if (rst) assume(!s_axil_awvalid && !s_axil_wvalid && !s_axil_arvalid);
+always @(posedge clk) if (f_past_valid && !$past(rst)) begin
+    if ($past(s_axil_awvalid && !s_axil_awready))
+        assume(s_axil_awvalid && $stable(s_axil_awaddr) && $stable(s_axil_awprot));
+    if ($past(s_axil_wvalid && !s_axil_wready))
+        assume(s_axil_wvalid && $stable(s_axil_wdata) && $stable(s_axil_wstrb));
+    if ($past(s_axil_arvalid && !s_axil_arready))
+        assume(s_axil_arvalid && $stable(s_axil_araddr) && $stable(s_axil_arprot));
+end
+
+// Outstanding requests (accepted, not yet answered) per channel.
+reg [1:0] f_wr_out, f_rd_out;
+reg [2:0] f_rd_age;  // clocks the outstanding read has waited
+reg       f_wr_err;  // the register file refused the outstanding write
+wire f_aw_hs = s_axil_awvalid && s_axil_awready;
+wire f_w_hs = s_axil_wvalid && s_axil_wready;
+wire f_ar_hs = s_axil_arvalid && s_axil_arready;
+wire f_b_hs = s_axil_bvalid && s_axil_bready;
+wire f_r_hs = s_axil_rvalid && s_axil_rready;
+always @(posedge clk) begin
+    f_wr_out <= f_wr_out + {1'b0, f_aw_hs} - {1'b0, f_b_hs};
+    f_rd_out <= f_rd_out + {1'b0, f_ar_hs} - {1'b0, f_r_hs};
+    f_rd_age <= (f_rd_out != 2'd0 && !s_axil_rvalid) ? f_rd_age + 3'd1 : 3'd0;
+    if (f_aw_hs) f_wr_err <= reg_wr_err;
+    if (rst) begin
+        f_wr_out <= 2'd0;
+        f_rd_out <= 2'd0;
+        f_rd_age <= 3'd0;
+    end
+end
+
+always @* if (f_past_valid && !rst) begin
+    // Address and data are taken together, one write and one read at a time.
+    assert(s_axil_awready == s_axil_wready);
+    assert(f_wr_out <= 2'd1 && f_rd_out <= 2'd1);
+    // A response exactly for an outstanding request (none without one, none twice).
+    assert(s_axil_bvalid == (f_wr_out == 2'd1));
+    if (s_axil_rvalid) assert(f_rd_out == 2'd1);
+    if (s_axil_awready) assert(f_wr_out == 2'd0 || f_b_hs);
+    if (s_axil_arready) assert(f_rd_out == 2'd0);
+    // No deadlock: a read is answered within 4 clocks, a write on the next clock (above), and
+    // a request finding nothing outstanding is taken at once.
+    assert(f_rd_age <= 3'd3);
+    if (s_axil_awvalid && s_axil_wvalid && f_wr_out == 2'd0) assert(s_axil_awready);
+    if (s_axil_arvalid && f_rd_out == 2'd0) assert(s_axil_arready);
+    // The write response is the register file's verdict (SLVERR for unmapped, else OKAY).
+    if (s_axil_bvalid) assert(s_axil_bresp == (f_wr_err ? RESP_SLVERR : RESP_OKAY));
+    if (s_axil_rvalid) assert(s_axil_rresp == (reg_rd_err ? RESP_SLVERR : RESP_OKAY));
+    // Helpers for the induction: the read in flight.
+    assert(rwait_reg == (f_rd_out == 2'd1 && !s_axil_rvalid));
+end
+
+// A response waits, unchanged, until it is taken.
+always @(posedge clk) if (f_past_valid && !$past(rst)) begin
+    if ($past(s_axil_bvalid && !s_axil_bready)) assert(s_axil_bvalid && $stable(s_axil_bresp));
+    if ($past(s_axil_rvalid && !s_axil_rready))
+        assert(s_axil_rvalid && $stable(s_axil_rdata) && $stable(s_axil_rresp));
+end
+
+always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
+    cover(f_b_hs && s_axil_bresp == RESP_SLVERR);
+    cover(f_r_hs && s_axil_rresp == RESP_SLVERR);
+    cover($past(f_r_hs) && f_ar_hs);  // a read right after the last one's response
+    cover($past(s_axil_bvalid && !s_axil_bready) && f_b_hs);  // a stalled response
+end
+`endif
+
 endmodule
 
 `resetall

@@ -179,6 +179,37 @@ assign cmd_valid = out_valid;
 assign fault = |faults;
 assign sample_tick = tick_reg;
 
+`ifdef FORMAL
+// --- formal properties (hdl/formal/bowden_core.sby; hdl/README.md says what is proven) -----
+//
+// The sub-modules carry their own properties; here tension_loop's environment (ticks at least
+// 15 clocks apart) is asserted, not assumed, so the composition is proven. The core adds the
+// sample period and the drive outputs as the board sees them.
+
+reg f_past_valid = 1'b0;
+always @(posedge clk) f_past_valid <= 1'b1;
+always @* if (!f_past_valid) assume(rst);
+
+always @* if (f_past_valid && !rst) begin
+    assert(tick_cnt_reg <= TICK_LAST);
+    assert(tick_reg == (tick_cnt_reg == {CNT_W{1'b0}} && f_ticked));
+    // The drive: zero current whenever it is disabled.
+    if (!cmd_enable) assert(cmd_current == 16'd0);
+end
+
+// A tick every CLKS_PER_SAMPLE clocks, the first CLKS_PER_SAMPLE clocks after reset.
+reg f_ticked;
+always @(posedge clk) begin
+    if (tick_next) f_ticked <= 1'b1;
+    if (rst) f_ticked <= 1'b0;
+end
+
+always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
+    cover(sample_tick && $past(f_ticked));
+    cover(fault && !cmd_enable && $past(cmd_enable));
+end
+`endif
+
 endmodule
 
 `resetall

@@ -441,6 +441,196 @@ assign reg_rd_valid = rd_valid;
 // Unused write-data bits: registers narrower than 32 bits ignore the rest.
 wire unused_wr_bits = &{1'b0, reg_wr_data, wr_mask, reg_wr_addr[1:0], reg_rd_addr[1:0]};
 
+`ifdef FORMAL
+// --- formal contract of the map (hdl/formal/bowden_core.sby), generated from the table ---
+reg f_past_valid = 1'b0;
+always @(posedge clk) f_past_valid <= 1'b1;
+always @* if (!f_past_valid) assume(rst);
+
+(* anyconst *) reg [ADDR_W-3:0] f_a;  // the word address under watch
+reg [31:0] f_w;  // its shadow
+wire [31:0] f_reset =
+    (f_a == A_ID) ? 32'h424F0100 :
+    (f_a == A_CTRL) ? 32'h00000000 :
+    (f_a == A_STATUS) ? 32'h00000000 :
+    (f_a == A_FAULT) ? 32'h00000000 :
+    (f_a == A_TC) ? 32'h00000000 :
+    (f_a == A_KFF) ? 32'h000002D1 :
+    (f_a == A_KP) ? 32'h0000019A :
+    (f_a == A_KI_TS) ? 32'h00000831 :
+    (f_a == A_I_LIMIT) ? 32'h00004000 :
+    (f_a == A_SLEW) ? 32'h00000080 :
+    (f_a == A_WDT_TIMEOUT) ? 32'h000003E8 :
+    (f_a == A_ADC_OFFSET) ? 32'h00000000 :
+    (f_a == A_ADC_GAIN) ? 32'h00000800 :
+    (f_a == A_ADC_MIN) ? 32'h00800001 :
+    (f_a == A_ADC_MAX) ? 32'h007FFFFE :
+    (f_a == A_ADC_STALE) ? 32'h0000000A :
+    (f_a == A_OC_TIMEOUT) ? 32'h00001388 :
+    (f_a == A_SAMPLE_COUNT) ? 32'h00000000 :
+    (f_a == A_T_IN) ? 32'h00000000 :
+    (f_a == A_U) ? 32'h00000000 :
+    (f_a == A_INTEG) ? 32'h00000000 :
+    (f_a == A_TC_EFF) ? 32'h00000000 :
+    32'd0;
+wire [31:0] f_rw_mask =
+    (f_a == A_ID) ? 32'h00000000 :
+    (f_a == A_CTRL) ? 32'h00000009 :
+    (f_a == A_STATUS) ? 32'h00000000 :
+    (f_a == A_FAULT) ? 32'h00000000 :
+    (f_a == A_TC) ? 32'h0000FFFF :
+    (f_a == A_KFF) ? 32'h0000FFFF :
+    (f_a == A_KP) ? 32'h0000FFFF :
+    (f_a == A_KI_TS) ? 32'h0000FFFF :
+    (f_a == A_I_LIMIT) ? 32'h00007FFF :
+    (f_a == A_SLEW) ? 32'h00007FFF :
+    (f_a == A_WDT_TIMEOUT) ? 32'h0000FFFF :
+    (f_a == A_ADC_OFFSET) ? 32'h00FFFFFF :
+    (f_a == A_ADC_GAIN) ? 32'h0000FFFF :
+    (f_a == A_ADC_MIN) ? 32'h00FFFFFF :
+    (f_a == A_ADC_MAX) ? 32'h00FFFFFF :
+    (f_a == A_ADC_STALE) ? 32'h0000FFFF :
+    (f_a == A_OC_TIMEOUT) ? 32'h0000FFFF :
+    (f_a == A_SAMPLE_COUNT) ? 32'h00000000 :
+    (f_a == A_T_IN) ? 32'h00000000 :
+    (f_a == A_U) ? 32'h00000000 :
+    (f_a == A_INTEG) ? 32'h00000000 :
+    (f_a == A_TC_EFF) ? 32'h00000000 :
+    32'd0;
+wire [31:0] f_const_mask =
+    (f_a == A_ID) ? 32'hFFFFFFFF :
+    (f_a == A_CTRL) ? 32'h00000000 :
+    (f_a == A_STATUS) ? 32'h00000000 :
+    (f_a == A_FAULT) ? 32'h00000000 :
+    (f_a == A_TC) ? 32'h00000000 :
+    (f_a == A_KFF) ? 32'h00000000 :
+    (f_a == A_KP) ? 32'h00000000 :
+    (f_a == A_KI_TS) ? 32'h00000000 :
+    (f_a == A_I_LIMIT) ? 32'h00000000 :
+    (f_a == A_SLEW) ? 32'h00000000 :
+    (f_a == A_WDT_TIMEOUT) ? 32'h00000000 :
+    (f_a == A_ADC_OFFSET) ? 32'h00000000 :
+    (f_a == A_ADC_GAIN) ? 32'h00000000 :
+    (f_a == A_ADC_MIN) ? 32'h00000000 :
+    (f_a == A_ADC_MAX) ? 32'h00000000 :
+    (f_a == A_ADC_STALE) ? 32'h00000000 :
+    (f_a == A_OC_TIMEOUT) ? 32'h00000000 :
+    (f_a == A_SAMPLE_COUNT) ? 32'h00000000 :
+    (f_a == A_T_IN) ? 32'h00000000 :
+    (f_a == A_U) ? 32'h00000000 :
+    (f_a == A_INTEG) ? 32'h00000000 :
+    (f_a == A_TC_EFF) ? 32'h00000000 :
+    32'd0;
+wire f_a_mapped = 
+    (f_a == A_ID) ||
+    (f_a == A_CTRL) ||
+    (f_a == A_STATUS) ||
+    (f_a == A_FAULT) ||
+    (f_a == A_TC) ||
+    (f_a == A_KFF) ||
+    (f_a == A_KP) ||
+    (f_a == A_KI_TS) ||
+    (f_a == A_I_LIMIT) ||
+    (f_a == A_SLEW) ||
+    (f_a == A_WDT_TIMEOUT) ||
+    (f_a == A_ADC_OFFSET) ||
+    (f_a == A_ADC_GAIN) ||
+    (f_a == A_ADC_MIN) ||
+    (f_a == A_ADC_MAX) ||
+    (f_a == A_ADC_STALE) ||
+    (f_a == A_OC_TIMEOUT) ||
+    (f_a == A_SAMPLE_COUNT) ||
+    (f_a == A_T_IN) ||
+    (f_a == A_U) ||
+    (f_a == A_INTEG) ||
+    (f_a == A_TC_EFF);
+wire f_wr_mapped = 
+    (wr_word == A_ID) ||
+    (wr_word == A_CTRL) ||
+    (wr_word == A_STATUS) ||
+    (wr_word == A_FAULT) ||
+    (wr_word == A_TC) ||
+    (wr_word == A_KFF) ||
+    (wr_word == A_KP) ||
+    (wr_word == A_KI_TS) ||
+    (wr_word == A_I_LIMIT) ||
+    (wr_word == A_SLEW) ||
+    (wr_word == A_WDT_TIMEOUT) ||
+    (wr_word == A_ADC_OFFSET) ||
+    (wr_word == A_ADC_GAIN) ||
+    (wr_word == A_ADC_MIN) ||
+    (wr_word == A_ADC_MAX) ||
+    (wr_word == A_ADC_STALE) ||
+    (wr_word == A_OC_TIMEOUT) ||
+    (wr_word == A_SAMPLE_COUNT) ||
+    (wr_word == A_T_IN) ||
+    (wr_word == A_U) ||
+    (wr_word == A_INTEG) ||
+    (wr_word == A_TC_EFF);
+
+wire [31:0] f_strb = {{8{reg_wr_strb[3]}}, {8{reg_wr_strb[2]}}, {8{reg_wr_strb[1]}},
+                      {8{reg_wr_strb[0]}}};
+wire f_wr_a = reg_wr_en && wr_word == f_a;
+reg [2:0] f_rd_a;    // a read of f_a one, two, three clocks ago
+reg [31:0] f_w_rd1, f_w_rd2;  // the shadow when those reads sampled the registers
+always @(posedge clk) begin
+    if (f_wr_a) f_w <= (f_w & ~f_strb) | (reg_wr_data & f_strb);
+    f_rd_a <= {f_rd_a[1:0], reg_rd_en && rd_word == f_a};
+    f_w_rd1 <= f_w;
+    f_w_rd2 <= f_w_rd1;
+    if (rst) begin
+        f_w <= f_reset;
+        f_rd_a <= 3'd0;
+    end
+end
+
+always @* if (f_past_valid && !rst) begin
+    if (f_a == A_CTRL) assert(ctrl_enable == f_w[0]);
+    if (f_a == A_CTRL) assert(ctrl_slew_en == f_w[3]);
+    if (f_a == A_TC) assert(tc == f_w[15:0]);
+    if (f_a == A_KFF) assert(kff == f_w[15:0]);
+    if (f_a == A_KP) assert(kp == f_w[15:0]);
+    if (f_a == A_KI_TS) assert(ki_ts == f_w[15:0]);
+    if (f_a == A_I_LIMIT) assert(i_limit == f_w[14:0]);
+    if (f_a == A_SLEW) assert(slew == f_w[14:0]);
+    if (f_a == A_WDT_TIMEOUT) assert(wdt_timeout == f_w[15:0]);
+    if (f_a == A_ADC_OFFSET) assert(adc_offset == f_w[23:0]);
+    if (f_a == A_ADC_GAIN) assert(adc_gain == f_w[15:0]);
+    if (f_a == A_ADC_MIN) assert(adc_min == f_w[23:0]);
+    if (f_a == A_ADC_MAX) assert(adc_max == f_w[23:0]);
+    if (f_a == A_ADC_STALE) assert(adc_stale == f_w[15:0]);
+    if (f_a == A_OC_TIMEOUT) assert(oc_timeout == f_w[15:0]);
+    assert(reg_wr_err == (reg_wr_en && !f_wr_mapped));
+    if (f_rd_a[2]) begin
+        assert(reg_rd_valid);
+        assert(reg_rd_err == !f_a_mapped);
+        assert((reg_rd_data & f_rw_mask) == (f_w_rd2 & f_rw_mask));
+        assert((reg_rd_data & f_const_mask) == (f_reset & f_const_mask));
+        if (!f_a_mapped) assert(reg_rd_data == 32'd0);
+    end
+end
+
+// Write pulses: one clock after their write, never otherwise.
+always @(posedge clk) if (f_past_valid) begin
+    if ($past(rst)) begin
+        assert(!ctrl_integ_reset);
+        assert(!ctrl_fault_clear);
+        assert(!tc_wr);
+    end else begin
+        assert(ctrl_integ_reset == $past(reg_wr_en && wr_word == A_CTRL && reg_wr_data[1] && reg_wr_strb[0]));
+        assert(ctrl_fault_clear == $past(reg_wr_en && wr_word == A_CTRL && reg_wr_data[2] && reg_wr_strb[0]));
+        assert(tc_wr == $past(reg_wr_en && wr_word == A_TC));
+        assert(reg_rd_valid == $past(rd_pend2));
+    end
+end
+
+always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
+    cover(f_rd_a[2] && f_rw_mask != 32'd0 && (f_w_rd2 & f_rw_mask) != (f_reset & f_rw_mask));
+    cover(f_rd_a[2] && !f_a_mapped);
+    cover(reg_wr_err);
+end
+`endif
+
 endmodule
 
 `resetall

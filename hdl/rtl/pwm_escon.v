@@ -111,6 +111,56 @@ assign pwm = {{(32 - CNT_W){1'b0}}, cnt_reg} < duty_reg;
 wire unused_cmp = &{1'b0, above[15:0], below[15:0]};
 assign duty_clks = duty_reg;
 
+`ifdef FORMAL
+// --- formal properties (hdl/formal/pwm_escon.sby; hdl/README.md says what is proven) -------
+//
+// Property 2 of issue 12: the duty stays within 10 %..90 % of the period, changes only at the
+// end of a period, and is 50 % (0 A) after a period that began with the drive disabled (the
+// core's enable is the loop's out_en, which every fault drops).
+
+reg f_past_valid = 1'b0;
+always @(posedge clk) f_past_valid <= 1'b1;
+always @* if (!f_past_valid) assume(rst);
+
+localparam integer F_PERIOD = PERIOD_CLKS;
+
+always @* if (f_past_valid && !rst) begin
+    assert(10 * duty_reg >= F_PERIOD && 10 * duty_reg <= 9 * F_PERIOD);
+    assert(duty_reg >= HALF - SPAN && duty_reg <= HALF + SPAN);
+    assert(cnt_reg <= LAST);
+end
+
+// Helpers for the induction: the pipeline registers without reset hold consistent values
+// two clocks after reset (the first period boundary is PERIOD_CLKS clocks later).
+reg [1:0] f_age = 2'd0;
+always @(posedge clk) if (rst) f_age <= 2'd0; else if (f_age != 2'd3) f_age <= f_age + 2'd1;
+always @* if (f_past_valid && !rst && f_age >= 2'd1) begin
+    assert(gt_reg == ($signed(u_reg) > $signed(IMAX16)));
+    assert(lt_reg == ($signed(u_reg) < -$signed(IMAX16)));
+end
+always @* if (f_past_valid && !rst && f_age >= 2'd2)
+    assert($signed(u_c_reg) <= $signed(IMAX16) && $signed(u_c_reg) >= -$signed(IMAX16));
+always @* if (f_past_valid && !rst) assert(f_age == 2'd3 || cnt_reg == {{(CNT_W-2){1'b0}}, f_age});
+
+// The duty changes only at the end of a period.
+always @(posedge clk) if (f_past_valid && !$past(rst) && $past(cnt_reg) != LAST)
+    assert($stable(duty_reg));
+
+// Disabled (or faulted) four clocks before the end of a period: the next period is 50 %.
+always @(posedge clk) if (f_past_valid && !$past(rst) && $past(cnt_reg) == LAST &&
+                          !$past(enable, 5))
+    assert(duty_reg == HALF);
+
+// After reset: 50 %.
+always @(posedge clk) if (f_past_valid && $past(rst)) assert(duty_reg == HALF && cnt_reg == 0);
+
+always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
+    cover(duty_reg == HALF + SPAN);                     // 90 %: +I_max
+    cover(duty_reg == HALF - SPAN);                     // 10 %: -I_max
+    cover($past(duty_reg) == HALF + SPAN && duty_reg == HALF && !$past(enable, 6));  // off
+end
+`endif
+
 endmodule
 
 `resetall
