@@ -53,7 +53,11 @@ module bowden_system #(
 
 // --- MCU register access -------------------------------------------------------------------
 
-wire [7:0]  axil_awaddr, axil_araddr;
+// Byte address width of the register bus (the map's 64 words). The bridge refuses the SPI
+// frame's words 64..127 with DECERR instead of aliasing them onto 0..63.
+localparam ADDR_W = 8;
+
+wire [ADDR_W-1:0] axil_awaddr, axil_araddr;
 wire [2:0]  axil_awprot, axil_arprot;
 wire        axil_awvalid, axil_awready, axil_wvalid, axil_wready, axil_bvalid, axil_bready;
 wire        axil_arvalid, axil_arready, axil_rvalid, axil_rready;
@@ -61,7 +65,7 @@ wire [31:0] axil_wdata, axil_rdata;
 wire [3:0]  axil_wstrb;
 wire [1:0]  axil_bresp, axil_rresp;
 
-spi_axil_bridge #(.ADDR_W(8)) spi (
+spi_axil_bridge #(.ADDR_W(ADDR_W)) spi (
     .clk(clk), .rst(rst),
     .spi_sck(mcu_sck), .spi_cs_n(mcu_cs_n), .spi_mosi(mcu_mosi), .spi_miso(mcu_miso),
     .m_axil_awaddr(axil_awaddr), .m_axil_awprot(axil_awprot), .m_axil_awvalid(axil_awvalid),
@@ -86,7 +90,7 @@ ads1220_reader #(.SCLK_HALF_CLKS(ADC_SCLK_HALF_CLKS), .WAIT_CLKS(ADC_WAIT_CLKS))
 
 // --- core ----------------------------------------------------------------------------------
 
-bowden_core #(.CLK_HZ(CLK_HZ)) core (
+bowden_core #(.CLK_HZ(CLK_HZ), .ADDR_W(ADDR_W)) core (
     .clk(clk), .rst(rst),
     .s_axil_awaddr(axil_awaddr), .s_axil_awprot(axil_awprot), .s_axil_awvalid(axil_awvalid),
     .s_axil_awready(axil_awready), .s_axil_wdata(axil_wdata), .s_axil_wstrb(axil_wstrb),

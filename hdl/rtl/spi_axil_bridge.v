@@ -7,13 +7,27 @@
  * registers of bowden_core on boards without a processor on chip.
  *
  * Frames, MSB first, chip select low for the whole frame:
- *   write: [1 a6..a0] [d31..d24] [d23..d16] [d15..d8] [d7..d0]           (40 clocks)
- *   read:  [0 a6..a0] [dummy]    [d31..d24] [d23..d16] [d15..d8] [d7..d0] (48 clocks)
+ *   write: [1 a6..a0] [d31..d24] [d23..d16] [d15..d8] [d7..d0] [status]           (48 clocks)
+ *   read:  [0 a6..a0] [dummy]    [d31..d24] [d23..d16] [d15..d8] [d7..d0] [status] (56 clocks)
  * a6..a0 is the word address (byte address / 4). The dummy byte gives the AXI read time; MISO
- * is 0 during the first two bytes. A write is issued after its 40th bit, a read after the 8th.
- * A frame cut short by chip select is dropped. The AXI error responses are not reported.
+ * is 0 during the first two bytes (and during a write's data). A write is issued after its
+ * 40th bit, a read after the 8th; the status byte on MISO then tells the MCU what became of
+ * it (the MCU may end the frame before it, 40 or 48 clocks, and learn nothing):
+ *   status = {3'b101, WRITE, DONE, BUSY, RESP[1:0]}
+ *     101   fixed: a MISO line stuck at 0 or 1 never reads as a status
+ *     WRITE the frame was a write
+ *     DONE  the access was answered in time for this frame (a read's data is valid)
+ *     BUSY  refused without a bus access: the previous access was still outstanding
+ *     RESP  the AXI response: 00 OKAY, 10 SLVERR (refused by the register file), 11 DECERR
+ *           (word address beyond the bus's ADDR_W: refused here, no bus access)
+ *   e.g. 0xB8 write OKAY, 0xBA write refused by the register file (SLVERR), 0xBB write beyond
+ *        the bus (DECERR), 0xA8 read OKAY, 0xAA read of an unmapped word (its data reads 0).
+ * A frame cut short by chip select before its access point is dropped with no bus access.
+ * After reset the bridge ignores the bus until chip select has been seen high, so a frame in
+ * progress during reset is dropped whole rather than read from its middle.
  *
- * SCK, CS_N and MOSI are synchronized to clk, so SCK must be below clk / 8.
+ * SCK, CS_N and MOSI are synchronized to clk, so SCK must be below clk / 8 (the bus access
+ * guarantees need no such limit: hdl/formal/spi_axil_bridge.sby proves them for any pins).
  */
 module spi_axil_bridge #(
     parameter ADDR_W = 8  // AXI byte address width (<= 9: 7-bit word address)
@@ -53,7 +67,12 @@ module spi_axil_bridge #(
     output wire              m_axil_rready
 );
 
-// Two-flop synchronizers plus one stage for edge detection.
+localparam [1:0] RESP_OKAY = 2'b00;
+localparam [1:0] RESP_DECERR = 2'b11;
+localparam [2:0] STATUS_TAG = 3'b101;
+
+// Two-flop synchronizers plus one stage for edge detection. Chip select resets to "low"
+// (a frame may be in progress); `armed` waits for it to be seen high.
 reg [2:0] sck_sync_reg;
 reg [1:0] cs_sync_reg;
 reg [1:0] mosi_sync_reg;
@@ -63,7 +82,8 @@ wire sck_fall = !sck_sync_reg[1] && sck_sync_reg[2];
 wire cs_active = !cs_sync_reg[1];
 wire mosi = mosi_sync_reg[1];
 
-reg  [5:0]  bit_cnt_reg, bit_cnt_next;     // bits received in this frame (saturates at 48)
+reg  [5:0]  bit_cnt_reg, bit_cnt_next;     // bits received in this frame (saturates at 56)
+reg         armed_reg, armed_next;         // chip select seen high since reset
 reg  [7:0]  cmd_reg, cmd_next;             // {write, word address}
 reg  [31:0] shift_in_reg, shift_in_next;
 reg  [31:0] shift_out_reg, shift_out_next;
@@ -71,21 +91,41 @@ reg         miso_reg, miso_next;
 reg         awvalid_reg, awvalid_next;
 reg         wvalid_reg, wvalid_next;
 reg         arvalid_reg, arvalid_next;
+reg  [8:0]  addr_reg, addr_next;           // byte address of the access issued
 reg  [31:0] wdata_reg, wdata_next;
+reg         busy_reg, busy_next;           // an access is issued and not yet answered
+reg         wait_reg, wait_next;           // this frame's access is not yet answered
+reg         done_st_reg, done_st_next;     // status: DONE
+reg         busy_st_reg, busy_st_next;     // status: BUSY
+reg  [1:0]  resp_st_reg, resp_st_next;     // status: RESP
 
-// Decodes of the bit count, registered: SCK edges are at least 8 clocks apart, so the flags
-// have settled long before the next edge uses them, and no edge sees a long decode path.
+// Decodes of the bit count, registered: the next SCK edge comes two clocks later at the
+// earliest (a rise needs a low sample first), so the flags have settled when it uses them, and
+// no edge sees a long decode path. Gated by chip select, so a new frame never sees the last
+// frame's count.
 reg        in_cmd_reg;    // bit_cnt < 8
 reg        last_cmd_reg;  // bit_cnt == 7: this rising edge completes the command byte
 reg        last_wr_reg;   // bit_cnt == 39: this rising edge completes a write frame
-reg        done_reg;      // bit_cnt == 48: the frame is complete
-reg        data_out_reg;  // bit_cnt >= 16: read data goes out on MISO
+reg        full_reg;      // bit_cnt == 56: the longest frame is complete
+reg        data_out_reg;  // read data or status bits go out on MISO
+reg        stat_ld_reg;   // this falling edge sends the status byte's first bit
 
 wire [5:0] bits_after = bit_cnt_reg + 6'd1;
 wire [7:0] cmd_now = {cmd_reg[6:0], mosi};
 
+// The word address must fit the bus: a narrower bus would alias words onto others.
+wire [8:0] rd_addr = {cmd_now[6:0], 2'b00};
+wire [8:0] wr_addr = {cmd_reg[6:0], 2'b00};
+wire       rd_in_range = (rd_addr >> ADDR_W) == 9'd0;
+wire       wr_in_range = (wr_addr >> ADDR_W) == 9'd0;
+
+wire       resp_now = m_axil_bvalid || m_axil_rvalid;
+wire [1:0] resp_code = m_axil_rvalid ? m_axil_rresp : m_axil_bresp;
+wire [7:0] status = {STATUS_TAG, cmd_reg[7], done_st_reg, busy_st_reg, resp_st_reg};
+
 always @* begin
     bit_cnt_next = bit_cnt_reg;
+    armed_next = armed_reg || !cs_active;
     cmd_next = cmd_reg;
     shift_in_next = shift_in_reg;
     shift_out_next = shift_out_reg;
@@ -93,40 +133,75 @@ always @* begin
     awvalid_next = awvalid_reg && !m_axil_awready;
     wvalid_next = wvalid_reg && !m_axil_wready;
     arvalid_next = arvalid_reg && !m_axil_arready;
+    addr_next = addr_reg;
     wdata_next = wdata_reg;
+    busy_next = busy_reg && !resp_now;
+    wait_next = wait_reg && !resp_now && cs_active;
+    done_st_next = done_st_reg;
+    busy_st_next = busy_st_reg;
+    resp_st_next = resp_st_reg;
 
-    if (!cs_active) begin
+    // The answer to this frame's access, in time for its status (and a read's data phase).
+    if (wait_reg && resp_now && (cmd_reg[7] || !data_out_reg)) begin
+        done_st_next = 1'b1;
+        resp_st_next = resp_code;
+        if (m_axil_rvalid) begin
+            shift_out_next = m_axil_rdata;
+        end
+    end
+
+    if (!cs_active || !armed_reg) begin
         bit_cnt_next = 6'd0;
         miso_next = 1'b0;
     end else begin
-        if (sck_rise && !done_reg) begin
+        if (sck_rise && !full_reg) begin
             bit_cnt_next = bits_after;
             if (in_cmd_reg) begin
                 cmd_next = cmd_now;
             end else begin
                 shift_in_next = {shift_in_reg[30:0], mosi};
             end
-            if (last_cmd_reg && !cmd_now[7]) begin
-                arvalid_next = 1'b1;  // read: fetch during the dummy byte
-            end
-            if (last_wr_reg && cmd_reg[7]) begin
-                awvalid_next = 1'b1;
-                wvalid_next = 1'b1;
-                wdata_next = {shift_in_reg[30:0], mosi};
+            // The access point of a frame: the 8th bit of a read, the 40th of a write.
+            if ((last_cmd_reg && !cmd_now[7]) || (last_wr_reg && cmd_reg[7])) begin
+                done_st_next = 1'b0;
+                busy_st_next = 1'b0;
+                resp_st_next = RESP_OKAY;
+                if (last_cmd_reg) begin
+                    shift_out_next = 32'd0;
+                end
+                if (busy_reg) begin
+                    done_st_next = 1'b1;  // refused: the last access is still outstanding
+                    busy_st_next = 1'b1;
+                end else if (last_cmd_reg ? !rd_in_range : !wr_in_range) begin
+                    done_st_next = 1'b1;  // refused: beyond the bus
+                    resp_st_next = RESP_DECERR;
+                end else if (last_cmd_reg) begin
+                    arvalid_next = 1'b1;  // read: fetch during the dummy byte
+                    addr_next = rd_addr;
+                    busy_next = 1'b1;
+                    wait_next = 1'b1;
+                end else begin
+                    awvalid_next = 1'b1;
+                    wvalid_next = 1'b1;
+                    addr_next = wr_addr;
+                    wdata_next = {shift_in_reg[30:0], mosi};
+                    busy_next = 1'b1;
+                    wait_next = 1'b1;
+                end
             end
         end
         // Mode 0: MISO changes on the falling edge before the bit is sampled.
         if (sck_fall) begin
-            if (data_out_reg) begin
+            if (stat_ld_reg) begin
+                miso_next = status[7];
+                shift_out_next = {status[6:0], 25'd0};
+            end else if (data_out_reg) begin
                 miso_next = shift_out_reg[31];
                 shift_out_next = {shift_out_reg[30:0], 1'b0};
             end else begin
                 miso_next = 1'b0;
             end
         end
-    end
-    if (m_axil_rvalid) begin
-        shift_out_next = m_axil_rdata;
     end
 end
 
@@ -135,11 +210,13 @@ always @(posedge clk) begin
     cs_sync_reg <= {cs_sync_reg[0], spi_cs_n};
     mosi_sync_reg <= {mosi_sync_reg[0], spi_mosi};
     bit_cnt_reg <= bit_cnt_next;
-    in_cmd_reg <= bit_cnt_reg < 6'd8;
-    last_cmd_reg <= bit_cnt_reg == 6'd7;
-    last_wr_reg <= bit_cnt_reg == 6'd39;
-    done_reg <= bit_cnt_reg == 6'd48;
-    data_out_reg <= bit_cnt_reg >= 6'd16;
+    armed_reg <= armed_next;
+    in_cmd_reg <= !cs_active || bit_cnt_reg < 6'd8;
+    last_cmd_reg <= cs_active && bit_cnt_reg == 6'd7;
+    last_wr_reg <= cs_active && bit_cnt_reg == 6'd39;
+    full_reg <= cs_active && bit_cnt_reg == 6'd56;
+    data_out_reg <= cs_active && (cmd_reg[7] ? bit_cnt_reg > 6'd40 : bit_cnt_reg >= 6'd16);
+    stat_ld_reg <= cs_active && (cmd_reg[7] ? bit_cnt_reg == 6'd40 : bit_cnt_reg == 6'd48);
     cmd_reg <= cmd_next;
     shift_in_reg <= shift_in_next;
     shift_out_reg <= shift_out_next;
@@ -147,37 +224,194 @@ always @(posedge clk) begin
     awvalid_reg <= awvalid_next;
     wvalid_reg <= wvalid_next;
     arvalid_reg <= arvalid_next;
+    addr_reg <= addr_next;
     wdata_reg <= wdata_next;
+    busy_reg <= busy_next;
+    wait_reg <= wait_next;
+    done_st_reg <= done_st_next;
+    busy_st_reg <= busy_st_next;
+    resp_st_reg <= resp_st_next;
     if (rst) begin
         sck_sync_reg <= 3'b000;
-        cs_sync_reg <= 2'b11;
+        cs_sync_reg <= 2'b00;
         bit_cnt_reg <= 6'd0;
+        armed_reg <= 1'b0;
+        in_cmd_reg <= 1'b1;
+        last_cmd_reg <= 1'b0;
+        last_wr_reg <= 1'b0;
+        full_reg <= 1'b0;
+        data_out_reg <= 1'b0;
+        stat_ld_reg <= 1'b0;
         shift_out_reg <= 32'd0;
         miso_reg <= 1'b0;
         awvalid_reg <= 1'b0;
         wvalid_reg <= 1'b0;
         arvalid_reg <= 1'b0;
+        busy_reg <= 1'b0;
+        wait_reg <= 1'b0;
+        done_st_reg <= 1'b0;
+        busy_st_reg <= 1'b0;
+        resp_st_reg <= RESP_OKAY;
     end
 end
 
-// Word address to byte address; upper address bits beyond ADDR_W are dropped (ADDR_W <= 9).
-wire [8:0] byte_addr = {cmd_reg[6:0], 2'b00};
-
-assign m_axil_awaddr = byte_addr[ADDR_W-1:0];
+assign m_axil_awaddr = addr_reg[ADDR_W-1:0];
 assign m_axil_awprot = 3'b000;
 assign m_axil_awvalid = awvalid_reg;
 assign m_axil_wdata = wdata_reg;
 assign m_axil_wstrb = 4'hF;
 assign m_axil_wvalid = wvalid_reg;
 assign m_axil_bready = 1'b1;
-assign m_axil_araddr = byte_addr[ADDR_W-1:0];
+assign m_axil_araddr = addr_reg[ADDR_W-1:0];
 assign m_axil_arprot = 3'b000;
 assign m_axil_arvalid = arvalid_reg;
 assign m_axil_rready = 1'b1;
 assign spi_miso = miso_reg;
 
-// Responses are accepted and not reported over SPI.
-wire unused_resp = &{1'b0, m_axil_bresp, m_axil_bvalid, m_axil_rresp, byte_addr};
+// The upper address bits are zero whenever an access is issued (checked above).
+wire unused_addr = &{1'b0, addr_reg};
+
+`ifdef FORMAL
+// --- formal properties (hdl/formal/spi_axil_bridge.sby; hdl/README.md says what is proven) --
+//
+// Property 5 of issue 12, bridge side, for any pin activity (no limit on SCK) and any reset:
+// a bus access only from a complete frame begun with chip select seen high, at its access
+// point, with the frame's address (never aliased) and data; idle after chip select high; an
+// AXI4-Lite master with one access at a time. The slave is assumed to follow AXI4-Lite.
+
+reg f_past_valid = 1'b0;
+always @(posedge clk) f_past_valid <= 1'b1;
+always @* if (!f_past_valid) assume(rst);
+
+// The pins two clocks late (the synchronizers' delay), modelled on their own.
+reg [2:0] f_sck;
+reg [1:0] f_cs_n, f_mosi;
+always @(posedge clk) begin
+    f_sck <= {f_sck[1:0], spi_sck};
+    f_cs_n <= {f_cs_n[0], spi_cs_n};
+    f_mosi <= {f_mosi[0], spi_mosi};
+    if (rst) begin
+        f_sck <= 3'b000;
+        f_cs_n <= 2'b00;
+    end
+end
+wire f_cs = !f_cs_n[1];
+reg [1:0] f_mosi_age = 2'd0;  // MOSI's synchronizer has no reset: equal after two clocks
+always @(posedge clk) if (f_mosi_age != 2'd2) f_mosi_age <= f_mosi_age + 2'd1;
+wire f_mosi_ok = f_mosi_age == 2'd2;
+wire f_rise = f_sck[1] && !f_sck[2];
+
+// The frame: bits clocked since chip select fell, once it has been seen high after reset.
+reg        f_armed;
+reg [5:0]  f_bits;
+reg [7:0]  f_cmd;
+reg [31:0] f_data;
+always @(posedge clk) begin
+    if (!f_cs) f_armed <= 1'b1;
+    if (!f_cs || !f_armed) begin
+        f_bits <= 6'd0;
+    end else if (f_rise && f_bits != 6'd56) begin
+        f_bits <= f_bits + 6'd1;
+        if (f_bits < 6'd8) f_cmd <= {f_cmd[6:0], f_mosi[1]};
+        else f_data <= {f_data[30:0], f_mosi[1]};
+    end
+    if (rst) begin
+        f_armed <= 1'b0;
+        f_bits <= 6'd0;
+    end
+end
+
+// The AXI4-Lite slave: no response without its request, none during or right after reset.
+reg f_aw_acc, f_w_acc, f_ar_acc;  // accepted, not yet answered
+always @(posedge clk) begin
+    if (m_axil_awvalid && m_axil_awready) f_aw_acc <= 1'b1;
+    if (m_axil_wvalid && m_axil_wready) f_w_acc <= 1'b1;
+    if (m_axil_arvalid && m_axil_arready) f_ar_acc <= 1'b1;
+    if (m_axil_bvalid) {f_aw_acc, f_w_acc} <= 2'b00;
+    if (m_axil_rvalid) f_ar_acc <= 1'b0;
+    if (rst) {f_aw_acc, f_w_acc, f_ar_acc} <= 3'b000;
+end
+always @* begin
+    if (rst || !f_past_valid || !(f_aw_acc && f_w_acc)) assume(!m_axil_bvalid);
+    if (rst || !f_past_valid || !f_ar_acc) assume(!m_axil_rvalid);
+end
+always @(posedge clk) if (f_past_valid && $past(rst)) assume(!m_axil_bvalid && !m_axil_rvalid);
+
+reg f_awv, f_arv;  // the valids one clock ago
+always @(posedge clk) begin
+    f_awv <= awvalid_reg;
+    f_arv <= arvalid_reg;
+end
+wire f_issue_w = awvalid_reg && !f_awv;
+wire f_issue_r = arvalid_reg && !f_arv;
+
+always @* if (f_past_valid && !rst) begin
+    // The bridge's count is the frame's; nothing counts before chip select was seen high.
+    assert(armed_reg == f_armed);
+    assert(bit_cnt_reg == f_bits);
+    if (f_bits >= 6'd40) assert(shift_in_reg == f_data);
+    else if (f_bits > 6'd8)
+        assert(((shift_in_reg ^ f_data) & ~(32'hFFFFFFFF << (f_bits - 6'd8))) == 32'd0);
+    if (f_bits >= 6'd8) assert(cmd_reg == f_cmd);
+    else assert(((cmd_reg ^ f_cmd) & ~(8'hFF << f_bits)) == 8'd0);
+    // Helpers for the induction: the synchronizers are the model's delay line.
+    assert(sck_sync_reg == f_sck && cs_sync_reg == f_cs_n);
+    if (f_mosi_ok) assert(mosi_sync_reg == f_mosi);
+    // One access at a time: a write's address and data, or a read, until it is answered.
+    assert(!((awvalid_reg || wvalid_reg || f_aw_acc || f_w_acc) &&
+             (arvalid_reg || f_ar_acc)));
+    assert(busy_reg == (awvalid_reg || wvalid_reg || f_aw_acc || f_w_acc ||
+                        arvalid_reg || f_ar_acc));
+    if (awvalid_reg || wvalid_reg || arvalid_reg) assert((addr_reg >> ADDR_W) == 9'd0);
+    assert(awvalid_reg == wvalid_reg || f_aw_acc || f_w_acc);
+    assert(!(f_aw_acc && awvalid_reg) && !(f_w_acc && wvalid_reg) && !(f_ar_acc && arvalid_reg));
+    if (wait_reg) assert(busy_reg);
+end
+
+// The idle state after chip select high: no bits, no access from a partial frame.
+always @(posedge clk) if (f_past_valid && !$past(rst) && $past(!f_cs))
+    assert(bit_cnt_reg == 6'd0 && !f_issue_w && !f_issue_r);
+
+// An access only at the access point of a complete frame, with the frame's address and data.
+always @(posedge clk) if (f_past_valid && !rst) begin
+    if (f_issue_w) begin
+        assert($past(f_rise) && f_bits == 6'd40 && f_cmd[7]);
+        assert(addr_reg == {f_cmd[6:0], 2'b00} && wdata_reg == f_data);
+        assert(wvalid_reg && m_axil_wstrb == 4'hF);
+    end
+    if (f_issue_r) begin
+        assert($past(f_rise) && f_bits == 6'd8 && !f_cmd[7]);
+        assert(addr_reg == {f_cmd[6:0], 2'b00});
+    end
+    if ($past(wvalid_reg) && !wvalid_reg) assert($past(m_axil_wready) || $past(rst));
+end
+
+// AXI4-Lite master rules: a valid stays, with its payload, until it is taken.
+always @(posedge clk) if (f_past_valid && !$past(rst) && !rst) begin
+    if ($past(awvalid_reg && !m_axil_awready))
+        assert(awvalid_reg && $stable(m_axil_awaddr));
+    if ($past(wvalid_reg && !m_axil_wready)) assert(wvalid_reg && $stable(m_axil_wdata));
+    if ($past(arvalid_reg && !m_axil_arready))
+        assert(arvalid_reg && $stable(m_axil_araddr));
+end
+always @(posedge clk) if (f_past_valid && $past(rst))
+    assert(!awvalid_reg && !wvalid_reg && !arvalid_reg);
+
+// Covers: each kind of frame, each refusal, and a frame after a reset in mid-frame.
+reg f_rst_mid;  // a reset came while a frame was in progress
+always @(posedge clk) begin
+    if (rst && f_bits != 6'd0) f_rst_mid <= 1'b1;
+    if (!f_past_valid) f_rst_mid <= 1'b0;
+end
+always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
+    cover(f_issue_w);
+    cover(f_issue_r && $past(m_axil_rvalid, 3));          // a read right after another
+    cover(m_axil_bvalid && m_axil_bresp == 2'b10 && cmd_reg[7] && done_st_next);
+    cover($past(last_wr_reg && sck_rise && cmd_reg[7]) && resp_st_reg == RESP_DECERR);
+    cover($past(last_cmd_reg && sck_rise && busy_reg) && busy_st_reg);
+    cover(f_rst_mid && f_issue_w);
+end
+`endif
 
 endmodule
 

@@ -4,7 +4,8 @@ Each tests/hdl/test_<module>.py holds cocotb coroutines and a pytest function th
 `run_cocotb`. Builds go to build/sim/<module>[-<tag>]/<simulator>/ and are reused when the
 sources have not changed (Verilator and Icarus rebuild on their own when a source is newer).
 
-Also what more than one testbench uses: `SpiMaster` (an MCU on the SPI bridge), `Ads1220` (the
+Also what more than one testbench uses: `SpiMaster` (an MCU on the SPI bridge, with the
+bridge's status byte), `reset_after_sck_falls` (a reset in mid-frame), `Ads1220` (the
 load-cell ADC behind ads1220_reader) and `replay_write` (a register write seen on the bus, into
 the bit-exact model cosim.rtl_model.TensionLoopModel).
 """
@@ -102,12 +103,28 @@ def run_cocotb(
     return num_tests
 
 
+# Status byte the SPI bridge sends after a frame's data (hdl/rtl/spi_axil_bridge.v):
+# {3'b101, WRITE, DONE, BUSY, RESP[1:0]}.
+STATUS_TAG_MASK = 0xE0
+STATUS_TAG = 0xA0
+STATUS_WRITE = 0x10
+STATUS_DONE = 0x08
+STATUS_BUSY = 0x04
+RESP_OKAY, RESP_SLVERR, RESP_DECERR = 0, 2, 3
+WRITE_OKAY = STATUS_TAG | STATUS_WRITE | STATUS_DONE | RESP_OKAY  # 0xB8
+READ_OKAY = STATUS_TAG | STATUS_DONE | RESP_OKAY  # 0xA8
+
+
+class SpiError(AssertionError):
+    """The bridge's status byte says the access was refused or not answered."""
+
+
 class SpiMaster:
     """Bit-banged SPI mode 0 master (drive on SCK low, sample on the rising edge).
 
     Drives `<prefix>_sck`, `<prefix>_cs_n`, `<prefix>_mosi` and reads `<prefix>_miso` of `dut`,
     timed by `dut.clk`: SCK = clk / (2 * half_sck_clks), which the bridge needs below clk / 8.
-    Frames as hdl/rtl/spi_axil_bridge.v defines them.
+    Frames as hdl/rtl/spi_axil_bridge.v defines them, with the status byte after the data.
     """
 
     def __init__(self, dut, prefix: str = "spi", half_sck_clks: int = 8):
@@ -139,15 +156,43 @@ class SpiMaster:
         await ClockCycles(self.clk, 4 * self.half)
         return rx.to_bytes(len(tx), "big")
 
+    async def write_status(self, word_addr: int, value: int) -> int:
+        """Write frame [1 a6..a0], the 32-bit word, MSB first; returns the status byte."""
+        tx = bytes([0x80 | word_addr]) + (value & 0xFFFFFFFF).to_bytes(4, "big") + bytes(1)
+        rx = await self.frame(tx)
+        assert rx[:5] == bytes(5), f"MISO not low during command and data: {rx.hex()}"
+        assert rx[5] & STATUS_TAG_MASK == STATUS_TAG, f"no status tag: {rx[5]:#04x}"
+        return rx[5]
+
+    async def read_status(self, word_addr: int) -> tuple[int, int]:
+        """Read frame [0 a6..a0], a dummy byte, the 32-bit word; returns (word, status byte)."""
+        rx = await self.frame(bytes([word_addr]) + bytes(6))
+        assert rx[:2] == b"\x00\x00", f"MISO not low during command and dummy: {rx.hex()}"
+        assert rx[6] & STATUS_TAG_MASK == STATUS_TAG, f"no status tag: {rx[6]:#04x}"
+        return int.from_bytes(rx[2:6], "big"), rx[6]
+
     async def write(self, word_addr: int, value: int) -> None:
-        """Write frame: [1 a6..a0] then the 32-bit word, MSB first."""
-        await self.frame(bytes([0x80 | word_addr]) + (value & 0xFFFFFFFF).to_bytes(4, "big"))
+        """A write that must succeed (raises SpiError naming the status otherwise)."""
+        status = await self.write_status(word_addr, value)
+        if status != WRITE_OKAY:
+            raise SpiError(f"write of word {word_addr}: status {status:#04x}")
 
     async def read(self, word_addr: int) -> int:
-        """Read frame: [0 a6..a0], a dummy byte, then the 32-bit word on MISO."""
-        rx = await self.frame(bytes([word_addr]) + bytes(5))
-        assert rx[:2] == b"\x00\x00", f"MISO not low during command and dummy: {rx.hex()}"
-        return int.from_bytes(rx[2:], "big")
+        """A read that must succeed (raises SpiError naming the status otherwise)."""
+        value, status = await self.read_status(word_addr)
+        if status != READ_OKAY:
+            raise SpiError(f"read of word {word_addr}: status {status:#04x}")
+        return value
+
+
+async def reset_after_sck_falls(dut, sck, falls: int, clocks: int = 2) -> None:
+    """Pulse dut.rst for `clocks` clocks one clock after the `falls`-th falling edge of `sck`."""
+    for _ in range(falls):
+        await FallingEdge(sck)
+    await ClockCycles(dut.clk, 1)
+    dut.rst.value = 1
+    await ClockCycles(dut.clk, clocks)
+    dut.rst.value = 0
 
 
 class Ads1220:
