@@ -20,7 +20,23 @@ import cocotb
 import pytest
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
-from hdl_sim import SIMULATORS, Ads1220, SpiMaster, replay_write, rtl, run_cocotb, signed
+from hdl_sim import (
+    READ_OKAY,
+    RESP_DECERR,
+    RESP_SLVERR,
+    SIMULATORS,
+    STATUS_DONE,
+    STATUS_TAG,
+    STATUS_WRITE,
+    WRITE_OKAY,
+    Ads1220,
+    SpiMaster,
+    reset_after_sck_falls,
+    replay_write,
+    rtl,
+    run_cocotb,
+    signed,
+)
 
 from cosim import interface, regmap
 from cosim.rtl_model import FAULT_ADC_STALE, TensionLoopModel, adc_code_from_tension
@@ -73,6 +89,10 @@ class SystemTb:
         d = self.dut
         while True:
             await FallingEdge(d.clk)
+            if d.rst.value:  # a reset in mid-run: the core starts over, and so does the model
+                self.model.reset()
+                self.expected.clear()
+                continue
             if d.cmd_valid.value:
                 assert self.expected, "cmd_valid without a sample tick"
                 exp = self.expected.popleft()
@@ -218,9 +238,75 @@ async def mcu_and_adc_drive_the_loop(dut):
     assert tb.samples_seen > 20 and not tb.sent
 
 
+async def _configured(dut) -> SystemTb:
+    """The system after reset, with the ADC front-end done configuring the ADS1220."""
+    tb = SystemTb(dut)
+    await tb.start()
+    for _ in range(3000):
+        await RisingEdge(dut.clk)
+        if len(tb.adc.received) == len(CONFIG):
+            break
+    assert tb.adc.received == CONFIG, [hex(b) for b in tb.adc.received]
+    return tb
+
+
+@cocotb.test()
+async def refused_accesses_are_reported_over_spi(dut):
+    """The MCU learns from the status byte that a write or read was refused, and nothing moved.
+
+    Word 65 used to alias onto CTRL (word 1): now DECERR without a bus access. Unmapped words of
+    the map answer SLVERR; writes to read-only registers are ignored with OKAY (documented).
+    """
+    tb = await _configured(dut)
+    ctrl_word = regmap.CTRL // 4
+    enable = regmap.CTRL_ENABLE
+    w_err = STATUS_TAG | STATUS_WRITE | STATUS_DONE
+    r_err = STATUS_TAG | STATUS_DONE
+    assert await tb.mcu.write_status(64 + ctrl_word, enable) == w_err | RESP_DECERR
+    assert await tb.mcu.write_status(40, enable) == w_err | RESP_SLVERR
+    assert await tb.mcu.write_status(regmap.STATUS // 4, 0xF) == WRITE_OKAY
+    assert await tb.mcu.read_status(64 + ctrl_word) == (0, r_err | RESP_DECERR)
+    assert await tb.mcu.read_status(40) == (0, r_err | RESP_SLVERR)
+    assert await tb.mcu.read_status(ctrl_word) == (0, READ_OKAY)
+    assert await tb.mcu.read(regmap.STATUS // 4) == 0
+    await ClockCycles(dut.clk, 3 * CLKS_PER_SAMPLE)
+    assert not dut.drive_enable.value and tb.compared > 0
+    # And a good write still works after the refusals.
+    await tb.write("CTRL", enable)
+    assert await tb.read("KP") == regmap.REGISTERS["KP"].fields[0].reset
+    assert await tb.mcu.read_status(ctrl_word) == (enable, READ_OKAY)
+
+
+@cocotb.test()
+async def reset_in_mid_frame_enables_nothing(dut):
+    """Reset of the whole system during a frame whose tail reads as "write CTRL = ENABLE".
+
+    The bridge drops the rest of the frame: no bus write, CTRL stays 0, the drive stays off.
+    """
+    tb = await _configured(dut)
+    writes = 0
+
+    async def count_writes() -> None:
+        nonlocal writes
+        while True:
+            await FallingEdge(dut.clk)
+            writes += int(dut.axil_awvalid.value and dut.axil_awready.value)
+
+    cocotb.start_soon(count_writes())
+    tail = bytes([0x80 | regmap.CTRL // 4]) + regmap.CTRL_ENABLE.to_bytes(4, "big") + bytes(1)
+    cocotb.start_soon(reset_after_sck_falls(dut, dut.mcu_sck, 8))
+    await tb.mcu.frame(bytes([regmap.ID // 4]) + tail)
+    assert writes == 0
+    await ClockCycles(dut.clk, 5 * CLKS_PER_SAMPLE)
+    assert not dut.drive_enable.value and tb.compared > 0
+    assert await tb.mcu.read(regmap.CTRL // 4) == 0
+    assert await tb.mcu.read(regmap.ID // 4) == 0x424F0100
+    assert writes == 0
+
+
 @pytest.mark.parametrize("simulator", SIMULATORS)
 def test_bowden_system(simulator):
-    """Build bowden_system with short clocks per sample and ADC waits; run the coroutine above."""
+    """Build bowden_system with short clocks per sample and ADC waits; run the coroutines above."""
     sources = rtl("bowden_system", "spi_axil_bridge", "ads1220_reader", "bowden_core")
     sources += rtl("axil_regbus", "bowden_regs", "tension_loop", "mul_s16", "pwm_escon")
     params = {"CLK_HZ": CLK_HZ, "ADC_SCLK_HALF_CLKS": 4, "ADC_WAIT_CLKS": 64}
