@@ -367,7 +367,7 @@ def gen_formal(spec: dict) -> list[str]:
         return reset, rw, const
 
     w("`ifdef FORMAL")
-    w("// --- formal contract of the map (hdl/formal/bowden_core.sby), generated from the table ---")
+    w("// --- formal contract of the map (hdl/formal/bowden_core.sby), made from the table ---")
     w("reg f_past_valid = 1'b0;")
     w("always @(posedge clk) f_past_valid <= 1'b1;")
     w("always @* if (!f_past_valid) assume(rst);")
@@ -377,7 +377,7 @@ def gen_formal(spec: dict) -> list[str]:
     tables = {"f_reset": [], "f_rw_mask": [], "f_const_mask": []}
     for reg in regs:
         reset, rw, const = masks(reg)
-        for key, value in zip(tables, (reset, rw, const)):
+        for key, value in zip(tables, (reset, rw, const), strict=True):
             tables[key].append(f"(f_a == A_{reg['name']}) ? 32'h{value:08X} :")
     for key, rows in tables.items():
         w(f"wire [31:0] {key} =")
@@ -433,10 +433,9 @@ def gen_formal(spec: dict) -> list[str]:
     for reg in regs:
         for f in reg["fields"]:
             if f["access"] == "w1p":
-                w(
-                    f"        assert({port(reg, f)} == $past(reg_wr_en && wr_word == A_{reg['name']}"
-                    f" && reg_wr_data[{f['lsb']}] && reg_wr_strb[{f['lsb'] // 8}]));"
-                )
+                hit = f"reg_wr_en && wr_word == A_{reg['name']}"
+                bit = f"reg_wr_data[{f['lsb']}] && reg_wr_strb[{f['lsb'] // 8}]"
+                w(f"        assert({port(reg, f)} == $past({hit} && {bit}));")
         if reg.get("wr_pulse"):
             n = reg["name"]
             w(f"        assert({n.lower()}_wr == $past(reg_wr_en && wr_word == A_{n}));")
@@ -445,7 +444,8 @@ def gen_formal(spec: dict) -> list[str]:
     w("end")
     w("")
     w("always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin")
-    w("    cover(f_rd_a[2] && f_rw_mask != 32'd0 && (f_w_rd2 & f_rw_mask) != (f_reset & f_rw_mask));")
+    w("    cover(f_rd_a[2] && f_rw_mask != 32'd0 &&")
+    w("          (f_w_rd2 & f_rw_mask) != (f_reset & f_rw_mask));  // a write read back")
     w("    cover(f_rd_a[2] && !f_a_mapped);")
     w("    cover(reg_wr_err);")
     w("end")

