@@ -9,9 +9,9 @@ build/formal/<name>_<task>/, and prints for each task
     PASS  tension_loop:prove        k-induction, depth 18               9.1 s
 
 `--mutants` instead applies each mutant of MUTANTS (a small deliberate break of the RTL) to a
-scratch copy of the sources under build/formal/mutants/<mutant>/ and runs the task that must
-catch it: KILLED when the proof or cover fails, SURVIVED (an error) when it passes. The tree
-itself is never modified.
+scratch copy of the sources under build/formal/mutants/<mutant>/ and runs the bounded check
+(the `bmc` task of the same .sby, same properties) that must catch it: KILLED when it finds a
+counterexample trace, SURVIVED (an error) otherwise. The tree itself is never modified.
 
 Usage: formal.py [--tasks NAME:TASK ...] [--mutants [MUTANT ...]] [--out DIR] [--jobs N]
 Exit status: 0 when every task passed (every mutant was killed), 1 otherwise, 2 on bad usage.
@@ -70,7 +70,7 @@ MUTANTS = [
         "tension_loop.v",
         "wire [15:0] u_sat = rhi_reg ? {1'b0, lim_s_reg} : rlo_reg ? nlim_reg : r_reg[15:0];",
         "wire [15:0] u_sat = rhi_reg ? {1'b0, lim_s_reg} : r_reg[15:0];",
-        "tension_loop:prove",
+        "tension_loop:bmc",
     ),
     Mutant(
         "u_kept_when_disabled",
@@ -78,7 +78,7 @@ MUTANTS = [
         "tension_loop.v",
         "            u_next = ramp_reg ? u_ramp_reg : 16'd0;",
         "            u_next = ramp_reg ? u_ramp_reg : u_reg;",
-        "tension_loop:prove",
+        "tension_loop:bmc",
     ),
     Mutant(
         "pwm_clamp_removed",
@@ -86,7 +86,7 @@ MUTANTS = [
         "pwm_escon.v",
         "    end else if (gt_reg) begin",
         "    end else if (1'b0) begin",
-        "pwm_escon:prove_48mhz",
+        "pwm_escon:bmc",
     ),
     Mutant(
         "pwm_duty_mid_period",
@@ -94,7 +94,7 @@ MUTANTS = [
         "pwm_escon.v",
         "    if (cnt_reg == LAST) begin\n        duty_next = HALF + offset;",
         "    if (cnt_reg[0]) begin\n        duty_next = HALF + offset;",
-        "pwm_escon:prove_48mhz",
+        "pwm_escon:bmc",
     ),
     Mutant(
         "pwm_ignores_enable",
@@ -102,7 +102,7 @@ MUTANTS = [
         "pwm_escon.v",
         "    if (!en_reg) begin\n        u_c = 16'd0;",
         "    if (1'b0) begin\n        u_c = 16'd0;",
-        "pwm_escon:prove_48mhz",
+        "pwm_escon:bmc",
     ),
     Mutant(
         "integ_clamp_removed",
@@ -110,7 +110,7 @@ MUTANTS = [
         "tension_loop.v",
         "wire [32:0] i_clamped = ihi_reg ? lim28 : ilo_reg ? nlim28 : isum_reg;",
         "wire [32:0] i_clamped = ilo_reg ? nlim28 : isum_reg;",
-        "tension_loop:prove",
+        "tension_loop:bmc",
     ),
     Mutant(
         "held_integ_unclamped",
@@ -118,7 +118,7 @@ MUTANTS = [
         "tension_loop.v",
         "inew_next = windup ? ihold_reg : i_clamped[31:0];",
         "inew_next = windup ? iprev_reg : i_clamped[31:0];",
-        "tension_loop:prove",
+        "tension_loop:bmc",
     ),
     Mutant(
         "anti_windup_removed",
@@ -126,7 +126,7 @@ MUTANTS = [
         "tension_loop.v",
         "wire windup = (sat_hi_reg && pi_pos_reg) || (sat_lo_reg && pi_neg_reg);",
         "wire windup = (sat_lo_reg && pi_neg_reg);",
-        "tension_loop:prove",
+        "tension_loop:bmc",
     ),
     Mutant(
         "fault_not_latched",
@@ -134,7 +134,7 @@ MUTANTS = [
         "tension_loop.v",
         "        fbase_s_next = fclr_now ? 4'd0 : fault_reg;",
         "        fbase_s_next = 4'd0;",
-        "tension_loop:prove",
+        "tension_loop:bmc",
     ),
     Mutant(
         "range_fault_ignored",
@@ -142,7 +142,7 @@ MUTANTS = [
         "tension_loop.v",
         "        hi_bad_next = above_max[24];  // raw > ADC_MAX",
         "        hi_bad_next = 1'b0;",
-        "tension_loop:prove",
+        "tension_loop:bmc",
     ),
     Mutant(
         "watchdog_ramps_with_other_fault",
@@ -150,7 +150,7 @@ MUTANTS = [
         "tension_loop.v",
         "        ramp_next = en_s_reg && (faults_now == F_WDT);",
         "        ramp_next = en_s_reg && faults_now[2];",
-        "tension_loop:prove",
+        "tension_loop:bmc",
     ),
     Mutant(
         "watchdog_no_ramp_limit",
@@ -158,7 +158,7 @@ MUTANTS = [
         "tension_loop.v",
         "wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : 16'd0;",
         "wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : u_reg;",
-        "tension_loop:prove",
+        "tension_loop:bmc",
     ),
     Mutant(
         "tick_too_early",
@@ -166,7 +166,7 @@ MUTANTS = [
         "bowden_core.v",
         "    tick_next = (tick_cnt_reg == TICK_LAST);",
         "    tick_next = (tick_cnt_reg == TICK_LAST) || (tick_cnt_reg == 3);",
-        "bowden_core:prove",
+        "bowden_core:bmc",
     ),
     Mutant(
         "axil_double_response",
@@ -174,7 +174,7 @@ MUTANTS = [
         "axil_regbus.v",
         "    bvalid_next = bvalid_reg && !s_axil_bready;",
         "    bvalid_next = bvalid_reg;",
-        "bowden_core:prove",
+        "bowden_core:bmc",
     ),
     Mutant(
         "axil_bresp_okay_always",
@@ -182,7 +182,7 @@ MUTANTS = [
         "axil_regbus.v",
         "        bresp_next = reg_wr_err ? RESP_SLVERR : RESP_OKAY;",
         "        bresp_next = RESP_OKAY;",
-        "bowden_core:prove",
+        "bowden_core:bmc",
     ),
     Mutant(
         "regs_ro_write_lands",
@@ -191,7 +191,7 @@ MUTANTS = [
         "            A_STATUS: begin\n                wr_hit = 1'b1;\n            end",
         "            A_STATUS: begin\n                wr_hit = 1'b1;\n"
         "                kp_next = kp_wval;\n            end",
-        "bowden_core:prove",
+        "bowden_core:bmc",
     ),
     Mutant(
         "regs_reset_value",
@@ -199,7 +199,7 @@ MUTANTS = [
         "bowden_regs.v",
         "        kff_reg <= 16'd721;",
         "        kff_reg <= 16'd720;",
-        "bowden_core:prove",
+        "bowden_core:bmc",
     ),
     Mutant(
         "bridge_aliases_high_words",
@@ -207,7 +207,7 @@ MUTANTS = [
         "spi_axil_bridge.v",
         "wire       wr_in_range = (wr_addr >> ADDR_W) == 9'd0;",
         "wire       wr_in_range = 1'b1;",
-        "spi_axil_bridge:prove_aw8",
+        "spi_axil_bridge:bmc",
     ),
     Mutant(
         "bridge_not_armed_after_reset",
@@ -215,7 +215,7 @@ MUTANTS = [
         "spi_axil_bridge.v",
         "    armed_next = armed_reg || !cs_active;",
         "    armed_next = 1'b1;",
-        "spi_axil_bridge:prove_aw8",
+        "spi_axil_bridge:bmc",
     ),
     Mutant(
         "bridge_partial_frame",
@@ -223,7 +223,7 @@ MUTANTS = [
         "spi_axil_bridge.v",
         "    last_wr_reg <= cs_active && bit_cnt_reg == 6'd39;",
         "    last_wr_reg <= cs_active && bit_cnt_reg == 6'd38;",
-        "spi_axil_bridge:prove_aw8",
+        "spi_axil_bridge:bmc",
     ),
     Mutant(
         "bridge_idle_not_reached",
@@ -231,7 +231,7 @@ MUTANTS = [
         "spi_axil_bridge.v",
         "    if (!cs_active || !armed_reg) begin\n        bit_cnt_next = 6'd0;",
         "    if (!armed_reg) begin\n        bit_cnt_next = 6'd0;",
-        "spi_axil_bridge:prove_aw8",
+        "spi_axil_bridge:bmc",
     ),
 ]
 
@@ -282,7 +282,7 @@ def _method(sby: Path, task: str, log: str) -> str:
         reached = len(re.findall(r"Reached cover statement", log))
         kind = f"cover, {reached} reached"
     else:
-        kind = f"BMC ({mode})"
+        kind = "BMC"
     return f"{kind}, depth {depth}"
 
 
@@ -353,10 +353,11 @@ def _scratch_copy(mutant: Mutant, out_dir: Path) -> Path:
 
 
 def run_mutant(mutant: Mutant, out_dir: Path) -> tuple[bool, Result]:
-    """Apply `mutant` in a scratch copy and run its task; True when the task failed (killed)."""
+    """Apply `mutant` in a scratch copy and run its task; True when the task found a
+    counterexample (killed: the break is reachable, not only unprovable)."""
     root = _scratch_copy(mutant, out_dir)
     r = run_task(mutant.task, out_dir / "mutants" / mutant.name, src_root=root)
-    return r.status in ("FAIL", "UNKNOWN"), r
+    return r.status == "FAIL", r
 
 
 def main(argv: list[str] | None = None) -> int:
