@@ -286,6 +286,19 @@ def _method(sby: Path, task: str, log: str) -> str:
     return f"{kind}, depth {depth}"
 
 
+def _task_names(sby: Path) -> list[str]:
+    """The task names listed in the [tasks] section of `sby`."""
+    names = []
+    in_tasks = False
+    for line in sby.read_text().splitlines():
+        s = line.strip()
+        if s.startswith("["):
+            in_tasks = s == "[tasks]"
+        elif in_tasks and s and not s.startswith("#"):
+            names.append(s.split()[0])
+    return names
+
+
 def _task_tags(text: str, task: str) -> set[str]:
     tags = {task}
     in_tasks = False
@@ -401,10 +414,12 @@ def main(argv: list[str] | None = None) -> int:
         return 1 if survived else 0
 
     tasks = args.tasks or TASKS
-    bad = [t for t in tasks if ":" not in t or not (FORMAL_DIR / f"{t.split(':')[0]}.sby").exists()]
-    if bad:
-        print(f"task {bad[0]}: expected NAME:TASK with hdl/formal/NAME.sby", file=sys.stderr)
-        return 2
+    for t in tasks:
+        name, _, task = t.partition(":")
+        sby = FORMAL_DIR / f"{name}.sby"
+        if not sby.exists() or task not in _task_names(sby):
+            print(f"task {t}: expected NAME:TASK, a task of hdl/formal/NAME.sby", file=sys.stderr)
+            return 2
     with ThreadPoolExecutor(args.jobs) as pool:
         results = list(pool.map(lambda t: run_task(t, out_dir), tasks))
     failed = 0
