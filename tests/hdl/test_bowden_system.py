@@ -127,6 +127,9 @@ class SystemTb:
         while True:
             await FallingEdge(d.clk)
             clk += 1
+            if d.rst.value:  # a reset in mid-run restarts the period: not checked
+                start, prev = None, 1
+                continue
             pwm = int(d.drive_pwm.value)
             if d.sample_tick.value:
                 last_tick = clk
