@@ -221,8 +221,8 @@ MUTANTS = [
         "bridge_partial_frame",
         "5 no access from a partial frame",
         "spi_axil_bridge.v",
-        "    last_wr_reg <= cs_active && bit_cnt_reg == 6'd39;",
-        "    last_wr_reg <= cs_active && bit_cnt_reg == 6'd38;",
+        "    wr_pt_reg <= cs_active && armed_reg && bit_cnt_reg == 6'd39 && cmd_reg[7];",
+        "    wr_pt_reg <= cs_active && armed_reg && bit_cnt_reg == 6'd38 && cmd_reg[7];",
         "spi_axil_bridge:bmc",
     ),
     Mutant(

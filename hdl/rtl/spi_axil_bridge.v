@@ -30,7 +30,7 @@
  * guarantees need no such limit: hdl/formal/spi_axil_bridge.sby proves them for any pins).
  */
 module spi_axil_bridge #(
-    parameter ADDR_W = 8  // AXI byte address width (<= 9: 7-bit word address)
+    parameter ADDR_W = 8  // AXI byte address width (3..9; 9: the whole 7-bit word address)
 ) (
     input  wire              clk,
     input  wire              rst,
@@ -104,8 +104,10 @@ reg  [1:0]  resp_st_reg, resp_st_next;     // status: RESP
 // no edge sees a long decode path. Gated by chip select, so a new frame never sees the last
 // frame's count.
 reg        in_cmd_reg;    // bit_cnt < 8
-reg        last_cmd_reg;  // bit_cnt == 7: this rising edge completes the command byte
-reg        last_wr_reg;   // bit_cnt == 39: this rising edge completes a write frame
+reg        rd_pt_reg;     // bit_cnt == 7 of a read: this rising edge is its access point
+reg        rd_ok_reg;     // and its word address fits the bus
+reg        wr_pt_reg;     // bit_cnt == 39 of a write: this rising edge is its access point
+reg        wr_ok_reg;     // and its word address fits the bus
 reg        full_reg;      // bit_cnt == 56: the longest frame is complete
 reg        data_out_reg;  // read data or status bits go out on MISO
 reg        stat_ld_reg;   // this falling edge sends the status byte's first bit
@@ -113,10 +115,13 @@ reg        stat_ld_reg;   // this falling edge sends the status byte's first bit
 wire [5:0] bits_after = bit_cnt_reg + 6'd1;
 wire [7:0] cmd_now = {cmd_reg[6:0], mosi};
 
-// The word address must fit the bus: a narrower bus would alias words onto others.
+// The word address must fit the bus: a narrower bus would alias words onto others. A read's
+// last address bit arrives with its access point, at byte address bit 2, inside any bus of
+// ADDR_W >= 3, so the range check needs only the bits before it.
 wire [8:0] rd_addr = {cmd_now[6:0], 2'b00};
 wire [8:0] wr_addr = {cmd_reg[6:0], 2'b00};
-wire       rd_in_range = (rd_addr >> ADDR_W) == 9'd0;
+wire [8:0] rd_addr_known = {cmd_reg[5:0], 3'b000};
+wire       rd_in_range = (rd_addr_known >> ADDR_W) == 9'd0;
 wire       wr_in_range = (wr_addr >> ADDR_W) == 9'd0;
 
 wire       resp_now = m_axil_bvalid || m_axil_rvalid;
@@ -145,9 +150,19 @@ always @* begin
     if (wait_reg && resp_now && (cmd_reg[7] || !data_out_reg)) begin
         done_st_next = 1'b1;
         resp_st_next = resp_code;
-        if (m_axil_rvalid) begin
-            shift_out_next = m_axil_rdata;
-        end
+    end
+
+    // MISO's shift register, a flat priority (one short path): the status byte, the data
+    // bits, a read's answer before its data phase, zero between frames (so a refused read's
+    // data reads 0). Outside a frame MISO itself is held at 0 below.
+    if (sck_fall && stat_ld_reg) begin
+        shift_out_next = {status[6:0], 25'd0};
+    end else if (sck_fall && data_out_reg) begin
+        shift_out_next = {shift_out_reg[30:0], 1'b0};
+    end else if (wait_reg && m_axil_rvalid && !data_out_reg) begin
+        shift_out_next = m_axil_rdata;
+    end else if (!cs_active) begin
+        shift_out_next = 32'd0;
     end
 
     if (!cs_active || !armed_reg) begin
@@ -162,20 +177,17 @@ always @* begin
                 shift_in_next = {shift_in_reg[30:0], mosi};
             end
             // The access point of a frame: the 8th bit of a read, the 40th of a write.
-            if ((last_cmd_reg && !cmd_now[7]) || (last_wr_reg && cmd_reg[7])) begin
+            if (rd_pt_reg || wr_pt_reg) begin
                 done_st_next = 1'b0;
                 busy_st_next = 1'b0;
                 resp_st_next = RESP_OKAY;
-                if (last_cmd_reg) begin
-                    shift_out_next = 32'd0;
-                end
                 if (busy_reg) begin
                     done_st_next = 1'b1;  // refused: the last access is still outstanding
                     busy_st_next = 1'b1;
-                end else if (last_cmd_reg ? !rd_in_range : !wr_in_range) begin
+                end else if (rd_pt_reg ? !rd_ok_reg : !wr_ok_reg) begin
                     done_st_next = 1'b1;  // refused: beyond the bus
                     resp_st_next = RESP_DECERR;
-                end else if (last_cmd_reg) begin
+                end else if (rd_pt_reg) begin
                     arvalid_next = 1'b1;  // read: fetch during the dummy byte
                     addr_next = rd_addr;
                     busy_next = 1'b1;
@@ -194,10 +206,8 @@ always @* begin
         if (sck_fall) begin
             if (stat_ld_reg) begin
                 miso_next = status[7];
-                shift_out_next = {status[6:0], 25'd0};
             end else if (data_out_reg) begin
                 miso_next = shift_out_reg[31];
-                shift_out_next = {shift_out_reg[30:0], 1'b0};
             end else begin
                 miso_next = 1'b0;
             end
@@ -212,11 +222,15 @@ always @(posedge clk) begin
     bit_cnt_reg <= bit_cnt_next;
     armed_reg <= armed_next;
     in_cmd_reg <= !cs_active || bit_cnt_reg < 6'd8;
-    last_cmd_reg <= cs_active && bit_cnt_reg == 6'd7;
-    last_wr_reg <= cs_active && bit_cnt_reg == 6'd39;
+    rd_pt_reg <= cs_active && armed_reg && bit_cnt_reg == 6'd7 && !cmd_reg[6];
+    rd_ok_reg <= rd_in_range;
+    wr_pt_reg <= cs_active && armed_reg && bit_cnt_reg == 6'd39 && cmd_reg[7];
+    wr_ok_reg <= wr_in_range;
     full_reg <= cs_active && bit_cnt_reg == 6'd56;
-    data_out_reg <= cs_active && (cmd_reg[7] ? bit_cnt_reg > 6'd40 : bit_cnt_reg >= 6'd16);
-    stat_ld_reg <= cs_active && (cmd_reg[7] ? bit_cnt_reg == 6'd40 : bit_cnt_reg == 6'd48);
+    data_out_reg <= cs_active && armed_reg &&
+                    (cmd_reg[7] ? bit_cnt_reg > 6'd40 : bit_cnt_reg >= 6'd16);
+    stat_ld_reg <= cs_active && armed_reg &&
+                   (cmd_reg[7] ? bit_cnt_reg == 6'd40 : bit_cnt_reg == 6'd48);
     cmd_reg <= cmd_next;
     shift_in_reg <= shift_in_next;
     shift_out_reg <= shift_out_next;
@@ -237,8 +251,8 @@ always @(posedge clk) begin
         bit_cnt_reg <= 6'd0;
         armed_reg <= 1'b0;
         in_cmd_reg <= 1'b1;
-        last_cmd_reg <= 1'b0;
-        last_wr_reg <= 1'b0;
+        rd_pt_reg <= 1'b0;
+        wr_pt_reg <= 1'b0;
         full_reg <= 1'b0;
         data_out_reg <= 1'b0;
         stat_ld_reg <= 1'b0;
@@ -407,8 +421,8 @@ always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
     cover(f_issue_w);
     cover(f_issue_r && $past(m_axil_rvalid, 3));          // a read right after another
     cover(m_axil_bvalid && m_axil_bresp == 2'b10 && cmd_reg[7] && done_st_next);
-    cover($past(last_wr_reg && sck_rise && cmd_reg[7]) && resp_st_reg == RESP_DECERR);
-    cover($past(last_cmd_reg && sck_rise && busy_reg) && busy_st_reg);
+    cover($past(wr_pt_reg && sck_rise) && resp_st_reg == RESP_DECERR);
+    cover($past(rd_pt_reg && sck_rise && busy_reg) && busy_st_reg);
     cover(f_rst_mid && f_issue_w);
 end
 `endif
