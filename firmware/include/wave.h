@@ -1,5 +1,6 @@
 /*
- * wave.h - fixed-point reference generator for the tick: constant, sine or triangle T_ref.
+ * wave.h - fixed-point reference generator for the tick: constant, sine, triangle, ramp or step
+ * T_ref.
  * No libm: the sine is fxp_sin_q1_30. The phase is a 32-bit turn counter advanced once per tick.
  *   T_ref[k] = sat_Q7.8( mean + amplitude * shape(phase0 + k * inc) ),  inc = freq / rate * 2^32
  * Phase increment: floor(freq_q16 * 2^16 / rate), so the frequency error is below
@@ -13,11 +14,13 @@
 #define WAVE_CONSTANT 0
 #define WAVE_SINE 1
 #define WAVE_TRIANGLE 2
+#define WAVE_RAMP 3 /* sawtooth: rises from the mean to mean + amplitude, jumps to mean - amplitude */
+#define WAVE_STEP 4 /* square: mean + amplitude for the first half period, then mean - amplitude */
 
 /* Status codes (0 is success), numbered apart from COMP_ERR_* so one code names one field. */
 #define WAVE_OK 0
 #define WAVE_ERR_NULL 20
-#define WAVE_ERR_KIND 21      /* kind not CONSTANT, SINE or TRIANGLE */
+#define WAVE_ERR_KIND 21      /* kind not CONSTANT, SINE, TRIANGLE, RAMP or STEP */
 #define WAVE_ERR_RATE 22      /* tick rate outside [1, 65535] Hz */
 #define WAVE_ERR_FREQ 23      /* frequency above rate / 2 (Nyquist) */
 #define WAVE_ERR_MEAN 24      /* mean outside [-128, 127.996] N */

@@ -239,7 +239,7 @@ const char *fw_strerror(int32_t code)
     case COMP_ERR_BAND:
         return "comp.band_n: outside [1/256, 128] N (a band of zero is not allowed)";
     case WAVE_ERR_KIND:
-        return "wave.kind: must be 0 (constant), 1 (sine) or 2 (triangle)";
+        return "wave.kind: must be 0 (constant), 1 (sine), 2 (triangle), 3 (ramp) or 4 (step)";
     case WAVE_ERR_RATE:
         return "wave.rate_hz: outside [1, 65535] Hz";
     case WAVE_ERR_FREQ:

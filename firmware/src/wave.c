@@ -20,7 +20,7 @@ int32_t wave_config_check(const wave_config_t *cfg, uint32_t rate_hz)
     if (cfg == 0) {
         return WAVE_ERR_NULL;
     }
-    if (cfg->kind != WAVE_CONSTANT && cfg->kind != WAVE_SINE && cfg->kind != WAVE_TRIANGLE) {
+    if (cfg->kind < WAVE_CONSTANT || cfg->kind > WAVE_STEP) {
         return WAVE_ERR_KIND;
     }
     if (rate_hz < 1U || rate_hz > 65535U) {
@@ -65,6 +65,15 @@ q7_8_t wave_next_q7_8(wave_t *w)
         shape = fxp_sin_q1_30(w->phase);
     } else if (w->cfg.kind == WAVE_TRIANGLE) {
         shape = fxp_triangle_q1_30(w->phase);
+    } else if (w->cfg.kind == WAVE_RAMP) {
+        /* The phase read as a signed turn, halved: 0 .. 2^30 over the first half turn, then
+         * -2^30 .. 0 (no implementation-defined unsigned -> signed conversion). */
+        shape = (q1_30_t)(w->phase >> 1);
+        if (shape >= (q1_30_t)Q1_30_ONE) {
+            shape = shape - (q1_30_t)Q1_30_ONE - (q1_30_t)Q1_30_ONE;
+        }
+    } else if (w->cfg.kind == WAVE_STEP) {
+        shape = (w->phase < 0x80000000UL) ? (q1_30_t)Q1_30_ONE : -(q1_30_t)Q1_30_ONE;
     }
     w->phase += w->inc; /* wraps modulo one turn by design */
     int64_t v = (int64_t)w->cfg.mean_n_q8 +

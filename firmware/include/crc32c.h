@@ -1,0 +1,19 @@
+/*
+ * crc32c.h - CRC-32C (Castagnoli; iSCSI, RFC 3720): reflected polynomial 0x82F63B78, initial value
+ * and final XOR 0xFFFFFFFF. Check value: crc32c("123456789") = 0xE3069283.
+ * A 16-entry table (64 bytes of flash) and two look-ups per byte: small enough for any target,
+ * about 20 instructions per byte.
+ */
+#ifndef BOWDEN_CRC32C_H
+#define BOWDEN_CRC32C_H
+
+#include <stdint.h>
+
+#define CRC32C_INIT 0xFFFFFFFFUL
+
+/* Continue a CRC over n bytes: crc = crc32c_update(CRC32C_INIT, ...), ..., result = crc ^ ~0. */
+uint32_t crc32c_update(uint32_t crc, const uint8_t *data, uint32_t n);
+/* The CRC-32C of n bytes. */
+uint32_t crc32c(const uint8_t *data, uint32_t n);
+
+#endif /* BOWDEN_CRC32C_H */

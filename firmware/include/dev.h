@@ -1,0 +1,137 @@
+/*
+ * dev.h - the device side of the bench protocol (firmware/proto/PROTOCOL.md): the request
+ * dispatcher, parameters, persistence, the run (waveform or streamed reference), telemetry and
+ * faults, on top of the firmware's tick (fw.h).
+ *
+ * The board code owns the timing and the links; per port (a UART, a USB CDC endpoint, a CAN
+ * controller) it feeds received bytes or CAN frames in (dev_rx_bytes, dev_rx_can), and sends what
+ * dev_tx_bytes / dev_tx_can hand out, as fast as the link allows; at the tick rate it calls
+ * dev_tick with the time and the output load cell's reading. Everything is integer, fixed size
+ * and allocation-free: each port has a transmit buffer, and telemetry that does not fit is
+ * dropped whole and counted (the telemetry's overflow counter and fault bit TX_OVERFLOW), never
+ * a reply, for which room is always kept.
+ *
+ * Requests are answered on the port they came from; telemetry goes to the port that sent START.
+ * A run ends at STOP, after START's duration, or never by itself with duration 0. Parameter
+ * writes, PERSIST, LOAD and DEFAULTS are refused while a run is active (BUSY): the loop's register
+ * words reach the FPGA at START (fw_start), so a change mid-run would not do what it says.
+ */
+#ifndef BOWDEN_DEV_H
+#define BOWDEN_DEV_H
+
+#include <stdint.h>
+
+#include "flash.h"
+#include "fw.h"
+#include "proto.h"
+#include "proto_can.h"
+
+/* The device's firmware version (reported by HELLO). */
+#define DEV_FW_VERSION_MAJOR 0U
+#define DEV_FW_VERSION_MINOR 1U
+#define DEV_FW_VERSION_PATCH 0U
+/* Build id: a hash of the sources, passed by the build (-DBOWDEN_BUILD_ID=0x...). */
+#ifndef BOWDEN_BUILD_ID
+#define BOWDEN_BUILD_ID 0UL
+#endif
+
+#define DEV_PORTS 3U
+#define DEV_PORT_SERIAL 0U
+#define DEV_PORT_CAN 1U
+/* Serial transmit buffer per port: 29 telemetry frames (29 ms at 1 kHz). */
+#define DEV_TX_BYTES 1024U
+/* CAN transmit queue per port, in frames: 32 telemetry samples. */
+#define DEV_TX_CAN_FRAMES 64U
+/* Streamed reference samples held (256 ms at 1 kHz). */
+#define DEV_STREAM_LEN 256U
+
+/* Status codes of dev_config_check, after the firmware's (fw.h: up to 56). */
+#define DEV_ERR_TELEMETRY_DIV 60
+#define DEV_ERR_CAN_NODE 61
+
+/* The device's own settings. */
+typedef struct {
+    uint32_t telemetry_div; /* telemetry every N ticks, [1, 1000]; default 1 */
+    uint32_t can_node;      /* CAN node id, [0, 63]; default 1 */
+} dev_config_t;
+
+/* Everything a parameter can address (the parameter table is generated from this structure). */
+typedef struct {
+    fw_config_t fw;
+    dev_config_t dev;
+} dev_settings_t;
+
+/* What HELLO reports (the generated constants; a test can pose as another build). */
+typedef struct {
+    uint8_t proto_version;
+    uint8_t fw_major;
+    uint8_t fw_minor;
+    uint8_t fw_patch;
+    uint32_t build_id;
+    uint32_t table_hash;
+} dev_identity_t;
+
+typedef struct {
+    uint32_t kind; /* DEV_PORT_SERIAL or DEV_PORT_CAN */
+    proto_rx_t rx;
+    proto_can_rx_t can_rx;
+    uint8_t tx[DEV_TX_BYTES]; /* serial: byte ring */
+    uint32_t tx_head;
+    uint32_t tx_len;
+    proto_can_frame_t can_tx[DEV_TX_CAN_FRAMES]; /* CAN: frame ring */
+    uint32_t can_head;
+    uint32_t can_len;
+    uint32_t version_errors;
+    uint32_t bad_messages;
+    uint32_t tx_frames;
+    uint32_t tx_overflow;
+} dev_port_t;
+
+typedef struct {
+    fw_t *fw;
+    const flash_hal_t *flash;
+    dev_settings_t settings;
+    dev_identity_t id;
+    uint32_t config_source; /* PROTO_CONFIG_SOURCE_* */
+    uint32_t dirty;         /* parameters changed since the last persist or load */
+    uint32_t running;
+    uint32_t owner;         /* port that started the run */
+    uint32_t run_ticks;
+    uint32_t run_limit;     /* 0: until STOP */
+    uint32_t faults;        /* device fault bits (PROTO_FAULTS_*, bits 4..7), latched */
+    uint32_t overflow;      /* telemetry frames dropped since boot */
+    uint32_t time_us;
+    int16_t stream[DEV_STREAM_LEN];
+    uint32_t stream_head;
+    uint32_t stream_len;
+    int16_t stream_last;    /* held when the stream runs dry */
+    dev_port_t ports[DEV_PORTS];
+} dev_t;
+
+/* Factory defaults: fw_config_default and telemetry every tick, CAN node 1. */
+void dev_settings_default(dev_settings_t *s);
+/* 0 or the status code of the first bad field (fw_config_check, then DEV_ERR_*). */
+int32_t dev_settings_check(const dev_settings_t *s);
+/* The message of a status code (fw_strerror, and the device's own). */
+const char *dev_strerror(int32_t code);
+
+/* Bind to a firmware (fw_init done) and a flash; load the saved settings (or the defaults when
+ * there are none or they are rejected) and configure the firmware. Every port starts serial. */
+void dev_init(dev_t *d, fw_t *fw, const flash_hal_t *flash);
+/* Make a port serial or CAN (clears its buffers). */
+void dev_port_kind(dev_t *d, uint32_t port, uint32_t kind);
+
+void dev_rx_bytes(dev_t *d, uint32_t port, const uint8_t *data, uint32_t n);
+void dev_rx_can(dev_t *d, uint32_t port, const proto_can_frame_t *f);
+/* Up to max bytes (serial) or frames (CAN) to send, oldest first; returns how many. */
+uint32_t dev_tx_bytes(dev_t *d, uint32_t port, uint8_t *out, uint32_t max);
+uint32_t dev_tx_can(dev_t *d, uint32_t port, proto_can_frame_t *out, uint32_t max);
+
+/* The tick (call at fw tick_rate_hz): while a run is active, T_ref from the waveform or the
+ * stream, fw_tick, and a telemetry frame every dev.telemetry_div ticks. t_out_q8 is the output
+ * load cell (Q7.8 N) as the board reads it. */
+void dev_tick(dev_t *d, uint32_t time_us, int32_t t_out_q8);
+/* The board's timer code reports a tick that came late (sets fault OVERRUN). */
+void dev_overrun(dev_t *d);
+
+#endif /* BOWDEN_DEV_H */

@@ -1,0 +1,609 @@
+/* dev.c - the device side of the bench protocol (dev.h). */
+#include "dev.h"
+
+#include "bowden_regs.h"
+#include "params.h"
+
+/* Room kept free for replies when telemetry is queued: two of the largest frames. */
+#define RESERVE_BYTES (2U * PROTO_MAX_WIRE)
+#define RESERVE_CAN (2U * PROTO_CAN_MAX_FRAMES)
+/* Device faults a new run starts without (CONFIG stays until FAULT_CLEAR or PERSIST). */
+#define RUN_FAULTS (PROTO_FAULT_STREAM_UNDERRUN | PROTO_FAULT_TX_OVERFLOW | PROTO_FAULT_OVERRUN)
+
+void dev_settings_default(dev_settings_t *s)
+{
+    fw_config_default(&s->fw);
+    s->dev.telemetry_div = 1U;
+    s->dev.can_node = PROTO_CAN_DEFAULT_NODE;
+}
+
+int32_t dev_settings_check(const dev_settings_t *s)
+{
+    int32_t err = fw_config_check(&s->fw);
+    if (err != FW_OK) {
+        return err;
+    }
+    if (s->dev.telemetry_div < 1U || s->dev.telemetry_div > 1000U) {
+        return DEV_ERR_TELEMETRY_DIV;
+    }
+    if (s->dev.can_node >= (1U << PROTO_CAN_NODE_BITS)) {
+        return DEV_ERR_CAN_NODE;
+    }
+    return 0;
+}
+
+const char *dev_strerror(int32_t code)
+{
+    switch (code) {
+    case DEV_ERR_TELEMETRY_DIV:
+        return "dev.telemetry_div: outside [1, 1000] ticks";
+    case DEV_ERR_CAN_NODE:
+        return "dev.can_node: outside [0, 63]";
+    default:
+        return fw_strerror(code);
+    }
+}
+
+void dev_port_kind(dev_t *d, uint32_t port, uint32_t kind)
+{
+    if (port >= DEV_PORTS) {
+        return;
+    }
+    dev_port_t *p = &d->ports[port];
+    p->kind = kind;
+    proto_rx_init(&p->rx);
+    proto_can_rx_init(&p->can_rx);
+    p->tx_head = p->tx_len = 0U;
+    p->can_head = p->can_len = 0U;
+    p->version_errors = p->bad_messages = p->tx_frames = p->tx_overflow = 0U;
+}
+
+static void stream_clear(dev_t *d)
+{
+    d->stream_head = d->stream_len = 0U;
+    d->stream_last = 0;
+}
+
+void dev_init(dev_t *d, fw_t *fw, const flash_hal_t *flash)
+{
+    d->fw = fw;
+    d->flash = flash;
+    d->id.proto_version = (uint8_t)PROTO_VERSION;
+    d->id.fw_major = (uint8_t)DEV_FW_VERSION_MAJOR;
+    d->id.fw_minor = (uint8_t)DEV_FW_VERSION_MINOR;
+    d->id.fw_patch = (uint8_t)DEV_FW_VERSION_PATCH;
+    d->id.build_id = (uint32_t)BOWDEN_BUILD_ID;
+    d->id.table_hash = PROTO_TABLE_HASH;
+    d->faults = 0U;
+    d->overflow = 0U;
+    d->time_us = 0U;
+    d->running = d->run_ticks = d->run_limit = d->owner = 0U;
+    d->dirty = 0U;
+    dev_settings_default(&d->settings);
+    d->config_source = PROTO_CONFIG_SOURCE_DEFAULTS;
+    if (flash != 0) {
+        uint32_t seq;
+        int32_t err = flash_load(flash, &d->settings, &seq);
+        if (err == FLASH_OK) {
+            d->config_source = PROTO_CONFIG_SOURCE_FLASH;
+        } else if (err == FLASH_ERR_INVALID) {
+            d->config_source = PROTO_CONFIG_SOURCE_FLASH_INVALID;
+            d->faults |= PROTO_FAULT_CONFIG;
+        }
+    }
+    (void)fw_configure(fw, &d->settings.fw); /* checked by flash_load or the defaults */
+    stream_clear(d);
+    for (uint32_t i = 0; i < DEV_PORTS; ++i) {
+        dev_port_kind(d, i, DEV_PORT_SERIAL);
+    }
+}
+
+/* --- transmit ------------------------------------------------------------------------------ */
+
+static int tx_push(dev_port_t *p, const uint8_t *b, uint32_t n, uint32_t reserve)
+{
+    if (DEV_TX_BYTES - p->tx_len < n + reserve) {
+        return 0;
+    }
+    for (uint32_t i = 0; i < n; ++i) {
+        p->tx[(p->tx_head + p->tx_len + i) % DEV_TX_BYTES] = b[i];
+    }
+    p->tx_len += n;
+    return 1;
+}
+
+static int can_push(dev_port_t *p, const proto_can_frame_t *f, uint32_t n, uint32_t reserve)
+{
+    if (DEV_TX_CAN_FRAMES - p->can_len < n + reserve) {
+        return 0;
+    }
+    for (uint32_t i = 0; i < n; ++i) {
+        p->can_tx[(p->can_head + p->can_len + i) % DEV_TX_CAN_FRAMES] = f[i];
+    }
+    p->can_len += n;
+    return 1;
+}
+
+/* Queue a frame on a port; telemetry leaves the reserve free. 1 when queued. */
+static int send_frame(dev_t *d, uint32_t port, const proto_frame_t *f, int telemetry)
+{
+    dev_port_t *p = &d->ports[port];
+    int ok;
+    if (p->kind == DEV_PORT_CAN) {
+        proto_can_frame_t cf[PROTO_CAN_MAX_FRAMES];
+        uint32_t n = proto_can_encode(d->settings.dev.can_node, f, cf, PROTO_CAN_MAX_FRAMES);
+        ok = n != 0U && can_push(p, cf, n, telemetry ? RESERVE_CAN : 0U);
+    } else {
+        uint8_t wire[PROTO_MAX_WIRE];
+        uint32_t n = proto_encode(f, wire, PROTO_MAX_WIRE);
+        ok = n != 0U && tx_push(p, wire, n, telemetry ? RESERVE_BYTES : 0U);
+    }
+    if (ok) {
+        ++p->tx_frames;
+    } else {
+        ++p->tx_overflow;
+    }
+    return ok;
+}
+
+uint32_t dev_tx_bytes(dev_t *d, uint32_t port, uint8_t *out, uint32_t max)
+{
+    if (port >= DEV_PORTS) {
+        return 0U;
+    }
+    dev_port_t *p = &d->ports[port];
+    uint32_t n = (p->tx_len < max) ? p->tx_len : max;
+    for (uint32_t i = 0; i < n; ++i) {
+        out[i] = p->tx[p->tx_head];
+        p->tx_head = (p->tx_head + 1U) % DEV_TX_BYTES;
+    }
+    p->tx_len -= n;
+    return n;
+}
+
+uint32_t dev_tx_can(dev_t *d, uint32_t port, proto_can_frame_t *out, uint32_t max)
+{
+    if (port >= DEV_PORTS) {
+        return 0U;
+    }
+    dev_port_t *p = &d->ports[port];
+    uint32_t n = (p->can_len < max) ? p->can_len : max;
+    for (uint32_t i = 0; i < n; ++i) {
+        out[i] = p->can_tx[p->can_head];
+        p->can_head = (p->can_head + 1U) % DEV_TX_CAN_FRAMES;
+    }
+    p->can_len -= n;
+    return n;
+}
+
+/* --- replies ------------------------------------------------------------------------------- */
+
+static void frame_init(proto_frame_t *f, uint32_t msg, uint32_t seq)
+{
+    f->version = (uint8_t)PROTO_VERSION;
+    f->msg = (uint8_t)msg;
+    f->seq = (uint8_t)seq;
+    f->len = 0U;
+}
+
+static void reply_ack(dev_t *d, uint32_t port, const proto_frame_t *req, uint32_t value)
+{
+    proto_ack_t m = {req->msg, value};
+    proto_frame_t f;
+    frame_init(&f, PROTO_MSG_ACK, req->seq);
+    f.len = (uint8_t)proto_ack_pack(&m, f.payload);
+    (void)send_frame(d, port, &f, 0);
+}
+
+static void reply_error(dev_t *d, uint32_t port, const proto_frame_t *req, uint32_t code,
+                        int32_t detail, const char *text)
+{
+    proto_error_t m;
+    m.request = req->msg;
+    m.code = (uint8_t)code;
+    m.detail = detail;
+    m.text_count = 0U;
+    while (text != 0 && text[m.text_count] != '\0' && m.text_count < PROTO_ERROR_TEXT_MAX) {
+        m.text[m.text_count] = text[m.text_count];
+        ++m.text_count;
+    }
+    proto_frame_t f;
+    frame_init(&f, PROTO_MSG_ERROR, req->seq);
+    f.len = (uint8_t)proto_error_pack(&m, f.payload);
+    (void)send_frame(d, port, &f, 0);
+}
+
+static void reply_param(dev_t *d, uint32_t port, const proto_frame_t *req, uint32_t id)
+{
+    proto_param_value_t m;
+    m.param = (uint16_t)id;
+    (void)params_get(&d->settings, id, &m.value);
+    proto_frame_t f;
+    frame_init(&f, PROTO_MSG_PARAM_VALUE, req->seq);
+    f.len = (uint8_t)proto_param_value_pack(&m, f.payload);
+    (void)send_frame(d, port, &f, 0);
+}
+
+static void reply_busy(dev_t *d, uint32_t port, const proto_frame_t *req)
+{
+    reply_error(d, port, req, PROTO_ERR_BUSY, 0, "a run is active: STOP first");
+}
+
+/* --- requests ------------------------------------------------------------------------------ */
+
+static void stop_run(dev_t *d)
+{
+    fw_stop(d->fw);
+    d->running = 0U;
+    stream_clear(d);
+}
+
+static void on_hello(dev_t *d, uint32_t port, const proto_frame_t *req)
+{
+    proto_hello_ack_t m;
+    m.proto_version = d->id.proto_version;
+    m.fw_major = d->id.fw_major;
+    m.fw_minor = d->id.fw_minor;
+    m.fw_patch = d->id.fw_patch;
+    m.build_id = d->id.build_id;
+    m.table_hash = d->id.table_hash;
+    m.n_params = (uint16_t)PROTO_N_PARAMS;
+    m.running = (uint8_t)d->running;
+    m.config_source = (uint8_t)d->config_source;
+    m.dirty = (uint8_t)d->dirty;
+    proto_frame_t f;
+    frame_init(&f, PROTO_MSG_HELLO_ACK, req->seq);
+    f.version = d->id.proto_version;
+    f.len = (uint8_t)proto_hello_ack_pack(&m, f.payload);
+    (void)send_frame(d, port, &f, 0);
+}
+
+static void on_param_set(dev_t *d, uint32_t port, const proto_frame_t *req)
+{
+    proto_param_set_t m;
+    (void)proto_param_set_unpack(&m, req->payload, req->len);
+    if (d->running != 0U) {
+        reply_busy(d, port, req);
+        return;
+    }
+    int32_t status;
+    int32_t err = params_set(&d->settings, m.param, m.value, &status);
+    if (err == (int32_t)PROTO_ERR_INVALID_VALUE) {
+        reply_error(d, port, req, (uint32_t)err, status, dev_strerror(status));
+    } else if (err == (int32_t)PROTO_ERR_READ_ONLY) {
+        reply_error(d, port, req, (uint32_t)err, 0, "read-only parameter");
+    } else if (err != 0) {
+        reply_error(d, port, req, (uint32_t)err, (int32_t)PROTO_N_PARAMS, "unknown parameter id");
+    } else {
+        (void)fw_configure(d->fw, &d->settings.fw); /* checked by params_set */
+        d->dirty = 1U;
+        reply_param(d, port, req, m.param);
+    }
+}
+
+static void on_param_info(dev_t *d, uint32_t port, const proto_frame_t *req)
+{
+    proto_param_info_t q;
+    (void)proto_param_info_unpack(&q, req->payload, req->len);
+    if (q.param >= PROTO_N_PARAMS) {
+        reply_error(d, port, req, PROTO_ERR_UNKNOWN_PARAM, (int32_t)PROTO_N_PARAMS,
+                    "unknown parameter id");
+        return;
+    }
+    dev_settings_t def;
+    dev_settings_default(&def);
+    proto_param_info_ack_t m;
+    m.param = q.param;
+    m.key = proto_params[q.param].key;
+    (void)params_get(&def, q.param, &m.default_word);
+    m.flags = proto_params[q.param].flags;
+    proto_frame_t f;
+    frame_init(&f, PROTO_MSG_PARAM_INFO_ACK, req->seq);
+    f.len = (uint8_t)proto_param_info_ack_pack(&m, f.payload);
+    (void)send_frame(d, port, &f, 0);
+}
+
+static void on_persist(dev_t *d, uint32_t port, const proto_frame_t *req)
+{
+    uint32_t seq = 0U;
+    int32_t err = (d->flash != 0) ? flash_store(d->flash, &d->settings, &seq) : FLASH_ERR_WRITE;
+    if (err != FLASH_OK) {
+        d->faults |= PROTO_FAULT_CONFIG;
+        reply_error(d, port, req, PROTO_ERR_FLASH, err, "flash write failed");
+        return;
+    }
+    d->dirty = 0U;
+    d->config_source = PROTO_CONFIG_SOURCE_FLASH;
+    d->faults &= ~(uint32_t)PROTO_FAULT_CONFIG;
+    reply_ack(d, port, req, seq);
+}
+
+static void on_load(dev_t *d, uint32_t port, const proto_frame_t *req)
+{
+    dev_settings_t s;
+    dev_settings_default(&s);
+    uint32_t seq = 0U;
+    int32_t err = (d->flash != 0) ? flash_load(d->flash, &s, &seq) : FLASH_ERR_EMPTY;
+    if (err != FLASH_OK) {
+        reply_error(d, port, req, PROTO_ERR_FLASH, err,
+                    err == FLASH_ERR_EMPTY ? "no saved configuration"
+                                           : "saved configuration rejected by the check");
+        return;
+    }
+    d->settings = s;
+    (void)fw_configure(d->fw, &d->settings.fw);
+    d->dirty = 0U;
+    d->config_source = PROTO_CONFIG_SOURCE_FLASH;
+    reply_ack(d, port, req, seq);
+}
+
+static void on_start(dev_t *d, uint32_t port, const proto_frame_t *req)
+{
+    proto_start_t m;
+    (void)proto_start_unpack(&m, req->payload, req->len);
+    if (d->running != 0U) {
+        reply_busy(d, port, req);
+        return;
+    }
+    fw_start(d->fw);
+    d->running = 1U;
+    d->owner = port;
+    d->run_ticks = 0U;
+    d->run_limit = m.duration_ticks;
+    d->faults &= ~(uint32_t)RUN_FAULTS;
+    reply_ack(d, port, req, d->settings.fw.tick_rate_hz);
+}
+
+static void on_stream(dev_t *d, uint32_t port, const proto_frame_t *req)
+{
+    proto_stream_t m;
+    (void)proto_stream_unpack(&m, req->payload, req->len);
+    uint32_t free_slots = DEV_STREAM_LEN - d->stream_len;
+    if (m.samples_count > free_slots) {
+        reply_error(d, port, req, PROTO_ERR_STREAM_FULL, (int32_t)free_slots,
+                    "stream buffer full");
+        return;
+    }
+    for (uint32_t i = 0; i < m.samples_count; ++i) {
+        d->stream[(d->stream_head + d->stream_len) % DEV_STREAM_LEN] = m.samples[i];
+        ++d->stream_len;
+    }
+    reply_ack(d, port, req, DEV_STREAM_LEN - d->stream_len);
+}
+
+static void on_faults(dev_t *d, uint32_t port, const proto_frame_t *req)
+{
+    proto_faults_t m;
+    m.fpga_fault = hal_read(d->fw->hal, BOWDEN_REG_FAULT);
+    m.fpga_status = hal_read(d->fw->hal, BOWDEN_REG_STATUS);
+    m.device_faults = d->faults;
+    m.fault_ticks = d->fw->tel.fault_ticks;
+    proto_frame_t f;
+    frame_init(&f, PROTO_MSG_FAULTS, req->seq);
+    f.len = (uint8_t)proto_faults_pack(&m, f.payload);
+    (void)send_frame(d, port, &f, 0);
+}
+
+static void on_fault_clear(dev_t *d, uint32_t port, const proto_frame_t *req)
+{
+    if (d->running != 0U) {
+        fw_fault_clear(d->fw);
+    } else {
+        /* fw_fault_clear keeps ENABLE set; stopped, only the clear pulse is written. */
+        hal_write(d->fw->hal, BOWDEN_REG_CTRL, BOWDEN_CTRL_FAULT_CLEAR_MASK);
+    }
+    d->faults = 0U;
+    reply_ack(d, port, req, 0U);
+}
+
+static void on_stats(dev_t *d, uint32_t port, const proto_frame_t *req)
+{
+    dev_port_t *p = &d->ports[port];
+    const proto_rx_stats_t *s = (p->kind == DEV_PORT_CAN) ? &p->can_rx.stats : &p->rx.stats;
+    proto_stats_t m;
+    m.rx_frames = s->frames;
+    m.rx_crc_errors = s->crc_errors;
+    m.rx_framing_errors = s->framing_errors;
+    m.rx_overlong = s->overlong;
+    m.rx_short = s->short_frames;
+    m.rx_version_errors = p->version_errors;
+    m.rx_bad_messages = p->bad_messages;
+    m.tx_frames = p->tx_frames;
+    m.tx_overflow = p->tx_overflow;
+    proto_frame_t f;
+    frame_init(&f, PROTO_MSG_STATS, req->seq);
+    f.len = (uint8_t)proto_stats_pack(&m, f.payload);
+    (void)send_frame(d, port, &f, 0);
+}
+
+static int is_request(uint32_t msg)
+{
+    switch (msg) {
+    case PROTO_MSG_PARAM_GET:
+    case PROTO_MSG_PARAM_SET:
+    case PROTO_MSG_PARAM_INFO:
+    case PROTO_MSG_PERSIST:
+    case PROTO_MSG_LOAD:
+    case PROTO_MSG_DEFAULTS:
+    case PROTO_MSG_START:
+    case PROTO_MSG_STOP:
+    case PROTO_MSG_STREAM:
+    case PROTO_MSG_FAULTS_GET:
+    case PROTO_MSG_FAULT_CLEAR:
+    case PROTO_MSG_STATS_GET:
+        return 1;
+    default:
+        return 0;
+    }
+}
+
+static void dispatch(dev_t *d, uint32_t port, const proto_frame_t *req)
+{
+    dev_port_t *p = &d->ports[port];
+    if (req->msg == PROTO_MSG_HELLO) { /* any version, any payload: always answered */
+        on_hello(d, port, req);
+        return;
+    }
+    if (req->version != d->id.proto_version) {
+        ++p->version_errors;
+        reply_error(d, port, req, PROTO_ERR_VERSION, (int32_t)d->id.proto_version,
+                    "protocol version differs: send HELLO");
+        return;
+    }
+    if (!is_request(req->msg)) {
+        ++p->bad_messages;
+        reply_error(d, port, req, PROTO_ERR_UNKNOWN_MESSAGE, req->msg, "unknown request");
+        return;
+    }
+    uint32_t min = proto_msg_min_len(req->msg);
+    uint32_t max = proto_msg_max_len(req->msg);
+    /* STREAM carries whole samples: an odd length is wrong too. */
+    if (req->len < min || req->len > max ||
+        (req->msg == PROTO_MSG_STREAM && (req->len & 1U) != 0U)) {
+        ++p->bad_messages;
+        reply_error(d, port, req, PROTO_ERR_BAD_LENGTH, req->len, "wrong payload length");
+        return;
+    }
+    switch (req->msg) {
+    case PROTO_MSG_PARAM_GET: {
+        proto_param_get_t m;
+        (void)proto_param_get_unpack(&m, req->payload, req->len);
+        if (m.param >= PROTO_N_PARAMS) {
+            reply_error(d, port, req, PROTO_ERR_UNKNOWN_PARAM, (int32_t)PROTO_N_PARAMS,
+                        "unknown parameter id");
+        } else {
+            reply_param(d, port, req, m.param);
+        }
+        break;
+    }
+    case PROTO_MSG_PARAM_SET:
+        on_param_set(d, port, req);
+        break;
+    case PROTO_MSG_PARAM_INFO:
+        on_param_info(d, port, req);
+        break;
+    case PROTO_MSG_PERSIST:
+    case PROTO_MSG_LOAD:
+    case PROTO_MSG_DEFAULTS:
+        if (d->running != 0U) {
+            reply_busy(d, port, req);
+        } else if (req->msg == PROTO_MSG_PERSIST) {
+            on_persist(d, port, req);
+        } else if (req->msg == PROTO_MSG_LOAD) {
+            on_load(d, port, req);
+        } else {
+            dev_settings_default(&d->settings);
+            (void)fw_configure(d->fw, &d->settings.fw);
+            d->dirty = 1U;
+            reply_ack(d, port, req, 0U);
+        }
+        break;
+    case PROTO_MSG_START:
+        on_start(d, port, req);
+        break;
+    case PROTO_MSG_STOP: {
+        uint32_t ticks = d->run_ticks;
+        stop_run(d); /* also when stopped: TC = 0 and the loop disabled is always safe */
+        reply_ack(d, port, req, ticks);
+        break;
+    }
+    case PROTO_MSG_STREAM:
+        on_stream(d, port, req);
+        break;
+    case PROTO_MSG_FAULTS_GET:
+        on_faults(d, port, req);
+        break;
+    case PROTO_MSG_FAULT_CLEAR:
+        on_fault_clear(d, port, req);
+        break;
+    default: /* PROTO_MSG_STATS_GET: is_request lists no other */
+        on_stats(d, port, req);
+        break;
+    }
+}
+
+void dev_rx_bytes(dev_t *d, uint32_t port, const uint8_t *data, uint32_t n)
+{
+    if (port >= DEV_PORTS || d->ports[port].kind != DEV_PORT_SERIAL) {
+        return;
+    }
+    proto_frame_t f;
+    for (uint32_t i = 0; i < n; ++i) {
+        if (proto_rx_byte(&d->ports[port].rx, data[i], &f)) {
+            dispatch(d, port, &f);
+        }
+    }
+}
+
+void dev_rx_can(dev_t *d, uint32_t port, const proto_can_frame_t *cf)
+{
+    if (port >= DEV_PORTS || d->ports[port].kind != DEV_PORT_CAN) {
+        return;
+    }
+    proto_frame_t f;
+    if (proto_can_rx(&d->ports[port].can_rx, d->settings.dev.can_node, cf, &f)) {
+        dispatch(d, port, &f);
+    }
+}
+
+/* --- the tick ------------------------------------------------------------------------------ */
+
+static int16_t sat_q7_8(int32_t v)
+{
+    return (int16_t)((v > Q7_8_MAX) ? Q7_8_MAX : (v < Q7_8_MIN) ? Q7_8_MIN : v);
+}
+
+void dev_tick(dev_t *d, uint32_t time_us, int32_t t_out_q8)
+{
+    d->time_us = time_us;
+    if (d->running == 0U) {
+        return;
+    }
+    q7_8_t t_ref = 0;
+    if (d->settings.fw.source == FW_SOURCE_HOST) {
+        if (d->stream_len > 0U) {
+            t_ref = d->stream[d->stream_head];
+            d->stream_head = (d->stream_head + 1U) % DEV_STREAM_LEN;
+            --d->stream_len;
+            d->stream_last = t_ref;
+        } else {
+            t_ref = d->stream_last; /* hold the last sample and say so */
+            d->faults |= PROTO_FAULT_STREAM_UNDERRUN;
+        }
+    }
+    (void)fw_tick(d->fw, t_ref);
+    ++d->run_ticks;
+    const fw_telemetry_t *t = &d->fw->tel;
+    uint32_t sample = t->ticks - 1U; /* fw_start zeroes ticks, fw_tick counts this one */
+    if (sample % d->settings.dev.telemetry_div == 0U) {
+        proto_telemetry_t m;
+        m.time_us = time_us;
+        m.sample = sample;
+        m.overflow = d->overflow;
+        m.t_ref = sat_q7_8(t->t_ref);
+        m.t_c = sat_q7_8(t->t_c);
+        m.t_in = sat_q7_8(t->t_in);
+        m.t_out = sat_q7_8(t_out_q8);
+        m.current = (int16_t)t->u; /* U is a 16-bit register word */
+        m.faults = (uint8_t)(((t->fault << PROTO_FAULT_FPGA_SHIFT) & PROTO_FAULT_FPGA_MASK) |
+                             d->faults);
+        m.status = (uint8_t)(PROTO_STATUS_RUNNING |
+                             ((t->status << PROTO_STATUS_FPGA_SHIFT) & PROTO_STATUS_FPGA_MASK) |
+                             ((t->direction > 0) ? PROTO_STATUS_LOADING : 0U));
+        proto_frame_t f;
+        frame_init(&f, PROTO_MSG_TELEMETRY, 0U);
+        f.len = (uint8_t)proto_telemetry_pack(&m, f.payload);
+        if (!send_frame(d, d->owner, &f, 1)) {
+            ++d->overflow;
+            d->faults |= PROTO_FAULT_TX_OVERFLOW;
+        }
+    }
+    if (d->run_limit != 0U && d->run_ticks >= d->run_limit) {
+        stop_run(d);
+    }
+}
+
+void dev_overrun(dev_t *d)
+{
+    d->faults |= PROTO_FAULT_OVERRUN;
+}

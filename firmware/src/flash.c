@@ -1,0 +1,142 @@
+/* flash.c - two-record settings store of flash.h. */
+#include "flash.h"
+
+#include "crc32c.h"
+#include "params.h"
+
+/* Words of a record holding every parameter. */
+#define RECORD_WORDS (FLASH_HEADER_WORDS + 2U * PROTO_N_PARAMS + 1U)
+
+static uint32_t crc_words(const uint32_t *w, uint32_t n)
+{
+    uint32_t crc = CRC32C_INIT;
+    for (uint32_t i = 0; i < n; ++i) {
+        uint8_t b[4] = {(uint8_t)w[i], (uint8_t)(w[i] >> 8), (uint8_t)(w[i] >> 16),
+                        (uint8_t)(w[i] >> 24)};
+        crc = crc32c_update(crc, b, 4U);
+    }
+    return crc ^ 0xFFFFFFFFUL;
+}
+
+/* Read slot `slot` into rec; 1 when it holds a record with a good CRC (*n_words its length). */
+static int read_record(const flash_hal_t *f, uint32_t slot, uint32_t *rec, uint32_t *n_words)
+{
+    if (f->read(f->ctx, slot, 0U, rec, FLASH_HEADER_WORDS) != 0 || rec[0] != FLASH_MAGIC) {
+        return 0;
+    }
+    uint32_t pairs = rec[2];
+    /* A pair count from a torn write can be anything: bound it before using it. */
+    if (pairs > PROTO_N_PARAMS + 32U || FLASH_HEADER_WORDS + 2U * pairs + 1U > f->slot_words) {
+        return 0;
+    }
+    uint32_t n = FLASH_HEADER_WORDS + 2U * pairs;
+    if (f->read(f->ctx, slot, FLASH_HEADER_WORDS, &rec[FLASH_HEADER_WORDS], 2U * pairs + 1U) != 0) {
+        return 0;
+    }
+    if (crc_words(rec, n) != rec[n]) {
+        return 0;
+    }
+    *n_words = n + 1U;
+    return 1;
+}
+
+/* Serial-number order of two sequence numbers: 1 when a is after b. */
+static int seq_after(uint32_t a, uint32_t b)
+{
+    return (a - b) != 0U && (a - b) < 0x80000000UL;
+}
+
+/* The record buffer holds the largest record load accepts (32 unknown keys beyond the table). */
+#define RECORD_MAX_WORDS (FLASH_HEADER_WORDS + 2U * (PROTO_N_PARAMS + 32U) + 1U)
+
+int32_t flash_store(const flash_hal_t *f, const void *settings, uint32_t *seq)
+{
+    if (RECORD_WORDS > f->slot_words) {
+        return FLASH_ERR_SIZE;
+    }
+    /* The slot to write: the one that does not hold the newest valid record. */
+    uint32_t rec[RECORD_MAX_WORDS];
+    uint32_t n;
+    int valid[FLASH_SLOTS];
+    uint32_t seqs[FLASH_SLOTS] = {0U, 0U};
+    for (uint32_t s = 0; s < FLASH_SLOTS; ++s) {
+        valid[s] = read_record(f, s, rec, &n);
+        seqs[s] = rec[1];
+    }
+    uint32_t target = 0U;
+    uint32_t next = 1U;
+    if (valid[0] && (!valid[1] || seq_after(seqs[0], seqs[1]))) {
+        target = 1U;
+        next = seqs[0] + 1U;
+    } else if (valid[1]) {
+        target = 0U;
+        next = seqs[1] + 1U;
+    }
+    rec[0] = FLASH_MAGIC;
+    rec[1] = next;
+    rec[2] = PROTO_N_PARAMS;
+    const dev_settings_t *s = (const dev_settings_t *)settings;
+    for (uint32_t i = 0; i < PROTO_N_PARAMS; ++i) {
+        int32_t word;
+        (void)params_get(s, i, &word);
+        rec[FLASH_HEADER_WORDS + 2U * i] = proto_params[i].key;
+        rec[FLASH_HEADER_WORDS + 2U * i + 1U] = (uint32_t)word;
+    }
+    rec[RECORD_WORDS - 1U] = crc_words(rec, RECORD_WORDS - 1U);
+    if (f->erase(f->ctx, target) != 0 || f->program(f->ctx, target, 0U, rec, RECORD_WORDS) != 0) {
+        return FLASH_ERR_WRITE;
+    }
+    uint32_t back[RECORD_MAX_WORDS];
+    if (!read_record(f, target, back, &n) || n != RECORD_WORDS || back[1] != next) {
+        return FLASH_ERR_WRITE;
+    }
+    *seq = next;
+    return FLASH_OK;
+}
+
+/* Apply a record's pairs onto a copy of *base; 1 when the result passes the check. Pairs are
+ * copied without a check of their own (ADC_MIN and ADC_MAX, say, are only valid together); the
+ * whole is checked once. */
+static int apply_record(const uint32_t *rec, dev_settings_t *out, const dev_settings_t *base)
+{
+    *out = *base;
+    uint32_t pairs = rec[2];
+    for (uint32_t i = 0; i < pairs; ++i) {
+        int32_t id = params_find(rec[FLASH_HEADER_WORDS + 2U * i]);
+        if (id < 0 || (proto_params[id].flags & PROTO_PARAM_READ_ONLY) != 0U) {
+            continue; /* a parameter this firmware no longer has, or one fixed by the hardware */
+        }
+        params_word_write(out, proto_params[id].offset, (int32_t)rec[FLASH_HEADER_WORDS + 2U * i + 1U]);
+    }
+    return dev_settings_check(out) == 0;
+}
+
+int32_t flash_load(const flash_hal_t *f, void *settings, uint32_t *seq)
+{
+    uint32_t rec[FLASH_SLOTS][RECORD_MAX_WORDS];
+    uint32_t n;
+    int valid[FLASH_SLOTS];
+    for (uint32_t s = 0; s < FLASH_SLOTS; ++s) {
+        valid[s] = read_record(f, s, rec[s], &n);
+    }
+    if (!valid[0] && !valid[1]) {
+        return FLASH_ERR_EMPTY;
+    }
+    /* Newest first. */
+    uint32_t order[FLASH_SLOTS] = {0U, 1U};
+    if (valid[1] && (!valid[0] || seq_after(rec[1][1], rec[0][1]))) {
+        order[0] = 1U;
+        order[1] = 0U;
+    }
+    dev_settings_t *s = (dev_settings_t *)settings;
+    dev_settings_t trial;
+    for (uint32_t k = 0; k < FLASH_SLOTS; ++k) {
+        uint32_t slot = order[k];
+        if (valid[slot] && apply_record(rec[slot], &trial, s)) {
+            *s = trial;
+            *seq = rec[slot][1];
+            return FLASH_OK;
+        }
+    }
+    return FLASH_ERR_INVALID;
+}
