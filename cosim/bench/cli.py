@@ -1,0 +1,555 @@
+"""`bowden bench` (talk to a controller) and `bowden emulate` (be one), see cosim/bench/README.md.
+
+    bowden emulate                                   # prints its pty and socket:// URL
+    bowden bench --port /dev/pts/7 info
+    bowden bench --port socket://127.0.0.1:5555 set comp.mode=smooth comp.band_n=1
+    bowden bench --port /dev/ttyUSB0 run sine --mean 8 --amplitude 6 --freq 0.5 \\
+        --seconds 5 --out x.csv
+    bowden bench --can virtual:bench --emulate run triangle --seconds 5 --out y.csv
+
+Every failure is one line on stderr and a non-zero exit: an unknown parameter or value, a port
+that does not open, a device that does not answer, a version mismatch, a device error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import signal
+import sys
+import time
+from pathlib import Path
+
+from . import messages as msgs
+from .client import (
+    BenchClient,
+    BenchError,
+    CanLink,
+    SerialLink,
+    fault_names,
+    status_names,
+)
+from .device import ChainConfig
+from .protocol import ProtocolError, format_value, param, word_from_value
+from .recorder import WAVE_KINDS, record_run, stderr_progress
+
+BACKUP_FORMAT = 1
+
+
+def _position(text: str) -> tuple[float, float, float]:
+    try:
+        parts = [float(p) for p in text.split(",")]
+    except ValueError:
+        parts = []
+    if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
+        raise argparse.ArgumentTypeError(f"expected X,Y,Z in metres, e.g. 0,0.5,0; got {text!r}")
+    return parts[0], parts[1], parts[2]
+
+
+def _positive(kind):
+    def conv(text: str):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number > 0; got {text!r}") from None
+        if not (math.isfinite(v) and v > 0):
+            raise argparse.ArgumentTypeError(f"expected a number > 0; got {text!r}")
+        return v
+
+    return conv
+
+
+def _finite(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number; got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected a finite number; got {text!r}")
+    return v
+
+
+def add_parser(subparsers) -> None:
+    _add_bench(subparsers)
+    _add_emulate(subparsers)
+
+
+# --- bowden bench --------------------------------------------------------------------------------
+
+
+def _add_bench(subparsers) -> None:
+    p = subparsers.add_parser(
+        "bench",
+        help="configure a controller, run waveforms and record them (serial or CAN)",
+        description="Talk to a controller (or `bowden emulate`) over any pyserial URL or any "
+        "python-can interface: parameters, persistence, faults, and recorded runs in the trace "
+        "format.",
+    )
+    link = p.add_mutually_exclusive_group(required=True)
+    link.add_argument("--port", help="pyserial URL: /dev/ttyUSB0, /dev/pts/N, socket://HOST:PORT")
+    link.add_argument(
+        "--can", help="python-can INTERFACE:CHANNEL, e.g. virtual:bench, socketcan:can0"
+    )
+    p.add_argument("--baud", type=_positive(int), default=921_600, help="serial baud rate")
+    p.add_argument("--node", type=int, default=msgs.CAN_DEFAULT_NODE, help="CAN node id (0..63)")
+    p.add_argument("--timeout", type=_positive(float), default=1.0, help="reply timeout in s")
+    p.add_argument(
+        "--emulate",
+        action="store_true",
+        help="start the emulator in this process on the --can bus (python-can's virtual bus "
+        "reaches only this process)",
+    )
+    sub = p.add_subparsers(dest="bench_command", metavar="COMMAND", required=True)
+    sub.add_parser("info", help="firmware, protocol, configuration state, faults")
+    g = sub.add_parser("get", help="parameter values (all, or the NAMEs given)")
+    g.add_argument("names", nargs="*", metavar="NAME")
+    s = sub.add_parser("set", help="write parameters: NAME=VALUE (SI units or a mode name)")
+    s.add_argument("assignments", nargs="+", metavar="NAME=VALUE")
+    sub.add_parser("persist", help="save the parameters in the device's flash")
+    sub.add_parser("load", help="reload the parameters saved in flash")
+    sub.add_parser("defaults", help="factory defaults (in RAM; persist makes them permanent)")
+    b = sub.add_parser("backup", help="save every parameter to a JSON file, stamped")
+    b.add_argument("file")
+    r = sub.add_parser("restore", help="write the parameters of a backup file")
+    r.add_argument("file")
+    f = sub.add_parser("faults", help="the FPGA's and the device's faults, by name")
+    f.add_argument("--clear", action="store_true", help="clear them afterwards")
+    sub.add_parser("stats", help="the device's link counters (frames, CRC errors, ...)")
+    run = sub.add_parser("run", help="run a waveform and record telemetry in the trace format")
+    run.add_argument("waveform", choices=(*WAVE_KINDS, "stream"))
+    run.add_argument("--mean", type=_finite, default=8.5, help="mean T_ref in N (default 8.5)")
+    run.add_argument("--amplitude", type=_finite, default=6.5, help="amplitude in N (default 6.5)")
+    run.add_argument("--freq", type=_finite, default=0.5, help="frequency in Hz (default 0.5)")
+    run.add_argument("--ref", help="stream: CSV with T_ref_N (one row per tick), or one column")
+    run.add_argument("--seconds", type=_positive(float), required=True)
+    run.add_argument("--out", required=True, help="trace CSV (its .meta.json goes beside it)")
+    run.add_argument(
+        "--position",
+        type=_position,
+        default=(0.0, 0.5, 0.0),
+        metavar="X,Y,Z",
+        help="end-effector position in m, held during the run (default 0,0.5,0)",
+    )
+    run.add_argument("--no-loop-routing", dest="loop_routing", action="store_false")
+    run.add_argument("--sheath-length", type=_positive(float), default=1.0, help="m")
+    run.add_argument("--quiet", action="store_true", help="no progress line")
+    p.set_defaults(func=bench_main)
+
+
+def _open_link(args):
+    if args.port:
+        return SerialLink(args.port, baud=args.baud)
+    return CanLink(args.can, node=args.node)
+
+
+def bench_main(args: argparse.Namespace) -> int:
+    emulator = None
+    link = None
+    try:
+        if args.emulate:
+            if not args.can:
+                raise BenchError("--emulate works with --can (use `bowden emulate` for serial)")
+            from .emulator import Emulator  # noqa: PLC0415
+
+            emulator = Emulator(pty=False, tcp_port=None, can=args.can).start()
+        link = _open_link(args)
+        client = BenchClient(link, timeout_s=args.timeout)
+        info = client.connect()
+        return _COMMANDS[args.bench_command](client, args, info)
+    except KeyboardInterrupt:
+        print("bowden bench: interrupted", file=sys.stderr)
+        return 130
+    except (BenchError, ProtocolError) as exc:
+        print(f"bowden bench: {exc}", file=sys.stderr)
+        return 1
+    finally:
+        if link is not None:
+            link.close()
+        if emulator is not None:
+            emulator.stop()
+
+
+def _cmd_info(client: BenchClient, args, info) -> int:
+    print(f"device        {client.link.url}")
+    print(f"firmware      {info.firmware} (build {info.build_id:08x})")
+    print(f"protocol      {info.proto_version}, table {info.table_hash:08x} (host: same)")
+    print(f"parameters    {info.n_params}")
+    dirty = "yes: `bowden bench ... persist` keeps them" if info.dirty else "no"
+    print(f"configuration {info.config_source}; unsaved changes: {dirty}")
+    f = client.faults()
+    fpga = fault_names(f["fpga_fault"] & 0x0F) or ["none"]
+    dev = ", ".join(fault_names(f["device_faults"])) or "none"
+    print(f"faults        FPGA {', '.join(fpga)}; device {dev}")
+    if client.stale_telemetry:
+        print(f"note          the device was streaming: stopped ({client.stale_telemetry} frames)")
+    return 0
+
+
+def _cmd_get(client: BenchClient, args, info) -> int:
+    names = args.names or [p.name for p in msgs.PARAMS]
+    for name in names:
+        param(name)  # unknown names fail before anything is read
+    width = max(len(n) for n in names)
+    for name in names:
+        p = param(name)
+        print(f"{name:<{width}}  {format_value(p, client.get_word(name))}")
+    return 0
+
+
+def _cmd_set(client: BenchClient, args, info) -> int:
+    todo = []
+    for a in args.assignments:
+        name, sep, value = a.partition("=")
+        if not sep:
+            raise ProtocolError(f"{a!r}: expected NAME=VALUE")
+        p = param(name.strip())
+        if p.read_only:
+            raise ProtocolError(f"{p.name} is read-only")
+        todo.append((p, word_from_value(p, value.strip())))  # all checked before any is sent
+    for p, word in todo:
+        now = client.set_word(p.name, word)
+        print(f"{p.name} = {format_value(p, now)}")
+    print("(in RAM: `persist` saves them)")
+    return 0
+
+
+def _cmd_simple(name: str, text: str):
+    def cmd(client: BenchClient, args, info) -> int:
+        value = client.simple(name)
+        print(text.format(value=value))
+        return 0
+
+    return cmd
+
+
+def _cmd_backup(client: BenchClient, args, info) -> int:
+    words = client.params()
+    doc = {
+        "bowden_bench_backup": BACKUP_FORMAT,
+        "protocol_version": msgs.PROTOCOL_VERSION,
+        "table_hash": f"{msgs.TABLE_HASH:08x}",
+        "firmware": info.firmware,
+        "build_id": f"{info.build_id:08x}",
+        "saved_at": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "params": {
+            name: {"word": w, "value": format_value(param(name), w)} for name, w in words.items()
+        },
+    }
+    path = Path(args.file)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(doc, indent=2) + "\n")
+    tmp.replace(path)
+    print(f"saved {len(words)} parameters to {path} (table {msgs.TABLE_HASH:08x})")
+    return 0
+
+
+def _cmd_restore(client: BenchClient, args, info) -> int:
+    path = Path(args.file)
+    try:
+        doc = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise BenchError(f"restore: {path} does not exist") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise BenchError(f"restore: {path} is not a JSON backup ({exc})") from None
+    if not isinstance(doc, dict) or doc.get("bowden_bench_backup") != BACKUP_FORMAT:
+        raise BenchError(f"restore: {path} is not a bowden bench backup (format {BACKUP_FORMAT})")
+    params = doc.get("params")
+    if not isinstance(params, dict):
+        raise BenchError(f"restore: {path}: no 'params' object")
+    unknown = [n for n in params if n not in msgs.PARAM_BY_NAME]
+    if unknown:
+        raise BenchError(
+            f"restore: {path} has parameters this device does not know: {', '.join(unknown)} "
+            f"(backup table {doc.get('table_hash')}, device table {msgs.TABLE_HASH:08x})"
+        )
+    todo = []
+    for name, entry in params.items():
+        p = param(name)
+        word = entry.get("word") if isinstance(entry, dict) else None
+        if (
+            isinstance(word, bool)
+            or not isinstance(word, int)
+            or not (-(1 << 31) <= word < (1 << 32))
+        ):
+            raise BenchError(f"restore: {path}: {name}.word must be a 32-bit integer")
+        if not p.read_only:
+            todo.append((p, word - (1 << 32) if word >= 1 << 31 else word))
+    if doc.get("table_hash") != f"{msgs.TABLE_HASH:08x}":
+        print(
+            f"note: backup of table {doc.get('table_hash')}, device table {msgs.TABLE_HASH:08x}: "
+            "restoring by parameter name"
+        )
+    done = 0
+    for p, word in todo:
+        try:
+            client.set_word(p.name, word)
+        except BenchError as exc:
+            raise BenchError(
+                f"restore: {exc} ({done} of {len(todo)} parameters written before it)"
+            ) from None
+        done += 1
+    print(f"restored {done} parameters from {path} (in RAM: `persist` saves them)")
+    return 0
+
+
+def _cmd_faults(client: BenchClient, args, info) -> int:
+    f = client.faults()
+    fpga = fault_names(f["fpga_fault"] & 0x0F)
+    print(f"FPGA faults    {', '.join(fpga) or 'none'}")
+    print(f"FPGA status    {', '.join(n for n in status_names(f['fpga_status'] << 1)) or 'idle'}")
+    print(f"device faults  {', '.join(fault_names(f['device_faults'])) or 'none'}")
+    print(f"fault ticks    {f['fault_ticks']}")
+    for name in fault_names(f["fpga_fault"] & 0x0F) + fault_names(f["device_faults"]):
+        doc = _FAULT_DOCS.get(name)
+        if doc:
+            print(f"  {name}: {doc}")
+    if args.clear:
+        client.simple("FAULT_CLEAR")
+        print("cleared")
+    return 0
+
+
+def _cmd_stats(client: BenchClient, args, info) -> int:
+    for k, v in client.stats().items():
+        print(f"{k:<18} {v}")
+    s = client.link.stats
+    print(
+        f"host: {s.frames} frames received, {s.rejected} rejected "
+        f"({s.crc_errors} CRC, {s.framing_errors} framing, {s.overlong} overlong, "
+        f"{s.short_frames} short)"
+    )
+    return 0
+
+
+def _read_ref(path: str) -> list[int]:
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except FileNotFoundError:
+        raise BenchError(f"--ref {p}: no such file") from None
+    except UnicodeDecodeError:
+        raise BenchError(f"--ref {p}: not a text CSV") from None
+    rows = list(csv.reader(text.splitlines()))
+    if not rows:
+        raise BenchError(f"--ref {p}: empty")
+    header = [h.strip() for h in rows[0]]
+    col = header.index("T_ref_N") if "T_ref_N" in header else 0
+    start = 1 if not _is_number(rows[0][col] if col < len(rows[0]) else "") else 0
+    words = []
+    for i, row in enumerate(rows[start:], start=start + 1):
+        if not row:
+            continue
+        cell = row[col] if col < len(row) else ""
+        if not _is_number(cell):
+            raise BenchError(f"--ref {p}:{i}: T_ref {cell!r} is not a finite number")
+        v = float(cell)
+        if not -128.0 <= v <= 127.99:
+            raise BenchError(f"--ref {p}:{i}: T_ref {v:g} N outside [-128, 127.99] N")
+        words.append(round(v * 256.0))
+    if not words:
+        raise BenchError(f"--ref {p}: no samples")
+    return words
+
+
+def _is_number(text: str) -> bool:
+    try:
+        return math.isfinite(float(text))
+    except ValueError:
+        return False
+
+
+def _cmd_run(client: BenchClient, args, info) -> int:
+    words = None
+    if args.waveform == "stream":
+        if not args.ref:
+            raise BenchError("run stream needs --ref FILE.csv (T_ref_N, one row per tick)")
+        words = _read_ref(args.ref)
+    elif args.ref:
+        raise BenchError("--ref is for `run stream` only")
+    if client.stale_telemetry:
+        print(
+            f"note: the device was streaming when we connected: stopped it "
+            f"({client.stale_telemetry} stale frames skipped)",
+            file=sys.stderr,
+        )
+    prev = signal.signal(signal.SIGTERM, _sigterm)
+    try:
+        result = record_run(
+            client,
+            args.out,
+            seconds=args.seconds,
+            waveform=args.waveform,
+            mean_n=args.mean,
+            amplitude_n=args.amplitude,
+            freq_hz=args.freq,
+            stream_words=words,
+            position_m=args.position,
+            loop_routing=args.loop_routing,
+            sheath_length_m=args.sheath_length,
+            progress=None if args.quiet else stderr_progress,
+        )
+    except KeyboardInterrupt:
+        try:
+            client.request("STOP")
+        except BenchError:
+            pass
+        print(f"bowden bench: interrupted; {args.out} holds the samples up to now", file=sys.stderr)
+        return 130
+    finally:
+        signal.signal(signal.SIGTERM, prev)
+    print(f"{args.out}: {result.summary()} ({result.wall_s:.1f} s)")
+    for first, count in result.gaps[:5]:
+        print(f"  gap: {count} sample(s) missing from sample {first}")
+    if result.drops or result.stopped_early:
+        print(
+            f"bowden bench: the recording is incomplete ({result.drops} dropped, device stopped "
+            f"early: {result.stopped_early}); python -m cosim.trace will name the first gap",
+            file=sys.stderr,
+        )
+        return 1
+    return 0
+
+
+def _sigterm(signum, frame):
+    raise KeyboardInterrupt
+
+
+_FAULT_DOCS = {
+    "ADC_STALE": "no valid sample from the load-cell ADC: check its wiring and clock",
+    "ADC_RANGE": "load-cell code outside [ADC_MIN, ADC_MAX]: overload or a broken bridge",
+    "WATCHDOG": "the processor stopped writing T_c: the FPGA ramped the current to zero",
+    "OVERCURRENT": "the command stayed at the current limit for OC_TIMEOUT samples",
+    "STREAM_UNDERRUN": "the streamed reference ran dry (T_ref was held)",
+    "TX_OVERFLOW": "telemetry frames were dropped: raise the baud rate or dev.telemetry_div",
+    "CONFIG": "the saved configuration was missing or rejected, or a flash write failed",
+    "OVERRUN": "the device could not keep its tick rate",
+}
+
+_COMMANDS = {
+    "info": _cmd_info,
+    "get": _cmd_get,
+    "set": _cmd_set,
+    "persist": _cmd_simple("PERSIST", "saved to flash (record {value})"),
+    "load": _cmd_simple("LOAD", "loaded from flash (record {value})"),
+    "defaults": _cmd_simple("DEFAULTS", "factory defaults in force (in RAM: `persist` saves them)"),
+    "backup": _cmd_backup,
+    "restore": _cmd_restore,
+    "faults": _cmd_faults,
+    "stats": _cmd_stats,
+    "run": _cmd_run,
+}
+
+
+# --- bowden emulate ------------------------------------------------------------------------------
+
+
+def _add_emulate(subparsers) -> None:
+    p = subparsers.add_parser(
+        "emulate",
+        help="run the controller on this machine (firmware + FPGA loop model + plant FMU)",
+        description="The controller in real time: the firmware's host build with the protocol, "
+        "the bit-exact model of the FPGA loop and the plant FMU, behind a pseudo-terminal, a TCP "
+        "port (pyserial socket://) and optionally a python-can bus. Prints where to connect; runs "
+        "until Ctrl-C or --seconds.",
+    )
+    p.add_argument(
+        "--baud",
+        type=_positive(int),
+        default=921_600,
+        help="throttle the pty and the socket to this baud rate (default 921600)",
+    )
+    p.add_argument("--tcp-port", type=int, default=0, help="TCP port (default: any free one)")
+    p.add_argument("--no-pty", action="store_true", help="no pseudo-terminal")
+    p.add_argument("--no-tcp", action="store_true", help="no TCP port")
+    p.add_argument(
+        "--can", help="also on a python-can bus, INTERFACE:CHANNEL (e.g. socketcan:vcan0)"
+    )
+    p.add_argument("--flash", help="keep the emulated flash in this file across runs")
+    p.add_argument(
+        "--position",
+        type=_position,
+        default=(0.0, 0.5, 0.0),
+        metavar="X,Y,Z",
+        help="end-effector position in m (default 0,0.5,0)",
+    )
+    p.add_argument("--no-loop-routing", dest="loop_routing", action="store_false")
+    p.add_argument(
+        "--engine",
+        choices=("native", "python"),
+        default="native",
+        help="loop model in C (default) or Python (the definition; slower)",
+    )
+    p.add_argument("--seconds", type=_positive(float), default=None, help="stop after S seconds")
+    p.add_argument(
+        "--table-hash",
+        default=None,
+        metavar="HEX",
+        help="pose as a firmware of another protocol table (to try the version check)",
+    )
+    p.add_argument(
+        "--garbage-every",
+        type=_positive(float),
+        default=None,
+        metavar="S",
+        help="send a burst of garbage bytes every S seconds (to try the resync)",
+    )
+    p.set_defaults(func=emulate_main)
+
+
+def emulate_main(args: argparse.Namespace) -> int:
+    from .emulator import Emulator  # noqa: PLC0415
+
+    identity = None
+    if args.table_hash is not None:
+        try:
+            identity = (msgs.PROTOCOL_VERSION, int(args.table_hash, 16) & 0xFFFFFFFF)
+        except ValueError:
+            print(
+                f"bowden emulate: --table-hash {args.table_hash!r}: expected hex digits",
+                file=sys.stderr,
+            )
+            return 2
+    if not 0 <= args.tcp_port <= 65535:
+        print(f"bowden emulate: --tcp-port {args.tcp_port}: outside 0..65535", file=sys.stderr)
+        return 2
+    try:
+        emu = Emulator(
+            pty=not args.no_pty,
+            tcp_port=None if args.no_tcp else args.tcp_port,
+            can=args.can,
+            baud=args.baud,
+            chain=ChainConfig(position_m=args.position, loop_routing=args.loop_routing),
+            engine=args.engine,
+            flash_path=args.flash,
+            identity=identity,
+        )
+    except (OSError, ValueError, RuntimeError) as exc:
+        print(f"bowden emulate: {exc}", file=sys.stderr)
+        return 1
+    print("bowden emulate: controller running (firmware + FPGA loop model + plant FMU)")
+    for kind, url in emu.urls.items():
+        print(f"  {kind:<7} bowden bench {'--can' if kind == 'can' else '--port'} {url} info")
+    print(f"  serial links throttled to {args.baud} baud; Ctrl-C stops", flush=True)
+    emu.start()
+    t0 = time.monotonic()
+    next_garbage = t0 + (args.garbage_every or math.inf)
+    prev = signal.signal(signal.SIGTERM, _sigterm)
+    try:
+        while args.seconds is None or time.monotonic() - t0 < args.seconds:
+            time.sleep(0.05)
+            if time.monotonic() >= next_garbage:
+                emu.inject_garbage()
+                next_garbage += args.garbage_every
+    except KeyboardInterrupt:
+        pass
+    finally:
+        signal.signal(signal.SIGTERM, prev)
+        emu.stop()
+    print(
+        f"bowden emulate: stopped after {emu.chain.ticks} ticks; lag behind real time at most "
+        f"{emu.max_lag_seen_s * 1e3:.1f} ms, {emu.overruns} overrun(s)"
+    )
+    return 0

@@ -1,0 +1,348 @@
+"""The host side of a bench session: links, requests with their replies, and recordings.
+
+- `SerialLink(url)`: any pyserial URL (/dev/ttyUSB0, /dev/pts/N, socket://host:port, ...).
+- `CanLink(spec, node)`: any python-can interface, `INTERFACE:CHANNEL` (virtual:bench,
+  socketcan:can0, ...).
+- `BenchClient(link)`: `connect()` stops a stream it finds running, resynchronises and checks the
+  device's protocol version and table hash against this host's (`VersionMismatchError`, one line
+  naming both); then `get`, `set`, `persist`, `faults`, ... and `record()`. Replies are matched to
+  requests by their seq, so telemetry in flight never passes for a reply, nor a stale reply for a
+  new one. A device's ERROR comes back as `DeviceError` with its message.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+from . import messages as msgs
+from .protocol import (
+    CanReassembler,
+    DecoderStats,
+    Frame,
+    FrameDecoder,
+    ProtocolError,
+    can_encode,
+    encode_frame,
+    format_value,
+    pack,
+    param,
+    unpack,
+    value_from_word,
+    word_from_value,
+)
+
+MSG = {name: m.id for name, m in msgs.MESSAGES.items()}
+ERROR_NAMES = {v: k for k, v in msgs.ERRORS.items()}
+
+
+class BenchError(RuntimeError):
+    """A bench session failed; the message is one line for the user."""
+
+
+class VersionMismatchError(BenchError):
+    """The device speaks another protocol version or table than this host."""
+
+
+class DeviceError(BenchError):
+    """The device answered ERROR: `code` (errors table name), `detail`, `text`."""
+
+    def __init__(self, request: str, code: int, detail: int, text: str) -> None:
+        self.code = ERROR_NAMES.get(code, str(code))
+        self.detail = detail
+        self.text = text
+        super().__init__(f"{request}: device error {self.code}: {text}")
+
+
+class LinkTimeoutError(BenchError):
+    """No reply in time."""
+
+
+# --- links ---------------------------------------------------------------------------------------
+
+
+class SerialLink:
+    """A serial-like link through pyserial's serial_for_url (devices, ptys, socket://)."""
+
+    def __init__(self, url: str, baud: int = 921_600) -> None:
+        import serial  # noqa: PLC0415 (pyserial only when a serial link is used)
+
+        try:
+            self.port = serial.serial_for_url(url, baudrate=baud, timeout=0, write_timeout=2.0)
+        except (serial.SerialException, ValueError) as exc:
+            raise BenchError(f"--port {url}: cannot open ({exc})") from None
+        self.url = url
+        self.decoder = FrameDecoder()
+
+    @property
+    def stats(self) -> DecoderStats:
+        return self.decoder.stats
+
+    def send(self, frame: Frame) -> None:
+        self.write_raw(encode_frame(frame))
+
+    def write_raw(self, data: bytes) -> None:
+        """Bytes as they are (garbage injection in tests)."""
+        import serial  # noqa: PLC0415
+
+        try:
+            self.port.write(data)
+        except serial.SerialException as exc:
+            raise BenchError(f"{self.url}: write failed ({exc})") from None
+
+    def recv(self, timeout_s: float) -> list[Frame]:
+        import serial  # noqa: PLC0415
+
+        deadline = time.monotonic() + timeout_s
+        while True:
+            try:
+                data = self.port.read(max(1, self.port.in_waiting))
+            except serial.SerialException as exc:
+                raise BenchError(f"{self.url}: read failed ({exc})") from None
+            if data:
+                frames = self.decoder.feed(data)
+                if frames:
+                    return frames
+            if time.monotonic() >= deadline:
+                return []
+            time.sleep(0.0005)
+
+    def close(self) -> None:
+        self.port.close()
+
+
+class CanLink:
+    """The protocol over a python-can bus, to one node."""
+
+    def __init__(self, spec: str, node: int = msgs.CAN_DEFAULT_NODE, bus=None) -> None:
+        import can  # noqa: PLC0415 (python-can only when a CAN link is used)
+
+        interface, sep, channel = spec.partition(":")
+        if not sep or not interface:
+            raise BenchError(f"--can {spec}: expected INTERFACE:CHANNEL (e.g. virtual:bench)")
+        if not 0 <= node < (1 << msgs.CAN_NODE_BITS):
+            raise BenchError(f"--node {node}: outside 0..{(1 << msgs.CAN_NODE_BITS) - 1}")
+        try:
+            self.bus = bus or can.Bus(interface=interface, channel=channel)
+        except (can.CanError, ValueError, ImportError, OSError) as exc:
+            raise BenchError(f"--can {spec}: cannot open the bus ({exc})") from None
+        self._can = can
+        self.url = spec
+        self.node = node
+        self.reassembler = CanReassembler(node=node)
+
+    @property
+    def stats(self) -> DecoderStats:
+        return self.reassembler.stats
+
+    def send(self, frame: Frame) -> None:
+        for cid, data in can_encode(self.node, frame):
+            self.bus.send(self._can.Message(arbitration_id=cid, data=data, is_extended_id=False))
+
+    def write_raw(self, data: bytes) -> None:
+        """Raw CAN frames of garbage for the node (8 bytes each)."""
+        for i in range(0, len(data), 8):
+            cid = (self.node << msgs.CAN_MESSAGE_BITS) | (data[i] % 32)
+            self.bus.send(
+                self._can.Message(arbitration_id=cid, data=data[i : i + 8], is_extended_id=False)
+            )
+
+    def recv(self, timeout_s: float) -> list[Frame]:
+        deadline = time.monotonic() + timeout_s
+        out: list[Frame] = []
+        while True:
+            msg = self.bus.recv(timeout=max(0.0, min(0.01, deadline - time.monotonic())))
+            if msg is not None and not msg.is_extended_id:
+                out += self.reassembler.feed(msg.arbitration_id, bytes(msg.data))
+                # Take what else is already there, then hand it over.
+                while True:
+                    more = self.bus.recv(timeout=0)
+                    if more is None:
+                        break
+                    if not more.is_extended_id:
+                        out += self.reassembler.feed(more.arbitration_id, bytes(more.data))
+            if out or time.monotonic() >= deadline:
+                return out
+
+    def close(self) -> None:
+        self.bus.shutdown()
+
+
+# --- the client ----------------------------------------------------------------------------------
+
+
+@dataclass
+class DeviceInfo:
+    """What HELLO says."""
+
+    proto_version: int
+    firmware: str
+    build_id: int
+    table_hash: int
+    n_params: int
+    running: bool
+    config_source: str
+    dirty: bool
+
+
+@dataclass
+class BenchClient:
+    """One session with a device over a link (see the module docstring)."""
+
+    link: object
+    timeout_s: float = 1.0
+    telemetry: list[dict] = field(default_factory=list)
+    on_telemetry: Callable[[dict], None] | None = None
+    stale_telemetry: int = 0  # frames of a stream that was running when we connected
+    _seq: int = 0
+
+    # --- requests ----------------------------------------------------------------------------
+
+    def _next_seq(self) -> int:
+        self._seq = self._seq % 255 + 1  # 1..255: 0 is the device's own frames
+        return self._seq
+
+    def _dispatch(self, frame: Frame) -> None:
+        if frame.msg == MSG["TELEMETRY"]:
+            try:
+                t = unpack("TELEMETRY", frame.payload)
+            except ProtocolError:
+                return
+            if self.on_telemetry is not None:
+                self.on_telemetry(t)
+            else:
+                self.stale_telemetry += 1
+
+    def request(self, name: str, timeout_s: float | None = None, **fields) -> tuple[str, dict]:
+        """Send request `name`, return (reply name, reply fields). Frames that are not its reply
+        (telemetry, stale replies) are handled on the way. ERROR raises DeviceError; no reply in
+        time raises LinkTimeoutError."""
+        seq = self._next_seq()
+        self.link.send(Frame(msg=MSG[name], seq=seq, payload=pack(name, **fields)))
+        deadline = time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
+        while True:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise LinkTimeoutError(
+                    f"{name}: no reply from {self.link.url} within "
+                    f"{self.timeout_s if timeout_s is None else timeout_s:g} s"
+                )
+            for frame in self.link.recv(min(left, 0.05)):
+                reply = msgs.MESSAGE_BY_ID.get(frame.msg)
+                if frame.seq != seq or reply is None or reply.source != "device":
+                    self._dispatch(frame)
+                    continue
+                if reply.name == "HELLO_ACK" or frame.version == msgs.PROTOCOL_VERSION:
+                    try:
+                        values = unpack(reply.name, frame.payload)
+                    except ProtocolError as exc:
+                        raise VersionMismatchError(
+                            f"{name}: the device's {reply.name} does not match this host's "
+                            f"protocol ({exc}): update the host or the firmware"
+                        ) from None
+                    if reply.name == "ERROR":
+                        raise DeviceError(name, values["code"], values["detail"], values["text"])
+                    return reply.name, values
+                raise VersionMismatchError(
+                    f"{name}: reply in protocol version {frame.version}, this host speaks "
+                    f"{msgs.PROTOCOL_VERSION}"
+                )
+
+    # --- session -----------------------------------------------------------------------------
+
+    def connect(self) -> DeviceInfo:
+        """Stop a stream the device may be sending, resynchronise, and check the versions."""
+        last: BenchError | None = None
+        for _ in range(3):  # the first STOP may be lost in garbage the device was fed
+            try:
+                self.request("STOP")
+                break
+            except (DeviceError, VersionMismatchError):
+                break  # a device that answers at all is there: HELLO says who it is
+            except LinkTimeoutError as exc:
+                last = exc
+        else:
+            raise BenchError(f"no answer from {self.link.url}: {last}") from None
+        info = self.hello()
+        host = f"protocol {msgs.PROTOCOL_VERSION}, table {msgs.TABLE_HASH:08x}"
+        dev = (
+            f"firmware {info.firmware} (build {info.build_id:08x}) speaks protocol "
+            f"{info.proto_version}, table {info.table_hash:08x}"
+        )
+        if info.proto_version != msgs.PROTOCOL_VERSION or info.table_hash != msgs.TABLE_HASH:
+            raise VersionMismatchError(
+                f"version mismatch: this host speaks {host}; the device's {dev}: update the host "
+                "(bowden) or the firmware so that both are built from the same protocol table"
+            )
+        return info
+
+    def hello(self) -> DeviceInfo:
+        _, v = self.request("HELLO")
+        sources = {v: k.lower() for k, v in msgs.CONFIG_SOURCE.items()}
+        return DeviceInfo(
+            proto_version=v["proto_version"],
+            firmware=f"{v['fw_major']}.{v['fw_minor']}.{v['fw_patch']}",
+            build_id=v["build_id"],
+            table_hash=v["table_hash"],
+            n_params=v["n_params"],
+            running=bool(v["running"]),
+            config_source=sources.get(v["config_source"], str(v["config_source"])),
+            dirty=bool(v["dirty"]),
+        )
+
+    # --- parameters ----------------------------------------------------------------------------
+
+    def get_word(self, name: str) -> int:
+        _, v = self.request("PARAM_GET", param=param(name).id)
+        return v["value"]
+
+    def get(self, name: str) -> float | str:
+        return value_from_word(param(name), self.get_word(name))
+
+    def set(self, name: str, value) -> int:
+        """Write a parameter (SI value or enum name); returns the word now in force."""
+        p = param(name)
+        if p.read_only:
+            raise ProtocolError(f"{name} is read-only")
+        _, v = self.request("PARAM_SET", param=p.id, value=word_from_value(p, value))
+        return v["value"]
+
+    def set_word(self, name: str, word: int) -> int:
+        _, v = self.request("PARAM_SET", param=param(name).id, value=word)
+        return v["value"]
+
+    def params(self) -> dict[str, int]:
+        """Every parameter's word, by name."""
+        return {p.name: self.get_word(p.name) for p in msgs.PARAMS}
+
+    def describe(self, words: dict[str, int]) -> list[tuple[str, str]]:
+        return [(name, format_value(param(name), w)) for name, w in words.items()]
+
+    # --- other requests ----------------------------------------------------------------------
+
+    def simple(self, name: str, **fields) -> int:
+        """A request answered by ACK; returns the ACK's value."""
+        _, v = self.request(name, **fields)
+        return v["value"]
+
+    def faults(self) -> dict:
+        _, v = self.request("FAULTS_GET")
+        return v
+
+    def stats(self) -> dict:
+        _, v = self.request("STATS_GET")
+        return v
+
+    def stream(self, samples: Iterable[int]) -> int:
+        """Append T_ref words (Q7.8) to the device's stream buffer; returns its free slots."""
+        return self.simple("STREAM", samples=list(samples))
+
+
+def fault_names(bits: int) -> list[str]:
+    """The names of the fault bits set in the telemetry's fault byte or FAULTS.device_faults."""
+    return [name for name, v in msgs.FAULTS.items() if bits & v]
+
+
+def status_names(bits: int) -> list[str]:
+    return [name for name, v in msgs.STATUS.items() if bits & v]

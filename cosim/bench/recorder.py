@@ -1,0 +1,246 @@
+"""Recording a run: telemetry into the trace format (cosim/trace.py), flushed every second.
+
+`TraceRecorder` writes the sidecar first, then the CSV header, then whole rows in blocks, one
+`write` per block and at least one block a second, each followed by fsync: a run killed at any
+moment (Ctrl-C, SIGKILL, a pulled cable) leaves a CSV whose rows are complete up to the last
+second, readable by `python -m cosim.trace` and the model audit.
+
+Columns: the trace format's (t_s from the sample index, tensions in N, current_A the current
+command) and `sample`, `device_time_s`, `faults`, `status`. The bench does not measure the
+end-effector position or the motor angle: x_m, y_m, z_m hold the position given with
+--position (held constant) and motor_angle_rad is 0; the sidecar says so
+(`columns_not_measured`, `position_source`).
+
+`record_run` starts a run on a connected BenchClient and records it (sample gaps are drops: they
+are counted and reported, never filled in).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .. import trace as trace_mod
+from .client import BenchClient, BenchError, fault_names
+
+Q7_8_LSB_N = 1.0 / 256.0
+Q3_12_LSB_A = 1.0 / 4096.0
+FLUSH_PERIOD_S = 1.0
+EXTRA_COLUMNS = ("sample", "device_time_s", "faults", "status")
+
+
+class TraceRecorder:
+    """Append telemetry rows to a trace CSV; the sidecar is written when the recorder opens."""
+
+    def __init__(self, csv_path: str | Path, meta: dict, position_m: tuple[float, float, float]):
+        self.path = Path(csv_path)
+        meta = trace_mod.validate_meta(dict(meta), str(trace_mod.meta_path(self.path)))
+        self.rate_hz = float(meta["sample_rate_hz"])
+        self.position = tuple(float(v) for v in position_m)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        mpath = trace_mod.meta_path(self.path)
+        mpath.write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
+        self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        header = ",".join(trace_mod.COLUMNS + EXTRA_COLUMNS) + "\n"
+        os.write(self._fd, header.encode())
+        os.fsync(self._fd)
+        self._rows: list[str] = []
+        self._last_flush = time.monotonic()
+        self.rows = 0
+        self._time_base = 0
+        self._last_time_us: int | None = None
+
+    def add(self, t: dict) -> None:
+        """One telemetry sample (the TELEMETRY fields as unpacked)."""
+        # Device time: microseconds that wrap at 2^32; unwrapped here.
+        tu = t["time_us"]
+        if self._last_time_us is not None and tu < self._last_time_us:
+            self._time_base += 1 << 32
+        self._last_time_us = tu
+        x, y, z = self.position
+        self._rows.append(
+            f"{t['sample'] / self.rate_hz:.9g},{t['t_ref'] * Q7_8_LSB_N:.9g},"
+            f"{t['t_c'] * Q7_8_LSB_N:.9g},{t['t_in'] * Q7_8_LSB_N:.9g},"
+            f"{t['t_out'] * Q7_8_LSB_N:.9g},{x:.9g},{y:.9g},{z:.9g},"
+            f"{t['current'] * Q3_12_LSB_A:.9g},0,{t['sample']},"
+            f"{(self._time_base + tu) * 1e-6:.9g},{t['faults']},{t['status']}\n"
+        )
+        self.rows += 1
+        if time.monotonic() - self._last_flush >= FLUSH_PERIOD_S:
+            self.flush()
+
+    def flush(self) -> None:
+        """Write the pending rows in one write and fsync them."""
+        if self._rows:
+            os.write(self._fd, "".join(self._rows).encode())
+            self._rows.clear()
+        os.fsync(self._fd)
+        self._last_flush = time.monotonic()
+
+    def close(self) -> None:
+        if self._fd is not None:
+            self.flush()
+            os.close(self._fd)
+            self._fd = None
+
+
+@dataclass
+class RunResult:
+    """What a recording got: samples, gaps (drops), the device's overflow count, faults seen."""
+
+    samples: int = 0
+    expected: int = 0
+    drops: int = 0
+    gaps: list[tuple[int, int]] = field(default_factory=list)  # (first missing sample, count)
+    overflow: int = 0
+    faults: int = 0
+    link_rejected: int = 0
+    wall_s: float = 0.0
+    stopped_early: bool = False
+
+    def summary(self) -> str:
+        names = ", ".join(fault_names(self.faults)) or "none"
+        return (
+            f"{self.samples} samples of {self.expected}, drops {self.drops}, device overflow "
+            f"{self.overflow}, faults {names}, link errors {self.link_rejected}"
+        )
+
+
+WAVE_KINDS = ("sine", "triangle", "ramp", "step", "constant")
+
+
+def record_run(
+    client: BenchClient,
+    out_csv: str | Path,
+    *,
+    seconds: float,
+    waveform: str,
+    mean_n: float,
+    amplitude_n: float,
+    freq_hz: float,
+    stream_words: list[int] | None = None,
+    position_m: tuple[float, float, float] = (0.0, 0.5, 0.0),
+    loop_routing: bool = True,
+    sheath_length_m: float = 1.0,
+    progress: Callable[[str], None] | None = None,
+    on_sample: Callable[[int], None] | None = None,
+) -> RunResult:
+    """Configure the waveform (or the stream), start a run of `seconds` and record it.
+
+    waveform: one of WAVE_KINDS, or "stream" with `stream_words` (Q7.8 T_ref words, one per tick).
+    """
+    if waveform == "stream":
+        client.set("source", "host")
+    else:
+        client.set("wave.kind", waveform)
+        client.set("wave.mean_n", mean_n)
+        client.set("wave.amplitude_n", amplitude_n)
+        client.set("wave.freq_hz", freq_hz)
+        client.set("source", "wave")
+    tick_hz = float(client.get("tick_rate_hz"))
+    div = int(client.get("dev.telemetry_div"))
+    rate_hz = tick_hz / div
+    ticks = int(round(seconds * tick_hz))
+    meta = {
+        "sample_rate_hz": rate_hz,
+        "sheath_length_m": float(sheath_length_m),
+        "loop_routing": bool(loop_routing),
+        "mu": float(client.get("comp.mu")),
+        "source": "bowden bench",
+        "device": client.link.url,
+        "waveform": waveform,
+        "compensator": client.get("comp.mode"),
+        "phi_rad": float(client.get("comp.phi_rad")),
+        "position_m": list(position_m),
+        "position_source": "--position (held constant; not measured)",
+        "columns_not_measured": ["x_m", "y_m", "z_m", "motor_angle_rad"],
+    }
+    if waveform != "stream":
+        meta.update({"mean_n": mean_n, "amplitude_n": amplitude_n, "freq_hz": freq_hz})
+    result = RunResult(expected=(ticks + div - 1) // div)
+    rec = TraceRecorder(out_csv, meta, position_m)
+    next_sample = 0
+    last_report = 0.0
+    t0 = time.monotonic()
+
+    def on_telemetry(t: dict) -> None:
+        nonlocal next_sample
+        if t["sample"] > next_sample:  # frames lost on the way: say which
+            missing = (t["sample"] - next_sample) // div
+            result.drops += missing
+            result.gaps.append((next_sample, missing))
+        next_sample = t["sample"] + div
+        result.samples += 1
+        result.overflow = t["overflow"]
+        result.faults |= t["faults"]
+        rec.add(t)
+        if on_sample is not None:
+            on_sample(result.samples)
+
+    stream = list(stream_words or [])
+    sent = 0
+    try:
+        if waveform == "stream":
+            free = 0
+            while sent < len(stream):  # prefill: the device holds DEV_STREAM_LEN samples
+                chunk = stream[sent : sent + 24]
+                try:
+                    free = client.stream(chunk)
+                except BenchError as exc:
+                    if "STREAM_FULL" not in str(exc):
+                        raise
+                    break
+                sent += len(chunk)
+                if free < 24:
+                    break
+        client.on_telemetry = on_telemetry
+        client.simple("START", duration_ticks=ticks)
+        last_rx = time.monotonic()
+        while result.samples < result.expected:
+            n_before = result.samples
+            if waveform == "stream" and sent < len(stream):
+                try:
+                    free = client.stream(stream[sent : sent + 24])
+                    sent += min(24, len(stream) - sent)
+                except BenchError as exc:
+                    if "STREAM_FULL" not in str(exc):
+                        raise
+            for frame in client.link.recv(0.05):
+                client._dispatch(frame)  # noqa: SLF001 (telemetry goes to on_telemetry)
+            now = time.monotonic()
+            if result.samples > n_before:
+                last_rx = now
+            elif now - last_rx > 2.0:
+                result.stopped_early = True
+                break  # the device stopped sending: report what came
+            if next_sample >= ticks:
+                break
+            if progress is not None and now - last_report >= 0.25:
+                last_report = now
+                el = now - t0
+                progress(
+                    f"{result.samples / rate_hz:6.1f}/{seconds:g} s  "
+                    f"{result.samples / max(el, 1e-9):6.0f} Hz  drops {result.drops}  "
+                    f"overflow {result.overflow}  faults "
+                    f"{','.join(fault_names(result.faults)) or '-'}"
+                )
+    finally:
+        client.on_telemetry = None
+        rec.close()
+        result.wall_s = time.monotonic() - t0
+        result.link_rejected = client.link.stats.rejected
+    if math.isfinite(result.wall_s) and progress is not None:
+        progress("")
+    return result
+
+
+def stderr_progress(line: str) -> None:
+    """A live progress line on stderr (carriage return, cleared at the end)."""
+    sys.stderr.write("\r" + line.ljust(78) + ("\n" if not line else ""))
+    sys.stderr.flush()
