@@ -97,7 +97,9 @@ class SerialLink:
         deadline = time.monotonic() + timeout_s
         while True:
             try:
-                data = self.port.read(max(1, self.port.in_waiting))
+                # With timeout 0, read(n) returns what is there, up to n bytes. (in_waiting is no
+                # help: pyserial's socket:// reports 1 whenever anything is waiting.)
+                data = self.port.read(4096)
             except serial.SerialException as exc:
                 raise BenchError(f"{self.url}: read failed ({exc})") from None
             if data:
@@ -196,6 +198,7 @@ class BenchClient:
     on_telemetry: Callable[[dict], None] | None = None
     stale_telemetry: int = 0  # frames of a stream that was running when we connected
     _seq: int = 0
+    _backlog: list = field(default_factory=list)  # frames received after a reply, not yet handled
 
     # --- requests ----------------------------------------------------------------------------
 
@@ -228,11 +231,13 @@ class BenchClient:
                     f"{name}: no reply from {self.link.url} within "
                     f"{self.timeout_s if timeout_s is None else timeout_s:g} s"
                 )
-            for frame in self.link.recv(min(left, 0.05)):
+            batch = self._take(min(left, 0.05))
+            for i, frame in enumerate(batch):
                 reply = msgs.MESSAGE_BY_ID.get(frame.msg)
                 if frame.seq != seq or reply is None or reply.source != "device":
                     self._dispatch(frame)
                     continue
+                self._backlog = batch[i + 1 :] + self._backlog  # what came after it waits
                 if reply.name == "HELLO_ACK" or frame.version == msgs.PROTOCOL_VERSION:
                     try:
                         values = unpack(reply.name, frame.payload)
@@ -248,6 +253,20 @@ class BenchClient:
                     f"{name}: reply in protocol version {frame.version}, this host speaks "
                     f"{msgs.PROTOCOL_VERSION}"
                 )
+
+    def _take(self, timeout_s: float) -> list[Frame]:
+        if self._backlog:
+            batch, self._backlog = self._backlog, []
+            return batch
+        return self.link.recv(timeout_s)
+
+    def poll(self, timeout_s: float) -> int:
+        """Handle the frames that arrive within timeout_s (telemetry to on_telemetry); returns
+        how many."""
+        batch = self._take(timeout_s)
+        for frame in batch:
+            self._dispatch(frame)
+        return len(batch)
 
     # --- session -----------------------------------------------------------------------------
 

@@ -66,7 +66,9 @@ class _ByteLink:
     def __init__(self, device: Device, port: int, baud: int) -> None:
         self.device = device
         self.port = port
-        self.bucket = _Bucket(rate=baud / 10.0, burst=max(64.0, baud / 10.0 * 0.002))
+        # The link may catch up for as long as the emulator may lag (100 ms): a stall of the
+        # emulating process is not the device's, so it must not turn into dropped telemetry.
+        self.bucket = _Bucket(rate=baud / 10.0, burst=baud / 10.0 * 0.1)
         self.pending = b""
         self.sent = 0
         self.garbage_sent = 0
@@ -162,7 +164,7 @@ class Emulator:
             interface, _, channel = can.partition(":")
             self.bus = pycan.Bus(interface=interface, channel=channel or "bowden")
             self.device.set_port_kind(PORT_BUS, PORT_CAN)
-            self._can_bucket = _Bucket(rate=can_bitrate, burst=can_bitrate * 0.002)
+            self._can_bucket = _Bucket(rate=can_bitrate, burst=can_bitrate * 0.1)
             self._can_pending: list[tuple[int, bytes]] = []
             self._pycan = pycan
             self.urls["can"] = f"{interface}:{channel or 'bowden'}"
@@ -198,6 +200,8 @@ class Emulator:
                     self.chain.step()
                     next_t += self.tick_period_s
                     due += 1
+                    if due > 1:  # catching up: the links drain as a device's would meanwhile
+                        self._pump(time.perf_counter())
                 lag = now - next_t
                 if lag > self.max_lag_s:
                     # Behind real time: keep every tick (the sample index never skips) and say so.
@@ -256,6 +260,14 @@ class Emulator:
                 except OSError:
                     self._client.close()
                     self._client = None
+            self.tcp_link.pump(now, self._tcp_write)
+        if self.bus is not None:
+            self._serve_can(now)
+
+    def _pump(self, now: float) -> None:
+        if self.pty_link is not None:
+            self.pty_link.pump(now, self._pty_write)
+        if self.tcp_link is not None:
             self.tcp_link.pump(now, self._tcp_write)
         if self.bus is not None:
             self._serve_can(now)

@@ -204,15 +204,17 @@ def record_run(
         last_rx = time.monotonic()
         while result.samples < result.expected:
             n_before = result.samples
-            if waveform == "stream" and sent < len(stream):
+            # Top the device's buffer up: chunks of 24 while the ACKs say there is room.
+            free = 24
+            while waveform == "stream" and sent < len(stream) and free >= 24:
                 try:
                     free = client.stream(stream[sent : sent + 24])
                     sent += min(24, len(stream) - sent)
                 except BenchError as exc:
                     if "STREAM_FULL" not in str(exc):
                         raise
-            for frame in client.link.recv(0.05):
-                client._dispatch(frame)  # noqa: SLF001 (telemetry goes to on_telemetry)
+                    break
+            client.poll(0.05)  # telemetry goes to on_telemetry
             now = time.monotonic()
             if result.samples > n_before:
                 last_rx = now

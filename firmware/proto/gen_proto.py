@@ -931,7 +931,8 @@ def gen_dbc(spec: Spec) -> str:
             continue
         can_id = (node << spec.raw["can"]["message_bits"]) | m.id
         sender = "HOST" if m.source == "host" else "DEVICE"
-        w(f"BO_ {can_id} {m.name}: 8 {sender}")
+        dlc = 8 if m.segmented else m.max_len + (0 if m.transport == "can" else 1)
+        w(f"BO_ {can_id} {m.name}: {dlc} {sender}")
         pos = 0
         if m.transport != "can":
             w(f' SG_ seq : 0|8@1+ (1,0) [0|255] "" {"DEVICE" if sender == "HOST" else "HOST"}')
@@ -955,8 +956,8 @@ def gen_dbc(spec: Spec) -> str:
                     lo = -(1 << (bits - 1)) if TYPES[f.type][3] else 0
                     hi = (1 << (bits - 1)) - 1 if TYPES[f.type][3] else (1 << bits) - 1
                     w(
-                        f" SG_ {name} : {pos}|{bits}@1{signed} ({scale:g},0) "
-                        f'[{lo * scale:g}|{hi * scale:g}] "{f.unit}" {recv}'
+                        f" SG_ {name} : {pos}|{bits}@1{signed} ({scale:.17g},0) "
+                        f'[{lo * scale:.17g}|{hi * scale:.17g}] "{f.unit}" {recv}'
                     )
                     pos += bits
             comments.append(f'CM_ BO_ {can_id} "{m.doc}";')

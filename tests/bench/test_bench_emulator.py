@@ -1,0 +1,354 @@
+"""The emulator and `bowden bench` end to end: the C loop model held to rtl_model at every
+sample, the native chain to its Python twin, then runs over the pty, the socket and python-can's
+virtual bus; garbage both ways, a killed run, a version mismatch, a device already streaming,
+persistence across a restart, and one bad input per option."""
+
+import ctypes
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from cosim import regmap, rtl_model
+from cosim import trace as trace_mod
+from cosim.bench import messages as msgs
+from cosim.bench import protocol as proto
+from cosim.bench.__main__ import main as bench_cli
+from cosim.bench.client import BenchClient, SerialLink, VersionMismatchError
+from cosim.bench.device import ChainConfig, Device, EmuLoop, LoopChain, load_library
+from cosim.bench.emulator import Emulator
+from cosim.bench.recorder import record_run
+from cosim.paths import REPO_ROOT
+
+WRITABLE = [
+    name
+    for name, reg in regmap.REGISTERS.items()
+    if len(reg.fields) == 1 and reg.fields[0].access == "rw"
+]
+
+
+def test_c_loop_model_equals_rtl_model_at_every_sample():
+    """emu_loop (C) against rtl_model.TensionLoopModel: random register writes (gains, limits,
+    slew, watchdog, ADC window), CTRL pulses, ADC codes over the whole range and missing ADC
+    samples, 30 000 ticks, every output compared."""
+    lib = load_library()
+    c = EmuLoop()
+    lib.emu_loop_reset(ctypes.byref(c))
+    py = rtl_model.TensionLoopModel()
+    rng = random.Random(5)
+    for k in range(30_000):
+        if rng.random() < 0.05:
+            name = rng.choice(WRITABLE)
+            f = regmap.REGISTERS[name].fields[0]
+            v = rng.randint(f.min, f.max)
+            if name in ("KFF", "KP"):
+                v = rng.randint(-2000, 2000)
+            py.write(name, v)
+            lib.emu_loop_write(ctypes.byref(c), regmap.REGISTERS[name].addr, regmap.encode(name, v))
+        if rng.random() < 0.01:
+            w = rng.choice([1, 1 | 8, 2 | 1, 4 | 1, 0, 1 | 2 | 4])
+            py.write("CTRL", w)
+            lib.emu_loop_write(ctypes.byref(c), regmap.CTRL, w)
+        if rng.random() < 0.97:
+            code = (
+                rng.randint(-(1 << 23), (1 << 23) - 1)
+                if rng.random() < 0.02
+                else rng.randint(-40000, 40000)
+            )
+            py.adc_sample(code)
+            lib.emu_loop_adc(ctypes.byref(c), code)
+        out = py.tick()
+        lib.emu_loop_tick(ctypes.byref(c))
+        got = (
+            c.u,
+            c.t_in,
+            c.integ,
+            c.tc_eff,
+            c.faults,
+            bool(c.out_en),
+            bool(c.saturated),
+            bool(c.wdt_ramp),
+            c.sample_count,
+        )
+        want = (
+            out.u,
+            out.t_in,
+            out.integ,
+            out.tc_eff,
+            out.faults,
+            out.out_en,
+            out.saturated,
+            out.wdt_ramp,
+            out.sample_count,
+        )
+        assert got == want, f"tick {k}: C {got} != model {want}"
+
+
+def _start(dev: Device, **params) -> None:
+    for name, value in params.items():
+        p = proto.param(name)
+        payload = proto.pack("PARAM_SET", param=p.id, value=proto.word_from_value(p, value))
+        dev.rx_bytes(0, proto.encode_frame(proto.Frame(msgs.MESSAGES["PARAM_SET"].id, 1, payload)))
+    start = proto.Frame(msgs.MESSAGES["START"].id, 2, proto.pack("START", duration_ticks=0))
+    dev.rx_bytes(0, proto.encode_frame(start))
+
+
+def test_native_chain_equals_python_chain():
+    """The C chain (emu_step) and the Python one (rtl_model + Plant) give the same command word
+    and T_c at every FPGA sample of a run (paper law, 0.5 s of a 2 Hz sine, reversals inside)."""
+    runs = {}
+    for engine in ("native", "python"):
+        dev = Device()
+        chain = LoopChain(dev, ChainConfig(), engine=engine, record=5000)
+        _start(dev, **{"source": "wave", "wave.freq_hz": 2.0, "comp.mode": "paper"})
+        for _ in range(500):
+            chain.step()
+        runs[engine] = chain.recorded
+        chain.close()
+    (u_c, tc_c), (u_p, tc_p) = runs["native"], runs["python"]
+    assert len(u_c) == len(u_p) == 5000
+    assert np.abs(u_c).max() > 1000  # the loop did drive current
+    np.testing.assert_array_equal(tc_c, tc_p)
+    np.testing.assert_array_equal(u_c, u_p)
+
+
+@pytest.fixture
+def emulator():
+    emu = Emulator(tcp_port=0).start()
+    yield emu
+    emu.stop()
+
+
+def _check_trace(path, seconds, rate=1000.0):
+    tr = trace_mod.read_trace(path)  # validates columns, spacing, sidecar
+    n = int(round(seconds * rate))
+    assert len(tr) == n
+    np.testing.assert_array_equal(tr["sample"], np.arange(n))
+    assert tr["T_out_N"].max() > 5.0  # the plant did pull
+    return tr
+
+
+@pytest.mark.parametrize("kind", ["pty", "socket", "can"])
+def test_run_records_1khz_without_gaps(kind, emulator, tmp_path, capsys):
+    out = tmp_path / f"{kind}.csv"
+    if kind == "can":
+        link = ["--can", f"virtual:bench_{os.getpid()}", "--emulate"]
+    else:
+        link = ["--port", emulator.urls["pty" if kind == "pty" else "socket"]]
+    rc = bench_cli(["bench", *link, "run", "sine", "--seconds", "2", "--out", str(out), "--quiet"])
+    text = capsys.readouterr()
+    assert rc == 0, text.err
+    assert "2000 samples of 2000, drops 0" in text.out
+    tr = _check_trace(out, 2.0)
+    assert tr.meta["source"] == "bowden bench" and tr.meta["compensator"] == "paper"
+    assert tr.meta["columns_not_measured"] == ["x_m", "y_m", "z_m", "motor_angle_rad"]
+
+
+def test_garbage_both_ways_is_counted_and_the_run_goes_on(emulator, tmp_path):
+    link = SerialLink(emulator.urls["pty"])
+    client = BenchClient(link)
+    client.connect()
+    junk = bytes(random.Random(3).randrange(1, 256) for _ in range(300))
+
+    def on_sample(n):
+        if n in (300, 900, 1500):
+            emulator.inject_garbage()  # device -> host, between frames
+        if n in (600, 1200):
+            link.write_raw(junk)  # host -> device
+            link.write_raw(b"\x00")
+
+    res = record_run(
+        client,
+        tmp_path / "g.csv",
+        seconds=2.0,
+        waveform="triangle",
+        mean_n=8,
+        amplitude_n=6,
+        freq_hz=1.0,
+        on_sample=on_sample,
+    )
+    assert (res.samples, res.drops, res.overflow) == (2000, 0, 0)
+    assert link.stats.rejected >= 2  # the emulator's bursts, counted by the host
+    st = client.stats()
+    assert st["rx_crc_errors"] + st["rx_framing_errors"] + st["rx_short"] + st["rx_overlong"] >= 2
+    _check_trace(tmp_path / "g.csv", 2.0)
+    link.close()
+
+
+def test_killed_run_leaves_a_readable_file(emulator, tmp_path):
+    out = tmp_path / "killed.csv"
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "cosim.bench",
+            "bench",
+            "--port",
+            emulator.urls["socket"],
+            "run",
+            "sine",
+            "--seconds",
+            "30",
+            "--out",
+            str(out),
+            "--quiet",
+        ],
+        cwd=REPO_ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:  # wait for more than 2 s of flushed rows
+            if out.exists() and out.read_text().count("\n") > 2100:
+                break
+            time.sleep(0.1)
+        proc.send_signal(signal.SIGKILL)
+    finally:
+        proc.wait(timeout=10)
+    tr = trace_mod.read_trace(out)
+    assert len(tr) > 2000
+    np.testing.assert_array_equal(tr["sample"], np.arange(len(tr)))
+    # The device keeps running a run whose host died; the next session stops it on connect.
+    client = BenchClient(SerialLink(emulator.urls["socket"]))
+    info = client.connect()
+    assert client.stale_telemetry > 0 and not client.hello().running
+    assert info.table_hash == msgs.TABLE_HASH
+    client.link.close()
+
+
+def test_device_already_streaming_is_stopped_on_connect(emulator, tmp_path):
+    a = BenchClient(SerialLink(emulator.urls["pty"]))
+    a.connect()
+    a.set("source", "wave")
+    a.simple("START", duration_ticks=0)  # forever
+    a.link.close()  # gone without STOP: the device streams into the pty's buffer
+    time.sleep(0.5)
+    b = BenchClient(SerialLink(emulator.urls["pty"]))
+    info = b.connect()
+    assert b.stale_telemetry > 0 and not b.hello().running and not info.running
+    assert b.get("comp.mode") == "paper"  # replies are found among the stale frames
+    res = record_run(
+        b, tmp_path / "s.csv", seconds=1.0, waveform="step", mean_n=8, amplitude_n=2, freq_hz=2.0
+    )
+    assert (res.samples, res.drops) == (1000, 0)
+    b.link.close()
+
+
+def test_version_mismatch_is_one_clear_line(capsys):
+    emu = Emulator(tcp_port=0, pty=False, identity=(msgs.PROTOCOL_VERSION, 0xDEADBEEF)).start()
+    try:
+        rc = bench_cli(["bench", "--port", emu.urls["socket"], "info"])
+    finally:
+        emu.stop()
+    err = capsys.readouterr().err.strip()
+    assert rc == 1 and len(err.splitlines()) == 1
+    assert f"table {msgs.TABLE_HASH:08x}" in err and "table deadbeef" in err
+    assert "version mismatch" in err
+    with pytest.raises(VersionMismatchError):
+        raise VersionMismatchError(err)
+
+
+def test_settings_survive_an_emulator_restart(tmp_path, capsys):
+    flash = tmp_path / "flash.bin"
+    for step in ("set", "check"):
+        emu = Emulator(tcp_port=0, pty=False, flash_path=flash).start()
+        url = emu.urls["socket"]
+        try:
+            if step == "set":
+                assert (
+                    bench_cli(["bench", "--port", url, "set", "loop.kp=0.07", "comp.mode=smooth"])
+                    == 0
+                )
+                assert bench_cli(["bench", "--port", url, "persist"]) == 0
+                assert bench_cli(["bench", "--port", url, "backup", str(tmp_path / "b.json")]) == 0
+                assert bench_cli(["bench", "--port", url, "set", "loop.kp=0.01"]) == 0
+            else:
+                assert bench_cli(["bench", "--port", url, "get", "loop.kp", "comp.mode"]) == 0
+                assert bench_cli(["bench", "--port", url, "defaults"]) == 0
+                assert bench_cli(["bench", "--port", url, "restore", str(tmp_path / "b.json")]) == 0
+                assert bench_cli(["bench", "--port", url, "info"]) == 0
+        finally:
+            emu.stop()
+    out = capsys.readouterr().out
+    assert "loop.kp    0.0699463 A/N" in out and "comp.mode  smooth" in out
+    assert "restored 28 parameters" in out and "configuration flash" in out
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["set", "comp.nope=1"], "unknown parameter 'comp.nope'"),
+        (["set", "comp.mu=2"], "device error INVALID_VALUE: comp.mu: outside [0, 1]"),
+        (["set", "comp.mode=fast"], "expected one of none, paper, smooth"),
+        (["set", "tick_rate_hz=500"], "tick_rate_hz is read-only"),
+        (["set", "comp.mu"], "expected NAME=VALUE"),
+        (["get", "x.y"], "unknown parameter 'x.y'"),
+        (["restore", "/no/such.json"], "does not exist"),
+        (["run", "stream", "--seconds", "1", "--out", "x.csv"], "needs --ref"),
+    ],
+)
+def test_bad_inputs_are_one_line(args, words, emulator, capsys):
+    rc = bench_cli(["bench", "--port", emulator.urls["socket"], *args])
+    err = capsys.readouterr().err.strip()
+    assert rc == 1 and len(err.splitlines()) == 1 and words in err, err
+
+
+def test_bad_links_and_options(capsys, tmp_path):
+    assert bench_cli(["bench", "--port", str(tmp_path / "nope"), "info"]) == 1
+    assert "cannot open" in capsys.readouterr().err
+    assert bench_cli(["bench", "--can", "virtual", "info"]) == 1
+    assert "expected INTERFACE:CHANNEL" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        bench_cli(["bench", "--port", "x", "run", "sine", "--seconds", "-1", "--out", "y"])
+    assert exc.value.code == 2 and "expected a number > 0" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        bench_cli(["emulate", "--position", "1,2"])
+    assert "expected X,Y,Z" in capsys.readouterr().err
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    emu = Emulator(tcp_port=0, pty=False).start()
+    try:
+        assert bench_cli(["bench", "--port", emu.urls["socket"], "restore", str(bad)]) == 1
+        assert "is not a JSON backup" in capsys.readouterr().err
+        ref = tmp_path / "ref.csv"
+        ref.write_text("T_ref_N\n1.0\nabc\n")
+        args = ["bench", "--port", emu.urls["socket"], "run", "stream", "--ref", str(ref)]
+        assert bench_cli([*args, "--seconds", "1", "--out", str(tmp_path / "r.csv")]) == 1
+        assert f"{ref}:3: T_ref 'abc' is not a finite number" in capsys.readouterr().err
+    finally:
+        emu.stop()
+
+
+def test_stream_run_follows_the_samples(emulator, tmp_path):
+    """`run stream`: arbitrary T_ref samples, flow-controlled into the device's buffer."""
+    ref = tmp_path / "ref.csv"
+    t = np.arange(1500) / 1000.0
+    values = 6.0 + 4.0 * np.sign(np.sin(2 * np.pi * 1.5 * t))
+    ref.write_text("T_ref_N\n" + "\n".join(f"{v:.4f}" for v in values) + "\n")
+    out = tmp_path / "stream.csv"
+    rc = bench_cli(
+        [
+            "bench",
+            "--port",
+            emulator.urls["socket"],
+            "run",
+            "stream",
+            "--ref",
+            str(ref),
+            "--seconds",
+            "1.5",
+            "--out",
+            str(out),
+            "--quiet",
+        ]
+    )
+    assert rc == 0
+    tr = _check_trace(out, 1.5)
+    np.testing.assert_array_equal(tr["T_ref_N"], np.round(values * 256) / 256)
+    assert not np.any(tr["faults"].astype(int) & msgs.FAULTS["STREAM_UNDERRUN"])
