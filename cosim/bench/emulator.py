@@ -195,6 +195,7 @@ class Emulator:
         try:
             while not self._stop.is_set():
                 now = time.perf_counter()
+                lag = now - next_t  # how late the oldest due tick is
                 due = 0
                 while now >= next_t and due < 100:
                     self.chain.step()
@@ -202,7 +203,6 @@ class Emulator:
                     due += 1
                     if due > 1:  # catching up: the links drain as a device's would meanwhile
                         self._pump(time.perf_counter())
-                lag = now - next_t
                 if lag > self.max_lag_s:
                     # Behind real time: keep every tick (the sample index never skips) and say so.
                     self.overruns += 1
