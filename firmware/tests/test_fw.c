@@ -331,10 +331,45 @@ static void test_fw_bad_config(void)
     }
 }
 
+/* Ramp (sawtooth) and step (square): the values at eighth turns, and saturation at full scale. */
+static void test_wave_ramp_and_step(void)
+{
+    wave_t w;
+    wave_config_t cfg;
+    wave_config_default(&cfg);
+    cfg.kind = WAVE_RAMP;
+    cfg.mean_n_q8 = 0;
+    cfg.amplitude_n_q8 = 8 * 256;
+    cfg.freq_hz_q16 = 125U << 16; /* an eighth of a turn per tick at 1 kHz */
+    CHECK(wave_configure(&w, &cfg, 1000U) == WAVE_OK, "ramp");
+    const int16_t ramp[9] = {0, 512, 1024, 1536, -2048, -1536, -1024, -512, 0};
+    for (int k = 0; k < 9; ++k) {
+        int16_t v = wave_next_q7_8(&w);
+        CHECK(v == ramp[k], "ramp tick %d: %d", k, v);
+    }
+    cfg.kind = WAVE_STEP;
+    CHECK(wave_configure(&w, &cfg, 1000U) == WAVE_OK, "step");
+    for (int k = 0; k < 8; ++k) {
+        int16_t v = wave_next_q7_8(&w);
+        CHECK(v == (k < 4 ? 2048 : -2048), "step tick %d: %d", k, v);
+    }
+    cfg.mean_n_q8 = 100 * 256;
+    cfg.amplitude_n_q8 = 128 * 256;
+    CHECK(wave_configure(&w, &cfg, 1000U) == WAVE_OK, "full-scale step");
+    CHECK(wave_next_q7_8(&w) == INT16_MAX, "step saturates high");
+    for (int k = 0; k < 3; ++k) {
+        (void)wave_next_q7_8(&w);
+    }
+    CHECK(wave_next_q7_8(&w) == -28 * 256, "then mean - amplitude");
+    cfg.kind = WAVE_STEP + 1;
+    CHECK(wave_configure(&w, &cfg, 1000U) == WAVE_ERR_KIND, "the kind after step is refused");
+}
+
 const unit_test_t fw_tests[] = {
     {"wave_sine_matches_double", test_wave_sine_matches_double},
     {"wave_triangle_constant_and_saturation", test_wave_triangle_constant_and_saturation},
     {"wave_bad_config", test_wave_bad_config},
+    {"wave_ramp_and_step", test_wave_ramp_and_step},
     {"hal_shadow_log", test_hal_shadow_log},
     {"hal_mmio_and_transport", test_hal_mmio_and_transport},
     {"fw_start_sequence", test_fw_start_sequence},
