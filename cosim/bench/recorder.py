@@ -214,7 +214,7 @@ def record_run(
                     if "STREAM_FULL" not in str(exc):
                         raise
                     break
-            client.poll(0.05)  # telemetry goes to on_telemetry
+            client.poll(0.01 if waveform == "stream" else 0.05)  # telemetry: on_telemetry
             now = time.monotonic()
             if result.samples > n_before:
                 last_rx = now

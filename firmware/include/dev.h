@@ -42,8 +42,9 @@
 #define DEV_TX_BYTES 1024U
 /* CAN transmit queue per port, in frames: 32 telemetry samples. */
 #define DEV_TX_CAN_FRAMES 64U
-/* Streamed reference samples held (256 ms at 1 kHz). */
-#define DEV_STREAM_LEN 256U
+/* Streamed reference samples held: 1 s at 1 kHz, so that a host that stalls for less than that
+ * (a loaded laptop, a USB latency timer) never lets the stream run dry. */
+#define DEV_STREAM_LEN 1024U
 
 /* Status codes of dev_config_check, after the firmware's (fw.h: up to 56). */
 #define DEV_ERR_TELEMETRY_DIV 60

@@ -216,8 +216,9 @@ def test_killed_run_leaves_a_readable_file(emulator, tmp_path):
     np.testing.assert_array_equal(tr["sample"], np.arange(len(tr)))
     # The device keeps running a run whose host died; the next session stops it on connect.
     client = BenchClient(SerialLink(emulator.urls["socket"]))
+    assert client.hello().running
     info = client.connect()
-    assert client.stale_telemetry > 0 and not client.hello().running
+    assert not info.running and not client.hello().running
     assert info.table_hash == msgs.TABLE_HASH
     client.link.close()
 

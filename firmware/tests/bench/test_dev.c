@@ -197,10 +197,13 @@ static void test_dev_stream_and_faults(void)
     proto_frame_t g = request(0U, PROTO_MSG_STREAM, 1U, p, n);
     proto_ack_t a;
     CHECK(proto_ack_unpack(&a, g.payload, g.len) && a.value == DEV_STREAM_LEN - 24U, "free slots");
-    for (int i = 0; i < 9; ++i) {
+    const uint32_t chunks = DEV_STREAM_LEN / 24U; /* whole chunks that fit */
+    for (uint32_t i = 1; i < chunks; ++i) {
         g = request(0U, PROTO_MSG_STREAM, 2U, p, n);
     }
-    g = request(0U, PROTO_MSG_STREAM, 3U, p, n); /* 11 * 24 = 264 > 256 */
+    CHECK(proto_ack_unpack(&a, g.payload, g.len) && a.value == DEV_STREAM_LEN - 24U * chunks,
+          "free slots after %u chunks", chunks);
+    g = request(0U, PROTO_MSG_STREAM, 3U, p, n); /* one chunk more than fits */
     CHECK(error_code(&g) == PROTO_ERR_STREAM_FULL, "full");
     g = request(0U, PROTO_MSG_STREAM, 4U, p, 3U);
     CHECK(error_code(&g) == PROTO_ERR_BAD_LENGTH, "odd length");
@@ -208,7 +211,7 @@ static void test_dev_stream_and_faults(void)
     (void)drain_telemetry(0U, NULL, NULL);
     proto_telemetry_t t;
     uint32_t gaps = 0;
-    for (uint32_t i = 0; i < 240U; ++i) {
+    for (uint32_t i = 0; i < 24U * chunks; ++i) {
         dev_tick(&host.dev, i, 0);
         (void)drain_telemetry(0U, &t, &gaps);
         CHECK(t.t_ref == s.samples[i % 24U], "sample %u streamed", i);
