@@ -477,6 +477,13 @@ def _add_emulate(subparsers) -> None:
     )
     p.add_argument("--no-loop-routing", dest="loop_routing", action="store_false")
     p.add_argument(
+        "--interface",
+        choices=("ideal", "adc", "board"),
+        default="ideal",
+        help="sensing and actuation between plant and loop (cosim.interface): ideal (default, "
+        "in C), or the board's ADC / ADC + PWM -> ESCON (on the Python engine)",
+    )
+    p.add_argument(
         "--engine",
         choices=("native", "python"),
         default="native",
@@ -515,14 +522,26 @@ def emulate_main(args: argparse.Namespace) -> int:
     if not 0 <= args.tcp_port <= 65535:
         print(f"bowden emulate: --tcp-port {args.tcp_port}: outside 0..65535", file=sys.stderr)
         return 2
+    engine = args.engine
+    if args.interface != "ideal" and engine == "native":
+        engine = "python"
+        print(
+            f"bowden emulate: --interface {args.interface} runs on the Python engine (the C chain "
+            "has the ideal interface only): real time is not guaranteed on a loaded machine; a "
+            "late tick sets the device's OVERRUN fault"
+        )
     try:
         emu = Emulator(
             pty=not args.no_pty,
             tcp_port=None if args.no_tcp else args.tcp_port,
             can=args.can,
             baud=args.baud,
-            chain=ChainConfig(position_m=args.position, loop_routing=args.loop_routing),
-            engine=args.engine,
+            chain=ChainConfig(
+                position_m=args.position,
+                loop_routing=args.loop_routing,
+                interface=args.interface,
+            ),
+            engine=engine,
             flash_path=args.flash,
             identity=identity,
         )

@@ -248,6 +248,9 @@ class ChainConfig:
     position_m: tuple[float, float, float] = (0.0, 0.5, 0.0)  # scenarios.HOME_M
     loop_routing: bool = True
     plant: dict | None = None  # FMU parameter overrides by name
+    # The board's sensing and actuation between plant and loop (cosim.interface: ideal, adc,
+    # board); the native engine has the ideal one, the others run on the Python engine.
+    interface: str = "ideal"
 
     @property
     def decimation(self) -> int:
@@ -289,6 +292,11 @@ class LoopChain:
     ) -> None:
         if engine not in self.ENGINES:
             raise ValueError(f"engine must be one of {', '.join(self.ENGINES)}; got {engine!r}")
+        if engine == "native" and cfg.interface != "ideal":
+            raise ValueError(
+                f"interface {cfg.interface!r} runs on the python engine (the C chain has the "
+                "ideal interface only)"
+            )
         self.device = device
         self.cfg = cfg
         self.engine = engine
@@ -336,11 +344,18 @@ class LoopChain:
     # --- python ------------------------------------------------------------------------------
 
     def _init_python(self) -> None:
+        from ..interface import make_chain  # noqa: PLC0415
+        from ..scenarios import SimConfig  # noqa: PLC0415
+
         self.model = rtl_model.TensionLoopModel()
         self._names = {reg.addr: name for name, reg in regmap.REGISTERS.items()}
-        self._code = rtl_model.adc_code_from_tension(
-            self.plant.y[self.plant.T_IN_MEAS], self.adc_offset, self.adc_gain
-        )
+        # The co-simulation's interface stage (issue 11a): ideal ADC and drive, the board's ADC,
+        # or the board's ADC and PWM -> ESCON, with the datasheet defaults of BoardParams.
+        sim = SimConfig()
+        sim.sample_rate_hz = self.cfg.sample_rate_hz
+        self._iface = make_chain(sim, self.cfg.interface, True, self.adc_offset, self.adc_gain)
+        self._code = self._iface.start(self.plant.y[self.plant.T_IN_MEAS])
+        self._k = 0
         self._pending: list[tuple[int, int]] = []
         self._wait = 0
         self._rec_len = 0
@@ -354,15 +369,19 @@ class LoopChain:
                     continue  # read-only registers ignore writes
                 m.write(name, value if name == "CTRL" else regmap.decode(name, value))
             self._pending = []
-        m.adc_sample(self._code)
+        if self._code is not None:  # the board's ADC has no new sample every tick
+            m.adc_sample(self._code)
         out = m.tick()
         if self._rec_len < len(self._rec_u):
             self._rec_u[self._rec_len] = out.u
             self._rec_tc[self._rec_len] = out.tc_eff
             self._rec_len += 1
-        p.u[p.CURRENT_CMD] = out.u / 4096.0
-        y = p.step(self.dt_s)
-        self._code = rtl_model.adc_code_from_tension(y[p.T_IN_MEAS], self.adc_offset, self.adc_gain)
+        y = p.y
+        for dt_s, current_a in self._iface.drive(self._k, out.u):
+            p.u[p.CURRENT_CMD] = current_a
+            y = p.step(dt_s)
+        self._code = self._iface.sense(self._k, y[p.T_IN_MEAS])
+        self._k += 1
         if self._wait > 0:
             self._wait -= 1
 

@@ -117,6 +117,26 @@ def test_native_chain_equals_python_chain():
     np.testing.assert_array_equal(u_c, u_p)
 
 
+def test_board_interface_on_the_python_engine():
+    """The emulator runs on the co-simulation's interface stage (cosim.interface, issue 11a):
+    with the board's ADC and PWM -> ESCON the command differs from the ideal chain's (the ADC
+    delivers a sample every fifth tick), and the native engine refuses it rather than
+    silently running the ideal one."""
+    words = {}
+    for iface in ("ideal", "board"):
+        dev = Device()
+        chain = LoopChain(dev, ChainConfig(interface=iface), engine="python", record=2000)
+        _start(dev, source="wave")
+        for _ in range(200):
+            chain.step()
+        words[iface] = chain.recorded[0]
+        chain.close()
+    assert np.abs(words["board"]).max() > 1000
+    assert np.count_nonzero(words["board"] != words["ideal"]) > 1000
+    with pytest.raises(ValueError, match="runs on the python engine"):
+        LoopChain(Device(), ChainConfig(interface="board"), engine="native")
+
+
 @pytest.fixture
 def emulator():
     emu = Emulator(tcp_port=0).start()
@@ -230,9 +250,11 @@ def test_device_already_streaming_is_stopped_on_connect(emulator, tmp_path):
     a.simple("START", duration_ticks=0)  # forever
     a.link.close()  # gone without STOP: the device streams into the pty's buffer
     time.sleep(0.5)
-    b = BenchClient(SerialLink(emulator.urls["pty"]))
+    b = BenchClient(SerialLink(emulator.urls["pty"]))  # opening the pty flushes its buffer
+    time.sleep(0.3)  # ... so let the stream queue up again before the first request
+    assert b.hello().running and b.stale_telemetry > 0  # the reply was found among telemetry
     info = b.connect()
-    assert b.stale_telemetry > 0 and not b.hello().running and not info.running
+    assert not info.running and not b.hello().running
     assert b.get("comp.mode") == "paper"  # replies are found among the stale frames
     res = record_run(
         b, tmp_path / "s.csv", seconds=1.0, waveform="step", mean_n=8, amplitude_n=2, freq_hz=2.0
