@@ -113,6 +113,9 @@ bench-target: $(BENCH_M4_LIB) $(BENCH_M4)/bench_sizes.o
 	$(PY) firmware/tools/elf_report.py $(BENCH_M4_LIB) --sizes $(BENCH_M4)/bench_sizes.o \
 	  --out $(BENCH_M4)/size.txt
 
+# `make fuzz` (mk/fuzz.mk: the Hypothesis suites with the fuzz profile) runs this one too.
+fuzz: fuzz-proto
+
 fuzz-proto: $(BENCH_FUZZ)
 	$(BENCH_FUZZ) --frames 20000000 --seed $$(date +%s)
 

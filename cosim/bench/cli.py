@@ -87,7 +87,9 @@ def _add_bench(subparsers) -> None:
         "python-can interface: parameters, persistence, faults, and recorded runs in the trace "
         "format.",
     )
-    link = p.add_mutually_exclusive_group(required=True)
+    # Neither the link nor the COMMAND is `required` for argparse: it would report a missing one
+    # before an unknown option; bench_main names what is missing instead.
+    link = p.add_mutually_exclusive_group()
     link.add_argument("--port", help="pyserial URL: /dev/ttyUSB0, /dev/pts/N, socket://HOST:PORT")
     link.add_argument(
         "--can", help="python-can INTERFACE:CHANNEL, e.g. virtual:bench, socketcan:can0"
@@ -101,7 +103,7 @@ def _add_bench(subparsers) -> None:
         help="start the emulator in this process on the --can bus (python-can's virtual bus "
         "reaches only this process)",
     )
-    sub = p.add_subparsers(dest="bench_command", metavar="COMMAND", required=True)
+    sub = p.add_subparsers(dest="bench_command", metavar="COMMAND")
     sub.add_parser("info", help="firmware, protocol, configuration state, faults")
     g = sub.add_parser("get", help="parameter values (all, or the NAMEs given)")
     g.add_argument("names", nargs="*", metavar="NAME")
@@ -145,6 +147,20 @@ def _open_link(args):
 
 
 def bench_main(args: argparse.Namespace) -> int:
+    if not args.port and not args.can:
+        print(
+            "bowden bench: one of --port URL or --can INTERFACE:CHANNEL is required "
+            "(see bowden bench --help)",
+            file=sys.stderr,
+        )
+        return 2
+    if args.bench_command is None:
+        print(
+            f"bowden bench: a COMMAND is required: {', '.join(_COMMANDS)} "
+            "(see bowden bench --help)",
+            file=sys.stderr,
+        )
+        return 2
     emulator = None
     link = None
     try:
