@@ -173,10 +173,8 @@ void emu_loop_tick(emu_loop_t *m)
         int64_t pp = e * m->kp;
         int64_t pi = e * m->ki_ts;
         int windup = (m->sat_hi && pi > 0) || (m->sat_lo && pi < 0);
-        if (!windup) {
-            integ_prev = clamp64(integ_prev + pi, -(lim << 16), lim << 16);
-        }
-        m->integ = integ_prev;
+        /* A held integrator is clamped too: I_LIMIT may have been lowered since it was stored. */
+        m->integ = clamp64(integ_prev + (windup ? 0 : pi), -(lim << 16), lim << 16);
         /* Arithmetic shifts of negative values floor, as Python's >> does (gcc, clang). */
         int64_t r_out = (ff + pp + 256 + (m->integ >> 7)) >> 9;
         m->u = (int32_t)clamp64(r_out, -lim, lim);
