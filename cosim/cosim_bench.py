@@ -4,8 +4,10 @@ Runs the 30 s fig14 scenario (compensator paper, loop routing) through the RTL o
 the default 10 kHz loop with the firmware and the FMU, and prints simulated seconds per wall
 second and the cost split: RTL (Verilator and cocotb's per-clock scheduling, calibrated on bare
 samples), FMU steps, firmware ticks, and the harness (AXI4-Lite driver coroutines and per-sample
-glue). Targets (issue 6): real time or better, and harness <= RTL + FMU + firmware. A benchmark
-prints figures and does not fail on a slow or busy machine.
+glue). Targets (issue 6): real time or better, and harness <= RTL + FMU + firmware. Then the
+same run on the native engine (cosim/native, issue 14; target 20x real time or better) and its
+speed against the cocotb runs of the same invocation. A benchmark prints figures and does not
+fail on a slow or busy machine.
 """
 
 from __future__ import annotations
@@ -18,24 +20,64 @@ import time
 from .scenarios import COMPENSATORS
 
 
-def bench_one(duration_s: float, compensator: str, bus: str) -> None:
-    """One closed-loop run and its figures."""
-    from .harness import runner  # noqa: PLC0415
+def _spec(duration_s: float, compensator: str, bus: str) -> dict:
     from .reference import resolve_phi  # noqa: PLC0415
     from .scenarios import SimConfig, get_scenario  # noqa: PLC0415
 
     cfg = SimConfig()
-    scen = get_scenario("fig14")
-    runner.build("verilator")
-    spec = {
+    return {
         "scenario": "fig14",
         "compensator": compensator,
         "loop_routing": True,
         "duration_s": duration_s,
-        "phi_rad": resolve_phi(scen, cfg, True),
+        "phi_rad": resolve_phi(get_scenario("fig14"), cfg, True),
         "config": cfg.to_dict(),
         "bus": bus,
     }
+
+
+def bench_native(duration_s: float, compensator: str, cocotb_wall: dict[str, float]) -> None:
+    """The same run on the native engine, beside the cocotb figures of this invocation."""
+    from .native import engine  # noqa: PLC0415
+
+    engine.load_library()
+    spec = _spec(duration_s, compensator, "native")
+    t0 = time.perf_counter()
+    _, cost = engine.run_closed_loop(spec, progress=False)
+    wall = time.perf_counter() - t0
+    n = cost["samples"]
+    sim_s = n / 10_000.0
+    loop = cost["total_s"]
+    print(f"closed loop, native engine (cosim/native): fig14 {compensator}, loop routing, ", end="")
+    print(f"{sim_s:g} s simulated")
+    print(f"  wall time, whole run (FMU and firmware set-up included): {wall:7.2f} s")
+    print(f"  wall time, closed loop:                                  {loop:7.2f} s")
+    print(f"  simulated seconds per wall second (whole run):           {sim_s / wall:7.2f}")
+    print(f"  simulated seconds per wall second (closed loop):         {sim_s / loop:7.2f}")
+    for name, label in (
+        ("rtl_s", "RTL (Verilator, 2 eval per clock, bus)"),
+        ("fmu_s", "FMU (fmi2DoStep)"),
+        ("firmware_s", "firmware (fw_host_tick)"),
+        ("harness_s", "harness (interface stage, glue)"),
+    ):
+        v = cost[name]
+        print(f"    {label:<40}{v:8.3f} s {100 * v / loop:5.1f} %  {1e6 * v / n:7.2f} us/sample")
+    for bus, other in cocotb_wall.items():
+        print(f"  native vs cocotb ({bus}), whole run:  {other / wall:7.1f} times faster")
+    print(
+        f"  target 20x real time (wall <= {sim_s / 20:g} s): "
+        f"{'met' if sim_s / wall >= 20 else 'NOT met'} (x{sim_s / wall:.1f})"
+    )
+
+
+def bench_one(duration_s: float, compensator: str, bus: str) -> float:
+    """One closed-loop run and its figures."""
+    from .harness import runner  # noqa: PLC0415
+    from .scenarios import SimConfig  # noqa: PLC0415
+
+    cfg = SimConfig()
+    runner.build("verilator")
+    spec = _spec(duration_s, compensator, bus)
     t0 = time.perf_counter()
     _, cost = runner.run_closed_loop(spec, progress=False)
     wall = time.perf_counter() - t0
@@ -74,6 +116,7 @@ def bench_one(duration_s: float, compensator: str, bus: str) -> None:
         f"  target harness <= RTL + FMU + firmware ({own:.2f} s): "
         f"{'met' if parts['harness_s'] <= own else 'NOT met'} ({parts['harness_s']:.2f} s)"
     )
+    return wall
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -81,12 +124,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--duration", type=float, default=30.0, help="simulated seconds")
     parser.add_argument("--compensator", default="paper", choices=COMPENSATORS)
     parser.add_argument(
-        "--bus", choices=("cocotbext-axi", "lean", "both"), default="both", help="AXI driver"
+        "--bus",
+        choices=("cocotbext-axi", "lean", "both", "none"),
+        default="both",
+        help="AXI driver of the cocotb runs (none: the native engine only)",
     )
+    parser.add_argument("--no-native", action="store_true", help="skip the native engine")
     args = parser.parse_args(argv)
-    buses = ("cocotbext-axi", "lean") if args.bus == "both" else (args.bus,)
-    for bus in buses:
-        bench_one(args.duration, args.compensator, bus)
+    buses = {"both": ("cocotbext-axi", "lean"), "none": ()}.get(args.bus, (args.bus,))
+    walls = {bus: bench_one(args.duration, args.compensator, bus) for bus in buses}
+    if not args.no_native:
+        bench_native(args.duration, args.compensator, walls)
     return 0
 
 

@@ -223,6 +223,16 @@ def get_scenario(name: str) -> Scenario:
     raise ValueError(f"scenario must be one of {', '.join(SCENARIO_NAMES)}; got {name!r}")
 
 
+def held_at(scen: Scenario, position_m) -> Scenario:
+    """The scenario with its reference but the end-effector held at `position_m` (x, y, z in m)
+    throughout: one point of a workspace map (the paper's Fig. 8 and 13; `bowden sweep`)."""
+    p = tuple(float(v) for v in position_m)
+    if len(p) != 3 or not all(math.isfinite(v) for v in p):
+        raise ValueError(f"position_m must be three finite numbers (x, y, z); got {position_m!r}")
+    segments = (Segment(0.0, scen.duration_s, p),) if scen.segments else ()
+    return replace(scen, trajectory=_hold(p), segments=segments)
+
+
 # --- configuration of a run -----------------------------------------------------------------
 
 

@@ -41,6 +41,9 @@ DEFAULT_COMPENSATOR = {"characterize": "none", "positions": "none", "fig14": "pa
 SIMULATORS = ("verilator", "icarus")
 # AXI4-Lite drivers of the testbench (cosim/harness/tb_closed_loop.py): identical results.
 BUSES = ("cocotbext-axi", "lean")
+# Engines of the fixed-point run: the cocotb harness (the reference: waveforms, Python access) or
+# its loop compiled (cosim/native: same bits as cocotb with the lean driver, 20x+ real time).
+ENGINES = ("cocotb", "native")
 # Full scale of the load cell path (contract.md: default calibration, about +-64 N).
 FULL_SCALE_N = 64.0
 # Shortest run: ten firmware ticks. The harness reads back the T_c the RTL used (TC_EFF) at every
@@ -78,6 +81,17 @@ def check_reach(scen, cfg: SimConfig, duration_s: float | None) -> None:
         )
 
 
+def check_engine(engine: str, simulator: str) -> None:
+    """ValueError for an unknown engine, or the native one with another simulator than
+    Verilator (the native loop is the Verilated model)."""
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {', '.join(ENGINES)}; got {engine!r}")
+    if engine == "native" and simulator != "verilator":
+        raise ValueError(
+            f"--engine native runs the Verilated RTL; --simulator {simulator} needs --engine cocotb"
+        )
+
+
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "sim",
@@ -110,6 +124,12 @@ def add_parser(subparsers) -> None:
         default="cocotbext-axi",
         help="AXI4-Lite driver: cocotbext-axi (default) or the lean one (same results, faster)",
     )
+    p.add_argument(
+        "--engine",
+        choices=ENGINES,
+        default="cocotb",
+        help="cocotb harness (default) or the compiled loop (same results, 20x+ real time)",
+    )
     p.add_argument("--params", default=None, help="JSON file of parameter overrides")
     p.add_argument("--duration", type=float, default=None, help="simulated seconds (default: all)")
     p.add_argument("--out", required=True, type=output_dir, help="output folder")
@@ -123,6 +143,7 @@ def main(args: argparse.Namespace) -> int:
         cfg = load_params(args.params)
         check_duration(args.duration, cfg)
         check_reach(get_scenario(args.scenario), cfg, args.duration)
+        check_engine(args.engine, args.simulator)
         require_project()
     except (ValueError, FileNotFoundError) as exc:
         print(f"bowden sim: {exc}", file=sys.stderr)
@@ -135,6 +156,7 @@ def main(args: argparse.Namespace) -> int:
             interface=args.interface,
             simulator=args.simulator,
             bus=args.bus,
+            engine=args.engine,
             cfg=cfg,
             duration_s=args.duration,
             out_dir=Path(args.out),
@@ -157,6 +179,7 @@ def run(
     bus: str = "cocotbext-axi",
     cfg: SimConfig | None = None,
     interface: str = "board",
+    engine: str = "cocotb",
     duration_s: float | None = None,
     out_dir: Path | None = None,
     reference: bool = True,
@@ -175,6 +198,7 @@ def run(
         raise ValueError(f"simulator must be one of {', '.join(SIMULATORS)}; got {simulator!r}")
     if bus not in BUSES:
         raise ValueError(f"bus must be one of {', '.join(BUSES)}; got {bus!r}")
+    check_engine(engine, simulator)
     if interface not in INTERFACES:
         raise ValueError(f"interface must be one of {', '.join(INTERFACES)}; got {interface!r}")
     scen = get_scenario(scenario)
@@ -198,16 +222,25 @@ def run(
         "duration_s": duration,
         "phi_rad": phi_rad,
         "config": cfg.to_dict(),
-        "bus": bus,
+        # The native loop drives the bus as the lean driver does (its bits are that run's).
+        "bus": bus if engine == "cocotb" else "native",
+        "engine": engine,
     }
-    runner.build(simulator)  # reused when up to date; not part of the run's wall time
-    t0 = time.perf_counter()
-    fixed, cost = runner.run_closed_loop(
-        run_spec,
-        simulator=simulator,
-        work_dir=out_dir / "sim" if out_dir is not None else None,
-        progress=progress,
-    )
+    if engine == "native":
+        from .native import engine as native  # noqa: PLC0415
+
+        native.load_library()  # built or reused; not part of the run's wall time
+        t0 = time.perf_counter()
+        fixed, cost = native.run_closed_loop(run_spec, progress=progress)
+    else:
+        runner.build(simulator)  # reused when up to date; not part of the run's wall time
+        t0 = time.perf_counter()
+        fixed, cost = runner.run_closed_loop(
+            run_spec,
+            simulator=simulator,
+            work_dir=out_dir / "sim" if out_dir is not None else None,
+            progress=progress,
+        )
     wall_fixed = time.perf_counter() - t0
     ref = None
     if reference:
@@ -256,6 +289,7 @@ def evaluate(scen, cfg, run_spec, fixed, ref, wall_s, cost) -> dict:
         "cost_s": {k: cost[k] for k in ("rtl_s", "fmu_s", "firmware_s", "harness_s", "bus_s")},
         "clks_per_sample": cost.get("clks_per_sample"),
         "bus": run_spec["bus"],
+        "engine": run_spec.get("engine", "cocotb"),
         "checks": {
             "tc_latency_samples": cost.get("tc_latency_samples"),
             "late_tc_writes": cost.get("late_writes"),

@@ -21,5 +21,5 @@ $(COSIM_STAMP): $(VENV_STAMP) $(COSIM_RTL) cosim/harness/runner.py
 	$(PY) -m cosim.harness.runner build
 	@touch $@
 
-bench-cosim: $(COSIM_STAMP) fmu firmware
+bench-cosim: $(COSIM_STAMP) fmu firmware native
 	$(PY) -m cosim.cosim_bench

@@ -33,6 +33,8 @@ HEADERS = (NATIVE_DIR / "bn_api.h",)
 VERILATOR_ARGS = ("-O3", "--x-assign", "fast", "--x-initial", "fast", "-Wno-fatal")
 # No contraction into fused multiply-adds, no fast math: the interface stage must round as
 # Python does (bit-identical to the cocotb harness).
+# Verilator's makefile compiles the model with -Os unless told otherwise.
+MAKEFLAGS = "OPT_FAST=-O2 OPT_SLOW=-O1 OPT_GLOBAL=-O2"
 CXXFLAGS = ("-std=c++17", "-O2", "-fPIC", "-ffp-contract=off", "-fno-fast-math")
 
 
@@ -70,7 +72,7 @@ def fingerprint() -> str:
     for path in _inputs():
         h.update(path.name.encode())
         h.update(path.read_bytes())
-    h.update(repr((VERILATOR_ARGS, CXXFLAGS, CLKS_PER_SAMPLE, version)).encode())
+    h.update(repr((VERILATOR_ARGS, CXXFLAGS, MAKEFLAGS, CLKS_PER_SAMPLE, version)).encode())
     return h.hexdigest()
 
 
@@ -115,6 +117,8 @@ def build(force: bool = False) -> Path:
             str(obj),
             "-CFLAGS",
             cflags,
+            "-MAKEFLAGS",
+            MAKEFLAGS,
             *[str(p) for p in rtl_sources()],
         ],
         log,
@@ -130,8 +134,10 @@ def build(force: bool = False) -> Path:
             "-Wextra",
             f"-DBN_CLKS_PER_SAMPLE={CLKS_PER_SAMPLE}",
             f"-I{obj}",
-            "-isystem", str(root / "include"),
-            "-isystem", str(root / "include" / "vltstd"),
+            "-isystem",
+            str(root / "include"),
+            "-isystem",
+            str(root / "include" / "vltstd"),
             f"-I{fmpy_include()}",
             f"-I{FIRMWARE_DIR / 'include'}",
             f"-I{FIRMWARE_DIR / 'host'}",

@@ -25,7 +25,7 @@ from ..harness.runner import CLKS_PER_SAMPLE
 from ..interface import _kernel, make_chain
 from ..plant import INPUT_NAMES, OUTPUT_NAMES
 from ..reference import TC_LATENCY_SAMPLES
-from ..scenarios import SimConfig, get_scenario, sample_inputs
+from ..scenarios import SimConfig, get_scenario, held_at, sample_inputs
 
 API_VERSION = 1
 IFACE_CODES = {"ideal": 0, "adc": 1, "board": 2}
@@ -122,6 +122,15 @@ def load_library() -> ctypes.CDLL:
     return _LIB
 
 
+def scenario_of(run_spec: dict):
+    """The run's scenario; with "position_m" in the spec, the end-effector held there
+    (scenarios.held_at: the points of a workspace map, `bowden sweep`)."""
+    scen = get_scenario(run_spec["scenario"])
+    if run_spec.get("position_m") is not None:
+        scen = held_at(scen, run_spec["position_m"])
+    return scen
+
+
 def _ptr(array: np.ndarray, ctype):
     return array.ctypes.data_as(POINTER(ctype))
 
@@ -131,7 +140,7 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
     cosim.harness.runner.run_closed_loop does for the same run_spec."""
     lib = load_library()
     cfg = SimConfig.from_dict(run_spec["config"], source="spec")
-    scen = get_scenario(run_spec["scenario"])
+    scen = scenario_of(run_spec)
     inp = sample_inputs(scen, cfg, run_spec["duration_s"])
     n = len(inp.t_s)
     dec = cfg.decimation
@@ -148,7 +157,9 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
         t_ref_word = np.zeros(n, dtype=np.int16)
         for k in range(0, n, dec):
             t_ref_word[k] = tension_word(float(inp.t_ref_n[k]))
-        xs, ys, zs = (np.ascontiguousarray(a, dtype=np.float64) for a in (inp.x_m, inp.y_m, inp.z_m))
+        xs, ys, zs = (
+            np.ascontiguousarray(a, dtype=np.float64) for a in (inp.x_m, inp.y_m, inp.z_m)
+        )
         out_u_word = np.zeros(n, dtype=np.int32)
         rows, _ = plant_rows(plant, n)
 
@@ -191,7 +202,11 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
             pwm = chain.pwm
             if pwm.dt != chain.dt or not pwm.fixed:
                 raise RuntimeError("the PWM stage's sample period differs from the chain's")
-            s.pwm_ratio, s.pwm_period_clks, s.pwm_imax_q12 = pwm.ratio, pwm.period_clks, pwm.imax_q12
+            s.pwm_ratio, s.pwm_period_clks, s.pwm_imax_q12 = (
+                pwm.ratio,
+                pwm.period_clks,
+                pwm.imax_q12,
+            )
             s.escon_imax_a, s.escon_duty_error = pwm.escon_imax, pwm.duty_error
             s.escon_duty_resolution, s.escon_frac = pwm.resolution, pwm.frac
         s.out_tc_n = _ptr(rec["T_c_N"], c_double)
