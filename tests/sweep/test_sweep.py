@@ -1,0 +1,194 @@
+"""`bowden sweep` (cosim/sweep): a small sweep on a local Dask cluster of 2 workers, killed
+midway (SIGKILL to its process group) and resumed, whose table must equal single native runs of
+its points; failed points recorded; bad specifications refused in one line naming the line and
+key."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import psutil
+import pytest
+
+from cosim.native import engine
+from cosim.sweep import run as sweep_run
+from cosim.sweep.spec import Point, SpecError, load_spec, parse_spec
+from cosim.sweep.table import read_table
+
+# 8 points: 2 compensators x 2 positions x 2 values of mu (+-20 %). 3 s each keeps the sweep
+# running long enough (several seconds on 2 workers) to be killed in the middle.
+SPEC = """\
+scenario: fig14
+duration_s: 3
+interface: board
+axes:
+  compensator: [paper, smooth]
+  position_m: {y: [0.35, 0.65], z: [0.1]}
+  plant.mu: {nominal: 0.075, rel: 0.2, n: 2}
+"""
+
+
+@pytest.fixture(scope="module")
+def native():
+    engine.load_library()
+
+
+def _sweep(spec_path, out, **kwargs):
+    return subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "cosim",
+            "sweep",
+            str(spec_path),
+            "--out",
+            str(out),
+            "--workers",
+            "2",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own process group: the Dask workers are killed with it
+        **kwargs,
+    )
+
+
+def test_sweep_killed_midway_resumes_and_matches_single_runs(native, tmp_path):
+    spec_path = tmp_path / "spec.yaml"
+    spec_path.write_text(SPEC)
+    out = tmp_path / "out"
+    points_dir = out / sweep_run.POINTS_DIR
+
+    proc = _sweep(spec_path, out)
+    group = [proc.pid]
+    deadline = time.monotonic() + 240
+    done_at_kill = 0
+    while time.monotonic() < deadline and proc.poll() is None:
+        try:
+            group = [proc.pid] + [c.pid for c in psutil.Process(proc.pid).children(True)]
+        except psutil.NoSuchProcess:
+            pass
+        done_at_kill = len(list(points_dir.glob("*.json"))) if points_dir.is_dir() else 0
+        if done_at_kill >= 2:
+            break
+        time.sleep(0.05)
+    assert proc.poll() is None, "the sweep finished before it could be killed midway"
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    time.sleep(0.5)
+    assert 2 <= done_at_kill < 8
+    left = [p for p in group if psutil.pid_exists(p) and psutil.Process(p).status() != "zombie"]
+    assert not left, f"processes of the killed sweep still run: {left}"
+    # Only whole result files: the temporary ones are hidden and never read.
+    for path in points_dir.glob("*.json"):
+        json.loads(path.read_text())
+    assert not (out / sweep_run.TABLE).exists()
+
+    again = _sweep(spec_path, out)
+    stdout, stderr = again.communicate(timeout=300)
+    assert again.returncode == 0, stderr
+    first = next(line for line in stderr.splitlines() if "already done" in line)
+    already = int(first.split(",")[1].split()[0])
+    assert done_at_kill <= already < 8, first
+
+    rows = read_table(out / sweep_run.TABLE)
+    assert len(rows) == 8 and all(r["status"] == "ok" for r in rows), rows
+    assert (out / "error_map.png").stat().st_size > 5_000
+    assert (out / "error_vs_plant_mu.png").stat().st_size > 5_000
+    spec = load_spec(spec_path)
+    by_id = {r["point_id"]: r for r in rows}
+    for point in spec.points():
+        single = sweep_run._run(spec, point)  # one native run, no Dask
+        row = by_id[point.point_id]
+        for key in ("rms_error_n", "rms_error_pct", "peak_error_n", "peak_error_pct"):
+            assert row[key] == single[key], (point.values, key, row[key], single[key])
+        assert [row["x_m"], row["y_m"], row["z_m"]] == point.values["position_m"]
+    # The axes act: the smooth inverse beats the paper law at every position and mu.
+    for r in rows:
+        if r["compensator"] == "smooth":
+            twin = next(
+                o
+                for o in rows
+                if o["compensator"] == "paper"
+                and (o["y_m"], o["plant.mu"]) == (r["y_m"], r["plant.mu"])
+            )
+            assert r["peak_error_pct"] < twin["peak_error_pct"], (r, twin)
+
+
+def test_sweep_records_a_failed_point_and_goes_on(native, tmp_path):
+    """A point whose run fails (an end-effector beyond the 1 m sheath's reach) is a row with
+    its error; the next point runs."""
+    data = {
+        "scenario": "fig14",
+        "duration_s": 0.05,
+        "axes": {"position_m": [[0, 1.5, 0], [0, 0.5, 0]]},
+    }
+    far, near = parse_spec(data).points()
+    row = sweep_run.run_point(data, far.values, str(tmp_path))
+    assert row["status"] == "failed" and row["error"], row
+    assert "\n" not in row["error"]
+    ok = sweep_run.run_point(data, near.values, str(tmp_path))
+    assert ok["status"] == "ok", ok
+    done = sweep_run.done_points(tmp_path)
+    assert done[far.point_id]["status"] == "failed" and done[near.point_id]["status"] == "ok"
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("scenario: fig14\nspeed: 3\n", "line 2: speed: unknown key"),
+        ("scenario: fig15\n", "line 1: scenario: must be one of"),
+        ("axes:\n  compensator: [paper]\n  plant.mu: [0.07, 2.0]\n", "line 3: axes.plant.mu"),
+        ("axes:\n  plant.nothing: [1]\n", "line 2: axes.plant.nothing"),
+        ("axes:\n  gains: [1]\n", "line 2: axes.gains: unknown axis"),
+        ("axes:\n  position_m: [[0, 0.5]]\n", "line 2: axes.position_m: a position is"),
+        ("sampling: random\n", "samples: random sampling needs"),
+        ("axes: [1, 2\n", "is not valid YAML"),
+        ("duration_s: -1\n", "line 1: duration_s: must be"),
+    ],
+)
+def test_bad_spec_is_one_line_naming_line_and_key(tmp_path, text, expected):
+    path = tmp_path / "spec.yaml"
+    path.write_text(text)
+    with pytest.raises(SpecError) as info:
+        load_spec(path)
+    msg = str(info.value)
+    assert "\n" not in msg and expected in msg, msg
+
+
+def test_bowden_sweep_bad_spec_exits_2_with_one_line(tmp_path):
+    path = tmp_path / "spec.yaml"
+    path.write_text("axes:\n  controller.kp_a_per_n: [9.0]\n")
+    proc = subprocess.run(
+        [sys.executable, "-m", "cosim", "sweep", str(path), "--out", str(tmp_path / "o")],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.count("\n") == 1, proc.stderr
+    assert proc.stderr.startswith("bowden sweep: ") and "line 2" in proc.stderr, proc.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_random_sampling_is_reproducible_and_within_ranges():
+    data = {
+        "sampling": "random",
+        "samples": 5,
+        "seed": 3,
+        "axes": {
+            "plant.cable_EA": {"nominal": 8000, "rel": 0.2, "n": 2},
+            "compensator": ["paper", "smooth"],
+        },
+    }
+    a, b = parse_spec(data).points(), parse_spec(data).points()
+    assert [p.point_id for p in a] == [p.point_id for p in b]
+    assert len({p.point_id for p in a}) == 5
+    assert all(6400 <= p.values["plant.cable_EA"] <= 9600 for p in a)
+    assert isinstance(a[0], Point)
