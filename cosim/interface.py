@@ -55,7 +55,7 @@ Sources (datasheet figures; every number has its name below):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from . import rtl_model
 
@@ -80,11 +80,16 @@ class AdcPart:
     filter_order: int  # 1: mean over one period (single-cycle settling); 3: sinc3 over 3 periods
     frame_bits: int  # SPI bits the FPGA clocks out per result
     channels: int  # simultaneously sampled inputs (2: T_in and T_out)
+    # The board reader's SCLK half period in board clocks (the RTL's SCLK_HALF_CLKS default):
+    # ADS1220 3 MHz at 48 MHz; ADS131M02 6 MHz, so that its 96-bit frame (16 us) fits well
+    # inside its 31.25 us conversion period (at 3 MHz it would take 32 us and miss every other
+    # DRDY).
+    sclk_half_clks: int = 8
 
 
 ADC_PARTS = {
-    "ads1220": AdcPart("ads1220", 1036 / 2.048e6, 1, 24, 1),
-    "ads131m02": AdcPart("ads131m02", 128 / 4.096e6, 3, 96, 2),
+    "ads1220": AdcPart("ads1220", 1036 / 2.048e6, 1, 24, 1, 8),
+    "ads131m02": AdcPart("ads131m02", 128 / 4.096e6, 3, 96, 2, 4),
 }
 
 
@@ -299,6 +304,12 @@ class Chain:
         return None if v is None else self._out(v)
 
 
+def sclk_half_clks(cfg) -> int:
+    """The reader's SCLK half period of a run: cfg.board.sclk_half_clks, or its part's default."""
+    b = cfg.board
+    return int(ADC_PARTS[b.adc].sclk_half_clks if b.sclk_half_clks is None else b.sclk_half_clks)
+
+
 def make_chain(
     cfg,
     name: str,
@@ -317,10 +328,8 @@ def make_chain(
     if name in ("board", "adc"):
         part = ADC_PARTS[b.adc]
         if b.adc_period_s is not None:
-            part = AdcPart(
-                part.name, b.adc_period_s, part.filter_order, part.frame_bits, part.channels
-            )
-        adc = AdcModel(part, fs, b.clk_hz, int(b.sclk_half_clks), b.adc_phase_s)
+            part = replace(part, period_s=b.adc_period_s)
+        adc = AdcModel(part, fs, b.clk_hz, sclk_half_clks(cfg), b.adc_phase_s)
     if name == "board":
         drive = PwmEscon(
             fs,

@@ -77,9 +77,16 @@ def run_reference(
     duration_s: float | None = None,
     progress: bool = True,
     interface: str = "board",
+    chain=None,
+    loop=None,
 ) -> dict[str, np.ndarray]:
     """Run the float reference with the interface stage `interface` (cosim.interface.INTERFACES);
-    return its record (the arrays of cosim.harness.common)."""
+    return its record (the arrays of cosim.harness.common).
+
+    A study of other front-ends (cosim.sensing) may hand its own interface stage `chain` (the
+    float form of cosim.interface.Chain: start / drive / sense) and its own `loop` (an object
+    with step(tc_n, t_in_n) -> current_a) in place of make_chain(cfg, interface) and
+    make_float_loop(cfg)."""
     inp = sample_inputs(scen, cfg, duration_s)
     n = len(inp.t_s)
     dec = cfg.decimation
@@ -87,7 +94,7 @@ def run_reference(
     plant = open_plant(cfg, loop_routing, (inp.x_m[0], inp.y_m[0], inp.z_m[0]))
     # The compensator's double twin (firmware comp_f64), configured like the firmware.
     comp = make_compensator_f64(compensator, cfg.compensator, phi_rad)
-    loop = make_float_loop(cfg)
+    loop = loop if loop is not None else make_float_loop(cfg)
     bar = Progress(n, "float reference", cfg.sample_rate_hz, enabled=progress)
 
     # The host hands T_ref to the firmware as a Q7.8 word (fw_tick); the twin gets the same
@@ -107,7 +114,7 @@ def run_reference(
     words = loop_words(cfg.controller, cfg.sample_rate_hz)
     slew = words["slew"] / 256.0 if words["slew_en"] else 0.0  # the SLEW word, as programmed
     y = plant.y
-    chain = make_chain(cfg, interface, fixed=False)
+    chain = chain if chain is not None else make_chain(cfg, interface, fixed=False)
     t_in_meas = chain.start(y[T_IN_MEAS])  # the ADC sample in force (N)
     drive, sense = chain.drive, chain.sense
     for k in range(n):

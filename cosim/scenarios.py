@@ -316,9 +316,10 @@ def field_ranges(sample_rate_hz: float) -> dict[str, tuple[float, float]]:
     }
 
 
-# Fields that take null (the default: the scenario's phi, the ADC part's own period) and fields
+# Fields that take null (the default: the scenario's phi, the ADC part's own period and reader
+# clock) and fields
 # that are whole numbers (clock counts, register words).
-NULLABLE_FIELDS = {"compensator.phi_rad", "board.adc_period_s"}
+NULLABLE_FIELDS = {"compensator.phi_rad", "board.adc_period_s", "board.sclk_half_clks"}
 WHOLE_FIELDS = {"board.sclk_half_clks", "board.pwm_imax_q12"}
 
 
@@ -330,7 +331,9 @@ class BoardParams:
     adc: str = "ads1220"  # a part of cosim.interface.ADC_PARTS
     adc_period_s: float | None = None  # None: the part's conversion period
     adc_phase_s: float = 0.0  # first conversion window starts at t = phase
-    sclk_half_clks: float = 8  # reader SCLK half period, board clocks (48 MHz -> 3 MHz)
+    # Reader SCLK half period in board clocks; None: the part's reader default
+    # (cosim.interface.AdcPart.sclk_half_clks: ADS1220 8 = 3 MHz, ADS131M02 4 = 6 MHz at 48 MHz).
+    sclk_half_clks: float | None = None
     clk_hz: float = 48e6  # board clock (iCE40 UP5K top): PWM resolution, reader timing
     pwm_hz: float = 5000.0  # ESCON PWM set value frequency (bowden_core PWM_HZ)
     pwm_imax_q12: float = 16384  # current at 90 % duty, Q3.12 (bowden_core PWM_IMAX_Q12)

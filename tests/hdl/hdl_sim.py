@@ -5,9 +5,10 @@ Each tests/hdl/test_<module>.py holds cocotb coroutines and a pytest function th
 sources have not changed (Verilator and Icarus rebuild on their own when a source is newer).
 
 Also what more than one testbench uses: `SpiMaster` (an MCU on the SPI bridge, with the
-bridge's status byte), `reset_after_sck_falls` (a reset in mid-frame), `Ads1220` (the
-load-cell ADC behind ads1220_reader) and `replay_write` (a register write seen on the bus, into
-the bit-exact model cosim.rtl_model.TensionLoopModel).
+bridge's status byte), `reset_after_sck_falls` (a reset in mid-frame), `Ads1220` and
+`Ads131m02` (the load-cell ADCs behind ads1220_reader and ads131m02_reader) and
+`replay_write` (a register write seen on the bus, into the bit-exact model
+cosim.rtl_model.TensionLoopModel).
 """
 
 from __future__ import annotations
@@ -228,4 +229,73 @@ class Ads1220:
         """A conversion result (signed 24-bit `code`) becomes ready."""
         word = code & 0xFFFFFF
         self.out_bits = [(word >> (23 - i)) & 1 for i in range(24)]
+        self.dut.adc_drdy_n.value = 0
+
+
+def crc16_ccitt(bits: list[int], seed: int = 0xFFFF) -> int:
+    """CRC of a bit sequence (MSB first): x^16 + x^12 + x^5 + 1, seed 0xFFFF, no final XOR
+    (TI SBAS853A, 8.5.1.11, MODE.CRC_TYPE = 0)."""
+    crc = seed
+    for b in bits:
+        fb = ((crc >> 15) & 1) ^ b
+        crc = ((crc << 1) & 0xFFFF) ^ (0x1021 if fb else 0)
+    return crc
+
+
+def word_bits(value: int, bits: int = 24) -> list[int]:
+    """The `bits` bits of `value` (two's complement), MSB first."""
+    value &= (1 << bits) - 1
+    return [(value >> (bits - 1 - i)) & 1 for i in range(bits)]
+
+
+class Ads131m02:
+    """Behavioural TI ADS131M02 (SBAS853A) with 24-bit words, SPI mode 1 slave on `dut.adc_*`.
+
+    Frames are delimited by CS (8.5.1.7): the device drives DOUT's next bit on each SCLK rising
+    edge and samples DIN on the falling edge. The bits received in a frame are kept as 24-bit
+    words (`frames`). `convert(ch0, ch1)` makes a conversion ready: DRDY falls (8.5.1.5) and
+    the next frame sends STATUS (`status`), CH0, CH1 and the CRC word (8.5.1.8, 8.5.1.11);
+    DRDY returns high on the frame's first SCLK falling edge (unless `drdy_stuck_low`).
+    `corrupt` flips one bit of the next frame after its CRC is computed (a line error).
+    """
+
+    def __init__(self, dut, status: int = 0x0503):
+        self.dut = dut
+        self.status = status
+        self.frames: list[list[int]] = []
+        self.out_bits: list[int] = []
+        self.corrupt: int | None = None
+        self.drdy_stuck_low = False  # a broken DRDY line: low for good once it falls
+        dut.adc_dout.value = 0
+        dut.adc_drdy_n.value = 1
+
+    def frame_bits(self, ch0: int, ch1: int) -> list[int]:
+        bits = word_bits(self.status << 8) + word_bits(ch0) + word_bits(ch1)
+        return bits + word_bits(crc16_ccitt(bits) << 8)
+
+    async def run(self) -> None:
+        d = self.dut
+        while True:
+            await FallingEdge(d.adc_cs_n)
+            sent, self.out_bits = self.out_bits, []
+            bits: list[int] = []
+            for i in range(96):
+                await RisingEdge(d.adc_sclk)
+                d.adc_dout.value = sent[i] if i < len(sent) else 0
+                await FallingEdge(d.adc_sclk)
+                if not self.drdy_stuck_low:
+                    d.adc_drdy_n.value = 1
+                bits.append(int(d.adc_din.value))
+            self.frames.append(
+                [int("".join(map(str, bits[i : i + 24])), 2) for i in range(0, 96, 24)]
+            )
+            await RisingEdge(d.adc_cs_n)
+
+    def convert(self, ch0: int, ch1: int) -> None:
+        """A conversion of both channels (signed 24-bit codes) becomes ready."""
+        bits = self.frame_bits(ch0, ch1)
+        if self.corrupt is not None:
+            bits[self.corrupt] ^= 1
+            self.corrupt = None
+        self.out_bits = bits
         self.dut.adc_drdy_n.value = 0

@@ -1,0 +1,232 @@
+`resetall
+`timescale 1ns / 1ps
+`default_nettype none
+
+/*
+ * Front-end for a TI ADS131M02 two-channel simultaneous-sampling 24-bit ADC (load cells on T_in
+ * and T_out): configures it once, then reads one frame per data-ready and streams both channels
+ * as signed 24-bit codes (adc_valid / adc_data = CH0, adc_aux_data = CH1).
+ *
+ * ADS131M02 datasheet (TI SBAS853A):
+ * - 8.5.1 SPI, mode 1: the host drives DIN and the device DOUT on SCLK rising edges, both sample
+ *   on falling edges; frames are delimited by CS (low for a whole frame).
+ * - 8.5.1.7/8.5.1.8 frames of 24-bit words (MODE.WLENGTH = 01, the reset value); a frame on DOUT
+ *   is the response word (STATUS for a NULL command), CH0, CH1 and the output CRC word (the
+ *   16-bit CRC in its top bits, zero padding): FRAME_BITS = 96. Commands are 16 bits in the top
+ *   of a word: NULL 0x0000, WREG 011a_aaaa_annn_nnnn (8.5.1.10).
+ * - 8.5.1.11 CRC: CCITT x^16 + x^12 + x^5 + 1, seed 0xFFFF (MODE.CRC_TYPE = 0, the reset value),
+ *   over every bit of the frame's words before the CRC word. Run over the whole frame, the
+ *   remainder is zero when the CRC matches (its zero padding keeps a non-zero remainder
+ *   non-zero), so the check needs no 72-bit buffer.
+ * - 8.5.1.5 DRDY: falls when a new conversion of both channels is ready; the reader starts a
+ *   frame on each falling edge (a result that was not read makes DRDY pulse high before the
+ *   next one, so every conversion gives an edge).
+ * - 8.6 registers: CLOCK (0x03) = 0x0302: CH0 and CH1 on, OSR 128, high-resolution mode:
+ *   f_DATA = 8.192 MHz / 2 / 128 = 32 kSPS (8.4.1: f_MOD = CLKIN / 2); GAIN1 (0x04) = 0x0077:
+ *   PGA gain 128 on both channels. Named assumption: an 8.192 MHz oscillator on CLKIN.
+ *
+ * Faults: a frame whose CRC does not match gives no sample (crc_error until a good frame); no
+ * DRDY edge for DRDY_TIMEOUT_CLKS raises drdy_lost until the next edge. Either way the core
+ * gets no adc_valid, and its ADC_STALE limit latches the fault (bowden_core), as with the
+ * ADS1220 front-end.
+ */
+module ads131m02_reader #(
+    parameter SCLK_HALF_CLKS = 4,            // SCLK half period in clocks (48 MHz -> 6 MHz)
+    parameter WAIT_CLKS = 16384,             // wait after power-up before configuring, clocks
+    parameter [15:0] CLOCK_REG = 16'h0302,   // CLOCK register: CH0/CH1 on, OSR 128, high res.
+    parameter [15:0] GAIN_REG = 16'h0077,    // GAIN1 register: PGA 128 on CH0 and CH1
+    parameter CRC_CHECK = 1,                 // 1: drop frames whose output CRC does not match
+    parameter DRDY_TIMEOUT_CLKS = 6000       // clocks without DRDY before drdy_lost (4 x 31.25 us)
+) (
+    input  wire        clk,
+    input  wire        rst,
+
+    /*
+     * ADS131M02 pins
+     */
+    output wire        adc_sclk,
+    output wire        adc_cs_n,
+    output wire        adc_din,     // to the ADC's DIN
+    input  wire        adc_dout,    // from the ADC's DOUT
+    input  wire        adc_drdy_n,
+
+    /*
+     * Sample stream
+     */
+    output wire        adc_valid,
+    output wire [23:0] adc_data,      // CH0 (T_in), signed code
+    output wire [23:0] adc_aux_data,  // CH1 (T_out), signed code, valid with adc_valid
+    output wire [15:0] adc_status,    // STATUS word of the last good frame
+
+    /*
+     * Faults
+     */
+    output wire        crc_error,     // the last frame's CRC did not match (it was dropped)
+    output wire        drdy_lost      // no DRDY falling edge for DRDY_TIMEOUT_CLKS
+);
+
+localparam FRAME_BITS = 96;  // 4 words of 24 bits: response, CH0, CH1, CRC
+localparam [15:0] CRC_POLY = 16'h1021;  // CCITT
+localparam [15:0] WREG_CLOCK_GAIN = 16'h6181;  // WREG from 0x03, two registers (n = 1)
+
+localparam [1:0] S_WAIT = 2'd0, S_CONFIG = 2'd1, S_IDLE = 2'd2, S_READ = 2'd3;
+localparam WAIT_W = $clog2(WAIT_CLKS + 1);
+localparam integer WAIT_LAST_INT = WAIT_CLKS - 1;
+localparam [WAIT_W-1:0] WAIT_LAST = WAIT_LAST_INT[WAIT_W-1:0];
+localparam TO_W = $clog2(DRDY_TIMEOUT_CLKS + 1);
+localparam [TO_W-1:0] TO_LIMIT = DRDY_TIMEOUT_CLKS[TO_W-1:0];
+
+reg  [1:0]        state_reg, state_next;
+reg  [WAIT_W-1:0] wait_reg, wait_next;
+reg               wait_hit_reg, wait_hit_next;
+reg  [SCLK_HALF_CLKS-1:0] ring_reg, ring_next;  // one-hot: a half SCLK period ends at bit 0
+reg               sclk_reg, sclk_next;
+reg  [6:0]        bits_reg, bits_next;    // bits left in the frame
+reg  [71:0]       tx_reg, tx_next;        // MSB goes out first; the CRC word's slot sends zeros
+reg  [71:0]       rx_reg, rx_next;        // the frame's first three words
+reg  [15:0]       crc_reg, crc_next;      // remainder over the bits received so far
+reg               din_reg, din_next;
+reg               valid_reg, valid_next;
+reg               crc_err_reg, crc_err_next;
+reg  [23:0]       ch0_reg, ch0_next;
+reg  [23:0]       ch1_reg, ch1_next;
+reg  [15:0]       status_reg, status_next;
+reg  [TO_W-1:0]   to_reg, to_next;        // clocks since the last DRDY edge (saturates)
+reg  [2:0]        drdy_sync_reg;          // two synchronizer flops and the previous level
+reg  [1:0]        dout_sync_reg;
+reg               cs_n_reg;               // one clock behind the state: SCLK idles around CS
+
+localparam [SCLK_HALF_CLKS-1:0] RING_START = {1'b1, {(SCLK_HALF_CLKS-1){1'b0}}};
+wire half_done = ring_reg[0];
+wire drdy_fall = drdy_sync_reg[2] && !drdy_sync_reg[1];
+wire rx_bit = dout_sync_reg[1];
+wire crc_fb = crc_reg[15] ^ rx_bit;
+
+always @* begin
+    state_next = state_reg;
+    wait_next = wait_reg;
+    wait_hit_next = (wait_reg == WAIT_LAST);  // registered: the wait may run one clock longer
+    // Held at its start value outside frames, so each frame starts with a full half period.
+    ring_next = {ring_reg[0], ring_reg[SCLK_HALF_CLKS-1:1]};
+    sclk_next = sclk_reg;
+    bits_next = bits_reg;
+    tx_next = tx_reg;
+    rx_next = rx_reg;
+    crc_next = crc_reg;
+    din_next = din_reg;
+    valid_next = 1'b0;
+    crc_err_next = crc_err_reg;
+    ch0_next = ch0_reg;
+    ch1_next = ch1_reg;
+    status_next = status_reg;
+    // Saturating: only "at least DRDY_TIMEOUT_CLKS" matters.
+    to_next = (to_reg == TO_LIMIT) ? to_reg : to_reg + 1'b1;
+    if (drdy_fall) begin
+        to_next = {TO_W{1'b0}};
+    end
+
+    case (state_reg)
+        S_WAIT: begin
+            ring_next = RING_START;
+            wait_next = wait_reg + 1'b1;
+            to_next = {TO_W{1'b0}};  // DRDY is not watched before the ADC is configured
+            if (wait_hit_reg) begin
+                state_next = S_CONFIG;
+                bits_next = FRAME_BITS[6:0];
+                tx_next = {WREG_CLOCK_GAIN, 8'd0, CLOCK_REG, 8'd0, GAIN_REG, 8'd0};
+            end
+        end
+        S_IDLE: begin
+            ring_next = RING_START;
+            if (drdy_fall) begin
+                state_next = S_READ;
+                bits_next = FRAME_BITS[6:0];
+                tx_next = 72'd0;  // NULL command: the response word is STATUS
+                crc_next = 16'hFFFF;
+            end
+        end
+        default: begin
+            // Shift engine: rising edge drives DIN, falling edge samples DOUT.
+            if (half_done) begin
+                sclk_next = !sclk_reg;
+                if (!sclk_reg) begin
+                    din_next = tx_reg[71];
+                    tx_next = {tx_reg[70:0], 1'b0};
+                end else begin
+                    crc_next = {crc_reg[14:0], 1'b0} ^ (crc_fb ? CRC_POLY : 16'h0000);
+                    bits_next = bits_reg - 1'b1;
+                    if (bits_reg > 7'd24) begin
+                        // The CRC word only enters the remainder.
+                        rx_next = {rx_reg[70:0], rx_bit};
+                    end
+                    if (bits_reg == 7'd1) begin
+                        state_next = S_IDLE;
+                        if (state_reg == S_READ) begin
+                            // crc_next is the remainder over the whole frame: zero if it
+                            // matches. A dropped frame leaves the last good sample in place.
+                            if (CRC_CHECK == 0 || crc_next == 16'h0000) begin
+                                valid_next = 1'b1;
+                                crc_err_next = 1'b0;
+                                status_next = rx_reg[71:56];
+                                ch0_next = rx_reg[47:24];
+                                ch1_next = rx_reg[23:0];
+                            end else begin
+                                crc_err_next = 1'b1;
+                            end
+                        end
+                    end
+                end
+            end
+        end
+    endcase
+end
+
+always @(posedge clk) begin
+    state_reg <= state_next;
+    wait_reg <= wait_next;
+    wait_hit_reg <= wait_hit_next;
+    ring_reg <= ring_next;
+    sclk_reg <= sclk_next;
+    bits_reg <= bits_next;
+    tx_reg <= tx_next;
+    rx_reg <= rx_next;
+    crc_reg <= crc_next;
+    din_reg <= din_next;
+    valid_reg <= valid_next;
+    crc_err_reg <= crc_err_next;
+    ch0_reg <= ch0_next;
+    ch1_reg <= ch1_next;
+    status_reg <= status_next;
+    to_reg <= to_next;
+    drdy_sync_reg <= {drdy_sync_reg[1:0], adc_drdy_n};
+    dout_sync_reg <= {dout_sync_reg[0], adc_dout};
+    cs_n_reg <= !(state_reg == S_CONFIG || state_reg == S_READ);
+    if (rst) begin
+        state_reg <= S_WAIT;
+        wait_reg <= {WAIT_W{1'b0}};
+        wait_hit_reg <= 1'b0;
+        ring_reg <= RING_START;
+        sclk_reg <= 1'b0;
+        bits_reg <= 7'd0;
+        din_reg <= 1'b0;
+        valid_reg <= 1'b0;
+        crc_err_reg <= 1'b0;
+        to_reg <= {TO_W{1'b0}};
+        drdy_sync_reg <= 3'b111;
+        cs_n_reg <= 1'b1;
+    end
+end
+
+assign adc_sclk = sclk_reg;
+assign adc_cs_n = cs_n_reg;
+assign adc_din = din_reg;
+assign adc_valid = valid_reg;
+assign adc_data = ch0_reg;
+assign adc_aux_data = ch1_reg;
+assign adc_status = status_reg;
+assign crc_error = crc_err_reg;
+assign drdy_lost = (to_reg == TO_LIMIT);
+
+endmodule
+
+`resetall
