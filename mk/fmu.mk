@@ -63,3 +63,9 @@ fmu-lint: $(FMU_GEN)/.stamp
 
 fmu-bench: $(FMU_FILE)
 	$(PY) -m cosim.fmu_bench
+
+# The FMU convergence study (cosim/convergence, fmu/README.md "Convergence"): max_step and sheath
+# segments against a fine reference, on the native closed loop. Not part of `make test`.
+.PHONY: fmu-convergence
+fmu-convergence: $(FMU_FILE) native
+	$(PY) -m cosim.convergence

@@ -72,13 +72,19 @@ class Record:
             return cls({name: data[name].copy() for name in data.files})
 
 
-def open_plant(cfg: SimConfig, loop_routing: bool, position_m: tuple[float, float, float]):
+def open_plant(
+    cfg: SimConfig,
+    loop_routing: bool,
+    position_m: tuple[float, float, float],
+    fmu_path=None,
+):
     """The plant FMU (cosim.plant.Plant) instantiated for a closed-loop run: drive mode 0
     (current command), loop routing as asked, the run's parameter overrides, the end-effector at
-    its start position, initialised at t = 0."""
+    its start position, initialised at t = 0. fmu_path: another build of the FMU (the
+    convergence study's variants); default build/fmu/BowdenPlant.fmu."""
     from ..plant import Plant  # noqa: PLC0415 (the FMU's handle is imported when a run starts)
 
     params: dict[str, float | int | bool] = {"drive_mode": 0, "loop_routing": bool(loop_routing)}
     params.update(cfg.plant)
     x, y, z = (float(v) for v in position_m)
-    return Plant(params=params, inputs={"x": x, "y": y, "z": z})
+    return Plant(params=params, inputs={"x": x, "y": y, "z": z}, fmu_path=fmu_path)

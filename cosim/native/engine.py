@@ -147,7 +147,12 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
     interface = run_spec.get("interface", "board")
     rec = Record.allocate(n).arrays
 
-    plant = open_plant(cfg, run_spec["loop_routing"], (inp.x_m[0], inp.y_m[0], inp.z_m[0]))
+    plant = open_plant(
+        cfg,
+        run_spec["loop_routing"],
+        (inp.x_m[0], inp.y_m[0], inp.z_m[0]),
+        fmu_path=run_spec.get("fmu_path"),  # a variant build (cosim/convergence)
+    )
     try:
         fw = FirmwareBridge(cfg, run_spec["compensator"], run_spec["phi_rad"])
         chain = make_chain(cfg, interface, True, fw.adc_offset, fw.adc_gain)

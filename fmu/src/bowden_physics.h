@@ -20,8 +20,11 @@
 
 /* Sheath segments of the distributed friction model (README, "Sheath friction"). The
    exponential factors are exact per segment, so the quasi-static slopes do not depend on it;
-   it sets how finely the tension profile, and so the sheath's stretch, is resolved. */
+   it sets how finely the tension profile, and so the sheath's stretch, is resolved. The
+   convergence study (cosim/convergence, fmu/README.md) builds variants with -DBOWDEN_N_SEG=N. */
+#ifndef BOWDEN_N_SEG
 #define BOWDEN_N_SEG 32
+#endif
 
 /* Delay line of the output sensor: a fixed grid of BOWDEN_DELAY_DT_S, long enough for the
    largest sensor_delay (0.2 s, gen_model.py) plus two samples of interpolation. */
