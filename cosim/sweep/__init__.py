@@ -39,6 +39,11 @@ def add_parser(subparsers) -> None:
     p.add_argument(
         "--workers", type=int, default=None, help="local cluster: worker processes (default: cores)"
     )
+    p.add_argument(
+        "--retry-failed",
+        action="store_true",
+        help="run again the points recorded as failed (by default a resume keeps them)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=main)
 
@@ -62,10 +67,14 @@ def main(args: argparse.Namespace) -> int:
         print(f"bowden sweep: {exc}", file=sys.stderr)
         return 2
     spec_dict = yaml.safe_load(Path(args.spec).read_text(encoding="utf-8"))
-    return run_and_report(spec, spec_dict, Path(args.out), args.scheduler, args.workers, args.quiet)
+    return run_and_report(
+        spec, spec_dict, Path(args.out), args.scheduler, args.workers, args.quiet, args.retry_failed
+    )
 
 
-def run_and_report(spec, spec_dict, out: Path, scheduler, workers, quiet) -> int:
+def run_and_report(
+    spec, spec_dict, out: Path, scheduler, workers, quiet, retry_failed=False
+) -> int:
     from .run import TABLE, run_sweep  # noqa: PLC0415
     from .table import plot_sweep, summary, write_table  # noqa: PLC0415
 
@@ -74,7 +83,9 @@ def run_and_report(spec, spec_dict, out: Path, scheduler, workers, quiet) -> int
             print(msg, file=sys.stderr, flush=True)
 
     try:
-        rows = run_sweep(spec, spec_dict, out, scheduler, workers, progress=not quiet, log=log)
+        rows = run_sweep(
+            spec, spec_dict, out, scheduler, workers, not quiet, log, retry_failed=retry_failed
+        )
     except (OSError, RuntimeError, TimeoutError) as exc:
         print(f"bowden sweep: {exc}", file=sys.stderr)
         return 1

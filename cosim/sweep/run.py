@@ -30,12 +30,11 @@ def run_point(spec_dict: dict, values: dict, out_dir: str) -> dict:
     """Run one point (in a Dask worker) and write its result file; return the row."""
     from .spec import parse_spec  # noqa: PLC0415
 
-    spec = parse_spec(spec_dict)
     point = Point(values)
     row = _row_base(point)
     t0 = time.perf_counter()
     try:
-        row.update(_run(spec, point))
+        row.update(_run(parse_spec(spec_dict), point))
         row["status"] = "ok"
         row["error"] = ""
     except Exception as exc:  # noqa: BLE001 (a failed point is a result: recorded, not raised)
@@ -104,6 +103,14 @@ def _finite(row: dict) -> dict:
     }
 
 
+def failed_row(point: Point, exc: BaseException) -> dict:
+    """The row of a point whose task itself failed (a worker lost, an error outside the run)."""
+    row = _row_base(point)
+    msg = str(exc).strip().splitlines()
+    row.update(status="failed", error=f"{type(exc).__name__}: {msg[0] if msg else ''}"[:500])
+    return row
+
+
 def done_points(out_dir: Path) -> dict[str, dict]:
     """point id -> row of every point with a result file."""
     d = out_dir / POINTS_DIR
@@ -126,14 +133,18 @@ def run_sweep(
     workers: int | None = None,
     progress: bool = True,
     log=print,
+    retry_failed: bool = False,
 ) -> list[dict]:
-    """Run every point without a result file on Dask; return every point's row (spec order)."""
+    """Run every point without a result file on Dask (and, with retry_failed, those recorded as
+    failed); return every point's row (spec order)."""
     from ..native import engine  # noqa: PLC0415
 
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "spec.json").write_text(json.dumps(spec_dict, indent=2, sort_keys=True))
     points = spec.points()
     have = done_points(out_dir)
+    if retry_failed:
+        have = {k: v for k, v in have.items() if v.get("status") == "ok"}
     todo = [p for p in points if p.point_id not in have]
     log(f"sweep: {len(points)} points, {len(points) - len(todo)} already done, {len(todo)} to run")
     if todo:
@@ -161,14 +172,24 @@ def _dask_run(todo, spec_dict, out_dir, scheduler, workers, progress, log) -> No
         client = Client(cluster)
     try:
         log(f"sweep: Dask scheduler {client.scheduler.address}")
-        futures = [
-            client.submit(run_point, spec_dict, p.values, str(out_dir), key=f"point-{p.point_id}")
+        futures = {
+            client.submit(
+                run_point,
+                spec_dict,
+                p.values,
+                str(out_dir),
+                key=f"point-{p.point_id}-{time.time_ns()}",
+            ): p
             for p in todo
-        ]
+        }
         done = failed = 0
         t0 = time.perf_counter()
         for fut in as_completed(futures):
-            row = fut.result()
+            try:
+                row = fut.result()
+            except Exception as exc:  # noqa: BLE001 (the task itself failed: recorded, go on)
+                row = failed_row(futures[fut], exc)
+                write_point(out_dir, futures[fut], row)
             done += 1
             failed += row["status"] != "ok"
             if progress:
