@@ -35,7 +35,7 @@ Q7_8_LSB_N = 1.0 / 256.0
 Q7_8_MIN, Q7_8_MAX = -32768, 32767
 MODES = {"none": 0, "paper": 1, "smooth": 2}
 SOURCES = {"host": 0, "wave": 1}
-WAVE_KINDS = {"constant": 0, "sine": 1, "triangle": 2}
+WAVE_KINDS = {"constant": 0, "sine": 1, "triangle": 2, "ramp": 3, "step": 4}  # WAVE_* of wave.h
 
 # Bound of |fixed - double twin| in Q7.8 LSB without a friction slope (COMP_ERR_BOUND_LSB).
 ERR_BOUND_LSB = 1.0
@@ -483,7 +483,7 @@ def make_compensator_f64(mode: str, params, phi_rad: float) -> CompensatorF64:
 class WaveParams:
     """The firmware's reference generator (wave.h)."""
 
-    kind: str = "sine"  # constant | sine | triangle
+    kind: str = "sine"  # constant | sine | triangle | ramp | step
     mean_n: float = 7.5
     amplitude_n: float = 7.5
     freq_hz: float = 0.5

@@ -29,7 +29,6 @@ from pathlib import Path
 
 import numpy as np
 
-from . import metrics, plots
 from . import trace as trace_mod
 from .cliargs import output_dir
 from .interface import INTERFACES
@@ -256,6 +255,8 @@ def run(
 
 def evaluate(scen, cfg, run_spec, fixed, ref, wall_s, cost) -> dict:
     """The figures of result.json from the records of the two runs."""
+    from . import metrics  # noqa: PLC0415 (scipy/matplotlib only when a run is evaluated)
+
     n = len(fixed["t_s"])
     # Runs shorter than the start-up window are evaluated whole.
     settle = scen.settle_s if fixed["t_s"][-1] > scen.settle_s else 0.0
@@ -317,6 +318,8 @@ def evaluate(scen, cfg, run_spec, fixed, ref, wall_s, cost) -> dict:
 
 def friction_fits(scen, cfg, rec) -> list[dict]:
     """Capstan fit (metrics.fit_capstan) per position segment, on the sensors' T_in and T_out."""
+    from . import metrics  # noqa: PLC0415 (scipy/matplotlib only when a run is evaluated)
+
     fits = []
     for seg in scen.segments:
         i0 = int(round(seg.t_start_s * cfg.sample_rate_hz))
@@ -347,6 +350,7 @@ def write_outputs(out_dir: Path, scen, cfg, run_spec, fixed, ref, result) -> Non
 
 
 def _write_files(out_dir: Path, scen, cfg, run_spec, fixed, ref, result) -> None:
+    from . import plots  # noqa: PLC0415 (scipy/matplotlib only when a run is evaluated)
     from .plant import fmu_variables  # noqa: PLC0415
 
     # The plant's own values (the FMU's defaults unless the params file set them), not the
@@ -406,6 +410,8 @@ def _pct(value: float | None) -> str:
 
 def summary_table(results: list[dict], paper: bool = False) -> str:
     """A plain-text table of runs: errors, fixed vs float, speed."""
+    from . import metrics  # noqa: PLC0415 (scipy/matplotlib only when a run is evaluated)
+
     head = (
         f"{'scenario':<13}{'compensator':<12}{'loop':<6}{'RMS N':>8}{'RMS %':>8}{'peak N':>8}"
         f"{'peak %':>8}{'rev RMS N':>10}{'away RMS N':>11}{'du rms/max LSB':>16}"

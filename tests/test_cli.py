@@ -84,3 +84,16 @@ def test_an_unwritable_output_folder_is_a_clear_error_not_a_traceback(tmp_path: 
     assert out.returncode == 1
     assert "Traceback" not in out.stderr
     assert "bowden workspace:" in out.stderr and str(blocker) in out.stderr
+
+
+def test_the_command_line_starts_without_the_heavy_libraries():
+    """`bowden --help` and argument errors must answer at once: building the parser of every
+    subcommand imports none of scipy, matplotlib, numba or the co-simulation's runners (each
+    subcommand imports them when it runs)."""
+    heavy = ("scipy", "matplotlib", "numba", "cocotb", "fmpy", "serial", "can")
+    code = (
+        "import sys, cosim.cli; cosim.cli.build_parser(); "
+        f"print(','.join(m for m in {heavy!r} if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "", f"imported while building the parser: {out.stdout.strip()}"

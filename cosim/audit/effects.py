@@ -4,8 +4,8 @@ parameters (fmu/README.md, "Effects").
 Each candidate has the same shape (STYLE.md, "Model identification"): its FMU parameter with unit
 and fit bounds, the value that means "absent", a typical size (the optimiser's scale), the
 equation it adds, and `applicable(data)`, which says why it cannot be fitted on some data. Fitting
-and prediction go through one model (cosim.audit.model: the FMU twin with these parameters), so
-adding a cause is adding one object to VOCABULARY.
+and prediction go through one model (cosim.audit.twin: the FMU's physics, vectorised, with these
+parameters), so adding a cause is adding one object to VOCABULARY.
 """
 
 from __future__ import annotations

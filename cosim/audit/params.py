@@ -20,10 +20,13 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..scenarios import CompensatorParams, SimConfig
-from .core import AuditResult
 from .effects import BY_PARAM
+
+if TYPE_CHECKING:  # core pulls in scipy and numba: `bowden --help` must not wait for them
+    from .core import AuditResult
 
 # fig14 is evaluated after the loop's start-up, as `bowden sim` does (scenarios: settle_s).
 FIG14_DEFAULT_DURATION_S = 10.0
