@@ -187,13 +187,26 @@ class AuditData:
         ]
 
 
+def quantization_step(x: np.ndarray) -> float:
+    """The smallest step between the distinct values of x: the resolution of a recording whose
+    values sit on a grid (a bench recording's Q7.8 words are 1/256 N apart); 0.0 for a constant."""
+    steps = np.diff(np.unique(np.asarray(x, dtype=float)))
+    steps = steps[steps > 0]
+    return float(steps.min()) if steps.size else 0.0
+
+
 def noise_std(x: np.ndarray) -> float:
     """White-noise standard deviation of a smooth signal plus noise: the MAD of the second
-    differences (whose variance is 6 sigma^2 for white noise; a smooth tension adds little)."""
-    d2 = np.diff(np.asarray(x, dtype=float), 2)
+    differences (whose variance is 6 sigma^2 for white noise; a smooth tension adds little), and
+    never below the quantization noise q / sqrt(12) of a signal on a grid of step q. Without
+    that floor a noiseless quantized recording (most second differences exactly 0) gives a MAD
+    of 0, and every candidate's significance against it is infinite."""
+    x = np.asarray(x, dtype=float)
+    d2 = np.diff(x, 2)
     if d2.size < 3:
         return 0.0
-    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0))
+    mad = float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0))
+    return max(mad, quantization_step(x) / math.sqrt(12.0))
 
 
 def prepare(tr: trace_mod.Trace, source: str) -> AuditData:
