@@ -1,8 +1,8 @@
 """The sweep specification (SPEC.yaml of `bowden sweep`) and the points it expands to.
 
-    scenario: fig14            # characterize | positions | fig14
+    scenario: fig14            # characterize | positions | fig14 (or an axis)
     duration_s: 6              # simulated seconds per point (default: the scenario's)
-    interface: board           # board | adc | ideal
+    interface: board           # board | adc | ideal (or an axis)
     sampling: grid             # grid: every combination of the axes; random: `samples` draws
     samples: 20                # random only
     seed: 1                    # random only
@@ -15,12 +15,14 @@
       plant.cable_EA: {min: 6400, max: 9600, n: 3}
       controller.kp_a_per_n: [0.03, 0.05]
 
-An axis is a list of values, {min, max, n} or {nominal, rel, n} (grid: n evenly spaced values;
-random: uniform over [min, max]), and for position_m a list of points or {x, y, z} lists (their
-product). Dotted axes set one field of the run's configuration: plant.<FMU parameter>,
-controller.<field>, compensator.<field> or board.<field>; every point is checked as a params file
-is (SimConfig.from_dict), so a bad value is caught before anything runs. A bad spec is a
-SpecError: one line naming the file, the line and the key.
+Axes `scenario`, `interface` and `compensator` take lists of names (a sweep over scenarios runs
+each for duration_s, default its own duration). Another axis is a list of values, {min, max, n}
+or {nominal, rel, n} (grid: n evenly spaced values; random: uniform over [min, max]), and for
+position_m a list of points or {x, y, z} lists (their product). Dotted axes set one field of
+the run's configuration: plant.<FMU parameter>, controller.<field>, compensator.<field> or
+board.<field>; every point is checked as a params file is (SimConfig.from_dict), so a bad value
+is caught before anything runs. A bad spec is a SpecError: one line naming the file, the line
+and the key.
 """
 
 from __future__ import annotations
@@ -39,7 +41,7 @@ from ..interface import INTERFACES
 from ..scenarios import COMPENSATORS, SCENARIO_NAMES, SimConfig
 
 TOP_KEYS = ("scenario", "duration_s", "interface", "sampling", "samples", "seed", "config", "axes")
-PLAIN_AXES = ("compensator", "loop_routing", "position_m")
+PLAIN_AXES = ("scenario", "interface", "compensator", "loop_routing", "position_m")
 CONFIG_GROUPS = ("plant", "controller", "compensator", "board")
 MAX_POINTS = 100_000
 
@@ -108,11 +110,12 @@ class SweepSpec:
         """What the run needs besides phi (cosim.sweep.run adds it): scenario, compensator,
         loop routing, interface, duration, configuration, position."""
         v = point.values
+        scenario = v.get("scenario", self.scenario)
         return {
-            "scenario": self.scenario,
-            "compensator": v.get("compensator", "paper" if self.scenario == "fig14" else "none"),
+            "scenario": scenario,
+            "compensator": v.get("compensator", "paper" if scenario == "fig14" else "none"),
             "loop_routing": bool(v.get("loop_routing", True)),
-            "interface": self.interface,
+            "interface": v.get("interface", self.interface),
             "duration_s": self.duration_s,
             "config": self.run_config(point),
             "position_m": v.get("position_m"),
@@ -255,11 +258,12 @@ def _axis(key: str, raw, sampling: str, err):
     random."""
     if key == "position_m":
         return _positions(raw, err)
-    if key == "compensator":
+    choices = {"compensator": COMPENSATORS, "scenario": SCENARIO_NAMES, "interface": INTERFACES}
+    if key in choices:
         vals = raw if isinstance(raw, list) else [raw]
         for v in vals:
-            if v not in COMPENSATORS:
-                raise err(f"must be among {', '.join(COMPENSATORS)}; got {v!r}")
+            if not isinstance(v, str) or v not in choices[key]:
+                raise err(f"must be among {', '.join(choices[key])}; got {v!r}")
         return vals
     if key == "loop_routing":
         vals = raw if isinstance(raw, list) else [raw]

@@ -147,6 +147,7 @@ def test_sweep_records_a_failed_point_and_goes_on(native, tmp_path):
         ("axes:\n  compensator: [paper]\n  plant.mu: [0.07, 2.0]\n", "line 3: axes.plant.mu"),
         ("axes:\n  plant.nothing: [1]\n", "line 2: axes.plant.nothing"),
         ("axes:\n  gains: [1]\n", "line 2: axes.gains: unknown axis"),
+        ("axes:\n  scenario: [fig14, fig99]\n", "line 2: axes.scenario: must be among"),
         ("axes:\n  position_m: [[0, 0.5]]\n", "line 2: axes.position_m: a position is"),
         ("sampling: random\n", "samples: random sampling needs"),
         ("axes: [1, 2\n", "is not valid YAML"),
@@ -192,3 +193,21 @@ def test_random_sampling_is_reproducible_and_within_ranges():
     assert len({p.point_id for p in a}) == 5
     assert all(6400 <= p.values["plant.cable_EA"] <= 9600 for p in a)
     assert isinstance(a[0], Point)
+
+
+def test_scenario_and_interface_axes_make_their_runs():
+    spec = parse_spec(
+        {"axes": {"scenario": ["characterize", "fig14"], "interface": ["ideal", "board"]}}
+    )
+    runs = [spec.run_spec(p) for p in spec.points()]
+    assert {(r["scenario"], r["interface"]) for r in runs} == {
+        ("characterize", "ideal"),
+        ("characterize", "board"),
+        ("fig14", "ideal"),
+        ("fig14", "board"),
+    }
+    # Each scenario's default compensator (none for the characterisation, the paper law on fig14).
+    assert {r["scenario"]: r["compensator"] for r in runs} == {
+        "characterize": "none",
+        "fig14": "paper",
+    }
