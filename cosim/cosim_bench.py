@@ -42,9 +42,13 @@ def bench_native(duration_s: float, compensator: str, cocotb_wall: dict[str, flo
 
     engine.load_library()
     spec = _spec(duration_s, compensator, "native")
+    cpu0 = time.process_time()
     t0 = time.perf_counter()
     _, cost = engine.run_closed_loop(spec, progress=False)
     wall = time.perf_counter() - t0
+    # CPU seconds of this process: on a machine shared with other jobs the wall time also holds
+    # the time the run waited for a core.
+    cpu = time.process_time() - cpu0
     n = cost["samples"]
     sim_s = n / 10_000.0
     loop = cost["total_s"]
@@ -54,8 +58,13 @@ def bench_native(duration_s: float, compensator: str, cocotb_wall: dict[str, flo
     print(f"  wall time, closed loop:                                  {loop:7.2f} s")
     print(f"  simulated seconds per wall second (whole run):           {sim_s / wall:7.2f}")
     print(f"  simulated seconds per wall second (closed loop):         {sim_s / loop:7.2f}")
+    print(f"  simulated seconds per CPU second (whole run):            {sim_s / cpu:7.2f}")
+    try:
+        print(f"  load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
+    except OSError:
+        pass
     for name, label in (
-        ("rtl_s", "RTL (Verilator, 2 eval per clock, bus)"),
+        ("rtl_s", "RTL (Verilator, 1-2 eval per clock, bus)"),
         ("fmu_s", "FMU (fmi2DoStep)"),
         ("firmware_s", "firmware (fw_host_tick)"),
         ("harness_s", "harness (interface stage, glue)"),
