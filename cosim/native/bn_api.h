@@ -16,7 +16,7 @@
 extern "C" {
 #endif
 
-#define BN_API_VERSION 1
+#define BN_API_VERSION 2
 
 /* Interface stages (cosim/interface.py). */
 #define BN_IFACE_IDEAL 0
@@ -35,6 +35,7 @@ typedef struct {
     int32_t tc_latency_samples; /* cosim.reference.TC_LATENCY_SAMPLES */
     int32_t shadow_refresh_ticks;
     double slew_n;              /* SLEW in N per sample when CTRL.SLEW_EN, else 0 */
+    double floor_n;             /* T_c floor (TC_MIN) in N after the slew limit; -inf: none */
     const int16_t *t_ref_word;  /* n: T_ref as the firmware's Q7.8 host word */
     const double *x_m, *y_m, *z_m; /* n: end-effector path */
     /* --- firmware: a configured fw_host_t (cosim.firmware.Firmware's buffer) --------------- */

@@ -585,6 +585,7 @@ void Harness::run() {
             tc = pymin(pymax(tc_set, tc - s_.slew_n), tc + s_.slew_n);
         else
             tc = tc_set;
+        tc = pymax(tc, s_.floor_n);  // the floor after the slew limit (TC_MIN)
         int32_t word = int16_t(io.cmd_current);
         s_.out_u_word[k] = word;
         s_.out_tc_n[k] = tc;

@@ -12,22 +12,24 @@ cosim.harness.runner.run_closed_loop; tests/native holds the two to the same bit
 from __future__ import annotations
 
 import ctypes
+import math
 import threading
 from ctypes import POINTER, c_char, c_double, c_int16, c_int32, c_int64, c_uint32, c_void_p
 
 import numpy as np
 
+from .. import scenarios
 from ..firmware import tension_word
 from ..harness.common import Record, open_plant, plant_rows, store_plant_rows
 from ..harness.fwbridge import FirmwareBridge, loop_words
 from ..harness.progress import Progress
 from ..harness.runner import CLKS_PER_SAMPLE
-from ..interface import _kernel, make_chain
+from ..interface import make_chain
 from ..plant import INPUT_NAMES, OUTPUT_NAMES
 from ..reference import TC_LATENCY_SAMPLES
 from ..scenarios import SimConfig, get_scenario, held_at, sample_inputs
 
-API_VERSION = 1
+API_VERSION = 2
 IFACE_CODES = {"ideal": 0, "adc": 1, "board": 2}
 # As the cocotb harness (tb_closed_loop.SHADOW_REFRESH_TICKS).
 SHADOW_REFRESH_TICKS = 10
@@ -46,6 +48,7 @@ class Spec(ctypes.Structure):
         ("tc_latency_samples", c_int32),
         ("shadow_refresh_ticks", c_int32),
         ("slew_n", c_double),
+        ("floor_n", c_double),
         ("t_ref_word", POINTER(c_int16)),
         ("x_m", _D),
         ("y_m", _D),
@@ -158,10 +161,15 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
         chain = make_chain(cfg, interface, True, fw.adc_offset, fw.adc_gain)
         words = loop_words(cfg.controller, cfg.sample_rate_hz)
 
-        # T_ref as the firmware's host word, at the firmware's ticks (FirmwareBridge.tick).
+        # T_ref as the firmware's host word, at the firmware's ticks (FirmwareBridge.tick): the
+        # scenario's, or what the host hands a mode that looks ahead (scenarios.firmware_t_ref,
+        # where the project has it).
+        fw_ref = inp.t_ref_n
+        if hasattr(scenarios, "firmware_t_ref"):
+            fw_ref = scenarios.firmware_t_ref(scen, cfg, run_spec["compensator"], inp)
         t_ref_word = np.zeros(n, dtype=np.int16)
         for k in range(0, n, dec):
-            t_ref_word[k] = tension_word(float(inp.t_ref_n[k]))
+            t_ref_word[k] = tension_word(float(fw_ref[k]))
         xs, ys, zs = (
             np.ascontiguousarray(a, dtype=np.float64) for a in (inp.x_m, inp.y_m, inp.z_m)
         )
@@ -175,6 +183,9 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
         s.tc_latency_samples = TC_LATENCY_SAMPLES
         s.shadow_refresh_ticks = SHADOW_REFRESH_TICKS
         s.slew_n = words["slew"] / 256.0 if words["slew_en"] else 0.0
+        # The T_c floor as fw_start writes it to TC_MIN (where the project has one).
+        tc_min_n = getattr(cfg.compensator, "tc_min_n", None)
+        s.floor_n = -math.inf if tc_min_n is None else tension_word(tc_min_n) / 256.0
         s.t_ref_word = _ptr(t_ref_word, c_int16)
         s.x_m, s.y_m, s.z_m = _ptr(xs, c_double), _ptr(ys, c_double), _ptr(zs, c_double)
         s.fw_host = ctypes.addressof(fw.fw._buf)
@@ -197,7 +208,6 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
             adc = chain.adc
             offsets = np.array(adc.offsets, dtype=np.float64)
             weights = np.array(adc.weights, dtype=np.float64)
-            assert (adc.offsets, adc.weights) == _kernel(adc.part.filter_order, adc.period)
             keep += [offsets, weights]
             s.dt_s = adc.dt
             s.adc_period_s, s.adc_phase_s, s.adc_read_s = adc.period, adc.phase, adc.read_s
