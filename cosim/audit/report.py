@@ -103,6 +103,7 @@ def to_dict(result: AuditResult) -> dict:
             "noise_floor_n": _num(d.noise_floor_n),
             "input_noise_n": _num(d.input_noise_n),
             "input_smoothing_s": core.SMOOTH_S,
+            "input_kept_as_measured_s": _num(d.input_kept / d.rate_hz),
         },
         "split": {
             "text": d.split_text(),
@@ -402,7 +403,8 @@ def markdown(result: AuditResult, data: dict, plot_names: list[str]) -> str:
         f"- sidecar values taken by default: {', '.join(d.defaulted) or 'none'}",
         f"- noise floor (white noise of the output sensor): {d.noise_floor_n:.4f} N; input "
         f"sensor {d.input_noise_n:.4f} N (the input is smoothed over {core.SMOOTH_S * 1000:.0f} ms "
-        "before it drives the model)",
+        "before it drives the model, except across fast changes, where the filter would ring: "
+        f"{d.input_kept / d.rate_hz:.2f} s of the record kept as measured)",
         f"- split: {d.split_text()}. The report blocks are {len(data['split']['report_blocks_s'])} "
         "blocks spread over the record; every held-out figure below comes from them.",
         "",

@@ -493,6 +493,14 @@ def _add_emulate(subparsers) -> None:
     )
     p.add_argument("--no-loop-routing", dest="loop_routing", action="store_false")
     p.add_argument(
+        "--plant",
+        nargs="+",
+        default=[],
+        metavar="NAME=VALUE",
+        help="FMU parameters of the emulated plant, e.g. sensor_offset=0.5 noise_std=0.03 (an "
+        "effect for `bowden audit` to find)",
+    )
+    p.add_argument(
         "--interface",
         choices=("ideal", "adc", "board"),
         default="ideal",
@@ -522,6 +530,29 @@ def _add_emulate(subparsers) -> None:
     p.set_defaults(func=emulate_main)
 
 
+def _plant_assignments(items: list[str]) -> dict:
+    """--plant NAME=VALUE ... as FMU parameter overrides, checked as a params file's plant
+    section is (cosim.scenarios.plant_overrides: a parameter of the FMU, in its range)."""
+    from ..scenarios import plant_overrides  # noqa: PLC0415 (reads the built FMU)
+
+    raw: dict[str, float | bool] = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        if not sep or not name:
+            raise ValueError(f"--plant {item!r}: expected NAME=VALUE (e.g. sensor_offset=0.5)")
+        if text.lower() in ("true", "false"):
+            raw[name] = text.lower() == "true"
+            continue
+        if text.strip().lstrip("+-").isdigit():
+            raw[name] = int(text)  # Integer parameters (seed) take whole numbers
+            continue
+        try:
+            raw[name] = float(text)
+        except ValueError:
+            raise ValueError(f"--plant {item!r}: {text!r} is not a number") from None
+    return plant_overrides(raw, "--plant")
+
+
 def emulate_main(args: argparse.Namespace) -> int:
     from .emulator import Emulator  # noqa: PLC0415
 
@@ -537,6 +568,11 @@ def emulate_main(args: argparse.Namespace) -> int:
             return 2
     if not 0 <= args.tcp_port <= 65535:
         print(f"bowden emulate: --tcp-port {args.tcp_port}: outside 0..65535", file=sys.stderr)
+        return 2
+    try:
+        plant = _plant_assignments(args.plant)
+    except ValueError as exc:
+        print(f"bowden emulate: {exc}", file=sys.stderr)
         return 2
     engine = args.engine
     if args.interface != "ideal" and engine == "native":
@@ -555,6 +591,7 @@ def emulate_main(args: argparse.Namespace) -> int:
             chain=ChainConfig(
                 position_m=args.position,
                 loop_routing=args.loop_routing,
+                plant=plant or None,
                 interface=args.interface,
             ),
             engine=engine,
@@ -567,6 +604,9 @@ def emulate_main(args: argparse.Namespace) -> int:
     print("bowden emulate: controller running (firmware + FPGA loop model + plant FMU)")
     for kind, url in emu.urls.items():
         print(f"  {kind:<7} bowden bench {'--can' if kind == 'can' else '--port'} {url} info")
+    if plant:  # as the FMU holds them (read back)
+        held = " ".join(f"{k}={emu.chain.plant.get(k):g}" for k in plant)
+        print(f"  plant FMU parameters set: {held}")
     print(f"  serial links throttled to {args.baud} baud; Ctrl-C stops", flush=True)
     emu.start()
     t0 = time.monotonic()

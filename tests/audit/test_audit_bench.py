@@ -1,0 +1,106 @@
+"""The audit on the bench emulator's own recordings (issue 9 x issue 10): the recording that
+`bowden emulate` + `bowden bench run sine` make (the in-process stepped link gives the same
+file, sample for sample, in a fraction of real time), of a plant without effects, must give no
+finding; with an effect switched on in the emulator's plant, the audit must name it.
+
+The emulator's loop runs the paper's compensator, whose feedforward switches at each reversal:
+T_in drops by about 15 N within 10 ms. The audit's input smoothing used to ring across those
+drops and the friction model held the ringing's extremes: 0.13 N of residual and four confident
+findings on a plant that had none (cosim.audit.core.smooth_input)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cosim import trace
+from cosim.audit import core
+from cosim.bench.client import BenchClient
+from cosim.bench.device import ChainConfig
+from cosim.bench.emulator import SteppedLink
+from cosim.bench.recorder import record_run
+
+# The audit needs 10 s (1 s of warm-up: the loop starts from rest). 15 s as in the recording of
+# the issue: with 12 s the audit's blocks are 0.5 s, their fit/selection/fit/report cycle lasts
+# exactly the sine's 2 s period, and the report blocks all fall at one phase of it.
+SECONDS = 15.0
+# Measured on these recordings: 6.7 mN held-out RMS without an effect, 5.9 mN once the offset is
+# taken out (the 1 kHz telemetry samples an input that the plant sees at 10 kHz: driven by the
+# 10 kHz T_in the twin matches to 2e-5 N). Budget: that, with a margin of 1.8.
+RESIDUAL_BUDGET_N = 0.012
+OFFSET_N = 0.5
+
+
+def _record(folder, plant: dict | None):
+    link = SteppedLink(ChainConfig(plant=plant))
+    try:
+        client = BenchClient(link)
+        client.connect()
+        path = folder / "rec.csv"
+        result = record_run(
+            client,
+            path,
+            seconds=SECONDS,
+            waveform="sine",
+            mean_n=8.5,
+            amplitude_n=6.5,
+            freq_hz=0.5,
+        )
+    finally:
+        link.close()
+    assert result.drops == 0 and result.samples == int(SECONDS * 1000)
+    return path
+
+
+@pytest.fixture(scope="module")
+def audits(tmp_path_factory):
+    out = {}
+    for name, plant in (("none", None), ("offset", {"sensor_offset": OFFSET_N})):
+        path = _record(tmp_path_factory.mktemp(name), plant)
+        tr = trace.read_trace(path, "measured")
+        out[name] = core.run(core.prepare(tr, str(path)))
+    return out
+
+
+def test_emulator_recording_without_effects_gives_no_finding(audits):
+    res = audits["none"]
+    found = [(f.effect.cause, f.value, f.evidence) for f in res.findings]
+    assert found == []
+    assert res.holdout_rms_before_n <= RESIDUAL_BUDGET_N
+    assert res.unexplained["rms_n"] <= RESIDUAL_BUDGET_N
+    # the compensator's drops at the reversals were kept as recorded, not smoothed over
+    d = res.data
+    assert np.max(np.abs(np.diff(d.t_in_meas_n))) > 1.0
+    kept = d.inputs.t_in_n == d.t_in_meas_n
+    assert 0 < d.input_kept <= np.count_nonzero(kept) < 0.5 * len(kept)
+
+
+def test_emulator_recording_with_a_sensor_offset_names_it(audits):
+    res = audits["offset"]
+    assert [f.effect.cause for f in res.findings] == ["sensor_offset"]
+    assert res.findings[0].value == pytest.approx(OFFSET_N, abs=0.01)
+    assert res.holdout_rms_before_n == pytest.approx(OFFSET_N, rel=0.02)
+    assert res.holdout_rms_after_n <= RESIDUAL_BUDGET_N
+
+
+def test_smoothing_keeps_a_step_and_removes_noise():
+    """smooth_input: white noise is filtered, a 10 N drop within 10 ms is kept without the
+    Savitzky-Golay filter's overshoot, and a smooth record stays wholly filtered."""
+    rng = np.random.default_rng(5)
+    n, rate, sigma = 4000, 1000.0, 0.03
+    t = np.arange(n) / rate
+    clean = 10.0 + 2.0 * np.sin(2 * np.pi * 0.3 * t)
+    clean[2000:] -= 10.0 * np.minimum(1.0, np.arange(n - 2000) / 10.0)
+    noisy = clean + rng.normal(0.0, sigma, n)
+    win = 41
+    out, kept = core.smooth_input(noisy, win, core.noise_std(noisy))
+    assert 0 < kept <= 3 * win
+    err = out - clean
+    far = np.abs(np.arange(n) - 2005) > win
+    assert np.std(err[far]) < 0.5 * sigma  # filtered where smooth
+    assert np.max(np.abs(err)) < 5 * sigma  # no ringing across the drop
+    sg = core.savgol_filter(noisy, win, core.SMOOTH_ORDER)
+    assert np.max(np.abs(sg - clean)) > 0.3  # what the plain filter does there
+    smooth_only = clean[:1900] + rng.normal(0.0, sigma, 1900)
+    _, kept = core.smooth_input(smooth_only, win, core.noise_std(smooth_only))
+    assert kept == 0

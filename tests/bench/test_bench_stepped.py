@@ -1,0 +1,69 @@
+"""The emulator without the wall clock (cosim.bench.emulator.SteppedLink) records what the
+real-time emulator records over its pty, sample for sample; `bowden emulate --plant` sets the
+emulated plant's FMU parameters, each checked, a bad one refused in one line."""
+
+import numpy as np
+import pytest
+
+from cosim import trace as trace_mod
+from cosim.bench.__main__ import main as bench_cli
+from cosim.bench.client import BenchClient, SerialLink
+from cosim.bench.device import ChainConfig
+from cosim.bench.emulator import Emulator, SteppedLink
+from cosim.bench.recorder import record_run
+
+SECONDS = 1.5
+RUN = {"waveform": "sine", "mean_n": 8.5, "amplitude_n": 6.5, "freq_hz": 2.0}
+COMPARED = ("t_s", "T_ref_N", "T_c_N", "T_in_N", "T_out_N", "current_A", "sample", "faults")
+
+
+def _record(link, path):
+    client = BenchClient(link)
+    client.connect()
+    result = record_run(client, path, seconds=SECONDS, **RUN)
+    assert result.drops == 0 and result.samples == int(SECONDS * 1000)
+    return trace_mod.read_trace(path)
+
+
+@pytest.mark.parametrize("plant", [None, {"sensor_offset": 0.5}])
+def test_stepped_link_records_what_the_real_time_emulator_records(plant, tmp_path):
+    emu = Emulator(tcp_port=None, chain=ChainConfig(plant=plant)).start()
+    link = SerialLink(emu.urls["pty"])
+    try:
+        real = _record(link, tmp_path / "real.csv")
+    finally:
+        link.close()
+        emu.stop()
+    stepped_link = SteppedLink(ChainConfig(plant=plant))
+    try:
+        stepped = _record(stepped_link, tmp_path / "stepped.csv")
+    finally:
+        stepped_link.close()
+    assert real["T_out_N"].max() > 5.0  # the plant did pull
+    for col in COMPARED:
+        np.testing.assert_array_equal(stepped[col], real[col], err_msg=col)
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["sensor_offset=x"], "--plant 'sensor_offset=x': 'x' is not a number"),
+        (["=3"], "expected NAME=VALUE"),
+        (["foo=1"], "'foo' is not a parameter of the FMU"),
+        (["drive_mode=1"], "fixed by the closed loop"),
+        (["seed=1.5"], "--plant.seed must be a whole number"),
+        (["sensor_offset=nan"], "--plant.sensor_offset must be in [-100, 100]; got NaN"),
+    ],
+)
+def test_emulate_plant_option_refuses_a_bad_value_in_one_line(args, words, capsys):
+    rc = bench_cli(["emulate", "--no-pty", "--no-tcp", "--seconds", "0.1", "--plant", *args])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1 and words in err, err
+
+
+def test_emulate_plant_option_sets_the_plant(capsys):
+    rc = bench_cli(
+        ["emulate", "--no-pty", "--no-tcp", "--seconds", "0.1", "--plant", "sensor_offset=0.25"]
+    )
+    out = capsys.readouterr().out
+    assert rc == 0 and "sensor_offset=0.25" in out, out
