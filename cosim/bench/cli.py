@@ -100,8 +100,17 @@ def _add_bench(subparsers) -> None:
     p.add_argument(
         "--emulate",
         action="store_true",
-        help="start the emulator in this process on the --can bus (python-can's virtual bus "
-        "reaches only this process)",
+        help="start the emulator in this process: on the --can bus (python-can's virtual bus "
+        "reaches only this process), or without --port/--can stepped as fast as it computes, not "
+        "in real time (a run records what `bowden emulate` would give, with no drops on a loaded "
+        "machine)",
+    )
+    p.add_argument(
+        "--plant",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE[,...]",
+        help="with --emulate: FMU parameters of the emulated plant (as `bowden emulate --plant`)",
     )
     sub = p.add_subparsers(dest="bench_command", metavar="COMMAND")
     sub.add_parser("info", help="firmware, protocol, configuration state, faults")
@@ -147,12 +156,15 @@ def _open_link(args):
 
 
 def bench_main(args: argparse.Namespace) -> int:
-    if not args.port and not args.can:
+    if not args.port and not args.can and not args.emulate:
         print(
-            "bowden bench: one of --port URL or --can INTERFACE:CHANNEL is required "
+            "bowden bench: one of --port URL, --can INTERFACE:CHANNEL or --emulate is required "
             "(see bowden bench --help)",
             file=sys.stderr,
         )
+        return 2
+    if args.plant and not args.emulate:
+        print("bowden bench: --plant sets the emulated plant: it needs --emulate", file=sys.stderr)
         return 2
     if args.bench_command is None:
         print(
@@ -164,13 +176,30 @@ def bench_main(args: argparse.Namespace) -> int:
     emulator = None
     link = None
     try:
-        if args.emulate:
-            if not args.can:
-                raise BenchError("--emulate works with --can (use `bowden emulate` for serial)")
+        plant = _plant_assignments(args.plant)
+    except ValueError as exc:
+        print(f"bowden bench: {exc}", file=sys.stderr)
+        return 2
+    try:
+        if args.emulate and args.port:
+            raise BenchError(
+                "--emulate works with --can or alone (use `bowden emulate` for serial)"
+            )
+        chain = ChainConfig(
+            position_m=getattr(args, "position", (0.0, 0.5, 0.0)),
+            loop_routing=getattr(args, "loop_routing", True),
+            plant=plant or None,
+        )
+        if args.emulate and args.can:
             from .emulator import Emulator  # noqa: PLC0415
 
-            emulator = Emulator(pty=False, tcp_port=None, can=args.can).start()
-        link = _open_link(args)
+            emulator = Emulator(pty=False, tcp_port=None, can=args.can, chain=chain).start()
+        if args.emulate and not args.can:
+            from .emulator import SteppedLink  # noqa: PLC0415
+
+            link = SteppedLink(chain)
+        else:
+            link = _open_link(args)
         client = BenchClient(link, timeout_s=args.timeout)
         info = client.connect()
         return _COMMANDS[args.bench_command](client, args, info)
@@ -494,11 +523,11 @@ def _add_emulate(subparsers) -> None:
     p.add_argument("--no-loop-routing", dest="loop_routing", action="store_false")
     p.add_argument(
         "--plant",
-        nargs="+",
+        action="append",
         default=[],
-        metavar="NAME=VALUE",
-        help="FMU parameters of the emulated plant, e.g. sensor_offset=0.5 noise_std=0.03 (an "
-        "effect for `bowden audit` to find)",
+        metavar="NAME=VALUE[,...]",
+        help="FMU parameters of the emulated plant, e.g. --plant sensor_offset=0.5,noise_std=0.03 "
+        "(an effect for `bowden audit` to find); repeatable",
     )
     p.add_argument(
         "--interface",
@@ -531,12 +560,13 @@ def _add_emulate(subparsers) -> None:
 
 
 def _plant_assignments(items: list[str]) -> dict:
-    """--plant NAME=VALUE ... as FMU parameter overrides, checked as a params file's plant
-    section is (cosim.scenarios.plant_overrides: a parameter of the FMU, in its range)."""
+    """--plant NAME=VALUE[,NAME=VALUE...] (repeatable) as FMU parameter overrides, checked as a
+    params file's plant section is (cosim.scenarios.plant_overrides: an FMU parameter, in its
+    range)."""
     from ..scenarios import plant_overrides  # noqa: PLC0415 (reads the built FMU)
 
     raw: dict[str, float | bool] = {}
-    for item in items:
+    for item in (part for arg in items for part in arg.split(",")):
         name, sep, text = item.partition("=")
         if not sep or not name:
             raise ValueError(f"--plant {item!r}: expected NAME=VALUE (e.g. sensor_offset=0.5)")

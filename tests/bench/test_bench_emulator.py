@@ -324,7 +324,9 @@ def test_bad_inputs_are_one_line(args, words, emulator, capsys):
 
 def test_bad_links_and_options(capsys, tmp_path):
     assert bench_cli(["bench", "info"]) == 2
-    assert "one of --port URL or --can INTERFACE:CHANNEL is required" in capsys.readouterr().err
+    assert "one of --port URL, --can INTERFACE:CHANNEL or --emulate is required" in (
+        capsys.readouterr().err
+    )
     assert bench_cli(["bench", "--port", "x"]) == 2
     assert "a COMMAND is required: info, get, set" in capsys.readouterr().err
     assert bench_cli(["bench", "--port", str(tmp_path / "nope"), "info"]) == 1
