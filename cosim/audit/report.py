@@ -108,6 +108,7 @@ def to_dict(result: AuditResult) -> dict:
         "split": {
             "text": d.split_text(),
             "block_s": _num(d.block_s),
+            "block_note": d.block_note,
             "warmup_s": core.WARMUP_S,
             "fit_s": _num(np.sum(d.roles == FIT) / d.rate_hz),
             "selection_s": _num(np.sum(d.roles == SELECT) / d.rate_hz),
