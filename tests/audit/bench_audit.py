@@ -1,6 +1,7 @@
 """`make bench-audit`: wall time of `bowden audit` on 60 s of 1 kHz data (issue 9 target: at most
 30 s on this machine), end to end (reading, fitting, the FMU runs, report and plots), for data
-with no effect, one effect and two effects. Prints the machine's load: the figures move with it.
+with no effect, one effect and two effects, and a recording of the bench emulator (the
+0.5 Hz sine of `bowden bench run sine`). Prints the machine's load: the figures move with it.
 """
 
 from __future__ import annotations
@@ -18,11 +19,32 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from audit_data import fmu_record  # noqa: E402
 
 TARGET_S = 30.0
+EMULATOR = "bench emulator: 0.5 Hz sine, no effect"
 CASES = (
     ("no effect", {}),
     ("lag 10 ms", {"sensor_tau": 0.010}),
     ("offset 0.5 N + tension slope 1.2e-3/N", {"sensor_offset": 0.5, "mu_tension_slope": 0.0012}),
+    (EMULATOR, None),
 )
+
+
+def emulator_record(folder: Path, seconds: float) -> Path:
+    """A `bowden bench run sine` recording of the emulator (stepped in process, no drops)."""
+    from cosim.bench.client import BenchClient  # noqa: PLC0415
+    from cosim.bench.emulator import SteppedLink  # noqa: PLC0415
+    from cosim.bench.recorder import record_run  # noqa: PLC0415
+
+    link = SteppedLink()
+    try:
+        client = BenchClient(link)
+        client.connect()
+        path = folder / "rec.csv"
+        record_run(
+            client, path, seconds=seconds, waveform="sine", mean_n=8.5, amplitude_n=6.5, freq_hz=0.5
+        )
+    finally:
+        link.close()
+    return path
 
 
 def main() -> int:
@@ -31,7 +53,10 @@ def main() -> int:
         for i, (name, effect) in enumerate(CASES):
             folder = Path(tmp) / f"case{i}"
             folder.mkdir()
-            path = fmu_record(folder, effect, seed=900 + i, duration_s=60.0)
+            if effect is None:
+                path = emulator_record(folder, 60.0)
+            else:
+                path = fmu_record(folder, effect, seed=900 + i, duration_s=60.0)
             load0 = os.getloadavg()[0]
             cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
             t0 = time.perf_counter()
