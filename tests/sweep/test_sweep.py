@@ -78,7 +78,11 @@ def test_sweep_killed_midway_resumes_and_matches_single_runs(native, tmp_path):
         if done_at_kill >= 2:
             break
         time.sleep(0.05)
-    assert proc.poll() is None, "the sweep finished before it could be killed midway"
+    if proc.poll() is not None:
+        _, err = proc.communicate()
+        pytest.fail(
+            f"the sweep ended (status {proc.returncode}) before it could be killed midway:\n{err}"
+        )
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
     time.sleep(0.5)
