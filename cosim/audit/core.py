@@ -71,6 +71,11 @@ BLOCK_MIN_S = 0.5
 BLOCK_MAX_S = 5.0
 FIT, SELECT, REPORT, WARMUP = 0, 1, 2, -1
 ROLE_PATTERN = (FIT, SELECT, FIT, REPORT)
+# A bench recording's sidecar carries the compensator's mu (comp.mu read from the device) with
+# "mu_source": "compensator": what the controller assumes, not a measurement of the plant. The
+# audit fits mu then: taking it as known named four false causes for a plant whose mu was 0.09
+# against the compensator's 0.075 (tests/audit/test_audit_bench.py).
+MU_SOURCE_COMPENSATOR = "compensator"
 ROLE_NAMES = {FIT: "fit", SELECT: "selection", REPORT: "report", WARMUP: "warm-up"}
 # A periodic input (a bench's waveform) that the record holds at least MIN_PERIODS times can
 # lock the blocks to its phase: a 12 s recording of a 0.5 Hz sine gets blocks of 0.5 s, whose
@@ -100,7 +105,14 @@ class DecisionRule:
       model as a structured residual (the errors-in-variables bias of a hysteresis), which a
       candidate can partly absorb: on FMU data with no effect an offset of 0.011 N took 0.28
       sigma_out of it, and two candidates took 0.5 sigma_out on a closed-loop `bowden sim` trace
-      while explaining nothing on its report blocks.
+      while explaining nothing on its report blocks. The sampling error of the record joins
+      the sensor noises in that sum (sampling_error_n): the record gives the input at its
+      sample instants only, and where between two samples the unrecorded path of the input
+      reaches its extremes, which the friction model holds, is unknown; with that instant
+      uniform over a sample the nominal prediction is uncertain by its change over one sample
+      / sqrt(12), RMS (as a quantizer's q / sqrt(12), in time). On the bench emulator (telemetry
+      at 1 kHz of a plant run at 10 kHz, no sensor noise) this error left 2 to 11 mN that a
+      sensor offset, gain or friction drift took 4 to 8 mN of, with z above 100.
     The largest such candidate is taken. It is marked ambiguous when the runner-up stops being
     significant once it is in the model and the two differ by a paired z under `separation_z`.
     At most `max_findings` rounds.
@@ -113,18 +125,18 @@ class DecisionRule:
     separation_z: float = 2.0
     max_findings: int = 4
 
-    def min_rms_n(self, noise_out_n: float, noise_in_n: float) -> float:
-        """The smallest RMS a finding must remove on data with these sensor noises."""
-        return max(
-            self.min_effect_rms_n, self.min_effect_noise_ratio * math.hypot(noise_out_n, noise_in_n)
-        )
+    def min_rms_n(self, noise_out_n: float, noise_in_n: float, sampling_n: float = 0.0) -> float:
+        """The smallest RMS a finding must remove on data with these sensor noises and this
+        sampling error."""
+        combined = math.sqrt(noise_out_n**2 + noise_in_n**2 + sampling_n**2)
+        return max(self.min_effect_rms_n, self.min_effect_noise_ratio * combined)
 
     def text(self) -> str:
         return (
             f"a finding removes >= {self.min_explained_pct:g} % of the selection blocks' residual "
             f"mean square, with paired z >= {self.min_z:g} against the sensor noise and >= "
             f"{self.min_effect_rms_n * 1000:.1f} mN RMS and {self.min_effect_noise_ratio:g} x the "
-            "combined sensor noise; the largest is taken, then the next round"
+            "combined sensor noise and sampling error; the largest is taken, then the next round"
         )
 
 
@@ -168,6 +180,8 @@ class AuditData:
     rate_n_s: np.ndarray  # smoothed dT_in/dt, for plots and correlates
     input_kept: int = 0  # samples of the input kept as measured (smooth_input: fast changes)
     block_note: str = ""  # why the block length is not the default (a periodic input)
+    mu_from_compensator: bool = False  # the sidecar's mu was the compensator's: not used
+    sampling_error_n: float = 0.0  # the nominal model's uncertainty from the sampling (run)
 
     @property
     def has_positions(self) -> bool:
@@ -294,6 +308,8 @@ def prepare(tr: trace_mod.Trace, source: str) -> AuditData:
     )
     roles, block_s, block_note = _roles(n, rate, t_in)
     mu = tr.meta.get("mu")
+    if tr.meta.get("mu_source") == MU_SOURCE_COMPENSATOR:
+        mu = None  # the controller's setting, not the plant's: fitted
     return AuditData(
         source=source,
         t_s=t_s,
@@ -306,6 +322,7 @@ def prepare(tr: trace_mod.Trace, source: str) -> AuditData:
         decimation=q,
         block_s=block_s,
         block_note=block_note,
+        mu_from_compensator=tr.meta.get("mu_source") == MU_SOURCE_COMPENSATOR,
         noise_floor_n=noise_std(t_out),
         input_noise_n=input_noise,
         mu_given=None if mu is None else float(mu),
@@ -681,6 +698,7 @@ def run(
 
     tick("fitting the nominal model (capstan friction, dead zone, phi from the geometry)")
     baseline = fit_model(data, ())
+    data.sampling_error_n = sampling_error(data, baseline.prediction)
     current = baseline
     steps = [baseline]
     rounds: list[Round] = []
@@ -702,7 +720,9 @@ def run(
             z = paired_z(data, r0, m.residual(data))
             rms_removed = math.sqrt(max(removed, 0.0))
             sig = pct >= rule.min_explained_pct and z >= rule.min_z
-            sig = sig and rms_removed >= rule.min_rms_n(data.noise_floor_n, data.input_noise_n)
+            sig = sig and rms_removed >= rule.min_rms_n(
+                data.noise_floor_n, data.input_noise_n, data.sampling_error_n
+            )
             cands.append(Candidate(e, m, pct, rms_removed, z, sig))
         sig = sorted((c for c in cands if c.significant), key=lambda c: -c.explained_pct)
         chosen = sig[0] if sig else None
@@ -749,6 +769,13 @@ def run(
     return result
 
 
+def sampling_error(data: AuditData, prediction: np.ndarray) -> float:
+    """The prediction's uncertainty from the sampling of its input (DecisionRule): the RMS of
+    its change over one sample / sqrt(12), over the scored record."""
+    step = np.diff(prediction)[data.roles[1:] != WARMUP]
+    return float(np.sqrt(np.mean(step * step)) / math.sqrt(12.0)) if step.size else 0.0
+
+
 def _passes(data: AuditData, without: Model, with_: Model, rule: DecisionRule) -> bool:
     """The decision rule for `with_` against `without` on the selection blocks."""
     ms0, ms1 = without.ms(data, SELECT), with_.ms(data, SELECT)
@@ -758,7 +785,8 @@ def _passes(data: AuditData, without: Model, with_: Model, rule: DecisionRule) -
     return (
         pct >= rule.min_explained_pct
         and z >= rule.min_z
-        and math.sqrt(max(removed, 0.0)) >= rule.min_rms_n(data.noise_floor_n, data.input_noise_n)
+        and math.sqrt(max(removed, 0.0))
+        >= rule.min_rms_n(data.noise_floor_n, data.input_noise_n, data.sampling_error_n)
     )
 
 

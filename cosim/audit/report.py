@@ -99,6 +99,7 @@ def to_dict(result: AuditResult) -> dict:
             "sheath_length_m": d.inputs.sheath_length_m,
             "loop_routing": d.inputs.loop_routing,
             "mu_given": d.mu_given,
+            "mu_from_compensator": d.mu_from_compensator,
             "sidecar_defaults": list(d.defaulted),
             "noise_floor_n": _num(d.noise_floor_n),
             "input_noise_n": _num(d.input_noise_n),
@@ -121,7 +122,9 @@ def to_dict(result: AuditResult) -> dict:
             "min_z": result.rule.min_z,
             "min_effect_rms_n": result.rule.min_effect_rms_n,
             "min_effect_noise_ratio": result.rule.min_effect_noise_ratio,
-            "min_effect_rms_here_n": _num(result.rule.min_rms_n(d.noise_floor_n, d.input_noise_n)),
+            "min_effect_rms_here_n": _num(
+                result.rule.min_rms_n(d.noise_floor_n, d.input_noise_n, d.sampling_error_n)
+            ),
             "separation_z": result.rule.separation_z,
         },
         "baseline": {
@@ -172,7 +175,9 @@ def summary(result: AuditResult) -> str:
     mu_src = (
         "mu from the sidecar"
         if d.mu_fixed
-        else "mu fitted" + ("" if d.has_positions else " (mu*phi)")
+        else "mu fitted"
+        + ("" if d.has_positions else " (mu*phi)")
+        + (" (the sidecar's mu is the compensator's setting)" if d.mu_from_compensator else "")
     )
     lines = [
         f"bowden audit: {d.source}",
@@ -184,7 +189,7 @@ def summary(result: AuditResult) -> str:
         + (f"; sidecar defaults: {', '.join(d.defaulted)}" if d.defaulted else ""),
         f"  split    {d.split_text()}",
         f"  noise    output sensor {d.noise_floor_n:.4f} N, input sensor {d.input_noise_n:.4f} N"
-        " (white part, from second differences)",
+        f" (white part, from second differences); sampling {d.sampling_error_n:.4f} N",
         f"  baseline nominal FMU, mu = {result.baseline.params['mu']:.5f}: RMS {base_rms:.4f} N, "
         f"held-out {result.holdout_rms_before_n:.4f} N",
         f"  rule     {result.rule.text()}",

@@ -151,7 +151,10 @@ def record_run(
         "sample_rate_hz": rate_hz,
         "sheath_length_m": float(sheath_length_m),
         "loop_routing": bool(loop_routing),
+        # The compensator's mu (the full trace format requires a mu): what the controller
+        # assumes, not a measurement of the plant, so the audit fits its own (mu_source).
         "mu": float(client.get("comp.mu")),
+        "mu_source": "compensator",
         "source": "bowden bench",
         "device": client.link.url,
         "waveform": waveform,
