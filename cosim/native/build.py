@@ -86,10 +86,21 @@ def _run(cmd: list[str], log: Path) -> None:
 
 
 def build(force: bool = False) -> Path:
-    """Build libbowden_native.so, or reuse it when up to date; return its path."""
+    """Build libbowden_native.so, or reuse it when up to date; return its path. Processes that
+    build at the same time (tests, a sweep's client) take turns on a lock file: the second one
+    finds the first one's build up to date."""
+    import fcntl  # noqa: PLC0415
+
     setup_env()
     if not FW_LIB.is_file():
         raise RuntimeError(f"{FW_LIB} does not exist: run `make firmware` first")
+    OUT_DIR.mkdir(parents=True, exist_ok=True)
+    with open(OUT_DIR / ".build.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        return _build_locked(force)
+
+
+def _build_locked(force: bool) -> Path:
     stamp = OUT_DIR / "fingerprint.txt"
     fp = fingerprint()
     if not force and LIB_PATH.is_file() and stamp.is_file() and stamp.read_text() == fp:

@@ -154,12 +154,27 @@ def run_sweep(
     return [have[p.point_id] for p in points if p.point_id in have]
 
 
+# Dask's connection timeouts (30 s by default) for a cluster on a loaded machine: starting a
+# worker process that imports numpy and distributed took longer than that on 2 cores at load 9.
+DASK_TIMEOUTS = {
+    "distributed.comm.timeouts.connect": "180s",
+    "distributed.comm.timeouts.tcp": "180s",
+}
+
+
 def _dask_run(todo, spec_dict, out_dir, scheduler, workers, progress, log) -> None:
+    import dask  # noqa: PLC0415
+
+    with dask.config.set(DASK_TIMEOUTS):
+        _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log)
+
+
+def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log) -> None:
     from distributed import Client, LocalCluster, as_completed  # noqa: PLC0415
 
     cluster = None
     if scheduler:
-        client = Client(scheduler, timeout="20s")
+        client = Client(scheduler, timeout="60s")
     else:
         n = workers or os.cpu_count() or 1
         cluster = LocalCluster(
