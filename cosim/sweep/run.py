@@ -174,7 +174,14 @@ def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log) ->
 
     cluster = None
     if scheduler:
-        client = Client(scheduler, timeout="60s")
+        try:
+            # An existing scheduler answers at once; a wrong address fails in seconds.
+            client = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            msg = str(exc).strip().splitlines()
+            raise RuntimeError(
+                f"cannot connect to the Dask scheduler {scheduler} ({msg[0] if msg else exc})"
+            ) from None
     else:
         n = workers or os.cpu_count() or 1
         cluster = LocalCluster(

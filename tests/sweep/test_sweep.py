@@ -215,3 +215,69 @@ def test_scenario_and_interface_axes_make_their_runs():
         "characterize": "none",
         "fig14": "paper",
     }
+
+
+def test_sweep_runs_on_an_existing_cluster_given_by_scheduler(native, tmp_path):
+    """--scheduler tcp://HOST:PORT sends the points to a running cluster (here one worker thread
+    in this process) instead of starting a local one."""
+    from distributed import LocalCluster
+
+    spec_path = tmp_path / "spec.yaml"
+    spec_path.write_text(
+        "scenario: fig14\nduration_s: 0.2\naxes:\n  compensator: [paper, smooth]\n"
+    )
+    out = tmp_path / "out"
+    with LocalCluster(
+        n_workers=1,
+        threads_per_worker=1,
+        processes=False,
+        protocol="tcp://",
+        dashboard_address=None,
+    ) as cluster:
+        proc = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "cosim",
+                "sweep",
+                str(spec_path),
+                "--out",
+                str(out),
+                "--scheduler",
+                cluster.scheduler_address,
+            ],
+            capture_output=True,
+            text=True,
+            check=False,
+            timeout=300,
+        )
+    assert proc.returncode == 0, proc.stderr
+    assert cluster.scheduler_address in proc.stderr
+    rows = read_table(out / sweep_run.TABLE)
+    assert sorted(r["compensator"] for r in rows) == ["paper", "smooth"]
+    assert all(r["status"] == "ok" for r in rows), rows
+
+
+def test_sweep_unreachable_scheduler_is_one_line(tmp_path):
+    spec_path = tmp_path / "spec.yaml"
+    spec_path.write_text("duration_s: 0.05\n")
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "cosim",
+            "sweep",
+            str(spec_path),
+            "--out",
+            str(tmp_path / "o"),
+            "--scheduler",
+            "tcp://127.0.0.1:9",
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=300,
+    )
+    assert proc.returncode == 1
+    assert proc.stderr.count("\n") == 1 and "cannot connect" in proc.stderr, proc.stderr
