@@ -17,7 +17,8 @@ order 1 averages over [d_i - P, d_i] (single-cycle settling, the ADS1220), order
 over [d_i - 3P, d_i] (the ADS131M02). Between plant samples T_in_meas is taken as linear, and the
 kernel is evaluated at KERNEL_NODES_PER_PERIOD midpoints per period (the definition all three
 chains share, so that they see the same value). The FPGA's reader clocks the result out in
-read_clks board clocks after DRDY; the result reaches the core's tick k+1 when
+`reader_latency_clks` board clocks after DRDY, and bowden_system's pipeline takes CORE_PIPE_CLKS
+more to the core: read_clks in all; the result reaches the core's tick k+1 when
 d_i + read_clks / clk_hz <= t_k+1, and only the newest such result is handed over (the core keeps
 the latest sample). The fixed-point chains get the 24-bit code (`rtl_model.adc_code_from_tension`,
 clipped at the rails), the float reference the value.
@@ -61,6 +62,10 @@ from . import rtl_model
 
 INTERFACES = ("board", "adc", "ideal")
 
+# Registers between the front-end's reader and the core in bowden_system (placed for the
+# iCE40's timing; hdl/rtl/bowden_system.v).
+CORE_PIPE_CLKS = 2
+
 # Kernel nodes per conversion period (midpoint rule): the shared definition of a conversion.
 KERNEL_NODES_PER_PERIOD = 8
 
@@ -94,9 +99,10 @@ ADC_PARTS = {
 
 
 def reader_latency_clks(frame_bits: int, sclk_half_clks: int) -> int:
-    """Clocks from DRDY falling at the pin to adc_valid of the FPGA's reader (ads1220_reader.v:
-    two synchronizer flops, one clock to start, two SCLK half periods per bit, one clock to
-    register the result); tests/hdl/test_ads1220_reader.py measures it."""
+    """Clocks from DRDY falling at the pin to adc_valid of the FPGA's reader (ads1220_reader.v,
+    ads131m02_reader.v: two synchronizer flops, one clock to start, two SCLK half periods per
+    bit, one clock to register the result); tests/hdl/test_ads1220_reader.py and
+    test_ads131m02_reader.py measure it."""
     return 2 + 1 + 2 * sclk_half_clks * frame_bits + 1
 
 
@@ -152,7 +158,8 @@ class AdcModel:
         self.dt = 1.0 / sample_rate_hz
         self.period = part.period_s
         self.phase = phase_s
-        self.read_s = reader_latency_clks(part.frame_bits, sclk_half_clks) / clk_hz
+        read_clks = reader_latency_clks(part.frame_bits, sclk_half_clks) + CORE_PIPE_CLKS
+        self.read_s = read_clks / clk_hz
         self.offsets, self.weights = _kernel(part.filter_order, part.period_s)
         self.hist: list[float] = []  # T_in_meas at t_j = j * dt
         self.last = -1  # index of the last conversion handed over

@@ -40,6 +40,8 @@ T_IN = 0x48
 U = 0x4C
 INTEG = 0x50
 TC_EFF = 0x54
+T_OUT = 0x80
+ADC_FLAGS = 0x84
 
 CTRL_ENABLE = 0x1
 CTRL_INTEG_RESET = 0x2
@@ -53,6 +55,8 @@ FAULT_ADC_STALE = 0x1
 FAULT_ADC_RANGE = 0x2
 FAULT_WATCHDOG = 0x4
 FAULT_OVERCURRENT = 0x8
+ADC_FLAGS_DRDY_LOST = 0x1
+ADC_FLAGS_CRC_ERR = 0x2
 
 
 @dataclass(frozen=True)
@@ -212,6 +216,19 @@ REGISTERS: dict[str, Register] = {
         "TC_EFF",
         0x54,
         (Field("VALUE", 0, 16, "ro", True, 8, 0),),
+    ),
+    "T_OUT": Register(
+        "T_OUT",
+        0x80,
+        (Field("VALUE", 0, 24, "ro", True, 0, 0),),
+    ),
+    "ADC_FLAGS": Register(
+        "ADC_FLAGS",
+        0x84,
+        (
+            Field("DRDY_LOST", 0, 1, "ro", False, 0, 0),
+            Field("CRC_ERR", 1, 1, "ro", False, 0, 0),
+        ),
     ),
 }
 

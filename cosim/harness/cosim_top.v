@@ -81,6 +81,8 @@ bowden_core #(.CLKS_PER_SAMPLE(CLKS_PER_SAMPLE)) core (
     .s_axil_rdata(s_axil_rdata), .s_axil_rresp(s_axil_rresp),
     .s_axil_rvalid(s_axil_rvalid), .s_axil_rready(s_axil_rready),
     .adc_valid(adc_valid), .adc_data(adc_word[23:0]),
+    // The harness hands over T_in only (T_out is recorded from the plant directly).
+    .adc_aux_data(24'd0), .adc_drdy_lost(1'b0), .adc_crc_err(1'b0),
     .cmd_current(cmd_current), .cmd_enable(cmd_enable), .cmd_valid(cmd_valid),
     .fault(fault), .pwm(pwm_unused), .sample_tick(sample_tick)
 );

@@ -236,4 +236,20 @@
 #define BOWDEN_TC_EFF_MASK 0x0000FFFFu
 #define BOWDEN_TC_EFF_FRAC_BITS 8u
 
+/* T_OUT: Raw code of the output load cell (ADS131M02 CH1, sampled with T_in), from the last good frame; 0 with the ADS1220 front-end. Not used by the loop: for evaluation and the model audit. */
+#define BOWDEN_REG_T_OUT 0x80u
+/* VALUE (ro Q23.0 code): T_out_meas ADC code */
+#define BOWDEN_T_OUT_SHIFT 0u
+#define BOWDEN_T_OUT_MASK 0x00FFFFFFu
+#define BOWDEN_T_OUT_FRAC_BITS 0u
+
+/* ADC_FLAGS: Front-end state (read-only, live). A lost DRDY or a bad frame gives no sample, so FAULT.ADC_STALE latches after ADC_STALE samples. */
+#define BOWDEN_REG_ADC_FLAGS 0x84u
+/* DRDY_LOST (ro): No DRDY falling edge for the reader's timeout (4 conversion periods) */
+#define BOWDEN_ADC_FLAGS_DRDY_LOST_SHIFT 0u
+#define BOWDEN_ADC_FLAGS_DRDY_LOST_MASK 0x00000001u
+/* CRC_ERR (ro): The last frame's CRC did not match (dropped) */
+#define BOWDEN_ADC_FLAGS_CRC_ERR_SHIFT 1u
+#define BOWDEN_ADC_FLAGS_CRC_ERR_MASK 0x00000002u
+
 #endif /* BOWDEN_REGS_H */

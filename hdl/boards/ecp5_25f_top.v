@@ -5,7 +5,7 @@
 /*
  * ECP5 LFE5U-25F board top (pinout of the Radiona ULX3S, CABGA381; see ecp5_25f.lpf):
  * bowden_system (bowden_core) at 100 MHz from the 25 MHz oscillator through a PLL, an external
- * MCU on the GPIO header through the SPI bridge, an ADS1220 load-cell ADC and the ESCON drive.
+ * MCU on the GPIO header through the SPI bridge, an ADS131M02 load-cell ADC (T_in, T_out) and the ESCON drive.
  */
 module ecp5_25f_top (
     input  wire clk_25mhz,
@@ -19,7 +19,7 @@ module ecp5_25f_top (
     output wire mcu_miso,
 
     /*
-     * ADS1220
+     * ADS131M02 (SPI mode 1; CLKIN from an 8.192 MHz oscillator on the board)
      */
     output wire adc_sclk,
     output wire adc_cs_n,
@@ -97,9 +97,10 @@ end
 wire [15:0] cmd_current;
 wire        cmd_valid, fault, sample_tick;
 
-// SCLK = 100 MHz / 2 / 16 = 3.1 MHz (ADS1220 allows up to ~6.6 MHz).
+// ADS131M02: SCLK = 100 MHz / 2 / 8 = 6.25 MHz (up to 25 MHz), a 96-bit frame in 15.4 us of
+// its 31.25 us conversion period.
 bowden_system #(
-    .CLK_HZ(CLK_HZ), .ADC_SCLK_HALF_CLKS(16), .ADC_WAIT_CLKS(32768)
+    .CLK_HZ(CLK_HZ), .ADC_ADS131M02(1), .ADC_SCLK_HALF_CLKS(8), .ADC_WAIT_CLKS(32768)
 ) system (
     .clk(clk), .rst(rst),
     .mcu_sck(mcu_sck), .mcu_cs_n(mcu_cs_n), .mcu_mosi(mcu_mosi), .mcu_miso(mcu_miso),

@@ -48,6 +48,7 @@ TASKS = [
     "pwm_escon:prove_100mhz",
     "pwm_escon:prove_1mhz",
     "pwm_escon:cover",
+    "ads131m02_reader:prove",
 ]
 
 
@@ -64,6 +65,14 @@ class Mutant:
 
 
 MUTANTS = [
+    Mutant(
+        "drdy_timeout_stopped",
+        "reader: a stuck DRDY raises drdy_lost",
+        "ads131m02_reader.v",
+        "    to_next = (to_reg == TO_LIMIT) ? to_reg : to_reg + 1'b1;",
+        "    to_next = to_reg;",
+        "ads131m02_reader:bmc",
+    ),
     Mutant(
         "u_clamp_removed",
         "1 current limit",

@@ -31,7 +31,7 @@
  * ADS1220 front-end.
  */
 module ads131m02_reader #(
-    parameter SCLK_HALF_CLKS = 4,            // SCLK half period in clocks (48 MHz -> 6 MHz)
+    parameter SCLK_HALF_CLKS = 4,            // SCLK half period in clocks (48 MHz -> 6 MHz), >= 3
     parameter WAIT_CLKS = 16384,             // wait after power-up before configuring, clocks
     parameter [15:0] CLOCK_REG = 16'h0302,   // CLOCK register: CH0/CH1 on, OSR 128, high res.
     parameter [15:0] GAIN_REG = 16'h0077,    // GAIN1 register: PGA 128 on CH0 and CH1
@@ -65,9 +65,20 @@ module ads131m02_reader #(
     output wire        drdy_lost      // no DRDY falling edge for DRDY_TIMEOUT_CLKS
 );
 
+// Parameter check: DOUT passes two synchronizer flops and is sampled SCLK_HALF_CLKS clocks after
+// the rising edge that launched it, so a half period must span them and the ADC's output delay.
+generate
+    if (SCLK_HALF_CLKS < 3) begin : g_check
+        ads131m02_reader_SCLK_HALF_CLKS_must_be_at_least_3 error_SCLK_HALF_CLKS ();
+    end
+endgenerate
+
 localparam FRAME_BITS = 96;  // 4 words of 24 bits: response, CH0, CH1, CRC
 localparam [15:0] CRC_POLY = 16'h1021;  // CCITT
 localparam [15:0] WREG_CLOCK_GAIN = 16'h6181;  // WREG from 0x03, two registers (n = 1)
+// The configuration frame, bit i sent when i + 1 bits are left (MSB first); the CRC word's slot
+// sends zeros. Read frames send NULL (all zeros): DIN needs no shift register.
+localparam [95:0] CONFIG_FRAME = {WREG_CLOCK_GAIN, 8'd0, CLOCK_REG, 8'd0, GAIN_REG, 8'd0, 24'd0};
 
 localparam [1:0] S_WAIT = 2'd0, S_CONFIG = 2'd1, S_IDLE = 2'd2, S_READ = 2'd3;
 localparam WAIT_W = $clog2(WAIT_CLKS + 1);
@@ -82,7 +93,6 @@ reg               wait_hit_reg, wait_hit_next;
 reg  [SCLK_HALF_CLKS-1:0] ring_reg, ring_next;  // one-hot: a half SCLK period ends at bit 0
 reg               sclk_reg, sclk_next;
 reg  [6:0]        bits_reg, bits_next;    // bits left in the frame
-reg  [71:0]       tx_reg, tx_next;        // MSB goes out first; the CRC word's slot sends zeros
 reg  [71:0]       rx_reg, rx_next;        // the frame's first three words
 reg  [15:0]       crc_reg, crc_next;      // remainder over the bits received so far
 reg               din_reg, din_next;
@@ -95,6 +105,11 @@ reg  [TO_W-1:0]   to_reg, to_next;        // clocks since the last DRDY edge (sa
 reg  [2:0]        drdy_sync_reg;          // two synchronizer flops and the previous level
 reg  [1:0]        dout_sync_reg;
 reg               cs_n_reg;               // one clock behind the state: SCLK idles around CS
+// Decodes of the bit count, registered: the count changes only on SCLK falling edges, at least
+// SCLK_HALF_CLKS (>= 3) clocks apart, so the flags have settled when the next edge uses them,
+// and the 72 receive flops' enable is one LUT.
+reg               rx_keep_reg;            // bits_reg > 24: the bit belongs to the first 3 words
+reg               last_reg;               // bits_reg == 1: this falling edge ends the frame
 
 localparam [SCLK_HALF_CLKS-1:0] RING_START = {1'b1, {(SCLK_HALF_CLKS-1){1'b0}}};
 wire half_done = ring_reg[0];
@@ -110,7 +125,6 @@ always @* begin
     ring_next = {ring_reg[0], ring_reg[SCLK_HALF_CLKS-1:1]};
     sclk_next = sclk_reg;
     bits_next = bits_reg;
-    tx_next = tx_reg;
     rx_next = rx_reg;
     crc_next = crc_reg;
     din_next = din_reg;
@@ -133,15 +147,13 @@ always @* begin
             if (wait_hit_reg) begin
                 state_next = S_CONFIG;
                 bits_next = FRAME_BITS[6:0];
-                tx_next = {WREG_CLOCK_GAIN, 8'd0, CLOCK_REG, 8'd0, GAIN_REG, 8'd0};
             end
         end
         S_IDLE: begin
             ring_next = RING_START;
             if (drdy_fall) begin
                 state_next = S_READ;
-                bits_next = FRAME_BITS[6:0];
-                tx_next = 72'd0;  // NULL command: the response word is STATUS
+                bits_next = FRAME_BITS[6:0];  // NULL command: the response word is STATUS
                 crc_next = 16'hFFFF;
             end
         end
@@ -150,16 +162,16 @@ always @* begin
             if (half_done) begin
                 sclk_next = !sclk_reg;
                 if (!sclk_reg) begin
-                    din_next = tx_reg[71];
-                    tx_next = {tx_reg[70:0], 1'b0};
+                    // bits_reg - 1 is in 0..95 here (a frame has 96 bits left at its start).
+                    din_next = (state_reg == S_CONFIG) && CONFIG_FRAME[bits_reg - 1'b1];
                 end else begin
                     crc_next = {crc_reg[14:0], 1'b0} ^ (crc_fb ? CRC_POLY : 16'h0000);
                     bits_next = bits_reg - 1'b1;
-                    if (bits_reg > 7'd24) begin
+                    if (rx_keep_reg) begin
                         // The CRC word only enters the remainder.
                         rx_next = {rx_reg[70:0], rx_bit};
                     end
-                    if (bits_reg == 7'd1) begin
+                    if (last_reg) begin
                         state_next = S_IDLE;
                         if (state_reg == S_READ) begin
                             // crc_next is the remainder over the whole frame: zero if it
@@ -188,7 +200,6 @@ always @(posedge clk) begin
     ring_reg <= ring_next;
     sclk_reg <= sclk_next;
     bits_reg <= bits_next;
-    tx_reg <= tx_next;
     rx_reg <= rx_next;
     crc_reg <= crc_next;
     din_reg <= din_next;
@@ -201,6 +212,8 @@ always @(posedge clk) begin
     drdy_sync_reg <= {drdy_sync_reg[1:0], adc_drdy_n};
     dout_sync_reg <= {dout_sync_reg[0], adc_dout};
     cs_n_reg <= !(state_reg == S_CONFIG || state_reg == S_READ);
+    rx_keep_reg <= bits_reg > 7'd24;
+    last_reg <= bits_reg == 7'd1;
     if (rst) begin
         state_reg <= S_WAIT;
         wait_reg <= {WAIT_W{1'b0}};
@@ -226,6 +239,51 @@ assign adc_aux_data = ch1_reg;
 assign adc_status = status_reg;
 assign crc_error = crc_err_reg;
 assign drdy_lost = (to_reg == TO_LIMIT);
+
+`ifdef FORMAL
+// --- formal properties (hdl/formal/ads131m02_reader.sby; hdl/README.md says what is proven) --
+//
+// A stuck or absent DRDY raises drdy_lost: once the reader is past its power-up wait, a DRDY
+// pin that holds its level (high: absent; low: stuck) for DRDY_TIMEOUT_CLKS + 2 clocks, for
+// any DOUT and any reset history, has drdy_lost set. No DRDY edge means no frame, so the core
+// gets no sample and latches FAULT.ADC_STALE (bowden_core's fault path).
+
+reg f_past_valid = 1'b0;
+always @(posedge clk) f_past_valid <= 1'b1;
+always @* if (!f_past_valid) assume(rst);
+
+localparam integer F_MAX_INT = DRDY_TIMEOUT_CLKS + 2;
+localparam [TO_W+1:0] F_MAX = F_MAX_INT[TO_W+1:0];
+
+reg            f_drdy_past;                 // the pin at the last edge
+reg [TO_W+1:0] f_quiet;                     // edges since the pin last changed, past S_WAIT
+
+always @(posedge clk) begin
+    f_drdy_past <= adc_drdy_n;
+    if (adc_drdy_n != f_drdy_past || state_reg == S_WAIT) begin
+        f_quiet <= {(TO_W+2){1'b0}};
+    end else if (f_quiet != F_MAX) begin
+        f_quiet <= f_quiet + 1'b1;
+    end
+    if (rst) begin
+        f_drdy_past <= 1'b1;
+        f_quiet <= {(TO_W+2){1'b0}};
+    end
+end
+
+always @* if (f_past_valid && !rst) begin
+    // The property.
+    if (f_quiet == F_MAX) assert(drdy_lost);
+    // Induction helpers: the synchronizer holds the pin's recent levels, and the timeout
+    // counter has run at least as long as the pin has been quiet.
+    assert(f_drdy_past == drdy_sync_reg[0]);
+    if (f_quiet >= 1) assert(drdy_sync_reg[1] == drdy_sync_reg[0] && state_reg != S_WAIT);
+    if (f_quiet >= 2) assert(drdy_sync_reg[2] == drdy_sync_reg[1]);
+    if (f_quiet >= 2) assert(to_reg == TO_LIMIT || {2'b00, to_reg} + 2 >= f_quiet);
+    assert(to_reg <= TO_LIMIT);
+    assert(f_quiet <= F_MAX);
+end
+`endif
 
 endmodule
 

@@ -51,6 +51,9 @@ module bowden_core #(
      */
     input  wire              adc_valid,
     input  wire [23:0]       adc_data,     // signed 24-bit code
+    input  wire [23:0]       adc_aux_data, // T_out's signed 24-bit code (read back as T_OUT)
+    input  wire              adc_drdy_lost, // front-end flags, read back in ADC_FLAGS
+    input  wire              adc_crc_err,
 
     /*
      * Drive
@@ -144,7 +147,8 @@ bowden_regs #(.ADDR_W(ADDR_W)) regs (
     .wdt_timeout(wdt_timeout), .adc_offset(adc_offset), .adc_gain(adc_gain),
     .adc_min(adc_min), .adc_max(adc_max), .adc_stale(adc_stale), .oc_timeout(oc_timeout),
     .hw_sample_count(sample_count), .hw_t_in(t_in), .hw_u(u), .hw_integ(integ),
-    .hw_tc_eff(tc_eff)
+    .hw_tc_eff(tc_eff), .hw_t_out(adc_aux_data), .hw_adc_flags_drdy_lost(adc_drdy_lost),
+    .hw_adc_flags_crc_err(adc_crc_err)
 );
 
 // --- loop and drive ------------------------------------------------------------------------

@@ -67,7 +67,10 @@ module bowden_regs #(
     input  wire [15:0]  hw_t_in,  // T_IN Q7.8
     input  wire [15:0]  hw_u,  // U Q3.12
     input  wire [31:0]  hw_integ,  // INTEG Q3.28
-    input  wire [15:0]  hw_tc_eff   // TC_EFF Q7.8
+    input  wire [15:0]  hw_tc_eff,  // TC_EFF Q7.8
+    input  wire [23:0]  hw_t_out,  // T_OUT Q23.0
+    input  wire         hw_adc_flags_drdy_lost,  // ADC_FLAGS
+    input  wire         hw_adc_flags_crc_err   // ADC_FLAGS
 );
 
 // Word addresses: the two low address bits select a byte and are ignored.
@@ -93,10 +96,12 @@ localparam [ADDR_W-3:0] A_T_IN = 6'd18;
 localparam [ADDR_W-3:0] A_U = 6'd19;
 localparam [ADDR_W-3:0] A_INTEG = 6'd20;
 localparam [ADDR_W-3:0] A_TC_EFF = 6'd21;
+localparam [ADDR_W-3:0] A_T_OUT = 6'd32;
+localparam [ADDR_W-3:0] A_ADC_FLAGS = 6'd33;
 
 wire [ADDR_W-3:0] wr_word = reg_wr_addr[ADDR_W-1:2];
 wire [ADDR_W-3:0] rd_word = reg_rd_addr[ADDR_W-1:2];
-reg  [21:0]        rd_sel;   // one-hot register select of the read in flight
+reg  [23:0]        rd_sel;   // one-hot register select of the read in flight
 reg               rd_miss;  // the read address is unmapped
 reg               rd_pend;  // a read is in its second cycle
 reg  [31:0]       rd_grp0;  // OR of registers 0..3
@@ -104,7 +109,7 @@ reg  [31:0]       rd_grp1;  // OR of registers 4..7
 reg  [31:0]       rd_grp2;  // OR of registers 8..11
 reg  [31:0]       rd_grp3;  // OR of registers 12..15
 reg  [31:0]       rd_grp4;  // OR of registers 16..19
-reg  [31:0]       rd_grp5;  // OR of registers 20..21
+reg  [31:0]       rd_grp5;  // OR of registers 20..23
 reg               rd_miss2;
 reg               rd_pend2;  // a read is in its third cycle
 reg               rd_valid;  // reg_rd_data holds a new read
@@ -174,6 +179,8 @@ wire [31:0] rword_t_in = {{16{hw_t_in[15]}}, hw_t_in};
 wire [31:0] rword_u = {{16{hw_u[15]}}, hw_u};
 wire [31:0] rword_integ = {hw_integ};
 wire [31:0] rword_tc_eff = {{16{hw_tc_eff[15]}}, hw_tc_eff};
+wire [31:0] rword_t_out = {{8{hw_t_out[23]}}, hw_t_out};
+wire [31:0] rword_adc_flags = {30'd0, hw_adc_flags_crc_err, hw_adc_flags_drdy_lost};
 
 always @* begin
     ctrl_enable_next = ctrl_enable_reg;
@@ -281,6 +288,12 @@ always @* begin
             A_TC_EFF: begin
                 wr_hit = 1'b1;
             end
+            A_T_OUT: begin
+                wr_hit = 1'b1;
+            end
+            A_ADC_FLAGS: begin
+                wr_hit = 1'b1;
+            end
             default: wr_hit = 1'b0;
         endcase
     end
@@ -340,7 +353,9 @@ always @(posedge clk) begin
         | ({32{rd_sel[18]}} & rword_t_in)
         | ({32{rd_sel[19]}} & rword_u);
     rd_grp5 <= ({32{rd_sel[20]}} & rword_integ)
-        | ({32{rd_sel[21]}} & rword_tc_eff);
+        | ({32{rd_sel[21]}} & rword_tc_eff)
+        | ({32{rd_sel[22]}} & rword_t_out)
+        | ({32{rd_sel[23]}} & rword_adc_flags);
     if (reg_rd_en) begin
         rd_sel[0] <= (rd_word == A_ID);
         rd_sel[1] <= (rd_word == A_CTRL);
@@ -364,6 +379,8 @@ always @(posedge clk) begin
         rd_sel[19] <= (rd_word == A_U);
         rd_sel[20] <= (rd_word == A_INTEG);
         rd_sel[21] <= (rd_word == A_TC_EFF);
+        rd_sel[22] <= (rd_word == A_T_OUT);
+        rd_sel[23] <= (rd_word == A_ADC_FLAGS);
         rd_miss <= !(
             (rd_word == A_ID) ||
             (rd_word == A_CTRL) ||
@@ -386,7 +403,9 @@ always @(posedge clk) begin
             (rd_word == A_T_IN) ||
             (rd_word == A_U) ||
             (rd_word == A_INTEG) ||
-            (rd_word == A_TC_EFF));
+            (rd_word == A_TC_EFF) ||
+            (rd_word == A_T_OUT) ||
+            (rd_word == A_ADC_FLAGS));
     end
     rd_err_reg <= rd_err_next;
 
@@ -472,6 +491,8 @@ wire [31:0] f_reset =
     (f_a == A_U) ? 32'h00000000 :
     (f_a == A_INTEG) ? 32'h00000000 :
     (f_a == A_TC_EFF) ? 32'h00000000 :
+    (f_a == A_T_OUT) ? 32'h00000000 :
+    (f_a == A_ADC_FLAGS) ? 32'h00000000 :
     32'd0;
 wire [31:0] f_rw_mask =
     (f_a == A_ID) ? 32'h00000000 :
@@ -496,6 +517,8 @@ wire [31:0] f_rw_mask =
     (f_a == A_U) ? 32'h00000000 :
     (f_a == A_INTEG) ? 32'h00000000 :
     (f_a == A_TC_EFF) ? 32'h00000000 :
+    (f_a == A_T_OUT) ? 32'h00000000 :
+    (f_a == A_ADC_FLAGS) ? 32'h00000000 :
     32'd0;
 wire [31:0] f_const_mask =
     (f_a == A_ID) ? 32'hFFFFFFFF :
@@ -520,6 +543,8 @@ wire [31:0] f_const_mask =
     (f_a == A_U) ? 32'h00000000 :
     (f_a == A_INTEG) ? 32'h00000000 :
     (f_a == A_TC_EFF) ? 32'h00000000 :
+    (f_a == A_T_OUT) ? 32'h00000000 :
+    (f_a == A_ADC_FLAGS) ? 32'h00000000 :
     32'd0;
 wire f_a_mapped = 
     (f_a == A_ID) ||
@@ -543,7 +568,9 @@ wire f_a_mapped =
     (f_a == A_T_IN) ||
     (f_a == A_U) ||
     (f_a == A_INTEG) ||
-    (f_a == A_TC_EFF);
+    (f_a == A_TC_EFF) ||
+    (f_a == A_T_OUT) ||
+    (f_a == A_ADC_FLAGS);
 wire f_wr_mapped = 
     (wr_word == A_ID) ||
     (wr_word == A_CTRL) ||
@@ -566,7 +593,9 @@ wire f_wr_mapped =
     (wr_word == A_T_IN) ||
     (wr_word == A_U) ||
     (wr_word == A_INTEG) ||
-    (wr_word == A_TC_EFF);
+    (wr_word == A_TC_EFF) ||
+    (wr_word == A_T_OUT) ||
+    (wr_word == A_ADC_FLAGS);
 
 wire [31:0] f_strb = {{8{reg_wr_strb[3]}}, {8{reg_wr_strb[2]}}, {8{reg_wr_strb[1]}},
                       {8{reg_wr_strb[0]}}};

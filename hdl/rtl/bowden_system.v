@@ -4,17 +4,20 @@
 
 /*
  * Board-independent Bowden tension controller: bowden_core with its register map reached by an
- * external MCU through the SPI bridge, and its load-cell samples from an ADS1220 front-end.
+ * external MCU through the SPI bridge, and its load-cell samples from an ADS131M02 front-end
+ * (T_in on CH0 for the loop, T_out on CH1 read back in T_OUT; hdl/README.md, "Sensing") or,
+ * with ADC_ADS131M02 = 0, from the ADS1220 front-end of the first boards (T_in only).
  * A board top adds only its clock, its reset and its indicators.
  *
- * MCU -> spi_axil_bridge -> AXI4-Lite -> bowden_core <- ads1220_reader <- ADS1220
- *                                            |
+ * MCU -> spi_axil_bridge -> AXI4-Lite -> bowden_core <- ads131m02_reader <- ADS131M02
+ *                                            |          (or ads1220_reader <- ADS1220)
  *                                            +-> ESCON drive (PWM set value, enable)
  */
 module bowden_system #(
     parameter CLK_HZ = 48000000,      // system clock, Hz
-    parameter ADC_SCLK_HALF_CLKS = 8, // ADS1220 SCLK half period, clocks (48 MHz -> 3 MHz)
-    parameter ADC_WAIT_CLKS = 16384   // ADS1220 wait after power-up and after RESET, clocks
+    parameter ADC_ADS131M02 = 1,      // 1: ADS131M02 front-end (two channels); 0: ADS1220
+    parameter ADC_SCLK_HALF_CLKS = 4, // ADC SCLK half period, clocks (48 MHz -> 6 MHz)
+    parameter ADC_WAIT_CLKS = 16384   // ADC wait after power-up (and the ADS1220's RESET), clocks
 ) (
     input  wire        clk,
     input  wire        rst,
@@ -28,7 +31,7 @@ module bowden_system #(
     output wire        mcu_miso,
 
     /*
-     * ADS1220 (SPI mode 1)
+     * Load-cell ADC (SPI mode 1)
      */
     output wire        adc_sclk,
     output wire        adc_cs_n,
@@ -79,14 +82,68 @@ spi_axil_bridge #(.ADDR_W(ADDR_W)) spi (
 
 // --- load-cell ADC -------------------------------------------------------------------------
 
-wire        adc_valid;
-wire [23:0] adc_data;
+// ADS131M02 DRDY timeout: four conversion periods at 32 kSPS (125 us), and at least four frames
+// (so that a slow test clock does not flag the reads themselves).
+localparam integer DRDY_TIMEOUT_PERIODS = CLK_HZ / 8000;
+localparam integer DRDY_TIMEOUT_FRAMES = 4 * 2 * 96 * ADC_SCLK_HALF_CLKS;
+localparam integer ADC_DRDY_TIMEOUT_CLKS = (DRDY_TIMEOUT_PERIODS > DRDY_TIMEOUT_FRAMES) ?
+                                           DRDY_TIMEOUT_PERIODS : DRDY_TIMEOUT_FRAMES;
 
-ads1220_reader #(.SCLK_HALF_CLKS(ADC_SCLK_HALF_CLKS), .WAIT_CLKS(ADC_WAIT_CLKS)) adc (
-    .clk(clk), .rst(rst),
-    .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
-    .adc_drdy_n(adc_drdy_n), .adc_valid(adc_valid), .adc_data(adc_data)
-);
+wire        rdr_valid;
+wire [23:0] rdr_data, adc_aux_data;
+wire        adc_drdy_lost, adc_crc_err;
+
+generate
+    if (ADC_ADS131M02 != 0) begin : g_ads131m02
+        wire [15:0] adc_status;
+
+        ads131m02_reader #(
+            .SCLK_HALF_CLKS(ADC_SCLK_HALF_CLKS), .WAIT_CLKS(ADC_WAIT_CLKS),
+            .DRDY_TIMEOUT_CLKS(ADC_DRDY_TIMEOUT_CLKS)
+        ) adc (
+            .clk(clk), .rst(rst),
+            .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
+            .adc_drdy_n(adc_drdy_n), .adc_valid(rdr_valid), .adc_data(rdr_data),
+            .adc_aux_data(adc_aux_data), .adc_status(adc_status), .crc_error(adc_crc_err),
+            .drdy_lost(adc_drdy_lost)
+        );
+
+        // The STATUS word is for a debugger's eye; the loop needs none of it.
+        wire unused_status = &{1'b0, adc_status};
+    end else begin : g_ads1220
+        ads1220_reader #(.SCLK_HALF_CLKS(ADC_SCLK_HALF_CLKS), .WAIT_CLKS(ADC_WAIT_CLKS)) adc (
+            .clk(clk), .rst(rst),
+            .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
+            .adc_drdy_n(adc_drdy_n), .adc_valid(rdr_valid), .adc_data(rdr_data)
+        );
+
+        // One channel, no frame check: T_OUT reads 0, the flags stay clear (a lost DRDY still
+        // latches FAULT.ADC_STALE).
+        assign adc_aux_data = 24'd0;
+        assign adc_drdy_lost = 1'b0;
+        assign adc_crc_err = 1'b0;
+    end
+endgenerate
+
+// Two registers between the front-end and the core: the reader sits by the ADC's pins, the
+// loop's sample path (valid -> sample mux -> offset subtraction) by the multipliers, and the
+// route between them was the iCE40's longest path; the second stage has only the loop as its
+// load, so it can sit there. Two clocks (42 ns at 48 MHz) more from DRDY to the core, which
+// cosim.interface.CORE_PIPE_CLKS counts.
+reg [1:0]  adc_valid_pipe_reg;
+reg [23:0] adc_data_pipe_reg [0:1];  // no reset: taken only with its valid bit
+
+always @(posedge clk) begin
+    adc_valid_pipe_reg <= {adc_valid_pipe_reg[0], rdr_valid};
+    adc_data_pipe_reg[0] <= rdr_data;
+    adc_data_pipe_reg[1] <= adc_data_pipe_reg[0];
+    if (rst) begin
+        adc_valid_pipe_reg <= 2'b00;
+    end
+end
+
+wire        adc_valid = adc_valid_pipe_reg[1];
+wire [23:0] adc_data = adc_data_pipe_reg[1];
 
 // --- core ----------------------------------------------------------------------------------
 
@@ -99,7 +156,8 @@ bowden_core #(.CLK_HZ(CLK_HZ), .ADDR_W(ADDR_W)) core (
     .s_axil_arprot(axil_arprot), .s_axil_arvalid(axil_arvalid), .s_axil_arready(axil_arready),
     .s_axil_rdata(axil_rdata), .s_axil_rresp(axil_rresp), .s_axil_rvalid(axil_rvalid),
     .s_axil_rready(axil_rready),
-    .adc_valid(adc_valid), .adc_data(adc_data),
+    .adc_valid(adc_valid), .adc_data(adc_data), .adc_aux_data(adc_aux_data),
+    .adc_drdy_lost(adc_drdy_lost), .adc_crc_err(adc_crc_err),
     .cmd_current(cmd_current), .cmd_enable(drive_enable), .cmd_valid(cmd_valid),
     .fault(fault), .pwm(drive_pwm), .sample_tick(sample_tick)
 );

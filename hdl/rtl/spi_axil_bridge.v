@@ -196,11 +196,15 @@ always @* begin
                     awvalid_next = 1'b1;
                     wvalid_next = 1'b1;
                     addr_next = wr_addr;
-                    wdata_next = {shift_in_reg[30:0], mosi};
                     busy_next = 1'b1;
                     wait_next = 1'b1;
                 end
             end
+        end
+        // The write data's load, the write branch above as one flat AND: nested in the priority
+        // chain, the enable of its 32 flops was the iCE40's longest path (6 LUT levels).
+        if (sck_rise && !full_reg && wr_pt_reg && !busy_reg && wr_ok_reg) begin
+            wdata_next = {shift_in_reg[30:0], mosi};
         end
         // Mode 0: MISO changes on the falling edge before the bit is sampled.
         if (sck_fall) begin

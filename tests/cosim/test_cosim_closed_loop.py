@@ -107,15 +107,21 @@ def test_cosim_error_split_names_the_cause_of_each_gain(built):
 
 
 @pytest.mark.parametrize(
-    ("interface", "bus"), [("board", "cocotbext-axi"), ("board", "lean"), ("ideal", "lean")]
+    ("interface", "bus", "adc"),
+    [
+        ("board", "cocotbext-axi", "ads131m02"),
+        ("board", "lean", "ads131m02"),
+        ("board", "lean", "ads1220"),
+        ("ideal", "lean", "ads131m02"),
+    ],
 )
-def test_cosim_rtl_matches_the_bit_exact_model_chain(built, interface, bus):
+def test_cosim_rtl_matches_the_bit_exact_model_chain(built, interface, bus, adc):
     """The RTL co-simulation gives the command word of the firmware + rtl_model chain at every
-    sample, with the board's chain and the ideal interface, with either AXI4-Lite driver: the
-    harness's timing (ADC hand-over, command read, TC write latency) is the one the models
-    assume."""
+    sample, with the board's chain (its ADS131M02, and the first boards' ADS1220) and the ideal
+    interface, with either AXI4-Lite driver: the harness's timing (ADC hand-over, command read,
+    TC write latency) is the one the models assume."""
     scen = get_scenario("fig14")
-    cfg = SimConfig()
+    cfg = SimConfig.from_dict({"board": {"adc": adc}})
     duration = 1.5  # the rise and the first reversal (the paper law's jump of T_c)
     phi = reference.resolve_phi(scen, cfg, True)
     spec = {

@@ -1,19 +1,24 @@
 """Testbench of hdl/rtl/bowden_system.v: the board-level wiring, end to end.
 
 An MCU (the shared SpiMaster) writes the loop registers over the SPI bridge and reads them
-back; a behavioural ADS1220 (the shared Ads1220) streams load-cell codes into ads1220_reader;
+back; a behavioural ADC streams load-cell codes into the front-end: the ADS131M02 (the shared
+Ads131m02, T_in on CH0 and T_out on CH1, read back in T_OUT) into ads131m02_reader, the board's
+default, or, with ADC_ADS131M02 = 0, the ADS1220 (the shared Ads1220) into ads1220_reader;
 the drive pins are checked against the bit-exact model (cosim.rtl_model.TensionLoopModel) and
 the ESCON PWM formula (hdl/README.md). A monitor replays into the model, every clock, the ADC
 samples, sample ticks and register writes the core sees on bowden_system's internal nets
 (adc_valid/adc_data, axil_*), and checks that every sample the core receives is the code the
-ADS1220 sent, and every command (cmd_current, drive_enable, fault) equals the model.
+ADC sent, and every command (cmd_current, drive_enable, fault) equals the model.
 
 Parameters are shrunk so that the test runs in seconds: CLK_HZ 1 MHz gives 100 clocks per
-sample and a 200-clock PWM period; the ADS1220 SCLK runs at clk / 8 after a 64-clock wait.
+sample and a 200-clock PWM period; the ADC's SCLK runs at clk / 6 (ADS131M02) or clk / 8
+(ADS1220) after a 64-clock wait. Each front-end is its own build (tests/hdl/hdl_sim's tag);
+BOWDEN_TB_ADC names it.
 """
 
 from __future__ import annotations
 
+import os
 from collections import deque
 
 import cocotb
@@ -29,6 +34,7 @@ from hdl_sim import (
     STATUS_TAG,
     STATUS_WRITE,
     WRITE_OKAY,
+    Ads131m02,
     Ads1220,
     SpiMaster,
     replay_write,
@@ -45,8 +51,19 @@ CLK_HZ = 1_000_000
 CLKS_PER_SAMPLE = CLK_HZ // 10_000  # bowden_core's default SAMPLE_HZ
 PWM_PERIOD_CLKS = CLK_HZ // 5000  # bowden_core's default PWM_HZ
 PWM_IMAX_Q12 = 16384  # bowden_core's default: 4 A at 90 % duty
-ADC_PERIOD_CLKS = 250  # one conversion every 2.5 samples (ADS1220 at 2000 SPS: every 5)
-CONFIG = [0x06, 0x43, 0x0E, 0xD4, 0x40, 0x00, 0x08]  # RESET, WREG 0..3, START/SYNC
+CONFIG = [0x06, 0x43, 0x0E, 0xD4, 0x40, 0x00, 0x08]  # ADS1220: RESET, WREG 0..3, START/SYNC
+# ADS131M02: WREG CLOCK, GAIN1 (tests/hdl/test_ads131m02_reader.py)
+CONFIG_FRAME = [0x618100, 0x030200, 0x007700, 0x000000]
+FRONTENDS = {"ads131m02": 1, "ads1220": 0}  # bowden_system's ADC_ADS131M02 per front-end
+ADC = os.environ.get("BOWDEN_TB_ADC", "ads131m02")
+# SCLK half period per front-end: the ADS131M02's 96-bit frame (576 clocks at 3, the reader's
+# least) must fit in a conversion period, the ADS1220's 24 bits at 4 as before.
+SCLK_HALF_CLKS = {"ads131m02": 3, "ads1220": 4}
+# One conversion every 6 samples (ADS131M02; its 96-bit frame fits) or 2.5 (ADS1220; on the
+# board 0.3 and 5 samples): within ADC_STALE (10 samples) either way.
+ADC_PERIOD_CLKS = 600 if ADC == "ads131m02" else 250
+# bowden_system's DRDY timeout at this clock: four 96-bit frames.
+DRDY_TIMEOUT_CLKS = 4 * 2 * 96 * SCLK_HALF_CLKS[ADC]
 
 
 def pwm_duty_clks(u: int, enable: bool) -> int:
@@ -56,17 +73,18 @@ def pwm_duty_clks(u: int, enable: bool) -> int:
 
 
 class SystemTb:
-    """Clock, reset, MCU, ADS1220, and the monitor that replays the core's inputs into the model."""
+    """Clock, reset, MCU, the ADC, and the monitor that replays the core's inputs into the model."""
 
     def __init__(self, dut):
         self.dut = dut
         self.model = TensionLoopModel()
         self.expected: deque = deque()
-        self.sent: deque = deque()  # codes the ADS1220 made ready, not yet seen by the core
+        self.sent: deque = deque()  # codes the ADC made ready, not yet seen by the core
+        self.aux_sent = 0  # the last T_out code the ADS131M02 made ready
         self.compared = 0
         self.samples_seen = 0
         self.mcu = SpiMaster(dut, "mcu", half_sck_clks=8)
-        self.adc = Ads1220(dut)
+        self.adc = Ads131m02(dut) if ADC == "ads131m02" else Ads1220(dut)
         self.adc_on = False
         self.tension_n = 0.0
         self.pwm_periods = 0
@@ -103,7 +121,7 @@ class SystemTb:
                 self.compared += 1
             if d.adc_valid.value:
                 code = signed(int(d.adc_data.value), 24)
-                assert self.sent, f"the core got ADC code {code} that the ADS1220 did not send"
+                assert self.sent, f"the core got ADC code {code} that the ADC did not send"
                 assert code == self.sent.popleft(), "ADC code changed on its way to the core"
                 self.model.adc_sample(code)
                 self.samples_seen += 1
@@ -147,13 +165,30 @@ class SystemTb:
                 u, en = signed(int(d.cmd_current.value), 16), bool(d.drive_enable.value)
 
     async def conversions(self) -> None:
-        """While `adc_on`, one ADS1220 conversion of `tension_n` every ADC_PERIOD_CLKS."""
+        """While `adc_on`, one conversion of `tension_n` every ADC_PERIOD_CLKS (and, on the
+        ADS131M02's CH1, of a T_out 20 % below it)."""
         while True:
             await ClockCycles(self.dut.clk, ADC_PERIOD_CLKS)
             if self.adc_on:
                 code = adc_code_from_tension(self.tension_n)
                 self.sent.append(code)
-                self.adc.convert(code)
+                if ADC == "ads131m02":
+                    self.aux_sent = adc_code_from_tension(0.8 * self.tension_n)
+                    self.adc.convert(code, self.aux_sent)
+                else:
+                    self.adc.convert(code)
+
+    def configured(self) -> bool:
+        """The front-end has sent its configuration (checked by `check_config`)."""
+        if ADC == "ads131m02":
+            return bool(self.adc.frames)
+        return len(self.adc.received) == len(CONFIG)
+
+    def check_config(self) -> None:
+        if ADC == "ads131m02":
+            assert self.adc.frames == [CONFIG_FRAME], self.adc.frames
+        else:
+            assert self.adc.received == CONFIG, [hex(b) for b in self.adc.received]
 
     async def write(self, name: str, value: int) -> None:
         """MCU register write of a field value (two's complement for signed fields)."""
@@ -183,15 +218,8 @@ class SystemTb:
 
 @cocotb.test()
 async def mcu_and_adc_drive_the_loop(dut):
-    """SPI writes and ADS1220 samples through the board wiring: commands and PWM as the model."""
-    tb = SystemTb(dut)
-    await tb.start()
-    # The front-end configures the ADC over adc_din before anything else.
-    for _ in range(3000):
-        await RisingEdge(dut.clk)
-        if len(tb.adc.received) == len(CONFIG):
-            break
-    assert tb.adc.received == CONFIG, [hex(b) for b in tb.adc.received]
+    """SPI writes and ADC samples through the board wiring: commands and PWM as the model."""
+    tb = await _configured(dut)
     assert await tb.mcu.read(regmap.ID // 4) == 0x424F0100
 
     # Disabled: 50 % duty (0 A), drive off.
@@ -209,7 +237,7 @@ async def mcu_and_adc_drive_the_loop(dut):
         tb.tension_n = t_n
         await tb.write("TC", tc_n * 256)
         await ClockCycles(dut.clk, 10 * CLKS_PER_SAMPLE)
-    assert dut.drive_enable.value
+    assert dut.drive_enable.value, (await tb.mcu.read(regmap.FAULT // 4), tb.samples_seen)
     assert tb.model.u != 0
 
     # Steady state (no integral action, constant tension): read-backs and the PWM duty.
@@ -225,6 +253,9 @@ async def mcu_and_adc_drive_the_loop(dut):
     assert await tb.read("T_IN") == m.t_in == 10 * 256
     assert await tb.read("KP") == round(0.2 * 2**13)
     assert await tb.mcu.read(regmap.STATUS // 4) == regmap.STATUS_OUT_EN
+    # T_out, sampled with T_in on the ADS131M02's CH1, is read back raw (0 with the ADS1220).
+    assert await tb.read("T_OUT") == tb.aux_sent
+    assert await tb.mcu.read(regmap.ADC_FLAGS // 4) == 0
     high = await tb.pwm_high_clks()
     assert high == pwm_duty_clks(m.u, True), (high, m.u)
     # 50 % + 40 % * u / 4 A (README "Drive and ADC interfaces"), to one clock.
@@ -236,20 +267,25 @@ async def mcu_and_adc_drive_the_loop(dut):
     assert dut.fault.value and not dut.drive_enable.value
     assert await tb.mcu.read(regmap.FAULT // 4) == FAULT_ADC_STALE == m.faults
     assert await tb.pwm_high_clks() == PWM_PERIOD_CLKS // 2
+    # The ADS131M02's reader also flags the lost DRDY, which the MCU can tell from a bad frame.
+    await ClockCycles(dut.clk, DRDY_TIMEOUT_CLKS)
+    lost = regmap.ADC_FLAGS_DRDY_LOST if ADC == "ads131m02" else 0
+    assert await tb.mcu.read(regmap.ADC_FLAGS // 4) == lost
     assert tb.compared > 80, f"only {tb.compared} samples compared"
     assert tb.pwm_periods > 40, f"only {tb.pwm_periods} PWM periods checked"
     assert tb.samples_seen > 20 and not tb.sent
 
 
 async def _configured(dut) -> SystemTb:
-    """The system after reset, with the ADC front-end done configuring the ADS1220."""
+    """The system after reset, with the ADC front-end done configuring the ADC (over adc_din,
+    before anything else)."""
     tb = SystemTb(dut)
     await tb.start()
     for _ in range(3000):
         await RisingEdge(dut.clk)
-        if len(tb.adc.received) == len(CONFIG):
+        if tb.configured():
             break
-    assert tb.adc.received == CONFIG, [hex(b) for b in tb.adc.received]
+    tb.check_config()
     return tb
 
 
@@ -307,10 +343,26 @@ async def reset_in_mid_frame_enables_nothing(dut):
     assert writes == 0
 
 
+@pytest.mark.parametrize("adc", FRONTENDS)
 @pytest.mark.parametrize("simulator", SIMULATORS)
-def test_bowden_system(simulator):
-    """Build bowden_system with short clocks per sample and ADC waits; run the coroutines above."""
-    sources = rtl("bowden_system", "spi_axil_bridge", "ads1220_reader", "bowden_core")
-    sources += rtl("axil_regbus", "bowden_regs", "tension_loop", "mul_s16", "pwm_escon")
-    params = {"CLK_HZ": CLK_HZ, "ADC_SCLK_HALF_CLKS": 4, "ADC_WAIT_CLKS": 64}
-    run_cocotb("bowden_system", "test_bowden_system", sources, simulator, parameters=params)
+def test_bowden_system(simulator, adc):
+    """Build bowden_system with short clocks per sample and ADC waits, with each front-end; run
+    the coroutines above."""
+    sources = rtl("bowden_system", "spi_axil_bridge", "ads1220_reader", "ads131m02_reader")
+    sources += rtl("bowden_core", "axil_regbus", "bowden_regs", "tension_loop", "mul_s16")
+    sources += rtl("pwm_escon")
+    params = {
+        "CLK_HZ": CLK_HZ,
+        "ADC_ADS131M02": FRONTENDS[adc],
+        "ADC_SCLK_HALF_CLKS": SCLK_HALF_CLKS[adc],
+        "ADC_WAIT_CLKS": 64,
+    }
+    run_cocotb(
+        "bowden_system",
+        "test_bowden_system",
+        sources,
+        simulator,
+        parameters=params,
+        tag=adc,
+        extra_env={"BOWDEN_TB_ADC": adc},
+    )
