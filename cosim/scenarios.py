@@ -328,9 +328,9 @@ class BoardParams:
     """The board's sensing and actuation chain (cosim.interface, `--interface board|adc`): the
     load-cell ADC and the ESCON's PWM set value, with their datasheet defaults."""
 
-    # A part of cosim.interface.ADC_PARTS: the first boards' ADS1220, or the ADS131M02 that
-    # hdl/README.md ("Sensing") chooses.
-    adc: str = "ads1220"
+    # A part of cosim.interface.ADC_PARTS: the board's ADS131M02 (hdl/README.md, "Sensing"), or
+    # the first boards' ADS1220.
+    adc: str = "ads131m02"
     adc_period_s: float | None = None  # None: the part's conversion period
     adc_phase_s: float = 0.0  # first conversion window starts at t = phase
     # Reader SCLK half period in board clocks; None: the part's reader default

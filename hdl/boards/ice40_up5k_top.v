@@ -5,7 +5,7 @@
 /*
  * iCE40 UP5K board top (pinout of the 1BitSquared iCEBreaker, UP5K-SG48; see
  * ice40_up5k.pcf): bowden_system (bowden_core) at 48 MHz from the internal oscillator, an
- * external MCU on PMOD1A through the SPI bridge, an ADS1220 load-cell ADC on PMOD1B, and the
+ * external MCU on PMOD1A through the SPI bridge, an ADS131M02 load-cell ADC on PMOD1B, and the
  * ESCON drive (PWM set value, enable) on PMOD2.
  */
 module ice40_up5k_top (
@@ -18,7 +18,7 @@ module ice40_up5k_top (
     output wire mcu_miso,
 
     /*
-     * ADS1220 (SPI mode 1)
+     * ADS131M02 (SPI mode 1; CLKIN from an 8.192 MHz oscillator on the board)
      */
     output wire adc_sclk,
     output wire adc_cs_n,
@@ -63,11 +63,10 @@ end
 wire [15:0] cmd_current;
 wire        cmd_valid, fault, sample_tick;
 
-// ADS1220: SCLK = 48 MHz / 2 / 8 = 3 MHz (ADS1220 allows up to ~6.6 MHz). With the ADS131M02
-// front-end (ADC_ADS131M02(1), ADC_SCLK_HALF_CLKS(4): 6 MHz) this top reaches 46.7 MHz against
-// its 48 MHz target (hdl/README.md, "Sensing"), so it keeps the ADS1220 until that closes.
+// ADS131M02: SCLK = 48 MHz / 2 / 4 = 6 MHz (up to 25 MHz), a 96-bit frame in 16 us of its
+// 31.25 us conversion period.
 bowden_system #(
-    .CLK_HZ(CLK_HZ), .ADC_ADS131M02(0), .ADC_SCLK_HALF_CLKS(8), .ADC_WAIT_CLKS(16384)
+    .CLK_HZ(CLK_HZ), .ADC_ADS131M02(1), .ADC_SCLK_HALF_CLKS(4), .ADC_WAIT_CLKS(16384)
 ) system (
     .clk(clk), .rst(rst),
     .mcu_sck(mcu_sck), .mcu_cs_n(mcu_cs_n), .mcu_mosi(mcu_mosi), .mcu_miso(mcu_miso),

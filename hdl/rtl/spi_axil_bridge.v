@@ -127,6 +127,8 @@ wire       wr_in_range = (wr_addr >> ADDR_W) == 9'd0;
 wire       resp_now = m_axil_bvalid || m_axil_rvalid;
 wire [1:0] resp_code = m_axil_rvalid ? m_axil_rresp : m_axil_bresp;
 wire [7:0] status = {STATUS_TAG, cmd_reg[7], done_st_reg, busy_st_reg, resp_st_reg};
+wire       shift_out_en = (sck_fall && (stat_ld_reg || data_out_reg)) ||
+                          (wait_reg && m_axil_rvalid && !data_out_reg) || !cs_active;
 
 always @* begin
     bit_cnt_next = bit_cnt_reg;
@@ -155,14 +157,18 @@ always @* begin
     // MISO's shift register, a flat priority (one short path): the status byte, the data
     // bits, a read's answer before its data phase, zero between frames (so a refused read's
     // data reads 0). Outside a frame MISO itself is held at 0 below.
-    if (sck_fall && stat_ld_reg) begin
-        shift_out_next = {status[6:0], 25'd0};
-    end else if (sck_fall && data_out_reg) begin
-        shift_out_next = {shift_out_reg[30:0], 1'b0};
-    end else if (wait_reg && m_axil_rvalid && !data_out_reg) begin
-        shift_out_next = m_axil_rdata;
-    end else if (!cs_active) begin
-        shift_out_next = 32'd0;
+    // Its enable is the OR of the four cases, spelled out flat (nested, it was the iCE40's
+    // longest path once the write data's was shortened).
+    if (shift_out_en) begin
+        if (sck_fall && stat_ld_reg) begin
+            shift_out_next = {status[6:0], 25'd0};
+        end else if (sck_fall && data_out_reg) begin
+            shift_out_next = {shift_out_reg[30:0], 1'b0};
+        end else if (wait_reg && m_axil_rvalid && !data_out_reg) begin
+            shift_out_next = m_axil_rdata;
+        end else begin
+            shift_out_next = 32'd0;
+        end
     end
 
     if (!cs_active || !armed_reg) begin

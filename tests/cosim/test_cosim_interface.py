@@ -144,11 +144,13 @@ def _split(compensator: str, iface: str, cfg: SimConfig | None = None) -> dict:
 
 @pytest.mark.parametrize("compensator", ["paper", "smooth"])
 def test_board_chain_costs_error_near_reversals(compensator):
-    """Each stage of the board's chain adds delay (ADC: 0.25 ms mean age + hold; PWM/ESCON: one
-    period + a current-controller sample), and the delay costs where T_c moves fastest: at the
+    """Each stage of the ADS1220 board's chain adds delay (ADC: 0.25 ms mean age + hold; PWM/ESCON:
+    one period + a current-controller sample), and the delay costs where T_c moves fastest: at the
     reversals. The error near reversals grows ideal < ADC < board; away from them it moves by
     far less than near them."""
-    ideal, adc, board = (_split(compensator, i) for i in ("ideal", "adc", "board"))
+    # The first boards' ADS1220 (the ADS131M02's smaller cost: tests/sensing).
+    cfg = SimConfig.from_dict({"board": {"adc": "ads1220"}})
+    ideal, adc, board = (_split(compensator, i, cfg) for i in ("ideal", "adc", "board"))
     near = [s["rms_near_reversal_n"] for s in (ideal, adc, board)]
     assert near[0] < near[1] < near[2], near
     grown_near = board["rms_near_reversal_n"] - ideal["rms_near_reversal_n"]
@@ -165,7 +167,10 @@ def test_escon_quantization_is_what_widens_fixed_against_float():
     scen = get_scenario("fig14")
     figures = {}
     for resolution in (0.0, interface.ESCON_DUTY_RESOLUTION):
-        cfg = SimConfig.from_dict({"board": {"escon_duty_resolution": resolution}})
+        # On the ADS1220 chain, where this was measured (the ADS131M02's: tests/cosim budgets).
+        cfg = SimConfig.from_dict(
+            {"board": {"escon_duty_resolution": resolution, "adc": "ads1220"}}
+        )
         phi = reference.resolve_phi(scen, cfg, True)
         fixed = reference.run_model_chain(scen, cfg, "paper", True, phi, 2.0, "board")
         flt = reference.run_reference(scen, cfg, "paper", True, phi, 2.0, False, "board")
