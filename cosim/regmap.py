@@ -40,6 +40,7 @@ T_IN = 0x48
 U = 0x4C
 INTEG = 0x50
 TC_EFF = 0x54
+TC_MIN = 0x58
 T_OUT = 0x80
 ADC_FLAGS = 0x84
 
@@ -216,6 +217,11 @@ REGISTERS: dict[str, Register] = {
         "TC_EFF",
         0x54,
         (Field("VALUE", 0, 16, "ro", True, 8, 0),),
+    ),
+    "TC_MIN": Register(
+        "TC_MIN",
+        0x58,
+        (Field("VALUE", 0, 16, "rw", True, 8, 0),),
     ),
     "T_OUT": Register(
         "T_OUT",

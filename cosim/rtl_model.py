@@ -7,7 +7,7 @@ Ki*Ts with LSB 2^-20 A/N per sample, integrator Q3.28 A, ADC gain with LSB 2^-20
 Per sample tick (`TensionLoopModel.tick`):
 
     T_in = sat16(floor(((raw - ADC_OFFSET) * ADC_GAIN + 2^19) / 2^20))
-    T_c' = T_c, or clamp(T_c, T_c'[n-1] - SLEW, T_c'[n-1] + SLEW) with CTRL.SLEW_EN
+    T_c' = max(T_c, or clamp(T_c, T_c'[n-1] - SLEW, T_c'[n-1] + SLEW) with CTRL.SLEW_EN, TC_MIN)
     e    = sat16(T_c' - T_in)
     I'   = clamp(I + s, +-I_LIMIT*2^16), s = 0 if the previous output was saturated high and
            KI_TS*e > 0 (or low and < 0), else s = KI_TS*e          (Q3.28, anti-windup)
@@ -214,6 +214,8 @@ class TensionLoopModel:
             tce = _clamp(tc, self.tc_eff - r["SLEW"], self.tc_eff + r["SLEW"])
         else:
             tce = tc
+        # The floor after the slew limit: a cable cannot push (TC_MIN, minimum pretension).
+        tce = max(tce, r["TC_MIN"])
         self.t_in = calibrate(self.raw, r["ADC_OFFSET"], r["ADC_GAIN"])
 
         if run:

@@ -229,12 +229,22 @@
 #define BOWDEN_INTEG_MASK 0xFFFFFFFFu
 #define BOWDEN_INTEG_FRAC_BITS 28u
 
-/* TC_EFF: T_c after the slew limit, as used by the last sample. */
+/* TC_EFF: T_c after the slew limit and the floor TC_MIN, as used by the last sample. */
 #define BOWDEN_REG_TC_EFF 0x54u
 /* VALUE (ro Q7.8 N): Effective T_c */
 #define BOWDEN_TC_EFF_SHIFT 0u
 #define BOWDEN_TC_EFF_MASK 0x0000FFFFu
 #define BOWDEN_TC_EFF_FRAC_BITS 8u
+
+/* TC_MIN: Floor of T_c (minimum pretension): a cable cannot push, so the loop never commands a tension below it (applied after the slew limit). */
+#define BOWDEN_REG_TC_MIN 0x58u
+/* VALUE (rw Q7.8 N): T_c floor in newtons; reset 0 N */
+#define BOWDEN_TC_MIN_SHIFT 0u
+#define BOWDEN_TC_MIN_MASK 0x0000FFFFu
+#define BOWDEN_TC_MIN_FRAC_BITS 8u
+#define BOWDEN_TC_MIN_RESET (0)
+#define BOWDEN_TC_MIN_MIN (-32768)
+#define BOWDEN_TC_MIN_MAX (32767)
 
 /* T_OUT: Raw code of the output load cell (ADS131M02 CH1, sampled with T_in), from the last good frame; 0 with the ADS1220 front-end. Not used by the loop: for evaluation and the model audit. */
 #define BOWDEN_REG_T_OUT 0x80u

@@ -68,6 +68,7 @@ module bowden_regs #(
     input  wire [15:0]  hw_u,  // U Q3.12
     input  wire [31:0]  hw_integ,  // INTEG Q3.28
     input  wire [15:0]  hw_tc_eff,  // TC_EFF Q7.8
+    output wire [15:0]  tc_min,  // TC_MIN Q7.8
     input  wire [23:0]  hw_t_out,  // T_OUT Q23.0
     input  wire         hw_adc_flags_drdy_lost,  // ADC_FLAGS
     input  wire         hw_adc_flags_crc_err   // ADC_FLAGS
@@ -96,12 +97,13 @@ localparam [ADDR_W-3:0] A_T_IN = 6'd18;
 localparam [ADDR_W-3:0] A_U = 6'd19;
 localparam [ADDR_W-3:0] A_INTEG = 6'd20;
 localparam [ADDR_W-3:0] A_TC_EFF = 6'd21;
+localparam [ADDR_W-3:0] A_TC_MIN = 6'd22;
 localparam [ADDR_W-3:0] A_T_OUT = 6'd32;
 localparam [ADDR_W-3:0] A_ADC_FLAGS = 6'd33;
 
 wire [ADDR_W-3:0] wr_word = reg_wr_addr[ADDR_W-1:2];
 wire [ADDR_W-3:0] rd_word = reg_rd_addr[ADDR_W-1:2];
-reg  [23:0]        rd_sel;   // one-hot register select of the read in flight
+reg  [24:0]        rd_sel;   // one-hot register select of the read in flight
 reg               rd_miss;  // the read address is unmapped
 reg               rd_pend;  // a read is in its second cycle
 reg  [31:0]       rd_grp0;  // OR of registers 0..3
@@ -110,6 +112,7 @@ reg  [31:0]       rd_grp2;  // OR of registers 8..11
 reg  [31:0]       rd_grp3;  // OR of registers 12..15
 reg  [31:0]       rd_grp4;  // OR of registers 16..19
 reg  [31:0]       rd_grp5;  // OR of registers 20..23
+reg  [31:0]       rd_grp6;  // OR of registers 24..24
 reg               rd_miss2;
 reg               rd_pend2;  // a read is in its third cycle
 reg               rd_valid;  // reg_rd_data holds a new read
@@ -152,6 +155,8 @@ reg  [15:0] adc_stale_reg, adc_stale_next;
 wire [15:0] adc_stale_wval = (reg_wr_data[15:0] & wr_mask[15:0]) | (adc_stale_reg & ~wr_mask[15:0]);
 reg  [15:0] oc_timeout_reg, oc_timeout_next;
 wire [15:0] oc_timeout_wval = (reg_wr_data[15:0] & wr_mask[15:0]) | (oc_timeout_reg & ~wr_mask[15:0]);
+reg  [15:0] tc_min_reg, tc_min_next;
+wire [15:0] tc_min_wval = (reg_wr_data[15:0] & wr_mask[15:0]) | (tc_min_reg & ~wr_mask[15:0]);
 reg  [31:0] rd_data_reg, rd_data_next;
 reg         rd_err_reg, rd_err_next;
 reg         wr_hit;
@@ -179,6 +184,7 @@ wire [31:0] rword_t_in = {{16{hw_t_in[15]}}, hw_t_in};
 wire [31:0] rword_u = {{16{hw_u[15]}}, hw_u};
 wire [31:0] rword_integ = {hw_integ};
 wire [31:0] rword_tc_eff = {{16{hw_tc_eff[15]}}, hw_tc_eff};
+wire [31:0] rword_tc_min = {{16{tc_min_reg[15]}}, tc_min_reg};
 wire [31:0] rword_t_out = {{8{hw_t_out[23]}}, hw_t_out};
 wire [31:0] rword_adc_flags = {30'd0, hw_adc_flags_crc_err, hw_adc_flags_drdy_lost};
 
@@ -201,6 +207,7 @@ always @* begin
     adc_max_next = adc_max_reg;
     adc_stale_next = adc_stale_reg;
     oc_timeout_next = oc_timeout_reg;
+    tc_min_next = tc_min_reg;
     wr_hit = 1'b0;
     if (reg_wr_en) begin
         case (wr_word)
@@ -288,6 +295,10 @@ always @* begin
             A_TC_EFF: begin
                 wr_hit = 1'b1;
             end
+            A_TC_MIN: begin
+                wr_hit = 1'b1;
+                tc_min_next = tc_min_wval;
+            end
             A_T_OUT: begin
                 wr_hit = 1'b1;
             end
@@ -299,7 +310,7 @@ always @* begin
     end
 
     // Third read cycle: OR of the group results.
-    rd_data_next = rd_grp0 | rd_grp1 | rd_grp2 | rd_grp3 | rd_grp4 | rd_grp5;
+    rd_data_next = rd_grp0 | rd_grp1 | rd_grp2 | rd_grp3 | rd_grp4 | rd_grp5 | rd_grp6;
     rd_err_next = rd_miss2;
     if (!rd_pend2) begin
         rd_data_next = rd_data_reg;
@@ -326,6 +337,7 @@ always @(posedge clk) begin
     adc_max_reg <= adc_max_next;
     adc_stale_reg <= adc_stale_next;
     oc_timeout_reg <= oc_timeout_next;
+    tc_min_reg <= tc_min_next;
     rd_data_reg <= rd_data_next;
     rd_pend <= reg_rd_en;
     rd_pend2 <= rd_pend;
@@ -354,8 +366,9 @@ always @(posedge clk) begin
         | ({32{rd_sel[19]}} & rword_u);
     rd_grp5 <= ({32{rd_sel[20]}} & rword_integ)
         | ({32{rd_sel[21]}} & rword_tc_eff)
-        | ({32{rd_sel[22]}} & rword_t_out)
-        | ({32{rd_sel[23]}} & rword_adc_flags);
+        | ({32{rd_sel[22]}} & rword_tc_min)
+        | ({32{rd_sel[23]}} & rword_t_out);
+    rd_grp6 <= ({32{rd_sel[24]}} & rword_adc_flags);
     if (reg_rd_en) begin
         rd_sel[0] <= (rd_word == A_ID);
         rd_sel[1] <= (rd_word == A_CTRL);
@@ -379,8 +392,9 @@ always @(posedge clk) begin
         rd_sel[19] <= (rd_word == A_U);
         rd_sel[20] <= (rd_word == A_INTEG);
         rd_sel[21] <= (rd_word == A_TC_EFF);
-        rd_sel[22] <= (rd_word == A_T_OUT);
-        rd_sel[23] <= (rd_word == A_ADC_FLAGS);
+        rd_sel[22] <= (rd_word == A_TC_MIN);
+        rd_sel[23] <= (rd_word == A_T_OUT);
+        rd_sel[24] <= (rd_word == A_ADC_FLAGS);
         rd_miss <= !(
             (rd_word == A_ID) ||
             (rd_word == A_CTRL) ||
@@ -404,6 +418,7 @@ always @(posedge clk) begin
             (rd_word == A_U) ||
             (rd_word == A_INTEG) ||
             (rd_word == A_TC_EFF) ||
+            (rd_word == A_TC_MIN) ||
             (rd_word == A_T_OUT) ||
             (rd_word == A_ADC_FLAGS));
     end
@@ -431,6 +446,7 @@ always @(posedge clk) begin
         adc_max_reg <= 24'd8388606;
         adc_stale_reg <= 16'd10;
         oc_timeout_reg <= 16'd5000;
+        tc_min_reg <= 16'd0;
     end
 end
 
@@ -452,6 +468,7 @@ assign adc_min = adc_min_reg;
 assign adc_max = adc_max_reg;
 assign adc_stale = adc_stale_reg;
 assign oc_timeout = oc_timeout_reg;
+assign tc_min = tc_min_reg;
 assign reg_wr_err = reg_wr_en & ~wr_hit;
 assign reg_rd_data = rd_data_reg;
 assign reg_rd_err = rd_err_reg;
@@ -491,6 +508,7 @@ wire [31:0] f_reset =
     (f_a == A_U) ? 32'h00000000 :
     (f_a == A_INTEG) ? 32'h00000000 :
     (f_a == A_TC_EFF) ? 32'h00000000 :
+    (f_a == A_TC_MIN) ? 32'h00000000 :
     (f_a == A_T_OUT) ? 32'h00000000 :
     (f_a == A_ADC_FLAGS) ? 32'h00000000 :
     32'd0;
@@ -517,6 +535,7 @@ wire [31:0] f_rw_mask =
     (f_a == A_U) ? 32'h00000000 :
     (f_a == A_INTEG) ? 32'h00000000 :
     (f_a == A_TC_EFF) ? 32'h00000000 :
+    (f_a == A_TC_MIN) ? 32'h0000FFFF :
     (f_a == A_T_OUT) ? 32'h00000000 :
     (f_a == A_ADC_FLAGS) ? 32'h00000000 :
     32'd0;
@@ -543,6 +562,7 @@ wire [31:0] f_const_mask =
     (f_a == A_U) ? 32'h00000000 :
     (f_a == A_INTEG) ? 32'h00000000 :
     (f_a == A_TC_EFF) ? 32'h00000000 :
+    (f_a == A_TC_MIN) ? 32'h00000000 :
     (f_a == A_T_OUT) ? 32'h00000000 :
     (f_a == A_ADC_FLAGS) ? 32'h00000000 :
     32'd0;
@@ -569,6 +589,7 @@ wire f_a_mapped =
     (f_a == A_U) ||
     (f_a == A_INTEG) ||
     (f_a == A_TC_EFF) ||
+    (f_a == A_TC_MIN) ||
     (f_a == A_T_OUT) ||
     (f_a == A_ADC_FLAGS);
 wire f_wr_mapped = 
@@ -594,6 +615,7 @@ wire f_wr_mapped =
     (wr_word == A_U) ||
     (wr_word == A_INTEG) ||
     (wr_word == A_TC_EFF) ||
+    (wr_word == A_TC_MIN) ||
     (wr_word == A_T_OUT) ||
     (wr_word == A_ADC_FLAGS);
 
@@ -629,6 +651,7 @@ always @* if (f_past_valid && !rst) begin
     if (f_a == A_ADC_MAX) assert(adc_max == f_w[23:0]);
     if (f_a == A_ADC_STALE) assert(adc_stale == f_w[15:0]);
     if (f_a == A_OC_TIMEOUT) assert(oc_timeout == f_w[15:0]);
+    if (f_a == A_TC_MIN) assert(tc_min == f_w[15:0]);
     assert(reg_wr_err == (reg_wr_en && !f_wr_mapped));
     if (f_rd_a[2]) begin
         assert(reg_rd_valid);

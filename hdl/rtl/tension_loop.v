@@ -7,7 +7,7 @@
  *
  * Every sample tick (one-clock pulse on `tick`):
  *   T_in = sat16(round((raw - ADC_OFFSET) * ADC_GAIN / 2^20))          Q7.8 N
- *   T_c' = T_c, or T_c'[n-1] moved towards T_c by at most SLEW (SLEW_EN)  Q7.8 N
+ *   T_c' = max(T_c, or T_c'[n-1] moved towards T_c by at most SLEW (SLEW_EN), TC_MIN)  Q7.8 N
  *   e    = sat16(T_c' - T_in)                                          Q7.8 N
  *   I'   = clamp(I + KI_TS*e, +-I_LIMIT), or clamp(I, +-I_LIMIT) when the previous output
  *          was saturated in the direction KI_TS*e pushes (conditional integration)     Q3.28 A
@@ -49,6 +49,7 @@ module tension_loop #(
     input  wire        fault_clear,  // CTRL.FAULT_CLEAR write pulse
     input  wire        tc_wr,        // TC written (watchdog refresh)
     input  wire [15:0] tc,           // Q7.8 N
+    input  wire [15:0] tc_min,       // Q7.8 N, floor of T_c' (a cable cannot push)
     input  wire [15:0] kff,          // Q2.13 A/N
     input  wire [15:0] kp,           // Q2.13 A/N
     input  wire [15:0] ki_ts,        // 2^-20 A/N per sample
@@ -107,6 +108,7 @@ reg  [31:0] sample_cnt_reg, sample_cnt_next;
 reg         en_s_reg, en_s_next;
 reg         slew_en_s_reg, slew_en_s_next;
 reg  [15:0] tc_s_reg, tc_s_next;
+reg  [15:0] tcmin_s_reg, tcmin_s_next;
 reg  [15:0] kff_s_reg, kff_s_next;
 reg  [15:0] kp_s_reg, kp_s_next;
 reg  [15:0] ki_s_reg, ki_s_next;
@@ -134,6 +136,9 @@ reg  [31:0] ihold_reg, ihold_next;  // clamp(I, +-I_LIMIT): the integrator when 
 reg  [3:0]  det_reg, det_next;
 reg         cmp_hi_reg, cmp_hi_next;
 reg         cmp_lo_reg, cmp_lo_next;
+reg         flr_tc_reg, flr_tc_next;  // T_c < TC_MIN
+reg         flr_hi_reg, flr_hi_next;  // T_c'[n-1] + SLEW < TC_MIN
+reg         flr_lo_reg, flr_lo_next;  // T_c'[n-1] - SLEW < TC_MIN
 reg         run_reg, run_next;
 reg         ramp_reg, ramp_next;
 reg  [15:0] tce_s_reg, tce_s_next;
@@ -211,6 +216,14 @@ wire [3:0] faults_now = fbase_s_reg | det_reg;
 wire [17:0] tc_above = {hi_s_reg[16], hi_s_reg} - {{2{tc_s_reg[15]}}, tc_s_reg};
 wire [17:0] tc_below = {{2{tc_s_reg[15]}}, tc_s_reg} - {lo_s_reg[16], lo_s_reg};
 wire [16:0] tce_slew = cmp_hi_reg ? hi_s_reg : cmp_lo_reg ? lo_s_reg : {tc_s_reg[15], tc_s_reg};
+// The floor, T_c' = max(slew result, TC_MIN): each candidate of the slew limit was compared with
+// TC_MIN in clock 1, so clock 2 only picks the flag of the chosen one (no carry chain after the
+// slew's choice, which keeps the floor off the critical path).
+wire [17:0] tc_flr = {{2{tc_s_reg[15]}}, tc_s_reg} - {{2{tcmin_s_reg[15]}}, tcmin_s_reg};
+wire [17:0] hi_flr = {hi_s_reg[16], hi_s_reg} - {{2{tcmin_s_reg[15]}}, tcmin_s_reg};
+wire [17:0] lo_flr = {lo_s_reg[16], lo_s_reg} - {{2{tcmin_s_reg[15]}}, tcmin_s_reg};
+wire        flr_slew = cmp_hi_reg ? flr_hi_reg : cmp_lo_reg ? flr_lo_reg : flr_tc_reg;
+wire        flr_now = slew_en_s_reg ? flr_slew : flr_tc_reg;
 
 // Clock 5: round(x / 2^20) fits Q7.8 unless bits 40..35 differ: saturate to the Q7.8 range.
 wire cal_ovf = !((&cal_sum_reg[40:35]) || !(|cal_sum_reg[40:35]));
@@ -259,7 +272,8 @@ wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : 16'd0;
 wire unused_bits = &{1'b0, tce_slew[16], below_min[23:0], above_max[23:0], cal_sum_reg[19:0], i_clamped[32], v_sum[8:0],
                      r_above[24:0], r_below[24:0], i_above[32:0], i_below[32:0],
                      ip_above[32:0], ip_below[32:0],
-                     tc_above[16:0], tc_below[16:0]};
+                     tc_above[16:0], tc_below[16:0],
+                     tc_flr[16:0], hi_flr[16:0], lo_flr[16:0]};
 
 always @* begin
     seq_next = {seq_reg[LATENCY-3:0], tick};
@@ -279,6 +293,7 @@ always @* begin
     en_s_next = en_s_reg;
     slew_en_s_next = slew_en_s_reg;
     tc_s_next = tc_s_reg;
+    tcmin_s_next = tcmin_s_reg;
     kff_s_next = kff_s_reg;
     kp_s_next = kp_s_reg;
     ki_s_next = ki_s_reg;
@@ -305,6 +320,9 @@ always @* begin
     det_next = det_reg;
     cmp_hi_next = cmp_hi_reg;
     cmp_lo_next = cmp_lo_reg;
+    flr_tc_next = flr_tc_reg;
+    flr_hi_next = flr_hi_reg;
+    flr_lo_next = flr_lo_reg;
     run_next = run_reg;
     ramp_next = ramp_reg;
     tce_s_next = tce_s_reg;
@@ -353,6 +371,7 @@ always @* begin
         en_s_next = enable;
         slew_en_s_next = slew_en;
         tc_s_next = tc;
+        tcmin_s_next = tc_min;
         kff_s_next = kff;
         kp_s_next = kp;
         ki_s_next = ki_ts;
@@ -377,17 +396,20 @@ always @* begin
         hi_bad_next = above_max[24];  // raw > ADC_MAX
         cmp_hi_next = tc_above[17];
         cmp_lo_next = tc_below[17];
+        flr_tc_next = tc_flr[17];
+        flr_hi_next = hi_flr[17];
+        flr_lo_next = lo_flr[17];
         m1_a = diff_reg[24:9];
         m1_b = gain_s_reg;
         nlim_next = -{1'b0, lim_s_reg};
     end
 
-    // Clock 2: detection, T_c', the held integrator's clamp comparisons; low 9 bits of the difference (non-negative) times the gain.
+    // Clock 2: detection, T_c' (slew limit, then the floor), the held integrator's clamp comparisons; low 9 bits of the difference (non-negative) times the gain.
     if (seq_reg[1]) begin
         det_next = en_s_reg ? detect : 4'd0;
         iphi_next = ip_above[33];  // I > +I_LIMIT
         iplo_next = ip_below[33];  // I < -I_LIMIT
-        tce_s_next = slew_en_s_reg ? tce_slew[15:0] : tc_s_reg;
+        tce_s_next = flr_now ? tcmin_s_reg : slew_en_s_reg ? tce_slew[15:0] : tc_s_reg;
         m1_a = {7'd0, diff_reg[8:0]};
         m1_b = gain_s_reg;
     end
@@ -506,6 +528,7 @@ always @(posedge clk) begin
     en_s_reg <= en_s_next;
     slew_en_s_reg <= slew_en_s_next;
     tc_s_reg <= tc_s_next;
+    tcmin_s_reg <= tcmin_s_next;
     kff_s_reg <= kff_s_next;
     kp_s_reg <= kp_s_next;
     ki_s_reg <= ki_s_next;
@@ -531,6 +554,9 @@ always @(posedge clk) begin
     det_reg <= det_next;
     cmp_hi_reg <= cmp_hi_next;
     cmp_lo_reg <= cmp_lo_next;
+    flr_tc_reg <= flr_tc_next;
+    flr_hi_reg <= flr_hi_next;
+    flr_lo_reg <= flr_lo_next;
     run_reg <= run_next;
     ramp_reg <= ramp_next;
     tce_s_reg <= tce_s_next;
@@ -642,6 +668,7 @@ reg        f_en_s, f_fclr_s;               // snapshot at the tick
 reg [23:0] f_raw_s, f_min_s, f_max_s;
 reg [15:0] f_stale_to_s, f_wdt_to_s, f_oc_to_s;
 reg [14:0] f_lim_s;
+reg [15:0] f_tcmin_s;                      // TC_MIN at the tick
 reg [15:0] f_stale, f_wdt, f_oc;          // the counters as the register map defines them
 reg [3:0]  f_fault_tick;                   // FAULT at the tick
 reg [14:0] f_ulim;                         // I_LIMIT of the sample that made u (run)
@@ -697,6 +724,7 @@ always @(posedge clk) begin
         f_wdt_to_s <= wdt_timeout;
         f_oc_to_s <= oc_timeout;
         f_lim_s <= i_limit;
+        f_tcmin_s <= tc_min;
         f_stale <= f_stale_now;
         f_wdt <= f_wdt_now;
         if (f_fclr_now) f_oc <= 16'd0;
@@ -788,6 +816,10 @@ always @(posedge clk) if (f_past_valid && !$past(rst) && !$past(seq_reg[13])) be
     assert($stable(u_reg) && $stable(out_en_reg) && $stable(integ_reg));
 end
 
+// The floor: a running sample never commands a tension below the TC_MIN taken at its tick.
+always @(posedge clk) if (f_past_valid && !$past(rst) && $past(f_run_done))
+    assert($signed(tc_eff_reg) >= $signed($past(f_tcmin_s)));
+
 // --- property 3: the integrator -----------------------------------------------------------
 
 wire signed [32:0] f_ilim = $signed({2'b00, f_ulim, 16'd0});
@@ -839,6 +871,8 @@ always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
     cover($past(f_run_done) && $past(f_sat_hi) && $signed($past(f_pi)) > 0 &&
           integ_reg != 32'd0 && integ_reg == $past(f_iprev));            // windup held
     cover($past(f_run_done) && $past(f_hold) && integ_reg != $past(f_iprev)); // held, clamped
+    cover($past(f_run_done) && $signed($past(tc_s_reg)) < $signed($past(f_tcmin_s)) &&
+          tc_eff_reg == $past(f_tcmin_s) && $signed(tc_eff_reg) > 0);      // floor applied
     cover($rose(fault_reg[0]));                                           // ADC stale
     cover($rose(fault_reg[1]));                                           // ADC range
     cover($rose(fault_reg[3]));                                           // over-current

@@ -59,7 +59,8 @@ def _run(model: TensionLoopModel, ref: FloatTensionLoop, steps: int, rng: random
         t_in_n = 8.0 * ((k // 37) % 3) - 4.0 + rng.uniform(-0.5, 0.5)
         model.adc_sample(adc_code_from_tension(t_in_n))
         out = model.tick()
-        u_ref = ref.step(model.regs["TC"] / 256, out.t_in / 256)
+        # The float loop gets T_c after the floor TC_MIN, as the RTL uses it.
+        u_ref = ref.step(max(model.regs["TC"], model.regs["TC_MIN"]) / 256, out.t_in / 256)
         errors.append(out.u / 4096 - u_ref)
     return errors
 

@@ -29,6 +29,7 @@ from cosim.rtl_model import (
 # Register -> port of tension_loop (the core wires them one to one).
 PORTS = {
     "TC": "tc",
+    "TC_MIN": "tc_min",
     "KFF": "kff",
     "KP": "kp",
     "KI_TS": "ki_ts",
@@ -172,6 +173,8 @@ async def random_against_model(dut):
             tb.write("SLEW", rng.choice([0, 1, 128, 32767]))
         if rng.random() < 0.3:
             tb.write("TC", rng.choice(corners16 + [rng.randint(-32768, 32767)] * 6))
+        if rng.random() < 0.03:
+            tb.write("TC_MIN", rng.choice(corners16 + [rng.randint(-32768, 32767)] * 2))
         if rng.random() < 0.04:
             extra = rng.choice([0, regmap.CTRL_SLEW_EN])
             extra |= rng.choice([0, regmap.CTRL_INTEG_RESET, regmap.CTRL_FAULT_CLEAR])
@@ -216,6 +219,36 @@ async def full_scale_errors_and_gain_extremes(dut):
     # With T_in at -/+ full scale the calibrated value saturates to the Q7.8 ends.
     assert calibrate(-(1 << 23), 0, 2048) == -16384
     assert saw_hi and saw_lo, "the output never reached both saturation limits"
+
+
+@cocotb.test()
+async def floor_holds_at_the_limits(dut):
+    """TC_MIN (a cable cannot push): full-scale negative and positive T_c against floors of
+    -128 N (off), 0 N, 2 N and full scale, with and without the slew limit; T_c' never goes
+    below the floor, and every sample equals the model."""
+    tb = LoopTb(dut)
+    await tb.start()
+    tb.write("WDT_TIMEOUT", 0)
+    tb.write("OC_TIMEOUT", 0)
+    tb.write("ADC_MIN", -(1 << 23))
+    tb.write("ADC_MAX", (1 << 23) - 1)
+    await _enable(tb)
+    await tb.sample(0)
+    floored = 0
+    for slew_en, slew in ((0, 0), (regmap.CTRL_SLEW_EN, 128), (regmap.CTRL_SLEW_EN, 32767)):
+        tb.write("SLEW", slew)
+        tb.write("CTRL", regmap.CTRL_ENABLE | slew_en)
+        for floor in (-32768, 0, 512, 32767):
+            tb.write("TC_MIN", floor)
+            for tc in (-32768, -1, 0, 511, 512, 32767, -32768):
+                tb.write("TC", tc)
+                for code in (-(1 << 23), (1 << 23) - 1, 0):
+                    await tb.sample(code)
+                    assert tb.last.tc_eff >= floor, (
+                        f"T_c' {tb.last.tc_eff} below the floor {floor} (TC {tc}, slew {slew})"
+                    )
+                    floored += tb.last.tc_eff == floor and tc < floor
+    assert floored > 10, "the floor never acted"
 
 
 @cocotb.test()

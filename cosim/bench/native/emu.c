@@ -52,6 +52,7 @@ void emu_loop_reset(emu_loop_t *m)
     m->adc_max = BOWDEN_ADC_MAX_RESET;
     m->adc_stale = BOWDEN_ADC_STALE_RESET;
     m->oc_timeout = BOWDEN_OC_TIMEOUT_RESET;
+    m->tc_min = BOWDEN_TC_MIN_RESET;
     m->enable = m->slew_en = 0U;
     m->raw = 0;
     m->fresh = m->tc_written = m->integ_reset_pending = m->fault_clear_pending = 0U;
@@ -112,6 +113,9 @@ void emu_loop_write(emu_loop_t *m, uint32_t addr, uint32_t w)
     case BOWDEN_REG_OC_TIMEOUT:
         m->oc_timeout = FIELD(OC_TIMEOUT, w);
         break;
+    case BOWDEN_REG_TC_MIN:
+        m->tc_min = FIELD(TC_MIN, w);
+        break;
     default: /* read-only registers ignore writes, as the RTL does */
         break;
     }
@@ -163,6 +167,9 @@ void emu_loop_tick(emu_loop_t *m)
     int64_t tce = m->tc;
     if (m->slew_en) {
         tce = clamp64(tce, (int64_t)m->tc_eff - m->slew, (int64_t)m->tc_eff + m->slew);
+    }
+    if (tce < m->tc_min) {
+        tce = m->tc_min; /* the floor after the slew limit (TC_MIN), as the RTL */
     }
     m->t_in = sat16((((int64_t)m->raw - m->adc_offset) * m->adc_gain + (1 << 19)) >> 20);
 
