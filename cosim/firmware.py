@@ -33,7 +33,7 @@ LIB_PATH = BUILD_DIR / "firmware" / "host" / "libbowden_fw.so"
 
 Q7_8_LSB_N = 1.0 / 256.0
 Q7_8_MIN, Q7_8_MAX = -32768, 32767
-MODES = {"none": 0, "paper": 1, "smooth": 2}
+MODES = {"none": 0, "paper": 1, "smooth": 2, "preview": 3}
 SOURCES = {"host": 0, "wave": 1}
 WAVE_KINDS = {"constant": 0, "sine": 1, "triangle": 2, "ramp": 3, "step": 4}  # WAVE_* of wave.h
 
@@ -67,6 +67,10 @@ class CompConfig(ctypes.Structure):
         ("offset_n_q8", ctypes.c_int32),
         ("hysteresis_n_q8", ctypes.c_int32),
         ("band_n_q8", ctypes.c_int32),
+        ("tc_min_n_q8", ctypes.c_int32),
+        ("preview_ticks", ctypes.c_int32),
+        ("lead_ticks", ctypes.c_int32),
+        ("ramp_ticks", ctypes.c_int32),
     ]
 
 
@@ -81,6 +85,10 @@ class CompF64Config(ctypes.Structure):
         ("offset_n", ctypes.c_double),
         ("hysteresis_n", ctypes.c_double),
         ("band_n", ctypes.c_double),
+        ("tc_min_n", ctypes.c_double),
+        ("preview_ticks", ctypes.c_int32),
+        ("lead_ticks", ctypes.c_int32),
+        ("ramp_ticks", ctypes.c_int32),
     ]
 
 
@@ -285,13 +293,17 @@ def tension_word(t_n: float) -> int:
 class CompensatorParams:
     """The compensator's configuration in SI units (comp.h gives the law and the limits)."""
 
-    mode: str = "paper"  # none | paper | smooth
+    mode: str = "paper"  # none | paper | smooth | preview
     mu: float = 0.075  # friction coefficient, [0, 1] (paper Fig. 11)
     phi_rad: float = 2.0 * math.pi  # bending angle, [0, 4*pi] (loop routing: 2*pi)
     mu_slope_per_n: float = 0.0  # friction rising with tension, [-1/128, 1/128] 1/N
     offset_n: float = 0.0  # output sensor offset, [-64, 64] N
     hysteresis_n: float = 4.0 / 256.0  # direction detector band H, [1/256, 32] N
     band_n: float = 2.0  # smooth inverse band B, [1/256, 128] N
+    tc_min_n: float = 0.0  # floor of T_c (minimum pretension), [0, 64] N
+    preview_ticks: int = 8  # preview: T_ref is handed this many ticks ahead, [0, 128]
+    lead_ticks: int = 2  # preview: the gain applies to T_ref this many ticks ahead, [0, P]
+    ramp_ticks: int = 40  # preview: ticks of a change of branch, [1, 256]
 
     def mode_code(self) -> int:
         if not isinstance(self.mode, str) or self.mode not in MODES:
@@ -307,6 +319,12 @@ class CompensatorParams:
             offset_n_q8=_fixed("comp.offset_n", self.offset_n, 8),
             hysteresis_n_q8=_fixed("comp.hysteresis_n", self.hysteresis_n, 8),
             band_n_q8=_fixed("comp.band_n", self.band_n, 8),
+            tc_min_n_q8=_fixed("comp.tc_min_n", self.tc_min_n, 8),
+            preview_ticks=_whole(
+                "comp.preview_ticks", self.preview_ticks, -(2**31), 2**31 - 1, "ticks"
+            ),
+            lead_ticks=_whole("comp.lead_ticks", self.lead_ticks, -(2**31), 2**31 - 1, "ticks"),
+            ramp_ticks=_whole("comp.ramp_ticks", self.ramp_ticks, -(2**31), 2**31 - 1, "ticks"),
         )
 
     def quantized(self) -> CompensatorParams:
@@ -320,12 +338,26 @@ class CompensatorParams:
             offset_n=c.offset_n_q8 / 256.0,
             hysteresis_n=c.hysteresis_n_q8 / 256.0,
             band_n=c.band_n_q8 / 256.0,
+            tc_min_n=c.tc_min_n_q8 / 256.0,
+            preview_ticks=c.preview_ticks,
+            lead_ticks=c.lead_ticks,
+            ramp_ticks=c.ramp_ticks,
         )
 
     def to_c_f64(self) -> CompF64Config:
         values = {}
-        for name in ("mu", "phi_rad", "mu_slope_per_n", "offset_n", "hysteresis_n", "band_n"):
+        for name in (
+            "mu",
+            "phi_rad",
+            "mu_slope_per_n",
+            "offset_n",
+            "hysteresis_n",
+            "band_n",
+            "tc_min_n",
+        ):
             values[name] = _real(f"comp.{name}", getattr(self, name))
+        for name in ("preview_ticks", "lead_ticks", "ramp_ticks"):
+            values[name] = _whole(f"comp.{name}", getattr(self, name), -(2**31), 2**31 - 1, "ticks")
         return CompF64Config(mode=self.mode_code(), **values)
 
     def gains(self, t_n: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -456,7 +488,8 @@ class CompensatorF64:
 
 def _params_from(mode: str, params, phi_rad: float) -> CompensatorParams:
     """CompensatorParams from any object with mu, band_n, hysteresis_n (and optionally offset_n,
-    mu_slope_per_n), e.g. cosim.scenarios.CompensatorParams."""
+    mu_slope_per_n, tc_min_n, preview_ticks, lead_ticks, ramp_ticks), e.g.
+    cosim.scenarios.CompensatorParams."""
     return CompensatorParams(
         mode=mode,
         mu=float(params.mu),
@@ -465,6 +498,10 @@ def _params_from(mode: str, params, phi_rad: float) -> CompensatorParams:
         offset_n=float(getattr(params, "offset_n", 0.0)),
         hysteresis_n=float(params.hysteresis_n),
         band_n=float(params.band_n),
+        tc_min_n=float(getattr(params, "tc_min_n", 0.0)),
+        preview_ticks=int(getattr(params, "preview_ticks", CompensatorParams.preview_ticks)),
+        lead_ticks=int(getattr(params, "lead_ticks", CompensatorParams.lead_ticks)),
+        ramp_ticks=int(getattr(params, "ramp_ticks", CompensatorParams.ramp_ticks)),
     )
 
 

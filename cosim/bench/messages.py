@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PROTOCOL_VERSION = 1
-TABLE_HASH = 0x7FC3D708
+TABLE_HASH = 0xA90E9A77
 MAX_PAYLOAD = 48
 CAN_NODE_BITS = 6
 CAN_MESSAGE_BITS = 5
@@ -476,7 +476,7 @@ PARAMS: tuple[Param, ...] = (
         False,
         0,
         "",
-        {"none": 0, "paper": 1, "smooth": 2},
+        {"none": 0, "paper": 1, "smooth": 2, "preview": 3},
         False,
         -2147483648,
         2147483647,
@@ -569,6 +569,62 @@ PARAMS: tuple[Param, ...] = (
     ),
     Param(
         10,
+        "comp.tc_min_n",
+        "fw.comp.tc_min_n_q8",
+        False,
+        8,
+        "N",
+        None,
+        False,
+        -2147483648,
+        2147483647,
+        0xE51DDAF4,
+        "floor of T_c (minimum pretension), Q7.8 N, [0, 64]",
+    ),
+    Param(
+        11,
+        "comp.preview_ticks",
+        "fw.comp.preview_ticks",
+        False,
+        0,
+        "",
+        None,
+        False,
+        -2147483648,
+        2147483647,
+        0xAE88E68E,
+        "PREVIEW: P, how far ahead the input is, [0, 128] ticks",
+    ),
+    Param(
+        12,
+        "comp.lead_ticks",
+        "fw.comp.lead_ticks",
+        False,
+        0,
+        "",
+        None,
+        False,
+        -2147483648,
+        2147483647,
+        0x41FCA257,
+        "PREVIEW: L, the reference the gain applies to, [0, P]",
+    ),
+    Param(
+        13,
+        "comp.ramp_ticks",
+        "fw.comp.ramp_ticks",
+        False,
+        0,
+        "",
+        None,
+        False,
+        -2147483648,
+        2147483647,
+        0xBEEC108A,
+        "PREVIEW: D, ticks of a change of branch, [1, 256]",
+    ),
+    Param(
+        14,
         "wave.kind",
         "fw.wave.kind",
         False,
@@ -582,7 +638,7 @@ PARAMS: tuple[Param, ...] = (
         "WAVE_*",
     ),
     Param(
-        11,
+        15,
         "wave.mean_n",
         "fw.wave.mean_n_q8",
         False,
@@ -596,7 +652,7 @@ PARAMS: tuple[Param, ...] = (
         "Q7.8 N, [-128, 127.996]",
     ),
     Param(
-        12,
+        16,
         "wave.amplitude_n",
         "fw.wave.amplitude_n_q8",
         False,
@@ -610,7 +666,7 @@ PARAMS: tuple[Param, ...] = (
         "Q7.8 N, [0, 128]; mean +- amplitude saturates to Q7.8",
     ),
     Param(
-        13,
+        17,
         "wave.freq_hz",
         "fw.wave.freq_hz_q16",
         True,
@@ -624,7 +680,7 @@ PARAMS: tuple[Param, ...] = (
         "UQ16.16 Hz, [0, rate/2]",
     ),
     Param(
-        14,
+        18,
         "wave.phase0",
         "fw.wave.phase0",
         True,
@@ -638,7 +694,7 @@ PARAMS: tuple[Param, ...] = (
         "initial phase, UQ0.32 turns",
     ),
     Param(
-        15,
+        19,
         "loop.kff",
         "fw.loop.kff",
         False,
@@ -652,7 +708,7 @@ PARAMS: tuple[Param, ...] = (
         "Feedforward gain r/(N*eta*k_t). Kff; reset 0.088 A/N (paper bench, contract)",
     ),
     Param(
-        16,
+        20,
         "loop.kp",
         "fw.loop.kp",
         False,
@@ -666,7 +722,7 @@ PARAMS: tuple[Param, ...] = (
         "Proportional gain. Kp; reset 0.05 A/N",
     ),
     Param(
-        17,
+        21,
         "loop.ki_ts",
         "fw.loop.ki_ts",
         False,
@@ -680,7 +736,7 @@ PARAMS: tuple[Param, ...] = (
         ("Integral gain times the sample period. Ki*Ts, LSB 2^-20 A/N, range +-1/32; reset 0.002"),
     ),
     Param(
-        18,
+        22,
         "loop.i_limit",
         "fw.loop.i_limit",
         False,
@@ -694,7 +750,7 @@ PARAMS: tuple[Param, ...] = (
         "Output saturation. |u| limit; reset 4 A (ESCON 36/2 peak current)",
     ),
     Param(
-        19,
+        23,
         "loop.slew",
         "fw.loop.slew",
         False,
@@ -708,7 +764,7 @@ PARAMS: tuple[Param, ...] = (
         ("Slew limit of T_c (used when CTRL.SLEW_EN). Max change of T_c per sample; reset 0.5 N"),
     ),
     Param(
-        20,
+        24,
         "loop.slew_en",
         "fw.loop.slew_en",
         False,
@@ -726,7 +782,7 @@ PARAMS: tuple[Param, ...] = (
         ),
     ),
     Param(
-        21,
+        25,
         "loop.wdt_timeout",
         "fw.loop.wdt_timeout",
         False,
@@ -740,7 +796,7 @@ PARAMS: tuple[Param, ...] = (
         "Watchdog timeout. Samples without a TC write before the watchdog fault; 0 disables",
     ),
     Param(
-        22,
+        26,
         "loop.adc_offset",
         "fw.loop.adc_offset",
         False,
@@ -754,7 +810,7 @@ PARAMS: tuple[Param, ...] = (
         "Raw ADC code at zero tension. Offset subtracted from the raw code",
     ),
     Param(
-        23,
+        27,
         "loop.adc_gain",
         "fw.loop.adc_gain",
         False,
@@ -771,7 +827,7 @@ PARAMS: tuple[Param, ...] = (
         ),
     ),
     Param(
-        24,
+        28,
         "loop.adc_min",
         "fw.loop.adc_min",
         False,
@@ -788,7 +844,7 @@ PARAMS: tuple[Param, ...] = (
         ),
     ),
     Param(
-        25,
+        29,
         "loop.adc_max",
         "fw.loop.adc_max",
         False,
@@ -805,7 +861,7 @@ PARAMS: tuple[Param, ...] = (
         ),
     ),
     Param(
-        26,
+        30,
         "loop.adc_stale",
         "fw.loop.adc_stale",
         False,
@@ -822,7 +878,7 @@ PARAMS: tuple[Param, ...] = (
         ),
     ),
     Param(
-        27,
+        31,
         "loop.oc_timeout",
         "fw.loop.oc_timeout",
         False,
@@ -839,7 +895,7 @@ PARAMS: tuple[Param, ...] = (
         ),
     ),
     Param(
-        28,
+        32,
         "dev.telemetry_div",
         "dev.telemetry_div",
         True,
@@ -853,7 +909,7 @@ PARAMS: tuple[Param, ...] = (
         "telemetry every N ticks, [1, 1000]; default 1",
     ),
     Param(
-        29,
+        33,
         "dev.can_node",
         "dev.can_node",
         True,

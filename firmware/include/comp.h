@@ -5,12 +5,33 @@
  * keeping the last sign of delta when delta = 0. It inverts the capstan friction of the sheath
  * (Eq. 1-3): loading, T_out = T_in * exp(-mu*phi); unloading, T_out = T_in * exp(+mu*phi).
  *
- * Three modes:
+ * Four modes:
  *  - COMP_MODE_NONE:   T_c = T_ref (no compensation; the baseline of the co-simulation).
  *  - COMP_MODE_PAPER:  Eq. 15 with the direction from the detector below; T_c jumps at a reversal.
  *  - COMP_MODE_SMOOTH: a smooth inverse in the spirit of Agrawal et al. (ICRA 2010, "smooth
  *    backlash inverse"): after a reversal the gain moves from one branch to the other linearly in
  *    the distance T_ref travels, over a tension band B, instead of jumping.
+ *  - COMP_MODE_PREVIEW: a smooth inverse driven by the reference P ticks ahead (P =
+ *    preview_ticks). The firmware generates T_ref, so it knows it ahead: in this mode the input
+ *    of comp_step is T_ref(t + P) (the waveform generator runs P ticks ahead, or the host passes
+ *    the reference P ticks ahead). The detector runs on it, so the gain starts to change branch
+ *    P ticks before the reversal reaches the loop: with P about D/2 plus the loop's lag, the
+ *    change is centred on the reversal, which covers the tension loop's closed-loop lag and the
+ *    interface delay (ADC, PWM). The blend moves in time, not in tension: s moves one step per
+ *    tick over D = ramp_ticks steps, so a change of branch takes D ticks whatever the slope of
+ *    T_ref near the reversal (a travel-based band is slowest exactly there, where T_ref is flat),
+ *    and the weight is the smoothstep w = x^2 (3 - 2x) of x = s/D: no corner at either end of the
+ *    ramp (a linear ramp's end made the input tension undershoot, which the dead zone passes to
+ *    the output). The gain is applied to T_ref(t + L) (L = lead_ticks <= P), taken from a delay
+ *    line of the last P + 1 inputs: the inverse of the actuator's first-order lag in the form a
+ *    known future allows (for a lag of time constant tau, T_c + tau dT_c/dt = T_c(t + tau) to
+ *    first order, without differentiating a quantized signal).
+ *    Start-up: the first input fills the delay line (a reference at rest); the waveform source
+ *    pre-rolls P ticks at fw_start, so that the line holds T_ref(0 .. P) at the first tick.
+ *
+ * Floor (a cable cannot push): in every mode T_c = max(T_c, tc_min), tc_min in [0, 64] N; the
+ * FPGA's TC_MIN register (written by fw_start from the same field) floors T_c' again after its
+ * slew limit.
  *
  * Direction detector (hysteresis band H): the detector tracks the extreme of T_ref since the last
  * reversal and declares a reversal when T_ref has moved back from it by at least H. A noisy or
@@ -32,8 +53,10 @@
  * Full law of a step, with T_eff = T_ref - offset_n (mode NONE: T_c = T_ref):
  *   G_up, G_dn as above (exp(+-mu*phi) without a slope),
  *   w = s / B in [0, 1] (PAPER: w = 1 loading, 0 unloading; SMOOTH: s moves by |dT_ref| per step
- *   towards B when loading and towards 0 when unloading),
- *   T_c = sat_Q7.8( T_eff * (G_dn + w*(G_up - G_dn)) ).
+ *   towards B when loading and towards 0 when unloading; PREVIEW: s moves by one per
+ *   step, and w = x^2 (3 - 2x) with x = s / D),
+ *   T_c = max(tc_min, sat_Q7.8( T_eff * (G_dn + w*(G_up - G_dn)) )),
+ * with T_eff = T_ref(t + L) - offset_n in PREVIEW mode (w from the input T_ref(t + P)).
  *
  * Smoothness bound (SMOOTH mode): between two consecutive steps whose references differ by d,
  *   |dT_c| <= d * (G_up,max + T_max*((G_up - G_dn)_max/B + G'_max)) + 2 LSB,
@@ -55,6 +78,7 @@
 #define COMP_MODE_NONE 0
 #define COMP_MODE_PAPER 1
 #define COMP_MODE_SMOOTH 2
+#define COMP_MODE_PREVIEW 3
 
 /* Configuration limits (checked in one place, comp_config_check). */
 #define COMP_MU_MAX_Q28 ((q3_28_t)Q3_28_ONE)               /* mu in [0, 1] */
@@ -68,6 +92,14 @@
 #define COMP_HYST_MAX_Q8 ((q7_8w_t)(32 * Q7_8_ONE))
 #define COMP_BAND_MIN_Q8 ((q7_8w_t)1) /* B in [1/256 N, 128 N] */
 #define COMP_BAND_MAX_Q8 ((q7_8w_t)(128 * Q7_8_ONE))
+#define COMP_TC_MIN_MAX_Q8 ((q7_8w_t)(64 * Q7_8_ONE)) /* floor in [0, 64] N */
+#define COMP_PREVIEW_MAX_TICKS 128                     /* P in [0, 128] ticks */
+#define COMP_RAMP_MAX_TICKS 256                        /* D in [1, 256] ticks */
+
+/* Preview defaults (ticks of the processor, 1 ms at 1 kHz), from `bowden tune`. */
+#define COMP_DEFAULT_PREVIEW_TICKS 8
+#define COMP_DEFAULT_LEAD_TICKS 2
+#define COMP_DEFAULT_RAMP_TICKS 40
 
 /* Gain table: nodes every 2 N (512 LSB of Q7.8) over |T_eff| in [0, 128] N. */
 #define COMP_TAB_SHIFT 9
@@ -89,6 +121,10 @@
 #define COMP_ERR_OFFSET 7     /* |offset| > 64 N */
 #define COMP_ERR_HYSTERESIS 8 /* H outside [1/256, 32] N */
 #define COMP_ERR_BAND 9       /* B outside [1/256, 128] N (a band of zero is rejected) */
+#define COMP_ERR_TC_MIN 10    /* floor outside [0, 64] N */
+#define COMP_ERR_PREVIEW 11   /* P outside [0, COMP_PREVIEW_MAX_TICKS] ticks */
+#define COMP_ERR_LEAD 12      /* L outside [0, P] ticks */
+#define COMP_ERR_RAMP 13      /* D outside [1, COMP_RAMP_MAX_TICKS] ticks */
 
 /* Configuration, built from comp_config_default() then changed field by field. */
 typedef struct {
@@ -99,6 +135,10 @@ typedef struct {
     q7_8w_t offset_n_q8;           /* output sensor offset, Q7.8 N, [-64, 64] */
     q7_8w_t hysteresis_n_q8;       /* detector band H, Q7.8 N, [1/256, 32] */
     q7_8w_t band_n_q8;             /* smooth inverse band B, Q7.8 N, [1/256, 128] */
+    q7_8w_t tc_min_n_q8;           /* floor of T_c (minimum pretension), Q7.8 N, [0, 64] */
+    int32_t preview_ticks;         /* PREVIEW: P, how far ahead the input is, [0, 128] ticks */
+    int32_t lead_ticks;            /* PREVIEW: L, the reference the gain applies to, [0, P] */
+    int32_t ramp_ticks;            /* PREVIEW: D, ticks of a change of branch, [1, 256] */
 } comp_config_t;
 
 /* The compensator: configuration in force, gain tables and the state of the last step. */
@@ -106,17 +146,22 @@ typedef struct {
     comp_config_t cfg;
     uq8_24_t g_up[COMP_TAB_NODES]; /* G_up at |T| = 2 N * index, UQ8.24 */
     uq8_24_t g_dn[COMP_TAB_NODES]; /* G_dn at |T| = 2 N * index, UQ8.24 */
-    uint32_t inv_band;             /* floor(2^(31+m) / B[LSB]) with m = floor(log2 B) */
+    int32_t blend_top;             /* s at the loading branch: B in LSB, or D in PREVIEW */
+    uint32_t inv_band;             /* floor(2^(31+m) / top) with m = floor(log2 top) */
     int32_t band_shift;            /* m + 1: w = (s * inv_band) >> (m + 1) is s/B in Q1.30 */
     int32_t prev_ref;              /* T_ref of the last step, Q7.8 in 32 bits */
     int32_t extreme;               /* extreme of T_ref since the last reversal, Q7.8 */
-    int32_t blend;                 /* s in Q7.8 LSB, [0, B]: B = loading branch, 0 = unloading */
+    int32_t blend;                 /* s in [0, top]: top = loading branch, 0 = unloading */
     int32_t dir;                   /* +1 loading, -1 unloading (sign of delta, held at 0) */
     int32_t started;               /* 0 until the first step */
+    int32_t line[COMP_PREVIEW_MAX_TICKS + 1]; /* PREVIEW: the last P + 1 inputs, Q7.8 */
+    int32_t line_pos;              /* PREVIEW: index of the newest input in line */
 } comp_t;
 
 /* Defaults: PAPER mode, mu = 0.075 (paper Fig. 11), phi = 2*pi (loop routing), no slope, no offset,
- * H = 4 LSB (1/64 N: above the +-1 LSB dither of a quantized constant), B = 2 N. */
+ * H = 4 LSB (1/64 N: above the +-1 LSB dither of a quantized constant), B = 2 N, floor 0 N,
+ * P and L: COMP_DEFAULT_PREVIEW_TICKS / COMP_DEFAULT_LEAD_TICKS (chosen by `bowden tune` on the
+ * tune scenario; hdl/README.md). */
 void comp_config_default(comp_config_t *cfg);
 
 /* Check a configuration without applying it; returns COMP_OK or the COMP_ERR_* of the first bad
@@ -138,7 +183,8 @@ int32_t comp_configure(comp_t *c, const comp_config_t *cfg);
 void comp_reset(comp_t *c);
 
 /*
- * One step of the compensator at the processor's rate: T_ref (Q7.8 N) in, T_c (Q7.8 N) out.
+ * One step of the compensator at the processor's rate: T_ref (Q7.8 N) in (T_ref(t + P) in PREVIEW
+ * mode), T_c (Q7.8 N) out.
  * Scaling and overflow: T_eff = T_ref - offset in 32 bits (|T_eff| < 2^17); gains are UQ8.24
  * (<= 54.6 * 2^24 < 2^30); the interpolation and blend products are < 2^62 in 64 bits; the product
  * T_eff * G (Q15.32, < 2^47) is rounded to Q7.8 and saturated to [-128, 127.996] N, so no input

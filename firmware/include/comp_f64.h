@@ -14,6 +14,8 @@
 
 #include <stdint.h>
 
+#include "comp.h"
+
 typedef struct {
     int32_t mode;              /* COMP_MODE_* (comp.h) */
     double mu;                 /* [0, 1] */
@@ -22,15 +24,21 @@ typedef struct {
     double offset_n;           /* [-64, 64] N */
     double hysteresis_n;       /* [1/256, 32] N */
     double band_n;             /* [1/256, 128] N */
+    double tc_min_n;           /* floor of T_c, [0, 64] N */
+    int32_t preview_ticks;     /* PREVIEW: P, [0, COMP_PREVIEW_MAX_TICKS] ticks */
+    int32_t lead_ticks;        /* PREVIEW: L, [0, P] ticks */
+    int32_t ramp_ticks;        /* PREVIEW: D, [1, COMP_RAMP_MAX_TICKS] ticks */
 } comp_f64_config_t;
 
 typedef struct {
     comp_f64_config_t cfg;
     double prev_ref;
     double extreme;
-    double blend;   /* s in N, [0, B] */
+    double blend;   /* s in [0, top]: B (N), or D (ticks) in PREVIEW */
     int32_t dir;
     int32_t started;
+    double line[COMP_PREVIEW_MAX_TICKS + 1]; /* PREVIEW: the last P + 1 inputs */
+    int32_t line_pos;
 } comp_f64_t;
 
 /* Same defaults as comp_config_default. */

@@ -15,6 +15,10 @@ void comp_config_default(comp_config_t *cfg)
     cfg->offset_n_q8 = 0;
     cfg->hysteresis_n_q8 = 4;         /* 1/64 N */
     cfg->band_n_q8 = 2 * Q7_8_ONE;    /* 2 N */
+    cfg->tc_min_n_q8 = 0;             /* a cable cannot push */
+    cfg->preview_ticks = COMP_DEFAULT_PREVIEW_TICKS;
+    cfg->lead_ticks = COMP_DEFAULT_LEAD_TICKS;
+    cfg->ramp_ticks = COMP_DEFAULT_RAMP_TICKS;
 }
 
 /* mu * phi in Q3.28, in 64 bits for the range check. Scaling and overflow: Q3.28 * Q7.24 =
@@ -72,7 +76,7 @@ static int32_t check_fields(const comp_config_t *cfg)
         return COMP_ERR_NULL;
     }
     if (cfg->mode != COMP_MODE_NONE && cfg->mode != COMP_MODE_PAPER &&
-        cfg->mode != COMP_MODE_SMOOTH) {
+        cfg->mode != COMP_MODE_SMOOTH && cfg->mode != COMP_MODE_PREVIEW) {
         return COMP_ERR_MODE;
     }
     if (cfg->mu_q28 < 0 || cfg->mu_q28 > COMP_MU_MAX_Q28) {
@@ -97,6 +101,18 @@ static int32_t check_fields(const comp_config_t *cfg)
     }
     if (cfg->band_n_q8 < COMP_BAND_MIN_Q8 || cfg->band_n_q8 > COMP_BAND_MAX_Q8) {
         return COMP_ERR_BAND;
+    }
+    if (cfg->tc_min_n_q8 < 0 || cfg->tc_min_n_q8 > COMP_TC_MIN_MAX_Q8) {
+        return COMP_ERR_TC_MIN;
+    }
+    if (cfg->preview_ticks < 0 || cfg->preview_ticks > COMP_PREVIEW_MAX_TICKS) {
+        return COMP_ERR_PREVIEW;
+    }
+    if (cfg->lead_ticks < 0 || cfg->lead_ticks > cfg->preview_ticks) {
+        return COMP_ERR_LEAD;
+    }
+    if (cfg->ramp_ticks < 1 || cfg->ramp_ticks > COMP_RAMP_MAX_TICKS) {
+        return COMP_ERR_RAMP;
     }
     return COMP_OK;
 }
@@ -135,7 +151,7 @@ static void set_inv_band(comp_t *c, uint32_t band)
 
 static void blend_to_branch(comp_t *c)
 {
-    c->blend = (c->dir > 0) ? c->cfg.band_n_q8 : 0;
+    c->blend = (c->dir > 0) ? c->blend_top : 0;
 }
 
 void comp_reset(comp_t *c)
@@ -147,6 +163,7 @@ void comp_reset(comp_t *c)
     c->extreme = 0;
     c->dir = 1;
     c->started = 0;
+    c->line_pos = 0;
     blend_to_branch(c);
 }
 
@@ -165,13 +182,18 @@ int32_t comp_configure(comp_t *c, const comp_config_t *cfg)
     if (err != COMP_OK) {
         return err;
     }
+    int32_t new_line = (c->cfg.preview_ticks != cfg->preview_ticks);
     c->cfg = *cfg;
     for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
         c->g_up[i] = up[i];
         c->g_dn[i] = dn[i];
     }
-    set_inv_band(c, (uint32_t)cfg->band_n_q8);
+    c->blend_top = (cfg->mode == COMP_MODE_PREVIEW) ? cfg->ramp_ticks : cfg->band_n_q8;
+    set_inv_band(c, (uint32_t)c->blend_top);
     blend_to_branch(c);
+    if (new_line) {
+        c->started = 0; /* a new horizon: the delay line refills at the next step */
+    }
     return COMP_OK;
 }
 
@@ -183,6 +205,8 @@ void comp_init(comp_t *c)
     comp_config_t cfg;
     comp_config_default(&cfg);
     c->dir = 1;
+    c->started = 0;
+    c->cfg.preview_ticks = cfg.preview_ticks;
     (void)comp_configure(c, &cfg); /* the defaults are valid (unit-tested) */
     comp_reset(c);
 }
@@ -206,6 +230,10 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
         c->started = 1;
         c->prev_ref = ref;
         c->extreme = ref;
+        for (int32_t i = 0; i <= COMP_PREVIEW_MAX_TICKS; ++i) {
+            c->line[i] = ref; /* a reference at rest */
+        }
+        c->line_pos = 0;
     }
     int32_t diff = ref - c->prev_ref; /* |diff| <= 65535 */
     c->prev_ref = ref;
@@ -228,19 +256,31 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
     }
 
     if (cfg->mode == COMP_MODE_NONE) {
-        return t_ref;
+        return (ref < cfg->tc_min_n_q8) ? (q7_8_t)cfg->tc_min_n_q8 : t_ref;
     }
 
-    /* Blend position s in [0, B]: PAPER jumps to the branch, SMOOTH travels |diff| towards it. */
+    /* PREVIEW: the input is T_ref(t + P); the gain applies to T_ref(t + L), P - L inputs ago. */
+    int32_t applied = ref;
+    if (cfg->mode == COMP_MODE_PREVIEW) {
+        const int32_t len = cfg->preview_ticks + 1;
+        c->line_pos = (c->line_pos + 1 < len) ? c->line_pos + 1 : 0;
+        c->line[c->line_pos] = ref;
+        int32_t back = c->line_pos - (cfg->preview_ticks - cfg->lead_ticks);
+        applied = c->line[(back < 0) ? back + len : back];
+    }
+
+    /* Blend position s in [0, top]: PAPER jumps to the branch, SMOOTH travels |diff| towards it,
+     * PREVIEW one per tick. */
+    const int32_t top = c->blend_top;
     int32_t s;
     if (cfg->mode == COMP_MODE_PAPER) {
-        s = (c->dir > 0) ? cfg->band_n_q8 : 0;
+        s = (c->dir > 0) ? top : 0;
     } else {
-        int32_t step = (diff < 0) ? -diff : diff;
+        int32_t step = (cfg->mode == COMP_MODE_PREVIEW) ? 1 : (diff < 0) ? -diff : diff;
         if (c->dir > 0) {
             s = c->blend + step; /* < 2^17: no overflow */
-            if (s > cfg->band_n_q8) {
-                s = cfg->band_n_q8;
+            if (s > top) {
+                s = top;
             }
         } else {
             s = c->blend - step;
@@ -251,14 +291,14 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
     }
     c->blend = s;
 
-    int32_t t_eff = ref - cfg->offset_n_q8; /* |t_eff| <= 32768 + 16384 */
+    int32_t t_eff = applied - cfg->offset_n_q8; /* |t_eff| <= 32768 + 16384 */
     uint32_t a = (uint32_t)((t_eff < 0) ? -t_eff : t_eff);
     if (a > (uint32_t)Q7_8_MAX) {
         a = (uint32_t)Q7_8_MAX; /* the gain tables end at 127.996 N (see comp.h) */
     }
 
     uq8_24_t g;
-    if (s >= cfg->band_n_q8) {
+    if (s >= top) {
         g = tab_interp(c->g_up, a);
     } else if (s <= 0) {
         g = tab_interp(c->g_dn, a);
@@ -268,6 +308,13 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
         /* w = s/B in Q1.30 (< 2^30, s < B here); s * inv_band < 2^46; (gu - gd) * w < 2^60;
          * the truncations cost < 1 LSB of UQ8.24. */
         uint64_t w = ((uint64_t)(uint32_t)s * c->inv_band) >> c->band_shift;
+        if (cfg->mode == COMP_MODE_PREVIEW) {
+            /* smoothstep w^2 (3 - 2w) in Q1.30: w^2, w^3 < 2^60 before the shifts; the result
+             * lies in [0, 2^30] (a polynomial in [0, 1] on [0, 1]); truncations < 3 LSB. */
+            uint64_t w2 = (w * w) >> 30;
+            uint64_t w3 = (w2 * w) >> 30;
+            w = 3U * w2 - 2U * w3;
+        }
         g = gd + (uq8_24_t)(((uint64_t)(gu - gd) * w) >> 30);
     }
 
@@ -275,8 +322,8 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
     int64_t tc = ((int64_t)t_eff * (int64_t)g + (INT64_C(1) << 23)) >> 24;
     if (tc > Q7_8_MAX) {
         tc = Q7_8_MAX;
-    } else if (tc < Q7_8_MIN) {
-        tc = Q7_8_MIN;
+    } else if (tc < cfg->tc_min_n_q8) {
+        tc = cfg->tc_min_n_q8; /* the floor, >= 0 > Q7_8_MIN: also the low saturation */
     }
     return (q7_8_t)tc;
 }
@@ -288,7 +335,7 @@ int32_t comp_direction(const comp_t *c)
 
 int32_t comp_blend_q1_30(const comp_t *c)
 {
-    if (c->blend >= c->cfg.band_n_q8) {
+    if (c->blend >= c->blend_top) {
         return (int32_t)Q1_30_ONE;
     }
     return (int32_t)(((uint64_t)(uint32_t)c->blend * c->inv_band) >> c->band_shift);

@@ -21,6 +21,16 @@ void comp_f64_config_default(comp_f64_config_t *cfg)
     cfg->offset_n = 0.0;
     cfg->hysteresis_n = 4.0 / 256.0;
     cfg->band_n = 2.0;
+    cfg->tc_min_n = 0.0;
+    cfg->preview_ticks = COMP_DEFAULT_PREVIEW_TICKS;
+    cfg->lead_ticks = COMP_DEFAULT_LEAD_TICKS;
+    cfg->ramp_ticks = COMP_DEFAULT_RAMP_TICKS;
+}
+
+/* s at the loading branch: B, or D ticks in PREVIEW (comp.h). */
+static double blend_top(const comp_f64_config_t *cfg)
+{
+    return (cfg->mode == COMP_MODE_PREVIEW) ? (double)cfg->ramp_ticks : cfg->band_n;
 }
 
 /* G_up and G_dn at |T| = a (comp.h: the capstan relation with mu(T) = mu + s*T integrated). */
@@ -46,7 +56,7 @@ int32_t comp_f64_config_check(const comp_f64_config_t *cfg)
         return COMP_ERR_NULL;
     }
     if (cfg->mode != COMP_MODE_NONE && cfg->mode != COMP_MODE_PAPER &&
-        cfg->mode != COMP_MODE_SMOOTH) {
+        cfg->mode != COMP_MODE_SMOOTH && cfg->mode != COMP_MODE_PREVIEW) {
         return COMP_ERR_MODE;
     }
     if (out_of(cfg->mu, 0.0, 1.0)) {
@@ -83,6 +93,18 @@ int32_t comp_f64_config_check(const comp_f64_config_t *cfg)
     if (out_of(cfg->band_n, 1.0 / 256.0, 128.0)) {
         return COMP_ERR_BAND;
     }
+    if (out_of(cfg->tc_min_n, 0.0, 64.0)) {
+        return COMP_ERR_TC_MIN;
+    }
+    if (cfg->preview_ticks < 0 || cfg->preview_ticks > COMP_PREVIEW_MAX_TICKS) {
+        return COMP_ERR_PREVIEW;
+    }
+    if (cfg->lead_ticks < 0 || cfg->lead_ticks > cfg->preview_ticks) {
+        return COMP_ERR_LEAD;
+    }
+    if (cfg->ramp_ticks < 1 || cfg->ramp_ticks > COMP_RAMP_MAX_TICKS) {
+        return COMP_ERR_RAMP;
+    }
     return COMP_OK;
 }
 
@@ -95,7 +117,8 @@ void comp_f64_reset(comp_f64_t *c)
     c->extreme = 0.0;
     c->dir = 1;
     c->started = 0;
-    c->blend = c->cfg.band_n;
+    c->line_pos = 0;
+    c->blend = blend_top(&c->cfg);
 }
 
 int32_t comp_f64_configure(comp_f64_t *c, const comp_f64_config_t *cfg)
@@ -107,8 +130,11 @@ int32_t comp_f64_configure(comp_f64_t *c, const comp_f64_config_t *cfg)
     if (err != COMP_OK) {
         return err;
     }
+    if (c->cfg.preview_ticks != cfg->preview_ticks) {
+        c->started = 0; /* a new horizon: the delay line refills at the next step */
+    }
     c->cfg = *cfg;
-    c->blend = (c->dir > 0) ? cfg->band_n : 0.0;
+    c->blend = (c->dir > 0) ? blend_top(cfg) : 0.0;
     return COMP_OK;
 }
 
@@ -120,6 +146,8 @@ void comp_f64_init(comp_f64_t *c)
     comp_f64_config_t cfg;
     comp_f64_config_default(&cfg);
     c->dir = 1;
+    c->started = 0;
+    c->cfg.preview_ticks = cfg.preview_ticks;
     (void)comp_f64_configure(c, &cfg);
     comp_f64_reset(c);
 }
@@ -131,6 +159,10 @@ double comp_step_f64(comp_f64_t *c, double t_ref_n)
         c->started = 1;
         c->prev_ref = t_ref_n;
         c->extreme = t_ref_n;
+        for (int32_t i = 0; i <= COMP_PREVIEW_MAX_TICKS; ++i) {
+            c->line[i] = t_ref_n;
+        }
+        c->line_pos = 0;
     }
     double diff = t_ref_n - c->prev_ref;
     c->prev_ref = t_ref_n;
@@ -152,24 +184,38 @@ double comp_step_f64(comp_f64_t *c, double t_ref_n)
     }
 
     if (cfg->mode == COMP_MODE_NONE) {
-        return t_ref_n;
+        return fmax(t_ref_n, cfg->tc_min_n);
     }
 
+    double applied = t_ref_n;
+    if (cfg->mode == COMP_MODE_PREVIEW) {
+        const int32_t len = cfg->preview_ticks + 1;
+        c->line_pos = (c->line_pos + 1 < len) ? c->line_pos + 1 : 0;
+        c->line[c->line_pos] = t_ref_n;
+        int32_t back = c->line_pos - (cfg->preview_ticks - cfg->lead_ticks);
+        applied = c->line[(back < 0) ? back + len : back];
+    }
+
+    const double top = blend_top(cfg);
     double s;
     if (cfg->mode == COMP_MODE_PAPER) {
-        s = (c->dir > 0) ? cfg->band_n : 0.0;
+        s = (c->dir > 0) ? top : 0.0;
     } else {
-        double step = fabs(diff);
-        s = (c->dir > 0) ? fmin(cfg->band_n, c->blend + step) : fmax(0.0, c->blend - step);
+        double step = (cfg->mode == COMP_MODE_PREVIEW) ? 1.0 : fabs(diff);
+        s = (c->dir > 0) ? fmin(top, c->blend + step) : fmax(0.0, c->blend - step);
     }
     c->blend = s;
 
-    double t_eff = t_ref_n - cfg->offset_n;
+    double t_eff = applied - cfg->offset_n;
     double a = fmin(fabs(t_eff), Q7_8_MAX_N); /* the fixed-point table ends there too */
     double gu;
     double gd;
     gains(cfg, a, &gu, &gd);
-    double g = gd + (gu - gd) * (s / cfg->band_n);
+    double w = s / top;
+    if (cfg->mode == COMP_MODE_PREVIEW) {
+        w = w * w * (3.0 - 2.0 * w); /* smoothstep: no corner at either end of the ramp */
+    }
+    double g = gd + (gu - gd) * w;
     double tc = t_eff * g;
-    return fmin(Q7_8_MAX_N, fmax(Q7_8_MIN_N, tc));
+    return fmin(Q7_8_MAX_N, fmax(cfg->tc_min_n, fmax(Q7_8_MIN_N, tc)));
 }

@@ -162,12 +162,19 @@ void fw_start(fw_t *fw)
     write_word(fw, BOWDEN_REG_ADC_MAX, l->adc_max);
     write_word(fw, BOWDEN_REG_ADC_STALE, l->adc_stale);
     write_word(fw, BOWDEN_REG_OC_TIMEOUT, l->oc_timeout);
+    write_word(fw, BOWDEN_REG_TC_MIN, fw->cfg.comp.tc_min_n_q8); /* the floor, in the FPGA too */
     write_word(fw, BOWDEN_REG_TC, 0);
     hal_write(fw->hal, BOWDEN_REG_CTRL,
               BOWDEN_CTRL_FAULT_CLEAR_MASK | BOWDEN_CTRL_INTEG_RESET_MASK);
     hal_write(fw->hal, BOWDEN_REG_CTRL, ctrl_run_word(fw));
     comp_reset(&fw->comp);
     (void)wave_configure(&fw->wave, &fw->cfg.wave, fw->cfg.tick_rate_hz); /* phase to phase0 */
+    if (fw->cfg.source == FW_SOURCE_WAVE && fw->cfg.comp.mode == COMP_MODE_PREVIEW) {
+        /* The generator runs P ticks ahead: its first P values fill the compensator's line. */
+        for (int32_t i = 0; i < fw->cfg.comp.preview_ticks; ++i) {
+            (void)comp_step_q7_8(&fw->comp, wave_next_q7_8(&fw->wave));
+        }
+    }
     fw->tel = (fw_telemetry_t){0};
 }
 
@@ -222,7 +229,7 @@ const char *fw_strerror(int32_t code)
     case FW_ERR_NULL:
         return "null pointer";
     case COMP_ERR_MODE:
-        return "comp.mode: must be 0 (none), 1 (paper) or 2 (smooth)";
+        return "comp.mode: must be 0 (none), 1 (paper), 2 (smooth) or 3 (preview)";
     case COMP_ERR_MU:
         return "comp.mu: outside [0, 1]";
     case COMP_ERR_PHI:
@@ -238,6 +245,14 @@ const char *fw_strerror(int32_t code)
         return "comp.hysteresis_n: outside [1/256, 32] N";
     case COMP_ERR_BAND:
         return "comp.band_n: outside [1/256, 128] N (a band of zero is not allowed)";
+    case COMP_ERR_TC_MIN:
+        return "comp.tc_min_n: outside [0, 64] N";
+    case COMP_ERR_PREVIEW:
+        return "comp.preview_ticks: outside [0, 128] ticks";
+    case COMP_ERR_LEAD:
+        return "comp.lead_ticks: outside [0, comp.preview_ticks] ticks";
+    case COMP_ERR_RAMP:
+        return "comp.ramp_ticks: outside [1, 256] ticks";
     case WAVE_ERR_KIND:
         return "wave.kind: must be 0 (constant), 1 (sine), 2 (triangle), 3 (ramp) or 4 (step)";
     case WAVE_ERR_RATE:

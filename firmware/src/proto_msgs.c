@@ -755,24 +755,28 @@ const proto_param_t proto_params[PROTO_N_PARAMS] = {
     {0xAFE1A4A2UL, (uint16_t)offsetof(dev_settings_t, fw.comp.offset_n_q8), PROTO_PARAM_I32, 0u}, /* 7: comp.offset_n */
     {0x255601BBUL, (uint16_t)offsetof(dev_settings_t, fw.comp.hysteresis_n_q8), PROTO_PARAM_I32, 0u}, /* 8: comp.hysteresis_n */
     {0xA4443E8CUL, (uint16_t)offsetof(dev_settings_t, fw.comp.band_n_q8), PROTO_PARAM_I32, 0u}, /* 9: comp.band_n */
-    {0xDB6411EBUL, (uint16_t)offsetof(dev_settings_t, fw.wave.kind), PROTO_PARAM_I32, 0u}, /* 10: wave.kind */
-    {0xFFCCD848UL, (uint16_t)offsetof(dev_settings_t, fw.wave.mean_n_q8), PROTO_PARAM_I32, 0u}, /* 11: wave.mean_n */
-    {0x931F3DB7UL, (uint16_t)offsetof(dev_settings_t, fw.wave.amplitude_n_q8), PROTO_PARAM_I32, 0u}, /* 12: wave.amplitude_n */
-    {0xBC9D67C4UL, (uint16_t)offsetof(dev_settings_t, fw.wave.freq_hz_q16), PROTO_PARAM_U32, 0u}, /* 13: wave.freq_hz */
-    {0x6B1E8780UL, (uint16_t)offsetof(dev_settings_t, fw.wave.phase0), PROTO_PARAM_U32, 0u}, /* 14: wave.phase0 */
-    {0x9D00A4AFUL, (uint16_t)offsetof(dev_settings_t, fw.loop.kff), PROTO_PARAM_I32, 0u}, /* 15: loop.kff */
-    {0xFEFC766DUL, (uint16_t)offsetof(dev_settings_t, fw.loop.kp), PROTO_PARAM_I32, 0u}, /* 16: loop.kp */
-    {0x872838C6UL, (uint16_t)offsetof(dev_settings_t, fw.loop.ki_ts), PROTO_PARAM_I32, 0u}, /* 17: loop.ki_ts */
-    {0x9E5341BFUL, (uint16_t)offsetof(dev_settings_t, fw.loop.i_limit), PROTO_PARAM_I32, 0u}, /* 18: loop.i_limit */
-    {0x5713FC1BUL, (uint16_t)offsetof(dev_settings_t, fw.loop.slew), PROTO_PARAM_I32, 0u}, /* 19: loop.slew */
-    {0xBDDFCF87UL, (uint16_t)offsetof(dev_settings_t, fw.loop.slew_en), PROTO_PARAM_I32, 0u}, /* 20: loop.slew_en */
-    {0xB91E18F1UL, (uint16_t)offsetof(dev_settings_t, fw.loop.wdt_timeout), PROTO_PARAM_I32, 0u}, /* 21: loop.wdt_timeout */
-    {0xBBDFD4B5UL, (uint16_t)offsetof(dev_settings_t, fw.loop.adc_offset), PROTO_PARAM_I32, 0u}, /* 22: loop.adc_offset */
-    {0x0A61739CUL, (uint16_t)offsetof(dev_settings_t, fw.loop.adc_gain), PROTO_PARAM_I32, 0u}, /* 23: loop.adc_gain */
-    {0x2D9514DCUL, (uint16_t)offsetof(dev_settings_t, fw.loop.adc_min), PROTO_PARAM_I32, 0u}, /* 24: loop.adc_min */
-    {0x867EF7E3UL, (uint16_t)offsetof(dev_settings_t, fw.loop.adc_max), PROTO_PARAM_I32, 0u}, /* 25: loop.adc_max */
-    {0xE6DB7DA5UL, (uint16_t)offsetof(dev_settings_t, fw.loop.adc_stale), PROTO_PARAM_I32, 0u}, /* 26: loop.adc_stale */
-    {0xC48C578DUL, (uint16_t)offsetof(dev_settings_t, fw.loop.oc_timeout), PROTO_PARAM_I32, 0u}, /* 27: loop.oc_timeout */
-    {0xA4E9F30AUL, (uint16_t)offsetof(dev_settings_t, dev.telemetry_div), PROTO_PARAM_U32, 0u}, /* 28: dev.telemetry_div */
-    {0xC4FD1CC2UL, (uint16_t)offsetof(dev_settings_t, dev.can_node), PROTO_PARAM_U32, 0u}, /* 29: dev.can_node */
+    {0xE51DDAF4UL, (uint16_t)offsetof(dev_settings_t, fw.comp.tc_min_n_q8), PROTO_PARAM_I32, 0u}, /* 10: comp.tc_min_n */
+    {0xAE88E68EUL, (uint16_t)offsetof(dev_settings_t, fw.comp.preview_ticks), PROTO_PARAM_I32, 0u}, /* 11: comp.preview_ticks */
+    {0x41FCA257UL, (uint16_t)offsetof(dev_settings_t, fw.comp.lead_ticks), PROTO_PARAM_I32, 0u}, /* 12: comp.lead_ticks */
+    {0xBEEC108AUL, (uint16_t)offsetof(dev_settings_t, fw.comp.ramp_ticks), PROTO_PARAM_I32, 0u}, /* 13: comp.ramp_ticks */
+    {0xDB6411EBUL, (uint16_t)offsetof(dev_settings_t, fw.wave.kind), PROTO_PARAM_I32, 0u}, /* 14: wave.kind */
+    {0xFFCCD848UL, (uint16_t)offsetof(dev_settings_t, fw.wave.mean_n_q8), PROTO_PARAM_I32, 0u}, /* 15: wave.mean_n */
+    {0x931F3DB7UL, (uint16_t)offsetof(dev_settings_t, fw.wave.amplitude_n_q8), PROTO_PARAM_I32, 0u}, /* 16: wave.amplitude_n */
+    {0xBC9D67C4UL, (uint16_t)offsetof(dev_settings_t, fw.wave.freq_hz_q16), PROTO_PARAM_U32, 0u}, /* 17: wave.freq_hz */
+    {0x6B1E8780UL, (uint16_t)offsetof(dev_settings_t, fw.wave.phase0), PROTO_PARAM_U32, 0u}, /* 18: wave.phase0 */
+    {0x9D00A4AFUL, (uint16_t)offsetof(dev_settings_t, fw.loop.kff), PROTO_PARAM_I32, 0u}, /* 19: loop.kff */
+    {0xFEFC766DUL, (uint16_t)offsetof(dev_settings_t, fw.loop.kp), PROTO_PARAM_I32, 0u}, /* 20: loop.kp */
+    {0x872838C6UL, (uint16_t)offsetof(dev_settings_t, fw.loop.ki_ts), PROTO_PARAM_I32, 0u}, /* 21: loop.ki_ts */
+    {0x9E5341BFUL, (uint16_t)offsetof(dev_settings_t, fw.loop.i_limit), PROTO_PARAM_I32, 0u}, /* 22: loop.i_limit */
+    {0x5713FC1BUL, (uint16_t)offsetof(dev_settings_t, fw.loop.slew), PROTO_PARAM_I32, 0u}, /* 23: loop.slew */
+    {0xBDDFCF87UL, (uint16_t)offsetof(dev_settings_t, fw.loop.slew_en), PROTO_PARAM_I32, 0u}, /* 24: loop.slew_en */
+    {0xB91E18F1UL, (uint16_t)offsetof(dev_settings_t, fw.loop.wdt_timeout), PROTO_PARAM_I32, 0u}, /* 25: loop.wdt_timeout */
+    {0xBBDFD4B5UL, (uint16_t)offsetof(dev_settings_t, fw.loop.adc_offset), PROTO_PARAM_I32, 0u}, /* 26: loop.adc_offset */
+    {0x0A61739CUL, (uint16_t)offsetof(dev_settings_t, fw.loop.adc_gain), PROTO_PARAM_I32, 0u}, /* 27: loop.adc_gain */
+    {0x2D9514DCUL, (uint16_t)offsetof(dev_settings_t, fw.loop.adc_min), PROTO_PARAM_I32, 0u}, /* 28: loop.adc_min */
+    {0x867EF7E3UL, (uint16_t)offsetof(dev_settings_t, fw.loop.adc_max), PROTO_PARAM_I32, 0u}, /* 29: loop.adc_max */
+    {0xE6DB7DA5UL, (uint16_t)offsetof(dev_settings_t, fw.loop.adc_stale), PROTO_PARAM_I32, 0u}, /* 30: loop.adc_stale */
+    {0xC48C578DUL, (uint16_t)offsetof(dev_settings_t, fw.loop.oc_timeout), PROTO_PARAM_I32, 0u}, /* 31: loop.oc_timeout */
+    {0xA4E9F30AUL, (uint16_t)offsetof(dev_settings_t, dev.telemetry_div), PROTO_PARAM_U32, 0u}, /* 32: dev.telemetry_div */
+    {0xC4FD1CC2UL, (uint16_t)offsetof(dev_settings_t, dev.can_node), PROTO_PARAM_U32, 0u}, /* 33: dev.can_node */
 };

@@ -10,6 +10,8 @@
 
 #define PI_D 3.14159265358979323846
 #define LSB_N (1.0 / 256.0)
+/* PREVIEW applies the same gain law as SMOOTH: the same bound (comp.h, COMP_ERR_BOUND_LSB). */
+#define ERR_BOUND_LSB_PREVIEW ((double)COMP_ERR_BOUND_LSB)
 
 /* A configuration in both forms: the twin gets exactly the quantized parameters. */
 typedef struct {
@@ -35,6 +37,22 @@ static cfg_pair_t make_cfg(int32_t mode, double mu, double phi, double slope, do
     p.d.offset_n = p.q.offset_n_q8 * LSB_N;
     p.d.hysteresis_n = p.q.hysteresis_n_q8 * LSB_N;
     p.d.band_n = p.q.band_n_q8 * LSB_N;
+    p.q.tc_min_n_q8 = 0;
+    p.d.tc_min_n = 0.0;
+    p.q.preview_ticks = p.d.preview_ticks = 0;
+    p.q.lead_ticks = p.d.lead_ticks = 0;
+    p.q.ramp_ticks = p.d.ramp_ticks = 1;
+    return p;
+}
+
+/* The same pair with a floor (N, a whole number of LSB) and a preview horizon and lead. */
+static cfg_pair_t with_floor_preview(cfg_pair_t p, double tc_min_n, int32_t preview_ticks,
+                                     int32_t lead_ticks)
+{
+    p.q.tc_min_n_q8 = (q7_8w_t)llround(tc_min_n * 256.0);
+    p.d.tc_min_n = p.q.tc_min_n_q8 * LSB_N;
+    p.q.preview_ticks = p.d.preview_ticks = preview_ticks;
+    p.q.lead_ticks = p.d.lead_ticks = lead_ticks;
     return p;
 }
 
@@ -178,7 +196,7 @@ static void test_bad_config_rejected_and_previous_kept(void)
     const double tiny_q28 = 1.0 / 268435456.0;
     const double tiny_q24 = 1.0 / 16777216.0;
     bad_t bad[] = {
-        {"mode 3", make_cfg(3, 0.075, 6.0, 0, 0, 0.01, 2), COMP_ERR_MODE},
+        {"mode 4", make_cfg(4, 0.075, 6.0, 0, 0, 0.01, 2), COMP_ERR_MODE},
         {"mode -1", make_cfg(-1, 0.075, 6.0, 0, 0, 0.01, 2), COMP_ERR_MODE},
         {"mu < 0", make_cfg(1, -tiny_q28, 6.0, 0, 0, 0.01, 2), COMP_ERR_MU},
         {"mu > 1", make_cfg(1, 1.0 + tiny_q28, 1.0, 0, 0, 0.01, 2), COMP_ERR_MU},
@@ -200,6 +218,19 @@ static void test_bad_config_rejected_and_previous_kept(void)
         {"band 0", make_cfg(2, 0.075, 6.0, 0, 0, 0.01, 0.0), COMP_ERR_BAND},
         {"band < 0", make_cfg(2, 0.075, 6.0, 0, 0, 0.01, -1.0), COMP_ERR_BAND},
         {"band > 128 N", make_cfg(2, 0.075, 6.0, 0, 0, 0.01, 128.0 + LSB_N), COMP_ERR_BAND},
+        {"floor < 0", with_floor_preview(make_cfg(1, 0.075, 6.0, 0, 0, 0.01, 2), -LSB_N, 0, 0),
+         COMP_ERR_TC_MIN},
+        {"floor > 64 N",
+         with_floor_preview(make_cfg(1, 0.075, 6.0, 0, 0, 0.01, 2), 64.0 + LSB_N, 0, 0),
+         COMP_ERR_TC_MIN},
+        {"preview < 0", with_floor_preview(make_cfg(3, 0.075, 6.0, 0, 0, 0.01, 2), 0, -1, 0),
+         COMP_ERR_PREVIEW},
+        {"preview > 128", with_floor_preview(make_cfg(3, 0.075, 6.0, 0, 0, 0.01, 2), 0, 129, 0),
+         COMP_ERR_PREVIEW},
+        {"lead < 0", with_floor_preview(make_cfg(3, 0.075, 6.0, 0, 0, 0.01, 2), 0, 8, -1),
+         COMP_ERR_LEAD},
+        {"lead > preview", with_floor_preview(make_cfg(3, 0.075, 6.0, 0, 0, 0.01, 2), 0, 8, 9),
+         COMP_ERR_LEAD},
     };
     comp_t c;
     comp_f64_t d;
@@ -237,6 +268,10 @@ static void test_limits_accepted(void)
         make_cfg(COMP_MODE_SMOOTH, 1.0 / 128, 0.5, 1.0 / 128, 0.0, 1.0, 1.0),
         make_cfg(COMP_MODE_SMOOTH, 0.5, 1.0, -1.0 / 256, 0.0, 1.0, 1.0),
         make_cfg(COMP_MODE_NONE, 0.075, 2.0 * PI_D, 0.0, 0.0, 1.0, 1.0),
+        with_floor_preview(make_cfg(COMP_MODE_PREVIEW, 0.075, 2.0 * PI_D, 0, 0, 1.0, 1.0), 64.0,
+                           COMP_PREVIEW_MAX_TICKS, COMP_PREVIEW_MAX_TICKS),
+        with_floor_preview(make_cfg(COMP_MODE_PREVIEW, 0.075, 2.0 * PI_D, 0, 0, 1.0, 1.0), 0.0,
+                           COMP_PREVIEW_MAX_TICKS, 0),
     };
     for (size_t i = 0; i < sizeof ok / sizeof ok[0]; ++i) {
         CHECK(comp_config_check(&ok[i].q) == COMP_OK, "limit set %zu rejected: %ld", i,
@@ -293,20 +328,25 @@ static void test_matches_twin_random_and_full_scale(void)
     }
 }
 
-/* Saturation of T_c to the Q7.8 range, driven to both ends, with the largest gain and offsets. */
+/* Saturation of T_c: at the top of the Q7.8 range and at the floor (a cable cannot push), driven
+ * to both ends with the largest gain and offsets, the floor at 0 and at its maximum, 64 N. */
 static void test_output_saturates_at_full_scale(void)
 {
     const double offsets[3] = {0.0, -64.0, 64.0};
-    for (int k = 0; k < 3; ++k) {
-        cfg_pair_t p = make_cfg(COMP_MODE_PAPER, 1.0 / 3.0, 12.0, 0, offsets[k], LSB_N, 2);
+    for (int k = 0; k < 6; ++k) {
+        const double floor_n = (k < 3) ? 0.0 : 64.0;
+        cfg_pair_t p = with_floor_preview(
+            make_cfg(COMP_MODE_PAPER, 1.0 / 3.0, 12.0, 0, offsets[k % 3], LSB_N, 2), floor_n, 0,
+            0);
         comp_t c;
         comp_f64_t d;
         configure_both(&c, &d, &p);
-        /* Loading (the initial direction) with G = e^4: both ends saturate. */
-        CHECK(comp_step_q7_8(&c, INT16_MIN) == INT16_MIN, "offset %g: negative saturation",
-              offsets[k]);
+        /* Loading (the initial direction) with G = e^4: the top saturates, the bottom floors. */
+        CHECK(comp_step_q7_8(&c, INT16_MIN) == (int16_t)(floor_n * 256.0),
+              "offset %g: full-scale negative input not at the floor %g N", offsets[k % 3],
+              floor_n);
         CHECK(comp_step_q7_8(&c, INT16_MAX) == INT16_MAX, "offset %g: positive saturation",
-              offsets[k]);
+              offsets[k % 3]);
         /* Alternate full-scale jumps: every step reverses; the result never wraps around. */
         configure_both(&c, &d, &p);
         int bad = 0;
@@ -315,8 +355,10 @@ static void test_output_saturates_at_full_scale(void)
             double want = comp_step_f64(&d, r * LSB_N);
             int16_t t = comp_step_q7_8(&c, r);
             bad += fabs(t * LSB_N - want) > LSB_N;
+            bad += t < p.q.tc_min_n_q8;
         }
-        CHECK(bad == 0, "offset %g: %d full-scale steps differ from the twin", offsets[k], bad);
+        CHECK(bad == 0, "offset %g floor %g: %d full-scale steps differ from the twin or fall "
+              "below the floor", offsets[k % 3], floor_n, bad);
     }
 }
 
@@ -562,7 +604,8 @@ static void test_reconfigure_keeps_direction(void)
     CHECK(c.dir == 1 && c.blend == cfg.band_n_q8 && c.started == 0, "reset");
 }
 
-/* NONE passes T_ref through for every input word. */
+/* NONE passes T_ref through for every input word at or above the floor, and gives the floor
+ * below it (floors 0 and 64 N). */
 static void test_mode_none_passthrough(void)
 {
     comp_t c;
@@ -571,12 +614,104 @@ static void test_mode_none_passthrough(void)
     comp_config_default(&cfg);
     cfg.mode = COMP_MODE_NONE;
     cfg.offset_n_q8 = 100;
-    CHECK(comp_configure(&c, &cfg) == COMP_OK, "configure NONE");
-    int bad = 0;
-    for (int32_t r = INT16_MIN; r <= INT16_MAX; ++r) {
-        bad += comp_step_q7_8(&c, (int16_t)r) != r;
+    for (int32_t floor_q8 = 0; floor_q8 <= COMP_TC_MIN_MAX_Q8; floor_q8 += COMP_TC_MIN_MAX_Q8) {
+        cfg.tc_min_n_q8 = floor_q8;
+        CHECK(comp_configure(&c, &cfg) == COMP_OK, "configure NONE");
+        int bad = 0;
+        for (int32_t r = INT16_MIN; r <= INT16_MAX; ++r) {
+            bad += comp_step_q7_8(&c, (int16_t)r) != ((r < floor_q8) ? floor_q8 : r);
+        }
+        CHECK(bad == 0, "floor %ld: %d words not passed through or floored", (long)floor_q8, bad);
     }
-    CHECK(bad == 0, "%d words not passed through", bad);
+}
+
+/* PREVIEW, fed x[k + P]: its detector flips at the same step as a PAPER compensator fed the
+ * same x[k + P] (the change of branch starts P ticks before the reversal reaches x[k]); after a
+ * flip the blend moves by exactly 1/D per tick to the other branch; on a branch the output is
+ * the branch's gain applied to x[k + L], word for word what PAPER gives for x[k + L] there. */
+static void test_preview_blend_moves_in_time(void)
+{
+    enum { P = 8, D = 20 };
+    seq_sine(7.5, 7.5, 0.5, 1000.0);
+    for (int32_t lead = 0; lead <= P; lead += P) {
+        cfg_pair_t pv = with_floor_preview(
+            make_cfg(COMP_MODE_PREVIEW, 0.075, 2 * PI_D, 0, 0, 4 * LSB_N, 1.0), 0.0, P, lead);
+        pv.q.ramp_ticks = pv.d.ramp_ticks = D;
+        cfg_pair_t pa = make_cfg(COMP_MODE_PAPER, 0.075, 2 * PI_D, 0, 0, 4 * LSB_N, 1.0);
+        comp_t cp;
+        comp_t ca;
+        comp_t cb;
+        comp_f64_t d;
+        configure_both(&cp, &d, &pv);
+        configure_both(&ca, &d, &pa); /* detector on x[k + P] */
+        configure_both(&cb, &d, &pa); /* output on x[k + L] */
+        int bad_dir = 0;
+        int bad_ramp = 0;
+        int bad_out = 0;
+        int flips = 0;
+        int on_branch = 0;
+        int32_t prev_blend = cp.blend;
+        int32_t prev_dir = cp.dir;
+        for (int i = 0; i + P < NSEQ; ++i) {
+            int16_t tp = comp_step_q7_8(&cp, seq[i + P]);
+            (void)comp_step_q7_8(&ca, seq[i + P]);
+            int16_t tb = comp_step_q7_8(&cb, seq[i + lead]);
+            bad_dir += cp.dir != ca.dir;
+            flips += cp.dir != prev_dir;
+            /* the blend moves one tick towards the branch of the direction, and stops there */
+            int32_t want = prev_blend + ((cp.dir > 0) ? 1 : -1);
+            want = want < 0 ? 0 : want > D ? D : want;
+            bad_ramp += cp.blend != want;
+            prev_blend = cp.blend;
+            prev_dir = cp.dir;
+            /* past the line's fill, on a branch both agree on: the same gain on x[k + L] */
+            if (i >= P && (cp.blend == 0 || cp.blend == D) && cb.dir == cp.dir) {
+                bad_out += tp != tb;
+                ++on_branch;
+            }
+        }
+        CHECK(flips >= 2, "lead %d: only %d reversals", (int)lead, flips);
+        CHECK(bad_dir == 0, "lead %d: detector differs from PAPER's at %d steps", (int)lead,
+              bad_dir);
+        CHECK(bad_ramp == 0, "lead %d: blend not one tick per step at %d steps", (int)lead,
+              bad_ramp);
+        CHECK(on_branch > NSEQ / 2 && bad_out == 0, "lead %d: %d outputs off the branch law",
+              (int)lead, bad_out);
+    }
+}
+
+/* PREVIEW against its double twin over sines, random walks and full-scale jumps, for short and
+ * the longest horizons and a floor; the floor holds at every step. */
+static void test_preview_matches_twin(void)
+{
+    const int32_t pl[4][3] = {{8, 2, 40}, {8, 8, 1}, {COMP_PREVIEW_MAX_TICKS, 0, COMP_RAMP_MAX_TICKS},
+                              {1, 0, 7}};
+    for (int k = 0; k < 4; ++k) {
+        cfg_pair_t p = with_floor_preview(
+            make_cfg(COMP_MODE_PREVIEW, 0.075, 2 * PI_D, 0, 0, 4 * LSB_N, 1.0),
+            (k == 3) ? 2.0 : 0.0, pl[k][0], pl[k][1]);
+        p.q.ramp_ticks = p.d.ramp_ticks = pl[k][2];
+        double worst = 0.0;
+        seq_sine(15.0, 7.5, 0.5, 1000.0);
+        double e = run_compare(&p, seq, NSEQ);
+        worst = e > worst ? e : worst;
+        seq_random_walk(40);
+        e = run_compare(&p, seq, NSEQ);
+        worst = e > worst ? e : worst;
+        seq_random_full_scale();
+        e = run_compare(&p, seq, NSEQ);
+        worst = e > worst ? e : worst;
+        CHECK(worst <= ERR_BOUND_LSB_PREVIEW, "P %ld L %ld: %.3f LSB from the twin",
+              (long)pl[k][0], (long)pl[k][1], worst);
+        comp_t c;
+        comp_f64_t d;
+        configure_both(&c, &d, &p);
+        int below = 0;
+        for (int i = 0; i < NSEQ; ++i) {
+            below += comp_step_q7_8(&c, seq[i]) < p.q.tc_min_n_q8;
+        }
+        CHECK(below == 0, "P %ld: %d outputs below the floor", (long)pl[k][0], below);
+    }
 }
 
 const unit_test_t comp_tests[] = {
@@ -593,5 +728,7 @@ const unit_test_t comp_tests[] = {
     {"blend_weight_precision_every_band", test_blend_weight_precision_every_band},
     {"reconfigure_keeps_direction", test_reconfigure_keeps_direction},
     {"mode_none_passthrough", test_mode_none_passthrough},
+    {"preview_blend_moves_in_time", test_preview_blend_moves_in_time},
+    {"preview_matches_twin", test_preview_matches_twin},
 };
 const int comp_tests_count = (int)(sizeof comp_tests / sizeof comp_tests[0]);

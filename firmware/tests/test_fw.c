@@ -175,19 +175,22 @@ static void test_fw_start_sequence(void)
     fw_config_default(&cfg);
     cfg.loop.kp = -7;
     cfg.loop.slew_en = 1;
+    cfg.comp.tc_min_n_q8 = 3 * 256;
     CHECK(fw_configure(&fw, &cfg) == FW_OK, "configure");
     fw_start(&fw);
     hal_write_t w[HAL_LOG_CAPACITY];
     uint32_t n = hal_shadow_drain(&s, w, HAL_LOG_CAPACITY);
-    CHECK(n == 16U, "%lu writes at start", (unsigned long)n);
+    CHECK(n == 17U, "%lu writes at start", (unsigned long)n);
     CHECK(w[0].addr == BOWDEN_REG_CTRL && w[0].value == 0U, "disable first");
     CHECK(w[2].addr == BOWDEN_REG_KP && w[2].value == 0xFFFFFFF9UL, "KP sign-extended");
-    CHECK(w[13].addr == BOWDEN_REG_TC && w[13].value == 0U, "TC = 0 before enabling");
-    CHECK(w[14].value == (BOWDEN_CTRL_FAULT_CLEAR_MASK | BOWDEN_CTRL_INTEG_RESET_MASK),
+    CHECK(w[13].addr == BOWDEN_REG_TC_MIN && w[13].value == 3U * 256U,
+          "the compensator's floor into TC_MIN");
+    CHECK(w[14].addr == BOWDEN_REG_TC && w[14].value == 0U, "TC = 0 before enabling");
+    CHECK(w[15].value == (BOWDEN_CTRL_FAULT_CLEAR_MASK | BOWDEN_CTRL_INTEG_RESET_MASK),
           "fault clear and integrator reset");
-    CHECK(w[15].addr == BOWDEN_REG_CTRL &&
-              w[15].value == (BOWDEN_CTRL_ENABLE_MASK | BOWDEN_CTRL_SLEW_EN_MASK),
-          "enable last: 0x%lx", (unsigned long)w[15].value);
+    CHECK(w[16].addr == BOWDEN_REG_CTRL &&
+              w[16].value == (BOWDEN_CTRL_ENABLE_MASK | BOWDEN_CTRL_SLEW_EN_MASK),
+          "enable last: 0x%lx", (unsigned long)w[16].value);
     fw_stop(&fw);
     n = hal_shadow_drain(&s, w, HAL_LOG_CAPACITY);
     CHECK(n == 2U && w[0].addr == BOWDEN_REG_TC && w[1].addr == BOWDEN_REG_CTRL &&
@@ -266,6 +269,42 @@ static void test_fw_tick_wave_source_and_fault(void)
           "fault clear keeps the loop enabled");
 }
 
+/* PREVIEW with the waveform source: the generator runs P ticks ahead from fw_start, so that
+ * tick k hands the compensator T_ref(k + P) and its line holds T_ref(k .. k + P). */
+static void test_fw_wave_preview_runs_ahead(void)
+{
+    static hal_shadow_t s;
+    hal_t h;
+    fw_t fw;
+    fw_on_shadow(&fw, &h, &s);
+    fw_config_t cfg;
+    fw_config_default(&cfg);
+    cfg.source = FW_SOURCE_WAVE;
+    cfg.comp.mode = COMP_MODE_PREVIEW;
+    cfg.comp.preview_ticks = 8;
+    cfg.comp.lead_ticks = 0;
+    CHECK(fw_configure(&fw, &cfg) == FW_OK, "configure");
+    fw_start(&fw);
+    wave_t wave;
+    comp_t comp;
+    (void)wave_configure(&wave, &cfg.wave, 1000U);
+    comp_init(&comp);
+    (void)comp_configure(&comp, &cfg.comp);
+    int16_t ahead[8];
+    for (int i = 0; i < 8; ++i) {
+        ahead[i] = wave_next_q7_8(&wave);
+        (void)comp_step_q7_8(&comp, ahead[i]);
+    }
+    int bad = 0;
+    for (int k = 0; k < 3000; ++k) {
+        int16_t tc = fw_tick(&fw, 0);
+        int16_t r = wave_next_q7_8(&wave);
+        bad += tc != comp_step_q7_8(&comp, r) || fw.tel.t_ref != r;
+    }
+    CHECK(bad == 0, "%d ticks differ from the wave run ahead + compensator", bad);
+    CHECK(ahead[0] == cfg.wave.mean_n_q8 || ahead[0] != ahead[7], "the pre-roll moved the wave");
+}
+
 static void test_fw_bad_config(void)
 {
     static hal_shadow_t s;
@@ -326,7 +365,7 @@ static void test_fw_bad_config(void)
     CHECK(fw_configure(0, &good) == FW_ERR_NULL && fw_configure(&fw, 0) == FW_ERR_NULL, "null");
     for (int32_t code = 1; code <= 56; ++code) {
         const char *m = fw_strerror(code);
-        int known = (code <= 9) || (code >= 20 && code <= 25) || (code >= 40);
+        int known = (code <= 13) || (code >= 20 && code <= 25) || (code >= 40);
         CHECK(known == (strcmp(m, "unknown status code") != 0), "code %ld: %s", (long)code, m);
     }
 }
@@ -376,5 +415,6 @@ const unit_test_t fw_tests[] = {
     {"fw_tick_host_source", test_fw_tick_host_source},
     {"fw_tick_wave_source_and_fault", test_fw_tick_wave_source_and_fault},
     {"fw_bad_config", test_fw_bad_config},
+    {"fw_wave_preview_runs_ahead", test_fw_wave_preview_runs_ahead},
 };
 const int fw_tests_count = (int)(sizeof fw_tests / sizeof fw_tests[0]);

@@ -23,6 +23,10 @@ CONFIGS = {
         mode="smooth", offset_n=0.5, mu_slope_per_n=0.0005, band_n=1.5
     ),
     "none": fw.CompensatorParams(mode="none"),
+    "preview": fw.CompensatorParams(mode="preview", preview_ticks=80, lead_ticks=4, ramp_ticks=160),
+    "preview-floor": fw.CompensatorParams(
+        mode="preview", preview_ticks=128, lead_ticks=0, ramp_ticks=256, tc_min_n=2.0
+    ),
 }
 
 
@@ -64,10 +68,14 @@ def test_fw_step_by_step_equals_batch():
 
 
 def test_fw_saturates_at_full_scale():
-    """The largest gain at both ends of Q7.8 saturates instead of wrapping."""
+    """The largest gain at both ends of Q7.8 saturates instead of wrapping; the low end is the
+    floor (a cable cannot push: 0 N by default, up to 64 N)."""
     comp = fw.Compensator(mode="paper", mu=1 / 3, phi_rad=12.0, hysteresis_n=LSB)
-    assert comp.step_word(-32768) == -32768
+    assert comp.step_word(-32768) == 0
     assert comp.step_word(32767) == 32767
+    floored = fw.Compensator(mode="paper", mu=1 / 3, phi_rad=12.0, tc_min_n=64.0)
+    assert floored.step_word(-32768) == 64 * 256
+    assert fw.CompensatorF64(mode="paper", tc_min_n=64.0).step(-128.0) == 64.0
     assert comp.step(1e9) == 32767 * LSB  # a reference beyond full scale is saturated first
     assert fw.CompensatorF64(mode="paper", mu=1 / 3, phi_rad=12.0).step(127.0) == 32767 * LSB
 
