@@ -136,12 +136,9 @@ reg  [31:0] ihold_reg, ihold_next;  // clamp(I, +-I_LIMIT): the integrator when 
 reg  [3:0]  det_reg, det_next;
 reg         cmp_hi_reg, cmp_hi_next;
 reg         cmp_lo_reg, cmp_lo_next;
-reg         flr_tc_reg, flr_tc_next;  // T_c < TC_MIN
-reg         flr_hi_reg, flr_hi_next;  // T_c'[n-1] + SLEW < TC_MIN
-reg         flr_lo_reg, flr_lo_next;  // T_c'[n-1] - SLEW < TC_MIN
 reg         run_reg, run_next;
 reg         ramp_reg, ramp_next;
-reg  [15:0] tce_s_reg, tce_s_next;
+reg  [15:0] tce_s_reg, tce_s_next;   // T_c after the slew limit (clock 2), then the floor (3)
 reg  [40:0] cal_acc_reg, cal_acc_next;
 reg  [40:0] cal_sum_reg, cal_sum_next;
 reg  [33:0] ff_reg, ff_next;
@@ -216,14 +213,10 @@ wire [3:0] faults_now = fbase_s_reg | det_reg;
 wire [17:0] tc_above = {hi_s_reg[16], hi_s_reg} - {{2{tc_s_reg[15]}}, tc_s_reg};
 wire [17:0] tc_below = {{2{tc_s_reg[15]}}, tc_s_reg} - {lo_s_reg[16], lo_s_reg};
 wire [16:0] tce_slew = cmp_hi_reg ? hi_s_reg : cmp_lo_reg ? lo_s_reg : {tc_s_reg[15], tc_s_reg};
-// The floor, T_c' = max(slew result, TC_MIN): each candidate of the slew limit was compared with
-// TC_MIN in clock 1, so clock 2 only picks the flag of the chosen one (no carry chain after the
-// slew's choice, which keeps the floor off the critical path).
-wire [17:0] tc_flr = {{2{tc_s_reg[15]}}, tc_s_reg} - {{2{tcmin_s_reg[15]}}, tcmin_s_reg};
-wire [17:0] hi_flr = {hi_s_reg[16], hi_s_reg} - {{2{tcmin_s_reg[15]}}, tcmin_s_reg};
-wire [17:0] lo_flr = {lo_s_reg[16], lo_s_reg} - {{2{tcmin_s_reg[15]}}, tcmin_s_reg};
-wire        flr_slew = cmp_hi_reg ? flr_hi_reg : cmp_lo_reg ? flr_lo_reg : flr_tc_reg;
-wire        flr_now = slew_en_s_reg ? flr_slew : flr_tc_reg;
+// Clock 3: the floor, T_c' = max(slew result, TC_MIN), on registered values: one carry chain
+// (the sign of T_s - TC_MIN, both Q7.8) and a select, a stage of its own (the feedforward
+// product starts a clock later for it, in clock 4).
+wire [16:0] tce_flr = {tce_s_reg[15], tce_s_reg} - {tcmin_s_reg[15], tcmin_s_reg};
 
 // Clock 5: round(x / 2^20) fits Q7.8 unless bits 40..35 differ: saturate to the Q7.8 range.
 wire cal_ovf = !((&cal_sum_reg[40:35]) || !(|cal_sum_reg[40:35]));
@@ -272,8 +265,7 @@ wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : 16'd0;
 wire unused_bits = &{1'b0, tce_slew[16], below_min[23:0], above_max[23:0], cal_sum_reg[19:0], i_clamped[32], v_sum[8:0],
                      r_above[24:0], r_below[24:0], i_above[32:0], i_below[32:0],
                      ip_above[32:0], ip_below[32:0],
-                     tc_above[16:0], tc_below[16:0],
-                     tc_flr[16:0], hi_flr[16:0], lo_flr[16:0]};
+                     tc_above[16:0], tc_below[16:0], tce_flr[15:0]};
 
 always @* begin
     seq_next = {seq_reg[LATENCY-3:0], tick};
@@ -320,9 +312,6 @@ always @* begin
     det_next = det_reg;
     cmp_hi_next = cmp_hi_reg;
     cmp_lo_next = cmp_lo_reg;
-    flr_tc_next = flr_tc_reg;
-    flr_hi_next = flr_hi_reg;
-    flr_lo_next = flr_lo_reg;
     run_next = run_reg;
     ramp_next = ramp_reg;
     tce_s_next = tce_s_reg;
@@ -396,50 +385,49 @@ always @* begin
         hi_bad_next = above_max[24];  // raw > ADC_MAX
         cmp_hi_next = tc_above[17];
         cmp_lo_next = tc_below[17];
-        flr_tc_next = tc_flr[17];
-        flr_hi_next = hi_flr[17];
-        flr_lo_next = lo_flr[17];
         m1_a = diff_reg[24:9];
         m1_b = gain_s_reg;
         nlim_next = -{1'b0, lim_s_reg};
     end
 
-    // Clock 2: detection, T_c' (slew limit, then the floor), the held integrator's clamp comparisons; low 9 bits of the difference (non-negative) times the gain.
+    // Clock 2: detection, T_c' before the floor (slew limit), the held integrator's clamp comparisons; low 9 bits of the difference (non-negative) times the gain.
     if (seq_reg[1]) begin
         det_next = en_s_reg ? detect : 4'd0;
         iphi_next = ip_above[33];  // I > +I_LIMIT
         iplo_next = ip_below[33];  // I < -I_LIMIT
-        tce_s_next = flr_now ? tcmin_s_reg : slew_en_s_reg ? tce_slew[15:0] : tc_s_reg;
+        tce_s_next = slew_en_s_reg ? tce_slew[15:0] : tc_s_reg;
         m1_a = {7'd0, diff_reg[8:0]};
         m1_b = gain_s_reg;
     end
 
-    // Clock 3: faults latch and the mode; feedforward product; high partial product arrives
+    // Clock 3: faults latch and the mode; the floor on T_c'; high partial product arrives
     // (+ 2^19: round at >> 20); the held integrator, clamped.
     if (seq_reg[2]) begin
         fault_next = faults_now;
         run_next = en_s_reg && (faults_now == 4'd0);
         ramp_next = en_s_reg && (faults_now == F_WDT);
-        m2_a = tce_s_reg;
-        m2_b = kff_s_reg;
+        tce_s_next = tce_flr[16] ? tcmin_s_reg : tce_s_reg;  // T_s < TC_MIN: the floor
         cal_acc_next = {m1_p, 9'd0} + 41'd524288;
         ihold_next = iphi_reg ? lim28[31:0] : iplo_reg ? nlim28[31:0] : iprev_reg;
     end
 
-    // Clock 4: calibration sum, (hi*g << 9) + lo*g + 2^19, 41 bits exact (|diff*g| < 2^40).
+    // Clock 4: calibration sum, (hi*g << 9) + lo*g + 2^19, 41 bits exact (|diff*g| < 2^40);
+    // feedforward product of the floored T_c'.
     if (seq_reg[3]) begin
         cal_sum_next = cal_acc_reg + {{9{m1_p[31]}}, m1_p};
+        m2_a = tce_s_reg;
+        m2_b = kff_s_reg;
     end
 
-    // Clock 5: T_in; feedforward plus the rounding half of the final >> 9.
+    // Clock 5: T_in.
     if (seq_reg[4]) begin
         t_in_next = t_in_now;
-        ff_next = {{2{m2_p[31]}}, m2_p} + 34'd256;
     end
 
-    // Clock 6: error.
+    // Clock 6: error; feedforward plus the rounding half of the final >> 9.
     if (seq_reg[5]) begin
         e_next = e_now;
+        ff_next = {{2{m2_p[31]}}, m2_p} + 34'd256;
     end
 
     // Clock 7: P and I products.
@@ -554,9 +542,6 @@ always @(posedge clk) begin
     det_reg <= det_next;
     cmp_hi_reg <= cmp_hi_next;
     cmp_lo_reg <= cmp_lo_next;
-    flr_tc_reg <= flr_tc_next;
-    flr_hi_reg <= flr_hi_next;
-    flr_lo_reg <= flr_lo_next;
     run_reg <= run_next;
     ramp_reg <= ramp_next;
     tce_s_reg <= tce_s_next;
