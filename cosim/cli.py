@@ -21,7 +21,7 @@ from . import __version__, procs
 from .cliargs import ArgumentParser, harden, subparsers
 
 # Modules that provide subcommands, in the order `bowden --help` lists them.
-SUBCOMMANDS: list[str] = ["workspace", "sim", "demo", "audit", "bench.cli", "sweep"]
+SUBCOMMANDS: list[str] = ["workspace", "sim", "demo", "tune.cli", "audit", "bench.cli", "sweep"]
 
 
 def _doctor(args: argparse.Namespace) -> int:

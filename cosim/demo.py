@@ -1,14 +1,22 @@
 """`bowden demo` (what `make demo` runs): the paper's Fig. 14 experiment in closed-loop
-co-simulation, three ways, on the board's chain and on the ideal interface, next to the paper's
-figures.
+co-simulation, four ways, on the board's chain and on the ideal interface, next to the paper's
+figures; then the held-out scenarios that the tuning never saw.
 
-Runs `fig14` (30 s, RTL on Verilator + firmware + plant FMU, and the float reference) for the
-compensator `paper` and `smooth` with loop routing, and `paper` without loop routing, through the
-interface stage `--interface` (default `board`: the board's ADC and PWM -> ESCON, cosim.interface)
-and, unless that is already `ideal`, again through the ideal interface, so that the cost of the
-real one shows side by side. Each run is written under build/demo/<name>/ (result.json,
-trace.csv, plots; `_ideal` for the ideal interface), then the comparison table is printed from
-the result.json files just written, so the figures it shows are the ones on disk.
+1. `fig14` (30 s, RTL on Verilator + firmware + plant FMU, and the float reference) for the
+   compensators `paper`, `smooth` and `preview` with loop routing, and `paper` without loop
+   routing, through the interface stage `--interface` (default `board`: the board's ADC and
+   PWM -> ESCON, cosim.interface) and, unless that is already `ideal`, again through the ideal
+   interface, so that the cost of the real one shows side by side. Each run is written under
+   build/demo/<name>/ (result.json, trace.csv, plots; `_ideal` for the ideal interface), then the
+   table is printed from the result.json files just written, so the figures it shows are the
+   ones on disk.
+2. The held-out scenarios (cosim.scenarios.HELD_OUT_SCENARIOS: other frequency and amplitude, a
+   triangle, a multi-sine, another path; 10 s each) for `paper`, `smooth` and `preview` with
+   loop routing: on the board's chain through the fixed-point chain without a simulator (the
+   firmware's host build and the RTL's bit-exact model, cosim.reference.run_model_chain, which
+   the RTL co-simulation equals at every sample), and on the ideal interface through the float
+   reference; written to build/demo/held_out.json and printed as a second table. Gains, band and
+   preview parameters are those `bowden tune` chose on the `tune` scenario alone.
 """
 
 from __future__ import annotations
@@ -21,13 +29,16 @@ from pathlib import Path
 from .cliargs import output_dir
 from .interface import INTERFACES
 from .paths import BUILD_DIR, require_project
+from .scenarios import HELD_OUT_DURATION_S
 
 # (folder, compensator, loop routing)
 DEMO_RUNS = (
     ("fig14_paper_loop", "paper", True),
     ("fig14_smooth_loop", "smooth", True),
+    ("fig14_preview_loop", "preview", True),
     ("fig14_paper_noloop", "paper", False),
 )
+HELD_OUT_COMPENSATORS = ("paper", "smooth", "preview")
 
 
 def add_parser(subparsers) -> None:
@@ -37,7 +48,7 @@ def add_parser(subparsers) -> None:
         description=__doc__.split("\n\n")[0],
     )
     p.add_argument("--out", type=output_dir, default=BUILD_DIR / "demo", help="output folder")
-    p.add_argument("--duration", type=float, default=None, help="simulated seconds per run")
+    p.add_argument("--duration", type=float, default=None, help="simulated seconds per fig14 run")
     p.add_argument(
         "--interface",
         choices=INTERFACES,
@@ -51,6 +62,15 @@ def add_parser(subparsers) -> None:
         default="cocotbext-axi",
         help="AXI4-Lite driver of the testbench (same results; lean is faster)",
     )
+    p.add_argument(
+        "--held-out-duration",
+        type=float,
+        default=HELD_OUT_DURATION_S,
+        help=f"simulated seconds per held-out run (default {HELD_OUT_DURATION_S:g})",
+    )
+    p.add_argument(
+        "--no-held-out", action="store_true", help="only the fig14 runs (skip the held-out table)"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=main)
 
@@ -61,6 +81,7 @@ def main(args: argparse.Namespace) -> int:
 
     try:
         sim.check_duration(args.duration, SimConfig())
+        sim.check_duration(args.held_out_duration, SimConfig(), "--held-out-duration")
         require_project()
     except ValueError as exc:
         print(f"bowden demo: {exc}", file=sys.stderr)
@@ -96,7 +117,82 @@ def main(args: argparse.Namespace) -> int:
             return 1
         paths.append(out / folder / "result.json")
     print(table_from_files(paths))
+    if not args.no_held_out:
+        rows = held_out(args.interface, args.held_out_duration, quiet=args.quiet)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "held_out.json").write_text(json.dumps(rows, indent=1) + "\n")
+        print()
+        print(held_out_table(rows, args.interface))
+        print(f"results: {out / 'held_out.json'}")
     return 0
+
+
+def _errors(scen, rec) -> dict:
+    from . import metrics  # noqa: PLC0415
+
+    settle = scen.settle_s if rec["t_s"][-1] > scen.settle_s else 0.0
+    e = metrics.tracking_error(rec["t_s"], rec["T_ref_N"], rec["T_out_N"], settle)
+    split = metrics.reversal_split(rec["t_s"], rec["T_ref_N"], rec["T_out_N"], settle)
+    return {
+        "rms_error_pct": e["rms_error_pct"],
+        "peak_error_pct": e["peak_error_pct"],
+        "rms_near_reversal_n": split["rms_near_reversal_n"],
+        "rms_away_n": split["rms_away_n"],
+    }
+
+
+def held_out(interface: str, duration_s: float, quiet: bool = False) -> list[dict]:
+    """Each held-out scenario x compensator: the fixed-point chain through `interface` and the
+    float reference through the ideal interface (errors in % of the maximum reference)."""
+    from .reference import resolve_phi, run_model_chain, run_reference  # noqa: PLC0415
+    from .scenarios import HELD_OUT_SCENARIOS, SimConfig, get_scenario  # noqa: PLC0415
+
+    cfg = SimConfig()
+    rows = []
+    for name in HELD_OUT_SCENARIOS:
+        scen = get_scenario(name)
+        phi = resolve_phi(scen, cfg, True)
+        for comp in HELD_OUT_COMPENSATORS:
+            if not quiet:
+                print(f"== held out {name}, compensator {comp}", file=sys.stderr, flush=True)
+            fixed = run_model_chain(scen, cfg, comp, True, phi, duration_s, interface=interface)
+            ideal = run_reference(
+                scen, cfg, comp, True, phi, duration_s, progress=False, interface="ideal"
+            )
+            rows.append(
+                {
+                    "scenario": name,
+                    "compensator": comp,
+                    "loop_routing": True,
+                    "duration_s": duration_s,
+                    interface: {"engine": "fixed-point chain", **_errors(scen, fixed)},
+                    "ideal": {"engine": "float reference", **_errors(scen, ideal)},
+                }
+            )
+    return rows
+
+
+def held_out_table(rows: list[dict], interface: str) -> str:
+    """The held-out table: the board's chain beside the ideal interface."""
+    head = (
+        f"{'scenario':<12}{'compensator':<12}{interface + ' RMS %':>14}{'peak %':>8}"
+        f"{'rev RMS N':>10}{'ideal RMS %':>13}{'peak %':>8}{'rev RMS N':>10}"
+    )
+    lines = [
+        "Held-out scenarios (never tuned on), loop routing, error in % of max T_ref; "
+        f"{interface}: fixed-point chain (firmware + RTL bit-exact model), ideal: float reference",
+        head,
+        "-" * len(head),
+    ]
+    for r in rows:
+        b, i = r[interface], r["ideal"]
+        lines.append(
+            f"{r['scenario']:<12}{r['compensator']:<12}{b['rms_error_pct']:>14.2f}"
+            f"{b['peak_error_pct']:>8.2f}{b['rms_near_reversal_n']:>10.3f}"
+            f"{i['rms_error_pct']:>13.2f}{i['peak_error_pct']:>8.2f}{i['rms_near_reversal_n']:>10.3f}"
+        )
+    lines.append(f"{'paper Fig.14':<12}{'paper':<12}{4.3:>14.2f}{13.3:>8.2f}   (measured)")
+    return "\n".join(lines)
 
 
 def table_from_files(paths: list[Path]) -> str:

@@ -97,16 +97,19 @@ def reversal_split(
     t_out_n: np.ndarray,
     settle_s: float = 0.0,
     window_s: float = REVERSAL_WINDOW_S,
+    before_s: float = 0.0,
 ) -> dict[str, float]:
-    """RMS and peak of T_ref - T_out within `window_s` after each reversal of T_ref and away from
-    reversals (t >= settle_s in both), in N. The reversal hysteresis is 1 % of max |T_ref|."""
+    """RMS and peak of T_ref - T_out within `window_s` after each reversal of T_ref (and
+    `before_s` before it: a compensator that acts ahead of the reversal, the preview mode, moves
+    error there) and away from reversals (t >= settle_s in both), in N. The reversal hysteresis
+    is 1 % of max |T_ref|."""
     t = np.asarray(t_s, dtype=np.float64)
     ref = np.asarray(t_ref_n, dtype=np.float64)
     err = ref - np.asarray(t_out_n, dtype=np.float64)
     revs = reversal_times(t, ref, band_n=max(0.01 * float(np.max(np.abs(ref))), 1e-9))
     near = np.zeros(t.shape, dtype=bool)
     for tr in revs.tolist():
-        near |= (t >= tr) & (t < tr + window_s)
+        near |= (t >= tr - before_s) & (t < tr + window_s)
     valid = t >= settle_s
     out = {"reversal_window_s": float(window_s), "reversals": int(np.sum(revs >= settle_s))}
     for name, mask in (("near_reversal", near & valid), ("away", ~near & valid)):

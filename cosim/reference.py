@@ -32,7 +32,7 @@ from .harness.fwbridge import loop_words
 from .harness.progress import Progress
 from .interface import make_chain
 from .rtl_model import FloatTensionLoop
-from .scenarios import Scenario, SimConfig, sample_inputs
+from .scenarios import Scenario, SimConfig, firmware_t_ref, sample_inputs
 
 # Samples between a firmware tick and the first FPGA sample that uses its T_c: the tick runs
 # right after sample k's command is out, half a clock before tick k+1; its AXI write lands a few
@@ -100,7 +100,7 @@ def run_reference(
     # The host hands T_ref to the firmware as a Q7.8 word (fw_tick); the twin gets the same
     # words, so that both see a reversal at the same tick (comp.h: the twin is the oracle "fed
     # the same Q7.8 references").
-    t_ref = inp.t_ref_n.tolist()
+    t_ref = firmware_t_ref(scen, cfg, compensator, inp).tolist()  # ahead in preview mode
     xs, ys, zs = inp.x_m.tolist(), inp.y_m.tolist(), inp.z_m.tolist()
     out_tc, out_u = rec["T_c_N"], rec["current_A"]
     rows, y_row = plant_rows(plant, n)
@@ -113,6 +113,8 @@ def run_reference(
     tc_eff = 0.0  # T_c after the slew limit, as the loop uses it
     words = loop_words(cfg.controller, cfg.sample_rate_hz)
     slew = words["slew"] / 256.0 if words["slew_en"] else 0.0  # the SLEW word, as programmed
+    # The floor TC_MIN as the firmware programs it (the compensator's, Q7.8).
+    floor_n = tension_word(cfg.compensator.tc_min_n) / 256.0
     y = plant.y
     chain = chain if chain is not None else make_chain(cfg, interface, fixed=False)
     t_in_meas = chain.start(y[T_IN_MEAS])  # the ADC sample in force (N)
@@ -124,6 +126,7 @@ def run_reference(
             tc_eff = min(max(tc, tc_eff - slew), tc_eff + slew)
         else:
             tc_eff = tc
+        tc_eff = max(tc_eff, floor_n)  # after the slew limit, as the RTL (TC_MIN)
         u = loop.step(tc_eff, t_in_meas)
         if k % dec == 0:
             tc_new = comp.step(tension_word(t_ref[k]) / 256.0)
@@ -178,6 +181,7 @@ def run_model_chain(
     fw = FirmwareBridge(cfg, compensator, phi_rad)
     model = rtl_model.TensionLoopModel()
     names = {reg.addr: name for name, reg in regmap.REGISTERS.items()}
+    fw_ref = firmware_t_ref(scen, cfg, compensator, inp)  # ahead in preview mode
 
     def apply(writes):
         for addr, value in writes:
@@ -215,7 +219,7 @@ def run_model_chain(
             y = plant.step(dt_seg)
         code = chain.sense(k, y[plant.T_IN_MEAS])
         if k % dec == 0:
-            _, pending = fw.tick(float(inp.t_ref_n[k]))
+            _, pending = fw.tick(float(fw_ref[k]))
     plant.close()
     store_plant_rows(rec, rows)
     rec["t_s"][:] = inp.t_s

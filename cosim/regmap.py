@@ -146,7 +146,7 @@ REGISTERS: dict[str, Register] = {
     "KI_TS": Register(
         "KI_TS",
         0x1C,
-        (Field("VALUE", 0, 16, "rw", True, 20, 2097),),
+        (Field("VALUE", 0, 16, "rw", True, 20, 262),),
     ),
     "I_LIMIT": Register(
         "I_LIMIT",

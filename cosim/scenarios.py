@@ -44,7 +44,20 @@ from .cliargs import shown
 from .firmware import MODES
 from .interface import ADC_PARTS
 
-SCENARIO_NAMES = ("characterize", "positions", "fig14")
+SCENARIO_NAMES = (
+    "characterize",
+    "positions",
+    "fig14",
+    "tune",
+    "sine1hz",
+    "triangle",
+    "multisine",
+    "fig14path2",
+)
+# Issue 11's split: gains, the smooth band and the preview horizon are chosen on `tune` only
+# (cosim/tune); fig14 and the held-out scenarios are only reported, never tuned on.
+TUNE_SCENARIO = "tune"
+HELD_OUT_SCENARIOS = ("sine1hz", "triangle", "multisine", "fig14path2")
 # The firmware's compensator modes (firmware/include/comp.h, mirrored by cosim.firmware).
 COMPENSATORS = tuple(MODES)
 
@@ -212,14 +225,119 @@ def _fig14() -> Scenario:
     )
 
 
+def _ease(t: np.ndarray, ramp_in_s: float = 0.5) -> np.ndarray:
+    """Raised-cosine ease-in from 0 over ramp_in_s: every scenario starts from a slack cable."""
+    a = np.clip(t / ramp_in_s, 0.0, 1.0)
+    return 0.5 - 0.5 * np.cos(np.pi * a)
+
+
+def _lissajous(swing_m, periods_s, centre_m=HOME_M):
+    """An end-effector path sin-swinging about centre_m with half-widths swing_m (x, y, z)."""
+
+    def trajectory(t: np.ndarray):
+        return tuple(
+            c + s * np.sin(2.0 * np.pi * t / p)
+            for c, s, p in zip(centre_m, swing_m, periods_s, strict=True)
+        )
+
+    return trajectory
+
+
+# Tuning scenario (issue 11): a chirp, so that the chosen parameters see reversals from slow to
+# sharp; its own range (3 .. 13 N) and a small path near home. Held-out scenarios below differ in
+# frequency, amplitude, wave shape or path; none of them is used by the tuning.
+TUNE_DURATION_S = 12.0
+HELD_OUT_DURATION_S = 10.0
+
+
+def _tune() -> Scenario:
+    f0, f1, dur = 0.3, 1.2, TUNE_DURATION_S
+
+    def t_ref(t: np.ndarray) -> np.ndarray:
+        # Phase of a linear chirp f0 -> f1 over the run.
+        phase = 2.0 * np.pi * (f0 * t + 0.5 * (f1 - f0) / dur * t * t)
+        return (8.0 - 5.0 * np.cos(phase)) * _ease(t)
+
+    return Scenario(
+        name="tune",
+        duration_s=dur,
+        description="chirp 0.3 -> 1.2 Hz, T_ref 3 .. 13 N, small 3-D path (used to tune only)",
+        t_ref=t_ref,
+        trajectory=_lissajous((0.05, 0.10, 0.10), (11.0, 9.0, 13.0)),
+        settle_s=1.0,
+    )
+
+
+def _sine1hz() -> Scenario:
+    return Scenario(
+        name="sine1hz",
+        duration_s=HELD_OUT_DURATION_S,
+        description="held out: sine 1 Hz, T_ref 4 .. 20 N, the fig14 path",
+        t_ref=lambda t: (12.0 - 8.0 * np.cos(2.0 * np.pi * 1.0 * t)) * _ease(t),
+        trajectory=_lissajous(FIG14_SWING_M, (15.0, 10.0, 7.5)),
+        settle_s=1.0,
+    )
+
+
+def _triangle_ref() -> Scenario:
+    def t_ref(t: np.ndarray) -> np.ndarray:
+        # 2 .. 14 N at 0.4 Hz: constant slopes and sharp reversals (the hardest for a lag).
+        return (2.0 + _triangle(t, 12.0, 2.5)) * _ease(t)
+
+    return Scenario(
+        name="triangle",
+        duration_s=HELD_OUT_DURATION_S,
+        description="held out: triangle 0.4 Hz, T_ref 2 .. 14 N, the fig14 path",
+        t_ref=t_ref,
+        trajectory=_lissajous(FIG14_SWING_M, (15.0, 10.0, 7.5)),
+        settle_s=1.0,
+    )
+
+
+def _multisine() -> Scenario:
+    def t_ref(t: np.ndarray) -> np.ndarray:
+        w = 2.0 * np.pi * t
+        s = 3.0 * np.sin(w * 0.3) + 2.5 * np.sin(w * 0.7 + 1.0) + 1.5 * np.sin(w * 1.3 + 2.0)
+        return (9.0 + s) * _ease(t)  # about 2 .. 16 N
+
+    return Scenario(
+        name="multisine",
+        duration_s=HELD_OUT_DURATION_S,
+        description="held out: 0.3 + 0.7 + 1.3 Hz sines, T_ref about 2 .. 16 N, the fig14 path",
+        t_ref=t_ref,
+        trajectory=_lissajous(FIG14_SWING_M, (15.0, 10.0, 7.5)),
+        settle_s=1.0,
+    )
+
+
+def _fig14path2() -> Scenario:
+    fig = _fig14()
+    return Scenario(
+        name="fig14path2",
+        duration_s=HELD_OUT_DURATION_S,
+        description="held out: the fig14 reference on another path (wider out of the plane)",
+        t_ref=fig.t_ref,
+        trajectory=_lissajous((0.20, 0.15, 0.20), (6.0, 8.0, 5.0), (0.0, 0.55, 0.05)),
+        settle_s=1.0,
+    )
+
+
+_SCENARIOS = {
+    "characterize": _characterize,
+    "positions": _positions,
+    "fig14": _fig14,
+    "tune": _tune,
+    "sine1hz": _sine1hz,
+    "triangle": _triangle_ref,
+    "multisine": _multisine,
+    "fig14path2": _fig14path2,
+}
+
+
 def get_scenario(name: str) -> Scenario:
     """The scenario called `name` (one of SCENARIO_NAMES)."""
-    if name == "characterize":
-        return _characterize()
-    if name == "positions":
-        return _positions()
-    if name == "fig14":
-        return _fig14()
+    if name in _SCENARIOS:
+        return _SCENARIOS[name]()
     raise ValueError(f"scenario must be one of {', '.join(SCENARIO_NAMES)}; got {name!r}")
 
 
@@ -246,12 +364,9 @@ class ControllerParams:
 
     kff_a_per_n: float = KFF_A_PER_N
     kp_a_per_n: float = 0.05
-    # The cable + rotor is a lightly damped mass-spring (about 24 Hz, damping ratio about 0.2 with
-    # the FMU's defaults); for the PI on T_in, Routh's criterion on
-    # m s^3 + c s^2 + k(1 + G Kp) s + G Ki k gives Ki < c (1 + G Kp) / (m G) ~ 8.6 A/(N s)
-    # (G = 11.4 N/A, m ~ 0.32 kg and c ~ 20 N s/m at the cable). Ki = 5 keeps a margin; the RTL's
-    # reset value (KI_TS 0.002 = 20 A/(N s) at 10 kHz) rings into a limit cycle at reversals.
-    ki_a_per_n_s: float = 5.0
+    # Kp and Ki chosen by `bowden tune` on the tune scenario only (board chain): Kp margin x3.05
+    # before a limit cycle (hold probe, cosim/tune); the register map's reset values.
+    ki_a_per_n_s: float = 2.5
     i_limit_a: float = 4.0  # ESCON 36/2 peak current (RTL reset value of I_LIMIT)
     slew_n_per_sample: float = 0.0  # 0 = slew limit off
 
@@ -264,12 +379,18 @@ class CompensatorParams:
     # None: phi of the sheath at the scenario's start position (calibrated once, as in the
     # paper, where the compensator uses the friction identified in the characterisation).
     phi_rad: float | None = None
-    # H as the firmware default (4 LSB of Q7.8); B = 1 N rather than the firmware default 2 N:
-    # on fig14 it halves the lag of the branch change (RMS 1.7 % vs 2.5 %, float reference).
-    band_n: float = 1.0  # smooth inverse: tension band over which T_c changes branch
+    # H as the firmware default (4 LSB of Q7.8); B chosen by `bowden tune` (the firmware default).
+    band_n: float = 0.5  # smooth inverse: tension band over which T_c changes branch
     hysteresis_n: float = 4.0 / 256.0  # direction detector's dead band on T_ref
     offset_n: float = 0.0  # output sensor offset the compensator aims around (audit extension)
     mu_slope_per_n: float = 0.0  # friction rising with tension (audit extension)
+    tc_min_n: float = 0.0  # floor of T_c, firmware and RTL (TC_MIN): a cable cannot push
+    # Preview mode (comp.h): T_ref handed preview_ticks firmware ticks ahead; the gain applies to
+    # T_ref lead_ticks ahead; a change of branch takes ramp_ticks. Chosen by `bowden tune` on
+    # the tune scenario (hdl/README.md).
+    preview_ticks: int = 100
+    lead_ticks: int = 0
+    ramp_ticks: int = 200
 
 
 # Rates in whole Hz: the firmware takes them as unsigned integers (fw.h), and its checks bound them
@@ -303,6 +424,10 @@ def field_ranges(sample_rate_hz: float) -> dict[str, tuple[float, float]]:
         "compensator.hysteresis_n": (1.0 / 256.0, 32.0),
         "compensator.offset_n": (-64.0, 64.0),
         "compensator.mu_slope_per_n": (-1 / 128, 1 / 128),
+        "compensator.tc_min_n": (0.0, 64.0),
+        "compensator.preview_ticks": (0, 128),
+        "compensator.lead_ticks": (0, 128),
+        "compensator.ramp_ticks": (1, 256),
         # The board's chain (cosim.interface): conversion timing, reader and PWM clocks, ESCON.
         "board.adc_period_s": (1e-6, 0.1),
         "board.adc_phase_s": (0.0, 0.1),
@@ -320,7 +445,13 @@ def field_ranges(sample_rate_hz: float) -> dict[str, tuple[float, float]]:
 # clock) and fields
 # that are whole numbers (clock counts, register words).
 NULLABLE_FIELDS = {"compensator.phi_rad", "board.adc_period_s", "board.sclk_half_clks"}
-WHOLE_FIELDS = {"board.sclk_half_clks", "board.pwm_imax_q12"}
+WHOLE_FIELDS = {
+    "board.sclk_half_clks",
+    "board.pwm_imax_q12",
+    "compensator.preview_ticks",
+    "compensator.lead_ticks",
+    "compensator.ramp_ticks",
+}
 
 
 @dataclass
@@ -402,6 +533,12 @@ class SimConfig:
             if name in NULLABLE_FIELDS and value is None:
                 continue
             _number(value, f"{source}: {name}", lo, hi, whole=name in WHOLE_FIELDS)
+        c = self.compensator
+        if c.lead_ticks > c.preview_ticks:
+            raise ValueError(
+                f"{source}: compensator.lead_ticks must be in [0, compensator.preview_ticks = "
+                f"{c.preview_ticks:g}]; got {c.lead_ticks!r}"
+            )
         b = self.board
         if not isinstance(b.adc, str) or b.adc not in ADC_PARTS:
             raise ValueError(
@@ -545,6 +682,16 @@ class Inputs:
     x_m: np.ndarray
     y_m: np.ndarray
     z_m: np.ndarray
+
+
+def firmware_t_ref(scenario: Scenario, cfg: SimConfig, compensator: str, inp: Inputs):
+    """The T_ref the host hands the firmware at each FPGA sample: T_ref(t_k), or in preview mode
+    T_ref(t_k + P / f_fw), P = compensator.preview_ticks (comp.h: on a board the firmware
+    generates the reference, so it knows it P ticks ahead)."""
+    if compensator != "preview":
+        return inp.t_ref_n
+    ahead_s = int(cfg.compensator.preview_ticks) / cfg.firmware_rate_hz
+    return np.asarray(scenario.t_ref(inp.t_s + ahead_s), dtype=np.float64)
 
 
 def sample_inputs(scenario: Scenario, cfg: SimConfig, duration_s: float | None = None) -> Inputs:

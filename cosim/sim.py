@@ -36,7 +36,16 @@ from .paths import require_project
 from .scenarios import COMPENSATORS, SCENARIO_NAMES, SimConfig, get_scenario, load_params
 
 # Default compensator per scenario: the characterisations measure the plant itself.
-DEFAULT_COMPENSATOR = {"characterize": "none", "positions": "none", "fig14": "paper"}
+DEFAULT_COMPENSATOR = {
+    "characterize": "none",
+    "positions": "none",
+    "fig14": "paper",
+    "tune": "preview",
+    "sine1hz": "preview",
+    "triangle": "preview",
+    "multisine": "preview",
+    "fig14path2": "preview",
+}
 SIMULATORS = ("verilator", "icarus")
 # AXI4-Lite drivers of the testbench (cosim/harness/tb_closed_loop.py): identical results.
 BUSES = ("cocotbext-axi", "lean")
@@ -102,7 +111,8 @@ def add_parser(subparsers) -> None:
         "--compensator",
         choices=COMPENSATORS,
         default=None,
-        help="friction compensator (default: none for characterize/positions, paper for fig14)",
+        help="friction compensator (default: none for characterize/positions, paper for fig14, "
+        "preview for tune and the held-out scenarios)",
     )
     p.add_argument(
         "--no-loop-routing",

@@ -47,12 +47,13 @@ from cocotb.triggers import Event, RisingEdge, Timer
 from cocotbext.axi import AxiLiteBus, AxiLiteMaster
 
 from cosim import regmap
+from cosim.firmware import tension_word
 from cosim.harness.axil import LeanAxiLiteMaster
 from cosim.harness.common import Record, open_plant, plant_rows, store_plant_rows
 from cosim.harness.fwbridge import FirmwareBridge, loop_words
 from cosim.interface import make_chain
 from cosim.reference import TC_LATENCY_SAMPLES
-from cosim.scenarios import SimConfig, get_scenario, sample_inputs
+from cosim.scenarios import SimConfig, firmware_t_ref, get_scenario, sample_inputs
 
 # Registers the firmware's tick reads (fw.h: STATUS, FAULT, T_IN, U, SAMPLE_COUNT).
 SHADOW_READS = (regmap.STATUS, regmap.FAULT, regmap.T_IN, regmap.U, regmap.SAMPLE_COUNT)
@@ -74,6 +75,8 @@ async def closed_loop(dut):
     cfg = SimConfig.from_dict(spec["config"], source="spec")
     scen = get_scenario(spec["scenario"])
     inp = sample_inputs(scen, cfg, spec["duration_s"])
+    # What the host hands the firmware (T_ref ahead by the horizon in preview mode).
+    fw_ref = firmware_t_ref(scen, cfg, spec["compensator"], inp).tolist()
     n = len(inp.t_s)
     dec = cfg.decimation
     cps = int(spec["clks_per_sample"])
@@ -155,7 +158,7 @@ async def closed_loop(dut):
             fw_wake.clear()
             k = fw_state["k"]
             t_fw = time.perf_counter()
-            tc_n, writes = fw.tick(float(inp.t_ref_n[k]))
+            tc_n, writes = fw.tick(fw_ref[k])
             cost["firmware_s"] += time.perf_counter() - t_fw
             tc_new[0] = tc_n
             # Tick k+2 is at C(k+2) clocks; the wake-up was at Ck + L + 0.5 = C(k+1) - 0.5.
@@ -203,6 +206,7 @@ async def closed_loop(dut):
     tc = 0.0  # T_c after the RTL's slew limit (TC_EFF), recorded in the trace
     words = loop_words(cfg.controller, cfg.sample_rate_hz)
     slew_n = words["slew"] / 256.0 if words["slew_en"] else 0.0
+    floor_n = tension_word(cfg.compensator.tc_min_n) / 256.0  # TC_MIN as fw_start writes it
     t_start = perf()
     for k in range(n):
         if k:
@@ -217,6 +221,7 @@ async def closed_loop(dut):
             tc = min(max(tc_set, tc - slew_n), tc + slew_n)
         else:
             tc = tc_set
+        tc = max(tc, floor_n)  # the floor after the slew limit (TC_MIN)
         word = u_sig.value.to_signed()
         u_words[k] = word
         u_a = word / 4096.0

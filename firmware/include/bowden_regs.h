@@ -93,7 +93,7 @@
 
 /* KP: Proportional gain. */
 #define BOWDEN_REG_KP 0x18u
-/* VALUE (rw Q2.13 A/N): Kp; reset 0.05 A/N */
+/* VALUE (rw Q2.13 A/N): Kp; reset 0.05 A/N (bowden tune: Kp margin x3.05 on the board chain) */
 #define BOWDEN_KP_SHIFT 0u
 #define BOWDEN_KP_MASK 0x0000FFFFu
 #define BOWDEN_KP_FRAC_BITS 13u
@@ -103,11 +103,11 @@
 
 /* KI_TS: Integral gain times the sample period. */
 #define BOWDEN_REG_KI_TS 0x1Cu
-/* VALUE (rw Q(-4).20 A/N per sample): Ki*Ts, LSB 2^-20 A/N, range +-1/32; reset 0.002 */
+/* VALUE (rw Q(-4).20 A/N per sample): Ki*Ts, LSB 2^-20 A/N, range +-1/32; reset 2.5e-4 (Ki 2.5 A/(N s) at 10 kHz, bowden tune) */
 #define BOWDEN_KI_TS_SHIFT 0u
 #define BOWDEN_KI_TS_MASK 0x0000FFFFu
 #define BOWDEN_KI_TS_FRAC_BITS 20u
-#define BOWDEN_KI_TS_RESET (2097)
+#define BOWDEN_KI_TS_RESET (262)
 #define BOWDEN_KI_TS_MIN (-32768)
 #define BOWDEN_KI_TS_MAX (32767)
 

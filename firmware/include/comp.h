@@ -97,9 +97,9 @@
 #define COMP_RAMP_MAX_TICKS 256                        /* D in [1, 256] ticks */
 
 /* Preview defaults (ticks of the processor, 1 ms at 1 kHz), from `bowden tune`. */
-#define COMP_DEFAULT_PREVIEW_TICKS 8
-#define COMP_DEFAULT_LEAD_TICKS 2
-#define COMP_DEFAULT_RAMP_TICKS 40
+#define COMP_DEFAULT_PREVIEW_TICKS 100
+#define COMP_DEFAULT_LEAD_TICKS 0
+#define COMP_DEFAULT_RAMP_TICKS 200
 
 /* Gain table: nodes every 2 N (512 LSB of Q7.8) over |T_eff| in [0, 128] N. */
 #define COMP_TAB_SHIFT 9
@@ -159,7 +159,7 @@ typedef struct {
 } comp_t;
 
 /* Defaults: PAPER mode, mu = 0.075 (paper Fig. 11), phi = 2*pi (loop routing), no slope, no offset,
- * H = 4 LSB (1/64 N: above the +-1 LSB dither of a quantized constant), B = 2 N, floor 0 N,
+ * H = 4 LSB (1/64 N: above the +-1 LSB dither of a quantized constant), B = 0.5 N, floor 0 N,
  * P and L: COMP_DEFAULT_PREVIEW_TICKS / COMP_DEFAULT_LEAD_TICKS (chosen by `bowden tune` on the
  * tune scenario; hdl/README.md). */
 void comp_config_default(comp_config_t *cfg);

@@ -14,7 +14,7 @@ void comp_config_default(comp_config_t *cfg)
     cfg->mu_slope_per_n_q28 = 0;
     cfg->offset_n_q8 = 0;
     cfg->hysteresis_n_q8 = 4;         /* 1/64 N */
-    cfg->band_n_q8 = 2 * Q7_8_ONE;    /* 2 N */
+    cfg->band_n_q8 = Q7_8_ONE / 2;    /* 0.5 N (bowden tune) */
     cfg->tc_min_n_q8 = 0;             /* a cable cannot push */
     cfg->preview_ticks = COMP_DEFAULT_PREVIEW_TICKS;
     cfg->lead_ticks = COMP_DEFAULT_LEAD_TICKS;

@@ -20,7 +20,7 @@ void comp_f64_config_default(comp_f64_config_t *cfg)
     cfg->mu_slope_per_n = 0.0;
     cfg->offset_n = 0.0;
     cfg->hysteresis_n = 4.0 / 256.0;
-    cfg->band_n = 2.0;
+    cfg->band_n = 0.5;
     cfg->tc_min_n = 0.0;
     cfg->preview_ticks = COMP_DEFAULT_PREVIEW_TICKS;
     cfg->lead_ticks = COMP_DEFAULT_LEAD_TICKS;

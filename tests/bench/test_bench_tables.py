@@ -40,7 +40,7 @@ def test_parameters_come_from_the_firmware_configuration():
     ):  # fmt: skip
         assert expected in names
     p = msgs.PARAM_BY_NAME
-    assert p["comp.mode"].enum == {"none": 0, "paper": 1, "smooth": 2}
+    assert p["comp.mode"].enum == {"none": 0, "paper": 1, "smooth": 2, "preview": 3}
     assert p["wave.kind"].enum == {"constant": 0, "sine": 1, "triangle": 2, "ramp": 3, "step": 4}
     assert (p["loop.kff"].frac, p["loop.kff"].unit, p["loop.kff"].lo) == (13, "A/N", -32768)
     assert (p["loop.i_limit"].lo, p["loop.i_limit"].hi) == (0, 32767)

@@ -7,6 +7,8 @@ each fixed-point run is a few simulated seconds.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -55,7 +57,14 @@ def _run(compensator: str, loop_routing: bool) -> dict:
 
 @pytest.mark.parametrize(
     ("compensator", "loop_routing"),
-    [("none", True), ("paper", True), ("paper", False), ("smooth", True), ("smooth", False)],
+    [
+        ("none", True),
+        ("paper", True),
+        ("paper", False),
+        ("smooth", True),
+        ("smooth", False),
+        ("preview", True),
+    ],
 )
 def test_cosim_fixed_point_within_budget_of_float(built, compensator, loop_routing):
     result = _run(compensator, loop_routing)
@@ -103,30 +112,35 @@ def test_cosim_error_split_names_the_cause_of_each_gain(built):
         assert with_loop["reversals"] == without["reversals"] == 3, (with_loop, without)
         assert with_loop["rms_away_n"] < 0.25 * without["rms_away_n"], (comp, with_loop, without)
     paper, smooth = split[("paper", 1)], split[("smooth", 1)]
-    assert smooth["rms_near_reversal_n"] < 0.5 * paper["rms_near_reversal_n"], (smooth, paper)
+    assert smooth["rms_near_reversal_n"] < 0.6 * paper["rms_near_reversal_n"], (smooth, paper)
 
 
 @pytest.mark.parametrize(
-    ("interface", "bus", "adc"),
+    ("interface", "bus", "adc", "compensator"),
     [
-        ("board", "cocotbext-axi", "ads131m02"),
-        ("board", "lean", "ads131m02"),
-        ("board", "lean", "ads1220"),
-        ("ideal", "lean", "ads131m02"),
+        ("board", "cocotbext-axi", "ads131m02", "paper"),
+        ("board", "lean", "ads131m02", "paper"),
+        ("board", "lean", "ads1220", "paper"),
+        ("ideal", "lean", "ads131m02", "paper"),
+        ("board", "lean", "ads1220", "preview"),
     ],
 )
-def test_cosim_rtl_matches_the_bit_exact_model_chain(built, interface, bus, adc):
+def test_cosim_rtl_matches_the_bit_exact_model_chain(built, interface, bus, adc, compensator):
     """The RTL co-simulation gives the command word of the firmware + rtl_model chain at every
     sample, with the board's chain (its ADS131M02, and the first boards' ADS1220) and the ideal
-    interface, with either AXI4-Lite driver: the harness's timing (ADC hand-over, command read,
-    TC write latency) is the one the models assume."""
+    interface, with either AXI4-Lite driver, and in preview mode: the harness's timing (ADC
+    hand-over, command read, TC write latency) is the one the models assume. The floor stays at
+    0 N here: a floor above the tension at rest makes the loop integrate from the enable on,
+    over as many samples as the start-up's bus accesses take, which the model chain (two
+    start-up ticks) does not replay; the floor itself is held to the model in
+    tests/hdl/test_tension_loop.py and in both chains by test_cosim_causes.py."""
     scen = get_scenario("fig14")
     cfg = SimConfig.from_dict({"board": {"adc": adc}})
     duration = 1.5  # the rise and the first reversal (the paper law's jump of T_c)
     phi = reference.resolve_phi(scen, cfg, True)
     spec = {
         "scenario": "fig14",
-        "compensator": "paper",
+        "compensator": compensator,
         "loop_routing": True,
         "duration_s": duration,
         "phi_rad": phi,
@@ -136,13 +150,14 @@ def test_cosim_rtl_matches_the_bit_exact_model_chain(built, interface, bus, adc)
     }
     fixed, cost = runner.run_closed_loop(spec, progress=False)
     assert cost["late_writes"] == 0 and cost["tc_mismatch"] == 0, cost
-    model = reference.run_model_chain(scen, cfg, "paper", True, phi, duration, interface)
+    model = reference.run_model_chain(scen, cfg, compensator, True, phi, duration, interface)
     diff = np.flatnonzero(fixed["u_word"] != model["u_word"])
     assert diff.size == 0, (
         f"{diff.size} samples differ, first at {diff[0]}: RTL {fixed['u_word'][diff[0]]}, "
         f"model {model['u_word'][diff[0]]}"
     )
     assert np.abs(model["u_word"]).max() > 4000  # the loop did drive the cable (> 1 A)
+    assert np.min(fixed["T_c_N"][2:]) >= 0.0  # TC_EFF read back: never below the floor
 
 
 def test_cosim_characterize_fits_the_papers_mu(built):

@@ -1,0 +1,63 @@
+"""`bowden tune`: the tuning procedure of cosim.tune (the `tune` scenario only), its table, the
+chosen point as a params file, and the stability margin."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from ..cliargs import output_dir
+from ..interface import INTERFACES
+from ..paths import BUILD_DIR, require_project
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "tune",
+        help="choose Kp, Ki, the smooth band and the preview horizon on the tune scenario only",
+        description=(__doc__ or "").split("\n\n")[0],
+    )
+    p.add_argument("--out", type=output_dir, default=BUILD_DIR / "tune", help="output folder")
+    p.add_argument(
+        "--interface",
+        choices=INTERFACES,
+        default="board",
+        help="plant <-> core during the tuning (default board, the chain the demo reports)",
+    )
+    p.add_argument(
+        "--no-confirm",
+        action="store_true",
+        help="skip the confirmation of the chosen point in the fixed-point chain",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.set_defaults(func=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    from . import tune  # noqa: PLC0415
+
+    try:
+        require_project()
+    except ValueError as exc:
+        print(f"bowden tune: {exc}", file=sys.stderr)
+        return 2
+
+    def log(line: str) -> None:
+        if not args.quiet:
+            print(line, file=sys.stderr, flush=True)
+
+    try:
+        result = tune(interface=args.interface, confirm=not args.no_confirm, log=log)
+    except (RuntimeError, ValueError) as exc:
+        print(f"bowden tune: {exc}", file=sys.stderr)
+        return 1
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "tuned_params.json").write_text(json.dumps(result.params(), indent=2) + "\n")
+    summary = result.summary()
+    (out / "summary.md").write_text(summary + "\n")
+    print(summary)
+    print(f"wrote {out / 'tuned_params.json'} (bowden sim --params) and {out / 'summary.md'}")
+    return 0
