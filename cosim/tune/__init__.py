@@ -25,9 +25,10 @@ Procedure (one command, deterministic; the lead re-runs it when the board's chai
    firmware's host build and the RTL's bit-exact model, cosim.reference.run_model_chain), which
    the RTL co-simulation equals at every sample (tests/cosim).
 
-SCORE = RMS % + PEAK_WEIGHT * peak % (stage 2: the sums over the two modes) of the error T_ref - T_out over t >= settle (in % of the
-maximum reference), from the float reference (cosim.reference: the double loop and compensator
-twin with the same interface timing) for speed. fig14 and the held-out scenarios
+SCORE = RMS % + PEAK_WEIGHT * peak % (stage 2: the sums over the two modes) of the error
+T_ref - T_out over t >= settle (in % of the maximum reference), from the float reference
+(cosim.reference: the double loop and compensator twin with the same interface timing) for
+speed. fig14 and the held-out scenarios
 (cosim.scenarios.HELD_OUT_SCENARIOS) are never run here.
 """
 
