@@ -113,7 +113,8 @@ def test_sweep_killed_midway_resumes_and_matches_single_runs(native, tmp_path):
         for key in ("rms_error_n", "rms_error_pct", "peak_error_n", "peak_error_pct"):
             assert row[key] == single[key], (point.values, key, row[key], single[key])
         assert [row["x_m"], row["y_m"], row["z_m"]] == point.values["position_m"]
-    # The axes act: the smooth inverse beats the paper law at every position and mu.
+    # The axes act: the smooth inverse beats the paper law at every position and mu (RMS: with
+    # issue 11's tuned gains both modes can share their peak, the start-up's at t = settle_s).
     for r in rows:
         if r["compensator"] == "smooth":
             twin = next(
@@ -122,7 +123,7 @@ def test_sweep_killed_midway_resumes_and_matches_single_runs(native, tmp_path):
                 if o["compensator"] == "paper"
                 and (o["y_m"], o["plant.mu"]) == (r["y_m"], r["plant.mu"])
             )
-            assert r["peak_error_pct"] < twin["peak_error_pct"], (r, twin)
+            assert r["rms_error_pct"] < twin["rms_error_pct"], (r, twin)
 
 
 def test_sweep_records_a_failed_point_and_goes_on(native, tmp_path):
