@@ -171,14 +171,6 @@ always @* begin
         end
     end
 
-    // The write data, loaded at a write's access point whenever no write data waits on the bus:
-    // an issued write (busy was low, so wvalid was too) gets its frame's data, a refused one
-    // never shows its load (wvalid stays low). Outside the access decision, its enable is one
-    // LUT; through the decision it was the UP5K's critical path once the core grew (issue 11).
-    if (sck_rise && wr_pt_reg && !wvalid_reg) begin
-        wdata_next = {shift_in_reg[30:0], mosi};
-    end
-
     if (!cs_active || !armed_reg) begin
         bit_cnt_next = 6'd0;
         miso_next = 1'b0;

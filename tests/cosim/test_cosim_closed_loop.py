@@ -7,8 +7,6 @@ each fixed-point run is a few simulated seconds.
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 
