@@ -23,7 +23,8 @@ BENCH_OWN_SRC := $(addprefix firmware/src/,crc32c.c proto.c proto_can.c proto_ms
 BENCH_HOST_SRC := firmware/host/flash_ram.c firmware/host/dev_host.c cosim/bench/native/emu.c
 BENCH_HDR := $(sort $(wildcard firmware/include/*.h firmware/host/*.h cosim/bench/native/*.h \
   firmware/tests/*.h firmware/tests/bench/*.h))
-BENCH_TEST_SRC := $(sort $(wildcard firmware/tests/bench/test_*.c)) firmware/tests/bench/bench_main.c
+BENCH_TEST_SRC := $(sort $(wildcard firmware/tests/bench/test_*.c)) firmware/tests/bench/bench_main.c \
+  firmware/tests/unit_main.c
 BENCH_INC := -Ifirmware/include -Ifirmware/host -Icosim/bench/native -Ifirmware/tests \
   -Ifirmware/tests/bench
 # Build id: the first 32 bits of SHA-256 over the sources (HELLO reports it).
