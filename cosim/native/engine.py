@@ -12,7 +12,6 @@ cosim.harness.runner.run_closed_loop; tests/native holds the two to the same bit
 from __future__ import annotations
 
 import ctypes
-import math
 import threading
 from ctypes import POINTER, c_char, c_double, c_int16, c_int32, c_int64, c_uint32, c_void_p
 
@@ -161,12 +160,9 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
         chain = make_chain(cfg, interface, True, fw.adc_offset, fw.adc_gain)
         words = loop_words(cfg.controller, cfg.sample_rate_hz)
 
-        # T_ref as the firmware's host word, at the firmware's ticks (FirmwareBridge.tick): the
-        # scenario's, or what the host hands a mode that looks ahead (scenarios.firmware_t_ref,
-        # where the project has it).
-        fw_ref = inp.t_ref_n
-        if hasattr(scenarios, "firmware_t_ref"):
-            fw_ref = scenarios.firmware_t_ref(scen, cfg, run_spec["compensator"], inp)
+        # T_ref as the firmware's host word, at the firmware's ticks (FirmwareBridge.tick): what
+        # the host hands the firmware (scenarios.firmware_t_ref: ahead in preview mode).
+        fw_ref = scenarios.firmware_t_ref(scen, cfg, run_spec["compensator"], inp)
         t_ref_word = np.zeros(n, dtype=np.int16)
         for k in range(0, n, dec):
             t_ref_word[k] = tension_word(float(fw_ref[k]))
@@ -183,9 +179,7 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
         s.tc_latency_samples = TC_LATENCY_SAMPLES
         s.shadow_refresh_ticks = SHADOW_REFRESH_TICKS
         s.slew_n = words["slew"] / 256.0 if words["slew_en"] else 0.0
-        # The T_c floor as fw_start writes it to TC_MIN (where the project has one).
-        tc_min_n = getattr(cfg.compensator, "tc_min_n", None)
-        s.floor_n = -math.inf if tc_min_n is None else tension_word(tc_min_n) / 256.0
+        s.floor_n = tension_word(cfg.compensator.tc_min_n) / 256.0  # TC_MIN as fw_start writes it
         s.t_ref_word = _ptr(t_ref_word, c_int16)
         s.x_m, s.y_m, s.z_m = _ptr(xs, c_double), _ptr(ys, c_double), _ptr(zs, c_double)
         s.fw_host = ctypes.addressof(fw.fw._buf)
