@@ -289,6 +289,19 @@ def tension_word(t_n: float) -> int:
     return max(Q7_8_MIN, min(Q7_8_MAX, int(round(v * 256.0))))
 
 
+def tension_words(t_n) -> np.ndarray:
+    """tension_word over an array, as int16: the same words at every value (rounded half to even
+    as round() does, saturated at and beyond full scale), ValueError for a NaN. The native
+    engine's set-up takes the firmware's T_ref words of a whole run at once with it."""
+    v = np.asarray(t_n, dtype=np.float64)
+    if np.isnan(v).any():
+        raise ValueError("t_ref_n: NaN is not a tension")
+    # Clipped to +-full scale first (no overflow for huge values): 128 N * 256 = 32768 rounds
+    # and saturates to Q7_8_MAX as the scalar form does.
+    q = np.rint(np.clip(v, -FULL_SCALE_N, FULL_SCALE_N) * 256.0)
+    return np.clip(q, Q7_8_MIN, Q7_8_MAX).astype(np.int16)
+
+
 @dataclass
 class CompensatorParams:
     """The compensator's configuration in SI units (comp.h gives the law and the limits)."""

@@ -18,7 +18,7 @@ from ctypes import POINTER, c_char, c_double, c_int16, c_int32, c_int64, c_uint3
 import numpy as np
 
 from .. import scenarios
-from ..firmware import tension_word
+from ..firmware import tension_word, tension_words
 from ..harness.common import Record, open_plant, plant_rows, store_plant_rows
 from ..harness.fwbridge import FirmwareBridge, loop_words
 from ..harness.progress import Progress
@@ -164,8 +164,7 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
         # the host hands the firmware (scenarios.firmware_t_ref: ahead in preview mode).
         fw_ref = scenarios.firmware_t_ref(scen, cfg, run_spec["compensator"], inp)
         t_ref_word = np.zeros(n, dtype=np.int16)
-        for k in range(0, n, dec):
-            t_ref_word[k] = tension_word(float(fw_ref[k]))
+        t_ref_word[::dec] = tension_words(fw_ref[::dec])
         xs, ys, zs = (
             np.ascontiguousarray(a, dtype=np.float64) for a in (inp.x_m, inp.y_m, inp.z_m)
         )
