@@ -58,6 +58,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
+import numpy as np
+
 from . import rtl_model
 
 INTERFACES = ("board", "adc", "ideal")
@@ -68,6 +70,9 @@ CORE_PIPE_CLKS = 2
 
 # Kernel nodes per conversion period (midpoint rule): the shared definition of a conversion.
 KERNEL_NODES_PER_PERIOD = 8
+
+# Ticks per block of AdcModel's delivery plan (numpy, a few hundred kB per block).
+PLAN_TICKS = 2048
 
 # ESCON 36/2 DC PWM set value (Hardware Reference rel9011, DigIN1) and current controller.
 ESCON_DUTY_MIN = 0.10
@@ -110,13 +115,19 @@ def pwm_duty_clks(u_word: int, period_clks: int, imax_q12: int, enable: bool = T
     """High time of one PWM period in clocks for command u (Q3.12 A), as hdl/rtl/pwm_escon.v:
     PERIOD/2 + floor(clamp(u, +-IMAX) * K / 2^SHIFT), K = round(SPAN * 2^SHIFT / IMAX),
     SPAN = 2 * PERIOD / 5, SHIFT the largest with K < 2^15; 50 % while disabled."""
+    half, k, shift = pwm_duty_constants(period_clks, imax_q12)
+    uc = max(-imax_q12, min(imax_q12, u_word)) if enable else 0
+    return half + ((uc * k) >> shift)
+
+
+def pwm_duty_constants(period_clks: int, imax_q12: int) -> tuple[int, int, int]:
+    """(PERIOD/2, K, SHIFT) of pwm_duty_clks for a period and a current limit: constants of a
+    run, which PwmEscon computes once rather than at every PWM period."""
     half, span = period_clks // 2, 2 * period_clks // 5
     shift = 0
     while ((span << (shift + 1)) + imax_q12 // 2) // imax_q12 < 32768 and shift < 24:
         shift += 1
-    k = ((span << shift) + imax_q12 // 2) // imax_q12
-    uc = max(-imax_q12, min(imax_q12, u_word)) if enable else 0
-    return half + ((uc * k) >> shift)
+    return half, ((span << shift) + imax_q12 // 2) // imax_q12, shift
 
 
 def _kernel(order: int, period_s: float) -> tuple[tuple[float, ...], tuple[float, ...]]:
@@ -161,8 +172,12 @@ class AdcModel:
         read_clks = reader_latency_clks(part.frame_bits, sclk_half_clks) + CORE_PIPE_CLKS
         self.read_s = read_clks / clk_hz
         self.offsets, self.weights = _kernel(part.filter_order, part.period_s)
+        self._nodes = tuple(zip(self.offsets, self.weights, strict=True))
         self.hist: list[float] = []  # T_in_meas at t_j = j * dt
         self.last = -1  # index of the last conversion handed over
+        self._plan_k0 = self._plan_end = 0
+        self._plan: list[tuple[int, int, int, list[float]]] = []
+        self._wsplit: dict[int, tuple[tuple[float, ...], tuple[float, ...]]] = {}
 
     def record(self, t_in_n: float) -> None:
         """T_in_meas at the next plant sample time (t_0 first)."""
@@ -180,18 +195,85 @@ class AdcModel:
         return h[j] + (x - j) * (h[j + 1] - h[j])
 
     def conversion(self, i: int) -> float:
-        """The result of conversion i (kernel-weighted mean before its DRDY)."""
+        """The result of conversion i (kernel-weighted mean before its DRDY): the exact sum
+        (math.fsum) of w * value(d_i - offset) over the kernel's nodes. `value` is inlined here
+        with the same operations, so the products are the same doubles (the native engine and
+        tests/cosim hold all chains to them); the co-simulation calls this at every sample."""
         d = self.phase + (i + 1) * self.period
-        v = self.value
-        return math.fsum(w * v(d - o) for o, w in zip(self.offsets, self.weights, strict=True))
+        h = self.hist
+        dt = self.dt
+        last = len(h) - 1
+        terms = []
+        for o, w in self._nodes:
+            x = (d - o) / dt
+            if x <= 0.0:
+                v = h[0]
+            else:
+                j = int(x)
+                if j >= last:
+                    v = h[-1]
+                else:
+                    a = h[j]
+                    v = a + (x - j) * (h[j + 1] - a)
+            terms.append(w * v)
+        return math.fsum(terms)
+
+    def _make_plan(self, k0: int) -> None:
+        """Plan ticks k0 .. k0 + PLAN_TICKS - 1: the conversion each would take (deliver's
+        formula) and, where the kernel's nodes fall after t_0 and within two plant intervals
+        [t_j, t_j+1), [t_j+1, t_j+2) (the ADS131M02's 3P = 94 us window at 10 kHz), the
+        interval j, the count of nodes in the first one and each node's fraction x - j. numpy
+        does `value`'s operations in the same order on doubles, so the fractions are `value`'s;
+        other conversions (the ADS1220's window spans five intervals) take `conversion`."""
+        ks = np.arange(k0, k0 + PLAN_TICKS, dtype=np.int64)
+        t = (ks + 1) * self.dt
+        ik = np.floor((t - self.read_s - self.phase) / self.period + 1e-12).astype(np.int64) - 1
+        d = self.phase + (ik + 1) * self.period
+        x = (d[:, None] - np.asarray(self.offsets)[None, :]) / self.dt
+        j = np.floor(np.maximum(x, 0.0)).astype(np.int64)  # int(x) for x > 0
+        j0 = j[:, 0]
+        fast = (x[:, 0] > 0.0) & (j[:, -1] - j0 <= 1)  # nodes ascend in time: x[:, 0] is least
+        self._plan_k0, self._plan_end = k0, k0 + PLAN_TICKS
+        # Per tick: (conversion, first interval or -1 for `conversion`, nodes in it, fractions)
+        self._plan = list(
+            zip(
+                ik.tolist(),
+                np.where(fast, j0, -1).tolist(),
+                (j == j0[:, None]).sum(axis=1).tolist(),
+                (x - j).tolist(),
+                strict=True,
+            )
+        )
 
     def deliver(self, k: int) -> float | None:
-        """The result that reaches tick k+1 (newest clocked out by t_k+1), once; else None."""
-        t = (k + 1) * self.dt
-        i = math.floor((t - self.read_s - self.phase) / self.period + 1e-12) - 1
+        """The result that reaches tick k+1 (newest clocked out by t_k+1), once; else None.
+
+        The conversion index and the kernel's node positions come from the plan (_make_plan):
+        the co-simulation calls this at every sample, and the planned sum costs a third of
+        `conversion`'s; both give the same doubles (tests/cosim/test_cosim_interface.py)."""
+        if not self._plan_k0 <= k < self._plan_end:
+            self._make_plan(k)
+        i, j, s, f = self._plan[k - self._plan_k0]
         if i <= self.last or i < 0:
             return None
         self.last = i
+        h = self.hist
+        if j >= 0:
+            n = len(f)
+            if (j + 1 if s == n else j + 2) < len(h):
+                ws = self._wsplit.get(s)
+                if ws is None:
+                    ws = self._wsplit[s] = (self.weights[:s], self.weights[s:])
+                # value(t) = h[j] + (x - j) (h[j+1] - h[j]) per node, a node's interval's
+                # terms taken once.
+                a0 = h[j]
+                a1 = h[j + 1]
+                d0 = a1 - a0
+                terms = [w * (a0 + fr * d0) for fr, w in zip(f[:s], ws[0], strict=True)]
+                if s < n:
+                    d1 = h[j + 2] - a1
+                    terms += [w * (a1 + fr * d1) for fr, w in zip(f[s:], ws[1], strict=True)]
+                return math.fsum(terms)
         return self.conversion(i)
 
 
@@ -223,6 +305,7 @@ class PwmEscon:
         self.duty_error = duty_error
         self.resolution = duty_resolution
         self.fixed = fixed
+        self._duty_consts = pwm_duty_constants(self.period_clks, imax_q12)
         # The set value applies one current-controller sample after the period ends, inside
         # the step of the period's last tick: at this fraction of it.
         self.frac = min(1.0, (1.0 / ESCON_CURRENT_LOOP_HZ) / self.dt)
@@ -240,7 +323,11 @@ class PwmEscon:
     def duty(self, u) -> float:
         """Duty cycle of the PWM period that carries command u (a Q3.12 word or amperes)."""
         if self.fixed:
-            return pwm_duty_clks(int(u), self.period_clks, self.imax_q12) / self.period_clks
+            # pwm_duty_clks with the run's constants
+            half, k, shift = self._duty_consts
+            imax = self.imax_q12
+            uc = max(-imax, min(imax, int(u)))
+            return (half + ((uc * k) >> shift)) / self.period_clks
         imax = self.imax_q12 / 4096.0
         return 0.5 + 0.4 * min(max(float(u), -imax), imax) / imax
 
@@ -304,10 +391,11 @@ class Chain:
         return self.pwm.segments(k, u)
 
     def sense(self, k: int, t_in_n: float):
-        if self.adc is None:
+        adc = self.adc
+        if adc is None:
             return self._out(t_in_n)
-        self.adc.record(t_in_n)
-        v = self.adc.deliver(k)
+        adc.hist.append(t_in_n)  # adc.record, inlined: called at every sample
+        v = adc.deliver(k)
         return None if v is None else self._out(v)
 
 

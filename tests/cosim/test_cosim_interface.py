@@ -5,6 +5,7 @@ which shows where the board's chain costs tracking error."""
 from __future__ import annotations
 
 import math
+import random
 
 import pytest
 
@@ -65,6 +66,36 @@ def test_ads131m02_hands_over_only_the_newest_of_several_conversions():
             delivered.append(adc.last)
     assert len(delivered) == 100  # a fresh sample at every tick (32 kSPS > 10 kHz)
     assert min(b - a for a, b in zip(delivered, delivered[1:], strict=False)) >= 3
+
+
+@pytest.mark.parametrize("phase_s", [0.0, 13e-6])
+@pytest.mark.parametrize("name", ["ads131m02", "ads1220"])
+def test_adc_delivers_the_kernel_sum_of_its_definition_to_the_bit(name, phase_s):
+    """deliver's planned sums (numpy node positions, one interval's terms taken once) and the
+    inlined conversion give the bits of the definition, fsum(w * value(d_i - offset)) that the
+    native engine mirrors, on a noisy input and across a plan block; the ADS131M02's
+    conversions take the planned path, the ADS1220's (five intervals per window) the loop."""
+    adc = interface.AdcModel(interface.ADC_PARTS[name], FS, 48e6, 4, phase_s)
+    looped = []
+    conversion = adc.conversion
+    adc.conversion = lambda i: looped.append(i) or conversion(i)
+    rng = random.Random(11)
+    adc.record(rng.uniform(-50.0, 50.0))
+    n = interface.PLAN_TICKS + 300
+    delivered = 0
+    for k in range(n):
+        adc.record(rng.uniform(-50.0, 50.0))
+        v = adc.deliver(k)
+        if v is None:
+            continue
+        delivered += 1
+        d = adc.phase + (adc.last + 1) * adc.period
+        ref = math.fsum(w * adc.value(d - o) for o, w in zip(adc.offsets, adc.weights, strict=True))
+        assert v.hex() == ref.hex(), f"tick {k}: {v!r} != {ref!r}"
+    if name == "ads131m02":
+        assert delivered == n and len(looped) <= 1  # the first one reaches before t_0
+    else:
+        assert delivered == len(looped) > n // 6
 
 
 def _escon(fixed: bool, resolution: float = interface.ESCON_DUTY_RESOLUTION):
