@@ -4,7 +4,8 @@ cocotbext-axi's AxiLiteMaster (the default bus driver of the co-simulation) runs
 channel that wakes on every clock while a transaction is open; on this machine one transaction
 costs about 300 us of wall time, so the firmware's one write per millisecond alone is about a
 third of a real-time budget. This master drives one transaction at a time from the caller's
-coroutine and wakes once per clock edge it needs (about four per transaction).
+coroutine and wakes once per clock edge it needs (about four per transaction), and reads and
+writes the ports through cosim.harness.fastio (cocotb's `.value` costs more than the edge).
 
 Protocol (AMBA AXI4-Lite, the subset bowden_core's slave uses): a write presents AW and W
 together with BREADY high and lowers each VALID once its READY was seen at a rising edge, then
@@ -19,6 +20,8 @@ from __future__ import annotations
 
 from cocotb.triggers import RisingEdge
 
+from . import fastio
+
 
 class AxiLiteError(RuntimeError):
     """A transaction answered with SLVERR or DECERR."""
@@ -31,83 +34,72 @@ class LeanAxiLiteMaster:
         def sig(name):
             return getattr(dut, f"{prefix}_{name}")
 
-        self.awaddr, self.awprot, self.awvalid, self.awready = (
-            sig("awaddr"),
-            sig("awprot"),
-            sig("awvalid"),
-            sig("awready"),
+        for name in ("awvalid", "wvalid", "bready", "arvalid", "rready", "awprot", "arprot"):
+            sig(name).value = 0
+        self.set_awaddr, self.set_awvalid, self.set_wdata, self.set_wstrb, self.set_wvalid = (
+            fastio.writer(sig(name)) for name in ("awaddr", "awvalid", "wdata", "wstrb", "wvalid")
         )
-        self.wdata, self.wstrb, self.wvalid, self.wready = (
-            sig("wdata"),
-            sig("wstrb"),
-            sig("wvalid"),
-            sig("wready"),
+        self.set_bready, self.set_araddr, self.set_arvalid, self.set_rready = (
+            fastio.writer(sig(name)) for name in ("bready", "araddr", "arvalid", "rready")
         )
-        self.bresp, self.bvalid, self.bready = sig("bresp"), sig("bvalid"), sig("bready")
-        self.araddr, self.arprot, self.arvalid, self.arready = (
-            sig("araddr"),
-            sig("arprot"),
-            sig("arvalid"),
-            sig("arready"),
+        readers = {}
+        for name in ("awready", "wready", "bvalid", "bresp", "arready", "rvalid", "rdata", "rresp"):
+            readers[name] = fastio.unsigned_reader(sig(name))
+            fastio.check_port(sig(name), readers[name])
+        self.awready, self.wready, self.bvalid, self.bresp = (
+            readers[name] for name in ("awready", "wready", "bvalid", "bresp")
         )
-        self.rdata, self.rresp, self.rvalid, self.rready = (
-            sig("rdata"),
-            sig("rresp"),
-            sig("rvalid"),
-            sig("rready"),
+        self.arready, self.rvalid, self.rdata, self.rresp = (
+            readers[name] for name in ("arready", "rvalid", "rdata", "rresp")
         )
         self.edge = RisingEdge(clock)
-        for s in (self.awvalid, self.wvalid, self.bready, self.arvalid, self.rready):
-            s.value = 0
-        self.awprot.value = 0
-        self.arprot.value = 0
 
     async def write_dword(self, addr: int, value: int) -> None:
         """Write the 32-bit word `value` at byte address `addr`."""
         # Drive from a clock edge, as cocotbext-axi's channel sources do, so that a write
         # reaches the registers at the same clock with either driver.
         await self.edge
-        self.awaddr.value = addr
-        self.wdata.value = value & 0xFFFFFFFF
-        self.wstrb.value = 0xF
-        self.awvalid.value = 1
-        self.wvalid.value = 1
-        self.bready.value = 1
+        self.set_awaddr(addr)
+        self.set_wdata(value & 0xFFFFFFFF)
+        self.set_wstrb(0xF)
+        self.set_awvalid(1)
+        self.set_wvalid(1)
+        self.set_bready(1)
         aw_open = w_open = True
         while aw_open or w_open:
             await self.edge
-            if aw_open and self.awready.value:
+            if aw_open and self.awready():
                 aw_open = False
-                self.awvalid.value = 0
-            if w_open and self.wready.value:
+                self.set_awvalid(0)
+            if w_open and self.wready():
                 w_open = False
-                self.wvalid.value = 0
+                self.set_wvalid(0)
         while True:
             await self.edge
-            if self.bvalid.value:
+            if self.bvalid():
                 break
-        self.bready.value = 0
-        resp = self.bresp.value.to_unsigned()
+        self.set_bready(0)
+        resp = self.bresp()
         if resp:
             raise AxiLiteError(f"write of {value:#010x} at {addr:#04x}: response {resp}")
 
     async def read_dword(self, addr: int) -> int:
         """Read the 32-bit word at byte address `addr`."""
         await self.edge
-        self.araddr.value = addr
-        self.arvalid.value = 1
-        self.rready.value = 1
+        self.set_araddr(addr)
+        self.set_arvalid(1)
+        self.set_rready(1)
         ar_open = True
         while True:
             await self.edge
-            if ar_open and self.arready.value:
+            if ar_open and self.arready():
                 ar_open = False
-                self.arvalid.value = 0
-            if self.rvalid.value and not ar_open:
+                self.set_arvalid(0)
+            if self.rvalid() and not ar_open:
                 break
-        data = self.rdata.value.to_unsigned()
-        resp = self.rresp.value.to_unsigned()
-        self.rready.value = 0
+        data = self.rdata()
+        resp = self.rresp()
+        self.set_rready(0)
         if resp:
             raise AxiLiteError(f"read at {addr:#04x}: response {resp}")
         return data
