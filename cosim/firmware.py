@@ -314,9 +314,9 @@ class CompensatorParams:
     hysteresis_n: float = 4.0 / 256.0  # direction detector band H, [1/256, 32] N
     band_n: float = 0.5  # smooth inverse band B, [1/256, 128] N (bowden tune)
     tc_min_n: float = 0.0  # floor of T_c (minimum pretension), [0, 64] N
-    preview_ticks: int = 100  # preview: T_ref is handed this many ticks ahead, [0, 128]
+    preview_ticks: int = 60  # preview: T_ref is handed this many ticks ahead, [0, 128]
     lead_ticks: int = 0  # preview: the gain applies to T_ref this many ticks ahead, [0, P]
-    ramp_ticks: int = 200  # preview: ticks of a change of branch, [1, 256]
+    ramp_ticks: int = 120  # preview: ticks of a change of branch, [1, 256]
 
     def mode_code(self) -> int:
         if not isinstance(self.mode, str) or self.mode not in MODES:

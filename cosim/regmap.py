@@ -141,7 +141,7 @@ REGISTERS: dict[str, Register] = {
     "KP": Register(
         "KP",
         0x18,
-        (Field("VALUE", 0, 16, "rw", True, 13, 410),),
+        (Field("VALUE", 0, 16, "rw", True, 13, 819),),
     ),
     "KI_TS": Register(
         "KI_TS",

@@ -363,9 +363,9 @@ class ControllerParams:
     """
 
     kff_a_per_n: float = KFF_A_PER_N
-    kp_a_per_n: float = 0.05
-    # Kp and Ki chosen by `bowden tune` on the tune scenario only (board chain): Kp margin x3.05
-    # before a limit cycle (hold probe, cosim/tune); the register map's reset values.
+    kp_a_per_n: float = 0.1
+    # Kp and Ki chosen by `bowden tune` on the tune scenario only (board chain, ADS131M02): Kp
+    # margin x3.05 before a limit cycle (hold probe, cosim/tune); the register map's reset values.
     ki_a_per_n_s: float = 2.5
     i_limit_a: float = 4.0  # ESCON 36/2 peak current (RTL reset value of I_LIMIT)
     slew_n_per_sample: float = 0.0  # 0 = slew limit off
@@ -388,9 +388,9 @@ class CompensatorParams:
     # Preview mode (comp.h): T_ref handed preview_ticks firmware ticks ahead; the gain applies to
     # T_ref lead_ticks ahead; a change of branch takes ramp_ticks. Chosen by `bowden tune` on
     # the tune scenario (hdl/README.md).
-    preview_ticks: int = 100
+    preview_ticks: int = 60
     lead_ticks: int = 0
-    ramp_ticks: int = 200
+    ramp_ticks: int = 120
 
 
 # Rates in whole Hz: the firmware takes them as unsigned integers (fw.h), and its checks bound them

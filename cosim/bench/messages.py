@@ -719,7 +719,10 @@ PARAMS: tuple[Param, ...] = (
         -32768,
         32767,
         0xFEFC766D,
-        ("Proportional gain. Kp; reset 0.05 A/N (bowden tune: Kp margin x3.05 on the board chain)"),
+        (
+            "Proportional gain. Kp; reset 0.1 A/N (bowden tune on the ADS131M02 board chain: Kp "
+            "margin x3.05)"
+        ),
     ),
     Param(
         21,

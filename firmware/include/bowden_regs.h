@@ -93,11 +93,11 @@
 
 /* KP: Proportional gain. */
 #define BOWDEN_REG_KP 0x18u
-/* VALUE (rw Q2.13 A/N): Kp; reset 0.05 A/N (bowden tune: Kp margin x3.05 on the board chain) */
+/* VALUE (rw Q2.13 A/N): Kp; reset 0.1 A/N (bowden tune on the ADS131M02 board chain: Kp margin x3.05) */
 #define BOWDEN_KP_SHIFT 0u
 #define BOWDEN_KP_MASK 0x0000FFFFu
 #define BOWDEN_KP_FRAC_BITS 13u
-#define BOWDEN_KP_RESET (410)
+#define BOWDEN_KP_RESET (819)
 #define BOWDEN_KP_MIN (-32768)
 #define BOWDEN_KP_MAX (32767)
 

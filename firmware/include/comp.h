@@ -97,9 +97,9 @@
 #define COMP_RAMP_MAX_TICKS 256                        /* D in [1, 256] ticks */
 
 /* Preview defaults (ticks of the processor, 1 ms at 1 kHz), from `bowden tune`. */
-#define COMP_DEFAULT_PREVIEW_TICKS 100
+#define COMP_DEFAULT_PREVIEW_TICKS 60
 #define COMP_DEFAULT_LEAD_TICKS 0
-#define COMP_DEFAULT_RAMP_TICKS 200
+#define COMP_DEFAULT_RAMP_TICKS 120
 
 /* Gain table: nodes every 2 N (512 LSB of Q7.8) over |T_eff| in [0, 128] N. */
 #define COMP_TAB_SHIFT 9

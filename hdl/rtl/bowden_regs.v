@@ -435,7 +435,7 @@ always @(posedge clk) begin
         tc_reg <= 16'd0;
         tc_wr_reg <= 1'b0;
         kff_reg <= 16'd721;
-        kp_reg <= 16'd410;
+        kp_reg <= 16'd819;
         ki_ts_reg <= 16'd262;
         i_limit_reg <= 15'd16384;
         slew_reg <= 15'd128;
@@ -492,7 +492,7 @@ wire [31:0] f_reset =
     (f_a == A_FAULT) ? 32'h00000000 :
     (f_a == A_TC) ? 32'h00000000 :
     (f_a == A_KFF) ? 32'h000002D1 :
-    (f_a == A_KP) ? 32'h0000019A :
+    (f_a == A_KP) ? 32'h00000333 :
     (f_a == A_KI_TS) ? 32'h00000106 :
     (f_a == A_I_LIMIT) ? 32'h00004000 :
     (f_a == A_SLEW) ? 32'h00000080 :
