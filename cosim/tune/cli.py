@@ -27,6 +27,12 @@ def add_parser(subparsers) -> None:
         help="plant <-> core during the tuning (default board, the chain the demo reports)",
     )
     p.add_argument(
+        "--params",
+        default=None,
+        help='JSON params file the tuning starts from (e.g. {"board": {"adc": "ads1220"}} '
+        "for a board with the ADS1220 front-end); the chosen point overrides its gains",
+    )
+    p.add_argument(
         "--no-confirm",
         action="store_true",
         help="skip the confirmation of the chosen point in the fixed-point chain",
@@ -36,10 +42,12 @@ def add_parser(subparsers) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    from ..scenarios import load_params  # noqa: PLC0415
     from . import tune  # noqa: PLC0415
 
     try:
         require_project()
+        base = load_params(args.params)
     except ValueError as exc:
         print(f"bowden tune: {exc}", file=sys.stderr)
         return 2
@@ -49,13 +57,19 @@ def main(args: argparse.Namespace) -> int:
             print(line, file=sys.stderr, flush=True)
 
     try:
-        result = tune(interface=args.interface, confirm=not args.no_confirm, log=log)
+        result = tune(interface=args.interface, cfg=base, confirm=not args.no_confirm, log=log)
     except (RuntimeError, ValueError) as exc:
         print(f"bowden tune: {exc}", file=sys.stderr)
         return 1
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "tuned_params.json").write_text(json.dumps(result.params(), indent=2) + "\n")
+    params = result.params()
+    if args.params is not None:  # the file tuned from, with the chosen point over it
+        merged = json.loads(Path(args.params).read_text(encoding="utf-8"))
+        for group, values in params.items():
+            merged.setdefault(group, {}).update(values)
+        params = merged
+    (out / "tuned_params.json").write_text(json.dumps(params, indent=2) + "\n")
     summary = result.summary()
     (out / "summary.md").write_text(summary + "\n")
     print(summary)

@@ -5,6 +5,7 @@ stable points, margin required) is the one it applies, on the tune scenario only
 from __future__ import annotations
 
 import ctypes
+import json
 import math
 
 import pytest
@@ -87,3 +88,46 @@ def test_tune_fails_when_the_margin_is_short(monkeypatch):
     monkeypatch.setattr(tn, "KP_CANDIDATES", (0.05, 0.07))
     with pytest.raises(RuntimeError, match="Kp margin"):
         tn.tune("board", confirm=False)
+
+
+def test_tune_cli_starts_from_a_params_file_and_keeps_it(monkeypatch, tmp_path, capsys):
+    """`bowden tune --params F` tunes the chain F describes (here the ADS1220 front-end) and
+    writes F with the chosen point over it, so `bowden sim --params` runs that same chain."""
+    from cosim.cli import main
+
+    seen = {}
+
+    def fake_tune(interface, cfg, confirm, log):
+        seen["adc"] = cfg.board.adc
+        return tn.TuneResult(interface, 0.05, 2.5, 0.5, 100, 0, 200, 0.19, 3.05)
+
+    monkeypatch.setattr(tn, "tune", fake_tune)
+    src = tmp_path / "ads1220.json"
+    src.write_text('{"board": {"adc": "ads1220"}, "controller": {"kp_a_per_n": 0.3}}')
+    out = tmp_path / "out"
+    assert main(["tune", "--params", str(src), "--out", str(out), "--quiet"]) == 0
+    assert seen == {"adc": "ads1220"}
+    written = json.loads((out / "tuned_params.json").read_text())
+    assert written["board"] == {"adc": "ads1220"}
+    assert written["controller"] == {"kp_a_per_n": 0.05, "ki_a_per_n_s": 2.5}
+    assert written["compensator"]["ramp_ticks"] == 200
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        (None, "does not exist"),
+        ('{"board": {"adc": "ads9999"}}', "board.adc must be one of"),
+    ],
+)
+def test_tune_cli_names_a_bad_params_file(monkeypatch, tmp_path, capsys, content, message):
+    """A missing or invalid --params file: one line naming it, exit 2, nothing tuned."""
+    from cosim.cli import main
+
+    monkeypatch.setattr(tn, "tune", lambda **kw: pytest.fail("tuned despite a bad file"))
+    src = tmp_path / "p.json"
+    if content is not None:
+        src.write_text(content)
+    assert main(["tune", "--params", str(src), "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("bowden tune: ") and message in err and "\n" not in err, err
