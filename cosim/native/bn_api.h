@@ -16,7 +16,7 @@
 extern "C" {
 #endif
 
-#define BN_API_VERSION 2
+#define BN_API_VERSION 3
 
 /* Interface stages (cosim/interface.py). */
 #define BN_IFACE_IDEAL 0
@@ -77,6 +77,9 @@ int32_t bn_api_version(void);
 uint32_t bn_spec_size(void);
 /* The CLKS_PER_SAMPLE the RTL was built with. */
 int32_t bn_clks_per_sample(void);
+/* math.fsum of x[0..n) as the interface stage's ADC takes it (closed_loop.cpp, fsum_fast);
+ * *decided = 0 when the exact fallback (CPython's algorithm) decided (tests/native). */
+double bn_fsum(const double *x, int32_t n, int32_t *decided);
 /* Run; 0 on success, else non-zero with spec->error set (one line). */
 int32_t bn_run(bn_spec_t *spec);
 

@@ -28,7 +28,7 @@ from ..plant import INPUT_NAMES, OUTPUT_NAMES
 from ..reference import TC_LATENCY_SAMPLES
 from ..scenarios import SimConfig, get_scenario, held_at, sample_inputs
 
-API_VERSION = 2
+API_VERSION = 3
 IFACE_CODES = {"ideal": 0, "adc": 1, "board": 2}
 # As the cocotb harness (tb_closed_loop.SHADOW_REFRESH_TICKS).
 SHADOW_REFRESH_TICKS = 10
@@ -113,6 +113,8 @@ def load_library() -> ctypes.CDLL:
         lib.bn_run.argtypes = [POINTER(Spec)]
         lib.bn_run.restype = c_int32
         lib.bn_spec_size.restype = c_uint32
+        lib.bn_fsum.argtypes = [_D, c_int32, POINTER(c_int32)]
+        lib.bn_fsum.restype = c_double
         if lib.bn_api_version() != API_VERSION or lib.bn_spec_size() != ctypes.sizeof(Spec):
             raise RuntimeError(
                 f"{path} does not match cosim/native/engine.py (API or bn_spec_t size): "
