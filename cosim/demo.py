@@ -65,8 +65,8 @@ def add_parser(subparsers) -> None:
     p.add_argument(
         "--bus",
         choices=("cocotbext-axi", "lean"),
-        default="cocotbext-axi",
-        help="AXI4-Lite driver of the testbench (same results; lean is faster)",
+        default="lean",
+        help="AXI4-Lite driver of the testbench: lean (default) or cocotbext-axi (same results)",
     )
     p.add_argument(
         "--held-out-duration",

@@ -130,8 +130,9 @@ def add_parser(subparsers) -> None:
     p.add_argument(
         "--bus",
         choices=BUSES,
-        default="cocotbext-axi",
-        help="AXI4-Lite driver: cocotbext-axi (default) or the lean one (same results, faster)",
+        default="lean",
+        help="AXI4-Lite driver: the lean one (default) or cocotbext-axi's AxiLiteMaster (same "
+        "results at every sample, about 1.4x the run time)",
     )
     p.add_argument(
         "--engine",
@@ -185,7 +186,7 @@ def run(
     compensator: str | None = None,
     loop_routing: bool = True,
     simulator: str = "verilator",
-    bus: str = "cocotbext-axi",
+    bus: str = "lean",
     cfg: SimConfig | None = None,
     interface: str = "board",
     engine: str = "cocotb",

@@ -1,6 +1,6 @@
 """A lean AXI4-Lite master for the closed loop's per-tick register traffic.
 
-cocotbext-axi's AxiLiteMaster (the default bus driver of the co-simulation) runs a coroutine per
+cocotbext-axi's AxiLiteMaster (the other bus driver of the co-simulation) runs a coroutine per
 channel that wakes on every clock while a transaction is open; on this machine one transaction
 costs about 300 us of wall time, so the firmware's one write per millisecond alone is about a
 third of a real-time budget. This master drives one transaction at a time from the caller's
