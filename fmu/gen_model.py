@@ -91,7 +91,7 @@ VARIABLES: list[Var] = [
         "Free cable length between spool and sheath inlet (assumed)"),
     Var("loadcell_stiffness", "Real", PARAM, 2e5, "N/m", 100.0, 1e9,
         "Stiffness of the load cell that terminates the cable (isometric output)"),
-    Var("max_step", "Real", PARAM, 50e-6, "s", 1e-7, 1e-3,
+    Var("max_step", "Real", PARAM, 100e-6, "s", 1e-7, 1e-3,
         "Largest internal integration step"),
     # --- inputs -------------------------------------------------------------------------------
     Var("current_cmd", "Real", INPUT, 0.0, "A", -8.0, 8.0,

@@ -19,9 +19,9 @@ What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effe
   exactly), gain and offset.
 
 Assumptions of the twin that the FMU does not make: the friction of a step uses the time at its
-start for mu_drift (the FMU moves it on by each 50 us internal step: a change of mu_drift * 1 ms),
-and the cable's axial rigidity and the load cell's stiffness are the FMU's defaults (they enter
-only through v_c, so only mu_viscous depends on them).
+start for mu_drift (the FMU moves it on by each internal step of max_step within a sample: a
+change of at most mu_drift * 1 ms), and the cable's axial rigidity and the load cell's stiffness
+are the FMU's defaults (they enter only through v_c, so only mu_viscous depends on them).
 """
 
 from __future__ import annotations

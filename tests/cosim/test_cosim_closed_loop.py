@@ -29,7 +29,8 @@ T_OUT_RMS_PCT_FS = 0.5
 # clock step, with the ESCON's quantization off (tests/cosim/test_cosim_interface.py). With the
 # gains re-tuned on the ADS131M02 (Kp 0.1 A/N: the loop answers a step's difference twice as
 # hard), `make demo`'s 30 s fig14 runs gave 15.5-20.6 LSB with loop routing and 25.1 LSB
-# without. Budget: 30 LSB (that plus 20 %), under one step (41 LSB).
+# without (FMU max_step 50 us; 14-19 and 23 LSB at 100 us). Budget: 30 LSB (the largest plus
+# 20 %), under one step (41 LSB).
 BOARD_CURRENT_MAX_LSB = 30.0
 
 
