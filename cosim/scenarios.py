@@ -86,6 +86,7 @@ FIG14_FREQ_HZ = 0.5
 FIG14_DURATION_S = 30.0
 # Half-widths (x, y, z) of the end-effector's path in fig14: the region of POSITIONS_M.
 FIG14_SWING_M = (0.10, 0.25, 0.30)
+FIG14_PATH_PERIODS_S = (15.0, 10.0, 7.5)
 
 # Fig. 12 stand-in: (x, y, z) in m, see module docstring.
 POSITIONS_M = (
@@ -195,22 +196,11 @@ def _positions() -> Scenario:
 def _fig14() -> Scenario:
     mid = 0.5 * (FIG14_MAX_N + FIG14_MIN_N)
     amp = 0.5 * (FIG14_MAX_N - FIG14_MIN_N)
-    ramp_in_s = 0.5  # T_ref rises from 0 to the sine's minimum, so the loop starts gently
 
     def t_ref(t: np.ndarray) -> np.ndarray:
-        sine = mid - amp * np.cos(2.0 * np.pi * FIG14_FREQ_HZ * t)
-        # Before the first minimum the reference eases in from zero (raised cosine).
-        ease = np.clip(t / ramp_in_s, 0.0, 1.0)
-        return sine * (0.5 - 0.5 * np.cos(np.pi * ease))
-
-    def trajectory(t: np.ndarray):
-        # A slow Lissajous path around HOME_M over the region of the Fig. 12 positions: in-plane
-        # (y, z) swings of 0.25 m and 0.3 m and an out-of-plane (x) swing of 0.1 m, periods
-        # 10 s, 7.5 s and 15 s (|C| <= 0.82 m, inside the 1 m workspace).
-        x = HOME_M[0] + FIG14_SWING_M[0] * np.sin(2.0 * np.pi * t / 15.0)
-        y = HOME_M[1] + FIG14_SWING_M[1] * np.sin(2.0 * np.pi * t / 10.0)
-        z = HOME_M[2] + FIG14_SWING_M[2] * np.sin(2.0 * np.pi * t / 7.5)
-        return x, y, z
+        # Before the first minimum the reference eases in from zero over 0.5 s, so the loop
+        # starts gently.
+        return (mid - amp * np.cos(2.0 * np.pi * FIG14_FREQ_HZ * t)) * _ease(t)
 
     return Scenario(
         name="fig14",
@@ -220,9 +210,16 @@ def _fig14() -> Scenario:
             "the end-effector moves in 3-D (paper Fig. 14)"
         ),
         t_ref=t_ref,
-        trajectory=trajectory,
+        trajectory=_fig14_path(),
         settle_s=1.0,
     )
+
+
+def _fig14_path():
+    """fig14's end-effector path: a slow Lissajous path around HOME_M over the region of the
+    Fig. 12 positions: in-plane (y, z) swings of 0.25 m and 0.3 m and an out-of-plane (x) swing
+    of 0.1 m, periods 10 s, 7.5 s and 15 s (|C| <= 0.82 m, inside the 1 m workspace)."""
+    return _lissajous(FIG14_SWING_M, FIG14_PATH_PERIODS_S)
 
 
 def _ease(t: np.ndarray, ramp_in_s: float = 0.5) -> np.ndarray:
@@ -268,14 +265,24 @@ def _tune() -> Scenario:
     )
 
 
-def _sine1hz() -> Scenario:
+def _held_out(name: str, description: str, t_ref, trajectory=None) -> Scenario:
+    """A held-out scenario: HELD_OUT_DURATION_S long, errors from 1 s, on the fig14 path unless
+    another trajectory is given."""
     return Scenario(
-        name="sine1hz",
+        name=name,
         duration_s=HELD_OUT_DURATION_S,
-        description="held out: sine 1 Hz, T_ref 4 .. 20 N, the fig14 path",
-        t_ref=lambda t: (12.0 - 8.0 * np.cos(2.0 * np.pi * 1.0 * t)) * _ease(t),
-        trajectory=_lissajous(FIG14_SWING_M, (15.0, 10.0, 7.5)),
+        description=f"held out: {description}",
+        t_ref=t_ref,
+        trajectory=trajectory or _fig14_path(),
         settle_s=1.0,
+    )
+
+
+def _sine1hz() -> Scenario:
+    return _held_out(
+        "sine1hz",
+        "sine 1 Hz, T_ref 4 .. 20 N, the fig14 path",
+        lambda t: (12.0 - 8.0 * np.cos(2.0 * np.pi * 1.0 * t)) * _ease(t),
     )
 
 
@@ -284,14 +291,7 @@ def _triangle_ref() -> Scenario:
         # 2 .. 14 N at 0.4 Hz: constant slopes and sharp reversals (the hardest for a lag).
         return (2.0 + _triangle(t, 12.0, 2.5)) * _ease(t)
 
-    return Scenario(
-        name="triangle",
-        duration_s=HELD_OUT_DURATION_S,
-        description="held out: triangle 0.4 Hz, T_ref 2 .. 14 N, the fig14 path",
-        t_ref=t_ref,
-        trajectory=_lissajous(FIG14_SWING_M, (15.0, 10.0, 7.5)),
-        settle_s=1.0,
-    )
+    return _held_out("triangle", "triangle 0.4 Hz, T_ref 2 .. 14 N, the fig14 path", t_ref)
 
 
 def _multisine() -> Scenario:
@@ -300,25 +300,17 @@ def _multisine() -> Scenario:
         s = 3.0 * np.sin(w * 0.3) + 2.5 * np.sin(w * 0.7 + 1.0) + 1.5 * np.sin(w * 1.3 + 2.0)
         return (9.0 + s) * _ease(t)  # about 2 .. 16 N
 
-    return Scenario(
-        name="multisine",
-        duration_s=HELD_OUT_DURATION_S,
-        description="held out: 0.3 + 0.7 + 1.3 Hz sines, T_ref about 2 .. 16 N, the fig14 path",
-        t_ref=t_ref,
-        trajectory=_lissajous(FIG14_SWING_M, (15.0, 10.0, 7.5)),
-        settle_s=1.0,
+    return _held_out(
+        "multisine", "0.3 + 0.7 + 1.3 Hz sines, T_ref about 2 .. 16 N, the fig14 path", t_ref
     )
 
 
 def _fig14path2() -> Scenario:
-    fig = _fig14()
-    return Scenario(
-        name="fig14path2",
-        duration_s=HELD_OUT_DURATION_S,
-        description="held out: the fig14 reference on another path (wider out of the plane)",
-        t_ref=fig.t_ref,
-        trajectory=_lissajous((0.20, 0.15, 0.20), (6.0, 8.0, 5.0), (0.0, 0.55, 0.05)),
-        settle_s=1.0,
+    return _held_out(
+        "fig14path2",
+        "the fig14 reference on another path (wider out of the plane)",
+        _fig14().t_ref,
+        _lissajous((0.20, 0.15, 0.20), (6.0, 8.0, 5.0), (0.0, 0.55, 0.05)),
     )
 
 
