@@ -238,7 +238,7 @@ def tune(
             if ok and (best is None or sc[0] < best[0]):
                 best = (sc[0], kp, ki)
     if best is None:
-        raise RuntimeError("bowden tune: no (Kp, Ki) candidate holds without a limit cycle")
+        raise RuntimeError("no (Kp, Ki) candidate holds without a limit cycle")
     _, kp, ki = best
     gains = with_params(base, kp_a_per_n=kp, ki_a_per_n_s=ki)
 
@@ -289,7 +289,7 @@ def tune(
     )
     if margin < MIN_KP_MARGIN:
         raise RuntimeError(
-            f"bowden tune: Kp margin x{margin:.2f} of the chosen gains is below x{MIN_KP_MARGIN:g}"
+            f"Kp margin x{margin:.2f} of the chosen gains is below x{MIN_KP_MARGIN:g}"
         )
 
     result = TuneResult(

@@ -131,3 +131,18 @@ def test_tune_cli_names_a_bad_params_file(monkeypatch, tmp_path, capsys, content
     assert main(["tune", "--params", str(src), "--out", str(tmp_path / "o"), "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("bowden tune: ") and message in err and "\n" not in err, err
+
+
+def test_tune_cli_names_a_short_margin_once(monkeypatch, tmp_path, capsys):
+    """A tuning that fails (here: the margin) is one line with the command's name once, exit 1,
+    and no params file."""
+    from cosim.cli import main
+
+    monkeypatch.setattr(tn, "stable", lambda cfg, i: cfg.controller.kp_a_per_n < 0.09)
+    monkeypatch.setattr(tn, "score", lambda cfg, comp, i, scenario=TUNE_SCENARIO: (1.0, 1.0, 1.0))
+    monkeypatch.setattr(tn, "KP_CANDIDATES", (0.05, 0.07))
+    out = tmp_path / "o"
+    assert main(["tune", "--no-confirm", "--out", str(out), "--quiet"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("bowden tune: Kp margin x") and err.count("bowden tune") == 1, err
+    assert not (out / "tuned_params.json").exists()
