@@ -169,6 +169,10 @@ void comp_config_default(comp_config_t *cfg);
  * (520 bytes) to check every gain. */
 int32_t comp_config_check(const comp_config_t *cfg);
 
+/* The preview fields' check, shared by comp_config_check and the double twin's (comp_f64.c):
+ * COMP_OK, or COMP_ERR_PREVIEW / _LEAD / _RAMP for P, L, D outside their ranges. */
+int32_t comp_check_preview(int32_t preview_ticks, int32_t lead_ticks, int32_t ramp_ticks);
+
 /* Put the compensator in the default configuration and reset its state. */
 void comp_init(comp_t *c);
 

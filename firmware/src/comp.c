@@ -69,6 +69,20 @@ static int32_t build_tables(const comp_config_t *cfg, uq8_24_t *up, uq8_24_t *dn
     return COMP_OK;
 }
 
+int32_t comp_check_preview(int32_t preview_ticks, int32_t lead_ticks, int32_t ramp_ticks)
+{
+    if (preview_ticks < 0 || preview_ticks > COMP_PREVIEW_MAX_TICKS) {
+        return COMP_ERR_PREVIEW;
+    }
+    if (lead_ticks < 0 || lead_ticks > preview_ticks) {
+        return COMP_ERR_LEAD;
+    }
+    if (ramp_ticks < 1 || ramp_ticks > COMP_RAMP_MAX_TICKS) {
+        return COMP_ERR_RAMP;
+    }
+    return COMP_OK;
+}
+
 /* The checks of the fields alone (no table). */
 static int32_t check_fields(const comp_config_t *cfg)
 {
@@ -105,16 +119,7 @@ static int32_t check_fields(const comp_config_t *cfg)
     if (cfg->tc_min_n_q8 < 0 || cfg->tc_min_n_q8 > COMP_TC_MIN_MAX_Q8) {
         return COMP_ERR_TC_MIN;
     }
-    if (cfg->preview_ticks < 0 || cfg->preview_ticks > COMP_PREVIEW_MAX_TICKS) {
-        return COMP_ERR_PREVIEW;
-    }
-    if (cfg->lead_ticks < 0 || cfg->lead_ticks > cfg->preview_ticks) {
-        return COMP_ERR_LEAD;
-    }
-    if (cfg->ramp_ticks < 1 || cfg->ramp_ticks > COMP_RAMP_MAX_TICKS) {
-        return COMP_ERR_RAMP;
-    }
-    return COMP_OK;
+    return comp_check_preview(cfg->preview_ticks, cfg->lead_ticks, cfg->ramp_ticks);
 }
 
 int32_t comp_config_check(const comp_config_t *cfg)

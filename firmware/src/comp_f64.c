@@ -96,16 +96,7 @@ int32_t comp_f64_config_check(const comp_f64_config_t *cfg)
     if (out_of(cfg->tc_min_n, 0.0, 64.0)) {
         return COMP_ERR_TC_MIN;
     }
-    if (cfg->preview_ticks < 0 || cfg->preview_ticks > COMP_PREVIEW_MAX_TICKS) {
-        return COMP_ERR_PREVIEW;
-    }
-    if (cfg->lead_ticks < 0 || cfg->lead_ticks > cfg->preview_ticks) {
-        return COMP_ERR_LEAD;
-    }
-    if (cfg->ramp_ticks < 1 || cfg->ramp_ticks > COMP_RAMP_MAX_TICKS) {
-        return COMP_ERR_RAMP;
-    }
-    return COMP_OK;
+    return comp_check_preview(cfg->preview_ticks, cfg->lead_ticks, cfg->ramp_ticks);
 }
 
 void comp_f64_reset(comp_f64_t *c)
