@@ -111,11 +111,18 @@ def reader_latency_clks(frame_bits: int, sclk_half_clks: int) -> int:
     return 2 + 1 + 2 * sclk_half_clks * frame_bits + 1
 
 
-def pwm_duty_clks(u_word: int, period_clks: int, imax_q12: int, enable: bool = True) -> int:
+def pwm_duty_clks(
+    u_word: int,
+    period_clks: int,
+    imax_q12: int,
+    enable: bool = True,
+    constants: tuple[int, int, int] | None = None,
+) -> int:
     """High time of one PWM period in clocks for command u (Q3.12 A), as hdl/rtl/pwm_escon.v:
     PERIOD/2 + floor(clamp(u, +-IMAX) * K / 2^SHIFT), K = round(SPAN * 2^SHIFT / IMAX),
-    SPAN = 2 * PERIOD / 5, SHIFT the largest with K < 2^15; 50 % while disabled."""
-    half, k, shift = pwm_duty_constants(period_clks, imax_q12)
+    SPAN = 2 * PERIOD / 5, SHIFT the largest with K < 2^15; 50 % while disabled. `constants`:
+    pwm_duty_constants(period_clks, imax_q12) when the caller holds them."""
+    half, k, shift = constants or pwm_duty_constants(period_clks, imax_q12)
     uc = max(-imax_q12, min(imax_q12, u_word)) if enable else 0
     return half + ((uc * k) >> shift)
 
@@ -323,11 +330,10 @@ class PwmEscon:
     def duty(self, u) -> float:
         """Duty cycle of the PWM period that carries command u (a Q3.12 word or amperes)."""
         if self.fixed:
-            # pwm_duty_clks with the run's constants
-            half, k, shift = self._duty_consts
-            imax = self.imax_q12
-            uc = max(-imax, min(imax, int(u)))
-            return (half + ((uc * k) >> shift)) / self.period_clks
+            clks = pwm_duty_clks(
+                int(u), self.period_clks, self.imax_q12, constants=self._duty_consts
+            )
+            return clks / self.period_clks
         imax = self.imax_q12 / 4096.0
         return 0.5 + 0.4 * min(max(float(u), -imax), imax) / imax
 
