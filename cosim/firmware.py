@@ -333,11 +333,7 @@ class CompensatorParams:
             hysteresis_n_q8=_fixed("comp.hysteresis_n", self.hysteresis_n, 8),
             band_n_q8=_fixed("comp.band_n", self.band_n, 8),
             tc_min_n_q8=_fixed("comp.tc_min_n", self.tc_min_n, 8),
-            preview_ticks=_whole(
-                "comp.preview_ticks", self.preview_ticks, -(2**31), 2**31 - 1, "ticks"
-            ),
-            lead_ticks=_whole("comp.lead_ticks", self.lead_ticks, -(2**31), 2**31 - 1, "ticks"),
-            ramp_ticks=_whole("comp.ramp_ticks", self.ramp_ticks, -(2**31), 2**31 - 1, "ticks"),
+            **self._ticks(),
         )
 
     def quantized(self) -> CompensatorParams:
@@ -369,9 +365,14 @@ class CompensatorParams:
             "tc_min_n",
         ):
             values[name] = _real(f"comp.{name}", getattr(self, name))
-        for name in ("preview_ticks", "lead_ticks", "ramp_ticks"):
-            values[name] = _whole(f"comp.{name}", getattr(self, name), -(2**31), 2**31 - 1, "ticks")
-        return CompF64Config(mode=self.mode_code(), **values)
+        return CompF64Config(mode=self.mode_code(), **values, **self._ticks())
+
+    def _ticks(self) -> dict[str, int]:
+        """The preview fields as the C structs' int32 (comp_check_preview checks their ranges)."""
+        return {
+            name: _whole(f"comp.{name}", getattr(self, name), -(2**31), 2**31 - 1, "ticks")
+            for name in ("preview_ticks", "lead_ticks", "ramp_ticks")
+        }
 
     def gains(self, t_n: float | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """G_up and G_dn at output tension |T| (comp.h): the capstan relation integrated with
