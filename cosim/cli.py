@@ -3,9 +3,10 @@
 Each subcommand lives in its own module, which provides `add_parser(subparsers)`; the parser
 it adds sets `func(args) -> int`. A module is listed in SUBCOMMANDS only once it works.
 
-For every subcommand: a bad argument is one line on stderr and exit status 2 (cosim.cliargs);
-SIGINT (Ctrl-C) or SIGTERM stops the run and every process it started (cosim.procs), prints one
-line and exits with 128 + the signal number, keeping the files already written.
+For every subcommand: a bad argument is one line on stderr and exit status 2
+(cosim.project.cliargs); SIGINT (Ctrl-C) or SIGTERM stops the run and every process it started
+(cosim.project.procs), prints one line and exits with 128 + the signal number, keeping the files
+already written.
 """
 
 from __future__ import annotations
@@ -17,15 +18,17 @@ import signal
 import sys
 import threading
 
-from . import __version__, procs
-from .cliargs import ArgumentParser, harden, subparsers
+from cosim.project import procs
+from cosim.project.cliargs import ArgumentParser, harden, subparsers
+
+from . import __version__
 
 # Modules that provide subcommands, in the order `bowden --help` lists them.
 SUBCOMMANDS: list[str] = ["workspace", "sim", "demo", "tune.cli", "audit", "bench.cli", "sweep"]
 
 
 def _doctor(args: argparse.Namespace) -> int:
-    from .doctor import main as doctor_main
+    from cosim.project.doctor import main as doctor_main
 
     return doctor_main()
 

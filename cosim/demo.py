@@ -26,9 +26,10 @@ import json
 import sys
 from pathlib import Path
 
-from .cliargs import output_dir
+from cosim.project.cliargs import output_dir
+from cosim.project.paths import BUILD_DIR, require_project
+
 from .interface import INTERFACES
-from .paths import BUILD_DIR, require_project
 from .scenarios import HELD_OUT_DURATION_S
 
 # (folder, compensator, loop routing)

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .paths import BUILD_DIR
+from cosim.project.paths import BUILD_DIR
 
 LIB_PATH = BUILD_DIR / "firmware" / "host" / "libbowden_fw.so"
 

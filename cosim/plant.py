@@ -27,7 +27,7 @@ from ctypes import c_char_p, c_double, c_int, c_size_t, c_uint, c_void_p
 from dataclasses import dataclass
 from pathlib import Path
 
-from .paths import BUILD_DIR
+from cosim.project.paths import BUILD_DIR
 
 FMU_PATH = BUILD_DIR / "fmu" / "BowdenPlant.fmu"
 

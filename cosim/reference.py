@@ -25,11 +25,12 @@ import math
 
 import numpy as np
 
+from cosim.project.progress import Progress
+
 from . import regmap, rtl_model
 from .firmware import make_compensator_f64, tension_word
 from .harness.common import Record, open_plant, plant_rows, store_plant_rows
 from .harness.fwbridge import loop_words
-from .harness.progress import Progress
 from .interface import make_chain
 from .rtl_model import FloatTensionLoop
 from .scenarios import Scenario, SimConfig, firmware_t_ref, sample_inputs

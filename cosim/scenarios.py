@@ -40,7 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .cliargs import shown
+from cosim.project.cliargs import shown
+
 from .firmware import MODES
 from .interface import ADC_PARTS
 

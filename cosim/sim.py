@@ -29,10 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
+from cosim.project.cliargs import output_dir
+from cosim.project.paths import require_project
+
 from . import trace as trace_mod
-from .cliargs import output_dir
 from .interface import INTERFACES
-from .paths import require_project
 from .scenarios import COMPENSATORS, SCENARIO_NAMES, SimConfig, get_scenario, load_params
 
 # Default compensator per scenario: the characterisations measure the plant itself.

@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .cliargs import output_dir
+from cosim.project.cliargs import output_dir
+
 from .geometry import bending_angle, hemisphere_grid
 
 # The plant FMU's range of sheath_length (fmu/gen_model.py; a test holds the two equal): beyond

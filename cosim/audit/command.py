@@ -10,7 +10,8 @@ import sys
 import time
 from pathlib import Path
 
-from ..cliargs import output_dir
+from cosim.project.cliargs import output_dir
+
 from .params import FIG14_DEFAULT_DURATION_S
 
 

@@ -23,8 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
+from cosim.project.paths import BUILD_DIR
+
 from .. import regmap, rtl_model
-from ..paths import BUILD_DIR
 
 LIB_PATH = BUILD_DIR / "bench" / "host" / "libbowden_bench.so"
 

@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..paths import BUILD_DIR, FMU_DIR
+from cosim.project.paths import BUILD_DIR, FMU_DIR
 
 DURATION_S = 6.0
 MAX_STEPS_S = (100e-6, 50e-6, 25e-6, 10e-6)

@@ -19,9 +19,10 @@ import tempfile
 import threading
 from pathlib import Path
 
-from .. import procs, rtl_model
-from ..paths import BUILD_DIR, HDL_DIR
-from ..toolchain import setup_env
+from cosim import rtl_model
+from cosim.project import procs
+from cosim.project.paths import BUILD_DIR, HDL_DIR
+from cosim.project.toolchain import setup_env
 
 HARNESS_DIR = Path(__file__).resolve().parent
 TOPLEVEL = "cosim_top"
@@ -56,7 +57,7 @@ def _make_runner(simulator: str, reuse: bool):
     - reuse: build() only records its arguments (which test() needs) and runs no command, when the
       build folder holds a build of the same fingerprint;
     - every command (the build's, the simulator) runs in a process group of its own through
-      cosim.procs, so that an interrupted `bowden` stops the simulator too.
+      cosim.project.procs, so that an interrupted `bowden` stops the simulator too.
 
     (Overrides a private method of cocotb_tools 2.1.0, pinned in requirements.txt; the build fails
     loudly if its command changes shape.)"""
@@ -159,8 +160,9 @@ def run_closed_loop(
     The simulator's own output goes to WORK/sim.log; the progress bar is drawn here from the
     progress file the testbench updates (a few times a second), so it stays one clean line.
     """
+    from cosim.project.progress import Progress  # noqa: PLC0415
+
     from .common import Record  # noqa: PLC0415
-    from .progress import Progress  # noqa: PLC0415
 
     runner = build(simulator)
     tmp = None

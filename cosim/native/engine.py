@@ -17,11 +17,12 @@ from ctypes import POINTER, c_char, c_double, c_int16, c_int32, c_int64, c_uint3
 
 import numpy as np
 
+from cosim.project.progress import Progress
+
 from .. import scenarios
 from ..firmware import tension_word, tension_words
 from ..harness.common import Record, open_plant, plant_rows, store_plant_rows
 from ..harness.fwbridge import FirmwareBridge, loop_words
-from ..harness.progress import Progress
 from ..harness.runner import CLKS_PER_SAMPLE
 from ..interface import make_chain
 from ..plant import INPUT_NAMES, OUTPUT_NAMES

@@ -41,8 +41,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from cosim.project.cliargs import ArgumentParser, finite_float
+
 from .. import metrics
-from ..cliargs import ArgumentParser, finite_float
 from ..interface import ADC_PARTS, AdcModel, Chain, make_chain
 from ..reference import make_float_loop, resolve_phi, run_reference
 from ..scenarios import HOME_M, Scenario, SimConfig, get_scenario

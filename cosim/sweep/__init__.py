@@ -20,7 +20,7 @@ import json
 import sys
 from pathlib import Path
 
-from ..cliargs import output_dir
+from cosim.project.cliargs import output_dir
 
 
 def add_parser(subparsers) -> None:
@@ -51,7 +51,8 @@ def add_parser(subparsers) -> None:
 def main(args: argparse.Namespace) -> int:
     import yaml  # noqa: PLC0415
 
-    from ..paths import require_project  # noqa: PLC0415
+    from cosim.project.paths import require_project  # noqa: PLC0415
+
     from .spec import SpecError, load_spec  # noqa: PLC0415
 
     try:

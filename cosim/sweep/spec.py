@@ -36,7 +36,8 @@ import random
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..cliargs import shown
+from cosim.project.cliargs import shown
+
 from ..interface import INTERFACES
 from ..scenarios import COMPENSATORS, SCENARIO_NAMES, SimConfig
 

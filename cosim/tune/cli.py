@@ -8,9 +8,10 @@ import json
 import sys
 from pathlib import Path
 
-from ..cliargs import output_dir
+from cosim.project.cliargs import output_dir
+from cosim.project.paths import BUILD_DIR, require_project
+
 from ..interface import INTERFACES
-from ..paths import BUILD_DIR, require_project
 
 
 def add_parser(subparsers) -> None:

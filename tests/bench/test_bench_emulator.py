@@ -23,7 +23,7 @@ from cosim.bench.client import BenchClient, SerialLink, VersionMismatchError
 from cosim.bench.device import ChainConfig, Device, EmuLoop, LoopChain, load_library
 from cosim.bench.emulator import Emulator
 from cosim.bench.recorder import record_run
-from cosim.paths import REPO_ROOT
+from cosim.project.paths import REPO_ROOT
 
 WRITABLE = [
     name

@@ -14,7 +14,7 @@ import warnings
 
 import pytest
 
-from cosim.paths import BUILD_DIR, REPO_ROOT
+from cosim.project.paths import BUILD_DIR, REPO_ROOT
 
 BENCH = BUILD_DIR / "firmware" / "host" / "bench_comp"
 TOOL = REPO_ROOT / "firmware" / "tools" / "bench_callgrind.py"

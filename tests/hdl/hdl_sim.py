@@ -20,7 +20,7 @@ from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
 from cocotb_tools.runner import get_results, get_runner
 
 from cosim import regmap
-from cosim.paths import BUILD_DIR, HDL_DIR
+from cosim.project.paths import BUILD_DIR, HDL_DIR
 
 TB_DIR = Path(__file__).resolve().parent
 RTL_DIR = HDL_DIR / "rtl"

