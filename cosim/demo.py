@@ -5,7 +5,7 @@ figures; then the held-out scenarios that the tuning never saw.
 1. `fig14` (30 s, RTL on Verilator + firmware + plant FMU, and the float reference) for the
    compensators `paper`, `smooth` and `preview` with loop routing, and `paper` without loop
    routing, through the interface stage `--interface` (default `board`: the board's ADC and
-   PWM -> ESCON, cosim.interface) and, unless that is already `ideal`, again through the ideal
+   PWM -> ESCON, cosim.parts.interface) and, unless that is already `ideal`, again through the ideal
    interface, so that the cost of the real one shows side by side. Each run is written under
    build/demo/<name>/ (result.json, trace.csv, plots; `_ideal` for the ideal interface), then the
    table is printed from the result.json files just written, so the figures it shows are the
@@ -26,10 +26,10 @@ import json
 import sys
 from pathlib import Path
 
+from cosim.parts.interface import INTERFACES
 from cosim.project.cliargs import output_dir
 from cosim.project.paths import BUILD_DIR, require_project
 
-from .interface import INTERFACES
 from .scenarios import HELD_OUT_DURATION_S
 
 # (folder, compensator, loop routing)
@@ -136,7 +136,7 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _errors(scen, rec) -> dict:
-    from . import metrics  # noqa: PLC0415
+    from cosim.results import metrics  # noqa: PLC0415
 
     settle = scen.settle_s if rec["t_s"][-1] > scen.settle_s else 0.0
     e = metrics.tracking_error(rec["t_s"], rec["T_ref_N"], rec["T_out_N"], settle)

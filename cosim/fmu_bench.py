@@ -14,7 +14,7 @@ import sys
 import tempfile
 import time
 
-from .plant import FMU_PATH, Plant
+from cosim.parts.plant import FMU_PATH, Plant
 
 STEP_S = 1e-4
 TARGET_X_REAL_TIME = 20.0
@@ -78,7 +78,7 @@ def bench_fmpy(sim_s: float, with_io: bool) -> float:
 
 
 def bench_plant(sim_s: float, moving: bool) -> float:
-    """cosim.plant.Plant: set all inputs, doStep, get all outputs per 100 us sample."""
+    """cosim.parts.plant.Plant: set all inputs, doStep, get all outputs per 100 us sample."""
     with Plant() as plant:
         n = int(round(sim_s / STEP_S))
         u, step = plant.u, plant.step
@@ -106,8 +106,8 @@ def main(argv: list[str] | None = None) -> int:
     fmpy_wall = bench_fmpy(sim, with_io=False)
     _line("fmpy FMU2Slave.doStep per step", fmpy_wall, sim)
     _line("fmpy setReal + doStep + getReal per step", bench_fmpy(sim, with_io=True), sim)
-    _line("cosim.plant.Plant.step (all inputs and outputs)", bench_plant(sim, False), sim)
-    _line("cosim.plant.Plant.step, end-effector moving", bench_plant(sim, True), sim)
+    _line("cosim.parts.plant.Plant.step (all inputs and outputs)", bench_plant(sim, False), sim)
+    _line("cosim.parts.plant.Plant.step, end-effector moving", bench_plant(sim, True), sim)
     factor = sim / fmpy_wall
     verdict = "meets" if factor >= TARGET_X_REAL_TIME else "MISSES"
     print(

@@ -1,12 +1,12 @@
 """The float (double) reference of the closed loop: the oracle of the fixed-point chain.
 
 Same scenario, same plant FMU (its own instance), same timing as the co-simulation, but with
-- the compensator's double twin (firmware comp_f64, through cosim.firmware) in place of the
+- the compensator's double twin (firmware comp_f64, through cosim.parts.firmware) in place of the
   firmware's fixed-point tick, and
-- `cosim.rtl_model.FloatTensionLoop`, the double model of the RTL's PI + feedforward loop
+- `cosim.parts.rtl_model.FloatTensionLoop`, the double model of the RTL's PI + feedforward loop
   (hdl/rtl/tension_loop.v: same equations and conditional-integration anti-windup, no
   quantization), with the run's gains in SI units, in place of the RTL;
-- the same interface stage (cosim.interface: the board's ADC and PWM -> ESCON, or the ideal
+- the same interface stage (cosim.parts.interface: the board's ADC and PWM -> ESCON, or the ideal
   one), in its float form: the ADC's value instead of its 24-bit code, the PWM duty of the
   command in amperes instead of the duty in board clocks.
 
@@ -25,14 +25,14 @@ import math
 
 import numpy as np
 
+from cosim.parts import regmap, rtl_model
+from cosim.parts.firmware import make_compensator_f64, tension_word
+from cosim.parts.interface import make_chain
+from cosim.parts.rtl_model import FloatTensionLoop
 from cosim.project.progress import Progress
 
-from . import regmap, rtl_model
-from .firmware import make_compensator_f64, tension_word
 from .harness.common import Record, open_plant, plant_rows, store_plant_rows
 from .harness.fwbridge import loop_words
-from .interface import make_chain
-from .rtl_model import FloatTensionLoop
 from .scenarios import Scenario, SimConfig, firmware_t_ref, sample_inputs
 
 # Samples between a firmware tick and the first FPGA sample that uses its T_c: the tick runs
@@ -43,8 +43,8 @@ TC_LATENCY_SAMPLES = 2
 
 
 def make_float_loop(cfg: SimConfig) -> FloatTensionLoop:
-    """The double model of the RTL's loop (cosim.rtl_model.FloatTensionLoop) with the gains the
-    firmware programs: the register words (fwbridge.loop_words) taken as real numbers, so that
+    """The double model of the RTL's loop (cosim.parts.rtl_model.FloatTensionLoop) with the gains
+    the firmware programs: the register words (fwbridge.loop_words) taken as real numbers, so that
     the comparison measures the fixed-point arithmetic, not the choice of gain words."""
     words = loop_words(cfg.controller, cfg.sample_rate_hz)
     return FloatTensionLoop(
@@ -81,11 +81,11 @@ def run_reference(
     chain=None,
     loop=None,
 ) -> dict[str, np.ndarray]:
-    """Run the float reference with the interface stage `interface` (cosim.interface.INTERFACES);
-    return its record (the arrays of cosim.harness.common).
+    """Run the float reference with the interface stage `interface`
+    (cosim.parts.interface.INTERFACES); return its record (the arrays of cosim.harness.common).
 
     A study of other front-ends (cosim.sensing) may hand its own interface stage `chain` (the
-    float form of cosim.interface.Chain: start / drive / sense) and its own `loop` (an object
+    float form of cosim.parts.interface.Chain: start / drive / sense) and its own `loop` (an object
     with step(tc_n, t_in_n) -> current_a) in place of make_chain(cfg, interface) and
     make_float_loop(cfg)."""
     inp = sample_inputs(scen, cfg, duration_s)
@@ -169,7 +169,7 @@ def run_model_chain(
     interface: str = "board",
 ) -> dict[str, np.ndarray]:
     """The fixed-point chain without a simulator: the firmware (host build) and the RTL's
-    bit-exact Python model (cosim.rtl_model.TensionLoopModel) against the FMU, with the
+    bit-exact Python model (cosim.parts.rtl_model.TensionLoopModel) against the FMU, with the
     co-simulation's timing and interface stage. The RTL co-simulation must give the same command
     word at every sample (tests/cosim); it is also a quick way to try a configuration."""
     from .harness.fwbridge import FirmwareBridge  # noqa: PLC0415

@@ -40,10 +40,9 @@ from pathlib import Path
 
 import numpy as np
 
+from cosim.parts.firmware import MODES
+from cosim.parts.interface import ADC_PARTS
 from cosim.project.cliargs import shown
-
-from .firmware import MODES
-from .interface import ADC_PARTS
 
 SCENARIO_NAMES = (
     "characterize",
@@ -59,7 +58,7 @@ SCENARIO_NAMES = (
 # (cosim/tune); fig14 and the held-out scenarios are only reported, never tuned on.
 TUNE_SCENARIO = "tune"
 HELD_OUT_SCENARIOS = ("sine1hz", "triangle", "multisine", "fig14path2")
-# The firmware's compensator modes (firmware/include/comp.h, mirrored by cosim.firmware).
+# The firmware's compensator modes (firmware/include/comp.h, mirrored by cosim.parts.firmware).
 COMPENSATORS = tuple(MODES)
 
 # The paper's bench: Table I (Maxon RE25 k_t 23.4 mNm/A, 5.4:1 gearhead, efficiency ~0.9
@@ -421,7 +420,8 @@ def field_ranges(sample_rate_hz: float) -> dict[str, tuple[float, float]]:
         "compensator.preview_ticks": (0, 128),
         "compensator.lead_ticks": (0, 128),
         "compensator.ramp_ticks": (1, 256),
-        # The board's chain (cosim.interface): conversion timing, reader and PWM clocks, ESCON.
+        # The board's chain (cosim.parts.interface): conversion timing, reader and PWM clocks,
+        # ESCON.
         "board.adc_period_s": (1e-6, 0.1),
         "board.adc_phase_s": (0.0, 0.1),
         "board.sclk_half_clks": (1, 1024),
@@ -449,16 +449,17 @@ WHOLE_FIELDS = {
 
 @dataclass
 class BoardParams:
-    """The board's sensing and actuation chain (cosim.interface, `--interface board|adc`): the
+    """The board's sensing and actuation chain (cosim.parts.interface, `--interface board|adc`): the
     load-cell ADC and the ESCON's PWM set value, with their datasheet defaults."""
 
-    # A part of cosim.interface.ADC_PARTS: the board's ADS131M02 (hdl/README.md, "Sensing"), or
-    # the first boards' ADS1220.
+    # A part of cosim.parts.interface.ADC_PARTS: the board's ADS131M02 (hdl/README.md, "Sensing"),
+    # or the first boards' ADS1220.
     adc: str = "ads131m02"
     adc_period_s: float | None = None  # None: the part's conversion period
     adc_phase_s: float = 0.0  # first conversion window starts at t = phase
     # Reader SCLK half period in board clocks; None: the part's reader default
-    # (cosim.interface.AdcPart.sclk_half_clks: ADS1220 8 = 3 MHz, ADS131M02 4 = 6 MHz at 48 MHz).
+    # (cosim.parts.interface.AdcPart.sclk_half_clks: ADS1220 8 = 3 MHz, ADS131M02 4 = 6 MHz at 48
+    # MHz).
     sclk_half_clks: float | None = None
     clk_hz: float = 48e6  # board clock (iCE40 UP5K top): PWM resolution, reader timing
     pwm_hz: float = 5000.0  # ESCON PWM set value frequency (bowden_core PWM_HZ)
@@ -575,7 +576,7 @@ def plant_overrides(plant, source: str) -> dict[str, float | int]:
     """FMU parameter overrides checked against the FMU's own modelDescription.xml: parameters
     only, not those the command line or the closed loop own (PLANT_OWNED), each of its type and
     within its range; Integer parameters take whole numbers only (nothing is truncated)."""
-    from .plant import fmu_variables  # noqa: PLC0415 (reads the built FMU)
+    from cosim.parts.plant import fmu_variables  # noqa: PLC0415 (reads the built FMU)
 
     if not isinstance(plant, dict):
         raise ValueError(f"{source} must be an object of FMU parameter values by name")

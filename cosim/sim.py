@@ -10,7 +10,7 @@ the PI + feedforward loop (cosim.reference). The run writes, in --out DIR:
   paper Sec. VI-C), fixed_vs_float {current_rms_lsb, current_max_lsb, t_out_rms_n, t_out_max_n,
   ...}, the float reference's own errors, the friction fit of characterize/positions, and the
   cost split of the wall time;
-- ``trace.csv`` + ``trace.meta.json`` (the fixed-point run, cosim.trace format) and
+- ``trace.csv`` + ``trace.meta.json`` (the fixed-point run, cosim.results.trace format) and
   ``reference.csv`` + ``reference.meta.json`` (the float reference);
 - ``tracking.png``, ``fixed_vs_float.png`` and, for characterize/positions, ``capstan.png``.
 """
@@ -29,11 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
+from cosim.parts.interface import INTERFACES
 from cosim.project.cliargs import output_dir
 from cosim.project.paths import require_project
+from cosim.results import trace as trace_mod
 
-from . import trace as trace_mod
-from .interface import INTERFACES
 from .scenarios import COMPENSATORS, SCENARIO_NAMES, SimConfig, get_scenario, load_params
 
 # Default compensator per scenario: the characterisations measure the plant itself.
@@ -267,7 +267,7 @@ def run(
 
 def evaluate(scen, cfg, run_spec, fixed, ref, wall_s, cost) -> dict:
     """The figures of result.json from the records of the two runs."""
-    from . import metrics  # noqa: PLC0415 (scipy/matplotlib only when a run is evaluated)
+    from cosim.results import metrics  # noqa: PLC0415 (scipy/matplotlib only when a run is evaluated)
 
     n = len(fixed["t_s"])
     # Runs shorter than the start-up window are evaluated whole.
@@ -330,7 +330,7 @@ def evaluate(scen, cfg, run_spec, fixed, ref, wall_s, cost) -> dict:
 
 def friction_fits(scen, cfg, rec) -> list[dict]:
     """Capstan fit (metrics.fit_capstan) per position segment, on the sensors' T_in and T_out."""
-    from . import metrics  # noqa: PLC0415 (scipy/matplotlib only when a run is evaluated)
+    from cosim.results import metrics  # noqa: PLC0415 (scipy/matplotlib only when a run is evaluated)
 
     fits = []
     for seg in scen.segments:
@@ -362,8 +362,8 @@ def write_outputs(out_dir: Path, scen, cfg, run_spec, fixed, ref, result) -> Non
 
 
 def _write_files(out_dir: Path, scen, cfg, run_spec, fixed, ref, result) -> None:
-    from . import plots  # noqa: PLC0415 (scipy/matplotlib only when a run is evaluated)
-    from .plant import fmu_variables  # noqa: PLC0415
+    from cosim.parts.plant import fmu_variables  # noqa: PLC0415
+    from cosim.results import plots  # noqa: PLC0415 (scipy/matplotlib only when a run is evaluated)
 
     # The plant's own values (the FMU's defaults unless the params file set them), not the
     # compensator's belief: the sidecar describes the plant the trace was recorded on.
@@ -422,7 +422,7 @@ def _pct(value: float | None) -> str:
 
 def summary_table(results: list[dict], paper: bool = False) -> str:
     """A plain-text table of runs: errors, fixed vs float, speed."""
-    from . import metrics  # noqa: PLC0415 (scipy/matplotlib only when a run is evaluated)
+    from cosim.results import metrics  # noqa: PLC0415 (scipy/matplotlib only when a run is evaluated)
 
     head = (
         f"{'scenario':<13}{'compensator':<12}{'loop':<6}{'RMS N':>8}{'RMS %':>8}{'peak N':>8}"

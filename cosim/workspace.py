@@ -1,7 +1,7 @@
 """`bowden workspace --out DIR`: the bending angle over the workspace (paper Fig. 8).
 
-Evaluates the sheath's bending angle phi (cosim.geometry, the twin of the FMU's C geometry) on a
-grid of the half-sphere workspace |C| <= L, y >= 0 (Eq. 13), without and with loop routing,
+Evaluates the sheath's bending angle phi (cosim.parts.geometry, the twin of the FMU's C geometry)
+on a grid of the half-sphere workspace |C| <= L, y >= 0 (Eq. 13), without and with loop routing,
 draws each as a 3-D map coloured by the bending-angle error of Eq. 14,
 error = (phi - phi_ref) / (2*pi) * 100 % with phi_ref = 0 without and 2*pi with the loop,
 and prints the spread of phi for each: standard deviation, 5-95 % range, min .. max, and the
@@ -18,9 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from cosim.parts.geometry import bending_angle, hemisphere_grid
 from cosim.project.cliargs import output_dir
-
-from .geometry import bending_angle, hemisphere_grid
 
 # The plant FMU's range of sheath_length (fmu/gen_model.py; a test holds the two equal): beyond
 # it the maps would describe a sheath the plant refuses, and squares of lengths far beyond it

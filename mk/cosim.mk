@@ -8,7 +8,7 @@
 #                     paper without, outputs in build/demo/
 
 COSIM_RTL := $(sort $(wildcard hdl/rtl/*.v)) cosim/harness/cosim_top.v cosim/harness/cosim_top.vlt \
-  cosim/rtl_model.py
+  cosim/parts/rtl_model.py
 COSIM_STAMP := $(BUILD)/cosim/verilator/.built
 
 .PHONY: cosim-build bench-cosim

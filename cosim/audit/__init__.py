@@ -27,7 +27,8 @@ def add_parser(subparsers) -> None:
 
 def audit_file(path, progress=None):
     """Read a measured trace and audit it; return cosim.audit.core.AuditResult."""
-    from .. import trace  # noqa: PLC0415
+    from cosim.results import trace  # noqa: PLC0415
+
     from . import core  # noqa: PLC0415
 
     tr = trace.read_trace(path, mode="measured")

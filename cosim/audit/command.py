@@ -75,7 +75,8 @@ class _Bar:
 
 
 def main(args: argparse.Namespace) -> int:
-    from .. import trace  # noqa: PLC0415
+    from cosim.results import trace  # noqa: PLC0415
+
     from . import core, params, report  # noqa: PLC0415
 
     data_path = Path(args.data)

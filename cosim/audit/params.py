@@ -81,9 +81,10 @@ def emitted_params(result: AuditResult) -> tuple[dict, list[str]]:
 
 def _compensator_refuses(comp: dict[str, float], result: AuditResult) -> str | None:
     """Why the firmware's compensator would refuse this configuration at fig14's start position
-    (its own check, comp_config_check through cosim.firmware), or None."""
-    from ..firmware import make_compensator_f64  # noqa: PLC0415
-    from ..geometry import bending_angle  # noqa: PLC0415
+    (its own check, comp_config_check through cosim.parts.firmware), or None."""
+    from cosim.parts.firmware import make_compensator_f64  # noqa: PLC0415
+    from cosim.parts.geometry import bending_angle  # noqa: PLC0415
+
     from ..scenarios import HOME_M  # noqa: PLC0415
 
     d = result.data
@@ -109,7 +110,8 @@ def write_params(path: Path, params: dict) -> None:
 def fig14_change(params: dict, loop_routing: bool, duration_s: float, progress: bool) -> dict:
     """Tracking error of fig14 (float reference) on the plant of `params`, with the default
     compensator configuration and with the emitted one, for each of FIG14_COMPENSATORS."""
-    from ..metrics import tracking_error  # noqa: PLC0415
+    from cosim.results.metrics import tracking_error  # noqa: PLC0415
+
     from ..reference import resolve_phi, run_reference  # noqa: PLC0415
     from ..scenarios import get_scenario  # noqa: PLC0415
 

@@ -451,7 +451,8 @@ def _cmd_run(client: BenchClient, args, info) -> int:
     if result.drops or result.stopped_early:
         print(
             f"bowden bench: the recording is incomplete ({result.drops} dropped, device stopped "
-            f"early: {result.stopped_early}); python -m cosim.trace will name the first gap",
+            f"early: {result.stopped_early}); python -m cosim.results.trace will name the first "
+            "gap",
             file=sys.stderr,
         )
         return 1
@@ -533,8 +534,8 @@ def _add_emulate(subparsers) -> None:
         "--interface",
         choices=("ideal", "adc", "board"),
         default="ideal",
-        help="sensing and actuation between plant and loop (cosim.interface): ideal (default, "
-        "in C), or the board's ADC / ADC + PWM -> ESCON (on the Python engine)",
+        help="sensing and actuation between plant and loop (cosim.parts.interface): ideal "
+        "(default, in C), or the board's ADC / ADC + PWM -> ESCON (on the Python engine)",
     )
     p.add_argument(
         "--engine",

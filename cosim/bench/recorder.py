@@ -1,9 +1,9 @@
-"""Recording a run: telemetry into the trace format (cosim/trace.py), flushed every second.
+"""Recording a run: telemetry into the trace format (cosim/results/trace.py), flushed every second.
 
 `TraceRecorder` writes the sidecar first, then the CSV header, then whole rows in blocks, one
 `write` per block and at least one block a second, each followed by fsync: a run killed at any
 moment (Ctrl-C, SIGKILL, a pulled cable) leaves a CSV whose rows are complete up to the last
-second, readable by `python -m cosim.trace` and the model audit.
+second, readable by `python -m cosim.results.trace` and the model audit.
 
 Columns: the trace format's (t_s from the sample index, tensions in N, current_A the current
 command) and `sample`, `device_time_s`, `faults`, `status`. The bench does not measure the
@@ -26,7 +26,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .. import trace as trace_mod
+from cosim.results import trace as trace_mod
+
 from .client import BenchClient, BenchError, fault_names
 
 Q7_8_LSB_N = 1.0 / 256.0

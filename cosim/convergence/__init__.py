@@ -212,7 +212,7 @@ def main(argv: list[str] | None = None) -> int:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(res, indent=2) + "\n")
     print(table(res))
-    from ..plant import fmu_variables  # noqa: PLC0415
+    from cosim.parts.plant import fmu_variables  # noqa: PLC0415
 
     default_us = fmu_variables()["max_step"].start * 1e6
     p = res["pick_at_default_segments"]

@@ -7,7 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..plant import OUTPUT_NAMES
+from cosim.parts.plant import OUTPUT_NAMES
+
 from ..scenarios import SimConfig
 
 # Recorded per FPGA sample (float64 arrays); cosim.sim.trace_columns maps them to the trace format.
@@ -42,8 +43,9 @@ PLANT_RECORD = (
 
 def plant_rows(plant, n: int) -> tuple[np.ndarray, np.ndarray]:
     """A buffer for the plant's whole output array at each of n samples, and a numpy view of the
-    plant's output array (cosim.plant.Plant.y, refilled in place by every step): the per-sample
-    loop copies a row with one `rows[k] = view`; store_plant_rows files the columns afterwards."""
+    plant's output array (cosim.parts.plant.Plant.y, refilled in place by every step): the
+    per-sample loop copies a row with one `rows[k] = view`; store_plant_rows files the columns
+    afterwards."""
     return np.zeros((n, len(OUTPUT_NAMES))), np.ctypeslib.as_array(plant.y)
 
 
@@ -78,11 +80,11 @@ def open_plant(
     position_m: tuple[float, float, float],
     fmu_path=None,
 ):
-    """The plant FMU (cosim.plant.Plant) instantiated for a closed-loop run: drive mode 0
+    """The plant FMU (cosim.parts.plant.Plant) instantiated for a closed-loop run: drive mode 0
     (current command), loop routing as asked, the run's parameter overrides, the end-effector at
     its start position, initialised at t = 0. fmu_path: another build of the FMU (the
     convergence study's variants); default build/fmu/BowdenPlant.fmu."""
-    from ..plant import Plant  # noqa: PLC0415 (the FMU's handle is imported when a run starts)
+    from cosim.parts.plant import Plant  # noqa: PLC0415 (the FMU's handle is imported when a run starts)
 
     params: dict[str, float | int | bool] = {"drive_mode": 0, "loop_routing": bool(loop_routing)}
     params.update(cfg.plant)

@@ -19,7 +19,7 @@ import tempfile
 import threading
 from pathlib import Path
 
-from cosim import rtl_model
+from cosim.parts import rtl_model
 from cosim.project import procs
 from cosim.project.paths import BUILD_DIR, HDL_DIR
 from cosim.project.toolchain import setup_env

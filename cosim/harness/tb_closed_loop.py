@@ -9,7 +9,7 @@ latency from its tick to the command, rtl_model.LATENCY_CLKS; cosim/harness/runn
     edge Ck         tick k: the RTL takes the ADC sample of t_k and the T_c in force
     edge Ck + L     the command u_k is out (cmd_current, Q3.12)
     Ck + L + 0.5    the harness wakes (one Timer per sample, half a clock after the edge):
-                    reads u_k, hands it to the interface stage (cosim.interface: the board's
+                    reads u_k, hands it to the interface stage (cosim.parts.interface: the board's
                     PWM -> ESCON, or the ideal drive), steps the FMU over [t_k, t_k+1) with the
                     current the stage gives (one or two pieces), and hands over the ADC sample the
                     stage gives for tick k+1, if any (the board's ADC at its DRDY times, or the
@@ -46,13 +46,13 @@ from cocotb.simtime import get_sim_time
 from cocotb.triggers import Event, RisingEdge, Timer
 from cocotbext.axi import AxiLiteBus, AxiLiteMaster
 
-from cosim import regmap
-from cosim.firmware import tension_word
 from cosim.harness import fastio
 from cosim.harness.axil import LeanAxiLiteMaster
 from cosim.harness.common import Record, open_plant, plant_rows, store_plant_rows
 from cosim.harness.fwbridge import FirmwareBridge, loop_words
-from cosim.interface import make_chain
+from cosim.parts import regmap
+from cosim.parts.firmware import tension_word
+from cosim.parts.interface import make_chain
 from cosim.reference import TC_LATENCY_SAMPLES
 from cosim.scenarios import SimConfig, firmware_t_ref, get_scenario, sample_inputs
 

@@ -18,13 +18,13 @@ extern "C" {
 
 #define BN_API_VERSION 3
 
-/* Interface stages (cosim/interface.py). */
+/* Interface stages (cosim/parts/interface.py). */
 #define BN_IFACE_IDEAL 0
 #define BN_IFACE_ADC 1
 #define BN_IFACE_BOARD 2
 
-#define BN_N_IN 5   /* cosim.plant.INPUT_NAMES */
-#define BN_N_OUT 8  /* cosim.plant.OUTPUT_NAMES */
+#define BN_N_IN 5   /* cosim.parts.plant.INPUT_NAMES */
+#define BN_N_OUT 8  /* cosim.parts.plant.OUTPUT_NAMES */
 #define BN_OUT_T_IN_MEAS 2
 
 typedef struct {
@@ -38,7 +38,7 @@ typedef struct {
     double floor_n;             /* T_c floor (TC_MIN) in N after the slew limit; -inf: none */
     const int16_t *t_ref_word;  /* n: T_ref as the firmware's Q7.8 host word */
     const double *x_m, *y_m, *z_m; /* n: end-effector path */
-    /* --- firmware: a configured fw_host_t (cosim.firmware.Firmware's buffer) --------------- */
+    /* --- firmware: a configured fw_host_t (cosim.parts.firmware.Firmware's buffer) --------------- */
     void *fw_host;
     /* --- plant: an initialised FMI 2.0 instance ------------------------------------------ */
     void *fmu_component;
@@ -47,7 +47,7 @@ typedef struct {
     double u0[BN_N_IN];         /* inputs as the instance holds them */
     double y0[BN_N_OUT];        /* outputs after initialisation */
     double time0_s;
-    /* --- interface stage (values computed by cosim.interface, so both sides share them) --- */
+    /* --- interface stage (values computed by cosim.parts.interface, so both sides share them) --- */
     int32_t iface;
     int32_t adc_offset, adc_gain; /* calibration for the ideal ADC's code */
     double dt_s;                  /* 1 / sample rate (as the Python stage computes it) */

@@ -18,11 +18,11 @@ import subprocess
 import sys
 from pathlib import Path
 
+from cosim.parts.firmware import LIB_PATH as FW_LIB
 from cosim.project import procs
 from cosim.project.paths import BUILD_DIR, FIRMWARE_DIR, HDL_DIR
 from cosim.project.toolchain import setup_env
 
-from ..firmware import LIB_PATH as FW_LIB
 from ..harness.runner import CLKS_PER_SAMPLE, rtl_sources
 
 NATIVE_DIR = Path(__file__).resolve().parent

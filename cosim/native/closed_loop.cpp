@@ -6,8 +6,8 @@
 //     per clock: Harness::clock);
 //   - firmware: libbowden_fw.so (fw_host_*), on the fw_host_t the Python side configured;
 //   - plant: the FMU instance the Python side initialised, stepped through fmi2SetReal /
-//     fmi2DoStep / fmi2GetReal exactly as cosim.plant.Plant.step does;
-//   - interface stage: cosim/interface.py mirrored line by line (the ADC's kernel and the PWM's
+//     fmi2DoStep / fmi2GetReal exactly as cosim.parts.plant.Plant.step does;
+//   - interface stage: cosim/parts/interface.py mirrored line by line (the ADC's kernel and the PWM's
 //     constants come from the Python stage, so both sides use the same doubles; math.fsum is
 //     reproduced with CPython's algorithm, round() as round-half-even).
 // The Python engine (cosim/native/engine.py) holds it to the cocotb harness bit for bit (tests).
@@ -153,7 +153,7 @@ double fsum_fast(const double *x, int n, bool *decided) {
     return acc.sum();
 }
 
-// --- interface stage (cosim/interface.py) --------------------------------------------------------
+// --- interface stage (cosim/parts/interface.py) --------------------------------------------------------
 constexpr int64_t ADC_CODE_MIN = -(int64_t(1) << 23);
 constexpr int64_t ADC_CODE_MAX = (int64_t(1) << 23) - 1;
 constexpr double ESCON_DUTY_MIN = 0.10;

@@ -2,8 +2,8 @@
 (cosim/native/closed_loop.cpp), with no Python per sample.
 
 Python sets the run up exactly as the cocotb harness does (scenario inputs, the plant FMU
-instance through cosim.plant.Plant, the firmware through cosim.harness.fwbridge, the interface
-stage's constants from cosim.interface) and hands it to libbowden_native.so in one call, which
+instance through cosim.parts.plant.Plant, the firmware through cosim.harness.fwbridge, the interface
+stage's constants from cosim.parts.interface) and hands it to libbowden_native.so in one call, which
 runs the Verilated RTL, the firmware and the FMU clock by clock with the cocotb harness's timing
 (lean AXI4-Lite driver). It returns the same record and cost split as
 cosim.harness.runner.run_closed_loop; tests/native holds the two to the same bits.
@@ -17,15 +17,15 @@ from ctypes import POINTER, c_char, c_double, c_int16, c_int32, c_int64, c_uint3
 
 import numpy as np
 
+from cosim.parts.firmware import tension_word, tension_words
+from cosim.parts.interface import make_chain
+from cosim.parts.plant import INPUT_NAMES, OUTPUT_NAMES
 from cosim.project.progress import Progress
 
 from .. import scenarios
-from ..firmware import tension_word, tension_words
 from ..harness.common import Record, open_plant, plant_rows, store_plant_rows
 from ..harness.fwbridge import FirmwareBridge, loop_words
 from ..harness.runner import CLKS_PER_SAMPLE
-from ..interface import make_chain
-from ..plant import INPUT_NAMES, OUTPUT_NAMES
 from ..reference import TC_LATENCY_SAMPLES
 from ..scenarios import SimConfig, get_scenario, held_at, sample_inputs
 

@@ -1,13 +1,13 @@
 """The sensing study: tracking error and Kp margin of the closed loop per load-cell front-end.
 
 Every option runs the float reference (cosim.reference: the compensator's double twin, the RTL
-loop's double model, the plant FMU) with the board's PWM -> ESCON stage (cosim.interface.PwmEscon,
-the same for all) and one way of sensing T_in:
+loop's double model, the plant FMU) with the board's PWM -> ESCON stage
+(cosim.parts.interface.PwmEscon, the same for all) and one way of sensing T_in:
 
 - ``ideal``: a fresh T_in_meas(t_k+1) at every 10 kHz tick, no delay (the bound: what no ADC
   gives);
-- ``ads1220``: the board's ADS1220 (2 kSPS, single-cycle filter, cosim.interface.ADC_PARTS), the
-  loop at 10 kHz holding the latest result for about five ticks;
+- ``ads1220``: the board's ADS1220 (2 kSPS, single-cycle filter, cosim.parts.interface.ADC_PARTS),
+  the loop at 10 kHz holding the latest result for about five ticks;
 - ``ads1220-drdy``: the same ADC with the loop stepped only on a new result (the loop run on the
   ADC's data-ready, about 1976 Hz): its Ki*Ts is scaled to the conversion period so that Ki in
   A/(N s) stays the same, the command is held between results. Named assumption: the RTL would
@@ -18,9 +18,9 @@ the same for all) and one way of sensing T_in:
 
 Figures per option (loop routing on, the gains chosen before this study: STUDY_CONFIG):
 
-- tracking error T_ref - T_out (paper Sec. VI-C, cosim.metrics.tracking_error) for the
+- tracking error T_ref - T_out (paper Sec. VI-C, cosim.results.metrics.tracking_error) for the
   compensators ``paper`` and ``smooth`` on fig14 and on two scenarios with other references
-  (SCENARIOS), and its RMS within REVERSAL_WINDOW_S after the reversals (cosim.metrics.
+  (SCENARIOS), and its RMS within REVERSAL_WINDOW_S after the reversals (cosim.results.metrics.
   reversal_split), where the paper puts its peak error;
 - the sample age: mean time from the centre of the filter's kernel (half its window: the group
   delay of a linear-phase filter) to the tick that uses the result (`sample_age_s`);
@@ -41,10 +41,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from cosim.parts.interface import ADC_PARTS, AdcModel, Chain, make_chain
 from cosim.project.cliargs import ArgumentParser, finite_float
+from cosim.results import metrics
 
-from .. import metrics
-from ..interface import ADC_PARTS, AdcModel, Chain, make_chain
 from ..reference import make_float_loop, resolve_phi, run_reference
 from ..scenarios import HOME_M, Scenario, SimConfig, get_scenario
 

@@ -36,9 +36,9 @@ import random
 from dataclasses import dataclass
 from pathlib import Path
 
+from cosim.parts.interface import INTERFACES
 from cosim.project.cliargs import shown
 
-from ..interface import INTERFACES
 from ..scenarios import COMPENSATORS, SCENARIO_NAMES, SimConfig
 
 TOP_KEYS = ("scenario", "duration_s", "interface", "sampling", "samples", "seed", "config", "axes")

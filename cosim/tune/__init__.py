@@ -124,7 +124,8 @@ def kp_limit(cfg: SimConfig, interface: str, kp_start: float) -> tuple[float, fl
 
 def score(cfg: SimConfig, compensator: str, interface: str, scenario: str = TUNE_SCENARIO):
     """(SCORE, RMS %, peak %) of `compensator` on `scenario`, float reference."""
-    from .. import metrics  # noqa: PLC0415
+    from cosim.results import metrics  # noqa: PLC0415
+
     from ..reference import resolve_phi, run_reference  # noqa: PLC0415
 
     scen = get_scenario(scenario)
@@ -312,7 +313,8 @@ def tune(
 
 def confirm_fixed(cfg: SimConfig, interface: str, float_score) -> dict:
     """The chosen point on `tune` through the fixed-point chain (firmware + RTL model)."""
-    from .. import metrics  # noqa: PLC0415
+    from cosim.results import metrics  # noqa: PLC0415
+
     from ..reference import resolve_phi, run_model_chain  # noqa: PLC0415
 
     scen = get_scenario(TUNE_SCENARIO)

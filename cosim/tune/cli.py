@@ -8,10 +8,9 @@ import json
 import sys
 from pathlib import Path
 
+from cosim.parts.interface import INTERFACES
 from cosim.project.cliargs import output_dir
 from cosim.project.paths import BUILD_DIR, require_project
-
-from ..interface import INTERFACES
 
 
 def add_parser(subparsers) -> None:

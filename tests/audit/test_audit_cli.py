@@ -16,9 +16,10 @@ import numpy as np
 import pytest
 from audit_data import fmu_record
 
-from cosim import sim, trace
+from cosim import sim
 from cosim.audit import twin
-from cosim.geometry import bending_angle
+from cosim.parts.geometry import bending_angle
+from cosim.results import trace
 from cosim.scenarios import load_params
 
 

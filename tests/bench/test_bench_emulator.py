@@ -14,8 +14,6 @@ import time
 import numpy as np
 import pytest
 
-from cosim import regmap, rtl_model
-from cosim import trace as trace_mod
 from cosim.bench import messages as msgs
 from cosim.bench import protocol as proto
 from cosim.bench.__main__ import main as bench_cli
@@ -23,7 +21,9 @@ from cosim.bench.client import BenchClient, SerialLink, VersionMismatchError
 from cosim.bench.device import ChainConfig, Device, EmuLoop, LoopChain, load_library
 from cosim.bench.emulator import Emulator
 from cosim.bench.recorder import record_run
+from cosim.parts import regmap, rtl_model
 from cosim.project.paths import REPO_ROOT
+from cosim.results import trace as trace_mod
 
 WRITABLE = [
     name
@@ -118,7 +118,7 @@ def test_native_chain_equals_python_chain():
 
 
 def test_board_interface_on_the_python_engine():
-    """The emulator runs on the co-simulation's interface stage (cosim.interface, issue 11a):
+    """The emulator runs on the co-simulation's interface stage (cosim.parts.interface, issue 11a):
     with the board's ADC and PWM -> ESCON the command differs from the ideal chain's (the ADC
     delivers a sample every fifth tick), and the native engine refuses it rather than
     silently running the ideal one."""

@@ -17,8 +17,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from cosim import metrics
 from cosim.reference import resolve_phi, run_model_chain, run_reference
+from cosim.results import metrics
 from cosim.scenarios import SimConfig, get_scenario
 
 # The multi-sine (0.3 + 0.7 + 1.3 Hz): reversals of every sharpness after settling.

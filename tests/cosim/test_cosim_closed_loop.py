@@ -10,8 +10,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cosim import metrics, reference, regmap, sim
+from cosim import reference, sim
 from cosim.harness import runner
+from cosim.parts import regmap
+from cosim.results import metrics
 from cosim.scenarios import SimConfig, get_scenario
 
 # 4 s of fig14: the rise from rest, reversals at 1 s (max), 2 s (min) and 3 s (max), and enough
@@ -219,7 +221,7 @@ def test_cosim_metrics_of_result_match_the_trace(built, tmp_path):
     """`bowden sim` writes result.json whose figures are those of its trace.csv."""
     import json
 
-    from cosim import trace
+    from cosim.results import trace
 
     out = tmp_path / "run"
     result = sim.run(

@@ -13,8 +13,9 @@ import math
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from cosim import firmware, sim
-from cosim.plant import Plant, fmu_variables
+from cosim import sim
+from cosim.parts import firmware
+from cosim.parts.plant import Plant, fmu_variables
 from cosim.scenarios import (
     HOME_M,
     CompensatorParams,

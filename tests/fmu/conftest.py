@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cosim.plant import FMU_PATH, Plant
+from cosim.parts.plant import FMU_PATH, Plant
 from cosim.project.paths import REPO_ROOT
 
 HERE = Path(__file__).resolve().parent

@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 
 from cosim import reference, sim
-from cosim.firmware import MODES
 from cosim.harness import runner
 from cosim.native import engine
+from cosim.parts.firmware import MODES
 from cosim.scenarios import SimConfig, get_scenario
 
 # fig14's rise from rest and first reversal at 1 s (the paper law's jump of T_c): 2 s.

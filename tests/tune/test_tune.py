@@ -11,9 +11,9 @@ import math
 import pytest
 
 import cosim.tune as tn
-from cosim import regmap
-from cosim.firmware import CompConfig, load_library
-from cosim.firmware import CompensatorParams as FwComp
+from cosim.parts import regmap
+from cosim.parts.firmware import CompConfig, load_library
+from cosim.parts.firmware import CompensatorParams as FwComp
 from cosim.scenarios import TUNE_SCENARIO, SimConfig
 
 # The margin stated in hdl/README.md for the shipped gains (`bowden tune` measured x3.05).

@@ -15,7 +15,7 @@ on "abrupt change of input tension when the direction of increment of reference 
 `reversal_split` separates the two: the error in a window after each reversal of T_ref, and the
 error elsewhere.
 
-Capstan fit (paper Eq. 1-3 quasi-static, Fig. 2): cosim.capstan_fit, with a constant sensor
+Capstan fit (paper Eq. 1-3 quasi-static, Fig. 2): cosim.results.capstan_fit, with a constant sensor
 offset (the paper saw 0.5 N from the rollers of its sensor), reported per position.
 """
 
@@ -145,7 +145,7 @@ def fixed_vs_float(
 
 
 def fit_capstan(t_in_n: np.ndarray, t_out_n: np.ndarray, phi_rad: float) -> dict[str, float]:
-    """The capstan fit of cosim.capstan_fit (with a sensor offset) as a result.json entry:
+    """The capstan fit of cosim.results.capstan_fit (with a sensor offset) as a result.json entry:
     mu, mu_phi, offset_n, rms_residual_n and the efficiency exp(-mu*phi)."""
     fit = capstan_fit.fit_capstan(t_in_n, t_out_n, phi_rad, fit_offset=True)
     mu_phi = fit.mu * fit.phi_rad

@@ -488,7 +488,8 @@ def _short(v: object, limit: int = 40) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """`python -m cosim.trace [--measured] FILE.csv...`: validate traces; a line per file."""
+    """`python -m cosim.results.trace [--measured] FILE.csv...`: validate traces; a line per
+    file."""
     import sys  # noqa: PLC0415
 
     args = sys.argv[1:] if argv is None else list(argv)
@@ -496,7 +497,7 @@ def main(argv: list[str] | None = None) -> int:
     if args and args[0] == "--measured":
         mode, args = "measured", args[1:]
     if not args:
-        print("usage: python -m cosim.trace [--measured] TRACE.csv [...]", file=sys.stderr)
+        print("usage: python -m cosim.results.trace [--measured] TRACE.csv [...]", file=sys.stderr)
         return 2
     status = 0
     for p in args:

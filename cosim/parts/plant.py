@@ -4,7 +4,7 @@ fmpy loads and instantiates the FMU; the per-sample path then calls the binary's
 fmi2SetReal / fmi2DoStep / fmi2GetReal directly through ctypes with value references and
 buffers prepared once, which costs about a microsecond per call instead of fmpy's wrappers.
 
-    from cosim.plant import Plant
+    from cosim.parts.plant import Plant
     plant = Plant({"mu": 0.075, "loop_routing": True}, inputs={"x": 0.0, "y": 0.6, "z": -0.2})
     for k in range(n):
         plant.u[Plant.CURRENT_CMD] = current_a     # inputs held over the step

@@ -221,7 +221,7 @@ def load_library(path: Path | str | None = None) -> ctypes.CDLL:
         if size != ctypes.sizeof(struct):
             raise RuntimeError(
                 f"{struct.__name__}: the Python mirror has {ctypes.sizeof(struct)} bytes, the "
-                f"library {size}: cosim/firmware.py is out of date with firmware/include"
+                f"library {size}: cosim/parts/firmware.py is out of date with firmware/include"
             )
     if path is None:
         _lib = lib

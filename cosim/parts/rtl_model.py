@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from cosim import regmap
+from . import regmap
 
 # Formats (fractional bits) of the words the loop uses.
 TENSION_FRAC = 8  # Q7.8 N
