@@ -24,7 +24,15 @@ from cosim.project.cliargs import ArgumentParser, harden, subparsers
 from . import __version__
 
 # Modules that provide subcommands, in the order `bowden --help` lists them.
-SUBCOMMANDS: list[str] = ["workspace", "sim", "demo", "tune.cli", "audit", "bench.cli", "sweep"]
+SUBCOMMANDS: list[str] = [
+    "workspace",
+    "engines.experiment",
+    "demo",
+    "tune.cli",
+    "audit",
+    "bench.cli",
+    "sweep",
+]
 
 
 def _doctor(args: argparse.Namespace) -> int:

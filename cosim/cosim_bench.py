@@ -17,12 +17,12 @@ import os
 import sys
 import time
 
-from .scenarios import COMPENSATORS
+from cosim.config.scenarios import COMPENSATORS
 
 
 def _spec(duration_s: float, compensator: str, bus: str, plant: dict | None = None) -> dict:
-    from .reference import resolve_phi  # noqa: PLC0415
-    from .scenarios import SimConfig, get_scenario  # noqa: PLC0415
+    from cosim.config.scenarios import SimConfig, get_scenario  # noqa: PLC0415
+    from cosim.engines.reference import resolve_phi  # noqa: PLC0415
 
     cfg = SimConfig.from_dict({"plant": plant or {}})
     return {
@@ -38,7 +38,7 @@ def _spec(duration_s: float, compensator: str, bus: str, plant: dict | None = No
 
 def bench_native(duration_s: float, compensator: str, cocotb_wall: dict[str, float]) -> None:
     """The same run on the native engine, beside the cocotb figures of this invocation."""
-    from .native import engine  # noqa: PLC0415
+    from cosim.engines.native import engine  # noqa: PLC0415
 
     engine.load_library()
     spec = _spec(duration_s, compensator, "native")
@@ -93,8 +93,8 @@ def bench_native(duration_s: float, compensator: str, cocotb_wall: dict[str, flo
 
 def bench_one(duration_s: float, compensator: str, bus: str) -> float:
     """One closed-loop run and its figures."""
-    from .harness import runner  # noqa: PLC0415
-    from .scenarios import SimConfig  # noqa: PLC0415
+    from cosim.config.scenarios import SimConfig  # noqa: PLC0415
+    from cosim.engines.cocotb import runner  # noqa: PLC0415
 
     cfg = SimConfig()
     runner.build("verilator")

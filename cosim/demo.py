@@ -10,13 +10,14 @@ figures; then the held-out scenarios that the tuning never saw.
    build/demo/<name>/ (result.json, trace.csv, plots; `_ideal` for the ideal interface), then the
    table is printed from the result.json files just written, so the figures it shows are the
    ones on disk.
-2. The held-out scenarios (cosim.scenarios.HELD_OUT_SCENARIOS: other frequency and amplitude, a
-   triangle, a multi-sine, another path; 10 s each) for `paper`, `smooth` and `preview` with
-   loop routing: on the board's chain through the fixed-point chain without a simulator (the
-   firmware's host build and the RTL's bit-exact model, cosim.reference.run_model_chain, which
-   the RTL co-simulation equals at every sample), and on the ideal interface through the float
-   reference; written to build/demo/held_out.json and printed as a second table. Gains, band and
-   preview parameters are those `bowden tune` chose on the `tune` scenario alone.
+2. The held-out scenarios (cosim.config.scenarios.HELD_OUT_SCENARIOS: other frequency and
+   amplitude, a triangle, a multi-sine, another path; 10 s each) for `paper`, `smooth` and
+   `preview` with loop routing: on the board's chain through the fixed-point chain without a
+   simulator (the firmware's host build and the RTL's bit-exact model,
+   cosim.engines.reference.run_model_chain, which the RTL co-simulation equals at every sample),
+   and on the ideal interface through the float reference; written to build/demo/held_out.json and
+   printed as a second table. Gains, band and preview parameters are those `bowden tune` chose on
+the `tune` scenario alone.
 """
 
 from __future__ import annotations
@@ -26,11 +27,10 @@ import json
 import sys
 from pathlib import Path
 
+from cosim.config.scenarios import HELD_OUT_DURATION_S
 from cosim.parts.interface import INTERFACES
 from cosim.project.cliargs import output_dir
 from cosim.project.paths import BUILD_DIR, require_project
-
-from .scenarios import HELD_OUT_DURATION_S
 
 # (folder, compensator, loop routing)
 DEMO_RUNS = (
@@ -83,8 +83,8 @@ def add_parser(subparsers) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from . import sim  # noqa: PLC0415
-    from .scenarios import SimConfig  # noqa: PLC0415
+    from cosim.config.scenarios import SimConfig  # noqa: PLC0415
+    from cosim.engines import experiment as sim  # noqa: PLC0415
 
     try:
         sim.check_duration(args.duration, SimConfig())
@@ -152,8 +152,8 @@ def _errors(scen, rec) -> dict:
 def held_out(interface: str, duration_s: float, quiet: bool = False) -> list[dict]:
     """Each held-out scenario x compensator: the fixed-point chain through `interface` and the
     float reference through the ideal interface (errors in % of the maximum reference)."""
-    from .reference import resolve_phi, run_model_chain, run_reference  # noqa: PLC0415
-    from .scenarios import HELD_OUT_SCENARIOS, SimConfig, get_scenario  # noqa: PLC0415
+    from cosim.config.scenarios import HELD_OUT_SCENARIOS, SimConfig, get_scenario  # noqa: PLC0415
+    from cosim.engines.reference import resolve_phi, run_model_chain, run_reference  # noqa: PLC0415
 
     cfg = SimConfig()
     rows = []
@@ -205,7 +205,7 @@ def held_out_table(rows: list[dict], interface: str) -> str:
 
 def table_from_files(paths: list[Path]) -> str:
     """The comparison table, read back from the result.json files (what is printed is on disk)."""
-    from .sim import summary_table  # noqa: PLC0415
+    from cosim.engines.experiment import summary_table  # noqa: PLC0415
 
     results = [json.loads(Path(p).read_text()) for p in paths]
     lines = [

@@ -8,11 +8,11 @@ parameters, flash store, telemetry), an emulated flash, and the emulator's loop 
 - `Device`: one device (dev_host_t): bytes or CAN frames in and out per port, the tick, power
   cycles, the flash image.
 - `LoopChain`: the emulator's coupling to the loop model, in one class: the FPGA loop, the ADC and
-  the plant FMU around a Device, with the co-simulation's timing (cosim.reference.run_model_chain:
-  sample k0 = D*i, the firmware's tick, its register writes landing before sample k0 + 2). Two
-  engines, identical sample by sample (tests/bench): `native` (C, emu_step: one call per tick) and
-  `python` (cosim.parts.rtl_model.TensionLoopModel + cosim.parts.plant.Plant: the definition, too
-  slow for real time on a loaded machine).
+  the plant FMU around a Device, with the co-simulation's timing
+  (cosim.engines.reference.run_model_chain: sample k0 = D*i, the firmware's tick, its register
+  writes landing before sample k0 + 2). Two engines, identical sample by sample (tests/bench):
+  `native` (C, emu_step: one call per tick) and `python` (cosim.parts.rtl_model.TensionLoopModel +
+  cosim.parts.plant.Plant: the definition, too slow for real time on a loaded machine).
 """
 
 from __future__ import annotations
@@ -344,9 +344,8 @@ class LoopChain:
     # --- python ------------------------------------------------------------------------------
 
     def _init_python(self) -> None:
+        from cosim.config.scenarios import SimConfig  # noqa: PLC0415
         from cosim.parts.interface import make_chain  # noqa: PLC0415
-
-        from ..scenarios import SimConfig  # noqa: PLC0415
 
         self.model = rtl_model.TensionLoopModel()
         self._names = {reg.addr: name for name, reg in regmap.REGISTERS.items()}

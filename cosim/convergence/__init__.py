@@ -90,10 +90,10 @@ def build_variant(segments: int) -> Path:
 
 def run_setting(max_step_s: float, segments: int, duration_s: float = DURATION_S) -> dict:
     """One closed-loop run of the study: the record's T_out, the RMS error, the FMU's cost."""
-    from .. import sim  # noqa: PLC0415
-    from ..native import engine  # noqa: PLC0415
-    from ..reference import resolve_phi  # noqa: PLC0415
-    from ..scenarios import SimConfig, get_scenario  # noqa: PLC0415
+    from cosim.config.scenarios import SimConfig, get_scenario  # noqa: PLC0415
+    from cosim.engines import experiment as sim  # noqa: PLC0415
+    from cosim.engines.native import engine  # noqa: PLC0415
+    from cosim.engines.reference import resolve_phi  # noqa: PLC0415
 
     cfg = SimConfig.from_dict({"plant": {"max_step": max_step_s}})
     scen = get_scenario("fig14")

@@ -503,7 +503,7 @@ class CompensatorF64:
 def _params_from(mode: str, params, phi_rad: float) -> CompensatorParams:
     """CompensatorParams from any object with mu, band_n, hysteresis_n (and optionally offset_n,
     mu_slope_per_n, tc_min_n, preview_ticks, lead_ticks, ramp_ticks), e.g.
-    cosim.scenarios.CompensatorParams."""
+    cosim.config.scenarios.CompensatorParams."""
     return CompensatorParams(
         mode=mode,
         mu=float(params.mu),

@@ -1,7 +1,7 @@
 """The sensing study: tracking error and Kp margin of the closed loop per load-cell front-end.
 
-Every option runs the float reference (cosim.reference: the compensator's double twin, the RTL
-loop's double model, the plant FMU) with the board's PWM -> ESCON stage
+Every option runs the float reference (cosim.engines.reference: the compensator's double twin, the
+RTL loop's double model, the plant FMU) with the board's PWM -> ESCON stage
 (cosim.parts.interface.PwmEscon, the same for all) and one way of sensing T_in:
 
 - ``ideal``: a fresh T_in_meas(t_k+1) at every 10 kHz tick, no delay (the bound: what no ADC
@@ -41,12 +41,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from cosim.config.scenarios import HOME_M, Scenario, SimConfig, get_scenario
+from cosim.engines.reference import make_float_loop, resolve_phi, run_reference
 from cosim.parts.interface import ADC_PARTS, AdcModel, Chain, make_chain
 from cosim.project.cliargs import ArgumentParser, finite_float
 from cosim.results import metrics
-
-from ..reference import make_float_loop, resolve_phi, run_reference
-from ..scenarios import HOME_M, Scenario, SimConfig, get_scenario
 
 # Sensing options, in the order of the table.
 OPTIONS = {

@@ -22,7 +22,7 @@ from .spec import Point, SweepSpec
 
 POINTS_DIR = "points"
 TABLE = "sweep.parquet"
-# Result figures copied from the run's result (cosim.sim.evaluate) into the table.
+# Result figures copied from the run's result (cosim.engines.experiment.evaluate) into the table.
 FIGURES = ("rms_error_n", "rms_error_pct", "peak_error_n", "peak_error_pct", "max_ref_n")
 
 
@@ -58,10 +58,10 @@ def _row_base(point: Point) -> dict:
 
 
 def _run(spec: SweepSpec, point: Point) -> dict:
-    from .. import sim  # noqa: PLC0415
-    from ..native import engine  # noqa: PLC0415
-    from ..reference import resolve_phi  # noqa: PLC0415
-    from ..scenarios import SimConfig, get_scenario  # noqa: PLC0415
+    from cosim.config.scenarios import SimConfig, get_scenario  # noqa: PLC0415
+    from cosim.engines import experiment as sim  # noqa: PLC0415
+    from cosim.engines.native import engine  # noqa: PLC0415
+    from cosim.engines.reference import resolve_phi  # noqa: PLC0415
 
     run_spec = spec.run_spec(point)
     cfg = SimConfig.from_dict(run_spec["config"], source="point")
@@ -137,7 +137,7 @@ def run_sweep(
 ) -> list[dict]:
     """Run every point without a result file on Dask (and, with retry_failed, those recorded as
     failed); return every point's row (spec order)."""
-    from ..native import engine  # noqa: PLC0415
+    from cosim.engines.native import engine  # noqa: PLC0415
 
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "spec.json").write_text(json.dumps(spec_dict, indent=2, sort_keys=True))

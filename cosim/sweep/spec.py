@@ -6,7 +6,7 @@
     sampling: grid             # grid: every combination of the axes; random: `samples` draws
     samples: 20                # random only
     seed: 1                    # random only
-    config: {}                 # base configuration, as a --params file (cosim.scenarios)
+    config: {}                 # base configuration, as a --params file (cosim.config.scenarios)
     axes:
       compensator: [paper, smooth]
       loop_routing: [true, false]
@@ -36,10 +36,9 @@ import random
 from dataclasses import dataclass
 from pathlib import Path
 
+from cosim.config.scenarios import COMPENSATORS, SCENARIO_NAMES, SimConfig
 from cosim.parts.interface import INTERFACES
 from cosim.project.cliargs import shown
-
-from ..scenarios import COMPENSATORS, SCENARIO_NAMES, SimConfig
 
 TOP_KEYS = ("scenario", "duration_s", "interface", "sampling", "samples", "seed", "config", "axes")
 PLAIN_AXES = ("scenario", "interface", "compensator", "loop_routing", "position_m")

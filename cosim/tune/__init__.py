@@ -22,14 +22,14 @@ Procedure (one command, deterministic; the lead re-runs it when the board's chai
 5. **Margin.** Kp swept up from the chosen one (KP_STEP) with the chosen Ki until a limit cycle:
    the Kp margin is the last stable factor (at least MIN_KP_MARGIN, else the run fails).
 6. **Confirmation.** The chosen point is run once on `tune` through the fixed-point chain (the
-   firmware's host build and the RTL's bit-exact model, cosim.reference.run_model_chain), which
-   the RTL co-simulation equals at every sample (tests/cosim).
+   firmware's host build and the RTL's bit-exact model, cosim.engines.reference.run_model_chain),
+   which the RTL co-simulation equals at every sample (tests/cosim).
 
 SCORE = RMS % + PEAK_WEIGHT * peak % (stage 2: the sums over the two modes) of the error
 T_ref - T_out over t >= settle (in % of the maximum reference), from the float reference
-(cosim.reference: the double loop and compensator twin with the same interface timing) for
+(cosim.engines.reference: the double loop and compensator twin with the same interface timing) for
 speed. fig14 and the held-out scenarios
-(cosim.scenarios.HELD_OUT_SCENARIOS) are never run here.
+(cosim.config.scenarios.HELD_OUT_SCENARIOS) are never run here.
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..scenarios import HOME_M, TUNE_SCENARIO, Scenario, SimConfig, _ease, get_scenario
+from cosim.config.scenarios import HOME_M, TUNE_SCENARIO, Scenario, SimConfig, _ease, get_scenario
 
 # The rule, written once.
 PEAK_WEIGHT = 0.25
@@ -94,7 +94,7 @@ def with_params(cfg: SimConfig, **changes) -> SimConfig:
 
 def limit_cycle_pp_n(cfg: SimConfig, interface: str) -> float:
     """Peak-to-peak of T_in (N) over the last LIMIT_WINDOW_S of the hold probe."""
-    from ..reference import run_reference  # noqa: PLC0415
+    from cosim.engines.reference import run_reference  # noqa: PLC0415
 
     scen = hold_scenario()
     rec = run_reference(
@@ -124,9 +124,8 @@ def kp_limit(cfg: SimConfig, interface: str, kp_start: float) -> tuple[float, fl
 
 def score(cfg: SimConfig, compensator: str, interface: str, scenario: str = TUNE_SCENARIO):
     """(SCORE, RMS %, peak %) of `compensator` on `scenario`, float reference."""
+    from cosim.engines.reference import resolve_phi, run_reference  # noqa: PLC0415
     from cosim.results import metrics  # noqa: PLC0415
-
-    from ..reference import resolve_phi, run_reference  # noqa: PLC0415
 
     scen = get_scenario(scenario)
     phi = resolve_phi(scen, cfg, True)
@@ -313,9 +312,8 @@ def tune(
 
 def confirm_fixed(cfg: SimConfig, interface: str, float_score) -> dict:
     """The chosen point on `tune` through the fixed-point chain (firmware + RTL model)."""
+    from cosim.engines.reference import resolve_phi, run_model_chain  # noqa: PLC0415
     from cosim.results import metrics  # noqa: PLC0415
-
-    from ..reference import resolve_phi, run_model_chain  # noqa: PLC0415
 
     scen = get_scenario(TUNE_SCENARIO)
     phi = resolve_phi(scen, cfg, True)

@@ -42,7 +42,8 @@ def add_parser(subparsers) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from ..scenarios import load_params  # noqa: PLC0415
+    from cosim.config.scenarios import load_params  # noqa: PLC0415
+
     from . import tune  # noqa: PLC0415
 
     try:

@@ -9,10 +9,10 @@ import random
 
 import pytest
 
-from cosim import reference
+from cosim.config.scenarios import SimConfig, get_scenario
+from cosim.engines import reference
 from cosim.parts import interface, rtl_model
 from cosim.results import metrics
-from cosim.scenarios import SimConfig, get_scenario
 
 FS = 10_000.0
 DT = 1.0 / FS

@@ -1,4 +1,4 @@
-"""Scenario definitions and run configuration (cosim/scenarios.py)."""
+"""Scenario definitions and run configuration (cosim/config/scenarios.py)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from cosim import scenarios as sc
+from cosim.config import scenarios as sc
 
 
 def test_cosim_scenarios_characterize_is_the_papers_ramp():

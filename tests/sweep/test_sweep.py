@@ -15,7 +15,7 @@ import time
 import psutil
 import pytest
 
-from cosim.native import engine
+from cosim.engines.native import engine
 from cosim.sweep import run as sweep_run
 from cosim.sweep.spec import Point, SpecError, load_spec, parse_spec
 from cosim.sweep.table import read_table

@@ -2,7 +2,7 @@
  * emu.h - the emulator's closed loop in C: the bit-exact model of the FPGA's tension loop
  * (hdl/rtl/tension_loop.v, as cosim/parts/rtl_model.py defines it), the ideal load-cell ADC and the plant
  * FMU, around the bench device (firmware/host/dev_host.h), with the co-simulation's timing
- * (cosim/reference.py::run_model_chain).
+ * (cosim/engines/reference.py::run_model_chain).
  *
  * Python at 10 kHz costs about 37 us per FPGA sample here (rtl_model + plant + ADC, measured under
  * load): a third of a core, which a loaded 2-core machine does not reliably give in real time. In

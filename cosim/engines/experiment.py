@@ -1,9 +1,9 @@
 """`bowden sim SCENARIO`: one closed-loop co-simulation run and its float reference.
 
 The fixed-point run is the real RTL (cocotb on Verilator or Icarus), the real firmware (host
-build through ctypes) and the plant FMU in closed loop (cosim.harness). The float reference runs
-the same scenario against the same FMU with the compensator's double twin and a double model of
-the PI + feedforward loop (cosim.reference). The run writes, in --out DIR:
+build through ctypes) and the plant FMU in closed loop (cosim.engines.cocotb). The float reference
+runs the same scenario against the same FMU with the compensator's double twin and a double model of
+the PI + feedforward loop (cosim.engines.reference). The run writes, in --out DIR:
 
 - ``result.json``: scenario, compensator, loop_routing, samples, sim_seconds, wall_seconds,
   rms_error_n, rms_error_pct, peak_error_n, peak_error_pct (T_ref - T_out of the fixed-point run,
@@ -29,12 +29,17 @@ from pathlib import Path
 
 import numpy as np
 
+from cosim.config.scenarios import (
+    COMPENSATORS,
+    SCENARIO_NAMES,
+    SimConfig,
+    get_scenario,
+    load_params,
+)
 from cosim.parts.interface import INTERFACES
 from cosim.project.cliargs import output_dir
 from cosim.project.paths import require_project
 from cosim.results import trace as trace_mod
-
-from .scenarios import COMPENSATORS, SCENARIO_NAMES, SimConfig, get_scenario, load_params
 
 # Default compensator per scenario: the characterisations measure the plant itself.
 DEFAULT_COMPENSATOR = {
@@ -48,7 +53,7 @@ DEFAULT_COMPENSATOR = {
     "fig14path2": "preview",
 }
 SIMULATORS = ("verilator", "icarus")
-# AXI4-Lite drivers of the testbench (cosim/harness/tb_closed_loop.py): identical results.
+# AXI4-Lite drivers of the testbench (cosim/engines/cocotb/tb_closed_loop.py): identical results.
 BUSES = ("cocotbext-axi", "lean")
 # Engines of the fixed-point run: the cocotb harness (the reference: waveforms, Python access) or
 # its loop compiled (cosim/native: same bits as cocotb with the lean driver, 20x+ real time).
@@ -78,7 +83,7 @@ def check_duration(duration_s: float | None, cfg: SimConfig, option: str = "--du
 def check_reach(scen, cfg: SimConfig, duration_s: float | None) -> None:
     """ValueError when the scenario's end-effector leaves the workspace of the plant's sheath
     (|C| <= L, y >= 0; paper Eq. 13): plant.sheath_length of a params file is too short."""
-    from .scenarios import SHEATH_LENGTH_M, sample_inputs  # noqa: PLC0415
+    from cosim.config.scenarios import SHEATH_LENGTH_M, sample_inputs  # noqa: PLC0415
 
     length = float(cfg.plant.get("sheath_length", SHEATH_LENGTH_M))
     inp = sample_inputs(scen, cfg, duration_s)
@@ -200,7 +205,7 @@ def run(
     """Run the fixed-point co-simulation (and the float reference), write the outputs, return
     the result dict (the content of result.json). wall_seconds is the wall time of the
     co-simulation run (simulator start-up included, the up-to-date check of the build not)."""
-    from .harness import runner  # noqa: PLC0415 (cocotb is only needed for a run)
+    from .cocotb import runner  # noqa: PLC0415 (cocotb is only needed for a run)
     from .reference import resolve_phi, run_reference  # noqa: PLC0415
 
     cfg = cfg or SimConfig()

@@ -5,7 +5,7 @@ firmware's libbowden_fw.so; the FMI 2.0 types come from fmpy's bundled headers.
 The build is reused while nothing it depends on changes (a fingerprint of the sources, the
 firmware library, the flags and the Verilator version in build/native/fingerprint.txt).
 
-    python -m cosim.native build     # what `make native` runs
+    python -m cosim.engines.native build     # what `make native` runs
 """
 
 from __future__ import annotations
@@ -18,20 +18,19 @@ import subprocess
 import sys
 from pathlib import Path
 
+from cosim.engines.cocotb.runner import CLKS_PER_SAMPLE, rtl_sources
 from cosim.parts.firmware import LIB_PATH as FW_LIB
 from cosim.project import procs
 from cosim.project.paths import BUILD_DIR, FIRMWARE_DIR, HDL_DIR
 from cosim.project.toolchain import setup_env
-
-from ..harness.runner import CLKS_PER_SAMPLE, rtl_sources
 
 NATIVE_DIR = Path(__file__).resolve().parent
 OUT_DIR = BUILD_DIR / "native"
 LIB_PATH = OUT_DIR / "libbowden_native.so"
 CXX_SOURCES = (NATIVE_DIR / "closed_loop.cpp",)
 HEADERS = (NATIVE_DIR / "bn_api.h",)
-# Verilator's options of the cocotb build (cosim/harness/runner.py), minus VPI: no tracing, X's
-# resolved at compile time, the model optimised for speed.
+# Verilator's options of the cocotb build (cosim/engines/cocotb/runner.py), minus VPI: no tracing,
+# X's resolved at compile time, the model optimised for speed.
 VERILATOR_ARGS = ("-O3", "--x-assign", "fast", "--x-initial", "fast", "-Wno-fatal")
 # No contraction into fused multiply-adds, no fast math: the interface stage must round as
 # Python does (bit-identical to the cocotb harness). -O3 and -fno-semantic-interposition (the
@@ -212,7 +211,7 @@ def _build_locked(force: bool) -> Path:
 def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     if args != ["build"]:
-        print("usage: python -m cosim.native build", file=sys.stderr)
+        print("usage: python -m cosim.engines.native build", file=sys.stderr)
         return 2
     try:
         path = build()

@@ -1,9 +1,9 @@
 /*
  * bn_api.h - the native closed loop's C interface (libbowden_native.so), mirrored by
- * cosim/native/engine.py (ctypes). One call, bn_run(), runs a whole scenario: the Verilated
+ * cosim/engines/native/engine.py (ctypes). One call, bn_run(), runs a whole scenario: the Verilated
  * cosim_top, the firmware (libbowden_fw.so, linked) and the plant FMU (an instance the caller
  * set up through the FMI 2.0 C API, handed over as its component and function pointers), with
- * the timing of the cocotb harness (cosim/harness/tb_closed_loop.py, lean AXI4-Lite driver).
+ * the timing of the cocotb harness (cosim/engines/cocotb/tb_closed_loop.py, lean AXI4-Lite driver).
  *
  * Every array is owned by the caller; bn_run only writes the outputs and the counters.
  */
@@ -32,7 +32,7 @@ typedef struct {
     int64_t n;                  /* samples */
     int32_t decimation;         /* FPGA samples per firmware tick */
     int32_t clks_per_sample;    /* must equal the build's CLKS_PER_SAMPLE */
-    int32_t tc_latency_samples; /* cosim.reference.TC_LATENCY_SAMPLES */
+    int32_t tc_latency_samples; /* cosim.engines.reference.TC_LATENCY_SAMPLES */
     int32_t shadow_refresh_ticks;
     double slew_n;              /* SLEW in N per sample when CTRL.SLEW_EN, else 0 */
     double floor_n;             /* T_c floor (TC_MIN) in N after the slew limit; -inf: none */

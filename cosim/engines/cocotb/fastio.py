@@ -9,7 +9,7 @@ ends in (set_signal_val_int, 0.3 us) carry the same values.
 
 These are private cocotb APIs (cocotb 2.1.0 is pinned in requirements.txt): `check_port` compares
 each fast reader with the public `.value` once at set-up and fails loudly if they differ or are
-missing, as cosim/harness/runner.py does for the build command it overrides. Writes take the
+missing, as cosim/engines/cocotb/runner.py does for the build command it overrides. Writes take the
 direct path only when COCOTB_TRUST_INERTIAL_WRITES is on (the runner sets it), where cocotb's
 own `.value = int` makes the same immediate call; otherwise they go through `.value`.
 """

@@ -1,12 +1,12 @@
-"""`bowden sim ... --engine native`: the closed loop of cosim/harness/tb_closed_loop.py compiled
-(cosim/native/closed_loop.cpp), with no Python per sample.
+"""`bowden sim ... --engine native`: the closed loop of cosim/engines/cocotb/tb_closed_loop.py
+compiled (cosim/engines/native/closed_loop.cpp), with no Python per sample.
 
 Python sets the run up exactly as the cocotb harness does (scenario inputs, the plant FMU
-instance through cosim.parts.plant.Plant, the firmware through cosim.harness.fwbridge, the interface
+instance through cosim.parts.plant.Plant, the firmware through cosim.engines.fwbridge, the interface
 stage's constants from cosim.parts.interface) and hands it to libbowden_native.so in one call, which
 runs the Verilated RTL, the firmware and the FMU clock by clock with the cocotb harness's timing
 (lean AXI4-Lite driver). It returns the same record and cost split as
-cosim.harness.runner.run_closed_loop; tests/native holds the two to the same bits.
+cosim.engines.cocotb.runner.run_closed_loop; tests/native holds the two to the same bits.
 """
 
 from __future__ import annotations
@@ -17,17 +17,17 @@ from ctypes import POINTER, c_char, c_double, c_int16, c_int32, c_int64, c_uint3
 
 import numpy as np
 
+from cosim.config import scenarios
+from cosim.config.scenarios import SimConfig, get_scenario, held_at, sample_inputs
+from cosim.engines.cocotb.runner import CLKS_PER_SAMPLE
+from cosim.engines.common import Record, open_plant, plant_rows, store_plant_rows
+from cosim.engines.fwbridge import FirmwareBridge, loop_words
 from cosim.parts.firmware import tension_word, tension_words
 from cosim.parts.interface import make_chain
 from cosim.parts.plant import INPUT_NAMES, OUTPUT_NAMES
 from cosim.project.progress import Progress
 
-from .. import scenarios
-from ..harness.common import Record, open_plant, plant_rows, store_plant_rows
-from ..harness.fwbridge import FirmwareBridge, loop_words
-from ..harness.runner import CLKS_PER_SAMPLE
 from ..reference import TC_LATENCY_SAMPLES
-from ..scenarios import SimConfig, get_scenario, held_at, sample_inputs
 
 API_VERSION = 3
 IFACE_CODES = {"ideal": 0, "adc": 1, "board": 2}
@@ -39,7 +39,7 @@ _D = POINTER(c_double)
 
 
 class Spec(ctypes.Structure):
-    """Mirror of bn_spec_t (cosim/native/bn_api.h); checked against bn_spec_size()."""
+    """Mirror of bn_spec_t (cosim/engines/native/bn_api.h); checked against bn_spec_size()."""
 
     _fields_ = [
         ("n", c_int64),
@@ -118,7 +118,7 @@ def load_library() -> ctypes.CDLL:
         lib.bn_fsum.restype = c_double
         if lib.bn_api_version() != API_VERSION or lib.bn_spec_size() != ctypes.sizeof(Spec):
             raise RuntimeError(
-                f"{path} does not match cosim/native/engine.py (API or bn_spec_t size): "
+                f"{path} does not match cosim/engines/native/engine.py (API or bn_spec_t size): "
                 "rebuild it with `make native`"
             )
         if lib.bn_clks_per_sample() != CLKS_PER_SAMPLE:
@@ -142,7 +142,7 @@ def _ptr(array: np.ndarray, ctype):
 
 def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
     """Run one closed loop natively; return (record arrays, cost split) as
-    cosim.harness.runner.run_closed_loop does for the same run_spec."""
+    cosim.engines.cocotb.runner.run_closed_loop does for the same run_spec."""
     lib = load_library()
     cfg = SimConfig.from_dict(run_spec["config"], source="spec")
     scen = scenario_of(run_spec)

@@ -26,7 +26,7 @@ from cosim.project.toolchain import setup_env
 
 HARNESS_DIR = Path(__file__).resolve().parent
 TOPLEVEL = "cosim_top"
-TEST_MODULE = "cosim.harness.tb_closed_loop"
+TEST_MODULE = "cosim.engines.cocotb.tb_closed_loop"
 
 # Clocks per FPGA sample: the RTL's loop needs LATENCY_CLKS from its tick to the command; one
 # more lets the command of sample k reach the plant and the ADC sample of t_k+1 reach tick k+1
@@ -160,9 +160,8 @@ def run_closed_loop(
     The simulator's own output goes to WORK/sim.log; the progress bar is drawn here from the
     progress file the testbench updates (a few times a second), so it stays one clean line.
     """
+    from cosim.engines.common import Record  # noqa: PLC0415
     from cosim.project.progress import Progress  # noqa: PLC0415
-
-    from .common import Record  # noqa: PLC0415
 
     runner = build(simulator)
     tmp = None
@@ -268,12 +267,15 @@ def _failures(results_xml: Path) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """`python -m cosim.harness.runner build [verilator|icarus]`: build the simulation."""
+    """`python -m cosim.engines.cocotb.runner build [verilator|icarus]`: build the simulation."""
     import sys  # noqa: PLC0415
 
     args = sys.argv[1:] if argv is None else argv
     if not args or args[0] != "build" or len(args) > 2:
-        print("usage: python -m cosim.harness.runner build [verilator|icarus]", file=sys.stderr)
+        print(
+            "usage: python -m cosim.engines.cocotb.runner build [verilator|icarus]",
+            file=sys.stderr,
+        )
         return 2
     simulator = args[1] if len(args) == 2 else "verilator"
     build(simulator)

@@ -1,5 +1,5 @@
-// closed_loop.cpp - the native closed loop: the cocotb harness (cosim/harness/tb_closed_loop.py
-// with the lean AXI4-Lite driver of cosim/harness/axil.py) with no Python per sample.
+// closed_loop.cpp - the native closed loop: the cocotb harness (cosim/engines/cocotb/tb_closed_loop.py
+// with the lean AXI4-Lite driver of cosim/engines/cocotb/axil.py) with no Python per sample.
 //
 // The same pieces, the same timing, clock by clock:
 //   - RTL: the Verilated cosim_top (CLKS_PER_SAMPLE clocks per sample, one or two evaluations
@@ -10,7 +10,7 @@
 //   - interface stage: cosim/parts/interface.py mirrored line by line (the ADC's kernel and the PWM's
 //     constants come from the Python stage, so both sides use the same doubles; math.fsum is
 //     reproduced with CPython's algorithm, round() as round-half-even).
-// The Python engine (cosim/native/engine.py) holds it to the cocotb harness bit for bit (tests).
+// The Python engine (cosim/engines/native/engine.py) holds it to the cocotb harness bit for bit (tests).
 //
 // Times are counted in rising clock edges. The harness acts "half a clock" after an edge: the
 // bus master right after the edge's evaluation (as a coroutine woken by RisingEdge), the sample
@@ -39,7 +39,7 @@ bool Vcosim_top___024root___eval_phase__nba(Vcosim_top___024root *vlSelf);
 
 // BN_INPUT_PORTS(X): X(port) for each input port of cosim_top but clk (build.py, model_inputs).
 #ifndef BN_INPUT_PORTS
-#error "BN_INPUT_PORTS is defined by cosim/native/build.py"
+#error "BN_INPUT_PORTS is defined by cosim/engines/native/build.py"
 #endif
 
 extern "C" {
@@ -270,7 +270,7 @@ class Pwm {  // PwmEscon, fixed point
     std::deque<Pending> pending_;
 };
 
-// --- AXI4-Lite master (cosim/harness/axil.py, LeanAxiLiteMaster) ---------------------------------
+// --- AXI4-Lite master (cosim/engines/cocotb/axil.py, LeanAxiLiteMaster) ---------------------------------
 struct BusOp {
     enum Kind { WRITE, READ, WAIT_UNTIL, CALL } kind;
     uint32_t addr, value;

@@ -7,11 +7,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cosim.config.scenarios import SimConfig
 from cosim.parts.plant import OUTPUT_NAMES
 
-from ..scenarios import SimConfig
-
-# Recorded per FPGA sample (float64 arrays); cosim.sim.trace_columns maps them to the trace format.
+# Recorded per FPGA sample (float64 arrays); cosim.engines.experiment.trace_columns maps them to
+# the trace format.
 RECORD_FIELDS = (
     "t_s",
     "T_ref_N",

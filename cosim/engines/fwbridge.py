@@ -7,9 +7,8 @@ words of T_ref come from cosim.parts.firmware directly.
 
 from __future__ import annotations
 
+from cosim.config.scenarios import ControllerParams, SimConfig
 from cosim.parts import firmware, regmap, rtl_model
-
-from ..scenarios import ControllerParams, SimConfig
 
 
 def _field_word(reg: str, value: float) -> int:

@@ -10,7 +10,7 @@ Same scenario, same plant FMU (its own instance), same timing as the co-simulati
   one), in its float form: the ADC's value instead of its 24-bit code, the PWM duty of the
   command in amperes instead of the duty in board clocks.
 
-Timing, identical to the co-simulation harness (cosim/harness/tb_closed_loop.py):
+Timing, identical to the co-simulation harness (cosim/engines/cocotb/tb_closed_loop.py):
 - FPGA sample k at t_k = k / f_s: the loop computes u_k from T_c in force and the latest ADC
   sample; the interface stage turns u_k into the plant's current over [t_k, t_k+1) (u_k itself
   with the ideal interface) and, from the sensors at t_k+1, gives the ADC sample of tick k+1
@@ -25,20 +25,20 @@ import math
 
 import numpy as np
 
+from cosim.config.scenarios import Scenario, SimConfig, firmware_t_ref, sample_inputs
 from cosim.parts import regmap, rtl_model
 from cosim.parts.firmware import make_compensator_f64, tension_word
 from cosim.parts.interface import make_chain
 from cosim.parts.rtl_model import FloatTensionLoop
 from cosim.project.progress import Progress
 
-from .harness.common import Record, open_plant, plant_rows, store_plant_rows
-from .harness.fwbridge import loop_words
-from .scenarios import Scenario, SimConfig, firmware_t_ref, sample_inputs
+from .common import Record, open_plant, plant_rows, store_plant_rows
+from .fwbridge import loop_words
 
 # Samples between a firmware tick and the first FPGA sample that uses its T_c: the tick runs
 # right after sample k's command is out, half a clock before tick k+1; its AXI write lands a few
 # clocks later, so tick k+2 is the first to use it (checked in every co-simulation run through
-# the TC_EFF read-back, cosim/harness/tb_closed_loop.py).
+# the TC_EFF read-back, cosim/engines/cocotb/tb_closed_loop.py).
 TC_LATENCY_SAMPLES = 2
 
 
@@ -82,7 +82,7 @@ def run_reference(
     loop=None,
 ) -> dict[str, np.ndarray]:
     """Run the float reference with the interface stage `interface`
-    (cosim.parts.interface.INTERFACES); return its record (the arrays of cosim.harness.common).
+    (cosim.parts.interface.INTERFACES); return its record (the arrays of cosim.engines.common).
 
     A study of other front-ends (cosim.sensing) may hand its own interface stage `chain` (the
     float form of cosim.parts.interface.Chain: start / drive / sense) and its own `loop` (an object
@@ -172,7 +172,7 @@ def run_model_chain(
     bit-exact Python model (cosim.parts.rtl_model.TensionLoopModel) against the FMU, with the
     co-simulation's timing and interface stage. The RTL co-simulation must give the same command
     word at every sample (tests/cosim); it is also a quick way to try a configuration."""
-    from .harness.fwbridge import FirmwareBridge  # noqa: PLC0415
+    from .fwbridge import FirmwareBridge  # noqa: PLC0415
 
     inp = sample_inputs(scen, cfg, duration_s)
     n = len(inp.t_s)

@@ -5,7 +5,7 @@ channel that wakes on every clock while a transaction is open; on this machine o
 costs about 300 us of wall time, so the firmware's one write per millisecond alone is about a
 third of a real-time budget. This master drives one transaction at a time from the caller's
 coroutine and wakes once per clock edge it needs (about four per transaction), and reads and
-writes the ports through cosim.harness.fastio (cocotb's `.value` costs more than the edge).
+writes the ports through cosim.engines.cocotb.fastio (cocotb's `.value` costs more than the edge).
 
 Protocol (AMBA AXI4-Lite, the subset bowden_core's slave uses): a write presents AW and W
 together with BREADY high and lowers each VALID once its READY was seen at a rising edge, then

@@ -1,10 +1,10 @@
 """The closed-loop co-simulation testbench (cocotb 2.x): RTL + firmware + plant FMU.
 
-Started by cosim.harness.runner inside the simulator; the run's specification is the JSON file
-named by BOWDEN_COSIM_SPEC (scenario, compensator, loop routing, configuration, output paths).
+Started by cosim.engines.cocotb.runner inside the simulator; the run's specification is the JSON
+file named by BOWDEN_COSIM_SPEC (scenario, compensator, loop routing, configuration, output paths).
 
 Timing of one FPGA sample k, in clocks (C = CLKS_PER_SAMPLE = L + 1, where L is the RTL loop's
-latency from its tick to the command, rtl_model.LATENCY_CLKS; cosim/harness/runner.py):
+latency from its tick to the command, rtl_model.LATENCY_CLKS; cosim/engines/cocotb/runner.py):
 
     edge Ck         tick k: the RTL takes the ADC sample of t_k and the T_c in force
     edge Ck + L     the command u_k is out (cmd_current, Q3.12)
@@ -27,8 +27,8 @@ registers of the shadow (every SHADOW_REFRESH_TICKS ticks), and TC_EFF, the T_c 
 its last tick, which must be the value just written: a write that misses tick k+2 or a T_c the
 RTL did not take is counted and fails the run. Bus transactions happen only at this rate.
 
-The bus driver is the lean master of cosim/harness/axil.py (spec "bus": "lean", the default) or
-cocotbext-axi's AxiLiteMaster ("cocotbext-axi"), which gives the same results at about 1.4x the
+The bus driver is the lean master of cosim/engines/cocotb/axil.py (spec "bus": "lean", the default)
+or cocotbext-axi's AxiLiteMaster ("cocotbext-axi"), which gives the same results at about 1.4x the
 wall time (tests/cosim holds both to the bit-exact model chain at every sample).
 """
 
@@ -46,15 +46,16 @@ from cocotb.simtime import get_sim_time
 from cocotb.triggers import Event, RisingEdge, Timer
 from cocotbext.axi import AxiLiteBus, AxiLiteMaster
 
-from cosim.harness import fastio
-from cosim.harness.axil import LeanAxiLiteMaster
-from cosim.harness.common import Record, open_plant, plant_rows, store_plant_rows
-from cosim.harness.fwbridge import FirmwareBridge, loop_words
+from cosim.config.scenarios import SimConfig, firmware_t_ref, get_scenario, sample_inputs
+from cosim.engines.common import Record, open_plant, plant_rows, store_plant_rows
+from cosim.engines.fwbridge import FirmwareBridge, loop_words
+from cosim.engines.reference import TC_LATENCY_SAMPLES
 from cosim.parts import regmap
 from cosim.parts.firmware import tension_word
 from cosim.parts.interface import make_chain
-from cosim.reference import TC_LATENCY_SAMPLES
-from cosim.scenarios import SimConfig, firmware_t_ref, get_scenario, sample_inputs
+
+from . import fastio
+from .axil import LeanAxiLiteMaster
 
 # Registers the firmware's tick reads (fw.h: STATUS, FAULT, T_IN, U, SAMPLE_COUNT).
 SHADOW_READS = (regmap.STATUS, regmap.FAULT, regmap.T_IN, regmap.U, regmap.SAMPLE_COUNT)
