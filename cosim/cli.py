@@ -25,13 +25,13 @@ from . import __version__
 
 # Modules that provide subcommands, in the order `bowden --help` lists them.
 SUBCOMMANDS: list[str] = [
-    "workspace",
+    "studies.workspace",
     "engines.experiment",
-    "demo",
-    "tune.cli",
+    "studies.demo",
+    "studies.tune.cli",
     "audit",
     "bench.cli",
-    "sweep",
+    "studies.sweep",
 ]
 
 

@@ -133,4 +133,4 @@ fuzz-proto-libfuzzer:
 	fi
 
 bench-proto: bench-target $(BENCH_CG) $(BENCH_SO) fmu
-	$(PY) -m cosim.bench.benchmarks --cg $(BENCH_CG) --size $(BENCH_M4)/size.txt
+	$(PY) -m cosim.perf.rig --cg $(BENCH_CG) --size $(BENCH_M4)/size.txt

@@ -22,4 +22,4 @@ $(COSIM_STAMP): $(VENV_STAMP) $(COSIM_RTL) cosim/engines/cocotb/runner.py
 	@touch $@
 
 bench-cosim: $(COSIM_STAMP) fmu firmware native
-	$(PY) -m cosim.cosim_bench
+	$(PY) -m cosim.perf.closed_loop

@@ -84,9 +84,9 @@ def run_reference(
     """Run the float reference with the interface stage `interface`
     (cosim.parts.interface.INTERFACES); return its record (the arrays of cosim.engines.common).
 
-    A study of other front-ends (cosim.sensing) may hand its own interface stage `chain` (the
-    float form of cosim.parts.interface.Chain: start / drive / sense) and its own `loop` (an object
-    with step(tc_n, t_in_n) -> current_a) in place of make_chain(cfg, interface) and
+    A study of other front-ends (cosim.studies.sensing) may hand its own interface stage `chain`
+    (the float form of cosim.parts.interface.Chain: start / drive / sense) and its own `loop` (an
+    object with step(tc_n, t_in_n) -> current_a) in place of make_chain(cfg, interface) and
     make_float_loop(cfg)."""
     inp = sample_inputs(scen, cfg, duration_s)
     n = len(inp.t_s)

@@ -113,7 +113,7 @@ def test_cosim_sim_cli_rejects_bad_input_before_running(tmp_path, capsys):
 
 
 def test_cosim_demo_table_prints_the_figures_of_the_json(tmp_path):
-    from cosim import demo
+    from cosim.studies import demo
 
     paths = []
     for i, (comp, loop) in enumerate((("paper", True), ("smooth", True), ("paper", False))):

@@ -10,7 +10,7 @@ import math
 
 import pytest
 
-import cosim.tune as tn
+import cosim.studies.tune as tn
 from cosim.config.scenarios import TUNE_SCENARIO, SimConfig
 from cosim.parts import regmap
 from cosim.parts.firmware import CompConfig, load_library

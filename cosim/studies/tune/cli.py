@@ -1,5 +1,5 @@
-"""`bowden tune`: the tuning procedure of cosim.tune (the `tune` scenario only), its table, the
-chosen point as a params file, and the stability margin."""
+"""`bowden tune`: the tuning procedure of cosim.studies.tune (the `tune` scenario only), its table,
+the chosen point as a params file, and the stability margin."""
 
 from __future__ import annotations
 

@@ -107,7 +107,7 @@ class SweepSpec:
         return cfg
 
     def run_spec(self, point: Point) -> dict:
-        """What the run needs besides phi (cosim.sweep.run adds it): scenario, compensator,
+        """What the run needs besides phi (cosim.studies.sweep.run adds it): scenario, compensator,
         loop routing, interface, duration, configuration, position."""
         v = point.values
         scenario = v.get("scenario", self.scenario)

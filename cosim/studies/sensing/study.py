@@ -373,7 +373,7 @@ def table(result: dict) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     p = ArgumentParser(
-        prog="python -m cosim.sensing",
+        prog="python -m cosim.studies.sensing",
         description="The sensing study: tracking error and Kp margin per load-cell front-end "
         "(float reference, board PWM -> ESCON)",
     )
@@ -398,7 +398,7 @@ def main(argv: list[str] | None = None) -> int:
             log=lambda m: print(m, file=sys.stderr),
         )
     except (FileNotFoundError, RuntimeError, ValueError) as exc:
-        print(f"python -m cosim.sensing: {exc}", file=sys.stderr)
+        print(f"python -m cosim.studies.sensing: {exc}", file=sys.stderr)
         return 1
     print(table(result))
     return 0

@@ -1,5 +1,5 @@
-"""FMU convergence study (`make fmu-convergence`, `python -m cosim.convergence`): how far the
-plant's integration step (parameter max_step) and sheath discretisation (BOWDEN_N_SEG, a build
+"""FMU convergence study (`make fmu-convergence`, `python -m cosim.studies.convergence`): how far
+the plant's integration step (parameter max_step) and sheath discretisation (BOWDEN_N_SEG, a build
 constant) move the closed loop's results from a fine reference, and what each setting costs.
 
 Each setting is the whole closed loop on the native engine (the RTL, the firmware, the board's
@@ -204,7 +204,9 @@ def table(res: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m cosim.convergence", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="python -m cosim.studies.convergence", description=__doc__
+    )
     parser.add_argument("--duration", type=float, default=DURATION_S)
     parser.add_argument("--out", type=Path, default=BUILD_DIR / "convergence" / "study.json")
     args = parser.parse_args(argv)

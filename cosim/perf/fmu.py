@@ -2,7 +2,7 @@
 communication step, and the factor faster than real time. Prints figures; never fails on a slow
 machine (the target, 20x real time through fmpy, is reported, not asserted).
 
-    .venv/bin/python -m cosim.fmu_bench [--seconds 2]
+    .venv/bin/python -m cosim.perf.fmu [--seconds 2]
 """
 
 from __future__ import annotations

@@ -143,7 +143,7 @@ def bench_one(duration_s: float, compensator: str, bus: str) -> float:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m cosim.cosim_bench", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m cosim.perf.closed_loop", description=__doc__)
     parser.add_argument("--duration", type=float, default=30.0, help="simulated seconds")
     parser.add_argument("--compensator", default="paper", choices=COMPENSATORS)
     parser.add_argument(

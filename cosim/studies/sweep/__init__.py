@@ -1,10 +1,10 @@
 """`bowden sweep SPEC.yaml --out DIR`: many native closed-loop runs on Dask, one table.
 
-Each point of the specification (cosim/sweep/spec.py: a grid or a random sample over scenario
-settings, end-effector position, plant parameters, gains and compensator mode) is one run of the
-native engine (cosim/native). The points run on a Dask cluster: by default a LocalCluster with
-one single-threaded worker process per core of this machine; `--scheduler tcp://HOST:PORT` sends
-the same sweep to a running cluster (its workers need this project installed and built, with
+Each point of the specification (cosim/studies/sweep/spec.py: a grid or a random sample over
+scenario settings, end-effector position, plant parameters, gains and compensator mode) is one run
+of the native engine (cosim/native). The points run on a Dask cluster: by default a LocalCluster
+with one single-threaded worker process per core of this machine; `--scheduler tcp://HOST:PORT`
+sends the same sweep to a running cluster (its workers need this project installed and built, with
 BOWDEN_ROOT pointing at it). Outputs in DIR:
 
 - ``points/<id>.json``: one file per finished point, written atomically by the worker (a killed
@@ -29,7 +29,7 @@ def add_parser(subparsers) -> None:
         help="many native closed-loop runs over a grid or a random sample, on Dask",
         description=__doc__.split("\n\n")[0],
     )
-    p.add_argument("spec", help="the sweep specification (YAML; cosim/sweep/spec.py)")
+    p.add_argument("spec", help="the sweep specification (YAML; cosim/studies/sweep/spec.py)")
     p.add_argument("--out", required=True, type=output_dir, help="output folder")
     p.add_argument(
         "--scheduler",

@@ -9,7 +9,7 @@
   in its own process, recorded by this one): samples, drops, the device's overflow count, and
   the gaps between frame arrivals (p50, p99, max). Target: zero drops.
 
-    python -m cosim.bench.benchmarks [--cg BENCH_PROTO] [--size SIZE_TXT] [--seconds 60]
+    python -m cosim.perf.rig [--cg BENCH_PROTO] [--size SIZE_TXT] [--seconds 60]
 """
 
 from __future__ import annotations
@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import messages as msgs
-from .protocol import Frame, FrameDecoder, encode_frame, pack
+from cosim.bench import messages as msgs
+from cosim.bench.protocol import Frame, FrameDecoder, encode_frame, pack
 
 
 def callgrind_per_frame(exe: Path, mode: str, frames: int = 20000) -> float | None:
@@ -75,8 +75,8 @@ def c_decoder_fps(exe: Path, n: int = 2_000_000) -> float:
 
 def pty_run(seconds: float) -> dict:
     """Record `seconds` of telemetry from an emulator in another process, over its pty."""
-    from .client import BenchClient, SerialLink  # noqa: PLC0415
-    from .recorder import record_run  # noqa: PLC0415
+    from cosim.bench.client import BenchClient, SerialLink  # noqa: PLC0415
+    from cosim.bench.recorder import record_run  # noqa: PLC0415
 
     emu = subprocess.Popen(
         [sys.executable, "-m", "cosim.bench", "emulate", "--no-tcp", "--seconds",
