@@ -10,9 +10,8 @@ import sys
 import time
 from pathlib import Path
 
+from cosim.audit.params import FIG14_DEFAULT_DURATION_S
 from cosim.project.cliargs import output_dir
-
-from .params import FIG14_DEFAULT_DURATION_S
 
 
 def add_parser(subparsers) -> None:
@@ -75,9 +74,8 @@ class _Bar:
 
 
 def main(args: argparse.Namespace) -> int:
+    from cosim.audit import core, params, report  # noqa: PLC0415
     from cosim.results import trace  # noqa: PLC0415
-
-    from . import core, params, report  # noqa: PLC0415
 
     data_path = Path(args.data)
     if not (math.isfinite(args.fig14_duration) and 2.0 <= args.fig14_duration <= 30.0):

@@ -22,8 +22,8 @@ import sys
 import time
 from pathlib import Path
 
-from . import messages as msgs
-from .client import (
+from cosim.bench import messages as msgs
+from cosim.bench.client import (
     BenchClient,
     BenchError,
     CanLink,
@@ -31,9 +31,9 @@ from .client import (
     fault_names,
     status_names,
 )
-from .device import ChainConfig
-from .protocol import ProtocolError, format_value, param, word_from_value
-from .recorder import WAVE_KINDS, record_run, stderr_progress
+from cosim.bench.device import ChainConfig
+from cosim.bench.protocol import ProtocolError, format_value, param, word_from_value
+from cosim.bench.recorder import WAVE_KINDS, record_run, stderr_progress
 
 BACKUP_FORMAT = 1
 
@@ -191,11 +191,11 @@ def bench_main(args: argparse.Namespace) -> int:
             plant=plant or None,
         )
         if args.emulate and args.can:
-            from .emulator import Emulator  # noqa: PLC0415
+            from cosim.bench.emulator import Emulator  # noqa: PLC0415
 
             emulator = Emulator(pty=False, tcp_port=None, can=args.can, chain=chain).start()
         if args.emulate and not args.can:
-            from .emulator import SteppedLink  # noqa: PLC0415
+            from cosim.bench.emulator import SteppedLink  # noqa: PLC0415
 
             link = SteppedLink(chain)
         else:
@@ -585,7 +585,7 @@ def _plant_assignments(items: list[str]) -> dict:
 
 
 def emulate_main(args: argparse.Namespace) -> int:
-    from .emulator import Emulator  # noqa: PLC0415
+    from cosim.bench.emulator import Emulator  # noqa: PLC0415
 
     identity = None
     if args.table_hash is not None:

@@ -18,27 +18,13 @@ import signal
 import sys
 import threading
 
+from cosim import __version__
 from cosim.project import procs
 from cosim.project.cliargs import ArgumentParser, harden, subparsers
 
-from . import __version__
-
-# Modules that provide subcommands, in the order `bowden --help` lists them.
-SUBCOMMANDS: list[str] = [
-    "studies.workspace",
-    "engines.experiment",
-    "studies.demo",
-    "studies.tune.cli",
-    "audit",
-    "bench.cli",
-    "studies.sweep",
-]
-
-
-def _doctor(args: argparse.Namespace) -> int:
-    from cosim.project.doctor import main as doctor_main
-
-    return doctor_main()
+# The subcommands, in the order `bowden --help` lists them: cosim/cli/NAME.py for each; `bench`
+# adds `bowden bench` and `bowden emulate`.
+SUBCOMMANDS: list[str] = ["doctor", "workspace", "sim", "demo", "tune", "audit", "bench", "sweep"]
 
 
 class Interrupted(BaseException):
@@ -80,12 +66,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"bowden {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    doctor = sub.add_parser(
-        "doctor", help="print the versions of every tool; fail if one is missing"
-    )
-    doctor.set_defaults(func=_doctor)
     for name in SUBCOMMANDS:
-        importlib.import_module(f"cosim.{name}").add_parser(sub)
+        importlib.import_module(f"cosim.cli.{name}").add_parser(sub)
     return harden(parser)
 
 
