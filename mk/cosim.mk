@@ -7,7 +7,7 @@
 #   make demo         (top-level) runs `bowden demo`: fig14 for paper/smooth with loop routing and
 #                     paper without, outputs in build/demo/
 
-COSIM_RTL := $(sort $(wildcard hdl/rtl/*.v)) cosim/engines/cocotb/cosim_top.v cosim/engines/cocotb/cosim_top.vlt \
+COSIM_RTL := $(sort $(wildcard hdl/rtl/*.v)) cosim/engines/cosim_top.v cosim/engines/cosim_top.vlt \
   cosim/parts/rtl_model.py
 COSIM_STAMP := $(BUILD)/cosim/verilator/.built
 

@@ -71,7 +71,7 @@ def test_wheel_holds_every_file_of_the_package(wheel):
     names = set(zipfile.ZipFile(wheel).namelist())
     missing = [f for f in _git_files("cosim") if f not in names]
     assert not missing, f"the wheel leaves out {missing}"
-    assert {"cosim/engines/cocotb/cosim_top.v", "cosim/engines/cocotb/cosim_top.vlt"} <= names
+    assert {"cosim/engines/cosim_top.v", "cosim/engines/cosim_top.vlt"} <= names
     assert not [n for n in names if n.endswith((".pyc", ".pyo")) or "__pycache__" in n]
     entry = next(n for n in names if n.endswith(".dist-info/entry_points.txt"))
     assert "bowden = cosim.cli:main" in zipfile.ZipFile(wheel).read(entry).decode()

@@ -1,14 +1,39 @@
-"""Pieces shared by the fixed-point co-simulation (cocotb) and the float reference: the plant
-handle set up for a run, and the pre-allocated record of a run."""
+"""What every closed loop shares (the cocotb co-simulation, the native loop and the float
+reference): the RTL top both RTL engines build (cosim_top.v) and the sample timing they keep, the
+plant handle set up for a run, and the pre-allocated record of a run."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from cosim.config.scenarios import SimConfig
+from cosim.parts import rtl_model
 from cosim.parts.plant import OUTPUT_NAMES
+from cosim.project.paths import HDL_DIR
+
+# The folder of cosim_top.v (the RTL top of both RTL engines) and cosim_top.vlt.
+ENGINES_DIR = Path(__file__).resolve().parent
+
+# Clocks per FPGA sample: the RTL's loop needs LATENCY_CLKS from its tick to the command; one
+# more lets the command of sample k reach the plant and the ADC sample of t_k+1 reach tick k+1
+# with no extra sample of delay (see cocotb/tb_closed_loop.py). cocotb costs about 1 us per
+# clock, so this is kept at that minimum.
+CLKS_PER_SAMPLE = rtl_model.LATENCY_CLKS + 1
+
+# Samples between a firmware tick and the first FPGA sample that uses its T_c: the tick runs
+# right after sample k's command is out, half a clock before tick k+1; its AXI write lands a few
+# clocks later, so tick k+2 is the first to use it (checked in every co-simulation run through
+# the TC_EFF read-back, cosim/engines/cocotb/tb_closed_loop.py).
+TC_LATENCY_SAMPLES = 2
+
+
+def rtl_sources() -> list[Path]:
+    """The RTL of the core plus the engines' top (cosim_top.v)."""
+    return sorted((HDL_DIR / "rtl").glob("*.v")) + [ENGINES_DIR / "cosim_top.v"]
+
 
 # Recorded per FPGA sample (float64 arrays); cosim.engines.experiment.trace_columns maps them to
 # the trace format.

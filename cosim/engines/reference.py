@@ -32,14 +32,8 @@ from cosim.parts.interface import make_chain
 from cosim.parts.rtl_model import FloatTensionLoop
 from cosim.project.progress import Progress
 
-from .common import Record, open_plant, plant_rows, store_plant_rows
+from .common import TC_LATENCY_SAMPLES, Record, open_plant, plant_rows, store_plant_rows
 from .fwbridge import loop_words
-
-# Samples between a firmware tick and the first FPGA sample that uses its T_c: the tick runs
-# right after sample k's command is out, half a clock before tick k+1; its AXI write lands a few
-# clocks later, so tick k+2 is the first to use it (checked in every co-simulation run through
-# the TC_EFF read-back, cosim/engines/cocotb/tb_closed_loop.py).
-TC_LATENCY_SAMPLES = 2
 
 
 def make_float_loop(cfg: SimConfig) -> FloatTensionLoop:

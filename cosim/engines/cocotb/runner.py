@@ -19,28 +19,17 @@ import tempfile
 import threading
 from pathlib import Path
 
-from cosim.parts import rtl_model
+from cosim.engines.common import CLKS_PER_SAMPLE, ENGINES_DIR, rtl_sources
 from cosim.project import procs
 from cosim.project.paths import BUILD_DIR, HDL_DIR
 from cosim.project.toolchain import setup_env
 
-HARNESS_DIR = Path(__file__).resolve().parent
 TOPLEVEL = "cosim_top"
 TEST_MODULE = "cosim.engines.cocotb.tb_closed_loop"
 
-# Clocks per FPGA sample: the RTL's loop needs LATENCY_CLKS from its tick to the command; one
-# more lets the command of sample k reach the plant and the ADC sample of t_k+1 reach tick k+1
-# with no extra sample of delay (see tb_closed_loop). cocotb costs about 1 us per clock, so this
-# is kept at that minimum.
-CLKS_PER_SAMPLE = rtl_model.LATENCY_CLKS + 1
 # A 100 MHz system clock (hdl default); simulated time is scaled so that CLKS_PER_SAMPLE clocks
 # are one sample period of the plant (the RTL only counts clocks).
 CLK_PERIOD_NS = 10
-
-
-def rtl_sources() -> list[Path]:
-    """The RTL of the core plus the harness's top (cosim_top.v)."""
-    return sorted((HDL_DIR / "rtl").glob("*.v")) + [HARNESS_DIR / "cosim_top.v"]
 
 
 def build_dir(simulator: str) -> Path:
@@ -94,10 +83,10 @@ def _fingerprint(simulator: str, parameters: dict, args: list[str]) -> str:
     import cocotb  # noqa: PLC0415
 
     h = hashlib.sha256()
-    for path in [*rtl_sources(), HARNESS_DIR / "cosim_top.vlt"]:
+    for path in [*rtl_sources(), ENGINES_DIR / "cosim_top.vlt"]:
         h.update(path.name.encode())
         h.update(path.read_bytes())
-    args = [a.replace(str(HARNESS_DIR), "<harness>") for a in args]
+    args = [a.replace(str(ENGINES_DIR), "<engines>") for a in args]
     h.update(json.dumps([simulator, parameters, args, cocotb.__version__]).encode())
     return h.hexdigest()
 
@@ -114,7 +103,7 @@ def build(simulator: str = "verilator", clks_per_sample: int = CLKS_PER_SAMPLE):
     if simulator == "verilator":
         # No tracing, X's resolved at compile time: the closed loop is bound by per-clock cost.
         args = [
-            str(HARNESS_DIR / "cosim_top.vlt"),
+            str(ENGINES_DIR / "cosim_top.vlt"),
             "-O3",
             "--x-assign",
             "fast",

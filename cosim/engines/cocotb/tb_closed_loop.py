@@ -47,9 +47,14 @@ from cocotb.triggers import Event, RisingEdge, Timer
 from cocotbext.axi import AxiLiteBus, AxiLiteMaster
 
 from cosim.config.scenarios import SimConfig, firmware_t_ref, get_scenario, sample_inputs
-from cosim.engines.common import Record, open_plant, plant_rows, store_plant_rows
+from cosim.engines.common import (
+    TC_LATENCY_SAMPLES,
+    Record,
+    open_plant,
+    plant_rows,
+    store_plant_rows,
+)
 from cosim.engines.fwbridge import FirmwareBridge, loop_words
-from cosim.engines.reference import TC_LATENCY_SAMPLES
 from cosim.parts import regmap
 from cosim.parts.firmware import tension_word
 from cosim.parts.interface import make_chain

@@ -19,15 +19,19 @@ import numpy as np
 
 from cosim.config import scenarios
 from cosim.config.scenarios import SimConfig, get_scenario, held_at, sample_inputs
-from cosim.engines.cocotb.runner import CLKS_PER_SAMPLE
-from cosim.engines.common import Record, open_plant, plant_rows, store_plant_rows
+from cosim.engines.common import (
+    CLKS_PER_SAMPLE,
+    TC_LATENCY_SAMPLES,
+    Record,
+    open_plant,
+    plant_rows,
+    store_plant_rows,
+)
 from cosim.engines.fwbridge import FirmwareBridge, loop_words
 from cosim.parts.firmware import tension_word, tension_words
 from cosim.parts.interface import make_chain
 from cosim.parts.plant import INPUT_NAMES, OUTPUT_NAMES
 from cosim.project.progress import Progress
-
-from ..reference import TC_LATENCY_SAMPLES
 
 API_VERSION = 3
 IFACE_CODES = {"ideal": 0, "adc": 1, "board": 2}
