@@ -290,17 +290,16 @@ uint32_t proto_msg_max_len(uint32_t msg);
 /* 1 when a message travels as CAN segments (its payload may exceed one frame). */
 int proto_msg_can_segmented(uint32_t msg);
 
-/* The parameter table: one entry per word of dev_settings_t (dev.h), in id order. */
+/* An entry of the parameter table (params_table in params.h: one per word of settings_t). */
 #define PROTO_PARAM_I32 0u
 #define PROTO_PARAM_U32 1u
 #define PROTO_PARAM_READ_ONLY 1u
 typedef struct {
     uint32_t key;    /* CRC-32C of the parameter's name (flash records store it) */
-    uint16_t offset; /* byte offset of the word in dev_settings_t */
+    uint16_t offset; /* byte offset of the word in settings_t */
     uint8_t kind;    /* PROTO_PARAM_I32 or PROTO_PARAM_U32 */
     uint8_t flags;   /* PROTO_PARAM_READ_ONLY */
 } proto_param_t;
-extern const proto_param_t proto_params[PROTO_N_PARAMS];
 
 /* Parameter ids. */
 #define PROTO_PID_TICK_RATE_HZ 0u

@@ -84,7 +84,7 @@ static void test_dev_hello_and_params(void)
     g = request(0U, PROTO_MSG_PARAM_INFO, 6U, p, 2U);
     proto_param_info_ack_t info;
     CHECK(proto_param_info_ack_unpack(&info, g.payload, g.len) &&
-              info.key == proto_params[PROTO_PID_LOOP_KFF].key &&
+              info.key == params_table[PROTO_PID_LOOP_KFF].key &&
               info.default_word == BOWDEN_KFF_RESET && info.flags == 0U,
           "info");
     g = request(0U, PROTO_MSG_HELLO, 7U, NULL, 0U);
