@@ -27,11 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cosim.config.scenarios import (
-    COMPENSATORS,
-    SimConfig,
-    get_scenario,
-)
+from cosim.config.run import COMPENSATORS, SimConfig
+from cosim.config.scenarios import get_scenario
 from cosim.parts.interface import INTERFACES
 from cosim.results import trace as trace_mod
 

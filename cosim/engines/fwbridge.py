@@ -7,7 +7,7 @@ words of T_ref come from cosim.parts.firmware directly.
 
 from __future__ import annotations
 
-from cosim.config.scenarios import ControllerParams, SimConfig
+from cosim.config.run import ControllerParams, SimConfig
 from cosim.parts import firmware, regmap, rtl_model
 
 

@@ -17,11 +17,12 @@ import os
 import sys
 import time
 
-from cosim.config.scenarios import COMPENSATORS
+from cosim.config.run import COMPENSATORS
 
 
 def _spec(duration_s: float, compensator: str, bus: str, plant: dict | None = None) -> dict:
-    from cosim.config.scenarios import SimConfig, get_scenario  # noqa: PLC0415
+    from cosim.config.run import SimConfig  # noqa: PLC0415
+    from cosim.config.scenarios import get_scenario
     from cosim.engines.reference import resolve_phi  # noqa: PLC0415
 
     cfg = SimConfig.from_dict({"plant": plant or {}})
@@ -93,7 +94,7 @@ def bench_native(duration_s: float, compensator: str, cocotb_wall: dict[str, flo
 
 def bench_one(duration_s: float, compensator: str, bus: str) -> float:
     """One closed-loop run and its figures."""
-    from cosim.config.scenarios import SimConfig  # noqa: PLC0415
+    from cosim.config.run import SimConfig  # noqa: PLC0415
     from cosim.engines.cocotb import runner  # noqa: PLC0415
 
     cfg = SimConfig()

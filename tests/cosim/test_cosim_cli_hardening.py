@@ -268,7 +268,8 @@ def test_a_short_positions_run_skips_the_fits_it_cannot_make():
     tried to fit the first segment after its 0.3 s move, on no samples, and failed."""
     import numpy as np
 
-    from cosim.config.scenarios import SimConfig, get_scenario
+    from cosim.config.run import SimConfig
+    from cosim.config.scenarios import get_scenario
 
     n = 500
     rec = {

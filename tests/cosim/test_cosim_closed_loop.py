@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cosim.config.scenarios import SimConfig, get_scenario
+from cosim.config.run import SimConfig
+from cosim.config.scenarios import get_scenario
 from cosim.engines import experiment as sim
 from cosim.engines import reference
 from cosim.engines.cocotb import runner
@@ -202,7 +203,7 @@ def test_cosim_params_reach_the_plant_and_the_compensator(built, tmp_path):
     and the compensator's phi is the one given."""
     import json
 
-    from cosim.config.scenarios import load_params
+    from cosim.config.run import load_params
 
     p = tmp_path / "params.json"
     p.write_text(json.dumps({"plant": {"mu": 0.09}, "compensator": {"phi_rad": 6.0}}))

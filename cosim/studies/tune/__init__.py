@@ -41,7 +41,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cosim.config.scenarios import HOME_M, TUNE_SCENARIO, Scenario, SimConfig, _ease, get_scenario
+from cosim.config.run import SimConfig
+from cosim.config.scenarios import HOME_M, TUNE_SCENARIO, Scenario, _ease, get_scenario
 
 # The rule, written once.
 PEAK_WEIGHT = 0.25
