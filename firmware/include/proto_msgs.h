@@ -290,7 +290,7 @@ uint32_t proto_msg_max_len(uint32_t msg);
 /* 1 when a message travels as CAN segments (its payload may exceed one frame). */
 int proto_msg_can_segmented(uint32_t msg);
 
-/* An entry of the parameter table (params_table in params.h: one per word of settings_t). */
+/* An entry of the parameter table (params.h: one per word of settings_t). */
 #define PROTO_PARAM_I32 0u
 #define PROTO_PARAM_U32 1u
 #define PROTO_PARAM_READ_ONLY 1u
