@@ -28,7 +28,8 @@ from pathlib import Path
 
 from cosim.results import trace as trace_mod
 
-from .client import BenchClient, BenchError, fault_names
+from . import messages as msgs
+from .client import BenchClient, BenchError, BenchUsageError, fault_names
 
 Q7_8_LSB_N = 1.0 / 256.0
 Q3_12_LSB_A = 1.0 / 4096.0
@@ -116,6 +117,24 @@ class RunResult:
 WAVE_KINDS = ("sine", "triangle", "ramp", "step", "constant")
 
 
+def run_ticks(seconds: float, tick_hz: float) -> int:
+    """START's duration for `seconds` at the device's tick rate: at least one tick (a duration
+    that rounds to nothing is refused, never sent), at most the largest timed run
+    (START_DURATION.CONTINUOUS, one above it, means until STOP)."""
+    longest = msgs.START_DURATION["CONTINUOUS"] - 1
+    ticks = round(seconds * tick_hz) if math.isfinite(seconds) else longest + 1
+    if ticks < 1:
+        raise BenchUsageError(
+            f"--seconds {seconds:g}: shorter than one tick ({1e3 / tick_hz:g} ms at {tick_hz:g} Hz)"
+        )
+    if ticks > longest:
+        raise BenchUsageError(
+            f"--seconds {seconds:g}: longer than the longest timed run ({longest} ticks, "
+            f"{longest / tick_hz:.0f} s at {tick_hz:g} Hz)"
+        )
+    return ticks
+
+
 def record_run(
     client: BenchClient,
     out_csv: str | Path,
@@ -136,6 +155,7 @@ def record_run(
 
     waveform: one of WAVE_KINDS, or "stream" with `stream_words` (Q7.8 T_ref words, one per tick).
     """
+    ticks = run_ticks(seconds, float(client.get("tick_rate_hz")))  # before anything is set
     if waveform == "stream":
         client.set("source", "host")
     else:
@@ -147,7 +167,6 @@ def record_run(
     tick_hz = float(client.get("tick_rate_hz"))
     div = int(client.get("dev.telemetry_div"))
     rate_hz = tick_hz / div
-    ticks = int(round(seconds * tick_hz))
     meta = {
         "sample_rate_hz": rate_hz,
         "sheath_length_m": float(sheath_length_m),

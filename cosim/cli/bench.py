@@ -14,11 +14,14 @@ that does not open, a device that does not answer, a version mismatch, a device 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import json
 import math
+import os
 import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -26,6 +29,7 @@ from cosim.bench import messages as msgs
 from cosim.bench.client import (
     BenchClient,
     BenchError,
+    BenchUsageError,
     CanLink,
     SerialLink,
     fault_names,
@@ -34,8 +38,61 @@ from cosim.bench.client import (
 from cosim.bench.device import ChainConfig
 from cosim.bench.protocol import ProtocolError, format_value, param, word_from_value
 from cosim.bench.recorder import WAVE_KINDS, record_run, stderr_progress
+from cosim.parts import regmap
+from cosim.results import trace as trace_mod
 
 BACKUP_FORMAT = 1
+# The FPGA's drive enable in the STATUS register (FAULTS.fpga_status).
+STATUS_OUT_EN = 1 << next(f.lsb for f in regmap.REGISTERS["STATUS"].fields if f.name == "OUT_EN")
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM during a bench command (unwinds like Ctrl-C; exit 128 + signum)."""
+
+    def __init__(self, signum: int) -> None:
+        self.signum = signum
+        super().__init__(signal.Signals(signum).name)
+
+
+class Signals:
+    """SIGINT and SIGTERM raise Interrupted in the main thread, once: a later signal is noted,
+    not raised, so that it cannot cut short the STOP that follows. Inside `hold()` (stopping the
+    device) a signal is noted and raised when the hold ends."""
+
+    def __init__(self) -> None:
+        self.signum: int | None = None
+        self._raised = False
+        self._holding = False
+        self._previous: dict = {}
+
+    def __enter__(self) -> Signals:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = {
+                sig: signal.signal(sig, self._handler) for sig in (signal.SIGINT, signal.SIGTERM)
+            }
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+
+    def _handler(self, signum, _frame) -> None:
+        if self.signum is None:
+            self.signum = signum
+        if not self._raised and not self._holding:
+            self._raised = True
+            raise Interrupted(signum)
+
+    @contextlib.contextmanager
+    def hold(self):
+        self._holding = True
+        try:
+            yield
+        finally:
+            self._holding = False
+        if self.signum is not None and not self._raised:
+            self._raised = True
+            raise Interrupted(self.signum)
 
 
 def _position(text: str) -> tuple[float, float, float]:
@@ -173,13 +230,41 @@ def bench_main(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
-    emulator = None
-    link = None
     try:
         plant = _plant_assignments(args.plant)
     except ValueError as exc:
         print(f"bowden bench: {exc}", file=sys.stderr)
         return 2
+    args.signals = Signals()
+    args.stop_report = None  # what the device said when a run was stopped
+    with args.signals:
+        try:
+            return _bench_session(args, plant)
+        except KeyboardInterrupt:  # Interrupted, or Ctrl-C before the handlers were in place
+            signum = args.signals.signum or int(signal.SIGINT)
+            print(
+                f"bowden bench: interrupted by {signal.Signals(signum).name}"
+                + (f"; {args.stop_report}" if args.stop_report else ""),
+                file=sys.stderr,
+            )
+            return 128 + signum
+        except BenchUsageError as exc:
+            print(f"bowden bench: {exc}", file=sys.stderr)
+            return 2
+        except (BenchError, ProtocolError) as exc:
+            stop = f"; {args.stop_report}" if args.stop_report else ""
+            print(f"bowden bench: {exc}{stop}", file=sys.stderr)
+            return 1
+        except OSError as exc:  # a full disk, a folder that cannot be written: say which
+            where = f": {exc.filename}" if exc.filename else ""
+            stop = f"; {args.stop_report}" if args.stop_report else ""
+            print(f"bowden bench: {exc.strerror or exc}{where}{stop}", file=sys.stderr)
+            return 1
+
+
+def _bench_session(args: argparse.Namespace, plant: dict) -> int:
+    emulator = None
+    link = None
     try:
         if args.emulate and args.port:
             raise BenchError(
@@ -203,15 +288,10 @@ def bench_main(args: argparse.Namespace) -> int:
         client = BenchClient(link, timeout_s=args.timeout)
         info = client.connect()
         return _COMMANDS[args.bench_command](client, args, info)
-    except KeyboardInterrupt:
-        print("bowden bench: interrupted", file=sys.stderr)
-        return 130
-    except (BenchError, ProtocolError) as exc:
-        print(f"bowden bench: {exc}", file=sys.stderr)
-        return 1
     finally:
-        if link is not None:
-            link.close()
+        with contextlib.suppress(Exception):
+            if link is not None:
+                link.close()
         if emulator is not None:
             emulator.stop()
 
@@ -414,17 +494,21 @@ def _cmd_run(client: BenchClient, args, info) -> int:
         words = _read_ref(args.ref)
     elif args.ref:
         raise BenchError("--ref is for `run stream` only")
+    out = _run_target(args.out)
     if client.stale_telemetry:
         print(
             f"note: the device was streaming when we connected: stopped it "
             f"({client.stale_telemetry} stale frames skipped)",
             file=sys.stderr,
         )
-    prev = signal.signal(signal.SIGTERM, _sigterm)
+    # The run's rows go to NAME.partial.csv, moved onto --out when the run ends (a failed run
+    # never wipes an earlier recording; a run killed with SIGKILL leaves the partial file).
+    partial = out.with_name(f"{out.stem}.partial{out.suffix}")
+    result = None
     try:
         result = record_run(
             client,
-            args.out,
+            partial,
             seconds=args.seconds,
             waveform=args.waveform,
             mean_n=args.mean,
@@ -436,16 +520,23 @@ def _cmd_run(client: BenchClient, args, info) -> int:
             sheath_length_m=args.sheath_length,
             progress=None if args.quiet else stderr_progress,
         )
-    except KeyboardInterrupt:
-        try:
-            client.request("STOP")
-        except BenchError:
-            pass
-        print(f"bowden bench: interrupted; {args.out} holds the samples up to now", file=sys.stderr)
-        return 130
     finally:
-        signal.signal(signal.SIGTERM, prev)
-    print(f"{args.out}: {result.summary()} ({result.wall_s:.1f} s)")
+        # Every way out of a run (the end, a signal, a link error, an exception, a full disk)
+        # passes here: STOP, then the device's own word that it stopped and the output is off.
+        with args.signals.hold():
+            why_not = stop_and_confirm(client)
+            args.stop_report = (
+                "device stopped, output disabled (confirmed by the device)"
+                if why_not is None
+                else f"the device did NOT confirm that it stopped ({why_not}): it ends the run "
+                "by itself after --seconds; switch the drive off"
+            )
+            kept = _keep_recording(partial, out)
+            if result is None and kept:
+                args.stop_report = f"{out} holds the samples up to now; {args.stop_report}"
+    if why_not is not None:
+        raise BenchError(f"{out}: {result.summary()}")
+    print(f"{out}: {result.summary()} ({result.wall_s:.1f} s)")
     for first, count in result.gaps[:5]:
         print(f"  gap: {count} sample(s) missing from sample {first}")
     if result.drops or result.stopped_early:
@@ -461,6 +552,59 @@ def _cmd_run(client: BenchClient, args, info) -> int:
 
 def _sigterm(signum, frame):
     raise KeyboardInterrupt
+
+
+def stop_and_confirm(client: BenchClient, tries: int = 3, settle_s: float = 0.5) -> str | None:
+    """Send STOP, then ask the device: None when HELLO says no run is active and the FPGA's
+    STATUS shows the drive output disabled; otherwise why that could not be confirmed. The FPGA
+    takes STOP's CTRL write at its next sample: STATUS is read again for up to `settle_s`."""
+    client.on_telemetry = None
+    why = "no answer"
+    for _ in range(tries):
+        try:
+            client.request("STOP")
+            deadline = time.monotonic() + settle_s
+            while True:
+                running = client.hello().running
+                out_en = client.faults()["fpga_status"] & STATUS_OUT_EN
+                if (not running and not out_en) or time.monotonic() >= deadline:
+                    break
+                client.poll(0.02)  # (the stepped emulator advances its loop here)
+        except (BenchError, ProtocolError, OSError) as exc:
+            why = str(exc)
+            continue
+        if not running and not out_en:
+            return None
+        why = "a run is still active" if running else "the FPGA's output is still enabled"
+    return why
+
+
+def _run_target(text: str) -> Path:
+    """--out checked before anything is sent or written: a CSV file name, not a folder."""
+    out = Path(text)
+    if out.is_dir() or text.endswith(os.sep):
+        raise BenchUsageError(f"--out {text}: is a folder; give a CSV file name (e.g. run.csv)")
+    if out.exists() and not out.is_file():
+        raise BenchUsageError(f"--out {text}: not a regular file")
+    return out
+
+
+def _keep_recording(partial: Path, out: Path) -> bool:
+    """Move a run's rows (and sidecar) onto `out` when it recorded any; otherwise remove the
+    partial files and leave `out` as it was. True when `out` now holds the run."""
+    meta = trace_mod.meta_path(partial)
+    rows = 0
+    if partial.exists():
+        with partial.open("rb") as f:
+            rows = sum(1 for _ in f) - 1
+    if rows <= 0:
+        for p in (partial, meta):
+            p.unlink(missing_ok=True)
+        return False
+    if meta.exists():
+        meta.replace(trace_mod.meta_path(out))
+    partial.replace(out)
+    return True
 
 
 _FAULT_DOCS = {

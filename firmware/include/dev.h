@@ -12,7 +12,8 @@
  * a reply, for which room is always kept.
  *
  * Requests are answered on the port they came from; telemetry goes to the port that sent START.
- * A run ends at STOP, after START's duration, or never by itself with duration 0. Parameter
+ * A run ends at STOP or after START's duration; it never ends by itself only when START asks
+ * for PROTO_START_DURATION_CONTINUOUS, and a duration of 0 is refused. Parameter
  * writes, PERSIST, LOAD and DEFAULTS are refused while a run is active (BUSY): the loop's register
  * words reach the FPGA at START (fw_start), so a change mid-run would not do what it says.
  */
@@ -83,7 +84,7 @@ typedef struct {
     uint32_t running;
     uint32_t owner;         /* port that started the run */
     uint32_t run_ticks;
-    uint32_t run_limit;     /* 0: until STOP */
+    uint32_t run_limit;     /* 0: until STOP (START_DURATION_CONTINUOUS) */
     uint32_t faults;        /* device fault bits (PROTO_FAULTS_*, bits 4..7), latched */
     uint32_t overflow;      /* telemetry frames dropped since boot */
     uint32_t time_us;

@@ -473,10 +473,7 @@ def gen_h(spec: Spec) -> str:
     w("/* 1 when a message travels as CAN segments (its payload may exceed one frame). */")
     w("int proto_msg_can_segmented(uint32_t msg);")
     w("")
-    w(
-        "/* An entry of the parameter table (params_table in params.h: one per word of "
-        "settings_t). */"
-    )
+    w("/* An entry of the parameter table (params.h: one per word of settings_t). */")
     w("#define PROTO_PARAM_I32 0u")
     w("#define PROTO_PARAM_U32 1u")
     w("#define PROTO_PARAM_READ_ONLY 1u")

@@ -311,11 +311,18 @@ static void on_start(dev_t *d, uint32_t port, const proto_frame_t *req)
         reply_busy(d, port, req);
         return;
     }
+    /* A zero duration is a host's rounding to nothing, never "forever": a run without an end
+     * must be asked for by name (PROTO_START_DURATION_CONTINUOUS). */
+    if (m.duration_ticks == 0U) {
+        reply_error(d, port, req, PROTO_ERR_INVALID_VALUE, 0,
+                    "duration 0: >= 1 tick or CONTINUOUS");
+        return;
+    }
     fw_start(d->fw);
     d->running = 1U;
     d->owner = port;
     d->run_ticks = 0U;
-    d->run_limit = m.duration_ticks;
+    d->run_limit = (m.duration_ticks == PROTO_START_DURATION_CONTINUOUS) ? 0U : m.duration_ticks;
     d->faults &= ~(uint32_t)RUN_FAULTS;
     reply_ack(d, port, req, d->settings.fw.tick_rate_hz);
 }
