@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from audit_data import fmu_record
 
 from cosim.audit import twin
+from cosim.audit.synthetic import fmu_record
 from cosim.config.run import load_params
 from cosim.engines import experiment as sim
 from cosim.parts.geometry import bending_angle
