@@ -17,7 +17,7 @@ from cosim.project.cliargs import shown
 COMPENSATORS = tuple(MODES)
 
 # The paper's bench: Table I (Maxon RE25 k_t 23.4 mNm/A, 5.4:1 gearhead, efficiency ~0.9
-# assumed, spool radius ~10 mm). Kff = r / (N * eta * k_t) in A/N (contract.md).
+# assumed, spool radius ~10 mm). Kff = r / (N * eta * k_t) in A/N.
 SPOOL_RADIUS_M = 0.010
 GEAR_RATIO = 5.4
 GEAR_EFFICIENCY = 0.9
@@ -29,8 +29,8 @@ KFF_A_PER_N = SPOOL_RADIUS_M / (GEAR_RATIO * GEAR_EFFICIENCY * TORQUE_CONSTANT_N
 class ControllerParams:
     """The tension loop's gains and limits in SI units (the RTL holds them in fixed point).
 
-    Kff from the bench (contract.md); Kp and Ki chosen for a loop that tracks T_c within a few
-    milliseconds against the FMU's drive, motor and cable (tuned in co-simulation; see README).
+    Kff from the bench (paper Table I, above); Kp and Ki chosen for a loop that tracks T_c within a
+    few milliseconds against the FMU's drive, motor and cable (tuned in co-simulation; see README).
     """
 
     kff_a_per_n: float = KFF_A_PER_N
@@ -133,8 +133,8 @@ class BoardParams:
 class SimConfig:
     """Everything a run needs besides the scenario: rates, plant, controller, compensator."""
 
-    sample_rate_hz: float = 10_000.0  # FPGA tension loop (issue 4 default)
-    firmware_rate_hz: float = 1_000.0  # processor's compensator tick (issue 5 default)
+    sample_rate_hz: float = 10_000.0  # FPGA tension loop (hdl/README.md default)
+    firmware_rate_hz: float = 1_000.0  # processor's compensator tick (firmware default)
     plant: dict[str, float] = field(default_factory=dict)  # FMU parameter overrides by name
     controller: ControllerParams = field(default_factory=ControllerParams)
     compensator: CompensatorParams = field(default_factory=CompensatorParams)

@@ -227,9 +227,9 @@ def _lissajous(swing_m, periods_s, centre_m=HOME_M):
     return trajectory
 
 
-# Tuning scenario (issue 11): a chirp, so that the chosen parameters see reversals from slow to
-# sharp; its own range (3 .. 13 N) and a small path near home. Held-out scenarios below differ in
-# frequency, amplitude, wave shape or path; none of them is used by the tuning.
+# Tuning scenario (cosim/README.md, "Tuning"): a chirp, so that the chosen parameters see reversals
+# from slow to sharp; its own range (3 .. 13 N) and a small path near home. Held-out scenarios
+# below differ in frequency, amplitude, wave shape or path; none of them is used by the tuning.
 TUNE_DURATION_S = 12.0
 HELD_OUT_DURATION_S = 10.0
 

@@ -1,6 +1,6 @@
 """The firmware's host build (build/firmware/host/libbowden_fw.so) through ctypes.
 
-Three things, as the co-simulation needs them (contract.md, "Firmware on the host"):
+Three things, as the co-simulation needs them (firmware/README.md, host build):
 
 - `Compensator`: the fixed-point friction compensator (firmware/include/comp.h), stepped one
   Q7.8 reference at a time or over an array;
@@ -648,7 +648,8 @@ def _addr(reg: int | str) -> int:
 
 
 class Firmware:
-    """The firmware on a register shadow: start, tick, drain the register writes (contract.md)."""
+    """The firmware on a register shadow: start, tick, drain the register writes (no callbacks into
+    Python)."""
 
     def __init__(self, config: FirmwareConfig | None = None):
         self._lib = load_library()

@@ -4,8 +4,8 @@ Runs the 30 s fig14 scenario (compensator paper, loop routing) through the RTL o
 the default 10 kHz loop with the firmware and the FMU, and prints simulated seconds per wall
 second and the cost split: RTL (Verilator and cocotb's per-clock scheduling, calibrated on bare
 samples), FMU steps, firmware ticks, and the harness (AXI4-Lite driver coroutines and per-sample
-glue). Targets (issue 6): real time or better, and harness <= RTL + FMU + firmware. Then the
-same run on the native engine (cosim/native, issue 14; target 20x real time or better) and its
+glue). Targets: real time or better, and harness <= RTL + FMU + firmware. Then the
+same run on the native engine (cosim/engines/native; target 20x real time or better) and its
 speed against the cocotb runs of the same invocation. A benchmark prints figures and does not
 fail on a slow or busy machine.
 """

@@ -1,4 +1,4 @@
-"""`make audit-sweep`: the many-seed sweep of issue 9's acceptance, too long for `make test`.
+"""`make audit-sweep`: the many-seed sweep of the audit's acceptance, too long for `make test`.
 
 For every cause of the vocabulary, two random causes at once, no effect and a 50 Hz pickup, with
 N seeds each (argument, default 3), FMU data of 30 s are made with the effects at random

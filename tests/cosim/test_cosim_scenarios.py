@@ -62,7 +62,7 @@ def test_cosim_scenarios_unknown_name_is_a_clear_error():
 
 
 def test_cosim_scenarios_kff_matches_the_contract():
-    # contract.md: 0.01 / (5.4 * 0.9 * 0.0234) ~ 0.088 A/N
+    # paper Table I: 0.01 / (5.4 * 0.9 * 0.0234) ~ 0.088 A/N
     assert run_cfg.KFF_A_PER_N == pytest.approx(0.088, abs=5e-4)
 
 

@@ -1,5 +1,6 @@
 """`bowden tune`: choose the loop gains, the smooth band and the preview parameters on the `tune`
-scenario only, and state the stability margin (issue 11, "honest tuning").
+scenario only, and state the stability margin ("honest tuning": chosen on one scenario, reported
+on others).
 
 Procedure (one command, deterministic; the lead re-runs it when the board's chain changes):
 
