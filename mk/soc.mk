@@ -63,3 +63,21 @@ $(SOC_FW_HEX): $(SOC_FW_BIN) firmware/soc/tools/mkimage.py
 
 $(SOC_FW_SIZE): $(SOC_FW_ELF) firmware/soc/tools/rv32_report.py
 	$(PY) firmware/soc/tools/rv32_report.py $< --stack-max $(SOC_STACK_BYTES) --out $@
+
+# --- RTL: lint (part of make lint) -------------------------------------------------------------
+#
+#   make lint-soc   verilator --lint-only -Wall on every module of hdl/soc/ as its own top, with
+#                   picorv32 from its package (its own findings waived in hdl/soc/bowden_soc.vlt)
+
+SOC_RTL := $(sort $(wildcard hdl/soc/*.v))
+SOC_PICORV32 = $(shell $(PY) -c "import pythondata_cpu_picorv32 as p; print(p.data_location)")/picorv32.v
+LINT_TARGETS += lint-soc
+
+.PHONY: lint-soc
+lint-soc: $(VENV_STAMP)
+	@set -e; for f in $(SOC_RTL); do \
+	  m=$$(basename $$f .v); \
+	  verilator --lint-only --quiet -Wall -Ihdl/rtl --top-module $$m hdl/soc/bowden_soc.vlt \
+	    $(SOC_PICORV32) $(HDL_RTL) $(SOC_RTL); \
+	done
+	@echo "lint-soc: $(words $(SOC_RTL)) SoC modules clean"
