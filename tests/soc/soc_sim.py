@@ -14,7 +14,7 @@ import pythondata_cpu_picorv32
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
 
 from cosim.bench import protocol
-from cosim.paths import BUILD_DIR, HDL_DIR
+from cosim.project.paths import BUILD_DIR, HDL_DIR
 
 CLK_HZ = 24_000_000
 BAUD = 921_600

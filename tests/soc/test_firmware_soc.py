@@ -10,7 +10,7 @@ import sys
 
 import pytest
 
-from cosim.paths import BUILD_DIR, REPO_ROOT
+from cosim.project.paths import BUILD_DIR, REPO_ROOT
 
 SOC = BUILD_DIR / "firmware" / "soc"
 REPORT = REPO_ROOT / "firmware" / "soc" / "tools" / "rv32_report.py"
