@@ -86,6 +86,7 @@ def run_cocotb(
     parameters: dict[str, object] | None = None,
     tag: str = "",
     extra_env: dict[str, str] | None = None,
+    build_args: list[str] | None = None,
 ) -> int:
     """Build `toplevel` with `simulator` (reusing an earlier build) and run the cocotb tests.
 
@@ -103,6 +104,7 @@ def run_cocotb(
         build_dir=build_dir,
         timescale=("1ns", "1ps"),
         waves=waves,
+        build_args=build_args or [],
     )
     env = dict(extra_env or {})
     if simulator == "icarus":
