@@ -22,6 +22,7 @@ import sys
 import time
 from pathlib import Path
 
+from . import commands
 from . import messages as msgs
 from .client import (
     BenchClient,
@@ -90,7 +91,11 @@ def _add_bench(subparsers) -> None:
     # Neither the link nor the COMMAND is `required` for argparse: it would report a missing one
     # before an unknown option; bench_main names what is missing instead.
     link = p.add_mutually_exclusive_group()
-    link.add_argument("--port", help="pyserial URL: /dev/ttyUSB0, /dev/pts/N, socket://HOST:PORT")
+    link.add_argument(
+        "--port",
+        help="pyserial URL: /dev/ttyUSB0, /dev/pts/N, socket://HOST:PORT; auto: the only "
+        "controller found on the ports pyserial lists (see `list`)",
+    )
     link.add_argument(
         "--can", help="python-can INTERFACE:CHANNEL, e.g. virtual:bench, socketcan:can0"
     )
@@ -146,6 +151,7 @@ def _add_bench(subparsers) -> None:
     run.add_argument("--no-loop-routing", dest="loop_routing", action="store_false")
     run.add_argument("--sheath-length", type=_positive(float), default=1.0, help="m")
     run.add_argument("--quiet", action="store_true", help="no progress line")
+    commands.add_parsers(sub)
     p.set_defaults(func=bench_main)
 
 
@@ -156,7 +162,7 @@ def _open_link(args):
 
 
 def bench_main(args: argparse.Namespace) -> int:
-    if not args.port and not args.can and not args.emulate:
+    if not args.port and not args.can and not args.emulate and args.bench_command != "list":
         print(
             "bowden bench: one of --port URL, --can INTERFACE:CHANNEL or --emulate is required "
             "(see bowden bench --help)",
@@ -190,6 +196,10 @@ def bench_main(args: argparse.Namespace) -> int:
             loop_routing=getattr(args, "loop_routing", True),
             plant=plant or None,
         )
+        if args.bench_command == "list":
+            return commands.cmd_list(args, chain)
+        if (rc := commands.resolve_port(args)) is not None:
+            return rc
         if args.emulate and args.can:
             from .emulator import Emulator  # noqa: PLC0415
 
