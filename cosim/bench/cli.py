@@ -33,10 +33,9 @@ from .client import (
     status_names,
 )
 from .device import ChainConfig
+from .diff import BACKUP_FORMAT
 from .protocol import ProtocolError, format_value, param, word_from_value
 from .recorder import WAVE_KINDS, record_run, stderr_progress
-
-BACKUP_FORMAT = 1
 
 
 def _position(text: str) -> tuple[float, float, float]:
@@ -179,6 +178,8 @@ def bench_main(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
+    if (rc := commands.precheck(args)) is not None:
+        return rc
     emulator = None
     link = None
     try:
@@ -495,6 +496,7 @@ _COMMANDS = {
     "faults": _cmd_faults,
     "stats": _cmd_stats,
     "run": _cmd_run,
+    **commands.COMMANDS,
 }
 
 

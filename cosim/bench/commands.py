@@ -1,18 +1,19 @@
 """The `bowden bench` commands beyond the protocol's own: `list` and `--port auto` (finding
-controllers).
-cli.py calls `add_parsers` and dispatches to them.
+controllers), `diff` (what changed in a configuration).
+cli.py calls `add_parsers`, `precheck` before anything is sent, and dispatches to them.
 """
 
 from __future__ import annotations
 
 import sys
 
-from . import discover
+from . import diff, discover
 from . import messages as msgs
+from .protocol import param
 
 
 def add_parsers(sub) -> None:
-    """Add `list` to the `bowden bench` COMMAND subparsers."""
+    """Add `list` and `diff` to the `bowden bench` COMMAND subparsers."""
     sub.add_parser(
         "list",
         help="find controllers: HELLO on every serial port pyserial lists (or the --port "
@@ -21,6 +22,52 @@ def add_parsers(sub) -> None:
         "protocol version, table hash and state. Nothing but HELLO is sent: a run in progress "
         "goes on.",
     )
+    d = sub.add_parser(
+        "diff",
+        help="how the device's parameters differ from a backup or params file, or the factory "
+        "defaults (--defaults), in SI units",
+        description="Parameter by parameter, in SI units: the device against a backup "
+        '(`bowden bench backup`), a params file of device parameters ({"loop.kp": 0.1}) or '
+        "a co-simulation params file (`bowden sim --params`), or the factory defaults. Values "
+        "are compared as the device's words.",
+    )
+    d.add_argument("file", nargs="?", metavar="FILE", help="backup or params file (JSON)")
+    d.add_argument("--defaults", action="store_true", help="compare with the factory defaults")
+    d.add_argument("--all", action="store_true", help="show equal parameters too")
+
+
+def precheck(args) -> int | None:
+    """Checks of a command's files before anything is sent: one line and exit 2 on bad input."""
+    if args.bench_command != "diff":
+        return None
+    if (args.file is None) == (not args.defaults):
+        print("bowden bench diff: give FILE or --defaults (one of them)", file=sys.stderr)
+        return 2
+    if args.file is not None:
+        try:
+            args.reference = diff.load_file(args.file)
+        except diff.DiffFileError as exc:
+            print(f"bowden bench {exc}", file=sys.stderr)
+            return 2
+    return None
+
+
+def cmd_diff(client, args, info) -> int:
+    """`bowden bench diff`: the device's words against the file's (or the defaults)."""
+    device = client.params()
+    if args.defaults:
+        words = {}
+        for p in msgs.PARAMS:
+            _, v = client.request("PARAM_INFO", param=param(p.name).id)
+            words[p.name] = v["default_word"]
+        ref = diff.Reference(label="factory default", words=words)
+    else:
+        ref = args.reference
+    print(diff.render(diff.compare(device, ref), ref, show_all=args.all))
+    return 0
+
+
+COMMANDS = {"diff": cmd_diff}
 
 
 def resolve_port(args) -> int | None:
