@@ -24,11 +24,10 @@ from pathlib import Path
 
 from . import commands
 from . import messages as msgs
+from .api import Bench
 from .client import (
     BenchClient,
     BenchError,
-    CanLink,
-    SerialLink,
     fault_names,
     status_names,
 )
@@ -154,12 +153,6 @@ def _add_bench(subparsers) -> None:
     p.set_defaults(func=bench_main)
 
 
-def _open_link(args):
-    if args.port:
-        return SerialLink(args.port, baud=args.baud)
-    return CanLink(args.can, node=args.node)
-
-
 def bench_main(args: argparse.Namespace) -> int:
     if not args.port and not args.can and not args.emulate and args.bench_command != "list":
         print(
@@ -180,8 +173,7 @@ def bench_main(args: argparse.Namespace) -> int:
         return 2
     if (rc := commands.precheck(args)) is not None:
         return rc
-    emulator = None
-    link = None
+    session = None
     try:
         plant = _plant_assignments(args.plant)
     except ValueError as exc:
@@ -201,19 +193,16 @@ def bench_main(args: argparse.Namespace) -> int:
             return commands.cmd_list(args, chain)
         if (rc := commands.resolve_port(args)) is not None:
             return rc
-        if args.emulate and args.can:
-            from .emulator import Emulator  # noqa: PLC0415
-
-            emulator = Emulator(pty=False, tcp_port=None, can=args.can, chain=chain).start()
-        if args.emulate and not args.can:
-            from .emulator import SteppedLink  # noqa: PLC0415
-
-            link = SteppedLink(chain)
-        else:
-            link = _open_link(args)
-        client = BenchClient(link, timeout_s=args.timeout)
-        info = client.connect()
-        return _COMMANDS[args.bench_command](client, args, info)
+        session = Bench(
+            args.port,
+            can=args.can,
+            node=args.node,
+            baud=args.baud,
+            timeout_s=args.timeout,
+            emulate=args.emulate,
+            chain=chain,
+        )
+        return _COMMANDS[args.bench_command](session.client, args, session.connect_info)
     except KeyboardInterrupt:
         print("bowden bench: interrupted", file=sys.stderr)
         return 130
@@ -221,10 +210,8 @@ def bench_main(args: argparse.Namespace) -> int:
         print(f"bowden bench: {exc}", file=sys.stderr)
         return 1
     finally:
-        if link is not None:
-            link.close()
-        if emulator is not None:
-            emulator.stop()
+        if session is not None:
+            session.close()
 
 
 def _cmd_info(client: BenchClient, args, info) -> int:
