@@ -22,7 +22,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import commands
+from . import commands, live
 from . import messages as msgs
 from .api import Bench
 from .client import (
@@ -34,7 +34,7 @@ from .client import (
 from .device import ChainConfig
 from .diff import BACKUP_FORMAT
 from .protocol import ProtocolError, format_value, param, word_from_value
-from .recorder import WAVE_KINDS, record_run, stderr_progress
+from .recorder import WAVE_KINDS, stderr_progress
 
 
 def _position(text: str) -> tuple[float, float, float]:
@@ -149,6 +149,7 @@ def _add_bench(subparsers) -> None:
     run.add_argument("--no-loop-routing", dest="loop_routing", action="store_false")
     run.add_argument("--sheath-length", type=_positive(float), default=1.0, help="m")
     run.add_argument("--quiet", action="store_true", help="no progress line")
+    live.add_arguments(run)
     commands.add_parsers(sub)
     p.set_defaults(func=bench_main)
 
@@ -420,9 +421,10 @@ def _cmd_run(client: BenchClient, args, info) -> int:
         )
     prev = signal.signal(signal.SIGTERM, _sigterm)
     try:
-        result = record_run(
+        result = commands.record_with_view(
             client,
-            args.out,
+            args,
+            f"{args.waveform} -> {args.out}",
             seconds=args.seconds,
             waveform=args.waveform,
             mean_n=args.mean,

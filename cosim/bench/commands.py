@@ -1,19 +1,23 @@
 """The `bowden bench` commands beyond the protocol's own: `list` and `--port auto` (finding
-controllers), `diff` (what changed in a configuration).
+controllers), `diff` (what changed in a configuration), `watch` and `run --live` (the live view).
 cli.py calls `add_parsers`, `precheck` before anything is sent, and dispatches to them.
 """
 
 from __future__ import annotations
 
 import sys
+import tempfile
+from pathlib import Path
 
-from . import diff, discover
+from . import diff, discover, live
 from . import messages as msgs
+from .client import BenchError
 from .protocol import param
+from .recorder import RunResult, record_run
 
 
 def add_parsers(sub) -> None:
-    """Add `list` and `diff` to the `bowden bench` COMMAND subparsers."""
+    """Add `list`, `diff` and `watch` to the `bowden bench` COMMAND subparsers."""
     sub.add_parser(
         "list",
         help="find controllers: HELLO on every serial port pyserial lists (or the --port "
@@ -34,10 +38,30 @@ def add_parsers(sub) -> None:
     d.add_argument("file", nargs="?", metavar="FILE", help="backup or params file (JSON)")
     d.add_argument("--defaults", action="store_true", help="compare with the factory defaults")
     d.add_argument("--all", action="store_true", help="show equal parameters too")
+    w = sub.add_parser(
+        "watch",
+        help="run the device's configured waveform and show it live (terminal or local page)",
+        description="Start the waveform the device is set to (wave.kind, wave.mean_n, ...: "
+        "`set` them first) for --seconds, show T_ref, T_c, T_in, T_out, the current and the "
+        "faults live, and record every sample. Ctrl-C stops the device at once.",
+    )
+    w.add_argument("--seconds", type=float, default=600.0, help="run length (default 600 s)")
+    w.add_argument("--out", help="trace CSV (default: a new file in a temporary folder)")
+    live.add_arguments(w, required_live=True)
 
 
 def precheck(args) -> int | None:
-    """Checks of a command's files before anything is sent: one line and exit 2 on bad input."""
+    """Checks of a command's files and options before anything is sent: one line and exit 2 on
+    bad input."""
+    if getattr(args, "live", None):
+        try:
+            live.check_options(args)
+        except ValueError as exc:
+            print(f"bowden bench: {exc}", file=sys.stderr)
+            return 2
+    if args.bench_command == "watch" and not 0 < args.seconds <= 86_400:
+        print(f"bowden bench: --seconds {args.seconds:g}: outside (0, 86400]", file=sys.stderr)
+        return 2
     if args.bench_command != "diff":
         return None
     if (args.file is None) == (not args.defaults):
@@ -67,7 +91,55 @@ def cmd_diff(client, args, info) -> int:
     return 0
 
 
-COMMANDS = {"diff": cmd_diff}
+def record_with_view(client, args, label: str, **kw) -> RunResult:
+    """record_run, with the live view `args.live` asks for when it asks for one (the progress
+    line gives way to a terminal view)."""
+    if not getattr(args, "live", None):
+        return record_run(client, args.out, **kw)
+    rate_hz = float(client.get("tick_rate_hz")) / int(client.get("dev.telemetry_div"))
+    view = live.open_live(args, label, rate_hz)
+    if view.owns_terminal:
+        kw["progress"] = None
+    result = None
+    try:
+        result = record_run(client, args.out, tap=view.tap, **kw)
+    finally:
+        view.close(
+            f"run ended: {result.summary()}" if result else "run interrupted: the device is stopped"
+        )
+    return result
+
+
+def cmd_watch(client, args, info) -> int:
+    """`bowden bench watch`: the device's configured waveform, live, recorded."""
+    if args.out is None:
+        args.out = str(Path(tempfile.mkdtemp(prefix="bowden-watch-")) / "watch.csv")
+    kind = client.get("wave.kind")
+    wave = {k: float(client.get(f"wave.{k}")) for k in ("mean_n", "amplitude_n", "freq_hz")}
+    label = f"{kind} {wave['mean_n']:g} +- {wave['amplitude_n']:g} N at {wave['freq_hz']:g} Hz"
+    try:
+        result = record_with_view(
+            client,
+            args,
+            f"{label} -> {args.out}",
+            seconds=args.seconds,
+            waveform=kind,
+            mean_n=wave["mean_n"],
+            amplitude_n=wave["amplitude_n"],
+            freq_hz=wave["freq_hz"],
+        )
+    except KeyboardInterrupt:
+        try:
+            client.request("STOP")
+        except BenchError:
+            pass
+        print(f"bowden bench: stopped; {args.out} holds the samples up to now", file=sys.stderr)
+        return 130
+    print(f"{args.out}: {result.summary()} ({result.wall_s:.1f} s)")
+    return 0 if not (result.drops or result.stopped_early) else 1
+
+
+COMMANDS = {"diff": cmd_diff, "watch": cmd_watch}
 
 
 def resolve_port(args) -> int | None:
