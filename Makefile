@@ -48,14 +48,14 @@ help:
 
 setup: $(VENV_STAMP)
 
-$(VENV_STAMP): requirements.txt pyproject.toml cosim/toolchain.py
+$(VENV_STAMP): requirements.txt pyproject.toml cosim/project/toolchain.py
 	@$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 10) else \
 	  "python3 >= 3.10 is needed, found " + sys.version.split()[0])'
 	@test -x $(VENV)/bin/python || $(PYTHON) -m venv $(VENV)
 	$(VENV)/bin/python -m pip install --quiet --upgrade pip
 	$(VENV)/bin/python -m pip install --quiet -r requirements.txt
 	$(VENV)/bin/python -m pip install --quiet --no-deps -e .
-	$(VENV)/bin/python -m cosim.toolchain install
+	$(VENV)/bin/python -m cosim.project.toolchain install
 	@touch $@
 
 doctor: $(VENV_STAMP)

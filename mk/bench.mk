@@ -18,8 +18,8 @@ BENCH_HOST := $(BENCH_OUT)/host
 BENCH_M4 := $(BENCH_OUT)/cortex-m4
 # Every target source of the firmware (not the double twin): a file added there joins the build.
 BENCH_TARGET_SRC := $(filter-out firmware/src/comp_f64.c,$(sort $(wildcard firmware/src/*.c)))
-BENCH_OWN_SRC := $(addprefix firmware/src/,crc32c.c proto.c proto_can.c proto_msgs.c params.c \
-  flash.c dev.c)
+BENCH_OWN_SRC := $(addprefix firmware/src/,crc32c.c proto.c proto_can.c proto_msgs.c settings.c params.c \
+  params_table.c flash.c dev.c)
 BENCH_HOST_SRC := firmware/host/flash_ram.c firmware/host/dev_host.c cosim/bench/native/emu.c
 BENCH_HDR := $(sort $(wildcard firmware/include/*.h firmware/host/*.h cosim/bench/native/*.h \
   firmware/tests/*.h firmware/tests/bench/*.h))
@@ -133,4 +133,4 @@ fuzz-proto-libfuzzer:
 	fi
 
 bench-proto: bench-target $(BENCH_CG) $(BENCH_SO) fmu
-	$(PY) -m cosim.bench.benchmarks --cg $(BENCH_CG) --size $(BENCH_M4)/size.txt
+	$(PY) -m cosim.perf.rig --cg $(BENCH_CG) --size $(BENCH_M4)/size.txt

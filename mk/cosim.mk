@@ -7,8 +7,8 @@
 #   make demo         (top-level) runs `bowden demo`: fig14 for paper/smooth with loop routing and
 #                     paper without, outputs in build/demo/
 
-COSIM_RTL := $(sort $(wildcard hdl/rtl/*.v)) cosim/harness/cosim_top.v cosim/harness/cosim_top.vlt \
-  cosim/rtl_model.py
+COSIM_RTL := $(sort $(wildcard hdl/rtl/*.v)) cosim/engines/cosim_top.v cosim/engines/cosim_top.vlt \
+  cosim/parts/rtl_model.py
 COSIM_STAMP := $(BUILD)/cosim/verilator/.built
 
 .PHONY: cosim-build bench-cosim
@@ -17,9 +17,9 @@ BENCH_TARGETS += bench-cosim
 
 cosim-build: $(COSIM_STAMP)
 
-$(COSIM_STAMP): $(VENV_STAMP) $(COSIM_RTL) cosim/harness/runner.py
-	$(PY) -m cosim.harness.runner build
+$(COSIM_STAMP): $(VENV_STAMP) $(COSIM_RTL) cosim/engines/cocotb/runner.py
+	$(PY) -m cosim.engines.cocotb.runner build
 	@touch $@
 
 bench-cosim: $(COSIM_STAMP) fmu firmware native
-	$(PY) -m cosim.cosim_bench
+	$(PY) -m cosim.perf.closed_loop

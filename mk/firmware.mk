@@ -1,6 +1,6 @@
 # --- firmware: the friction compensator and the processor's side of the FPGA (firmware/README.md)
 #
-#   make firmware         build/firmware/host/libbowden_fw.so (ctypes, cosim/firmware.py) and the
+#   make firmware         build/firmware/host/libbowden_fw.so (ctypes, cosim/parts/firmware.py) and the
 #                         host unit-test program build/firmware/host/fw_unit_tests (run by pytest),
 #                         also built with UBSan + ASan (fw_unit_tests_san): no overflow, no UB
 #   make firmware-lint    every C file with -Wall -Wextra -Wpedantic -Werror, on the host and for

@@ -62,10 +62,10 @@ fmu-lint: $(FMU_GEN)/.stamp
 	$(FMU_CC) $(FMU_WARN) -O2 -fsyntax-only $(FMU_INC) $(FMU_C)
 
 fmu-bench: $(FMU_FILE)
-	$(PY) -m cosim.fmu_bench
+	$(PY) -m cosim.perf.fmu
 
 # The FMU convergence study (cosim/convergence, fmu/README.md "Convergence"): max_step and sheath
 # segments against a fine reference, on the native closed loop. Not part of `make test`.
 .PHONY: fmu-convergence
 fmu-convergence: $(FMU_FILE) native
-	$(PY) -m cosim.convergence
+	$(PY) -m cosim.studies.convergence

@@ -9,7 +9,7 @@ HDL_RTL := $(sort $(wildcard hdl/rtl/*.v))
 HDL_BOARD_STUBS := $(sort $(wildcard hdl/boards/stubs/*.v))
 HDL_BOARD_TOPS := $(sort $(wildcard hdl/boards/*_top.v))
 REGMAP_SRC := hdl/regmap/bowden_regs.json hdl/regmap/gen_regmap.py
-REGMAP_OUT := hdl/rtl/bowden_regs.v firmware/include/bowden_regs.h cosim/regmap.py
+REGMAP_OUT := hdl/rtl/bowden_regs.v firmware/include/bowden_regs.h cosim/parts/regmap.py
 
 LINT_TARGETS += lint-hdl
 BENCH_TARGETS += bench-hdl

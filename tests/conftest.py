@@ -11,7 +11,7 @@ import os
 
 from hypothesis import HealthCheck, settings
 
-from cosim.toolchain import setup_env
+from cosim.project.toolchain import setup_env
 
 setup_env()
 

@@ -50,7 +50,7 @@ def test_doctor_checks_the_venvs_tools_when_the_venv_is_not_activated(tmp_path: 
 
 def _checks_with_tool_path(monkeypatch, path: str) -> dict:
     """doctor's checks as if the project's commands ran with PATH = `path` (no venv tools)."""
-    from cosim import doctor
+    from cosim.project import doctor
 
     monkeypatch.setattr(doctor, "tool_path", lambda: path)
     return {c.name: c for c in doctor.run_checks()}

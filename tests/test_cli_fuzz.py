@@ -29,7 +29,9 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from cosim import cli, cliargs, sim
+from cosim import cli
+from cosim.engines import experiment as sim
+from cosim.project import cliargs
 
 PARSER = cli.build_parser()
 SUBCOMMANDS = cliargs.subparsers(PARSER)

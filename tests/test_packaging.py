@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from cosim.paths import BUILD_DIR, REPO_ROOT
+from cosim.project.paths import BUILD_DIR, REPO_ROOT
 
 
 def _git_files(*paths: str) -> list[str]:
@@ -71,7 +71,7 @@ def test_wheel_holds_every_file_of_the_package(wheel):
     names = set(zipfile.ZipFile(wheel).namelist())
     missing = [f for f in _git_files("cosim") if f not in names]
     assert not missing, f"the wheel leaves out {missing}"
-    assert {"cosim/harness/cosim_top.v", "cosim/harness/cosim_top.vlt"} <= names
+    assert {"cosim/engines/cosim_top.v", "cosim/engines/cosim_top.vlt"} <= names
     assert not [n for n in names if n.endswith((".pyc", ".pyo")) or "__pycache__" in n]
     entry = next(n for n in names if n.endswith(".dist-info/entry_points.txt"))
     assert "bowden = cosim.cli:main" in zipfile.ZipFile(wheel).read(entry).decode()
@@ -133,7 +133,7 @@ def test_wheel_installed_in_a_scratch_venv_runs_a_1s_sim(wheel, tmp_path):
 
 
 def test_bowden_finds_the_project_from_a_checkout_folder_or_bowden_root(tmp_path):
-    from cosim.paths import find_root
+    from cosim.project.paths import find_root
 
     sub = REPO_ROOT / "hdl" / "rtl"
     assert find_root(env={}, cwd=sub) == REPO_ROOT

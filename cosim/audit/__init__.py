@@ -12,22 +12,16 @@ saw. See cosim/audit/core.py for the method and README.md ("Model audit") for a 
 
 Modules: `effects` (the vocabulary), `twin` (the FMU's physics for fitting, and the FMU run),
 `core` (data, fits, decision rule, result), `report` (audit.json, report.md, plots), `params`
-(`--emit-params` and the fig14 comparison), `command` (the CLI).
+(`--emit-params` and the fig14 comparison); the command line is cosim/cli/audit.py.
 """
 
 from __future__ import annotations
 
 
-def add_parser(subparsers) -> None:
-    """Register `bowden audit` (the heavy imports wait until the command runs)."""
-    from .command import add_parser as _add  # noqa: PLC0415
-
-    _add(subparsers)
-
-
 def audit_file(path, progress=None):
     """Read a measured trace and audit it; return cosim.audit.core.AuditResult."""
-    from .. import trace  # noqa: PLC0415
+    from cosim.results import trace  # noqa: PLC0415
+
     from . import core  # noqa: PLC0415
 
     tr = trace.read_trace(path, mode="measured")

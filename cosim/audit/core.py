@@ -3,8 +3,8 @@ vocabulary (cosim.audit.effects), extend the model, and measure the gain on data
 
 The steps (issue 9):
 
-1. **Data.** A measured trace (cosim.trace, mode "measured"): the input tension drives the model,
-   the output tension is what it must predict. Above MAX_RATE_HZ the record is decimated (a
+1. **Data.** A measured trace (cosim.results.trace, mode "measured"): the input tension drives the
+   model, the output tension is what it must predict. Above MAX_RATE_HZ the record is decimated (a
    zero-phase FIR); the input tension is smoothed with a Savitzky-Golay filter (SMOOTH_S) so that
    its sensor noise does not enter the friction model as false reversals (an errors-in-variables
    bias: the capstan's dead zone would hold every noise peak), except across fast changes, which
@@ -38,8 +38,9 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import decimate, fftconvolve, savgol_filter, welch
 
-from .. import trace as trace_mod
-from ..geometry import bending_angle, in_workspace
+from cosim.parts.geometry import bending_angle, in_workspace
+from cosim.results import trace as trace_mod
+
 from . import twin
 from .effects import VOCABULARY, Effect
 
@@ -817,7 +818,7 @@ def _backward(data, found, steps, rule):
 def phi_text(data: AuditData, mu: float) -> tuple[float | None, str]:
     """The bending angle behind a fitted mu, and where it comes from."""
     if data.has_positions:
-        return None, "from the geometry of the positions (cosim.geometry)"
+        return None, "from the geometry of the positions (cosim.parts.geometry)"
     routing = "loop routing" if data.inputs.loop_routing else "free sag"
     if data.mu_given is None:
         return data.phi_ref_rad, (

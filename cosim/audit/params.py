@@ -1,7 +1,7 @@
 """Close the loop: the `--params` file implied by the extended model, and what it changes in the
 fig14 experiment.
 
-The file (cosim/scenarios.py SimConfig format) has two parts:
+The file (cosim/config/scenarios.py SimConfig format) has two parts:
 
 - ``plant``: the fitted mu and every finding's FMU parameter, so that `bowden sim --params FILE`
   simulates the rig the data came from (never loop_routing or drive_mode: the command line and the
@@ -10,8 +10,8 @@ The file (cosim/scenarios.py SimConfig format) has two parts:
   the model audit can emit"): mu, the output sensor's offset (offset_n) and the tension-dependent
   friction (mu_slope_per_n). Effects with no compensator parameter are listed in the notes.
 
-The change in fig14 tracking error is measured with the float reference (cosim.reference, the
-same FMU and loop as the co-simulation without the RTL, seconds instead of minutes) on a plant
+The change in fig14 tracking error is measured with the float reference (cosim.engines.reference,
+the same FMU and loop as the co-simulation without the RTL, seconds instead of minutes) on a plant
 carrying the found effects, with the default compensator and with the emitted one.
 """
 
@@ -22,7 +22,8 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..scenarios import CompensatorParams, SimConfig
+from cosim.config.scenarios import CompensatorParams, SimConfig
+
 from .effects import BY_PARAM
 
 if TYPE_CHECKING:  # core pulls in scipy and numba: `bowden --help` must not wait for them
@@ -81,10 +82,10 @@ def emitted_params(result: AuditResult) -> tuple[dict, list[str]]:
 
 def _compensator_refuses(comp: dict[str, float], result: AuditResult) -> str | None:
     """Why the firmware's compensator would refuse this configuration at fig14's start position
-    (its own check, comp_config_check through cosim.firmware), or None."""
-    from ..firmware import make_compensator_f64  # noqa: PLC0415
-    from ..geometry import bending_angle  # noqa: PLC0415
-    from ..scenarios import HOME_M  # noqa: PLC0415
+    (its own check, comp_config_check through cosim.parts.firmware), or None."""
+    from cosim.config.scenarios import HOME_M  # noqa: PLC0415
+    from cosim.parts.firmware import make_compensator_f64  # noqa: PLC0415
+    from cosim.parts.geometry import bending_angle  # noqa: PLC0415
 
     d = result.data
     phi = float(bending_angle(*HOME_M, d.inputs.sheath_length_m, d.inputs.loop_routing))
@@ -109,9 +110,9 @@ def write_params(path: Path, params: dict) -> None:
 def fig14_change(params: dict, loop_routing: bool, duration_s: float, progress: bool) -> dict:
     """Tracking error of fig14 (float reference) on the plant of `params`, with the default
     compensator configuration and with the emitted one, for each of FIG14_COMPENSATORS."""
-    from ..metrics import tracking_error  # noqa: PLC0415
-    from ..reference import resolve_phi, run_reference  # noqa: PLC0415
-    from ..scenarios import get_scenario  # noqa: PLC0415
+    from cosim.config.scenarios import get_scenario  # noqa: PLC0415
+    from cosim.engines.reference import resolve_phi, run_reference  # noqa: PLC0415
+    from cosim.results.metrics import tracking_error  # noqa: PLC0415
 
     scen = get_scenario("fig14")
     settle = scen.settle_s if duration_s > 2 * scen.settle_s else 0.0

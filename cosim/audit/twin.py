@@ -188,9 +188,9 @@ def _full(params: Mapping[str, float]) -> dict[str, float]:
 
 
 def run_fmu(inputs: PlantInputs, params: Mapping[str, float], fmu_path=None) -> np.ndarray:
-    """T_out_meas from the plant FMU itself (cosim.plant.Plant, drive mode 1, no noise), driven
-    by the same inputs as the twin; the FMU starts at t0_s loaded from rest, as the twin."""
-    from ..plant import Plant  # noqa: PLC0415 (needs the built FMU)
+    """T_out_meas from the plant FMU itself (cosim.parts.plant.Plant, drive mode 1, no noise),
+    driven by the same inputs as the twin; the FMU starts at t0_s loaded from rest, as the twin."""
+    from cosim.parts.plant import Plant  # noqa: PLC0415 (needs the built FMU)
 
     p = _full(params)
     fmu_params: dict[str, float | int | bool] = {

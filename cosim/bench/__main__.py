@@ -4,7 +4,7 @@
 import argparse
 import sys
 
-from . import cli
+from cosim.cli import bench as cli
 
 
 def main(argv: list[str] | None = None) -> int:

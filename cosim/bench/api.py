@@ -159,9 +159,9 @@ class Bench:
                 self.link = CanLink(can, node=node)
             else:
                 if port == "auto":
-                    from .discover import auto_port  # noqa: PLC0415
+                    from .discover import PROBE_TIMEOUT_S, auto_port  # noqa: PLC0415
 
-                    port = auto_port(baud=baud, timeout_s=min(timeout_s, 0.3))
+                    port = auto_port(baud=baud, timeout_s=min(timeout_s, PROBE_TIMEOUT_S))
                 self.link = SerialLink(port, baud=baud)
             self.client = BenchClient(self.link, timeout_s=timeout_s)
             self.connect_info = self.client.connect()
@@ -301,7 +301,8 @@ class Bench:
 
 
 def _read_columns(path: Path) -> dict[str, np.ndarray]:
-    """A recording's columns as float arrays (also one with gaps, which `cosim.trace` refuses)."""
+    """A recording's columns as float arrays (also one with gaps, which the trace reader
+    `cosim.results.trace` refuses)."""
     with path.open() as f:
         header = f.readline().strip().split(",")
     data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)

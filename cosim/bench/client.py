@@ -41,6 +41,10 @@ class BenchError(RuntimeError):
     """A bench session failed; the message is one line for the user."""
 
 
+class BenchUsageError(BenchError):
+    """A value given on the command line that the device or the run cannot take (exit 2)."""
+
+
 class VersionMismatchError(BenchError):
     """The device speaks another protocol version or table than this host."""
 

@@ -8,11 +8,11 @@ parameters, flash store, telemetry), an emulated flash, and the emulator's loop 
 - `Device`: one device (dev_host_t): bytes or CAN frames in and out per port, the tick, power
   cycles, the flash image.
 - `LoopChain`: the emulator's coupling to the loop model, in one class: the FPGA loop, the ADC and
-  the plant FMU around a Device, with the co-simulation's timing (cosim.reference.run_model_chain:
-  sample k0 = D*i, the firmware's tick, its register writes landing before sample k0 + 2). Two
-  engines, identical sample by sample (tests/bench): `native` (C, emu_step: one call per tick) and
-  `python` (cosim.rtl_model.TensionLoopModel + cosim.plant.Plant: the definition, too slow for
-  real time on a loaded machine).
+  the plant FMU around a Device, with the co-simulation's timing
+  (cosim.engines.reference.run_model_chain: sample k0 = D*i, the firmware's tick, its register
+  writes landing before sample k0 + 2). Two engines, identical sample by sample (tests/bench):
+  `native` (C, emu_step: one call per tick) and `python` (cosim.parts.rtl_model.TensionLoopModel +
+  cosim.parts.plant.Plant: the definition, too slow for real time on a loaded machine).
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import regmap, rtl_model
-from ..paths import BUILD_DIR
+from cosim.parts import regmap, rtl_model
+from cosim.project.paths import BUILD_DIR
 
 LIB_PATH = BUILD_DIR / "bench" / "host" / "libbowden_bench.so"
 
@@ -248,7 +248,7 @@ class ChainConfig:
     position_m: tuple[float, float, float] = (0.0, 0.5, 0.0)  # scenarios.HOME_M
     loop_routing: bool = True
     plant: dict | None = None  # FMU parameter overrides by name
-    # The board's sensing and actuation between plant and loop (cosim.interface: ideal, adc,
+    # The board's sensing and actuation between plant and loop (cosim.parts.interface: ideal, adc,
     # board); the native engine has the ideal one, the others run on the Python engine.
     interface: str = "ideal"
 
@@ -264,7 +264,7 @@ class ChainConfig:
 
 
 def _open_plant(cfg: ChainConfig):
-    from ..plant import Plant  # noqa: PLC0415 (fmpy is imported when a chain starts)
+    from cosim.parts.plant import Plant  # noqa: PLC0415 (fmpy is imported when a chain starts)
 
     params = {"drive_mode": 0, "loop_routing": bool(cfg.loop_routing)}
     params.update(cfg.plant or {})
@@ -281,8 +281,8 @@ class LoopChain:
     """The FPGA loop, the load-cell ADC and the plant FMU around a Device, one tick per `step`.
 
     engine "native": emu_step in C; "python": the same steps with rtl_model.TensionLoopModel and
-    cosim.plant.Plant (the definition the native engine is held to). `record=n` keeps the command
-    word and T_c of the first n samples (tests).
+    cosim.parts.plant.Plant (the definition the native engine is held to). `record=n` keeps the
+    command word and T_c of the first n samples (tests).
     """
 
     ENGINES = ("native", "python")
@@ -344,8 +344,8 @@ class LoopChain:
     # --- python ------------------------------------------------------------------------------
 
     def _init_python(self) -> None:
-        from ..interface import make_chain  # noqa: PLC0415
-        from ..scenarios import SimConfig  # noqa: PLC0415
+        from cosim.config.scenarios import SimConfig  # noqa: PLC0415
+        from cosim.parts.interface import make_chain  # noqa: PLC0415
 
         self.model = rtl_model.TensionLoopModel()
         self._names = {reg.addr: name for name, reg in regmap.REGISTERS.items()}

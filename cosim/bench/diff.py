@@ -28,8 +28,8 @@ from .protocol import ProtocolError, format_value, param, value_from_word, word_
 
 BACKUP_FORMAT = 1
 
-# Co-simulation params file key -> device parameter (cosim.scenarios.SimConfig; the firmware's
-# configuration holds the same quantities, fw.h and the register map).
+# Co-simulation params file key -> device parameter (cosim.config.scenarios.SimConfig; the
+# firmware's configuration holds the same quantities, fw.h and the register map).
 SIM_TO_DEVICE = {
     "firmware_rate_hz": "tick_rate_hz",
     "sample_rate_hz": "sample_rate_hz",
@@ -54,7 +54,6 @@ SIM_TO_DEVICE = {
         )
     },
 }
-SIM_DEFAULT_SAMPLE_RATE_HZ = 10_000.0  # cosim.scenarios.SimConfig.sample_rate_hz
 
 
 class DiffFileError(ValueError):
@@ -148,7 +147,7 @@ def _bench_params(path: Path, doc: dict) -> Reference:
 
 
 def _sim_params(path: Path, doc: dict) -> Reference:
-    from ..scenarios import SimConfig  # noqa: PLC0415 (the co-simulation's checks, on demand)
+    from cosim.config.scenarios import SimConfig  # noqa: PLC0415 (the co-simulation's checks, on demand)
 
     try:
         cfg = SimConfig.from_dict(doc, source=f"diff: {path}")

@@ -21,14 +21,14 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 from . import messages as msgs
-from .client import BenchClient, BenchError, DeviceInfo, SerialLink
+from .client import BenchClient, BenchError, BenchUsageError, DeviceInfo, SerialLink
 from .protocol import CanReassembler, Frame, ProtocolError, can_encode, pack, unpack
 
-PROBE_TIMEOUT_S = 0.3
+PROBE_TIMEOUT_S = 0.5  # per serial port (a loaded host answers HELLO within it)
 
 
-class AmbiguousPortError(BenchError):
-    """`--port auto` found several controllers: the user must name one."""
+class AmbiguousPortError(BenchUsageError):
+    """`--port auto` found several controllers: the user must name one (exit 2)."""
 
 
 @dataclass(frozen=True)
@@ -114,7 +114,7 @@ def probe_serial(
     return found, probed
 
 
-def probe_can(spec: str, timeout_s: float = PROBE_TIMEOUT_S, bus=None) -> list[Found]:
+def probe_can(spec: str, timeout_s: float = 1.0, bus=None) -> list[Found]:
     """HELLO to every node of the python-can bus `spec` (INTERFACE:CHANNEL) at once; the nodes
     that answer, by node id. `bus`: an open python-can bus to use instead of opening `spec`."""
     import can  # noqa: PLC0415 (python-can only when a CAN link is used)

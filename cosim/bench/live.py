@@ -22,7 +22,6 @@ import subprocess
 import sys
 import threading
 import time
-from dataclasses import dataclass
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from urllib.parse import parse_qs, urlparse
 
@@ -407,94 +406,6 @@ class LiveServer:
         self.httpd.server_close()
         if self._thread is not None:
             self._thread.join(timeout=5.0)
-
-
-# --- the CLI's side ------------------------------------------------------------------------------
-
-
-def add_arguments(p, required_live: bool = False) -> None:
-    """The live view's options on a `bowden bench` subparser (`run`, `watch`)."""
-    if required_live:
-        p.add_argument(
-            "--live",
-            choices=("term", "web"),
-            default="term",
-            help="where to show it: the terminal (default) or a page on 127.0.0.1",
-        )
-    else:
-        p.add_argument(
-            "--live",
-            nargs="?",
-            const="term",
-            choices=("term", "web"),
-            default=None,
-            help="show the run as it goes: in the terminal (--live, --live term) or on a page "
-            "on 127.0.0.1 (--live web); the recording loses nothing to it",
-        )
-    p.add_argument(
-        "--signals",
-        default=",".join(SIGNALS),
-        help=f"what the live view shows, comma-separated (default {','.join(SIGNALS)})",
-    )
-    p.add_argument(
-        "--window",
-        type=float,
-        default=DEFAULT_WINDOW_S,
-        metavar="S",
-        help=f"the live view's rolling window in s (default {DEFAULT_WINDOW_S:g}, "
-        f"{WINDOW_RANGE_S[0]:g}..{WINDOW_RANGE_S[1]:g})",
-    )
-    p.add_argument(
-        "--http-port", type=int, default=0, help="--live web: the page's port (default: a free one)"
-    )
-
-
-@dataclass
-class Live:
-    """A live view for one run: `tap` goes to the recorder, `close` ends the view."""
-
-    buffer: LiveBuffer
-    term: TermView | None = None
-    web: LiveServer | None = None
-
-    @property
-    def owns_terminal(self) -> bool:
-        return self.term is not None
-
-    def tap(self, t: dict) -> None:
-        self.buffer.add(t)
-
-    def close(self, message: str) -> None:
-        self.buffer.stop(message)
-        if self.term is not None:
-            self.term.stop()
-        if self.web is not None:
-            self.web.stop()
-
-
-def check_options(args) -> None:
-    """The live options' values (ValueError: one line naming the option)."""
-    lo, hi = WINDOW_RANGE_S
-    if not lo <= args.window <= hi:
-        raise ValueError(f"--window {args.window:g}: outside {lo:g}..{hi:g} s")
-    if not 0 <= args.http_port <= 65535:
-        raise ValueError(f"--http-port {args.http_port}: outside 0..65535")
-    args.signal_list = parse_signals(args.signals)
-
-
-def open_live(args, label: str, rate_hz: float) -> Live:
-    """Start the view `args.live` asks for (and say where a page is, on stderr)."""
-    buffer = LiveBuffer(rate_hz)
-    buffer.start(label, rate_hz)
-    live = Live(buffer)
-    if args.live == "web":
-        live.web = LiveServer(
-            buffer, port=args.http_port, signals=args.signal_list, window_s=args.window
-        ).start()
-        print(f"live view: {live.web.url} (this machine only)", file=sys.stderr, flush=True)
-    else:
-        live.term = TermView(buffer, args.signal_list, args.window).start()
-    return live
 
 
 if __name__ == "__main__":  # the terminal view's drawing process (TermView.start)

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-PROTOCOL_VERSION = 1
-TABLE_HASH = 0xA90E9A77
+PROTOCOL_VERSION = 2
+TABLE_HASH = 0x55644937
 MAX_PAYLOAD = 48
 CAN_NODE_BITS = 6
 CAN_MESSAGE_BITS = 5
@@ -419,6 +419,9 @@ STATUS: dict[str, int] = {
     "FAULT_ACTIVE": 8,
     "WDT_RAMP": 16,
     "LOADING": 32,
+}
+START_DURATION: dict[str, int] = {
+    "CONTINUOUS": 4294967295,
 }
 CONFIG_SOURCE: dict[str, int] = {
     "DEFAULTS": 0,

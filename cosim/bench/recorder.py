@@ -1,9 +1,9 @@
-"""Recording a run: telemetry into the trace format (cosim/trace.py), flushed every second.
+"""Recording a run: telemetry into the trace format (cosim/results/trace.py), flushed every second.
 
 `TraceRecorder` writes the sidecar first, then the CSV header, then whole rows in blocks, one
 `write` per block and at least one block a second, each followed by fsync: a run killed at any
 moment (Ctrl-C, SIGKILL, a pulled cable) leaves a CSV whose rows are complete up to the last
-second, readable by `python -m cosim.trace` and the model audit.
+second, readable by `python -m cosim.results.trace` and the model audit.
 
 Columns: the trace format's (t_s from the sample index, tensions in N, current_A the current
 command) and `sample`, `device_time_s`, `faults`, `status`. The bench does not measure the
@@ -26,8 +26,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .. import trace as trace_mod
-from .client import BenchClient, BenchError, fault_names
+from cosim.results import trace as trace_mod
+
+from . import messages as msgs
+from .client import BenchClient, BenchError, BenchUsageError, fault_names
 
 Q7_8_LSB_N = 1.0 / 256.0
 Q3_12_LSB_A = 1.0 / 4096.0
@@ -115,6 +117,24 @@ class RunResult:
 WAVE_KINDS = ("sine", "triangle", "ramp", "step", "constant")
 
 
+def run_ticks(seconds: float, tick_hz: float) -> int:
+    """START's duration for `seconds` at the device's tick rate: at least one tick (a duration
+    that rounds to nothing is refused, never sent), at most the largest timed run
+    (START_DURATION.CONTINUOUS, one above it, means until STOP)."""
+    longest = msgs.START_DURATION["CONTINUOUS"] - 1
+    ticks = round(seconds * tick_hz) if math.isfinite(seconds) else longest + 1
+    if ticks < 1:
+        raise BenchUsageError(
+            f"--seconds {seconds:g}: shorter than one tick ({1e3 / tick_hz:g} ms at {tick_hz:g} Hz)"
+        )
+    if ticks > longest:
+        raise BenchUsageError(
+            f"--seconds {seconds:g}: longer than the longest timed run ({longest} ticks, "
+            f"{longest / tick_hz:.0f} s at {tick_hz:g} Hz)"
+        )
+    return ticks
+
+
 def record_run(
     client: BenchClient,
     out_csv: str | Path,
@@ -137,6 +157,7 @@ def record_run(
     waveform: one of WAVE_KINDS, or "stream" with `stream_words` (Q7.8 T_ref words, one per tick).
     tap: called with every telemetry frame after it is recorded (a live view; must not block).
     """
+    ticks = run_ticks(seconds, float(client.get("tick_rate_hz")))  # before anything is set
     if waveform == "stream":
         client.set("source", "host")
     else:
@@ -148,7 +169,6 @@ def record_run(
     tick_hz = float(client.get("tick_rate_hz"))
     div = int(client.get("dev.telemetry_div"))
     rate_hz = tick_hz / div
-    ticks = int(round(seconds * tick_hz))
     meta = {
         "sample_rate_hz": rate_hz,
         "sheath_length_m": float(sheath_length_m),

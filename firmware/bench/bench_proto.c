@@ -1,6 +1,6 @@
 /*
  * bench_proto.c - driver for the instruction counts of the bench protocol under callgrind
- * (cosim/bench/benchmarks.py collects inside bench_run only):
+ * (cosim/perf/rig.py collects inside bench_run only):
  *   bench_proto decode N   decode N telemetry frames, byte by byte (proto_rx_byte)
  *   bench_proto encode N   pack and encode N telemetry frames (proto_telemetry_pack, proto_encode)
  * Instructions per frame = callgrind's total / N.

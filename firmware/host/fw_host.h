@@ -1,5 +1,6 @@
 /*
- * fw_host.h - host-only glue of libbowden_fw.so for the co-simulation (cosim/firmware.py, ctypes):
+ * fw_host.h - host-only glue of libbowden_fw.so for the co-simulation (cosim/parts/firmware.py,
+ * ctypes):
  * a firmware instance bound to a register shadow, batch runs of the compensator and its twin,
  * and the sizes of the structures so the Python side can check its mirrors of them.
  */

@@ -11,7 +11,8 @@
 #include <stdint.h>
 
 /* Q7.8 tension in newtons: LSB 1/256 N (3.9 mN), range -128 .. +127.996 N. The word on the bus
- * between processor and FPGA (T_c written to TC, T_in read back from T_IN), per the contract. */
+ * between processor and FPGA (T_c written to TC, T_in read back from T_IN), per the register map
+ * (hdl/README.md). */
 typedef int16_t q7_8_t;
 
 /* Q7.8 held in 32 bits: the same scaling as q7_8_t with headroom for sums, differences and

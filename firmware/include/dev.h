@@ -12,7 +12,8 @@
  * a reply, for which room is always kept.
  *
  * Requests are answered on the port they came from; telemetry goes to the port that sent START.
- * A run ends at STOP, after START's duration, or never by itself with duration 0. Parameter
+ * A run ends at STOP or after START's duration; it never ends by itself only when START asks
+ * for PROTO_START_DURATION_CONTINUOUS, and a duration of 0 is refused. Parameter
  * writes, PERSIST, LOAD and DEFAULTS are refused while a run is active (BUSY): the loop's register
  * words reach the FPGA at START (fw_start), so a change mid-run would not do what it says.
  */
@@ -25,6 +26,7 @@
 #include "fw.h"
 #include "proto.h"
 #include "proto_can.h"
+#include "settings.h"
 
 /* The device's firmware version (reported by HELLO). */
 #define DEV_FW_VERSION_MAJOR 0U
@@ -45,22 +47,6 @@
 /* Streamed reference samples held: 1 s at 1 kHz, so that a host that stalls for less than that
  * (a loaded laptop, a USB latency timer) never lets the stream run dry. */
 #define DEV_STREAM_LEN 1024U
-
-/* Status codes of dev_config_check, after the firmware's (fw.h: up to 56). */
-#define DEV_ERR_TELEMETRY_DIV 60
-#define DEV_ERR_CAN_NODE 61
-
-/* The device's own settings. */
-typedef struct {
-    uint32_t telemetry_div; /* telemetry every N ticks, [1, 1000]; default 1 */
-    uint32_t can_node;      /* CAN node id, [0, 63]; default 1 */
-} dev_config_t;
-
-/* Everything a parameter can address (the parameter table is generated from this structure). */
-typedef struct {
-    fw_config_t fw;
-    dev_config_t dev;
-} dev_settings_t;
 
 /* What HELLO reports (the generated constants; a test can pose as another build). */
 typedef struct {
@@ -91,14 +77,14 @@ typedef struct {
 typedef struct {
     fw_t *fw;
     const flash_hal_t *flash;
-    dev_settings_t settings;
+    settings_t settings;
     dev_identity_t id;
     uint32_t config_source; /* PROTO_CONFIG_SOURCE_* */
     uint32_t dirty;         /* parameters changed since the last persist or load */
     uint32_t running;
     uint32_t owner;         /* port that started the run */
     uint32_t run_ticks;
-    uint32_t run_limit;     /* 0: until STOP */
+    uint32_t run_limit;     /* 0: until STOP (START_DURATION_CONTINUOUS) */
     uint32_t faults;        /* device fault bits (PROTO_FAULTS_*, bits 4..7), latched */
     uint32_t overflow;      /* telemetry frames dropped since boot */
     uint32_t time_us;
@@ -108,13 +94,6 @@ typedef struct {
     int16_t stream_last;    /* held when the stream runs dry */
     dev_port_t ports[DEV_PORTS];
 } dev_t;
-
-/* Factory defaults: fw_config_default and telemetry every tick, CAN node 1. */
-void dev_settings_default(dev_settings_t *s);
-/* 0 or the status code of the first bad field (fw_config_check, then DEV_ERR_*). */
-int32_t dev_settings_check(const dev_settings_t *s);
-/* The message of a status code (fw_strerror, and the device's own). */
-const char *dev_strerror(int32_t code);
 
 /* Bind to a firmware (fw_init done) and a flash; load the saved settings (or the defaults when
  * there are none or they are rejected) and configure the firmware. Every port starts serial. */

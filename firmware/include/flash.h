@@ -20,6 +20,8 @@
 
 #include <stdint.h>
 
+#include "settings.h"
+
 #define FLASH_MAGIC 0x46435742UL /* "BWCF" little-endian */
 #define FLASH_SLOTS 2U
 #define FLASH_HEADER_WORDS 3U
@@ -42,11 +44,11 @@ typedef struct {
 
 /* Write the settings (every parameter of the generated table) as the next record. Returns
  * FLASH_OK and the record's sequence number in *seq, or FLASH_ERR_*. */
-int32_t flash_store(const flash_hal_t *f, const void *settings, uint32_t *seq);
+int32_t flash_store(const flash_hal_t *f, const settings_t *settings, uint32_t *seq);
 
 /* Load the newest valid record onto *settings (which holds the defaults: parameters absent from
- * the record keep them) if the result passes dev_settings_check; FLASH_OK and *seq, or
+ * the record keep them) if the result passes settings_check; FLASH_OK and *seq, or
  * FLASH_ERR_EMPTY / FLASH_ERR_INVALID with *settings unchanged. */
-int32_t flash_load(const flash_hal_t *f, void *settings, uint32_t *seq);
+int32_t flash_load(const flash_hal_t *f, settings_t *settings, uint32_t *seq);
 
 #endif /* BOWDEN_FLASH_H */

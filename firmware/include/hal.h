@@ -8,8 +8,9 @@
  *    RTL, which carries one 32-bit register read or write per frame).
  *  - shadow (host, for the co-simulation): reads come from a register shadow that the host fills
  *    with the values it read from the RTL; every write updates the shadow and is appended to a
- *    write log that the host drains and replays on the RTL over AXI4-Lite (contract.md).
- * Register words are 32 bits; signed fields (TC, T_IN, U) are sign-extended (contract.md).
+ *    write log that the host drains and replays on the RTL over AXI4-Lite.
+ * Register words are 32 bits; signed fields (TC, T_IN, U) are sign-extended
+ * (hdl/README.md, Register map).
  */
 #ifndef BOWDEN_HAL_H
 #define BOWDEN_HAL_H

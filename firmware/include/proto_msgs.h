@@ -12,8 +12,8 @@
 
 #include <stdint.h>
 
-#define PROTO_VERSION 1u
-#define PROTO_TABLE_HASH 0xA90E9A77u
+#define PROTO_VERSION 2u
+#define PROTO_TABLE_HASH 0x55644937u
 #define PROTO_MAX_PAYLOAD 48u
 #define PROTO_N_PARAMS 34u
 #define PROTO_CAN_NODE_BITS 6u
@@ -128,6 +128,9 @@
 #define PROTO_STATUS_FPGA_MASK 0x1Eu
 #define PROTO_STATUS_FPGA_SHIFT 1u
 
+/* start_duration */
+#define PROTO_START_DURATION_CONTINUOUS 4294967295u /* START.duration_ticks: run until STOP (continuous mode, asked for explicitly) */
+
 /* config_source */
 #define PROTO_CONFIG_SOURCE_DEFAULTS 0u /* factory defaults (no saved configuration) */
 #define PROTO_CONFIG_SOURCE_FLASH 1u /* loaded from flash */
@@ -189,9 +192,9 @@ typedef struct {
 uint32_t proto_param_info_ack_pack(const proto_param_info_ack_t *m, uint8_t *buf);
 int proto_param_info_ack_unpack(proto_param_info_ack_t *m, const uint8_t *buf, uint32_t len);
 
-/* START: Start a run: program the FPGA loop (fw_start) and stream telemetry to the port that sent START. T_ref comes from the waveform generator (fw.source = wave) or from STREAM samples (fw.source = host). The device stops by itself after duration_ticks ticks (0: until STOP). ACK value: the tick rate in Hz. */
+/* START: Start a run: program the FPGA loop (fw_start) and stream telemetry to the port that sent START. T_ref comes from the waveform generator (fw.source = wave) or from STREAM samples (fw.source = host). The device stops by itself after duration_ticks ticks; it runs until STOP only when duration_ticks is START_DURATION.CONTINUOUS, and refuses 0 (INVALID_VALUE): a duration that rounded to nothing never means endless (protocol 2; in protocol 1, 0 meant until STOP). ACK value: the tick rate in Hz. */
 typedef struct {
-    uint32_t duration_ticks; /* ticks to run, 0 = until STOP */
+    uint32_t duration_ticks; /* ticks to run, >= 1; START_DURATION.CONTINUOUS = until STOP; 0 is refused */
 } proto_start_t;
 uint32_t proto_start_pack(const proto_start_t *m, uint8_t *buf);
 int proto_start_unpack(proto_start_t *m, const uint8_t *buf, uint32_t len);
@@ -290,17 +293,16 @@ uint32_t proto_msg_max_len(uint32_t msg);
 /* 1 when a message travels as CAN segments (its payload may exceed one frame). */
 int proto_msg_can_segmented(uint32_t msg);
 
-/* The parameter table: one entry per word of dev_settings_t (dev.h), in id order. */
+/* An entry of the parameter table (params.h: one per word of settings_t). */
 #define PROTO_PARAM_I32 0u
 #define PROTO_PARAM_U32 1u
 #define PROTO_PARAM_READ_ONLY 1u
 typedef struct {
     uint32_t key;    /* CRC-32C of the parameter's name (flash records store it) */
-    uint16_t offset; /* byte offset of the word in dev_settings_t */
+    uint16_t offset; /* byte offset of the word in settings_t */
     uint8_t kind;    /* PROTO_PARAM_I32 or PROTO_PARAM_U32 */
     uint8_t flags;   /* PROTO_PARAM_READ_ONLY */
 } proto_param_t;
-extern const proto_param_t proto_params[PROTO_N_PARAMS];
 
 /* Parameter ids. */
 #define PROTO_PID_TICK_RATE_HZ 0u

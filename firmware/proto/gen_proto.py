@@ -2,8 +2,9 @@
 """Generate the bench protocol's outputs from the one source, firmware/proto/bowden_proto.json.
 
 Outputs (committed, never edited by hand):
-  firmware/include/proto_msgs.h     C: message ids, payload structs, pack/unpack, parameter table
-  firmware/src/proto_msgs.c         C: the pack/unpack functions and the parameter table
+  firmware/include/proto_msgs.h     C: message ids, payload structs, pack/unpack, parameter entry
+  firmware/src/proto_msgs.c         C: the pack/unpack functions
+  firmware/src/params_table.c       C: the parameter table over settings_t (the params unit's)
   cosim/bench/messages.py           Python: the same tables (cosim.bench.protocol packs with them)
   firmware/proto/PROTOCOL.md        the protocol document
   firmware/proto/bowden_bench.dbc   CAN database (DBC) of the CAN mapping, for users' CAN tools
@@ -11,7 +12,7 @@ Outputs (committed, never edited by hand):
   firmware/tests/bench/proto_vectors.h   the same vectors for the C tests
 
 The parameter list is not written by hand: it is the firmware's configuration structure
-(`dev_settings_t` in firmware/include/dev.h and the structures it holds, parsed from the headers),
+(`settings_t` in firmware/include/settings.h and the structures it holds, parsed from the headers),
 with the formats, units and ranges of the register map (hdl/regmap/bowden_regs.json) for the FPGA
 loop's register words. A field added to the firmware's configuration (a new compensator setting, a
 new register) becomes a parameter at the next `make proto`; the table hash changes with it, so a
@@ -36,6 +37,7 @@ ROOT = Path(__file__).resolve().parents[2]
 SOURCE = ROOT / "firmware" / "proto" / "bowden_proto.json"
 OUT_H = ROOT / "firmware" / "include" / "proto_msgs.h"
 OUT_C = ROOT / "firmware" / "src" / "proto_msgs.c"
+OUT_TABLE_C = ROOT / "firmware" / "src" / "params_table.c"
 OUT_PY = ROOT / "cosim" / "bench" / "messages.py"
 OUT_MD = ROOT / "firmware" / "proto" / "PROTOCOL.md"
 OUT_DBC = ROOT / "firmware" / "proto" / "bowden_bench.dbc"
@@ -115,7 +117,7 @@ class Message:
 class Param:
     id: int
     name: str  # user name, e.g. comp.mu
-    cpath: str  # member designator in dev_settings_t, e.g. fw.comp.mu_q28
+    cpath: str  # member designator in settings_t, e.g. fw.comp.mu_q28
     ctype: str  # int32_t | uint32_t
     frac: int
     unit: str
@@ -471,17 +473,16 @@ def gen_h(spec: Spec) -> str:
     w("/* 1 when a message travels as CAN segments (its payload may exceed one frame). */")
     w("int proto_msg_can_segmented(uint32_t msg);")
     w("")
-    w("/* The parameter table: one entry per word of dev_settings_t (dev.h), in id order. */")
+    w("/* An entry of the parameter table (params.h: one per word of settings_t). */")
     w("#define PROTO_PARAM_I32 0u")
     w("#define PROTO_PARAM_U32 1u")
     w("#define PROTO_PARAM_READ_ONLY 1u")
     w("typedef struct {")
     w("    uint32_t key;    /* CRC-32C of the parameter's name (flash records store it) */")
-    w("    uint16_t offset; /* byte offset of the word in dev_settings_t */")
+    w("    uint16_t offset; /* byte offset of the word in settings_t */")
     w("    uint8_t kind;    /* PROTO_PARAM_I32 or PROTO_PARAM_U32 */")
     w("    uint8_t flags;   /* PROTO_PARAM_READ_ONLY */")
     w("} proto_param_t;")
-    w("extern const proto_param_t proto_params[PROTO_N_PARAMS];")
     w("")
     w("/* Parameter ids. */")
     for p in spec.params:
@@ -535,10 +536,6 @@ def gen_c(spec: Spec) -> str:
     w = out.append
     w(f"/* {BANNER} */")
     w('#include "proto_msgs.h"')
-    w("")
-    w("#include <stddef.h>")
-    w("")
-    w('#include "dev.h"')
     w("")
     for m in spec.messages:
         if not m.fields:
@@ -618,13 +615,25 @@ def gen_c(spec: Spec) -> str:
     w("        return 0;")
     w("    }")
     w("}")
+    return "\n".join(out) + "\n"
+
+
+def gen_table_c(spec: Spec) -> str:
+    """The parameter table: part of the params unit (params.h declares it), so that the protocol's
+    own code does not depend on the settings structure it addresses."""
+    out: list[str] = []
+    w = out.append
+    w(f"/* {BANNER} */")
+    w('#include "params.h"')
     w("")
-    w("const proto_param_t proto_params[PROTO_N_PARAMS] = {")
+    w("#include <stddef.h>")
+    w("")
+    w("const proto_param_t params_table[PROTO_N_PARAMS] = {")
     for p in spec.params:
         kind = "PROTO_PARAM_U32" if p.ctype == "uint32_t" else "PROTO_PARAM_I32"
         flags = "PROTO_PARAM_READ_ONLY" if p.read_only else "0u"
         w(
-            f"    {{0x{p.key:08X}UL, (uint16_t)offsetof(dev_settings_t, {p.cpath}), {kind}, "
+            f"    {{0x{p.key:08X}UL, (uint16_t)offsetof(settings_t, {p.cpath}), {kind}, "
             f"{flags}}}, /* {p.id}: {p.name} */"
         )
     w("};")
@@ -1184,6 +1193,7 @@ def outputs(spec: Spec) -> dict[Path, str]:
     return {
         OUT_H: gen_h(spec),
         OUT_C: gen_c(spec),
+        OUT_TABLE_C: gen_table_c(spec),
         OUT_PY: gen_py(spec),
         OUT_MD: gen_md(spec),
         OUT_DBC: gen_dbc(spec),

@@ -10,40 +10,6 @@
 /* Device faults a new run starts without (CONFIG stays until FAULT_CLEAR or PERSIST). */
 #define RUN_FAULTS (PROTO_FAULT_STREAM_UNDERRUN | PROTO_FAULT_TX_OVERFLOW | PROTO_FAULT_OVERRUN)
 
-void dev_settings_default(dev_settings_t *s)
-{
-    fw_config_default(&s->fw);
-    s->dev.telemetry_div = 1U;
-    s->dev.can_node = PROTO_CAN_DEFAULT_NODE;
-}
-
-int32_t dev_settings_check(const dev_settings_t *s)
-{
-    int32_t err = fw_config_check(&s->fw);
-    if (err != FW_OK) {
-        return err;
-    }
-    if (s->dev.telemetry_div < 1U || s->dev.telemetry_div > 1000U) {
-        return DEV_ERR_TELEMETRY_DIV;
-    }
-    if (s->dev.can_node >= (1U << PROTO_CAN_NODE_BITS)) {
-        return DEV_ERR_CAN_NODE;
-    }
-    return 0;
-}
-
-const char *dev_strerror(int32_t code)
-{
-    switch (code) {
-    case DEV_ERR_TELEMETRY_DIV:
-        return "dev.telemetry_div: outside [1, 1000] ticks";
-    case DEV_ERR_CAN_NODE:
-        return "dev.can_node: outside [0, 63]";
-    default:
-        return fw_strerror(code);
-    }
-}
-
 void dev_port_kind(dev_t *d, uint32_t port, uint32_t kind)
 {
     if (port >= DEV_PORTS) {
@@ -79,7 +45,7 @@ void dev_init(dev_t *d, fw_t *fw, const flash_hal_t *flash)
     d->time_us = 0U;
     d->running = d->run_ticks = d->run_limit = d->owner = 0U;
     d->dirty = 0U;
-    dev_settings_default(&d->settings);
+    settings_default(&d->settings);
     d->config_source = PROTO_CONFIG_SOURCE_DEFAULTS;
     if (flash != 0) {
         uint32_t seq;
@@ -269,7 +235,7 @@ static void on_param_set(dev_t *d, uint32_t port, const proto_frame_t *req)
     int32_t status;
     int32_t err = params_set(&d->settings, m.param, m.value, &status);
     if (err == (int32_t)PROTO_ERR_INVALID_VALUE) {
-        reply_error(d, port, req, (uint32_t)err, status, dev_strerror(status));
+        reply_error(d, port, req, (uint32_t)err, status, settings_strerror(status));
     } else if (err == (int32_t)PROTO_ERR_READ_ONLY) {
         reply_error(d, port, req, (uint32_t)err, 0, "read-only parameter");
     } else if (err != 0) {
@@ -290,13 +256,13 @@ static void on_param_info(dev_t *d, uint32_t port, const proto_frame_t *req)
                     "unknown parameter id");
         return;
     }
-    dev_settings_t def;
-    dev_settings_default(&def);
+    settings_t def;
+    settings_default(&def);
     proto_param_info_ack_t m;
     m.param = q.param;
-    m.key = proto_params[q.param].key;
+    m.key = params_table[q.param].key;
     (void)params_get(&def, q.param, &m.default_word);
-    m.flags = proto_params[q.param].flags;
+    m.flags = params_table[q.param].flags;
     proto_frame_t f;
     frame_init(&f, PROTO_MSG_PARAM_INFO_ACK, req->seq);
     f.len = (uint8_t)proto_param_info_ack_pack(&m, f.payload);
@@ -320,8 +286,8 @@ static void on_persist(dev_t *d, uint32_t port, const proto_frame_t *req)
 
 static void on_load(dev_t *d, uint32_t port, const proto_frame_t *req)
 {
-    dev_settings_t s;
-    dev_settings_default(&s);
+    settings_t s;
+    settings_default(&s);
     uint32_t seq = 0U;
     int32_t err = (d->flash != 0) ? flash_load(d->flash, &s, &seq) : FLASH_ERR_EMPTY;
     if (err != FLASH_OK) {
@@ -345,11 +311,18 @@ static void on_start(dev_t *d, uint32_t port, const proto_frame_t *req)
         reply_busy(d, port, req);
         return;
     }
+    /* A zero duration is a host's rounding to nothing, never "forever": a run without an end
+     * must be asked for by name (PROTO_START_DURATION_CONTINUOUS). */
+    if (m.duration_ticks == 0U) {
+        reply_error(d, port, req, PROTO_ERR_INVALID_VALUE, 0,
+                    "duration 0: >= 1 tick or CONTINUOUS");
+        return;
+    }
     fw_start(d->fw);
     d->running = 1U;
     d->owner = port;
     d->run_ticks = 0U;
-    d->run_limit = m.duration_ticks;
+    d->run_limit = (m.duration_ticks == PROTO_START_DURATION_CONTINUOUS) ? 0U : m.duration_ticks;
     d->faults &= ~(uint32_t)RUN_FAULTS;
     reply_ack(d, port, req, d->settings.fw.tick_rate_hz);
 }
@@ -492,7 +465,7 @@ static void dispatch(dev_t *d, uint32_t port, const proto_frame_t *req)
         } else if (req->msg == PROTO_MSG_LOAD) {
             on_load(d, port, req);
         } else {
-            dev_settings_default(&d->settings);
+            settings_default(&d->settings);
             (void)fw_configure(d->fw, &d->settings.fw);
             d->dirty = 1U;
             reply_ack(d, port, req, 0U);

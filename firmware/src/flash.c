@@ -49,7 +49,7 @@ static int seq_after(uint32_t a, uint32_t b)
 /* The record buffer holds the largest record load accepts (32 unknown keys beyond the table). */
 #define RECORD_MAX_WORDS (FLASH_HEADER_WORDS + 2U * (PROTO_N_PARAMS + 32U) + 1U)
 
-int32_t flash_store(const flash_hal_t *f, const void *settings, uint32_t *seq)
+int32_t flash_store(const flash_hal_t *f, const settings_t *settings, uint32_t *seq)
 {
     if (RECORD_WORDS > f->slot_words) {
         return FLASH_ERR_SIZE;
@@ -75,11 +75,10 @@ int32_t flash_store(const flash_hal_t *f, const void *settings, uint32_t *seq)
     rec[0] = FLASH_MAGIC;
     rec[1] = next;
     rec[2] = PROTO_N_PARAMS;
-    const dev_settings_t *s = (const dev_settings_t *)settings;
     for (uint32_t i = 0; i < PROTO_N_PARAMS; ++i) {
         int32_t word;
-        (void)params_get(s, i, &word);
-        rec[FLASH_HEADER_WORDS + 2U * i] = proto_params[i].key;
+        (void)params_get(settings, i, &word);
+        rec[FLASH_HEADER_WORDS + 2U * i] = params_table[i].key;
         rec[FLASH_HEADER_WORDS + 2U * i + 1U] = (uint32_t)word;
     }
     rec[RECORD_WORDS - 1U] = crc_words(rec, RECORD_WORDS - 1U);
@@ -97,21 +96,21 @@ int32_t flash_store(const flash_hal_t *f, const void *settings, uint32_t *seq)
 /* Apply a record's pairs onto a copy of *base; 1 when the result passes the check. Pairs are
  * copied without a check of their own (ADC_MIN and ADC_MAX, say, are only valid together); the
  * whole is checked once. */
-static int apply_record(const uint32_t *rec, dev_settings_t *out, const dev_settings_t *base)
+static int apply_record(const uint32_t *rec, settings_t *out, const settings_t *base)
 {
     *out = *base;
     uint32_t pairs = rec[2];
     for (uint32_t i = 0; i < pairs; ++i) {
         int32_t id = params_find(rec[FLASH_HEADER_WORDS + 2U * i]);
-        if (id < 0 || (proto_params[id].flags & PROTO_PARAM_READ_ONLY) != 0U) {
+        if (id < 0 || (params_table[id].flags & PROTO_PARAM_READ_ONLY) != 0U) {
             continue; /* a parameter this firmware no longer has, or one fixed by the hardware */
         }
-        params_word_write(out, proto_params[id].offset, (int32_t)rec[FLASH_HEADER_WORDS + 2U * i + 1U]);
+        params_word_write(out, params_table[id].offset, (int32_t)rec[FLASH_HEADER_WORDS + 2U * i + 1U]);
     }
-    return dev_settings_check(out) == 0;
+    return settings_check(out) == 0;
 }
 
-int32_t flash_load(const flash_hal_t *f, void *settings, uint32_t *seq)
+int32_t flash_load(const flash_hal_t *f, settings_t *settings, uint32_t *seq)
 {
     uint32_t rec[FLASH_SLOTS][RECORD_MAX_WORDS];
     uint32_t n;
@@ -128,12 +127,11 @@ int32_t flash_load(const flash_hal_t *f, void *settings, uint32_t *seq)
         order[0] = 1U;
         order[1] = 0U;
     }
-    dev_settings_t *s = (dev_settings_t *)settings;
-    dev_settings_t trial;
+    settings_t trial;
     for (uint32_t k = 0; k < FLASH_SLOTS; ++k) {
         uint32_t slot = order[k];
-        if (valid[slot] && apply_record(rec[slot], &trial, s)) {
-            *s = trial;
+        if (valid[slot] && apply_record(rec[slot], &trial, settings)) {
+            *settings = trial;
             *seq = rec[slot][1];
             return FLASH_OK;
         }

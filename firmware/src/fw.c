@@ -140,7 +140,7 @@ static uint32_t ctrl_run_word(const fw_t *fw)
            ((fw->cfg.loop.slew_en != 0) ? BOWDEN_CTRL_SLEW_EN_MASK : 0U);
 }
 
-/* Signed words are written sign-extended, as the registers read back (contract.md). */
+/* Signed words are written sign-extended, as the registers read back (hdl/README.md, Register map). */
 static void write_word(const fw_t *fw, uint32_t addr, int32_t value)
 {
     hal_write(fw->hal, addr, (uint32_t)value);

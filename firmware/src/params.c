@@ -1,40 +1,40 @@
 /* params.c - parameter access of params.h. */
 #include "params.h"
 
-/* The word lives at a generated offset in dev_settings_t. Every parameter is an int32_t or
+/* The word lives at a generated offset in settings_t. Every parameter is an int32_t or
  * uint32_t member (the generator refuses any other type), so the address is aligned and an
  * int32_t lvalue may access it (C11 6.5p7: the signed or unsigned type of the effective type). */
-static void word_read(const dev_settings_t *s, uint32_t offset, int32_t *word)
+static void word_read(const settings_t *s, uint32_t offset, int32_t *word)
 {
     *word = *(const int32_t *)(const void *)((const uint8_t *)s + offset);
 }
 
-void params_word_write(dev_settings_t *s, uint32_t offset, int32_t word)
+void params_word_write(settings_t *s, uint32_t offset, int32_t word)
 {
     *(int32_t *)(void *)((uint8_t *)s + offset) = word;
 }
 
-int32_t params_get(const dev_settings_t *s, uint32_t id, int32_t *word)
+int32_t params_get(const settings_t *s, uint32_t id, int32_t *word)
 {
     if (id >= PROTO_N_PARAMS) {
         return (int32_t)PROTO_ERR_UNKNOWN_PARAM;
     }
-    word_read(s, proto_params[id].offset, word);
+    word_read(s, params_table[id].offset, word);
     return 0;
 }
 
-int32_t params_set(dev_settings_t *s, uint32_t id, int32_t word, int32_t *status)
+int32_t params_set(settings_t *s, uint32_t id, int32_t word, int32_t *status)
 {
     *status = 0;
     if (id >= PROTO_N_PARAMS) {
         return (int32_t)PROTO_ERR_UNKNOWN_PARAM;
     }
-    if ((proto_params[id].flags & PROTO_PARAM_READ_ONLY) != 0U) {
+    if ((params_table[id].flags & PROTO_PARAM_READ_ONLY) != 0U) {
         return (int32_t)PROTO_ERR_READ_ONLY;
     }
-    dev_settings_t trial = *s;
-    params_word_write(&trial, proto_params[id].offset, word);
-    int32_t err = dev_settings_check(&trial);
+    settings_t trial = *s;
+    params_word_write(&trial, params_table[id].offset, word);
+    int32_t err = settings_check(&trial);
     if (err != 0) {
         *status = err;
         return (int32_t)PROTO_ERR_INVALID_VALUE;
@@ -46,7 +46,7 @@ int32_t params_set(dev_settings_t *s, uint32_t id, int32_t word, int32_t *status
 int32_t params_find(uint32_t key)
 {
     for (uint32_t i = 0; i < PROTO_N_PARAMS; ++i) {
-        if (proto_params[i].key == key) {
+        if (params_table[i].key == key) {
             return (int32_t)i;
         }
     }

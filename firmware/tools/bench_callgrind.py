@@ -4,8 +4,9 @@
 
 Runs BENCH_EXE (firmware/bench/bench_comp.c) under callgrind with collection switched on only
 inside comp_step_q7_8, for each scenario, and prints instructions per step (total Ir / steps).
-The count is deterministic for a given binary. Target (issue 5): <= 100 per step. Without
-valgrind on PATH it says so and exits 0 (a benchmark must not fail on a machine without it).
+The count is deterministic for a given binary. Target: <= 100 per step (firmware/README.md,
+Measured figures). Without valgrind on PATH it says so and exits 0 (a benchmark must not fail on
+a machine without it).
 """
 
 from __future__ import annotations

@@ -8,6 +8,6 @@
 
 const uint32_t sizeof_dev_t = sizeof(dev_t);
 const uint32_t sizeof_dev_port_t = sizeof(dev_port_t);
-const uint32_t sizeof_dev_settings_t = sizeof(dev_settings_t);
+const uint32_t sizeof_settings_t = sizeof(settings_t);
 const uint32_t sizeof_proto_rx_t = sizeof(proto_rx_t);
 const uint32_t sizeof_proto_can_rx_t = sizeof(proto_can_rx_t);

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cosim import trace as tr
-from cosim.plant import Plant
+from cosim.parts.plant import Plant
+from cosim.results import trace as tr
 
 RATE_HZ = 1000.0
 

@@ -21,8 +21,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from audit_data import fmu_record  # noqa: E402
 from test_audit_causes import SEEDS, _magnitude  # noqa: E402
 
-from cosim import trace  # noqa: E402
 from cosim.audit import core  # noqa: E402
+from cosim.results import trace  # noqa: E402
 
 N_SEEDS = int(sys.argv[1]) if len(sys.argv) > 1 else 3
 

@@ -13,12 +13,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cosim import trace
 from cosim.audit import core
 from cosim.bench.client import BenchClient
 from cosim.bench.device import ChainConfig
 from cosim.bench.emulator import SteppedLink
 from cosim.bench.recorder import record_run
+from cosim.results import trace
 
 # The audit needs 10 s (1 s of warm-up: the loop starts from rest). With 12 s the default
 # blocks (0.5 s) would lock to the 0.5 Hz sine (a 2 s fit/selection/fit/report cycle): the

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from audit_data import fmu_record
 
-from cosim import trace
 from cosim.audit import core
+from cosim.results import trace
 
 DURATION_S = 30.0
 # The held-out residual of the extended model may exceed the output sensor's noise floor by this

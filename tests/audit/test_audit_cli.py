@@ -16,10 +16,11 @@ import numpy as np
 import pytest
 from audit_data import fmu_record
 
-from cosim import sim, trace
 from cosim.audit import twin
-from cosim.geometry import bending_angle
-from cosim.scenarios import load_params
+from cosim.config.scenarios import load_params
+from cosim.engines import experiment as sim
+from cosim.parts.geometry import bending_angle
+from cosim.results import trace
 
 
 def _bowden(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
@@ -123,8 +124,8 @@ def test_cli_emits_params_that_bowden_sim_accepts(offset_run):
 
 
 def test_cli_reads_a_bowden_sim_trace(tmp_path):
-    from cosim.reference import resolve_phi, run_reference
-    from cosim.scenarios import SimConfig, get_scenario
+    from cosim.config.scenarios import SimConfig, get_scenario
+    from cosim.engines.reference import resolve_phi, run_reference
 
     scen, cfg = get_scenario("fig14"), SimConfig()
     rec = run_reference(scen, cfg, "paper", True, resolve_phi(scen, cfg, True), 11.0, False)

@@ -16,9 +16,9 @@ import math
 import numpy as np
 import pytest
 
-from cosim import trace
 from cosim.audit import core
-from cosim.geometry import bending_angle
+from cosim.parts.geometry import bending_angle
+from cosim.results import trace
 
 RATE_HZ = 1000.0
 MU_RIG = 0.09

@@ -15,7 +15,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from cosim import trace as tr
+from cosim.results import trace as tr
 
 MODES = tr.MODES
 

@@ -1,5 +1,5 @@
-"""The trace reader (cosim/trace.py): issue 13 item 7 defects, and the "measured" mode that reads
-users' CSVs, bench recordings and `bowden sim` traces with one validation.
+"""The trace reader (cosim/results/trace.py): issue 13 item 7 defects, and the "measured" mode that
+reads users' CSVs, bench recordings and `bowden sim` traces with one validation.
 
 Each defect test below failed on the reader before the fix (a traceback or a silently accepted
 value); each now requires one TraceError naming the file, the line, the column and what is
@@ -13,7 +13,7 @@ import json
 import numpy as np
 import pytest
 
-from cosim import trace as tr
+from cosim.results import trace as tr
 
 META = {"sample_rate_hz": 1000.0, "sheath_length_m": 1.0, "loop_routing": True, "mu": 0.075}
 

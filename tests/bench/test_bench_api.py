@@ -9,12 +9,12 @@ import warnings
 import numpy as np
 import pytest
 
-from cosim import trace as trace_mod
 from cosim.bench import messages as msgs
 from cosim.bench.api import Bench, Faults, ProtocolError
 from cosim.bench.client import BenchClient, BenchError, SerialLink
 from cosim.bench.emulator import Emulator
-from cosim.paths import REPO_ROOT
+from cosim.project.paths import REPO_ROOT
+from cosim.results import trace as trace_mod
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +73,7 @@ def test_the_device_is_stopped_however_the_session_ends(emulator):
     with pytest.raises(RuntimeError, match="script failed"):
         with Bench(url) as b:
             b.client.set("source", "wave")
-            b.client.simple("START", duration_ticks=0)  # forever
+            b.client.simple("START", duration_ticks=msgs.START_DURATION["CONTINUOUS"])
             assert b.info().running
             raise RuntimeError("script failed")
     probe = BenchClient(SerialLink(url))

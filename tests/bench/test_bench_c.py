@@ -7,7 +7,7 @@ import subprocess
 
 import pytest
 
-from cosim.paths import BUILD_DIR
+from cosim.project.paths import BUILD_DIR
 
 HOST = BUILD_DIR / "bench" / "host"
 UNIT = HOST / "bench_unit_tests"

@@ -12,6 +12,8 @@ from cosim.bench import messages as msgs
 from cosim.bench.__main__ import main as bench_cli
 from cosim.bench.emulator import Emulator
 
+OLD = msgs.PROTOCOL_VERSION - 1  # a backup made by the previous protocol
+
 
 @pytest.fixture(scope="module")
 def url():
@@ -108,8 +110,8 @@ def test_diff_of_another_table_compares_by_name(url, tmp_path, capsys):
     ("content", "words"),
     [
         (
-            {"bowden_bench_backup": 1, "protocol_version": 2, "params": {}},
-            "is a backup of protocol version 2, this host speaks 1",
+            {"bowden_bench_backup": 1, "protocol_version": OLD, "params": {}},
+            f"is a backup of protocol version {OLD}, this host speaks {msgs.PROTOCOL_VERSION}",
         ),
         ("{not json", "is not JSON"),
         ({"loop.kp": 0.1, "comp.mode": "fast"}, "comp.mode=fast: expected one of none, paper"),

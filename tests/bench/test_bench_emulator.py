@@ -14,8 +14,6 @@ import time
 import numpy as np
 import pytest
 
-from cosim import regmap, rtl_model
-from cosim import trace as trace_mod
 from cosim.bench import messages as msgs
 from cosim.bench import protocol as proto
 from cosim.bench.__main__ import main as bench_cli
@@ -23,7 +21,9 @@ from cosim.bench.client import BenchClient, SerialLink, VersionMismatchError
 from cosim.bench.device import ChainConfig, Device, EmuLoop, LoopChain, load_library
 from cosim.bench.emulator import Emulator
 from cosim.bench.recorder import record_run
-from cosim.paths import REPO_ROOT
+from cosim.parts import regmap, rtl_model
+from cosim.project.paths import REPO_ROOT
+from cosim.results import trace as trace_mod
 
 WRITABLE = [
     name
@@ -94,7 +94,11 @@ def _start(dev: Device, **params) -> None:
         p = proto.param(name)
         payload = proto.pack("PARAM_SET", param=p.id, value=proto.word_from_value(p, value))
         dev.rx_bytes(0, proto.encode_frame(proto.Frame(msgs.MESSAGES["PARAM_SET"].id, 1, payload)))
-    start = proto.Frame(msgs.MESSAGES["START"].id, 2, proto.pack("START", duration_ticks=0))
+    start = proto.Frame(
+        msgs.MESSAGES["START"].id,
+        2,
+        proto.pack("START", duration_ticks=msgs.START_DURATION["CONTINUOUS"]),
+    )
     dev.rx_bytes(0, proto.encode_frame(start))
 
 
@@ -118,7 +122,7 @@ def test_native_chain_equals_python_chain():
 
 
 def test_board_interface_on_the_python_engine():
-    """The emulator runs on the co-simulation's interface stage (cosim.interface, issue 11a):
+    """The emulator runs on the co-simulation's interface stage (cosim.parts.interface, issue 11a):
     with the board's ADC and PWM -> ESCON the command differs from the ideal chain's (the ADC
     delivers a sample every fifth tick), and the native engine refuses it rather than
     silently running the ideal one."""
@@ -222,16 +226,21 @@ def test_killed_run_leaves_a_readable_file(emulator, tmp_path):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
     )
+    # The rows go to killed.partial.csv until the run ends (then onto --out): a SIGKILL leaves
+    # them there, and --out as it was.
+    partial = tmp_path / "killed.partial.csv"
+    out.write_text("an earlier recording\n")
     try:
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:  # wait for more than 2 s of flushed rows
-            if out.exists() and out.read_text().count("\n") > 2100:
+            if partial.exists() and partial.read_text().count("\n") > 2100:
                 break
             time.sleep(0.1)
         proc.send_signal(signal.SIGKILL)
     finally:
         proc.wait(timeout=10)
-    tr = trace_mod.read_trace(out)
+    assert out.read_text() == "an earlier recording\n"
+    tr = trace_mod.read_trace(partial)
     assert len(tr) > 2000
     np.testing.assert_array_equal(tr["sample"], np.arange(len(tr)))
     # The device keeps running a run whose host died; the next session stops it on connect.
@@ -247,7 +256,7 @@ def test_device_already_streaming_is_stopped_on_connect(emulator, tmp_path):
     a = BenchClient(SerialLink(emulator.urls["pty"]))
     a.connect()
     a.set("source", "wave")
-    a.simple("START", duration_ticks=0)  # forever
+    a.simple("START", duration_ticks=msgs.START_DURATION["CONTINUOUS"])  # until STOP
     a.link.close()  # gone without STOP: the device streams into the pty's buffer
     time.sleep(0.5)
     b = BenchClient(SerialLink(emulator.urls["pty"]))  # opening the pty flushes its buffer

@@ -47,7 +47,11 @@ def test_list_prints_every_controller_and_skips_the_rest(
     rows = {line.split()[0]: line for line in out[1:3]}
     assert set(rows) == {a.urls["pty"], b.urls["socket"]}
     mine = rows[a.urls["pty"]].split()
-    assert mine[1] == "-" and mine[4] == "1" and mine[5] == f"{msgs.TABLE_HASH:08x}"
+    assert (
+        mine[1] == "-"
+        and mine[4] == str(msgs.PROTOCOL_VERSION)
+        and mine[5] == f"{msgs.TABLE_HASH:08x}"
+    )
     assert "idle, configuration defaults" in rows[a.urls["pty"]]
     assert "deadbeef" in rows[b.urls["socket"]] and "(host: other)" in rows[b.urls["socket"]]
     assert "(host: other)" not in rows[a.urls["pty"]]

@@ -14,12 +14,12 @@ import urllib.request
 import numpy as np
 import pytest
 
-from cosim import trace as trace_mod
 from cosim.bench import live
 from cosim.bench.__main__ import main as bench_cli
 from cosim.bench.api import Bench
 from cosim.bench.emulator import Emulator
-from cosim.paths import REPO_ROOT
+from cosim.project.paths import REPO_ROOT
+from cosim.results import trace as trace_mod
 
 CHROMIUM = next(
     (shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome") if shutil.which(n)),

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from cosim.bench import messages as msgs
 from cosim.bench import protocol as proto
 from cosim.bench.device import load_library
-from cosim.paths import REPO_ROOT
+from cosim.project.paths import REPO_ROOT
 
 VECTORS = json.loads((REPO_ROOT / "firmware" / "proto" / "vectors.json").read_text())["vectors"]
 SERIAL_VECTORS = [v for v in VECTORS if not v.get("can_telemetry")]

@@ -5,12 +5,12 @@ emulated plant's FMU parameters, each checked, a bad one refused in one line."""
 import numpy as np
 import pytest
 
-from cosim import trace as trace_mod
 from cosim.bench.__main__ import main as bench_cli
 from cosim.bench.client import BenchClient, SerialLink
 from cosim.bench.device import ChainConfig
 from cosim.bench.emulator import Emulator, SteppedLink
 from cosim.bench.recorder import record_run
+from cosim.results import trace as trace_mod
 
 SECONDS = 1.5
 RUN = {"waveform": "sine", "mean_n": 8.5, "amplitude_n": 6.5, "freq_hz": 2.0}

@@ -11,7 +11,7 @@ import pytest
 from cosim.bench import messages as msgs
 from cosim.bench import protocol
 from cosim.bench.device import Device
-from cosim.paths import REPO_ROOT
+from cosim.project.paths import REPO_ROOT
 
 GEN = REPO_ROOT / "firmware" / "proto" / "gen_proto.py"
 VECTORS = REPO_ROOT / "firmware" / "proto" / "vectors.json"

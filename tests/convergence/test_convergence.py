@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cosim import convergence as conv
+from cosim.studies import convergence as conv
 
 
 def _row(step_us, seg, d_out, d_rms, us=1.0):

@@ -17,9 +17,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from cosim import metrics
-from cosim.reference import resolve_phi, run_model_chain, run_reference
-from cosim.scenarios import SimConfig, get_scenario
+from cosim.config.scenarios import SimConfig, get_scenario
+from cosim.engines.reference import resolve_phi, run_model_chain, run_reference
+from cosim.results import metrics
 
 # The multi-sine (0.3 + 0.7 + 1.3 Hz): reversals of every sharpness after settling.
 SCENARIO = "multisine"

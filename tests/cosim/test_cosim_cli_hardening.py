@@ -18,7 +18,8 @@ from pathlib import Path
 import psutil
 import pytest
 
-from cosim import cli, sim
+from cosim import cli
+from cosim.engines import experiment as sim
 
 # The shortest run bowden accepts at the default rates (sim.MIN_FIRMWARE_TICKS at 1 kHz).
 MIN_DURATION_S = 0.01
@@ -267,7 +268,7 @@ def test_a_short_positions_run_skips_the_fits_it_cannot_make():
     tried to fit the first segment after its 0.3 s move, on no samples, and failed."""
     import numpy as np
 
-    from cosim.scenarios import SimConfig, get_scenario
+    from cosim.config.scenarios import SimConfig, get_scenario
 
     n = 500
     rec = {

@@ -10,9 +10,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cosim import metrics, reference, regmap, sim
-from cosim.harness import runner
-from cosim.scenarios import SimConfig, get_scenario
+from cosim.config.scenarios import SimConfig, get_scenario
+from cosim.engines import experiment as sim
+from cosim.engines import reference
+from cosim.engines.cocotb import runner
+from cosim.parts import regmap
+from cosim.results import metrics
 
 # 4 s of fig14: the rise from rest, reversals at 1 s (max), 2 s (min) and 3 s (max), and enough
 # end-effector motion for phi to move without loop routing (settle_s = 1 s is excluded).
@@ -199,7 +202,7 @@ def test_cosim_params_reach_the_plant_and_the_compensator(built, tmp_path):
     and the compensator's phi is the one given."""
     import json
 
-    from cosim.scenarios import load_params
+    from cosim.config.scenarios import load_params
 
     p = tmp_path / "params.json"
     p.write_text(json.dumps({"plant": {"mu": 0.09}, "compensator": {"phi_rad": 6.0}}))
@@ -219,7 +222,7 @@ def test_cosim_metrics_of_result_match_the_trace(built, tmp_path):
     """`bowden sim` writes result.json whose figures are those of its trace.csv."""
     import json
 
-    from cosim import trace
+    from cosim.results import trace
 
     out = tmp_path / "run"
     result = sim.run(

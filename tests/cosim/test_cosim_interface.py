@@ -1,6 +1,6 @@
-"""The interface stage between plant and core (cosim.interface): the board's ADC at its DRDY times
-and the PWM -> ESCON set value, on closed-form inputs; and the float reference with each stage,
-which shows where the board's chain costs tracking error."""
+"""The interface stage between plant and core (cosim.parts.interface): the board's ADC at its DRDY
+times and the PWM -> ESCON set value, on closed-form inputs; and the float reference with each
+stage, which shows where the board's chain costs tracking error."""
 
 from __future__ import annotations
 
@@ -9,8 +9,10 @@ import random
 
 import pytest
 
-from cosim import interface, metrics, reference, rtl_model
-from cosim.scenarios import SimConfig, get_scenario
+from cosim.config.scenarios import SimConfig, get_scenario
+from cosim.engines import reference
+from cosim.parts import interface, rtl_model
+from cosim.results import metrics
 
 FS = 10_000.0
 DT = 1.0 / FS

@@ -1,4 +1,4 @@
-"""Figures of merit (cosim/metrics.py) on signals whose answer is known in closed form."""
+"""Figures of merit (cosim/results/metrics.py) on signals whose answer is known in closed form."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from cosim import metrics
-from cosim.capstan_fit import capstan_output
+from cosim.results import metrics
+from cosim.results.capstan_fit import capstan_output
 
 
 def test_cosim_metrics_tracking_error_of_a_sine_error():

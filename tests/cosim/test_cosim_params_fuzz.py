@@ -13,9 +13,7 @@ import math
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from cosim import firmware, sim
-from cosim.plant import Plant, fmu_variables
-from cosim.scenarios import (
+from cosim.config.scenarios import (
     HOME_M,
     CompensatorParams,
     ControllerParams,
@@ -24,6 +22,9 @@ from cosim.scenarios import (
     get_scenario,
     load_params,
 )
+from cosim.engines import experiment as sim
+from cosim.parts import firmware
+from cosim.parts.plant import Plant, fmu_variables
 
 FMU_VARS = fmu_variables()
 FIXTURE_OK = [HealthCheck.function_scoped_fixture]

@@ -1,4 +1,4 @@
-"""Scenario definitions and run configuration (cosim/scenarios.py)."""
+"""Scenario definitions and run configuration (cosim/config/scenarios.py)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from cosim import scenarios as sc
+from cosim.config import scenarios as sc
 
 
 def test_cosim_scenarios_characterize_is_the_papers_ramp():
@@ -113,7 +113,7 @@ def test_cosim_sim_cli_rejects_bad_input_before_running(tmp_path, capsys):
 
 
 def test_cosim_demo_table_prints_the_figures_of_the_json(tmp_path):
-    from cosim import demo
+    from cosim.studies import demo
 
     paths = []
     for i, (comp, loop) in enumerate((("paper", True), ("smooth", True), ("paper", False))):

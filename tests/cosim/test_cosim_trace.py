@@ -1,4 +1,4 @@
-"""The trace format (cosim/trace.py): round trip, and clear errors for bad files."""
+"""The trace format (cosim/results/trace.py): round trip, and clear errors for bad files."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from cosim import trace as tr
+from cosim.results import trace as tr
 
 
 def _columns(n: int = 50, rate: float = 1000.0) -> dict[str, np.ndarray]:

@@ -1,6 +1,6 @@
 """Instructions per compensator step under callgrind (deterministic for a given binary).
 
-The benchmark (`make bench-firmware`) prints the figures; this test holds the issue's target of
+The benchmark (`make bench-firmware`) prints the figures; this test holds the target of
 at most 100 host instructions per step when valgrind is installed. Without valgrind it checks
 that the benchmark says so plainly (and exits 0) and warns that the count was not checked.
 """
@@ -14,7 +14,7 @@ import warnings
 
 import pytest
 
-from cosim.paths import BUILD_DIR, REPO_ROOT
+from cosim.project.paths import BUILD_DIR, REPO_ROOT
 
 BENCH = BUILD_DIR / "firmware" / "host" / "bench_comp"
 TOOL = REPO_ROOT / "firmware" / "tools" / "bench_callgrind.py"

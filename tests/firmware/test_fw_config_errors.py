@@ -1,6 +1,6 @@
-"""Configuration errors of the firmware wrapper (cosim.firmware) name the field and never escape
-as a Python error of another kind (issue 13, item 8): huge and non-finite values, whole-number
-fields given fractions (nothing is truncated), and the previous configuration stays in force."""
+"""Configuration errors of the firmware wrapper (cosim.parts.firmware) name the field and never
+escape as a Python error of another kind: huge and non-finite values, whole-number fields given
+fractions (nothing is truncated), and the previous configuration stays in force."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import math
 
 import pytest
 
-from cosim.firmware import (
+from cosim.parts.firmware import (
     Compensator,
     CompensatorF64,
     CompensatorParams,

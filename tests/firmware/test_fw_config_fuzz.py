@@ -1,4 +1,4 @@
-"""Property-based tests of the firmware's configuration through the wrapper (cosim.firmware;
+"""Property-based tests of the firmware's configuration through the wrapper (cosim.parts.firmware;
 Hypothesis, profiles in tests/conftest.py): every field of the compensator, the reference
 generator and the loop registers given numbers in and out of range, NaN, infinities, huge values,
 booleans, None and strings. Each configuration is taken (and then the compensator's output stays
@@ -13,7 +13,7 @@ import numpy as np
 from hypothesis import event, given
 from hypothesis import strategies as st
 
-from cosim.firmware import (
+from cosim.parts.firmware import (
     LOOP_FIELDS,
     MODES,
     Compensator,

@@ -1,4 +1,4 @@
-"""The firmware's host library through ctypes (cosim.firmware): the fixed-point compensator
+"""The firmware's host library through ctypes (cosim.parts.firmware): the fixed-point compensator
 against its double twin, configuration errors, and the tick on the register shadow."""
 
 import ctypes
@@ -8,8 +8,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from cosim import firmware as fw
-from cosim import regmap
+from cosim.parts import firmware as fw
+from cosim.parts import regmap
 
 LSB = 1.0 / 256.0
 

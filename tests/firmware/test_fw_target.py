@@ -13,7 +13,7 @@ import sys
 
 import pytest
 
-from cosim.paths import BUILD_DIR, REPO_ROOT
+from cosim.project.paths import BUILD_DIR, REPO_ROOT
 
 M4 = BUILD_DIR / "firmware" / "cortex-m4"
 ZIG_CC = [sys.executable, "-m", "ziglang", "cc"]

@@ -8,7 +8,7 @@ import subprocess
 
 import pytest
 
-from cosim.paths import BUILD_DIR
+from cosim.project.paths import BUILD_DIR
 
 UNIT = BUILD_DIR / "firmware" / "host" / "fw_unit_tests"
 UNIT_SAN = BUILD_DIR / "firmware" / "host" / "fw_unit_tests_san"

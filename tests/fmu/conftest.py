@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cosim.paths import REPO_ROOT
-from cosim.plant import FMU_PATH, Plant
+from cosim.parts.plant import FMU_PATH, Plant
+from cosim.project.paths import REPO_ROOT
 
 HERE = Path(__file__).resolve().parent
 IN_PLANE = {"x": 0.0, "y": 0.6, "z": -0.2}  # a position in the loop's plane: phi = 2*pi

@@ -4,7 +4,7 @@
 
 Closed-form cases carry the value the derivation in fmu/README.md gives (independent of both
 implementations); the other positions are drawn at random in the half-sphere and carry the
-value of cosim/geometry.py at the time of writing, so that the C geometry in the FMU and the
+value of cosim/parts/geometry.py at the time of writing, so that the C geometry in the FMU and the
 Python twin are held to the same numbers.
 """
 
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cosim.geometry import bending_angle
+from cosim.parts.geometry import bending_angle
 
 TWO_PI = 2 * math.pi
 

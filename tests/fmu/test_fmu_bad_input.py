@@ -7,8 +7,8 @@ import math
 
 import pytest
 
-from cosim.geometry import bending_angle
-from cosim.plant import Plant, PlantError
+from cosim.parts.geometry import bending_angle
+from cosim.parts.plant import Plant, PlantError
 
 
 @pytest.mark.parametrize(

@@ -1,4 +1,4 @@
-"""cosim.capstan_fit: the capstan model and its fit, on synthetic data."""
+"""cosim.results.capstan_fit: the capstan model and its fit, on synthetic data."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from cosim.capstan_fit import capstan_output, fit_capstan
+from cosim.results.capstan_fit import capstan_output, fit_capstan
 
 
 def test_model_has_both_slopes_and_the_dead_zone():

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from cosim.plant import Plant
+from cosim.parts.plant import Plant
 
 KT, GEAR, EFF_GEAR, RADIUS = 0.0234, 5.4, 0.9, 0.01
 N_PER_A = GEAR * EFF_GEAR * KT / RADIUS  # 11.37 N/A: the inverse of the contract's Kff

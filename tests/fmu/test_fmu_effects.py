@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from cosim.plant import Plant
+from cosim.parts.plant import Plant
 
 MU = 0.075
 PHI = 2 * math.pi

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from cosim.capstan_fit import fit_capstan
-from cosim.geometry import bending_angle
-from cosim.plant import Plant
+from cosim.parts.geometry import bending_angle
+from cosim.parts.plant import Plant
+from cosim.results.capstan_fit import fit_capstan
 
 MU = 0.075
 PHI = 2 * math.pi

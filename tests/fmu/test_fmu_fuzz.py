@@ -1,4 +1,4 @@
-"""Property-based tests of the plant FMU through its handle (cosim.plant; Hypothesis, profiles
+"""Property-based tests of the plant FMU through its handle (cosim.parts.plant; Hypothesis, profiles
 in tests/conftest.py): parameters and inputs in and out of the ranges of modelDescription.xml,
 NaN, infinities and values of the wrong type; serialised states with random doubles written into
 them. Each run ends in finite outputs or in a PlantError whose message names the variable (or
@@ -13,7 +13,7 @@ import numpy as np
 from hypothesis import event, given
 from hypothesis import strategies as st
 
-from cosim.plant import OUTPUT_NAMES, Plant, PlantError, fmu_variables
+from cosim.parts.plant import OUTPUT_NAMES, Plant, PlantError, fmu_variables
 
 VARS = fmu_variables()
 PARAMS = [v for v in VARS.values() if v.causality == "parameter"]

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cosim.geometry import WorkspaceError, bending_angle, hemisphere_grid
-from cosim.plant import Plant
+from cosim.parts.geometry import WorkspaceError, bending_angle, hemisphere_grid
+from cosim.parts.plant import Plant
 
 VECTORS = json.loads(Path(__file__).with_name("geometry_vectors.json").read_text())
 

@@ -15,7 +15,7 @@ from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
-from cosim.paths import REPO_ROOT
+from cosim.project.paths import REPO_ROOT
 
 
 def test_fmpy_validate_reports_no_problems(fmu_path):

@@ -1,10 +1,10 @@
-"""cosim.plant.Plant, the per-sample handle the co-simulation uses."""
+"""cosim.parts.plant.Plant, the per-sample handle the co-simulation uses."""
 
 from __future__ import annotations
 
 import pytest
 
-from cosim.plant import INPUT_NAMES, OUTPUT_NAMES, Plant
+from cosim.parts.plant import INPUT_NAMES, OUTPUT_NAMES, Plant
 
 
 def test_outputs_by_index_and_name_agree(make_plant):

@@ -8,7 +8,7 @@ import sys
 import numpy as np
 from fmpy.util import read_csv
 
-from cosim.paths import REPO_ROOT
+from cosim.project.paths import REPO_ROOT
 
 
 def _make_reference():

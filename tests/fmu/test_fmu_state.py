@@ -8,7 +8,7 @@ import struct
 import numpy as np
 import pytest
 
-from cosim.plant import Plant
+from cosim.parts.plant import Plant
 
 # everything that carries state on: noise generator, sensor lag and delay line, drift
 STATEFUL = {

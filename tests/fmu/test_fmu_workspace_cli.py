@@ -40,8 +40,8 @@ def test_workspace_command_rejects_bad_length(tmp_path):
 
 
 def test_workspace_length_range_is_the_fmus_sheath_length_range(fmu_path):
-    from cosim.plant import fmu_variables
-    from cosim.workspace import LENGTH_RANGE_M
+    from cosim.parts.plant import fmu_variables
+    from cosim.studies.workspace import LENGTH_RANGE_M
 
     var = fmu_variables(fmu_path)["sheath_length"]
     assert LENGTH_RANGE_M == (var.lo, var.hi)

@@ -8,7 +8,7 @@ Also what more than one testbench uses: `SpiMaster` (an MCU on the SPI bridge, w
 bridge's status byte), `reset_after_sck_falls` (a reset in mid-frame), `Ads1220` and
 `Ads131m02` (the load-cell ADCs behind ads1220_reader and ads131m02_reader) and
 `replay_write` (a register write seen on the bus, into the bit-exact model
-cosim.rtl_model.TensionLoopModel).
+cosim.parts.rtl_model.TensionLoopModel).
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from pathlib import Path
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
 from cocotb_tools.runner import get_results, get_runner
 
-from cosim import regmap
-from cosim.paths import BUILD_DIR, HDL_DIR
+from cosim.parts import regmap
+from cosim.project.paths import BUILD_DIR, HDL_DIR
 
 TB_DIR = Path(__file__).resolve().parent
 RTL_DIR = HDL_DIR / "rtl"

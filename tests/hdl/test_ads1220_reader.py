@@ -8,7 +8,7 @@ from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
 from hdl_sim import SIMULATORS, Ads1220, rtl, run_cocotb
 
-from cosim.interface import reader_latency_clks
+from cosim.parts.interface import reader_latency_clks
 
 CONFIG = bytes([0x0E, 0xD4, 0x40, 0x00])
 CODES = [0x123456, -1, -(1 << 23), (1 << 23) - 1, 0]
@@ -39,7 +39,7 @@ async def configures_and_streams(dut):
             await RisingEdge(dut.clk)
             clks += 1
             assert clks < 2000, f"no sample for code {code}"
-        # The co-simulation's word-level ADC (cosim.interface) hands each result to the core
+        # The co-simulation's word-level ADC (cosim.parts.interface) hands each result to the core
         # this many clocks after DRDY: the reader takes exactly that long.
         assert clks == reader_latency_clks(24, SCLK_HALF_CLKS), clks
         got = int(dut.adc_data.value)

@@ -8,7 +8,7 @@ from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
 from hdl_sim import SIMULATORS, Ads131m02, crc16_ccitt, rtl, run_cocotb, signed, word_bits
 
-from cosim.interface import reader_latency_clks
+from cosim.parts.interface import reader_latency_clks
 
 SCLK_HALF_CLKS = 4
 # Longer than a frame (about 770 clocks at SCLK_HALF_CLKS = 4), as the default is.
@@ -60,7 +60,7 @@ async def configures_and_streams(dut):
         adc.frames.clear()
         clks, crc_err = await convert_and_wait(dut, adc, ch0, ch1)
         assert clks is not None and not crc_err, f"no sample for {ch0}, {ch1}"
-        # cosim.interface hands each result to the core this many clocks after DRDY.
+        # cosim.parts.interface hands each result to the core this many clocks after DRDY.
         assert clks == reader_latency_clks(96, SCLK_HALF_CLKS), clks
         got = (signed(int(dut.adc_data.value), 24), signed(int(dut.adc_aux_data.value), 24))
         assert got == (ch0, ch1), f"samples {got}, ADC sent {(ch0, ch1)}"

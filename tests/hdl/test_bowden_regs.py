@@ -8,7 +8,7 @@ from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge
 from hdl_sim import SIMULATORS, rtl, run_cocotb
 
-from cosim import regmap
+from cosim.parts import regmap
 
 
 async def write(dut, addr: int, data: int, strb: int = 0xF) -> bool:

@@ -4,7 +4,7 @@ An MCU (the shared SpiMaster) writes the loop registers over the SPI bridge and 
 back; a behavioural ADC streams load-cell codes into the front-end: the ADS131M02 (the shared
 Ads131m02, T_in on CH0 and T_out on CH1, read back in T_OUT) into ads131m02_reader, the board's
 default, or, with ADC_ADS131M02 = 0, the ADS1220 (the shared Ads1220) into ads1220_reader;
-the drive pins are checked against the bit-exact model (cosim.rtl_model.TensionLoopModel) and
+the drive pins are checked against the bit-exact model (cosim.parts.rtl_model.TensionLoopModel) and
 the ESCON PWM formula (hdl/README.md). A monitor replays into the model, every clock, the ADC
 samples, sample ticks and register writes the core sees on bowden_system's internal nets
 (adc_valid/adc_data, axil_*), and checks that every sample the core receives is the code the
@@ -44,8 +44,8 @@ from hdl_sim import (
     signed,
 )
 
-from cosim import interface, regmap
-from cosim.rtl_model import FAULT_ADC_STALE, TensionLoopModel, adc_code_from_tension
+from cosim.parts import interface, regmap
+from cosim.parts.rtl_model import FAULT_ADC_STALE, TensionLoopModel, adc_code_from_tension
 
 CLK_HZ = 1_000_000
 CLKS_PER_SAMPLE = CLK_HZ // 10_000  # bowden_core's default SAMPLE_HZ
@@ -68,7 +68,8 @@ DRDY_TIMEOUT_CLKS = 4 * 2 * 96 * SCLK_HALF_CLKS[ADC]
 
 def pwm_duty_clks(u: int, enable: bool) -> int:
     """High time of one PWM period for command u (Q3.12 A), as hdl/rtl/pwm_escon.v defines it:
-    the co-simulation's word-level model (cosim.interface.pwm_duty_clks), at this build's clock."""
+    the co-simulation's word-level model (cosim.parts.interface.pwm_duty_clks), at this build's
+    clock."""
     return interface.pwm_duty_clks(u, PWM_PERIOD_CLKS, PWM_IMAX_Q12, enable)
 
 
@@ -136,7 +137,7 @@ class SystemTb:
                 )
 
     async def pwm_monitor(self) -> None:
-        """The rule the co-simulation's word-level PWM model uses (cosim.interface.PwmEscon):
+        """The rule the co-simulation's word-level PWM model uses (cosim.parts.interface.PwmEscon):
         every PWM period starts at a sample tick and carries the command of the tick before
         (the last cmd_current / drive_enable out before the period starts)."""
         d = self.dut

@@ -12,7 +12,7 @@ import sys
 
 import pytest
 
-from cosim.paths import HDL_DIR
+from cosim.project.paths import HDL_DIR
 
 _spec = importlib.util.spec_from_file_location("formal", HDL_DIR / "formal" / "formal.py")
 formal = importlib.util.module_from_spec(_spec)

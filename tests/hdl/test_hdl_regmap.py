@@ -7,8 +7,8 @@ import json
 
 import pytest
 
-from cosim import regmap
-from cosim.paths import HDL_DIR
+from cosim.parts import regmap
+from cosim.project.paths import HDL_DIR
 
 GEN = HDL_DIR / "regmap" / "gen_regmap.py"
 

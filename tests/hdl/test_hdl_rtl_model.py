@@ -1,4 +1,4 @@
-"""The bit-exact loop model (cosim/rtl_model.py) against its double-precision oracle."""
+"""The bit-exact loop model (cosim/parts/rtl_model.py) against its double-precision oracle."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import random
 
 import pytest
 
-from cosim.rtl_model import (
+from cosim.parts.rtl_model import (
     DEFAULT_ADC_GAIN,
     DEFAULT_ADC_OFFSET,
     FloatTensionLoop,

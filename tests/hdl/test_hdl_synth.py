@@ -13,7 +13,7 @@ import sys
 
 import pytest
 
-from cosim.paths import BUILD_DIR, HDL_DIR
+from cosim.project.paths import BUILD_DIR, HDL_DIR
 
 # hdl/synth/synth.py is a script, not a package module (its dataclasses need it registered).
 _spec = importlib.util.spec_from_file_location("bowden_synth", HDL_DIR / "synth" / "synth.py")

@@ -1,4 +1,4 @@
-"""Testbench of hdl/rtl/tension_loop.v: sample by sample against cosim.rtl_model.
+"""Testbench of hdl/rtl/tension_loop.v: sample by sample against cosim.parts.rtl_model.
 
 The RTL's configuration ports are driven directly with the register-field values, mirrored into
 the bit-exact model `TensionLoopModel`; after every tick all outputs must equal the model's.
@@ -14,8 +14,8 @@ from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge
 from hdl_sim import SIMULATORS, rtl, run_cocotb
 
-from cosim import regmap
-from cosim.rtl_model import (
+from cosim.parts import regmap
+from cosim.parts.rtl_model import (
     FAULT_ADC_RANGE,
     FAULT_ADC_STALE,
     FAULT_OVERCURRENT,

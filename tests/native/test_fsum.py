@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from cosim.native import engine
+from cosim.engines.native import engine
 
 
 @pytest.fixture(scope="module")

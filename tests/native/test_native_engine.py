@@ -17,11 +17,12 @@ import sys
 import numpy as np
 import pytest
 
-from cosim import reference, sim
-from cosim.firmware import MODES
-from cosim.harness import runner
-from cosim.native import engine
-from cosim.scenarios import SimConfig, get_scenario
+from cosim.config.scenarios import SimConfig, get_scenario
+from cosim.engines import experiment as sim
+from cosim.engines import reference
+from cosim.engines.cocotb import runner
+from cosim.engines.native import engine
+from cosim.parts.firmware import MODES
 
 # fig14's rise from rest and first reversal at 1 s (the paper law's jump of T_c): 2 s.
 FIG14_S = 2.0

@@ -1,5 +1,5 @@
-"""cosim.firmware.tension_words (the native engine's set-up) against the scalar tension_word it
-vectorises: the same Q7.8 word at every word, every tie between two words, their neighbours
+"""cosim.parts.firmware.tension_words (the native engine's set-up) against the scalar tension_word
+it vectorises: the same Q7.8 word at every word, every tie between two words, their neighbours
 one ulp away, full scale and beyond, and the same error for a NaN."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cosim.firmware import FULL_SCALE_N, Q7_8_MAX, Q7_8_MIN, tension_word, tension_words
+from cosim.parts.firmware import FULL_SCALE_N, Q7_8_MAX, Q7_8_MIN, tension_word, tension_words
 
 
 def _values() -> np.ndarray:

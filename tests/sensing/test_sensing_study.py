@@ -1,4 +1,4 @@
-"""The sensing study (cosim.sensing): the causes behind its decision hold, on short runs.
+"""The sensing study (cosim.studies.sensing): the causes behind its decision hold, on short runs.
 
 The decision in hdl/README.md ("Sensing") rests on three measured causes: the ADS131M02's
 sample is younger at every tick than the ADS1220's, that costs less error right after the
@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from cosim.sensing import study
+from cosim.studies.sensing import study
 
 CFG = study.study_config()  # the gains the decision was made with
 
@@ -79,7 +79,10 @@ def test_drdy_loop_scales_the_integral_gain_to_the_conversion_period():
 def test_cli_bad_input_is_one_line(args, needle):
     """Bad options: one line on stderr, exit status 2, nothing run."""
     r = subprocess.run(
-        [sys.executable, "-m", "cosim.sensing", *args], capture_output=True, text=True, timeout=60
+        [sys.executable, "-m", "cosim.studies.sensing", *args],
+        capture_output=True,
+        text=True,
+        timeout=60,
     )
     assert r.returncode == 2, r.stderr
     assert needle in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr

@@ -15,10 +15,10 @@ import time
 import psutil
 import pytest
 
-from cosim.native import engine
-from cosim.sweep import run as sweep_run
-from cosim.sweep.spec import Point, SpecError, load_spec, parse_spec
-from cosim.sweep.table import read_table
+from cosim.engines.native import engine
+from cosim.studies.sweep import run as sweep_run
+from cosim.studies.sweep.spec import Point, SpecError, load_spec, parse_spec
+from cosim.studies.sweep.table import read_table
 
 # 8 points: 2 compensators x 2 positions x 2 values of mu (+-20 %). 3 s each keeps the sweep
 # running long enough (several seconds on 2 workers) to be killed in the middle.

@@ -10,11 +10,11 @@ import math
 
 import pytest
 
-import cosim.tune as tn
-from cosim import regmap
-from cosim.firmware import CompConfig, load_library
-from cosim.firmware import CompensatorParams as FwComp
-from cosim.scenarios import TUNE_SCENARIO, SimConfig
+import cosim.studies.tune as tn
+from cosim.config.scenarios import TUNE_SCENARIO, SimConfig
+from cosim.parts import regmap
+from cosim.parts.firmware import CompConfig, load_library
+from cosim.parts.firmware import CompensatorParams as FwComp
 
 # The margin stated in hdl/README.md for the shipped gains (`bowden tune` measured x3.05).
 STATED_KP_MARGIN = tn.MIN_KP_MARGIN

@@ -5,7 +5,7 @@
 
 #include "bowden_regs.h"
 
-/* --- the FPGA loop: cosim/rtl_model.py TensionLoopModel, line by line ---------------------- */
+/* --- the FPGA loop: cosim/parts/rtl_model.py TensionLoopModel, line by line ---------------------- */
 
 #define FAULT_ADC_STALE 1U
 #define FAULT_ADC_RANGE 2U

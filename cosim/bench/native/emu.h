@@ -1,8 +1,8 @@
 /*
  * emu.h - the emulator's closed loop in C: the bit-exact model of the FPGA's tension loop
- * (hdl/rtl/tension_loop.v, as cosim/rtl_model.py defines it), the ideal load-cell ADC and the plant
+ * (hdl/rtl/tension_loop.v, as cosim/parts/rtl_model.py defines it), the ideal load-cell ADC and the plant
  * FMU, around the bench device (firmware/host/dev_host.h), with the co-simulation's timing
- * (cosim/reference.py::run_model_chain).
+ * (cosim/engines/reference.py::run_model_chain).
  *
  * Python at 10 kHz costs about 37 us per FPGA sample here (rtl_model + plant + ADC, measured under
  * load): a third of a core, which a loaded 2-core machine does not reliably give in real time. In
@@ -50,7 +50,7 @@ typedef int (*emu_fmi_get_real)(void *c, const uint32_t *vr, uint64_t n, double 
 
 #define EMU_N_IN 5U
 #define EMU_N_OUT 8U
-/* Plant input and output indices (cosim.plant.INPUT_NAMES / OUTPUT_NAMES order). */
+/* Plant input and output indices (cosim.parts.plant.INPUT_NAMES / OUTPUT_NAMES order). */
 #define EMU_IN_CURRENT 0U
 #define EMU_OUT_T_IN_MEAS 2U
 #define EMU_OUT_T_OUT_MEAS 3U

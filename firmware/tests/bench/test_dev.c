@@ -84,7 +84,7 @@ static void test_dev_hello_and_params(void)
     g = request(0U, PROTO_MSG_PARAM_INFO, 6U, p, 2U);
     proto_param_info_ack_t info;
     CHECK(proto_param_info_ack_unpack(&info, g.payload, g.len) &&
-              info.key == proto_params[PROTO_PID_LOOP_KFF].key &&
+              info.key == params_table[PROTO_PID_LOOP_KFF].key &&
               info.default_word == BOWDEN_KFF_RESET && info.flags == 0U,
           "info");
     g = request(0U, PROTO_MSG_HELLO, 7U, NULL, 0U);
@@ -141,6 +141,9 @@ static uint32_t drain_telemetry(uint32_t port, proto_telemetry_t *last, uint32_t
     return n;
 }
 
+/* START's duration_ticks = PROTO_START_DURATION_CONTINUOUS (until STOP), little-endian. */
+static const uint8_t CONTINUOUS[4] = {0xFF, 0xFF, 0xFF, 0xFF};
+
 static void test_dev_run_telemetry_and_overflow(void)
 {
     dev_host_init(&host);
@@ -165,8 +168,11 @@ static void test_dev_run_telemetry_and_overflow(void)
           "last frame");
     CHECK(t.t_ref == host.fw.tel.t_ref && (t.status & PROTO_STATUS_RUNNING) != 0U, "fields");
     CHECK(host.dev.running == 0U, "stopped after its duration");
+    g = request(0U, PROTO_MSG_START, 3U, (const uint8_t[4]){0, 0, 0, 0}, 4U);
+    CHECK(error_code(&g) == PROTO_ERR_INVALID_VALUE && host.dev.running == 0U,
+          "a duration of 0 is refused, not endless");
     /* no drain: the transmit buffer fills, telemetry is dropped and counted, replies still fit */
-    g = request(0U, PROTO_MSG_START, 4U, (const uint8_t[4]){0, 0, 0, 0}, 4U);
+    g = request(0U, PROTO_MSG_START, 4U, CONTINUOUS, 4U);
     for (uint32_t i = 0; i < 200U; ++i) {
         dev_tick(&host.dev, i * 1000U, 0);
     }
@@ -175,7 +181,7 @@ static void test_dev_run_telemetry_and_overflow(void)
     g = request(0U, PROTO_MSG_STOP, 5U, NULL, 0U);
     CHECK(g.msg == PROTO_MSG_ACK, "a reply got through a full buffer");
     (void)drain_telemetry(0U, NULL, NULL);
-    g = request(0U, PROTO_MSG_START, 6U, (const uint8_t[4]){0, 0, 0, 0}, 4U);
+    g = request(0U, PROTO_MSG_START, 6U, CONTINUOUS, 4U);
     gaps = 0;
     dev_tick(&host.dev, 0U, 0);
     CHECK(drain_telemetry(0U, &t, &gaps) == 1U && t.overflow == dropped &&
@@ -207,7 +213,7 @@ static void test_dev_stream_and_faults(void)
     CHECK(error_code(&g) == PROTO_ERR_STREAM_FULL, "full");
     g = request(0U, PROTO_MSG_STREAM, 4U, p, 3U);
     CHECK(error_code(&g) == PROTO_ERR_BAD_LENGTH, "odd length");
-    (void)request(0U, PROTO_MSG_START, 5U, (const uint8_t[4]){0, 0, 0, 0}, 4U);
+    (void)request(0U, PROTO_MSG_START, 5U, CONTINUOUS, 4U);
     (void)drain_telemetry(0U, NULL, NULL);
     proto_telemetry_t t;
     uint32_t gaps = 0;
@@ -309,7 +315,7 @@ static void test_dev_can_port(void)
     f.msg = PROTO_MSG_START;
     f.seq = 10U;
     f.len = 4U;
-    memset(f.payload, 0, 4U);
+    memset(f.payload, 0xFF, 4U); /* PROTO_START_DURATION_CONTINUOUS */
     (void)proto_can_encode(1U, &f, cf, PROTO_CAN_MAX_FRAMES);
     dev_rx_can(&host.dev, 2U, &cf[0]);
     for (uint32_t i = 0; i < 10U; ++i) {

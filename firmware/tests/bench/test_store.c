@@ -10,8 +10,8 @@
 
 static void test_params_get_set(void)
 {
-    dev_settings_t s;
-    dev_settings_default(&s);
+    settings_t s;
+    settings_default(&s);
     int32_t w = 0;
     int32_t status = 0;
     CHECK(params_get(&s, PROTO_PID_COMP_MU, &w) == 0 && w == s.fw.comp.mu_q28, "get mu");
@@ -23,19 +23,19 @@ static void test_params_get_set(void)
               s.dev.telemetry_div == 4U,
           "telemetry_div");
     /* rejected values change nothing and name the field */
-    dev_settings_t before = s;
+    settings_t before = s;
     CHECK(params_set(&s, PROTO_PID_COMP_MU, (int32_t)(2L << 28), &status) ==
                   (int32_t)PROTO_ERR_INVALID_VALUE &&
               status == COMP_ERR_MU,
           "mu = 2 rejected");
     CHECK(memcmp(&s, &before, sizeof s) == 0, "nothing changed");
-    CHECK(strncmp(dev_strerror(status), "comp.mu:", 8) == 0, "message names the field");
+    CHECK(strncmp(settings_strerror(status), "comp.mu:", 8) == 0, "message names the field");
     CHECK(params_set(&s, PROTO_PID_LOOP_KFF, 40000, &status) == (int32_t)PROTO_ERR_INVALID_VALUE &&
               status == FW_ERR_KFF,
           "kff beyond the register");
     CHECK(params_set(&s, PROTO_PID_DEV_CAN_NODE, 64, &status) ==
                   (int32_t)PROTO_ERR_INVALID_VALUE &&
-              status == DEV_ERR_CAN_NODE,
+              status == SETTINGS_ERR_CAN_NODE,
           "node 64");
     CHECK(params_set(&s, PROTO_PID_DEV_TELEMETRY_DIV, 0, &status) ==
                   (int32_t)PROTO_ERR_INVALID_VALUE,
@@ -47,31 +47,31 @@ static void test_params_get_set(void)
     CHECK(memcmp(&s, &before, sizeof s) == 0, "still nothing changed");
     /* keys find their ids */
     for (uint32_t i = 0; i < PROTO_N_PARAMS; ++i) {
-        CHECK(params_find(proto_params[i].key) == (int32_t)i, "key of %u", i);
+        CHECK(params_find(params_table[i].key) == (int32_t)i, "key of %u", i);
     }
     CHECK(params_find(0x12345678UL) == -1, "unknown key");
 }
 
-static void setup(flash_hal_t *hal, flash_ram_t *ram, dev_settings_t *s)
+static void setup(flash_hal_t *hal, flash_ram_t *ram, settings_t *s)
 {
     flash_ram_init(hal, ram);
-    dev_settings_default(s);
+    settings_default(s);
 }
 
 static void test_flash_round_trip_and_alternation(void)
 {
     flash_hal_t hal;
     static flash_ram_t ram;
-    dev_settings_t s, got;
+    settings_t s, got;
     setup(&hal, &ram, &s);
     uint32_t seq = 0;
-    dev_settings_default(&got);
+    settings_default(&got);
     CHECK(flash_load(&hal, &got, &seq) == FLASH_ERR_EMPTY, "blank flash is empty");
     s.fw.comp.mode = COMP_MODE_SMOOTH;
     s.fw.loop.kp = 1234;
     CHECK(flash_store(&hal, &s, &seq) == FLASH_OK && seq == 1U, "first store");
     CHECK(ram.words[0][0] == FLASH_MAGIC && ram.words[1][0] == 0xFFFFFFFFUL, "slot 0 written");
-    dev_settings_default(&got);
+    settings_default(&got);
     CHECK(flash_load(&hal, &got, &seq) == FLASH_OK && seq == 1U, "load");
     CHECK(memcmp(&got, &s, sizeof s) == 0, "same settings back");
     s.fw.loop.kp = 999;
@@ -79,7 +79,7 @@ static void test_flash_round_trip_and_alternation(void)
     CHECK(ram.words[1][1] == 2U && ram.words[0][1] == 1U, "slot 1 written, slot 0 kept");
     CHECK(flash_store(&hal, &s, &seq) == FLASH_OK && seq == 3U && ram.words[0][1] == 3U,
           "third store back in slot 0");
-    dev_settings_default(&got);
+    settings_default(&got);
     CHECK(flash_load(&hal, &got, &seq) == FLASH_OK && seq == 3U && got.fw.loop.kp == 999, "newest");
 }
 
@@ -89,7 +89,7 @@ static void test_flash_power_cut_anywhere(void)
 {
     flash_hal_t hal;
     static flash_ram_t ram;
-    dev_settings_t old_s, new_s, got;
+    settings_t old_s, new_s, got;
     setup(&hal, &ram, &old_s);
     uint32_t seq;
     old_s.fw.loop.kp = 111;
@@ -115,7 +115,7 @@ static void test_flash_power_cut_anywhere(void)
         CHECK(cut == ops_full ? st == FLASH_OK : st == FLASH_ERR_WRITE, "cut %u: store %d", cut,
               st);
         flash_ram_power_on(&ram);
-        dev_settings_default(&got);
+        settings_default(&got);
         CHECK(flash_load(&hal, &got, &seq) == FLASH_OK, "cut %u: a record loads", cut);
         int is_old = memcmp(&got, &old_s, sizeof got) == 0;
         int is_new = memcmp(&got, &new_s, sizeof got) == 0;
@@ -133,12 +133,12 @@ static void test_flash_foreign_and_invalid_records(void)
 {
     flash_hal_t hal;
     static flash_ram_t ram;
-    dev_settings_t s, got;
+    settings_t s, got;
     setup(&hal, &ram, &s);
     uint32_t seq;
     /* hand-made record: one unknown key, then kp = 321 */
     uint32_t rec[3 + 4 + 1] = {FLASH_MAGIC, 5U, 2U, 0xDEADBEEFUL, 1U,
-                               proto_params[PROTO_PID_LOOP_KP].key, 321U, 0U};
+                               params_table[PROTO_PID_LOOP_KP].key, 321U, 0U};
     uint8_t bytes[7 * 4];
     for (uint32_t i = 0; i < 7U; ++i) {
         for (uint32_t b = 0; b < 4U; ++b) {
@@ -148,31 +148,31 @@ static void test_flash_foreign_and_invalid_records(void)
     rec[7] = crc32c(bytes, sizeof bytes);
     (void)hal.erase(hal.ctx, 0U);
     (void)hal.program(hal.ctx, 0U, 0U, rec, 8U);
-    dev_settings_default(&got);
+    settings_default(&got);
     CHECK(flash_load(&hal, &got, &seq) == FLASH_OK && seq == 5U, "foreign record loads");
-    dev_settings_default(&s);
+    settings_default(&s);
     s.fw.loop.kp = 321;
     CHECK(memcmp(&got, &s, sizeof s) == 0, "kp taken, the rest default");
     /* torn header: absurd pair count */
     ram.words[1][0] = FLASH_MAGIC;
     ram.words[1][1] = 6U;
     ram.words[1][2] = 0x7FFFFFFFUL;
-    dev_settings_default(&got);
+    settings_default(&got);
     CHECK(flash_load(&hal, &got, &seq) == FLASH_OK && seq == 5U, "torn record ignored");
     /* a newer record whose settings fail the check (mu = 3) gives way to the older one */
-    dev_settings_t bad;
-    dev_settings_default(&bad);
+    settings_t bad;
+    settings_default(&bad);
     bad.fw.comp.mu_q28 = (int32_t)(3L << 28);
     uint32_t seq2;
     CHECK(flash_store(&hal, &bad, &seq2) == FLASH_OK && seq2 == 6U, "store writes any settings");
-    dev_settings_default(&got);
+    settings_default(&got);
     CHECK(flash_load(&hal, &got, &seq) == FLASH_OK && seq == 5U && got.fw.loop.kp == 321,
           "older valid record used");
     /* both invalid */
     CHECK(flash_store(&hal, &bad, &seq2) == FLASH_OK, "second bad record");
-    dev_settings_default(&got);
-    dev_settings_t def;
-    dev_settings_default(&def);
+    settings_default(&got);
+    settings_t def;
+    settings_default(&def);
     CHECK(flash_load(&hal, &got, &seq) == FLASH_ERR_INVALID && memcmp(&got, &def, sizeof got) == 0,
           "no valid settings: defaults untouched");
 }

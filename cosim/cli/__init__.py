@@ -1,0 +1,106 @@
+"""The `bowden` command line.
+
+Each subcommand lives in its own module, which provides `add_parser(subparsers)`; the parser
+it adds sets `func(args) -> int`. A module is listed in SUBCOMMANDS only once it works.
+
+For every subcommand: a bad argument is one line on stderr and exit status 2
+(cosim.project.cliargs); SIGINT (Ctrl-C) or SIGTERM stops the run and every process it started
+(cosim.project.procs), prints one line and exits with 128 + the signal number, keeping the files
+already written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import importlib
+import signal
+import sys
+import threading
+
+from cosim import __version__
+from cosim.project import procs
+from cosim.project.cliargs import ArgumentParser, harden, subparsers
+
+# The subcommands, in the order `bowden --help` lists them: cosim/cli/NAME.py for each; `bench`
+# adds `bowden bench` and `bowden emulate`.
+SUBCOMMANDS: list[str] = ["doctor", "workspace", "sim", "demo", "tune", "audit", "bench", "sweep"]
+
+
+class Interrupted(BaseException):
+    """SIGINT or SIGTERM arrived: unwinds the run like KeyboardInterrupt (no `except Exception`
+    catches it)."""
+
+    def __init__(self, signum: int):
+        self.signum = signum
+        super().__init__(signal.Signals(signum).name)
+
+
+def _raise_interrupted(signum, _frame):
+    # A second Ctrl-C while the run is being stopped would only interrupt the stopping.
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, signal.SIG_IGN)
+    raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def _signals_interrupt():
+    """SIGINT and SIGTERM raise Interrupted in the main thread while the command runs."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {
+        sig: signal.signal(sig, _raise_interrupted) for sig in (signal.SIGINT, signal.SIGTERM)
+    }
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = ArgumentParser(
+        prog="bowden",
+        description="Bowden-cable tension control: co-simulation, model audit and bench tool.",
+    )
+    parser.add_argument("--version", action="version", version=f"bowden {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in SUBCOMMANDS:
+        importlib.import_module(f"cosim.cli.{name}").add_parser(sub)
+    return harden(parser)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    try:
+        args, extra = parser.parse_known_args(argv)
+        if extra:  # named by the subcommand's parser: `bowden sim: unrecognized arguments: ...`
+            command = subparsers(parser).get(getattr(args, "command", None) or "", parser)
+            command.error(f"unrecognized arguments: {' '.join(extra)}")
+    except SystemExit as exc:  # --help, --version, or a bad argument (one line printed)
+        return exc.code if isinstance(exc.code, int) else 2
+    if getattr(args, "func", None) is None:
+        parser.print_help()
+        return 2
+    try:
+        with _signals_interrupt():
+            return int(args.func(args) or 0)
+    except (Interrupted, KeyboardInterrupt) as exc:
+        signum = exc.signum if isinstance(exc, Interrupted) else int(signal.SIGINT)
+        procs.stop_all()  # whatever the command's own handler has not stopped yet
+        print(
+            f"bowden {args.command}: interrupted by {signal.Signals(signum).name}: stopped the run "
+            "and every process it started; files already written are kept",
+            file=sys.stderr,
+        )
+        return 128 + signum
+    except OSError as exc:
+        # A folder that cannot be created, a file that cannot be read or written: say which.
+        where = f": {exc.filename}" if exc.filename else ""
+        print(f"bowden {args.command}: {exc.strerror or exc}{where}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,134 @@
+"""`bowden audit DATA.csv [--out DIR] [--emit-params FILE]`: the model audit from the command
+line. Prints a progress line on stderr while it fits and a short summary at the end; writes
+DIR/audit.json, DIR/report.md and the plots it links."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+from cosim.audit.params import FIG14_DEFAULT_DURATION_S
+from cosim.project.cliargs import output_dir
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "audit",
+        help="model audit: what the simulation gets wrong on measured data, the cause, the gain",
+        description=(
+            "Fit the plant model to measured tension data (t_s, T_in_N, T_out_N; optional "
+            "x_m, y_m, z_m and a DATA.meta.json sidecar), name what it gets wrong from the FMU's "
+            "effects, extend it and measure the gain on held-out data."
+        ),
+    )
+    p.add_argument("data", help="measured trace: CSV with t_s, T_in_N, T_out_N (and more)")
+    p.add_argument(
+        "--out",
+        default=None,
+        type=output_dir,
+        help="output folder (default: DATA's folder/<stem>_audit)",
+    )
+    p.add_argument(
+        "--emit-params",
+        default=None,
+        metavar="FILE",
+        help="write the extended model's parameters for `bowden sim --params FILE` and measure "
+        "what they change in fig14",
+    )
+    p.add_argument(
+        "--fig14-duration",
+        type=float,
+        default=FIG14_DEFAULT_DURATION_S,
+        metavar="S",
+        help=f"simulated seconds of the fig14 comparison (default {FIG14_DEFAULT_DURATION_S:g})",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress line")
+    p.set_defaults(func=main)
+
+
+class _Bar:
+    """One stderr line: fraction done and what is being fitted."""
+
+    def __init__(self, enabled: bool) -> None:
+        self.enabled = enabled
+        self.start = time.perf_counter()
+
+    def __call__(self, message: str, fraction: float) -> None:
+        if not self.enabled:
+            return
+        filled = int(round(20 * fraction))
+        line = (
+            f"\raudit [{'#' * filled}{'-' * (20 - filled)}] {100 * fraction:3.0f} % "
+            f"{time.perf_counter() - self.start:5.1f} s  {message[:70]:<70}"
+        )
+        sys.stderr.write(line)
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        if self.enabled:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+def main(args: argparse.Namespace) -> int:
+    from cosim.audit import core, params, report  # noqa: PLC0415
+    from cosim.results import trace  # noqa: PLC0415
+
+    data_path = Path(args.data)
+    if not (math.isfinite(args.fig14_duration) and 2.0 <= args.fig14_duration <= 30.0):
+        print(
+            f"bowden audit: --fig14-duration must be in [2, 30] s; got {args.fig14_duration!r}",
+            file=sys.stderr,
+        )
+        return 2
+    out_dir = Path(args.out) if args.out else data_path.with_name(data_path.stem + "_audit")
+    try:
+        tr = trace.read_trace(data_path, mode="measured")
+        data = core.prepare(tr, str(data_path))
+    except (trace.TraceError, core.AuditError) as exc:
+        print(f"bowden audit: {exc}", file=sys.stderr)
+        return 2
+    out_dir.mkdir(parents=True, exist_ok=True)
+    bar = _Bar(not args.quiet)
+    try:
+        result = core.run(data, progress=bar)
+        if args.emit_params:
+            bar("fig14: default compensator against the emitted parameters", 1.0)
+            emitted, notes = params.emitted_params(result)
+            params.write_params(Path(args.emit_params), emitted)
+            fig = params.fig14_change(
+                emitted, data.inputs.loop_routing, args.fig14_duration, progress=False
+            )
+            result.extras["emitted_params"] = {
+                "file": str(args.emit_params),
+                "params": emitted,
+                "notes": notes,
+            }
+            result.extras["fig14"] = fig
+    except FileNotFoundError as exc:  # the FMU is not built
+        bar.close()
+        print(f"bowden audit: {exc}", file=sys.stderr)
+        return 1
+    except OSError as exc:  # --emit-params cannot be written
+        bar.close()
+        where = f": {exc.filename}" if exc.filename else ""
+        print(f"bowden audit: {exc.strerror or exc}{where}", file=sys.stderr)
+        return 1
+    except (RuntimeError, ValueError) as exc:
+        bar.close()
+        print(f"bowden audit: {exc}", file=sys.stderr)
+        return 1
+    bar.close()
+    data_dict = report.write_json(out_dir / "audit.json", result)
+    names = report.plots(out_dir, result)
+    (out_dir / "report.md").write_text(report.markdown(result, data_dict, names))
+    print(report.summary(result))
+    if "fig14" in result.extras:
+        print("  params   " + f"wrote {args.emit_params}; " + result.extras["fig14"]["text"])
+        for note in result.extras["emitted_params"]["notes"]:
+            print(f"           note: {note}")
+    print(f"wrote {out_dir / 'audit.json'}, {out_dir / 'report.md'} and {len(names)} plots")
+    return 0

@@ -1,0 +1,809 @@
+"""`bowden bench` (talk to a controller) and `bowden emulate` (be one), see cosim/bench/README.md.
+
+    bowden emulate                                   # prints its pty and socket:// URL
+    bowden bench --port /dev/pts/7 info
+    bowden bench --port socket://127.0.0.1:5555 set comp.mode=smooth comp.band_n=1
+    bowden bench --port /dev/ttyUSB0 run sine --mean 8 --amplitude 6 --freq 0.5 \\
+        --seconds 5 --out x.csv
+    bowden bench --can virtual:bench --emulate run triangle --seconds 5 --out y.csv
+
+Every failure is one line on stderr and a non-zero exit: an unknown parameter or value, a port
+that does not open, a device that does not answer, a version mismatch, a device error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import csv
+import json
+import math
+import os
+import signal
+import sys
+import threading
+import time
+from pathlib import Path
+
+from cosim.bench import messages as msgs
+from cosim.bench.api import Bench
+from cosim.bench.client import (
+    BenchClient,
+    BenchError,
+    BenchUsageError,
+    fault_names,
+    status_names,
+)
+from cosim.bench.device import ChainConfig
+from cosim.bench.diff import BACKUP_FORMAT
+from cosim.bench.protocol import ProtocolError, format_value, param, word_from_value
+from cosim.bench.recorder import WAVE_KINDS, stderr_progress
+from cosim.parts import regmap
+from cosim.results import trace as trace_mod
+
+from . import bench_tools
+
+# The FPGA's drive enable in the STATUS register (FAULTS.fpga_status).
+STATUS_OUT_EN = 1 << next(f.lsb for f in regmap.REGISTERS["STATUS"].fields if f.name == "OUT_EN")
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM during a bench command (unwinds like Ctrl-C; exit 128 + signum)."""
+
+    def __init__(self, signum: int) -> None:
+        self.signum = signum
+        super().__init__(signal.Signals(signum).name)
+
+
+class Signals:
+    """SIGINT and SIGTERM raise Interrupted in the main thread, once: a later signal is noted,
+    not raised, so that it cannot cut short the STOP that follows. Inside `hold()` (stopping the
+    device) a signal is noted and raised when the hold ends."""
+
+    def __init__(self) -> None:
+        self.signum: int | None = None
+        self._raised = False
+        self._holding = False
+        self._previous: dict = {}
+
+    def __enter__(self) -> Signals:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = {
+                sig: signal.signal(sig, self._handler) for sig in (signal.SIGINT, signal.SIGTERM)
+            }
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+
+    def _handler(self, signum, _frame) -> None:
+        if self.signum is None:
+            self.signum = signum
+        if not self._raised and not self._holding:
+            self._raised = True
+            raise Interrupted(signum)
+
+    @contextlib.contextmanager
+    def hold(self):
+        self._holding = True
+        try:
+            yield
+        finally:
+            self._holding = False
+        if self.signum is not None and not self._raised:
+            self._raised = True
+            raise Interrupted(self.signum)
+
+
+def _position(text: str) -> tuple[float, float, float]:
+    try:
+        parts = [float(p) for p in text.split(",")]
+    except ValueError:
+        parts = []
+    if len(parts) != 3 or not all(math.isfinite(p) for p in parts):
+        raise argparse.ArgumentTypeError(f"expected X,Y,Z in metres, e.g. 0,0.5,0; got {text!r}")
+    return parts[0], parts[1], parts[2]
+
+
+def _positive(kind):
+    def conv(text: str):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number > 0; got {text!r}") from None
+        if not (math.isfinite(v) and v > 0):
+            raise argparse.ArgumentTypeError(f"expected a number > 0; got {text!r}")
+        return v
+
+    return conv
+
+
+def _finite(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number; got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected a finite number; got {text!r}")
+    return v
+
+
+def add_parser(subparsers) -> None:
+    _add_bench(subparsers)
+    _add_emulate(subparsers)
+
+
+# --- bowden bench --------------------------------------------------------------------------------
+
+
+def _add_bench(subparsers) -> None:
+    p = subparsers.add_parser(
+        "bench",
+        help="configure a controller, run waveforms and record them (serial or CAN)",
+        description="Talk to a controller (or `bowden emulate`) over any pyserial URL or any "
+        "python-can interface: parameters, persistence, faults, and recorded runs in the trace "
+        "format.",
+    )
+    # Neither the link nor the COMMAND is `required` for argparse: it would report a missing one
+    # before an unknown option; bench_main names what is missing instead.
+    link = p.add_mutually_exclusive_group()
+    link.add_argument(
+        "--port",
+        help="pyserial URL: /dev/ttyUSB0, /dev/pts/N, socket://HOST:PORT; auto: the only "
+        "controller found on the ports pyserial lists (see `list`)",
+    )
+    link.add_argument(
+        "--can", help="python-can INTERFACE:CHANNEL, e.g. virtual:bench, socketcan:can0"
+    )
+    p.add_argument("--baud", type=_positive(int), default=921_600, help="serial baud rate")
+    p.add_argument("--node", type=int, default=msgs.CAN_DEFAULT_NODE, help="CAN node id (0..63)")
+    p.add_argument("--timeout", type=_positive(float), default=1.0, help="reply timeout in s")
+    p.add_argument(
+        "--emulate",
+        action="store_true",
+        help="start the emulator in this process: on the --can bus (python-can's virtual bus "
+        "reaches only this process), or without --port/--can stepped as fast as it computes, not "
+        "in real time (a run records what `bowden emulate` would give, with no drops on a loaded "
+        "machine)",
+    )
+    p.add_argument(
+        "--plant",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE[,...]",
+        help="with --emulate: FMU parameters of the emulated plant (as `bowden emulate --plant`)",
+    )
+    sub = p.add_subparsers(dest="bench_command", metavar="COMMAND")
+    sub.add_parser("info", help="firmware, protocol, configuration state, faults")
+    g = sub.add_parser("get", help="parameter values (all, or the NAMEs given)")
+    g.add_argument("names", nargs="*", metavar="NAME")
+    s = sub.add_parser("set", help="write parameters: NAME=VALUE (SI units or a mode name)")
+    s.add_argument("assignments", nargs="+", metavar="NAME=VALUE")
+    sub.add_parser("persist", help="save the parameters in the device's flash")
+    sub.add_parser("load", help="reload the parameters saved in flash")
+    sub.add_parser("defaults", help="factory defaults (in RAM; persist makes them permanent)")
+    b = sub.add_parser("backup", help="save every parameter to a JSON file, stamped")
+    b.add_argument("file")
+    r = sub.add_parser("restore", help="write the parameters of a backup file")
+    r.add_argument("file")
+    f = sub.add_parser("faults", help="the FPGA's and the device's faults, by name")
+    f.add_argument("--clear", action="store_true", help="clear them afterwards")
+    sub.add_parser("stats", help="the device's link counters (frames, CRC errors, ...)")
+    run = sub.add_parser("run", help="run a waveform and record telemetry in the trace format")
+    run.add_argument("waveform", choices=(*WAVE_KINDS, "stream"))
+    run.add_argument("--mean", type=_finite, default=8.5, help="mean T_ref in N (default 8.5)")
+    run.add_argument("--amplitude", type=_finite, default=6.5, help="amplitude in N (default 6.5)")
+    run.add_argument("--freq", type=_finite, default=0.5, help="frequency in Hz (default 0.5)")
+    run.add_argument("--ref", help="stream: CSV with T_ref_N (one row per tick), or one column")
+    run.add_argument("--seconds", type=_positive(float), required=True)
+    run.add_argument("--out", required=True, help="trace CSV (its .meta.json goes beside it)")
+    run.add_argument(
+        "--position",
+        type=_position,
+        default=(0.0, 0.5, 0.0),
+        metavar="X,Y,Z",
+        help="end-effector position in m, held during the run (default 0,0.5,0)",
+    )
+    run.add_argument("--no-loop-routing", dest="loop_routing", action="store_false")
+    run.add_argument("--sheath-length", type=_positive(float), default=1.0, help="m")
+    run.add_argument("--quiet", action="store_true", help="no progress line")
+    bench_tools.add_live_arguments(run)
+    bench_tools.add_parsers(sub)
+    p.set_defaults(func=bench_main)
+
+
+def bench_main(args: argparse.Namespace) -> int:
+    if not args.port and not args.can and not args.emulate and args.bench_command != "list":
+        print(
+            "bowden bench: one of --port URL, --can INTERFACE:CHANNEL or --emulate is required "
+            "(see bowden bench --help)",
+            file=sys.stderr,
+        )
+        return 2
+    if args.plant and not args.emulate:
+        print("bowden bench: --plant sets the emulated plant: it needs --emulate", file=sys.stderr)
+        return 2
+    if args.bench_command is None:
+        print(
+            f"bowden bench: a COMMAND is required: {', '.join(_COMMANDS)} "
+            "(see bowden bench --help)",
+            file=sys.stderr,
+        )
+        return 2
+    if (rc := bench_tools.precheck(args)) is not None:
+        return rc
+    try:
+        plant = _plant_assignments(args.plant)
+    except ValueError as exc:
+        print(f"bowden bench: {exc}", file=sys.stderr)
+        return 2
+    args.signals = Signals()
+    args.stop_report = None  # what the device said when a run was stopped
+    with args.signals:
+        try:
+            return _bench_session(args, plant)
+        except KeyboardInterrupt:  # Interrupted, or Ctrl-C before the handlers were in place
+            signum = args.signals.signum or int(signal.SIGINT)
+            print(
+                f"bowden bench: interrupted by {signal.Signals(signum).name}"
+                + (f"; {args.stop_report}" if args.stop_report else ""),
+                file=sys.stderr,
+            )
+            return 128 + signum
+        except BenchUsageError as exc:
+            print(f"bowden bench: {exc}", file=sys.stderr)
+            return 2
+        except (BenchError, ProtocolError) as exc:
+            stop = f"; {args.stop_report}" if args.stop_report else ""
+            print(f"bowden bench: {exc}{stop}", file=sys.stderr)
+            return 1
+        except OSError as exc:  # a full disk, a folder that cannot be written: say which
+            where = f": {exc.filename}" if exc.filename else ""
+            stop = f"; {args.stop_report}" if args.stop_report else ""
+            print(f"bowden bench: {exc.strerror or exc}{where}{stop}", file=sys.stderr)
+            return 1
+
+
+def _bench_session(args: argparse.Namespace, plant: dict) -> int:
+    session = None
+    try:
+        if args.emulate and args.port:
+            raise BenchError(
+                "--emulate works with --can or alone (use `bowden emulate` for serial)"
+            )
+        chain = ChainConfig(
+            position_m=getattr(args, "position", (0.0, 0.5, 0.0)),
+            loop_routing=getattr(args, "loop_routing", True),
+            plant=plant or None,
+        )
+        if args.bench_command == "list":
+            return bench_tools.cmd_list(args, chain)
+        bench_tools.resolve_port(args)
+        session = Bench(
+            args.port,
+            can=args.can,
+            node=args.node,
+            baud=args.baud,
+            timeout_s=args.timeout,
+            emulate=args.emulate,
+            chain=chain,
+        )
+        return _COMMANDS[args.bench_command](session.client, args, session.connect_info)
+    finally:
+        if session is not None:
+            with contextlib.suppress(Exception):
+                session.close()
+
+
+def _cmd_info(client: BenchClient, args, info) -> int:
+    print(f"device        {client.link.url}")
+    print(f"firmware      {info.firmware} (build {info.build_id:08x})")
+    print(f"protocol      {info.proto_version}, table {info.table_hash:08x} (host: same)")
+    print(f"parameters    {info.n_params}")
+    dirty = "yes: `bowden bench ... persist` keeps them" if info.dirty else "no"
+    print(f"configuration {info.config_source}; unsaved changes: {dirty}")
+    f = client.faults()
+    fpga = fault_names(f["fpga_fault"] & 0x0F) or ["none"]
+    dev = ", ".join(fault_names(f["device_faults"])) or "none"
+    print(f"faults        FPGA {', '.join(fpga)}; device {dev}")
+    if client.stale_telemetry:
+        print(f"note          the device was streaming: stopped ({client.stale_telemetry} frames)")
+    return 0
+
+
+def _cmd_get(client: BenchClient, args, info) -> int:
+    names = args.names or [p.name for p in msgs.PARAMS]
+    for name in names:
+        param(name)  # unknown names fail before anything is read
+    width = max(len(n) for n in names)
+    for name in names:
+        p = param(name)
+        print(f"{name:<{width}}  {format_value(p, client.get_word(name))}")
+    return 0
+
+
+def _cmd_set(client: BenchClient, args, info) -> int:
+    todo = []
+    for a in args.assignments:
+        name, sep, value = a.partition("=")
+        if not sep:
+            raise ProtocolError(f"{a!r}: expected NAME=VALUE")
+        p = param(name.strip())
+        if p.read_only:
+            raise ProtocolError(f"{p.name} is read-only")
+        todo.append((p, word_from_value(p, value.strip())))  # all checked before any is sent
+    for p, word in todo:
+        now = client.set_word(p.name, word)
+        print(f"{p.name} = {format_value(p, now)}")
+    print("(in RAM: `persist` saves them)")
+    return 0
+
+
+def _cmd_simple(name: str, text: str):
+    def cmd(client: BenchClient, args, info) -> int:
+        value = client.simple(name)
+        print(text.format(value=value))
+        return 0
+
+    return cmd
+
+
+def _cmd_backup(client: BenchClient, args, info) -> int:
+    words = client.params()
+    doc = {
+        "bowden_bench_backup": BACKUP_FORMAT,
+        "protocol_version": msgs.PROTOCOL_VERSION,
+        "table_hash": f"{msgs.TABLE_HASH:08x}",
+        "firmware": info.firmware,
+        "build_id": f"{info.build_id:08x}",
+        "saved_at": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "params": {
+            name: {"word": w, "value": format_value(param(name), w)} for name, w in words.items()
+        },
+    }
+    path = Path(args.file)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(doc, indent=2) + "\n")
+    tmp.replace(path)
+    print(f"saved {len(words)} parameters to {path} (table {msgs.TABLE_HASH:08x})")
+    return 0
+
+
+def _cmd_restore(client: BenchClient, args, info) -> int:
+    path = Path(args.file)
+    try:
+        doc = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise BenchError(f"restore: {path} does not exist") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise BenchError(f"restore: {path} is not a JSON backup ({exc})") from None
+    if not isinstance(doc, dict) or doc.get("bowden_bench_backup") != BACKUP_FORMAT:
+        raise BenchError(f"restore: {path} is not a bowden bench backup (format {BACKUP_FORMAT})")
+    params = doc.get("params")
+    if not isinstance(params, dict):
+        raise BenchError(f"restore: {path}: no 'params' object")
+    unknown = [n for n in params if n not in msgs.PARAM_BY_NAME]
+    if unknown:
+        raise BenchError(
+            f"restore: {path} has parameters this device does not know: {', '.join(unknown)} "
+            f"(backup table {doc.get('table_hash')}, device table {msgs.TABLE_HASH:08x})"
+        )
+    todo = []
+    for name, entry in params.items():
+        p = param(name)
+        word = entry.get("word") if isinstance(entry, dict) else None
+        if (
+            isinstance(word, bool)
+            or not isinstance(word, int)
+            or not (-(1 << 31) <= word < (1 << 32))
+        ):
+            raise BenchError(f"restore: {path}: {name}.word must be a 32-bit integer")
+        if not p.read_only:
+            todo.append((p, word - (1 << 32) if word >= 1 << 31 else word))
+    if doc.get("table_hash") != f"{msgs.TABLE_HASH:08x}":
+        print(
+            f"note: backup of table {doc.get('table_hash')}, device table {msgs.TABLE_HASH:08x}: "
+            "restoring by parameter name"
+        )
+    done = 0
+    for p, word in todo:
+        try:
+            client.set_word(p.name, word)
+        except BenchError as exc:
+            raise BenchError(
+                f"restore: {exc} ({done} of {len(todo)} parameters written before it)"
+            ) from None
+        done += 1
+    print(f"restored {done} parameters from {path} (in RAM: `persist` saves them)")
+    return 0
+
+
+def _cmd_faults(client: BenchClient, args, info) -> int:
+    f = client.faults()
+    fpga = fault_names(f["fpga_fault"] & 0x0F)
+    print(f"FPGA faults    {', '.join(fpga) or 'none'}")
+    print(f"FPGA status    {', '.join(n for n in status_names(f['fpga_status'] << 1)) or 'idle'}")
+    print(f"device faults  {', '.join(fault_names(f['device_faults'])) or 'none'}")
+    print(f"fault ticks    {f['fault_ticks']}")
+    for name in fault_names(f["fpga_fault"] & 0x0F) + fault_names(f["device_faults"]):
+        doc = _FAULT_DOCS.get(name)
+        if doc:
+            print(f"  {name}: {doc}")
+    if args.clear:
+        client.simple("FAULT_CLEAR")
+        print("cleared")
+    return 0
+
+
+def _cmd_stats(client: BenchClient, args, info) -> int:
+    for k, v in client.stats().items():
+        print(f"{k:<18} {v}")
+    s = client.link.stats
+    print(
+        f"host: {s.frames} frames received, {s.rejected} rejected "
+        f"({s.crc_errors} CRC, {s.framing_errors} framing, {s.overlong} overlong, "
+        f"{s.short_frames} short)"
+    )
+    return 0
+
+
+def _read_ref(path: str) -> list[int]:
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except FileNotFoundError:
+        raise BenchError(f"--ref {p}: no such file") from None
+    except UnicodeDecodeError:
+        raise BenchError(f"--ref {p}: not a text CSV") from None
+    rows = list(csv.reader(text.splitlines()))
+    if not rows:
+        raise BenchError(f"--ref {p}: empty")
+    header = [h.strip() for h in rows[0]]
+    col = header.index("T_ref_N") if "T_ref_N" in header else 0
+    start = 1 if not _is_number(rows[0][col] if col < len(rows[0]) else "") else 0
+    words = []
+    for i, row in enumerate(rows[start:], start=start + 1):
+        if not row:
+            continue
+        cell = row[col] if col < len(row) else ""
+        if not _is_number(cell):
+            raise BenchError(f"--ref {p}:{i}: T_ref {cell!r} is not a finite number")
+        v = float(cell)
+        if not -128.0 <= v <= 127.99:
+            raise BenchError(f"--ref {p}:{i}: T_ref {v:g} N outside [-128, 127.99] N")
+        words.append(round(v * 256.0))
+    if not words:
+        raise BenchError(f"--ref {p}: no samples")
+    return words
+
+
+def _is_number(text: str) -> bool:
+    try:
+        return math.isfinite(float(text))
+    except ValueError:
+        return False
+
+
+def _cmd_run(client: BenchClient, args, info) -> int:
+    words = None
+    if args.waveform == "stream":
+        if not args.ref:
+            raise BenchError("run stream needs --ref FILE.csv (T_ref_N, one row per tick)")
+        words = _read_ref(args.ref)
+    elif args.ref:
+        raise BenchError("--ref is for `run stream` only")
+    out = _run_target(args.out)
+    if client.stale_telemetry:
+        print(
+            f"note: the device was streaming when we connected: stopped it "
+            f"({client.stale_telemetry} stale frames skipped)",
+            file=sys.stderr,
+        )
+    # The run's rows go to NAME.partial.csv, moved onto --out when the run ends (a failed run
+    # never wipes an earlier recording; a run killed with SIGKILL leaves the partial file).
+    partial = out.with_name(f"{out.stem}.partial{out.suffix}")
+    result = None
+    try:
+        result = bench_tools.record_with_view(
+            client,
+            args,
+            partial,
+            f"{args.waveform} -> {out}",
+            seconds=args.seconds,
+            waveform=args.waveform,
+            mean_n=args.mean,
+            amplitude_n=args.amplitude,
+            freq_hz=args.freq,
+            stream_words=words,
+            position_m=args.position,
+            loop_routing=args.loop_routing,
+            sheath_length_m=args.sheath_length,
+            progress=None if args.quiet else stderr_progress,
+        )
+    finally:
+        # Every way out of a run (the end, a signal, a link error, an exception, a full disk)
+        # passes here: STOP, then the device's own word that it stopped and the output is off.
+        with args.signals.hold():
+            why_not = stop_and_confirm(client)
+            args.stop_report = (
+                "device stopped, output disabled (confirmed by the device)"
+                if why_not is None
+                else f"the device did NOT confirm that it stopped ({why_not}): it ends the run "
+                "by itself after --seconds; switch the drive off"
+            )
+            kept = _keep_recording(partial, out)
+            if result is None and kept:
+                args.stop_report = f"{out} holds the samples up to now; {args.stop_report}"
+    if why_not is not None:
+        raise BenchError(f"{out}: {result.summary()}")
+    print(f"{out}: {result.summary()} ({result.wall_s:.1f} s)")
+    for first, count in result.gaps[:5]:
+        print(f"  gap: {count} sample(s) missing from sample {first}")
+    if result.drops or result.stopped_early:
+        print(
+            f"bowden bench: the recording is incomplete ({result.drops} dropped, device stopped "
+            f"early: {result.stopped_early}); python -m cosim.results.trace will name the first "
+            "gap",
+            file=sys.stderr,
+        )
+        return 1
+    return 0
+
+
+def _sigterm(signum, frame):
+    raise KeyboardInterrupt
+
+
+def stop_and_confirm(client: BenchClient, tries: int = 3, settle_s: float = 0.5) -> str | None:
+    """Send STOP, then ask the device: None when HELLO says no run is active and the FPGA's
+    STATUS shows the drive output disabled; otherwise why that could not be confirmed. The FPGA
+    takes STOP's CTRL write at its next sample: STATUS is read again for up to `settle_s`."""
+    client.on_telemetry = None
+    why = "no answer"
+    for _ in range(tries):
+        try:
+            client.request("STOP")
+            deadline = time.monotonic() + settle_s
+            while True:
+                running = client.hello().running
+                out_en = client.faults()["fpga_status"] & STATUS_OUT_EN
+                if (not running and not out_en) or time.monotonic() >= deadline:
+                    break
+                client.poll(0.02)  # (the stepped emulator advances its loop here)
+        except (BenchError, ProtocolError, OSError) as exc:
+            why = str(exc)
+            continue
+        if not running and not out_en:
+            return None
+        why = "a run is still active" if running else "the FPGA's output is still enabled"
+    return why
+
+
+def _run_target(text: str) -> Path:
+    """--out checked before anything is sent or written: a CSV file name, not a folder."""
+    out = Path(text)
+    if out.is_dir() or text.endswith(os.sep):
+        raise BenchUsageError(f"--out {text}: is a folder; give a CSV file name (e.g. run.csv)")
+    if out.exists() and not out.is_file():
+        raise BenchUsageError(f"--out {text}: not a regular file")
+    return out
+
+
+def _keep_recording(partial: Path, out: Path) -> bool:
+    """Move a run's rows (and sidecar) onto `out` when it recorded any; otherwise remove the
+    partial files and leave `out` as it was. True when `out` now holds the run."""
+    meta = trace_mod.meta_path(partial)
+    rows = 0
+    if partial.exists():
+        with partial.open("rb") as f:
+            rows = sum(1 for _ in f) - 1
+    if rows <= 0:
+        for p in (partial, meta):
+            p.unlink(missing_ok=True)
+        return False
+    if meta.exists():
+        meta.replace(trace_mod.meta_path(out))
+    partial.replace(out)
+    return True
+
+
+_FAULT_DOCS = {
+    "ADC_STALE": "no valid sample from the load-cell ADC: check its wiring and clock",
+    "ADC_RANGE": "load-cell code outside [ADC_MIN, ADC_MAX]: overload or a broken bridge",
+    "WATCHDOG": "the processor stopped writing T_c: the FPGA ramped the current to zero",
+    "OVERCURRENT": "the command stayed at the current limit for OC_TIMEOUT samples",
+    "STREAM_UNDERRUN": "the streamed reference ran dry (T_ref was held)",
+    "TX_OVERFLOW": "telemetry frames were dropped: raise the baud rate or dev.telemetry_div",
+    "CONFIG": "the saved configuration was missing or rejected, or a flash write failed",
+    "OVERRUN": "the device could not keep its tick rate",
+}
+
+_COMMANDS = {
+    "info": _cmd_info,
+    "get": _cmd_get,
+    "set": _cmd_set,
+    "persist": _cmd_simple("PERSIST", "saved to flash (record {value})"),
+    "load": _cmd_simple("LOAD", "loaded from flash (record {value})"),
+    "defaults": _cmd_simple("DEFAULTS", "factory defaults in force (in RAM: `persist` saves them)"),
+    "backup": _cmd_backup,
+    "restore": _cmd_restore,
+    "faults": _cmd_faults,
+    "stats": _cmd_stats,
+    "run": _cmd_run,
+    "diff": bench_tools.cmd_diff,
+    "watch": lambda client, args, info: bench_tools.cmd_watch(client, args, info, _cmd_run),
+}
+
+
+# --- bowden emulate ------------------------------------------------------------------------------
+
+
+def _add_emulate(subparsers) -> None:
+    p = subparsers.add_parser(
+        "emulate",
+        help="run the controller on this machine (firmware + FPGA loop model + plant FMU)",
+        description="The controller in real time: the firmware's host build with the protocol, "
+        "the bit-exact model of the FPGA loop and the plant FMU, behind a pseudo-terminal, a TCP "
+        "port (pyserial socket://) and optionally a python-can bus. Prints where to connect; runs "
+        "until Ctrl-C or --seconds.",
+    )
+    p.add_argument(
+        "--baud",
+        type=_positive(int),
+        default=921_600,
+        help="throttle the pty and the socket to this baud rate (default 921600)",
+    )
+    p.add_argument("--tcp-port", type=int, default=0, help="TCP port (default: any free one)")
+    p.add_argument("--no-pty", action="store_true", help="no pseudo-terminal")
+    p.add_argument("--no-tcp", action="store_true", help="no TCP port")
+    p.add_argument(
+        "--can", help="also on a python-can bus, INTERFACE:CHANNEL (e.g. socketcan:vcan0)"
+    )
+    p.add_argument("--flash", help="keep the emulated flash in this file across runs")
+    p.add_argument(
+        "--position",
+        type=_position,
+        default=(0.0, 0.5, 0.0),
+        metavar="X,Y,Z",
+        help="end-effector position in m (default 0,0.5,0)",
+    )
+    p.add_argument("--no-loop-routing", dest="loop_routing", action="store_false")
+    p.add_argument(
+        "--plant",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE[,...]",
+        help="FMU parameters of the emulated plant, e.g. --plant sensor_offset=0.5,noise_std=0.03 "
+        "(an effect for `bowden audit` to find); repeatable",
+    )
+    p.add_argument(
+        "--interface",
+        choices=("ideal", "adc", "board"),
+        default="ideal",
+        help="sensing and actuation between plant and loop (cosim.parts.interface): ideal "
+        "(default, in C), or the board's ADC / ADC + PWM -> ESCON (on the Python engine)",
+    )
+    p.add_argument(
+        "--engine",
+        choices=("native", "python"),
+        default="native",
+        help="loop model in C (default) or Python (the definition; slower)",
+    )
+    p.add_argument("--seconds", type=_positive(float), default=None, help="stop after S seconds")
+    p.add_argument(
+        "--table-hash",
+        default=None,
+        metavar="HEX",
+        help="pose as a firmware of another protocol table (to try the version check)",
+    )
+    p.add_argument(
+        "--garbage-every",
+        type=_positive(float),
+        default=None,
+        metavar="S",
+        help="send a burst of garbage bytes every S seconds (to try the resync)",
+    )
+    p.set_defaults(func=emulate_main)
+
+
+def _plant_assignments(items: list[str]) -> dict:
+    """--plant NAME=VALUE[,NAME=VALUE...] (repeatable) as FMU parameter overrides, checked as a
+    params file's plant section is (cosim.config.scenarios.plant_overrides: an FMU parameter, in its
+    range)."""
+    from cosim.config.scenarios import plant_overrides  # noqa: PLC0415 (reads the built FMU)
+
+    raw: dict[str, float | bool] = {}
+    for item in (part for arg in items for part in arg.split(",")):
+        name, sep, text = item.partition("=")
+        if not sep or not name:
+            raise ValueError(f"--plant {item!r}: expected NAME=VALUE (e.g. sensor_offset=0.5)")
+        if text.lower() in ("true", "false"):
+            raw[name] = text.lower() == "true"
+            continue
+        if text.strip().lstrip("+-").isdigit():
+            raw[name] = int(text)  # Integer parameters (seed) take whole numbers
+            continue
+        try:
+            raw[name] = float(text)
+        except ValueError:
+            raise ValueError(f"--plant {item!r}: {text!r} is not a number") from None
+    return plant_overrides(raw, "--plant")
+
+
+def emulate_main(args: argparse.Namespace) -> int:
+    from cosim.bench.emulator import Emulator  # noqa: PLC0415
+
+    identity = None
+    if args.table_hash is not None:
+        try:
+            identity = (msgs.PROTOCOL_VERSION, int(args.table_hash, 16) & 0xFFFFFFFF)
+        except ValueError:
+            print(
+                f"bowden emulate: --table-hash {args.table_hash!r}: expected hex digits",
+                file=sys.stderr,
+            )
+            return 2
+    if not 0 <= args.tcp_port <= 65535:
+        print(f"bowden emulate: --tcp-port {args.tcp_port}: outside 0..65535", file=sys.stderr)
+        return 2
+    try:
+        plant = _plant_assignments(args.plant)
+    except ValueError as exc:
+        print(f"bowden emulate: {exc}", file=sys.stderr)
+        return 2
+    engine = args.engine
+    if args.interface != "ideal" and engine == "native":
+        engine = "python"
+        print(
+            f"bowden emulate: --interface {args.interface} runs on the Python engine (the C chain "
+            "has the ideal interface only): real time is not guaranteed on a loaded machine; a "
+            "late tick sets the device's OVERRUN fault"
+        )
+    try:
+        emu = Emulator(
+            pty=not args.no_pty,
+            tcp_port=None if args.no_tcp else args.tcp_port,
+            can=args.can,
+            baud=args.baud,
+            chain=ChainConfig(
+                position_m=args.position,
+                loop_routing=args.loop_routing,
+                plant=plant or None,
+                interface=args.interface,
+            ),
+            engine=engine,
+            flash_path=args.flash,
+            identity=identity,
+        )
+    except (OSError, ValueError, RuntimeError) as exc:
+        print(f"bowden emulate: {exc}", file=sys.stderr)
+        return 1
+    print("bowden emulate: controller running (firmware + FPGA loop model + plant FMU)")
+    for kind, url in emu.urls.items():
+        print(f"  {kind:<7} bowden bench {'--can' if kind == 'can' else '--port'} {url} info")
+    if plant:  # as the FMU holds them (read back)
+        held = " ".join(f"{k}={emu.chain.plant.get(k):g}" for k in plant)
+        print(f"  plant FMU parameters set: {held}")
+    print(f"  serial links throttled to {args.baud} baud; Ctrl-C stops", flush=True)
+    emu.start()
+    t0 = time.monotonic()
+    next_garbage = t0 + (args.garbage_every or math.inf)
+    prev = signal.signal(signal.SIGTERM, _sigterm)
+    try:
+        while args.seconds is None or time.monotonic() - t0 < args.seconds:
+            time.sleep(0.05)
+            if time.monotonic() >= next_garbage:
+                emu.inject_garbage()
+                next_garbage += args.garbage_every
+    except KeyboardInterrupt:
+        pass
+    finally:
+        signal.signal(signal.SIGTERM, prev)
+        emu.stop()
+    print(
+        f"bowden emulate: stopped after {emu.chain.ticks} ticks; lag behind real time at most "
+        f"{emu.max_lag_seen_s * 1e3:.1f} ms, {emu.overruns} overrun(s)"
+    )
+    return 0

@@ -1,0 +1,117 @@
+"""What every closed loop shares (the cocotb co-simulation, the native loop and the float
+reference): the RTL top both RTL engines build (cosim_top.v) and the sample timing they keep, the
+plant handle set up for a run, and the pre-allocated record of a run."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from cosim.config.scenarios import SimConfig
+from cosim.parts import rtl_model
+from cosim.parts.plant import OUTPUT_NAMES
+from cosim.project.paths import HDL_DIR
+
+# The folder of cosim_top.v (the RTL top of both RTL engines) and cosim_top.vlt.
+ENGINES_DIR = Path(__file__).resolve().parent
+
+# Clocks per FPGA sample: the RTL's loop needs LATENCY_CLKS from its tick to the command; one
+# more lets the command of sample k reach the plant and the ADC sample of t_k+1 reach tick k+1
+# with no extra sample of delay (see cocotb/tb_closed_loop.py). cocotb costs about 1 us per
+# clock, so this is kept at that minimum.
+CLKS_PER_SAMPLE = rtl_model.LATENCY_CLKS + 1
+
+# Samples between a firmware tick and the first FPGA sample that uses its T_c: the tick runs
+# right after sample k's command is out, half a clock before tick k+1; its AXI write lands a few
+# clocks later, so tick k+2 is the first to use it (checked in every co-simulation run through
+# the TC_EFF read-back, cosim/engines/cocotb/tb_closed_loop.py).
+TC_LATENCY_SAMPLES = 2
+
+
+def rtl_sources() -> list[Path]:
+    """The RTL of the core plus the engines' top (cosim_top.v)."""
+    return sorted((HDL_DIR / "rtl").glob("*.v")) + [ENGINES_DIR / "cosim_top.v"]
+
+
+# Recorded per FPGA sample (float64 arrays); cosim.engines.experiment.trace_columns maps them to
+# the trace format.
+RECORD_FIELDS = (
+    "t_s",
+    "T_ref_N",
+    "T_c_N",
+    "T_in_N",
+    "T_out_N",
+    "T_in_true_N",
+    "T_out_true_N",
+    "x_m",
+    "y_m",
+    "z_m",
+    "current_A",
+    "motor_angle_rad",
+    "phi_rad",
+)
+
+
+# Plant outputs recorded at every sample (the sensors as the loop saw them, the true tensions, the
+# motor angle and phi): FMU output name -> record field.
+PLANT_RECORD = (
+    ("T_in_meas", "T_in_N"),
+    ("T_out_meas", "T_out_N"),
+    ("T_in", "T_in_true_N"),
+    ("T_out", "T_out_true_N"),
+    ("motor_angle", "motor_angle_rad"),
+    ("phi", "phi_rad"),
+)
+
+
+def plant_rows(plant, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A buffer for the plant's whole output array at each of n samples, and a numpy view of the
+    plant's output array (cosim.parts.plant.Plant.y, refilled in place by every step): the
+    per-sample loop copies a row with one `rows[k] = view`; store_plant_rows files the columns
+    afterwards."""
+    return np.zeros((n, len(OUTPUT_NAMES))), np.ctypeslib.as_array(plant.y)
+
+
+def store_plant_rows(rec: dict[str, np.ndarray], rows: np.ndarray) -> None:
+    """Copy the recorded plant outputs into the record's fields (PLANT_RECORD)."""
+    for name, field in PLANT_RECORD:
+        rec[field][:] = rows[:, OUTPUT_NAMES.index(name)]
+
+
+@dataclass
+class Record:
+    """Pre-allocated buffers of one run, filled sample by sample."""
+
+    arrays: dict[str, np.ndarray]
+
+    @classmethod
+    def allocate(cls, n: int) -> Record:
+        return cls({name: np.zeros(n, dtype=np.float64) for name in RECORD_FIELDS})
+
+    def save(self, path) -> None:
+        np.savez(path, **self.arrays)
+
+    @classmethod
+    def load(cls, path) -> Record:
+        with np.load(path) as data:
+            return cls({name: data[name].copy() for name in data.files})
+
+
+def open_plant(
+    cfg: SimConfig,
+    loop_routing: bool,
+    position_m: tuple[float, float, float],
+    fmu_path=None,
+):
+    """The plant FMU (cosim.parts.plant.Plant) instantiated for a closed-loop run: drive mode 0
+    (current command), loop routing as asked, the run's parameter overrides, the end-effector at
+    its start position, initialised at t = 0. fmu_path: another build of the FMU (the
+    convergence study's variants); default build/fmu/BowdenPlant.fmu."""
+    from cosim.parts.plant import Plant  # noqa: PLC0415 (the FMU's handle is imported when a run starts)
+
+    params: dict[str, float | int | bool] = {"drive_mode": 0, "loop_routing": bool(loop_routing)}
+    params.update(cfg.plant)
+    x, y, z = (float(v) for v in position_m)
+    return Plant(params=params, inputs={"x": x, "y": y, "z": z}, fmu_path=fmu_path)

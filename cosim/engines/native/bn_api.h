@@ -1,0 +1,90 @@
+/*
+ * bn_api.h - the native closed loop's C interface (libbowden_native.so), mirrored by
+ * cosim/engines/native/engine.py (ctypes). One call, bn_run(), runs a whole scenario: the Verilated
+ * cosim_top, the firmware (libbowden_fw.so, linked) and the plant FMU (an instance the caller
+ * set up through the FMI 2.0 C API, handed over as its component and function pointers), with
+ * the timing of the cocotb harness (cosim/engines/cocotb/tb_closed_loop.py, lean AXI4-Lite driver).
+ *
+ * Every array is owned by the caller; bn_run only writes the outputs and the counters.
+ */
+#ifndef BOWDEN_NATIVE_API_H
+#define BOWDEN_NATIVE_API_H
+
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define BN_API_VERSION 3
+
+/* Interface stages (cosim/parts/interface.py). */
+#define BN_IFACE_IDEAL 0
+#define BN_IFACE_ADC 1
+#define BN_IFACE_BOARD 2
+
+#define BN_N_IN 5   /* cosim.parts.plant.INPUT_NAMES */
+#define BN_N_OUT 8  /* cosim.parts.plant.OUTPUT_NAMES */
+#define BN_OUT_T_IN_MEAS 2
+
+typedef struct {
+    /* --- run ------------------------------------------------------------------------------ */
+    int64_t n;                  /* samples */
+    int32_t decimation;         /* FPGA samples per firmware tick */
+    int32_t clks_per_sample;    /* must equal the build's CLKS_PER_SAMPLE */
+    int32_t tc_latency_samples; /* cosim.engines.common.TC_LATENCY_SAMPLES */
+    int32_t shadow_refresh_ticks;
+    double slew_n;              /* SLEW in N per sample when CTRL.SLEW_EN, else 0 */
+    double floor_n;             /* T_c floor (TC_MIN) in N after the slew limit; -inf: none */
+    const int16_t *t_ref_word;  /* n: T_ref as the firmware's Q7.8 host word */
+    const double *x_m, *y_m, *z_m; /* n: end-effector path */
+    /* --- firmware: a configured fw_host_t (cosim.parts.firmware.Firmware's buffer) --------------- */
+    void *fw_host;
+    /* --- plant: an initialised FMI 2.0 instance ------------------------------------------ */
+    void *fmu_component;
+    void *fmu_set_real, *fmu_do_step, *fmu_get_real; /* fmi2SetReal / fmi2DoStep / fmi2GetReal */
+    uint32_t in_vr[BN_N_IN], out_vr[BN_N_OUT];
+    double u0[BN_N_IN];         /* inputs as the instance holds them */
+    double y0[BN_N_OUT];        /* outputs after initialisation */
+    double time0_s;
+    /* --- interface stage (values computed by cosim.parts.interface, so both sides share them) --- */
+    int32_t iface;
+    int32_t adc_offset, adc_gain; /* calibration for the ideal ADC's code */
+    double dt_s;                  /* 1 / sample rate (as the Python stage computes it) */
+    double adc_period_s, adc_phase_s, adc_read_s;
+    int32_t adc_kernel_n;
+    const double *adc_offsets_s, *adc_weights;
+    int32_t pwm_ratio, pwm_period_clks, pwm_imax_q12;
+    double escon_imax_a, escon_duty_error, escon_duty_resolution, escon_frac;
+    /* --- outputs -------------------------------------------------------------------------- */
+    double *out_tc_n;     /* n: T_c in force in the RTL (after its slew limit) */
+    double *out_current_a;/* n: command, A */
+    int32_t *out_u_word;  /* n: command word, Q3.12 */
+    double *out_rows;     /* n x BN_N_OUT: plant outputs at t_k */
+    /* counters and figures */
+    int64_t late_writes, tc_mismatch, tc_checks, firmware_ticks;
+    uint32_t fault_word, status_word;
+    double rtl_s, fmu_s, firmware_s, total_s;
+    /* progress (samples done, updated every 1024) and a stop request, both shared with a
+     * watching thread */
+    volatile int64_t progress;
+    volatile int32_t stop;
+    char error[256];
+} bn_spec_t;
+
+/* BN_API_VERSION, and sizeof(bn_spec_t) so the ctypes mirror can check itself. */
+int32_t bn_api_version(void);
+uint32_t bn_spec_size(void);
+/* The CLKS_PER_SAMPLE the RTL was built with. */
+int32_t bn_clks_per_sample(void);
+/* math.fsum of x[0..n) as the interface stage's ADC takes it (closed_loop.cpp, fsum_fast);
+ * *decided = 0 when the exact fallback (CPython's algorithm) decided (tests/native). */
+double bn_fsum(const double *x, int32_t n, int32_t *decided);
+/* Run; 0 on success, else non-zero with spec->error set (one line). */
+int32_t bn_run(bn_spec_t *spec);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* BOWDEN_NATIVE_API_H */

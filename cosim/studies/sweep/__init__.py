@@ -1,0 +1,15 @@
+"""`bowden sweep SPEC.yaml --out DIR`: many native closed-loop runs on Dask, one table.
+
+Each point of the specification (cosim/studies/sweep/spec.py: a grid or a random sample over
+scenario settings, end-effector position, plant parameters, gains and compensator mode) is one run
+of the native engine (cosim/engines/native); the command line is cosim/cli/sweep.py. The points run
+on a Dask cluster: by default a LocalCluster with one single-threaded worker process per core of
+this machine; `--scheduler tcp://HOST:PORT` sends the same sweep to a running cluster (its workers
+need this project installed and built, with
+BOWDEN_ROOT pointing at it). Outputs in DIR:
+
+- ``points/<id>.json``: one file per finished point, written atomically by the worker (a killed
+  sweep restarts where it stopped: `bowden sweep` again with the same SPEC and DIR);
+- ``sweep.parquet``: the table, one row per point (axis values, status, error, figures);
+- ``error_map.png`` (with a position_m axis) and ``error_vs_<axis>.png`` per numeric axis.
+"""

@@ -1,0 +1,223 @@
+"""Run a sweep on Dask: one native closed-loop run per point (cosim/native), one result file per
+point, one table at the end.
+
+Resumable by construction: each point's figures are written by the worker that ran it, to
+OUT/points/<point id>.json, atomically (a temporary file renamed into place), so a sweep killed
+at any moment keeps every finished point and loses at most the runs in flight. A restart lists
+the files, submits only the points that have none, and assembles the table (OUT/sweep.parquet)
+from all of them. A point whose run fails is a result too (status "failed" and the error), and
+the sweep goes on; it is not retried on resume (the same inputs fail the same way).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+import traceback
+from pathlib import Path
+
+from .spec import Point, SweepSpec
+
+POINTS_DIR = "points"
+TABLE = "sweep.parquet"
+# Result figures copied from the run's result (cosim.engines.experiment.evaluate) into the table.
+FIGURES = ("rms_error_n", "rms_error_pct", "peak_error_n", "peak_error_pct", "max_ref_n")
+
+
+def run_point(spec_dict: dict, values: dict, out_dir: str) -> dict:
+    """Run one point (in a Dask worker) and write its result file; return the row."""
+    from .spec import parse_spec  # noqa: PLC0415
+
+    point = Point(values)
+    row = _row_base(point)
+    t0 = time.perf_counter()
+    try:
+        row.update(_run(parse_spec(spec_dict), point))
+        row["status"] = "ok"
+        row["error"] = ""
+    except Exception as exc:  # noqa: BLE001 (a failed point is a result: recorded, not raised)
+        row["status"] = "failed"
+        msg = str(exc).strip().splitlines()
+        row["error"] = f"{type(exc).__name__}: {msg[0] if msg else ''}"[:500]
+        row["traceback_tail"] = traceback.format_exc().splitlines()[-1][:500]
+    row["wall_s"] = time.perf_counter() - t0
+    write_point(Path(out_dir), point, row)
+    return row
+
+
+def _row_base(point: Point) -> dict:
+    row: dict = {"point_id": point.point_id}
+    for name, value in point.values.items():
+        if name == "position_m":
+            row["x_m"], row["y_m"], row["z_m"] = (float(v) for v in value)
+        else:
+            row[name] = value
+    return row
+
+
+def _run(spec: SweepSpec, point: Point) -> dict:
+    from cosim.config.scenarios import SimConfig, get_scenario  # noqa: PLC0415
+    from cosim.engines import experiment as sim  # noqa: PLC0415
+    from cosim.engines.native import engine  # noqa: PLC0415
+    from cosim.engines.reference import resolve_phi  # noqa: PLC0415
+
+    run_spec = spec.run_spec(point)
+    cfg = SimConfig.from_dict(run_spec["config"], source="point")
+    # The compensator is calibrated once at the scenario's own start position (as the paper's
+    # is), not at the point's position: the map shows what a fixed calibration leaves.
+    run_spec["phi_rad"] = resolve_phi(get_scenario(spec.scenario), cfg, run_spec["loop_routing"])
+    run_spec["config"] = cfg.to_dict()
+    if run_spec["duration_s"] is None:
+        run_spec["duration_s"] = get_scenario(spec.scenario).duration_s
+    run_spec["bus"] = "native"
+    run_spec["engine"] = "native"
+    fixed, cost = engine.run_closed_loop(run_spec, progress=False)
+    scen = engine.scenario_of(run_spec)
+    result = sim.evaluate(scen, cfg, run_spec, fixed, None, cost["total_s"], cost)
+    out = {k: result[k] for k in FIGURES}
+    split = result["error_split"] or {}
+    out["rms_near_reversal_n"] = split.get("rms_near_reversal_n")
+    out["rms_away_n"] = split.get("rms_away_n")
+    out["compensator_phi_rad"] = run_spec["phi_rad"]
+    out["samples"] = result["samples"]
+    return out
+
+
+def write_point(out_dir: Path, point: Point, row: dict) -> Path:
+    """Write a point's row atomically (temporary file, then rename)."""
+    d = out_dir / POINTS_DIR
+    d.mkdir(parents=True, exist_ok=True)
+    path = d / f"{point.point_id}.json"
+    tmp = d / f".{point.point_id}.{os.getpid()}.tmp"
+    tmp.write_text(json.dumps({"values": point.values, "row": _finite(row)}, sort_keys=True))
+    os.replace(tmp, path)
+    return path
+
+
+def _finite(row: dict) -> dict:
+    """NaN and infinities as null (strict JSON)."""
+    return {
+        k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in row.items()
+    }
+
+
+def failed_row(point: Point, exc: BaseException) -> dict:
+    """The row of a point whose task itself failed (a worker lost, an error outside the run)."""
+    row = _row_base(point)
+    msg = str(exc).strip().splitlines()
+    row.update(status="failed", error=f"{type(exc).__name__}: {msg[0] if msg else ''}"[:500])
+    return row
+
+
+def done_points(out_dir: Path) -> dict[str, dict]:
+    """point id -> row of every point with a result file."""
+    d = out_dir / POINTS_DIR
+    rows = {}
+    if d.is_dir():
+        for path in sorted(d.glob("*.json")):
+            try:
+                data = json.loads(path.read_text())
+            except (OSError, ValueError):
+                continue  # never half-written (atomic), but a foreign file is skipped
+            rows[path.stem] = data["row"]
+    return rows
+
+
+def run_sweep(
+    spec: SweepSpec,
+    spec_dict: dict,
+    out_dir: Path,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    progress: bool = True,
+    log=print,
+    retry_failed: bool = False,
+) -> list[dict]:
+    """Run every point without a result file on Dask (and, with retry_failed, those recorded as
+    failed); return every point's row (spec order)."""
+    from cosim.engines.native import engine  # noqa: PLC0415
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "spec.json").write_text(json.dumps(spec_dict, indent=2, sort_keys=True))
+    points = spec.points()
+    have = done_points(out_dir)
+    if retry_failed:
+        have = {k: v for k, v in have.items() if v.get("status") == "ok"}
+    todo = [p for p in points if p.point_id not in have]
+    log(f"sweep: {len(points)} points, {len(points) - len(todo)} already done, {len(todo)} to run")
+    if todo:
+        engine.load_library()  # built here once, not by each worker at the same time
+        _dask_run(todo, spec_dict, out_dir, scheduler, workers, progress, log)
+    have = done_points(out_dir)
+    return [have[p.point_id] for p in points if p.point_id in have]
+
+
+# Dask's connection timeouts (30 s by default) for a cluster on a loaded machine: starting a
+# worker process that imports numpy and distributed took longer than that on 2 cores at load 9.
+DASK_TIMEOUTS = {
+    "distributed.comm.timeouts.connect": "180s",
+    "distributed.comm.timeouts.tcp": "180s",
+}
+
+
+def _dask_run(todo, spec_dict, out_dir, scheduler, workers, progress, log) -> None:
+    import dask  # noqa: PLC0415
+
+    with dask.config.set(DASK_TIMEOUTS):
+        _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log)
+
+
+def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log) -> None:
+    from distributed import Client, LocalCluster, as_completed  # noqa: PLC0415
+
+    cluster = None
+    if scheduler:
+        try:
+            # An existing scheduler answers at once; a wrong address fails in seconds.
+            client = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            msg = str(exc).strip().splitlines()
+            raise RuntimeError(
+                f"cannot connect to the Dask scheduler {scheduler} ({msg[0] if msg else exc})"
+            ) from None
+    else:
+        n = workers or os.cpu_count() or 1
+        cluster = LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=40,  # errors only: the sweep prints its own progress
+        )
+        client = Client(cluster)
+    try:
+        log(f"sweep: Dask scheduler {client.scheduler.address}")
+        futures = {
+            client.submit(
+                run_point,
+                spec_dict,
+                p.values,
+                str(out_dir),
+                key=f"point-{p.point_id}-{time.time_ns()}",
+            ): p
+            for p in todo
+        }
+        done = failed = 0
+        t0 = time.perf_counter()
+        for fut in as_completed(futures):
+            try:
+                row = fut.result()
+            except Exception as exc:  # noqa: BLE001 (the task itself failed: recorded, go on)
+                row = failed_row(futures[fut], exc)
+                write_point(out_dir, futures[fut], row)
+            done += 1
+            failed += row["status"] != "ok"
+            if progress:
+                rate = done / max(1e-9, time.perf_counter() - t0)
+                log(f"sweep: {done}/{len(todo)} points ({failed} failed), {rate:.2f} points/s")
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
