@@ -191,6 +191,21 @@ class DeviceInfo:
     config_source: str
     dirty: bool
 
+    @classmethod
+    def from_hello(cls, v: dict) -> DeviceInfo:
+        """From the fields of a HELLO_ACK."""
+        sources = {v: k.lower() for k, v in msgs.CONFIG_SOURCE.items()}
+        return cls(
+            proto_version=v["proto_version"],
+            firmware=f"{v['fw_major']}.{v['fw_minor']}.{v['fw_patch']}",
+            build_id=v["build_id"],
+            table_hash=v["table_hash"],
+            n_params=v["n_params"],
+            running=bool(v["running"]),
+            config_source=sources.get(v["config_source"], str(v["config_source"])),
+            dirty=bool(v["dirty"]),
+        )
+
 
 @dataclass
 class BenchClient:
@@ -302,17 +317,7 @@ class BenchClient:
 
     def hello(self) -> DeviceInfo:
         _, v = self.request("HELLO")
-        sources = {v: k.lower() for k, v in msgs.CONFIG_SOURCE.items()}
-        return DeviceInfo(
-            proto_version=v["proto_version"],
-            firmware=f"{v['fw_major']}.{v['fw_minor']}.{v['fw_patch']}",
-            build_id=v["build_id"],
-            table_hash=v["table_hash"],
-            n_params=v["n_params"],
-            running=bool(v["running"]),
-            config_source=sources.get(v["config_source"], str(v["config_source"])),
-            dirty=bool(v["dirty"]),
-        )
+        return DeviceInfo.from_hello(v)
 
     # --- parameters ----------------------------------------------------------------------------
 

@@ -150,10 +150,12 @@ def record_run(
     sheath_length_m: float = 1.0,
     progress: Callable[[str], None] | None = None,
     on_sample: Callable[[int], None] | None = None,
+    tap: Callable[[dict], None] | None = None,
 ) -> RunResult:
     """Configure the waveform (or the stream), start a run of `seconds` and record it.
 
     waveform: one of WAVE_KINDS, or "stream" with `stream_words` (Q7.8 T_ref words, one per tick).
+    tap: called with every telemetry frame after it is recorded (a live view; must not block).
     """
     ticks = run_ticks(seconds, float(client.get("tick_rate_hz")))  # before anything is set
     if waveform == "stream":
@@ -203,6 +205,8 @@ def record_run(
         result.overflow = t["overflow"]
         result.faults |= t["faults"]
         rec.add(t)
+        if tap is not None:
+            tap(t)
         if on_sample is not None:
             on_sample(result.samples)
 

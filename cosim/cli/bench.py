@@ -26,22 +26,23 @@ import time
 from pathlib import Path
 
 from cosim.bench import messages as msgs
+from cosim.bench.api import Bench
 from cosim.bench.client import (
     BenchClient,
     BenchError,
     BenchUsageError,
-    CanLink,
-    SerialLink,
     fault_names,
     status_names,
 )
 from cosim.bench.device import ChainConfig
+from cosim.bench.diff import BACKUP_FORMAT
 from cosim.bench.protocol import ProtocolError, format_value, param, word_from_value
-from cosim.bench.recorder import WAVE_KINDS, record_run, stderr_progress
+from cosim.bench.recorder import WAVE_KINDS, stderr_progress
 from cosim.parts import regmap
 from cosim.results import trace as trace_mod
 
-BACKUP_FORMAT = 1
+from . import bench_tools
+
 # The FPGA's drive enable in the STATUS register (FAULTS.fpga_status).
 STATUS_OUT_EN = 1 << next(f.lsb for f in regmap.REGISTERS["STATUS"].fields if f.name == "OUT_EN")
 
@@ -147,7 +148,11 @@ def _add_bench(subparsers) -> None:
     # Neither the link nor the COMMAND is `required` for argparse: it would report a missing one
     # before an unknown option; bench_main names what is missing instead.
     link = p.add_mutually_exclusive_group()
-    link.add_argument("--port", help="pyserial URL: /dev/ttyUSB0, /dev/pts/N, socket://HOST:PORT")
+    link.add_argument(
+        "--port",
+        help="pyserial URL: /dev/ttyUSB0, /dev/pts/N, socket://HOST:PORT; auto: the only "
+        "controller found on the ports pyserial lists (see `list`)",
+    )
     link.add_argument(
         "--can", help="python-can INTERFACE:CHANNEL, e.g. virtual:bench, socketcan:can0"
     )
@@ -203,17 +208,13 @@ def _add_bench(subparsers) -> None:
     run.add_argument("--no-loop-routing", dest="loop_routing", action="store_false")
     run.add_argument("--sheath-length", type=_positive(float), default=1.0, help="m")
     run.add_argument("--quiet", action="store_true", help="no progress line")
+    bench_tools.add_live_arguments(run)
+    bench_tools.add_parsers(sub)
     p.set_defaults(func=bench_main)
 
 
-def _open_link(args):
-    if args.port:
-        return SerialLink(args.port, baud=args.baud)
-    return CanLink(args.can, node=args.node)
-
-
 def bench_main(args: argparse.Namespace) -> int:
-    if not args.port and not args.can and not args.emulate:
+    if not args.port and not args.can and not args.emulate and args.bench_command != "list":
         print(
             "bowden bench: one of --port URL, --can INTERFACE:CHANNEL or --emulate is required "
             "(see bowden bench --help)",
@@ -230,6 +231,8 @@ def bench_main(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
+    if (rc := bench_tools.precheck(args)) is not None:
+        return rc
     try:
         plant = _plant_assignments(args.plant)
     except ValueError as exc:
@@ -263,8 +266,7 @@ def bench_main(args: argparse.Namespace) -> int:
 
 
 def _bench_session(args: argparse.Namespace, plant: dict) -> int:
-    emulator = None
-    link = None
+    session = None
     try:
         if args.emulate and args.port:
             raise BenchError(
@@ -275,25 +277,23 @@ def _bench_session(args: argparse.Namespace, plant: dict) -> int:
             loop_routing=getattr(args, "loop_routing", True),
             plant=plant or None,
         )
-        if args.emulate and args.can:
-            from cosim.bench.emulator import Emulator  # noqa: PLC0415
-
-            emulator = Emulator(pty=False, tcp_port=None, can=args.can, chain=chain).start()
-        if args.emulate and not args.can:
-            from cosim.bench.emulator import SteppedLink  # noqa: PLC0415
-
-            link = SteppedLink(chain)
-        else:
-            link = _open_link(args)
-        client = BenchClient(link, timeout_s=args.timeout)
-        info = client.connect()
-        return _COMMANDS[args.bench_command](client, args, info)
+        if args.bench_command == "list":
+            return bench_tools.cmd_list(args, chain)
+        bench_tools.resolve_port(args)
+        session = Bench(
+            args.port,
+            can=args.can,
+            node=args.node,
+            baud=args.baud,
+            timeout_s=args.timeout,
+            emulate=args.emulate,
+            chain=chain,
+        )
+        return _COMMANDS[args.bench_command](session.client, args, session.connect_info)
     finally:
-        with contextlib.suppress(Exception):
-            if link is not None:
-                link.close()
-        if emulator is not None:
-            emulator.stop()
+        if session is not None:
+            with contextlib.suppress(Exception):
+                session.close()
 
 
 def _cmd_info(client: BenchClient, args, info) -> int:
@@ -506,9 +506,11 @@ def _cmd_run(client: BenchClient, args, info) -> int:
     partial = out.with_name(f"{out.stem}.partial{out.suffix}")
     result = None
     try:
-        result = record_run(
+        result = bench_tools.record_with_view(
             client,
+            args,
             partial,
+            f"{args.waveform} -> {out}",
             seconds=args.seconds,
             waveform=args.waveform,
             mean_n=args.mean,
@@ -630,6 +632,8 @@ _COMMANDS = {
     "faults": _cmd_faults,
     "stats": _cmd_stats,
     "run": _cmd_run,
+    "diff": bench_tools.cmd_diff,
+    "watch": lambda client, args, info: bench_tools.cmd_watch(client, args, info, _cmd_run),
 }
 
 

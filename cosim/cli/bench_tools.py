@@ -1,0 +1,244 @@
+"""The `bowden bench` commands beyond the protocol's own: `list` and `--port auto` (finding
+controllers), `diff` (what changed in a configuration), `watch` and `run --live` (the live view).
+cosim/cli/bench.py calls `add_parsers` and `add_live_arguments`, `precheck` before anything is
+sent, and dispatches to the handlers; the work is done in cosim.bench (discover, diff, live).
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from cosim.bench import diff, discover, live
+from cosim.bench import messages as msgs
+from cosim.bench.protocol import param
+from cosim.bench.recorder import RunResult, record_run
+
+
+def add_parsers(sub) -> None:
+    """Add `list`, `diff` and `watch` to the `bowden bench` COMMAND subparsers."""
+    sub.add_parser(
+        "list",
+        help="find controllers: HELLO on every serial port pyserial lists (or the --port "
+        "given), or every node of the --can bus",
+        description="Print every controller that answers HELLO: port, CAN node, firmware, "
+        "protocol version, table hash and state. Nothing but HELLO is sent: a run in progress "
+        "goes on.",
+    )
+    d = sub.add_parser(
+        "diff",
+        help="how the device's parameters differ from a backup or params file, or the factory "
+        "defaults (--defaults), in SI units",
+        description="Parameter by parameter, in SI units: the device against a backup "
+        '(`bowden bench backup`), a params file of device parameters ({"loop.kp": 0.1}) or '
+        "a co-simulation params file (`bowden sim --params`), or the factory defaults. Values "
+        "are compared as the device's words.",
+    )
+    d.add_argument("file", nargs="?", metavar="FILE", help="backup or params file (JSON)")
+    d.add_argument("--defaults", action="store_true", help="compare with the factory defaults")
+    d.add_argument("--all", action="store_true", help="show equal parameters too")
+    w = sub.add_parser(
+        "watch",
+        help="run the device's configured waveform and show it live (terminal or local page)",
+        description="Start the waveform the device is set to (wave.kind, wave.mean_n, ...: "
+        "`set` them first) for --seconds, show T_ref, T_c, T_in, T_out, the current and the "
+        "faults live, and record every sample (as `run`: every way out stops the device).",
+    )
+    w.add_argument("--seconds", type=float, default=600.0, help="run length (default 600 s)")
+    w.add_argument("--out", help="trace CSV (default: a new file in a temporary folder)")
+    add_live_arguments(w, required_live=True)
+
+
+def add_live_arguments(p, required_live: bool = False) -> None:
+    """The live view's options on a `bowden bench` subparser (`run`, `watch`)."""
+    if required_live:
+        p.add_argument(
+            "--live",
+            choices=("term", "web"),
+            default="term",
+            help="where to show it: the terminal (default) or a page on 127.0.0.1",
+        )
+    else:
+        p.add_argument(
+            "--live",
+            nargs="?",
+            const="term",
+            choices=("term", "web"),
+            default=None,
+            help="show the run as it goes: in the terminal (--live, --live term) or on a page "
+            "on 127.0.0.1 (--live web); the recording loses nothing to it",
+        )
+    signals = ",".join(live.SIGNALS)
+    p.add_argument(
+        "--signals",
+        default=signals,
+        help=f"what the live view shows, comma-separated (default {signals})",
+    )
+    lo, hi = live.WINDOW_RANGE_S
+    p.add_argument(
+        "--window",
+        type=float,
+        default=live.DEFAULT_WINDOW_S,
+        metavar="S",
+        help=f"the live view's rolling window in s (default {live.DEFAULT_WINDOW_S:g}, "
+        f"{lo:g}..{hi:g})",
+    )
+    p.add_argument(
+        "--http-port", type=int, default=0, help="--live web: the page's port (default: a free one)"
+    )
+
+
+def precheck(args) -> int | None:
+    """Checks of a command's files and options before anything is sent: one line and exit 2 on
+    bad input."""
+    if getattr(args, "live", None):
+        lo, hi = live.WINDOW_RANGE_S
+        problem = None
+        if not lo <= args.window <= hi:
+            problem = f"--window {args.window:g}: outside {lo:g}..{hi:g} s"
+        elif not 0 <= args.http_port <= 65535:
+            problem = f"--http-port {args.http_port}: outside 0..65535"
+        else:
+            try:
+                args.signal_list = live.parse_signals(args.signals)
+            except ValueError as exc:
+                problem = str(exc)
+        if problem:
+            print(f"bowden bench: {problem}", file=sys.stderr)
+            return 2
+    if args.bench_command != "diff":
+        return None
+    if (args.file is None) == (not args.defaults):
+        print("bowden bench diff: give FILE or --defaults (one of them)", file=sys.stderr)
+        return 2
+    if args.file is not None:
+        try:
+            args.reference = diff.load_file(args.file)
+        except diff.DiffFileError as exc:
+            print(f"bowden bench {exc}", file=sys.stderr)
+            return 2
+    return None
+
+
+def resolve_port(args) -> None:
+    """`--port auto`: the only controller pyserial's ports lead to (several: AmbiguousPortError,
+    a usage error naming them; none: BenchError)."""
+    if args.port == "auto":
+        args.port = discover.auto_port(
+            baud=args.baud, timeout_s=min(args.timeout, discover.PROBE_TIMEOUT_S)
+        )
+
+
+def cmd_list(args, chain=None) -> int:
+    """`bowden bench list`: one row per controller found; exit 1 when there is none. With
+    `--emulate --can BUS` the emulator joins the bus first (python-can's virtual bus)."""
+    timeout_s = min(args.timeout, discover.PROBE_TIMEOUT_S)
+    if args.can:  # one wait for every node at once: the whole reply timeout
+        emulator = None
+        if args.emulate:
+            from cosim.bench.emulator import Emulator  # noqa: PLC0415
+
+            emulator = Emulator(pty=False, tcp_port=None, can=args.can, chain=chain).start()
+        try:
+            found = discover.probe_can(args.can, timeout_s=args.timeout)
+        finally:
+            if emulator is not None:
+                emulator.stop()
+        where = f"on {args.can} (nodes 0..{(1 << msgs.CAN_NODE_BITS) - 1})"
+    else:
+        ports = [args.port] if args.port and args.port != "auto" else None
+        found, probed = discover.probe_serial(ports, baud=args.baud, timeout_s=timeout_s)
+        where = f"on {len(probed)} serial port(s) probed" if probed else "(pyserial lists no ports)"
+    if not found:
+        print(f"bowden bench list: no controller answered HELLO {where}", file=sys.stderr)
+        return 1
+    print(discover.table(found))
+    if any(not f.compatible for f in found):
+        print(
+            "note: a controller marked 'host: other' speaks another protocol version or table "
+            "than this host: update the host or its firmware before a session"
+        )
+    return 0
+
+
+def cmd_diff(client, args, info) -> int:
+    """`bowden bench diff`: the device's words against the file's (or the defaults)."""
+    device = client.params()
+    if args.defaults:
+        words = {}
+        for p in msgs.PARAMS:
+            _, v = client.request("PARAM_INFO", param=param(p.name).id)
+            words[p.name] = v["default_word"]
+        ref = diff.Reference(label="factory default", words=words)
+    else:
+        ref = args.reference
+    print(diff.render(diff.compare(device, ref), ref, show_all=args.all))
+    return 0
+
+
+# --- live view -----------------------------------------------------------------------------------
+
+
+@dataclass
+class LiveView:
+    """The view of one run: `tap` goes to the recorder, `close` ends the view."""
+
+    buffer: live.LiveBuffer
+    term: live.TermView | None = None
+    web: live.LiveServer | None = None
+
+    def close(self, message: str) -> None:
+        self.buffer.stop(message)
+        if self.term is not None:
+            self.term.stop()
+        if self.web is not None:
+            self.web.stop()
+
+
+def open_view(args, label: str, rate_hz: float) -> LiveView:
+    """Start the view `args.live` asks for (a page's address on stderr)."""
+    buffer = live.LiveBuffer(rate_hz)
+    buffer.start(label, rate_hz)
+    view = LiveView(buffer)
+    if args.live == "web":
+        view.web = live.LiveServer(
+            buffer, port=args.http_port, signals=args.signal_list, window_s=args.window
+        ).start()
+        print(f"live view: {view.web.url} (this machine only)", file=sys.stderr, flush=True)
+    else:
+        view.term = live.TermView(buffer, args.signal_list, args.window).start()
+    return view
+
+
+def record_with_view(client, args, out, label: str, **kw) -> RunResult:
+    """record_run into `out`, with the live view `args.live` asks for when it asks for one (the
+    progress line gives way to a terminal view)."""
+    if not getattr(args, "live", None):
+        return record_run(client, out, **kw)
+    rate_hz = float(client.get("tick_rate_hz")) / int(client.get("dev.telemetry_div"))
+    view = open_view(args, label, rate_hz)
+    if view.term is not None:
+        kw["progress"] = None
+    result = None
+    try:
+        result = record_run(client, out, tap=view.buffer.add, **kw)
+    finally:
+        view.close(f"run ended: {result.summary()}" if result else "run interrupted")
+    return result
+
+
+def cmd_watch(client, args, info, run_cmd) -> int:
+    """`bowden bench watch`: `run` (`run_cmd`, with every exit path of a run) of the waveform
+    the device is set to, with the live view; recorded to --out or a new temporary file."""
+    if args.out is None:
+        args.out = str(Path(tempfile.mkdtemp(prefix="bowden-watch-")) / "watch.csv")
+    args.waveform = str(client.get("wave.kind"))
+    args.mean = float(client.get("wave.mean_n"))
+    args.amplitude = float(client.get("wave.amplitude_n"))
+    args.freq = float(client.get("wave.freq_hz"))
+    args.ref = None
+    args.position, args.loop_routing, args.sheath_length = (0.0, 0.5, 0.0), True, 1.0
+    args.quiet = False
+    return run_cmd(client, args, info)

@@ -1,0 +1,27 @@
+# --- live: the bench tool's API reference and the browser its live page is tested in -----------
+# (cosim/bench/README.md, "Python API" and "Live view")
+#
+#   make bench-docs      build/docs/api: the reference of cosim.bench.api (pdoc), any warning an error
+#   make browser-setup   Debian's chromium for the live page's headless test, where `make test` runs
+#                        as root with apt-get (CI); elsewhere it says the test will skip. Never fatal.
+
+.PHONY: bench-docs browser-setup
+
+bench-docs: $(VENV_STAMP)
+	$(PY) -W error -m pdoc --output-directory $(BUILD)/docs/api cosim.bench.api
+	@echo "bench-docs: $(BUILD)/docs/api/cosim/bench/api.html"
+
+test: browser-setup
+
+browser-setup:
+	@if command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1; then \
+	  :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+	  echo "browser-setup: installing Debian's chromium (the live page's headless test)"; \
+	  { DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null 2>&1 || \
+	    { apt-get update -qq >/dev/null 2>&1 && \
+	      DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null 2>&1; }; } || \
+	  echo "browser-setup: chromium could not be installed: the live page's browser test will skip"; \
+	else \
+	  echo "browser-setup: no chromium, and not root with apt-get: the live page's browser test will skip"; \
+	fi
