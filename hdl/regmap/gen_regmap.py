@@ -367,7 +367,7 @@ def gen_formal(spec: dict) -> list[str]:
         return reset, rw, const
 
     w("`ifdef FORMAL")
-    w("// --- formal contract of the map (hdl/formal/bowden_core.sby), made from the table ---")
+    w("// --- formal properties of the map (hdl/formal/bowden_core.sby), made from the table --")
     w("reg f_past_valid = 1'b0;")
     w("always @(posedge clk) f_past_valid <= 1'b1;")
     w("always @* if (!f_past_valid) assume(rst);")

@@ -112,7 +112,7 @@ wire unused_prot = &{1'b0, s_axil_awprot, s_axil_arprot};
 `ifdef FORMAL
 // --- formal properties (hdl/formal/bowden_core.sby; hdl/README.md says what is proven) -----
 //
-// Property 5 of issue 12, slave side: under the AXI4-Lite rules for the master (assumed), every
+// The bus properties axil_*, slave side: under the AXI4-Lite rules for the master (assumed), every
 // request gets exactly one response, in order, within a bounded time, never a response without
 // a request, and the response code is the register file's error flag for that address.
 

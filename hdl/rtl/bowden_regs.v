@@ -478,7 +478,7 @@ assign reg_rd_valid = rd_valid;
 wire unused_wr_bits = &{1'b0, reg_wr_data, wr_mask, reg_wr_addr[1:0], reg_rd_addr[1:0]};
 
 `ifdef FORMAL
-// --- formal contract of the map (hdl/formal/bowden_core.sby), made from the table ---
+// --- formal properties of the map (hdl/formal/bowden_core.sby), made from the table --
 reg f_past_valid = 1'b0;
 always @(posedge clk) f_past_valid <= 1'b1;
 always @* if (!f_past_valid) assume(rst);

@@ -114,7 +114,7 @@ assign duty_clks = duty_reg;
 `ifdef FORMAL
 // --- formal properties (hdl/formal/pwm_escon.sby; hdl/README.md says what is proven) -------
 //
-// Property 2 of issue 12: the duty stays within 10 %..90 % of the period, changes only at the
+// The PWM properties pwm_*: the duty stays within 10 %..90 % of the period, changes only at the
 // end of a period, and is 50 % (0 A) after a period that began with the drive disabled (the
 // core's enable is the loop's out_en, which every fault drops).
 

@@ -298,7 +298,7 @@ wire unused_addr = &{1'b0, addr_reg};
 `ifdef FORMAL
 // --- formal properties (hdl/formal/spi_axil_bridge.sby; hdl/README.md says what is proven) --
 //
-// Property 5 of issue 12, bridge side, for any pin activity (no limit on SCK) and any reset:
+// The bus properties spi_*, bridge side, for any pin activity (no limit on SCK) and any reset:
 // a bus access only from a complete frame begun with chip select seen high, at its access
 // point, with the frame's address (never aliased) and data; idle after chip select high; an
 // AXI4-Lite master with one access at a time. The slave is assumed to follow AXI4-Lite.

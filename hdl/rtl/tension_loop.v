@@ -615,8 +615,8 @@ assign sample_count = sample_cnt_reg;
 `ifdef FORMAL
 // --- formal properties (hdl/formal/tension_loop.sby; hdl/README.md says what is proven) ----
 //
-// Safety properties 1, 3 and 4 of issue 12 against a spec-level shadow of the inputs
-// (f_* registers, written from the ports, not from the pipeline). The environment (reset at
+// The loop's safety properties tl_* (current, integrator, faults) against a spec-level shadow
+// of the inputs (f_* registers, written from the ports, not from the pipeline). The environment (reset at
 // start, ticks at least LATENCY clocks apart) is assumed when this module is the top of the
 // proof and asserted when it sits inside bowden_core, which must then guarantee it.
 `ifdef FORMAL_TENSION_LOOP_TOP
@@ -772,7 +772,7 @@ always @* if (f_past_valid && !rst && f_busy) begin
     if (f_since_tick <= 4'd3) tl_snapshot_6: assert(fault_reg == f_fault_tick);
 end
 
-// --- property 1: the current command ------------------------------------------------------
+// --- the current command (tl_current_limit .. tl_floor) -----------------------------------
 
 wire signed [15:0] f_u = $signed(u_reg);
 wire signed [16:0] f_lim_pos = $signed({2'b00, f_ulim});
@@ -815,7 +815,7 @@ always @(posedge clk) if (f_past_valid && !$past(rst) && $past(f_run_done))
     // property tl_floor: a running sample never leaves TC_EFF below the TC_MIN taken at its tick
     tl_floor: assert($signed(tc_eff_reg) >= $signed($past(f_tcmin_s)));
 
-// --- property 3: the integrator -----------------------------------------------------------
+// --- the integrator (tl_integ_clamp, tl_integ_zero_when_stopped, tl_anti_windup) ----------
 
 wire signed [32:0] f_ilim = $signed({2'b00, f_ulim, 16'd0});
 always @* if (f_past_valid) begin
@@ -835,7 +835,7 @@ always @(posedge clk) if (f_past_valid && !$past(rst) && $past(f_run_done) && $p
     // property tl_anti_windup: after a command clipped high (low) and a positive (negative) KI_TS*e the integrator holds, only clamped
     tl_anti_windup: assert(integ_reg == $past(f_iprev_c[31:0]));
 
-// --- property 4: faults ---------------------------------------------------------------------
+// --- faults (tl_fault_definition, tl_hard_fault_safe, tl_reset_safe) ----------------------
 
 // FAULT changes only on the third clock of a sample, to exactly the register map's definition:
 // latched bits stay until FAULT_CLEAR, new bits come only while enabled.
