@@ -21,12 +21,12 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))  # run as a script from any folder: the cosim package
 
-from cosim.plant import FMU_PATH, OUTPUT_NAMES  # noqa: E402
+from cosim.parts.plant import FMU_PATH, OUTPUT_NAMES  # noqa: E402
 
 INPUT_CSV = HERE / "reference" / "BowdenPlant_in.csv"
 REF_CSV = HERE / "reference" / "BowdenPlant_ref.csv"
 START_VALUES = {"noise_std": 0.05, "seed": 42, "sensor_tau": 0.002, "sensor_delay": 0.001}
-OUTPUTS = list(OUTPUT_NAMES)  # every output of the FMU, in the order cosim.plant reads them
+OUTPUTS = list(OUTPUT_NAMES)  # every output of the FMU, in the order cosim.parts.plant reads them
 STOP_TIME_S = 0.4
 STEP_S = 1e-4
 OUTPUT_INTERVAL_S = 1e-3

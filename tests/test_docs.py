@@ -32,12 +32,10 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# The areas whose documents are clean; cosim/ and tests/ join once their last tracker
-# references are gone. This file is not among them: its planted failures spell them on purpose.
-CHECKED_ROOTS = [
-    "README.md", "CONTRIBUTING.md", "LICENSE", "docs/", "hdl/", "fmu/", "firmware/", "mk/",
-    "Makefile", "pyproject.toml", "requirements.txt", "bowden.core", ".github/", ".ci/",
-]  # fmt: skip
+# The whole repository ("" is every tracked file) except this file, whose planted failures spell
+# tracker numbers on purpose.
+CHECKED_ROOTS = [""]
+SELF = "tests/test_docs.py"
 
 TEXT_SUFFIXES = {
     ".md", ".py", ".v", ".vh", ".sby", ".json", ".c", ".h", ".txt", ".pcf", ".lpf", ".mk",
@@ -64,7 +62,7 @@ def tracked_files(root: Path = ROOT) -> list[str]:
 
 
 def in_roots(path: str, roots: list[str]) -> bool:
-    return any(path == r or (r.endswith("/") and path.startswith(r)) for r in roots)
+    return any(r == "" or path == r or (r.endswith("/") and path.startswith(r)) for r in roots)
 
 
 def _prose_lines(text: str):
@@ -130,7 +128,7 @@ def check(root: Path, files: list[str], roots: list[str]) -> list[str]:
 
 
 def test_checked_roots_stand_alone():
-    found = check(ROOT, tracked_files(), CHECKED_ROOTS)
+    found = check(ROOT, [f for f in tracked_files() if f != SELF], CHECKED_ROOTS)
     assert not found, "\n".join(found)
 
 

@@ -349,7 +349,7 @@ class LoopChain:
 
         self.model = rtl_model.TensionLoopModel()
         self._names = {reg.addr: name for name, reg in regmap.REGISTERS.items()}
-        # The co-simulation's interface stage (issue 11a): ideal ADC and drive, the board's ADC,
+        # The co-simulation's interface stage (cosim/parts/interface.py): ideal ADC and drive, the board's ADC,
         # or the board's ADC and PWM -> ESCON, with the datasheet defaults of BoardParams.
         sim = SimConfig()
         sim.sample_rate_hz = self.cfg.sample_rate_hz

@@ -50,7 +50,7 @@ SCENARIO_NAMES = (
     "multisine",
     "fig14path2",
 )
-# Issue 11's split: gains, the smooth band and the preview horizon are chosen on `tune` only
+# The tune/report split: gains, the smooth band and the preview horizon are chosen on `tune` only
 # (cosim/tune); fig14 and the held-out scenarios are only reported, never tuned on.
 TUNE_SCENARIO = "tune"
 HELD_OUT_SCENARIOS = ("sine1hz", "triangle", "multisine", "fig14path2")

@@ -67,7 +67,7 @@
  * Accuracy against the double twin (comp_f64.h) fed the same Q7.8 references: with
  * mu_slope = 0, |T_c - T_c,f64| <= COMP_ERR_BOUND_LSB; with a slope, add the interpolation error
  * T_max * h^2/8 * G''_max with h = 2 N and G''_max the largest |d2G/dT2| of either branch
- * (cosim.firmware.CompensatorParams.error_bound_n).
+ * (cosim.parts.firmware.CompensatorParams.error_bound_n).
  */
 #ifndef BOWDEN_COMP_H
 #define BOWDEN_COMP_H

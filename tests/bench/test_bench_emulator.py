@@ -122,7 +122,7 @@ def test_native_chain_equals_python_chain():
 
 
 def test_board_interface_on_the_python_engine():
-    """The emulator runs on the co-simulation's interface stage (cosim.parts.interface, issue 11a):
+    """The emulator runs on the co-simulation's interface stage (cosim.parts.interface):
     with the board's ADC and PWM -> ESCON the command differs from the ideal chain's (the ADC
     delivers a sample every fifth tick), and the native engine refuses it rather than
     silently running the ideal one."""

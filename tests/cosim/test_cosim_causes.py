@@ -1,4 +1,4 @@
-"""Issue 11's causes, asserted on short runs of a held-out scenario (never tuned on):
+"""The board chain's causes, asserted on short runs of a held-out scenario (never tuned on):
 
 - the board's interface (ADC age and hold, PWM -> ESCON delay) costs error near reversals, and
   the older the sample, the more (the ADS1220's 0.3-0.5 ms against the ADS131M02's 0.08 ms);

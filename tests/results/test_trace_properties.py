@@ -1,4 +1,4 @@
-"""Property-based tests of the trace surface (CSV + sidecar), issue 9 / issue 13: whatever bytes
+"""Property-based tests of the trace surface (CSV + sidecar): whatever bytes
 a user hands the reader, in either mode, it ends in a Trace whose numbers are all finite and in
 range, or in one TraceError of one line that names the file; never another exception.
 

@@ -1,4 +1,4 @@
-"""The trace reader (cosim/results/trace.py): issue 13 item 7 defects, and the "measured" mode that
+"""The trace reader (cosim/results/trace.py): the defects a new user's files found, and the "measured" mode that
 reads users' CSVs, bench recordings and `bowden sim` traces with one validation.
 
 Each defect test below failed on the reader before the fix (a traceback or a silently accepted
@@ -38,7 +38,7 @@ def _write(tmp_path, csv_bytes: bytes, meta: dict | bytes | None = META, name="t
     return path
 
 
-# --- issue 13, item 7 --------------------------------------------------------------------------
+# --- defects found with users' files ------------------------------------------------------------
 
 
 def test_non_utf8_byte_in_csv_names_file_line_and_column(tmp_path):
