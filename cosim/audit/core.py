@@ -4,8 +4,8 @@ vocabulary (cosim.audit.effects), extend the model, and measure the gain on data
 The steps (modules: data, fit, decision, residual):
 
 1. **Data.** A measured trace (cosim.results.trace, mode "measured"): the input tension drives
-   the model,
-   the output tension is what it must predict. Above MAX_RATE_HZ the record is decimated (a
+   the model, the output tension is what it must predict. Above MAX_RATE_HZ the record is
+   decimated (a
    zero-phase FIR); the input tension is smoothed with a Savitzky-Golay filter (SMOOTH_S) so that
    its sensor noise does not enter the friction model as false reversals (an errors-in-variables
    bias: the capstan's dead zone would hold every noise peak), except across fast changes, which
@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import twin
+from . import plausible, twin
 from .data import (  # noqa: F401 (the audit's names, one import away)
     BLOCK_TARGET_COUNT,
     COVER_MIN,
@@ -96,6 +96,7 @@ class AuditResult:
     unexplained: dict
     rule: DecisionRule = RULE
     wall_s: float = 0.0
+    warnings: list[str] = field(default_factory=list)  # plausible: one line per reason
     extras: dict = field(default_factory=dict)
 
     def rms_report(self, prediction: np.ndarray) -> float:
@@ -200,10 +201,28 @@ def run(
     )
     for f in findings:
         f.evidence = _evidence(result, f)
+    result.warnings = plausibility_warnings(data, result)
     if dropped:
         result.extras["dropped_by_backward_check"] = dropped
     result.wall_s = time.perf_counter() - t_start
     return result
+
+
+def plausibility_warnings(data: AuditData, result: AuditResult) -> list[str]:
+    """The data's and the fit's plausibility (cosim.audit.plausible): T_out above T_in while
+    loading, mu or a finding's parameter at the bound of its range."""
+    from .fit import MU_BOUNDS  # noqa: PLC0415
+
+    out = plausible.data_warnings(data.inputs.t_in_n, data.t_out_n, data.rate_n_s)
+    if not data.mu_fixed:
+        why = plausible.at_bound("mu", result.extended.params["mu"], *MU_BOUNDS)
+        if why:
+            out.append(why)
+    for f in result.findings:
+        why = plausible.at_bound(f.effect.fmu_param, f.value, *f.effect.bounds)
+        if why:
+            out.append(f"{f.effect.cause}: {why}")
+    return out
 
 
 def sampling_error(data: AuditData, prediction: np.ndarray) -> float:

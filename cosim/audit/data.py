@@ -18,7 +18,7 @@ from scipy.signal import decimate, fftconvolve, savgol_filter
 from cosim.parts.geometry import bending_angle, in_workspace
 from cosim.results import trace as trace_mod
 
-from . import twin
+from . import plausible, twin
 
 # --- data preparation ------------------------------------------------------------------------
 
@@ -231,6 +231,9 @@ def prepare(tr: trace_mod.Trace, source: str) -> AuditData:
         sheath_length_m=length,
         loop_routing=loop,
     )
+    why = plausible.refusal(source, t_in, t_out, input_noise, noise_std(t_out))
+    if why:
+        raise AuditError(why)
     roles, block_s, block_note = _roles(n, rate, t_in)
     mu = tr.meta.get("mu")
     if tr.meta.get("mu_source") == MU_SOURCE_COMPENSATOR:

@@ -158,6 +158,7 @@ def to_dict(result: AuditResult) -> dict:
             "noise_floor_n": _num(d.noise_floor_n),
         },
         "unexplained": unexpl,
+        "warnings": list(result.warnings),
         "wall_s": _num(result.wall_s, 4),
     }
     out.update(result.extras)
@@ -217,6 +218,7 @@ def summary(result: AuditResult) -> str:
         f"noise floor {d.noise_floor_n:.4f} N",
         "  left     " + unexplained_text(result.unexplained),
     ]
+    lines += [f"  warning  {w}" for w in result.warnings]
     return "\n".join(lines)
 
 
@@ -420,9 +422,12 @@ def markdown(result: AuditResult, data: dict, plot_names: list[str]) -> str:
         "",
         "## Nominal model",
         "",
-        f"mu = {b['params']['mu']:.5f}; phi {b['phi']}. Residual of T_out (FMU): RMS "
-        f"{b['rms_n']:.4f} N, held-out {b['holdout_rms_n']:.4f} N.",
+        f"mu = {b['params']['mu']:.5f}; phi {b['phi']}; dead_zone_spread = "
+        f"{b['params'].get('dead_zone_spread') or 0.0:.3f} (the gradual turn through the dead "
+        f"zone). Residual of T_out (FMU): RMS {b['rms_n']:.4f} N, held-out "
+        f"{b['holdout_rms_n']:.4f} N.",
         "",
+        *(["## Warnings", "", *(f"- {w}" for w in result.warnings), ""] if result.warnings else []),
         "## Findings",
         "",
         f"Rule: {result.rule.text()}.",
