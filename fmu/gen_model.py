@@ -70,6 +70,8 @@ VARIABLES: list[Var] = [
         "Pure delay of the output tension sensor"),
     Var("mu_drift", "Real", PARAM, 0.0, "1/s", -1.0, 1.0,
         "Friction coefficient drift over time: mu + mu_drift*t"),
+    Var("dead_zone_spread", "Real", PARAM, 0.0, "1", 0.0, 2.0,
+        "Log standard deviation of the friction thresholds: a gradual turn through the dead zone"),
     # --- drive, motor, cable (paper Table I and named assumptions in fmu/README.md) -----------
     Var("gear_ratio", "Real", PARAM, 5.4, "1", 1.0, 1000.0,
         "Gearhead reduction (Maxon 5.4:1, Table INPUT)"),

@@ -11,7 +11,9 @@ saw. See cosim/audit/core.py for the method and README.md ("Model audit") for a 
     print(result_summary(result))
 
 Modules: `effects` (the vocabulary), `twin` (the FMU's physics for fitting, and the FMU run),
-`core` (data, fits, decision rule, result), `report` (audit.json, report.md, plots), `params`
+`data` (the record made ready, its blocks), `fit` (the models), `decision` (the rule over the
+selection blocks as folds), `residual` (what is left), `plausible` (refusals and warnings),
+`core` (the steps in order, the result), `report` (audit.json, report.md, plots), `params`
 (`--emit-params` and the fig14 comparison); the command line is cosim/cli/audit.py.
 """
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 class Effect:
     """A candidate cause of the residual and the FMU parameter it maps to."""
 
-    cause: str  # name in the audit's vocabulary (issue 9)
+    cause: str  # name in the audit's vocabulary
     fmu_param: str  # the plant FMU's parameter (fmu/gen_model.py)
     unit: str
     bounds: tuple[float, float]  # fit bounds, inside the FMU's allowed range

@@ -42,6 +42,8 @@ def emitted_params(result: AuditResult) -> tuple[dict, list[str]]:
     p = result.extended.params
     d = result.data
     plant: dict[str, float] = {"mu": round(p["mu"], 6)}
+    if p.get("dead_zone_spread", 0.0) > 0.0:  # the nominal model's gradual dead zone
+        plant["dead_zone_spread"] = round(float(p["dead_zone_spread"]), 6)
     if d.inputs.sheath_length_m != 1.0:
         plant["sheath_length"] = d.inputs.sheath_length_m
     comp: dict[str, float] = {"mu": round(p["mu"], 6)}
@@ -100,9 +102,14 @@ def _compensator_range(key: str) -> tuple[float, float]:
     return {"offset_n": (-64.0, 64.0), "mu_slope_per_n": (-1 / 128, 1 / 128)}[key]
 
 
+def check_params(path: Path, params: dict) -> None:
+    """Check the content the way `bowden sim --params` will (ValueError names the problem)."""
+    SimConfig.from_dict(json.loads(json.dumps(params)), source=str(path))
+
+
 def write_params(path: Path, params: dict) -> None:
     """Write the file after checking it the way `bowden sim --params` will."""
-    SimConfig.from_dict(json.loads(json.dumps(params)), source=str(path))
+    check_params(path, params)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(params, indent=2) + "\n")
 

@@ -46,7 +46,7 @@ def _rms(x: np.ndarray) -> float:
 
 
 def to_dict(result: AuditResult) -> dict:
-    """The content of audit.json (issue 9's shape, and more keys)."""
+    """The content of audit.json."""
     d = result.data
     scored = _scored(result)
     base_res = d.t_out_n - result.fmu_baseline
@@ -62,9 +62,10 @@ def to_dict(result: AuditResult) -> dict:
                 "explains_pct": _num(f.explains_pct, 4),
                 "evidence": f.evidence,
                 "selection_explains_pct": _num(f.selection_pct, 4),
-                "z": _num(f.z, 4),
+                "block_t": _num(f.t, 4),
+                "improved_share": _num(f.improved_share, 4),
                 "runner_up": f.runner_up,
-                "separation_z": _num(f.separation_z, 4),
+                "separation_block_t": _num(f.separation_t, 4),
                 "ambiguous_with": f.ambiguous_with,
                 "equation": f.effect.equation,
             }
@@ -80,7 +81,9 @@ def to_dict(result: AuditResult) -> dict:
                         "cause": c.effect.cause,
                         "params": {c.effect.fmu_param: _num(c.model.params[c.effect.fmu_param])},
                         "selection_explains_pct": _num(c.explained_pct, 4),
-                        "z": _num(c.z, 4),
+                        "block_t": _num(c.t, 4),
+                        "improved_share": _num(c.stats.improved_share, 4),
+                        "worst_block_z": _num(c.stats.worst_z, 4),
                         "significant": c.significant,
                     }
                     for c in sorted(rnd.candidates, key=lambda c: -c.explained_pct)
@@ -119,13 +122,14 @@ def to_dict(result: AuditResult) -> dict:
         "rule": {
             "text": result.rule.text(),
             "min_explained_pct": result.rule.min_explained_pct,
-            "min_z": result.rule.min_z,
             "min_effect_rms_n": result.rule.min_effect_rms_n,
             "min_effect_noise_ratio": result.rule.min_effect_noise_ratio,
             "min_effect_rms_here_n": _num(
                 result.rule.min_rms_n(d.noise_floor_n, d.input_noise_n, d.sampling_error_n)
             ),
-            "separation_z": result.rule.separation_z,
+            "min_block_t": result.rule.min_block_t,
+            "min_improved_share": result.rule.min_improved_share,
+            "separation_block_t": result.rule.separation_t,
         },
         "baseline": {
             "params": _params(result.baseline.params),
@@ -154,6 +158,7 @@ def to_dict(result: AuditResult) -> dict:
             "noise_floor_n": _num(d.noise_floor_n),
         },
         "unexplained": unexpl,
+        "warnings": list(result.warnings),
         "wall_s": _num(result.wall_s, 4),
     }
     out.update(result.extras)
@@ -195,12 +200,12 @@ def summary(result: AuditResult) -> str:
         f"  rule     {result.rule.text()}",
     ]
     if result.findings:
-        lines.append(f"  {'finding':<28}{'FMU parameter':<32}{'explains':>9}{'z':>8}")
+        lines.append(f"  {'finding':<28}{'FMU parameter':<32}{'explains':>9}{'block t':>9}")
         for f in result.findings:
             flag = f"  (or {f.ambiguous_with})" if f.ambiguous_with else ""
             lines.append(
                 f"  {f.effect.cause:<28}{f.effect.describe(f.value):<32}"
-                f"{f.explains_pct:>8.1f}%{f.z:>8.1f}{flag}"
+                f"{f.explains_pct:>8.1f}%{f.t:>9.1f}{flag}"
             )
             lines.append(f"      why: {f.evidence}")
     else:
@@ -213,6 +218,7 @@ def summary(result: AuditResult) -> str:
         f"noise floor {d.noise_floor_n:.4f} N",
         "  left     " + unexplained_text(result.unexplained),
     ]
+    lines += [f"  warning  {w}" for w in result.warnings]
     return "\n".join(lines)
 
 
@@ -416,9 +422,12 @@ def markdown(result: AuditResult, data: dict, plot_names: list[str]) -> str:
         "",
         "## Nominal model",
         "",
-        f"mu = {b['params']['mu']:.5f}; phi {b['phi']}. Residual of T_out (FMU): RMS "
-        f"{b['rms_n']:.4f} N, held-out {b['holdout_rms_n']:.4f} N.",
+        f"mu = {b['params']['mu']:.5f}; phi {b['phi']}; dead_zone_spread = "
+        f"{b['params'].get('dead_zone_spread') or 0.0:.3f} (the gradual turn through the dead "
+        f"zone). Residual of T_out (FMU): RMS {b['rms_n']:.4f} N, held-out "
+        f"{b['holdout_rms_n']:.4f} N.",
         "",
+        *(["## Warnings", "", *(f"- {w}" for w in result.warnings), ""] if result.warnings else []),
         "## Findings",
         "",
         f"Rule: {result.rule.text()}.",
@@ -426,21 +435,25 @@ def markdown(result: AuditResult, data: dict, plot_names: list[str]) -> str:
     ]
     if result.findings:
         lines += [
-            "| cause | FMU parameter | explains (held-out) | z | why |",
+            "| cause | FMU parameter | explains (held-out) | block t | why |",
             "| --- | --- | --- | --- | --- |",
         ]
         for f in result.findings:
             lines.append(
                 f"| {f.effect.cause}{' (or ' + f.ambiguous_with + ')' if f.ambiguous_with else ''} "
-                f"| {f.effect.describe(f.value)} | {f.explains_pct:.1f} % | {f.z:.1f} "
+                f"| {f.effect.describe(f.value)} | {f.explains_pct:.1f} % | {f.t:.1f} "
                 f"| {f.evidence} |"
             )
     else:
         lines.append("No cause of the vocabulary passes the rule: the nominal model stands.")
-    lines += ["", "Candidates per round (share of the selection blocks' residual removed, z):", ""]
+    lines += [
+        "",
+        "Candidates per round (share of the selection blocks' residual removed, block t):",
+        "",
+    ]
     for rnd in data["rounds"]:
         cells = ", ".join(
-            f"{c['cause']} {c['selection_explains_pct']:.1f} % ({c['z']})"
+            f"{c['cause']} {c['selection_explains_pct']:.1f} % ({c['block_t']})"
             for c in rnd["candidates"]
         )
         lines.append(f"- round {rnd['round']}: {cells}; chosen: {rnd['chosen'] or 'none'}")

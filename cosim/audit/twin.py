@@ -14,6 +14,8 @@ What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effe
 - mu_eff = mu + mu_viscous |v_c| + mu_drift t (+ mu_tension_slope T_{k-1} per segment), with
   v_c the rate of the cable's inlet displacement (stretch in the sheath / EA + T_out / k_lc)
   low-pass filtered with 10 ms, as the FMU computes it after each step and uses in the next;
+- the gradual dead zone (fmu/README.md, "Gradual dead zone"): with dead_zone_spread > 0 the
+  output is T_n * mean_j(S_j) / S_ref over 8 lumped capstans of log-normally spread widths;
 - the output sensor: first-order lag sensor_tau (exact for a step held over the sample),
   pure delay sensor_delay (a whole number of samples here, which the FMU then reproduces
   exactly), gain and offset.
@@ -37,6 +39,20 @@ from scipy.signal import lfilter
 # Constants of fmu/src/bowden_physics.[ch] and the FMU's defaults (fmu/gen_model.py); a test
 # compares them with the built FMU.
 N_SEG = 32  # BOWDEN_N_SEG
+N_STRAND = 8  # BOWDEN_N_STRAND
+# STRAND_Q of bowden_physics.c: standard normal quantiles at (j + 1/2) / N_STRAND
+STRAND_Q = np.array(
+    [
+        -1.5341205443525463,
+        -0.88714655901887596,
+        -0.48877641111466952,
+        -0.1573106846101707,
+        0.1573106846101707,
+        0.48877641111466952,
+        0.88714655901887596,
+        1.5341205443525463,
+    ]
+)
 SPEED_TAU_S = 0.01  # BOWDEN_SPEED_TAU_S, filter of the cable speed v_c
 CABLE_EA_N = 8000.0  # cable_EA default
 LOADCELL_N_PER_M = 2e5  # loadcell_stiffness default
@@ -73,11 +89,14 @@ def _exp_small(x):
 
 
 @njit(cache=True)
-def _friction(t_in, dphi_geom, z, phi_off, mu, mu_visc, slope, drift, t0, dt, ds, ea, klc, n_seg):
+def _friction(
+    t_in, dphi_geom, z, phi_off, mu, mu_visc, slope, drift, spread, t0, dt, ds, ea, klc, n_seg
+):
     """T_out (true) at every sample: the drive-mode-1 physics of bowden_physics.c."""
     n = t_in.shape[0]
     out = np.empty(n)
     tens = np.zeros(n_seg + 1)
+    strands = np.zeros(N_STRAND + 1)
     alpha_speed = 1.0 - math.exp(-dt / 0.01)
     speed = 0.0
     disp_prev = 0.0
@@ -110,6 +129,23 @@ def _friction(t_in, dphi_geom, z, phi_off, mu, mu_visc, slope, drift, t0, dt, ds
                 tens[j] = hi
             stretch += 0.5 * (tens[j - 1] + tens[j])
         out[k] = tens[n_seg]
+        if spread > 0.0:
+            # strands_update and output_tension of bowden_physics.c (gradual dead zone)
+            w = mu_c * (phi if phi > 0.0 else 0.0)
+            total = 0.0
+            for j in range(N_STRAND + 1):
+                q = STRAND_Q[j] if j < N_STRAND else 0.0
+                e = math.exp(w * math.exp(spread * q))
+                lo = tin / e
+                hi = tin * e
+                if strands[j] < lo:
+                    strands[j] = lo
+                elif strands[j] > hi:
+                    strands[j] = hi
+                if j < N_STRAND:
+                    total += strands[j]
+            if strands[N_STRAND] > 0.0:
+                out[k] = tens[n_seg] * (total / N_STRAND) / strands[N_STRAND]
         disp = stretch * ds / ea + tens[n_seg] / klc
         if k > 0:
             speed += ((disp - disp_prev) / dt - speed) * alpha_speed
@@ -129,6 +165,7 @@ def friction_output(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndar
         float(p["mu_viscous"]),
         float(p["mu_tension_slope"]),
         float(p["mu_drift"]),
+        float(p["dead_zone_spread"]),
         float(inputs.t0_s),
         float(inputs.dt_s),
         inputs.sheath_length_m / N_SEG,
@@ -164,7 +201,14 @@ def simulate(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndarray:
 
 
 # The parameters of the friction part (the rest only change the sensor's reading).
-FRICTION_PARAMS = ("mu", "mu_viscous", "mu_tension_slope", "phi_offset_per_z", "mu_drift")
+FRICTION_PARAMS = (
+    "mu",
+    "mu_viscous",
+    "mu_tension_slope",
+    "phi_offset_per_z",
+    "mu_drift",
+    "dead_zone_spread",
+)
 
 # Every parameter the twin knows, with its value when the effect is off.
 OFF = {
@@ -177,6 +221,7 @@ OFF = {
     "sensor_tau": 0.0,
     "sensor_delay": 0.0,
     "mu_drift": 0.0,
+    "dead_zone_spread": 0.0,
 }
 
 

@@ -36,11 +36,27 @@ class Interrupted(BaseException):
         super().__init__(signal.Signals(signum).name)
 
 
+# The signal that arrived, kept in case its exception is lost: raised where Python cannot
+# propagate it (a __del__ run by the garbage collector, a callback from C), Interrupted is
+# printed as "ignored" and the run would go on to exit 0 (an audit did, 2 times in 7 on
+# SIGTERM). main() and check_interrupted() read it.
+_pending: int | None = None
+
+
 def _raise_interrupted(signum, _frame):
+    global _pending
+    _pending = signum
     # A second Ctrl-C while the run is being stopped would only interrupt the stopping.
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, signal.SIG_IGN)
     raise Interrupted(signum)
+
+
+def check_interrupted() -> None:
+    """Raise Interrupted again when a signal arrived whose exception was lost (see _pending):
+    long commands call it between their steps."""
+    if _pending is not None:
+        raise Interrupted(_pending)
 
 
 @contextlib.contextmanager
@@ -72,6 +88,16 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    global _pending
+    _pending = None
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:  # Ctrl-C before the command's handlers are in place
+        print("bowden: interrupted by SIGINT before the command started", file=sys.stderr)
+        return 128 + int(signal.SIGINT)
+
+
+def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     try:
         args, extra = parser.parse_known_args(argv)
@@ -85,7 +111,9 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         with _signals_interrupt():
-            return int(args.func(args) or 0)
+            code = int(args.func(args) or 0)
+            check_interrupted()  # a signal whose exception was lost on the way
+            return code
     except (Interrupted, KeyboardInterrupt) as exc:
         signum = exc.signum if isinstance(exc, Interrupted) else int(signal.SIGINT)
         procs.stop_all()  # whatever the command's own handler has not stopped yet

@@ -45,6 +45,12 @@ def add_parser(subparsers) -> None:
         metavar="S",
         help=f"simulated seconds of the fig14 comparison (default {FIG14_DEFAULT_DURATION_S:g})",
     )
+    p.add_argument(
+        "--resample",
+        action="store_true",
+        help="put a record whose timestamps jitter (a PC's clock) on a uniform grid at its "
+        "sample rate by linear interpolation (noted in the report)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress line")
     p.set_defaults(func=main)
 
@@ -57,6 +63,9 @@ class _Bar:
         self.start = time.perf_counter()
 
     def __call__(self, message: str, fraction: float) -> None:
+        from cosim.cli import check_interrupted  # noqa: PLC0415
+
+        check_interrupted()  # a signal whose exception a __del__ swallowed ends the audit here
         if not self.enabled:
             return
         filled = int(round(20 * fraction))
@@ -86,33 +95,35 @@ def main(args: argparse.Namespace) -> int:
         return 2
     out_dir = Path(args.out) if args.out else data_path.with_name(data_path.stem + "_audit")
     try:
-        tr = trace.read_trace(data_path, mode="measured")
+        tr = trace.read_trace(data_path, mode="measured", resample=args.resample)
         data = core.prepare(tr, str(data_path))
     except (trace.TraceError, core.AuditError) as exc:
         print(f"bowden audit: {exc}", file=sys.stderr)
         return 2
-    out_dir.mkdir(parents=True, exist_ok=True)
     bar = _Bar(not args.quiet)
+    emit = Path(args.emit_params) if args.emit_params else None
     try:
         result = core.run(data, progress=bar)
-        if args.emit_params:
+        emitted = None
+        if emit is not None:
             bar("fig14: default compensator against the emitted parameters", 1.0)
             emitted, notes = params.emitted_params(result)
-            params.write_params(Path(args.emit_params), emitted)
+            params.check_params(emit, emitted)
             fig = params.fig14_change(
                 emitted, data.inputs.loop_routing, args.fig14_duration, progress=False
             )
-            result.extras["emitted_params"] = {
-                "file": str(args.emit_params),
-                "params": emitted,
-                "notes": notes,
-            }
+            result.extras["emitted_params"] = {"file": str(emit), "params": emitted, "notes": notes}
             result.extras["fig14"] = fig
+        bar.close()
+        # The set (audit.json, report.md, plots, and the --params file) is written to temporary
+        # names and moved in place together at the end: an interrupted audit leaves the previous
+        # set, or none, never half of one.
+        _write_set(out_dir, result, emit, emitted, report)
     except FileNotFoundError as exc:  # the FMU is not built
         bar.close()
         print(f"bowden audit: {exc}", file=sys.stderr)
         return 1
-    except OSError as exc:  # --emit-params cannot be written
+    except OSError as exc:  # --out or --emit-params cannot be written
         bar.close()
         where = f": {exc.filename}" if exc.filename else ""
         print(f"bowden audit: {exc.strerror or exc}{where}", file=sys.stderr)
@@ -121,14 +132,46 @@ def main(args: argparse.Namespace) -> int:
         bar.close()
         print(f"bowden audit: {exc}", file=sys.stderr)
         return 1
-    bar.close()
-    data_dict = report.write_json(out_dir / "audit.json", result)
-    names = report.plots(out_dir, result)
-    (out_dir / "report.md").write_text(report.markdown(result, data_dict, names))
     print(report.summary(result))
     if "fig14" in result.extras:
         print("  params   " + f"wrote {args.emit_params}; " + result.extras["fig14"]["text"])
         for note in result.extras["emitted_params"]["notes"]:
             print(f"           note: {note}")
-    print(f"wrote {out_dir / 'audit.json'}, {out_dir / 'report.md'} and {len(names)} plots")
+    n_plots = len(result.extras.get("plots", []))
+    print(f"wrote {out_dir / 'audit.json'}, {out_dir / 'report.md'} and {n_plots} plots")
     return 0
+
+
+def _write_set(out_dir: Path, result, emit: Path | None, emitted: dict | None, report) -> None:
+    """Write the output folder's files and the --params file as one set (as `bowden sim` does):
+    into a staging folder inside out_dir (and a temporary name beside the --params file), then
+    moved in place at the end, audit.json last, so that an interrupted or failed audit leaves
+    the files of an earlier one whole and never a report without its audit.json."""
+    import json  # noqa: PLC0415
+    import os  # noqa: PLC0415
+    import shutil  # noqa: PLC0415
+    import tempfile  # noqa: PLC0415
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=".writing-", dir=out_dir))
+    tmp_params = None
+    try:
+        names = report.plots(stage, result)
+        result.extras["plots"] = names
+        data_dict = report.write_json(stage / "audit.json", result)
+        (stage / "report.md").write_text(report.markdown(result, data_dict, names))
+        if emit is not None and emitted is not None:
+            emit.parent.mkdir(parents=True, exist_ok=True)
+            fd, name = tempfile.mkstemp(prefix=f".{emit.name}.", dir=emit.parent)
+            tmp_params = Path(name)
+            with open(fd, "w") as fh:
+                fh.write(json.dumps(emitted, indent=2) + "\n")
+        for name in [*names, "report.md", "audit.json"]:
+            os.replace(stage / name, out_dir / name)
+        if tmp_params is not None:
+            os.replace(tmp_params, emit)
+            tmp_params = None
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+        if tmp_params is not None:
+            tmp_params.unlink(missing_ok=True)

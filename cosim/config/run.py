@@ -315,6 +315,7 @@ def load_params(path: str | Path | None) -> SimConfig:
         raise ValueError(f"--params: file {name} does not exist") from None
     except OSError as exc:
         raise ValueError(f"--params: cannot read {name} ({exc.strerror or exc})") from None
+    raw = raw.removeprefix(b"\xef\xbb\xbf")  # a byte-order mark, as some editors write it
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:

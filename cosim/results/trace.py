@@ -314,9 +314,28 @@ def _read_meta(mpath: Path) -> object:
         raise TraceError(f"{mpath}: not valid JSON (nested too deeply)") from None
 
 
-def _read_rows(path: Path, text: str) -> tuple[list[str], list[list[str]], list[int]]:
+def sniff_delimiter(text: str) -> str:
+    """The field separator of a CSV from its header row: a comma, else a semicolon or a tab when
+    the header holds one of them and no comma (as spreadsheets in locales with a decimal comma
+    write them)."""
+    first = text.split("\n", 1)[0]
+    if "," in first:
+        return ","
+    for sep in (";", "\t"):
+        if sep in first:
+            return sep
+    return ","
+
+
+# A number written with a decimal comma (1,5 or -0,25e-3): read where the separator is not a comma.
+_DECIMAL_COMMA_RE = re.compile(r"[ \t]*[+-]?[0-9]+,[0-9]+(?:[eE][+-]?[0-9]+)?[ \t]*")
+
+
+def _read_rows(
+    path: Path, text: str, delimiter: str = ","
+) -> tuple[list[str], list[list[str]], list[int]]:
     """Header, data rows (cells as text) and the file line of each row; blank rows skipped."""
-    reader = csv.reader(io.StringIO(text, newline=""))
+    reader = csv.reader(io.StringIO(text, newline=""), delimiter=delimiter)
     rows: list[list[str]] = []
     lines: list[int] = []
     try:
@@ -367,13 +386,20 @@ def _parse_column(
     return values
 
 
-def read_trace(csv_path: str | Path, mode: str = "full") -> Trace:
+def read_trace(csv_path: str | Path, mode: str = "full", resample: bool = False) -> Trace:
     """Read and validate a trace and its sidecar; raise TraceError naming what is wrong.
 
     mode="full": a trace as `bowden sim` writes it (all COLUMNS, the sidecar with every key).
     mode="measured": a bench recording or a user's CSV (only t_s, T_in_N and T_out_N required;
     the sidecar optional, its defaults in MEASURED_META_DEFAULTS, the sample rate taken from
     t_s when the sidecar does not give it). `Trace.defaulted` lists the keys taken by default.
+
+    A measured trace may also come as a spreadsheet or a logger writes it: fields separated by
+    semicolons or tabs (sniff_delimiter), then with decimal commas; a trailing separator on every
+    row (an empty last column, dropped); Unix-epoch times (t_s from 1e8 s on: shifted to start
+    at 0, the offset kept as meta["t_s_epoch_offset_s"]). With resample=True, timestamps that
+    jitter (a PC's clock) are put on a uniform grid at the sample rate by linear interpolation
+    (meta["resampled"] says so); without it they are refused with a line that names the option.
     """
     if mode not in MODES:
         raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
@@ -389,7 +415,11 @@ def read_trace(csv_path: str | Path, mode: str = "full") -> Trace:
     else:
         raise TraceError(f"{path}: its sidecar {mpath.name} is missing")
 
-    header, rows, lines = _read_rows(path, _read_text(path))
+    text = _read_text(path)
+    delimiter = sniff_delimiter(text) if mode == "measured" else ","
+    header, rows, lines = _read_rows(path, text, delimiter)
+    if mode == "measured":
+        header, rows = _measured_cells(header, rows, delimiter)
     header = [h.strip() for h in header]
     if not any(header):
         raise TraceError(f"{path}:1: blank line where the header row should be")
@@ -425,8 +455,11 @@ def read_trace(csv_path: str | Path, mode: str = "full") -> Trace:
 
     columns: dict[str, np.ndarray] = {}
     text_columns: dict[str, list[str]] = {}
+    epoch_offset = None
     for j, name in enumerate(header):
         cells = [row[j] for row in rows]
+        if measured and name == "t_s":
+            cells, epoch_offset = _epoch_shift(cells)
         known = name in COLUMNS or not measured
         values = _parse_column(path, name, cells, lines, strict=known)
         if values is None:
@@ -444,7 +477,21 @@ def read_trace(csv_path: str | Path, mode: str = "full") -> Trace:
         if "sample_rate_hz" not in meta:
             meta["sample_rate_hz"] = _rate_from_time(path, columns["t_s"], lines)
             defaulted.append("sample_rate_hz")
-    _check_time(columns["t_s"], float(meta["sample_rate_hz"]), lambda i: f"{path}:{lines[i]}")
+    if epoch_offset is not None:
+        meta["t_s_epoch_offset_s"] = epoch_offset
+    if measured and resample:
+        columns, note = _resample(columns, float(meta["sample_rate_hz"]))
+        if note:
+            meta["resampled"] = note
+    try:
+        _check_time(columns["t_s"], float(meta["sample_rate_hz"]), lambda i: f"{path}:{lines[i]}")
+    except TraceError as exc:
+        if not measured or "t_s step" not in str(exc):
+            raise
+        raise TraceError(
+            f"{exc}; timestamps that jitter (a PC's clock) can be put on a uniform grid by "
+            "linear interpolation with --resample"
+        ) from None
     return Trace(
         columns=columns,
         meta=meta,
@@ -452,6 +499,69 @@ def read_trace(csv_path: str | Path, mode: str = "full") -> Trace:
         defaulted=tuple(defaulted),
         mode=mode,
     )
+
+
+def _measured_cells(
+    header: list[str], rows: list[list[str]], delimiter: str
+) -> tuple[list[str], list[list[str]]]:
+    """Drop a trailing empty column that every row has (a separator at the end of each line);
+    with a separator other than a comma, read decimal commas as points."""
+    if rows and all(len(r) > 1 and not r[-1].strip() for r in rows):
+        if len(header) == len(rows[0]) and not header[-1].strip():
+            header = header[:-1]
+            rows = [r[:-1] for r in rows]
+        elif len(header) == len(rows[0]) - 1:
+            rows = [r[:-1] for r in rows]
+    if delimiter != ",":
+        fix = _DECIMAL_COMMA_RE.fullmatch
+        rows = [[c.replace(",", ".") if fix(c) else c for c in r] for r in rows]
+    return header, rows
+
+
+# t_s from this value on is a Unix time (1973 on), not seconds since the start of a recording.
+EPOCH_MIN_S = 1e8
+
+
+def _epoch_shift(cells: list[str]) -> tuple[list[str], float | None]:
+    """Unix-epoch times shifted to start at 0 (exactly: the offset is a whole number of seconds
+    taken off in decimal), with the offset; other cells unchanged."""
+    try:
+        first = float(cells[0])
+    except (ValueError, IndexError):
+        return cells, None
+    if not (math.isfinite(first) and first >= EPOCH_MIN_S):
+        return cells, None
+    from decimal import Decimal, InvalidOperation  # noqa: PLC0415
+
+    whole = Decimal(int(first))
+    try:
+        shifted = [str(Decimal(c.strip()) - whole) for c in cells]
+    except InvalidOperation:
+        return cells, None
+    return shifted, float(whole)
+
+
+def _resample(columns: dict[str, np.ndarray], rate_hz: float) -> tuple[dict, str]:
+    """Every numeric column linearly interpolated onto t_s[0] + k / rate_hz; a note, or "" when
+    the times are on that grid already (within TIME_STEP_RTOL)."""
+    t = columns["t_s"]
+    if len(t) < 2 or np.any(np.diff(t) <= 0):
+        return columns, ""  # _check_time names the bad row
+    period = 1.0 / rate_hz
+    dt = np.diff(t)
+    if np.all(np.abs(dt - period) <= TIME_STEP_RTOL * period):
+        return columns, ""
+    n = int(math.floor((t[-1] - t[0]) * rate_hz + 1e-9)) + 1
+    grid = t[0] + period * np.arange(n)
+    out = {name: np.interp(grid, t, v) for name, v in columns.items() if name != "t_s"}
+    out["t_s"] = grid
+    jitter = float(np.std(dt) / np.mean(dt))
+    note = (
+        f"t_s jittered ({100 * jitter:.1f} % RMS of the step, largest step {dt.max():.4g} s): "
+        f"{len(t)} samples resampled to {n} on a uniform {rate_hz:g} Hz grid by linear "
+        "interpolation"
+    )
+    return {"t_s": out.pop("t_s"), **out}, note
 
 
 def _rate_from_time(path: Path, t: np.ndarray, lines: list[int]) -> float:

@@ -108,6 +108,7 @@ static double effective_phi(const BowdenModel *m)
 /* ---- sheath friction (README, "Sheath friction") ------------------------------------------ */
 
 typedef struct {
+    double mu;          /* friction coefficient of the step, >= 0, without the tension part */
     double dphi;        /* bending per segment [rad] */
     double mu_base;     /* friction coefficient before the tension-dependent part */
     double slope;       /* mu_tension_slope [1/N] */
@@ -125,6 +126,7 @@ static Friction friction_now(BowdenModel *m)
     if (mu < 0.0) {
         mu = 0.0; /* a drifting or negative-slope coefficient stops at frictionless */
     }
+    f.mu = mu;
     if (mu != m->cache_mu || f.dphi != m->cache_dphi) {
         m->cache_mu = mu;
         m->cache_dphi = f.dphi;
@@ -171,6 +173,49 @@ static double profile(const Friction *f, const double *old, double t_in_n, doubl
         sum += 0.5 * (out[k - 1] + out[k]);
     }
     return sum * ds_m;
+}
+
+/* Gradual dead zone (README, "Gradual dead zone"): BOWDEN_N_STRAND lumped capstans on the inlet
+ * tension, strand j of width w_j = mu*phi*exp(spread*q_j), q_j the standard normal quantiles at
+ * (j + 1/2)/N_STRAND (a log-normal distribution of friction thresholds with median mu*phi and
+ * log standard deviation dead_zone_spread), and one of width mu*phi; each holds its tension
+ * unless T_in exp(-w) <= T <= T_in exp(+w) is violated, then slides to the bound (the lumped
+ * form of Eq. 1-3). Only when dead_zone_spread > 0. */
+static const double STRAND_Q[BOWDEN_N_STRAND] = {-1.5341205443525463, -0.88714655901887596, -0.48877641111466952, -0.1573106846101707, 0.1573106846101707, 0.48877641111466952, 0.88714655901887596, 1.5341205443525463};
+
+static void strands_update(BowdenModel *m, const Friction *f, double t_in_n)
+{
+    const double w = f->mu * f->dphi * BOWDEN_N_SEG;
+    int j;
+    if (m->p.dead_zone_spread <= 0.0) {
+        return;
+    }
+    for (j = 0; j <= BOWDEN_N_STRAND; j++) {
+        double q = j < BOWDEN_N_STRAND ? STRAND_Q[j] : 0.0;
+        double e = exp(w * exp(m->p.dead_zone_spread * q));
+        double lo = t_in_n / e, hi = t_in_n * e;
+        if (m->strand_n[j] < lo) {
+            m->strand_n[j] = lo;
+        } else if (m->strand_n[j] > hi) {
+            m->strand_n[j] = hi;
+        }
+    }
+}
+
+/* The output tension: the sheath's outlet node, times the strands' mean over the reference
+ * strand (1 without spread): the spread shapes the transition through the dead zone and keeps
+ * the sheath's profile, which sets the stretch (README, assumption A16). */
+static double output_tension(const BowdenModel *m)
+{
+    double sum = 0.0, ref = m->strand_n[BOWDEN_N_STRAND];
+    int j;
+    if (m->p.dead_zone_spread <= 0.0 || ref <= 0.0) {
+        return m->tension_n[BOWDEN_N_SEG];
+    }
+    for (j = 0; j < BOWDEN_N_STRAND; j++) {
+        sum += m->strand_n[j];
+    }
+    return m->tension_n[BOWDEN_N_SEG] * (sum / BOWDEN_N_STRAND) / ref;
 }
 
 /* Cable displacement at the inlet relative to the sheath: the stretch of the cable inside the
@@ -284,7 +329,7 @@ static void compute_outputs(BowdenModel *m)
 {
     double phi = effective_phi(m);
     m->y.T_in = m->tension_n[0];
-    m->y.T_out = m->tension_n[BOWDEN_N_SEG];
+    m->y.T_out = output_tension(m);
     m->y.T_in_meas = m->y.T_in + m->noise_in_n;
     m->y.T_out_meas = m->p.sensor_gain * delay_read(m) + m->p.sensor_offset + m->noise_out_n;
     m->y.phi = phi;
@@ -385,8 +430,9 @@ static void substep(BowdenModel *m, double h)
         stretch += 0.5 * (m->tension_n[k - 1] + m->tension_n[k]);
     }
     m->inlet_disp_m = inlet_displacement(m, stretch * ds, m->tension_n[BOWDEN_N_SEG]);
+    strands_update(m, &f, m->tension_n[0]);
     m->time_s = t0 + h;
-    m->sensor_lag_n += (m->tension_n[BOWDEN_N_SEG] - m->sensor_lag_n) * m->alpha_sensor;
+    m->sensor_lag_n += (output_tension(m) - m->sensor_lag_n) * m->alpha_sensor;
     delay_push(m, t0, y0, m->time_s, m->sensor_lag_n);
 }
 
@@ -423,6 +469,7 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
     m->motor_speed_rad_s = 0.0;
     m->cable_speed_m_s = 0.0;
     memset(m->tension_n, 0, sizeof(m->tension_n));
+    memset(m->strand_n, 0, sizeof(m->strand_n));
     m->rng_state = splitmix64((uint64_t)(uint32_t)m->p.seed);
     if (m->rng_state == 0) {
         m->rng_state = 0x9E3779B97F4A7C15ULL; /* xorshift must not start at 0 */
@@ -433,6 +480,7 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
         /* the prescribed tension was applied by loading from rest */
         Friction f = friction_now(m);
         prescribed_tension_substep(m, &f, 0.0);
+        strands_update(m, &f, m->tension_n[0]);
         m->motor_speed_rad_s = 0.0;
     }
     for (k = 1; k <= BOWDEN_N_SEG; k++) {
@@ -440,7 +488,7 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
     }
     m->inlet_disp_m =
         inlet_displacement(m, stretch * m->p.sheath_length / BOWDEN_N_SEG, m->tension_n[BOWDEN_N_SEG]);
-    m->sensor_lag_n = m->tension_n[BOWDEN_N_SEG];
+    m->sensor_lag_n = output_tension(m);
     m->delay_t0_s = start_time_s;
     m->delay_buf_n[0] = m->sensor_lag_n;
     m->delay_count = 1;
@@ -539,6 +587,13 @@ int bowden_model_check_state(const BowdenModel *m, char *msg, size_t msg_len)
         if (!isfinite(m->tension_n[i]) || m->tension_n[i] < 0.0) {
             snprintf(msg, msg_len, "state member tension_n[%u] = %g is not a tension >= 0",
                      (unsigned)i, m->tension_n[i]);
+            return 1;
+        }
+    }
+    for (i = 0; i <= BOWDEN_N_STRAND; i++) {
+        if (!isfinite(m->strand_n[i]) || m->strand_n[i] < 0.0) {
+            snprintf(msg, msg_len, "state member strand_n[%u] = %g is not a tension >= 0",
+                     (unsigned)i, m->strand_n[i]);
             return 1;
         }
     }

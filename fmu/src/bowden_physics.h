@@ -26,6 +26,11 @@
 #define BOWDEN_N_SEG 32
 #endif
 
+/* Friction thresholds of the gradual dead zone (README, "Gradual dead zone"): the lumped
+   capstan at BOWDEN_N_STRAND widths mu*phi*exp(dead_zone_spread*q_j), q_j the standard normal
+   quantiles at (j + 1/2)/BOWDEN_N_STRAND. */
+#define BOWDEN_N_STRAND 8
+
 /* Delay line of the output sensor: a fixed grid of BOWDEN_DELAY_DT_S, long enough for the
    largest sensor_delay (0.2 s, gen_model.py) plus two samples of interpolation. */
 #define BOWDEN_DELAY_DT_S 25e-6
@@ -42,6 +47,8 @@ typedef struct {
     double motor_angle_rad;                 /* motor shaft */
     double motor_speed_rad_s;
     double tension_n[BOWDEN_N_SEG + 1];     /* tension at the nodes, 0 = inlet .. N = outlet */
+    double strand_n[BOWDEN_N_STRAND + 1];   /* lumped capstans of the spread thresholds; the
+                                               last one at the mean width (the reference) */
     double inlet_disp_m;                    /* cable displacement at the sheath inlet */
     double cable_speed_m_s;                 /* d(inlet_disp_m)/dt */
     double sensor_lag_n;                    /* output sensor after its first-order lag */

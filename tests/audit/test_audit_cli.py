@@ -201,6 +201,9 @@ def test_emit_params_into_a_file_where_a_folder_is_needed_is_one_clear_line(tmp_
         {"sensor_tau": 0.008},
         {"sensor_delay": 0.007},
         {"mu_drift": -4e-4, "mu_tension_slope": -0.001, "sensor_tau": 0.004},
+        {"dead_zone_spread": 0.4},
+        {"dead_zone_spread": 1.2, "mu_viscous": 2.0, "phi_offset_per_z": 0.5, "sensor_gain": 1.1},
+        {"dead_zone_spread": 0.8, "mu_drift": 3e-4, "mu_tension_slope": 0.001},
     ],
 )
 def test_twin_agrees_with_the_fmu(effect):

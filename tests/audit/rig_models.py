@@ -1,0 +1,170 @@
+"""A rig written here, independently of the plant FMU and of the audit's twin, to judge the audit
+on data it cannot reproduce exactly.
+
+The cable is a braid of STRANDS parallel strands that share the inlet tension equally; each strand
+runs through the sheath as SEGMENTS lumped segments in series, and each segment is a Coulomb
+contact with the linearised capstan law (a segment of bending dphi passes T (1 - mu_j dphi) when
+the cable slides towards the end-effector and T / (1 - mu_j dphi) when it slides back, and holds
+its output tension in between). The strands' friction coefficients mu_j follow a log-normal
+distribution around the rig's mu: the strands leave their dead zones one after another, so the
+output turns gradually at every reversal, as measured cables do, instead of the sharp corner of a
+single capstan (a distribution of friction thresholds: the distributed-element model of
+W. D. Iwan, "A distributed-element model for hysteresis and its steady-state dynamic response",
+J. Appl. Mech. 33 (1966) 893-900). None of this is the FMU's equations (exponential capstan
+factors on one chain of 32 segments, sharp corners).
+
+Inputs: a wandering input tension (three random sines, as an operator would drive a bench) or
+the paper's triangle ramps, at a fixed position (no position columns) or at held positions.
+Disturbances and effects are added here, each in its own form, so that the tests can hide them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+
+from cosim.results import trace
+
+RATE_HZ = 1000.0
+STRANDS = 12
+SEGMENTS = 4
+
+
+def wandering_input(rng: np.random.Generator, n: int) -> np.ndarray:
+    t = np.arange(n) / RATE_HZ
+    freqs = rng.uniform([0.15, 0.5, 1.2], [0.4, 1.1, 2.5])
+    amps = rng.uniform([4.0, 1.5, 0.5], [6.0, 3.0, 1.2])
+    phases = rng.uniform(0, 2 * np.pi, 3)
+    x = 11.0 + sum(
+        a * np.sin(2 * np.pi * f * t + p) for a, f, p in zip(amps, freqs, phases, strict=True)
+    )
+    return np.maximum(x, 0.5)
+
+
+def ramp_input(rng: np.random.Generator, n: int) -> np.ndarray:
+    x = np.empty(n)
+    k = 0
+    while k < n:
+        period = int(rng.uniform(2.0, 4.0) * RATE_HZ)
+        peak = rng.uniform(8.0, 24.0)
+        phase = np.arange(period) / period
+        x[k : k + period] = (1.0 + (peak - 1.0) * (1.0 - np.abs(2.0 * phase - 1.0)))[: n - k]
+        k += period
+    return x
+
+
+def strand_mus(mu: float, spread: float, rng: np.random.Generator) -> np.ndarray:
+    """STRANDS friction coefficients, log-normal with median mu and log-sd `spread`, at the
+    quantiles of the distribution (so the rig's spread does not depend on the seed)."""
+    from scipy.stats import norm  # noqa: PLC0415
+
+    q = (np.arange(STRANDS) + 0.5) / STRANDS
+    return mu * np.exp(spread * norm.ppf(q))
+
+
+@njit(cache=False)
+def _braid(t_in, phi, mus, extra_mu, segments):
+    n = t_in.shape[0]
+    held = np.zeros((mus.shape[0], segments))
+    out = np.empty(n)
+    for k in range(n):
+        dphi = phi[k] / segments
+        total = 0.0
+        for j in range(mus.shape[0]):
+            c = max(0.0, min(0.9, (mus[j] + extra_mu[k]) * dphi))
+            t = t_in[k]
+            for s in range(segments):
+                pull = t * (1.0 - c)
+                release = t / (1.0 - c)
+                if held[j, s] < pull:
+                    held[j, s] = pull
+                elif held[j, s] > release:
+                    held[j, s] = release
+                t = held[j, s]
+            total += t
+        out[k] = total / mus.shape[0]
+    return out
+
+
+def braid_output(t_in, phi, mus, extra_mu=None) -> np.ndarray:
+    """True output tension of the braid for an input tension and a bending angle per sample;
+    `extra_mu` (per sample) adds to every strand's mu (friction that follows something else)."""
+    t_in = np.ascontiguousarray(t_in, dtype=float)
+    extra = np.zeros(len(t_in)) if extra_mu is None else np.ascontiguousarray(extra_mu, float)
+    return _braid(t_in, np.ascontiguousarray(phi, float), np.asarray(mus, float), extra, SEGMENTS)
+
+
+def held_positions(rng: np.random.Generator, n: int) -> np.ndarray:
+    pos = np.empty((n, 3))
+    k = 0
+    while k < n:
+        hold = int(rng.uniform(3.0, 6.0) * RATE_HZ)
+        r = rng.uniform(0.35, 0.8)
+        az, el = rng.uniform(-0.3, 0.3), rng.uniform(-0.6, 0.6)
+        pos[k : k + hold] = [r * math.sin(az), r * math.cos(az) * math.cos(el), r * math.sin(el)]
+        k += hold
+    return pos
+
+
+def rig_record(
+    folder: Path,
+    seed: int,
+    duration_s: float = 60.0,
+    mu: float = 0.08,
+    spread: float = 0.3,
+    noise_n: float = 0.03,
+    drive: str = "wander",
+    positions: bool = False,
+    offset_n: float = 0.0,
+    gain: float = 1.0,
+    lag_s: float = 0.0,
+    periodic: tuple[float, float] | None = None,
+    name: str = "rig.csv",
+) -> Path:
+    """Write a rig record (CSV and a sidecar without mu). `periodic` = (amplitude N, frequency
+    Hz) adds a sinusoidal pickup to the output sensor (mains, a pump, a fan)."""
+    rng = np.random.default_rng(seed)
+    n = int(round(duration_s * RATE_HZ))
+    t = np.arange(n) / RATE_HZ
+    t_in = wandering_input(rng, n) if drive == "wander" else ramp_input(rng, n)
+    if positions:
+        from cosim.parts.geometry import bending_angle  # noqa: PLC0415
+
+        pos = held_positions(rng, n)
+        phi = bending_angle(pos[:, 0], pos[:, 1], pos[:, 2], 1.0, True)
+    else:
+        pos = None
+        phi = np.full(n, 2.0 * math.pi)  # loop routing in the loop's plane (paper Sec. III-A)
+    out = braid_output(t_in, phi, strand_mus(mu, spread, rng))
+    if lag_s > 0.0:  # the output sensor's own first-order lag, by its exact discrete pole
+        a = math.exp(-1.0 / (RATE_HZ * lag_s))
+        y = np.empty(n)
+        acc = out[0]
+        for k in range(n):
+            acc = a * acc + (1.0 - a) * out[k]
+            y[k] = acc
+        out = y
+    meas_out = gain * out + offset_n + rng.normal(0.0, noise_n, n)
+    if periodic is not None:
+        amp, freq = periodic
+        meas_out = meas_out + amp * np.sin(2 * np.pi * freq * t + 0.7)
+    meas_in = t_in + rng.normal(0.0, noise_n, n)
+    cols = {"t_s": t, "T_in_N": meas_in, "T_out_N": meas_out}
+    if pos is not None:
+        cols.update({"x_m": pos[:, 0], "y_m": pos[:, 1], "z_m": pos[:, 2]})
+    path = Path(folder) / name
+    np.savetxt(
+        path,
+        np.column_stack(list(cols.values())),
+        fmt="%.6f",
+        delimiter=",",
+        header=",".join(cols),
+        comments="",
+    )
+    meta = {"sample_rate_hz": RATE_HZ, "sheath_length_m": 1.0, "loop_routing": True}
+    trace.meta_path(path).write_text(json.dumps(meta))
+    return path
