@@ -349,8 +349,9 @@ class LoopChain:
 
         self.model = rtl_model.TensionLoopModel()
         self._names = {reg.addr: name for name, reg in regmap.REGISTERS.items()}
-        # The co-simulation's interface stage (cosim/parts/interface.py): ideal ADC and drive, the board's ADC,
-        # or the board's ADC and PWM -> ESCON, with the datasheet defaults of BoardParams.
+        # The co-simulation's interface stage (cosim/parts/interface.py): ideal ADC and drive,
+        # the board's ADC, or the board's ADC and PWM -> ESCON, with the datasheet defaults of
+        # BoardParams.
         sim = SimConfig()
         sim.sample_rate_hz = self.cfg.sample_rate_hz
         self._iface = make_chain(sim, self.cfg.interface, True, self.adc_offset, self.adc_gain)

@@ -1,4 +1,4 @@
-"""The audit on the bench emulator's own recordings (issue 9 x issue 10): the recording that
+"""The audit on the bench emulator's own recordings: the recording that
 `bowden emulate` + `bowden bench run sine` make (the in-process stepped link gives the same
 file, sample for sample, in a fraction of real time), of a plant without effects, must give no
 finding; with an effect switched on in the emulator's plant, the audit must name it.

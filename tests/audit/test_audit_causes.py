@@ -1,4 +1,4 @@
-"""Issue 9 acceptance: the audit finds an effect hidden in data it did not see being made.
+"""The audit finds an effect hidden in data it did not see being made.
 
 Data are made by the plant FMU in drive mode 1 (tests/audit/plant_data.py: a bench session of
 30 s at 1 kHz, sensor noise on, positions held for seconds), with one effect of the vocabulary

@@ -1,4 +1,4 @@
-"""Issue 9 acceptance: the audit on data from a model it did not write.
+"""The audit on data from a model it did not write.
 
 A quasi-static rig written here, independently of the plant FMU and of the audit's twin: the
 paper's characterisation (ramps of the input tension up and down, Sec. VI-A) repeated with random

@@ -1,5 +1,6 @@
-"""The trace reader (cosim/results/trace.py): the defects a new user's files found, and the "measured" mode that
-reads users' CSVs, bench recordings and `bowden sim` traces with one validation.
+"""The trace reader (cosim/results/trace.py): the defects a new user's files found, and the
+"measured" mode that reads users' CSVs, bench recordings and `bowden sim` traces with one
+validation.
 
 Each defect test below failed on the reader before the fix (a traceback or a silently accepted
 value); each now requires one TraceError naming the file, the line, the column and what is
