@@ -38,6 +38,7 @@ include $(sort $(wildcard mk/*.mk))
 help:
 	@echo "make demo     run the main job (closed-loop co-simulation of the paper's experiment)"
 	@echo "make test     lint, build and run the whole test suite"
+	@echo "make test-quick  the edit loop: Python lint, unit suites, one short closed loop"
 	@echo "make lint     Verilator -Wall on the RTL, C with -Werror, ruff on Python"
 	@echo "make perf     benchmarks: speed, instruction counts, FPGA resources and Fmax"
 	@echo "make setup    only create .venv and install the pinned dependencies"
@@ -75,6 +76,16 @@ build: $(VENV_STAMP) $(BUILD_TARGETS)
 
 test: lint build
 	$(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=15 $(PYTEST_ARGS)
+
+# The edit loop: Python lint, the unit suites and one short closed loop on the native engine
+# (no Verilator model, no synthesis, no formal); tests marked slow are left to `make test`.
+QUICK_TESTS := tests/firmware tests/results tests/test_layers.py tests/test_docs.py \
+  tests/test_cosim_map.py tests/bench/test_bench_tables.py tests/bench/test_bench_protocol.py \
+  tests/native/test_native_quick.py
+
+test-quick: lint-py firmware fmu native bench-build
+	$(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile -m "not slow" --durations=5 \
+	  $(QUICK_TESTS) $(PYTEST_ARGS)
 
 demo: build
 	$(VENV)/bin/bowden demo
