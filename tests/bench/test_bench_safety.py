@@ -14,7 +14,6 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from cosim.bench import cli as bench_cli_mod
 from cosim.bench import messages as msgs
 from cosim.bench.__main__ import main as bench_cli
 from cosim.bench.client import (
@@ -27,6 +26,7 @@ from cosim.bench.client import (
 from cosim.bench.device import ChainConfig
 from cosim.bench.emulator import Emulator, SteppedLink
 from cosim.bench.protocol import ProtocolError
+from cosim.cli import bench as bench_cli_mod
 from cosim.parts import regmap
 from cosim.project.paths import REPO_ROOT
 
