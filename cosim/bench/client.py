@@ -12,6 +12,11 @@
 
 from __future__ import annotations
 
+import fcntl
+import hashlib
+import os
+import sys
+import tempfile
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -35,6 +40,7 @@ from .protocol import (
 
 MSG = {name: m.id for name, m in msgs.MESSAGES.items()}
 ERROR_NAMES = {v: k for k, v in msgs.ERRORS.items()}
+_ERROR_TEXT_MAX = msgs.MESSAGES["ERROR"].fields[-1].count[1]  # characters an ERROR carries
 
 
 class BenchError(RuntimeError):
@@ -66,15 +72,50 @@ class LinkTimeoutError(BenchError):
 # --- links ---------------------------------------------------------------------------------------
 
 
+class PortLock:
+    """One client per port: an advisory lock (flock) on a file named after the port, holding
+    the holder's pid and command line. The OS drops the lock when its process dies, so a killed
+    client never leaves the port locked. (Serial devices are also opened with pyserial's
+    `exclusive=True`; a pty or a socket:// URL has only this lock.)"""
+
+    def __init__(self, url: str) -> None:
+        key = url if "://" in url else os.path.realpath(url)
+        folder = os.environ.get("XDG_RUNTIME_DIR") or tempfile.gettempdir()
+        digest = hashlib.sha256(key.encode()).hexdigest()[:16]
+        self.path = os.path.join(folder, f"bowden-bench-{digest}.lock")
+        self._fd: int | None = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(self._fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(self._fd, 512).decode(errors="replace").strip() or "another process"
+            self.close()
+            raise BenchError(
+                f"--port {url}: in use by another client ({holder}): one client at a time "
+                "(a second one would stop the first one's run)"
+            ) from None
+        os.ftruncate(self._fd, 0)
+        os.pwrite(self._fd, f"pid {os.getpid()}: {' '.join(sys.argv)[:300]}\n".encode(), 0)
+
+    def close(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)  # releases the flock
+            self._fd = None
+
+
 class SerialLink:
     """A serial-like link through pyserial's serial_for_url (devices, ptys, socket://)."""
 
     def __init__(self, url: str, baud: int = 921_600) -> None:
         import serial  # noqa: PLC0415 (pyserial only when a serial link is used)
 
+        self.lock = PortLock(url)
+        extra = {} if "://" in url else {"exclusive": True}
         try:
-            self.port = serial.serial_for_url(url, baudrate=baud, timeout=0, write_timeout=2.0)
+            self.port = serial.serial_for_url(
+                url, baudrate=baud, timeout=0, write_timeout=2.0, **extra
+            )
         except (serial.SerialException, ValueError) as exc:
+            self.lock.close()
             raise BenchError(f"--port {url}: cannot open ({exc})") from None
         self.url = url
         self.decoder = FrameDecoder()
@@ -115,7 +156,10 @@ class SerialLink:
             time.sleep(0.0005)
 
     def close(self) -> None:
-        self.port.close()
+        try:
+            self.port.close()
+        finally:
+            self.lock.close()
 
 
 class CanLink:
@@ -126,9 +170,9 @@ class CanLink:
 
         interface, sep, channel = spec.partition(":")
         if not sep or not interface:
-            raise BenchError(f"--can {spec}: expected INTERFACE:CHANNEL (e.g. virtual:bench)")
+            raise BenchUsageError(f"--can {spec}: expected INTERFACE:CHANNEL (e.g. virtual:bench)")
         if not 0 <= node < (1 << msgs.CAN_NODE_BITS):
-            raise BenchError(f"--node {node}: outside 0..{(1 << msgs.CAN_NODE_BITS) - 1}")
+            raise BenchUsageError(f"--node {node}: outside 0..{(1 << msgs.CAN_NODE_BITS) - 1}")
         try:
             self.bus = bus or can.Bus(interface=interface, channel=channel)
         except (can.CanError, ValueError, ImportError, OSError) as exc:
@@ -266,12 +310,30 @@ class BenchClient:
                             f"protocol ({exc}): update the host or the firmware"
                         ) from None
                     if reply.name == "ERROR":
-                        raise DeviceError(name, values["code"], values["detail"], values["text"])
+                        text = values["text"]
+                        if values["detail"] and len(text) >= _ERROR_TEXT_MAX:
+                            text = self._full_text(values["detail"], text)
+                        raise DeviceError(name, values["code"], values["detail"], text)
                     return reply.name, values
                 raise VersionMismatchError(
                     f"{name}: reply in protocol version {frame.version}, this host speaks "
                     f"{msgs.PROTOCOL_VERSION}"
                 )
+
+    def _full_text(self, status: int, head: str) -> str:
+        """A status code's whole message: ERROR carries its first characters, TEXT_GET the rest
+        (what came is kept when the device does not answer)."""
+        text = head
+        try:
+            while True:
+                _, v = self.request("TEXT_GET", status=status, offset=len(text))
+                if v["offset"] != len(text) or not v["text"]:
+                    return text
+                text += v["text"]
+                if len(text) >= v["total"]:
+                    return text
+        except BenchError:
+            return text
 
     def _take(self, timeout_s: float) -> list[Frame]:
         if self._backlog:

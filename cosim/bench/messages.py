@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PROTOCOL_VERSION = 2
-TABLE_HASH = 0x55644937
+TABLE_HASH = 0x52B57A8A
 MAX_PAYLOAD = 48
 CAN_NODE_BITS = 6
 CAN_MESSAGE_BITS = 5
@@ -388,6 +388,35 @@ MESSAGES: dict[str, Message] = {
         8,
         False,
     ),
+    "TEXT_GET": Message(
+        "TEXT_GET",
+        24,
+        "host",
+        "TEXT",
+        "both",
+        (
+            Field("status", "i", 4),
+            Field("offset", "H", 2),
+        ),
+        6,
+        6,
+        False,
+    ),
+    "TEXT": Message(
+        "TEXT",
+        25,
+        "device",
+        None,
+        "both",
+        (
+            Field("offset", "H", 2),
+            Field("total", "H", 2),
+            Field("text", "s", 1, (0, 40)),
+        ),
+        4,
+        44,
+        True,
+    ),
 }
 MESSAGE_BY_ID: dict[int, Message] = {m.id: m for m in MESSAGES.values()}
 
@@ -705,7 +734,7 @@ PARAMS: tuple[Param, ...] = (
         "A/N",
         None,
         False,
-        -32768,
+        0,
         32767,
         0x9D00A4AF,
         (
@@ -722,7 +751,7 @@ PARAMS: tuple[Param, ...] = (
         "A/N",
         None,
         False,
-        -32768,
+        0,
         32767,
         0xFEFC766D,
         (
@@ -739,7 +768,7 @@ PARAMS: tuple[Param, ...] = (
         "A/N per sample",
         None,
         False,
-        -32768,
+        0,
         32767,
         0x872838C6,
         (

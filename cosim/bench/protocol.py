@@ -363,7 +363,14 @@ def word_from_value(p: msgs.Param, value: str | float | int) -> int:
             raise ProtocolError(f"{p.name}={value}: expected {what}") from None
         if not math.isfinite(v):
             raise ProtocolError(f"{p.name}={value}: expected a finite number")
-        word = round(v * (1 << p.frac))
+        if p.frac == 0 and v != math.floor(v):  # a count (ticks, a node id): not rounded
+            raise ProtocolError(f"{p.name}={value}: expected a whole number")
+        scaled = v * (1 << p.frac)
+        if not math.isfinite(scaled):  # a finite number beyond every word once scaled
+            lo_v, hi_v = p.lo / (1 << p.frac), p.hi / (1 << p.frac)
+            unit = f" {p.unit}" if p.unit else ""
+            raise ProtocolError(f"{p.name}={value}: outside [{lo_v:g}, {hi_v:g}]{unit}")
+        word = round(scaled)
         if p.name.endswith("phase0") and p.frac == 32:
             word %= 1 << 32  # a phase in turns wraps
     lo_v, hi_v = p.lo / (1 << p.frac), p.hi / (1 << p.frac)

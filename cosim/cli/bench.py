@@ -21,6 +21,7 @@ import math
 import os
 import signal
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -31,6 +32,7 @@ from cosim.bench.client import (
     BenchClient,
     BenchError,
     BenchUsageError,
+    DeviceError,
     fault_names,
     status_names,
 )
@@ -39,6 +41,7 @@ from cosim.bench.diff import BACKUP_FORMAT
 from cosim.bench.protocol import ProtocolError, format_value, param, word_from_value
 from cosim.bench.recorder import WAVE_KINDS, stderr_progress
 from cosim.parts import regmap
+from cosim.parts.geometry import in_workspace
 from cosim.results import trace as trace_mod
 
 from . import bench_tools
@@ -185,6 +188,7 @@ def _add_bench(subparsers) -> None:
     sub.add_parser("defaults", help="factory defaults (in RAM; persist makes them permanent)")
     b = sub.add_parser("backup", help="save every parameter to a JSON file, stamped")
     b.add_argument("file")
+    b.add_argument("--force", action="store_true", help="overwrite an existing backup file")
     r = sub.add_parser("restore", help="write the parameters of a backup file")
     r.add_argument("file")
     f = sub.add_parser("faults", help="the FPGA's and the device's faults, by name")
@@ -251,10 +255,14 @@ def bench_main(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
             return 128 + signum
-        except BenchUsageError as exc:
+        except (BenchUsageError, ProtocolError) as exc:  # a value this host or device refuses
             print(f"bowden bench: {exc}", file=sys.stderr)
             return 2
-        except (BenchError, ProtocolError) as exc:
+        except DeviceError as exc:
+            stop = f"; {args.stop_report}" if args.stop_report else ""
+            print(f"bowden bench: {exc}{stop}", file=sys.stderr)
+            return 2 if exc.code == "INVALID_VALUE" else 1
+        except BenchError as exc:
             stop = f"; {args.stop_report}" if args.stop_report else ""
             print(f"bowden bench: {exc}{stop}", file=sys.stderr)
             return 1
@@ -265,11 +273,32 @@ def bench_main(args: argparse.Namespace) -> int:
             return 1
 
 
+def check_geometry(position_m, sheath_length_m: float, plant: dict | None = None) -> None:
+    """--position inside the workspace of the sheath (Eq. 13 of the paper: within the sheath's
+    length of the outlet, y >= 0) and --sheath-length in the trace format's range, before
+    anything is sent or written. `plant`: the emulated plant's overrides (its sheath_length,
+    when given, is the one the position must fit)."""
+    lo, hi, unit, _ = trace_mod.META_RANGES["sheath_length_m"]
+    if not lo <= sheath_length_m <= hi:
+        raise BenchUsageError(
+            f"--sheath-length {sheath_length_m:g}: outside [{lo:g}, {hi:g}] {unit}"
+        )
+    length = float((plant or {}).get("sheath_length", sheath_length_m))
+    x, y, z = position_m
+    if not bool(in_workspace(x, y, z, length)):
+        raise BenchUsageError(
+            f"--position {x:g},{y:g},{z:g}: outside the workspace of a {length:g} m sheath "
+            f"(sqrt(x^2 + y^2 + z^2) <= {length:g} m and y >= 0)"
+        )
+
+
 def _bench_session(args: argparse.Namespace, plant: dict) -> int:
     session = None
+    if args.bench_command == "run":
+        check_geometry(args.position, args.sheath_length, plant if args.emulate else None)
     try:
         if args.emulate and args.port:
-            raise BenchError(
+            raise BenchUsageError(
                 "--emulate works with --can or alone (use `bowden emulate` for serial)"
             )
         chain = ChainConfig(
@@ -333,11 +362,70 @@ def _cmd_set(client: BenchClient, args, info) -> int:
         if p.read_only:
             raise ProtocolError(f"{p.name} is read-only")
         todo.append((p, word_from_value(p, value.strip())))  # all checked before any is sent
-    for p, word in todo:
-        now = client.set_word(p.name, word)
-        print(f"{p.name} = {format_value(p, now)}")
+    for p, word in write_all(client, todo, "set"):
+        print(f"{p.name} = {format_value(p, word)}")
     print("(in RAM: `persist` saves them)")
     return 0
+
+
+def write_all(client: BenchClient, todo: list, what: str) -> list:
+    """Write (param, word) pairs all or nothing, the device's settings check deciding: a value
+    that the check refuses only because of another one still to come (adc_min above the old
+    adc_max) is tried again after the others; when some stay refused, every word written is put
+    back in reverse order (each undo returns to a state the device accepted on the way) and
+    the first refusal is raised with "nothing written". Returns (param, word in force) pairs."""
+    before = {p.name: client.get_word(p.name) for p, _ in todo}
+    done: list = []
+    pending = list(todo)
+    first_refusal: DeviceError | None = None
+    while pending:
+        left = []
+        for p, word in pending:
+            try:
+                done.append((p, client.set_word(p.name, word)))
+            except DeviceError as exc:
+                if exc.code != "INVALID_VALUE":
+                    _undo(client, done, before)
+                    raise
+                first_refusal = first_refusal or exc
+                left.append((p, word))
+        if len(left) == len(pending):  # no progress: the set as a whole is refused
+            _undo(client, done, before)
+            raise BenchUsageError(f"{what}: {first_refusal} (nothing written)")
+        pending, first_refusal = left, None
+    return done
+
+
+def _undo(client: BenchClient, done: list, before: dict) -> None:
+    for p, _ in reversed(done):
+        client.set_word(p.name, before[p.name])
+
+
+def _check_new_file(path: Path, force: bool, what: str) -> None:
+    if path.is_dir():
+        raise BenchUsageError(f"{what} {path}: is a folder; give a file name")
+    if path.exists() or path.is_symlink():
+        if not path.is_file() or path.is_symlink():
+            raise BenchUsageError(f"{what} {path}: not a regular file")
+        if not force:
+            raise BenchUsageError(f"{what} {path}: exists; --force overwrites it")
+
+
+def _write_new_file(path: Path, text: str, force: bool, what: str) -> None:
+    """Write `text` to `path` atomically (a temporary file in the same folder, fsync'ed, then
+    renamed): only a regular file is replaced, and only with `force`."""
+    _check_new_file(path, force, what)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
 
 
 def _cmd_simple(name: str, text: str):
@@ -350,6 +438,8 @@ def _cmd_simple(name: str, text: str):
 
 
 def _cmd_backup(client: BenchClient, args, info) -> int:
+    path = Path(args.file)
+    _check_new_file(path, args.force, "backup")  # before anything is read from the device
     words = client.params()
     doc = {
         "bowden_bench_backup": BACKUP_FORMAT,
@@ -362,22 +452,62 @@ def _cmd_backup(client: BenchClient, args, info) -> int:
             name: {"word": w, "value": format_value(param(name), w)} for name, w in words.items()
         },
     }
-    path = Path(args.file)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(doc, indent=2) + "\n")
-    tmp.replace(path)
+    _write_new_file(path, json.dumps(doc, indent=2) + "\n", force=args.force, what="backup")
     print(f"saved {len(words)} parameters to {path} (table {msgs.TABLE_HASH:08x})")
     return 0
+
+
+def _no_duplicate_keys(pairs: list) -> dict:
+    keys = [k for k, _ in pairs]
+    dup = next((k for k in keys if keys.count(k) > 1), None)
+    if dup is not None:
+        raise ValueError(f"key {dup!r} appears twice")
+    return dict(pairs)
+
+
+def _entry_word(path: Path, p, entry) -> int:
+    """A backup entry's word: `word` and `value` must agree (a hand-edited value is not
+    silently replaced by the raw word); a value alone is converted."""
+    if not isinstance(entry, dict):
+        raise BenchError(f"restore: {path}: {p.name} must be an object with 'word' and 'value'")
+    word = entry.get("word")
+    value = entry.get("value")
+    if word is not None and (
+        isinstance(word, bool) or not isinstance(word, int) or not -(1 << 31) <= word < (1 << 32)
+    ):
+        raise BenchError(f"restore: {path}: {p.name}.word must be a 32-bit integer")
+    if word is not None:
+        word = word - (1 << 32) if word >= 1 << 31 else word
+    if value is not None and not isinstance(value, str | int | float):
+        raise BenchError(f"restore: {path}: {p.name}.value must be a string or a number")
+    if value is None:
+        if word is None:
+            raise BenchError(f"restore: {path}: {p.name} has neither 'word' nor 'value'")
+        return word
+    text = str(value).strip()
+    if word is not None and text == format_value(p, word):
+        return word
+    number = text.split()[0] if text else text  # "0.0699463 A/N" -> its number
+    from_value = word_from_value(p, number)
+    if word is not None and from_value != word:
+        raise BenchError(
+            f"restore: {path}: {p.name}: value {text!r} and word {word} "
+            f"({format_value(p, word)}) disagree: edit one to match the other or remove it"
+        )
+    return from_value
 
 
 def _cmd_restore(client: BenchClient, args, info) -> int:
     path = Path(args.file)
     try:
-        doc = json.loads(path.read_text())
+        doc = json.loads(path.read_text(), object_pairs_hook=_no_duplicate_keys)
     except FileNotFoundError:
         raise BenchError(f"restore: {path} does not exist") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+    except IsADirectoryError:
+        raise BenchError(f"restore: {path} is a folder, not a backup file") from None
+    except RecursionError:
+        raise BenchError(f"restore: {path}: JSON nested too deeply for a backup") from None
+    except (ValueError, UnicodeDecodeError) as exc:
         raise BenchError(f"restore: {path} is not a JSON backup ({exc})") from None
     if not isinstance(doc, dict) or doc.get("bowden_bench_backup") != BACKUP_FORMAT:
         raise BenchError(f"restore: {path} is not a bowden bench backup (format {BACKUP_FORMAT})")
@@ -393,30 +523,22 @@ def _cmd_restore(client: BenchClient, args, info) -> int:
     todo = []
     for name, entry in params.items():
         p = param(name)
-        word = entry.get("word") if isinstance(entry, dict) else None
-        if (
-            isinstance(word, bool)
-            or not isinstance(word, int)
-            or not (-(1 << 31) <= word < (1 << 32))
-        ):
-            raise BenchError(f"restore: {path}: {name}.word must be a 32-bit integer")
+        try:
+            word = _entry_word(path, p, entry)
+        except ProtocolError as exc:
+            raise BenchError(f"restore: {path}: {exc}") from None
         if not p.read_only:
-            todo.append((p, word - (1 << 32) if word >= 1 << 31 else word))
+            todo.append((p, word))
     if doc.get("table_hash") != f"{msgs.TABLE_HASH:08x}":
         print(
             f"note: backup of table {doc.get('table_hash')}, device table {msgs.TABLE_HASH:08x}: "
             "restoring by parameter name"
         )
-    done = 0
-    for p, word in todo:
-        try:
-            client.set_word(p.name, word)
-        except BenchError as exc:
-            raise BenchError(
-                f"restore: {exc} ({done} of {len(todo)} parameters written before it)"
-            ) from None
-        done += 1
-    print(f"restored {done} parameters from {path} (in RAM: `persist` saves them)")
+    try:
+        done = write_all(client, todo, "restore")
+    except BenchUsageError as exc:
+        raise BenchError(f"{exc} ({path})") from None
+    print(f"restored {len(done)} parameters from {path} (in RAM: `persist` saves them)")
     return 0
 
 
@@ -490,10 +612,10 @@ def _cmd_run(client: BenchClient, args, info) -> int:
     words = None
     if args.waveform == "stream":
         if not args.ref:
-            raise BenchError("run stream needs --ref FILE.csv (T_ref_N, one row per tick)")
+            raise BenchUsageError("run stream needs --ref FILE.csv (T_ref_N, one row per tick)")
         words = _read_ref(args.ref)
     elif args.ref:
-        raise BenchError("--ref is for `run stream` only")
+        raise BenchUsageError("--ref is for `run stream` only")
     out = _run_target(args.out)
     if client.stale_telemetry:
         print(
@@ -723,6 +845,11 @@ def _plant_assignments(items: list[str]) -> dict:
             raw[name] = text.lower() == "true"
             continue
         if text.strip().lstrip("+-").isdigit():
+            if len(text.strip()) > 30:  # beyond every parameter's range (and int()'s limit)
+                raise ValueError(
+                    f"--plant {name}: a whole number of {len(text.strip())} digits is outside "
+                    "every parameter's range"
+                )
             raw[name] = int(text)  # Integer parameters (seed) take whole numbers
             continue
         try:
@@ -751,6 +878,11 @@ def emulate_main(args: argparse.Namespace) -> int:
     try:
         plant = _plant_assignments(args.plant)
     except ValueError as exc:
+        print(f"bowden emulate: {exc}", file=sys.stderr)
+        return 2
+    try:
+        check_geometry(args.position, 1.0, plant)
+    except BenchUsageError as exc:
         print(f"bowden emulate: {exc}", file=sys.stderr)
         return 2
     engine = args.engine

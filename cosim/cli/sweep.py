@@ -72,10 +72,15 @@ def run_and_report(
         if not quiet:
             print(msg, file=sys.stderr, flush=True)
 
+    from cosim.studies.sweep.run import OutDirMismatchError  # noqa: PLC0415
+
     try:
         rows = run_sweep(
             spec, spec_dict, out, scheduler, workers, not quiet, log, retry_failed=retry_failed
         )
+    except OutDirMismatchError as exc:  # --out holds another run's points: a usage error
+        print(f"bowden sweep: {exc}", file=sys.stderr)
+        return 2
     except (OSError, RuntimeError, TimeoutError) as exc:
         print(f"bowden sweep: {exc}", file=sys.stderr)
         return 1

@@ -213,8 +213,50 @@ class SimConfig:
         return int(round(self.sample_rate_hz / self.firmware_rate_hz))
 
 
+class HugeInt(float):
+    """An integer too long for Python's int conversion (over INT_DIGITS digits) as a JSON or
+    YAML loader read it: infinite as a number, so every range check refuses it, and named for
+    what it is in a message."""
+
+    def __new__(cls, text: str) -> HugeInt:
+        v = super().__new__(cls, "-inf" if text.strip().startswith("-") else "inf")
+        v.digits = sum(c.isdigit() for c in text)
+        return v
+
+    def __repr__(self) -> str:
+        return f"an integer of {self.digits} digits"
+
+
+INT_DIGITS = 4000  # under CPython's limit for int(str) (4300): longer ones become HugeInt
+
+
+def parse_int(text: str) -> int | HugeInt:
+    """json's parse_int: a whole number, HugeInt when it is too long to convert."""
+    return int(text) if len(text) <= INT_DIGITS else HugeInt(text)
+
+
+class DuplicateKeyError(ValueError):
+    """A JSON object that names a key twice (json would keep the last one silently)."""
+
+
+def unique_keys(pairs: list[tuple[str, object]]) -> dict:
+    """json's object_pairs_hook: the object as a dict, DuplicateKeyError for a key given twice."""
+    out: dict = {}
+    for key, value in pairs:
+        if key in out:
+            raise DuplicateKeyError(
+                f"key {key!r} appears twice in the same object (the last would win)"
+            )
+        out[key] = value
+    return out
+
+
 def _show(value, limit: int = 60) -> str:
     """A value from a params file as it was written there (JSON), on one line, shortened."""
+    if isinstance(value, HugeInt):
+        return repr(value)
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 200:
+        return f"an integer of {len(str(abs(value)))} digits"
     try:
         text = json.dumps(value)
     except (TypeError, ValueError):
@@ -226,7 +268,10 @@ def _number(value, name: str, lo: float, hi: float, whole: bool = False) -> floa
     kind = "a whole number" if whole else "a number"
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ValueError(f"{name} must be {kind} in [{lo:g}, {hi:g}]; got {_show(value)}")
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:  # a whole number beyond every double: outside any range
+        v = math.inf
     if not math.isfinite(v) or v < lo or v > hi:
         raise ValueError(f"{name} must be in [{lo:g}, {hi:g}]; got {_show(value)}")
     if whole and v != math.floor(v):
@@ -324,7 +369,9 @@ def load_params(path: str | Path | None) -> SimConfig:
             f"{exc.start}); expected a JSON object"
         ) from None
     try:
-        data = json.loads(text)
+        data = json.loads(text, object_pairs_hook=unique_keys, parse_int=parse_int)
+    except DuplicateKeyError as exc:
+        raise ValueError(f"--params: {name}: {exc}") from None
     except json.JSONDecodeError as exc:
         raise ValueError(f"--params: {name} is not valid JSON ({exc})") from None
     except RecursionError:

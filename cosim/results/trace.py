@@ -294,6 +294,12 @@ def _read_text(path: Path) -> str:
         ) from None
 
 
+def _parse_int(text: str) -> int | float:
+    """A whole number; one too long for int() (4300 digits) as infinity, so the range check
+    names its key instead of int() failing without one."""
+    return int(text) if len(text) <= 4000 else float("-inf" if text.startswith("-") else "inf")
+
+
 def _reject_constant(name: str):
     raise ValueError(f"{name} is not a JSON number")
 
@@ -301,7 +307,7 @@ def _reject_constant(name: str):
 def _read_meta(mpath: Path) -> object:
     text = _read_text(mpath)
     try:
-        return json.loads(text, parse_constant=_reject_constant)
+        return json.loads(text, parse_constant=_reject_constant, parse_int=_parse_int)
     except json.JSONDecodeError as exc:
         raise TraceError(
             f"{mpath}:{exc.lineno}: not valid JSON ({exc.msg}, column {exc.colno})"
@@ -589,11 +595,18 @@ def _rate_from_time(path: Path, t: np.ndarray, lines: list[int]) -> float:
 
 
 def _is_number(v: object) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # a whole number beyond every double
+        return False
 
 
 def _short(v: object, limit: int = 40) -> str:
     """repr of a value for a message, cut to `limit` characters (a field may be 128 KiB)."""
+    if isinstance(v, int) and not isinstance(v, bool) and v.bit_length() > 200:
+        return f"an integer of {len(str(abs(v)))} digits"
     text = repr(v)
     return text if len(text) <= limit else text[: limit - 3] + "..."
 

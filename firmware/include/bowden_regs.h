@@ -90,6 +90,8 @@
 #define BOWDEN_KFF_RESET (721)
 #define BOWDEN_KFF_MIN (-32768)
 #define BOWDEN_KFF_MAX (32767)
+#define BOWDEN_KFF_LIMIT_MIN (0)
+#define BOWDEN_KFF_LIMIT_MAX (32767)
 
 /* KP: Proportional gain. */
 #define BOWDEN_REG_KP 0x18u
@@ -100,6 +102,8 @@
 #define BOWDEN_KP_RESET (819)
 #define BOWDEN_KP_MIN (-32768)
 #define BOWDEN_KP_MAX (32767)
+#define BOWDEN_KP_LIMIT_MIN (0)
+#define BOWDEN_KP_LIMIT_MAX (32767)
 
 /* KI_TS: Integral gain times the sample period. */
 #define BOWDEN_REG_KI_TS 0x1Cu
@@ -110,6 +114,8 @@
 #define BOWDEN_KI_TS_RESET (262)
 #define BOWDEN_KI_TS_MIN (-32768)
 #define BOWDEN_KI_TS_MAX (32767)
+#define BOWDEN_KI_TS_LIMIT_MIN (0)
+#define BOWDEN_KI_TS_LIMIT_MAX (32767)
 
 /* I_LIMIT: Output saturation. */
 #define BOWDEN_REG_I_LIMIT 0x20u

@@ -13,7 +13,7 @@
 #include <stdint.h>
 
 #define PROTO_VERSION 2u
-#define PROTO_TABLE_HASH 0x55644937u
+#define PROTO_TABLE_HASH 0x52B57A8Au
 #define PROTO_MAX_PAYLOAD 48u
 #define PROTO_N_PARAMS 34u
 #define PROTO_CAN_NODE_BITS 6u
@@ -44,6 +44,8 @@
 #define PROTO_MSG_TELEMETRY 21u
 #define PROTO_MSG_TELEM_A 22u
 #define PROTO_MSG_TELEM_B 23u
+#define PROTO_MSG_TEXT_GET 24u
+#define PROTO_MSG_TEXT 25u
 #define PROTO_HELLO_MIN_LEN 0u
 #define PROTO_HELLO_MAX_LEN 0u
 #define PROTO_HELLO_ACK_MIN_LEN 17u
@@ -92,6 +94,11 @@
 #define PROTO_TELEM_A_MAX_LEN 8u
 #define PROTO_TELEM_B_MIN_LEN 8u
 #define PROTO_TELEM_B_MAX_LEN 8u
+#define PROTO_TEXT_GET_MIN_LEN 6u
+#define PROTO_TEXT_GET_MAX_LEN 6u
+#define PROTO_TEXT_MIN_LEN 4u
+#define PROTO_TEXT_MAX_LEN 44u
+#define PROTO_TEXT_TEXT_MAX 40u
 
 /* errors */
 #define PROTO_ERR_UNKNOWN_MESSAGE 1u /* message id not a request this device knows */
@@ -240,7 +247,7 @@ typedef struct {
 uint32_t proto_ack_pack(const proto_ack_t *m, uint8_t *buf);
 int proto_ack_unpack(proto_ack_t *m, const uint8_t *buf, uint32_t len);
 
-/* ERROR: Failure of a request: a code (errors table), the firmware's status code where there is one, and a message naming the field and its allowed range. */
+/* ERROR: Failure of a request: a code (errors table), the firmware's status code where there is one, and a message naming the field and its allowed range (its first 40 characters: TEXT_GET gives the rest of a status code's message). */
 typedef struct {
     uint8_t request; /* message id of the request */
     uint8_t code; /* error code */
@@ -286,6 +293,24 @@ typedef struct {
 } proto_telem_b_t;
 uint32_t proto_telem_b_pack(const proto_telem_b_t *m, uint8_t *buf);
 int proto_telem_b_unpack(proto_telem_b_t *m, const uint8_t *buf, uint32_t len);
+
+/* TEXT_GET: The full message of a firmware status code (ERROR's detail), from character offset on: ERROR carries at most 40 characters of it, TEXT_GET the rest (the host asks until offset + length reaches total). */
+typedef struct {
+    int32_t status; /* firmware status code, as ERROR's detail */
+    uint16_t offset; /* first character wanted */
+} proto_text_get_t;
+uint32_t proto_text_get_pack(const proto_text_get_t *m, uint8_t *buf);
+int proto_text_get_unpack(proto_text_get_t *m, const uint8_t *buf, uint32_t len);
+
+/* TEXT: Part of a status code's message: up to 40 characters from offset, and the whole message's length. */
+typedef struct {
+    uint16_t offset; /* first character in text */
+    uint16_t total; /* length of the whole message */
+    uint8_t text_count; /* elements in text */
+    char text[40]; /* message, ASCII */
+} proto_text_t;
+uint32_t proto_text_pack(const proto_text_t *m, uint8_t *buf);
+int proto_text_unpack(proto_text_t *m, const uint8_t *buf, uint32_t len);
 
 /* Payload length limits of a message id (0, 0 for an id not in the table). */
 uint32_t proto_msg_min_len(uint32_t msg);

@@ -292,6 +292,8 @@ def load_params(raw: dict, regmap: dict) -> list[Param]:
                 w = fld["width"]
                 signed = fld.get("signed", False)
                 p.lo, p.hi = (-(1 << (w - 1)), (1 << (w - 1)) - 1) if signed else (0, (1 << w) - 1)
+                # The register map's documented limits, where it gives them (gains >= 0).
+                p.lo, p.hi = max(p.lo, fld.get("min", p.lo)), min(p.hi, fld.get("max", p.hi))
                 p.doc = f"{reg['doc']} {fld['doc']}"
             else:
                 fm = _FORMAT_RE.search(doc)

@@ -389,6 +389,30 @@ static void on_stats(dev_t *d, uint32_t port, const proto_frame_t *req)
     (void)send_frame(d, port, &f, 0);
 }
 
+/* The rest of a status code's message: ERROR carries its first PROTO_ERROR_TEXT_MAX characters. */
+static void on_text_get(dev_t *d, uint32_t port, const proto_frame_t *req)
+{
+    proto_text_get_t q;
+    (void)proto_text_get_unpack(&q, req->payload, req->len);
+    const char *text = settings_strerror(q.status);
+    uint32_t total = 0U;
+    while (text[total] != '\0' && total < 0xFFFFU) {
+        ++total;
+    }
+    proto_text_t m;
+    m.offset = q.offset;
+    m.total = (uint16_t)total;
+    m.text_count = 0U;
+    while ((uint32_t)q.offset + m.text_count < total && m.text_count < PROTO_TEXT_TEXT_MAX) {
+        m.text[m.text_count] = text[q.offset + m.text_count];
+        ++m.text_count;
+    }
+    proto_frame_t f;
+    frame_init(&f, PROTO_MSG_TEXT, req->seq);
+    f.len = (uint8_t)proto_text_pack(&m, f.payload);
+    (void)send_frame(d, port, &f, 0);
+}
+
 static int is_request(uint32_t msg)
 {
     switch (msg) {
@@ -404,6 +428,7 @@ static int is_request(uint32_t msg)
     case PROTO_MSG_FAULTS_GET:
     case PROTO_MSG_FAULT_CLEAR:
     case PROTO_MSG_STATS_GET:
+    case PROTO_MSG_TEXT_GET:
         return 1;
     default:
         return 0;
@@ -488,6 +513,9 @@ static void dispatch(dev_t *d, uint32_t port, const proto_frame_t *req)
         break;
     case PROTO_MSG_FAULT_CLEAR:
         on_fault_clear(d, port, req);
+        break;
+    case PROTO_MSG_TEXT_GET:
+        on_text_get(d, port, req);
         break;
     default: /* PROTO_MSG_STATS_GET: is_request lists no other */
         on_stats(d, port, req);

@@ -28,7 +28,8 @@ void fw_config_default(fw_config_t *cfg)
     cfg->loop.oc_timeout = BOWDEN_OC_TIMEOUT_RESET;
 }
 
-/* v within the register field's [min, max] (bowden_regs.h), compared in 64 bits. */
+/* v within [min, max] (bowden_regs.h: the field's range, or its documented LIMIT_MIN/MAX where
+ * the register map gives them, e.g. gains >= 0), compared in 64 bits. */
 static int in_field(int32_t v, int64_t min, int64_t max)
 {
     return (int64_t)v >= min && (int64_t)v <= max;
@@ -36,13 +37,13 @@ static int in_field(int32_t v, int64_t min, int64_t max)
 
 static int32_t loop_config_check(const fw_loop_config_t *l, uint32_t samples_per_tick)
 {
-    if (!in_field(l->kff, BOWDEN_KFF_MIN, BOWDEN_KFF_MAX)) {
+    if (!in_field(l->kff, BOWDEN_KFF_LIMIT_MIN, BOWDEN_KFF_LIMIT_MAX)) {
         return FW_ERR_KFF;
     }
-    if (!in_field(l->kp, BOWDEN_KP_MIN, BOWDEN_KP_MAX)) {
+    if (!in_field(l->kp, BOWDEN_KP_LIMIT_MIN, BOWDEN_KP_LIMIT_MAX)) {
         return FW_ERR_KP;
     }
-    if (!in_field(l->ki_ts, BOWDEN_KI_TS_MIN, BOWDEN_KI_TS_MAX)) {
+    if (!in_field(l->ki_ts, BOWDEN_KI_TS_LIMIT_MIN, BOWDEN_KI_TS_LIMIT_MAX)) {
         return FW_ERR_KI_TS;
     }
     if (!in_field(l->i_limit, BOWDEN_I_LIMIT_MIN, BOWDEN_I_LIMIT_MAX)) {
@@ -270,11 +271,11 @@ const char *fw_strerror(int32_t code)
     case FW_ERR_SAMPLE_RATE:
         return "sample_rate_hz: outside [1, 1000000] Hz";
     case FW_ERR_KFF:
-        return "loop.kff: outside the KFF register [-32768, 32767] (Q2.13 A/N)";
+        return "loop.kff: outside [0, 32767] (Q2.13 A/N; a negative gain is refused)";
     case FW_ERR_KP:
-        return "loop.kp: outside the KP register [-32768, 32767] (Q2.13 A/N)";
+        return "loop.kp: outside [0, 32767] (Q2.13 A/N; a negative gain is refused)";
     case FW_ERR_KI_TS:
-        return "loop.ki_ts: outside the KI_TS register [-32768, 32767] (Q(-4).20 A/N)";
+        return "loop.ki_ts: outside [0, 32767] (Q(-4).20 A/N; a negative gain is refused)";
     case FW_ERR_I_LIMIT:
         return "loop.i_limit: outside the I_LIMIT register [0, 32767] (UQ3.12 A)";
     case FW_ERR_SLEW:

@@ -616,6 +616,77 @@ int proto_telem_b_unpack(proto_telem_b_t *m, const uint8_t *buf, uint32_t len)
     return 1;
 }
 
+uint32_t proto_text_get_pack(const proto_text_get_t *m, uint8_t *buf)
+{
+    uint32_t n = 0;
+    uint32_t u;
+    u = (uint32_t)m->status;
+    buf[n++] = (uint8_t)(u);
+    buf[n++] = (uint8_t)(u >> 8);
+    buf[n++] = (uint8_t)(u >> 16);
+    buf[n++] = (uint8_t)(u >> 24);
+    u = (uint16_t)m->offset;
+    buf[n++] = (uint8_t)(u);
+    buf[n++] = (uint8_t)(u >> 8);
+    return n;
+}
+
+int proto_text_get_unpack(proto_text_get_t *m, const uint8_t *buf, uint32_t len)
+{
+    if (len != 6u) {
+        return 0;
+    }
+    uint32_t n = 0;
+    uint32_t u;
+    u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8) | ((uint32_t)buf[n + 2] << 16) | ((uint32_t)buf[n + 3] << 24);
+    n += 4;
+    m->status = (u & 0x80000000UL) ? (int32_t)(u - 0x80000000UL) - (int32_t)0x40000000L - (int32_t)0x40000000L : (int32_t)u;
+    u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8);
+    n += 2;
+    m->offset = (uint16_t)u;
+    return 1;
+}
+
+uint32_t proto_text_pack(const proto_text_t *m, uint8_t *buf)
+{
+    uint32_t n = 0;
+    uint32_t u;
+    u = (uint16_t)m->offset;
+    buf[n++] = (uint8_t)(u);
+    buf[n++] = (uint8_t)(u >> 8);
+    u = (uint16_t)m->total;
+    buf[n++] = (uint8_t)(u);
+    buf[n++] = (uint8_t)(u >> 8);
+    uint32_t count = m->text_count;
+    if (count > 40u) {
+        count = 40u;
+    }
+    for (uint32_t i = 0; i < count; ++i) {
+        buf[n++] = (uint8_t)m->text[i];
+    }
+    return n;
+}
+
+int proto_text_unpack(proto_text_t *m, const uint8_t *buf, uint32_t len)
+{
+    if (len < 4u || len > 44u || (len - 4u) % 1u != 0u) {
+        return 0;
+    }
+    uint32_t n = 0;
+    uint32_t u;
+    u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8);
+    n += 2;
+    m->offset = (uint16_t)u;
+    u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8);
+    n += 2;
+    m->total = (uint16_t)u;
+    m->text_count = (uint8_t)((len - 4u) / 1u);
+    for (uint32_t i = 0; i < m->text_count; ++i) {
+        m->text[i] = (char)buf[n++];
+    }
+    return 1;
+}
+
 uint32_t proto_msg_min_len(uint32_t msg)
 {
     switch (msg) {
@@ -665,6 +736,10 @@ uint32_t proto_msg_min_len(uint32_t msg)
         return 8u;
     case PROTO_MSG_TELEM_B:
         return 8u;
+    case PROTO_MSG_TEXT_GET:
+        return 6u;
+    case PROTO_MSG_TEXT:
+        return 4u;
     default:
         return 0u;
     }
@@ -719,6 +794,10 @@ uint32_t proto_msg_max_len(uint32_t msg)
         return 8u;
     case PROTO_MSG_TELEM_B:
         return 8u;
+    case PROTO_MSG_TEXT_GET:
+        return 6u;
+    case PROTO_MSG_TEXT:
+        return 44u;
     default:
         return 0u;
     }
@@ -734,6 +813,7 @@ int proto_msg_can_segmented(uint32_t msg)
     case PROTO_MSG_STATS:
     case PROTO_MSG_ERROR:
     case PROTO_MSG_TELEMETRY:
+    case PROTO_MSG_TEXT:
         return 1;
     default:
         return 0;

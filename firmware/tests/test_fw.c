@@ -173,7 +173,10 @@ static void test_fw_start_sequence(void)
     fw_on_shadow(&fw, &h, &s);
     fw_config_t cfg;
     fw_config_default(&cfg);
-    cfg.loop.kp = -7;
+    cfg.loop.kp = -7; /* a gain of the wrong sign: refused (bowden_regs.json: KP min 0) */
+    CHECK(fw_configure(&fw, &cfg) == FW_ERR_KP, "negative KP refused");
+    cfg.loop.kp = BOWDEN_KP_RESET;
+    cfg.loop.adc_offset = -7;
     cfg.loop.slew_en = 1;
     cfg.comp.tc_min_n_q8 = 3 * 256;
     CHECK(fw_configure(&fw, &cfg) == FW_OK, "configure");
@@ -182,7 +185,8 @@ static void test_fw_start_sequence(void)
     uint32_t n = hal_shadow_drain(&s, w, HAL_LOG_CAPACITY);
     CHECK(n == 17U, "%lu writes at start", (unsigned long)n);
     CHECK(w[0].addr == BOWDEN_REG_CTRL && w[0].value == 0U, "disable first");
-    CHECK(w[2].addr == BOWDEN_REG_KP && w[2].value == 0xFFFFFFF9UL, "KP sign-extended");
+    CHECK(w[7].addr == BOWDEN_REG_ADC_OFFSET && w[7].value == 0xFFFFFFF9UL,
+          "ADC_OFFSET sign-extended");
     CHECK(w[13].addr == BOWDEN_REG_TC_MIN && w[13].value == 3U * 256U,
           "the compensator's floor into TC_MIN");
     CHECK(w[14].addr == BOWDEN_REG_TC && w[14].value == 0U, "TC = 0 before enabling");

@@ -58,6 +58,11 @@ def load(path: Path = SOURCE) -> dict:
             f.setdefault("signed", False)
             f.setdefault("frac", 0)
             f["reset"] = _int(f.get("reset", 0))
+            wlo, whi = width_range(f)
+            for key in ("min", "max"):
+                if key in f and not (isinstance(f[key], int) and wlo <= f[key] <= whi):
+                    where = f"{reg['name']}.{f['name']}"
+                    raise ValueError(f"{where}: {key} {f[key]!r} outside the field's {wlo}..{whi}")
             lo, hi = field_range(f)
             if f["access"] in ("rw", "const") and not lo <= f["reset"] <= hi:
                 where = f"{reg['name']}.{f['name']}"
@@ -65,11 +70,20 @@ def load(path: Path = SOURCE) -> dict:
     return spec
 
 
-def field_range(f: dict) -> tuple[int, int]:
-    """Allowed integer range of a field's value."""
+def width_range(f: dict) -> tuple[int, int]:
+    """The integer range a field's width holds."""
     if f["signed"]:
         return -(1 << (f["width"] - 1)), (1 << (f["width"] - 1)) - 1
     return 0, (1 << f["width"]) - 1
+
+
+def field_range(f: dict) -> tuple[int, int]:
+    """Allowed integer range of a field's value: its width's, narrowed by the documented limits
+    `min` / `max` where the table gives them (a gain of the wrong sign turns the loop's negative
+    feedback positive: KFF, KP and KI_TS are >= 0). The RTL takes any word; the firmware's
+    settings check and the bench protocol's parameter table refuse words outside this range."""
+    lo, hi = width_range(f)
+    return max(lo, f.get("min", lo)), min(hi, f.get("max", hi))
 
 
 def port(reg: dict, f: dict) -> str:
@@ -501,10 +515,14 @@ def gen_c(spec: dict) -> str:
             if f["frac"] or "format" in f:
                 w(f"#define {base}_FRAC_BITS {f['frac']}u")
             if f["access"] in ("rw", "const"):
-                lo, hi = field_range(f)
+                lo, hi = width_range(f)
                 w(f"#define {base}_RESET {c_int(f['reset'])}")
                 w(f"#define {base}_MIN {c_int(lo)}")
                 w(f"#define {base}_MAX {c_int(hi)}")
+                if "min" in f or "max" in f:  # documented limits: what the firmware accepts
+                    lo, hi = field_range(f)
+                    w(f"#define {base}_LIMIT_MIN {c_int(lo)}")
+                    w(f"#define {base}_LIMIT_MAX {c_int(hi)}")
         w("")
     w("#endif /* BOWDEN_REGS_H */")
     return "\n".join(out) + "\n"

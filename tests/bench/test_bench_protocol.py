@@ -163,7 +163,7 @@ def test_parameter_words():
         ("comp.mode", "fast", "expected one of none, paper, smooth"),
         ("comp.mu", "nan", "finite"),
         ("comp.mu", "abc", "expected a number"),
-        ("loop.kff", "5", "outside [-4, 3.99988] A/N"),
+        ("loop.kff", "5", "outside [0, 3.99988] A/N"),
         ("loop.i_limit", "-1", "outside [0, 7.99976] A"),
         ("no.such", "1", "unknown parameter"),
     ):

@@ -111,7 +111,7 @@ def test_bench_emulate_without_a_link_records_the_stepped_emulator(tmp_path, cap
     ("args", "rc", "words"),
     [
         (["--port", "x", "--plant", "sensor_offset=0.5", "info"], 2, "it needs --emulate"),
-        (["--emulate", "--port", "x", "info"], 1, "--emulate works with --can or alone"),
+        (["--emulate", "--port", "x", "info"], 2, "--emulate works with --can or alone"),
         (["--emulate", "--plant", "nope=1", "info"], 2, "'nope' is not a parameter of the FMU"),
     ],
 )

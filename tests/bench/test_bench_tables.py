@@ -43,7 +43,8 @@ def test_parameters_come_from_the_firmware_configuration():
     p = msgs.PARAM_BY_NAME
     assert p["comp.mode"].enum == {"none": 0, "paper": 1, "smooth": 2, "preview": 3}
     assert p["wave.kind"].enum == {"constant": 0, "sine": 1, "triangle": 2, "ramp": 3, "step": 4}
-    assert (p["loop.kff"].frac, p["loop.kff"].unit, p["loop.kff"].lo) == (13, "A/N", -32768)
+    # lo: the register map's documented limit (a gain of the wrong sign is refused)
+    assert (p["loop.kff"].frac, p["loop.kff"].unit, p["loop.kff"].lo) == (13, "A/N", 0)
     assert (p["loop.i_limit"].lo, p["loop.i_limit"].hi) == (0, 32767)
     assert (p["comp.mu"].frac, p["comp.phi_rad"].unit) == (28, "rad")
     assert p["tick_rate_hz"].read_only and not p["comp.mu"].read_only

@@ -106,6 +106,7 @@ def test_sweep_killed_midway_resumes_and_matches_single_runs(native, tmp_path):
     assert (out / "error_map.png").stat().st_size > 5_000
     assert (out / "error_vs_plant_mu.png").stat().st_size > 5_000
     spec = load_spec(spec_path)
+    spec.build_id = sweep_run.build_id()  # the ids cover the build the points ran on
     by_id = {r["point_id"]: r for r in rows}
     for point in spec.points():
         single = sweep_run._run(spec, point)  # one native run, no Dask
@@ -135,10 +136,10 @@ def test_sweep_records_a_failed_point_and_goes_on(native, tmp_path):
         "axes": {"position_m": [[0, 1.5, 0], [0, 0.5, 0]]},
     }
     far, near = parse_spec(data).points()
-    row = sweep_run.run_point(data, far.values, str(tmp_path))
+    row = sweep_run.run_point(data, far.values, str(tmp_path), far.run_key)
     assert row["status"] == "failed" and row["error"], row
     assert "\n" not in row["error"]
-    ok = sweep_run.run_point(data, near.values, str(tmp_path))
+    ok = sweep_run.run_point(data, near.values, str(tmp_path), near.run_key)
     assert ok["status"] == "ok", ok
     done = sweep_run.done_points(tmp_path)
     assert done[far.point_id]["status"] == "failed" and done[near.point_id]["status"] == "ok"

@@ -11,6 +11,7 @@ the sweep goes on; it is not retried on resume (the same inputs fail the same wa
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -26,11 +27,26 @@ TABLE = "sweep.parquet"
 FIGURES = ("rms_error_n", "rms_error_pct", "peak_error_n", "peak_error_pct", "max_ref_n")
 
 
-def run_point(spec_dict: dict, values: dict, out_dir: str) -> dict:
-    """Run one point (in a Dask worker) and write its result file; return the row."""
+def build_id() -> str:
+    """The project build a point runs on: a hash of the Python package's sources, the native
+    engine's library and the plant FMU (a rebuild or an edit makes earlier results stale)."""
+    from cosim.project.paths import BUILD_DIR, PACKAGE_DIR  # noqa: PLC0415
+
+    h = hashlib.sha256()
+    files = sorted(PACKAGE_DIR.rglob("*.py"))
+    files += [BUILD_DIR / "native" / "libbowden_native.so", BUILD_DIR / "fmu" / "BowdenPlant.fmu"]
+    for f in files:
+        h.update(str(f.relative_to(PACKAGE_DIR.parent)).encode() + b"\0")
+        h.update(f.read_bytes() if f.is_file() else b"(absent)")
+    return h.hexdigest()[:16]
+
+
+def run_point(spec_dict: dict, values: dict, out_dir: str, run_key: str = "") -> dict:
+    """Run one point (in a Dask worker) and write its result file; return the row. run_key:
+    the client's SweepSpec.run_key (the point's id covers it)."""
     from .spec import parse_spec  # noqa: PLC0415
 
-    point = Point(values)
+    point = Point(values, run_key)
     row = _row_base(point)
     t0 = time.perf_counter()
     try:
@@ -84,6 +100,57 @@ def _run(spec: SweepSpec, point: Point) -> dict:
     out["compensator_phi_rad"] = run_spec["phi_rad"]
     out["samples"] = result["samples"]
     return out
+
+
+RUN_FILE = "run.json"  # the run context (SweepSpec.run_context) of the points in a folder
+
+
+class OutDirMismatchError(ValueError):
+    """--out holds the points of another spec, engine or build."""
+
+
+def check_out_dir(spec: SweepSpec, out_dir: Path) -> None:
+    """Refuse an --out folder whose points were computed for another run context (spec's
+    scenario, duration, interface or configuration, engine, build), naming what changed."""
+    path = out_dir / RUN_FILE
+    if not path.is_file():
+        if (out_dir / POINTS_DIR).is_dir() and any((out_dir / POINTS_DIR).glob("*.json")):
+            raise OutDirMismatchError(
+                f"--out {out_dir}: holds points of a sweep without {RUN_FILE} (an older "
+                "version): use another --out folder"
+            )
+        return
+    try:
+        old = json.loads(path.read_text())
+    except (OSError, ValueError):
+        old = None
+    if not isinstance(old, dict):
+        raise OutDirMismatchError(f"--out {out_dir}: {RUN_FILE} is unreadable: use another --out")
+    new = json.loads(json.dumps(spec.run_context()))  # as written (tuples -> lists)
+    changed = sorted(_changed(old, new))
+    if changed:
+        raise OutDirMismatchError(
+            f"--out {out_dir} holds a sweep of another run: {', '.join(changed)} changed "
+            "(use another --out folder, or remove that one)"
+        )
+
+
+def _changed(old, new, prefix: str = "") -> list[str]:
+    """The dotted keys whose values differ (a mapping missing on one side counts as empty)."""
+    if isinstance(old, dict) or isinstance(new, dict):
+        old = old if isinstance(old, dict) else {} if old is None else {"": old}
+        new = new if isinstance(new, dict) else {} if new is None else {"": new}
+        out = []
+        for k in sorted(set(old) | set(new)):
+            out += _changed(old.get(k), new.get(k), f"{prefix}{k}.")
+        return out
+    return [] if old == new else [prefix.rstrip(".") or "spec"]
+
+
+def _write_json(path: Path, data) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
+    os.replace(tmp, path)
 
 
 def write_point(out_dir: Path, point: Point, row: dict) -> Path:
@@ -140,8 +207,12 @@ def run_sweep(
     failed); return every point's row (spec order)."""
     from cosim.engines.native import engine  # noqa: PLC0415
 
+    engine.load_library()  # built before its hash goes into the points' ids
+    spec.build_id = build_id()
+    check_out_dir(spec, out_dir)  # before anything is written there
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "spec.json").write_text(json.dumps(spec_dict, indent=2, sort_keys=True))
+    _write_json(out_dir / RUN_FILE, spec.run_context())
     points = spec.points()
     have = done_points(out_dir)
     if retry_failed:
@@ -149,7 +220,6 @@ def run_sweep(
     todo = [p for p in points if p.point_id not in have]
     log(f"sweep: {len(points)} points, {len(points) - len(todo)} already done, {len(todo)} to run")
     if todo:
-        engine.load_library()  # built here once, not by each worker at the same time
         _dask_run(todo, spec_dict, out_dir, scheduler, workers, progress, log)
     have = done_points(out_dir)
     return [have[p.point_id] for p in points if p.point_id in have]
@@ -201,6 +271,7 @@ def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log) ->
                 spec_dict,
                 p.values,
                 str(out_dir),
+                p.run_key,
                 key=f"point-{p.point_id}-{time.time_ns()}",
             ): p
             for p in todo

@@ -28,6 +28,7 @@ and the key.
 from __future__ import annotations
 
 import copy
+import functools
 import hashlib
 import itertools
 import json
@@ -36,7 +37,7 @@ import random
 from dataclasses import dataclass
 from pathlib import Path
 
-from cosim.config.run import COMPENSATORS, SimConfig
+from cosim.config.run import COMPENSATORS, INT_DIGITS, HugeInt, SimConfig
 from cosim.config.scenarios import SCENARIO_NAMES
 from cosim.parts.interface import INTERFACES
 from cosim.project.cliargs import shown
@@ -56,12 +57,17 @@ class Point:
     """One run of a sweep: its axis values and the run they make."""
 
     values: dict  # axis name -> value (position_m as [x, y, z])
+    run_key: str = ""  # what else decides the result (SweepSpec.run_key): spec, engine, build
 
     @property
     def point_id(self) -> str:
-        """A stable name of the point (its values' hash): its result file's name."""
-        text = json.dumps(self.values, sort_keys=True)
+        """A stable name of the point: the hash of its values and of everything else that
+        decides its result (run_key), so that a result is never taken for another spec's."""
+        text = json.dumps({"values": self.values, "run": self.run_key}, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+ENGINE = "native"  # every point runs on the native engine (cosim/engines/native)
 
 
 @dataclass
@@ -77,13 +83,32 @@ class SweepSpec:
     config: dict
     axes: dict  # name -> list of values (grid) or ("uniform", lo, hi) (random)
     source: str
+    build_id: str = ""  # the project build the points run on (cosim.studies.sweep.run.build_id)
+
+    def run_context(self) -> dict:
+        """Everything besides a point's axis values that decides its result: the spec's
+        scenario, duration, interface and base configuration, the engine and the build."""
+        return {
+            "scenario": self.scenario,
+            "duration_s": self.duration_s,
+            "interface": self.interface,
+            "config": self.config,
+            "engine": ENGINE,
+            "build": self.build_id,
+        }
+
+    @property
+    def run_key(self) -> str:
+        text = json.dumps(self.run_context(), sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
 
     def points(self) -> list[Point]:
         """Every point of the sweep, in a fixed order (the same on every resume)."""
         names = list(self.axes)
+        key = self.run_key
         if self.sampling == "grid":
             combos = itertools.product(*(self.axes[n] for n in names))
-            pts = [Point(dict(zip(names, c, strict=True))) for c in combos]
+            pts = [Point(dict(zip(names, c, strict=True)), key) for c in combos]
         else:
             rng = random.Random(self.seed)
             pts = []
@@ -95,7 +120,7 @@ class SweepSpec:
                         vals[n] = rng.uniform(ax[1], ax[2])
                     else:
                         vals[n] = copy.deepcopy(rng.choice(ax))
-                pts.append(Point(vals))
+                pts.append(Point(vals, key))
         return pts
 
     def run_config(self, point: Point) -> dict:
@@ -143,6 +168,44 @@ def _lines(text: str) -> dict[tuple[str, ...], int]:
     return out
 
 
+class DuplicateKeyError(ValueError):
+    """A mapping that names a key twice (YAML and JSON would keep the last one silently)."""
+
+    def __init__(self, key, line: int) -> None:
+        self.line = line
+        super().__init__(f"key {key!r} appears twice in the same mapping (the last would win)")
+
+
+@functools.cache
+def unique_key_loader():
+    """The YAML loader of specifications (built on first use: yaml is imported lazily)."""
+    import yaml  # noqa: PLC0415
+
+    class Loader(yaml.SafeLoader):
+        """yaml.SafeLoader that refuses a key given twice in one mapping."""
+
+        def construct_mapping(self, node, deep=False):
+            seen = set()
+            for knode, _ in node.value:
+                key = self.construct_object(knode, deep=deep)
+                try:
+                    dup = key in seen
+                except TypeError:  # an unhashable key: SafeLoader names it
+                    break
+                if dup:
+                    raise DuplicateKeyError(key, knode.start_mark.line + 1)
+                seen.add(key)
+            return super().construct_mapping(node, deep=deep)
+
+        def construct_yaml_int(self, node):
+            if sum(c.isdigit() for c in str(node.value)) > INT_DIGITS:
+                return HugeInt(str(node.value))  # int() would refuse it without a key
+            return super().construct_yaml_int(node)
+
+    Loader.add_constructor("tag:yaml.org,2002:int", Loader.construct_yaml_int)
+    return Loader
+
+
 def load_spec(path: str | Path) -> SweepSpec:
     """Read and check SPEC.yaml; SpecError (one line) for anything that cannot be run."""
     import yaml  # noqa: PLC0415
@@ -158,7 +221,9 @@ def load_spec(path: str | Path) -> SweepSpec:
     except OSError as exc:
         raise SpecError(f"{name}: cannot read ({exc.strerror or exc})") from None
     try:
-        data = yaml.safe_load(text)
+        data = yaml.load(text, Loader=unique_key_loader())  # noqa: S506 (a SafeLoader)
+    except DuplicateKeyError as exc:
+        raise SpecError(f"{name}: line {exc.line}: {exc}") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" line {mark.line + 1}" if mark is not None else ""
@@ -184,30 +249,33 @@ def parse_spec(data, name: str = "spec", lines: dict | None = None) -> SweepSpec
         if key not in TOP_KEYS:
             raise err((str(key),), f"unknown key (allowed: {', '.join(TOP_KEYS)})")
     scenario = data.get("scenario", "fig14")
-    if scenario not in SCENARIO_NAMES:
-        raise err(("scenario",), f"must be one of {', '.join(SCENARIO_NAMES)}; got {scenario!r}")
+    if not isinstance(scenario, str) or scenario not in SCENARIO_NAMES:
+        raise err(
+            ("scenario",), f"must be one of {', '.join(SCENARIO_NAMES)}; got {_brief(scenario)}"
+        )
     interface = data.get("interface", "board")
-    if interface not in INTERFACES:
-        raise err(("interface",), f"must be one of {', '.join(INTERFACES)}; got {interface!r}")
+    if not isinstance(interface, str) or interface not in INTERFACES:
+        raise err(
+            ("interface",), f"must be one of {', '.join(INTERFACES)}; got {_brief(interface)}"
+        )
     duration = data.get("duration_s")
     if duration is not None and (
-        isinstance(duration, bool)
-        or not isinstance(duration, (int, float))
-        or not math.isfinite(duration)
-        or not 0.01 <= duration <= 3600
+        isinstance(duration, bool) or not _number(duration) or not 0.01 <= duration <= 3600
     ):
-        raise err(("duration_s",), f"must be a number of seconds in [0.01, 3600]; got {duration!r}")
+        raise err(
+            ("duration_s",), f"must be a number of seconds in [0.01, 3600]; got {_brief(duration)}"
+        )
     sampling = data.get("sampling", "grid")
-    if sampling not in ("grid", "random"):
-        raise err(("sampling",), f"must be grid or random; got {sampling!r}")
+    if not isinstance(sampling, str) or sampling not in ("grid", "random"):
+        raise err(("sampling",), f"must be grid or random; got {_brief(sampling)}")
     samples = data.get("samples", 0 if sampling == "grid" else None)
     if sampling == "random" and (
         isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= MAX_POINTS
     ):
         raise err(("samples",), f"random sampling needs a whole number in [1, {MAX_POINTS}]")
     seed = data.get("seed", 1)
-    if isinstance(seed, bool) or not isinstance(seed, int):
-        raise err(("seed",), f"must be a whole number; got {seed!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or abs(seed) >= 1 << 64:
+        raise err(("seed",), f"must be a whole number below 2^64; got {_brief(seed)}")
     config = data.get("config", {}) or {}
     if not isinstance(config, dict):
         raise err(("config",), "must be a mapping (as a --params file)")
@@ -251,7 +319,21 @@ def parse_spec(data, name: str = "spec", lines: dict | None = None) -> SweepSpec
 
 
 def _number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    """A finite number (a whole number beyond every double is not one: no OverflowError)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
+def _brief(value, limit: int = 60) -> str:
+    """A value for a message, on one line and shortened (a whole number by its digits)."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 200:
+        return f"an integer of {len(str(abs(value)))} digits"
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _axis(key: str, raw, sampling: str, err):
@@ -262,12 +344,16 @@ def _axis(key: str, raw, sampling: str, err):
     choices = {"compensator": COMPENSATORS, "scenario": SCENARIO_NAMES, "interface": INTERFACES}
     if key in choices:
         vals = raw if isinstance(raw, list) else [raw]
+        if not vals:
+            raise err(f"an empty list of values (give one or more of {', '.join(choices[key])})")
         for v in vals:
             if not isinstance(v, str) or v not in choices[key]:
-                raise err(f"must be among {', '.join(choices[key])}; got {v!r}")
+                raise err(f"must be among {', '.join(choices[key])}; got {_brief(v)}")
         return vals
     if key == "loop_routing":
         vals = raw if isinstance(raw, list) else [raw]
+        if not vals:
+            raise err("an empty list of values (give true and/or false)")
         if not all(isinstance(v, bool) for v in vals):
             raise err("must be true and/or false")
         return vals
@@ -306,7 +392,7 @@ def _axis(key: str, raw, sampling: str, err):
 def _positions(raw, err) -> list[list[float]]:
     def triple(p):
         if not (isinstance(p, list) and len(p) == 3 and all(_number(v) for v in p)):
-            raise err(f"a position is [x, y, z] in m; got {p!r}")
+            raise err(f"a position is [x, y, z] in m; got {_brief(p)}")
         return [float(v) for v in p]
 
     if isinstance(raw, list):
@@ -323,5 +409,8 @@ def _positions(raw, err) -> list[list[float]]:
             if not v or not all(_number(a) for a in v):
                 raise err(f"{c} must be a number or a list of numbers (m)")
             lists.append([float(a) for a in v])
+        count = math.prod(len(v) for v in lists)
+        if count > MAX_POINTS:  # refused before the product is built
+            raise err(f"the grid of positions has {count} points (at most {MAX_POINTS})")
         return [list(p) for p in itertools.product(*lists)]
     raise err("a list of [x, y, z] or a grid {x: [...], y: [...], z: [...]}")

@@ -17,7 +17,7 @@ typedef struct {
     const char *can_hex[9];
 } proto_vector_t;
 
-#define PROTO_N_VECTORS 47
+#define PROTO_N_VECTORS 53
 static const proto_vector_t proto_vectors[PROTO_N_VECTORS] = {
     {PROTO_MSG_HELLO, 37u, 0u, "", "0008020125c2f3e52900", 1u, {33u}, {"25"}},
     {PROTO_MSG_HELLO_ACK, 2u, 17u, "1326394c5f214045728ee61f85fb98abbe", "00190202021326394c5f214045728ee61f85fb98abbe369cc3de00", 3u, {34u, 34u, 34u}, {"0200111326394c5f", "0201214045728ee6", "02021f85fb98abbe"}},
@@ -66,6 +66,12 @@ static const proto_vector_t proto_vectors[PROTO_N_VECTORS] = {
     {PROTO_MSG_TELEMETRY, 21u, 24u, "136da6da26da4cb53947f38f4cb45f21728e85fb9868abbe", "0020021515136da6da26da4cb53947f38f4cb45f21728e85fb9868abbee79eceb300", 0u, {0u}, {0}},
     {PROTO_MSG_TELEMETRY, 22u, 24u, "000000000000000000000000000000000000000000000000", "00040215160101010101010101010101010101010101010101010101056a2fd31c00", 0u, {0u}, {0}},
     {PROTO_MSG_TELEMETRY, 23u, 24u, "ffffffffffffffffffffffff00800080008000800080ffff", "0010021517ffffffffffffffffffffffff02800280028002800880ffff4ae316e800", 0u, {0u}, {0}},
+    {PROTO_MSG_TEXT_GET, 120u, 6u, "136da6da26da", "000e021878136da6da26dab390b26400", 1u, {56u}, {"78136da6da26da"}},
+    {PROTO_MSG_TEXT_GET, 221u, 6u, "000000000000", "00040218dd010101010104ce58750100", 1u, {56u}, {"dd000000000000"}},
+    {PROTO_MSG_TEXT_GET, 66u, 6u, "00000080ffff", "000402184201010880ffffd7e131bf00", 1u, {56u}, {"4200000080ffff"}},
+    {PROTO_MSG_TEXT, 25u, 44u, "136d26da596c203346596c203346592a3d5063762a3d5063762a3d502134475a6d2134475a6d2134475a2b3e", "0034021919136d26da596c203346596c203346592a3d5063762a3d5063762a3d502134475a6d2134475a6d2134475a2b3e2c13c03d00", 8u, {57u, 57u, 57u, 57u, 57u, 57u, 57u, 57u}, {"19002c136d26da59", "19016c203346596c", "1902203346592a3d", "19035063762a3d50", "190463762a3d5021", "190534475a6d2134", "1906475a6d213447", "19075a2b3e"}},
+    {PROTO_MSG_TEXT, 26u, 4u, "00000000", "000402191a01010105dfc5651e00", 1u, {57u}, {"1a000400000000"}},
+    {PROTO_MSG_TEXT, 27u, 44u, "ffffffff61616161616161616161616161616161616161616161616161616161616161616161616161616161", "003402191bffffffff6161616161616161616161616161616161616161616161616161616161616161616161616161616182ad761200", 8u, {57u, 57u, 57u, 57u, 57u, 57u, 57u, 57u}, {"1b002cffffffff61", "1b01616161616161", "1b02616161616161", "1b03616161616161", "1b04616161616161", "1b05616161616161", "1b06616161616161", "1b07616161"}},
 };
 
 static const proto_hello_ack_t proto_vectors_hello_ack[3] = {
@@ -132,6 +138,16 @@ static const proto_telemetry_t proto_vectors_telemetry[3] = {
     {3668339987UL, 3041712678UL, 2415085369UL, -19380, 8543, -29070, -1147, 26776, 171, 190},
     {0UL, 0UL, 0UL, 0, 0, 0, 0, 0, 0, 0},
     {4294967295UL, 4294967295UL, 4294967295UL, -32768, -32768, -32768, -32768, -32768, 255, 255},
+};
+static const proto_text_get_t proto_vectors_text_get[3] = {
+    {-626627309L, 55846},
+    {0L, 0},
+    {(-2147483647 - 1), 65535},
+};
+static const proto_text_t proto_vectors_text[3] = {
+    {27923, 55846, 40u, {89, 108, 32, 51, 70, 89, 108, 32, 51, 70, 89, 42, 61, 80, 99, 118, 42, 61, 80, 99, 118, 42, 61, 80, 33, 52, 71, 90, 109, 33, 52, 71, 90, 109, 33, 52, 71, 90, 43, 62}},
+    {0, 0, 0u, {0}},
+    {65535, 65535, 40u, {97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97}},
 };
 
 /* Field-by-field equality of two decoded messages (1 when equal). */
@@ -224,6 +240,24 @@ static inline int proto_equal_telem_a(const proto_telem_a_t *a, const proto_tele
 static inline int proto_equal_telem_b(const proto_telem_b_t *a, const proto_telem_b_t *b)
 {
     return a->sample_lo == b->sample_lo && a->t_in == b->t_in && a->t_out == b->t_out && a->current == b->current && a->faults == b->faults;
+}
+
+static inline int proto_equal_text_get(const proto_text_get_t *a, const proto_text_get_t *b)
+{
+    return a->status == b->status && a->offset == b->offset;
+}
+
+static inline int proto_equal_text(const proto_text_t *a, const proto_text_t *b)
+{
+    if (a->text_count != b->text_count) {
+        return 0;
+    }
+    for (uint32_t i = 0; i < a->text_count; ++i) {
+        if (a->text[i] != b->text[i]) {
+            return 0;
+        }
+    }
+    return a->offset == b->offset && a->total == b->total;
 }
 
 #endif /* BOWDEN_PROTO_VECTORS_H */

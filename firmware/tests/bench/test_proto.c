@@ -132,6 +132,8 @@ static void test_shared_vectors(void)
             TYPED(ACK, ack)
             TYPED(ERROR, error)
             TYPED(TELEMETRY, telemetry)
+            TYPED(TEXT_GET, text_get)
+            TYPED(TEXT, text)
         default:
             ok = f.len == 0U;
             break;

@@ -1,0 +1,184 @@
+"""`bowden sweep` never returns stale or silently wrong results: a point's id covers everything
+that decides its result and a folder of another run is refused naming what changed; specs that
+would be silently misread (duplicate keys, empty axes) or blow up (huge grids, huge integers) are
+one line. Hypothesis keeps the spec's refusals one line for any such input."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from cosim.config.run import load_params
+from cosim.studies.sweep import run as sweep_run
+from cosim.studies.sweep.spec import SpecError, load_spec, parse_spec
+
+
+def _ids(data: dict, build: str = "b1") -> list[str]:
+    spec = parse_spec(data)
+    spec.build_id = build
+    return [p.point_id for p in spec.points()]
+
+
+BASE = {"scenario": "fig14", "duration_s": 0.05, "axes": {"compensator": ["paper"]}}
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"duration_s": 0.06},
+        {"scenario": "characterize"},
+        {"interface": "ideal"},
+        {"config": {"plant": {"mu": 0.09}}},
+    ],
+)
+def test_point_id_covers_spec_scenario_and_build(change):
+    assert _ids(BASE) != _ids({**BASE, **change})
+    assert _ids(BASE) == _ids(json.loads(json.dumps(BASE)))  # stable
+    assert _ids(BASE, "b1") != _ids(BASE, "b2")  # another build
+
+
+def test_out_of_another_run_is_refused_naming_what_changed(tmp_path):
+    out = tmp_path / "out"
+    spec = parse_spec(BASE)
+    spec.build_id = "b1"
+    out.mkdir()
+    sweep_run._write_json(out / sweep_run.RUN_FILE, spec.run_context())
+    sweep_run.check_out_dir(spec, out)  # the same run: fine
+    other = parse_spec({**BASE, "duration_s": 0.06, "config": {"plant": {"mu": 0.09}}})
+    other.build_id = "b2"
+    with pytest.raises(sweep_run.OutDirMismatchError) as info:
+        sweep_run.check_out_dir(other, out)
+    msg = str(info.value)
+    assert "\n" not in msg and "duration_s" in msg and "config.plant.mu" in msg, msg
+    assert "build" in msg
+
+
+@pytest.mark.slow
+def test_bowden_sweep_into_the_out_of_another_spec_exits_2(tmp_path):
+    spec_path, out = tmp_path / "spec.yaml", tmp_path / "out"
+    cmd = [sys.executable, "-m", "cosim", "sweep", str(spec_path), "--out", str(out)]
+    spec_path.write_text("duration_s: 0.05\naxes:\n  compensator: [paper]\n")
+    first = subprocess.run([*cmd, "--workers", "1", "--quiet"], capture_output=True, text=True)
+    assert first.returncode == 0, first.stderr
+    table = (out / sweep_run.TABLE).read_bytes()
+    spec_path.write_text("duration_s: 0.06\naxes:\n  compensator: [paper]\n")
+    second = subprocess.run([*cmd, "--workers", "1", "--quiet"], capture_output=True, text=True)
+    assert second.returncode == 2, second.stderr
+    assert second.stderr.count("\n") == 1 and "duration_s" in second.stderr, second.stderr
+    assert (out / sweep_run.TABLE).read_bytes() == table
+    assert json.loads((out / "spec.json").read_text())["duration_s"] == 0.05
+
+
+def _spec_error(tmp_path, text: str, name: str = "spec.yaml") -> str:
+    path = tmp_path / name
+    path.write_text(text)
+    with pytest.raises(SpecError) as info:
+        load_spec(path)
+    msg = str(info.value)
+    assert "\n" not in msg, msg
+    return msg
+
+
+def test_huge_position_grid_is_refused_before_it_is_built(tmp_path):
+    axis = "[" + ", ".join(str(0.001 * i) for i in range(1000)) + "]"
+    # (Built, the grid took 4 GB and 22 s before the limit refused it.)
+    msg = _spec_error(tmp_path, f"axes:\n  position_m: {{x: {axis}, y: {axis}, z: {axis}}}\n")
+    assert "axes.position_m" in msg and "1000000000 points" in msg, msg
+
+
+@pytest.mark.parametrize("axis", ["compensator", "scenario", "interface", "loop_routing"])
+def test_an_empty_name_axis_is_refused(tmp_path, axis):
+    msg = _spec_error(tmp_path, f"axes:\n  {axis}: []\n")
+    assert f"axes.{axis}" in msg and "empty" in msg, msg
+
+
+@pytest.mark.parametrize(
+    ("text", "key"),
+    [
+        ("duration_s: 3\nduration_s: 3000\n", "'duration_s'"),
+        ('{"config": {"plant": {"mu": 0.09, "mu": 0.5}}}', "'mu'"),
+        ("axes:\n  compensator: [paper]\n  compensator: [smooth]\n", "'compensator'"),
+    ],
+)
+def test_duplicate_keys_in_a_spec_are_refused(tmp_path, text, key):
+    msg = _spec_error(tmp_path, text)
+    assert key in msg and "twice" in msg, msg
+
+
+def test_duplicate_keys_in_a_params_file_are_refused(tmp_path):
+    p = tmp_path / "p.json"
+    p.write_text('{"plant": {"mu": 0.09, "mu": 0.5}}')
+    with pytest.raises(ValueError, match="'mu' appears twice") as info:
+        load_params(p)
+    assert "p.json" in str(info.value)
+
+
+HUGE = "9" * 400
+
+
+@pytest.mark.parametrize(
+    ("text", "key"),
+    [
+        (f"duration_s: {HUGE}\n", "duration_s"),
+        (f"axes:\n  plant.mu: [{HUGE}]\n", "axes.plant.mu"),
+        (f"axes:\n  plant.mu: {{min: 0, max: {HUGE}, n: 2}}\n", "axes.plant.mu"),
+        (f"config: {{plant: {{mu: {HUGE}}}}}\n", "config"),
+        ("duration_s: " + "9" * 5000 + "\n", "spec.yaml"),
+    ],
+)
+def test_huge_integers_in_a_spec_are_one_line_naming_the_key(tmp_path, text, key):
+    msg = _spec_error(tmp_path, text)
+    assert key in msg and "spec.yaml" in msg, msg
+
+
+@pytest.mark.parametrize("digits", [400, 5000])
+def test_huge_integers_in_a_params_file_are_one_line(tmp_path, digits):
+    p = tmp_path / "p.json"
+    p.write_text('{"plant": {"mu": ' + "9" * digits + "}}")
+    with pytest.raises(ValueError) as info:
+        load_params(p)
+    msg = str(info.value)
+    assert "\n" not in msg and "p.json" in msg and "mu" in msg, msg
+
+
+_KEYS = st.sampled_from(["scenario", "duration_s", "interface", "axes", "config", "seed"])
+_VALUES = st.one_of(
+    st.integers(min_value=-(10**500), max_value=10**500),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.lists(st.integers(min_value=-(10**400), max_value=10**400), max_size=3),
+    st.just([]),
+    st.text(max_size=5),
+)
+
+
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    pairs=st.lists(st.tuples(_KEYS, _VALUES), min_size=1, max_size=4),
+    axis=st.sampled_from(["compensator", "loop_routing", "plant.mu", "position_m", "scenario"]),
+    axis_value=_VALUES,
+)
+def test_any_spec_is_accepted_or_refused_in_one_line(tmp_path, pairs, axis, axis_value):
+    """Duplicate keys, huge integers, empty axes, non-finite numbers: SpecError with one line,
+    never another exception; a spec naming a key twice is never accepted."""
+    lines = []
+    for key, value in pairs:
+        lines.append(f"{key}: {json.dumps(value)}")
+    lines.append(f"axes: {{{json.dumps(axis)}: {json.dumps(axis_value)}}}")
+    path = tmp_path / "h.yaml"
+    path.write_text("\n".join(lines) + "\n")
+    keys = [k for k, _ in pairs] + ["axes"]
+    try:
+        spec = load_spec(path)
+    except SpecError as exc:
+        assert "\n" not in str(exc) and "h.yaml" in str(exc)
+        return
+    assert len(keys) == len(set(keys)), "a key given twice was accepted"
+    assert axis_value != [], "an empty axis was accepted"
+    assert spec.points() is not None
