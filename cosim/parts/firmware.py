@@ -367,6 +367,14 @@ class CompensatorParams:
     preview_ticks: int = _c_default("preview_ticks")
     lead_ticks: int = _c_default("lead_ticks")
     ramp_ticks: int = _c_default("ramp_ticks")
+    # Online friction estimate from the far-end load cell (firmware/include/fric_est.h; a part
+    # of fw_config_t, not of comp_config_t), off by default: EstimatorParams's fields with est_.
+    est_enable: int = 0
+    est_tau_ticks: int = 256
+    est_rate_per_s: float = 1000.0 / 2048
+    est_mu_phi_min: float = 0.05
+    est_mu_phi_max: float = 2.0
+    est_t_min_n: float = 0.5
 
     @property
     def phi_c_rad(self) -> float:
