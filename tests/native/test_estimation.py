@@ -1,7 +1,7 @@
 """The online friction estimate in the closed loop (native engine, board chain, preview mode,
-compensator calibrated at mu = 0.075): cosim/studies/estimation.py's cases. The estimate must converge to
-the plant's mu*phi, ignore a far-end offset, follow a warm-up, and freeze and flag when the
-far-end cell fails (firmware/include/fric_est.h)."""
+compensator calibrated at mu = 0.075): cosim/studies/estimation.py's cases. The estimate must
+converge to the plant's mu*phi, ignore a far-end offset, follow a warm-up, and freeze and flag
+when the far-end cell fails (firmware/include/fric_est.h)."""
 
 from __future__ import annotations
 
