@@ -17,7 +17,7 @@ BENCH_OUT := $(BUILD)/bench
 BENCH_HOST := $(BENCH_OUT)/host
 BENCH_M4 := $(BENCH_OUT)/cortex-m4
 # Every target source of the firmware (not the double twin): a file added there joins the build.
-BENCH_TARGET_SRC := $(filter-out firmware/src/comp_f64.c,$(sort $(wildcard firmware/src/*.c)))
+BENCH_TARGET_SRC := $(filter-out firmware/src/comp_f64.c firmware/src/fric_est_f64.c,$(sort $(wildcard firmware/src/*.c)))
 BENCH_OWN_SRC := $(addprefix firmware/src/,crc32c.c proto.c proto_can.c proto_msgs.c settings.c params.c \
   params_table.c flash.c dev.c)
 BENCH_HOST_SRC := firmware/host/flash_ram.c firmware/host/dev_host.c cosim/bench/native/emu.c

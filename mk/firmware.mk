@@ -25,9 +25,9 @@ FW_WARN := -std=c11 -Wall -Wextra -Wpedantic -Werror
 FW_LINT_EXTRA := -Wshadow -Wstrict-prototypes -Wmissing-prototypes -Wcast-qual -Wundef
 FW_INC := -Ifirmware/include -Ifirmware/host -Ifirmware/tests
 # Code that runs on the target: integer only, no libm, no allocation.
-FW_TARGET_SRC := $(addprefix firmware/src/,fxp.c comp.c hal.c wave.c fw.c)
+FW_TARGET_SRC := $(addprefix firmware/src/,fxp.c comp.c fric_est.c hal.c wave.c fw.c)
 # Host only: the double twin (libm) and the ctypes glue.
-FW_HOST_SRC := firmware/src/comp_f64.c firmware/host/fw_host.c
+FW_HOST_SRC := firmware/src/comp_f64.c firmware/src/fric_est_f64.c firmware/host/fw_host.c
 FW_TEST_SRC := $(sort $(wildcard firmware/tests/*.c))
 FW_HDR := $(sort $(wildcard firmware/include/*.h firmware/host/*.h firmware/tests/*.h))
 

@@ -12,7 +12,7 @@ SOC_ROM_BYTES := 32768
 SOC_RAM_BYTES := 16384
 # The stack room link.ld keeps free, and the bound rv32_report.py must stay under.
 SOC_STACK_BYTES := 4096
-SOC_FW_SRC := $(filter-out firmware/src/comp_f64.c,$(sort $(wildcard firmware/src/*.c))) \
+SOC_FW_SRC := $(filter-out firmware/src/comp_f64.c firmware/src/fric_est_f64.c,$(sort $(wildcard firmware/src/*.c))) \
   $(addprefix firmware/soc/,main.c spi_flash.c libc.c)
 SOC_FW_ASM := firmware/soc/start.S
 SOC_FW_HDR := $(sort $(wildcard firmware/include/*.h firmware/soc/*.h))

@@ -80,6 +80,12 @@ def field_ranges(sample_rate_hz: float) -> dict[str, tuple[float, float]]:
         "compensator.preview_ticks": (0, 128),
         "compensator.lead_ticks": (0, 128),
         "compensator.ramp_ticks": (1, 256),
+        "compensator.est_enable": (0, 1),
+        "compensator.est_tau_ticks": (16, 32768),  # and a power of two (the firmware's check)
+        "compensator.est_rate_per_s": (0.0, 1000.0),
+        "compensator.est_mu_phi_min": (0.0, 4.0),
+        "compensator.est_mu_phi_max": (0.0, 4.0),
+        "compensator.est_t_min_n": (0.0, 64.0),
         # The board's chain (cosim.parts.interface): conversion timing, reader and PWM clocks,
         # ESCON.
         "board.adc_period_s": (1e-6, 0.1),
@@ -91,19 +97,29 @@ def field_ranges(sample_rate_hz: float) -> dict[str, tuple[float, float]]:
         "board.escon_imax_a": (0.01, 100.0),
         "board.escon_duty_resolution": (0.0, 0.1),
         "board.escon_duty_error": (-0.1, 0.1),
+        "board.t_out_stuck_s": (0.0, 1e6),
+        "board.t_out_absent_s": (0.0, 1e6),
     }
 
 
 # Fields that take null (the default: the scenario's phi, the ADC part's own period and reader
 # clock) and fields
 # that are whole numbers (clock counts, register words).
-NULLABLE_FIELDS = {"compensator.phi_rad", "board.adc_period_s", "board.sclk_half_clks"}
+NULLABLE_FIELDS = {
+    "compensator.phi_rad",
+    "board.adc_period_s",
+    "board.sclk_half_clks",
+    "board.t_out_stuck_s",
+    "board.t_out_absent_s",
+}
 WHOLE_FIELDS = {
     "board.sclk_half_clks",
     "board.pwm_imax_q12",
     "compensator.preview_ticks",
     "compensator.lead_ticks",
     "compensator.ramp_ticks",
+    "compensator.est_enable",
+    "compensator.est_tau_ticks",
 }
 
 
@@ -127,6 +143,11 @@ class BoardParams:
     escon_imax_a: float = 4.0  # ESCON set value range: 10 % = -I, 90 % = +I
     escon_duty_resolution: float = 0.001  # the ESCON's duty measurement step (0: continuous)
     escon_duty_error: float = 0.0  # constant duty error of the ESCON's measurement (0..1)
+    # The far-end load cell (ADS131M02 CH1, read by the online friction estimate) failing during
+    # the run: its code holds from t_out_stuck_s, sits at the rail (an open bridge) from
+    # t_out_absent_s; None: healthy. The native engine models it (cosim/engines/native/bn_api.h).
+    t_out_stuck_s: float | None = None
+    t_out_absent_s: float | None = None
 
 
 @dataclass

@@ -127,6 +127,19 @@ class LoopConfig(ctypes.Structure):
     _fields_ = [(name, ctypes.c_int32) for name in LOOP_FIELDS]
 
 
+class EstConfig(ctypes.Structure):
+    """fric_est_config_t (fric_est.h)."""
+
+    _fields_ = [
+        ("enable", ctypes.c_int32),
+        ("tau_ticks", ctypes.c_int32),
+        ("rate_q28", ctypes.c_int32),
+        ("mu_phi_min_q28", ctypes.c_int32),
+        ("mu_phi_max_q28", ctypes.c_int32),
+        ("t_min_n_q8", ctypes.c_int32),
+    ]
+
+
 class FwConfig(ctypes.Structure):
     """fw_config_t (fw.h)."""
 
@@ -137,6 +150,7 @@ class FwConfig(ctypes.Structure):
         ("comp", CompConfig),
         ("wave", WaveConfig),
         ("loop", LoopConfig),
+        ("est", EstConfig),
     ]
 
 
@@ -155,6 +169,9 @@ class Telemetry(ctypes.Structure):
         ("fault_ticks", ctypes.c_uint32),
         ("direction", ctypes.c_int32),
         ("blend_q30", ctypes.c_int32),
+        ("t_out", ctypes.c_int32),
+        ("est_mu_phi_q28", ctypes.c_int32),
+        ("est_faults", ctypes.c_uint32),
     ]
 
 
@@ -350,6 +367,14 @@ class CompensatorParams:
     preview_ticks: int = _c_default("preview_ticks")
     lead_ticks: int = _c_default("lead_ticks")
     ramp_ticks: int = _c_default("ramp_ticks")
+    # Online friction estimate from the far-end load cell (firmware/include/fric_est.h; a part
+    # of fw_config_t, not of comp_config_t), off by default: EstimatorParams's fields with est_.
+    est_enable: int = 0
+    est_tau_ticks: int = 256
+    est_rate_per_s: float = 1000.0 / 2048
+    est_mu_phi_min: float = 0.05
+    est_mu_phi_max: float = 2.0
+    est_t_min_n: float = 0.5
 
     @property
     def phi_c_rad(self) -> float:
@@ -585,6 +610,47 @@ class WaveParams:
 
 
 @dataclass
+class EstimatorParams:
+    """The online friction estimate (fric_est.h) in SI units: off by default; tau in accepted
+    samples (a power of two), the largest change of mu*phi per second, its bounds, and the
+    minimum tension on both cells below which no sample is used."""
+
+    enable: int = 0  # 0 off, 1 on
+    tau_ticks: int = 256  # forgetting time constant, power of two in [16, 32768] samples
+    rate_per_s: float = 1000.0 / 2048  # largest change of mu*phi per second (2^-11 per tick)
+    mu_phi_min: float = 0.05  # bounds of mu*phi, [0, 4]
+    mu_phi_max: float = 2.0
+    t_min_n: float = 0.5  # minimum tension on both cells, [0, 64] N
+
+    def to_c(self, tick_rate_hz: float) -> EstConfig:
+        # Per tick; a tick rate of 0 is the firmware check's to reject (tick_rate_hz), not a
+        # ZeroDivisionError here.
+        rate = _real("est.rate_per_s", self.rate_per_s) / max(1.0, float(tick_rate_hz))
+        return EstConfig(
+            enable=_whole("est.enable", self.enable, -(2**31), 2**31 - 1, "0 or 1"),
+            tau_ticks=_whole("est.tau_ticks", self.tau_ticks, -(2**31), 2**31 - 1, "samples"),
+            rate_q28=_fixed("est.rate", rate, 28),
+            mu_phi_min_q28=_fixed("est.mu_phi_min", self.mu_phi_min, 28),
+            mu_phi_max_q28=_fixed("est.mu_phi_max", self.mu_phi_max, 28),
+            t_min_n_q8=_fixed("est.t_min_n", self.t_min_n, 8),
+        )
+
+
+def estimator_from(params) -> EstimatorParams:
+    """EstimatorParams from an object with est_* fields (cosim.scenarios.CompensatorParams);
+    the defaults (off) for any it lacks."""
+    d = EstimatorParams()
+    return EstimatorParams(
+        enable=int(getattr(params, "est_enable", d.enable)),
+        tau_ticks=int(getattr(params, "est_tau_ticks", d.tau_ticks)),
+        rate_per_s=float(getattr(params, "est_rate_per_s", d.rate_per_s)),
+        mu_phi_min=float(getattr(params, "est_mu_phi_min", d.mu_phi_min)),
+        mu_phi_max=float(getattr(params, "est_mu_phi_max", d.mu_phi_max)),
+        t_min_n=float(getattr(params, "est_t_min_n", d.t_min_n)),
+    )
+
+
+@dataclass
 class FirmwareConfig:
     """The firmware's configuration (fw.h). `loop` overrides register words of the FPGA's loop
     by field name (LOOP_FIELDS, formats of bowden_regs.h); the rest keep their reset values."""
@@ -595,6 +661,7 @@ class FirmwareConfig:
     comp: CompensatorParams = field(default_factory=CompensatorParams)
     wave: WaveParams = field(default_factory=WaveParams)
     loop: dict[str, int] = field(default_factory=dict)
+    est: EstimatorParams = field(default_factory=EstimatorParams)
 
     def to_c(self, lib: ctypes.CDLL) -> FwConfig:
         c = FwConfig()
@@ -616,6 +683,7 @@ class FirmwareConfig:
                 )
             word = _whole(f"loop.{name}", value, -(2**31), 2**31 - 1, "a 32-bit register word")
             setattr(c.loop, name, word)
+        c.est = self.est.to_c(self.tick_rate_hz)
         return c
 
 
@@ -627,14 +695,16 @@ def make_firmware(
     sample_rate_hz: float = 10000.0,
     loop: dict[str, int] | None = None,
 ) -> Firmware:
-    """The firmware (host source for T_ref) with the compensator configured from a scenario's
-    compensator parameters, as the co-simulation drives it; call start() and drain the writes."""
+    """The firmware (host source for T_ref) with the compensator (and the online friction
+    estimate, est_* fields) configured from a scenario's compensator parameters, as the
+    co-simulation drives it; call start() and drain the writes."""
     config = FirmwareConfig(
         tick_rate_hz=tick_rate_hz,  # whole numbers of Hz (checked, not rounded)
         sample_rate_hz=sample_rate_hz,
         source="host",
         comp=_params_from(mode, params, phi_rad),
         loop=dict(loop or {}),
+        est=estimator_from(params),
     )
     return Firmware(config)
 
@@ -722,4 +792,6 @@ class Firmware:
         t["t_in_n"] = t["t_in"] * Q7_8_LSB_N
         t["u_a"] = t["u"] / 4096.0
         t["blend"] = t["blend_q30"] / 2**30
+        t["t_out_n"] = t["t_out"] * Q7_8_LSB_N
+        t["mu_phi"] = t["est_mu_phi_q28"] / 2**28
         return t

@@ -169,6 +169,9 @@ void comp_config_default(comp_config_t *cfg);
  * (520 bytes) to check every gain. */
 int32_t comp_config_check(const comp_config_t *cfg);
 
+/* mu * phi of a configuration in Q3.28, rounded (the exponent of the gains), in 64 bits. */
+int64_t comp_config_exponent_q28(const comp_config_t *cfg);
+
 /* The preview fields' check, shared by comp_config_check and the double twin's (comp_f64.c):
  * COMP_OK, or COMP_ERR_PREVIEW / _LEAD / _RAMP for P, L, D outside their ranges. */
 int32_t comp_check_preview(int32_t preview_ticks, int32_t lead_ticks, int32_t ramp_ticks);
@@ -195,6 +198,15 @@ void comp_reset(comp_t *c);
  * overflows. About 60-90 host instructions (see the callgrind benchmark).
  */
 q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref);
+
+/*
+ * Replace the friction exponent mu*phi in force by x (Q3.28, [0, 4]) without touching the
+ * configuration: the gain tables become exp(+x) and exp(-x) (the online estimate, fric_est.h).
+ * Only without a friction slope (COMP_ERR_MU_SLOPE otherwise) and for x in [0, 4]
+ * (COMP_ERR_EXPONENT); the state (direction, blend) is kept. About 450 instructions (two exp,
+ * two table fills); comp_configure restores exp(+-mu*phi).
+ */
+int32_t comp_set_exponent_q28(comp_t *c, q3_28_t x_q28);
 
 /* Current direction (+1 loading, -1 unloading) and blend weight s/B in Q1.30 (for telemetry). */
 int32_t comp_direction(const comp_t *c);

@@ -8,6 +8,10 @@
  *   2. take T_ref from its source: the waveform generator (wave.h) or the value the host passes;
  *   3. T_c = comp_step_q7_8(T_ref) (comp.h);
  *   4. write T_c to TC, which also refreshes the FPGA's watchdog.
+ * With the online friction estimate on (est.enable), between 1 and 3: read T_OUT and ADC_FLAGS,
+ * convert T_OUT with the loop's ADC_OFFSET/ADC_GAIN (the far-end cell assumed of the same scale
+ * as the drive's; an offset of it does not bias the estimate), step fric_est and hand its
+ * mu*phi to the compensator (comp_set_exponent_q28) when it changed.
  * A latched fault is reported (telemetry fault word, fault_ticks) and never cleared by the tick:
  * clearing a safety latch is the operator's decision (fw_fault_clear). The tick keeps writing TC
  * while a fault is latched, so the watchdog does not add a second fault.
@@ -17,6 +21,7 @@
 
 #include "bowden_q.h"
 #include "comp.h"
+#include "fric_est.h"
 #include "hal.h"
 #include "wave.h"
 
@@ -67,6 +72,7 @@ typedef struct {
     comp_config_t comp;
     wave_config_t wave;
     fw_loop_config_t loop;
+    fric_est_config_t est; /* online friction estimate (fric_est.h), off by default */
 } fw_config_t;
 
 /* Telemetry of the last tick (words as read from the FPGA, sign-extended where signed). */
@@ -82,6 +88,9 @@ typedef struct {
     uint32_t fault_ticks;  /* ticks that saw a latched fault */
     int32_t direction;     /* compensator direction, +1 loading, -1 unloading */
     int32_t blend_q30;     /* compensator blend weight s/B, Q1.30 */
+    int32_t t_out;         /* with the estimate on: T_OUT converted, Q7.8 N (32-bit), else 0 */
+    int32_t est_mu_phi_q28; /* the compensator's mu*phi in force, Q3.28 */
+    uint32_t est_faults;   /* FE_FAULT_* of the estimate (latched until fw_start) */
 } fw_telemetry_t;
 
 typedef struct {
@@ -89,6 +98,8 @@ typedef struct {
     fw_config_t cfg;
     comp_t comp;
     wave_t wave;
+    fric_est_t est;
+    q3_28_t est_applied_q28; /* the exponent the compensator's tables hold */
     fw_telemetry_t tel;
 } fw_t;
 

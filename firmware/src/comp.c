@@ -36,6 +36,11 @@ static int64_t exponent_q28(const comp_config_t *cfg)
  * so |k| < 2^53.4); c = k*T (T <= 128 N) in Q.52, |c| < 2^60.4; the numerators E*2^28 (< 2^58) and
  * 2^52 and the denominators 2^52 - c and E*2^28 + c stay below 2^62 for fxp_div_uq8_24.
  */
+int64_t comp_config_exponent_q28(const comp_config_t *cfg)
+{
+    return exponent_q28(cfg);
+}
+
 static int32_t build_tables(const comp_config_t *cfg, uq8_24_t *up, uq8_24_t *dn)
 {
     q3_28_t x = (q3_28_t)exponent_q28(cfg); /* checked <= 4 */
@@ -331,6 +336,26 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
         tc = cfg->tc_min_n_q8; /* the floor, >= 0 > Q7_8_MIN: also the low saturation */
     }
     return (q7_8_t)tc;
+}
+
+int32_t comp_set_exponent_q28(comp_t *c, q3_28_t x_q28)
+{
+    if (c == 0) {
+        return COMP_ERR_NULL;
+    }
+    if (c->cfg.mu_slope_per_n_q28 != 0) {
+        return COMP_ERR_MU_SLOPE;
+    }
+    if (x_q28 < 0 || x_q28 > COMP_EXPONENT_MAX_Q28) {
+        return COMP_ERR_EXPONENT;
+    }
+    uq8_24_t e = fxp_exp_uq8_24(x_q28);
+    uq8_24_t einv = fxp_exp_uq8_24(-x_q28);
+    for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
+        c->g_up[i] = e;
+        c->g_dn[i] = einv;
+    }
+    return COMP_OK;
 }
 
 int32_t comp_direction(const comp_t *c)

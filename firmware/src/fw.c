@@ -26,6 +26,7 @@ void fw_config_default(fw_config_t *cfg)
     cfg->loop.adc_max = BOWDEN_ADC_MAX_RESET;
     cfg->loop.adc_stale = BOWDEN_ADC_STALE_RESET;
     cfg->loop.oc_timeout = BOWDEN_OC_TIMEOUT_RESET;
+    fric_est_config_default(&cfg->est);
 }
 
 /* v within [min, max] (bowden_regs.h: the field's range, or its documented LIMIT_MIN/MAX where
@@ -106,7 +107,20 @@ int32_t fw_config_check(const fw_config_t *cfg)
     }
     /* Ceiling of the FPGA samples per tick. */
     uint32_t spt = (cfg->sample_rate_hz + cfg->tick_rate_hz - 1U) / cfg->tick_rate_hz;
-    return loop_config_check(&cfg->loop, spt);
+    err = loop_config_check(&cfg->loop, spt);
+    if (err != FW_OK) {
+        return err;
+    }
+    return fric_est_config_check(&cfg->est, comp_config_exponent_q28(&cfg->comp),
+                                 cfg->comp.mu_slope_per_n_q28);
+}
+
+/* The estimate starts from the configured mu*phi, and the compensator's tables hold it. */
+static void est_restart(fw_t *fw)
+{
+    q3_28_t x0 = comp_config_exponent_q28(&fw->cfg.comp);
+    fric_est_configure(&fw->est, &fw->cfg.est, x0);
+    fw->est_applied_q28 = x0;
 }
 
 int32_t fw_configure(fw_t *fw, const fw_config_t *cfg)
@@ -122,6 +136,7 @@ int32_t fw_configure(fw_t *fw, const fw_config_t *cfg)
     (void)comp_configure(&fw->comp, &cfg->comp);
     (void)wave_configure(&fw->wave, &cfg->wave, cfg->tick_rate_hz);
     fw->cfg = *cfg;
+    est_restart(fw); /* comp_configure rebuilt the tables from mu*phi */
     return FW_OK;
 }
 
@@ -169,6 +184,10 @@ void fw_start(fw_t *fw)
               BOWDEN_CTRL_FAULT_CLEAR_MASK | BOWDEN_CTRL_INTEG_RESET_MASK);
     hal_write(fw->hal, BOWDEN_REG_CTRL, ctrl_run_word(fw));
     comp_reset(&fw->comp);
+    if (fw->est_applied_q28 != comp_config_exponent_q28(&fw->cfg.comp)) {
+        (void)comp_configure(&fw->comp, &fw->cfg.comp); /* the last run's estimate out */
+    }
+    est_restart(fw);
     (void)wave_configure(&fw->wave, &fw->cfg.wave, fw->cfg.tick_rate_hz); /* phase to phase0 */
     if (fw->cfg.source == FW_SOURCE_WAVE && fw->cfg.comp.mode == COMP_MODE_PREVIEW) {
         /* The generator runs P ticks ahead: its first P values fill the compensator's line. */
@@ -207,6 +226,26 @@ q7_8_t fw_tick(fw_t *fw, q7_8_t host_t_ref)
     if (t->fault != 0U) {
         ++t->fault_ticks;
     }
+
+    if (fw->cfg.est.enable != 0) {
+        const fw_loop_config_t *l = &fw->cfg.loop;
+        uint32_t raw = hal_read(fw->hal, BOWDEN_REG_T_OUT) & BOWDEN_T_OUT_MASK;
+        uint32_t flags = hal_read(fw->hal, BOWDEN_REG_ADC_FLAGS) &
+                         (BOWDEN_ADC_FLAGS_DRDY_LOST_MASK | BOWDEN_ADC_FLAGS_CRC_ERR_MASK);
+        int32_t code = (int32_t)(raw ^ 0x800000U) - 0x800000; /* sign-extend 24 bits */
+        /* The RTL's T_IN conversion without its 16-bit saturation: (code - offset) < 2^25,
+         * * gain (|gain| <= 2^15) < 2^40 in int64; Q(-5).20 -> >> 20 with rounding = Q7.8. */
+        int32_t t_out = (int32_t)(((int64_t)(code - l->adc_offset) * l->adc_gain +
+                                   (INT64_C(1) << 19)) >> 20);
+        q3_28_t x = fric_est_step(&fw->est, t->t_in, t_out, code, l->adc_min, l->adc_max, flags);
+        if (x != fw->est_applied_q28 &&
+            comp_set_exponent_q28(&fw->comp, x) == COMP_OK) { /* x within the checked bounds */
+            fw->est_applied_q28 = x;
+        }
+        t->t_out = t_out;
+        t->est_faults = fw->est.faults;
+    }
+    t->est_mu_phi_q28 = fw->est_applied_q28;
 
     q7_8_t t_ref = (fw->cfg.source == FW_SOURCE_WAVE) ? wave_next_q7_8(&fw->wave) : host_t_ref;
     q7_8_t t_c = comp_step_q7_8(&fw->comp, t_ref);
@@ -296,6 +335,21 @@ const char *fw_strerror(int32_t code)
         return "loop.adc_stale: outside [0, 65535] samples";
     case FW_ERR_OC_TIMEOUT:
         return "loop.oc_timeout: outside [0, 65535] samples";
+    case FE_ERR_NULL:
+        return "null pointer";
+    case FE_ERR_ENABLE:
+        return "est.enable: must be 0 (off) or 1 (on)";
+    case FE_ERR_TAU:
+        return "est.tau_ticks: must be a power of two in [16, 32768] samples";
+    case FE_ERR_RATE:
+        return "est.rate: outside [0, 1/16] per tick";
+    case FE_ERR_BOUNDS:
+        return "est.mu_phi_min/max: outside [0, 4], min not below max, or comp.mu * comp.phi_rad "
+               "outside them";
+    case FE_ERR_T_MIN:
+        return "est.t_min_n: outside [0, 64] N";
+    case FE_ERR_SLOPE:
+        return "est.enable: the online estimate needs comp.mu_slope_per_n = 0";
     default:
         return "unknown status code";
     }

@@ -50,7 +50,7 @@ def target_build():
 def test_fw_target_has_no_libm_or_soft_float(target_build):
     er = _elf_report()
     objs = er.read_objects(M4 / "libbowden_fw.a")
-    assert {o.name for o in objs} == {"fxp.o", "comp.o", "hal.o", "wave.o", "fw.o"}
+    assert {o.name for o in objs} == {"fxp.o", "comp.o", "fric_est.o", "hal.o", "wave.o", "fw.o"}
     assert all(o.data[18] == 40 for o in objs)  # e_machine = EM_ARM
     assert er.forbidden(objs) == []
     defined = {s.name for o in objs for s in o.symbols if s.defined}

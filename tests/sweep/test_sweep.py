@@ -283,3 +283,26 @@ def test_sweep_unreachable_scheduler_is_one_line(tmp_path):
     )
     assert proc.returncode == 1
     assert proc.stderr.count("\n") == 1 and "cannot connect" in proc.stderr, proc.stderr
+
+
+def test_summary_splits_the_estimate_and_prints_the_peak():
+    """A sweep over compensator.est_enable reports the calibrated and the estimating
+    compensator as two groups, with RMS and peak (median, worst) each."""
+    from cosim.studies.sweep.table import summary  # noqa: PLC0415
+
+    rows = [
+        {
+            "compensator": "preview",
+            "compensator.est_enable": on,
+            "status": "ok",
+            "rms_error_pct": rms,
+            "peak_error_pct": peak,
+        }
+        for on, rms, peak in [(0, 5.0, 9.0), (0, 6.0, 14.0), (1, 0.8, 4.0), (1, 1.2, 5.5)]
+    ]
+    lines = summary(rows).splitlines()
+    assert "peak worst %" in lines[0]
+    cal = next(line for line in lines if line.startswith("preview, calibrated"))
+    est = next(line for line in lines if line.startswith("preview, estimate"))
+    assert cal.split()[-4:] == ["5.50", "6.00", "11.50", "14.00"]
+    assert est.split()[-4:] == ["1.00", "1.20", "4.75", "5.50"]

@@ -16,7 +16,7 @@
 extern "C" {
 #endif
 
-#define BN_API_VERSION 3
+#define BN_API_VERSION 4
 
 /* Interface stages (cosim/parts/interface.py). */
 #define BN_IFACE_IDEAL 0
@@ -26,6 +26,7 @@ extern "C" {
 #define BN_N_IN 5   /* cosim.parts.plant.INPUT_NAMES */
 #define BN_N_OUT 8  /* cosim.parts.plant.OUTPUT_NAMES */
 #define BN_OUT_T_IN_MEAS 2
+#define BN_OUT_T_OUT_MEAS 3
 
 typedef struct {
     /* --- run ------------------------------------------------------------------------------ */
@@ -56,6 +57,16 @@ typedef struct {
     const double *adc_offsets_s, *adc_weights;
     int32_t pwm_ratio, pwm_period_clks, pwm_imax_q12;
     double escon_imax_a, escon_duty_error, escon_duty_resolution, escon_frac;
+    /* --- the far-end load cell for the online friction estimate (fric_est.h) ---------------
+     * est_feed 1: T_out_meas through a second ADC of the same kernel (the ADS131M02 samples both
+     * channels at once), and at every firmware tick the shadow's T_IN (the last code as the RTL
+     * converts it), T_OUT (raw code) and ADC_FLAGS (0) are the fresh values a board's MMIO reads
+     * would give. Far-end failures: from t_out_stuck_s the code holds; from t_out_absent_s it
+     * sits at the positive rail (an open bridge); negative: never. */
+    int32_t est_feed;
+    double t_out_stuck_s, t_out_absent_s;
+    int32_t *out_est_q28; /* n: the firmware's mu*phi in force (telemetry), held between ticks */
+    uint32_t est_faults;  /* the estimate's fault bits at the end */
     /* --- outputs -------------------------------------------------------------------------- */
     double *out_tc_n;     /* n: T_c in force in the RTL (after its slew limit) */
     double *out_current_a;/* n: command, A */

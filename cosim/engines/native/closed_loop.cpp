@@ -292,6 +292,7 @@ class Harness {
         std::memcpy(y_, s.y0, sizeof y_);
         plant_t_ = s.time0_s;
         if (s.iface != BN_IFACE_IDEAL) adc_ = std::make_unique<Adc>(s);
+        if (s.iface != BN_IFACE_IDEAL && s.est_feed) adc_out_ = std::make_unique<Adc>(s);
         if (s.iface == BN_IFACE_BOARD) pwm_ = std::make_unique<Pwm>(s);
     }
     ~Harness() { top_->final(); }
@@ -312,7 +313,10 @@ class Harness {
     double u_[BN_N_IN], y_[BN_N_OUT];
     double plant_t_;
     std::unique_ptr<Adc> adc_;
+    std::unique_ptr<Adc> adc_out_;  // the far-end channel (est_feed)
     std::unique_ptr<Pwm> pwm_;
+    int32_t code_in_ = 0, code_out_ = 0;  // the last codes of both channels
+    int32_t est_q28_ = 0;
 
     int64_t edges_ = 0;  // rising edges so far; "now" after edge E is 2E half clocks
     uint8_t cmd_valid_prev_ = 0;
@@ -479,15 +483,43 @@ class Harness {
         return adc_code(t_in, s_.adc_offset, s_.adc_gain);
     }
     bool chain_sense(int64_t k, double t_in, int32_t *code) {
+        if (s_.est_feed) far_end_sense(k);
         if (!adc_) {
             *code = adc_code(t_in, s_.adc_offset, s_.adc_gain);
+            code_in_ = *code;
             return true;
         }
         adc_->record(t_in);
         double v;
         if (!adc_->deliver(k, &v)) return false;
         *code = adc_code(v, s_.adc_offset, s_.adc_gain);
+        code_in_ = *code;
         return true;
+    }
+    // The far-end channel: the same conversion as T_in's, then the failure of the scenario.
+    void far_end_sense(int64_t k) {
+        double t_out = y_[BN_OUT_T_OUT_MEAS];
+        double t_s = double(k + 1) * s_.dt_s;
+        int32_t code = code_out_;
+        if (!adc_out_) {
+            code = adc_code(t_out, s_.adc_offset, s_.adc_gain);
+        } else {
+            adc_out_->record(t_out);
+            double v;
+            if (adc_out_->deliver(k, &v)) code = adc_code(v, s_.adc_offset, s_.adc_gain);
+        }
+        if (s_.t_out_absent_s >= 0.0 && t_s >= s_.t_out_absent_s) {
+            code = int32_t(ADC_CODE_MAX);
+        } else if (s_.t_out_stuck_s >= 0.0 && t_s >= s_.t_out_stuck_s) {
+            code = code_out_;
+        }
+        code_out_ = code;
+    }
+    // The RTL's T_IN word of a code (rtl_model.calibrate: rounded, saturated to 16 bits).
+    uint32_t t_in_word(int32_t code) const {
+        int64_t v = ((int64_t(code) - s_.adc_offset) * s_.adc_gain + (int64_t(1) << 19)) >> 20;
+        v = v < -32768 ? -32768 : (v > 32767 ? 32767 : v);
+        return uint32_t(int32_t(v));
     }
 
     void firmware_wake(int64_t k);
@@ -623,7 +655,18 @@ void Harness::firmware_wake(int64_t k) {
     task_k_ = k;
     task_wake_half_ = now_half() + 1;
     auto t0 = Clock::now();
+    if (s_.est_feed) {
+        fw_host_shadow_set(fw_, BOWDEN_REG_T_IN, t_in_word(code_in_));
+        fw_host_shadow_set(fw_, BOWDEN_REG_T_OUT, uint32_t(code_out_) & BOWDEN_T_OUT_MASK);
+        fw_host_shadow_set(fw_, BOWDEN_REG_ADC_FLAGS, 0u);
+    }
     int16_t tc_word = fw_host_tick(fw_, s_.t_ref_word[k]);
+    if (s_.est_feed) {
+        fw_telemetry_t tel;
+        fw_host_telemetry(fw_, &tel);
+        est_q28_ = tel.est_mu_phi_q28;
+        s_.est_faults = tel.est_faults;
+    }
     auto writes = drain_writes();
     fw_time_ += Clock::now() - t0;
     tc_new_ = double(tc_word) / 256.0;
@@ -660,6 +703,11 @@ void Harness::run() {
 
     // The plant at rest gives the ADC samples of the start-up, one per sample (the keeper).
     int32_t code0 = chain_start(y_[BN_OUT_T_IN_MEAS]);
+    code_in_ = code0;
+    if (s_.est_feed) {
+        if (adc_out_) adc_out_->record(y_[BN_OUT_T_OUT_MEAS]);
+        code_out_ = adc_code(y_[BN_OUT_T_OUT_MEAS], s_.adc_offset, s_.adc_gain);
+    }
     uint32_t level = 0;
     auto keep = [&]() {
         level ^= 1u << 24;
@@ -726,6 +774,7 @@ void Harness::run() {
             io.adc_word = toggle | (uint32_t(code) & 0xFFFFFF);
         }
         if (k % dec == 0) firmware_wake(k);
+        if (s_.out_est_q28) s_.out_est_q28[k] = est_q28_;
         if ((k & 1023) == 0) {
             s_.progress = k;
             if (s_.stop) fail("stopped at sample %lld", k);

@@ -34,7 +34,7 @@ from cosim.parts.interface import make_chain
 from cosim.parts.plant import INPUT_NAMES, OUTPUT_NAMES
 from cosim.project.progress import Progress
 
-API_VERSION = 3
+API_VERSION = 4
 IFACE_CODES = {"ideal": 0, "adc": 1, "board": 2}
 # As the cocotb harness (tb_closed_loop.SHADOW_REFRESH_TICKS).
 SHADOW_REFRESH_TICKS = 10
@@ -85,6 +85,11 @@ class Spec(ctypes.Structure):
         ("escon_duty_error", c_double),
         ("escon_duty_resolution", c_double),
         ("escon_frac", c_double),
+        ("est_feed", c_int32),
+        ("t_out_stuck_s", c_double),
+        ("t_out_absent_s", c_double),
+        ("out_est_q28", POINTER(c_int32)),
+        ("est_faults", c_uint32),
         ("out_tc_n", _D),
         ("out_current_a", _D),
         ("out_u_word", POINTER(c_int32)),
@@ -139,6 +144,11 @@ def scenario_of(run_spec: dict):
     if run_spec.get("position_m") is not None:
         scen = held_at(scen, run_spec["position_m"])
     return scen
+
+
+def _when(t_s: float | None) -> float:
+    """A failure time for bn_spec_t: -1 for never."""
+    return -1.0 if t_s is None else float(t_s)
 
 
 def _ptr(array: np.ndarray, ctype):
@@ -228,6 +238,13 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
         s.out_tc_n = _ptr(rec["T_c_N"], c_double)
         s.out_current_a = _ptr(rec["current_A"], c_double)
         s.out_u_word = _ptr(out_u_word, c_int32)
+        # The far-end cell for the online friction estimate (cosim/native/bn_api.h).
+        est_on = bool(cfg.compensator.est_enable) and run_spec["compensator"] != "none"
+        out_est = np.zeros(n, dtype=np.int32)
+        s.est_feed = 1 if est_on else 0
+        s.t_out_stuck_s = _when(cfg.board.t_out_stuck_s)
+        s.t_out_absent_s = _when(cfg.board.t_out_absent_s)
+        s.out_est_q28 = _ptr(out_est, c_int32) if est_on else None
         s.out_rows = _ptr(rows, c_double)
 
         status = _call(lib, s, n, cfg.sample_rate_hz, progress)
@@ -241,6 +258,8 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
     rec["T_ref_N"][:] = inp.t_ref_n
     rec["x_m"][:], rec["y_m"][:], rec["z_m"][:] = inp.x_m, inp.y_m, inp.z_m
     rec["u_word"] = out_u_word.astype(np.float64)
+    if s.est_feed:
+        rec["mu_phi_est"] = out_est / 2.0**28  # the firmware's mu*phi in force
     cost = {
         "rtl_s": s.rtl_s,
         "fmu_s": s.fmu_s,
@@ -258,6 +277,7 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
         "fault_word": s.fault_word,
         "status_word": s.status_word,
         "tc_latency_samples": TC_LATENCY_SAMPLES,
+        "est_faults": int(s.est_faults),
     }
     if s.late_writes:
         raise RuntimeError(

@@ -32,12 +32,15 @@ def read_table(path: Path) -> list[dict]:
 
 
 def _groups(rows: list[dict]) -> dict[str, list[dict]]:
-    """Rows by compensator and loop routing (the curves of a plot)."""
+    """Rows by compensator, loop routing and, when swept, the online friction estimate (the
+    curves of a plot)."""
     out: dict[str, list[dict]] = {}
     for r in rows:
         label = f"{r.get('compensator', '-')}"
         if "loop_routing" in r:
             label += ", loop" if r["loop_routing"] else ", no loop"
+        if "compensator.est_enable" in r:
+            label += ", estimate" if r["compensator.est_enable"] else ", calibrated"
         out.setdefault(label, []).append(r)
     return dict(sorted(out.items()))
 
@@ -116,12 +119,17 @@ def plot_sweep(rows: list[dict], axes: list[str], out_dir: Path, metric="rms_err
 
 
 def summary(rows: list[dict], metric: str = "rms_error_pct") -> str:
-    """Median and worst case of the metric per compensator / loop routing, as a text table."""
-    lines = [f"{'group':<22}{'points':>7}{'failed':>7}{'median %':>10}{'worst %':>9}"]
+    """Median and worst case of the metric (and of the peak error) per group, as a text table."""
+    head = f"{'group':<32}{'points':>7}{'failed':>7}{'median %':>10}{'worst %':>9}"
+    lines = [head + f"{'peak med %':>12}{'peak worst %':>14}"]
     for name, rs in _groups(rows).items():
-        vals = [r[metric] for r in rs if r.get("status") == "ok" and r.get(metric) is not None]
         fail = sum(r.get("status") != "ok" for r in rs)
-        med = f"{np.median(vals):.2f}" if vals else "-"
-        worst = f"{max(vals):.2f}" if vals else "-"
-        lines.append(f"{name:<22}{len(rs):>7}{fail:>7}{med:>10}{worst:>9}")
+        cells = []
+        for key in (metric, "peak_error_pct"):
+            vals = [r[key] for r in rs if r.get("status") == "ok" and r.get(key) is not None]
+            cells.append(f"{np.median(vals):.2f}" if vals else "-")
+            cells.append(f"{max(vals):.2f}" if vals else "-")
+        lines.append(
+            f"{name:<32}{len(rs):>7}{fail:>7}{cells[0]:>10}{cells[1]:>9}{cells[2]:>12}{cells[3]:>14}"
+        )
     return "\n".join(lines)

@@ -1,0 +1,45 @@
+/*
+ * fric_est_f64.h - the double twin of the friction estimate (host only: libm's log and exp), the
+ * oracle fric_est.h is held against. The same method (fric_est.h), the same integer gates on the
+ * same Q7.8 words, and in double: the accumulators P_b, Q_b (no rounding), the ratios, ln, the
+ * band e^x_max, the branch average and the rate bound. Configured from the same fixed-point
+ * configuration (fric_est_config_t), so both hold the same values.
+ */
+#ifndef BOWDEN_FRIC_EST_F64_H
+#define BOWDEN_FRIC_EST_F64_H
+
+#include <stdint.h>
+
+#include "fric_est.h"
+
+typedef struct {
+    fric_est_config_t cfg;
+    double lambda_inv;                /* 1 / tau */
+    double p[2], q[2];                /* means of dT_in dT_out and dT_out^2, (Q7.8 LSB)^2 */
+    uint32_t n[2];
+    double x_b[2];
+    double x;                         /* mu*phi */
+    double x_meas;
+    double band_hi;                   /* e^(5x/4) */
+    int16_t hist_in[FE_WINDOW_TICKS]; /* as fric_est_t */
+    int16_t hist_out[FE_WINDOW_TICKS];
+    int16_t hist_in_last;
+    int16_t hist_out_last;
+    uint32_t filled;
+    uint32_t pos;
+    int32_t last_code;
+    uint32_t same_ticks;
+    int32_t implausible;
+    uint32_t faults;
+    int32_t accepted;
+    uint32_t out_of_bounds;
+} fric_est_f64_t;
+
+/* Apply a configuration (checked by fric_est_config_check) and reset to x0 (in mu*phi). */
+void fric_est_f64_configure(fric_est_f64_t *e, const fric_est_config_t *cfg, double x0);
+void fric_est_f64_reset(fric_est_f64_t *e, double x0);
+/* One tick, the arguments of fric_est_step; returns the estimate mu*phi. */
+double fric_est_f64_step(fric_est_f64_t *e, int32_t t_in_q8, int32_t t_out_q8, int32_t code,
+                         int32_t code_min, int32_t code_max, uint32_t adc_flags);
+
+#endif /* BOWDEN_FRIC_EST_F64_H */

@@ -1,0 +1,309 @@
+/* fric_est.c - the online friction estimate; the method, formats and bounds are in fric_est.h. */
+#include "fric_est.h"
+
+#include "fxp.h"
+
+#define FE_HIST (FE_WINDOW_TICKS + 1) /* T(k - W) .. T(k) */
+
+/* e^(5x/4): the band around a held T_out that T_in may cross in a dead zone with friction up to
+ * a quarter above the estimate (x <= 4: 5x/4 <= 5 < 5.5, the domain of fxp_exp_uq8_24). */
+static uq8_24_t band_of(q3_28_t x)
+{
+    return fxp_exp_uq8_24((q3_28_t)(x + (x >> 2)));
+}
+
+void fric_est_config_default(fric_est_config_t *cfg)
+{
+    if (cfg == 0) {
+        return;
+    }
+    cfg->enable = 0;
+    cfg->tau_ticks = 256;
+    cfg->rate_q28 = (q3_28_t)(Q3_28_ONE >> 11);   /* 2^-11 per tick: 0.49 per second at 1 kHz */
+    cfg->mu_phi_min_q28 = (q3_28_t)13421773L;     /* 0.05 = round(0.05 * 2^28) */
+    cfg->mu_phi_max_q28 = (q3_28_t)(2L * Q3_28_ONE); /* 2.0 */
+    cfg->t_min_n_q8 = Q7_8_ONE / 2;                /* 0.5 N */
+}
+
+/* s with 2^s = v, or -1 when v is not a power of two. */
+static int32_t log2_exact(int32_t v)
+{
+    if (v <= 0 || (v & (v - 1)) != 0) {
+        return -1;
+    }
+    int32_t s = 0;
+    while ((v >> s) != 1) {
+        ++s;
+    }
+    return s;
+}
+
+int32_t fric_est_config_check(const fric_est_config_t *cfg, q3_28_t x0_q28, q3_28_t slope_q28)
+{
+    if (cfg == 0) {
+        return FE_ERR_NULL;
+    }
+    if (cfg->enable != 0 && cfg->enable != 1) {
+        return FE_ERR_ENABLE;
+    }
+    if (cfg->tau_ticks < FE_TAU_MIN_TICKS || cfg->tau_ticks > FE_TAU_MAX_TICKS ||
+        log2_exact(cfg->tau_ticks) < 0) {
+        return FE_ERR_TAU;
+    }
+    if (cfg->rate_q28 < 0 || cfg->rate_q28 > (q3_28_t)(Q3_28_ONE / 16)) {
+        return FE_ERR_RATE;
+    }
+    if (cfg->mu_phi_min_q28 < 0 || cfg->mu_phi_max_q28 > FE_X_MAX_Q28 ||
+        cfg->mu_phi_min_q28 >= cfg->mu_phi_max_q28) {
+        return FE_ERR_BOUNDS;
+    }
+    if (cfg->t_min_n_q8 < 0 || cfg->t_min_n_q8 > FE_TMIN_MAX_Q8) {
+        return FE_ERR_T_MIN;
+    }
+    if (cfg->enable != 0) {
+        if (x0_q28 < cfg->mu_phi_min_q28 || x0_q28 > cfg->mu_phi_max_q28) {
+            return FE_ERR_BOUNDS;
+        }
+        if (slope_q28 != 0) {
+            return FE_ERR_SLOPE;
+        }
+    }
+    return FE_OK;
+}
+
+void fric_est_reset(fric_est_t *e, q3_28_t x0_q28)
+{
+    for (int32_t b = 0; b < 2; ++b) {
+        e->p[b] = 0;
+        e->q[b] = 0;
+        e->n[b] = 0U;
+        e->x_b[b] = x0_q28;
+    }
+    e->x = x0_q28;
+    e->x_meas = x0_q28;
+    for (int32_t i = 0; i < FE_WINDOW_TICKS; ++i) {
+        e->hist_in[i] = 0;
+        e->hist_out[i] = 0;
+    }
+    e->hist_in_last = 0;
+    e->hist_out_last = 0;
+    e->filled = 0U;
+    e->pos = 0U;
+    e->last_code = 0;
+    e->same_ticks = 0U;
+    e->implausible = 0;
+    e->faults = 0U;
+    e->accepted = 0;
+    e->out_of_bounds = 0U;
+    e->band_hi = band_of(x0_q28);
+}
+
+void fric_est_configure(fric_est_t *e, const fric_est_config_t *cfg, q3_28_t x0_q28)
+{
+    e->cfg = *cfg;
+    e->tau_shift = log2_exact(cfg->tau_ticks);
+    if (e->tau_shift < 0) {
+        e->tau_shift = 8; /* unreachable after fric_est_config_check */
+    }
+    fric_est_reset(e, x0_q28);
+}
+
+/* The history entry j ticks before the newest (j in [0, W]). */
+static inline int32_t hist_at(const int16_t *h, int16_t newest_val, uint32_t pos, uint32_t j)
+{
+    if (j == 0U) {
+        return newest_val;
+    }
+    /* pos is the slot of T(k - W + ... ): entries k-1 .. k-W live in the W slots, pos is where
+     * k-W is (the oldest), so k-j is at pos + W - j. */
+    uint32_t i = pos + (uint32_t)FE_WINDOW_TICKS - j;
+    if (i >= (uint32_t)FE_WINDOW_TICKS) {
+        i -= (uint32_t)FE_WINDOW_TICKS;
+    }
+    return h[i];
+}
+
+/* acc <- acc + (v 2^FE_ACC_FRAC - acc) / 2^s, rounded (v in [0, 2^30), acc in [0, 2^58)). */
+static inline int64_t forget(int64_t acc, int64_t v, int32_t s)
+{
+    int64_t d = v * (INT64_C(1) << FE_ACC_FRAC) - acc; /* |d| < 2^58 */
+    return acc + ((d + (INT64_C(1) << (s - 1))) >> s);
+}
+
+q3_28_t fric_est_step(fric_est_t *e, int32_t t_in_q8, int32_t t_out_q8, int32_t code,
+                      int32_t code_min, int32_t code_max, uint32_t adc_flags)
+{
+    e->accepted = 0;
+    /* ADC flags and range are checked even when frozen, so that every fault is reported. */
+    if (adc_flags != 0U) {
+        e->faults |= FE_FAULT_ADC;
+    }
+    if (code < code_min || code > code_max || t_out_q8 < Q7_8_MIN || t_out_q8 > Q7_8_MAX ||
+        t_in_q8 < Q7_8_MIN || t_in_q8 > Q7_8_MAX) {
+        e->faults |= FE_FAULT_RANGE;
+    }
+    if (e->faults != 0U) {
+        return e->x; /* frozen until the next reset */
+    }
+
+    /* STUCK: an unchanged code while T_in leaves the band friction allows around it. */
+    if (e->filled > 0U && code == e->last_code) {
+        if (e->same_ticks < 0xFFFFFFFFU) {
+            ++e->same_ticks;
+        }
+    } else {
+        e->same_ticks = 0U;
+        e->implausible = 0;
+    }
+    e->last_code = code;
+    if (e->same_ticks > 0U && t_in_q8 >= e->cfg.t_min_n_q8) {
+        /* Q7.8 * UQ8.24 in int64: |T| < 2^15, band < 2^30 (e^4 < 55). */
+        int64_t in24 = (int64_t)t_in_q8 * (INT64_C(1) << 24);
+        int64_t hi = (int64_t)t_out_q8 * (int64_t)e->band_hi;
+        int64_t lo_scaled = (int64_t)t_in_q8 * (int64_t)e->band_hi; /* T_in e^x_max */
+        int64_t out24 = (int64_t)t_out_q8 * (INT64_C(1) << 24);
+        if (in24 > hi || lo_scaled < out24) {
+            e->implausible = 1;
+        }
+    }
+    if (e->same_ticks >= (uint32_t)FE_STUCK_TICKS && e->implausible != 0) {
+        e->faults |= FE_FAULT_STUCK;
+        return e->x;
+    }
+
+    /* History: the newest sample in *_last, the W before it in the ring. */
+    if (e->filled > 0U) {
+        e->hist_in[e->pos] = e->hist_in_last;
+        e->hist_out[e->pos] = e->hist_out_last;
+        e->pos = (e->pos + 1U < (uint32_t)FE_WINDOW_TICKS) ? e->pos + 1U : 0U;
+    }
+    e->hist_in_last = (int16_t)t_in_q8;
+    e->hist_out_last = (int16_t)t_out_q8;
+    if (e->filled < (uint32_t)FE_HIST) {
+        ++e->filled;
+    }
+    if (e->filled < (uint32_t)FE_HIST) {
+        return e->x;
+    }
+
+    const uint32_t w = (uint32_t)FE_WINDOW_TICKS;
+    const int32_t in_a = hist_at(e->hist_in, e->hist_in_last, e->pos, w);
+    const int32_t in_m = hist_at(e->hist_in, e->hist_in_last, e->pos, w / 2U);
+    const int32_t in_e = hist_at(e->hist_in, e->hist_in_last, e->pos, w / 8U);
+    const int32_t in_s = hist_at(e->hist_in, e->hist_in_last, e->pos, w - w / 8U);
+    const int32_t out_a = hist_at(e->hist_out, e->hist_out_last, e->pos, w);
+    const int32_t out_m = hist_at(e->hist_out, e->hist_out_last, e->pos, w / 2U);
+    const int32_t out_e = hist_at(e->hist_out, e->hist_out_last, e->pos, w / 8U);
+    const int32_t out_s = hist_at(e->hist_out, e->hist_out_last, e->pos, w - w / 8U);
+    const int32_t in_c = t_in_q8;
+    const int32_t out_c = t_out_q8;
+    const int32_t tmin = e->cfg.t_min_n_q8;
+    if (in_a < tmin || in_c < tmin || out_a < tmin || out_c < tmin) {
+        return e->x;
+    }
+    const int32_t half = FE_SLIDE_MIN_Q8 / 2;
+    int32_t b = -1;
+    for (int32_t s = 1; s >= -1; s -= 2) {
+        if (s * (in_m - in_a) >= half && s * (in_c - in_m) >= half && s * (in_c - in_e) > 0 &&
+            s * (in_s - in_a) > 0 && s * (out_m - out_a) >= half &&
+            s * (out_c - out_m) >= half && s * (out_c - out_e) > 0 && s * (out_s - out_a) > 0) {
+            b = (s > 0) ? 0 : 1;
+        }
+    }
+    if (b < 0) {
+        return e->x;
+    }
+
+    /* Increments |d| < 2^15 with the same sign: products in (0, 2^30). */
+    const int64_t d_in = in_c - in_a;
+    const int64_t d_out = out_c - out_a;
+    e->p[b] = forget(e->p[b], d_in * d_out, e->tau_shift);
+    e->q[b] = forget(e->q[b], d_out * d_out, e->tau_shift);
+    if (e->n[b] < 0xFFFFFFFFU) {
+        ++e->n[b];
+    }
+    e->accepted = 1;
+    if (e->n[b] < (uint32_t)FE_MIN_SAMPLES) {
+        return e->x;
+    }
+    /* G_up = P/Q >= 1 and 1/G_dn = Q/P >= 1 for mu*phi >= 0: the larger over the smaller keeps
+     * the UQ8.24 ratio's relative rounding below 2^-25. */
+    uq8_24_t ratio = (b == 0) ? fxp_div_uq8_24((uint64_t)e->p[0], (uint64_t)e->q[0])
+                              : fxp_div_uq8_24((uint64_t)e->q[1], (uint64_t)e->p[1]);
+    e->x_b[b] = (ratio == 0U) ? (q3_28_t)(-8L * Q3_28_ONE) : fric_est_ln_q28(ratio);
+    int64_t xm;
+    if (e->n[0] >= (uint32_t)FE_MIN_SAMPLES && e->n[1] >= (uint32_t)FE_MIN_SAMPLES) {
+        xm = ((int64_t)e->x_b[0] + (int64_t)e->x_b[1]) >> 1;
+    } else {
+        xm = e->x_b[b];
+    }
+    e->x_meas = (q3_28_t)xm;
+    if (xm < e->cfg.mu_phi_min_q28 || xm > e->cfg.mu_phi_max_q28) {
+        if (++e->out_of_bounds >= (uint32_t)FE_BOUND_SAMPLES) {
+            e->faults |= FE_FAULT_BOUND;
+        }
+        return e->x;
+    }
+    e->out_of_bounds = 0U;
+    int64_t dx = xm - (int64_t)e->x;
+    if (dx > e->cfg.rate_q28) {
+        dx = e->cfg.rate_q28;
+    } else if (dx < -(int64_t)e->cfg.rate_q28) {
+        dx = -(int64_t)e->cfg.rate_q28;
+    }
+    e->x = (q3_28_t)((int64_t)e->x + dx);
+    if (dx != 0) {
+        e->band_hi = band_of(e->x);
+    }
+    return e->x;
+}
+
+/* Q1.30 constants of the atanh series: 1/3, 1/5, 1/7, 1/9 (rounded). */
+#define LN_C3 357913941LL
+#define LN_C5 214748365LL
+#define LN_C7 153391689LL
+#define LN_C9 119304647LL
+#define LN2_Q40 762123384786LL /* round(ln 2 * 2^40) */
+#define SQRT2_Q30 1518500250U  /* round(sqrt(2) * 2^30) */
+
+q3_28_t fric_est_ln_q28(uq8_24_t v)
+{
+    if (v == 0U) {
+        return (q3_28_t)(-8L * Q3_28_ONE);
+    }
+    int32_t msb = 31;
+    while ((v >> msb) == 0U) {
+        --msb;
+    }
+    /* m in [1, 2) as mant / 2^30 (the bit below 2^-30 is dropped when msb = 31). */
+    uint32_t mant = (msb <= 30) ? (v << (30 - msb)) : (v >> 1);
+    int32_t k = msb - 24;
+    /* m > sqrt 2: use m/2, z = (m - 2)/(m + 2); else z = (m - 1)/(m + 1). Exact integers. */
+    int64_t c = INT64_C(1) << 30;
+    if (mant > SQRT2_Q30) {
+        c <<= 1;
+        k += 1;
+    }
+    int64_t num = (int64_t)mant - c; /* |num| < 2^30 */
+    int64_t den = (int64_t)mant + c; /* < 2^32 */
+    int64_t az = (int64_t)fxp_div_uq8_24((uint64_t)((num < 0) ? -num : num) << 6,
+                                         (uint64_t)den); /* |z| in Q1.30, <= 0.1716 */
+    int64_t z2 = (az * az + (INT64_C(1) << 29)) >> 30;
+    int64_t p = LN_C9;
+    p = LN_C7 + ((z2 * p + (INT64_C(1) << 29)) >> 30);
+    p = LN_C5 + ((z2 * p + (INT64_C(1) << 29)) >> 30);
+    p = LN_C3 + ((z2 * p + (INT64_C(1) << 29)) >> 30);
+    p = (INT64_C(1) << 30) + ((z2 * p + (INT64_C(1) << 29)) >> 30);
+    /* ln m = 2 z p: Q1.30 * Q1.30 = Q2.60 (< 2^59), * 2 / 2^32 -> Q3.28. */
+    int64_t lnm = (az * p + (INT64_C(1) << 30)) >> 31;
+    if (num < 0) {
+        lnm = -lnm;
+    }
+    int64_t r = (((int64_t)k * LN2_Q40 + (INT64_C(1) << 11)) >> 12) + lnm;
+    if (r < -8LL * Q3_28_ONE) {
+        r = -8LL * Q3_28_ONE;
+    } else if (r > (int64_t)INT32_MAX) {
+        r = INT32_MAX;
+    }
+    return (q3_28_t)r;
+}
