@@ -38,7 +38,7 @@ class Var:
 PARAM, INPUT, OUTPUT = "parameter", "input", "output"
 # fmt: off
 VARIABLES: list[Var] = [
-    # --- parameters named by the contract -------------------------------------------------
+    # --- parameters, named as the firmware and the co-simulation name them -----------------
     Var("mu", "Real", PARAM, 0.075, "1", 0.0, 1.0,
         "Coulomb friction coefficient cable/liner (paper Sec. VI-A: 0.075)"),
     Var("sheath_length", "Real", PARAM, 1.0, "m", 0.01, 10.0,

@@ -10,7 +10,7 @@
 #   make bench-target     Cortex-M4 library of the protocol and device code, and its size report
 #   make fuzz-proto       a long random/mutation run of the decoder and device (ASan + UBSan)
 #   make fuzz-proto-libfuzzer  the libFuzzer harness (needs clang; says so when it is missing)
-#   make bench-proto      figures: M4 size, instructions per frame (callgrind), host decoder
+#   make perf-proto      figures: M4 size, instructions per frame (callgrind), host decoder
 #                         frames per second, 60 s of 1 kHz telemetry over the emulator's pty
 
 BENCH_OUT := $(BUILD)/bench
@@ -45,11 +45,11 @@ BENCH_M4_LIB := $(BENCH_M4)/libbowden_bench.a
 BENCH_M4_OBJ := $(patsubst firmware/src/%.c,$(BENCH_M4)/obj/%.o,$(BENCH_OWN_SRC))
 PROTO_SRC := firmware/proto/bowden_proto.json firmware/proto/gen_proto.py
 
-.PHONY: proto proto-check bench-build bench-lint bench-target bench-proto fuzz-proto \
+.PHONY: proto proto-check bench-build bench-lint bench-target perf-proto fuzz-proto \
   fuzz-proto-libfuzzer
 BUILD_TARGETS += bench-build
 LINT_TARGETS += bench-lint
-BENCH_TARGETS += bench-proto
+PERF_TARGETS += perf-proto
 
 proto: $(VENV_STAMP)
 	$(PY) firmware/proto/gen_proto.py
@@ -81,15 +81,15 @@ $(BENCH_FUZZ): firmware/tests/bench/fuzz_proto.c firmware/tests/bench/fuzz_main.
 	  firmware/host/flash_ram.c firmware/host/dev_host.c firmware/tests/bench/fuzz_proto.c \
 	  firmware/tests/bench/fuzz_main.c -o $@
 
-$(BENCH_CG): firmware/bench/bench_proto.c $(BENCH_TARGET_SRC) $(BENCH_HDR)
+$(BENCH_CG): firmware/perf/bench_proto.c $(BENCH_TARGET_SRC) $(BENCH_HDR)
 	@mkdir -p $(dir $@)
-	$(BENCH_CC) $(BENCH_WARN) -O2 -g $(BENCH_INC) firmware/bench/bench_proto.c $(BENCH_TARGET_SRC) \
+	$(BENCH_CC) $(BENCH_WARN) -O2 -g $(BENCH_INC) firmware/perf/bench_proto.c $(BENCH_TARGET_SRC) \
 	  -o $@
 
 bench-lint: proto-check
 	@mkdir -p $(BENCH_M4)/lint
 	@set -e; for f in $(BENCH_OWN_SRC) $(BENCH_HOST_SRC) $(BENCH_TEST_SRC) \
-	  firmware/tests/bench/fuzz_proto.c firmware/tests/bench/fuzz_main.c firmware/bench/bench_proto.c; do \
+	  firmware/tests/bench/fuzz_proto.c firmware/tests/bench/fuzz_main.c firmware/perf/bench_proto.c; do \
 	  $(BENCH_CC) $(BENCH_WARN) $(BENCH_LINT_EXTRA) $(BENCH_INC) -fsyntax-only $$f; \
 	done; \
 	for f in $(BENCH_OWN_SRC) firmware/tools/bench_sizes.c; do \
@@ -132,5 +132,5 @@ fuzz-proto-libfuzzer:
 	  echo "fuzz-proto-libfuzzer: clang not found: the libFuzzer harness (firmware/tests/bench/fuzz_proto.c) was NOT run; make fuzz-proto runs the gcc random/mutation fuzzer"; \
 	fi
 
-bench-proto: bench-target $(BENCH_CG) $(BENCH_SO) fmu
+perf-proto: bench-target $(BENCH_CG) $(BENCH_SO) fmu
 	$(PY) -m cosim.perf.rig --cg $(BENCH_CG) --size $(BENCH_M4)/size.txt

@@ -2,8 +2,8 @@
 #
 #   make cosim-build  Verilator model of the co-simulation top (build/cosim/verilator), reused by
 #                     `bowden sim`, `bowden demo` and the tests/cosim suite
-#   make bench-cosim  closed-loop speed: simulated seconds per wall second of the 30 s fig14 run,
-#                     cost split RTL / FMU / firmware / harness (part of `make bench`)
+#   make perf-cosim  closed-loop speed: simulated seconds per wall second of the 30 s fig14 run,
+#                     cost split RTL / FMU / firmware / harness (part of `make perf`)
 #   make demo         (top-level) runs `bowden demo`: fig14 for paper/smooth with loop routing and
 #                     paper without, outputs in build/demo/
 
@@ -11,9 +11,9 @@ COSIM_RTL := $(sort $(wildcard hdl/rtl/*.v)) cosim/engines/cosim_top.v cosim/eng
   cosim/parts/rtl_model.py
 COSIM_STAMP := $(BUILD)/cosim/verilator/.built
 
-.PHONY: cosim-build bench-cosim
+.PHONY: cosim-build perf-cosim
 BUILD_TARGETS += cosim-build
-BENCH_TARGETS += bench-cosim
+PERF_TARGETS += perf-cosim
 
 cosim-build: $(COSIM_STAMP)
 
@@ -21,5 +21,5 @@ $(COSIM_STAMP): $(VENV_STAMP) $(COSIM_RTL) cosim/engines/cocotb/runner.py
 	$(PY) -m cosim.engines.cocotb.runner build
 	@touch $@
 
-bench-cosim: $(COSIM_STAMP) fmu firmware native
+perf-cosim: $(COSIM_STAMP) fmu firmware native
 	$(PY) -m cosim.perf.closed_loop

@@ -7,7 +7,7 @@
 #                         the Cortex-M4 (part of `make lint`)
 #   make firmware-target  Cortex-M4 static library (zig cc) and build/firmware/cortex-m4/size.txt;
 #                         fails on any reference to libm or to a soft-float helper
-#   make bench-firmware   instructions per compensator step under callgrind (part of `make bench`)
+#   make perf-firmware   instructions per compensator step under callgrind (part of `make perf`)
 
 FW_OUT := $(BUILD)/firmware
 FW_HOST_OUT := $(FW_OUT)/host
@@ -40,10 +40,10 @@ FW_M4_FLAGS := -target thumb-freestanding-eabihf -mcpu=cortex_m4 -ffreestanding 
   -fno-unwind-tables -fno-asynchronous-unwind-tables -ffunction-sections -fdata-sections
 FW_M4_OBJ := $(patsubst firmware/src/%.c,$(FW_M4_OUT)/obj/%.o,$(FW_TARGET_SRC))
 
-.PHONY: firmware firmware-lint firmware-target bench-firmware
+.PHONY: firmware firmware-lint firmware-target perf-firmware
 BUILD_TARGETS += firmware
 LINT_TARGETS += firmware-lint
-BENCH_TARGETS += bench-firmware
+PERF_TARGETS += perf-firmware
 
 firmware: $(FW_SO) $(FW_UNIT) $(FW_UNIT_SAN)
 
@@ -62,13 +62,13 @@ $(FW_UNIT_SAN): $(FW_TARGET_SRC) $(FW_HOST_SRC) $(FW_TEST_SRC) $(FW_HDR)
 	$(FW_CC) $(FW_WARN) -O1 -g $(FW_SAN) $(FW_INC) $(FW_TARGET_SRC) $(FW_HOST_SRC) $(FW_TEST_SRC) \
 	  -lm -o $@
 
-$(FW_BENCH): firmware/bench/bench_comp.c $(FW_TARGET_SRC) $(FW_HDR)
+$(FW_BENCH): firmware/perf/bench_comp.c $(FW_TARGET_SRC) $(FW_HDR)
 	@mkdir -p $(dir $@)
-	$(FW_CC) $(FW_WARN) -O2 -g $(FW_INC) firmware/bench/bench_comp.c $(FW_TARGET_SRC) -o $@
+	$(FW_CC) $(FW_WARN) -O2 -g $(FW_INC) firmware/perf/bench_comp.c $(FW_TARGET_SRC) -o $@
 
 firmware-lint: $(VENV_STAMP)
 	@mkdir -p $(FW_M4_OUT)/lint
-	@set -e; for f in $(FW_TARGET_SRC) $(FW_HOST_SRC) $(FW_TEST_SRC) firmware/bench/*.c; do \
+	@set -e; for f in $(FW_TARGET_SRC) $(FW_HOST_SRC) $(FW_TEST_SRC) firmware/perf/*.c; do \
 	  $(FW_CC) $(FW_WARN) $(FW_LINT_EXTRA) $(FW_INC) -fsyntax-only $$f; \
 	done; \
 	for f in $(FW_TARGET_SRC) firmware/tools/target_sizes.c; do \
@@ -92,5 +92,5 @@ firmware-target: $(FW_M4_LIB) $(FW_M4_OUT)/target_sizes.o
 	$(PY) firmware/tools/elf_report.py $(FW_M4_LIB) --sizes $(FW_M4_OUT)/target_sizes.o \
 	  --out $(FW_M4_SIZE)
 
-bench-firmware: $(FW_BENCH) $(VENV_STAMP)
+perf-firmware: $(FW_BENCH) $(VENV_STAMP)
 	$(PY) firmware/tools/bench_callgrind.py $(FW_BENCH)

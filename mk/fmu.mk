@@ -2,7 +2,7 @@
 #
 #   make fmu        build/fmu/BowdenPlant.fmu (linux64 binary, sources, modelDescription.xml)
 #   make fmu-lint   the C sources with -Wall -Wextra -Wpedantic -Werror (part of `make lint`)
-#   make fmu-bench  wall time per simulated second at a 100 us step (part of `make bench`)
+#   make perf-fmu  wall time per simulated second at a 100 us step (part of `make perf`)
 #
 # Rebuilds only what changed: the generator rewrites its outputs only when their text changes.
 
@@ -21,10 +21,10 @@ FMU_CFLAGS := $(FMU_WARN) -O2 -fPIC -fvisibility=hidden
 FMU_FMI2_INC = $(shell $(PY) -c 'import fmpy, os; print(os.path.join(os.path.dirname(fmpy.__file__), "c-code"))')
 FMU_INC = -I$(FMU_FMI2_INC) -Ifmu/src -I$(FMU_GEN)
 
-.PHONY: fmu fmu-lint fmu-bench
+.PHONY: fmu fmu-lint perf-fmu
 BUILD_TARGETS += fmu
 LINT_TARGETS += fmu-lint
-BENCH_TARGETS += fmu-bench
+PERF_TARGETS += perf-fmu
 
 fmu: $(FMU_FILE)
 
@@ -61,7 +61,7 @@ $(FMU_FILE): $(FMU_SO) $(FMU_STAGE)/modelDescription.xml $(FMU_STAGED_SOURCES)
 fmu-lint: $(FMU_GEN)/.stamp
 	$(FMU_CC) $(FMU_WARN) -O2 -fsyntax-only $(FMU_INC) $(FMU_C)
 
-fmu-bench: $(FMU_FILE)
+perf-fmu: $(FMU_FILE)
 	$(PY) -m cosim.perf.fmu
 
 # The FMU convergence study (cosim/convergence, fmu/README.md "Convergence"): max_step and sheath

@@ -3,7 +3,7 @@
 #   make regmap     regenerate the register map outputs from hdl/regmap/bowden_regs.json
 #   make lint-hdl   verilator --lint-only --quiet -Wall on every RTL module (part of make lint)
 #   make synth      yosys + nextpnr for ice40-up5k and ecp5-25f; fails when timing is not met
-#   make bench-hdl  LUT/DSP/Fmax per board next to the previous run (part of make bench)
+#   make perf-hdl  LUT/DSP/Fmax per board next to the previous run (part of make perf)
 
 HDL_RTL := $(sort $(wildcard hdl/rtl/*.v))
 HDL_BOARD_STUBS := $(sort $(wildcard hdl/boards/stubs/*.v))
@@ -12,9 +12,9 @@ REGMAP_SRC := hdl/regmap/bowden_regs.json hdl/regmap/gen_regmap.py
 REGMAP_OUT := hdl/rtl/bowden_regs.v firmware/include/bowden_regs.h cosim/parts/regmap.py
 
 LINT_TARGETS += lint-hdl
-BENCH_TARGETS += bench-hdl
+PERF_TARGETS += perf-hdl
 
-.PHONY: regmap regmap-check lint-hdl synth bench-hdl
+.PHONY: regmap regmap-check lint-hdl synth perf-hdl
 
 regmap: $(VENV_STAMP)
 	$(PY) hdl/regmap/gen_regmap.py
@@ -37,5 +37,5 @@ lint-hdl: $(VENV_STAMP) regmap-check
 synth: $(VENV_STAMP)
 	$(PY) hdl/synth/synth.py --all
 
-bench-hdl: $(VENV_STAMP)
+perf-hdl: $(VENV_STAMP)
 	$(PY) hdl/synth/synth.py --all --bench

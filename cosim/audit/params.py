@@ -22,7 +22,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from cosim.config.scenarios import CompensatorParams, SimConfig
+from cosim.config.run import CompensatorParams, SimConfig
 
 from .effects import BY_PARAM
 

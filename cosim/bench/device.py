@@ -344,7 +344,7 @@ class LoopChain:
     # --- python ------------------------------------------------------------------------------
 
     def _init_python(self) -> None:
-        from cosim.config.scenarios import SimConfig  # noqa: PLC0415
+        from cosim.config.run import SimConfig  # noqa: PLC0415
         from cosim.parts.interface import make_chain  # noqa: PLC0415
 
         self.model = rtl_model.TensionLoopModel()

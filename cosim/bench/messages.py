@@ -708,7 +708,10 @@ PARAMS: tuple[Param, ...] = (
         -32768,
         32767,
         0x9D00A4AF,
-        "Feedforward gain r/(N*eta*k_t). Kff; reset 0.088 A/N (paper bench, contract)",
+        (
+            "Feedforward gain r/(N*eta*k_t). Kff; reset 0.088 A/N (the paper's bench: 10 mm "
+            "spool, 5.4:1 gearhead at 0.9, k_t 23.4 mNm/A)"
+        ),
     ),
     Param(
         20,

@@ -712,7 +712,7 @@ def _plant_assignments(items: list[str]) -> dict:
     """--plant NAME=VALUE[,NAME=VALUE...] (repeatable) as FMU parameter overrides, checked as a
     params file's plant section is (cosim.config.scenarios.plant_overrides: an FMU parameter, in its
     range)."""
-    from cosim.config.scenarios import plant_overrides  # noqa: PLC0415 (reads the built FMU)
+    from cosim.config.run import plant_overrides  # noqa: PLC0415 (reads the built FMU)
 
     raw: dict[str, float | bool] = {}
     for item in (part for arg in items for part in arg.split(",")):

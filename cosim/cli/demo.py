@@ -60,7 +60,7 @@ def add_parser(subparsers) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from cosim.config.scenarios import SimConfig  # noqa: PLC0415
+    from cosim.config.run import SimConfig  # noqa: PLC0415
     from cosim.engines import experiment as sim  # noqa: PLC0415
 
     try:

@@ -9,7 +9,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from cosim.config.scenarios import COMPENSATORS, SCENARIO_NAMES, get_scenario, load_params
+from cosim.config.run import COMPENSATORS, load_params
+from cosim.config.scenarios import SCENARIO_NAMES, get_scenario
 from cosim.engines.experiment import (
     BUSES,
     ENGINES,

@@ -42,7 +42,7 @@ def add_parser(subparsers) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from cosim.config.scenarios import load_params  # noqa: PLC0415
+    from cosim.config.run import load_params  # noqa: PLC0415
     from cosim.studies.tune import tune  # noqa: PLC0415
 
     try:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cosim.config.scenarios import SimConfig
+from cosim.config.run import SimConfig
 from cosim.parts import rtl_model
 from cosim.parts.plant import OUTPUT_NAMES
 from cosim.project.paths import HDL_DIR

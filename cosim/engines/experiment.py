@@ -27,11 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cosim.config.scenarios import (
-    COMPENSATORS,
-    SimConfig,
-    get_scenario,
-)
+from cosim.config.run import COMPENSATORS, SimConfig
+from cosim.config.scenarios import get_scenario
 from cosim.parts.interface import INTERFACES
 from cosim.results import trace as trace_mod
 
@@ -52,7 +49,7 @@ BUSES = ("cocotbext-axi", "lean")
 # Engines of the fixed-point run: the cocotb harness (the reference: waveforms, Python access) or
 # its loop compiled (cosim/native: same bits as cocotb with the lean driver, 20x+ real time).
 ENGINES = ("cocotb", "native")
-# Full scale of the load cell path (contract.md: default calibration, about +-64 N).
+# Full scale of the load cell path (the RTL's default calibration, about +-64 N).
 FULL_SCALE_N = 64.0
 # Shortest run: ten firmware ticks. The harness reads back the T_c the RTL used (TC_EFF) at every
 # tenth tick (tb_closed_loop.SHADOW_REFRESH_TICKS), so a shorter run checks nothing of the loop,

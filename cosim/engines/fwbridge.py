@@ -1,13 +1,13 @@
 """The firmware as the co-simulation drives it, on top of cosim.parts.firmware (the firmware part's
 ctypes wrapper of build/firmware/host/libbowden_fw.so): configuration from a SimConfig (the
 loop's register words from the controller's SI gains), the register shadow, the tick and the
-write log (contract.md: no C -> Python callbacks). The compensator's double twin and the Q7.8
+write log (the firmware never calls back into Python). The compensator's double twin and the Q7.8
 words of T_ref come from cosim.parts.firmware directly.
 """
 
 from __future__ import annotations
 
-from cosim.config.scenarios import ControllerParams, SimConfig
+from cosim.config.run import ControllerParams, SimConfig
 from cosim.parts import firmware, regmap, rtl_model
 
 

@@ -25,7 +25,8 @@ import math
 
 import numpy as np
 
-from cosim.config.scenarios import Scenario, SimConfig, firmware_t_ref, sample_inputs
+from cosim.config.run import SimConfig
+from cosim.config.scenarios import Scenario, firmware_t_ref, sample_inputs
 from cosim.parts import regmap, rtl_model
 from cosim.parts.firmware import make_compensator_f64, tension_word
 from cosim.parts.interface import make_chain

@@ -1,6 +1,6 @@
 """The firmware's host build (build/firmware/host/libbowden_fw.so) through ctypes.
 
-Three things, as the co-simulation needs them (contract.md, "Firmware on the host"):
+Three things, as the co-simulation needs them (firmware/README.md, host build):
 
 - `Compensator`: the fixed-point friction compensator (firmware/include/comp.h), stepped one
   Q7.8 reference at a time or over an array;
@@ -22,7 +22,7 @@ from __future__ import annotations
 import ctypes
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -302,21 +302,59 @@ def tension_words(t_n) -> np.ndarray:
     return np.clip(q, Q7_8_MIN, Q7_8_MAX).astype(np.int16)
 
 
+_C_DEFAULTS: dict | None = None
+
+
+def c_defaults() -> dict:
+    """The compensator's defaults as the C firmware sets them (comp_f64_config_default), read
+    from the host library once, when first needed: the one source of CompensatorParams'
+    defaults (the fixed-point comp_config_default holds the same values, tests/firmware)."""
+    global _C_DEFAULTS
+    if _C_DEFAULTS is None:
+        c = CompF64Config()
+        load_library().comp_f64_config_default(ctypes.byref(c))
+        values = {name: getattr(c, name) for name, _ in CompF64Config._fields_}
+        values["mode"] = {code: name for name, code in MODES.items()}[values["mode"]]
+        _C_DEFAULTS = values
+    return dict(_C_DEFAULTS)
+
+
+def _c_default(name: str):
+    return field(default_factory=lambda: c_defaults()[name])
+
+
 @dataclass
 class CompensatorParams:
-    """The compensator's configuration in SI units (comp.h gives the law and the limits)."""
+    """The compensator's configuration in SI units (comp.h gives the law and the limits), for
+    the firmware and for a run (SimConfig.compensator, params files). Every default is the C
+    firmware's (c_defaults), except phi_rad: None there means "the bending angle of the sheath
+    at the scenario's start position", calibrated once per run as in the paper, where the
+    compensator uses the friction identified in the characterisation
+    (cosim.engines.reference.resolve_phi); the C structs get the firmware's default (2*pi, loop
+    routing) when it is still None."""
 
-    mode: str = "paper"  # none | paper | smooth | preview
-    mu: float = 0.075  # friction coefficient, [0, 1] (paper Fig. 11)
-    phi_rad: float = 2.0 * math.pi  # bending angle, [0, 4*pi] (loop routing: 2*pi)
-    mu_slope_per_n: float = 0.0  # friction rising with tension, [-1/128, 1/128] 1/N
-    offset_n: float = 0.0  # output sensor offset, [-64, 64] N
-    hysteresis_n: float = 4.0 / 256.0  # direction detector band H, [1/256, 32] N
-    band_n: float = 0.5  # smooth inverse band B, [1/256, 128] N (bowden tune)
-    tc_min_n: float = 0.0  # floor of T_c (minimum pretension), [0, 64] N
-    preview_ticks: int = 60  # preview: T_ref is handed this many ticks ahead, [0, 128]
-    lead_ticks: int = 0  # preview: the gain applies to T_ref this many ticks ahead, [0, P]
-    ramp_ticks: int = 120  # preview: ticks of a change of branch, [1, 256]
+    # none | paper | smooth | preview; a run takes it from --compensator (SimConfig leaves it out)
+    mode: str = _c_default("mode")
+    mu: float = _c_default("mu")  # friction coefficient, [0, 1] (paper Fig. 11)
+    phi_rad: float | None = None  # bending angle, [0, 4*pi] (loop routing: 2*pi)
+    # H as the firmware default (4 LSB of Q7.8); B chosen by `bowden tune` (the firmware default).
+    band_n: float = _c_default("band_n")  # smooth inverse band B, [1/256, 128] N
+    hysteresis_n: float = _c_default("hysteresis_n")  # direction detector band H, [1/256, 32] N
+    offset_n: float = _c_default("offset_n")  # output sensor offset, [-64, 64] N (audit)
+    # friction rising with tension, [-1/128, 1/128] 1/N (audit extension)
+    mu_slope_per_n: float = _c_default("mu_slope_per_n")
+    tc_min_n: float = _c_default("tc_min_n")  # floor of T_c (a cable cannot push), [0, 64] N
+    # Preview mode (comp.h): T_ref handed preview_ticks firmware ticks ahead, [0, 128]; the gain
+    # applies to T_ref lead_ticks ahead, [0, P]; a change of branch takes ramp_ticks, [1, 256].
+    # Chosen by `bowden tune` on the tune scenario (hdl/README.md).
+    preview_ticks: int = _c_default("preview_ticks")
+    lead_ticks: int = _c_default("lead_ticks")
+    ramp_ticks: int = _c_default("ramp_ticks")
+
+    @property
+    def phi_c_rad(self) -> float:
+        """The bending angle the C structs get: phi_rad, or the firmware's default when None."""
+        return c_defaults()["phi_rad"] if self.phi_rad is None else self.phi_rad
 
     def mode_code(self) -> int:
         if not isinstance(self.mode, str) or self.mode not in MODES:
@@ -327,7 +365,7 @@ class CompensatorParams:
         return CompConfig(
             mode=self.mode_code(),
             mu_q28=_fixed("comp.mu", self.mu, 28),
-            phi_rad_q24=_fixed("comp.phi_rad", self.phi_rad, 24),
+            phi_rad_q24=_fixed("comp.phi_rad", self.phi_c_rad, 24),
             mu_slope_per_n_q28=_fixed("comp.mu_slope_per_n", self.mu_slope_per_n, 28),
             offset_n_q8=_fixed("comp.offset_n", self.offset_n, 8),
             hysteresis_n_q8=_fixed("comp.hysteresis_n", self.hysteresis_n, 8),
@@ -364,7 +402,8 @@ class CompensatorParams:
             "band_n",
             "tc_min_n",
         ):
-            values[name] = _real(f"comp.{name}", getattr(self, name))
+            value = self.phi_c_rad if name == "phi_rad" else getattr(self, name)
+            values[name] = _real(f"comp.{name}", value)
         return CompF64Config(mode=self.mode_code(), **values, **self._ticks())
 
     def _ticks(self) -> dict[str, int]:
@@ -378,17 +417,17 @@ class CompensatorParams:
         """G_up and G_dn at output tension |T| (comp.h): the capstan relation integrated with
         mu(T) = mu + mu_slope_per_n*T; exp(+-mu*phi) without a slope."""
         a = np.minimum(np.abs(np.asarray(t_n, dtype=float)), Q7_8_MAX * Q7_8_LSB_N)
-        x = self.mu * self.phi_rad
+        x = self.mu * self.phi_c_rad
         e = math.exp(x)
-        q = self.phi_rad * math.expm1(x) / x if x > 0 else self.phi_rad
+        q = self.phi_c_rad * math.expm1(x) / x if x > 0 else self.phi_c_rad
         c = self.mu_slope_per_n * q * a
         return e / (1.0 - c), 1.0 / (e + c)
 
     def _gain_stats(self) -> tuple[float, float, float, float]:
         """Largest G_up, G_up - G_dn, |dG/dT| and |d2G/dT2| of either branch over [0, 128] N."""
-        x = self.mu * self.phi_rad
+        x = self.mu * self.phi_c_rad
         e = math.exp(x)
-        q = self.phi_rad * math.expm1(x) / x if x > 0 else self.phi_rad
+        q = self.phi_c_rad * math.expm1(x) / x if x > 0 else self.phi_c_rad
         k = self.mu_slope_per_n * q
         a = np.linspace(0.0, FULL_SCALE_N, 513)
         du, dd = 1.0 - k * a, e + k * a
@@ -500,31 +539,17 @@ class CompensatorF64:
         return out
 
 
-def _params_from(mode: str, params, phi_rad: float) -> CompensatorParams:
-    """CompensatorParams from any object with mu, band_n, hysteresis_n (and optionally offset_n,
-    mu_slope_per_n, tc_min_n, preview_ticks, lead_ticks, ramp_ticks), e.g.
-    cosim.config.scenarios.CompensatorParams."""
-    return CompensatorParams(
-        mode=mode,
-        mu=float(params.mu),
-        phi_rad=float(phi_rad),
-        mu_slope_per_n=float(getattr(params, "mu_slope_per_n", 0.0)),
-        offset_n=float(getattr(params, "offset_n", 0.0)),
-        hysteresis_n=float(params.hysteresis_n),
-        band_n=float(params.band_n),
-        tc_min_n=float(getattr(params, "tc_min_n", 0.0)),
-        preview_ticks=int(getattr(params, "preview_ticks", CompensatorParams.preview_ticks)),
-        lead_ticks=int(getattr(params, "lead_ticks", CompensatorParams.lead_ticks)),
-        ramp_ticks=int(getattr(params, "ramp_ticks", CompensatorParams.ramp_ticks)),
-    )
+def _params_from(mode: str, params: CompensatorParams, phi_rad: float) -> CompensatorParams:
+    """A run's compensator parameters with the run's mode and calibrated bending angle."""
+    return replace(params, mode=mode, phi_rad=float(phi_rad))
 
 
-def make_compensator(mode: str, params, phi_rad: float) -> Compensator:
+def make_compensator(mode: str, params: CompensatorParams, phi_rad: float) -> Compensator:
     """The fixed-point compensator configured from a scenario's compensator parameters."""
     return Compensator(_params_from(mode, params, phi_rad))
 
 
-def make_compensator_f64(mode: str, params, phi_rad: float) -> CompensatorF64:
+def make_compensator_f64(mode: str, params: CompensatorParams, phi_rad: float) -> CompensatorF64:
     """The double twin configured exactly as the fixed-point compensator would be (its
     parameters quantized the same way), for the co-simulation's float reference."""
     return CompensatorF64(_params_from(mode, params, phi_rad).quantized())
@@ -596,7 +621,7 @@ class FirmwareConfig:
 
 def make_firmware(
     mode: str,
-    params,
+    params: CompensatorParams,
     phi_rad: float,
     tick_rate_hz: float = 1000.0,
     sample_rate_hz: float = 10000.0,
@@ -623,7 +648,8 @@ def _addr(reg: int | str) -> int:
 
 
 class Firmware:
-    """The firmware on a register shadow: start, tick, drain the register writes (contract.md)."""
+    """The firmware on a register shadow: start, tick, drain the register writes (no callbacks into
+    Python)."""
 
     def __init__(self, config: FirmwareConfig | None = None):
         self._lib = load_library()

@@ -5,7 +5,7 @@ A co-simulation steps the plant FMU over each FPGA sample period [t_k, t_k+1) (t
 hands the core one command per sample; between the two sit, on the board, the load-cell ADC and
 the ESCON's PWM set value. `make_chain(cfg, name, fixed)` returns the stage for a run:
 
-- ``ideal`` (the co-simulation before issue 11): the core's tick k+1 gets T_in_meas(t_k+1) as a
+- ``ideal`` (the co-simulation's first interface): the core's tick k+1 gets T_in_meas(t_k+1) as a
   fresh sample, and the plant is driven by u_k over [t_k, t_k+1), with no delay.
 - ``adc``: the board's ADC (below) in place of the ideal one; the drive stays ideal.
 - ``board`` (the default of `bowden sim` and `bowden demo`): the board's ADC and PWM -> ESCON.

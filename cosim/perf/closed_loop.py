@@ -1,11 +1,11 @@
-"""Closed-loop speed benchmark (`make bench-cosim`, part of `make bench`).
+"""Closed-loop speed benchmark (`make perf-cosim`, part of `make bench`).
 
 Runs the 30 s fig14 scenario (compensator paper, loop routing) through the RTL on Verilator at
 the default 10 kHz loop with the firmware and the FMU, and prints simulated seconds per wall
 second and the cost split: RTL (Verilator and cocotb's per-clock scheduling, calibrated on bare
 samples), FMU steps, firmware ticks, and the harness (AXI4-Lite driver coroutines and per-sample
-glue). Targets (issue 6): real time or better, and harness <= RTL + FMU + firmware. Then the
-same run on the native engine (cosim/native, issue 14; target 20x real time or better) and its
+glue). Targets: real time or better, and harness <= RTL + FMU + firmware. Then the
+same run on the native engine (cosim/engines/native; target 20x real time or better) and its
 speed against the cocotb runs of the same invocation. A benchmark prints figures and does not
 fail on a slow or busy machine.
 """
@@ -17,11 +17,12 @@ import os
 import sys
 import time
 
-from cosim.config.scenarios import COMPENSATORS
+from cosim.config.run import COMPENSATORS
 
 
 def _spec(duration_s: float, compensator: str, bus: str, plant: dict | None = None) -> dict:
-    from cosim.config.scenarios import SimConfig, get_scenario  # noqa: PLC0415
+    from cosim.config.run import SimConfig  # noqa: PLC0415
+    from cosim.config.scenarios import get_scenario
     from cosim.engines.reference import resolve_phi  # noqa: PLC0415
 
     cfg = SimConfig.from_dict({"plant": plant or {}})
@@ -93,7 +94,7 @@ def bench_native(duration_s: float, compensator: str, cocotb_wall: dict[str, flo
 
 def bench_one(duration_s: float, compensator: str, bus: str) -> float:
     """One closed-loop run and its figures."""
-    from cosim.config.scenarios import SimConfig  # noqa: PLC0415
+    from cosim.config.run import SimConfig  # noqa: PLC0415
     from cosim.engines.cocotb import runner  # noqa: PLC0415
 
     cfg = SimConfig()

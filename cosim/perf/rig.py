@@ -1,7 +1,7 @@
-"""Figures of the bench protocol (`make bench-proto`, part of `make bench`):
+"""Figures of the bench protocol (`make perf-proto`, part of `make bench`):
 
 - the Cortex-M4 code size of the protocol and device code (build/bench/cortex-m4/size.txt);
-- instructions per frame on the host under callgrind (firmware/bench/bench_proto.c): decoding a
+- instructions per frame on the host under callgrind (firmware/perf/bench_proto.c): decoding a
   telemetry frame byte by byte, and packing + encoding one;
 - the host decoders' frames per second (Python: cosim.bench.protocol.FrameDecoder; C: the
   firmware's proto_rx_byte, natively);

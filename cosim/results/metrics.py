@@ -27,7 +27,7 @@ import numpy as np
 
 from . import capstan_fit
 
-# LSB of the Q3.12 current command (contract.md).
+# LSB of the Q3.12 current command (hdl/README.md, register map).
 CURRENT_LSB_A = 1.0 / 4096.0
 
 # The paper's results (Sec. VI-C, Fig. 14).

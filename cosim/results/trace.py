@@ -101,7 +101,8 @@ META_RANGES: dict[str, tuple[float, float, str, bool]] = {
     "sheath_length_m": (0.01, 10.0, "m", False),
     "mu": (0.0, 1.0, "", False),
 }
-# Defaults of a measured trace's sidecar (issue 9): a 1 m sheath with loop routing, mu unknown.
+# Defaults of a measured trace's sidecar (the model audit's input): a 1 m sheath with loop routing,
+# mu unknown.
 MEASURED_META_DEFAULTS = {"sheath_length_m": 1.0, "loop_routing": True, "mu": None}
 
 # Relative tolerance on the spacing of t_s against 1 / sample_rate_hz (recordings jitter a bit;

@@ -53,7 +53,8 @@ def _errors(scen, rec) -> dict:
 def held_out(interface: str, duration_s: float, quiet: bool = False) -> list[dict]:
     """Each held-out scenario x compensator: the fixed-point chain through `interface` and the
     float reference through the ideal interface (errors in % of the maximum reference)."""
-    from cosim.config.scenarios import HELD_OUT_SCENARIOS, SimConfig, get_scenario  # noqa: PLC0415
+    from cosim.config.run import SimConfig  # noqa: PLC0415
+    from cosim.config.scenarios import HELD_OUT_SCENARIOS, get_scenario
     from cosim.engines.reference import resolve_phi, run_model_chain, run_reference  # noqa: PLC0415
 
     cfg = SimConfig()

@@ -83,7 +83,7 @@
 
 /* KFF: Feedforward gain r/(N*eta*k_t). */
 #define BOWDEN_REG_KFF 0x14u
-/* VALUE (rw Q2.13 A/N): Kff; reset 0.088 A/N (paper bench, contract) */
+/* VALUE (rw Q2.13 A/N): Kff; reset 0.088 A/N (the paper's bench: 10 mm spool, 5.4:1 gearhead at 0.9, k_t 23.4 mNm/A) */
 #define BOWDEN_KFF_SHIFT 0u
 #define BOWDEN_KFF_MASK 0x0000FFFFu
 #define BOWDEN_KFF_FRAC_BITS 13u

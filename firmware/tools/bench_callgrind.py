@@ -2,7 +2,7 @@
 
     python firmware/tools/bench_callgrind.py BENCH_EXE [--steps N] [--json OUT]
 
-Runs BENCH_EXE (firmware/bench/bench_comp.c) under callgrind with collection switched on only
+Runs BENCH_EXE (firmware/perf/bench_comp.c) under callgrind with collection switched on only
 inside comp_step_q7_8, for each scenario, and prints instructions per step (total Ir / steps).
 The count is deterministic for a given binary. Target: <= 100 per step (firmware/README.md,
 Measured figures). Without valgrind on PATH it says so and exits 0 (a benchmark must not fail on
@@ -64,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     result = measure(args.exe, args.steps)
     if result is None:
-        print("bench-firmware: valgrind not found on PATH: instructions per step NOT measured")
+        print("perf-firmware: valgrind not found on PATH: instructions per step NOT measured")
         return 0
     print(f"compensator step on the host (callgrind, {args.steps} steps of the Fig. 14 sine):")
     for scenario, per_step in result.items():

@@ -13,7 +13,12 @@ scratch copy of the sources under build/formal/mutants/<mutant>/ and runs the bo
 (the `bmc` task of the same .sby, same properties) that must catch it: KILLED when it finds a
 counterexample trace, SURVIVED (an error) otherwise. The tree itself is never modified.
 
+`--properties` prints the table of named properties (every assertion's label, its tag's meaning
+and the mutants that attack it) and checks the naming rule: exit 1 when an assertion has no label
+or a label that does not follow its tag.
+
 Usage: formal.py [--tasks NAME:TASK ...] [--mutants [MUTANT ...]] [--out DIR] [--jobs N]
+       formal.py --properties
 Exit status: 0 when every task passed (every mutant was killed), 1 otherwise, 2 on bad usage.
 """
 
@@ -34,6 +39,80 @@ ROOT = Path(__file__).resolve().parents[2]
 FORMAL_DIR = ROOT / "hdl" / "formal"
 RTL_DIR = ROOT / "hdl" / "rtl"
 BUILD_DIR = ROOT / "build" / "formal"
+
+# A named property: `// property NAME: meaning` in a module's FORMAL block, and every assertion
+# under it labelled NAME, NAME_2, NAME_3, ... (hdl/README.md, "Named properties").
+PROPERTY_TAG = re.compile(r"//\s*property\s+(\w+):\s*(.*)")
+ASSERT_STMT = re.compile(r"(?:(\w+)\s*:\s*)?(assert\s*\(|`TL_ENV\s*\()")
+
+
+@dataclass(frozen=True)
+class Property:
+    name: str
+    module: str  # file under hdl/rtl/
+    meaning: str
+    asserts: int  # labelled assertions under the tag
+
+
+def properties(rtl_dir: Path = RTL_DIR) -> tuple[list[Property], list[str]]:
+    """Every named property of the RTL's FORMAL blocks, and the rule breaks found on the way."""
+    props: list[Property] = []
+    errors: list[str] = []
+    for path in sorted(rtl_dir.glob("*.v")):
+        text = path.read_text()
+        start = text.find("`ifdef FORMAL")
+        if start < 0:
+            continue
+        line0 = text.count("\n", 0, start) + 1
+        cur: list = []  # [name, meaning, count] of the current tag
+        found: list[list] = []
+        for n, line in enumerate(text[start:].split("\n"), line0):
+            code, _, comment = line.partition("//")
+            tag = PROPERTY_TAG.search("//" + comment) if comment else None
+            if tag:
+                cur = [tag.group(1), tag.group(2).strip(), 0]
+                found.append(cur)
+            for m in ASSERT_STMT.finditer(code):
+                if code.lstrip().startswith("`define"):
+                    continue
+                where = f"{path.name}:{n}"
+                if not cur:
+                    errors.append(f"{where}: assertion before any `// property NAME:` tag")
+                    continue
+                cur[2] += 1
+                want = cur[0] if cur[2] == 1 else f"{cur[0]}_{cur[2]}"
+                if m.group(1) != want:
+                    errors.append(f"{where}: assertion labelled {m.group(1)}, expected {want}")
+        props += [Property(name, path.name, meaning, k) for name, meaning, k in found]
+    seen: set[str] = set()
+    for p in props:
+        if p.name in seen:
+            errors.append(f"property {p.name} named twice")
+        if p.asserts == 0:
+            errors.append(f"property {p.name} ({p.module}) has no assertion")
+        seen.add(p.name)
+    for m in MUTANTS:
+        if m.prop not in seen:
+            errors.append(f"mutant {m.name} attacks {m.prop}, which is no named property")
+    return props, errors
+
+
+def property_table(props: list[Property]) -> str:
+    """The markdown table of hdl/README.md's "Named properties" (`formal.py --properties`)."""
+    killers: dict[str, list[str]] = {}
+    for m in MUTANTS:
+        killers.setdefault(m.prop, []).append(f"`{m.name}`")
+    rows = [
+        "| property | module | assertions | meaning | mutants |",
+        "| --- | --- | --- | --- | --- |",
+    ]
+    for p in props:
+        rows.append(
+            f"| `{p.name}` | `{p.module}` | {p.asserts} | {p.meaning} | "
+            f"{', '.join(killers.get(p.name, [])) or '-'} |"
+        )
+    return "\n".join(rows) + "\n"
+
 
 # Every task `make formal` runs, in order (the slowest first, so two jobs finish together).
 TASKS = [
@@ -57,7 +136,7 @@ class Mutant:
     """A deliberate break of one RTL file; `task` must fail on it."""
 
     name: str
-    prop: str  # the property (issue 12 numbering) it attacks
+    prop: str  # the named property it attacks (a `// property NAME:` tag in the RTL)
     file: str  # under hdl/rtl/
     old: str  # text replaced (must occur exactly once)
     new: str
@@ -67,7 +146,7 @@ class Mutant:
 MUTANTS = [
     Mutant(
         "drdy_timeout_stopped",
-        "reader: a stuck DRDY raises drdy_lost",
+        "ads_drdy_lost",
         "ads131m02_reader.v",
         "    to_next = (to_reg == TO_LIMIT) ? to_reg : to_reg + 1'b1;",
         "    to_next = to_reg;",
@@ -75,7 +154,7 @@ MUTANTS = [
     ),
     Mutant(
         "u_clamp_removed",
-        "1 current limit",
+        "tl_current_limit",
         "tension_loop.v",
         "wire [15:0] u_sat = rhi_reg ? {1'b0, lim_s_reg} : rlo_reg ? nlim_reg : r_reg[15:0];",
         "wire [15:0] u_sat = rhi_reg ? {1'b0, lim_s_reg} : r_reg[15:0];",
@@ -83,7 +162,7 @@ MUTANTS = [
     ),
     Mutant(
         "u_kept_when_disabled",
-        "1 zero when disabled",
+        "tl_stop_zero_or_ramp",
         "tension_loop.v",
         "            u_next = ramp_reg ? u_ramp_reg : 16'd0;",
         "            u_next = ramp_reg ? u_ramp_reg : u_reg;",
@@ -91,7 +170,7 @@ MUTANTS = [
     ),
     Mutant(
         "pwm_clamp_removed",
-        "2 duty 10..90 %",
+        "pwm_duty_bounds",
         "pwm_escon.v",
         "    end else if (gt_reg) begin",
         "    end else if (1'b0) begin",
@@ -99,7 +178,7 @@ MUTANTS = [
     ),
     Mutant(
         "pwm_duty_mid_period",
-        "2 period boundaries",
+        "pwm_period_boundary",
         "pwm_escon.v",
         "    if (cnt_reg == LAST) begin\n        duty_next = HALF + offset;",
         "    if (cnt_reg[0]) begin\n        duty_next = HALF + offset;",
@@ -107,7 +186,7 @@ MUTANTS = [
     ),
     Mutant(
         "pwm_ignores_enable",
-        "2 50 % when disabled",
+        "pwm_half_when_disabled",
         "pwm_escon.v",
         "    if (!en_reg) begin\n        u_c = 16'd0;",
         "    if (1'b0) begin\n        u_c = 16'd0;",
@@ -115,7 +194,7 @@ MUTANTS = [
     ),
     Mutant(
         "integ_clamp_removed",
-        "3 integrator clamp",
+        "tl_integ_clamp",
         "tension_loop.v",
         "wire [32:0] i_clamped = ihi_reg ? lim28 : ilo_reg ? nlim28 : isum_reg;",
         "wire [32:0] i_clamped = ilo_reg ? nlim28 : isum_reg;",
@@ -123,7 +202,7 @@ MUTANTS = [
     ),
     Mutant(
         "held_integ_unclamped",
-        "3 integrator clamp (the bug the proof found)",
+        "tl_anti_windup",
         "tension_loop.v",
         "inew_next = windup ? ihold_reg : i_clamped[31:0];",
         "inew_next = windup ? iprev_reg : i_clamped[31:0];",
@@ -131,7 +210,7 @@ MUTANTS = [
     ),
     Mutant(
         "anti_windup_removed",
-        "3 anti-windup",
+        "tl_anti_windup",
         "tension_loop.v",
         "wire windup = (sat_hi_reg && pi_pos_reg) || (sat_lo_reg && pi_neg_reg);",
         "wire windup = (sat_lo_reg && pi_neg_reg);",
@@ -139,7 +218,7 @@ MUTANTS = [
     ),
     Mutant(
         "fault_not_latched",
-        "4 faults latch",
+        "tl_fault_definition",
         "tension_loop.v",
         "        fbase_s_next = fclr_now ? 4'd0 : fault_reg;",
         "        fbase_s_next = 4'd0;",
@@ -147,7 +226,7 @@ MUTANTS = [
     ),
     Mutant(
         "range_fault_ignored",
-        "4 ADC range fault",
+        "tl_fault_definition",
         "tension_loop.v",
         "        hi_bad_next = above_max[24];  // raw > ADC_MAX",
         "        hi_bad_next = 1'b0;",
@@ -155,7 +234,7 @@ MUTANTS = [
     ),
     Mutant(
         "watchdog_ramps_with_other_fault",
-        "4 watchdog with another fault goes to zero",
+        "tl_hard_fault_safe",
         "tension_loop.v",
         "        ramp_next = en_s_reg && (faults_now == F_WDT);",
         "        ramp_next = en_s_reg && faults_now[2];",
@@ -163,7 +242,7 @@ MUTANTS = [
     ),
     Mutant(
         "watchdog_no_ramp_limit",
-        "4 watchdog ramp",
+        "tl_stop_zero_or_ramp",
         "tension_loop.v",
         "wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : 16'd0;",
         "wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : u_reg;",
@@ -171,7 +250,7 @@ MUTANTS = [
     ),
     Mutant(
         "tick_too_early",
-        "4 (composition) tick spacing",
+        "tl_tick_spacing",
         "bowden_core.v",
         "    tick_next = (tick_cnt_reg == TICK_LAST);",
         "    tick_next = (tick_cnt_reg == TICK_LAST) || (tick_cnt_reg == 3);",
@@ -179,7 +258,7 @@ MUTANTS = [
     ),
     Mutant(
         "axil_double_response",
-        "5 one response per request",
+        "axil_one_response",
         "axil_regbus.v",
         "    bvalid_next = bvalid_reg && !s_axil_bready;",
         "    bvalid_next = bvalid_reg;",
@@ -187,7 +266,7 @@ MUTANTS = [
     ),
     Mutant(
         "axil_bresp_okay_always",
-        "5 answer as documented",
+        "axil_resp_code",
         "axil_regbus.v",
         "        bresp_next = reg_wr_err ? RESP_SLVERR : RESP_OKAY;",
         "        bresp_next = RESP_OKAY;",
@@ -195,7 +274,7 @@ MUTANTS = [
     ),
     Mutant(
         "regs_ro_write_lands",
-        "5/6 writes to read-only addresses change nothing",
+        "regs_value_kp_value",
         "bowden_regs.v",
         "            A_STATUS: begin\n                wr_hit = 1'b1;\n            end",
         "            A_STATUS: begin\n                wr_hit = 1'b1;\n"
@@ -204,7 +283,7 @@ MUTANTS = [
     ),
     Mutant(
         "regs_reset_value",
-        "6 reset values",
+        "regs_value_kff_value",
         "bowden_regs.v",
         "        kff_reg <= 16'd721;",
         "        kff_reg <= 16'd720;",
@@ -212,7 +291,7 @@ MUTANTS = [
     ),
     Mutant(
         "bridge_aliases_high_words",
-        "5 no aliasing (the known defect)",
+        "spi_one_access",
         "spi_axil_bridge.v",
         "wire       wr_in_range = (wr_addr >> ADDR_W) == 9'd0;",
         "wire       wr_in_range = 1'b1;",
@@ -220,7 +299,7 @@ MUTANTS = [
     ),
     Mutant(
         "bridge_not_armed_after_reset",
-        "5 reset in mid-frame",
+        "spi_frame_count",
         "spi_axil_bridge.v",
         "    armed_next = armed_reg || !cs_active;",
         "    armed_next = 1'b1;",
@@ -228,7 +307,7 @@ MUTANTS = [
     ),
     Mutant(
         "bridge_partial_frame",
-        "5 no access from a partial frame",
+        "spi_access_point",
         "spi_axil_bridge.v",
         "    wr_pt_reg <= cs_active && armed_reg && bit_cnt_reg == 6'd39 && cmd_reg[7];",
         "    wr_pt_reg <= cs_active && armed_reg && bit_cnt_reg == 6'd38 && cmd_reg[7];",
@@ -236,7 +315,7 @@ MUTANTS = [
     ),
     Mutant(
         "bridge_idle_not_reached",
-        "5 idle after chip select high",
+        "spi_idle_after_cs",
         "spi_axil_bridge.v",
         "    if (!cs_active || !armed_reg) begin\n        bit_cnt_next = 6'd0;",
         "    if (!armed_reg) begin\n        bit_cnt_next = 6'd0;",
@@ -388,7 +467,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--mutants", nargs="*", metavar="MUTANT", help="run mutants (default all)")
     ap.add_argument("--out", type=Path, default=BUILD_DIR, help="result folder")
     ap.add_argument("--jobs", type=int, default=2, help="tasks run at once (default 2)")
+    ap.add_argument(
+        "--properties", action="store_true", help="print the table of named properties and exit"
+    )
     args = ap.parse_args(argv)
+    if args.properties:
+        props, errors = properties()
+        for e in errors:
+            print(e, file=sys.stderr)
+        print(property_table(props), end="")
+        return 1 if errors else 0
     if args.jobs < 1:
         print(f"--jobs {args.jobs}: expected a positive number of jobs", file=sys.stderr)
         return 2

@@ -341,7 +341,7 @@ def gen_verilog(spec: dict) -> str:
 
 
 def gen_formal(spec: dict) -> list[str]:
-    """The register map's contract as formal properties (issue 12, property 6), from the table.
+    """The register map's formal properties (regs_*: values, reads, write errors, pulses).
 
     Written as a word-level model independent of the field-level logic above: one word address
     f_a, free and fixed (anyconst), stands for every address; its shadow f_w starts at the
@@ -367,7 +367,7 @@ def gen_formal(spec: dict) -> list[str]:
         return reset, rw, const
 
     w("`ifdef FORMAL")
-    w("// --- formal contract of the map (hdl/formal/bowden_core.sby), made from the table ---")
+    w("// --- formal properties of the map (hdl/formal/bowden_core.sby), made from the table --")
     w("reg f_past_valid = 1'b0;")
     w("always @(posedge clk) f_past_valid <= 1'b1;")
     w("always @* if (!f_past_valid) assume(rst);")
@@ -409,37 +409,55 @@ def gen_formal(spec: dict) -> list[str]:
                 continue
             hi, lo = f["lsb"] + f["width"] - 1, f["lsb"]
             sl = f"[{hi}:{lo}]" if f["width"] > 1 else f"[{lo}]"
-            w(f"    if (f_a == A_{reg['name']}) assert({port(reg, f)} == f_w{sl});")
-    w("    assert(reg_wr_err == (reg_wr_en && !f_wr_mapped));")
+            label = f"regs_value_{reg['name'].lower()}_{f['name'].lower()}"
+            w(
+                f"    // property {label}: {reg['name']}.{f['name']} is its reset value after"
+                " reset, then the last write's by byte strobe"
+            )
+            w(f"    if (f_a == A_{reg['name']}) {label}: assert({port(reg, f)} == f_w{sl});")
+    w("    // property regs_write_error: a write errs exactly at an unmapped word")
+    w("    regs_write_error: assert(reg_wr_err == (reg_wr_en && !f_wr_mapped));")
+    w(
+        "    // property regs_read: a read answers 3 clocks later, SLVERR and 0 exactly when"
+        " unmapped, else the rw bits last written and the constant bits"
+    )
     w("    if (f_rd_a[2]) begin")
-    w("        assert(reg_rd_valid);")
-    w("        assert(reg_rd_err == !f_a_mapped);")
-    w("        assert((reg_rd_data & f_rw_mask) == (f_w_rd2 & f_rw_mask));")
-    w("        assert((reg_rd_data & f_const_mask) == (f_reset & f_const_mask));")
-    w("        if (!f_a_mapped) assert(reg_rd_data == 32'd0);")
+    w("        regs_read: assert(reg_rd_valid);")
+    w("        regs_read_2: assert(reg_rd_err == !f_a_mapped);")
+    w("        regs_read_3: assert((reg_rd_data & f_rw_mask) == (f_w_rd2 & f_rw_mask));")
+    w("        regs_read_4: assert((reg_rd_data & f_const_mask) == (f_reset & f_const_mask));")
+    w("        if (!f_a_mapped) regs_read_5: assert(reg_rd_data == 32'd0);")
     w("    end")
     w("end")
     w("")
-    w("// Write pulses: one clock after their write, never otherwise.")
+    w("// property regs_write_pulse: write pulses one clock after their write, never otherwise")
+    n_pulse = 0
+
+    def pulse_label() -> str:
+        nonlocal n_pulse
+        n_pulse += 1
+        return "regs_write_pulse" if n_pulse == 1 else f"regs_write_pulse_{n_pulse}"
+
     w("always @(posedge clk) if (f_past_valid) begin")
     w("    if ($past(rst)) begin")
     for reg in regs:
         for f in reg["fields"]:
             if f["access"] == "w1p":
-                w(f"        assert(!{port(reg, f)});")
+                w(f"        {pulse_label()}: assert(!{port(reg, f)});")
         if reg.get("wr_pulse"):
-            w(f"        assert(!{reg['name'].lower()}_wr);")
+            w(f"        {pulse_label()}: assert(!{reg['name'].lower()}_wr);")
     w("    end else begin")
     for reg in regs:
         for f in reg["fields"]:
             if f["access"] == "w1p":
                 hit = f"reg_wr_en && wr_word == A_{reg['name']}"
                 bit = f"reg_wr_data[{f['lsb']}] && reg_wr_strb[{f['lsb'] // 8}]"
-                w(f"        assert({port(reg, f)} == $past({hit} && {bit}));")
+                w(f"        {pulse_label()}: assert({port(reg, f)} == $past({hit} && {bit}));")
         if reg.get("wr_pulse"):
             n = reg["name"]
-            w(f"        assert({n.lower()}_wr == $past(reg_wr_en && wr_word == A_{n}));")
-    w("        assert(reg_rd_valid == $past(rd_pend2));")
+            hit = f"$past(reg_wr_en && wr_word == A_{n})"
+            w(f"        {pulse_label()}: assert({n.lower()}_wr == {hit});")
+    w(f"        {pulse_label()}: assert(reg_rd_valid == $past(rd_pend2));")
     w("    end")
     w("end")
     w("")

@@ -272,16 +272,17 @@ always @(posedge clk) begin
 end
 
 always @* if (f_past_valid && !rst) begin
-    // The property.
-    if (f_quiet == F_MAX) assert(drdy_lost);
+    // property ads_drdy_lost: past the power-up wait, a DRDY pin that holds its level for the DRDY timeout + 2 clocks has drdy_lost set
+    if (f_quiet == F_MAX) ads_drdy_lost: assert(drdy_lost);
+    // property ads_drdy_tracking: the synchronizer holds the pin's recent levels and the timeout counter has run at least as long as the pin has been quiet (induction helper)
     // Induction helpers: the synchronizer holds the pin's recent levels, and the timeout
     // counter has run at least as long as the pin has been quiet.
-    assert(f_drdy_past == drdy_sync_reg[0]);
-    if (f_quiet >= 1) assert(drdy_sync_reg[1] == drdy_sync_reg[0] && state_reg != S_WAIT);
-    if (f_quiet >= 2) assert(drdy_sync_reg[2] == drdy_sync_reg[1]);
-    if (f_quiet >= 2) assert(to_reg == TO_LIMIT || {2'b00, to_reg} + 2 >= f_quiet);
-    assert(to_reg <= TO_LIMIT);
-    assert(f_quiet <= F_MAX);
+    ads_drdy_tracking: assert(f_drdy_past == drdy_sync_reg[0]);
+    if (f_quiet >= 1) ads_drdy_tracking_2: assert(drdy_sync_reg[1] == drdy_sync_reg[0] && state_reg != S_WAIT);
+    if (f_quiet >= 2) ads_drdy_tracking_3: assert(drdy_sync_reg[2] == drdy_sync_reg[1]);
+    if (f_quiet >= 2) ads_drdy_tracking_4: assert(to_reg == TO_LIMIT || {2'b00, to_reg} + 2 >= f_quiet);
+    ads_drdy_tracking_5: assert(to_reg <= TO_LIMIT);
+    ads_drdy_tracking_6: assert(f_quiet <= F_MAX);
 end
 `endif
 

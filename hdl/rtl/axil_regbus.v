@@ -112,7 +112,7 @@ wire unused_prot = &{1'b0, s_axil_awprot, s_axil_arprot};
 `ifdef FORMAL
 // --- formal properties (hdl/formal/bowden_core.sby; hdl/README.md says what is proven) -----
 //
-// Property 5 of issue 12, slave side: under the AXI4-Lite rules for the master (assumed), every
+// The bus properties axil_*, slave side: under the AXI4-Lite rules for the master (assumed), every
 // request gets exactly one response, in order, within a bounded time, never a response without
 // a request, and the response code is the register file's error flag for that address.
 
@@ -153,31 +153,36 @@ always @(posedge clk) begin
 end
 
 always @* if (f_past_valid && !rst) begin
+    // property axil_one_at_a_time: address and data are taken together, at most one write and one read outstanding
     // Address and data are taken together, one write and one read at a time.
-    assert(s_axil_awready == s_axil_wready);
-    assert(f_wr_out <= 2'd1 && f_rd_out <= 2'd1);
+    axil_one_at_a_time: assert(s_axil_awready == s_axil_wready);
+    axil_one_at_a_time_2: assert(f_wr_out <= 2'd1 && f_rd_out <= 2'd1);
+    // property axil_one_response: a response exactly for an outstanding request: none without one, none twice
     // A response exactly for an outstanding request (none without one, none twice).
-    assert(s_axil_bvalid == (f_wr_out == 2'd1));
-    if (s_axil_rvalid) assert(f_rd_out == 2'd1);
-    if (s_axil_awready) assert(f_wr_out == 2'd0 || f_b_hs);
-    if (s_axil_arready) assert(f_rd_out == 2'd0);
+    axil_one_response: assert(s_axil_bvalid == (f_wr_out == 2'd1));
+    if (s_axil_rvalid) axil_one_response_2: assert(f_rd_out == 2'd1);
+    if (s_axil_awready) axil_one_response_3: assert(f_wr_out == 2'd0 || f_b_hs);
+    if (s_axil_arready) axil_one_response_4: assert(f_rd_out == 2'd0);
+    // property axil_no_deadlock: a read is answered within 4 clocks, a write on the next clock, and a request finding nothing outstanding is taken at once
     // No deadlock: a read is answered within 4 clocks, a write on the next clock (above), and
     // a request finding nothing outstanding is taken at once.
-    assert(f_rd_age <= 3'd3);
-    if (s_axil_awvalid && s_axil_wvalid && f_wr_out == 2'd0) assert(s_axil_awready);
-    if (s_axil_arvalid && f_rd_out == 2'd0) assert(s_axil_arready);
+    axil_no_deadlock: assert(f_rd_age <= 3'd3);
+    if (s_axil_awvalid && s_axil_wvalid && f_wr_out == 2'd0) axil_no_deadlock_2: assert(s_axil_awready);
+    if (s_axil_arvalid && f_rd_out == 2'd0) axil_no_deadlock_3: assert(s_axil_arready);
+    // property axil_resp_code: BRESP and RRESP are SLVERR exactly for unmapped addresses, else OKAY
     // The write response is the register file's verdict (SLVERR for unmapped, else OKAY).
-    if (s_axil_bvalid) assert(s_axil_bresp == (f_wr_err ? RESP_SLVERR : RESP_OKAY));
-    if (s_axil_rvalid) assert(s_axil_rresp == (reg_rd_err ? RESP_SLVERR : RESP_OKAY));
+    if (s_axil_bvalid) axil_resp_code: assert(s_axil_bresp == (f_wr_err ? RESP_SLVERR : RESP_OKAY));
+    if (s_axil_rvalid) axil_resp_code_2: assert(s_axil_rresp == (reg_rd_err ? RESP_SLVERR : RESP_OKAY));
+    // property axil_read_in_flight: the read wait flag is the outstanding read not yet answered (induction helper)
     // Helpers for the induction: the read in flight.
-    assert(rwait_reg == (f_rd_out == 2'd1 && !s_axil_rvalid));
+    axil_read_in_flight: assert(rwait_reg == (f_rd_out == 2'd1 && !s_axil_rvalid));
 end
 
-// A response waits, unchanged, until it is taken.
+// property axil_resp_held: a response waits, unchanged, until it is taken
 always @(posedge clk) if (f_past_valid && !$past(rst)) begin
-    if ($past(s_axil_bvalid && !s_axil_bready)) assert(s_axil_bvalid && $stable(s_axil_bresp));
+    if ($past(s_axil_bvalid && !s_axil_bready)) axil_resp_held: assert(s_axil_bvalid && $stable(s_axil_bresp));
     if ($past(s_axil_rvalid && !s_axil_rready))
-        assert(s_axil_rvalid && $stable(s_axil_rdata) && $stable(s_axil_rresp));
+        axil_resp_held_2: assert(s_axil_rvalid && $stable(s_axil_rdata) && $stable(s_axil_rresp));
 end
 
 always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin

@@ -195,10 +195,12 @@ always @(posedge clk) f_past_valid <= 1'b1;
 always @* if (!f_past_valid) assume(rst);
 
 always @* if (f_past_valid && !rst) begin
-    assert(tick_cnt_reg <= TICK_LAST);
-    assert(tick_reg == (tick_cnt_reg == {CNT_W{1'b0}} && f_ticked));
+    // property core_tick_period: a tick every CLKS_PER_SAMPLE clocks, the first CLKS_PER_SAMPLE clocks after reset
+    core_tick_period: assert(tick_cnt_reg <= TICK_LAST);
+    core_tick_period_2: assert(tick_reg == (tick_cnt_reg == {CNT_W{1'b0}} && f_ticked));
+    // property core_drive_zero_when_disabled: the board's drive command is 0 A whenever its enable is low
     // The drive: zero current whenever it is disabled.
-    if (!cmd_enable) assert(cmd_current == 16'd0);
+    if (!cmd_enable) core_drive_zero_when_disabled: assert(cmd_current == 16'd0);
 end
 
 // A tick every CLKS_PER_SAMPLE clocks, the first CLKS_PER_SAMPLE clocks after reset.

@@ -478,7 +478,7 @@ assign reg_rd_valid = rd_valid;
 wire unused_wr_bits = &{1'b0, reg_wr_data, wr_mask, reg_wr_addr[1:0], reg_rd_addr[1:0]};
 
 `ifdef FORMAL
-// --- formal contract of the map (hdl/formal/bowden_core.sby), made from the table ---
+// --- formal properties of the map (hdl/formal/bowden_core.sby), made from the table --
 reg f_past_valid = 1'b0;
 always @(posedge clk) f_past_valid <= 1'b1;
 always @* if (!f_past_valid) assume(rst);
@@ -636,43 +636,61 @@ always @(posedge clk) begin
 end
 
 always @* if (f_past_valid && !rst) begin
-    if (f_a == A_CTRL) assert(ctrl_enable == f_w[0]);
-    if (f_a == A_CTRL) assert(ctrl_slew_en == f_w[3]);
-    if (f_a == A_TC) assert(tc == f_w[15:0]);
-    if (f_a == A_KFF) assert(kff == f_w[15:0]);
-    if (f_a == A_KP) assert(kp == f_w[15:0]);
-    if (f_a == A_KI_TS) assert(ki_ts == f_w[15:0]);
-    if (f_a == A_I_LIMIT) assert(i_limit == f_w[14:0]);
-    if (f_a == A_SLEW) assert(slew == f_w[14:0]);
-    if (f_a == A_WDT_TIMEOUT) assert(wdt_timeout == f_w[15:0]);
-    if (f_a == A_ADC_OFFSET) assert(adc_offset == f_w[23:0]);
-    if (f_a == A_ADC_GAIN) assert(adc_gain == f_w[15:0]);
-    if (f_a == A_ADC_MIN) assert(adc_min == f_w[23:0]);
-    if (f_a == A_ADC_MAX) assert(adc_max == f_w[23:0]);
-    if (f_a == A_ADC_STALE) assert(adc_stale == f_w[15:0]);
-    if (f_a == A_OC_TIMEOUT) assert(oc_timeout == f_w[15:0]);
-    if (f_a == A_TC_MIN) assert(tc_min == f_w[15:0]);
-    assert(reg_wr_err == (reg_wr_en && !f_wr_mapped));
+    // property regs_value_ctrl_enable: CTRL.ENABLE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_CTRL) regs_value_ctrl_enable: assert(ctrl_enable == f_w[0]);
+    // property regs_value_ctrl_slew_en: CTRL.SLEW_EN is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_CTRL) regs_value_ctrl_slew_en: assert(ctrl_slew_en == f_w[3]);
+    // property regs_value_tc_value: TC.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_TC) regs_value_tc_value: assert(tc == f_w[15:0]);
+    // property regs_value_kff_value: KFF.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_KFF) regs_value_kff_value: assert(kff == f_w[15:0]);
+    // property regs_value_kp_value: KP.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_KP) regs_value_kp_value: assert(kp == f_w[15:0]);
+    // property regs_value_ki_ts_value: KI_TS.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_KI_TS) regs_value_ki_ts_value: assert(ki_ts == f_w[15:0]);
+    // property regs_value_i_limit_value: I_LIMIT.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_I_LIMIT) regs_value_i_limit_value: assert(i_limit == f_w[14:0]);
+    // property regs_value_slew_value: SLEW.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_SLEW) regs_value_slew_value: assert(slew == f_w[14:0]);
+    // property regs_value_wdt_timeout_value: WDT_TIMEOUT.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_WDT_TIMEOUT) regs_value_wdt_timeout_value: assert(wdt_timeout == f_w[15:0]);
+    // property regs_value_adc_offset_value: ADC_OFFSET.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_ADC_OFFSET) regs_value_adc_offset_value: assert(adc_offset == f_w[23:0]);
+    // property regs_value_adc_gain_value: ADC_GAIN.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_ADC_GAIN) regs_value_adc_gain_value: assert(adc_gain == f_w[15:0]);
+    // property regs_value_adc_min_value: ADC_MIN.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_ADC_MIN) regs_value_adc_min_value: assert(adc_min == f_w[23:0]);
+    // property regs_value_adc_max_value: ADC_MAX.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_ADC_MAX) regs_value_adc_max_value: assert(adc_max == f_w[23:0]);
+    // property regs_value_adc_stale_value: ADC_STALE.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_ADC_STALE) regs_value_adc_stale_value: assert(adc_stale == f_w[15:0]);
+    // property regs_value_oc_timeout_value: OC_TIMEOUT.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_OC_TIMEOUT) regs_value_oc_timeout_value: assert(oc_timeout == f_w[15:0]);
+    // property regs_value_tc_min_value: TC_MIN.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_TC_MIN) regs_value_tc_min_value: assert(tc_min == f_w[15:0]);
+    // property regs_write_error: a write errs exactly at an unmapped word
+    regs_write_error: assert(reg_wr_err == (reg_wr_en && !f_wr_mapped));
+    // property regs_read: a read answers 3 clocks later, SLVERR and 0 exactly when unmapped, else the rw bits last written and the constant bits
     if (f_rd_a[2]) begin
-        assert(reg_rd_valid);
-        assert(reg_rd_err == !f_a_mapped);
-        assert((reg_rd_data & f_rw_mask) == (f_w_rd2 & f_rw_mask));
-        assert((reg_rd_data & f_const_mask) == (f_reset & f_const_mask));
-        if (!f_a_mapped) assert(reg_rd_data == 32'd0);
+        regs_read: assert(reg_rd_valid);
+        regs_read_2: assert(reg_rd_err == !f_a_mapped);
+        regs_read_3: assert((reg_rd_data & f_rw_mask) == (f_w_rd2 & f_rw_mask));
+        regs_read_4: assert((reg_rd_data & f_const_mask) == (f_reset & f_const_mask));
+        if (!f_a_mapped) regs_read_5: assert(reg_rd_data == 32'd0);
     end
 end
 
-// Write pulses: one clock after their write, never otherwise.
+// property regs_write_pulse: write pulses one clock after their write, never otherwise
 always @(posedge clk) if (f_past_valid) begin
     if ($past(rst)) begin
-        assert(!ctrl_integ_reset);
-        assert(!ctrl_fault_clear);
-        assert(!tc_wr);
+        regs_write_pulse: assert(!ctrl_integ_reset);
+        regs_write_pulse_2: assert(!ctrl_fault_clear);
+        regs_write_pulse_3: assert(!tc_wr);
     end else begin
-        assert(ctrl_integ_reset == $past(reg_wr_en && wr_word == A_CTRL && reg_wr_data[1] && reg_wr_strb[0]));
-        assert(ctrl_fault_clear == $past(reg_wr_en && wr_word == A_CTRL && reg_wr_data[2] && reg_wr_strb[0]));
-        assert(tc_wr == $past(reg_wr_en && wr_word == A_TC));
-        assert(reg_rd_valid == $past(rd_pend2));
+        regs_write_pulse_4: assert(ctrl_integ_reset == $past(reg_wr_en && wr_word == A_CTRL && reg_wr_data[1] && reg_wr_strb[0]));
+        regs_write_pulse_5: assert(ctrl_fault_clear == $past(reg_wr_en && wr_word == A_CTRL && reg_wr_data[2] && reg_wr_strb[0]));
+        regs_write_pulse_6: assert(tc_wr == $past(reg_wr_en && wr_word == A_TC));
+        regs_write_pulse_7: assert(reg_rd_valid == $past(rd_pend2));
     end
 end
 

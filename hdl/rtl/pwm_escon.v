@@ -114,7 +114,7 @@ assign duty_clks = duty_reg;
 `ifdef FORMAL
 // --- formal properties (hdl/formal/pwm_escon.sby; hdl/README.md says what is proven) -------
 //
-// Property 2 of issue 12: the duty stays within 10 %..90 % of the period, changes only at the
+// The PWM properties pwm_*: the duty stays within 10 %..90 % of the period, changes only at the
 // end of a period, and is 50 % (0 A) after a period that began with the drive disabled (the
 // core's enable is the loop's out_en, which every fault drops).
 
@@ -124,35 +124,38 @@ always @* if (!f_past_valid) assume(rst);
 
 localparam integer F_PERIOD = PERIOD_CLKS;
 
+// property pwm_duty_bounds: the duty stays within 10 %..90 % of the period (and the counter within the period)
 always @* if (f_past_valid && !rst) begin
-    assert(10 * duty_reg >= F_PERIOD && 10 * duty_reg <= 9 * F_PERIOD);
-    assert(duty_reg >= HALF - SPAN && duty_reg <= HALF + SPAN);
-    assert(cnt_reg <= LAST);
+    pwm_duty_bounds: assert(10 * duty_reg >= F_PERIOD && 10 * duty_reg <= 9 * F_PERIOD);
+    pwm_duty_bounds_2: assert(duty_reg >= HALF - SPAN && duty_reg <= HALF + SPAN);
+    pwm_duty_bounds_3: assert(cnt_reg <= LAST);
 end
 
 // Helpers for the induction: the pipeline registers without reset hold consistent values
 // two clocks after reset (the first period boundary is PERIOD_CLKS clocks later).
 reg [1:0] f_age = 2'd0;
 always @(posedge clk) if (rst) f_age <= 2'd0; else if (f_age != 2'd3) f_age <= f_age + 2'd1;
+// property pwm_pipeline: the clip flags and the clipped command agree with u two clocks after reset (induction helper)
 always @* if (f_past_valid && !rst && f_age >= 2'd1) begin
-    assert(gt_reg == ($signed(u_reg) > $signed(IMAX16)));
-    assert(lt_reg == ($signed(u_reg) < -$signed(IMAX16)));
+    pwm_pipeline: assert(gt_reg == ($signed(u_reg) > $signed(IMAX16)));
+    pwm_pipeline_2: assert(lt_reg == ($signed(u_reg) < -$signed(IMAX16)));
 end
 always @* if (f_past_valid && !rst && f_age >= 2'd2)
-    assert($signed(u_c_reg) <= $signed(IMAX16) && $signed(u_c_reg) >= -$signed(IMAX16));
-always @* if (f_past_valid && !rst) assert(f_age == 2'd3 || cnt_reg == {{(CNT_W-2){1'b0}}, f_age});
+    pwm_pipeline_3: assert($signed(u_c_reg) <= $signed(IMAX16) && $signed(u_c_reg) >= -$signed(IMAX16));
+always @* if (f_past_valid && !rst) pwm_pipeline_4: assert(f_age == 2'd3 || cnt_reg == {{(CNT_W-2){1'b0}}, f_age});
 
-// The duty changes only at the end of a period.
+// property pwm_period_boundary: the duty changes only at the end of a period
 always @(posedge clk) if (f_past_valid && !$past(rst) && $past(cnt_reg) != LAST)
-    assert($stable(duty_reg));
+    pwm_period_boundary: assert($stable(duty_reg));
 
+// property pwm_half_when_disabled: a period that begins with the drive disabled (every fault disables it) is 50 %, 0 A
 // Disabled (or faulted) four clocks before the end of a period: the next period is 50 %.
 always @(posedge clk) if (f_past_valid && !$past(rst) && $past(cnt_reg) == LAST &&
                           !$past(enable, 5))
-    assert(duty_reg == HALF);
+    pwm_half_when_disabled: assert(duty_reg == HALF);
 
-// After reset: 50 %.
-always @(posedge clk) if (f_past_valid && $past(rst)) assert(duty_reg == HALF && cnt_reg == 0);
+// property pwm_reset_half: after reset the duty is 50 % and the period restarts
+always @(posedge clk) if (f_past_valid && $past(rst)) pwm_reset_half: assert(duty_reg == HALF && cnt_reg == 0);
 
 always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
     cover(duty_reg == HALF + SPAN);                     // 90 %: +I_max

@@ -298,7 +298,7 @@ wire unused_addr = &{1'b0, addr_reg};
 `ifdef FORMAL
 // --- formal properties (hdl/formal/spi_axil_bridge.sby; hdl/README.md says what is proven) --
 //
-// Property 5 of issue 12, bridge side, for any pin activity (no limit on SCK) and any reset:
+// The bus properties spi_*, bridge side, for any pin activity (no limit on SCK) and any reset:
 // a bus access only from a complete frame begun with chip select seen high, at its access
 // point, with the frame's address (never aliased) and data; idle after chip select high; an
 // AXI4-Lite master with one access at a time. The slave is assumed to follow AXI4-Lite.
@@ -370,56 +370,63 @@ wire f_issue_w = awvalid_reg && !f_awv;
 wire f_issue_r = arvalid_reg && !f_arv;
 
 always @* if (f_past_valid && !rst) begin
+    // property spi_frame_count: the bridge's bit count, command and data are the frame's; nothing counts before chip select was seen high after reset
     // The bridge's count is the frame's; nothing counts before chip select was seen high.
-    assert(armed_reg == f_armed);
-    assert(bit_cnt_reg == f_bits);
-    if (f_bits >= 6'd40) assert(shift_in_reg == f_data);
+    spi_frame_count: assert(armed_reg == f_armed);
+    spi_frame_count_2: assert(bit_cnt_reg == f_bits);
+    if (f_bits >= 6'd40) spi_frame_count_3: assert(shift_in_reg == f_data);
     else if (f_bits > 6'd8)
-        assert(((shift_in_reg ^ f_data) & ~(32'hFFFFFFFF << (f_bits - 6'd8))) == 32'd0);
-    if (f_bits >= 6'd8) assert(cmd_reg == f_cmd);
-    else assert(((cmd_reg ^ f_cmd) & ~(8'hFF << f_bits)) == 8'd0);
+        spi_frame_count_4: assert(((shift_in_reg ^ f_data) & ~(32'hFFFFFFFF << (f_bits - 6'd8))) == 32'd0);
+    if (f_bits >= 6'd8) spi_frame_count_5: assert(cmd_reg == f_cmd);
+    else spi_frame_count_6: assert(((cmd_reg ^ f_cmd) & ~(8'hFF << f_bits)) == 8'd0);
+    // property spi_sync_delay: the synchronizers are the model's two-clock delay line (induction helper)
     // Helpers for the induction: the synchronizers are the model's delay line.
-    assert(sck_sync_reg == f_sck && cs_sync_reg == f_cs_n);
-    if (f_mosi_ok) assert(mosi_sync_reg == f_mosi);
+    spi_sync_delay: assert(sck_sync_reg == f_sck && cs_sync_reg == f_cs_n);
+    if (f_mosi_ok) spi_sync_delay_2: assert(mosi_sync_reg == f_mosi);
+    // property spi_one_access: one access at a time, never a word beyond ADDR_W, address and data valid together
     // One access at a time: a write's address and data, or a read, until it is answered.
-    assert(!((awvalid_reg || wvalid_reg || f_aw_acc || f_w_acc) &&
+    spi_one_access: assert(!((awvalid_reg || wvalid_reg || f_aw_acc || f_w_acc) &&
              (arvalid_reg || f_ar_acc)));
-    assert(busy_reg == (awvalid_reg || wvalid_reg || f_aw_acc || f_w_acc ||
+    spi_one_access_2: assert(busy_reg == (awvalid_reg || wvalid_reg || f_aw_acc || f_w_acc ||
                         arvalid_reg || f_ar_acc));
-    if (awvalid_reg || wvalid_reg || arvalid_reg) assert((addr_reg >> ADDR_W) == 9'd0);
-    assert(awvalid_reg == wvalid_reg || f_aw_acc || f_w_acc);
-    assert(!(f_aw_acc && awvalid_reg) && !(f_w_acc && wvalid_reg) && !(f_ar_acc && arvalid_reg));
-    if (wait_reg) assert(busy_reg);
+    if (awvalid_reg || wvalid_reg || arvalid_reg) spi_one_access_3: assert((addr_reg >> ADDR_W) == 9'd0);
+    spi_one_access_4: assert(awvalid_reg == wvalid_reg || f_aw_acc || f_w_acc);
+    spi_one_access_5: assert(!(f_aw_acc && awvalid_reg) && !(f_w_acc && wvalid_reg) && !(f_ar_acc && arvalid_reg));
+    if (wait_reg) spi_one_access_6: assert(busy_reg);
 end
 
+// property spi_idle_after_cs: the clock after chip select high: no bits counted, no access from a partial frame
 // The idle state after chip select high: no bits, no access from a partial frame.
 always @(posedge clk) if (f_past_valid && !$past(rst) && $past(!f_cs))
-    assert(bit_cnt_reg == 6'd0 && !f_issue_w && !f_issue_r);
+    spi_idle_after_cs: assert(bit_cnt_reg == 6'd0 && !f_issue_w && !f_issue_r);
 
+// property spi_access_point: a write only after the 40th bit of a write frame, a read only after the 8th of a read frame, with the frame's address (never aliased) and data
 // An access only at the access point of a complete frame, with the frame's address and data.
 always @(posedge clk) if (f_past_valid && !rst) begin
     if (f_issue_w) begin
-        assert($past(f_rise) && f_bits == 6'd40 && f_cmd[7]);
-        assert(addr_reg == {f_cmd[6:0], 2'b00} && wdata_reg == f_data);
-        assert(wvalid_reg && m_axil_wstrb == 4'hF);
+        spi_access_point: assert($past(f_rise) && f_bits == 6'd40 && f_cmd[7]);
+        spi_access_point_2: assert(addr_reg == {f_cmd[6:0], 2'b00} && wdata_reg == f_data);
+        spi_access_point_3: assert(wvalid_reg && m_axil_wstrb == 4'hF);
     end
     if (f_issue_r) begin
-        assert($past(f_rise) && f_bits == 6'd8 && !f_cmd[7]);
-        assert(addr_reg == {f_cmd[6:0], 2'b00});
+        spi_access_point_4: assert($past(f_rise) && f_bits == 6'd8 && !f_cmd[7]);
+        spi_access_point_5: assert(addr_reg == {f_cmd[6:0], 2'b00});
     end
-    if ($past(wvalid_reg) && !wvalid_reg) assert($past(m_axil_wready) || $past(rst));
+    if ($past(wvalid_reg) && !wvalid_reg) spi_access_point_6: assert($past(m_axil_wready) || $past(rst));
 end
 
+// property spi_axi_valid_held: AXI4-Lite master rules: a valid stays, with its payload, until it is taken
 // AXI4-Lite master rules: a valid stays, with its payload, until it is taken.
 always @(posedge clk) if (f_past_valid && !$past(rst) && !rst) begin
     if ($past(awvalid_reg && !m_axil_awready))
-        assert(awvalid_reg && $stable(m_axil_awaddr));
-    if ($past(wvalid_reg && !m_axil_wready)) assert(wvalid_reg && $stable(m_axil_wdata));
+        spi_axi_valid_held: assert(awvalid_reg && $stable(m_axil_awaddr));
+    if ($past(wvalid_reg && !m_axil_wready)) spi_axi_valid_held_2: assert(wvalid_reg && $stable(m_axil_wdata));
     if ($past(arvalid_reg && !m_axil_arready))
-        assert(arvalid_reg && $stable(m_axil_araddr));
+        spi_axi_valid_held_3: assert(arvalid_reg && $stable(m_axil_araddr));
 end
+// property spi_reset_idle: no AXI request the clock after reset
 always @(posedge clk) if (f_past_valid && $past(rst))
-    assert(!awvalid_reg && !wvalid_reg && !arvalid_reg);
+    spi_reset_idle: assert(!awvalid_reg && !wvalid_reg && !arvalid_reg);
 
 // Covers: each kind of frame, each refusal, and a frame after a reset in mid-frame.
 reg f_rst_mid;  // a reset came while a frame was in progress

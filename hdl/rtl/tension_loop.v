@@ -615,8 +615,8 @@ assign sample_count = sample_cnt_reg;
 `ifdef FORMAL
 // --- formal properties (hdl/formal/tension_loop.sby; hdl/README.md says what is proven) ----
 //
-// Safety properties 1, 3 and 4 of issue 12 against a spec-level shadow of the inputs
-// (f_* registers, written from the ports, not from the pipeline). The environment (reset at
+// The loop's safety properties tl_* (current, integrator, faults) against a spec-level shadow
+// of the inputs (f_* registers, written from the ports, not from the pipeline). The environment (reset at
 // start, ticks at least LATENCY clocks apart) is assumed when this module is the top of the
 // proof and asserted when it sits inside bowden_core, which must then guarantee it.
 `ifdef FORMAL_TENSION_LOOP_TOP
@@ -638,12 +638,14 @@ always @(posedge clk) begin
     else if (tick) f_since_tick <= 4'd1;
     else if (f_since_tick != F_LAT) f_since_tick <= f_since_tick + 4'd1;
 end
-always @* if (f_past_valid && !rst && tick) `TL_ENV(f_since_tick == F_LAT);
+// property tl_tick_spacing: ticks come at least LATENCY clocks apart (assumed when tension_loop is the top, asserted inside bowden_core)
+always @* if (f_past_valid && !rst && tick) tl_tick_spacing: `TL_ENV(f_since_tick == F_LAT);
 
 // One sample in flight at a time: the schedule is the position in the sample.
 wire [LATENCY-2:0] f_seq_exp = (f_since_tick == F_LAT) ? {(LATENCY-1){1'b0}} :
                                {{(LATENCY-2){1'b0}}, 1'b1} << (f_since_tick - 4'd1);
-always @* if (f_past_valid) assert(seq_reg == f_seq_exp);
+// property tl_one_sample_in_flight: the schedule register is the position in the sample (induction helper)
+always @* if (f_past_valid) tl_one_sample_in_flight: assert(seq_reg == f_seq_exp);
 
 // --- shadow of the events of a sample (taken from the ports) ------------------------------
 
@@ -745,72 +747,82 @@ end
 
 // The shadow counters are the RTL's (which stop at 2^16, above every threshold).
 always @* if (f_past_valid && !rst) begin
-    assert(f_stale == (stale_cnt_reg[16] ? 16'hFFFF : stale_cnt_reg[15:0]));
-    assert(f_wdt == (wdt_cnt_reg[16] ? 16'hFFFF : wdt_cnt_reg[15:0]));
-    assert(f_oc == (oc_cnt_reg[16] ? 16'hFFFF : oc_cnt_reg[15:0]));
-    assert(raw_reg == f_raw);
-    assert(fresh_reg == f_fresh && tcw_pend_reg == f_tcw && fclr_pend_reg == f_fclr);
-    assert(irst_pend_reg == f_irst);
-    assert(sat_hi_reg == f_sat_hi && sat_lo_reg == f_sat_lo);
-    assert(!(sat_hi_reg && sat_lo_reg));
+    // property tl_shadow_counters: the RTL's fault counters and pending flags equal the shadow's; never clipped high and low at once (induction helper)
+    tl_shadow_counters: assert(f_stale == (stale_cnt_reg[16] ? 16'hFFFF : stale_cnt_reg[15:0]));
+    tl_shadow_counters_2: assert(f_wdt == (wdt_cnt_reg[16] ? 16'hFFFF : wdt_cnt_reg[15:0]));
+    tl_shadow_counters_3: assert(f_oc == (oc_cnt_reg[16] ? 16'hFFFF : oc_cnt_reg[15:0]));
+    tl_shadow_counters_4: assert(raw_reg == f_raw);
+    tl_shadow_counters_5: assert(fresh_reg == f_fresh && tcw_pend_reg == f_tcw && fclr_pend_reg == f_fclr);
+    tl_shadow_counters_6: assert(irst_pend_reg == f_irst);
+    tl_shadow_counters_7: assert(sat_hi_reg == f_sat_hi && sat_lo_reg == f_sat_lo);
+    tl_shadow_counters_8: assert(!(sat_hi_reg && sat_lo_reg));
 end
 
 // While a sample is in flight its snapshot is the shadow's (helpers for the induction).
 wire f_busy = f_since_tick != F_LAT;
 always @* if (f_past_valid && !rst && f_busy) begin
-    assert(en_s_reg == f_en_s && lim_s_reg == f_lim_s && iprev_reg == f_iprev);
-    assert(fbase_s_reg == (f_fclr_s ? 4'd0 : f_fault_tick));
-    if (f_since_tick >= 4'd2) assert(nlim_reg == -{1'b0, lim_s_reg});
+    // property tl_snapshot: while a sample is in flight its register snapshot is the shadow's (induction helper)
+    tl_snapshot: assert(en_s_reg == f_en_s && lim_s_reg == f_lim_s && iprev_reg == f_iprev);
+    tl_snapshot_2: assert(fbase_s_reg == (f_fclr_s ? 4'd0 : f_fault_tick));
+    if (f_since_tick >= 4'd2) tl_snapshot_3: assert(nlim_reg == -{1'b0, lim_s_reg});
     if (f_since_tick >= 4'd10) begin
-        assert(pi_pos_reg == ($signed(f_pi) > 0));
-        assert(pi_neg_reg == ($signed(f_pi) < 0));
+        tl_snapshot_4: assert(pi_pos_reg == ($signed(f_pi) > 0));
+        tl_snapshot_5: assert(pi_neg_reg == ($signed(f_pi) < 0));
     end
-    if (f_since_tick <= 4'd3) assert(fault_reg == f_fault_tick);
+    if (f_since_tick <= 4'd3) tl_snapshot_6: assert(fault_reg == f_fault_tick);
 end
 
-// --- property 1: the current command ------------------------------------------------------
+// --- the current command (tl_current_limit .. tl_floor) -----------------------------------
 
 wire signed [15:0] f_u = $signed(u_reg);
 wire signed [16:0] f_lim_pos = $signed({2'b00, f_ulim});
 always @* if (f_past_valid) begin
     // Never beyond the I_LIMIT it was computed with (a watchdog ramp only shrinks it).
-    assert(f_u <= f_lim_pos && f_u >= -f_lim_pos);
+    // property tl_current_limit: u never beyond +-I_LIMIT of the sample that made it (a watchdog ramp only shrinks it)
+    tl_current_limit: assert(f_u <= f_lim_pos && f_u >= -f_lim_pos);
     // Zero whenever the drive is disabled.
-    if (!out_en_reg) assert(u_reg == 16'd0);
+    // property tl_zero_when_disabled: u is 0 whenever the drive is disabled
+    if (!out_en_reg) tl_zero_when_disabled: assert(u_reg == 16'd0);
 end
 
 // A running sample clips to the I_LIMIT taken at its tick.
+// property tl_run_sample_limit: a running sample enables the drive and clips to the I_LIMIT taken at its tick
 always @(posedge clk) if (f_past_valid && !$past(rst) && $past(f_run_done)) begin
-    assert(out_en_reg);
-    assert(f_ulim == $past(f_lim_s));
+    tl_run_sample_limit: assert(out_en_reg);
+    tl_run_sample_limit_2: assert(f_ulim == $past(f_lim_s));
 end
 
 // A stopped sample: zero, or one ramp step towards zero under a watchdog-only fault.
+// property tl_stop_zero_or_ramp: a stopped sample gives u = 0 and the drive off, or under a watchdog-only fault one WDT_RAMP_STEP towards zero, the drive off once u is 0
 always @(posedge clk) if (f_past_valid && !$past(rst) && $past(f_stop_done)) begin
     if ($past(f_en_s) && $past(fault_reg) == F_WDT) begin
-        assert(u_reg == f_ramp($past(u_reg)));
-        assert(out_en_reg == (u_reg != 16'd0));
-        assert(ramp_st_reg == out_en_reg);
+        tl_stop_zero_or_ramp: assert(u_reg == f_ramp($past(u_reg)));
+        tl_stop_zero_or_ramp_2: assert(out_en_reg == (u_reg != 16'd0));
+        tl_stop_zero_or_ramp_3: assert(ramp_st_reg == out_en_reg);
     end else begin
-        assert(u_reg == 16'd0 && !out_en_reg && !ramp_st_reg);
+        tl_stop_zero_or_ramp_4: assert(u_reg == 16'd0 && !out_en_reg && !ramp_st_reg);
     end
 end
 
 // u and the drive enable change only when a sample ends (or at reset).
+// property tl_change_at_sample_end: u, the drive enable and the integrator change only when a sample ends (or at reset)
 always @(posedge clk) if (f_past_valid && !$past(rst) && !$past(seq_reg[13])) begin
-    assert($stable(u_reg) && $stable(out_en_reg) && $stable(integ_reg));
+    tl_change_at_sample_end: assert($stable(u_reg) && $stable(out_en_reg) && $stable(integ_reg));
 end
 
 // The floor: a running sample never commands a tension below the TC_MIN taken at its tick.
 always @(posedge clk) if (f_past_valid && !$past(rst) && $past(f_run_done))
-    assert($signed(tc_eff_reg) >= $signed($past(f_tcmin_s)));
+    // property tl_floor: a running sample never leaves TC_EFF below the TC_MIN taken at its tick
+    tl_floor: assert($signed(tc_eff_reg) >= $signed($past(f_tcmin_s)));
 
-// --- property 3: the integrator -----------------------------------------------------------
+// --- the integrator (tl_integ_clamp, tl_integ_zero_when_stopped, tl_anti_windup) ----------
 
 wire signed [32:0] f_ilim = $signed({2'b00, f_ulim, 16'd0});
 always @* if (f_past_valid) begin
-    assert($signed(integ_reg) <= f_ilim && $signed(integ_reg) >= -f_ilim);
-    if (!out_en_reg || wdt_ramp) assert(integ_reg == 32'd0);
+    // property tl_integ_clamp: the integrator stays within +-I_LIMIT << 16
+    tl_integ_clamp: assert($signed(integ_reg) <= f_ilim && $signed(integ_reg) >= -f_ilim);
+    // property tl_integ_zero_when_stopped: the integrator is 0 while the drive is disabled or ramping
+    if (!out_en_reg || wdt_ramp) tl_integ_zero_when_stopped: assert(integ_reg == 32'd0);
 end
 
 // Anti-windup: after a command clipped high, no integration upwards (and low, downwards): the
@@ -820,15 +832,17 @@ wire signed [32:0] f_iprev_c = ($signed(f_iprev) > f_ilim_s) ? f_ilim_s :
                                ($signed(f_iprev) < -f_ilim_s) ? -f_ilim_s : $signed(f_iprev);
 wire f_hold = (f_sat_hi && $signed(f_pi) > 0) || (f_sat_lo && $signed(f_pi) < 0);
 always @(posedge clk) if (f_past_valid && !$past(rst) && $past(f_run_done) && $past(f_hold))
-    assert(integ_reg == $past(f_iprev_c[31:0]));
+    // property tl_anti_windup: after a command clipped high (low) and a positive (negative) KI_TS*e the integrator holds, only clamped
+    tl_anti_windup: assert(integ_reg == $past(f_iprev_c[31:0]));
 
-// --- property 4: faults ---------------------------------------------------------------------
+// --- faults (tl_fault_definition, tl_hard_fault_safe, tl_reset_safe) ----------------------
 
 // FAULT changes only on the third clock of a sample, to exactly the register map's definition:
 // latched bits stay until FAULT_CLEAR, new bits come only while enabled.
+// property tl_fault_definition: FAULT changes only on the third clock of a sample, to exactly the register map's definition (latched until FAULT_CLEAR, new bits only while enabled)
 always @(posedge clk) if (f_past_valid && !$past(rst)) begin
-    if ($past(seq_reg[2])) assert(fault_reg == $past(f_fault_exp));
-    else assert($stable(fault_reg));
+    if ($past(seq_reg[2])) tl_fault_definition: assert(fault_reg == $past(f_fault_exp));
+    else tl_fault_definition_2: assert($stable(fault_reg));
 end
 
 // Any fault but the watchdog alone: u = 0 and the drive disabled within F_SAFE_CLKS clocks of
@@ -839,12 +853,14 @@ always @(posedge clk) begin
     if (rst || (fault_reg & ~F_WDT) == 4'd0) f_hard_age <= 4'd0;
     else if (f_hard_age != 4'd15) f_hard_age <= f_hard_age + 4'd1;
 end
+// property tl_hard_fault_safe: any fault but the watchdog alone gives u = 0 and the drive off within 11 clocks of latching, ramp or not
 always @* if (f_past_valid && !rst && f_hard_age >= F_SAFE_CLKS)
-    assert(u_reg == 16'd0 && !out_en_reg && !ramp_st_reg);
+    tl_hard_fault_safe: assert(u_reg == 16'd0 && !out_en_reg && !ramp_st_reg);
 
 // Reset: outputs safe on the next clock.
+// property tl_reset_safe: the clock after reset: u = 0, drive off, no faults, integrator 0
 always @(posedge clk) if (f_past_valid && $past(rst)) begin
-    assert(u_reg == 16'd0 && !out_en_reg && fault_reg == 4'd0 && integ_reg == 32'd0);
+    tl_reset_safe: assert(u_reg == 16'd0 && !out_en_reg && fault_reg == 4'd0 && integ_reg == 32'd0);
 end
 
 // --- covers: each property's interesting case is reachable ---------------------------------

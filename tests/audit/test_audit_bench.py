@@ -117,10 +117,10 @@ def test_smoothing_keeps_a_step_and_removes_noise():
 
 
 def test_blocks_stay_as_they_are_unless_a_periodic_input_locks_them():
-    """_roles: a random bench session (audit_data.session: three incommensurate sines, fewer
-    than MIN_PERIODS repeats) keeps the default blocks; a 0.5 Hz sine of 12 s has them moved
+    """_roles: a random bench session (cosim.audit.synthetic.session: three incommensurate sines,
+    fewer than MIN_PERIODS repeats) keeps the default blocks; a 0.5 Hz sine of 12 s has them moved
     off its period, by the least change that lets the held-out blocks see its phase."""
-    from audit_data import session  # noqa: PLC0415 (tests/audit on sys.path: conftest)
+    from cosim.audit.synthetic import session  # noqa: PLC0415
 
     rate = 1000.0
     for seed in (101, 105, 900):

@@ -7,16 +7,16 @@ and a sidecar without mu). Required per named case: the cause right and not ambi
 close, the held-out residual brought close to the noise floor. Also: two effects at once (both
 named), none (no finding), and a disturbance outside the vocabulary (50 Hz mains pickup on the
 output sensor) that must stay unexplained with its frequency. The many-seed sweep of every cause
-is `make audit-sweep` (tests/audit/sweep.py).
+is `make audit-sweep` (cosim/studies/audit_sweep.py).
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from audit_data import fmu_record
 
 from cosim.audit import core
+from cosim.audit.synthetic import fmu_record
 from cosim.results import trace
 
 DURATION_S = 30.0

@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from audit_data import fmu_record
 
 from cosim.audit import twin
-from cosim.config.scenarios import load_params
+from cosim.audit.synthetic import fmu_record
+from cosim.config.run import load_params
 from cosim.engines import experiment as sim
 from cosim.parts.geometry import bending_angle
 from cosim.results import trace
@@ -124,7 +124,8 @@ def test_cli_emits_params_that_bowden_sim_accepts(offset_run):
 
 
 def test_cli_reads_a_bowden_sim_trace(tmp_path):
-    from cosim.config.scenarios import SimConfig, get_scenario
+    from cosim.config.run import SimConfig
+    from cosim.config.scenarios import get_scenario
     from cosim.engines.reference import resolve_phi, run_reference
 
     scen, cfg = get_scenario("fig14"), SimConfig()

@@ -17,7 +17,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from cosim.config.scenarios import SimConfig, get_scenario
+from cosim.config.run import SimConfig
+from cosim.config.scenarios import get_scenario
 from cosim.engines.reference import resolve_phi, run_model_chain, run_reference
 from cosim.results import metrics
 

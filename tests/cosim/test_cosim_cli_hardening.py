@@ -1,4 +1,4 @@
-"""`bowden sim` and `bowden demo` as a new user meets them (issue 13, items 1-5 and 9): relative
+"""`bowden sim` and `bowden demo` as a new user meets them: relative
 output folders, params files that name unknown or command-line-owned FMU variables, durations
 too short for the metrics, SIGINT/SIGTERM during a real run, and error messages that give a
 field's real range. Bad input is one line on stderr, exit status 2, and nothing is run.
@@ -268,7 +268,8 @@ def test_a_short_positions_run_skips_the_fits_it_cannot_make():
     tried to fit the first segment after its 0.3 s move, on no samples, and failed."""
     import numpy as np
 
-    from cosim.config.scenarios import SimConfig, get_scenario
+    from cosim.config.run import SimConfig
+    from cosim.config.scenarios import get_scenario
 
     n = 500
     rec = {

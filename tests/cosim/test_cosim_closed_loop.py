@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from cosim.config.scenarios import SimConfig, get_scenario
+from cosim.config.run import SimConfig
+from cosim.config.scenarios import get_scenario
 from cosim.engines import experiment as sim
 from cosim.engines import reference
 from cosim.engines.cocotb import runner
@@ -20,14 +21,14 @@ from cosim.results import metrics
 # 4 s of fig14: the rise from rest, reversals at 1 s (max), 2 s (min) and 3 s (max), and enough
 # end-effector motion for phi to move without loop routing (settle_s = 1 s is excluded).
 DURATION_S = 4.0
-# Error budget of fixed point against float (issue 6): current command within a few LSB of
+# Error budget of fixed point against float : current command within a few LSB of
 # Q3.12 per sample, T_out within 0.5 % of full scale RMS.
 CURRENT_MAX_LSB = 4.0
 T_OUT_RMS_PCT_FS = 0.5
 # With the board's chain the plant's current is the ESCON's set value, in steps of 0.1 % duty =
 # 10 mA = 41 LSB: where the two chains' commands (a few LSB apart) straddle a step, the plant
 # gets currents one step apart for a PWM period and the loops answer it. Measured 16 LSB max on
-# 4 s of fig14 with the gains before issue 11, 20.1 LSB (smooth) with the tuned ones (Ki 2.5:
+# 4 s of fig14 with the gains before the tuning, 20.1 LSB (smooth) with the tuned ones (Ki 2.5:
 # the integrator takes longer to pull the two chains back together); 4.3 LSB, the PWM's own
 # clock step, with the ESCON's quantization off (tests/cosim/test_cosim_interface.py). With the
 # gains re-tuned on the ADS131M02 (Kp 0.1 A/N: the loop answers a step's difference twice as
@@ -202,7 +203,7 @@ def test_cosim_params_reach_the_plant_and_the_compensator(built, tmp_path):
     and the compensator's phi is the one given."""
     import json
 
-    from cosim.config.scenarios import load_params
+    from cosim.config.run import load_params
 
     p = tmp_path / "params.json"
     p.write_text(json.dumps({"plant": {"mu": 0.09}, "compensator": {"phi_rad": 6.0}}))

@@ -9,7 +9,8 @@ import random
 
 import pytest
 
-from cosim.config.scenarios import SimConfig, get_scenario
+from cosim.config.run import SimConfig
+from cosim.config.scenarios import get_scenario
 from cosim.engines import reference
 from cosim.parts import interface, rtl_model
 from cosim.results import metrics

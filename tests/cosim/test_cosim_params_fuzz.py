@@ -13,15 +13,14 @@ import math
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from cosim.config.scenarios import (
-    HOME_M,
+from cosim.config.run import (
     CompensatorParams,
     ControllerParams,
     SimConfig,
     field_ranges,
-    get_scenario,
     load_params,
 )
+from cosim.config.scenarios import HOME_M, get_scenario
 from cosim.engines import experiment as sim
 from cosim.parts import firmware
 from cosim.parts.plant import Plant, fmu_variables

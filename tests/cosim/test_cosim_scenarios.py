@@ -8,11 +8,12 @@ import math
 import numpy as np
 import pytest
 
+from cosim.config import run as run_cfg
 from cosim.config import scenarios as sc
 
 
 def test_cosim_scenarios_characterize_is_the_papers_ramp():
-    cfg = sc.SimConfig()
+    cfg = run_cfg.SimConfig()
     scen = sc.get_scenario("characterize")
     inp = sc.sample_inputs(scen, cfg)
     assert scen.duration_s == pytest.approx(15.0)  # 3 s, five times (Sec. VI-A)
@@ -26,7 +27,7 @@ def test_cosim_scenarios_characterize_is_the_papers_ramp():
 
 
 def test_cosim_scenarios_positions_hold_each_position_and_stay_in_the_workspace():
-    cfg = sc.SimConfig()
+    cfg = run_cfg.SimConfig()
     scen = sc.get_scenario("positions")
     inp = sc.sample_inputs(scen, cfg)
     assert len(scen.segments) == len(sc.POSITIONS_M)
@@ -42,7 +43,7 @@ def test_cosim_scenarios_positions_hold_each_position_and_stay_in_the_workspace(
 
 
 def test_cosim_scenarios_fig14_reference_and_motion():
-    cfg = sc.SimConfig()
+    cfg = run_cfg.SimConfig()
     scen = sc.get_scenario("fig14")
     inp = sc.sample_inputs(scen, cfg)
     assert scen.duration_s == 30.0
@@ -61,14 +62,14 @@ def test_cosim_scenarios_unknown_name_is_a_clear_error():
 
 
 def test_cosim_scenarios_kff_matches_the_contract():
-    # contract.md: 0.01 / (5.4 * 0.9 * 0.0234) ~ 0.088 A/N
-    assert sc.KFF_A_PER_N == pytest.approx(0.088, abs=5e-4)
+    # paper Table I: 0.01 / (5.4 * 0.9 * 0.0234) ~ 0.088 A/N
+    assert run_cfg.KFF_A_PER_N == pytest.approx(0.088, abs=5e-4)
 
 
 def test_cosim_scenarios_params_file_overrides_and_validation(tmp_path):
     p = tmp_path / "p.json"
     p.write_text(json.dumps({"plant": {"mu": 0.09}, "controller": {"kp_a_per_n": 0.1}}))
-    cfg = sc.load_params(p)
+    cfg = run_cfg.load_params(p)
     assert cfg.plant == {"mu": 0.09} and cfg.controller.kp_a_per_n == 0.1
     assert cfg.decimation == 10
     cases = [
@@ -89,12 +90,12 @@ def test_cosim_scenarios_params_file_overrides_and_validation(tmp_path):
     for data, message in cases:
         p.write_text(json.dumps(data))
         with pytest.raises(ValueError, match=message):
-            sc.load_params(p)
+            run_cfg.load_params(p)
     p.write_text("{not json")
     with pytest.raises(ValueError, match="is not valid JSON"):
-        sc.load_params(p)
+        run_cfg.load_params(p)
     with pytest.raises(ValueError, match="does not exist"):
-        sc.load_params(tmp_path / "missing.json")
+        run_cfg.load_params(tmp_path / "missing.json")
 
 
 def test_cosim_sim_cli_rejects_bad_input_before_running(tmp_path, capsys):

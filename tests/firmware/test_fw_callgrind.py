@@ -1,6 +1,6 @@
 """Instructions per compensator step under callgrind (deterministic for a given binary).
 
-The benchmark (`make bench-firmware`) prints the figures; this test holds the target of
+The benchmark (`make perf-firmware`) prints the figures; this test holds the target of
 at most 100 host instructions per step when valgrind is installed. Without valgrind it checks
 that the benchmark says so plainly (and exits 0) and warns that the count was not checked.
 """

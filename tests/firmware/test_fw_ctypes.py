@@ -3,7 +3,6 @@ against its double twin, configuration errors, and the tick on the register shad
 
 import ctypes
 import math
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -167,8 +166,8 @@ def test_fw_bad_config_raises_and_keeps_previous(change, field):
 
 
 def test_fw_make_compensator_f64_from_scenario_params():
-    """The co-simulation's entry point, from a duck-typed parameter object."""
-    p = SimpleNamespace(mu=0.075, band_n=2.0, hysteresis_n=4 * LSB)
+    """The co-simulation's entry point, from a run's CompensatorParams (SimConfig.compensator)."""
+    p = fw.CompensatorParams(mu=0.075, band_n=2.0, hysteresis_n=4 * LSB)
     twin = fw.make_compensator_f64("smooth", p, 2 * math.pi)
     fixed = fw.make_compensator("smooth", p, 2 * math.pi)
     for t in np.linspace(0, 15, 500):
@@ -177,7 +176,7 @@ def test_fw_make_compensator_f64_from_scenario_params():
 
 def test_fw_make_firmware_for_the_cosim():
     """make_firmware: the tick computes what the fixed-point compensator computes."""
-    p = SimpleNamespace(mu=0.075, band_n=2.0, hysteresis_n=4 * LSB)
+    p = fw.CompensatorParams(mu=0.075, band_n=2.0, hysteresis_n=4 * LSB)
     f = fw.make_firmware("smooth", p, 2 * math.pi, tick_rate_hz=1000, sample_rate_hz=10000)
     f.start()
     assert f.drain_writes()[-1] == (regmap.CTRL, regmap.CTRL_ENABLE)

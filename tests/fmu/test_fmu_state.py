@@ -117,7 +117,7 @@ def _blob_with(blob: bytes, old: float, new: float) -> bytes:
 def test_deserialised_state_with_nan_or_out_of_range_values_is_refused(
     make_plant, what, old_value, new_value, message
 ):
-    """issue 13, item 12: fmi2DeSerializeFMUstate checks what it is given (the bytes may come
+    """fmi2DeSerializeFMUstate checks what it is given (the bytes may come
     from a file); a refused state leaves the instance as it was."""
     a = make_plant(STATEFUL)
     b = make_plant(STATEFUL)

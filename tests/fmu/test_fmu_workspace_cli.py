@@ -34,7 +34,7 @@ def test_workspace_command_rejects_bad_length(tmp_path):
         text=True,
     )
     assert res.returncode == 2
-    # Errors go to stderr, one line, with the allowed range (issue 13, item 6).
+    # Errors go to stderr, one line, with the allowed range.
     assert res.stdout == ""
     assert res.stderr == "bowden workspace: --length must be in [0.01, 10] m; got -1.0\n"
 

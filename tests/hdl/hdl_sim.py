@@ -4,6 +4,11 @@ Each tests/hdl/test_<module>.py holds cocotb coroutines and a pytest function th
 `run_cocotb`. Builds go to build/sim/<module>[-<tag>]/<simulator>/ and are reused when the
 sources have not changed (Verilator and Icarus rebuild on their own when a source is newer).
 
+`WAVES=1` (e.g. `WAVES=1 make test-hdl` or `WAVES=1 .venv/bin/python -m pytest tests/hdl/X`)
+makes every RTL test dump its waveform: Verilator a VCD (dump.vcd), Icarus an FST
+(<toplevel>.fst), in a build folder of its own (build/sim/<module>[-<tag>]-waves/<simulator>/,
+built with tracing), whose path the test prints.
+
 Also what more than one testbench uses: `SpiMaster` (an MCU on the SPI bridge, with the
 bridge's status byte), `reset_after_sck_falls` (a reset in mid-frame), `Ads1220` and
 `Ads131m02` (the load-cell ADCs behind ads1220_reader and ads131m02_reader) and
@@ -13,6 +18,7 @@ cosim.parts.rtl_model.TensionLoopModel).
 
 from __future__ import annotations
 
+import os
 import shutil
 from pathlib import Path
 
@@ -57,6 +63,16 @@ def replay_write(model, addr: int, wdata: int, wstrb: int) -> None:
     model.write(name, signed(bits, f.width) if f.signed else bits)
 
 
+def waves_on() -> bool:
+    """True when the WAVES environment variable asks for waveforms (1, yes, true, on)."""
+    return os.environ.get("WAVES", "").strip().lower() in ("1", "yes", "true", "on")
+
+
+def waves_file(build_dir: Path, toplevel: str, simulator: str) -> Path:
+    """Where a run with WAVES=1 leaves its waveform (cocotb's runner names it)."""
+    return build_dir / ("dump.vcd" if simulator == "verilator" else f"{toplevel}.fst")
+
+
 def rtl(*names: str) -> list[Path]:
     """Paths of RTL modules hdl/rtl/<name>.v."""
     return [RTL_DIR / f"{name}.v" for name in names]
@@ -70,13 +86,16 @@ def run_cocotb(
     parameters: dict[str, object] | None = None,
     tag: str = "",
     extra_env: dict[str, str] | None = None,
+    build_args: list[str] | None = None,
 ) -> int:
     """Build `toplevel` with `simulator` (reusing an earlier build) and run the cocotb tests.
 
     Returns the number of cocotb tests that ran; raises AssertionError when one failed or none
     ran.
     """
-    build_dir = BUILD_DIR / "sim" / (toplevel + (f"-{tag}" if tag else "")) / simulator
+    waves = waves_on()
+    name = toplevel + (f"-{tag}" if tag else "") + ("-waves" if waves else "")
+    build_dir = BUILD_DIR / "sim" / name / simulator
     runner = get_runner(simulator)
     runner.build(
         sources=sources,
@@ -84,6 +103,8 @@ def run_cocotb(
         parameters=parameters or {},
         build_dir=build_dir,
         timescale=("1ns", "1ps"),
+        waves=waves,
+        build_args=build_args or [],
     )
     env = dict(extra_env or {})
     if simulator == "icarus":
@@ -97,7 +118,12 @@ def run_cocotb(
         test_dir=build_dir,
         results_xml=str(results),
         extra_env=env,
+        waves=waves,
     )
+    if waves:
+        dump = waves_file(build_dir, toplevel, simulator)
+        assert dump.is_file() and dump.stat().st_size > 0, f"WAVES=1 but no waveform at {dump}"
+        print(f"waveform: {dump}")
     num_tests, num_failed = get_results(results)
     assert num_tests > 0, f"no cocotb test ran for {toplevel} on {simulator}"
     assert num_failed == 0, f"{num_failed} of {num_tests} cocotb tests failed ({results})"

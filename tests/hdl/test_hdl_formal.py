@@ -1,4 +1,4 @@
-"""The formal proofs of hdl/formal/ (issue 12) as part of the suite: every task must pass.
+"""The formal proofs of hdl/formal/ as part of the suite: every task must pass.
 
 Each task runs SymbiYosys into its own tmp_path, so the tasks run in parallel under xdist. A
 mutant run checks that the harness itself can fail: with the PWM clamp removed the duty proof

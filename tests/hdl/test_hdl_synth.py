@@ -48,7 +48,8 @@ def test_synth_script_passes(summaries):
     [("ice40-up5k", 48.0, 0.60), ("ecp5-25f", 100.0, 1.0)],
 )
 def test_board_figures(summaries, board, target_mhz, max_lut_fraction):
-    """Fmax at or above the target (issue 4), LUTs in budget, the multipliers in DSP blocks."""
+    """Fmax at or above the target (hdl/README.md), LUTs in budget, the multipliers in DSP
+    blocks."""
     s = summaries[1][board]
     assert KEYS <= s.keys()
     assert s["target_mhz"] == target_mhz

@@ -17,7 +17,8 @@ import sys
 import numpy as np
 import pytest
 
-from cosim.config.scenarios import SimConfig, get_scenario
+from cosim.config.run import SimConfig
+from cosim.config.scenarios import get_scenario
 from cosim.engines import experiment as sim
 from cosim.engines import reference
 from cosim.engines.cocotb import runner

@@ -114,7 +114,7 @@ def test_sweep_killed_midway_resumes_and_matches_single_runs(native, tmp_path):
             assert row[key] == single[key], (point.values, key, row[key], single[key])
         assert [row["x_m"], row["y_m"], row["z_m"]] == point.values["position_m"]
     # The axes act: the smooth inverse beats the paper law at every position and mu (RMS: with
-    # issue 11's tuned gains both modes can share their peak, the start-up's at t = settle_s).
+    # the tuned gains both modes can share their peak, the start-up's at t = settle_s).
     for r in rows:
         if r["compensator"] == "smooth":
             twin = next(

@@ -11,7 +11,8 @@ import math
 import pytest
 
 import cosim.studies.tune as tn
-from cosim.config.scenarios import TUNE_SCENARIO, SimConfig
+from cosim.config.run import SimConfig
+from cosim.config.scenarios import TUNE_SCENARIO
 from cosim.parts import regmap
 from cosim.parts.firmware import CompConfig, load_library
 from cosim.parts.firmware import CompensatorParams as FwComp

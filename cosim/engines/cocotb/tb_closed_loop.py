@@ -46,7 +46,8 @@ from cocotb.simtime import get_sim_time
 from cocotb.triggers import Event, RisingEdge, Timer
 from cocotbext.axi import AxiLiteBus, AxiLiteMaster
 
-from cosim.config.scenarios import SimConfig, firmware_t_ref, get_scenario, sample_inputs
+from cosim.config.run import SimConfig
+from cosim.config.scenarios import firmware_t_ref, get_scenario, sample_inputs
 from cosim.engines.common import (
     TC_LATENCY_SAMPLES,
     Record,

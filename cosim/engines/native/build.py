@@ -35,8 +35,9 @@ VERILATOR_ARGS = ("-O3", "--x-assign", "fast", "--x-initial", "fast", "-Wno-fata
 # No contraction into fused multiply-adds, no fast math: the interface stage must round as
 # Python does (bit-identical to the cocotb harness). -O3 and -fno-semantic-interposition (the
 # model's functions call each other directly and inline although the library is built -fPIC,
-# which no program interposes on) took the RTL from 2.2 to 2.0 us per sample (issue 14).
-# Verilator's makefile compiles the model with -Os unless told otherwise.
+# which no program interposes on) took the RTL from 2.2 to 2.0 us per sample (measured when the
+# native engine was written). Verilator's makefile compiles the model with -Os unless told
+# otherwise.
 MAKEFLAGS = "OPT_FAST=-O3 OPT_SLOW=-O1 OPT_GLOBAL=-O3"
 CXXFLAGS = (
     "-std=c++17",

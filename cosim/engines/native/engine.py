@@ -18,7 +18,8 @@ from ctypes import POINTER, c_char, c_double, c_int16, c_int32, c_int64, c_uint3
 import numpy as np
 
 from cosim.config import scenarios
-from cosim.config.scenarios import SimConfig, get_scenario, held_at, sample_inputs
+from cosim.config.run import SimConfig
+from cosim.config.scenarios import get_scenario, held_at, sample_inputs
 from cosim.engines.common import (
     CLKS_PER_SAMPLE,
     TC_LATENCY_SAMPLES,

@@ -90,7 +90,8 @@ def build_variant(segments: int) -> Path:
 
 def run_setting(max_step_s: float, segments: int, duration_s: float = DURATION_S) -> dict:
     """One closed-loop run of the study: the record's T_out, the RMS error, the FMU's cost."""
-    from cosim.config.scenarios import SimConfig, get_scenario  # noqa: PLC0415
+    from cosim.config.run import SimConfig  # noqa: PLC0415
+    from cosim.config.scenarios import get_scenario
     from cosim.engines import experiment as sim  # noqa: PLC0415
     from cosim.engines.native import engine  # noqa: PLC0415
     from cosim.engines.reference import resolve_phi  # noqa: PLC0415

@@ -1,4 +1,4 @@
-"""Which load-cell front-end the board should have: the sensing study of issue 11 (item 2).
+"""Which load-cell front-end the board should have: the sensing study (hdl/README.md, "Sensing").
 
 `python -m cosim.studies.sensing` runs the float reference (cosim.engines.reference) with the
 board's PWM -> ESCON stage and four sensing options, and prints their tracking error and Kp margin

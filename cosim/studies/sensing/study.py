@@ -41,7 +41,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from cosim.config.scenarios import HOME_M, Scenario, SimConfig, get_scenario
+from cosim.config.run import SimConfig
+from cosim.config.scenarios import HOME_M, Scenario, get_scenario
 from cosim.engines.reference import make_float_loop, resolve_phi, run_reference
 from cosim.parts.interface import ADC_PARTS, AdcModel, Chain, make_chain
 from cosim.project.cliargs import ArgumentParser, finite_float

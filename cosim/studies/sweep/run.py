@@ -58,7 +58,8 @@ def _row_base(point: Point) -> dict:
 
 
 def _run(spec: SweepSpec, point: Point) -> dict:
-    from cosim.config.scenarios import SimConfig, get_scenario  # noqa: PLC0415
+    from cosim.config.run import SimConfig  # noqa: PLC0415
+    from cosim.config.scenarios import get_scenario
     from cosim.engines import experiment as sim  # noqa: PLC0415
     from cosim.engines.native import engine  # noqa: PLC0415
     from cosim.engines.reference import resolve_phi  # noqa: PLC0415

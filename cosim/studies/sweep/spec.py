@@ -36,7 +36,8 @@ import random
 from dataclasses import dataclass
 from pathlib import Path
 
-from cosim.config.scenarios import COMPENSATORS, SCENARIO_NAMES, SimConfig
+from cosim.config.run import COMPENSATORS, SimConfig
+from cosim.config.scenarios import SCENARIO_NAMES
 from cosim.parts.interface import INTERFACES
 from cosim.project.cliargs import shown
 

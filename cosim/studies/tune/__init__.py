@@ -1,5 +1,6 @@
 """`bowden tune`: choose the loop gains, the smooth band and the preview parameters on the `tune`
-scenario only, and state the stability margin (issue 11, "honest tuning").
+scenario only, and state the stability margin ("honest tuning": chosen on one scenario, reported
+on others).
 
 Procedure (one command, deterministic; the lead re-runs it when the board's chain changes):
 
@@ -41,7 +42,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from cosim.config.scenarios import HOME_M, TUNE_SCENARIO, Scenario, SimConfig, _ease, get_scenario
+from cosim.config.run import SimConfig
+from cosim.config.scenarios import HOME_M, TUNE_SCENARIO, Scenario, _ease, get_scenario
 
 # The rule, written once.
 PEAK_WEIGHT = 0.25

@@ -1,4 +1,4 @@
-"""`make audit-sweep`: the many-seed sweep of issue 9's acceptance, too long for `make test`.
+"""`make audit-sweep`: the many-seed sweep of the audit's acceptance, too long for `make test`.
 
 For every cause of the vocabulary, two random causes at once, no effect and a 50 Hz pickup, with
 N seeds each (argument, default 3), FMU data of 30 s are made with the effects at random
@@ -15,13 +15,10 @@ import time
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from audit_data import fmu_record  # noqa: E402
 from test_audit_causes import SEEDS, _magnitude  # noqa: E402
 
 from cosim.audit import core  # noqa: E402
+from cosim.audit.synthetic import fmu_record
 from cosim.results import trace  # noqa: E402
 
 N_SEEDS = int(sys.argv[1]) if len(sys.argv) > 1 else 3

@@ -1,4 +1,4 @@
-"""`make bench-audit`: wall time of `bowden audit` on 60 s of 1 kHz data (issue 9 target: at most
+"""`make perf-audit`: wall time of `bowden audit` on 60 s of 1 kHz data (target: at most
 30 s on this machine), end to end (reading, fitting, the FMU runs, report and plots), for data
 with no effect, one effect and two effects, and a recording of the bench emulator (the
 0.5 Hz sine of `bowden bench run sine`). Prints the machine's load: the figures move with it.
@@ -14,9 +14,7 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from audit_data import fmu_record  # noqa: E402
+from cosim.audit.synthetic import fmu_record
 
 TARGET_S = 30.0
 EMULATOR = "bench emulator: 0.5 Hz sine, no effect"

@@ -1,7 +1,7 @@
-"""Test data made by the plant FMU in drive mode 1 (issue 9 acceptance): a bench session with the
-end-effector held at a new position every few seconds while the input tension wanders, sensor
-noise on, and the hidden effects switched on by the caller. The hidden magnitudes and seeds live
-in the tests; the audit reads only the CSV and a sidecar without mu."""
+"""Test data made by the plant FMU in drive mode 1 (the audit's acceptance data): a bench session
+with the end-effector held at a new position every few seconds while the input tension wanders,
+sensor noise on, and the hidden effects switched on by the caller. The hidden magnitudes and seeds
+live in the tests; the audit reads only the CSV and a sidecar without mu."""
 
 from __future__ import annotations
 

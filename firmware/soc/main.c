@@ -1,0 +1,130 @@
+/*
+ * main.c - the bench device (dev.h) on bowden_soc: the loop's registers memory-mapped (hal.h's
+ * MMIO back end), the protocol on the UART, the settings in the SPI flash, the tick from the
+ * timer interrupt.
+ *
+ * The interrupt only counts ticks (start.S); the main loop runs them, so dev_tick and the
+ * protocol's receiver never run at once and need no locking. A tick found with more than one
+ * pending was late: the device's OVERRUN fault says so (dev_overrun) and the missed ticks are not
+ * run twice (the loop in the FPGA holds its last T_c meanwhile, guarded by its watchdog).
+ */
+#include <stdint.h>
+
+#include "bowden_regs.h"
+#include "dev.h"
+#include "fw.h"
+#include "hal.h"
+#include "soc.h"
+#include "spi_flash.h"
+
+volatile uint32_t soc_ticks_seen;
+
+static hal_t g_hal;
+static fw_t g_fw;
+static flash_hal_t g_flash;
+static dev_t g_dev;
+
+/* T_out in Q7.8 N from the T_OUT register's raw code, with the loop's own calibration formula
+ * (hdl/README.md, "The loop": sat16(((raw - ADC_OFFSET) * ADC_GAIN + 2^19) >> 20)). */
+static int32_t t_out_q8(const fw_loop_config_t *l)
+{
+    uint32_t word = hal_read(&g_hal, BOWDEN_REG_T_OUT) & BOWDEN_T_OUT_MASK;
+    int32_t raw = (int32_t)(word << 8) >> 8; /* sign-extend the 24-bit code */
+    int64_t p = (int64_t)(raw - l->adc_offset) * (int64_t)l->adc_gain + (1LL << 19);
+    int64_t q = p >> 20;
+    if (q > 32767) {
+        q = 32767;
+    } else if (q < -32768) {
+        q = -32768;
+    }
+    return (int32_t)q;
+}
+
+static uint32_t g_timer_rate_hz;
+
+/* Program the timer for the configured tick rate (checked by dev_settings_check: 1..65535 Hz). */
+static void timer_follow_rate(void)
+{
+    uint32_t rate = g_dev.settings.fw.tick_rate_hz;
+    if (rate != g_timer_rate_hz && rate != 0U) {
+        g_timer_rate_hz = rate;
+        soc_io_write(SOC_TIMER_PERIOD, soc_io_read(SOC_SYS_CLK_HZ) / rate);
+    }
+}
+
+static void uart_poll(void)
+{
+    /* Received bytes, in chunks, so that a full FIFO is handled in few calls. */
+    uint8_t buf[32];
+    uint32_t n = 0U;
+    for (;;) {
+        uint32_t v = soc_io_read(SOC_UART_DATA);
+        if ((v & 0x100U) == 0U) {
+            break;
+        }
+        buf[n++] = (uint8_t)v;
+        if (n == sizeof buf) {
+            soc_io_write(SOC_SYS_MARK, SOC_MARK_RX);
+            dev_rx_bytes(&g_dev, DEV_PORT_SERIAL, buf, n);
+            n = 0U;
+        }
+    }
+    if (n > 0U) {
+        soc_io_write(SOC_SYS_MARK, SOC_MARK_RX);
+        dev_rx_bytes(&g_dev, DEV_PORT_SERIAL, buf, n);
+    }
+    /* Transmit while the FIFO takes bytes. */
+    while ((soc_io_read(SOC_UART_STATUS) & 0x1U) == 0U) {
+        uint8_t b;
+        if (dev_tx_bytes(&g_dev, DEV_PORT_SERIAL, &b, 1U) == 0U) {
+            break;
+        }
+        soc_io_write(SOC_UART_DATA, b);
+    }
+}
+
+int main(void)
+{
+    soc_io_write(SOC_SYS_MARK, SOC_MARK_BOOT);
+    hal_init_mmio(&g_hal, (volatile uint32_t *)SOC_REGS_BASE);
+    fw_init(&g_fw, &g_hal);
+    spi_flash_init(&g_flash);
+    dev_init(&g_dev, &g_fw, &g_flash);
+    /* Bytes that arrived during start-up are dropped with their overrun flag: a request sent
+     * while the board booted gets no answer, and the client retries (PROTOCOL.md). */
+    while ((soc_io_read(SOC_UART_DATA) & 0x100U) != 0U) {
+    }
+    soc_io_write(SOC_UART_STATUS, 0xCU);
+    timer_follow_rate();
+    soc_irq_enable();
+
+    uint32_t time_us = 0U;
+    uint32_t us_rem = 0U;
+    uint32_t taken = soc_ticks_seen;
+    for (;;) {
+        soc_io_write(SOC_SYS_MARK, SOC_MARK_IDLE);
+        uart_poll();
+        /* The interrupt only counts up; the ticks not yet run are the difference (no
+         * read-modify-write shared with the interrupt). */
+        uint32_t seen = soc_ticks_seen;
+        uint32_t pending = seen - taken;
+        if (pending == 0U) {
+            continue;
+        }
+        taken = seen;
+        if (pending > 1U) {
+            dev_overrun(&g_dev);
+        }
+        /* Time in microseconds, exact for any rate: 1e6 / rate with its remainder carried. */
+        uint32_t rate = g_timer_rate_hz;
+        time_us += 1000000U / rate;
+        us_rem += 1000000U % rate;
+        if (us_rem >= rate) {
+            us_rem -= rate;
+            ++time_us;
+        }
+        soc_io_write(SOC_SYS_MARK, SOC_MARK_TICK);
+        dev_tick(&g_dev, time_us, t_out_q8(&g_dev.settings.fw.loop));
+        timer_follow_rate();
+    }
+}

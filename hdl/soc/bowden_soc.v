@@ -1,0 +1,343 @@
+`resetall
+`timescale 1ns / 1ps
+`default_nettype none
+
+/*
+ * The whole controller on one FPGA: a picorv32 (RV32IMC, from the pythondata-cpu-picorv32
+ * package, not copied here) runs the bench firmware (firmware/soc) next to the tension loop.
+ *
+ *   picorv32 --+-- 0x0000_0000 ROM: the image ($readmemh of ROM_INIT, or written by a boot copier)
+ *              +-- 0x1000_0000 RAM: data and stack
+ *              +-- 0x2000_0000 bowden_core's register map (AXI4-Lite via picorv32_axi_adapter)
+ *              +-- 0x3000_0000 UART (bench protocol), timer (1 kHz tick interrupt), SPI flash
+ *                              master (settings), system words (firmware/soc/soc.h)
+ *   bowden_core <- ads131m02_reader <- ADS131M02;  bowden_core -> ESCON (PWM set value, enable)
+ *
+ * Every rate is an exact number of clocks at CLK_HZ (checked at elaboration): the loop's sample
+ * (CLK_HZ / SAMPLE_HZ), the PWM period (CLK_HZ / PWM_HZ) and the firmware's tick (the timer's
+ * period, CLK_HZ / tick rate, set by the firmware from SOC_SYS_CLK_HZ). The UART's bit is the
+ * nearest whole number of clocks (soc_uart.v).
+ *
+ * CPU_FAST selects picorv32's single-cycle barrel shifter and its DSP multiplier (ENABLE_FAST_MUL)
+ * over the shift-by-one and the bit-serial multiplier; hdl/README.md, "bowden_soc", compares them.
+ */
+module bowden_soc #(
+    parameter CLK_HZ = 24000000,      // system clock, Hz
+    parameter SAMPLE_HZ = 10000,      // loop rate, Hz (CLK_HZ a multiple of it)
+    parameter PWM_HZ = 5000,          // ESCON PWM frequency, Hz (CLK_HZ a multiple of it)
+    parameter BAUD = 921600,          // UART, 8N1
+    parameter UART_FIFO_AW = 9,       // UART FIFOs of 512 bytes each
+    parameter ROM_WORDS = 8192,       // 32 KiB image (mk/soc.mk SOC_ROM_BYTES)
+    parameter RAM_WORDS = 4096,       // 16 KiB data and stack (mk/soc.mk SOC_RAM_BYTES)
+    parameter ROM_INIT = "",          // $readmemh file of the image
+    parameter CPU_FAST = 1,           // 1: barrel shifter + DSP multiplier; 0: the small ones
+    parameter FLASH_HALF_CLKS = 1,    // flash SCK half period, clocks
+    parameter ADC_SCLK_HALF_CLKS = 3, // ADC SCLK half period, clocks (24 MHz -> 4 MHz, >= 3)
+    parameter ADC_WAIT_CLKS = 8192    // ADC wait after power-up, clocks
+) (
+    input  wire clk,
+    input  wire rst,
+
+    // bench protocol
+    input  wire uart_rx,
+    output wire uart_tx,
+
+    // SPI NOR flash (settings; the bitstream's flash)
+    output wire flash_sck,
+    output wire flash_cs_n,
+    output wire flash_mosi,
+    input  wire flash_miso,
+
+    // ADS131M02 (SPI mode 1)
+    output wire adc_sclk,
+    output wire adc_cs_n,
+    output wire adc_din,
+    input  wire adc_dout,
+    input  wire adc_drdy_n,
+
+    // ESCON drive
+    output wire drive_pwm,
+    output wire drive_enable,
+
+    // status
+    output wire fault,       // a loop fault is latched
+    output wire cpu_trap,    // the CPU stopped on an illegal instruction or misaligned access
+    output wire sample_tick  // one clock at the start of each loop sample
+);
+
+// --- elaboration checks: exact rates --------------------------------------------------------
+
+generate
+    if (CLK_HZ % SAMPLE_HZ != 0) begin : g_check_sample
+        bowden_soc_CLK_HZ_must_be_a_multiple_of_SAMPLE_HZ error_SAMPLE_HZ ();
+    end
+    if (CLK_HZ % PWM_HZ != 0) begin : g_check_pwm
+        bowden_soc_CLK_HZ_must_be_a_multiple_of_PWM_HZ error_PWM_HZ ();
+    end
+endgenerate
+
+localparam ROM_AW = $clog2(ROM_WORDS);
+localparam RAM_AW = $clog2(RAM_WORDS);
+
+// --- CPU -------------------------------------------------------------------------------------
+
+wire        mem_valid, mem_instr, mem_ready;
+wire [31:0] mem_addr, mem_wdata, mem_rdata;
+wire [3:0]  mem_wstrb;
+wire [31:0] irq;
+reg         timer_pending_reg;
+
+assign irq = {28'd0, timer_pending_reg, 3'd0};  // firmware/soc/soc.h SOC_IRQ_TIMER = 3
+
+wire        unused_cpu;
+wire [31:0] eoi, la_addr, la_wdata, pcpi_insn, pcpi_rs1, pcpi_rs2;
+wire [3:0]  la_wstrb;
+wire        la_read, la_write, pcpi_valid, trace_valid;
+wire [35:0] trace_data;
+
+picorv32 #(
+    .ENABLE_COUNTERS(0), .ENABLE_COUNTERS64(0), .ENABLE_REGS_16_31(1),
+    .ENABLE_REGS_DUALPORT(1), .LATCHED_MEM_RDATA(0), .TWO_STAGE_SHIFT(1),
+    .BARREL_SHIFTER(CPU_FAST), .TWO_CYCLE_COMPARE(0), .TWO_CYCLE_ALU(0),
+    .COMPRESSED_ISA(1), .CATCH_MISALIGN(1), .CATCH_ILLINSN(1), .ENABLE_PCPI(0),
+    .ENABLE_MUL(!CPU_FAST), .ENABLE_FAST_MUL(CPU_FAST), .ENABLE_DIV(1),
+    .ENABLE_IRQ(1), .ENABLE_IRQ_QREGS(0), .ENABLE_IRQ_TIMER(0), .ENABLE_TRACE(0),
+    .REGS_INIT_ZERO(0), .MASKED_IRQ(32'hFFFF_FFF7), .LATCHED_IRQ(32'hFFFF_FFFF),
+    .PROGADDR_RESET(32'h0000_0000), .PROGADDR_IRQ(32'h0000_0010),
+    .STACKADDR(32'h1000_0000 + 4 * RAM_WORDS)
+) cpu (
+    .clk(clk), .resetn(!rst), .trap(cpu_trap),
+    .mem_valid(mem_valid), .mem_instr(mem_instr), .mem_ready(mem_ready),
+    .mem_addr(mem_addr), .mem_wdata(mem_wdata), .mem_wstrb(mem_wstrb), .mem_rdata(mem_rdata),
+    .mem_la_read(la_read), .mem_la_write(la_write), .mem_la_addr(la_addr),
+    .mem_la_wdata(la_wdata), .mem_la_wstrb(la_wstrb),
+    .pcpi_valid(pcpi_valid), .pcpi_insn(pcpi_insn), .pcpi_rs1(pcpi_rs1), .pcpi_rs2(pcpi_rs2),
+    .pcpi_wr(1'b0), .pcpi_rd(32'd0),
+    .pcpi_wait(1'b0), .pcpi_ready(1'b0),
+    .irq(irq), .eoi(eoi),
+    .trace_valid(trace_valid), .trace_data(trace_data)
+);
+
+// The look-ahead bus, the co-processor port and the trace are not used.
+assign unused_cpu = &{1'b0, eoi, la_read, la_write, la_addr, la_wdata, la_wstrb, pcpi_valid,
+                      pcpi_insn, pcpi_rs1, pcpi_rs2, trace_valid, trace_data};
+
+// --- bus decode ------------------------------------------------------------------------------
+
+wire sel_rom = (mem_addr[31:28] == 4'h0);
+wire sel_ram = (mem_addr[31:28] == 4'h1);
+wire sel_regs = (mem_addr[31:28] == 4'h2);
+wire sel_io = (mem_addr[31:28] == 4'h3);
+wire sel_none = !(sel_rom || sel_ram || sel_regs || sel_io);
+
+// ROM, RAM, I/O and unmapped addresses answer in the clock after the request; an unmapped
+// access reads 0 and writes nothing. The register map answers through AXI4-Lite.
+reg  ready_reg;
+wire access = mem_valid && !ready_reg && !sel_regs;
+wire io_access = access && sel_io;
+
+always @(posedge clk) begin
+    ready_reg <= access;
+    if (rst) begin
+        ready_reg <= 1'b0;
+    end
+end
+
+wire [31:0] rom_rdata, ram_rdata;
+reg  [31:0] io_rdata_reg;
+
+soc_ram #(.WORDS(ROM_WORDS), .INIT_FILE(ROM_INIT)) rom (
+    .clk(clk), .en(access && sel_rom), .we(4'd0), .addr(mem_addr[ROM_AW+1:2]),
+    .wdata(mem_wdata), .rdata(rom_rdata)
+);
+
+soc_ram #(.WORDS(RAM_WORDS)) ram (
+    .clk(clk), .en(access && sel_ram), .we(mem_wstrb), .addr(mem_addr[RAM_AW+1:2]),
+    .wdata(mem_wdata), .rdata(ram_rdata)
+);
+
+// --- register map: bowden_core over AXI4-Lite ------------------------------------------------
+
+localparam ADDR_W = 8;
+
+wire        axi_awvalid, axi_awready, axi_wvalid, axi_wready, axi_bvalid, axi_bready;
+wire        axi_arvalid, axi_arready, axi_rvalid, axi_rready;
+wire [31:0] axi_awaddr, axi_araddr, axi_wdata, axi_rdata;
+wire [2:0]  axi_awprot, axi_arprot;
+wire [3:0]  axi_wstrb;
+wire [1:0]  axi_bresp, axi_rresp;
+wire        regs_ready;
+wire [31:0] regs_rdata;
+
+picorv32_axi_adapter axi_adapter (
+    .clk(clk), .resetn(!rst),
+    .mem_axi_awvalid(axi_awvalid), .mem_axi_awready(axi_awready), .mem_axi_awaddr(axi_awaddr),
+    .mem_axi_awprot(axi_awprot), .mem_axi_wvalid(axi_wvalid), .mem_axi_wready(axi_wready),
+    .mem_axi_wdata(axi_wdata), .mem_axi_wstrb(axi_wstrb), .mem_axi_bvalid(axi_bvalid),
+    .mem_axi_bready(axi_bready), .mem_axi_arvalid(axi_arvalid), .mem_axi_arready(axi_arready),
+    .mem_axi_araddr(axi_araddr), .mem_axi_arprot(axi_arprot), .mem_axi_rvalid(axi_rvalid),
+    .mem_axi_rready(axi_rready), .mem_axi_rdata(axi_rdata),
+    .mem_valid(mem_valid && sel_regs), .mem_instr(mem_instr), .mem_ready(regs_ready),
+    .mem_addr(mem_addr), .mem_wdata(mem_wdata), .mem_wstrb(mem_wstrb), .mem_rdata(regs_rdata)
+);
+
+// An SLVERR (unmapped register word) reads 0, as on the SPI bridge; the response codes are for
+// the bus, the firmware knows its map.
+wire unused_axi = &{1'b0, axi_awaddr[31:ADDR_W], axi_araddr[31:ADDR_W], axi_bresp, axi_rresp};
+
+// --- load-cell ADC (as bowden_system wires it) -----------------------------------------------
+
+localparam integer DRDY_TIMEOUT_PERIODS = CLK_HZ / 8000;
+localparam integer DRDY_TIMEOUT_FRAMES = 4 * 2 * 96 * ADC_SCLK_HALF_CLKS;
+localparam integer ADC_DRDY_TIMEOUT_CLKS = (DRDY_TIMEOUT_PERIODS > DRDY_TIMEOUT_FRAMES) ?
+                                           DRDY_TIMEOUT_PERIODS : DRDY_TIMEOUT_FRAMES;
+
+wire        rdr_valid;
+wire [23:0] rdr_data, adc_aux_data;
+wire        adc_drdy_lost, adc_crc_err;
+wire [15:0] adc_status;
+
+ads131m02_reader #(
+    .SCLK_HALF_CLKS(ADC_SCLK_HALF_CLKS), .WAIT_CLKS(ADC_WAIT_CLKS),
+    .DRDY_TIMEOUT_CLKS(ADC_DRDY_TIMEOUT_CLKS)
+) adc (
+    .clk(clk), .rst(rst),
+    .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
+    .adc_drdy_n(adc_drdy_n), .adc_valid(rdr_valid), .adc_data(rdr_data),
+    .adc_aux_data(adc_aux_data), .adc_status(adc_status), .crc_error(adc_crc_err),
+    .drdy_lost(adc_drdy_lost)
+);
+
+wire unused_adc_status = &{1'b0, adc_status};
+
+// The same two pipeline registers as bowden_system (cosim.interface.CORE_PIPE_CLKS).
+reg [1:0]  adc_valid_pipe_reg;
+reg [23:0] adc_data_pipe_reg [0:1];
+
+always @(posedge clk) begin
+    adc_valid_pipe_reg <= {adc_valid_pipe_reg[0], rdr_valid};
+    adc_data_pipe_reg[0] <= rdr_data;
+    adc_data_pipe_reg[1] <= adc_data_pipe_reg[0];
+    if (rst) begin
+        adc_valid_pipe_reg <= 2'b00;
+    end
+end
+
+wire [15:0] cmd_current;
+wire        cmd_valid;
+wire unused_cmd = &{1'b0, cmd_current, cmd_valid};
+
+bowden_core #(
+    .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .PWM_HZ(PWM_HZ), .ADDR_W(ADDR_W)
+) core (
+    .clk(clk), .rst(rst),
+    .s_axil_awaddr(axi_awaddr[ADDR_W-1:0]), .s_axil_awprot(axi_awprot),
+    .s_axil_awvalid(axi_awvalid), .s_axil_awready(axi_awready), .s_axil_wdata(axi_wdata),
+    .s_axil_wstrb(axi_wstrb), .s_axil_wvalid(axi_wvalid), .s_axil_wready(axi_wready),
+    .s_axil_bresp(axi_bresp), .s_axil_bvalid(axi_bvalid), .s_axil_bready(axi_bready),
+    .s_axil_araddr(axi_araddr[ADDR_W-1:0]), .s_axil_arprot(axi_arprot),
+    .s_axil_arvalid(axi_arvalid), .s_axil_arready(axi_arready), .s_axil_rdata(axi_rdata),
+    .s_axil_rresp(axi_rresp), .s_axil_rvalid(axi_rvalid), .s_axil_rready(axi_rready),
+    .adc_valid(adc_valid_pipe_reg[1]), .adc_data(adc_data_pipe_reg[1]),
+    .adc_aux_data(adc_aux_data), .adc_drdy_lost(adc_drdy_lost), .adc_crc_err(adc_crc_err),
+    .cmd_current(cmd_current), .cmd_enable(drive_enable), .cmd_valid(cmd_valid),
+    .fault(fault), .pwm(drive_pwm), .sample_tick(sample_tick)
+);
+
+// --- I/O: UART, timer, SPI flash, system -----------------------------------------------------
+
+// firmware/soc/soc.h offsets (word index = offset / 4)
+localparam [5:0] IO_UART_DATA = 6'h00, IO_UART_STATUS = 6'h01, IO_TIMER_COUNT = 6'h04,
+                 IO_TIMER_PERIOD = 6'h05, IO_TIMER_IRQ = 6'h06, IO_SPI_CS = 6'h08,
+                 IO_SPI_DATA = 6'h09, IO_SYS_CLK_HZ = 6'h0C, IO_SYS_MARK = 6'h0D;
+
+wire [5:0] io_word = mem_addr[7:2];
+wire       io_wr = io_access && (mem_wstrb != 4'd0);
+wire       io_rd = io_access && (mem_wstrb == 4'd0);
+wire       unused_io_addr = &{1'b0, mem_addr[27:8], mem_addr[1:0], sel_none};
+
+wire [7:0] uart_rx_data;
+wire       uart_rx_avail, uart_tx_full, uart_overrun, uart_frame_err;
+
+soc_uart #(.CLK_HZ(CLK_HZ), .BAUD(BAUD), .FIFO_AW(UART_FIFO_AW)) uart (
+    .clk(clk), .rst(rst), .rx(uart_rx), .tx(uart_tx),
+    .tx_push(io_wr && io_word == IO_UART_DATA), .tx_data(mem_wdata[7:0]), .tx_full(uart_tx_full),
+    .rx_pop(io_rd && io_word == IO_UART_DATA), .rx_data(uart_rx_data),
+    .rx_avail(uart_rx_avail), .rx_overrun(uart_overrun), .rx_frame_err(uart_frame_err),
+    .clear_overrun(io_wr && io_word == IO_UART_STATUS && mem_wdata[2]),
+    .clear_frame_err(io_wr && io_word == IO_UART_STATUS && mem_wdata[3])
+);
+
+wire       spi_busy;
+wire [7:0] spi_dout;
+reg        spi_cs_reg;
+
+soc_spi_master #(.HALF_CLKS(FLASH_HALF_CLKS)) spi (
+    .clk(clk), .rst(rst), .cs(spi_cs_reg),
+    .start(io_wr && io_word == IO_SPI_DATA), .din(mem_wdata[7:0]),
+    .busy(spi_busy), .dout(spi_dout),
+    .sck(flash_sck), .cs_n(flash_cs_n), .mosi(flash_mosi), .miso(flash_miso)
+);
+
+reg [31:0] timer_count_reg, timer_period_reg, timer_phase_reg, mark_reg;
+
+always @(posedge clk) begin
+    // Timer: an interrupt every timer_period_reg clocks (0: stopped); a new period restarts it.
+    timer_count_reg <= timer_count_reg + 32'd1;
+    if (timer_period_reg == 32'd0) begin
+        timer_phase_reg <= 32'd0;
+    end else if (timer_phase_reg == timer_period_reg - 32'd1) begin
+        timer_phase_reg <= 32'd0;
+        timer_pending_reg <= 1'b1;
+    end else begin
+        timer_phase_reg <= timer_phase_reg + 32'd1;
+    end
+    if (io_wr) begin
+        case (io_word)
+            IO_TIMER_PERIOD: begin
+                timer_period_reg <= mem_wdata;
+                timer_phase_reg <= 32'd0;
+            end
+            IO_TIMER_IRQ: if (mem_wdata[0]) timer_pending_reg <= 1'b0;
+            IO_SPI_CS: spi_cs_reg <= mem_wdata[0];
+            IO_SYS_MARK: mark_reg <= mem_wdata;
+            default: ;
+        endcase
+    end
+    if (io_rd) begin
+        case (io_word)
+            IO_UART_DATA: io_rdata_reg <= {23'd0, uart_rx_avail, uart_rx_data};
+            IO_UART_STATUS: io_rdata_reg <= {28'd0, uart_frame_err, uart_overrun, uart_rx_avail,
+                                             uart_tx_full};
+            IO_TIMER_COUNT: io_rdata_reg <= timer_count_reg;
+            IO_TIMER_PERIOD: io_rdata_reg <= timer_period_reg;
+            IO_TIMER_IRQ: io_rdata_reg <= {31'd0, timer_pending_reg};
+            IO_SPI_CS: io_rdata_reg <= {31'd0, spi_cs_reg};
+            IO_SPI_DATA: io_rdata_reg <= {23'd0, spi_busy, spi_dout};
+            IO_SYS_CLK_HZ: io_rdata_reg <= CLK_HZ;
+            IO_SYS_MARK: io_rdata_reg <= mark_reg;
+            default: io_rdata_reg <= 32'd0;
+        endcase
+    end
+    if (rst) begin
+        timer_count_reg <= 32'd0;
+        timer_period_reg <= 32'd0;
+        timer_phase_reg <= 32'd0;
+        timer_pending_reg <= 1'b0;
+        spi_cs_reg <= 1'b0;
+        mark_reg <= 32'd0;
+        io_rdata_reg <= 32'd0;
+    end
+end
+
+// --- read data -------------------------------------------------------------------------------
+
+assign mem_ready = ready_reg || regs_ready;
+assign mem_rdata = sel_regs ? regs_rdata :
+                   sel_rom ? rom_rdata :
+                   sel_ram ? ram_rdata :
+                   sel_io ? io_rdata_reg : 32'd0;
+
+endmodule
+
+`resetall

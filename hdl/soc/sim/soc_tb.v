@@ -1,0 +1,49 @@
+`timescale 1ns / 1ps
+`default_nettype none
+
+/*
+ * Simulation top of bowden_soc: the SoC with its SPI flash (spi_flash_model); the UART, the ADC
+ * pins, the drive and a reset are the testbench's. Not part of the RTL.
+ */
+module soc_tb #(
+    parameter CLK_HZ = 24000000,
+    parameter ROM_INIT = "",
+    parameter FLASH_INIT = "",
+    parameter CPU_FAST = 1,
+    parameter ADC_WAIT_CLKS = 8192
+) (
+    input  wire clk,
+    input  wire rst,
+    input  wire uart_rx,
+    output wire uart_tx,
+    output wire adc_sclk,
+    output wire adc_cs_n,
+    output wire adc_din,
+    input  wire adc_dout,
+    input  wire adc_drdy_n,
+    output wire drive_pwm,
+    output wire drive_enable,
+    output wire fault,
+    output wire cpu_trap,
+    output wire sample_tick,
+    output wire flash_cs_n
+);
+
+wire flash_sck, flash_mosi, flash_miso;
+
+bowden_soc #(
+    .CLK_HZ(CLK_HZ), .ROM_INIT(ROM_INIT), .CPU_FAST(CPU_FAST), .ADC_WAIT_CLKS(ADC_WAIT_CLKS)
+) soc (
+    .clk(clk), .rst(rst), .uart_rx(uart_rx), .uart_tx(uart_tx),
+    .flash_sck(flash_sck), .flash_cs_n(flash_cs_n), .flash_mosi(flash_mosi),
+    .flash_miso(flash_miso),
+    .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
+    .adc_drdy_n(adc_drdy_n), .drive_pwm(drive_pwm), .drive_enable(drive_enable),
+    .fault(fault), .cpu_trap(cpu_trap), .sample_tick(sample_tick)
+);
+
+spi_flash_model #(.INIT_FILE(FLASH_INIT)) flash (
+    .sck(flash_sck), .cs_n(flash_cs_n), .mosi(flash_mosi), .miso(flash_miso)
+);
+
+endmodule

@@ -1,0 +1,83 @@
+# --- soc: the whole controller on one FPGA (hdl/soc/, firmware/soc/; hdl/README.md "bowden_soc")
+#
+#   make firmware-soc   build/firmware/soc/: the RV32IMC firmware (bowden_fw.elf, .bin, the ROM's
+#                       .hex and the flash image for the UP5K's boot copier) from the same sources
+#                       as the host library plus start-up, linker script and drivers; size.txt with
+#                       the image size, the worst-case stack and the soft-float/libm check (fails
+#                       on any such symbol, as the Cortex-M4 build does)
+
+SOC_FW_OUT := $(BUILD)/firmware/soc
+# The memory the RTL gives the firmware (hdl/soc/bowden_soc.v parameters ROM_WORDS, RAM_WORDS).
+SOC_ROM_BYTES := 32768
+SOC_RAM_BYTES := 16384
+# The stack room link.ld keeps free, and the bound rv32_report.py must stay under.
+SOC_STACK_BYTES := 4096
+SOC_FW_SRC := $(filter-out firmware/src/comp_f64.c,$(sort $(wildcard firmware/src/*.c))) \
+  $(addprefix firmware/soc/,main.c spi_flash.c libc.c)
+SOC_FW_ASM := firmware/soc/start.S
+SOC_FW_HDR := $(sort $(wildcard firmware/include/*.h firmware/soc/*.h))
+# RV32IMC: picorv32 with COMPRESSED_ISA, ENABLE_MUL and ENABLE_DIV (hdl/soc/bowden_soc.v). No
+# library is linked: a soft-float helper or a libm function would be an undefined symbol.
+SOC_FW_FLAGS := -target riscv32-freestanding-none -mcpu=generic_rv32+m+c -ffreestanding -fno-builtin \
+  -O2 -ffunction-sections -fdata-sections -fno-unwind-tables -fno-asynchronous-unwind-tables
+SOC_FW_OBJ := $(patsubst %.c,$(SOC_FW_OUT)/obj/%.o,$(notdir $(SOC_FW_SRC))) \
+  $(SOC_FW_OUT)/obj/start.o
+SOC_FW_ELF := $(SOC_FW_OUT)/bowden_fw.elf
+SOC_FW_BIN := $(SOC_FW_OUT)/bowden_fw.bin
+SOC_FW_HEX := $(SOC_FW_OUT)/bowden_fw.hex
+SOC_FW_FLASH := $(SOC_FW_OUT)/bowden_fw_flash.bin
+SOC_FW_LIB := $(SOC_FW_OUT)/libbowden_fw_soc.a
+SOC_FW_SIZE := $(SOC_FW_OUT)/size.txt
+
+.PHONY: firmware-soc
+BUILD_TARGETS += firmware-soc
+
+firmware-soc: $(SOC_FW_SIZE) $(SOC_FW_HEX)
+
+vpath %.c firmware/src firmware/soc
+$(SOC_FW_OUT)/obj/%.o: %.c $(SOC_FW_HDR) $(VENV_STAMP)
+	@mkdir -p $(dir $@)
+	$(FW_ZIG_CC) $(SOC_FW_FLAGS) $(FW_WARN) $(FW_LINT_EXTRA) $(BENCH_DEFS) -Ifirmware/include -Ifirmware/soc -c $< -o $@
+
+$(SOC_FW_OUT)/obj/start.o: $(SOC_FW_ASM) $(VENV_STAMP)
+	@mkdir -p $(dir $@)
+	$(FW_ZIG_CC) $(SOC_FW_FLAGS) -c $< -o $@
+
+# The objects as an archive first: elf_report.py's check of undefined references names the
+# object that asks for a soft-float helper or libm, before the link would fail on it.
+$(SOC_FW_LIB): $(SOC_FW_OBJ)
+	@rm -f $@
+	$(FW_ZIG_AR) rcs $@ $^
+	$(PY) firmware/tools/elf_report.py $@ --out $(SOC_FW_OUT)/objects.txt > /dev/null
+
+$(SOC_FW_ELF): $(SOC_FW_LIB) firmware/soc/link.ld
+	$(PY) -m ziglang ld.lld -T firmware/soc/link.ld --gc-sections --emit-relocs \
+	  --defsym=__rom_bytes=$(SOC_ROM_BYTES) --defsym=__ram_bytes=$(SOC_RAM_BYTES) \
+	  --defsym=__stack_min=$(SOC_STACK_BYTES) $(SOC_FW_OBJ) -o $@
+
+$(SOC_FW_BIN): $(SOC_FW_ELF)
+	$(PY) -m ziglang objcopy -O binary $< $@
+
+$(SOC_FW_HEX): $(SOC_FW_BIN) firmware/soc/tools/mkimage.py
+	$(PY) firmware/soc/tools/mkimage.py $< --rom-bytes $(SOC_ROM_BYTES) --hex $@ --flash $(SOC_FW_FLASH)
+
+$(SOC_FW_SIZE): $(SOC_FW_ELF) firmware/soc/tools/rv32_report.py
+	$(PY) firmware/soc/tools/rv32_report.py $< --stack-max $(SOC_STACK_BYTES) --out $@
+
+# --- RTL: lint (part of make lint) -------------------------------------------------------------
+#
+#   make lint-soc   verilator --lint-only -Wall on every module of hdl/soc/ as its own top, with
+#                   picorv32 from its package (its own findings waived in hdl/soc/bowden_soc.vlt)
+
+SOC_RTL := $(sort $(wildcard hdl/soc/*.v))
+SOC_PICORV32 = $(shell $(PY) -c "import pythondata_cpu_picorv32 as p; print(p.data_location)")/picorv32.v
+LINT_TARGETS += lint-soc
+
+.PHONY: lint-soc
+lint-soc: $(VENV_STAMP)
+	@set -e; for f in $(SOC_RTL); do \
+	  m=$$(basename $$f .v); \
+	  verilator --lint-only --quiet -Wall -Ihdl/rtl --top-module $$m hdl/soc/bowden_soc.vlt \
+	    $(SOC_PICORV32) $(HDL_RTL) $(SOC_RTL); \
+	done
+	@echo "lint-soc: $(words $(SOC_RTL)) SoC modules clean"

@@ -1,0 +1,132 @@
+"""What the SoC's testbenches share: the sources, the UART at bit level, the bench protocol's
+frames on it, and the firmware's phase word.
+
+The UART runs at the SoC's own bit time (soc_uart.v: the nearest whole number of clocks to
+CLK_HZ / BAUD), driven and sampled in clocks, so a test is exact whatever the host's speed.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cocotb
+import pythondata_cpu_picorv32
+from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
+
+from cosim.bench import protocol
+from cosim.project.paths import BUILD_DIR, HDL_DIR
+
+CLK_HZ = 24_000_000
+BAUD = 921_600
+BIT_CLKS = (CLK_HZ + BAUD // 2) // BAUD  # 26
+FW_HEX = BUILD_DIR / "firmware" / "soc" / "bowden_fw.hex"
+
+# One C++ file: the wheel's verilated.mk has no precompiled-header flag (CFG_CXXFLAGS_PCH_I is
+# empty), so a model large enough to be split into several files (the CPU makes it so) would not
+# compile; -O3 for the model's speed.
+VERILATOR_ARGS = ["--output-split", "0", "-O3"]
+
+# firmware/soc/soc.h SOC_MARK_*
+MARK_BOOT, MARK_IDLE, MARK_TICK, MARK_RX = 1, 2, 3, 4
+
+
+def picorv32_source() -> Path:
+    return Path(pythondata_cpu_picorv32.data_location) / "picorv32.v"
+
+
+def soc_sources(tb: bool = True):
+    rtl = sorted((HDL_DIR / "rtl").glob("*.v"))
+    soc = sorted((HDL_DIR / "soc").glob("*.v"))
+    sim = [HDL_DIR / "soc" / "sim" / "spi_flash_model.v", HDL_DIR / "soc" / "sim" / "soc_tb.v"]
+    return [picorv32_source(), *rtl, *soc, *(sim if tb else [])]
+
+
+class Uart:
+    """Both directions of the SoC's UART at bit level: `send` drives uart_rx, a background
+    receiver collects every byte on uart_tx (`rx`), with framing errors counted."""
+
+    def __init__(self, dut):
+        self.dut = dut
+        self.rx = bytearray()
+        self.frame_errors = 0
+        dut.uart_rx.value = 1
+        self._task = cocotb.start_soon(self._receive())
+
+    async def _receive(self):
+        d = self.dut
+        while True:
+            await FallingEdge(d.uart_tx)
+            await ClockCycles(d.clk, BIT_CLKS // 2)
+            if int(d.uart_tx.value):
+                continue  # glitch
+            byte = 0
+            for i in range(8):
+                await ClockCycles(d.clk, BIT_CLKS)
+                byte |= int(d.uart_tx.value) << i
+            await ClockCycles(d.clk, BIT_CLKS)
+            if not int(d.uart_tx.value):
+                self.frame_errors += 1
+            self.rx.append(byte)
+
+    async def send(self, data: bytes):
+        d = self.dut
+        for b in data:
+            for bit in [0, *((b >> i) & 1 for i in range(8)), 1]:
+                d.uart_rx.value = bit
+                await ClockCycles(d.clk, BIT_CLKS)
+
+
+class Bench:
+    """The bench protocol over `Uart`: requests out, decoded frames back."""
+
+    def __init__(self, dut):
+        self.dut = dut
+        self.uart = Uart(dut)
+        self.decoder = protocol.FrameDecoder()
+        self.frames: list[protocol.Frame] = []
+        self._seen = 0
+        self.seq = 0
+
+    def poll(self) -> list[protocol.Frame]:
+        new = bytes(self.uart.rx[self._seen :])
+        self._seen = len(self.uart.rx)
+        self.frames += self.decoder.feed(new)
+        return self.frames
+
+    async def request(self, name: str, timeout_clks: int = 2_000_000, **values):
+        """Send `name` and wait for the reply with its sequence number (None on timeout)."""
+        self.seq = (self.seq + 1) & 0xFF
+        msg = protocol.msgs.MESSAGES[name].id
+        frame = protocol.Frame(msg=msg, seq=self.seq, payload=protocol.pack(name, **values))
+        await self.uart.send(protocol.encode_frame(frame))
+        waited = 0
+        while waited < timeout_clks:
+            for f in self.poll():
+                if f.seq == self.seq and f.msg != msg:
+                    self.frames.remove(f)
+                    return f
+            await ClockCycles(self.dut.clk, 2000)
+            waited += 2000
+        return None
+
+
+def mark(dut) -> int:
+    return int(dut.soc.mark_reg.value)
+
+
+async def wait_mark(dut, value: int, max_clks: int) -> int:
+    """Clocks until the firmware writes `value` to its phase word (AssertionError past max)."""
+    n = 0
+    while mark(dut) != value:
+        await ClockCycles(dut.clk, 1000)
+        n += 1000
+        assert not int(dut.cpu_trap.value), "the CPU trapped"
+        assert n <= max_clks, f"phase {value} not reached in {max_clks} clocks (at {mark(dut)})"
+    return n
+
+
+async def reset(dut, clks: int = 20):
+    dut.rst.value = 1
+    await ClockCycles(dut.clk, clks)
+    dut.rst.value = 0
+    await RisingEdge(dut.clk)
