@@ -28,8 +28,8 @@ browser-setup:
 
 # A run of 60 s with both live views working: every sample recorded? (figures in
 # cosim/bench/README.md, "Live view")
-.PHONY: bench-live
-BENCH_TARGETS += bench-live
+.PHONY: perf-live
+PERF_TARGETS += perf-live
 
-bench-live: $(BENCH_SO) fmu
+perf-live: $(BENCH_SO) fmu
 	$(PY) -m cosim.perf.live_view --seconds 60

@@ -1,4 +1,4 @@
-"""Does the live view cost telemetry? (`make bench-live`, part of `make bench`)
+"""Does the live view cost telemetry? (`make perf-live`, part of `make perf`)
 
 `bowden emulate` in a process of its own (the device, as on a bench: 1 kHz telemetry over its
 pty at 921600 baud), and in this one a session that records a run of --seconds while the live
