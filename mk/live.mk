@@ -25,3 +25,11 @@ browser-setup:
 	else \
 	  echo "browser-setup: no chromium, and not root with apt-get: the live page's browser test will skip"; \
 	fi
+
+# A run of 60 s with both live views working: every sample recorded? (figures in
+# cosim/bench/README.md, "Live view")
+.PHONY: perf-live
+PERF_TARGETS += perf-live
+
+perf-live: $(BENCH_SO) fmu
+	$(PY) -m cosim.perf.live_view --seconds 60

@@ -6,10 +6,12 @@ the standard library's http.server, drawn by a small script on a canvas: nothing
 from elsewhere).
 
 The recording comes first. The thread that records hands every telemetry frame to
-`LiveBuffer.add`, which writes one row of a preallocated ring and moves a counter: no lock, no
-allocation, nothing a drawing can hold up. The views run in their own threads and copy the
-window out of the ring (`LiveBuffer.window`); the ring holds twice the longest window, so the
-rows being copied are never the ones being written.
+`LiveBuffer.add`, which writes one row of a preallocated ring (a memory-mapped file) and moves a
+counter: no lock, no allocation, nothing a view can hold up. The views run in a process of their
+own (`ViewProcess`: `python -m cosim.bench.live`), which maps the same ring and copies its window
+out of it (`LiveBuffer.window`), so drawing, JSON and HTTP never take the recording process's
+interpreter; the ring holds twice the longest window, so the rows being copied are never the
+ones being written.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import json
 import os
 import select
 import shutil
+import signal
 import subprocess
 import sys
 import threading
@@ -66,22 +69,40 @@ def parse_signals(text: str) -> list[str]:
 
 class LiveBuffer:
     """The last `capacity_s` seconds of telemetry, written by one thread (the recorder), read by
-    any number (the views) without locks (see the module docstring)."""
+    any number of views without locks (see the module docstring). With `path` the ring is a
+    memory-mapped file that a view process maps too (`attach`); row 0 holds the row count."""
 
-    def __init__(self, rate_hz: float = 1000.0, capacity_s: float = 2 * WINDOW_RANGE_S[1]):
+    def __init__(
+        self,
+        rate_hz: float = 1000.0,
+        capacity_s: float = 2 * WINDOW_RANGE_S[1],
+        path: str | None = None,
+        attach: bool = False,
+    ):
         self.rate_hz = float(rate_hz)
         self.capacity = int(capacity_s * rate_hz) + 1
-        self._ring = np.zeros((self.capacity, len(_FIELDS)), dtype=np.int64)
-        self.count = 0  # rows ever written; only add() moves it
+        shape = (self.capacity + 1, len(_FIELDS))
+        if path is None:
+            self._mem = np.zeros(shape, dtype=np.int64)
+        else:
+            self._mem = np.memmap(path, dtype=np.int64, mode="r" if attach else "w+", shape=shape)
+        self.path = path
+        self._n = 0  # the writer's own count
         self.active = False
         self.label = ""  # what is running (waveform, file)
         self.message = NO_RUN_MESSAGE  # what a view says when no run is active
+
+    @property
+    def count(self) -> int:
+        """Rows ever written (only `add` moves it)."""
+        return int(self._mem[0, 0])
 
     def start(self, label: str, rate_hz: float) -> None:
         """A run begins: `label` says what it is."""
         self.rate_hz = float(rate_hz)
         self.label = label
-        self.count = 0
+        self._n = 0
+        self._mem[0, 0] = 0
         self.active = True
 
     def stop(self, message: str) -> None:
@@ -90,19 +111,21 @@ class LiveBuffer:
         self.active = False
 
     def add(self, t: dict) -> None:
-        """One telemetry frame (the recorder's thread)."""
-        row = self._ring[self.count % self.capacity]
+        """One telemetry frame (the recorder's thread): one row, then the count."""
+        n = self._n
+        row = self._mem[1 + n % self.capacity]
         for i, name in enumerate(_FIELDS):
             row[i] = t[name]
-        self.count += 1
+        self._n = n + 1
+        self._mem[0, 0] = n + 1
 
     def window(self, seconds: float) -> dict[str, np.ndarray]:
         """The last `seconds` of samples: `t_s` (from the sample index) and every signal in SI
         units (faults as the bit mask), oldest first."""
         n = self.count
         want = min(n, int(seconds * self.rate_hz), self.capacity // 2)
-        idx = np.arange(n - want, n) % self.capacity
-        rows = self._ring[idx]
+        idx = 1 + np.arange(n - want, n) % self.capacity
+        rows = np.array(self._mem[idx])
         out = {"sample": rows[:, 0], "t_s": rows[:, 0] / self.rate_hz}
         for i, (name, (_, scale, _)) in enumerate(SIGNALS.items(), start=1):
             out[name] = rows[:, i] if name == "faults" else rows[:, i] * scale
@@ -133,8 +156,8 @@ def snapshot(buffer: LiveBuffer, signals: list[str], window_s: float, points: in
     if not n:
         return doc
     cut = _decimate(n, points)
-    doc["t_s"] = [round(float(v), 6) for v in w["t_s"][cut]]
-    doc["series"] = {s: [round(float(v), 6) for v in w[s][cut]] for s in signals if s != "faults"}
+    doc["t_s"] = np.round(w["t_s"][cut], 6).tolist()
+    doc["series"] = {s: np.round(w[s][cut], 6).tolist() for s in signals if s != "faults"}
     seen = int(np.bitwise_or.reduce(w["faults"].astype(np.int64)))
     doc["latest"] = {
         "sample": int(w["sample"][-1]),
@@ -207,42 +230,10 @@ def _terminal_size(out) -> tuple[int, int]:
         return tuple(shutil.get_terminal_size((100, 30)))
 
 
-def _render_main(ready_fd: int, sink: str, size: tuple[int, int] | None) -> None:
-    """The terminal view's drawing, in a process of its own (`python -m cosim.bench.live`: its
-    own core and interpreter, plotext being pure Python): says `ready` on `ready_fd`, reads one
-    snapshot (a JSON line on stdin), draws it on stdout (or into `sink`), and so on until the
-    line `null`; then writes `frames draw_s` on `ready_fd`."""
-    out = open(sink, "w") if sink != "-" else sys.stdout  # noqa: SIM115 (closed at the end)
-    ready = os.fdopen(ready_fd, "w", buffering=1)
-    frames, draw_s, t0 = 0, 0.0, time.monotonic()
-    out.write("\x1b[2J\x1b[?25l")  # clear the screen, hide the cursor
-    try:
-        while True:
-            ready.write("ready\n")
-            line = sys.stdin.readline()
-            snap = json.loads(line) if line else None
-            if snap is None:
-                break
-            t = time.monotonic()
-            cols, rows = size or _terminal_size(out)
-            # plotext fits a plot to shutil's terminal size, which reads COLUMNS and LINES first.
-            os.environ["COLUMNS"], os.environ["LINES"] = str(cols), str(rows)
-            fps = frames / max(t - t0, 1e-9)
-            out.write("\x1b[H" + render_text(snap, cols, rows, fps) + "\x1b[J")
-            out.flush()
-            frames += 1
-            draw_s += time.monotonic() - t
-        out.write("\x1b[?25h\n")  # the cursor back
-        out.flush()
-        ready.write(f"{frames} {draw_s}\n")
-    except (BrokenPipeError, KeyboardInterrupt):
-        pass  # the recording goes on without the view
-
-
 class TermView:
-    """The terminal view: a thread here takes a `snapshot` up to `fps` times a second, whenever
-    the drawing process says it is ready for one (a slow terminal skips frames, never queues
-    them), and that process draws it with plotext on this terminal (or into `sink`, a file)."""
+    """The terminal view: a thread that draws a `snapshot` of the ring with plotext up to `fps`
+    times a second on `out` (the terminal), at the terminal's size or `size`. Counts the frames
+    and the time spent drawing them (wall and CPU)."""
 
     def __init__(
         self,
@@ -250,86 +241,58 @@ class TermView:
         signals: list[str] | None = None,
         window_s: float = DEFAULT_WINDOW_S,
         fps: float = DEFAULT_FPS,
-        sink: str | None = None,
+        out=None,
         size: tuple[int, int] | None = None,
     ) -> None:
         self.buffer = buffer
         self.signals = signals or list(SIGNALS)
         self.window_s = window_s
         self.period_s = 1.0 / fps
-        self.sink = sink
+        self.out = out or sys.stdout
         self.size = size
-        self.frames = 0  # drawn (known after stop)
-        self.draw_s = 0.0  # time the process spent drawing them
+        self.frames = 0
+        self.draw_s = 0.0  # wall time spent drawing
+        self.cpu_s = 0.0  # CPU time spent drawing (the cost, whatever else the machine runs)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._proc: subprocess.Popen | None = None
-        self._ready = None
+        self._t0 = 0.0
 
     def start(self) -> TermView:
-        r, w = os.pipe()
-        size = [] if self.size is None else [str(self.size[0]), str(self.size[1])]
-        self._proc = subprocess.Popen(
-            [sys.executable, "-m", "cosim.bench.live", str(w), self.sink or "-", *size],
-            stdin=subprocess.PIPE,
-            pass_fds=(w,),
-            text=True,
-        )
-        os.close(w)
-        self._ready = os.fdopen(r, "r")
-        self._thread = threading.Thread(target=self._feed, name="bowden-live-term", daemon=True)
+        self._t0 = time.monotonic()
+        self.out.write("\x1b[2J\x1b[?25l")  # clear the screen, hide the cursor
+        self._thread = threading.Thread(target=self._loop, name="bowden-live-term", daemon=True)
         self._thread.start()
         return self
 
-    def _snapshot(self) -> dict:
-        cols = (self.size or _terminal_size(sys.stdout))[0]
-        return snapshot(self.buffer, self.signals, self.window_s, points=2 * cols)
+    def draw(self) -> None:
+        """One frame."""
+        t, c = time.monotonic(), time.thread_time()
+        cols, rows = self.size or _terminal_size(self.out)
+        # plotext fits a plot to shutil's terminal size, which reads COLUMNS and LINES first.
+        os.environ["COLUMNS"], os.environ["LINES"] = str(cols), str(rows)
+        snap = snapshot(self.buffer, self.signals, self.window_s, points=2 * cols)
+        fps = self.frames / max(t - self._t0, 1e-9)
+        self.out.write("\x1b[H" + render_text(snap, cols, rows, fps) + "\x1b[J")
+        self.out.flush()
+        self.frames += 1
+        self.draw_s += time.monotonic() - t
+        self.cpu_s += time.thread_time() - c
 
-    def _wait_ready(self, timeout_s: float) -> str | None:
-        if select.select([self._ready], [], [], timeout_s)[0]:
-            return self._ready.readline().strip() or None
-        return None
-
-    def _send(self, snap: dict | None) -> None:
-        self._proc.stdin.write(json.dumps(snap) + "\n")
-        self._proc.stdin.flush()
-
-    def _feed(self) -> None:
+    def _loop(self) -> None:
         next_t = time.monotonic()
-        try:
-            while not self._stop.is_set():
-                if self._wait_ready(0.05) == "ready":
-                    self._send(self._snapshot())
-                    next_t = max(next_t + self.period_s, time.monotonic() - self.period_s)
-                    self._stop.wait(max(0.0, next_t - time.monotonic()))
-        except (BrokenPipeError, OSError, ValueError):
-            pass  # the drawing process is gone (its terminal closed): the run goes on
+        while not self._stop.is_set():
+            self.draw()
+            next_t = max(next_t + self.period_s, time.monotonic() - self.period_s)
+            self._stop.wait(max(0.0, next_t - time.monotonic()))
 
     def stop(self) -> None:
-        """Draw the last frame (how the run ended), end the process, collect its counts."""
+        """The last frame (how the run ended), then the cursor back."""
         self._stop.set()
         if self._thread is not None:
-            self._thread.join(timeout=5.0)
-        try:
-            for snap in (self._snapshot(), None):
-                if self._wait_ready(10.0) == "ready":
-                    self._send(snap)
-            counts = self._wait_ready(10.0)
-            if counts:
-                frames, draw_s = counts.split()
-                self.frames, self.draw_s = int(frames), float(draw_s)
-        except (BrokenPipeError, OSError, ValueError):
-            pass
-        try:
-            self._proc.stdin.close()
-        except OSError:
-            pass
-        try:
-            self._proc.wait(timeout=5.0)
-        except subprocess.TimeoutExpired:
-            self._proc.kill()
-            self._proc.wait()
-        self._ready.close()
+            self._thread.join(timeout=10.0)
+        self.draw()
+        self.out.write("\x1b[?25h\n")
+        self.out.flush()
 
 
 # --- web page ------------------------------------------------------------------------------------
@@ -351,6 +314,8 @@ class LiveServer:
         self.signals = signals or list(SIGNALS)
         self.window_s = window_s
         self.requests = 0
+        self._cache: tuple = (None, 0.0, b"")
+        self._cache_lock = threading.Lock()
         page = PAGE
         server = self
 
@@ -369,8 +334,8 @@ class LiveServer:
                         self._send(400, "text/plain", b"window and points must be numbers\n")
                         return
                     window = min(max(window, WINDOW_RANGE_S[0]), WINDOW_RANGE_S[1])
-                    body = json.dumps(server.data(window, max(10, min(points, 20000))))
-                    self._send(200, "application/json", body.encode())
+                    body = server.body(window, max(10, min(points, 20000)))
+                    self._send(200, "application/json", body)
                 else:
                     self._send(404, "text/plain", b"not found: / and /data.json\n")
 
@@ -380,7 +345,10 @@ class LiveServer:
                 self.send_header("Cache-Control", "no-store")
                 self.send_header("Content-Length", str(len(body)))
                 self.end_headers()
-                self.wfile.write(body)
+                try:
+                    self.wfile.write(body)
+                except (BrokenPipeError, ConnectionResetError):
+                    pass  # the page went away (a tab closed): nothing to answer
 
             def log_message(self, *args) -> None:  # quiet: the terminal belongs to the run
                 pass
@@ -389,6 +357,15 @@ class LiveServer:
         self.httpd.daemon_threads = True
         self.url = f"http://127.0.0.1:{self.httpd.server_address[1]}/"
         self._thread: threading.Thread | None = None
+
+    def body(self, window_s: float, points: int) -> bytes:
+        """`/data.json`'s bytes; one snapshot serves every request of the next 40 ms (pages open
+        in several tabs cost the recording process no more than one)."""
+        key, now = (window_s, points), time.monotonic()
+        with self._cache_lock:
+            if self._cache[0] != key or now - self._cache[1] > 0.04:
+                self._cache = (key, now, json.dumps(self.data(window_s, points)).encode())
+            return self._cache[2]
 
     def data(self, window_s: float, points: int) -> dict:
         """What `/data.json` answers: a `snapshot` of the window, about `points` samples."""
@@ -408,6 +385,159 @@ class LiveServer:
             self._thread.join(timeout=5.0)
 
 
-if __name__ == "__main__":  # the terminal view's drawing process (TermView.start)
-    _size = (int(sys.argv[3]), int(sys.argv[4])) if len(sys.argv) > 4 else None
-    _render_main(int(sys.argv[1]), sys.argv[2], _size)
+def ring_file() -> str:
+    """A new file for a mapped ring, in memory where the system offers it (/dev/shm)."""
+    import tempfile  # noqa: PLC0415
+
+    where = "/dev/shm" if os.access("/dev/shm", os.W_OK) else None
+    fd, path = tempfile.mkstemp(prefix="bowden-live-", suffix=".ring", dir=where)
+    os.close(fd)
+    return path
+
+
+# --- the view process ----------------------------------------------------------------------------
+
+
+class ViewProcess:
+    """A view (`kind` "term" or "web") of `buffer` in a process of its own (see the module
+    docstring): `python -m cosim.bench.live` maps the ring, draws or serves it, and follows the
+    run's state (label, active, message) that `update` and `stop` send it. For "web", `url` is
+    the page's address once `start` returns. `sink`: draw into this file instead of the
+    terminal (benchmarks); `size`: the terminal's columns and rows instead of asking it."""
+
+    def __init__(
+        self,
+        buffer: LiveBuffer,
+        kind: str,
+        signals: list[str] | None = None,
+        window_s: float = DEFAULT_WINDOW_S,
+        http_port: int = 0,
+        sink: str | None = None,
+        size: tuple[int, int] | None = None,
+    ) -> None:
+        if buffer.path is None:
+            raise ValueError("a view process needs a LiveBuffer with a path (a mapped ring)")
+        self.buffer = buffer
+        self.kind = kind
+        self.signals = signals or list(SIGNALS)
+        self.window_s = window_s
+        self.http_port = http_port
+        self.sink = sink
+        self.size = size
+        self.url = ""
+        self.frames = 0
+        self.draw_s = self.cpu_s = 0.0
+        self.requests = 0
+        self._proc: subprocess.Popen | None = None
+        self._ready = None
+
+    def start(self) -> ViewProcess:
+        r, w = os.pipe()
+        b = self.buffer
+        argv = [sys.executable, "-m", "cosim.bench.live", "--fd", str(w), "--kind", self.kind]
+        argv += ["--ring", b.path, "--rate", repr(b.rate_hz), "--capacity", str(b.capacity)]
+        argv += ["--signals", ",".join(self.signals), "--window", repr(self.window_s)]
+        argv += ["--http-port", str(self.http_port), "--sink", self.sink or "-"]
+        if self.size:
+            argv += ["--size", f"{self.size[0]}x{self.size[1]}"]
+        self._proc = subprocess.Popen(argv, stdin=subprocess.PIPE, pass_fds=(w,), text=True)
+        os.close(w)
+        self._ready = os.fdopen(r, "r")
+        self.update()
+        if self.kind == "web":
+            line = self._line(30.0)
+            if not line.startswith("url "):
+                self.stop("")
+                raise OSError(f"the live page did not start ({line or 'no answer'})")
+            self.url = line.split()[1]
+        return self
+
+    def _line(self, timeout_s: float) -> str:
+        if select.select([self._ready], [], [], timeout_s)[0]:
+            return self._ready.readline().strip()
+        return ""
+
+    def _send(self, doc) -> None:
+        try:
+            self._proc.stdin.write(json.dumps(doc) + "\n")
+            self._proc.stdin.flush()
+        except (BrokenPipeError, OSError, ValueError):
+            pass  # the view is gone (its terminal closed): the recording goes on
+
+    def update(self) -> None:
+        """Send the run's state (label, active, message) to the view."""
+        b = self.buffer
+        self._send({"label": b.label, "active": b.active, "message": b.message})
+
+    def stop(self, message: str | None = None) -> None:
+        """The run ended (`message` says how): the view shows it, ends, and reports its counts."""
+        if message is not None:
+            self.buffer.stop(message)
+        self.update()
+        self._send(None)
+        counts = self._line(20.0).split()
+        if len(counts) == 4:
+            self.frames, self.requests = int(counts[0]), int(counts[3])
+            self.draw_s, self.cpu_s = float(counts[1]), float(counts[2])
+        try:
+            self._proc.stdin.close()
+        except OSError:
+            pass
+        try:
+            self._proc.wait(timeout=10.0)
+        except subprocess.TimeoutExpired:
+            self._proc.kill()
+            self._proc.wait()
+        self._ready.close()
+
+
+def _view_main(argv: list[str]) -> int:
+    """The view process: map the ring, start the view, follow the state lines on stdin until
+    `null`; then write `frames draw_s cpu_s requests` on --fd."""
+    import argparse  # noqa: PLC0415
+
+    p = argparse.ArgumentParser(prog="python -m cosim.bench.live")
+    for name in ("--fd", "--capacity", "--http-port"):
+        p.add_argument(name, type=int, required=True)
+    for name in ("--rate", "--window"):
+        p.add_argument(name, type=float, required=True)
+    for name in ("--kind", "--ring", "--signals", "--sink"):
+        p.add_argument(name, required=True)
+    p.add_argument("--size", default=None)
+    a = p.parse_args(argv)
+    # Ctrl-C reaches the whole process group: the recording process stops the run and then
+    # this view (which shows how the run ended), not the other way round.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # The recording comes first: on a busy machine the view draws less often, the recording
+    # process (and an emulated device beside it) keeps its share of the CPU.
+    os.nice(10)
+    buf = LiveBuffer(a.rate, capacity_s=(a.capacity - 1) / a.rate, path=a.ring, attach=True)
+    signals = a.signals.split(",")
+    ready = os.fdopen(a.fd, "w", buffering=1)
+    term = web = None
+    out = None
+    if a.kind == "web":
+        web = LiveServer(buf, port=a.http_port, signals=signals, window_s=a.window).start()
+        ready.write(f"url {web.url}\n")
+    else:
+        out = open(a.sink, "w") if a.sink != "-" else sys.stdout  # noqa: SIM115 (closed below)
+        size = tuple(int(v) for v in a.size.split("x")) if a.size else None
+        term = TermView(buf, signals, a.window, out=out, size=size).start()
+    for line in sys.stdin:  # the run's state, until `null` (or the recording process is gone)
+        state = json.loads(line)
+        if state is None:
+            break
+        buf.label, buf.active, buf.message = state["label"], state["active"], state["message"]
+    if term is not None:
+        term.stop()
+        if out is not sys.stdout:
+            out.close()
+    if web is not None:
+        web.stop()
+    frames, draw_s, cpu_s = (term.frames, term.draw_s, term.cpu_s) if term else (0, 0.0, 0.0)
+    ready.write(f"{frames} {draw_s} {cpu_s} {web.requests if web else 0}\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(_view_main(sys.argv[1:]))

@@ -108,7 +108,7 @@ const maxFrames = Number(new URLSearchParams(location.search).get("frames")) || 
 async function tick() {
   const t = performance.now();
   try {
-    const r = await fetch("/data.json?points=1500", {cache: "no-store"});
+    const r = await fetch("/data.json?points=1000", {cache: "no-store"});
     draw(await r.json());
   } catch (e) {
     setMessage("The bench tool has stopped: no run is active. Start one with " +

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import sys
 import tempfile
-from dataclasses import dataclass
 from pathlib import Path
 
 from cosim.bench import diff, discover, live
@@ -181,34 +180,19 @@ def cmd_diff(client, args, info) -> int:
 # --- live view -----------------------------------------------------------------------------------
 
 
-@dataclass
-class LiveView:
-    """The view of one run: `tap` goes to the recorder, `close` ends the view."""
-
-    buffer: live.LiveBuffer
-    term: live.TermView | None = None
-    web: live.LiveServer | None = None
-
-    def close(self, message: str) -> None:
-        self.buffer.stop(message)
-        if self.term is not None:
-            self.term.stop()
-        if self.web is not None:
-            self.web.stop()
-
-
-def open_view(args, label: str, rate_hz: float) -> LiveView:
-    """Start the view `args.live` asks for (a page's address on stderr)."""
-    buffer = live.LiveBuffer(rate_hz)
+def open_view(args, label: str, rate_hz: float) -> live.ViewProcess:
+    """Start the view `args.live` asks for in its own process (a page's address on stderr)."""
+    buffer = live.LiveBuffer(rate_hz, path=live.ring_file())
     buffer.start(label, rate_hz)
-    view = LiveView(buffer)
-    if args.live == "web":
-        view.web = live.LiveServer(
-            buffer, port=args.http_port, signals=args.signal_list, window_s=args.window
+    try:
+        view = live.ViewProcess(
+            buffer, args.live, args.signal_list, args.window, http_port=args.http_port
         ).start()
-        print(f"live view: {view.web.url} (this machine only)", file=sys.stderr, flush=True)
-    else:
-        view.term = live.TermView(buffer, args.signal_list, args.window).start()
+    except BaseException:
+        Path(buffer.path).unlink(missing_ok=True)
+        raise
+    if view.url:
+        print(f"live view: {view.url} (this machine only)", file=sys.stderr, flush=True)
     return view
 
 
@@ -219,13 +203,14 @@ def record_with_view(client, args, out, label: str, **kw) -> RunResult:
         return record_run(client, out, **kw)
     rate_hz = float(client.get("tick_rate_hz")) / int(client.get("dev.telemetry_div"))
     view = open_view(args, label, rate_hz)
-    if view.term is not None:
+    if view.kind == "term":
         kw["progress"] = None
     result = None
     try:
         result = record_run(client, out, tap=view.buffer.add, **kw)
     finally:
-        view.close(f"run ended: {result.summary()}" if result else "run interrupted")
+        view.stop(f"run ended: {result.summary()}" if result else "run interrupted")
+        Path(view.buffer.path).unlink(missing_ok=True)
     return result
 
 

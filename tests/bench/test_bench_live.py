@@ -245,3 +245,42 @@ def test_watch_with_the_page_records_every_sample(tmp_path, capsys):
     assert "1500 samples of 1500, drops 0" in text.out
     tr = trace_mod.read_trace(out)
     assert tr.meta["waveform"] == "sine" and len(tr) == 1500
+
+
+def test_a_stalled_or_dead_view_costs_the_recording_nothing(tmp_path):
+    """The views draw in a process of their own: one frozen (SIGSTOP: a terminal that does not
+    drain, a drawing that hangs) and one killed mid-run, and the recording still has every
+    sample; stopping the views afterwards does not hang."""
+    import os
+    import signal as sig
+
+    buf = live.LiveBuffer(path=live.ring_file())
+    views = {
+        "term": live.ViewProcess(buf, "term", sink=os.devnull, size=(100, 30)),
+        "web": live.ViewProcess(buf, "web"),
+    }
+    try:
+        with Bench(emulate=True) as b:
+            buf.start("sine", 1000.0)
+            for v in views.values():
+                v.start()
+            assert views["web"].url.startswith("http://127.0.0.1:")
+
+            def tap(t):
+                buf.add(t)
+                if t["sample"] == 500:
+                    os.kill(views["term"]._proc.pid, sig.SIGSTOP)
+                    views["web"]._proc.kill()
+                if t["sample"] == 2500:
+                    os.kill(views["term"]._proc.pid, sig.SIGCONT)
+
+            run = b.run("sine", 3.0, out=tmp_path / "r.csv", on_telemetry=tap)
+        t0 = time.monotonic()
+        for v in views.values():
+            v.stop(f"run ended: {run.result.summary()}")
+        assert time.monotonic() - t0 < 30
+    finally:
+        os.unlink(buf.path)
+    assert run.complete and run.samples == 3000
+    assert views["term"].frames >= 1  # it drew, and drew the end after SIGCONT
+    assert buf.count == 3000 and not buf.active
