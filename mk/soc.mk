@@ -1,6 +1,6 @@
 # --- soc: the whole controller on one FPGA (hdl/soc/, firmware/soc/; hdl/README.md "bowden_soc")
 #
-#   make firmware-soc   build/firmware/soc/: the RV32IMC firmware (bowden_fw.elf, .bin, the ROM's
+#   make firmware-soc   build/firmware/soc/: the RV32 firmware (bowden_fw.elf, .bin, the ROM's
 #                       .hex and the flash image for the UP5K's boot copier) from the same sources
 #                       as the host library plus start-up, linker script and drivers; size.txt with
 #                       the image size, the worst-case stack and the soft-float/libm check (fails
@@ -16,9 +16,11 @@ SOC_FW_SRC := $(filter-out firmware/src/comp_f64.c firmware/src/fric_est_f64.c,$
   $(addprefix firmware/soc/,main.c spi_flash.c libc.c)
 SOC_FW_ASM := firmware/soc/start.S
 SOC_FW_HDR := $(sort $(wildcard firmware/include/*.h firmware/soc/*.h))
-# RV32IMC: picorv32 with COMPRESSED_ISA, ENABLE_MUL and ENABLE_DIV (hdl/soc/bowden_soc.v). No
-# library is linked: a soft-float helper or a libm function would be an undefined symbol.
-SOC_FW_FLAGS := -target riscv32-freestanding-none -mcpu=generic_rv32+m+c -ffreestanding -fno-builtin \
+# RV32I with Zmmul (multiply, no divide: picorv32 with ENABLE_FAST_MUL, without ENABLE_DIV and
+# COMPRESSED_ISA, which the UP5K has no room for; hdl/soc/bowden_soc.v). Division goes through
+# firmware/soc/libc.c. No library is linked: a soft-float helper or a libm function would be an
+# undefined symbol.
+SOC_FW_FLAGS := -target riscv32-freestanding-none -mcpu=generic_rv32+zmmul -ffreestanding -fno-builtin \
   -O2 -ffunction-sections -fdata-sections -fno-unwind-tables -fno-asynchronous-unwind-tables
 SOC_FW_OBJ := $(patsubst %.c,$(SOC_FW_OUT)/obj/%.o,$(notdir $(SOC_FW_SRC))) \
   $(SOC_FW_OUT)/obj/start.o
@@ -35,11 +37,11 @@ BUILD_TARGETS += firmware-soc
 firmware-soc: $(SOC_FW_SIZE) $(SOC_FW_HEX)
 
 vpath %.c firmware/src firmware/soc
-$(SOC_FW_OUT)/obj/%.o: %.c $(SOC_FW_HDR) $(VENV_STAMP)
+$(SOC_FW_OUT)/obj/%.o: %.c $(SOC_FW_HDR) $(VENV_STAMP) mk/soc.mk
 	@mkdir -p $(dir $@)
 	$(FW_ZIG_CC) $(SOC_FW_FLAGS) $(FW_WARN) $(FW_LINT_EXTRA) $(BENCH_DEFS) -Ifirmware/include -Ifirmware/soc -c $< -o $@
 
-$(SOC_FW_OUT)/obj/start.o: $(SOC_FW_ASM) $(VENV_STAMP)
+$(SOC_FW_OUT)/obj/start.o: $(SOC_FW_ASM) $(VENV_STAMP) mk/soc.mk
 	@mkdir -p $(dir $@)
 	$(FW_ZIG_CC) $(SOC_FW_FLAGS) -c $< -o $@
 
@@ -59,7 +61,8 @@ $(SOC_FW_BIN): $(SOC_FW_ELF)
 	$(PY) -m ziglang objcopy -O binary $< $@
 
 $(SOC_FW_HEX): $(SOC_FW_BIN) firmware/soc/tools/mkimage.py
-	$(PY) firmware/soc/tools/mkimage.py $< --rom-bytes $(SOC_ROM_BYTES) --hex $@ --flash $(SOC_FW_FLASH)
+	$(PY) firmware/soc/tools/mkimage.py $< --rom-bytes $(SOC_ROM_BYTES) --hex $@ --flash $(SOC_FW_FLASH) \
+	  --flash-hex $(SOC_FW_OUT)/bowden_fw_flash.hex
 
 $(SOC_FW_SIZE): $(SOC_FW_ELF) firmware/soc/tools/rv32_report.py
 	$(PY) firmware/soc/tools/rv32_report.py $< --stack-max $(SOC_STACK_BYTES) --out $@
@@ -70,6 +73,8 @@ $(SOC_FW_SIZE): $(SOC_FW_ELF) firmware/soc/tools/rv32_report.py
 #                   picorv32 from its package (its own findings waived in hdl/soc/bowden_soc.vlt)
 
 SOC_RTL := $(sort $(wildcard hdl/soc/*.v))
+SOC_TOPS := $(sort $(wildcard hdl/soc/boards/*_top.v))
+SOC_STUBS := $(sort $(wildcard hdl/soc/boards/stubs/*.v))
 SOC_PICORV32 = $(shell $(PY) -c "import pythondata_cpu_picorv32 as p; print(p.data_location)")/picorv32.v
 LINT_TARGETS += lint-soc
 
@@ -78,6 +83,33 @@ lint-soc: $(VENV_STAMP)
 	@set -e; for f in $(SOC_RTL); do \
 	  m=$$(basename $$f .v); \
 	  verilator --lint-only --quiet -Wall -Ihdl/rtl --top-module $$m hdl/soc/bowden_soc.vlt \
-	    $(SOC_PICORV32) $(HDL_RTL) $(SOC_RTL); \
+	    $(SOC_PICORV32) $(HDL_RTL) $(SOC_RTL) $(SOC_STUBS); \
+	done; \
+	for f in $(SOC_TOPS); do \
+	  m=$$(basename $$f .v); \
+	  verilator --lint-only --quiet -Wall -Ihdl/rtl --top-module $$m hdl/soc/bowden_soc.vlt \
+	    $(SOC_PICORV32) $(HDL_RTL) $(SOC_RTL) $(SOC_STUBS) $$f; \
 	done
-	@echo "lint-soc: $(words $(SOC_RTL)) SoC modules clean"
+	@echo "lint-soc: $(words $(SOC_RTL)) SoC modules and $(words $(SOC_TOPS)) board tops clean"
+
+# --- bitstreams ----------------------------------------------------------------------------------
+#
+#   make bitstream  build/bitstream/ice40-up5k/bowden.bin (+ bowden_fw_flash.bin, the image the
+#                   UP5K boots from its flash) and build/bitstream/ecp5-25f/bowden.bit (the image
+#                   in it), summary.json each; fails when timing is not met; cached by input hash
+
+.PHONY: bitstream
+bitstream: firmware-soc
+	$(PY) hdl/soc/bitstream.py --all
+
+# --- benchmark (part of make bench) ------------------------------------------------------------
+#
+#   make bench-soc  the SoC's boot and the firmware's cycles per tick (worst, median) against the
+#                   tick's budget, from the Verilator simulation, and its speed (simulated ns per
+#                   wall second, cocotb's summary)
+
+BENCH_TARGETS += bench-soc
+.PHONY: bench-soc
+bench-soc: firmware-soc
+	$(PY) -m pytest tests/soc/test_soc_boot.py -q -n 0 -s -p no:cacheprovider \
+	  | grep -E "boot:|cycles per tick|TESTS="

@@ -1,7 +1,9 @@
 /*
- * libc.c - the four C library functions the compiler may call on its own (structure copies and
- * clears, memcmp for comparisons it folds); the firmware links without any library, so any other
- * missing symbol (a soft-float helper, libm) fails the link.
+ * libc.c - the C library functions the compiler may call on its own (structure copies and
+ * clears, memcmp for comparisons it folds) and the 32-bit division helpers of a CPU without a
+ * divider (RV32IM's Zmmul subset: picorv32 with ENABLE_DIV 0, see hdl/soc/bowden_soc.v); the
+ * firmware links without any library, so any other missing symbol (a soft-float helper, libm)
+ * fails the link.
  */
 #include <stddef.h>
 #include <stdint.h>
@@ -10,6 +12,10 @@ void *memcpy(void *dst, const void *src, size_t n);
 void *memmove(void *dst, const void *src, size_t n);
 void *memset(void *dst, int c, size_t n);
 int memcmp(const void *a, const void *b, size_t n);
+uint32_t __udivsi3(uint32_t n, uint32_t d);
+uint32_t __umodsi3(uint32_t n, uint32_t d);
+int32_t __divsi3(int32_t n, int32_t d);
+int32_t __modsi3(int32_t n, int32_t d);
 
 void *memcpy(void *dst, const void *src, size_t n)
 {
@@ -48,7 +54,15 @@ void *memmove(void *dst, const void *src, size_t n)
 void *memset(void *dst, int c, size_t n)
 {
     uint8_t *d = (uint8_t *)dst;
-    for (size_t i = 0; i < n; ++i) {
+    size_t i = 0;
+    /* Words while aligned (structure clears are), then bytes. */
+    if (((uintptr_t)d & 3U) == 0U) {
+        uint32_t w = (uint32_t)(uint8_t)c * 0x01010101UL;
+        for (; i + 4U <= n; i += 4U) {
+            *(uint32_t *)(void *)(d + i) = w;
+        }
+    }
+    for (; i < n; ++i) {
         d[i] = (uint8_t)c;
     }
     return dst;
@@ -64,4 +78,56 @@ int memcmp(const void *a, const void *b, size_t n)
         }
     }
     return 0;
+}
+
+/* Restoring division, one quotient bit per step; d == 0 gives all ones (RISC-V's DIVU result). */
+static uint32_t udivmod(uint32_t n, uint32_t d, uint32_t *rem)
+{
+    if (d == 0U) {
+        *rem = n;
+        return 0xFFFFFFFFUL;
+    }
+    uint32_t q = 0U;
+    uint32_t r = 0U;
+    for (int i = 31; i >= 0; --i) {
+        r = (r << 1) | ((n >> i) & 1U);
+        if (r >= d) {
+            r -= d;
+            q |= 1UL << i;
+        }
+    }
+    *rem = r;
+    return q;
+}
+
+uint32_t __udivsi3(uint32_t n, uint32_t d)
+{
+    uint32_t r;
+    return udivmod(n, d, &r);
+}
+
+uint32_t __umodsi3(uint32_t n, uint32_t d)
+{
+    uint32_t r;
+    (void)udivmod(n, d, &r);
+    return r;
+}
+
+/* Signed: truncating towards zero, as C's / and %. */
+int32_t __divsi3(int32_t n, int32_t d)
+{
+    uint32_t un = n < 0 ? 0U - (uint32_t)n : (uint32_t)n;
+    uint32_t ud = d < 0 ? 0U - (uint32_t)d : (uint32_t)d;
+    uint32_t r;
+    uint32_t q = udivmod(un, ud, &r);
+    return (int32_t)(((n < 0) != (d < 0)) ? 0U - q : q);
+}
+
+int32_t __modsi3(int32_t n, int32_t d)
+{
+    uint32_t un = n < 0 ? 0U - (uint32_t)n : (uint32_t)n;
+    uint32_t ud = d < 0 ? 0U - (uint32_t)d : (uint32_t)d;
+    uint32_t r;
+    (void)udivmod(un, ud, &r);
+    return (int32_t)(n < 0 ? 0U - r : r);
 }

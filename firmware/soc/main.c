@@ -73,13 +73,17 @@ static void uart_poll(void)
         soc_io_write(SOC_SYS_MARK, SOC_MARK_RX);
         dev_rx_bytes(&g_dev, DEV_PORT_SERIAL, buf, n);
     }
-    /* Transmit while the FIFO takes bytes. */
-    while ((soc_io_read(SOC_UART_STATUS) & 0x1U) == 0U) {
-        uint8_t b;
-        if (dev_tx_bytes(&g_dev, DEV_PORT_SERIAL, &b, 1U) == 0U) {
+    /* Transmit what the FIFO has room for, in chunks (one dev_tx_bytes call per chunk). */
+    uint32_t room = soc_io_read(SOC_UART_STATUS) >> 16;
+    while (room > 0U) {
+        uint32_t got = dev_tx_bytes(&g_dev, DEV_PORT_SERIAL, buf, room < sizeof buf ? room : sizeof buf);
+        if (got == 0U) {
             break;
         }
-        soc_io_write(SOC_UART_DATA, b);
+        for (uint32_t i = 0U; i < got; ++i) {
+            soc_io_write(SOC_UART_DATA, buf[i]);
+        }
+        room -= got;
     }
 }
 

@@ -21,7 +21,8 @@
 /* UART (8N1; the divider is fixed by the RTL's CLK_HZ and BAUD parameters). */
 #define SOC_UART_DATA 0x00U   /* write: queue a byte; read: bit 8 = a byte was there, [7:0] it */
 #define SOC_UART_STATUS 0x04U /* [0] TX FIFO full, [1] RX byte waiting, [2] RX overrun (sticky,
-                                 write 1 to clear), [3] framing error seen (sticky, same) */
+                                 write 1 to clear), [3] framing error seen (sticky, same),
+                                 [31:16] free bytes in the TX FIFO */
 /* Timer: a free-running clock counter and a periodic interrupt (the firmware's tick). */
 #define SOC_TIMER_COUNT 0x10U  /* clocks since reset (wraps) */
 #define SOC_TIMER_PERIOD 0x14U /* interrupt every PERIOD clocks; 0 stops it */

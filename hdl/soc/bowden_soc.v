@@ -3,8 +3,10 @@
 `default_nettype none
 
 /*
- * The whole controller on one FPGA: a picorv32 (RV32IMC, from the pythondata-cpu-picorv32
- * package, not copied here) runs the bench firmware (firmware/soc) next to the tension loop.
+ * The whole controller on one FPGA: a picorv32 (RV32I with Zmmul: the multiplier in DSPs, no
+ * divider and no compressed instructions, which the UP5K has no room for; from the
+ * pythondata-cpu-picorv32 package, not copied here) runs the bench firmware (firmware/soc) next
+ * to the tension loop.
  *
  *   picorv32 --+-- 0x0000_0000 ROM: the image ($readmemh of ROM_INIT, or written by a boot copier)
  *              +-- 0x1000_0000 RAM: data and stack
@@ -18,8 +20,8 @@
  * period, CLK_HZ / tick rate, set by the firmware from SOC_SYS_CLK_HZ). The UART's bit is the
  * nearest whole number of clocks (soc_uart.v).
  *
- * CPU_FAST selects picorv32's single-cycle barrel shifter and its DSP multiplier (ENABLE_FAST_MUL)
- * over the shift-by-one and the bit-serial multiplier; hdl/README.md, "bowden_soc", compares them.
+ * CPU_FAST selects picorv32's single-cycle barrel shifter over its two-stage shifter (four bits
+ * a clock); hdl/README.md, "bowden_soc", compares the two.
  */
 module bowden_soc #(
     parameter CLK_HZ = 24000000,      // system clock, Hz
@@ -30,7 +32,10 @@ module bowden_soc #(
     parameter ROM_WORDS = 8192,       // 32 KiB image (mk/soc.mk SOC_ROM_BYTES)
     parameter RAM_WORDS = 4096,       // 16 KiB data and stack (mk/soc.mk SOC_RAM_BYTES)
     parameter ROM_INIT = "",          // $readmemh file of the image
-    parameter CPU_FAST = 1,           // 1: barrel shifter + DSP multiplier; 0: the small ones
+    parameter CPU_FAST = 1,           // 1: barrel shifter; 0: the two-stage shifter (fewer LUTs)
+    parameter MEM_SPRAM = 0,          // 1: ROM and RAM in the UP5K's SPRAMs (16384 words each)
+    parameter BOOT_FLASH = 0,         // 1: copy the image from the flash at BOOT_ADDR at reset
+    parameter [23:0] BOOT_ADDR = 24'h080000,
     parameter FLASH_HALF_CLKS = 1,    // flash SCK half period, clocks
     parameter ADC_SCLK_HALF_CLKS = 3, // ADC SCLK half period, clocks (24 MHz -> 4 MHz, >= 3)
     parameter ADC_WAIT_CLKS = 8192    // ADC wait after power-up, clocks
@@ -62,6 +67,7 @@ module bowden_soc #(
     // status
     output wire fault,       // a loop fault is latched
     output wire cpu_trap,    // the CPU stopped on an illegal instruction or misaligned access
+    output wire boot_done,   // the image is in place and the CPU runs
     output wire sample_tick  // one clock at the start of each loop sample
 );
 
@@ -99,14 +105,14 @@ picorv32 #(
     .ENABLE_COUNTERS(0), .ENABLE_COUNTERS64(0), .ENABLE_REGS_16_31(1),
     .ENABLE_REGS_DUALPORT(1), .LATCHED_MEM_RDATA(0), .TWO_STAGE_SHIFT(1),
     .BARREL_SHIFTER(CPU_FAST), .TWO_CYCLE_COMPARE(0), .TWO_CYCLE_ALU(0),
-    .COMPRESSED_ISA(1), .CATCH_MISALIGN(1), .CATCH_ILLINSN(1), .ENABLE_PCPI(0),
-    .ENABLE_MUL(!CPU_FAST), .ENABLE_FAST_MUL(CPU_FAST), .ENABLE_DIV(1),
+    .COMPRESSED_ISA(0), .CATCH_MISALIGN(1), .CATCH_ILLINSN(1), .ENABLE_PCPI(0),
+    .ENABLE_MUL(0), .ENABLE_FAST_MUL(1), .ENABLE_DIV(0),
     .ENABLE_IRQ(1), .ENABLE_IRQ_QREGS(0), .ENABLE_IRQ_TIMER(0), .ENABLE_TRACE(0),
     .REGS_INIT_ZERO(0), .MASKED_IRQ(32'hFFFF_FFF7), .LATCHED_IRQ(32'hFFFF_FFFF),
     .PROGADDR_RESET(32'h0000_0000), .PROGADDR_IRQ(32'h0000_0010),
     .STACKADDR(32'h1000_0000 + 4 * RAM_WORDS)
 ) cpu (
-    .clk(clk), .resetn(!rst), .trap(cpu_trap),
+    .clk(clk), .resetn(!rst && boot_done), .trap(cpu_trap),
     .mem_valid(mem_valid), .mem_instr(mem_instr), .mem_ready(mem_ready),
     .mem_addr(mem_addr), .mem_wdata(mem_wdata), .mem_wstrb(mem_wstrb), .mem_rdata(mem_rdata),
     .mem_la_read(la_read), .mem_la_write(la_write), .mem_la_addr(la_addr),
@@ -118,9 +124,9 @@ picorv32 #(
     .trace_valid(trace_valid), .trace_data(trace_data)
 );
 
-// The look-ahead bus, the co-processor port and the trace are not used.
-assign unused_cpu = &{1'b0, eoi, la_read, la_write, la_addr, la_wdata, la_wstrb, pcpi_valid,
-                      pcpi_insn, pcpi_rs1, pcpi_rs2, trace_valid, trace_data};
+// The co-processor port and the trace are not used.
+assign unused_cpu = &{1'b0, eoi, pcpi_valid, pcpi_insn, pcpi_rs1, pcpi_rs2, trace_valid,
+                      trace_data};
 
 // --- bus decode ------------------------------------------------------------------------------
 
@@ -130,10 +136,18 @@ wire sel_regs = (mem_addr[31:28] == 4'h2);
 wire sel_io = (mem_addr[31:28] == 4'h3);
 wire sel_none = !(sel_rom || sel_ram || sel_regs || sel_io);
 
-// ROM, RAM, I/O and unmapped addresses answer in the clock after the request; an unmapped
-// access reads 0 and writes nothing. The register map answers through AXI4-Lite.
+// ROM and RAM are accessed through picorv32's look-ahead interface: the address, data and
+// strobes of the next transfer come a clock before mem_valid (picorv32 README, "Look-Ahead
+// Interface"), so the block RAM's registered read is ready in the clock mem_valid rises, and
+// the transfer ends there (a CPI of about 4.1 instead of 5.2 on Dhrystone, same README). I/O and
+// unmapped addresses answer in the clock after the request (an unmapped access reads 0 and
+// writes nothing); the register map answers through AXI4-Lite.
+wire la_rom = (la_addr[31:28] == 4'h0);
+wire la_ram = (la_addr[31:28] == 4'h1);
+wire la_go = la_read || la_write;
+
 reg  ready_reg;
-wire access = mem_valid && !ready_reg && !sel_regs;
+wire access = mem_valid && !ready_reg && (sel_io || sel_none);
 wire io_access = access && sel_io;
 
 always @(posedge clk) begin
@@ -146,15 +160,64 @@ end
 wire [31:0] rom_rdata, ram_rdata;
 reg  [31:0] io_rdata_reg;
 
-soc_ram #(.WORDS(ROM_WORDS), .INIT_FILE(ROM_INIT)) rom (
-    .clk(clk), .en(access && sel_rom), .we(4'd0), .addr(mem_addr[ROM_AW+1:2]),
-    .wdata(mem_wdata), .rdata(rom_rdata)
-);
+// Boot copier (BOOT_FLASH): writes the program memory through its own port while the CPU waits.
+wire              boot_we;
+wire [ROM_AW-1:0] boot_addr;
+wire [31:0]       boot_wdata;
+wire              boot_spi_cs, boot_spi_start;
+wire [7:0]        boot_spi_din;
+wire              spi_busy;
+wire [7:0]        spi_dout;
 
-soc_ram #(.WORDS(RAM_WORDS)) ram (
-    .clk(clk), .en(access && sel_ram), .we(mem_wstrb), .addr(mem_addr[RAM_AW+1:2]),
-    .wdata(mem_wdata), .rdata(ram_rdata)
-);
+generate
+    if (BOOT_FLASH != 0) begin : g_boot
+        soc_boot #(
+            .BOOT_ADDR(BOOT_ADDR), .WORDS(ROM_WORDS), .WAKE_CLKS(CLK_HZ / 250000 + 1)
+        ) boot (
+            .clk(clk), .rst(rst), .done(boot_done),
+            .spi_cs(boot_spi_cs), .spi_start(boot_spi_start), .spi_din(boot_spi_din),
+            .spi_busy(spi_busy), .spi_dout(spi_dout),
+            .mem_we(boot_we), .mem_addr(boot_addr), .mem_wdata(boot_wdata)
+        );
+    end else begin : g_no_boot
+        assign boot_done = 1'b1;
+        assign boot_we = 1'b0;
+        assign boot_addr = {ROM_AW{1'b0}};
+        assign boot_wdata = 32'd0;
+        assign boot_spi_cs = 1'b0;
+        assign boot_spi_start = 1'b0;
+        assign boot_spi_din = 8'd0;
+    end
+endgenerate
+
+wire              rom_en = boot_we || (la_read && la_rom);
+wire [3:0]        rom_we = {4{boot_we}};
+wire [ROM_AW-1:0] rom_addr = boot_we ? boot_addr : la_addr[ROM_AW+1:2];
+wire              ram_en = la_go && la_ram;
+wire [3:0]        ram_we = la_write ? la_wstrb : 4'd0;
+wire [RAM_AW-1:0] ram_addr = la_addr[RAM_AW+1:2];
+
+generate
+    if (MEM_SPRAM != 0) begin : g_spram
+        soc_spram rom (
+            .clk(clk), .en(rom_en), .we(rom_we), .addr(rom_addr), .wdata(boot_wdata),
+            .rdata(rom_rdata)
+        );
+        soc_spram ram (
+            .clk(clk), .en(ram_en), .we(ram_we), .addr(ram_addr), .wdata(la_wdata),
+            .rdata(ram_rdata)
+        );
+    end else begin : g_bram
+        soc_ram #(.WORDS(ROM_WORDS), .INIT_FILE(ROM_INIT)) rom (
+            .clk(clk), .en(rom_en), .we(rom_we), .addr(rom_addr), .wdata(boot_wdata),
+            .rdata(rom_rdata)
+        );
+        soc_ram #(.WORDS(RAM_WORDS)) ram (
+            .clk(clk), .en(ram_en), .we(ram_we), .addr(ram_addr), .wdata(la_wdata),
+            .rdata(ram_rdata)
+        );
+    end
+endgenerate
 
 // --- register map: bowden_core over AXI4-Lite ------------------------------------------------
 
@@ -254,27 +317,30 @@ localparam [5:0] IO_UART_DATA = 6'h00, IO_UART_STATUS = 6'h01, IO_TIMER_COUNT = 
 wire [5:0] io_word = mem_addr[7:2];
 wire       io_wr = io_access && (mem_wstrb != 4'd0);
 wire       io_rd = io_access && (mem_wstrb == 4'd0);
-wire       unused_io_addr = &{1'b0, mem_addr[27:8], mem_addr[1:0], sel_none};
+wire       unused_io_addr = &{1'b0, mem_addr[27:8], mem_addr[1:0], sel_none, la_addr[27:15],
+                              la_addr[1:0]};
 
 wire [7:0] uart_rx_data;
 wire       uart_rx_avail, uart_tx_full, uart_overrun, uart_frame_err;
+wire [UART_FIFO_AW:0] uart_tx_level;
+localparam [15:0] UART_DEPTH = 16'd1 << UART_FIFO_AW;
 
 soc_uart #(.CLK_HZ(CLK_HZ), .BAUD(BAUD), .FIFO_AW(UART_FIFO_AW)) uart (
     .clk(clk), .rst(rst), .rx(uart_rx), .tx(uart_tx),
     .tx_push(io_wr && io_word == IO_UART_DATA), .tx_data(mem_wdata[7:0]), .tx_full(uart_tx_full),
+    .tx_level(uart_tx_level),
     .rx_pop(io_rd && io_word == IO_UART_DATA), .rx_data(uart_rx_data),
     .rx_avail(uart_rx_avail), .rx_overrun(uart_overrun), .rx_frame_err(uart_frame_err),
     .clear_overrun(io_wr && io_word == IO_UART_STATUS && mem_wdata[2]),
     .clear_frame_err(io_wr && io_word == IO_UART_STATUS && mem_wdata[3])
 );
 
-wire       spi_busy;
-wire [7:0] spi_dout;
 reg        spi_cs_reg;
 
 soc_spi_master #(.HALF_CLKS(FLASH_HALF_CLKS)) spi (
-    .clk(clk), .rst(rst), .cs(spi_cs_reg),
-    .start(io_wr && io_word == IO_SPI_DATA), .din(mem_wdata[7:0]),
+    .clk(clk), .rst(rst), .cs(boot_done ? spi_cs_reg : boot_spi_cs),
+    .start(boot_done ? (io_wr && io_word == IO_SPI_DATA) : boot_spi_start),
+    .din(boot_done ? mem_wdata[7:0] : boot_spi_din),
     .busy(spi_busy), .dout(spi_dout),
     .sck(flash_sck), .cs_n(flash_cs_n), .mosi(flash_mosi), .miso(flash_miso)
 );
@@ -307,8 +373,9 @@ always @(posedge clk) begin
     if (io_rd) begin
         case (io_word)
             IO_UART_DATA: io_rdata_reg <= {23'd0, uart_rx_avail, uart_rx_data};
-            IO_UART_STATUS: io_rdata_reg <= {28'd0, uart_frame_err, uart_overrun, uart_rx_avail,
-                                             uart_tx_full};
+            IO_UART_STATUS: io_rdata_reg <= {UART_DEPTH - {{(15 - UART_FIFO_AW){1'b0}}, uart_tx_level},
+                                             12'd0, uart_frame_err, uart_overrun,
+                                             uart_rx_avail, uart_tx_full};
             IO_TIMER_COUNT: io_rdata_reg <= timer_count_reg;
             IO_TIMER_PERIOD: io_rdata_reg <= timer_period_reg;
             IO_TIMER_IRQ: io_rdata_reg <= {31'd0, timer_pending_reg};
@@ -332,7 +399,7 @@ end
 
 // --- read data -------------------------------------------------------------------------------
 
-assign mem_ready = ready_reg || regs_ready;
+assign mem_ready = ready_reg || regs_ready || (mem_valid && (sel_rom || sel_ram));
 assign mem_rdata = sel_regs ? regs_rdata :
                    sel_rom ? rom_rdata :
                    sel_ram ? ram_rdata :

@@ -23,6 +23,7 @@ module soc_uart #(
     input  wire       tx_push,
     input  wire [7:0] tx_data,
     output wire       tx_full,
+    output wire [FIFO_AW:0] tx_level,  // bytes waiting in the transmit FIFO
     // receive: the oldest byte and its removal
     input  wire       rx_pop,
     output wire [7:0] rx_data,
@@ -61,6 +62,8 @@ soc_fifo #(.AW(FIFO_AW)) txf (
     .clk(clk), .rst(rst), .push(tx_push), .din(tx_data), .pop(tx_take), .q(txf_q),
     .count(txf_count), .full(tx_full)
 );
+
+assign tx_level = txf_count;
 
 always @(posedge clk) begin
     if (tx_take) begin

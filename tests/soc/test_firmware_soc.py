@@ -17,7 +17,7 @@ REPORT = REPO_ROOT / "firmware" / "soc" / "tools" / "rv32_report.py"
 ELF_REPORT = REPO_ROOT / "firmware" / "tools" / "elf_report.py"
 ZIG = [sys.executable, "-m", "ziglang"]
 FLAGS = shlex.split(
-    "-target riscv32-freestanding-none -mcpu=generic_rv32+m+c -ffreestanding -fno-builtin -O2 "
+    "-target riscv32-freestanding-none -mcpu=generic_rv32+zmmul -ffreestanding -fno-builtin -O2 "
     "-fno-unwind-tables -fno-asynchronous-unwind-tables"
 )
 

@@ -4,7 +4,7 @@ The firmware image is build/firmware/soc/bowden_fw.hex (make firmware-soc), read
 $readmemh; the SPI flash is the simulation model (hdl/soc/sim/spi_flash_model.v), blank at start.
 Also here: the loop's sample period and the PWM period are exact at the SoC's clock, the timer's
 tick is the firmware's rate, and a request sent while the board boots gets no answer but does
-not hang it.
+not hang it; and (tb_soc_tick.py, in the same simulation) the tick's cycles against its budget.
 """
 
 from __future__ import annotations
@@ -118,6 +118,6 @@ def fw_image():
 def test_soc_boot(fw_image):
     params = {"ROM_INIT": f'"{fw_image}"', "ADC_WAIT_CLKS": 256}
     run_cocotb(
-        "soc_tb", "test_soc_boot", soc_sources(), "verilator", params, tag="boot",
+        "soc_tb", "test_soc_boot,tb_soc_tick", soc_sources(), "verilator", params, tag="boot",
         build_args=VERILATOR_ARGS,
     )  # fmt: skip

@@ -5,6 +5,8 @@
 --hex: one 32-bit little-endian word per line, the ROM's $readmemh file, padded with zeros to
 the ROM's size (hdl/soc/bowden_soc.v, ROM_WORDS). --flash: the image as the UP5K's boot copier reads
 it from the SPI flash: a 32-bit little-endian byte count, then the image (hdl/soc/soc_boot.v).
+--flash-hex: the same bytes as the flash simulation model's $readmemh file, placed at
+--flash-addr (default 0x080000, the UP5K's boot address).
 Exit 2 with one line when the image does not fit the ROM.
 """
 
@@ -22,6 +24,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rom-bytes", type=int, required=True)
     ap.add_argument("--hex", type=Path, required=True)
     ap.add_argument("--flash", type=Path, required=True)
+    ap.add_argument("--flash-hex", type=Path, default=None)
+    ap.add_argument("--flash-addr", type=lambda v: int(v, 0), default=0x080000)
     args = ap.parse_args(argv)
     data = args.image.read_bytes()
     data += b"\0" * (-len(data) % 4)
@@ -33,10 +37,15 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     words = struct.unpack(f"<{len(data) // 4}I", data)
     words += (0,) * (args.rom_bytes // 4 - len(words))
-    for out, payload in (
+    flash = struct.pack("<I", len(data)) + data
+    outputs = [
         (args.hex, "".join(f"{w:08x}\n" for w in words).encode()),
-        (args.flash, struct.pack("<I", len(data)) + data),
-    ):
+        (args.flash, flash),
+    ]
+    if args.flash_hex is not None:
+        text = f"@{args.flash_addr:06x}\n" + "".join(f"{b:02x}\n" for b in flash)
+        outputs.append((args.flash_hex, text.encode()))
+    for out, payload in outputs:
         tmp = out.with_suffix(out.suffix + ".tmp")
         tmp.write_bytes(payload)
         tmp.replace(out)

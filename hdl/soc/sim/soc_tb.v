@@ -10,6 +10,10 @@ module soc_tb #(
     parameter ROM_INIT = "",
     parameter FLASH_INIT = "",
     parameter CPU_FAST = 1,
+    parameter MEM_SPRAM = 0,
+    parameter BOOT_FLASH = 0,
+    parameter ROM_WORDS = 8192,
+    parameter RAM_WORDS = 4096,
     parameter ADC_WAIT_CLKS = 8192
 ) (
     input  wire clk,
@@ -26,20 +30,24 @@ module soc_tb #(
     output wire fault,
     output wire cpu_trap,
     output wire sample_tick,
-    output wire flash_cs_n
+    output wire flash_cs_n,
+    output wire boot_done
 );
 
 wire flash_sck, flash_mosi, flash_miso;
 
 bowden_soc #(
-    .CLK_HZ(CLK_HZ), .ROM_INIT(ROM_INIT), .CPU_FAST(CPU_FAST), .ADC_WAIT_CLKS(ADC_WAIT_CLKS)
+    .CLK_HZ(CLK_HZ), .ROM_INIT(ROM_INIT), .CPU_FAST(CPU_FAST), .ADC_WAIT_CLKS(ADC_WAIT_CLKS),
+    .MEM_SPRAM(MEM_SPRAM), .BOOT_FLASH(BOOT_FLASH), .ROM_WORDS(ROM_WORDS), .RAM_WORDS(RAM_WORDS),
+    .BOOT_ADDR(24'h080000)
 ) soc (
     .clk(clk), .rst(rst), .uart_rx(uart_rx), .uart_tx(uart_tx),
     .flash_sck(flash_sck), .flash_cs_n(flash_cs_n), .flash_mosi(flash_mosi),
     .flash_miso(flash_miso),
     .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
     .adc_drdy_n(adc_drdy_n), .drive_pwm(drive_pwm), .drive_enable(drive_enable),
-    .fault(fault), .cpu_trap(cpu_trap), .sample_tick(sample_tick)
+    .fault(fault), .cpu_trap(cpu_trap), .boot_done(boot_done),
+    .sample_tick(sample_tick)
 );
 
 spi_flash_model #(.INIT_FILE(FLASH_INIT)) flash (

@@ -1,0 +1,76 @@
+`resetall
+`timescale 1ns / 1ps
+`default_nettype none
+
+/*
+ * ULX3S (LFE5U-25F) top of bowden_soc at the board's 25 MHz oscillator, no PLL: 25 MHz is an
+ * exact multiple of the loop's 10 kHz, the PWM's 5 kHz and the firmware's 1 kHz, and the UART's
+ * 921600 baud is 27 clocks a bit (0.5 % off). The image is in block RAM ($readmemh at synthesis);
+ * the settings live in the configuration flash at 0x100000, whose clock pin is reached through
+ * USRMCLK (it is the configuration clock). UART on the FT231X (FPGA TX to its RXD on L4, RX from
+ * its TXD on M1); ADS131M02 and ESCON on the GPIO header as ecp5_25f_top.
+ */
+module ecp5_25f_soc_top #(
+    parameter ROM_INIT = "bowden_fw.hex"
+) (
+    input  wire clk_25mhz,
+    input  wire ftdi_txd,    // FPGA receives
+    output wire ftdi_rxd,    // FPGA transmits
+    output wire flash_csn,
+    output wire flash_mosi,
+    input  wire flash_miso,
+    output wire flash_holdn,
+    output wire flash_wpn,
+    output wire adc_sclk,
+    output wire adc_cs_n,
+    output wire adc_din,
+    input  wire adc_dout,
+    input  wire adc_drdy_n,
+    output wire drive_pwm,
+    output wire drive_enable,
+    output wire led_fault,
+    output wire led_run
+);
+
+localparam CLK_HZ = 25000000;
+
+wire clk = clk_25mhz;
+
+// Reset for 256 clocks after configuration (ECP5 flip-flops start at zero).
+reg [7:0] por_reg;
+reg       rst_reg;
+
+always @(posedge clk) begin
+    if (!(&por_reg)) begin
+        por_reg <= por_reg + 8'd1;
+    end
+    rst_reg <= !(&por_reg);
+end
+
+wire flash_sck, fault, cpu_trap, boot_done, sample_tick;
+
+USRMCLK usrmclk (.USRMCLKI(flash_sck), .USRMCLKTS(1'b0));
+
+assign flash_holdn = 1'b1;
+assign flash_wpn = 1'b1;
+
+bowden_soc #(
+    .CLK_HZ(CLK_HZ), .ROM_WORDS(8192), .RAM_WORDS(4096), .ROM_INIT(ROM_INIT), .CPU_FAST(1),
+    .FLASH_HALF_CLKS(1), .ADC_SCLK_HALF_CLKS(3), .ADC_WAIT_CLKS(8192)
+) soc (
+    .clk(clk), .rst(rst_reg), .uart_rx(ftdi_txd), .uart_tx(ftdi_rxd),
+    .flash_sck(flash_sck), .flash_cs_n(flash_csn), .flash_mosi(flash_mosi),
+    .flash_miso(flash_miso),
+    .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
+    .adc_drdy_n(adc_drdy_n), .drive_pwm(drive_pwm), .drive_enable(drive_enable),
+    .fault(fault), .cpu_trap(cpu_trap), .boot_done(boot_done), .sample_tick(sample_tick)
+);
+
+assign led_fault = fault || cpu_trap;  // ULX3S LEDs are active high
+assign led_run = drive_enable;
+
+wire unused = &{1'b0, boot_done, sample_tick};
+
+endmodule
+
+`resetall

