@@ -370,8 +370,8 @@ class CompensatorParams:
     # Online friction estimate from the far-end load cell (firmware/include/fric_est.h; a part
     # of fw_config_t, not of comp_config_t), off by default: EstimatorParams's fields with est_.
     est_enable: int = 0
-    est_tau_ticks: int = 256
-    est_rate_per_s: float = 1000.0 / 2048
+    est_tau_ticks: int = 128
+    est_rate_per_s: float = 2.0
     est_mu_phi_min: float = 0.05
     est_mu_phi_max: float = 2.0
     est_t_min_n: float = 0.5
@@ -616,8 +616,8 @@ class EstimatorParams:
     minimum tension on both cells below which no sample is used."""
 
     enable: int = 0  # 0 off, 1 on
-    tau_ticks: int = 256  # forgetting time constant, power of two in [16, 32768] samples
-    rate_per_s: float = 1000.0 / 2048  # largest change of mu*phi per second (2^-11 per tick)
+    tau_ticks: int = 128  # forgetting time constant, power of two in [16, 32768] samples
+    rate_per_s: float = 2.0  # largest change of mu*phi per second (0.002 per tick at 1 kHz)
     mu_phi_min: float = 0.05  # bounds of mu*phi, [0, 4]
     mu_phi_max: float = 2.0
     t_min_n: float = 0.5  # minimum tension on both cells, [0, 64] N

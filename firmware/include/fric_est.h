@@ -122,7 +122,7 @@ typedef struct {
     uint32_t out_of_bounds;           /* consecutive measurements outside the bounds */
 } fric_est_t;
 
-/* Defaults: off; tau 256 samples; rate 2^-13 per tick (0.12 per second at 1 kHz); bounds
+/* Defaults: off; tau 128 samples; rate 0.002 per tick (2.0 per second at 1 kHz); bounds
  * [0.05, 2.0]; t_min 0.5 N. (tau and rate chosen on the tuning set: firmware/README.md.) */
 void fric_est_config_default(fric_est_config_t *cfg);
 

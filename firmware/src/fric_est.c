@@ -18,8 +18,8 @@ void fric_est_config_default(fric_est_config_t *cfg)
         return;
     }
     cfg->enable = 0;
-    cfg->tau_ticks = 256;
-    cfg->rate_q28 = (q3_28_t)(Q3_28_ONE >> 11);   /* 2^-11 per tick: 0.49 per second at 1 kHz */
+    cfg->tau_ticks = 128;
+    cfg->rate_q28 = (q3_28_t)536871L; /* 0.002 per tick = round(0.002 * 2^28): 2.0/s at 1 kHz */
     cfg->mu_phi_min_q28 = (q3_28_t)13421773L;     /* 0.05 = round(0.05 * 2^28) */
     cfg->mu_phi_max_q28 = (q3_28_t)(2L * Q3_28_ONE); /* 2.0 */
     cfg->t_min_n_q8 = Q7_8_ONE / 2;                /* 0.5 N */
