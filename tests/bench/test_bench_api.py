@@ -88,7 +88,7 @@ def test_the_device_is_stopped_however_the_session_ends(emulator):
         with pytest.raises(KeyboardInterrupt):
             b.run("sine", 30.0, on_telemetry=interrupt)
         # (asked through the session: the port is locked to one client while it is open)
-        assert not b.client.hello().running  # stopped at once, not after 30 s
+        assert not b.info().running  # stopped at once, not after 30 s
 
 
 def test_bad_sessions_are_one_line(tmp_path):
