@@ -8,7 +8,7 @@
 
 SOC_FW_OUT := $(BUILD)/firmware/soc
 # The memory the RTL gives the firmware (hdl/soc/bowden_soc.v parameters ROM_WORDS, RAM_WORDS).
-SOC_ROM_BYTES := 32768
+SOC_ROM_BYTES := 65536
 SOC_RAM_BYTES := 16384
 # The stack room link.ld keeps free, and the bound rv32_report.py must stay under.
 SOC_STACK_BYTES := 4096

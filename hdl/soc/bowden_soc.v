@@ -29,7 +29,7 @@ module bowden_soc #(
     parameter PWM_HZ = 5000,          // ESCON PWM frequency, Hz (CLK_HZ a multiple of it)
     parameter BAUD = 921600,          // UART, 8N1
     parameter UART_FIFO_AW = 9,       // UART FIFOs of 512 bytes each
-    parameter ROM_WORDS = 8192,       // 32 KiB image (mk/soc.mk SOC_ROM_BYTES)
+    parameter ROM_WORDS = 16384,      // 64 KiB image (mk/soc.mk SOC_ROM_BYTES)
     parameter RAM_WORDS = 4096,       // 16 KiB data and stack (mk/soc.mk SOC_RAM_BYTES)
     parameter ROM_INIT = "",          // $readmemh file of the image
     parameter CPU_FAST = 1,           // 1: barrel shifter; 0: the two-stage shifter (fewer LUTs)

@@ -85,7 +85,10 @@ async def tick_cycles_have_margin(dut):
     reply = await bench.request("START", duration_ticks=ticks)
     assert reply is not None and reply.name == "ACK", reply
     await ClockCycles(dut.clk, (ticks + 2) * TICK_BUDGET)
-    # a burst of requests while the run goes on: the receive path's cost
+    # START's own handling (the configuration written to the loop, fw_start) is a one-off at the
+    # run's start, kept apart from the requests handled while a run goes on
+    start_rx = list(spans.get(MARK_RX, []))
+    spans[MARK_RX] = []
     for _ in range(3):
         assert await bench.request("HELLO") is not None
     done = True
@@ -98,8 +101,10 @@ async def tick_cycles_have_margin(dut):
     worst, median = max(tick), statistics.median(tick)
     worst_rx = max(rx) if rx else 0
     dut._log.info(
-        "cycles per tick: worst %d, median %d; receive burst worst %d; budget %d (margin x%.1f)",
-        worst, median, worst_rx, TICK_BUDGET, TICK_BUDGET / (worst + worst_rx),
+        "cycles per tick: worst %d, median %d; a request (HELLO) worst %d; START %d; budget %d "
+        "(tick margin x%.1f, tick + request x%.2f)",
+        worst, median, worst_rx, max(start_rx, default=0), TICK_BUDGET, TICK_BUDGET / worst,
+        TICK_BUDGET / (worst + worst_rx),
     )  # fmt: skip
     assert not int(dut.cpu_trap.value)
     # The tick itself with 2x margin; the tick and a request's handling within one period (no

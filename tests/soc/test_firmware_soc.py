@@ -46,7 +46,7 @@ def test_image_is_rv32_and_starts_at_reset(soc_build):
     assert struct.unpack_from("<H", elf, 18)[0] == 243  # EM_RISCV
     assert struct.unpack_from("<I", elf, 24)[0] == 0  # entry: picorv32's PROGADDR_RESET
     words = (SOC / "bowden_fw.hex").read_text().split()
-    assert len(words) == 32768 // 4  # padded to the ROM
+    assert len(words) == 65536 // 4  # padded to the ROM
     image = (SOC / "bowden_fw.bin").read_bytes()
     assert int(words[0], 16) == struct.unpack_from("<I", image, 0)[0]
     flash = (SOC / "bowden_fw_flash.bin").read_bytes()
@@ -58,7 +58,7 @@ def test_size_and_stack_reported(soc_build):
     text = (SOC / "size.txt").read_text()
     assert "no soft-float helper and no libm symbol" in text
     size = int(text.split("image (ROM: code + read-only data + .data init): ")[1].split()[0])
-    assert 8000 < size <= 32768, text
+    assert 8000 < size <= 65536, text
     stack = int(text.split("worst-case stack (static bound): ")[1].split()[0])
     # The deepest path goes through the settings check (the gain tables' build) or the flash.
     assert 256 < stack <= 4096, text
@@ -93,7 +93,7 @@ def float_probe(tmp_path_factory):
     elf = tmp / "probe.elf"
     subprocess.run(
         [*ZIG, "ld.lld", "-T", str(REPO_ROOT / "firmware" / "soc" / "link.ld"), "--emit-relocs",
-         "--defsym=__rom_bytes=32768", "--defsym=__ram_bytes=16384", "--defsym=__stack_min=64",
+         "--defsym=__rom_bytes=65536", "--defsym=__ram_bytes=16384", "--defsym=__stack_min=64",
          "--defsym=soc_ticks_seen=0x10000000", "--unresolved-symbols=ignore-all",
          str(sobj), str(obj), "-o", str(elf)],
         check=True,
@@ -141,7 +141,7 @@ def test_recursion_has_no_bound(tmp_path):
     )
     subprocess.run(
         [*ZIG, "ld.lld", "-T", str(REPO_ROOT / "firmware" / "soc" / "link.ld"), "--emit-relocs",
-         "--defsym=__rom_bytes=32768", "--defsym=__ram_bytes=16384", "--defsym=__stack_min=64",
+         "--defsym=__rom_bytes=65536", "--defsym=__ram_bytes=16384", "--defsym=__stack_min=64",
          "--defsym=soc_ticks_seen=0x10000000", str(sobj), str(obj), "-o", str(elf)],
         check=True,
     )  # fmt: skip

@@ -12,7 +12,7 @@ module soc_tb #(
     parameter CPU_FAST = 1,
     parameter MEM_SPRAM = 0,
     parameter BOOT_FLASH = 0,
-    parameter ROM_WORDS = 8192,
+    parameter ROM_WORDS = 16384,
     parameter RAM_WORDS = 4096,
     parameter ADC_WAIT_CLKS = 8192
 ) (
