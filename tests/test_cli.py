@@ -5,6 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from cosim import __version__
 
 
@@ -97,3 +99,32 @@ def test_the_command_line_starts_without_the_heavy_libraries():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "", f"imported while building the parser: {out.stdout.strip()}"
+
+
+@pytest.mark.parametrize("delay_s", [0.05, 0.1, 0.3])
+@pytest.mark.parametrize("entry", ["module", "script"])
+def test_ctrl_c_in_the_first_moments_is_one_line(entry, delay_s, tmp_path):
+    """SIGINT while `bowden` is still importing its command line (audit, bench --emulate): one
+    line and 130, never a KeyboardInterrupt traceback, by `python -m cosim` and the console
+    script alike."""
+    import signal
+    import time
+
+    script = Path(sys.executable).parent / "bowden"
+    if entry == "script" and not script.exists():
+        pytest.skip("no bowden console script next to this interpreter")
+    cmd = [str(script)] if entry == "script" else [sys.executable, "-m", "cosim"]
+    for args in (["audit", str(tmp_path / "x.csv")], ["bench", "--emulate", "info"]):
+        proc = subprocess.Popen(
+            cmd + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path
+        )
+        time.sleep(delay_s)
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+        if proc.returncode == -signal.SIGINT or "init_import_site" in err:
+            continue  # the interpreter itself was still starting (before any of cosim ran)
+        assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+        if proc.returncode != 130:  # the command finished (or refused x.csv) before the signal
+            assert proc.returncode in (0, 2), err
+        else:
+            assert len(err.strip().splitlines()) == 1, err

@@ -74,7 +74,7 @@ def test_wheel_holds_every_file_of_the_package(wheel):
     assert {"cosim/engines/cosim_top.v", "cosim/engines/cosim_top.vlt"} <= names
     assert not [n for n in names if n.endswith((".pyc", ".pyo")) or "__pycache__" in n]
     entry = next(n for n in names if n.endswith(".dist-info/entry_points.txt"))
-    assert "bowden = cosim.cli:main" in zipfile.ZipFile(wheel).read(entry).decode()
+    assert "bowden = cosim.__main__:run" in zipfile.ZipFile(wheel).read(entry).decode()
 
 
 def test_wheel_installed_in_a_scratch_venv_runs_a_1s_sim(wheel, tmp_path):

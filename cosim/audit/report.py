@@ -288,7 +288,10 @@ def plots(out_dir: Path, result: AuditResult) -> list[str]:
     for _, x, xlabel, fname in scatter:
         fig, ax = plt.subplots(figsize=(7, 4.5))
         colour = d.positions_m[idx, 2] if d.has_positions else None
-        sc = ax.scatter(x[idx], base_r[idx], s=3, c=colour, cmap="viridis", label="nominal")
+        # Coloured by z only when positions were recorded: a cmap without values to map makes
+        # matplotlib warn that it is ignored, on every audit of a file without positions.
+        shade = {"c": colour, "cmap": "viridis"} if colour is not None else {"color": "tab:blue"}
+        sc = ax.scatter(x[idx], base_r[idx], s=3, label="nominal", **shade)
         if result.findings:
             ax.scatter(x[idx], ext_r[idx], s=3, color="tab:red", alpha=0.4, label="extended")
         if colour is not None:

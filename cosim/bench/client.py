@@ -40,6 +40,10 @@ from .protocol import (
 
 MSG = {name: m.id for name, m in msgs.MESSAGES.items()}
 ERROR_NAMES = {v: k for k, v in msgs.ERRORS.items()}
+# A request at least this often while a run records: the device stops a run whose port is silent
+# for HOST_WATCHDOG.TIMEOUT_MS (500 ms), so a crashed host never leaves the motor driven; one in
+# five may be late or lost before the device stops.
+KEEP_ALIVE_S = 0.1
 _ERROR_TEXT_MAX = msgs.MESSAGES["ERROR"].fields[-1].count[1]  # characters an ERROR carries
 
 
@@ -261,6 +265,7 @@ class BenchClient:
     on_telemetry: Callable[[dict], None] | None = None
     stale_telemetry: int = 0  # frames of a stream that was running when we connected
     _seq: int = 0
+    _last_send: float = 0.0  # time.monotonic() of the last request sent (keep_alive)
     _backlog: list = field(default_factory=list)  # frames received after a reply, not yet handled
 
     # --- requests ----------------------------------------------------------------------------
@@ -286,6 +291,7 @@ class BenchClient:
         time raises LinkTimeoutError."""
         seq = self._next_seq()
         self.link.send(Frame(msg=MSG[name], seq=seq, payload=pack(name, **fields)))
+        self._last_send = self._clock()
         deadline = time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
         while True:
             left = deadline - time.monotonic()
@@ -415,6 +421,24 @@ class BenchClient:
         """A request answered by ACK; returns the ACK's value."""
         _, v = self.request(name, **fields)
         return v["value"]
+
+    def _clock(self) -> float:
+        """Seconds as the device counts them: the wall clock, or a stepped link's own."""
+        clock = getattr(self.link, "clock", None)
+        return clock() if clock is not None else time.monotonic()
+
+    def keep_alive(self, interval_s: float = KEEP_ALIVE_S) -> bool:
+        """Feed the device's host watchdog during a run: send FAULTS_GET (no side effects, a
+        short reply) when no request went out for interval_s, without waiting for the reply
+        (request() and poll() pass it by as a frame of another seq). True when one was sent."""
+        now = self._clock()
+        if now - self._last_send < interval_s:
+            return False
+        self.link.send(
+            Frame(msg=MSG["FAULTS_GET"], seq=self._next_seq(), payload=pack("FAULTS_GET"))
+        )
+        self._last_send = now
+        return True
 
     def faults(self) -> dict:
         _, v = self.request("FAULTS_GET")

@@ -363,6 +363,11 @@ class SteppedLink:
     def stats(self):
         return self.decoder.stats
 
+    def clock(self) -> float:
+        """The device's time in seconds (the ticks run so far): the host's keep-alive reads it,
+        as the wall clock runs much slower than this link."""
+        return self.chain.ticks / self.chain.cfg.tick_rate_hz
+
     def send(self, frame) -> None:
         from .protocol import encode_frame  # noqa: PLC0415
 

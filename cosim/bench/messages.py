@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PROTOCOL_VERSION = 2
-TABLE_HASH = 0x6DC40F4F
+TABLE_HASH = 0x1E4F58F6
 MAX_PAYLOAD = 48
 CAN_NODE_BITS = 6
 CAN_MESSAGE_BITS = 5
@@ -299,9 +299,10 @@ MESSAGES: dict[str, Message] = {
             Field("rx_bad_messages", "I", 4),
             Field("tx_frames", "I", 4),
             Field("tx_overflow", "I", 4),
+            Field("host_timeouts", "I", 4),
         ),
-        36,
-        36,
+        40,
+        40,
         True,
     ),
     "ACK": Message(
@@ -451,6 +452,9 @@ STATUS: dict[str, int] = {
 }
 START_DURATION: dict[str, int] = {
     "CONTINUOUS": 4294967295,
+}
+HOST_WATCHDOG: dict[str, int] = {
+    "TIMEOUT_MS": 500,
 }
 CONFIG_SOURCE: dict[str, int] = {
     "DEFAULTS": 0,

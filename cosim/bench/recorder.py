@@ -241,6 +241,7 @@ def record_run(
                     if "STREAM_FULL" not in str(exc):
                         raise
                     break
+            client.keep_alive()  # the device's host watchdog: a silent host stops the run
             client.poll(0.01 if waveform == "stream" else 0.05)  # telemetry: on_telemetry
             now = time.monotonic()
             if result.samples > n_before:

@@ -18,7 +18,7 @@ import signal
 import sys
 import threading
 
-from cosim import __version__
+from cosim import __version__, _early
 from cosim.project import procs
 from cosim.project.cliargs import ArgumentParser, harden, subparsers
 
@@ -91,6 +91,7 @@ def main(argv: list[str] | None = None) -> int:
     global _pending
     _pending = None
     try:
+        _early.release()  # from here on a Ctrl-C is a KeyboardInterrupt caught below
         return _main(argv)
     except KeyboardInterrupt:  # Ctrl-C before the command's handlers are in place
         print("bowden: interrupted by SIGINT before the command started", file=sys.stderr)

@@ -53,6 +53,10 @@ def main(args: argparse.Namespace) -> int:
                 f"--scheduler must be an address like tcp://HOST:PORT; got {args.scheduler!r}"
             )
         require_project()
+        if args.scheduler is not None:  # before anything is written, within a stated time
+            from cosim.studies.sweep.scheduler import probe  # noqa: PLC0415
+
+            probe(args.scheduler)
     except (SpecError, ValueError, FileNotFoundError) as exc:
         print(f"bowden sweep: {exc}", file=sys.stderr)
         return 2

@@ -16,6 +16,9 @@
  * for PROTO_START_DURATION_CONTINUOUS, and a duration of 0 is refused. Parameter
  * writes, PERSIST, LOAD and DEFAULTS are refused while a run is active (BUSY): the loop's register
  * words reach the FPGA at START (fw_start), so a change mid-run would not do what it says.
+ * A run also ends when the port that started it sends no valid frame for
+ * PROTO_HOST_WATCHDOG_TIMEOUT_MS (a crashed host or a pulled cable never leaves the motor
+ * driven): the host keeps the link alive with a request every ~100 ms while it records.
  */
 #ifndef BOWDEN_DEV_H
 #define BOWDEN_DEV_H
@@ -88,6 +91,8 @@ typedef struct {
     uint32_t faults;        /* device fault bits (PROTO_FAULTS_*, bits 4..7), latched */
     uint32_t overflow;      /* telemetry frames dropped since boot */
     uint32_t time_us;
+    uint32_t host_seen_us;  /* time of the last valid frame from the run's port (host watchdog) */
+    uint32_t host_timeouts; /* runs stopped because that port fell silent, since boot */
     int16_t stream[DEV_STREAM_LEN];
     uint32_t stream_head;
     uint32_t stream_len;

@@ -13,7 +13,7 @@
 #include <stdint.h>
 
 #define PROTO_VERSION 2u
-#define PROTO_TABLE_HASH 0x6DC40F4Fu
+#define PROTO_TABLE_HASH 0x1E4F58F6u
 #define PROTO_MAX_PAYLOAD 48u
 #define PROTO_N_PARAMS 40u
 #define PROTO_CAN_NODE_BITS 6u
@@ -81,8 +81,8 @@
 #define PROTO_FAULT_CLEAR_MAX_LEN 0u
 #define PROTO_STATS_GET_MIN_LEN 0u
 #define PROTO_STATS_GET_MAX_LEN 0u
-#define PROTO_STATS_MIN_LEN 36u
-#define PROTO_STATS_MAX_LEN 36u
+#define PROTO_STATS_MIN_LEN 40u
+#define PROTO_STATS_MAX_LEN 40u
 #define PROTO_ACK_MIN_LEN 5u
 #define PROTO_ACK_MAX_LEN 5u
 #define PROTO_ERROR_MIN_LEN 6u
@@ -137,6 +137,9 @@
 
 /* start_duration */
 #define PROTO_START_DURATION_CONTINUOUS 4294967295u /* START.duration_ticks: run until STOP (continuous mode, asked for explicitly) */
+
+/* host_watchdog */
+#define PROTO_HOST_WATCHDOG_TIMEOUT_MS 500u /* a run stops when the port that started it sent no valid frame for this long; the host sends a request at least every 100 ms while it records (5 chances before the stop) */
 
 /* config_source */
 #define PROTO_CONFIG_SOURCE_DEFAULTS 0u /* factory defaults (no saved configuration) */
@@ -199,7 +202,7 @@ typedef struct {
 uint32_t proto_param_info_ack_pack(const proto_param_info_ack_t *m, uint8_t *buf);
 int proto_param_info_ack_unpack(proto_param_info_ack_t *m, const uint8_t *buf, uint32_t len);
 
-/* START: Start a run: program the FPGA loop (fw_start) and stream telemetry to the port that sent START. T_ref comes from the waveform generator (fw.source = wave) or from STREAM samples (fw.source = host). The device stops by itself after duration_ticks ticks; it runs until STOP only when duration_ticks is START_DURATION.CONTINUOUS, and refuses 0 (INVALID_VALUE): a duration that rounded to nothing never means endless (protocol 2; in protocol 1, 0 meant until STOP). ACK value: the tick rate in Hz. */
+/* START: Start a run: program the FPGA loop (fw_start) and stream telemetry to the port that sent START. T_ref comes from the waveform generator (fw.source = wave) or from STREAM samples (fw.source = host). The device stops by itself after duration_ticks ticks; it runs until STOP only when duration_ticks is START_DURATION.CONTINUOUS, and refuses 0 (INVALID_VALUE): a duration that rounded to nothing never means endless (protocol 2; in protocol 1, 0 meant until STOP). ACK value: the tick rate in Hz. While a run is active, the host keeps its link alive: a run whose port sends no valid frame for HOST_WATCHDOG.TIMEOUT_MS is stopped like STOP (TC = 0, loop disabled) and counted in STATS.host_timeouts (a host that crashed or a cable pulled never leaves the motor driven). */
 typedef struct {
     uint32_t duration_ticks; /* ticks to run, >= 1; START_DURATION.CONTINUOUS = until STOP; 0 is refused */
 } proto_start_t;
@@ -224,7 +227,7 @@ typedef struct {
 uint32_t proto_faults_pack(const proto_faults_t *m, uint8_t *buf);
 int proto_faults_unpack(proto_faults_t *m, const uint8_t *buf, uint32_t len);
 
-/* STATS: Receive and transmit counters of one port since boot. */
+/* STATS: Receive and transmit counters of one port since boot, and the device's count of runs its host watchdog stopped. */
 typedef struct {
     uint32_t rx_frames; /* frames accepted */
     uint32_t rx_crc_errors; /* frames whose CRC failed */
@@ -235,6 +238,7 @@ typedef struct {
     uint32_t rx_bad_messages; /* unknown message ids or wrong payload lengths */
     uint32_t tx_frames; /* frames sent */
     uint32_t tx_overflow; /* telemetry frames dropped because the transmit buffer was full */
+    uint32_t host_timeouts; /* runs the device stopped because the port that started them fell silent for HOST_WATCHDOG.TIMEOUT_MS (all ports, since boot) */
 } proto_stats_t;
 uint32_t proto_stats_pack(const proto_stats_t *m, uint8_t *buf);
 int proto_stats_unpack(proto_stats_t *m, const uint8_t *buf, uint32_t len);

@@ -43,6 +43,7 @@ void dev_init(dev_t *d, fw_t *fw, const flash_hal_t *flash)
     d->faults = 0U;
     d->overflow = 0U;
     d->time_us = 0U;
+    d->host_seen_us = d->host_timeouts = 0U;
     d->running = d->run_ticks = d->run_limit = d->owner = 0U;
     d->dirty = 0U;
     settings_default(&d->settings);
@@ -321,6 +322,7 @@ static void on_start(dev_t *d, uint32_t port, const proto_frame_t *req)
     fw_start(d->fw);
     d->running = 1U;
     d->owner = port;
+    d->host_seen_us = d->time_us;
     d->run_ticks = 0U;
     d->run_limit = (m.duration_ticks == PROTO_START_DURATION_CONTINUOUS) ? 0U : m.duration_ticks;
     d->faults &= ~(uint32_t)RUN_FAULTS;
@@ -383,6 +385,7 @@ static void on_stats(dev_t *d, uint32_t port, const proto_frame_t *req)
     m.rx_bad_messages = p->bad_messages;
     m.tx_frames = p->tx_frames;
     m.tx_overflow = p->tx_overflow;
+    m.host_timeouts = d->host_timeouts;
     proto_frame_t f;
     frame_init(&f, PROTO_MSG_STATS, req->seq);
     f.len = (uint8_t)proto_stats_pack(&m, f.payload);
@@ -438,6 +441,9 @@ static int is_request(uint32_t msg)
 static void dispatch(dev_t *d, uint32_t port, const proto_frame_t *req)
 {
     dev_port_t *p = &d->ports[port];
+    if (port == d->owner) { /* any valid frame keeps the run's host watchdog fed */
+        d->host_seen_us = d->time_us;
+    }
     if (req->msg == PROTO_MSG_HELLO) { /* any version, any payload: always answered */
         on_hello(d, port, req);
         return;
@@ -558,6 +564,12 @@ void dev_tick(dev_t *d, uint32_t time_us, int32_t t_out_q8)
 {
     d->time_us = time_us;
     if (d->running == 0U) {
+        return;
+    }
+    /* Host watchdog: the run's port fell silent (unsigned difference: the clock may wrap). */
+    if (time_us - d->host_seen_us >= (uint32_t)PROTO_HOST_WATCHDOG_TIMEOUT_MS * 1000U) {
+        stop_run(d);
+        ++d->host_timeouts;
         return;
     }
     q7_8_t t_ref = 0;

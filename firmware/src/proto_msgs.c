@@ -358,12 +358,17 @@ uint32_t proto_stats_pack(const proto_stats_t *m, uint8_t *buf)
     buf[n++] = (uint8_t)(u >> 8);
     buf[n++] = (uint8_t)(u >> 16);
     buf[n++] = (uint8_t)(u >> 24);
+    u = (uint32_t)m->host_timeouts;
+    buf[n++] = (uint8_t)(u);
+    buf[n++] = (uint8_t)(u >> 8);
+    buf[n++] = (uint8_t)(u >> 16);
+    buf[n++] = (uint8_t)(u >> 24);
     return n;
 }
 
 int proto_stats_unpack(proto_stats_t *m, const uint8_t *buf, uint32_t len)
 {
-    if (len != 36u) {
+    if (len != 40u) {
         return 0;
     }
     uint32_t n = 0;
@@ -395,6 +400,9 @@ int proto_stats_unpack(proto_stats_t *m, const uint8_t *buf, uint32_t len)
     u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8) | ((uint32_t)buf[n + 2] << 16) | ((uint32_t)buf[n + 3] << 24);
     n += 4;
     m->tx_overflow = (uint32_t)u;
+    u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8) | ((uint32_t)buf[n + 2] << 16) | ((uint32_t)buf[n + 3] << 24);
+    n += 4;
+    m->host_timeouts = (uint32_t)u;
     return 1;
 }
 
@@ -725,7 +733,7 @@ uint32_t proto_msg_min_len(uint32_t msg)
     case PROTO_MSG_STATS_GET:
         return 0u;
     case PROTO_MSG_STATS:
-        return 36u;
+        return 40u;
     case PROTO_MSG_ACK:
         return 5u;
     case PROTO_MSG_ERROR:
@@ -783,7 +791,7 @@ uint32_t proto_msg_max_len(uint32_t msg)
     case PROTO_MSG_STATS_GET:
         return 0u;
     case PROTO_MSG_STATS:
-        return 36u;
+        return 40u;
     case PROTO_MSG_ACK:
         return 5u;
     case PROTO_MSG_ERROR:

@@ -221,3 +221,14 @@ def test_twin_agrees_with_the_fmu(effect):
     a = twin.simulate(inputs, params)
     b = twin.run_fmu(inputs, params)
     assert np.max(np.abs(a - b)) < 1e-4, np.max(np.abs(a - b))
+
+
+def test_an_audit_without_positions_prints_no_warning(tmp_path):
+    """A file without x, y, z columns: the residual plots are not coloured by z, and nothing
+    (matplotlib's "No data for colormapping provided via 'c'. Parameters 'cmap' will be
+    ignored") reaches stderr."""
+    path = fmu_record(tmp_path, {}, 11, 12.0, positions=False)
+    out = _bowden("audit", str(path), "--quiet", "--fig14-duration", "2")
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stderr == "", out.stderr
+    assert (tmp_path / "rig_audit" / "residual_vs_tin.png").is_file()

@@ -87,8 +87,8 @@ def test_the_device_is_stopped_however_the_session_ends(emulator):
     with Bench(url) as b:
         with pytest.raises(KeyboardInterrupt):
             b.run("sine", 30.0, on_telemetry=interrupt)
-        # (asked through the session: the port is locked to one client while it is open)
-        assert not b.info().running  # stopped at once, not after 30 s
+        # the session's own link (the port is locked to it): stopped at once, not after 30 s
+        assert not b.info().running
 
 
 def test_bad_sessions_are_one_line(tmp_path):

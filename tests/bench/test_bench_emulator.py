@@ -258,9 +258,11 @@ def test_device_already_streaming_is_stopped_on_connect(emulator, tmp_path):
     a.set("source", "wave")
     a.simple("START", duration_ticks=msgs.START_DURATION["CONTINUOUS"])  # until STOP
     a.link.close()  # gone without STOP: the device streams into the pty's buffer
-    time.sleep(0.5)
+    time.sleep(0.15)
     b = BenchClient(SerialLink(emulator.urls["pty"]))  # opening the pty flushes its buffer
-    time.sleep(0.3)  # ... so let the stream queue up again before the first request
+    # ... so let the stream queue up again before the first request, well within the device's
+    # host watchdog (HOST_WATCHDOG.TIMEOUT_MS after START it stops the run by itself)
+    time.sleep(0.1)
     assert b.hello().running and b.stale_telemetry > 0  # the reply was found among telemetry
     info = b.connect()
     assert not info.running and not b.hello().running

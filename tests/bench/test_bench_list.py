@@ -58,7 +58,7 @@ def test_list_prints_every_controller_and_skips_the_rest(
     assert out[3].startswith("note: a controller marked 'host: other'")
 
 
-def test_list_leaves_a_run_running(two_emulators, monkeypatch, capsys):
+def test_list_leaves_a_run_running(two_emulators, monkeypatch, capsys, kept_alive):
     a, _ = two_emulators
     owner = BenchClient(SerialLink(a.urls["socket"]))
     owner.connect()
@@ -66,7 +66,8 @@ def test_list_leaves_a_run_running(two_emulators, monkeypatch, capsys):
     owner.simple("START", duration_ticks=5000)
     try:
         _ports(monkeypatch, [a.urls["pty"]])
-        assert bench_cli(["bench", "list"]) == 0
+        with kept_alive(owner):  # the owner's host stays alive, as a recording one does
+            assert bench_cli(["bench", "list"]) == 0
         assert "running, configuration defaults, unsaved changes" in capsys.readouterr().out
         assert owner.hello().running  # HELLO only: the run goes on
     finally:

@@ -92,6 +92,48 @@ def test_a_signal_stops_the_device_and_disables_the_output(emulator, tmp_path, s
     assert len(err.strip().splitlines()) == 1, err
 
 
+@pytest.mark.parametrize("kind", ["socket", "pty"])
+def test_a_link_drop_stops_the_device_and_disables_the_output(emulator, tmp_path, kind):
+    """The host killed outright (SIGKILL: no handler runs, no STOP is sent; on a pty the device
+    sees a link that merely fell silent, as with a pulled cable): the device's host watchdog
+    stops the run and disables the output within HOST_WATCHDOG.TIMEOUT_MS, and counts it. A
+    device without the watchdog runs the 30 s waveform on."""
+    url = emulator.urls[kind]
+    before = _host_timeouts(url)
+    proc = _start_run(url, tmp_path / "b.csv")
+    try:
+        _wait_running(tmp_path, proc, rows=1000)  # > 2 timeouts in: the keep-alive works
+        assert _device_state_after_kill(proc, url) == (False, False)  # (running, output)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.communicate()
+    assert _host_timeouts(url) == before + 1
+
+
+def _host_timeouts(url: str) -> int:
+    probe = BenchClient(SerialLink(url))
+    try:
+        return probe.stats()["host_timeouts"]
+    finally:
+        probe.link.close()
+
+
+def _device_state_after_kill(proc, url: str) -> tuple[bool, bool]:
+    """SIGKILL the host; then what a fresh client sees once the watchdog's timeout has passed
+    (it waits for it, with room for a loaded machine, never longer than 3 timeouts)."""
+    timeout_s = msgs.HOST_WATCHDOG["TIMEOUT_MS"] / 1e3
+    proc.kill()
+    proc.wait()
+    killed = time.monotonic()
+    time.sleep(timeout_s)
+    state = _device_state(url)
+    while state != (False, False) and time.monotonic() - killed < 3 * timeout_s:
+        time.sleep(0.05)
+        state = _device_state(url)
+    return state
+
+
 def test_zero_duration_start_is_refused_by_the_device(emulator):
     client = BenchClient(SerialLink(emulator.urls["socket"]))
     try:
@@ -155,14 +197,17 @@ def test_device_messages_reach_the_user_in_full(assignment, message, capsys):
 
 
 @pytest.mark.parametrize("kind", ["socket", "pty"])
-def test_a_second_client_is_refused_naming_the_holder_and_the_run_goes_on(emulator, kind, capsys):
+def test_a_second_client_is_refused_naming_the_holder_and_the_run_goes_on(
+    emulator, kind, capsys, kept_alive
+):
     url = emulator.urls[kind]
     first = BenchClient(SerialLink(url))
     try:
         first.connect()
         first.set("source", "wave")
         first.simple("START", duration_ticks=60_000)
-        rc = bench_cli(["bench", "--port", url, "get", "loop.kp"])
+        with kept_alive(first):
+            rc = bench_cli(["bench", "--port", url, "get", "loop.kp"])
         err = capsys.readouterr().err.strip()
         assert rc == 1 and len(err.splitlines()) == 1, err
         assert "in use by another client" in err and f"pid {os.getpid()}" in err, err

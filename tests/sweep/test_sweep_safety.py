@@ -182,3 +182,94 @@ def test_any_spec_is_accepted_or_refused_in_one_line(tmp_path, pairs, axis, axis
     assert len(keys) == len(set(keys)), "a key given twice was accepted"
     assert axis_value != [], "an empty axis was accepted"
     assert spec.points() is not None
+
+
+# --- `--scheduler` that is not a Dask scheduler ------------------------------------------------
+
+
+@pytest.fixture
+def fake_scheduler():
+    """A local TCP service of a given kind: "garbage" answers every connection with text (Dask's
+    client read it as a 3 EiB frame), "silent" accepts and says nothing; "refused" is a port
+    nothing listens on; "unknown" a host name that cannot resolve (.invalid, RFC 2606)."""
+    import socket
+    import threading
+
+    servers = []
+
+    def make(kind: str) -> str:
+        if kind == "unknown":
+            return "tcp://no-such-host.invalid:8786"
+        srv = socket.create_server(("127.0.0.1", 0))
+        port = srv.getsockname()[1]
+        if kind == "refused":
+            srv.close()  # the port is free again: connecting is refused
+            return f"tcp://127.0.0.1:{port}"
+        servers.append(srv)
+        held = []
+
+        def serve() -> None:
+            while True:
+                try:
+                    conn, _ = srv.accept()
+                except OSError:
+                    return
+                held.append(conn)
+                if kind == "garbage":
+                    conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+
+        threading.Thread(target=serve, daemon=True).start()
+        return f"tcp://127.0.0.1:{port}"
+
+    yield make
+    for srv in servers:
+        srv.close()
+
+
+@pytest.mark.parametrize(
+    ("kind", "words"),
+    [
+        ("garbage", "not as a Dask scheduler"),
+        ("silent", "no Dask greeting within 1 s"),
+        ("refused", "connection refused"),
+        ("unknown", "unknown host 'no-such-host.invalid'"),
+    ],
+)
+def test_a_scheduler_address_that_is_no_scheduler_is_one_line_in_time(
+    kind, words, fake_scheduler, tmp_path, capsys, monkeypatch
+):
+    """`bowden sweep --scheduler` at something that is not a Dask scheduler: one line naming the
+    address and what is wrong, exit 2, within the probe's stated timeout (1 s here: each of the
+    lookup, the connection and the greeting), and nothing written to --out."""
+    import time
+
+    from cosim.cli import main as cli_main
+    from cosim.studies.sweep import scheduler
+
+    monkeypatch.setattr(scheduler, "PROBE_TIMEOUT_S", 1.0)
+    address = fake_scheduler(kind)
+    spec_path = tmp_path / "spec.yaml"
+    spec_path.write_text("duration_s: 0.05\n")
+    t0 = time.monotonic()
+    rc = cli_main(
+        ["sweep", str(spec_path), "--out", str(tmp_path / "o"), "--scheduler", address, "--quiet"]
+    )
+    elapsed_s = time.monotonic() - t0
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert err.count("\n") == 1 and address in err and words in err, err
+    assert elapsed_s < 3 * 1.0 + 1.0, elapsed_s  # three steps of 1 s, and the spec's loading
+    assert not (tmp_path / "o").exists()
+
+
+def test_the_probe_lets_a_real_scheduler_through():
+    """The greeting check accepts what a Dask scheduler sends (its handshake), so the probe
+    cannot refuse every address."""
+    from distributed import LocalCluster
+
+    from cosim.studies.sweep import scheduler
+
+    with LocalCluster(
+        n_workers=0, processes=False, protocol="tcp://", dashboard_address=None
+    ) as cluster:
+        scheduler.probe(cluster.scheduler_address, timeout_s=10.0)  # raises if refused

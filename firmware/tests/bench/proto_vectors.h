@@ -54,9 +54,9 @@ static const proto_vector_t proto_vectors[PROTO_N_VECTORS] = {
     {PROTO_MSG_FAULTS, 17u, 16u, "ffffffffffffffffffffffffffffffff", "0018020f11ffffffffffffffffffffffffffffffff8bfdf58b00", 3u, {47u, 47u, 47u}, {"110010ffffffffff", "1101ffffffffffff", "1102ffffffffff"}},
     {PROTO_MSG_FAULT_CLEAR, 80u, 0u, "", "000802105025daeb4100", 1u, {48u}, {"50"}},
     {PROTO_MSG_STATS_GET, 117u, 0u, "", "000802117590d8054700", 1u, {49u}, {"75"}},
-    {PROTO_MSG_STATS, 18u, 36u, "136da6da26da4cb53947f38f4cb4996a5f214045728ee61f85fb8cfa986833d5abd5d9af", "002c021212136da6da26da4cb53947f38f4cb4996a5f214045728ee61f85fb8cfa986833d5abd5d9afc718c03600", 7u, {50u, 50u, 50u, 50u, 50u, 50u, 50u}, {"120024136da6da26", "1201da4cb53947f3", "12028f4cb4996a5f", "1203214045728ee6", "12041f85fb8cfa98", "12056833d5abd5d9", "1206af"}},
-    {PROTO_MSG_STATS, 19u, 36u, "000000000000000000000000000000000000000000000000000000000000000000000000", "00040212130101010101010101010101010101010101010101010101010101010101010101010101058b32e92e00", 7u, {50u, 50u, 50u, 50u, 50u, 50u, 50u}, {"1300240000000000", "1301000000000000", "1302000000000000", "1303000000000000", "1304000000000000", "1305000000000000", "130600"}},
-    {PROTO_MSG_STATS, 20u, 36u, "ffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffff", "002c021214ffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffc3cfeb3400", 7u, {50u, 50u, 50u, 50u, 50u, 50u, 50u}, {"140024ffffffffff", "1401ffffffffffff", "1402ffffffffffff", "1403ffffffffffff", "1404ffffffffffff", "1405ffffffffffff", "1406ff"}},
+    {PROTO_MSG_STATS, 18u, 40u, "136da6da26da4cb53947f38f4cb4996a5f214045728ee61f85fb8cfa986833d5abd5d9afbe42808a", "0030021212136da6da26da4cb53947f38f4cb4996a5f214045728ee61f85fb8cfa986833d5abd5d9afbe42808a4e92393600", 7u, {50u, 50u, 50u, 50u, 50u, 50u, 50u}, {"120028136da6da26", "1201da4cb53947f3", "12028f4cb4996a5f", "1203214045728ee6", "12041f85fb8cfa98", "12056833d5abd5d9", "1206afbe42808a"}},
+    {PROTO_MSG_STATS, 19u, 40u, "00000000000000000000000000000000000000000000000000000000000000000000000000000000", "0004021213010101010101010101010101010101010101010101010101010101010101010101010101010101057d09042900", 7u, {50u, 50u, 50u, 50u, 50u, 50u, 50u}, {"1300280000000000", "1301000000000000", "1302000000000000", "1303000000000000", "1304000000000000", "1305000000000000", "13060000000000"}},
+    {PROTO_MSG_STATS, 20u, 40u, "ffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffff", "0030021214ffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffff5827ed4100", 7u, {50u, 50u, 50u, 50u, 50u, 50u, 50u}, {"140028ffffffffff", "1401ffffffffffff", "1402ffffffffffff", "1403ffffffffffff", "1404ffffffffffff", "1405ffffffffffff", "1406ffffffffff"}},
     {PROTO_MSG_ACK, 19u, 5u, "1326da4cb5", "000d0213131326da4cb56d0f7cfa00", 1u, {51u}, {"131326da4cb5"}},
     {PROTO_MSG_ACK, 20u, 5u, "0000000000", "0004021314010101010573c0f74800", 1u, {51u}, {"140000000000"}},
     {PROTO_MSG_ACK, 21u, 5u, "ffffffffff", "000d021315fffffffffff17137b000", 1u, {51u}, {"15ffffffffff"}},
@@ -120,9 +120,9 @@ static const proto_faults_t proto_vectors_faults[3] = {
     {4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL},
 };
 static const proto_stats_t proto_vectors_stats[3] = {
-    {3668339987UL, 3041712678UL, 2415085369UL, 1788458060UL, 1161830751UL, 535203442UL, 4203543429UL, 3576916120UL, 2950288811UL},
-    {0UL, 0UL, 0UL, 0UL, 0UL, 0UL, 0UL, 0UL, 0UL},
-    {4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL},
+    {3668339987UL, 3041712678UL, 2415085369UL, 1788458060UL, 1161830751UL, 535203442UL, 4203543429UL, 3576916120UL, 2950288811UL, 2323661502UL},
+    {0UL, 0UL, 0UL, 0UL, 0UL, 0UL, 0UL, 0UL, 0UL, 0UL},
+    {4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL},
 };
 static const proto_ack_t proto_vectors_ack[3] = {
     {19, 3041712678UL},
@@ -206,7 +206,7 @@ static inline int proto_equal_faults(const proto_faults_t *a, const proto_faults
 
 static inline int proto_equal_stats(const proto_stats_t *a, const proto_stats_t *b)
 {
-    return a->rx_frames == b->rx_frames && a->rx_crc_errors == b->rx_crc_errors && a->rx_framing_errors == b->rx_framing_errors && a->rx_overlong == b->rx_overlong && a->rx_short == b->rx_short && a->rx_version_errors == b->rx_version_errors && a->rx_bad_messages == b->rx_bad_messages && a->tx_frames == b->tx_frames && a->tx_overflow == b->tx_overflow;
+    return a->rx_frames == b->rx_frames && a->rx_crc_errors == b->rx_crc_errors && a->rx_framing_errors == b->rx_framing_errors && a->rx_overlong == b->rx_overlong && a->rx_short == b->rx_short && a->rx_version_errors == b->rx_version_errors && a->rx_bad_messages == b->rx_bad_messages && a->tx_frames == b->tx_frames && a->tx_overflow == b->tx_overflow && a->host_timeouts == b->host_timeouts;
 }
 
 static inline int proto_equal_ack(const proto_ack_t *a, const proto_ack_t *b)

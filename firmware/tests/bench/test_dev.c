@@ -173,8 +173,8 @@ static void test_dev_run_telemetry_and_overflow(void)
           "a duration of 0 is refused, not endless");
     /* no drain: the transmit buffer fills, telemetry is dropped and counted, replies still fit */
     g = request(0U, PROTO_MSG_START, 4U, CONTINUOUS, 4U);
-    for (uint32_t i = 0; i < 200U; ++i) {
-        dev_tick(&host.dev, i * 1000U, 0);
+    for (uint32_t i = 0; i < 200U; ++i) { /* the clock goes on (the host watchdog reads it) */
+        dev_tick(&host.dev, 100000U + i * 1000U, 0);
     }
     uint32_t dropped = host.dev.overflow;
     CHECK(dropped > 100U, "%u dropped", dropped);
@@ -183,7 +183,7 @@ static void test_dev_run_telemetry_and_overflow(void)
     (void)drain_telemetry(0U, NULL, NULL);
     g = request(0U, PROTO_MSG_START, 6U, CONTINUOUS, 4U);
     gaps = 0;
-    dev_tick(&host.dev, 0U, 0);
+    dev_tick(&host.dev, 300000U, 0);
     CHECK(drain_telemetry(0U, &t, &gaps) == 1U && t.overflow == dropped &&
               (t.faults & PROTO_FAULT_TX_OVERFLOW) == 0U,
           "new run: overflow count kept, fault bit cleared");
@@ -334,6 +334,40 @@ static void test_dev_can_port(void)
     CHECK(dev_tx_can(&host.dev, 2U, out, 64U) == 0U && host.dev.running == 1U, "other node");
 }
 
+/* The host watchdog: a run whose port sends no valid frame for PROTO_HOST_WATCHDOG_TIMEOUT_MS
+ * stops (loop disabled) and is counted; a frame from the run's port feeds it, another port's
+ * does not. */
+static void test_dev_host_watchdog(void)
+{
+    const uint32_t timeout_us = PROTO_HOST_WATCHDOG_TIMEOUT_MS * 1000U;
+    dev_host_init(&host);
+    dev_tick(&host.dev, 7000U, 0); /* the device's clock is not at 0 when the run starts */
+    (void)set_param(PROTO_PID_SOURCE, FW_SOURCE_WAVE, 1U);
+    (void)request(0U, PROTO_MSG_START, 2U, CONTINUOUS, 4U);
+    CHECK(host.dev.running == 1U, "running");
+    dev_tick(&host.dev, 7000U + timeout_us - 1000U, 0);
+    CHECK(host.dev.running == 1U, "one tick before the timeout");
+    (void)request(0U, PROTO_MSG_FAULTS_GET, 3U, NULL, 0U); /* the run's port: fed */
+    (void)drain_telemetry(0U, NULL, NULL);
+    (void)request(1U, PROTO_MSG_FAULTS_GET, 4U, NULL, 0U); /* another port: not fed */
+    dev_tick(&host.dev, 7000U + 2U * timeout_us - 2000U, 0);
+    CHECK(host.dev.running == 1U && host.dev.host_timeouts == 0U, "fed by its own port");
+    dev_tick(&host.dev, 7000U + 2U * timeout_us - 1000U, 0);
+    CHECK(host.dev.running == 0U && host.dev.host_timeouts == 1U, "stopped at the timeout");
+    CHECK((hal_read(host.dev.fw->hal, BOWDEN_REG_CTRL) & BOWDEN_CTRL_ENABLE_MASK) == 0U,
+          "loop disabled");
+    proto_frame_t g = request(1U, PROTO_MSG_STATS_GET, 5U, NULL, 0U);
+    proto_stats_t st;
+    CHECK(proto_stats_unpack(&st, g.payload, g.len) && st.host_timeouts == 1U,
+          "counted in STATS on any port");
+    /* the clock wraps (uint32 microseconds, ~71.6 min): a run across the wrap is not stopped */
+    dev_tick(&host.dev, 0xFFFFFFFFU - 1000U, 0);
+    (void)request(0U, PROTO_MSG_START, 6U, CONTINUOUS, 4U);
+    dev_tick(&host.dev, 0xFFFFFFFFU + timeout_us / 2U, 0);
+    CHECK(host.dev.running == 1U && host.dev.host_timeouts == 1U, "across the clock's wrap");
+    (void)request(0U, PROTO_MSG_STOP, 8U, NULL, 0U);
+}
+
 const unit_test_t dev_tests[] = {
     {"hello_and_params", test_dev_hello_and_params},
     {"persist_survives_power_cycle", test_dev_persist_survives_power_cycle},
@@ -341,5 +375,6 @@ const unit_test_t dev_tests[] = {
     {"stream_and_faults", test_dev_stream_and_faults},
     {"bad_frames_and_versions", test_dev_bad_frames_and_versions},
     {"can_port", test_dev_can_port},
+    {"host_watchdog", test_dev_host_watchdog},
 };
 const int dev_tests_count = (int)(sizeof dev_tests / sizeof dev_tests[0]);

@@ -1,0 +1,34 @@
+"""Ctrl-C in the first moments of `bowden`: one line, never a KeyboardInterrupt traceback.
+
+Importing the command line (argparse, the subcommands' modules) takes a noticeable time, and
+`cosim.cli.main` can catch an interrupt only once it runs. The entry points (`python -m cosim`,
+the `bowden` console script: cosim/__main__.py) install `interrupted_before_start` first, with
+nothing imported but the standard library's signal and os; `cosim.cli.main` hands SIGINT back to
+Python's handler (`release`) inside its own try block. Nothing has started before that point,
+so there is nothing to stop: the process leaves at once with 128 + SIGINT.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+
+
+def interrupted_before_start(signum, _frame) -> None:
+    os.write(2, b"bowden: interrupted by SIGINT before the command started\n")
+    os._exit(128 + signum)
+
+
+def install() -> None:
+    if threading.current_thread() is threading.main_thread():
+        # A shell that started us with SIGINT ignored (a background job) keeps it ignored.
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            signal.signal(signal.SIGINT, interrupted_before_start)
+
+
+def release() -> None:
+    """Python's own SIGINT handler again (KeyboardInterrupt), if install() put ours in place."""
+    if threading.current_thread() is threading.main_thread():
+        if signal.getsignal(signal.SIGINT) is interrupted_before_start:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
