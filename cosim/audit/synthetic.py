@@ -93,3 +93,34 @@ def fmu_record(
     meta = {"sample_rate_hz": RATE_HZ, "sheath_length_m": 1.0, "loop_routing": loop_routing}
     tr.meta_path(path).write_text(json.dumps(meta))
     return path
+
+
+# The hidden causes' magnitudes and seeds: the test of the audit's causes (tests/audit) and the
+# accuracy sweep (cosim/studies/audit_sweep.py) draw from the same ranges.
+def cause_magnitude(cause: str, rng: np.random.Generator) -> dict[str, float]:
+    sign = rng.choice([-1.0, 1.0])
+    return {
+        "sensor_offset": {"sensor_offset": sign * rng.uniform(0.2, 1.0)},
+        "sensor_gain": {"sensor_gain": 1.0 + sign * rng.uniform(0.03, 0.1)},
+        "viscous_friction": {"mu_viscous": rng.uniform(0.8, 2.5)},
+        "tension_dependent_friction": {"mu_tension_slope": sign * rng.uniform(6e-4, 2e-3)},
+        "bending_angle_error": {"phi_offset_per_z": sign * rng.uniform(0.3, 1.0)},
+        "lag": {"sensor_tau": rng.uniform(0.006, 0.02)},
+        "time_delay": {"sensor_delay": rng.uniform(0.006, 0.02)},
+        "friction_drift": {"mu_drift": sign * rng.uniform(1.5e-4, 5e-4)},
+    }[cause]
+
+
+# cause -> seed of its case (session, noise and magnitude)
+
+
+CAUSE_SEEDS = {
+    "sensor_offset": 101,
+    "sensor_gain": 102,
+    "viscous_friction": 103,
+    "tension_dependent_friction": 104,
+    "bending_angle_error": 105,
+    "lag": 106,
+    "time_delay": 107,
+    "friction_drift": 108,
+}

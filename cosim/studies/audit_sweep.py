@@ -15,9 +15,10 @@ import time
 from pathlib import Path
 
 import numpy as np
-from test_audit_causes import SEEDS, _magnitude  # noqa: E402
 
 from cosim.audit import core  # noqa: E402
+from cosim.audit.synthetic import CAUSE_SEEDS as SEEDS
+from cosim.audit.synthetic import cause_magnitude as _magnitude
 from cosim.audit.synthetic import fmu_record
 from cosim.results import trace  # noqa: E402
 

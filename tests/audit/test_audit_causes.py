@@ -16,6 +16,8 @@ import numpy as np
 import pytest
 
 from cosim.audit import core
+from cosim.audit.synthetic import CAUSE_SEEDS as SEEDS
+from cosim.audit.synthetic import cause_magnitude as _magnitude
 from cosim.audit.synthetic import fmu_record
 from cosim.results import trace
 
@@ -24,33 +26,6 @@ DURATION_S = 30.0
 # factor: the input's smoothed noise passed through the friction model adds about 5 % (0.0315
 # against 0.0299 N on FMU data with no effect), and a fitted parameter a little more.
 FLOOR_FACTOR = 1.15
-
-
-def _magnitude(cause: str, rng: np.random.Generator) -> dict[str, float]:
-    sign = rng.choice([-1.0, 1.0])
-    return {
-        "sensor_offset": {"sensor_offset": sign * rng.uniform(0.2, 1.0)},
-        "sensor_gain": {"sensor_gain": 1.0 + sign * rng.uniform(0.03, 0.1)},
-        "viscous_friction": {"mu_viscous": rng.uniform(0.8, 2.5)},
-        "tension_dependent_friction": {"mu_tension_slope": sign * rng.uniform(6e-4, 2e-3)},
-        "bending_angle_error": {"phi_offset_per_z": sign * rng.uniform(0.3, 1.0)},
-        "lag": {"sensor_tau": rng.uniform(0.006, 0.02)},
-        "time_delay": {"sensor_delay": rng.uniform(0.006, 0.02)},
-        "friction_drift": {"mu_drift": sign * rng.uniform(1.5e-4, 5e-4)},
-    }[cause]
-
-
-# cause -> seed of its case (session, noise and magnitude)
-SEEDS = {
-    "sensor_offset": 101,
-    "sensor_gain": 102,
-    "viscous_friction": 103,
-    "tension_dependent_friction": 104,
-    "bending_angle_error": 105,
-    "lag": 106,
-    "time_delay": 107,
-    "friction_drift": 108,
-}
 
 
 def _audit(path) -> core.AuditResult:
