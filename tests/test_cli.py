@@ -128,3 +128,22 @@ def test_ctrl_c_in_the_first_moments_is_one_line(entry, delay_s, tmp_path):
             assert proc.returncode in (0, 2), err
         else:
             assert len(err.strip().splitlines()) == 1, err
+
+
+def test_an_interrupt_inside_an_extension_import_is_still_an_interrupt():
+    """A SIGINT that lands while numpy imports datetime surfaces as an ImportError whose context is
+    the interrupt (seen in `make test`): the command line treats it as the interrupt, one line and
+    130, and lets a plain ImportError through."""
+    from cosim import cli  # noqa: PLC0415
+
+    try:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise ImportError('PyCapsule_Import could not import module "datetime"') from None
+    except ImportError as exc:
+        wrapped = exc
+    assert isinstance(cli._interruption(wrapped.__context__ or wrapped), KeyboardInterrupt)
+    # `from None` hides the cause from tracebacks but keeps the context: still found
+    assert isinstance(cli._interruption(wrapped), KeyboardInterrupt)
+    assert cli._interruption(ImportError("no module named x")) is None

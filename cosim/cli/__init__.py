@@ -87,13 +87,28 @@ def build_parser() -> argparse.ArgumentParser:
     return harden(parser)
 
 
+def _interruption(exc: BaseException) -> BaseException | None:
+    """The Interrupted or KeyboardInterrupt behind `exc`, if any. A signal that lands inside an
+    extension module's import (numpy importing datetime, say) reaches us as an ImportError whose
+    context is the interrupt: it is the interrupt all the same."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, (Interrupted, KeyboardInterrupt)):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     global _pending
     _pending = None
     try:
         _early.release()  # from here on a Ctrl-C is a KeyboardInterrupt caught below
         return _main(argv)
-    except KeyboardInterrupt:  # Ctrl-C before the command's handlers are in place
+    except (KeyboardInterrupt, ImportError) as exc:  # Ctrl-C before the command's handlers
+        if _interruption(exc) is None:
+            raise
         print("bowden: interrupted by SIGINT before the command started", file=sys.stderr)
         return 128 + int(signal.SIGINT)
 
@@ -115,8 +130,11 @@ def _main(argv: list[str] | None) -> int:
             code = int(args.func(args) or 0)
             check_interrupted()  # a signal whose exception was lost on the way
             return code
-    except (Interrupted, KeyboardInterrupt) as exc:
-        signum = exc.signum if isinstance(exc, Interrupted) else int(signal.SIGINT)
+    except (Interrupted, KeyboardInterrupt, ImportError) as exc:
+        interrupt = _interruption(exc)
+        if interrupt is None:
+            raise
+        signum = interrupt.signum if isinstance(interrupt, Interrupted) else int(signal.SIGINT)
         procs.stop_all()  # whatever the command's own handler has not stopped yet
         print(
             f"bowden {args.command}: interrupted by {signal.Signals(signum).name}: stopped the run "
