@@ -48,6 +48,9 @@ LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
 BACKTICK = re.compile(r"`([^`\s]+)`")
 PATH_LIKE = re.compile(r"^[\w.-]+(/[\w.-]+)*/[\w.-]+\.[A-Za-z]\w*$")
 BARE_MD = re.compile(r"^[\w.-]+\.md$")
+# In code, only the repository's own kind of document (README.md, STYLE.md): lower-case names such
+# as report.md are files the tools write.
+MD_NAME = re.compile(r"(?<![\w/.-])([A-Z][A-Z0-9_-]*\.md)\b")
 PLACEHOLDER = re.compile(r"(^|/)([A-Z][A-Z_]+|<[^>]*>|NAME|\*)(/|$|\.)")
 
 
@@ -95,6 +98,10 @@ def check_file(root: Path, rel: str, basenames: set[str]) -> list[str]:
             found.append(f"{rel}:{n}: tracker reference {m.group(0)!r}: name the decision")
         if m := OUTSIDE.search(line):
             found.append(f"{rel}:{n}: path outside the repository {m.group(1)!r}")
+        if path.suffix != ".md":  # code and data: a markdown file named that the repository lacks
+            for name in MD_NAME.findall(line):
+                if name not in basenames:
+                    found.append(f"{rel}:{n}: cites {name}, which the repository does not hold")
     if path.suffix != ".md":
         return found
     for n, line in _prose_lines(text):
@@ -222,3 +229,9 @@ def test_property_check_fails_on_an_unlabelled_assertion(tmp_path):
     assert [p.name for p in props] == ["m_ok", "m_two"]
     assert any("labelled None, expected m_ok_2" in e for e in errors), errors
     assert any("labelled m_ok_2, expected m_two" in e for e in errors), errors
+
+
+def test_a_missing_markdown_file_named_in_code_is_caught(planted):
+    (planted / "tool.py").write_text('"""Plots are for a person (STYLE.md)."""\n')
+    found = check(planted, ["docs/real.md", "tool.py"], [""])
+    assert found == ["tool.py:1: cites STYLE.md, which the repository does not hold"], found

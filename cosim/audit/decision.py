@@ -14,7 +14,7 @@ from .fit import Model, fit_model
 
 @dataclass(frozen=True)
 class DecisionRule:
-    """When a candidate becomes a finding (STYLE.md: a stated rule, thresholds written once).
+    """When a candidate becomes a finding (a stated rule, thresholds written once).
 
     The selection blocks are the folds. Adding the candidate to the current model (every
     parameter refitted on the fit blocks) must, on the selection blocks,

@@ -1,7 +1,7 @@
 """The audit's vocabulary: one object per cause, one-to-one with the plant FMU's effect
 parameters (fmu/README.md, "Effects").
 
-Each candidate has the same shape (STYLE.md, "Model identification"): its FMU parameter with unit
+Each candidate has the same shape: its FMU parameter with unit
 and fit bounds, the value that means "absent", a typical size (the optimiser's scale), the
 equation it adds, and `applicable(data)`, which says why it cannot be fitted on some data. Fitting
 and prediction go through one model (cosim.audit.twin: the FMU's physics, vectorised, with these

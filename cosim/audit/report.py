@@ -1,7 +1,7 @@
 """How an audit result is shown: `audit.json`, a short summary (like statsmodels' summary()),
 `report.md` that reads on its own, and the PNG plots it links (matplotlib, Agg backend).
 
-Plots are for a person (STYLE.md): labelled axes with units, the residual beside the signal it
+Plots are for a person: labelled axes with units, the residual beside the signal it
 follows, the held-out report blocks shaded.
 """
 
