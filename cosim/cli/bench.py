@@ -36,6 +36,7 @@ from cosim.bench.client import (
     fault_names,
     status_names,
 )
+from cosim.bench.config import backup_doc, write_all
 from cosim.bench.device import ChainConfig
 from cosim.bench.diff import BACKUP_FORMAT
 from cosim.bench.protocol import ProtocolError, format_value, param, word_from_value
@@ -368,39 +369,6 @@ def _cmd_set(client: BenchClient, args, info) -> int:
     return 0
 
 
-def write_all(client: BenchClient, todo: list, what: str) -> list:
-    """Write (param, word) pairs all or nothing, the device's settings check deciding: a value
-    that the check refuses only because of another one still to come (adc_min above the old
-    adc_max) is tried again after the others; when some stay refused, every word written is put
-    back in reverse order (each undo returns to a state the device accepted on the way) and
-    the first refusal is raised with "nothing written". Returns (param, word in force) pairs."""
-    before = {p.name: client.get_word(p.name) for p, _ in todo}
-    done: list = []
-    pending = list(todo)
-    first_refusal: DeviceError | None = None
-    while pending:
-        left = []
-        for p, word in pending:
-            try:
-                done.append((p, client.set_word(p.name, word)))
-            except DeviceError as exc:
-                if exc.code != "INVALID_VALUE":
-                    _undo(client, done, before)
-                    raise
-                first_refusal = first_refusal or exc
-                left.append((p, word))
-        if len(left) == len(pending):  # no progress: the set as a whole is refused
-            _undo(client, done, before)
-            raise BenchUsageError(f"{what}: {first_refusal} (nothing written)")
-        pending, first_refusal = left, None
-    return done
-
-
-def _undo(client: BenchClient, done: list, before: dict) -> None:
-    for p, _ in reversed(done):
-        client.set_word(p.name, before[p.name])
-
-
 def _check_new_file(path: Path, force: bool, what: str) -> None:
     if path.is_dir():
         raise BenchUsageError(f"{what} {path}: is a folder; give a file name")
@@ -440,20 +408,9 @@ def _cmd_simple(name: str, text: str):
 def _cmd_backup(client: BenchClient, args, info) -> int:
     path = Path(args.file)
     _check_new_file(path, args.force, "backup")  # before anything is read from the device
-    words = client.params()
-    doc = {
-        "bowden_bench_backup": BACKUP_FORMAT,
-        "protocol_version": msgs.PROTOCOL_VERSION,
-        "table_hash": f"{msgs.TABLE_HASH:08x}",
-        "firmware": info.firmware,
-        "build_id": f"{info.build_id:08x}",
-        "saved_at": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-        "params": {
-            name: {"word": w, "value": format_value(param(name), w)} for name, w in words.items()
-        },
-    }
+    doc = backup_doc(client, info)
     _write_new_file(path, json.dumps(doc, indent=2) + "\n", force=args.force, what="backup")
-    print(f"saved {len(words)} parameters to {path} (table {msgs.TABLE_HASH:08x})")
+    print(f"saved {len(doc['params'])} parameters to {path} (table {msgs.TABLE_HASH:08x})")
     return 0
 
 
@@ -756,6 +713,9 @@ _COMMANDS = {
     "run": _cmd_run,
     "diff": bench_tools.cmd_diff,
     "watch": lambda client, args, info: bench_tools.cmd_watch(client, args, info, _cmd_run),
+    "calibrate": lambda client, args, info: bench_tools.cmd_calibrate(
+        client, args, info, stop_and_confirm
+    ),
 }
 
 

@@ -48,6 +48,22 @@ def add_parsers(sub) -> None:
     w.add_argument("--seconds", type=float, default=600.0, help="run length (default 600 s)")
     w.add_argument("--out", help="trace CSV (default: a new file in a temporary folder)")
     add_live_arguments(w, required_live=True)
+    c = sub.add_parser(
+        "calibrate",
+        help="identify the plant, audit it and propose (--apply: write and verify) the "
+        "compensator's mu, offset and tension slope",
+        description="Run an identification sequence (the tension range, both directions, "
+        "several rates) recorded with T_out, audit it (`bowden audit`), and print the changes "
+        "to comp.mu, comp.offset_n and comp.mu_slope_per_n the audit finds significant with "
+        "the tracking error they predict. --apply saves the configuration to DIR/before.json, "
+        "writes the changes as one set and measures a different (verification) waveform on "
+        "the device's T_out before and after. Loop gains are never changed.",
+    )
+    c.add_argument("--out", required=True, metavar="DIR", help="folder for every file written")
+    c.add_argument("--apply", action="store_true", help="write the changes and verify them")
+    c.add_argument("--persist", action="store_true", help="with --apply: save them in flash")
+    c.add_argument("--force", action="store_true", help="write into a non-empty --out")
+    c.add_argument("--quiet", action="store_true", help="no progress line")
 
 
 def add_live_arguments(p, required_live: bool = False) -> None:
@@ -107,6 +123,8 @@ def precheck(args) -> int | None:
         if problem:
             print(f"bowden bench: {problem}", file=sys.stderr)
             return 2
+    if args.bench_command == "calibrate":
+        return _precheck_calibrate(args)
     if args.bench_command != "diff":
         return None
     if (args.file is None) == (not args.defaults):
@@ -119,6 +137,74 @@ def precheck(args) -> int | None:
             print(f"bowden bench {exc}", file=sys.stderr)
             return 2
     return None
+
+
+def _precheck_calibrate(args) -> int | None:
+    from cosim.bench.calibrate import check_out_dir  # noqa: PLC0415
+    from cosim.bench.client import BenchUsageError  # noqa: PLC0415
+
+    if args.persist and not args.apply:
+        print(
+            "bowden bench calibrate: --persist saves what --apply writes: give --apply too",
+            file=sys.stderr,
+        )
+        return 2
+    try:
+        check_out_dir(Path(args.out), args.force)
+    except BenchUsageError as exc:
+        print(f"bowden bench {exc}", file=sys.stderr)
+        return 2
+    return None
+
+
+def restore_command(args) -> str:
+    """The `bowden bench ... restore` command line for this session's link."""
+    if args.can:
+        link = f"--can {args.can} --node {args.node}"
+        if args.emulate:
+            link += " --emulate"
+    elif args.port:
+        link = f"--port {args.port}"
+    else:  # the stepped emulator lives in this process only
+        link = "--emulate"
+    return f"bowden bench {link} restore"
+
+
+def cmd_calibrate(client, args, info, stop_and_confirm) -> int:
+    """`bowden bench calibrate` (cosim.bench.calibrate): every run ends with `stop_and_confirm`
+    (the device stopped, its output disabled, confirmed by the device)."""
+    from cosim.bench import calibrate  # noqa: PLC0415
+    from cosim.bench.client import BenchError  # noqa: PLC0415
+    from cosim.bench.recorder import stderr_progress  # noqa: PLC0415
+
+    def after_run() -> None:
+        with args.signals.hold():
+            why_not = stop_and_confirm(client)
+        if why_not is None:
+            args.stop_report = "device stopped, output disabled (confirmed by the device)"
+            return
+        args.stop_report = (
+            f"the device did NOT confirm that it stopped ({why_not}): it ends the run by "
+            "itself; switch the drive off"
+        )
+        raise BenchError("calibrate: a run could not be stopped")
+
+    opts = calibrate.Options(
+        out_dir=Path(args.out),
+        apply=args.apply,
+        persist=args.persist,
+        restore_hint=restore_command(args),
+    )
+    outcome = calibrate.run_calibration(
+        client,
+        info,
+        opts,
+        after_run=after_run,
+        hold=args.signals.hold,
+        say=lambda line: print(line, flush=True),
+        progress=None if args.quiet else stderr_progress,
+    )
+    return outcome.exit_code
 
 
 def resolve_port(args) -> None:

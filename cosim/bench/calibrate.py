@@ -1,0 +1,805 @@
+"""`bowden bench calibrate`: identify the plant at the bench, audit it, and (with `--apply`) take
+what the audit found to the device's compensator and check it on the device's own T_out.
+
+The steps (cosim/bench/README.md, "Calibration", says why each piece is there):
+
+1. **Identification.** A streamed T_ref (`identification_sequence`): holds, full-range ramps at
+   three rates in both directions and small reversals at three tension levels, recorded with
+   T_out (the far-end load cell) by the ordinary run path (cosim.bench.recorder).
+2. **Audit.** `bowden audit` on the recording (cosim.audit.core): mu (the product mu*phi: the
+   bench does not measure the position), the dead zone, and the effects of its vocabulary.
+3. **Proposal** (`propose`). For each compensator parameter the audit can set (comp.mu,
+   comp.offset_n, comp.mu_slope_per_n: cosim.audit.params) the device's value is put into the
+   audit's extended model in place of the fitted one; the change is proposed only when the
+   fitted value beats the device's by the audit's own decision rule (cosim.audit.decision: on
+   the selection blocks, the same thresholds as a finding), and only when the compensator takes
+   it (the firmware's configuration check through cosim.parts.firmware). Loop gains are never
+   among them.
+4. **Prediction** (`predict`). The emulated controller (the device's firmware, the FPGA loop's
+   model) with the audited plant and the device's compensator and loop settings runs the
+   verification waveform with the device's values and with the proposed ones.
+5. **Apply** (`--apply`): the device's configuration goes to before.json first; the changes are
+   written as one set (the device's settings check decides: all or nothing); the verification
+   waveform (a sine, which the identification does not contain) runs before and after, measured
+   on the device's T_out. A verification that gets worse undoes the changes. `--persist` saves
+   them in flash afterwards.
+
+Every way out puts back what the runs changed (source, wave.*) and, unless the calibration
+succeeded, the compensator values; the caller stops the device after each run
+(`after_run`, cosim/cli/bench.py stop_and_confirm).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import messages as msgs
+from .client import BenchClient, BenchError, BenchUsageError
+from .config import backup_doc, write_all, write_atomic
+from .protocol import ProtocolError, format_value, param, value_from_word, word_from_value
+from .recorder import record_run
+
+# --- the identification sequence ---------------------------------------------------------------
+
+# The tension range it covers (N): the bench's default waveform (mean 8.5, amplitude 6.5).
+TENSION_RANGE_N = (2.0, 15.0)
+# Ramp rates (N/s): quasi-static, the default sine's mean rate (4 * 6.5 N * 0.5 Hz = 13 N/s)
+# and three times faster.
+RATES_N_S = (5.0, 15.0, 40.0)
+# Small reversals: +-1.5 N about three levels (low, middle, high of the range) at 10 N/s.
+SMALL_LEVELS_N = (4.0, 8.5, 13.0)
+SMALL_HALF_N = 1.5
+SMALL_RATE_N_S = 10.0
+HOLD_S = 0.5
+START_HOLD_S = 1.0  # the audit's warm-up (cosim.audit.data.WARMUP_S)
+
+# --- the verification waveform -------------------------------------------------------------------
+
+# A sine (the identification has only ramps and holds) over the same range at 0.4 Hz, a
+# frequency none of the identification's pieces has; measured from SETTLE_S (the loop starts
+# from rest) to the end.
+VERIFY = {"waveform": "sine", "mean_n": 8.5, "amplitude_n": 6.5, "freq_hz": 0.4}
+VERIFY_SECONDS = 8.5
+SETTLE_S = 1.0
+
+# The compensator parameters the audit can set: device name -> (audit parameter, scaled by
+# phi: the audit fits mu*phi at its phi, the device multiplies by its comp.phi_rad).
+AUDITED = {
+    "comp.mu": ("mu", True),
+    "comp.offset_n": ("sensor_offset", False),
+    "comp.mu_slope_per_n": ("mu_tension_slope", True),
+}
+# What a run changes on the device (record_run) and calibrate puts back.
+RUN_PARAMS = ("source", "wave.kind", "wave.mean_n", "wave.amplitude_n", "wave.freq_hz")
+# What the prediction's emulated controller takes from the device: what shapes tracking
+# (never the ADC's calibration, which belongs to the device's load cells).
+LOOP_SHAPE = ("loop.kff", "loop.kp", "loop.ki_ts", "loop.i_limit", "loop.slew", "loop.slew_en")
+TWIN_PARAMS = tuple(
+    p.name
+    for p in msgs.PARAMS
+    if not p.read_only and (p.name.startswith(("comp.", "est.")) or p.name in LOOP_SHAPE)
+)
+
+
+@dataclass(frozen=True)
+class Piece:
+    """One piece of the identification sequence and why it is there."""
+
+    name: str
+    start_s: float
+    end_s: float
+    why: str
+
+
+def _ramp(a: float, b: float, rate_n_s: float, tick_hz: float) -> np.ndarray:
+    n = max(1, int(round(abs(b - a) / rate_n_s * tick_hz)))
+    return a + (b - a) * np.arange(n) / n
+
+
+def identification_sequence(
+    tick_hz: float = 1000.0, range_n: tuple[float, float] = TENSION_RANGE_N
+) -> tuple[np.ndarray, list[Piece]]:
+    """T_ref samples (N, one per tick) and the pieces they are made of."""
+    lo, hi = range_n
+    parts: list[np.ndarray] = []
+    pieces: list[Piece] = []
+
+    def add(name: str, why: str, *arrays: np.ndarray) -> None:
+        start = sum(len(a) for a in parts) / tick_hz
+        parts.extend(arrays)
+        pieces.append(Piece(name, start, sum(len(a) for a in parts) / tick_hz, why))
+
+    def hold(v: float, s: float) -> np.ndarray:
+        return np.full(int(round(s * tick_hz)), v)
+
+    add(
+        "start",
+        "the loop starts from rest: the audit's warm-up, never scored",
+        hold(lo, START_HOLD_S),
+    )
+    slow, mid, fast = RATES_N_S
+    add(
+        f"full range at {slow:g} N/s, both ways, with holds",
+        "quasi-static friction over the whole range: mu multiplies the tension, an offset adds "
+        "to it and a tension slope bends it, so only the whole range tells them apart; the "
+        "holds at both ends show the settled output of each branch",
+        _ramp(lo, hi, slow, tick_hz),
+        hold(hi, HOLD_S),
+        _ramp(hi, lo, slow, tick_hz),
+        hold(lo, HOLD_S),
+    )
+    for rate, count in ((mid, 2), (fast, 3)):
+        arrays = []
+        for _ in range(count):
+            arrays += [_ramp(lo, hi, rate, tick_hz), _ramp(hi, lo, rate, tick_hz)]
+        add(
+            f"full range at {rate:g} N/s x {count}",
+            "the same range faster: friction that grows with speed (viscous) and a lagging or "
+            "delayed sensor show only against the slow ramps; the reversals at the ends cross "
+            "the dead zone at full tension",
+            *arrays,
+        )
+    arrays = []
+    cur = lo
+    for level in SMALL_LEVELS_N:
+        arrays.append(_ramp(cur, level - SMALL_HALF_N, mid, tick_hz))
+        for _ in range(2):
+            arrays += [
+                _ramp(level - SMALL_HALF_N, level + SMALL_HALF_N, SMALL_RATE_N_S, tick_hz),
+                _ramp(level + SMALL_HALF_N, level - SMALL_HALF_N, SMALL_RATE_N_S, tick_hz),
+            ]
+        cur = level - SMALL_HALF_N
+    arrays += [_ramp(cur, lo, mid, tick_hz), hold(lo, HOLD_S)]
+    add(
+        f"reversals of +-{SMALL_HALF_N:g} N at {', '.join(f'{v:g}' for v in SMALL_LEVELS_N)} N",
+        "small reversals inside the range: the dead zone after a reversal (its width grows "
+        "with mu*phi and the tension) at three levels, and an input that is not periodic, so "
+        "the audit's blocks do not lock to one phase",
+        *arrays,
+    )
+    return np.concatenate(parts), pieces
+
+
+# --- the proposal --------------------------------------------------------------------------------
+
+
+@dataclass
+class Change:
+    """One compensator parameter: the device's value, the audit's, and the decision."""
+
+    name: str  # device parameter
+    audit_param: str
+    current: float  # device units
+    proposed: float | None  # device units (None: nothing to propose)
+    audit_value: float  # the audit's extended model's value (its phi)
+    device_as_audit: float  # the device's value in the audit's terms
+    status: str  # "change", "unchanged", "not significant", "refused"
+    reason: str
+    stats: dict = field(default_factory=dict)
+
+    @property
+    def applies(self) -> bool:
+        return self.status == "change"
+
+
+def audit_phi(data) -> float:
+    """The bending angle behind the audit's mu: phi_ref without positions, else phi at the
+    recording's (constant) position."""
+    from cosim.parts.geometry import bending_angle  # noqa: PLC0415
+
+    if data.phi_ref_rad is not None:
+        return float(data.phi_ref_rad)
+    x, y, z = (float(v) for v in np.mean(data.positions_m, axis=0))
+    return float(bending_angle(x, y, z, data.inputs.sheath_length_m, data.inputs.loop_routing))
+
+
+def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Change]:
+    """The changes the audit implies for the device's compensator values `device` (SI units by
+    name), judged as the module docstring says."""
+    from cosim.audit import twin  # noqa: PLC0415
+    from cosim.audit.decision import block_stats  # noqa: PLC0415
+    from cosim.audit.effects import BY_PARAM  # noqa: PLC0415
+
+    data = result.data
+    ext = result.extended
+    phi_a = audit_phi(data)
+    scale = phi_a / phi_device_rad  # device value = audit value * scale, for mu and slope
+    r_ext = ext.residual(data)
+    changes = []
+    for name, (aparam, by_phi) in AUDITED.items():
+        p = param(name)
+        k = scale if by_phi else 1.0
+        off = 0.0 if aparam == "mu" else BY_PARAM[aparam].off
+        a_val = float(ext.params.get(aparam, off))
+        cur = float(device[name])
+        dev_as_a = cur / k
+        target = a_val * k
+        c = Change(name, aparam, cur, None, a_val, dev_as_a, "unchanged", "")
+        if word_from_value(p, _clip_to_word(p, target)) == word_from_value(p, cur):
+            c.reason = "the audit's value is the device's (to its resolution)"
+            changes.append(c)
+            continue
+        trial = {**ext.params, aparam: dev_as_a}
+        r_dev = data.t_out_n - twin.simulate(data.inputs, trial)
+        st = block_stats(data, r_dev, r_ext)
+        c.stats = {
+            "explained_pct": st.explained_pct,
+            "removed_rms_n": st.removed_rms_n,
+            "block_t": st.t,
+            "improved_share": st.improved_share,
+            "blocks": st.blocks,
+        }
+        if not result.rule.passes(st, data):
+            c.status = "not significant"
+            c.reason = (
+                f"the audit's {_fmt(a_val)} against the device's {_fmt(dev_as_a)} removes "
+                f"{max(st.explained_pct, 0):.1f} % of the residual (block t {st.t:.1f}, "
+                f"{100 * st.improved_share:.0f} % of the blocks better); the audit's rule: "
+                + result.rule.text().split(";")[0]
+            )
+            changes.append(c)
+            continue
+        c.proposed = target
+        c.status = "change"
+        c.reason = (
+            f"removes {st.explained_pct:.1f} % of the residual against the device's value "
+            f"(block t {st.t:.1f}, {100 * st.improved_share:.0f} % of the blocks better)"
+        )
+        changes.append(c)
+    _check_limits(changes, device, phi_device_rad)
+    return changes
+
+
+def _fmt(v: float) -> str:
+    return f"{v:.5g}"
+
+
+def _clip_to_word(p, value: float) -> float:
+    """A value the word conversion takes (a value beyond the word is refused by the limits)."""
+    try:
+        word_from_value(p, value)
+    except ProtocolError:
+        return 0.0
+    return value
+
+
+def _comp_refuses(values: dict[str, float], mode: str) -> str | None:
+    """Why the firmware's compensator refuses this configuration (its own check, fixed point,
+    through cosim.parts.firmware), or None."""
+    from cosim.config.run import CompensatorParams  # noqa: PLC0415
+    from cosim.parts.firmware import make_compensator  # noqa: PLC0415
+
+    fields = {k.split(".", 1)[1]: v for k, v in values.items() if k.startswith("comp.")}
+    fields.pop("mode", None)
+    phi = fields.pop("phi_rad")
+    try:
+        make_compensator(mode, CompensatorParams(**fields), phi)
+    except (ValueError, RuntimeError) as exc:
+        return str(exc)
+    return None
+
+
+def _check_limits(changes: list[Change], device: dict, phi_device_rad: float) -> None:
+    """Refuse (status "refused", with the reason) each proposed value the protocol's word or
+    the compensator's configuration check does not take, alone or with the others."""
+    mode = str(device["comp.mode"])
+    for c in changes:
+        if not c.applies:
+            continue
+        try:
+            word_from_value(param(c.name), c.proposed)
+        except ProtocolError as exc:
+            c.status, c.reason = "refused", f"outside the parameter's range: {exc}"
+            continue
+        why = _comp_refuses({**device, c.name: c.proposed}, mode)
+        if why:
+            c.status, c.reason = "refused", f"outside the compensator's limits: {why}"
+    todo = [c for c in changes if c.applies]
+    why = _comp_refuses({**device, **{c.name: c.proposed for c in todo}}, mode)
+    if why:
+        for c in todo:
+            c.status, c.reason = "refused", f"refused with the other changes together: {why}"
+
+
+# --- the prediction ------------------------------------------------------------------------------
+
+
+def verification_error(run_columns: dict) -> dict:
+    """Tracking error of a verification run on its T_out (cosim.results.metrics)."""
+    from cosim.results.metrics import tracking_error  # noqa: PLC0415
+
+    return tracking_error(
+        run_columns["t_s"], run_columns["T_ref_N"], run_columns["T_out_N"], SETTLE_S
+    )
+
+
+def predict(
+    plant: dict,
+    device_words: dict[str, int],
+    changes: list[Change],
+    position_m,
+    loop_routing: bool,
+    folder: Path,
+) -> dict:
+    """The verification waveform's tracking error on the emulated controller with the audited
+    plant (`plant`: FMU parameters), the device's compensator, loop and estimator settings, and
+    then the proposed values: {"before": {...}, "after": {...}}."""
+    from .api import Bench  # noqa: PLC0415
+    from .device import ChainConfig  # noqa: PLC0415
+
+    out = {}
+    chain = ChainConfig(position_m=tuple(position_m), loop_routing=loop_routing, plant=plant)
+    for label, extra in (
+        ("before", {}),
+        ("after", {c.name: c.proposed for c in changes if c.applies}),
+    ):
+        with Bench(emulate=True, chain=chain) as twin:
+            words = {n: device_words[n] for n in TWIN_PARAMS if n in device_words}
+            words.update({n: word_from_value(param(n), v) for n, v in extra.items()})
+            write_all(twin.client, [(param(n), w) for n, w in words.items()], "prediction")
+            run = twin.run(
+                VERIFY["waveform"],
+                VERIFY_SECONDS,
+                out=folder / f"predicted_{label}.csv",
+                mean_n=VERIFY["mean_n"],
+                amplitude_n=VERIFY["amplitude_n"],
+                freq_hz=VERIFY["freq_hz"],
+                position_m=tuple(position_m),
+                loop_routing=loop_routing,
+            )
+            out[label] = verification_error(run.columns)
+            out[label]["series"] = (run["t_s"], run["T_ref_N"], run["T_out_N"])
+    return out
+
+
+# --- the whole calibration -----------------------------------------------------------------------
+
+
+class CalibrationError(BenchError):
+    """A calibration that cannot go on (the message is the one line the user sees)."""
+
+
+def check_out_dir(path: Path, force: bool) -> None:
+    """--out: a folder that does not exist, or an empty one, or any with --force (a
+    BenchUsageError names the problem)."""
+    if path.exists() and not path.is_dir():
+        raise BenchUsageError(f"calibrate --out {path}: is a file, not a folder")
+    if path.is_dir() and any(path.iterdir()) and not force:
+        raise BenchUsageError(
+            f"calibrate --out {path}: exists and is not empty; --force writes into it"
+        )
+
+
+@dataclass
+class Options:
+    out_dir: Path
+    apply: bool = False
+    persist: bool = False
+    restore_hint: str = "bowden bench ... restore"  # the command line that restores before.json
+    position_m: tuple[float, float, float] = (0.0, 0.5, 0.0)
+    loop_routing: bool = True
+    sheath_length_m: float = 1.0
+
+
+@dataclass
+class Outcome:
+    """What calibrate did: the report (also in calibration.json) and the exit status."""
+
+    report: dict
+    exit_code: int
+    lines: list[str]
+
+
+def run_calibration(
+    client: BenchClient,
+    info,
+    opts: Options,
+    *,
+    after_run: Callable[[], None] = lambda: None,
+    hold: Callable = None,
+    say: Callable[[str], None] = print,
+    progress: Callable[[str], None] | None = None,
+) -> Outcome:
+    """The calibration (module docstring) on a connected client. `after_run` is called after
+    every run however it ends (stop the device and confirm it; raise when it cannot be);
+    `hold()` a context manager under which the putting back is not interrupted by a signal."""
+    import contextlib  # noqa: PLC0415
+
+    hold = hold or contextlib.nullcontext
+    out = opts.out_dir
+    out.mkdir(parents=True, exist_ok=True)
+    before = backup_doc(client, info)
+    before_words = {n: e["word"] for n, e in before["params"].items()}
+    # before.json first of all: whatever happens next, the configuration can be restored
+    write_atomic(out / "before.json", json.dumps(before, indent=2) + "\n")
+    if opts.apply:
+        say(f"saved the device's configuration to {out / 'before.json'}; restore it with:")
+        say(f"  {opts.restore_hint} {out / 'before.json'}")
+    written: list[str] = []  # compensator parameters written by --apply
+    kept = False
+    try:
+        outcome = _calibrate(
+            client,
+            opts,
+            before_words,
+            written,
+            after_run=after_run,
+            say=say,
+            progress=progress,
+        )
+        kept = outcome.report.get("applied_kept", False)
+        return outcome
+    finally:
+        with hold():
+            _put_back(client, before_words, keep=written if kept else [], opts=opts, say=say)
+
+
+def _put_back(client, before_words: dict, keep: list[str], opts: Options, say) -> None:
+    """Write back every parameter the calibration changed except `keep` (the applied values).
+    A device that cannot be reached: one line saying what it holds and how to restore it."""
+    try:
+        now = client.params()
+        todo = [
+            (param(n), w)
+            for n, w in before_words.items()
+            if n not in keep and not param(n).read_only and now.get(n) != w
+        ]
+        if todo:
+            write_all(client, todo, "putting back the device's configuration")
+    except (BenchError, ProtocolError, OSError) as exc:
+        raise CalibrationError(
+            f"calibrate: could not put the device's configuration back ({exc}): it holds it in "
+            f"RAM only (nothing was persisted); restore it with {opts.restore_hint} "
+            f"{opts.out_dir / 'before.json'}"
+        ) from None
+
+
+def _record(client, path: Path, after_run, opts: Options, progress, **kw):
+    """One run (record_run) into `path`, the device stopped afterwards however it ends."""
+    from .api import _read_columns  # noqa: PLC0415
+
+    try:
+        result = record_run(
+            client,
+            path,
+            position_m=opts.position_m,
+            loop_routing=opts.loop_routing,
+            sheath_length_m=opts.sheath_length_m,
+            progress=progress,
+            **kw,
+        )
+    finally:
+        after_run()
+    if result.drops or result.samples < result.expected:
+        raise CalibrationError(
+            f"calibrate: the recording {path.name} is incomplete ({result.summary()}): "
+            "nothing was changed on the device"
+        )
+    return result, _read_columns(path)
+
+
+def _check_far_end(columns: dict, path: Path) -> None:
+    """T_out must be there and move with T_ref: the calibration rests on the far-end cell."""
+    t_out = columns["T_out_N"][int(SETTLE_S * 1000) :]
+    span = float(np.ptp(t_out)) if t_out.size else 0.0
+    ref_span = float(np.ptp(columns["T_ref_N"]))
+    if span < 0.25 * ref_span:
+        raise CalibrationError(
+            f"calibrate: {path.name}: T_out spans {span:.2f} N while T_ref spans "
+            f"{ref_span:.2f} N: the far-end load cell (T_out) is missing or stuck; calibrate "
+            "needs it (nothing was changed on the device)"
+        )
+
+
+def _calibrate(client, opts: Options, before_words, written, *, after_run, say, progress):
+    from cosim.audit import core  # noqa: PLC0415
+    from cosim.audit import params as audit_params  # noqa: PLC0415
+    from cosim.audit import report as audit_report  # noqa: PLC0415
+    from cosim.results import trace as trace_mod  # noqa: PLC0415
+
+    out = opts.out_dir
+    tick_hz = float(client.get("tick_rate_hz"))
+    if int(client.get("dev.telemetry_div")) != 1:
+        raise CalibrationError(
+            "calibrate: dev.telemetry_div is not 1: the audit needs every tick's T_out "
+            "(set dev.telemetry_div=1)"
+        )
+    seq, pieces = identification_sequence(tick_hz)
+    ident = out / "identification.csv"
+    say(f"identification: {len(seq) / tick_hz:.1f} s streamed ({len(pieces)} pieces) -> {ident}")
+    _, cols = _record(
+        client,
+        ident,
+        after_run,
+        opts,
+        progress,
+        seconds=len(seq) / tick_hz,
+        waveform="stream",
+        mean_n=0.0,
+        amplitude_n=0.0,
+        freq_hz=0.0,
+        stream_words=[word_from_value(param("wave.mean_n"), v) for v in seq],
+    )
+    _check_far_end(cols, ident)
+
+    say("audit of the identification run ...")
+    try:
+        tr = trace_mod.read_trace(ident, mode="measured")
+        result = core.run(core.prepare(tr, str(ident)))
+    except (trace_mod.TraceError, core.AuditError) as exc:
+        raise CalibrationError(f"calibrate: the audit refused the recording: {exc}") from None
+    audit_dir = out / "audit"
+    audit_dir.mkdir(exist_ok=True)
+    emitted, notes = audit_params.emitted_params(result)
+    names = audit_report.plots(audit_dir, result)
+    result.extras["plots"] = names
+    result.extras["emitted_params"] = {
+        "file": "audit/params.json",
+        "params": emitted,
+        "notes": notes,
+    }
+    data_dict = audit_report.write_json(audit_dir / "audit.json", result)
+    (audit_dir / "report.md").write_text(audit_report.markdown(result, data_dict, names))
+    write_atomic(audit_dir / "params.json", json.dumps(emitted, indent=2) + "\n")
+
+    device = {n: value_from_word(param(n), before_words[n]) for n in before_words}
+    phi_dev = float(device["comp.phi_rad"])
+    changes = propose(result, device, phi_dev)
+    findings = [
+        {
+            "cause": f.effect.cause,
+            "param": f.effect.fmu_param,
+            "value": float(f.value),
+            "compensator": f.effect.compensator_key,
+        }
+        for f in result.findings
+    ]
+    say(
+        f"audit: mu*phi {result.extended.params['mu'] * audit_phi(result.data):.4f} "
+        f"(device {device['comp.mu'] * phi_dev:.4f}); findings: "
+        + (", ".join(f"{f['cause']} {f['value']:.4g}" for f in findings) or "none")
+    )
+    for f in result.findings:
+        if f.effect.compensator_key is None:
+            say(f"  {f.effect.cause}: no compensator parameter (the loop gains are not changed)")
+    to_apply = [c for c in changes if c.applies]
+    say("proposed changes:")
+    for c in changes:
+        if c.applies:
+            say(f"  {c.name}: {_fmt(c.current)} -> {_fmt(c.proposed)}  ({c.reason})")
+        else:
+            say(f"  {c.name}: {_fmt(c.current)} kept: {c.status}: {c.reason}")
+
+    pred = predict(emitted["plant"], before_words, changes, opts.position_m, opts.loop_routing, out)
+    pb, pa = pred["before"], pred["after"]
+    say(
+        f"predicted verification error (emulated controller, audited plant): RMS "
+        f"{pb['rms_error_n']:.3f} N ({pb['rms_error_pct']:.2f} %) now"
+        + (
+            f" -> {pa['rms_error_n']:.3f} N ({pa['rms_error_pct']:.2f} %) with the changes"
+            if to_apply
+            else ""
+        )
+    )
+    report = {
+        "bowden_bench_calibration": 1,
+        "device": client.link.url,
+        "identification": {
+            "file": ident.name,
+            "seconds": len(seq) / tick_hz,
+            "pieces": [asdict(p) for p in pieces],
+        },
+        "audit": {
+            "dir": "audit",
+            "mu": result.extended.params["mu"],
+            "phi_rad": audit_phi(result.data),
+            "findings": findings,
+            "notes": notes,
+            "holdout_rms_n": result.holdout_rms_after_n,
+        },
+        "device_phi_rad": phi_dev,
+        "changes": [asdict(c) for c in changes],
+        "verification": {**VERIFY, "seconds": VERIFY_SECONDS, "settle_s": SETTLE_S},
+        "predicted": {k: _metrics(v) for k, v in pred.items()},
+        "apply": opts.apply,
+        "persist": opts.persist,
+        "applied": [],
+        "applied_kept": False,
+        "persisted": False,
+    }
+    series = {"predicted_before": pb["series"], "predicted_after": pa["series"]}
+    exit_code = 0
+    if not to_apply:
+        say(
+            "nothing to change: the audit found no significant difference from the device's "
+            "compensator values"
+        )
+    elif not opts.apply:
+        say("(--apply writes them)")
+    else:
+        exit_code = _apply(
+            client, opts, before_words, to_apply, written, report, series, after_run, say, progress
+        )
+    _write_reports(out, report, series)
+    say(f"wrote {out / 'calibration.json'}, {out / 'calibration.md'}, {out / 'calibration.png'}")
+    return Outcome(report, exit_code, [])
+
+
+def _metrics(m: dict) -> dict:
+    return {k: v for k, v in m.items() if k != "series"}
+
+
+def _verify(client, name, opts, after_run, progress):
+    path = opts.out_dir / f"{name}.csv"
+    _, cols = _record(client, path, after_run, opts, progress, seconds=VERIFY_SECONDS, **VERIFY)
+    _check_far_end(cols, path)
+    m = verification_error(cols)
+    m["series"] = (cols["t_s"], cols["T_ref_N"], cols["T_out_N"])
+    return m
+
+
+def _apply(
+    client, opts, before_words, to_apply, written, report, series, after_run, say, progress
+) -> int:
+    say("verification before (the device's values) ...")
+    vb = _verify(client, "verify_before", opts, after_run, progress)
+    todo = [(param(c.name), word_from_value(param(c.name), c.proposed)) for c in to_apply]
+    done = write_all(client, todo, "calibrate --apply")
+    written.extend(p.name for p, _ in done)
+    report["applied"] = {p.name: value_from_word(p, w) for p, w in done}
+    for p, w in done:
+        say(f"  wrote {p.name} = {format_value(p, w)}")
+    say("verification after (the calibrated values) ...")
+    va = _verify(client, "verify_after", opts, after_run, progress)
+    series["measured_before"] = vb["series"]
+    series["measured_after"] = va["series"]
+    report["measured"] = {"before": _metrics(vb), "after": _metrics(va)}
+    say(
+        f"verification error on the device's T_out: RMS {vb['rms_error_n']:.3f} N "
+        f"({vb['rms_error_pct']:.2f} %) -> {va['rms_error_n']:.3f} N "
+        f"({va['rms_error_pct']:.2f} %), peak {vb['peak_error_n']:.2f} -> "
+        f"{va['peak_error_n']:.2f} N"
+    )
+    if va["rms_error_n"] > vb["rms_error_n"]:
+        say("bowden bench calibrate: the verification error rose: the changes are undone")
+        return 1
+    report["applied_kept"] = True
+    if opts.persist:
+        # the run parameters go back first (the caller's put-back would leave flash holding them)
+        _put_back(client, before_words, keep=written, opts=opts, say=say)
+        seq = client.simple("PERSIST")
+        report["persisted"] = True
+        say(f"saved in flash (record {seq})")
+    else:
+        say("in RAM: `persist` (or calibrate --persist) saves them")
+    return 0
+
+
+def _write_reports(out: Path, report: dict, series: dict) -> None:
+    write_atomic(out / "calibration.json", json.dumps(report, indent=2) + "\n")
+    write_atomic(out / "calibration.md", markdown(report))
+    _plot(out / "calibration.png", series)
+
+
+def markdown(report: dict) -> str:
+    """calibration.md: what was run, what the audit found, the changes and the errors."""
+    lines = ["# Calibration", "", f"Device: {report['device']}", ""]
+    ident = report["identification"]
+    lines += [
+        f"## Identification ({ident['seconds']:.1f} s, `{ident['file']}`)",
+        "",
+        "| piece | from s | to s | why |",
+        "| --- | --- | --- | --- |",
+    ]
+    lines += [
+        f"| {p['name']} | {p['start_s']:.1f} | {p['end_s']:.1f} | {p['why']} |"
+        for p in ident["pieces"]
+    ]
+    a = report["audit"]
+    lines += [
+        "",
+        "## Audit (`audit/report.md`)",
+        "",
+        f"mu = {a['mu']:.5f} at phi = {a['phi_rad']:.4f} rad (mu*phi = "
+        f"{a['mu'] * a['phi_rad']:.4f}); device phi = {report['device_phi_rad']:.4f} rad.",
+        "",
+        "Findings: "
+        + (
+            ", ".join(f"{f['cause']} ({f['param']} = {f['value']:.4g})" for f in a["findings"])
+            or "none"
+        )
+        + ".",
+    ]
+    lines += [f"- note: {n}" for n in a["notes"]]
+    lines += [
+        "",
+        "## Changes",
+        "",
+        "| parameter | device | proposed | decision | reason |",
+        "| --- | --- | --- | --- | --- |",
+    ]
+    for c in report["changes"]:
+        prop = "" if c["proposed"] is None else f"{c['proposed']:.6g}"
+        lines.append(
+            f"| {c['name']} | {c['current']:.6g} | {prop} | {c['status']} | {c['reason']} |"
+        )
+    v = report["verification"]
+    lines += [
+        "",
+        f"## Verification ({v['waveform']} {v['mean_n']:g} +- {v['amplitude_n']:g} N "
+        f"at {v['freq_hz']:g} Hz, {v['seconds']:g} s, error from {v['settle_s']:g} s)",
+        "",
+        "| | RMS N | RMS % | peak N | peak % |",
+        "| --- | --- | --- | --- | --- |",
+    ]
+    rows = [(f"predicted {k}", m) for k, m in report["predicted"].items()]
+    rows += [(f"measured {k}", m) for k, m in report.get("measured", {}).items()]
+    for label, m in rows:
+        lines.append(
+            f"| {label} | {m['rms_error_n']:.3f} | {m['rms_error_pct']:.2f} | "
+            f"{m['peak_error_n']:.3f} | {m['peak_error_pct']:.2f} |"
+        )
+    lines += [
+        "",
+        f"Applied: {report['applied'] or 'nothing'}; kept: {report['applied_kept']}; "
+        f"persisted: {report['persisted']}.",
+        "",
+        "![before/after](calibration.png)",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _plot(path: Path, series: dict) -> None:
+    import matplotlib  # noqa: PLC0415
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt  # noqa: PLC0415
+
+    measured = "measured_before" in series
+    before = series["measured_before" if measured else "predicted_before"]
+    after = series["measured_after" if measured else "predicted_after"]
+    kind = "measured on the device" if measured else "predicted (emulated, audited plant)"
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 6), sharex=True, height_ratios=[2, 1.2])
+    t, ref, tout = before
+    ax1.plot(t, ref, color="k", lw=0.8, label="T_ref")
+    ax1.plot(t, tout, color="tab:orange", lw=0.7, label="T_out before")
+    ax1.plot(after[0], after[2], color="tab:blue", lw=0.7, label="T_out after")
+    ax1.set_ylabel("tension [N]")
+    ax1.legend(loc="upper right", fontsize=8)
+    ax1.grid(alpha=0.3)
+    ax1.set_title(f"verification: tracking before and after calibration ({kind})")
+    ax2.plot(t, ref - tout, color="tab:orange", lw=0.6, label="T_ref - T_out before")
+    ax2.plot(after[0], after[1] - after[2], color="tab:blue", lw=0.6, label="after")
+    ax2.axvspan(0, SETTLE_S, color="0.9")
+    ax2.set_ylabel("error [N]")
+    ax2.set_xlabel("time [s]")
+    ax2.legend(loc="upper right", fontsize=8)
+    ax2.grid(alpha=0.3)
+    fig.tight_layout()
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=90)
+        os.replace(tmp, path)
+    finally:
+        plt.close(fig)
+        Path(tmp).unlink(missing_ok=True)
+
+
+__all__ = [
+    "AUDITED",
+    "Change",
+    "CalibrationError",
+    "Options",
+    "identification_sequence",
+    "propose",
+    "run_calibration",
+]
