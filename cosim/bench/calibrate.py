@@ -34,6 +34,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
+import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -222,7 +223,7 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
         dev_as_a = cur / k
         target = a_val * k
         c = Change(name, aparam, cur, None, a_val, dev_as_a, "unchanged", "")
-        if word_from_value(p, _clip_to_word(p, target)) == word_from_value(p, cur):
+        if _same_word(p, target, cur):
             c.reason = "the audit's value is the device's (to its resolution)"
             changes.append(c)
             continue
@@ -261,13 +262,12 @@ def _fmt(v: float) -> str:
     return f"{v:.5g}"
 
 
-def _clip_to_word(p, value: float) -> float:
-    """A value the word conversion takes (a value beyond the word is refused by the limits)."""
+def _same_word(p, a: float, b: float) -> bool:
+    """Whether two values are the same device word (a value beyond the word is not)."""
     try:
-        word_from_value(p, value)
+        return word_from_value(p, a) == word_from_value(p, b)
     except ProtocolError:
-        return 0.0
-    return value
+        return False
 
 
 def _comp_refuses(values: dict[str, float], mode: str) -> str | None:
@@ -336,10 +336,11 @@ def predict(
 
     out = {}
     chain = ChainConfig(position_m=tuple(position_m), loop_routing=loop_routing, plant=plant)
-    for label, extra in (
-        ("before", {}),
-        ("after", {c.name: c.proposed for c in changes if c.applies}),
-    ):
+    proposed = {c.name: c.proposed for c in changes if c.applies}
+    for label, extra in (("before", {}), ("after", proposed)):
+        if label == "after" and not proposed:
+            out["after"] = out["before"]  # nothing to change: the same run
+            break
         with Bench(emulate=True, chain=chain) as twin:
             words = {n: device_words[n] for n in TWIN_PARAMS if n in device_words}
             words.update({n: word_from_value(param(n), v) for n, v in extra.items()})
@@ -386,6 +387,7 @@ class Options:
     position_m: tuple[float, float, float] = (0.0, 0.5, 0.0)
     loop_routing: bool = True
     sheath_length_m: float = 1.0
+    audit_plots: bool = True  # the audit's PNGs (most of the time outside the runs)
 
 
 @dataclass
@@ -402,67 +404,127 @@ def run_calibration(
     info,
     opts: Options,
     *,
-    after_run: Callable[[], None] = lambda: None,
-    hold: Callable = None,
+    after_run: Callable[[], None] | None = None,
+    hold: Callable | None = None,
     say: Callable[[str], None] = print,
     progress: Callable[[str], None] | None = None,
 ) -> Outcome:
     """The calibration (module docstring) on a connected client. `after_run` is called after
-    every run however it ends (stop the device and confirm it; raise when it cannot be);
-    `hold()` a context manager under which the putting back is not interrupted by a signal."""
+    every run however it ends (stop the device and confirm it; raise BenchError when that
+    cannot be confirmed; default: STOP); `hold()` a context manager under which putting the configuration back
+    is not cut short by a signal (cosim/cli/bench.py Signals.hold).
+
+    However it ends, what the runs changed (source, wave.*) is written back, and so are the
+    compensator values unless they were applied and verified. A link or device failure is one
+    CalibrationError naming the step, what the device holds, and before.json."""
     import contextlib  # noqa: PLC0415
 
     hold = hold or contextlib.nullcontext
+    after_run = after_run or (lambda: client.request("STOP"))
     out = opts.out_dir
     out.mkdir(parents=True, exist_ok=True)
     before = backup_doc(client, info)
     before_words = {n: e["word"] for n, e in before["params"].items()}
     # before.json first of all: whatever happens next, the configuration can be restored
-    write_atomic(out / "before.json", json.dumps(before, indent=2) + "\n")
+    backup = out / "before.json"
+    write_atomic(backup, json.dumps(before, indent=2) + "\n")
     if opts.apply:
-        say(f"saved the device's configuration to {out / 'before.json'}; restore it with:")
-        say(f"  {opts.restore_hint} {out / 'before.json'}")
-    written: list[str] = []  # compensator parameters written by --apply
-    kept = False
+        say(f"saved the device's configuration to {backup}; restore it with:")
+        say(f"  {opts.restore_hint} {backup}")
+    state = _State()
+    failure: BaseException | None = None
     try:
         outcome = _calibrate(
-            client,
-            opts,
-            before_words,
-            written,
-            after_run=after_run,
-            say=say,
-            progress=progress,
+            client, opts, before_words, state, after_run=after_run, say=say, progress=progress
         )
-        kept = outcome.report.get("applied_kept", False)
+        state.kept = bool(outcome.report.get("applied_kept"))
         return outcome
+    except BaseException as exc:
+        failure = exc
+        raise
     finally:
         with hold():
-            _put_back(client, before_words, keep=written if kept else [], opts=opts, say=say)
+            undo_error = None
+            try:
+                _put_back(client, before_words, keep=state.written if state.kept else [])
+            except (BenchError, ProtocolError, OSError) as exc:
+                undo_error = exc
+        _explain(failure, undo_error, state, opts, backup)
 
 
-def _put_back(client, before_words: dict, keep: list[str], opts: Options, say) -> None:
-    """Write back every parameter the calibration changed except `keep` (the applied values).
-    A device that cannot be reached: one line saying what it holds and how to restore it."""
-    try:
-        now = client.params()
-        todo = [
-            (param(n), w)
-            for n, w in before_words.items()
-            if n not in keep and not param(n).read_only and now.get(n) != w
-        ]
-        if todo:
-            write_all(client, todo, "putting back the device's configuration")
-    except (BenchError, ProtocolError, OSError) as exc:
-        raise CalibrationError(
-            f"calibrate: could not put the device's configuration back ({exc}): it holds it in "
-            f"RAM only (nothing was persisted); restore it with {opts.restore_hint} "
-            f"{opts.out_dir / 'before.json'}"
-        ) from None
+@dataclass
+class _State:
+    step: str = "reading the device's configuration"
+    written: list[str] = field(default_factory=list)  # compensator parameters --apply wrote
+    kept: bool = False  # applied and verified
+
+
+def _explain(failure, undo_error, state: _State, opts: Options, backup: Path) -> None:
+    """One CalibrationError for a failure of the link or the device (or of putting the
+    configuration back): the step, what the device holds now, the way back."""
+    link_failure = isinstance(failure, (BenchError, OSError)) and not isinstance(
+        failure, (BenchUsageError, CalibrationError)
+    )
+    if undo_error is None and not link_failure:
+        return  # success, an interrupt, a usage error or one of ours: as it is
+    if state.written and undo_error is not None:
+        holds = (
+            f"the values written ({', '.join(state.written)}) could NOT be put back "
+            f"({undo_error}): the device holds them in RAM only (nothing was persisted); "
+            f"restore with {opts.restore_hint} {backup}"
+        )
+    elif state.written:
+        holds = f"the values written ({', '.join(state.written)}) were put back"
+    elif undo_error is not None:
+        holds = (
+            f"no compensator value was written; the run settings (source, wave.*) could not "
+            f"be put back ({undo_error}): restore with {opts.restore_hint} {backup}"
+        )
+    else:
+        holds = "no compensator value was written"
+    what = f"{failure}" if failure is not None else "putting the configuration back failed"
+    if isinstance(failure, KeyboardInterrupt):
+        if undo_error is None:
+            return
+        what = "interrupted"
+    msg = f"calibrate: {what} during {state.step}; {holds}; the configuration before: {backup}"
+    if isinstance(failure, KeyboardInterrupt):
+        import sys  # noqa: PLC0415
+
+        print(msg, file=sys.stderr)
+        return
+    raise CalibrationError(msg) from None
+
+
+# Putting the configuration back after a failure: tries, PUT_BACK_WAIT_S apart (a link that
+# failed for a moment, as a CAN bus recovering from bus-off, gets another chance).
+PUT_BACK_TRIES = 3
+PUT_BACK_WAIT_S = 0.2
+
+
+def _put_back(client, before_words: dict, keep: list[str]) -> None:
+    """Write back every parameter the calibration changed except `keep` (the applied values)."""
+    for attempt in range(PUT_BACK_TRIES):
+        try:
+            client.request("STOP")  # a run left active refuses every write (BUSY)
+            now = client.params()
+            todo = [
+                (param(n), w)
+                for n, w in before_words.items()
+                if n not in keep and not param(n).read_only and now.get(n) != w
+            ]
+            if todo:
+                write_all(client, todo, "putting back the device's configuration")
+            return
+        except (BenchError, OSError):
+            if attempt == PUT_BACK_TRIES - 1:
+                raise
+            time.sleep(PUT_BACK_WAIT_S)
 
 
 def _record(client, path: Path, after_run, opts: Options, progress, **kw):
-    """One run (record_run) into `path`, the device stopped afterwards however it ends."""
+    """One run (record_run) into `path`, the device stopped afterwards however it ends (a
+    failure to confirm the stop does not hide the run's own failure)."""
     from .api import _read_columns  # noqa: PLC0415
 
     try:
@@ -475,19 +537,21 @@ def _record(client, path: Path, after_run, opts: Options, progress, **kw):
             progress=progress,
             **kw,
         )
-    finally:
-        after_run()
+    except BaseException:
+        try:
+            after_run()
+        except BenchError:
+            pass
+        raise
+    after_run()
     if result.drops or result.samples < result.expected:
-        raise CalibrationError(
-            f"calibrate: the recording {path.name} is incomplete ({result.summary()}): "
-            "nothing was changed on the device"
-        )
+        raise BenchError(f"the recording {path.name} is incomplete ({result.summary()})")
     return result, _read_columns(path)
 
 
 def _check_far_end(columns: dict, path: Path) -> None:
     """T_out must be there and move with T_ref: the calibration rests on the far-end cell."""
-    t_out = columns["T_out_N"][int(SETTLE_S * 1000) :]
+    t_out = columns["T_out_N"][columns["t_s"] >= SETTLE_S]
     span = float(np.ptp(t_out)) if t_out.size else 0.0
     ref_span = float(np.ptp(columns["T_ref_N"]))
     if span < 0.25 * ref_span:
@@ -498,7 +562,7 @@ def _check_far_end(columns: dict, path: Path) -> None:
         )
 
 
-def _calibrate(client, opts: Options, before_words, written, *, after_run, say, progress):
+def _calibrate(client, opts: Options, before_words, state, *, after_run, say, progress):
     from cosim.audit import core  # noqa: PLC0415
     from cosim.audit import params as audit_params  # noqa: PLC0415
     from cosim.audit import report as audit_report  # noqa: PLC0415
@@ -506,13 +570,9 @@ def _calibrate(client, opts: Options, before_words, written, *, after_run, say, 
 
     out = opts.out_dir
     tick_hz = float(client.get("tick_rate_hz"))
-    if int(client.get("dev.telemetry_div")) != 1:
-        raise CalibrationError(
-            "calibrate: dev.telemetry_div is not 1: the audit needs every tick's T_out "
-            "(set dev.telemetry_div=1)"
-        )
     seq, pieces = identification_sequence(tick_hz)
     ident = out / "identification.csv"
+    state.step = "the identification run"
     say(f"identification: {len(seq) / tick_hz:.1f} s streamed ({len(pieces)} pieces) -> {ident}")
     _, cols = _record(
         client,
@@ -529,6 +589,7 @@ def _calibrate(client, opts: Options, before_words, written, *, after_run, say, 
     )
     _check_far_end(cols, ident)
 
+    state.step = "the audit"
     say("audit of the identification run ...")
     try:
         tr = trace_mod.read_trace(ident, mode="measured")
@@ -538,7 +599,7 @@ def _calibrate(client, opts: Options, before_words, written, *, after_run, say, 
     audit_dir = out / "audit"
     audit_dir.mkdir(exist_ok=True)
     emitted, notes = audit_params.emitted_params(result)
-    names = audit_report.plots(audit_dir, result)
+    names = audit_report.plots(audit_dir, result) if opts.audit_plots else []
     result.extras["plots"] = names
     result.extras["emitted_params"] = {
         "file": "audit/params.json",
@@ -566,6 +627,8 @@ def _calibrate(client, opts: Options, before_words, written, *, after_run, say, 
         f"(device {device['comp.mu'] * phi_dev:.4f}); findings: "
         + (", ".join(f"{f['cause']} {f['value']:.4g}" for f in findings) or "none")
     )
+    for w in result.warnings:
+        say(f"  audit warning: {w}")
     for f in result.findings:
         if f.effect.compensator_key is None:
             say(f"  {f.effect.cause}: no compensator parameter (the loop gains are not changed)")
@@ -577,6 +640,7 @@ def _calibrate(client, opts: Options, before_words, written, *, after_run, say, 
         else:
             say(f"  {c.name}: {_fmt(c.current)} kept: {c.status}: {c.reason}")
 
+    state.step = "the prediction"
     pred = predict(emitted["plant"], before_words, changes, opts.position_m, opts.loop_routing, out)
     pb, pa = pred["before"], pred["after"]
     say(
@@ -603,6 +667,7 @@ def _calibrate(client, opts: Options, before_words, written, *, after_run, say, 
             "findings": findings,
             "notes": notes,
             "holdout_rms_n": result.holdout_rms_after_n,
+            "warnings": list(result.warnings),
         },
         "device_phi_rad": phi_dev,
         "changes": [asdict(c) for c in changes],
@@ -625,7 +690,7 @@ def _calibrate(client, opts: Options, before_words, written, *, after_run, say, 
         say("(--apply writes them)")
     else:
         exit_code = _apply(
-            client, opts, before_words, to_apply, written, report, series, after_run, say, progress
+            client, opts, before_words, to_apply, state, report, series, after_run, say, progress
         )
     _write_reports(out, report, series)
     say(f"wrote {out / 'calibration.json'}, {out / 'calibration.md'}, {out / 'calibration.png'}")
@@ -646,16 +711,19 @@ def _verify(client, name, opts, after_run, progress):
 
 
 def _apply(
-    client, opts, before_words, to_apply, written, report, series, after_run, say, progress
+    client, opts, before_words, to_apply, state, report, series, after_run, say, progress
 ) -> int:
+    state.step = "the verification before the changes"
     say("verification before (the device's values) ...")
     vb = _verify(client, "verify_before", opts, after_run, progress)
     todo = [(param(c.name), word_from_value(param(c.name), c.proposed)) for c in to_apply]
+    state.step = "writing the changes"
     done = write_all(client, todo, "calibrate --apply")
-    written.extend(p.name for p, _ in done)
+    state.written.extend(p.name for p, _ in done)
     report["applied"] = {p.name: value_from_word(p, w) for p, w in done}
     for p, w in done:
         say(f"  wrote {p.name} = {format_value(p, w)}")
+    state.step = "the verification after the changes"
     say("verification after (the calibrated values) ...")
     va = _verify(client, "verify_after", opts, after_run, progress)
     series["measured_before"] = vb["series"]
@@ -673,7 +741,8 @@ def _apply(
     report["applied_kept"] = True
     if opts.persist:
         # the run parameters go back first (the caller's put-back would leave flash holding them)
-        _put_back(client, before_words, keep=written, opts=opts, say=say)
+        state.step = "saving in flash"
+        _put_back(client, before_words, keep=state.written)
         seq = client.simple("PERSIST")
         report["persisted"] = True
         say(f"saved in flash (record {seq})")

@@ -1,0 +1,391 @@
+"""`bowden bench calibrate` (cosim.bench.calibrate) on the emulated controller: it finds a plant
+mu the compensator does not know and applies it, proposes nothing on the nominal plant, refuses
+values outside the compensator's limits, never touches the loop gains, and leaves the device as
+it was when the link drops mid-run (before.json written, one line); bad options are one line and
+exit 2. The stepped emulator (no wall clock) keeps these to seconds; the runs over a pty and CAN
+in real time are marked slow."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from cosim.bench import calibrate as cal
+from cosim.bench import messages as msgs
+from cosim.bench.__main__ import main as bench_cli
+from cosim.bench.api import Bench
+from cosim.bench.client import BenchClient, BenchError, SerialLink
+from cosim.bench.device import ChainConfig
+from cosim.bench.emulator import Emulator, SteppedLink
+from cosim.bench.protocol import value_from_word
+from cosim.project.paths import REPO_ROOT
+
+# Stated tolerance of the mu found on the emulated plant (whose mu the audit fits to 5e-4 on a
+# sine, tests/audit/test_audit_bench.py): 1 % of the plant's.
+MU_TOLERANCE = 0.01
+LOOP = [p.name for p in msgs.PARAMS if p.name.startswith("loop.")]
+
+
+def _calibrate(bench_or_client, info, out, apply=False, persist=False, say=None):
+    lines = []
+    opts = cal.Options(out_dir=out, apply=apply, persist=persist, audit_plots=False)
+    client = getattr(bench_or_client, "client", bench_or_client)
+    outcome = cal.run_calibration(client, info, opts, say=say or lines.append)
+    return outcome, lines
+
+
+def _words(client) -> dict:
+    return client.params()
+
+
+def _before(out) -> dict:
+    doc = json.loads((out / "before.json").read_text())
+    assert doc["bowden_bench_backup"] and doc["table_hash"] == f"{msgs.TABLE_HASH:08x}"
+    return {n: e["word"] for n, e in doc["params"].items()}
+
+
+def test_identification_covers_the_range_both_ways_at_several_rates():
+    seq, pieces = cal.identification_sequence(1000.0)
+    lo, hi = cal.TENSION_RANGE_N
+    assert seq.min() == pytest.approx(lo) and seq.max() == pytest.approx(hi, abs=0.05)
+    slope = np.diff(seq) * 1000.0
+    for rate in cal.RATES_N_S:  # each rate, up and down
+        assert np.count_nonzero(np.isclose(slope, rate, rtol=0.02)) > 100
+        assert np.count_nonzero(np.isclose(slope, -rate, rtol=0.02)) > 100
+    assert len(seq) / 1000.0 >= 10.0 + cal.START_HOLD_S  # the audit's shortest record
+    assert pieces[0].start_s == 0 and pieces[-1].end_s == pytest.approx(len(seq) / 1000.0)
+    assert all(p.why for p in pieces)
+    # a sine of the verification is not among its pieces: ramps and holds only
+    assert set(np.round(np.abs(slope[slope != 0]))) <= {5, 10, 15, 40}
+
+
+@pytest.fixture(scope="module")
+def off_plant(tmp_path_factory):
+    """calibrate --apply on a plant whose mu is 0.09 (the compensator says 0.075)."""
+    out = tmp_path_factory.mktemp("off") / "cal"
+    with Bench(emulate=True, plant={"mu": 0.09}) as bench:
+        outcome, lines = _calibrate(bench, bench.connect_info, out, apply=True)
+        after = _words(bench.client)
+    return out, outcome, lines, after
+
+
+def test_calibrate_finds_a_mu_the_compensator_does_not_know_and_applies_it(off_plant):
+    out, outcome, lines, after = off_plant
+    assert outcome.exit_code == 0, lines
+    rep = outcome.report
+    mu = value_from_word(msgs.PARAM_BY_NAME["comp.mu"], after["comp.mu"])
+    assert mu == pytest.approx(0.09, rel=MU_TOLERANCE)
+    assert rep["applied"] == {"comp.mu": pytest.approx(mu)} and rep["applied_kept"]
+    m = rep["measured"]
+    assert m["after"]["rms_error_n"] < 0.5 * m["before"]["rms_error_n"]
+    # the prediction (emulated controller with the audited plant) is the measurement here
+    assert rep["predicted"]["after"]["rms_error_n"] == pytest.approx(
+        m["after"]["rms_error_n"], rel=0.05
+    )
+    before = _before(out)
+    changed = {n for n in before if before[n] != after[n]}
+    assert changed == {"comp.mu"}  # loop gains, source, wave.* as they were
+    for name in (
+        "identification.csv",
+        "verify_before.csv",
+        "verify_after.csv",
+        "audit/audit.json",
+        "audit/report.md",
+        "audit/params.json",
+        "calibration.json",
+        "calibration.md",
+        "calibration.png",
+    ):
+        assert (out / name).is_file(), name
+    assert any(line.startswith("  comp.mu: 0.075 -> 0.0899") for line in lines), lines
+    assert "restore it with:" in lines[0] and "before.json" in lines[1]
+
+
+def test_nominal_plant_gives_nothing_to_change(tmp_path):
+    with Bench(emulate=True) as bench:
+        outcome, lines = _calibrate(bench, bench.connect_info, tmp_path / "c", apply=True)
+        after = _words(bench.client)
+    assert outcome.exit_code == 0
+    assert any(line.startswith("nothing to change") for line in lines), lines
+    assert outcome.report["applied"] == [] and "measured" not in outcome.report
+    mu = next(c for c in outcome.report["changes"] if c["name"] == "comp.mu")
+    # the fitted mu differs from 0.075 in the last bits: judged, and not significant
+    assert mu["status"] in ("not significant", "unchanged") and mu["proposed"] is None
+    assert after == _before(tmp_path / "c")
+
+
+def test_a_value_outside_the_compensators_limits_is_refused(tmp_path):
+    """A device set to phi = 0.3 rad against a plant of 2 pi: the plant's mu*phi (0.47) needs
+    comp.mu 1.57, outside the compensator's [0, 1]: refused with the reason, nothing written."""
+    with Bench(emulate=True) as bench:
+        bench.set(comp_phi_rad=0.3)
+        info = bench.info()
+        outcome, lines = _calibrate(bench, info, tmp_path / "c", apply=True)
+        after = _words(bench.client)
+    mu = next(c for c in outcome.report["changes"] if c["name"] == "comp.mu")
+    assert mu["status"] == "refused" and "outside the compensator's limits" in mu["reason"]
+    assert "mu" in mu["reason"]
+    assert outcome.report["applied"] == []
+    assert after == _before(tmp_path / "c")
+    assert any("kept: refused" in line for line in lines)
+
+
+@pytest.mark.slow
+def test_an_offset_the_device_has_and_the_plant_does_not_is_taken_back(tmp_path):
+    """A value the device holds is judged as the audit's value is: an offset of 0.5 N that the
+    plant does not have makes the audit's model worse, so it goes back to 0."""
+    with Bench(emulate=True) as bench:
+        bench.set(comp_offset_n=0.5)
+        outcome, _ = _calibrate(bench, bench.info(), tmp_path / "c")
+    c = {c["name"]: c for c in outcome.report["changes"]}
+    assert c["comp.offset_n"]["status"] == "change"
+    assert c["comp.offset_n"]["proposed"] == pytest.approx(0.0, abs=0.02)
+
+
+def test_loop_gains_are_never_among_the_changes():
+    assert all(name.startswith("comp.") for name in cal.AUDITED)
+    assert not set(cal.AUDITED) & set(LOOP)
+
+
+# --- a link that drops mid-run --------------------------------------------------------------
+
+
+class DroppingLink:
+    """A stepped emulator's link that fails (reads and writes raise as a pulled cable does)
+    once `when(link)` says so, for `down_calls` calls (None: for good)."""
+
+    def __init__(self, inner: SteppedLink, when, down_calls: int | None = None):
+        self.inner = inner
+        self.when = when
+        self.down_calls = down_calls
+        self.starts = 0
+        self.dropped = False
+        self._left = 0
+
+    def __getattr__(self, name):
+        return getattr(self.inner, name)
+
+    def _check(self) -> None:
+        if not self.dropped and self.when(self):
+            self.dropped = True
+            self._left = self.down_calls if self.down_calls is not None else 1 << 62
+        if self._left > 0:
+            self._left -= 1
+            raise BenchError(f"{self.inner.url}: read failed (link dropped)")
+
+    def send(self, frame) -> None:
+        self._check()
+        if frame.msg == msgs.MESSAGES["START"].id:
+            self.starts += 1
+        self.inner.send(frame)
+
+    def recv(self, timeout_s: float):
+        self._check()
+        return self.inner.recv(timeout_s)
+
+
+def _drop_run(tmp_path, when, down_calls, plant=None):
+    inner = SteppedLink(ChainConfig(plant=plant))
+    link = DroppingLink(inner, when, down_calls)
+    client = BenchClient(link, timeout_s=0.2)
+    info = client.connect()
+    before = client.params()
+    out = tmp_path / "c"
+    with pytest.raises(cal.CalibrationError) as exc:
+        _calibrate(client, info, out, apply=True)
+    # the device as a fresh client sees it
+    probe = BenchClient(inner)
+    probe.connect()
+    state = probe.params(), probe.hello().running
+    inner.close()
+    msg = str(exc.value)
+    assert "\n" not in msg and str(out / "before.json") in msg
+    assert _before(out) == before
+    return msg, before, state
+
+
+def test_a_link_drop_during_identification_leaves_the_device_as_it_was(tmp_path):
+    msg, before, (after, running) = _drop_run(
+        tmp_path, lambda link: link.starts == 1 and link.inner.chain.ticks > 3000, None
+    )
+    assert "during the identification run" in msg and "no compensator value was written" in msg
+    assert "could not be put back" in msg and "restore with" in msg
+    # nothing written: the run settings the link could not put back are the run's only
+    assert {n for n in before if before[n] != after[n]} <= set(cal.RUN_PARAMS)
+    assert after["comp.mu"] == before["comp.mu"] and not running
+
+
+@pytest.mark.slow
+def test_a_link_drop_after_the_changes_are_written_undoes_them(tmp_path):
+    """The link fails during the verification after the write and comes back (for the run's
+    failure and the first try of putting back: calibrate.PUT_BACK_TRIES): the written value is
+    put back, and so is everything the runs set."""
+    msg, before, (after, running) = _drop_run(
+        tmp_path,
+        lambda link: link.starts == 3 and link.inner.chain.ticks % 1000 == 500,
+        down_calls=2,
+        plant={"mu": 0.09},
+    )
+    assert "during the verification after the changes" in msg, msg
+    assert "the values written (comp.mu) were put back" in msg, msg
+    assert after == before and not running
+
+
+@pytest.mark.slow
+def test_a_link_lost_for_good_after_the_write_says_how_to_restore(tmp_path):
+    msg, before, (after, _) = _drop_run(
+        tmp_path,
+        lambda link: link.starts == 3 and link.inner.chain.ticks % 1000 == 500,
+        down_calls=None,
+        plant={"mu": 0.09},
+    )
+    assert "could NOT be put back" in msg and "RAM only" in msg and "restore with" in msg
+    assert after["comp.mu"] != before["comp.mu"]  # what the message says the device holds
+
+
+# --- the command line -------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("setup", "extra", "message"),
+    [
+        ("file", [], "is a file, not a folder"),
+        ("full", [], "exists and is not empty; --force writes into it"),
+        ("none", ["--persist"], "--persist saves what --apply writes: give --apply too"),
+    ],
+)
+def test_bad_calibrate_options_are_one_line_and_exit_2(setup, extra, message, tmp_path, capsys):
+    out = tmp_path / "d"
+    if setup == "file":
+        out.write_text("x")
+    elif setup == "full":
+        out.mkdir()
+        (out / "keep.txt").write_text("mine")
+    rc = bench_cli(["bench", "--emulate", "calibrate", "--out", str(out), *extra])
+    err = capsys.readouterr().err
+    assert rc == 2 and message in err and len(err.strip().splitlines()) == 1, err
+    if setup == "full":
+        assert [p.name for p in out.iterdir()] == ["keep.txt"]
+
+
+@pytest.mark.slow
+def test_calibrate_command_applies_and_persists_on_the_stepped_emulator(tmp_path, capsys):
+    out = tmp_path / "cal"
+    rc = bench_cli(
+        [
+            "bench",
+            "--emulate",
+            "--plant",
+            "mu=0.06",
+            "calibrate",
+            "--out",
+            str(out),
+            "--apply",
+            "--persist",
+            "--quiet",
+        ]
+    )
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    assert "bowden bench --emulate restore" in text and "saved in flash" in text
+    rep = json.loads((out / "calibration.json").read_text())
+    assert rep["persisted"] and rep["applied"]["comp.mu"] == pytest.approx(0.06, rel=MU_TOLERANCE)
+    assert any(p.suffix == ".png" for p in (out / "audit").iterdir())
+    assert "| comp.mu | 0.075 |" in (out / "calibration.md").read_text()
+
+
+def _real_time_calibrate(args, out, capsys):
+    rc = bench_cli([*args, "calibrate", "--out", str(out), "--apply", "--quiet"])
+    captured = capsys.readouterr()
+    assert rc == 0, captured.out + captured.err
+    rep = json.loads((out / "calibration.json").read_text())
+    assert rep["applied"]["comp.mu"] == pytest.approx(0.09, rel=MU_TOLERANCE)
+    m = rep["measured"]
+    assert m["after"]["rms_error_n"] < 0.5 * m["before"]["rms_error_n"]
+    return captured.out
+
+
+@pytest.mark.slow
+def test_calibrate_over_a_pty_in_real_time(tmp_path, capsys):
+    emu = Emulator(tcp_port=None, chain=ChainConfig(plant={"mu": 0.09})).start()
+    try:
+        text = _real_time_calibrate(["bench", "--port", emu.urls["pty"]], tmp_path / "c", capsys)
+        assert f"bowden bench --port {emu.urls['pty']} restore" in text
+        probe = BenchClient(SerialLink(emu.urls["pty"]))
+        try:
+            probe.connect()
+            assert probe.get("comp.mu") == pytest.approx(0.09, rel=MU_TOLERANCE)
+            assert not probe.hello().running
+        finally:
+            probe.link.close()
+    finally:
+        emu.stop()
+
+
+@pytest.mark.slow
+def test_calibrate_over_can_in_real_time(tmp_path, capsys):
+    args = ["bench", "--can", "virtual:calibrate", "--emulate", "--plant", "mu=0.09"]
+    text = _real_time_calibrate(args, tmp_path / "c", capsys)
+    assert "bowden bench --can virtual:calibrate --node 1 --emulate restore" in text
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_the_device_and_puts_the_configuration_back(tmp_path):
+    """SIGINT during the identification run (a `bowden bench` process on the emulator's socket):
+    exit 130, one line, the device stopped with its output disabled, the run's settings put
+    back."""
+    emu = Emulator(tcp_port=0, pty=False).start()
+    url = emu.urls["socket"]
+    out = tmp_path / "c"
+    try:
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "cosim",
+                "bench",
+                "--port",
+                url,
+                "calibrate",
+                "--out",
+                str(out),
+                "--apply",
+                "--quiet",
+            ],
+            cwd=REPO_ROOT,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            deadline = time.monotonic() + 60
+            ident = out / "identification.csv"
+            while not (ident.exists() and ident.read_text().count("\n") > 500):
+                assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+                time.sleep(0.05)
+            proc.send_signal(signal.SIGINT)
+            _, err = proc.communicate(timeout=30)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+        assert proc.returncode == 130, err
+        assert "interrupted by SIGINT" in err and "output disabled" in err
+        assert len(err.strip().splitlines()) == 1, err
+        probe = BenchClient(SerialLink(url))
+        try:
+            assert not probe.hello().running
+            _, faults = probe.request("FAULTS_GET")
+            from cosim.cli.bench import STATUS_OUT_EN  # noqa: PLC0415
+
+            assert not faults["fpga_status"] & STATUS_OUT_EN
+            assert probe.params() == _before(out)
+        finally:
+            probe.link.close()
+    finally:
+        emu.stop()
+    assert not os.path.exists(out / "calibration.json")
