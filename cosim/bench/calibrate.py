@@ -411,8 +411,8 @@ def run_calibration(
 ) -> Outcome:
     """The calibration (module docstring) on a connected client. `after_run` is called after
     every run however it ends (stop the device and confirm it; raise BenchError when that
-    cannot be confirmed; default: STOP); `hold()` a context manager under which putting the configuration back
-    is not cut short by a signal (cosim/cli/bench.py Signals.hold).
+    cannot be confirmed; default: STOP); `hold()` a context manager under which putting the
+    configuration back is not cut short by a signal (cosim/cli/bench.py Signals.hold).
 
     However it ends, what the runs changed (source, wave.*) is written back, and so are the
     compensator values unless they were applied and verified. A link or device failure is one
