@@ -39,6 +39,9 @@ RANKS: dict[str, float] = {
     "cosim.engines.experiment": 5.4,
     "cosim.audit": 6,
     "cosim.bench": 6,
+    # `bowden bench calibrate` runs the bench and judges with the audit: above both (nothing in
+    # cosim.bench imports it)
+    "cosim.bench.calibrate": 6.5,
     "cosim.studies": 7,
     "cosim.perf": 8,
     "cosim.cli": 9,
