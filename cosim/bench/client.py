@@ -80,10 +80,12 @@ class PortLock:
     """One client per port: an advisory lock (flock) on a file named after the port, holding
     the holder's pid and command line. The OS drops the lock when its process dies, so a killed
     client never leaves the port locked. (Serial devices are also opened with pyserial's
-    `exclusive=True`; a pty or a socket:// URL has only this lock.)"""
+    `exclusive=True`; a pty or a socket:// URL has only this lock. A CAN node on this machine's
+    bus is locked by its INTERFACE:CHANNEL and node number: `option` names it in the refusal.)"""
 
-    def __init__(self, url: str) -> None:
-        key = url if "://" in url else os.path.realpath(url)
+    def __init__(self, url: str, option: str = "--port", key: str | None = None) -> None:
+        if key is None:
+            key = url if "://" in url else os.path.realpath(url)
         folder = os.environ.get("XDG_RUNTIME_DIR") or tempfile.gettempdir()
         digest = hashlib.sha256(key.encode()).hexdigest()[:16]
         self.path = os.path.join(folder, f"bowden-bench-{digest}.lock")
@@ -94,7 +96,7 @@ class PortLock:
             holder = os.read(self._fd, 512).decode(errors="replace").strip() or "another process"
             self.close()
             raise BenchError(
-                f"--port {url}: in use by another client ({holder}): one client at a time "
+                f"{option} {url}: in use by another client ({holder}): one client at a time "
                 "(a second one would stop the first one's run)"
             ) from None
         os.ftruncate(self._fd, 0)
@@ -177,9 +179,17 @@ class CanLink:
             raise BenchUsageError(f"--can {spec}: expected INTERFACE:CHANNEL (e.g. virtual:bench)")
         if not 0 <= node < (1 << msgs.CAN_NODE_BITS):
             raise BenchUsageError(f"--node {node}: outside 0..{(1 << msgs.CAN_NODE_BITS) - 1}")
+        # One client per node of a bus on this machine (a bus handed in is the caller's).
+        self.lock = (
+            None
+            if bus is not None
+            else PortLock(f"{spec} node {node}", "--can", key=f"can {spec} node {node}")
+        )
         try:
             self.bus = bus or can.Bus(interface=interface, channel=channel)
         except (can.CanError, ValueError, ImportError, OSError) as exc:
+            if self.lock is not None:
+                self.lock.close()
             raise BenchError(f"--can {spec}: cannot open the bus ({exc})") from None
         self._can = can
         self.url = spec
@@ -220,7 +230,11 @@ class CanLink:
                 return out
 
     def close(self) -> None:
-        self.bus.shutdown()
+        try:
+            self.bus.shutdown()
+        finally:
+            if self.lock is not None:
+                self.lock.close()
 
 
 # --- the client ----------------------------------------------------------------------------------

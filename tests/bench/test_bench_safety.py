@@ -398,3 +398,21 @@ def test_any_set_is_applied_whole_or_refused_whole_in_one_line(stepped, assignme
 
 
 _WRITABLE = {p.name for p in msgs.PARAMS if not p.read_only}
+
+
+def test_a_second_client_of_a_can_node_is_refused_naming_the_holder():
+    """CAN as serial: one client per node of a bus on this machine, the refusal naming the holder;
+    another node of the same bus is free, and the lock goes with the client."""
+    from cosim.bench.client import BenchError, CanLink  # noqa: PLC0415
+
+    spec = f"virtual:lock_{os.getpid()}"
+    first = CanLink(spec, node=1)
+    try:
+        with pytest.raises(BenchError) as refused:
+            CanLink(spec, node=1)
+        msg = str(refused.value)
+        assert msg.startswith(f"--can {spec} node 1: in use by another client (pid {os.getpid()}")
+        CanLink(spec, node=2).close()
+    finally:
+        first.close()
+    CanLink(spec, node=1).close()

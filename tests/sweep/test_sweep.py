@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -281,3 +282,70 @@ def test_summary_splits_the_estimate_and_prints_the_peak():
     est = next(line for line in lines if line.startswith("preview, estimate"))
     assert cal.split()[-4:] == ["5.50", "6.00", "11.50", "14.00"]
     assert est.split()[-4:] == ["1.00", "1.20", "4.75", "5.50"]
+
+
+@pytest.mark.slow
+def test_ctrl_c_in_a_running_sweep_is_one_line_and_stops_every_worker(native, tmp_path):
+    """Ctrl-C at a terminal signals the whole process group: the `bowden` console script and its
+    Dask workers at once. The sweep exits 130 with one line (no traceback, and no worker saying
+    that `bowden` was interrupted before it started: the workers inherit the parent's sys.argv)
+    and leaves no process behind."""
+    spec_path = tmp_path / "spec.yaml"
+    spec_path.write_text(SPEC)
+    out = tmp_path / "out"
+    points_dir = out / sweep_run.POINTS_DIR
+    script = os.path.join(os.path.dirname(sys.executable), "bowden")
+    proc = subprocess.Popen(
+        [script, "sweep", str(spec_path), "--out", str(out), "--workers", "2"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    group = [proc.pid]
+    deadline = time.monotonic() + 240
+    while time.monotonic() < deadline and proc.poll() is None:
+        try:
+            group = [proc.pid] + [c.pid for c in psutil.Process(proc.pid).children(True)]
+        except psutil.NoSuchProcess:
+            pass
+        if points_dir.is_dir() and len(list(points_dir.glob("*.json"))) >= 1:
+            break
+        time.sleep(0.05)
+    if proc.poll() is not None:
+        pytest.fail(f"the sweep ended (status {proc.returncode}) before the Ctrl-C")
+    os.killpg(proc.pid, signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.communicate()
+        pytest.fail("the sweep did not end within 60 s of Ctrl-C")
+    time.sleep(0.5)
+    assert proc.returncode == 128 + signal.SIGINT, err
+    assert "Traceback" not in err, err
+    said = [line for line in err.splitlines() if not line.startswith("sweep: ")]
+    assert len(said) == 1 and "interrupted by SIGINT" in said[0], err
+    left = [p for p in group if psutil.pid_exists(p) and psutil.Process(p).status() != "zombie"]
+    assert not left, f"processes of the interrupted sweep still run: {left}"
+
+
+def test_a_sweep_beside_another_cluster_says_nothing_about_ports(native, tmp_path):
+    """Dask's scheduler serves HTTP routes even without a dashboard, by default on port 8787, and
+    warns when that port is taken (a second sweep, a notebook's cluster): the sweep's scheduler
+    takes any free local port and prints only its own lines."""
+    spec_path = tmp_path / "spec.yaml"
+    spec_path.write_text("scenario: fig14\nduration_s: 0.05\naxes:\n  compensator: [paper]\n")
+    taken = socket.socket()
+    try:
+        taken.bind(("0.0.0.0", 8787))
+        taken.listen()
+    except OSError:
+        pass  # already taken by someone else: the case this test wants
+    try:
+        proc = _sweep(spec_path, tmp_path / "out")
+        _, err = proc.communicate(timeout=120)
+    finally:
+        taken.close()
+    assert proc.returncode == 0, err
+    assert [line for line in err.splitlines() if not line.startswith("sweep: ")] == [], err

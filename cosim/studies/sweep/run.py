@@ -260,6 +260,9 @@ def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log) ->
             threads_per_worker=1,
             processes=True,
             dashboard_address=None,
+            # The scheduler still serves its HTTP routes, by default on port 8787, and warns
+            # when a second sweep finds that port taken: any free local port, said nothing.
+            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
             silence_logs=40,  # errors only: the sweep prints its own progress
         )
         client = Client(cluster)
