@@ -396,7 +396,6 @@ class Outcome:
 
     report: dict
     exit_code: int
-    lines: list[str]
 
 
 def run_calibration(
@@ -694,7 +693,7 @@ def _calibrate(client, opts: Options, before_words, state, *, after_run, say, pr
         )
     _write_reports(out, report, series)
     say(f"wrote {out / 'calibration.json'}, {out / 'calibration.md'}, {out / 'calibration.png'}")
-    return Outcome(report, exit_code, [])
+    return Outcome(report, exit_code)
 
 
 def _metrics(m: dict) -> dict:

@@ -187,7 +187,7 @@ def cmd_calibrate(client, args, info, stop_and_confirm) -> int:
             f"the device did NOT confirm that it stopped ({why_not}): it ends the run by "
             "itself; switch the drive off"
         )
-        raise BenchError("calibrate: a run could not be stopped")
+        raise BenchError("a run could not be stopped")
 
     opts = calibrate.Options(
         out_dir=Path(args.out),

@@ -389,3 +389,27 @@ def test_ctrl_c_stops_the_device_and_puts_the_configuration_back(tmp_path):
     finally:
         emu.stop()
     assert not os.path.exists(out / "calibration.json")
+
+
+@pytest.mark.slow
+def test_a_change_that_makes_the_verification_worse_is_undone(tmp_path, monkeypatch):
+    """A proposal gone wrong (comp.mu 0.03 on the nominal plant, planted in place of the
+    audit's): the verification after is worse, the value is put back, exit 1."""
+    real = cal.propose
+
+    def wrong(result, device, phi):
+        changes = real(result, device, phi)
+        for c in changes:
+            if c.name == "comp.mu":
+                c.proposed, c.status, c.reason = 0.03, "change", "planted"
+        return changes
+
+    monkeypatch.setattr(cal, "propose", wrong)
+    with Bench(emulate=True) as bench:
+        outcome, lines = _calibrate(bench, bench.connect_info, tmp_path / "c", apply=True)
+        after = _words(bench.client)
+    assert outcome.exit_code == 1
+    m = outcome.report["measured"]
+    assert m["after"]["rms_error_n"] > m["before"]["rms_error_n"]
+    assert not outcome.report["applied_kept"] and "the changes are undone" in lines[-2]
+    assert after == _before(tmp_path / "c")
