@@ -486,7 +486,9 @@ def _explain(failure, undo_error, state: _State, opts: Options, backup: Path) ->
         if undo_error is None:
             return
         what = "interrupted"
-    msg = f"calibrate: {what} during {state.step}; {holds}; the configuration before: {backup}"
+    msg = f"calibrate: {what} during {state.step}; {holds}"
+    if str(backup) not in holds:
+        msg += f"; the configuration before: {backup}"
     if isinstance(failure, KeyboardInterrupt):
         import sys  # noqa: PLC0415
 

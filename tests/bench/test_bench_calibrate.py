@@ -413,3 +413,49 @@ def test_a_change_that_makes_the_verification_worse_is_undone(tmp_path, monkeypa
     assert m["after"]["rms_error_n"] > m["before"]["rms_error_n"]
     assert not outcome.report["applied_kept"] and "the changes are undone" in lines[-2]
     assert after == _before(tmp_path / "c")
+
+
+@pytest.mark.slow
+def test_the_emulator_gone_mid_run_is_one_line_with_before_json(tmp_path, capsys):
+    """The controller disappears during the identification (the emulator stopped under the
+    command, its socket closed): one line naming the step and before.json, exit 1."""
+    import threading  # noqa: PLC0415
+
+    emu = Emulator(tcp_port=0, pty=False).start()
+    out = tmp_path / "c"
+    ident = out / "identification.csv"
+
+    def kill_when_running() -> None:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            if ident.exists() and ident.read_text().count("\n") > 2000:
+                break
+            time.sleep(0.05)
+        emu.stop()
+
+    killer = threading.Thread(target=kill_when_running, daemon=True)
+    killer.start()
+    try:
+        rc = bench_cli(
+            [
+                "bench",
+                "--port",
+                emu.urls["socket"],
+                "--timeout",
+                "0.3",
+                "calibrate",
+                "--out",
+                str(out),
+                "--apply",
+                "--quiet",
+            ]
+        )
+    finally:
+        killer.join()
+        emu.stop()
+    err = capsys.readouterr().err.strip()
+    assert rc == 1, err
+    assert len(err.splitlines()) == 1, err
+    assert "during the identification run" in err and "no compensator value was written" in err
+    assert str(out / "before.json") in err and (out / "before.json").is_file()
+    assert not (out / "calibration.json").exists()
