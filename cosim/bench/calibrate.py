@@ -32,6 +32,7 @@ succeeded, the compensator values; the caller stops the device after each run
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 import time
@@ -180,7 +181,7 @@ class Change:
     current: float  # device units
     proposed: float | None  # device units (None: nothing to propose)
     audit_value: float  # the audit's extended model's value (its phi)
-    device_as_audit: float  # the device's value in the audit's terms
+    device_as_audit: float | None  # the device's value in the audit's terms
     status: str  # "change", "unchanged", "not significant", "refused"
     reason: str
     stats: dict = field(default_factory=dict)
@@ -211,7 +212,8 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
     data = result.data
     ext = result.extended
     phi_a = audit_phi(data)
-    scale = phi_a / phi_device_rad  # device value = audit value * scale, for mu and slope
+    # device value = audit value * scale, for mu and slope (only mu*phi is observable)
+    scale = phi_a / phi_device_rad if phi_device_rad > 0 else math.nan
     r_ext = ext.residual(data)
     changes = []
     for name, (aparam, by_phi) in AUDITED.items():
@@ -220,8 +222,16 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
         off = 0.0 if aparam == "mu" else BY_PARAM[aparam].off
         a_val = float(ext.params.get(aparam, off))
         cur = float(device[name])
-        dev_as_a = cur / k
-        target = a_val * k
+        if not math.isfinite(k) and not (a_val == off and cur == off):
+            c = Change(name, aparam, cur, None, a_val, None, "refused", "")
+            c.reason = (
+                f"comp.phi_rad is {phi_device_rad:g}: the device's mu*phi cannot be set "
+                "through mu (set comp.phi_rad first)"
+            )
+            changes.append(c)
+            continue
+        dev_as_a = cur / k if math.isfinite(k) else cur
+        target = a_val * k if math.isfinite(k) else a_val
         c = Change(name, aparam, cur, None, a_val, dev_as_a, "unchanged", "")
         if _same_word(p, target, cur):
             c.reason = "the audit's value is the device's (to its resolution)"

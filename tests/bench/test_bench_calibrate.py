@@ -136,6 +136,21 @@ def test_a_value_outside_the_compensators_limits_is_refused(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.slow
+def test_a_device_phi_of_zero_refuses_mu(tmp_path):
+    """comp.phi_rad 0: no comp.mu gives the plant's mu*phi; refused with the reason."""
+    with Bench(emulate=True) as bench:
+        bench.set(comp_phi_rad=0.0)
+        outcome, _ = _calibrate(bench, bench.info(), tmp_path / "c", apply=True)
+        after = _words(bench.client)
+    c = {c["name"]: c for c in outcome.report["changes"]}
+    assert c["comp.mu"]["status"] == "refused" and "comp.phi_rad is 0" in c["comp.mu"]["reason"]
+    assert c["comp.mu_slope_per_n"]["status"] == "unchanged"  # 0, and the audit found none
+    assert after == _before(tmp_path / "c")
+    json.loads((tmp_path / "c" / "calibration.json").read_text())  # valid JSON (no NaN)
+
+
+@pytest.mark.slow
 def test_an_offset_the_device_has_and_the_plant_does_not_is_taken_back(tmp_path):
     """A value the device holds is judged as the audit's value is: an offset of 0.5 N that the
     plant does not have makes the audit's model worse, so it goes back to 0."""
