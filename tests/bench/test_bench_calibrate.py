@@ -2,15 +2,10 @@
 mu the compensator does not know and applies it, proposes nothing on the nominal plant, refuses
 values outside the compensator's limits, never touches the loop gains, and leaves the device as
 it was when the link drops mid-run (before.json written, one line); bad options are one line and
-exit 2. The stepped emulator (no wall clock) keeps these to seconds; the runs over a pty and CAN
-in real time are marked slow."""
+exit 2. The stepped emulator (no wall clock) keeps these to seconds, the longer ones are marked
+slow; the runs over real links are in tests/bench/test_bench_calibrate_links.py."""
 
 import json
-import os
-import signal
-import subprocess
-import sys
-import time
 
 import numpy as np
 import pytest
@@ -19,11 +14,10 @@ from cosim.bench import calibrate as cal
 from cosim.bench import messages as msgs
 from cosim.bench.__main__ import main as bench_cli
 from cosim.bench.api import Bench
-from cosim.bench.client import BenchClient, BenchError, SerialLink
+from cosim.bench.client import BenchClient, BenchError
 from cosim.bench.device import ChainConfig
-from cosim.bench.emulator import Emulator, SteppedLink
+from cosim.bench.emulator import SteppedLink
 from cosim.bench.protocol import value_from_word
-from cosim.project.paths import REPO_ROOT
 
 # Stated tolerance of the mu found on the emulated plant (whose mu the audit fits to 5e-4 on a
 # sine, tests/audit/test_audit_bench.py): 1 % of the plant's.
@@ -135,7 +129,6 @@ def test_a_value_outside_the_compensators_limits_is_refused(tmp_path):
     assert any("kept: refused" in line for line in lines)
 
 
-@pytest.mark.slow
 @pytest.mark.slow
 def test_a_device_phi_of_zero_refuses_mu(tmp_path):
     """comp.phi_rad 0: no comp.mu gives the plant's mu*phi; refused with the reason."""
@@ -314,98 +307,6 @@ def test_calibrate_command_applies_and_persists_on_the_stepped_emulator(tmp_path
     assert "| comp.mu | 0.075 |" in (out / "calibration.md").read_text()
 
 
-def _real_time_calibrate(args, out, capsys):
-    rc = bench_cli([*args, "calibrate", "--out", str(out), "--apply", "--quiet"])
-    captured = capsys.readouterr()
-    assert rc == 0, captured.out + captured.err
-    rep = json.loads((out / "calibration.json").read_text())
-    assert rep["applied"]["comp.mu"] == pytest.approx(0.09, rel=MU_TOLERANCE)
-    m = rep["measured"]
-    assert m["after"]["rms_error_n"] < 0.5 * m["before"]["rms_error_n"]
-    return captured.out
-
-
-@pytest.mark.slow
-def test_calibrate_over_a_pty_in_real_time(tmp_path, capsys):
-    emu = Emulator(tcp_port=None, chain=ChainConfig(plant={"mu": 0.09})).start()
-    try:
-        text = _real_time_calibrate(["bench", "--port", emu.urls["pty"]], tmp_path / "c", capsys)
-        assert f"bowden bench --port {emu.urls['pty']} restore" in text
-        probe = BenchClient(SerialLink(emu.urls["pty"]))
-        try:
-            probe.connect()
-            assert probe.get("comp.mu") == pytest.approx(0.09, rel=MU_TOLERANCE)
-            assert not probe.hello().running
-        finally:
-            probe.link.close()
-    finally:
-        emu.stop()
-
-
-@pytest.mark.slow
-def test_calibrate_over_can_in_real_time(tmp_path, capsys):
-    args = ["bench", "--can", "virtual:calibrate", "--emulate", "--plant", "mu=0.09"]
-    text = _real_time_calibrate(args, tmp_path / "c", capsys)
-    assert "bowden bench --can virtual:calibrate --node 1 --emulate restore" in text
-
-
-@pytest.mark.slow
-def test_ctrl_c_stops_the_device_and_puts_the_configuration_back(tmp_path):
-    """SIGINT during the identification run (a `bowden bench` process on the emulator's socket):
-    exit 130, one line, the device stopped with its output disabled, the run's settings put
-    back."""
-    emu = Emulator(tcp_port=0, pty=False).start()
-    url = emu.urls["socket"]
-    out = tmp_path / "c"
-    try:
-        proc = subprocess.Popen(
-            [
-                sys.executable,
-                "-m",
-                "cosim",
-                "bench",
-                "--port",
-                url,
-                "calibrate",
-                "--out",
-                str(out),
-                "--apply",
-                "--quiet",
-            ],
-            cwd=REPO_ROOT,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
-        try:
-            deadline = time.monotonic() + 60
-            ident = out / "identification.csv"
-            while not (ident.exists() and ident.read_text().count("\n") > 500):
-                assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
-                time.sleep(0.05)
-            proc.send_signal(signal.SIGINT)
-            _, err = proc.communicate(timeout=30)
-        finally:
-            if proc.poll() is None:
-                proc.kill()
-        assert proc.returncode == 130, err
-        assert "interrupted by SIGINT" in err and "output disabled" in err
-        assert len(err.strip().splitlines()) == 1, err
-        probe = BenchClient(SerialLink(url))
-        try:
-            assert not probe.hello().running
-            _, faults = probe.request("FAULTS_GET")
-            from cosim.cli.bench import STATUS_OUT_EN  # noqa: PLC0415
-
-            assert not faults["fpga_status"] & STATUS_OUT_EN
-            assert probe.params() == _before(out)
-        finally:
-            probe.link.close()
-    finally:
-        emu.stop()
-    assert not os.path.exists(out / "calibration.json")
-
-
 @pytest.mark.slow
 def test_a_change_that_makes_the_verification_worse_is_undone(tmp_path, monkeypatch):
     """A proposal gone wrong (comp.mu 0.03 on the nominal plant, planted in place of the
@@ -428,49 +329,3 @@ def test_a_change_that_makes_the_verification_worse_is_undone(tmp_path, monkeypa
     assert m["after"]["rms_error_n"] > m["before"]["rms_error_n"]
     assert not outcome.report["applied_kept"] and "the changes are undone" in lines[-2]
     assert after == _before(tmp_path / "c")
-
-
-@pytest.mark.slow
-def test_the_emulator_gone_mid_run_is_one_line_with_before_json(tmp_path, capsys):
-    """The controller disappears during the identification (the emulator stopped under the
-    command, its socket closed): one line naming the step and before.json, exit 1."""
-    import threading  # noqa: PLC0415
-
-    emu = Emulator(tcp_port=0, pty=False).start()
-    out = tmp_path / "c"
-    ident = out / "identification.csv"
-
-    def kill_when_running() -> None:
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline:
-            if ident.exists() and ident.read_text().count("\n") > 2000:
-                break
-            time.sleep(0.05)
-        emu.stop()
-
-    killer = threading.Thread(target=kill_when_running, daemon=True)
-    killer.start()
-    try:
-        rc = bench_cli(
-            [
-                "bench",
-                "--port",
-                emu.urls["socket"],
-                "--timeout",
-                "0.3",
-                "calibrate",
-                "--out",
-                str(out),
-                "--apply",
-                "--quiet",
-            ]
-        )
-    finally:
-        killer.join()
-        emu.stop()
-    err = capsys.readouterr().err.strip()
-    assert rc == 1, err
-    assert len(err.splitlines()) == 1, err
-    assert "during the identification run" in err and "no compensator value was written" in err
-    assert str(out / "before.json") in err and (out / "before.json").is_file()
-    assert not (out / "calibration.json").exists()
