@@ -389,6 +389,10 @@ class LoopChain:
     def _py_step(self, time_us: int) -> None:
         m, dev = self.model, self.device
         t_out = _tension_word(self.plant.y[self.plant.T_OUT_MEAS])
+        # The far-end load cell as the front-end's second channel codes it (as the C chain).
+        code_out = rtl_model.adc_code_from_tension(
+            self.plant.y[self.plant.T_OUT_MEAS], self.adc_offset, self.adc_gain
+        )
         self._py_sample()
         status = (
             (regmap.STATUS_OUT_EN if m.out_en else 0)
@@ -401,6 +405,8 @@ class LoopChain:
         dev.shadow_set(regmap.T_IN, m.t_in)
         dev.shadow_set(regmap.U, m.u)
         dev.shadow_set(regmap.SAMPLE_COUNT, m.sample_count)
+        dev.shadow_set(regmap.T_OUT, code_out & 0xFFFFFF)  # a 24-bit code
+        dev.shadow_set(regmap.ADC_FLAGS, 0)
         dev.tick(time_us, t_out)
         self._pending = dev.drain_writes()
         self._wait = 1

@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PROTOCOL_VERSION = 2
-TABLE_HASH = 0x1E4F58F6
+TABLE_HASH = 0xA97A4087
 MAX_PAYLOAD = 48
 CAN_NODE_BITS = 6
 CAN_MESSAGE_BITS = 5
@@ -352,9 +352,11 @@ MESSAGES: dict[str, Message] = {
             Field("current", "h", 2, None, 0.000244140625, "A"),
             Field("faults", "B", 1, None, None, "", "faults"),
             Field("status", "B", 1, None, None, "", "status"),
+            Field("mu_phi", "H", 2, None, 6.103515625e-05),
+            Field("est_faults", "B", 1),
         ),
-        24,
-        24,
+        27,
+        27,
         True,
     ),
     "TELEM_A": Message(

@@ -328,6 +328,9 @@ class CanReassembler:
             current=values["current"],
             faults=values["faults"],
             status=0,
+            # Not carried over CAN (TELEM_A and TELEM_B are full): the recorder leaves them out.
+            mu_phi=0,
+            est_faults=0,
         )
         return [Frame(msg=msgs.MESSAGES["TELEMETRY"].id, seq=0, payload=payload)]
 

@@ -6,9 +6,11 @@ moment (Ctrl-C, SIGKILL, a pulled cable) leaves a CSV whose rows are complete up
 second, readable by `python -m cosim.results.trace` and the model audit.
 
 Columns: the trace format's (t_s from the sample index, tensions in N, current_A the current
-command) and `sample`, `device_time_s`, `faults`, `status`. The bench does not measure the
-end-effector position or the motor angle: x_m, y_m, z_m hold the position given with
---position (held constant) and motor_angle_rad is 0; the sidecar says so
+command) and `sample`, `device_time_s`, `faults`, `status`, and over a serial link `mu_phi` (the
+friction exponent the compensator applies: the online estimate while it is on) and `est_faults`
+(the estimate's fault bits; CAN's two telemetry frames have no room for them). The bench does
+not measure the end-effector position or the motor angle: x_m, y_m, z_m hold the position given
+with --position (held constant) and motor_angle_rad is 0; the sidecar says so
 (`columns_not_measured`, `position_source`).
 
 `record_run` starts a run on a connected BenchClient and records it (sample gaps are drops: they
@@ -29,18 +31,26 @@ from pathlib import Path
 from cosim.results import trace as trace_mod
 
 from . import messages as msgs
-from .client import BenchClient, BenchError, BenchUsageError, fault_names
+from .client import BenchClient, BenchError, BenchUsageError, CanLink, fault_names
 
 Q7_8_LSB_N = 1.0 / 256.0
 Q3_12_LSB_A = 1.0 / 4096.0
 FLUSH_PERIOD_S = 1.0
 EXTRA_COLUMNS = ("sample", "device_time_s", "faults", "status")
+ESTIMATE_COLUMNS = ("mu_phi", "est_faults")  # serial telemetry only
+MU_PHI_LSB = 1.0 / 16384.0  # TELEMETRY.mu_phi is UQ2.14
 
 
 class TraceRecorder:
     """Append telemetry rows to a trace CSV; the sidecar is written when the recorder opens."""
 
-    def __init__(self, csv_path: str | Path, meta: dict, position_m: tuple[float, float, float]):
+    def __init__(
+        self,
+        csv_path: str | Path,
+        meta: dict,
+        position_m: tuple[float, float, float],
+        estimate: bool = False,
+    ):
         self.path = Path(csv_path)
         meta = trace_mod.validate_meta(dict(meta), str(trace_mod.meta_path(self.path)))
         self.rate_hz = float(meta["sample_rate_hz"])
@@ -49,7 +59,9 @@ class TraceRecorder:
         mpath = trace_mod.meta_path(self.path)
         mpath.write_text(json.dumps(meta, indent=2, sort_keys=True) + "\n")
         self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
-        header = ",".join(trace_mod.COLUMNS + EXTRA_COLUMNS) + "\n"
+        self.estimate = estimate
+        columns = trace_mod.COLUMNS + EXTRA_COLUMNS + (ESTIMATE_COLUMNS if estimate else ())
+        header = ",".join(columns) + "\n"
         os.write(self._fd, header.encode())
         os.fsync(self._fd)
         self._rows: list[str] = []
@@ -66,13 +78,16 @@ class TraceRecorder:
             self._time_base += 1 << 32
         self._last_time_us = tu
         x, y, z = self.position
-        self._rows.append(
+        row = (
             f"{t['sample'] / self.rate_hz:.9g},{t['t_ref'] * Q7_8_LSB_N:.9g},"
             f"{t['t_c'] * Q7_8_LSB_N:.9g},{t['t_in'] * Q7_8_LSB_N:.9g},"
             f"{t['t_out'] * Q7_8_LSB_N:.9g},{x:.9g},{y:.9g},{z:.9g},"
             f"{t['current'] * Q3_12_LSB_A:.9g},0,{t['sample']},"
-            f"{(self._time_base + tu) * 1e-6:.9g},{t['faults']},{t['status']}\n"
+            f"{(self._time_base + tu) * 1e-6:.9g},{t['faults']},{t['status']}"
         )
+        if self.estimate:
+            row += f",{t['mu_phi'] * MU_PHI_LSB:.9g},{t['est_faults']}"
+        self._rows.append(row + "\n")
         self.rows += 1
         if time.monotonic() - self._last_flush >= FLUSH_PERIOD_S:
             self.flush()
@@ -189,7 +204,8 @@ def record_run(
     if waveform != "stream":
         meta.update({"mean_n": mean_n, "amplitude_n": amplitude_n, "freq_hz": freq_hz})
     result = RunResult(expected=(ticks + div - 1) // div)
-    rec = TraceRecorder(out_csv, meta, position_m)
+    # The estimate's columns travel over a serial link only (CAN's telemetry frames are full).
+    rec = TraceRecorder(out_csv, meta, position_m, estimate=not isinstance(client.link, CanLink))
     next_sample = 0
     last_report = 0.0
     t0 = time.monotonic()

@@ -13,7 +13,7 @@
 #include <stdint.h>
 
 #define PROTO_VERSION 2u
-#define PROTO_TABLE_HASH 0x1E4F58F6u
+#define PROTO_TABLE_HASH 0xA97A4087u
 #define PROTO_MAX_PAYLOAD 48u
 #define PROTO_N_PARAMS 40u
 #define PROTO_CAN_NODE_BITS 6u
@@ -88,8 +88,8 @@
 #define PROTO_ERROR_MIN_LEN 6u
 #define PROTO_ERROR_MAX_LEN 46u
 #define PROTO_ERROR_TEXT_MAX 40u
-#define PROTO_TELEMETRY_MIN_LEN 24u
-#define PROTO_TELEMETRY_MAX_LEN 24u
+#define PROTO_TELEMETRY_MIN_LEN 27u
+#define PROTO_TELEMETRY_MAX_LEN 27u
 #define PROTO_TELEM_A_MIN_LEN 8u
 #define PROTO_TELEM_A_MAX_LEN 8u
 #define PROTO_TELEM_B_MIN_LEN 8u
@@ -274,6 +274,8 @@ typedef struct {
     int16_t current; /* current command U, Q3.12 A (A) */
     uint8_t faults; /* fault bits */
     uint8_t status; /* status bits */
+    uint16_t mu_phi; /* the friction exponent mu*phi the compensator applies, UQ2.14 (saturated at 4 - 2^-14): the online estimate while comp.est_enable is on, else the configured one */
+    uint8_t est_faults; /* the online estimate's latched faults (fric_est.h): bit 0 ADC flags, 1 far-end code out of range, 2 far-end code stuck, 3 estimate out of bounds; 0 while the estimate is off */
 } proto_telemetry_t;
 uint32_t proto_telemetry_pack(const proto_telemetry_t *m, uint8_t *buf);
 int proto_telemetry_unpack(proto_telemetry_t *m, const uint8_t *buf, uint32_t len);

@@ -603,6 +603,11 @@ void dev_tick(dev_t *d, uint32_t time_us, int32_t t_out_q8)
         m.status = (uint8_t)(PROTO_STATUS_RUNNING |
                              ((t->status << PROTO_STATUS_FPGA_SHIFT) & PROTO_STATUS_FPGA_MASK) |
                              ((t->direction > 0) ? PROTO_STATUS_LOADING : 0U));
+        /* mu*phi from Q3.28 (>= 0: the estimate's bounds and the exponent's check keep it so) to
+         * UQ2.14, truncated, saturated at the field's top. */
+        int32_t mu_phi_q14 = t->est_mu_phi_q28 >> 14;
+        m.mu_phi = (uint16_t)((mu_phi_q14 < 0) ? 0 : (mu_phi_q14 > 0xFFFF) ? 0xFFFF : mu_phi_q14);
+        m.est_faults = (uint8_t)t->est_faults;
         proto_frame_t f;
         frame_init(&f, PROTO_MSG_TELEMETRY, 0U);
         f.len = (uint8_t)proto_telemetry_pack(&m, f.payload);

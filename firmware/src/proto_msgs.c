@@ -509,12 +509,16 @@ uint32_t proto_telemetry_pack(const proto_telemetry_t *m, uint8_t *buf)
     buf[n++] = (uint8_t)(u >> 8);
     buf[n++] = (uint8_t)m->faults;
     buf[n++] = (uint8_t)m->status;
+    u = (uint16_t)m->mu_phi;
+    buf[n++] = (uint8_t)(u);
+    buf[n++] = (uint8_t)(u >> 8);
+    buf[n++] = (uint8_t)m->est_faults;
     return n;
 }
 
 int proto_telemetry_unpack(proto_telemetry_t *m, const uint8_t *buf, uint32_t len)
 {
-    if (len != 24u) {
+    if (len != 27u) {
         return 0;
     }
     uint32_t n = 0;
@@ -545,6 +549,10 @@ int proto_telemetry_unpack(proto_telemetry_t *m, const uint8_t *buf, uint32_t le
     m->current = (int16_t)((int32_t)u - ((u >> 15) << 16));
     m->faults = buf[n++];
     m->status = buf[n++];
+    u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8);
+    n += 2;
+    m->mu_phi = (uint16_t)u;
+    m->est_faults = buf[n++];
     return 1;
 }
 
@@ -739,7 +747,7 @@ uint32_t proto_msg_min_len(uint32_t msg)
     case PROTO_MSG_ERROR:
         return 6u;
     case PROTO_MSG_TELEMETRY:
-        return 24u;
+        return 27u;
     case PROTO_MSG_TELEM_A:
         return 8u;
     case PROTO_MSG_TELEM_B:
@@ -797,7 +805,7 @@ uint32_t proto_msg_max_len(uint32_t msg)
     case PROTO_MSG_ERROR:
         return 46u;
     case PROTO_MSG_TELEMETRY:
-        return 24u;
+        return 27u;
     case PROTO_MSG_TELEM_A:
         return 8u;
     case PROTO_MSG_TELEM_B:

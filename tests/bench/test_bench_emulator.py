@@ -171,6 +171,13 @@ def test_run_records_1khz_without_gaps(kind, emulator, tmp_path, capsys):
     tr = _check_trace(out, 2.0)
     assert tr.meta["source"] == "bowden bench" and tr.meta["compensator"] == "paper"
     assert tr.meta["columns_not_measured"] == ["x_m", "y_m", "z_m", "motor_angle_rad"]
+    # The friction exponent in force travels in serial telemetry only (CAN's frames are full):
+    # here the configured one, comp.mu * comp.phi_rad = 0.075 * 2 pi, to its UQ2.14 LSB.
+    if kind == "can":
+        assert "mu_phi" not in tr.columns and "est_faults" not in tr.columns
+    else:
+        np.testing.assert_allclose(tr["mu_phi"], 0.075 * 2 * np.pi, atol=2.0**-14)
+        assert not np.any(tr["est_faults"])
 
 
 def test_garbage_both_ways_is_counted_and_the_run_goes_on(emulator, tmp_path):

@@ -99,6 +99,19 @@ def test_native_matches_cocotb_with_the_sinc3_adc_slew_limit_and_no_loop(builds)
     _both("fig14", "paper", "board", 1.5, cfg=cfg, loop_routing=False)
 
 
+@pytest.mark.parametrize("failure", [{}, {"t_out_stuck_s": 1.2, "t_out_absent_s": 1.6}])
+def test_native_matches_cocotb_with_the_online_friction_estimate(builds, failure):
+    """The firmware's online estimate fed from the far-end cell through the board's ADC (the
+    front-end's second channel), on a plant whose mu is 20 % above the calibration, healthy and
+    with the far-end cell stuck then absent: the same estimate and record in both engines."""
+    cfg = SimConfig.from_dict(
+        {"compensator": {"est_enable": 1}, "plant": {"mu": 0.09}, "board": failure}
+    )
+    fixed, _ = _both("fig14", "preview", "board", FIG14_S, cfg=cfg)
+    est = fixed["mu_phi_est"]
+    assert est[0] == pytest.approx(0.075 * 2 * np.pi, abs=2.0**-20) and est.max() > est[0] * 1.1
+
+
 def test_native_matches_cocotb_on_characterize_and_positions(builds):
     _, res = _both("characterize", "none", "board", 3.0)
     assert res["friction_fit"][0]["mu"] == pytest.approx(0.075, rel=0.03)

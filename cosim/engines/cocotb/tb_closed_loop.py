@@ -56,7 +56,7 @@ from cosim.engines.common import (
     store_plant_rows,
 )
 from cosim.engines.fwbridge import FirmwareBridge, loop_words
-from cosim.parts import regmap
+from cosim.parts import regmap, rtl_model
 from cosim.parts.firmware import tension_word
 from cosim.parts.interface import make_chain
 
@@ -133,7 +133,17 @@ async def closed_loop(dut):
     # The plant at rest gives the ADC samples of the start-up (kept coming every sample, so the
     # stale-ADC fault sees a live converter); start-up writes: gains, calibration, enable.
     chain = make_chain(cfg, spec.get("interface", "board"), True, adc_offset, adc_gain)
+    # The far-end load cell for the online friction estimate (the front-end's second channel,
+    # the same conversion as T_in's, then the scenario's failure): the firmware reads T_OUT and
+    # ADC_FLAGS, and T_IN at every tick, from these codes (as the native engine's firmware_wake).
+    est_on = bool(cfg.compensator.est_enable) and spec["compensator"] != "none"
+    far = make_chain(cfg, spec.get("interface", "board"), True, adc_offset, adc_gain)
+    stuck_s, absent_s = cfg.board.t_out_stuck_s, cfg.board.t_out_absent_s
+    codes = {"in": 0, "out": 0}
     code0 = chain.start(plant.y[plant.T_IN_MEAS])
+    codes["in"] = code0
+    if est_on:
+        codes["out"] = far.start(plant.y[plant.T_OUT_MEAS])
     sample_ns = cps * clk_ns
     starting = [True]
 
@@ -157,6 +167,7 @@ async def closed_loop(dut):
 
     # --- the firmware task ------------------------------------------------------------------
     fw_wake = Event()
+    est_ticks: list[tuple[int, int]] = []  # (sample, mu*phi in force Q3.28) per firmware tick
     fw_state = {"k": 0, "late_writes": 0, "tc_mismatch": 0, "ticks": 0, "checks": 0, "wake_ns": 0}
     tc_new = [0.0]
 
@@ -168,6 +179,8 @@ async def closed_loop(dut):
             t_fw = time.perf_counter()
             tc_n, writes = fw.tick(fw_ref[k])
             cost["firmware_s"] += time.perf_counter() - t_fw
+            if est_on:
+                est_ticks.append((k, fw.fw.telemetry()["est_mu_phi_q28"]))
             tc_new[0] = tc_n
             # Tick k+2 is at C(k+2) clocks; the wake-up was at Ck + L + 0.5 = C(k+1) - 0.5.
             deadline = fw_state["wake_ns"] + (TC_LATENCY_SAMPLES - 1) * sample_ns + clk_ns // 2
@@ -203,7 +216,9 @@ async def closed_loop(dut):
     write_adc = fastio.writer(dut.adc_word)
     step = plant.step
     pu, py = plant.u, plant.y
-    T_IN_MEAS = plant.T_IN_MEAS
+    T_IN_MEAS, T_OUT_MEAS = plant.T_IN_MEAS, plant.T_OUT_MEAS
+    far_sense = far.sense
+    dt_s = 1.0 / cfg.sample_rate_hz
     xs, ys, zs = inp.x_m.tolist(), inp.y_m.tolist(), inp.z_m.tolist()
     out_tc, out_u = rec["T_c_N"], rec["current_A"]
     rows, y_row = plant_rows(plant, n)
@@ -248,11 +263,24 @@ async def closed_loop(dut):
             t_c = perf()
             step(dt_seg)
             fmu_s += perf() - t_c
+        if est_on:
+            c_out = far_sense(k, py[T_OUT_MEAS])
+            t_s = (k + 1) * dt_s
+            if absent_s is not None and t_s >= absent_s:
+                codes["out"] = rtl_model.ADC_CODE_MAX  # an open bridge at the rail
+            elif stuck_s is None or t_s < stuck_s:
+                codes["out"] = codes["out"] if c_out is None else c_out
         code = sense(k, py[T_IN_MEAS])
         if code is not None:
+            codes["in"] = code
             toggle ^= 1 << 24
             write_adc(toggle | (code & 0xFFFFFF))
         if k % dec == 0:
+            if est_on:
+                t_in = rtl_model.calibrate(codes["in"], adc_offset, adc_gain)
+                fw.shadow_set(regmap.T_IN, t_in & 0xFFFFFFFF)
+                fw.shadow_set(regmap.T_OUT, codes["out"] & 0xFFFFFF)
+                fw.shadow_set(regmap.ADC_FLAGS, 0)
             fw_state["k"] = k
             fw_state["wake_ns"] = get_sim_time("ns")
             fw_wake.set()
@@ -278,6 +306,11 @@ async def closed_loop(dut):
     rec["y_m"][:] = inp.y_m
     rec["z_m"][:] = inp.z_m
     rec["u_word"] = u_words.astype(np.float64)
+    if est_on:  # the firmware's mu*phi in force at each sample (its last tick's)
+        est = np.zeros(n, dtype=np.int64)
+        for k, x in est_ticks:
+            est[k:] = x
+        rec["mu_phi_est"] = est / 2.0**28
     # Cost split: the RTL's own cost is the calibrated bare sample times the samples; the waits
     # beyond it are the firmware's ticks (run inside them) and the AXI driver's coroutines
     # (harness); FMU steps are timed directly; the rest is the harness's per-sample glue.

@@ -63,9 +63,9 @@ static const proto_vector_t proto_vectors[PROTO_N_VECTORS] = {
     {PROTO_MSG_ERROR, 20u, 46u, "13263947f38f6c3036597c4046692d5056793d60242a4d70343a5d21444a6d31545a7d4164282e5174383e612548", "003602141413263947f38f6c3036597c4046692d5056793d60242a4d70343a5d21444a6d31545a7d4164282e5174383e612548bcd4c3c600", 8u, {52u, 52u, 52u, 52u, 52u, 52u, 52u, 52u}, {"14002e13263947f3", "14018f6c3036597c", "14024046692d5056", "1403793d60242a4d", "140470343a5d2144", "14054a6d31545a7d", "14064164282e5174", "1407383e612548"}},
     {PROTO_MSG_ERROR, 21u, 6u, "000000000000", "0004021415010101010105a42aa7a200", 2u, {52u, 52u}, {"1500060000000000", "150100"}},
     {PROTO_MSG_ERROR, 22u, 46u, "ffff0000008061616161616161616161616161616161616161616161616161616161616161616161616161616161", "0006021416ffff01012e8061616161616161616161616161616161616161616161616161616161616161616161616161616161f1d7bb2400", 8u, {52u, 52u, 52u, 52u, 52u, 52u, 52u, 52u}, {"16002effff000000", "1601806161616161", "1602616161616161", "1603616161616161", "1604616161616161", "1605616161616161", "1606616161616161", "16076161616161"}},
-    {PROTO_MSG_TELEMETRY, 21u, 24u, "136da6da26da4cb53947f38f4cb45f21728e85fb9868abbe", "0020021515136da6da26da4cb53947f38f4cb45f21728e85fb9868abbee79eceb300", 0u, {0u}, {0}},
-    {PROTO_MSG_TELEMETRY, 22u, 24u, "000000000000000000000000000000000000000000000000", "00040215160101010101010101010101010101010101010101010101056a2fd31c00", 0u, {0u}, {0}},
-    {PROTO_MSG_TELEMETRY, 23u, 24u, "ffffffffffffffffffffffff00800080008000800080ffff", "0010021517ffffffffffffffffffffffff02800280028002800880ffff4ae316e800", 0u, {0u}, {0}},
+    {PROTO_MSG_TELEMETRY, 21u, 27u, "136da6da26da4cb53947f38f4cb45f21728e85fb9868abbed1afe4", "0023021515136da6da26da4cb53947f38f4cb45f21728e85fb9868abbed1afe452ff803800", 0u, {0u}, {0}},
+    {PROTO_MSG_TELEMETRY, 22u, 27u, "000000000000000000000000000000000000000000000000000000", "0004021516010101010101010101010101010101010101010101010101010105c34f0a6900", 0u, {0u}, {0}},
+    {PROTO_MSG_TELEMETRY, 23u, 27u, "ffffffffffffffffffffffff00800080008000800080ffffffffff", "0010021517ffffffffffffffffffffffff02800280028002800b80ffffffffff1844e33600", 0u, {0u}, {0}},
     {PROTO_MSG_TEXT_GET, 120u, 6u, "136da6da26da", "000e021878136da6da26dab390b26400", 1u, {56u}, {"78136da6da26da"}},
     {PROTO_MSG_TEXT_GET, 221u, 6u, "000000000000", "00040218dd010101010104ce58750100", 1u, {56u}, {"dd000000000000"}},
     {PROTO_MSG_TEXT_GET, 66u, 6u, "00000080ffff", "000402184201010880ffffd7e131bf00", 1u, {56u}, {"4200000080ffff"}},
@@ -135,9 +135,9 @@ static const proto_error_t proto_vectors_error[3] = {
     {255, 255, (-2147483647 - 1), 40u, {97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97}},
 };
 static const proto_telemetry_t proto_vectors_telemetry[3] = {
-    {3668339987UL, 3041712678UL, 2415085369UL, -19380, 8543, -29070, -1147, 26776, 171, 190},
-    {0UL, 0UL, 0UL, 0, 0, 0, 0, 0, 0, 0},
-    {4294967295UL, 4294967295UL, 4294967295UL, -32768, -32768, -32768, -32768, -32768, 255, 255},
+    {3668339987UL, 3041712678UL, 2415085369UL, -19380, 8543, -29070, -1147, 26776, 171, 190, 45009, 228},
+    {0UL, 0UL, 0UL, 0, 0, 0, 0, 0, 0, 0, 0, 0},
+    {4294967295UL, 4294967295UL, 4294967295UL, -32768, -32768, -32768, -32768, -32768, 255, 255, 65535, 255},
 };
 static const proto_text_get_t proto_vectors_text_get[3] = {
     {-626627309L, 55846},
@@ -229,7 +229,7 @@ static inline int proto_equal_error(const proto_error_t *a, const proto_error_t 
 
 static inline int proto_equal_telemetry(const proto_telemetry_t *a, const proto_telemetry_t *b)
 {
-    return a->time_us == b->time_us && a->sample == b->sample && a->overflow == b->overflow && a->t_ref == b->t_ref && a->t_c == b->t_c && a->t_in == b->t_in && a->t_out == b->t_out && a->current == b->current && a->faults == b->faults && a->status == b->status;
+    return a->time_us == b->time_us && a->sample == b->sample && a->overflow == b->overflow && a->t_ref == b->t_ref && a->t_c == b->t_c && a->t_in == b->t_in && a->t_out == b->t_out && a->current == b->current && a->faults == b->faults && a->status == b->status && a->mu_phi == b->mu_phi && a->est_faults == b->est_faults;
 }
 
 static inline int proto_equal_telem_a(const proto_telem_a_t *a, const proto_telem_a_t *b)

@@ -167,6 +167,10 @@ static void test_dev_run_telemetry_and_overflow(void)
     CHECK(t.sample == 99U && t.time_us == 99000U && t.t_out == 1234 && t.t_in == -256,
           "last frame");
     CHECK(t.t_ref == host.fw.tel.t_ref && (t.status & PROTO_STATUS_RUNNING) != 0U, "fields");
+    /* mu*phi in force (the configured one: the estimate is off by default), Q3.28 -> UQ2.14 */
+    CHECK(t.mu_phi == (uint16_t)(comp_config_exponent_q28(&host.dev.settings.fw.comp) >> 14) &&
+              t.mu_phi > 0U && t.est_faults == 0U,
+          "mu_phi %u", t.mu_phi);
     CHECK(host.dev.running == 0U, "stopped after its duration");
     g = request(0U, PROTO_MSG_START, 3U, (const uint8_t[4]){0, 0, 0, 0}, 4U);
     CHECK(error_code(&g) == PROTO_ERR_INVALID_VALUE && host.dev.running == 0U,

@@ -277,7 +277,8 @@ static void test_can_rx_errors(void)
     proto_can_frame_t empty = {cf[0].id, 0U, {0}};
     CHECK(proto_can_rx(&rx, 1U, &empty, &g) == 0 && rx.stats.short_frames == 1U, "empty");
     /* telemetry: two frames, A then B, with the sample's low byte pairing them */
-    proto_telemetry_t t = {1000U, 0x12345678UL, 3U, 100, -200, 300, -400, 500, 0x11U, 0x21U};
+    proto_telemetry_t t = {1000U, 0x12345678UL, 3U, 100, -200, 300,
+                           -400, 500, 0x11U, 0x21U, 0x8000U, 0x5U};
     f.msg = PROTO_MSG_TELEMETRY;
     f.len = (uint8_t)proto_telemetry_pack(&t, f.payload);
     CHECK(proto_can_encode(1U, &f, cf, 2U) == 2U, "telemetry frames");
