@@ -33,12 +33,13 @@ PERF_TARGETS :=
 
 include $(sort $(wildcard mk/*.mk))
 
-.PHONY: help setup doctor lint lint-py test test-quick demo perf bench build clean distclean
+.PHONY: help setup doctor lint lint-py test test-quick test-long demo perf bench build clean distclean
 
 help:
 	@echo "make demo     run the main job (closed-loop co-simulation of the paper's experiment)"
-	@echo "make test     lint, build and run the whole test suite"
+	@echo "make test     lint, build and run the test suite (all but the tests marked long)"
 	@echo "make test-quick  the edit loop: Python lint, unit suites, one short closed loop"
+	@echo "make test-long   whole procedures in real time over real links (marker long)"
 	@echo "make lint     Verilator -Wall on the RTL, C with -Werror, ruff on Python"
 	@echo "make perf     benchmarks: speed, instruction counts, FPGA resources and Fmax"
 	@echo "make setup    only create .venv and install the pinned dependencies"
@@ -75,7 +76,13 @@ lint-py: $(VENV_STAMP)
 build: $(VENV_STAMP) $(BUILD_TARGETS)
 
 test: lint build
-	$(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=15 $(PYTEST_ARGS)
+	$(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=15 -m "not long" $(PYTEST_ARGS)
+
+# Whole procedures at the wall clock's pace over real links (pytest marker `long`, e.g. a whole
+# `bowden bench calibrate` over a pty and over CAN, about a minute each): their steps are in
+# `make test` on the stepped emulator; these show the same over the links a user has.
+test-long: build
+	$(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=5 -m long $(PYTEST_ARGS)
 
 # The edit loop: Python lint, the unit suites and one short closed loop on the native engine
 # (no Verilator model, no synthesis, no formal); tests marked slow are left to `make test`.

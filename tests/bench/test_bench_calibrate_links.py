@@ -40,6 +40,7 @@ def _real_time_calibrate(args, out, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_calibrate_over_a_pty_in_real_time(tmp_path, capsys):
     emu = Emulator(tcp_port=None, chain=ChainConfig(plant={"mu": 0.09})).start()
     try:
@@ -57,6 +58,7 @@ def test_calibrate_over_a_pty_in_real_time(tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_calibrate_over_can_in_real_time(tmp_path, capsys):
     args = ["bench", "--can", "virtual:calibrate", "--emulate", "--plant", "mu=0.09"]
     text = _real_time_calibrate(args, tmp_path / "c", capsys)
