@@ -66,20 +66,21 @@ def fit_model(
     params.update({k: v for k, v in start.items() if k != "mu" or not data.mu_fixed})
     for e in effects:
         if e.fmu_param not in params:
-            # bounded at "off" (viscous, lag): start a little inside
-            lo, hi = e.bounds
-            params[e.fmu_param] = e.off + (e.scale if e.off <= lo else 0.0)
+            params[e.fmu_param] = _start(e, data)
+        for sh in e.shape:
+            params.setdefault(sh.fmu_param, sh.start)
     params.setdefault(SPREAD, SPREAD_START)
     names: list[str] = ([] if data.mu_fixed else ["mu"]) + [SPREAD]
-    names += [e.fmu_param for e in free if not e.discrete]
+    names += [n for e in free if not e.discrete and not e.scanned for n in e.fmu_params]
     delay = next((e for e in free if e.discrete), None)
+    scanned = next((e for e in free if e.scanned), None)
     fit_idx = np.flatnonzero(data.roles == FIT)
     stride = max(1, math.ceil(len(fit_idx) / MAX_FIT_RESIDUALS))
     idx = fit_idx[::stride]
     nfev = 0
     if delay is None:
-        if names:
-            params, nfev = _least_squares(data, params, names, idx)
+        if names or scanned:
+            params, nfev = _fit_rest(data, params, names, idx, scanned)
     else:
         # Coordinate descent: scan the delay with the rest held, refit the rest, until the scan
         # stays; then walk to neighbouring delays (the rest refitted) while that fits better, as
@@ -88,8 +89,8 @@ def fit_model(
         m = twin.delay_samples(_scan_delay(data, params, fit_idx), dt)
         for _ in range(6):
             params[delay.fmu_param] = m * dt
-            if names:
-                params, n_eval = _least_squares(data, params, names, idx)
+            if names or scanned:
+                params, n_eval = _fit_rest(data, params, names, idx, scanned)
                 nfev += n_eval
             m_new = twin.delay_samples(_scan_delay(data, params, fit_idx), dt)
             if m_new == m:
@@ -101,8 +102,8 @@ def fit_model(
             m = twin.delay_samples(best[1][delay.fmu_param], dt) + step
             while 0 <= m <= m_max:
                 trial = {**best[1], delay.fmu_param: m * dt}
-                if names:
-                    trial, n_eval = _least_squares(data, trial, names, idx)
+                if names or scanned:
+                    trial, n_eval = _fit_rest(data, trial, names, idx, scanned)
                     nfev += n_eval
                 sse = _sse(data, trial, idx)
                 if sse >= best[0]:
@@ -114,9 +115,33 @@ def fit_model(
     return Model(effects=tuple(effects), params=params, prediction=pred, nfev=nfev)
 
 
-def _sse(data: AuditData, params: dict[str, float], idx: np.ndarray) -> float:
-    r = data.t_out_n[idx] - twin.simulate(data.inputs, params)[idx]
+def _start(e: Effect, data: AuditData) -> float:
+    """Where the fit of an effect starts: where its parameter has a slope on these data."""
+    lo, hi = e.bounds
+    if e.start_from == "t_out_high":  # a full scale: at the top of the output's readings
+        return float(np.clip(np.percentile(data.t_out_n, 99.5), lo, hi))
+    if e.start_from == "t_in_low":  # a slack threshold: where the input tension is low
+        return float(np.clip(np.percentile(data.inputs.t_in_n, 15.0), lo, hi))
+    # bounded at "off" (viscous, lag): start a little inside
+    return e.off + (e.scale if e.off <= lo else 0.0)
+
+
+def _sse(data: AuditData, params: dict[str, float], idx: np.ndarray, window: int = 1) -> float:
+    r = _smooth(data.t_out_n - twin.simulate(data.inputs, params), window)[idx]
     return float(r @ r)
+
+
+def _smooth(r: np.ndarray, window: int) -> np.ndarray:
+    """A moving mean over `window` samples (1: r itself)."""
+    if window <= 1:
+        return r
+    c = np.cumsum(np.concatenate([[0.0], r]))
+    out = np.empty_like(r)
+    h = window // 2
+    lo = np.clip(np.arange(len(r)) - h, 0, len(r))
+    hi = np.clip(np.arange(len(r)) + h + 1, 0, len(r))
+    out[:] = (c[hi] - c[lo]) / (hi - lo)
+    return out
 
 
 def _bounds_and_scale(name: str) -> tuple[float, float, float]:
@@ -124,13 +149,43 @@ def _bounds_and_scale(name: str) -> tuple[float, float, float]:
         return MU_BOUNDS[0], MU_BOUNDS[1], MU_SCALE
     if name == SPREAD:
         return SPREAD_BOUNDS[0], SPREAD_BOUNDS[1], SPREAD_SCALE
-    from .effects import BY_PARAM  # noqa: PLC0415
+    from .effects import BY_PARAM, SHAPES  # noqa: PLC0415
 
+    if name in SHAPES:
+        sh = SHAPES[name]
+        return sh.bounds[0], sh.bounds[1], sh.scale
     e = BY_PARAM[name]
     return e.bounds[0], e.bounds[1], e.scale
 
 
-def _least_squares(data, params, names, idx):
+def _fit_rest(data, params, names, idx, scanned: Effect | None):
+    """Least squares of `names`; with an effect that moves the output by jumps (`scanned`: the
+    breakaway of static friction, whose instant moves by whole samples with mu, the spread and
+    its own excess, so that finite differences see noise and the sum of squares has a narrow
+    basin), a graduated fit instead: its parameter scanned on its grid with the rest held,
+    then every parameter fitted on the residual smoothed over SMOOTH_WINDOWS samples, coarse to
+    fine (a jump misplaced by a few samples costs in proportion to the shift once smoothed
+    over more samples than that, so the sum of squares becomes smooth at that scale), with
+    finite differences large enough to move the jumps."""
+    if scanned is None:
+        return _least_squares(data, params, names, idx)
+    grid = np.asarray(scanned.scanned, dtype=float)
+    nfev = 0
+    allnames = [*names, scanned.fmu_param]
+    for window in SMOOTH_WINDOWS:
+        sse = [_sse(data, {**params, scanned.fmu_param: float(v)}, idx, window) for v in grid]
+        nfev += len(grid)
+        params = {**params, scanned.fmu_param: float(grid[int(np.argmin(sse))])}
+        params, n_eval = _least_squares(data, params, allnames, idx, window, diff_step=3e-3)
+        nfev += n_eval
+    return params, nfev
+
+
+# Windows (samples) of the graduated fit of a model with jumps (_fit_rest), coarse to fine.
+SMOOTH_WINDOWS = (200, 50, 10)
+
+
+def _least_squares(data, params, names, idx, window: int = 1, diff_step: float = 1e-4):
     lo, hi, scale = (np.array(v) for v in zip(*(_bounds_and_scale(n) for n in names), strict=True))
     x0 = np.clip(np.array([params[n] for n in names]), lo, hi) / scale
     y = data.t_out_n[idx]
@@ -145,14 +200,17 @@ def _least_squares(data, params, names, idx):
         if key not in cache:
             cache.clear()
             cache[key] = twin.friction_output(data.inputs, p)
-        return twin.sensor_output(cache[key], p, data.inputs.dt_s)[idx] - y
+        pred = twin.sensor_output(cache[key], p, data.inputs.dt_s)
+        if window > 1:
+            return _smooth(pred - data.t_out_n, window)[idx]
+        return pred[idx] - y
 
     res = least_squares(
         fun,
         x0,
         bounds=(lo / scale, hi / scale),
         x_scale=1.0,
-        diff_step=1e-4,
+        diff_step=diff_step,
         max_nfev=20 * (len(names) + 1),
         xtol=1e-5,
         ftol=1e-6,

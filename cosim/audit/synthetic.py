@@ -108,6 +108,16 @@ def cause_magnitude(cause: str, rng: np.random.Generator) -> dict[str, float]:
         "lag": {"sensor_tau": rng.uniform(0.006, 0.02)},
         "time_delay": {"sensor_delay": rng.uniform(0.006, 0.02)},
         "friction_drift": {"mu_drift": sign * rng.uniform(1.5e-4, 5e-4)},
+        "static_friction": {"mu_static_excess": rng.uniform(0.01, 0.03)},
+        "slack": {"slack_tension": rng.uniform(4.0, 7.0)},
+        "sensor_saturation": {
+            "sensor_full_scale": rng.uniform(9.0, 11.0),
+            "sensor_saturation_knee": rng.uniform(0.0, 1.5),
+        },
+        "load_cell_creep": {
+            "sensor_creep": sign * rng.uniform(0.03, 0.08),
+            "sensor_creep_tau": rng.uniform(0.5, 2.0),
+        },
     }[cause]
 
 
@@ -123,4 +133,8 @@ CAUSE_SEEDS = {
     "lag": 106,
     "time_delay": 107,
     "friction_drift": 108,
+    "static_friction": 109,
+    "slack": 110,
+    "sensor_saturation": 111,
+    "load_cell_creep": 112,
 }

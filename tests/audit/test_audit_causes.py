@@ -49,7 +49,7 @@ def test_audit_names_the_hidden_effect(tmp_path, cause):
     mu = rng.uniform(0.06, 0.1)
     path = fmu_record(tmp_path, effect, seed, DURATION_S, noise_std_n=noise, mu=mu)
     res = _audit(path)
-    ((param, true),) = effect.items()
+    param, true = next(iter(effect.items()))  # the cause's own parameter (then its shape)
     named = [(f.effect.cause, f.value) for f in res.findings]
     assert [c for c, _ in named] == [cause], f"hidden {effect}, found {named}"
     f = res.findings[0]
