@@ -2,10 +2,12 @@
 parameters (fmu/README.md, "Effects").
 
 Each candidate has the same shape: its FMU parameter with unit
-and fit bounds, the value that means "absent", a typical size (the optimiser's scale), the
-equation it adds, and `applicable(data)`, which says why it cannot be fitted on some data. Fitting
-and prediction go through one model (cosim.audit.twin: the FMU's physics, vectorised, with these
-parameters), so adding a cause is adding one object to VOCABULARY.
+and fit bounds (and, for the saturation and the creep, a Shape: the second parameter fitted
+with it, the knee or the time constant), the value that means "absent", a typical size (the
+optimiser's scale), the equation it adds, and `applicable(data)`, which says why it cannot be
+fitted on some data. Fitting and prediction go through one model (cosim.audit.twin: the FMU's
+physics, vectorised, with these parameters), so adding a cause is adding one object to
+VOCABULARY.
 """
 
 from __future__ import annotations
@@ -43,9 +45,6 @@ class Effect:
     # where its fit starts when "off" gives it no slope: "t_out_high" (near the largest output
     # reading: a full scale), "t_in_low" (at a low input tension: a slack threshold)
     start_from: str | None = None
-    # a grid to scan instead of a gradient: the output moves with the parameter in whole
-    # samples only (the breakaway of static friction), so finite differences see nothing
-    scanned: tuple[float, ...] = ()
 
     @property
     def fmu_params(self) -> tuple[str, ...]:
@@ -79,6 +78,11 @@ def _describe(s: Shape, value: float) -> str:
     unit = f" {s.unit}" if s.unit and s.unit != "1" else ""
     return f"{s.fmu_param} = {value:.4g}{unit}"
 
+
+# The audit fits a saturation's knee up to this width: a turn into saturation over a few N at
+# most. With a knee of tens of N the hyperbola bends every reading and stands in for a gain or a
+# tension-dependent friction (it took their place on the FMU cases of the other causes).
+KNEE_MAX_N = 2.0
 
 # phi_offset_per_z is only observable when z moves by at least this much (5 cm: a phi change of
 # 0.05 rad per rad/m, under 1 % of the 2 pi of a loop).
@@ -162,17 +166,6 @@ VOCABULARY: tuple[Effect, ...] = (
         "mu_eff = mu + mu_drift * t",
     ),
     Effect(
-        "static_friction",
-        "mu_static_excess",
-        "1",
-        (0.0, 0.5),
-        0.0,
-        0.01,
-        "a strand that reverses breaks loose at (mu + mu_static_excess) phi, then slides at mu phi"
-        " (stick-slip)",
-        scanned=tuple(round(0.002 * 1.25**i, 6) for i in range(22)),
-    ),
-    Effect(
         "slack",
         "slack_tension",
         "N",
@@ -190,7 +183,7 @@ VOCABULARY: tuple[Effect, ...] = (
         0.0,
         0.5,
         "T_out_meas = sat_{sensor_full_scale, sensor_saturation_knee}[...] (hard clip at knee 0)",
-        shape=(Shape("sensor_saturation_knee", "N", (0.0, 50.0), 0.2, 0.5),),
+        shape=(Shape("sensor_saturation_knee", "N", (0.0, KNEE_MAX_N), 0.2, 0.5),),
         start_from="t_out_high",
     ),
     Effect(

@@ -71,16 +71,15 @@ def fit_model(
             params.setdefault(sh.fmu_param, sh.start)
     params.setdefault(SPREAD, SPREAD_START)
     names: list[str] = ([] if data.mu_fixed else ["mu"]) + [SPREAD]
-    names += [n for e in free if not e.discrete and not e.scanned for n in e.fmu_params]
+    names += [n for e in free if not e.discrete for n in e.fmu_params]
     delay = next((e for e in free if e.discrete), None)
-    scanned = next((e for e in free if e.scanned), None)
     fit_idx = np.flatnonzero(data.roles == FIT)
     stride = max(1, math.ceil(len(fit_idx) / MAX_FIT_RESIDUALS))
     idx = fit_idx[::stride]
     nfev = 0
     if delay is None:
-        if names or scanned:
-            params, nfev = _fit_rest(data, params, names, idx, scanned)
+        if names:
+            params, nfev = _least_squares(data, params, names, idx)
     else:
         # Coordinate descent: scan the delay with the rest held, refit the rest, until the scan
         # stays; then walk to neighbouring delays (the rest refitted) while that fits better, as
@@ -89,8 +88,8 @@ def fit_model(
         m = twin.delay_samples(_scan_delay(data, params, fit_idx), dt)
         for _ in range(6):
             params[delay.fmu_param] = m * dt
-            if names or scanned:
-                params, n_eval = _fit_rest(data, params, names, idx, scanned)
+            if names:
+                params, n_eval = _least_squares(data, params, names, idx)
                 nfev += n_eval
             m_new = twin.delay_samples(_scan_delay(data, params, fit_idx), dt)
             if m_new == m:
@@ -102,8 +101,8 @@ def fit_model(
             m = twin.delay_samples(best[1][delay.fmu_param], dt) + step
             while 0 <= m <= m_max:
                 trial = {**best[1], delay.fmu_param: m * dt}
-                if names or scanned:
-                    trial, n_eval = _fit_rest(data, trial, names, idx, scanned)
+                if names:
+                    trial, n_eval = _least_squares(data, trial, names, idx)
                     nfev += n_eval
                 sse = _sse(data, trial, idx)
                 if sse >= best[0]:
@@ -126,22 +125,9 @@ def _start(e: Effect, data: AuditData) -> float:
     return e.off + (e.scale if e.off <= lo else 0.0)
 
 
-def _sse(data: AuditData, params: dict[str, float], idx: np.ndarray, window: int = 1) -> float:
-    r = _smooth(data.t_out_n - twin.simulate(data.inputs, params), window)[idx]
+def _sse(data: AuditData, params: dict[str, float], idx: np.ndarray) -> float:
+    r = data.t_out_n[idx] - twin.simulate(data.inputs, params)[idx]
     return float(r @ r)
-
-
-def _smooth(r: np.ndarray, window: int) -> np.ndarray:
-    """A moving mean over `window` samples (1: r itself)."""
-    if window <= 1:
-        return r
-    c = np.cumsum(np.concatenate([[0.0], r]))
-    out = np.empty_like(r)
-    h = window // 2
-    lo = np.clip(np.arange(len(r)) - h, 0, len(r))
-    hi = np.clip(np.arange(len(r)) + h + 1, 0, len(r))
-    out[:] = (c[hi] - c[lo]) / (hi - lo)
-    return out
 
 
 def _bounds_and_scale(name: str) -> tuple[float, float, float]:
@@ -158,34 +144,7 @@ def _bounds_and_scale(name: str) -> tuple[float, float, float]:
     return e.bounds[0], e.bounds[1], e.scale
 
 
-def _fit_rest(data, params, names, idx, scanned: Effect | None):
-    """Least squares of `names`; with an effect that moves the output by jumps (`scanned`: the
-    breakaway of static friction, whose instant moves by whole samples with mu, the spread and
-    its own excess, so that finite differences see noise and the sum of squares has a narrow
-    basin), a graduated fit instead: its parameter scanned on its grid with the rest held,
-    then every parameter fitted on the residual smoothed over SMOOTH_WINDOWS samples, coarse to
-    fine (a jump misplaced by a few samples costs in proportion to the shift once smoothed
-    over more samples than that, so the sum of squares becomes smooth at that scale), with
-    finite differences large enough to move the jumps."""
-    if scanned is None:
-        return _least_squares(data, params, names, idx)
-    grid = np.asarray(scanned.scanned, dtype=float)
-    nfev = 0
-    allnames = [*names, scanned.fmu_param]
-    for window in SMOOTH_WINDOWS:
-        sse = [_sse(data, {**params, scanned.fmu_param: float(v)}, idx, window) for v in grid]
-        nfev += len(grid)
-        params = {**params, scanned.fmu_param: float(grid[int(np.argmin(sse))])}
-        params, n_eval = _least_squares(data, params, allnames, idx, window, diff_step=3e-3)
-        nfev += n_eval
-    return params, nfev
-
-
-# Windows (samples) of the graduated fit of a model with jumps (_fit_rest), coarse to fine.
-SMOOTH_WINDOWS = (200, 50, 10)
-
-
-def _least_squares(data, params, names, idx, window: int = 1, diff_step: float = 1e-4):
+def _least_squares(data, params, names, idx):
     lo, hi, scale = (np.array(v) for v in zip(*(_bounds_and_scale(n) for n in names), strict=True))
     x0 = np.clip(np.array([params[n] for n in names]), lo, hi) / scale
     y = data.t_out_n[idx]
@@ -200,17 +159,14 @@ def _least_squares(data, params, names, idx, window: int = 1, diff_step: float =
         if key not in cache:
             cache.clear()
             cache[key] = twin.friction_output(data.inputs, p)
-        pred = twin.sensor_output(cache[key], p, data.inputs.dt_s)
-        if window > 1:
-            return _smooth(pred - data.t_out_n, window)[idx]
-        return pred[idx] - y
+        return twin.sensor_output(cache[key], p, data.inputs.dt_s)[idx] - y
 
     res = least_squares(
         fun,
         x0,
         bounds=(lo / scale, hi / scale),
         x_scale=1.0,
-        diff_step=diff_step,
+        diff_step=1e-4,
         max_nfev=20 * (len(names) + 1),
         xtol=1e-5,
         ftol=1e-6,

@@ -231,7 +231,8 @@ def unexplained_text(u: dict) -> str:
         f"{u['rms_n']:.4f} N RMS (noise floor {u['noise_floor_n']:.4f} N), "
         f"{'white' if u['white'] else 'not white'} (largest autocorrelation "
         f"{u['max_autocorrelation']:.2f}), spectral peak at {u['peak_hz']:.2f} Hz "
-        f"({u['peak_to_median_psd']:.0f}x the median), follows {follows or 'no signal'}"
+        f"({u['peak_to_median_psd']:.0f}x the median), follows {follows or 'no signal'}; "
+        f"sits {'; '.join(u.get('where') or []) or 'nowhere in particular'}"
     )
 
 

@@ -152,6 +152,8 @@ def rig_record(
     full_scale_n: float = 0.0,
     creep: float = 0.0,
     creep_tau_s: float = 1.0,
+    spikes: tuple[int, float] | None = None,
+    ring: tuple[float, float, float] | None = None,
     name: str = "rig.csv",
 ) -> Path:
     """Write a rig record (CSV and a sidecar without mu). `periodic` = (amplitude N, frequency
@@ -168,6 +170,11 @@ def rig_record(
     - `creep`, `creep_tau_s`: the load cell's spring and a viscoelastic element in parallel (a
       standard linear solid): a share `creep` of a change in tension is read only as the element
       relaxes with creep_tau_s (integrated by backward Euler at the sample rate).
+
+    Two disturbances no cause explains: `spikes` = (count, amplitude N), isolated one-sample
+    spikes of either sign on the output sensor (electrical interference); `ring` = (amplitude N,
+    frequency Hz, decay s), a decaying oscillation of the output after every reversal of the
+    input (the cable's vibration when it breaks loose).
     """
     rng = np.random.default_rng(seed)
     n = int(round(duration_s * RATE_HZ))
@@ -207,6 +214,17 @@ def rig_record(
     if periodic is not None:
         amp, freq = periodic
         meas_out = meas_out + amp * np.sin(2 * np.pi * freq * t + 0.7)
+    if spikes is not None:
+        count, amp = spikes
+        where = np.random.default_rng(seed + 7).choice(n, count, replace=False)
+        meas_out[where] += amp * np.where(np.arange(count) % 2 == 0, 1.0, -1.0)
+    if ring is not None:
+        amp, freq, decay = ring
+        turns = np.flatnonzero(np.diff(np.sign(np.diff(t_in))) != 0) + 1
+        for k in turns:
+            m = min(n - k, int(5 * decay * RATE_HZ))
+            tt = np.arange(m) / RATE_HZ
+            meas_out[k : k + m] += amp * np.sin(2 * np.pi * freq * tt) * np.exp(-tt / decay)
     meas_in = t_in + rng.normal(0.0, noise_n, n)
     cols = {"t_s": t, "T_in_N": meas_in, "T_out_N": meas_out}
     if pos is not None:

@@ -1,17 +1,21 @@
-"""Four effects real rigs have, each an FMU parameter and a cause of the audit's vocabulary
-(fmu/README.md "Slack", "Sensor saturation", "Load-cell creep", "Static friction"), hidden in
-data of the rig written here (tests/audit/rig_models.py: its own forms, not the FMU's code),
-named by the audit alone and brought to the noise floor through the FMU.
+"""Three effects real rigs have, each an FMU parameter and a cause of the audit's vocabulary
+(fmu/README.md "Slack", "Sensor saturation", "Load-cell creep"), hidden in data of the rig
+written here (tests/audit/rig_models.py: its own code, not the FMU's), named by the audit alone
+and brought to the noise floor through the FMU.
 
 Which cases chose what: the rig's magnitudes (slack 5 N, a hard full scale of 9 N, creep 6 %
-with 1 s, stick-slip 1.3x) and the effects' starts, grids and the graduated fit of static
-friction (cosim/audit/effects.py, fit.py) were chosen on the tuning seeds 32 (slack), 33
-(saturation), 34 (creep) and 31 (stick-slip, spread 0), 40 s each, mu 0.08, spread 0.3, noise
-0.03 N; the cases below use other seeds, mu, spreads and noise and were run once those were
-fixed. The decision rule is the one of test_audit_rule.py (not tuned here). Known gap: the
-rig's stick-slip on a cable whose friction thresholds spread as much as the clean rigs' (0.3)
-is not fitted by the FMU's form (its 8 strands jump at other instants than the rig's 12) and
-is not named, neither is anything else (tuning seed 31 with spread 0.3).
+with 1 s) and the effects' starts (cosim/audit/effects.py, fit.py) were chosen on the tuning
+seeds 32 (slack), 33 (saturation) and 34 (creep), 40 s each, mu 0.08, spread 0.3, noise 0.03 N;
+the cases below use other seeds, mu, spreads and noise and were run once those were fixed, and
+are reported as they came out (MISSED). The decision rule is the one of test_audit_rule.py
+(not tuned here).
+
+Static friction (fmu/README.md "Static friction", the rig's `static_ratio`) is in the FMU and
+the twin but not in the vocabulary: its jumps move by whole samples with mu, the spread and the
+excess, so the fit's finite differences see nothing; a graduated fit on a smoothed residual
+found it on FMU data but left 1.3-1.5x the floor there, and on the rig (12 strands whose jumps
+fall at other instants than the FMU's 8) it did not fit, while on the tuning seed 31 (spread
+0.3, 1.3x) the audit named sensor_gain instead: a wrong cause this vocabulary cannot avoid yet.
 """
 
 from __future__ import annotations
@@ -44,11 +48,6 @@ CASES = {
         "load_cell_creep",
         ("sensor_creep", -0.06, 0.15),
     ),
-    "stick-slip 1.4x on a cable that turns sharply": (
-        dict(seed=41, mu=0.085, spread=0.05, noise_n=0.03, static_ratio=1.4),
-        "static_friction",
-        None,
-    ),
 }
 # Reported, not met: on this rig (noise 0.02 N) the creep is fitted at 3.3 % with 1.2 s and
 # its block t is 1.98 against the rule's 2 (one selection block gets worse where the nominal
@@ -77,9 +76,8 @@ def test_a_new_cause_on_the_rig_is_named_alone_and_brought_to_the_floor(tmp_path
     assert [c for c, _ in named] == [cause], named
     f = res.findings[0]
     assert f.explains_pct > 0.0 and f.ambiguous_with is None, f.evidence
-    if value is not None:  # the rig's stick-slip has no FMU value to compare with (per segment)
-        param, true, rel = value
-        assert res.extended.params[param] == pytest.approx(true, rel=rel), res.extended.params
+    param, true, rel = value
+    assert res.extended.params[param] == pytest.approx(true, rel=rel), res.extended.params
     assert res.holdout_rms_after_n <= FLOOR_FACTOR * res.data.noise_floor_n
     assert res.holdout_rms_after_n < res.holdout_rms_before_n
     assert res.twin_fmu_max_diff_n < 1e-4
