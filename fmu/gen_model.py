@@ -115,6 +115,19 @@ VARIABLES: list[Var] = [
     Var("motor_angle", "Real", OUTPUT, None, "rad", None, None, "Motor shaft angle"),
     Var("motor_speed", "Real", OUTPUT, None, "rad/s", None, None, "Motor shaft speed"),
     Var("current", "Real", OUTPUT, None, "A", None, None, "Motor current"),
+    # --- effects added later: appended, so that every earlier value reference stays ----------
+    Var("mu_static_excess", "Real", PARAM, 0.0, "1", 0.0, 1.0,
+        "Breakaway friction coefficient above the kinetic one after a reversal (stick-slip)"),
+    Var("slack_tension", "Real", PARAM, 0.0, "N", 0.0, 100.0,
+        "Input tension below which the cable loses its pretension: T_out*T_in/slack_tension"),
+    Var("sensor_full_scale", "Real", PARAM, 0.0, "N", 0.0, 1000.0,
+        "Full-scale tension at which the output sensor saturates (0 = no saturation)"),
+    Var("sensor_saturation_knee", "Real", PARAM, 0.0, "N", 0.0, 100.0,
+        "Width of the output sensor's turn into saturation (0 = a hard clip)"),
+    Var("sensor_creep", "Real", PARAM, 0.0, "1", -0.5, 0.5,
+        "Load-cell creep: share of a step change read only after sensor_creep_tau"),
+    Var("sensor_creep_tau", "Real", PARAM, 1.0, "s", 0.001, 3600.0,
+        "Time constant of the load cell's creep"),
 ]
 # fmt: on
 

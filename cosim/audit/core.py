@@ -249,9 +249,9 @@ def phi_text(data: AuditData, mu: float) -> tuple[float | None, str]:
 def _evidence(result: AuditResult, f: Finding) -> str:
     """One sentence: why this cause, in numbers."""
     text = (
-        f"{f.effect.describe(f.value)} removes {f.selection_pct:.0f} % of the residual on the "
-        f"selection blocks (block t = {f.t:.1f}, better in {100 * f.improved_share:.0f} % of "
-        "them)"
+        f"{f.effect.describe_all(result.extended.params)} removes {f.selection_pct:.0f} % of "
+        f"the residual on the selection blocks (block t = {f.t:.1f}, better in "
+        f"{100 * f.improved_share:.0f} % of them)"
     )
     if f.runner_up is not None and f.runner_up_pct is not None:
         text += f"; the next candidate, {f.runner_up}, removes {max(f.runner_up_pct, 0):.0f} %"

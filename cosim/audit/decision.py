@@ -208,7 +208,7 @@ def _backward(data, found, steps, rule):
         withouts: dict[str, Model] = {}
         for e in found:
             rest = tuple(f for f in found if f is not e)
-            start = {k: v for k, v in full.params.items() if k != e.fmu_param}
+            start = {k: v for k, v in full.params.items() if k not in e.fmu_params}
             withouts[e.cause] = fit_model(data, rest, start) if rest else steps[0]
             if len(found) > 1 and not judge(data, withouts[e.cause], full, rule)[1]:
                 found.remove(e)

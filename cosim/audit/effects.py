@@ -2,15 +2,29 @@
 parameters (fmu/README.md, "Effects").
 
 Each candidate has the same shape: its FMU parameter with unit
-and fit bounds, the value that means "absent", a typical size (the optimiser's scale), the
-equation it adds, and `applicable(data)`, which says why it cannot be fitted on some data. Fitting
-and prediction go through one model (cosim.audit.twin: the FMU's physics, vectorised, with these
-parameters), so adding a cause is adding one object to VOCABULARY.
+and fit bounds (and, for the saturation and the creep, a Shape: the second parameter fitted
+with it, the knee or the time constant), the value that means "absent", a typical size (the
+optimiser's scale), the equation it adds, and `applicable(data)`, which says why it cannot be
+fitted on some data. Fitting and prediction go through one model (cosim.audit.twin: the FMU's
+physics, vectorised, with these parameters), so adding a cause is adding one object to
+VOCABULARY.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Shape:
+    """A second FMU parameter fitted together with an effect's own: the form of its turn or its
+    time constant (the load cell's creep time, the saturation's knee)."""
+
+    fmu_param: str
+    unit: str
+    bounds: tuple[float, float]
+    start: float
+    scale: float
 
 
 @dataclass(frozen=True)
@@ -27,6 +41,15 @@ class Effect:
     needs_positions: bool = False  # only observable when the end-effector moves
     discrete: bool = False  # fitted on a grid of whole samples (the delay)
     compensator_key: str | None = None  # the `--params` compensator field it sets, if any
+    shape: tuple[Shape, ...] = ()  # further parameters fitted with it (a form, a time constant)
+    # where its fit starts when "off" gives it no slope: "t_out_high" (near the largest output
+    # reading: a full scale), "t_in_low" (at a low input tension: a slack threshold)
+    start_from: str | None = None
+
+    @property
+    def fmu_params(self) -> tuple[str, ...]:
+        """Every FMU parameter the effect sets: its own, then its shape's."""
+        return (self.fmu_param, *(s.fmu_param for s in self.shape))
 
     def applicable(self, has_positions: bool, z_span_m: float) -> str | None:
         """None when the effect can be fitted on these data, else why not."""
@@ -43,6 +66,23 @@ class Effect:
         unit = f" {self.unit}" if self.unit and self.unit != "1" else ""
         return f"{self.fmu_param} = {value:.4g}{unit}"
 
+    def describe_all(self, params: dict[str, float]) -> str:
+        """describe() of its own parameter, then its shape's parameters in brackets."""
+        text = self.describe(params[self.fmu_param])
+        if self.shape:
+            text += " (" + ", ".join(_describe(s, params[s.fmu_param]) for s in self.shape) + ")"
+        return text
+
+
+def _describe(s: Shape, value: float) -> str:
+    unit = f" {s.unit}" if s.unit and s.unit != "1" else ""
+    return f"{s.fmu_param} = {value:.4g}{unit}"
+
+
+# The audit fits a saturation's knee up to this width: a turn into saturation over a few N at
+# most. With a knee of tens of N the hyperbola bends every reading and stands in for a gain or a
+# tension-dependent friction (it took their place on the FMU cases of the other causes).
+KNEE_MAX_N = 2.0
 
 # phi_offset_per_z is only observable when z moves by at least this much (5 cm: a phi change of
 # 0.05 rad per rad/m, under 1 % of the 2 pi of a loop).
@@ -125,8 +165,40 @@ VOCABULARY: tuple[Effect, ...] = (
         1e-4,
         "mu_eff = mu + mu_drift * t",
     ),
+    Effect(
+        "slack",
+        "slack_tension",
+        "N",
+        (0.0, 50.0),
+        0.0,
+        0.5,
+        "T_out = T_out * min(1, T_in / slack_tension) (pretension lost at low input tension)",
+        start_from="t_in_low",
+    ),
+    Effect(
+        "sensor_saturation",
+        "sensor_full_scale",
+        "N",
+        (0.5, 1000.0),
+        0.0,
+        0.5,
+        "T_out_meas = sat_{sensor_full_scale, sensor_saturation_knee}[...] (hard clip at knee 0)",
+        shape=(Shape("sensor_saturation_knee", "N", (0.0, KNEE_MAX_N), 0.2, 0.5),),
+        start_from="t_out_high",
+    ),
+    Effect(
+        "load_cell_creep",
+        "sensor_creep",
+        "1",
+        (-0.3, 0.3),
+        0.0,
+        0.01,
+        "T_read = T_out - sensor_creep * (T_out - Lag_{sensor_creep_tau}[T_out])",
+        shape=(Shape("sensor_creep_tau", "s", (0.05, 30.0), 1.0, 0.5),),
+    ),
 )
 
 BY_CAUSE = {e.cause: e for e in VOCABULARY}
 BY_PARAM = {e.fmu_param: e for e in VOCABULARY}
+SHAPES = {sh.fmu_param: sh for e in VOCABULARY for sh in e.shape}
 CAUSES = tuple(e.cause for e in VOCABULARY)

@@ -66,12 +66,12 @@ def fit_model(
     params.update({k: v for k, v in start.items() if k != "mu" or not data.mu_fixed})
     for e in effects:
         if e.fmu_param not in params:
-            # bounded at "off" (viscous, lag): start a little inside
-            lo, hi = e.bounds
-            params[e.fmu_param] = e.off + (e.scale if e.off <= lo else 0.0)
+            params[e.fmu_param] = _start(e, data)
+        for sh in e.shape:
+            params.setdefault(sh.fmu_param, sh.start)
     params.setdefault(SPREAD, SPREAD_START)
     names: list[str] = ([] if data.mu_fixed else ["mu"]) + [SPREAD]
-    names += [e.fmu_param for e in free if not e.discrete]
+    names += [n for e in free if not e.discrete for n in e.fmu_params]
     delay = next((e for e in free if e.discrete), None)
     fit_idx = np.flatnonzero(data.roles == FIT)
     stride = max(1, math.ceil(len(fit_idx) / MAX_FIT_RESIDUALS))
@@ -114,6 +114,17 @@ def fit_model(
     return Model(effects=tuple(effects), params=params, prediction=pred, nfev=nfev)
 
 
+def _start(e: Effect, data: AuditData) -> float:
+    """Where the fit of an effect starts: where its parameter has a slope on these data."""
+    lo, hi = e.bounds
+    if e.start_from == "t_out_high":  # a full scale: at the top of the output's readings
+        return float(np.clip(np.percentile(data.t_out_n, 99.5), lo, hi))
+    if e.start_from == "t_in_low":  # a slack threshold: where the input tension is low
+        return float(np.clip(np.percentile(data.inputs.t_in_n, 15.0), lo, hi))
+    # bounded at "off" (viscous, lag): start a little inside
+    return e.off + (e.scale if e.off <= lo else 0.0)
+
+
 def _sse(data: AuditData, params: dict[str, float], idx: np.ndarray) -> float:
     r = data.t_out_n[idx] - twin.simulate(data.inputs, params)[idx]
     return float(r @ r)
@@ -124,8 +135,11 @@ def _bounds_and_scale(name: str) -> tuple[float, float, float]:
         return MU_BOUNDS[0], MU_BOUNDS[1], MU_SCALE
     if name == SPREAD:
         return SPREAD_BOUNDS[0], SPREAD_BOUNDS[1], SPREAD_SCALE
-    from .effects import BY_PARAM  # noqa: PLC0415
+    from .effects import BY_PARAM, SHAPES  # noqa: PLC0415
 
+    if name in SHAPES:
+        sh = SHAPES[name]
+        return sh.bounds[0], sh.bounds[1], sh.scale
     e = BY_PARAM[name]
     return e.bounds[0], e.bounds[1], e.scale
 

@@ -55,10 +55,11 @@ def emitted_params(result: AuditResult) -> tuple[dict, list[str]]:
         )
     for f in result.findings:
         e = f.effect
-        plant[e.fmu_param] = round(float(p[e.fmu_param]), 9)
+        for name in e.fmu_params:
+            plant[name] = round(float(p[name]), 9)
         if e.compensator_key is None:
             notes.append(
-                f"{e.cause} ({e.describe(p[e.fmu_param])}) has no compensator parameter: the plant "
+                f"{e.cause} ({e.describe_all(p)}) has no compensator parameter: the plant "
                 "carries it, the compensator does not correct it"
             )
             continue

@@ -57,7 +57,10 @@ def to_dict(result: AuditResult) -> dict:
         findings.append(
             {
                 "cause": f.effect.cause,
-                "params": {f.effect.fmu_param: _num(f.value, 8)},
+                "params": {
+                    n: _num(f.value if n == f.effect.fmu_param else result.extended.params[n], 8)
+                    for n in f.effect.fmu_params
+                },
                 "unit": f.effect.unit,
                 "explains_pct": _num(f.explains_pct, 4),
                 "evidence": f.evidence,
@@ -79,7 +82,7 @@ def to_dict(result: AuditResult) -> dict:
                 "candidates": [
                     {
                         "cause": c.effect.cause,
-                        "params": {c.effect.fmu_param: _num(c.model.params[c.effect.fmu_param])},
+                        "params": {n: _num(c.model.params[n]) for n in c.effect.fmu_params},
                         "selection_explains_pct": _num(c.explained_pct, 4),
                         "block_t": _num(c.t, 4),
                         "improved_share": _num(c.stats.improved_share, 4),
@@ -228,7 +231,8 @@ def unexplained_text(u: dict) -> str:
         f"{u['rms_n']:.4f} N RMS (noise floor {u['noise_floor_n']:.4f} N), "
         f"{'white' if u['white'] else 'not white'} (largest autocorrelation "
         f"{u['max_autocorrelation']:.2f}), spectral peak at {u['peak_hz']:.2f} Hz "
-        f"({u['peak_to_median_psd']:.0f}x the median), follows {follows or 'no signal'}"
+        f"({u['peak_to_median_psd']:.0f}x the median), follows {follows or 'no signal'}; "
+        f"sits {'; '.join(u.get('where') or []) or 'nowhere in particular'}"
     )
 
 
@@ -444,7 +448,8 @@ def markdown(result: AuditResult, data: dict, plot_names: list[str]) -> str:
         for f in result.findings:
             lines.append(
                 f"| {f.effect.cause}{' (or ' + f.ambiguous_with + ')' if f.ambiguous_with else ''} "
-                f"| {f.effect.describe(f.value)} | {f.explains_pct:.1f} % | {f.t:.1f} "
+                f"| {f.effect.describe_all(result.extended.params)} "
+                f"| {f.explains_pct:.1f} % | {f.t:.1f} "
                 f"| {f.evidence} |"
             )
     else:

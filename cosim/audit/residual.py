@@ -1,5 +1,6 @@
 """What is left after the findings, described (cosim.audit.core, step 5): size, whiteness,
-dominant frequency and the signals it follows."""
+dominant frequency, the signals it follows, and where it sits (near reversals, at low or high
+input tension, early or late in the record, in outliers)."""
 
 from __future__ import annotations
 
@@ -79,8 +80,12 @@ def describe_residual(data: AuditData, resid: np.ndarray) -> dict:
         (n for n, c in corr.items() if abs(c) >= CORRELATE_MIN_R and abs(c) >= CORRELATE_Z * se[n]),
         key=lambda n: -abs(corr[n]),
     )
+    where, parts, outliers = locate(data, resid, held)
     return {
         "rms_n": rms,
+        "where": where,
+        "where_rms_n": parts,
+        "outliers": outliers,
         "noise_floor_n": data.noise_floor_n,
         "white": bool(max_acf < WHITE_MAX_ACF),
         "max_autocorrelation": max_acf,
@@ -90,3 +95,85 @@ def describe_residual(data: AuditData, resid: np.ndarray) -> dict:
         "correlations": {n: round(c, 4) for n, c in corr.items()},
         "correlation_se": {n: round(v, 4) for n, v in se.items()},
     }
+
+
+# Where the residual sits (locate): a part of the held-out record "holds" the residual when its
+# RMS is at least WHERE_RATIO times that of the rest and its excess over the noise floor is at
+# least WHERE_MIN_EXCESS of the floor; near a reversal means within REVERSAL_S after the input
+# tension turned; an outlier is a sample beyond OUTLIER_SIGMAS times the noise floor.
+WHERE_RATIO = 1.5
+WHERE_MIN_EXCESS = 0.5
+REVERSAL_S = 0.3
+OUTLIER_SIGMAS = 6.0
+REVERSAL_MIN_N = 0.05
+
+
+def reversals(x: np.ndarray, h: float) -> list[int]:
+    """Indices where x turns: its extremes between moves of more than h the other way (a
+    turning point with hysteresis h, so the input's noise makes none)."""
+    out: list[int] = []
+    vals = np.asarray(x, dtype=float).tolist()
+    lo = hi = vals[0]
+    up, k_ext, x_ext = 0, 0, vals[0]
+    for k, v in enumerate(vals):
+        if up == 0:  # not moved yet by more than h either way
+            lo, hi = min(lo, v), max(hi, v)
+            if v > lo + h:
+                up, k_ext, x_ext = 1, k, v
+            elif v < hi - h:
+                up, k_ext, x_ext = -1, k, v
+        elif up * (v - x_ext) > 0:  # further on the same way: a new extreme
+            k_ext, x_ext = k, v
+        elif up * (x_ext - v) > h:  # turned by more than h: the extreme was a reversal
+            out.append(k_ext)
+            up, k_ext, x_ext = -up, k, v
+    return out
+
+
+def locate(data: AuditData, resid: np.ndarray, held: np.ndarray) -> tuple[list[str], dict, dict]:
+    """Where the held-out residual sits: the parts of the record whose RMS stands out against
+    the rest (a list of phrases, strongest first), each part's RMS, and the outliers (count,
+    largest size, share of the residual's mean square)."""
+    floor = data.noise_floor_n
+    r = resid
+    t_in = data.inputs.t_in_n
+    turned = reversals(t_in, max(REVERSAL_MIN_N, 10.0 * data.input_noise_n))
+    near = np.zeros(len(r), dtype=bool)
+    span = max(1, int(round(REVERSAL_S * data.rate_hz)))
+    for k in turned:
+        near[k : k + span] = True
+    lo_t, hi_t = np.percentile(t_in[held], [33.3, 66.7])
+    half = data.t_s[held][len(data.t_s[held]) // 2] if held.any() else 0.0
+    parts = {
+        "near reversals": near,
+        "at low input tension": t_in <= lo_t,
+        "at high input tension": t_in >= hi_t,
+        "early in the record": data.t_s < half,
+        "late in the record": data.t_s >= half,
+    }
+    rms_of = {}
+    where = []
+    for name, mask in parts.items():
+        inside, outside = r[held & mask], r[held & ~mask]
+        if len(inside) < 10 or len(outside) < 10:
+            continue
+        a = float(np.sqrt(np.mean(inside * inside)))
+        b = float(np.sqrt(np.mean(outside * outside)))
+        rms_of[name] = round(a, 5)
+        excess = math.sqrt(max(a * a - floor * floor, 0.0))
+        if a >= WHERE_RATIO * b and excess >= WHERE_MIN_EXCESS * floor:
+            where.append((a / b, f"{name} ({a:.3g} N RMS against {b:.3g} N elsewhere)"))
+    big = np.abs(r[held]) > OUTLIER_SIGMAS * floor
+    total = float(np.sum(r[held] ** 2))
+    outliers = {
+        "count": int(np.sum(big)),
+        "largest_n": round(float(np.max(np.abs(r[held][big]))), 5) if big.any() else 0.0,
+        "share_pct": round(100.0 * float(np.sum(r[held][big] ** 2)) / total, 2) if total else 0.0,
+    }
+    phrases = [p for _, p in sorted(where, key=lambda w: -w[0])]
+    if outliers["count"] and outliers["share_pct"] >= 10.0:
+        phrases.append(
+            f"in {outliers['count']} outliers (up to {outliers['largest_n']:.3g} N, "
+            f"{outliers['share_pct']:.0f} % of its mean square)"
+        )
+    return phrases, rms_of, outliers

@@ -99,7 +99,9 @@ def fmu_record(
 # accuracy sweep (cosim/studies/audit_sweep.py) draw from the same ranges.
 def cause_magnitude(cause: str, rng: np.random.Generator) -> dict[str, float]:
     sign = rng.choice([-1.0, 1.0])
-    return {
+    # The first eight are drawn together, as they always were, so that each of their cases
+    # keeps its data (noise and mu are drawn after them); the later causes draw after those.
+    first = {
         "sensor_offset": {"sensor_offset": sign * rng.uniform(0.2, 1.0)},
         "sensor_gain": {"sensor_gain": 1.0 + sign * rng.uniform(0.03, 0.1)},
         "viscous_friction": {"mu_viscous": rng.uniform(0.8, 2.5)},
@@ -108,7 +110,20 @@ def cause_magnitude(cause: str, rng: np.random.Generator) -> dict[str, float]:
         "lag": {"sensor_tau": rng.uniform(0.006, 0.02)},
         "time_delay": {"sensor_delay": rng.uniform(0.006, 0.02)},
         "friction_drift": {"mu_drift": sign * rng.uniform(1.5e-4, 5e-4)},
-    }[cause]
+    }
+    if cause in first:
+        return first[cause]
+    return {
+        "slack": lambda: {"slack_tension": rng.uniform(4.0, 7.0)},
+        "sensor_saturation": lambda: {
+            "sensor_full_scale": rng.uniform(9.0, 11.0),
+            "sensor_saturation_knee": rng.uniform(0.0, 1.5),
+        },
+        "load_cell_creep": lambda: {
+            "sensor_creep": sign * rng.uniform(0.03, 0.08),
+            "sensor_creep_tau": rng.uniform(0.5, 2.0),
+        },
+    }[cause]()
 
 
 # cause -> seed of its case (session, noise and magnitude)
@@ -123,4 +138,7 @@ CAUSE_SEEDS = {
     "lag": 106,
     "time_delay": 107,
     "friction_drift": 108,
+    "slack": 110,
+    "sensor_saturation": 111,
+    "load_cell_creep": 112,
 }

@@ -16,9 +16,16 @@ What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effe
   low-pass filtered with 10 ms, as the FMU computes it after each step and uses in the next;
 - the gradual dead zone (fmu/README.md, "Gradual dead zone"): with dead_zone_spread > 0 the
   output is T_n * mean_j(S_j) / S_ref over 8 lumped capstans of log-normally spread widths;
-- the output sensor: first-order lag sensor_tau (exact for a step held over the sample),
-  pure delay sensor_delay (a whole number of samples here, which the FMU then reproduces
-  exactly), gain and offset.
+- static friction (fmu/README.md, "Static friction"): the strands remember the way they last
+  slid, and one that must reverse is held by the breakaway width (mu + mu_static_excess) phi
+  before it jumps to the kinetic bound; slack: T_out * min(1, T_in / slack_tension);
+- the output sensor: the load cell's creep (sensor_creep, sensor_creep_tau), first-order lag
+  sensor_tau (exact for a step held over the sample), pure delay sensor_delay (a whole number
+  of samples here, which the FMU then reproduces exactly), gain and offset, and the full scale
+  (sensor_full_scale, a hard clip or a hyperbolic knee sensor_saturation_knee). With both creep
+  and lag on, the FMU's lag sees the creep move within a sample, which the twin's per-sample
+  cascade does not (a difference of the order of sensor_creep * dt / sensor_creep_tau of a
+  step).
 
 Assumptions of the twin that the FMU does not make: the friction of a step uses the time at its
 start for mu_drift (the FMU moves it on by each internal step of max_step within a sample: a
@@ -90,13 +97,31 @@ def _exp_small(x):
 
 @njit(cache=True)
 def _friction(
-    t_in, dphi_geom, z, phi_off, mu, mu_visc, slope, drift, spread, t0, dt, ds, ea, klc, n_seg
+    t_in,
+    dphi_geom,
+    z,
+    phi_off,
+    mu,
+    mu_visc,
+    slope,
+    drift,
+    spread,
+    static,
+    slack,
+    t0,
+    dt,
+    ds,
+    ea,
+    klc,
+    n_seg,
 ):
     """T_out (true) at every sample: the drive-mode-1 physics of bowden_physics.c."""
     n = t_in.shape[0]
     out = np.empty(n)
     tens = np.zeros(n_seg + 1)
     strands = np.zeros(N_STRAND + 1)
+    direction = np.zeros(N_STRAND + 1)
+    use_strands = spread > 0.0 or static > 0.0
     alpha_speed = 1.0 - math.exp(-dt / 0.01)
     speed = 0.0
     disp_prev = 0.0
@@ -129,23 +154,32 @@ def _friction(
                 tens[j] = hi
             stretch += 0.5 * (tens[j - 1] + tens[j])
         out[k] = tens[n_seg]
-        if spread > 0.0:
-            # strands_update and output_tension of bowden_physics.c (gradual dead zone)
+        if use_strands:
+            # strands_update and output_tension of bowden_physics.c (gradual dead zone, static
+            # friction: a strand that must reverse is held by the breakaway width, then slides
+            # to the kinetic bound)
             w = mu_c * (phi if phi > 0.0 else 0.0)
+            ws = (mu_c + static) * (phi if phi > 0.0 else 0.0)
             total = 0.0
             for j in range(N_STRAND + 1):
                 q = STRAND_Q[j] if j < N_STRAND else 0.0
-                e = math.exp(w * math.exp(spread * q))
-                lo = tin / e
-                hi = tin * e
+                sc = math.exp(spread * q)
+                e = math.exp(w * sc)
+                es = math.exp(ws * sc) if (j < N_STRAND and static > 0.0) else e
+                lo = tin / (e if direction[j] > 0.0 else es)
+                hi = tin * (e if direction[j] < 0.0 else es)
                 if strands[j] < lo:
-                    strands[j] = lo
+                    strands[j] = tin / e
+                    direction[j] = 1.0
                 elif strands[j] > hi:
-                    strands[j] = hi
+                    strands[j] = tin * e
+                    direction[j] = -1.0
                 if j < N_STRAND:
                     total += strands[j]
             if strands[N_STRAND] > 0.0:
                 out[k] = tens[n_seg] * (total / N_STRAND) / strands[N_STRAND]
+        if slack > 0.0 and tin < slack:
+            out[k] *= tin / slack
         disp = stretch * ds / ea + tens[n_seg] / klc
         if k > 0:
             speed += ((disp - disp_prev) / dt - speed) * alpha_speed
@@ -166,6 +200,8 @@ def friction_output(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndar
         float(p["mu_tension_slope"]),
         float(p["mu_drift"]),
         float(p["dead_zone_spread"]),
+        float(p["mu_static_excess"]),
+        float(p["slack_tension"]),
         float(inputs.t0_s),
         float(inputs.dt_s),
         inputs.sheath_length_m / N_SEG,
@@ -176,9 +212,16 @@ def friction_output(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndar
 
 
 def sensor_output(t_out_n: np.ndarray, params: Mapping[str, float], dt_s: float) -> np.ndarray:
-    """The output sensor of the FMU applied to a true T_out: lag, delay, gain, offset."""
+    """The output sensor of the FMU applied to a true T_out: creep, lag, delay, gain, offset,
+    full scale."""
     p = _full(params)
     y = np.asarray(t_out_n, dtype=np.float64)
+    creep = float(p["sensor_creep"])
+    if creep != 0.0:
+        # creep_lp follows T_out with sensor_creep_tau (exact for a value held over the sample)
+        a = math.exp(-dt_s / float(p["sensor_creep_tau"]))
+        lp = lfilter([1.0 - a], [1.0, -a], y, zi=[a * y[0]])[0]
+        y = y - creep * (y - lp)
     tau = float(p["sensor_tau"])
     if tau > 0.0:
         a = math.exp(-dt_s / tau)
@@ -186,7 +229,22 @@ def sensor_output(t_out_n: np.ndarray, params: Mapping[str, float], dt_s: float)
     m = delay_samples(float(p["sensor_delay"]), dt_s)
     if m > 0:
         y = np.concatenate([np.full(min(m, len(y)), y[0]), y[: max(0, len(y) - m)]])
-    return float(p["sensor_gain"]) * y + float(p["sensor_offset"])
+    return saturate(
+        float(p["sensor_gain"]) * y + float(p["sensor_offset"]),
+        float(p["sensor_full_scale"]),
+        float(p["sensor_saturation_knee"]),
+    )
+
+
+def saturate(r: np.ndarray, full_scale_n: float, knee_n: float) -> np.ndarray:
+    """The output sensor's full scale (saturate() of bowden_physics.c): none at 0, a hard clip
+    with no knee, else the hyperbolic turn shifted so that zero reads zero."""
+    if full_scale_n <= 0.0:
+        return r
+    if knee_n <= 0.0:
+        return np.minimum(r, full_scale_n)
+    f, k = full_scale_n, knee_n
+    return 0.5 * (r + f - np.sqrt((r - f) ** 2 + k * k)) + 0.5 * (math.sqrt(f * f + k * k) - f)
 
 
 def delay_samples(delay_s: float, dt_s: float) -> int:
@@ -208,6 +266,8 @@ FRICTION_PARAMS = (
     "phi_offset_per_z",
     "mu_drift",
     "dead_zone_spread",
+    "mu_static_excess",
+    "slack_tension",
 )
 
 # Every parameter the twin knows, with its value when the effect is off.
@@ -222,6 +282,12 @@ OFF = {
     "sensor_delay": 0.0,
     "mu_drift": 0.0,
     "dead_zone_spread": 0.0,
+    "mu_static_excess": 0.0,
+    "slack_tension": 0.0,
+    "sensor_full_scale": 0.0,
+    "sensor_saturation_knee": 0.0,
+    "sensor_creep": 0.0,
+    "sensor_creep_tau": 1.0,
 }
 
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import ctypes
 import functools
+import math
 import shutil
 import tempfile
 from collections.abc import Mapping
@@ -227,6 +228,11 @@ class Plant:
             fn, conv = self._fmu.setReal, float
         elif var.type == "Integer":
             fn, conv = self._fmu.setInteger, int
+            if not (isinstance(value, int) or (math.isfinite(value) and float(value).is_integer())):
+                raise PlantError(
+                    f"{name} = {value} is not a whole number; allowed range is "
+                    f"[{var.min}, {var.max}]"
+                )
         else:
             fn, conv = self._fmu.setBoolean, bool
         self._call(f"setting {name} = {value}", fn, [var.valueReference], [conv(value)])

@@ -183,39 +183,84 @@ static double profile(const Friction *f, const double *old, double t_in_n, doubl
  * form of Eq. 1-3). Only when dead_zone_spread > 0. */
 static const double STRAND_Q[BOWDEN_N_STRAND] = {-1.5341205443525463, -0.88714655901887596, -0.48877641111466952, -0.1573106846101707, 0.1573106846101707, 0.48877641111466952, 0.88714655901887596, 1.5341205443525463};
 
+/* The strands are followed when the dead zone is gradual or the friction has a breakaway
+   part (README, "Static friction"); otherwise the output is the sheath's outlet node. */
+static int strands_active(const BowdenModel *m)
+{
+    return m->p.dead_zone_spread > 0.0 || m->p.mu_static_excess > 0.0;
+}
+
+/* Static friction (README, "Static friction"): a strand that last slid one way and must now
+ * slide the other way is held by the breakaway width ws_j = (mu + mu_static_excess) phi
+ * exp(spread q_j) instead of w_j; once it breaks loose it slides to the kinetic bound (a jump:
+ * stick-slip), and keeps the kinetic width while it goes on sliding the same way. The reference
+ * strand has no breakaway part, so the output carries the strands' stick-slip. */
 static void strands_update(BowdenModel *m, const Friction *f, double t_in_n)
 {
-    const double w = f->mu * f->dphi * BOWDEN_N_SEG;
+    const double phi = f->dphi * BOWDEN_N_SEG;
+    const double w = f->mu * phi;
+    const double ws = (f->mu + m->p.mu_static_excess) * phi;
     int j;
-    if (m->p.dead_zone_spread <= 0.0) {
+    if (!strands_active(m)) {
         return;
     }
     for (j = 0; j <= BOWDEN_N_STRAND; j++) {
         double q = j < BOWDEN_N_STRAND ? STRAND_Q[j] : 0.0;
-        double e = exp(w * exp(m->p.dead_zone_spread * q));
-        double lo = t_in_n / e, hi = t_in_n * e;
+        double s = exp(m->p.dead_zone_spread * q);
+        double e = exp(w * s);
+        double es = (j < BOWDEN_N_STRAND && m->p.mu_static_excess > 0.0) ? exp(ws * s) : e;
+        double lo = t_in_n / (m->strand_dir[j] > 0.0 ? e : es);
+        double hi = t_in_n * (m->strand_dir[j] < 0.0 ? e : es);
         if (m->strand_n[j] < lo) {
-            m->strand_n[j] = lo;
+            m->strand_n[j] = t_in_n / e;
+            m->strand_dir[j] = 1.0;
         } else if (m->strand_n[j] > hi) {
-            m->strand_n[j] = hi;
+            m->strand_n[j] = t_in_n * e;
+            m->strand_dir[j] = -1.0;
         }
     }
 }
 
 /* The output tension: the sheath's outlet node, times the strands' mean over the reference
- * strand (1 without spread): the spread shapes the transition through the dead zone and keeps
- * the sheath's profile, which sets the stretch (README, assumption A16). */
+ * strand (1 without spread and breakaway): the strands shape the transition through the dead
+ * zone and keep the sheath's profile, which sets the stretch (README, assumption A16); below
+ * slack_tension the cable has lost part of its pretension (README, "Slack"). */
 static double output_tension(const BowdenModel *m)
 {
-    double sum = 0.0, ref = m->strand_n[BOWDEN_N_STRAND];
+    double sum = 0.0, ref = m->strand_n[BOWDEN_N_STRAND], out = m->tension_n[BOWDEN_N_SEG];
     int j;
-    if (m->p.dead_zone_spread <= 0.0 || ref <= 0.0) {
-        return m->tension_n[BOWDEN_N_SEG];
+    if (strands_active(m) && ref > 0.0) {
+        for (j = 0; j < BOWDEN_N_STRAND; j++) {
+            sum += m->strand_n[j];
+        }
+        out *= (sum / BOWDEN_N_STRAND) / ref;
     }
-    for (j = 0; j < BOWDEN_N_STRAND; j++) {
-        sum += m->strand_n[j];
+    if (m->p.slack_tension > 0.0 && m->tension_n[0] < m->p.slack_tension) {
+        out *= m->tension_n[0] / m->p.slack_tension;
     }
-    return m->tension_n[BOWDEN_N_SEG] * (sum / BOWDEN_N_STRAND) / ref;
+    return out;
+}
+
+/* The load cell's reading of a true output tension after its creep (README, "Load-cell
+   creep"): a share sensor_creep of a change is read only as creep_lp_n follows it. */
+static double creep_reading(const BowdenModel *m, double t_out_n)
+{
+    return t_out_n - m->p.sensor_creep * (t_out_n - m->creep_lp_n);
+}
+
+/* The output sensor's full scale (README, "Sensor saturation"): a hard clip at
+   sensor_full_scale, or with a knee k > 0 the hyperbolic turn
+   0.5 (r + F - sqrt((r - F)^2 + k^2)) shifted so that a zero reading stays zero. */
+static double saturate(const BowdenModel *m, double r)
+{
+    const double fs = m->p.sensor_full_scale, k = m->p.sensor_saturation_knee;
+    if (fs <= 0.0) {
+        return r;
+    }
+    if (k <= 0.0) {
+        return r < fs ? r : fs;
+    }
+    return 0.5 * (r + fs - sqrt((r - fs) * (r - fs) + k * k)) + 0.5 * (sqrt(fs * fs + k * k) - fs);
 }
 
 /* Cable displacement at the inlet relative to the sheath: the stretch of the cable inside the
@@ -331,7 +376,8 @@ static void compute_outputs(BowdenModel *m)
     m->y.T_in = m->tension_n[0];
     m->y.T_out = output_tension(m);
     m->y.T_in_meas = m->y.T_in + m->noise_in_n;
-    m->y.T_out_meas = m->p.sensor_gain * delay_read(m) + m->p.sensor_offset + m->noise_out_n;
+    m->y.T_out_meas =
+        saturate(m, m->p.sensor_gain * delay_read(m) + m->p.sensor_offset) + m->noise_out_n;
     m->y.phi = phi;
     m->y.motor_angle = m->motor_angle_rad;
     m->y.motor_speed = m->motor_speed_rad_s;
@@ -418,7 +464,7 @@ static void substep(BowdenModel *m, double h)
 {
     const double ds = m->p.sheath_length / BOWDEN_N_SEG;
     Friction f = friction_now(m);
-    double t0 = m->time_s, y0 = m->sensor_lag_n, stretch = 0.0;
+    double t0 = m->time_s, y0 = m->sensor_lag_n, stretch = 0.0, t_out;
     int k;
 
     if (m->p.drive_mode == 1) {
@@ -432,7 +478,9 @@ static void substep(BowdenModel *m, double h)
     m->inlet_disp_m = inlet_displacement(m, stretch * ds, m->tension_n[BOWDEN_N_SEG]);
     strands_update(m, &f, m->tension_n[0]);
     m->time_s = t0 + h;
-    m->sensor_lag_n += (output_tension(m) - m->sensor_lag_n) * m->alpha_sensor;
+    t_out = output_tension(m);
+    m->creep_lp_n += (t_out - m->creep_lp_n) * m->alpha_creep;
+    m->sensor_lag_n += (creep_reading(m, t_out) - m->sensor_lag_n) * m->alpha_sensor;
     delay_push(m, t0, y0, m->time_s, m->sensor_lag_n);
 }
 
@@ -444,6 +492,7 @@ static void update_step_constants(BowdenModel *m, double h)
     m->cache_h_s = h;
     m->alpha_current = 1.0 - exp(-h * TWO_PI * m->p.current_bandwidth);
     m->alpha_sensor = m->p.sensor_tau > 0.0 ? 1.0 - exp(-h / m->p.sensor_tau) : 1.0;
+    m->alpha_creep = 1.0 - exp(-h / m->p.sensor_creep_tau);
 }
 
 /* ---- public ------------------------------------------------------------------------------- */
@@ -470,6 +519,7 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
     m->cable_speed_m_s = 0.0;
     memset(m->tension_n, 0, sizeof(m->tension_n));
     memset(m->strand_n, 0, sizeof(m->strand_n));
+    memset(m->strand_dir, 0, sizeof(m->strand_dir));
     m->rng_state = splitmix64((uint64_t)(uint32_t)m->p.seed);
     if (m->rng_state == 0) {
         m->rng_state = 0x9E3779B97F4A7C15ULL; /* xorshift must not start at 0 */
@@ -488,6 +538,7 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
     }
     m->inlet_disp_m =
         inlet_displacement(m, stretch * m->p.sheath_length / BOWDEN_N_SEG, m->tension_n[BOWDEN_N_SEG]);
+    m->creep_lp_n = output_tension(m); /* the initial load has settled on the load cell */
     m->sensor_lag_n = output_tension(m);
     m->delay_t0_s = start_time_s;
     m->delay_buf_n[0] = m->sensor_lag_n;
@@ -551,6 +602,7 @@ int bowden_model_check_state(const BowdenModel *m, char *msg, size_t msg_len)
         {"inlet_disp_m", m->inlet_disp_m},
         {"cable_speed_m_s", m->cable_speed_m_s},
         {"sensor_lag_n", m->sensor_lag_n},
+        {"creep_lp_n", m->creep_lp_n},
         {"delay_t0_s", m->delay_t0_s},
         {"noise_in_n", m->noise_in_n},
         {"noise_out_n", m->noise_out_n},
@@ -561,6 +613,7 @@ int bowden_model_check_state(const BowdenModel *m, char *msg, size_t msg_len)
         {"cache_h_s", m->cache_h_s},
         {"alpha_current", m->alpha_current},
         {"alpha_sensor", m->alpha_sensor},
+        {"alpha_creep", m->alpha_creep},
         {"cache_mu", m->cache_mu},
         {"cache_dphi", m->cache_dphi},
         {"exp_plus", m->exp_plus},
@@ -594,6 +647,14 @@ int bowden_model_check_state(const BowdenModel *m, char *msg, size_t msg_len)
         if (!isfinite(m->strand_n[i]) || m->strand_n[i] < 0.0) {
             snprintf(msg, msg_len, "state member strand_n[%u] = %g is not a tension >= 0",
                      (unsigned)i, m->strand_n[i]);
+            return 1;
+        }
+    }
+    for (i = 0; i <= BOWDEN_N_STRAND; i++) {
+        const double d = m->strand_dir[i];
+        if (d != 0.0 && d != 1.0 && d != -1.0) {
+            snprintf(msg, msg_len, "state member strand_dir[%u] = %g must be -1, 0 or 1",
+                     (unsigned)i, d);
             return 1;
         }
     }

@@ -28,7 +28,8 @@
 
 /* Friction thresholds of the gradual dead zone (README, "Gradual dead zone"): the lumped
    capstan at BOWDEN_N_STRAND widths mu*phi*exp(dead_zone_spread*q_j), q_j the standard normal
-   quantiles at (j + 1/2)/BOWDEN_N_STRAND. */
+   quantiles at (j + 1/2)/BOWDEN_N_STRAND. The same strands carry the breakaway friction
+   (README, "Static friction"). */
 #define BOWDEN_N_STRAND 8
 
 /* Delay line of the output sensor: a fixed grid of BOWDEN_DELAY_DT_S, long enough for the
@@ -49,6 +50,11 @@ typedef struct {
     double tension_n[BOWDEN_N_SEG + 1];     /* tension at the nodes, 0 = inlet .. N = outlet */
     double strand_n[BOWDEN_N_STRAND + 1];   /* lumped capstans of the spread thresholds; the
                                                last one at the mean width (the reference) */
+    double strand_dir[BOWDEN_N_STRAND + 1]; /* each strand's last slide: +1 towards the
+                                               end-effector, -1 back, 0 none yet (static
+                                               friction holds a strand that must reverse) */
+    double creep_lp_n;                      /* the load cell's creep state: T_out low-pass
+                                               filtered with sensor_creep_tau */
     double inlet_disp_m;                    /* cable displacement at the sheath inlet */
     double cable_speed_m_s;                 /* d(inlet_disp_m)/dt */
     double sensor_lag_n;                    /* output sensor after its first-order lag */
@@ -62,7 +68,7 @@ typedef struct {
     double geom_x_m, geom_y_m, geom_z_m;
     double phi_geom_rad;
     int geom_valid;
-    double cache_h_s, alpha_current, alpha_sensor;
+    double cache_h_s, alpha_current, alpha_sensor, alpha_creep;
     double cache_mu, cache_dphi, exp_plus, exp_minus;
 } BowdenModel;
 

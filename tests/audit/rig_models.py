@@ -67,35 +67,59 @@ def strand_mus(mu: float, spread: float, rng: np.random.Generator) -> np.ndarray
 
 
 @njit(cache=False)
-def _braid(t_in, phi, mus, extra_mu, segments):
+def _chain(held, j, t, c_pull, c_release, segments):
+    """One strand's segments for an input tension t; the direction its last segment slid."""
+    moved = 0.0
+    for s in range(segments):
+        pull = t * (1.0 - c_pull)
+        release = t / (1.0 - c_release)
+        moved = 0.0
+        if held[j, s] < pull:
+            held[j, s] = pull
+            moved = 1.0
+        elif held[j, s] > release:
+            held[j, s] = release
+            moved = -1.0
+        t = held[j, s]
+    return t, moved
+
+
+@njit(cache=False)
+def _braid(t_in, phi, mus, extra_mu, segments, static_ratio):
     n = t_in.shape[0]
     held = np.zeros((mus.shape[0], segments))
+    # each strand's last slide at the end-effector: +1 pulled, -1 released, 0 not yet. A strand
+    # is inextensible along the sheath: after a reversal it moves at the end-effector only once
+    # static friction (static_ratio times the sliding one, in every segment) is overcome along
+    # its whole length; then every segment drops to sliding friction at once (stick-slip).
+    slid = np.zeros(mus.shape[0])
     out = np.empty(n)
     for k in range(n):
         dphi = phi[k] / segments
         total = 0.0
         for j in range(mus.shape[0]):
             c = max(0.0, min(0.9, (mus[j] + extra_mu[k]) * dphi))
-            t = t_in[k]
-            for s in range(segments):
-                pull = t * (1.0 - c)
-                release = t / (1.0 - c)
-                if held[j, s] < pull:
-                    held[j, s] = pull
-                elif held[j, s] > release:
-                    held[j, s] = release
-                t = held[j, s]
+            c_stuck = max(0.0, min(0.9, static_ratio * c))
+            c_pull = c if slid[j] > 0.0 else c_stuck
+            c_release = c if slid[j] < 0.0 else c_stuck
+            t, moved = _chain(held, j, t_in[k], c_pull, c_release, segments)
+            if moved != 0.0 and moved != slid[j]:
+                slid[j] = moved  # broke loose: the whole strand slides with sliding friction
+                t, moved = _chain(held, j, t_in[k], c, c, segments)
             total += t
         out[k] = total / mus.shape[0]
     return out
 
 
-def braid_output(t_in, phi, mus, extra_mu=None) -> np.ndarray:
+def braid_output(t_in, phi, mus, extra_mu=None, static_ratio: float = 1.0) -> np.ndarray:
     """True output tension of the braid for an input tension and a bending angle per sample;
-    `extra_mu` (per sample) adds to every strand's mu (friction that follows something else)."""
+    `extra_mu` (per sample) adds to every strand's mu (friction that follows something else);
+    `static_ratio` > 1: a strand breaks loose after a reversal only at that multiple of its
+    sliding friction, then jumps to the sliding bound (stick-slip)."""
     t_in = np.ascontiguousarray(t_in, dtype=float)
     extra = np.zeros(len(t_in)) if extra_mu is None else np.ascontiguousarray(extra_mu, float)
-    return _braid(t_in, np.ascontiguousarray(phi, float), np.asarray(mus, float), extra, SEGMENTS)
+    phi = np.ascontiguousarray(phi, float)
+    return _braid(t_in, phi, np.asarray(mus, float), extra, SEGMENTS, float(static_ratio))
 
 
 def held_positions(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -123,10 +147,35 @@ def rig_record(
     gain: float = 1.0,
     lag_s: float = 0.0,
     periodic: tuple[float, float] | None = None,
+    static_ratio: float = 1.0,
+    slack_n: float = 0.0,
+    full_scale_n: float = 0.0,
+    creep: float = 0.0,
+    creep_tau_s: float = 1.0,
+    spikes: tuple[int, float] | None = None,
+    ring: tuple[float, float, float] | None = None,
     name: str = "rig.csv",
 ) -> Path:
     """Write a rig record (CSV and a sidecar without mu). `periodic` = (amplitude N, frequency
-    Hz) adds a sinusoidal pickup to the output sensor (mains, a pump, a fan)."""
+    Hz) adds a sinusoidal pickup to the output sensor (mains, a pump, a fan). The rig's own
+    forms of four effects, each off by default:
+
+    - `static_ratio`: static friction, breakaway at that multiple of the sliding friction in
+      every segment, overcome along a strand's whole length before it moves (braid_output);
+    - `slack_n`: the cable's pretension is taken up by a linear spring at the end-effector that
+      the cable stretches fully only above this input tension; below it the end-effector sees
+      the share t_in / slack_n of the braid's tension;
+    - `full_scale_n`: the output amplifier's rail: its reading is clipped there (before the
+      noise of the acquisition);
+    - `creep`, `creep_tau_s`: the load cell's spring and a viscoelastic element in parallel (a
+      standard linear solid): a share `creep` of a change in tension is read only as the element
+      relaxes with creep_tau_s (integrated by backward Euler at the sample rate).
+
+    Two disturbances no cause explains: `spikes` = (count, amplitude N), isolated one-sample
+    spikes of either sign on the output sensor (electrical interference); `ring` = (amplitude N,
+    frequency Hz, decay s), a decaying oscillation of the output after every reversal of the
+    input (the cable's vibration when it breaks loose).
+    """
     rng = np.random.default_rng(seed)
     n = int(round(duration_s * RATE_HZ))
     t = np.arange(n) / RATE_HZ
@@ -139,7 +188,17 @@ def rig_record(
     else:
         pos = None
         phi = np.full(n, 2.0 * math.pi)  # loop routing in the loop's plane (paper Sec. III-A)
-    out = braid_output(t_in, phi, strand_mus(mu, spread, rng))
+    out = braid_output(t_in, phi, strand_mus(mu, spread, rng), static_ratio=static_ratio)
+    if slack_n > 0.0:
+        out = out * np.clip(t_in / slack_n, 0.0, 1.0)
+    if creep != 0.0:
+        relaxed = np.empty(n)
+        state = out[0]
+        h = 1.0 / (RATE_HZ * creep_tau_s)
+        for k in range(n):
+            state = (state + h * out[k]) / (1.0 + h)
+            relaxed[k] = state
+        out = (1.0 - creep) * out + creep * relaxed
     if lag_s > 0.0:  # the output sensor's own first-order lag, by its exact discrete pole
         a = math.exp(-1.0 / (RATE_HZ * lag_s))
         y = np.empty(n)
@@ -148,10 +207,24 @@ def rig_record(
             acc = a * acc + (1.0 - a) * out[k]
             y[k] = acc
         out = y
-    meas_out = gain * out + offset_n + rng.normal(0.0, noise_n, n)
+    reading = gain * out + offset_n
+    if full_scale_n > 0.0:
+        reading = np.minimum(reading, full_scale_n)
+    meas_out = reading + rng.normal(0.0, noise_n, n)
     if periodic is not None:
         amp, freq = periodic
         meas_out = meas_out + amp * np.sin(2 * np.pi * freq * t + 0.7)
+    if spikes is not None:
+        count, amp = spikes
+        where = np.random.default_rng(seed + 7).choice(n, count, replace=False)
+        meas_out[where] += amp * np.where(np.arange(count) % 2 == 0, 1.0, -1.0)
+    if ring is not None:
+        amp, freq, decay = ring
+        turns = np.flatnonzero(np.diff(np.sign(np.diff(t_in))) != 0) + 1
+        for k in turns:
+            m = min(n - k, int(5 * decay * RATE_HZ))
+            tt = np.arange(m) / RATE_HZ
+            meas_out[k : k + m] += amp * np.sin(2 * np.pi * freq * tt) * np.exp(-tt / decay)
     meas_in = t_in + rng.normal(0.0, noise_n, n)
     cols = {"t_s": t, "T_in_N": meas_in, "T_out_N": meas_out}
     if pos is not None:

@@ -204,6 +204,14 @@ def test_emit_params_into_a_file_where_a_folder_is_needed_is_one_clear_line(tmp_
         {"dead_zone_spread": 0.4},
         {"dead_zone_spread": 1.2, "mu_viscous": 2.0, "phi_offset_per_z": 0.5, "sensor_gain": 1.1},
         {"dead_zone_spread": 0.8, "mu_drift": 3e-4, "mu_tension_slope": 0.001},
+        {"mu_static_excess": 0.03},
+        {"mu_static_excess": 0.05, "dead_zone_spread": 0.5, "mu_viscous": 1.0},
+        {"slack_tension": 6.0},
+        {"slack_tension": 4.0, "dead_zone_spread": 0.3, "sensor_tau": 0.005},
+        {"sensor_full_scale": 9.0},
+        {"sensor_full_scale": 10.0, "sensor_saturation_knee": 2.0, "sensor_offset": 0.4},
+        {"sensor_creep": 0.05, "sensor_creep_tau": 0.8},
+        {"sensor_creep": -0.04, "sensor_creep_tau": 2.0, "sensor_delay": 0.005},
     ],
 )
 def test_twin_agrees_with_the_fmu(effect):

@@ -101,3 +101,29 @@ def test_a_hidden_cause_on_the_rig_is_named_alone_and_brought_to_the_floor(tmp_p
     assert res.holdout_rms_after_n <= FLOOR_FACTOR * res.data.noise_floor_n
     _honest(res)
     assert np.isfinite(res.twin_fmu_max_diff_n) and res.twin_fmu_max_diff_n < 1e-4
+
+
+# Where what is left sits (cosim.audit.residual.locate; its thresholds written once, not tuned
+# on these cases): isolated spikes are counted and sized, and do not pull the fit into a cause;
+# a ringing after every reversal is placed near the reversals.
+LOCATED = {
+    "40 spikes of 1.5 N": dict(seed=28, mu=0.08, spread=0.3, spikes=(40, 1.5)),
+    "0.15 N ringing at 9 Hz after reversals": dict(
+        seed=29, mu=0.085, spread=0.3, drive="ramp", ring=(0.15, 9.0, 0.08)
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(LOCATED))
+def test_what_is_left_is_located(tmp_path, case):
+    res = _audit(tmp_path, LOCATED[case])
+    assert res.findings == [], _named(res)
+    u = res.unexplained
+    if "spikes" in LOCATED[case]:
+        # the held-out blocks hold about half the record's 40 spikes
+        assert 10 <= u["outliers"]["count"] <= 30, u["outliers"]
+        assert u["outliers"]["largest_n"] == pytest.approx(1.5, abs=0.2)
+        assert any("outliers" in w for w in u["where"]), u["where"]
+    else:
+        assert u["where"] and u["where"][0].startswith("near reversals"), u["where"]
+        assert not any("outliers" in w for w in u["where"]), u["where"]

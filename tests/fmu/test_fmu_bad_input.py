@@ -146,3 +146,11 @@ def test_stiffest_cable_with_the_largest_step_stays_stable(make_plant):
         assert all(math.isfinite(v) for v in plant.y)
         peak = max(peak, plant.y[Plant.T_IN])
     assert stall_n * 0.9 < peak < 2.0 * stall_n
+
+
+@pytest.mark.parametrize("value", [math.inf, math.nan, 0.5])
+def test_an_integer_parameter_that_is_not_a_whole_number_is_refused_by_name(value):
+    """Plant.set of drive_mode = inf, nan or 0.5: a PlantError naming the parameter (it was a
+    bare OverflowError or ValueError from int(), or 0.5 silently set as 0)."""
+    with pytest.raises(PlantError, match="drive_mode"):
+        Plant({"drive_mode": value})

@@ -1,0 +1,83 @@
+"""Three effects real rigs have, each an FMU parameter and a cause of the audit's vocabulary
+(fmu/README.md "Slack", "Sensor saturation", "Load-cell creep"), hidden in data of the rig
+written here (tests/audit/rig_models.py: its own code, not the FMU's), named by the audit alone
+and brought to the noise floor through the FMU.
+
+Which cases chose what: the rig's magnitudes (slack 5 N, a hard full scale of 9 N, creep 6 %
+with 1 s) and the effects' starts (cosim/audit/effects.py, fit.py) were chosen on the tuning
+seeds 32 (slack), 33 (saturation) and 34 (creep), 40 s each, mu 0.08, spread 0.3, noise 0.03 N;
+the cases below use other seeds, mu, spreads and noise and were run once those were fixed, and
+are reported as they came out (MISSED). The decision rule is the one of test_audit_rule.py
+(not tuned here).
+
+Static friction (fmu/README.md "Static friction", the rig's `static_ratio`) is in the FMU and
+the twin but not in the vocabulary: its jumps move by whole samples with mu, the spread and the
+excess, so the fit's finite differences see nothing; a graduated fit on a smoothed residual
+found it on FMU data but left 1.3-1.5x the floor there, and on the rig (12 strands whose jumps
+fall at other instants than the FMU's 8) it did not fit, while on the tuning seed 31 (spread
+0.3, 1.3x) the audit named sensor_gain instead: a wrong cause this vocabulary cannot avoid yet.
+"""
+
+from __future__ import annotations
+
+import pytest
+from rig_models import rig_record
+
+from cosim.audit import core
+from cosim.results import trace
+
+pytestmark = pytest.mark.slow
+
+DURATION_S = 40.0
+# the acceptance's factor: a named cause leaves the held-out residual within 2x the noise floor
+FLOOR_FACTOR = 2.0
+
+CASES = {
+    "slack below 6 N, ramps": (
+        dict(seed=42, mu=0.085, spread=0.35, noise_n=0.025, drive="ramp", slack_n=6.0),
+        "slack",
+        ("slack_tension", 6.0, 0.1),
+    ),
+    "a hard full scale of 10 N": (
+        dict(seed=43, mu=0.075, spread=0.25, noise_n=0.035, full_scale_n=10.0),
+        "sensor_saturation",
+        ("sensor_full_scale", 10.0, 0.03),
+    ),
+    "creep -6 % with 0.8 s": (
+        dict(seed=45, mu=0.08, spread=0.25, noise_n=0.03, creep=-0.06, creep_tau_s=0.8),
+        "load_cell_creep",
+        ("sensor_creep", -0.06, 0.15),
+    ),
+}
+# Reported, not met: on this rig (noise 0.02 N) the creep is fitted at 3.3 % with 1.2 s and
+# its block t is 1.98 against the rule's 2 (one selection block gets worse where the nominal
+# model's own mismatch to the rig's strands and the creep cancel), so nothing is named.
+MISSED = {
+    "creep 5 % with 1.5 s": (
+        dict(seed=44, mu=0.09, spread=0.3, noise_n=0.02, creep=0.05, creep_tau_s=1.5),
+        "load_cell_creep",
+        ("sensor_creep", 0.05, 0.15),
+    ),
+}
+
+
+@pytest.mark.parametrize(
+    "case",
+    [
+        *CASES,
+        *(pytest.param(c, marks=pytest.mark.xfail(strict=True, reason="missed")) for c in MISSED),
+    ],
+)
+def test_a_new_cause_on_the_rig_is_named_alone_and_brought_to_the_floor(tmp_path, case):
+    kw, cause, value = {**CASES, **MISSED}[case]
+    path = rig_record(tmp_path, duration_s=DURATION_S, **kw)
+    res = core.run(core.prepare(trace.read_trace(path, "measured"), str(path)))
+    named = [(f.effect.cause, f.value) for f in res.findings]
+    assert [c for c, _ in named] == [cause], named
+    f = res.findings[0]
+    assert f.explains_pct > 0.0 and f.ambiguous_with is None, f.evidence
+    param, true, rel = value
+    assert res.extended.params[param] == pytest.approx(true, rel=rel), res.extended.params
+    assert res.holdout_rms_after_n <= FLOOR_FACTOR * res.data.noise_floor_n
+    assert res.holdout_rms_after_n < res.holdout_rms_before_n
+    assert res.twin_fmu_max_diff_n < 1e-4
