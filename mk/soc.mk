@@ -30,11 +30,16 @@ SOC_FW_HEX := $(SOC_FW_OUT)/bowden_fw.hex
 SOC_FW_FLASH := $(SOC_FW_OUT)/bowden_fw_flash.bin
 SOC_FW_LIB := $(SOC_FW_OUT)/libbowden_fw_soc.a
 SOC_FW_SIZE := $(SOC_FW_OUT)/size.txt
+# The UP5K's boot loader (firmware/soc/boot.S): the block RAM at SOC_BOOT_BASE that the bitstream
+# initialises (bowden_soc.v BOOT_INIT, BOOT_WORDS words).
+SOC_BOOT_BASE := 0x40000000
+SOC_BOOT_BYTES := 256
+SOC_BOOT_HEX := $(SOC_FW_OUT)/boot.hex
 
 .PHONY: firmware-soc
 BUILD_TARGETS += firmware-soc
 
-firmware-soc: $(SOC_FW_SIZE) $(SOC_FW_HEX)
+firmware-soc: $(SOC_FW_SIZE) $(SOC_FW_HEX) $(SOC_BOOT_HEX)
 
 vpath %.c firmware/src firmware/soc
 $(SOC_FW_OUT)/obj/%.o: %.c $(SOC_FW_HDR) $(VENV_STAMP) mk/soc.mk
@@ -63,6 +68,15 @@ $(SOC_FW_BIN): $(SOC_FW_ELF)
 $(SOC_FW_HEX): $(SOC_FW_BIN) firmware/soc/tools/mkimage.py
 	$(PY) firmware/soc/tools/mkimage.py $< --rom-bytes $(SOC_ROM_BYTES) --hex $@ --flash $(SOC_FW_FLASH) \
 	  --flash-hex $(SOC_FW_OUT)/bowden_fw_flash.hex
+
+$(SOC_FW_OUT)/boot.elf: firmware/soc/boot.S $(VENV_STAMP) mk/soc.mk
+	@mkdir -p $(SOC_FW_OUT)/obj
+	$(FW_ZIG_CC) $(SOC_FW_FLAGS) -c $< -o $(SOC_FW_OUT)/obj/boot.o
+	$(PY) -m ziglang ld.lld -e _boot -Ttext=$(SOC_BOOT_BASE) $(SOC_FW_OUT)/obj/boot.o -o $@
+
+$(SOC_BOOT_HEX): $(SOC_FW_OUT)/boot.elf firmware/soc/tools/mkimage.py
+	$(PY) -m ziglang objcopy -O binary $< $(SOC_FW_OUT)/boot.bin
+	$(PY) firmware/soc/tools/mkimage.py $(SOC_FW_OUT)/boot.bin --rom-bytes $(SOC_BOOT_BYTES) --hex $@
 
 $(SOC_FW_SIZE): $(SOC_FW_ELF) firmware/soc/tools/rv32_report.py
 	$(PY) firmware/soc/tools/rv32_report.py $< --stack-max $(SOC_STACK_BYTES) --out $@
@@ -96,11 +110,20 @@ lint-soc: $(VENV_STAMP)
 #
 #   make bitstream  build/bitstream/ice40-up5k/bowden.bin (+ bowden_fw_flash.bin, the image the
 #                   UP5K boots from its flash) and build/bitstream/ecp5-25f/bowden.bit (the image
-#                   in it), summary.json each; fails when timing is not met; cached by input hash
+#                   in it), summary.json each (LUTs, logic cells, FFs, DSPs, RAMs, Fmax); fails
+#                   when a board does not fit or misses timing; cached by input hash
 
 .PHONY: bitstream
 bitstream: firmware-soc
 	$(PY) hdl/soc/bitstream.py --all
+
+#   make soc-cpus   the soft-CPU candidates (picorv32 configurations, VexRiscv, SERV), each
+#                   synthesized alone for the UP5K: LUT4, carry, FFs, DSPs, block RAMs
+#                   (build/soc/cpu/summary.json; hdl/README.md "The CPU, measured")
+
+.PHONY: soc-cpus
+soc-cpus: $(VENV_STAMP)
+	$(PY) hdl/soc/cpu_candidates.py
 
 # --- benchmark (part of make bench) ------------------------------------------------------------
 #

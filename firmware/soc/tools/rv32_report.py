@@ -212,8 +212,8 @@ def main(argv: list[str] | None = None) -> int:
         isr = frame.get(by_name.get("irq_entry", -1), 0)
         stack = main_d + isr
         lines.append(
-            f"worst-case stack (static bound): {stack} bytes = main's deepest path {main_d} + "
-            f"interrupt {isr}"
+            f"worst-case stack (static bound): {stack} bytes = main's deepest path {main_d}"
+            + (f" + interrupt {isr}" if "irq_entry" in by_name else " (no interrupt)")
         )
         lines.append("  path: " + " -> ".join(main_p))
         if args.stack_max is not None and stack > args.stack_max:

