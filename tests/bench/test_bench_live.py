@@ -117,7 +117,13 @@ def test_terminal_view_under_tmux_shows_the_run(emulator, tmp_path):
         screen = ""
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:  # until the view has drawn a couple of seconds
-            screen = _tmux("capture-pane", "-p", "-t", session).stdout
+            # The last screen the view drew: once the run has ended (a loaded machine may draw
+            # slowly) the session is gone and a capture is empty.
+            shot = _tmux("capture-pane", "-p", "-t", session).stdout
+            if shot.strip():
+                screen = shot
+            elif _tmux("has-session", "-t", session).returncode != 0:
+                break
             m = re.search(r"t +(\d+\.\d+) s", screen)
             if m and float(m.group(1)) > 2.0:
                 break
