@@ -272,7 +272,10 @@ class TermView:
         os.environ["COLUMNS"], os.environ["LINES"] = str(cols), str(rows)
         snap = snapshot(self.buffer, self.signals, self.window_s, points=2 * cols)
         fps = self.frames / max(t - self._t0, 1e-9)
-        self.out.write("\x1b[H" + render_text(snap, cols, rows, fps) + "\x1b[J")
+        # Each line cleared to its end (ESC [K) and the rest of the screen below (ESC [J): a line
+        # of an earlier, longer frame must not linger beside or under this one.
+        text = render_text(snap, cols, rows, fps).replace("\n", "\x1b[K\n")
+        self.out.write("\x1b[H" + text + "\x1b[K\x1b[J")
         self.out.flush()
         self.frames += 1
         self.draw_s += time.monotonic() - t
