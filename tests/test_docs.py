@@ -9,7 +9,7 @@ CHECKED_ROOTS and fails on
 - a path outside the repository (`/work/...`, `../shared`);
 - in a markdown file, a relative link `[text](path)` whose target does not exist, a path in
   backticks (`dir/file.ext`) that exists neither from the repository root nor from the
-  document's folder, or a markdown file cited by its bare name (`STYLE.md`) that the
+  document's folder, or a markdown file cited by its bare name (`NOTES.md`) that the
   repository does not hold.
 
 Fenced code blocks are skipped (they show commands and their outputs, whose files a run
@@ -48,7 +48,7 @@ LINK = re.compile(r"\[[^\]]*\]\(([^)\s]+)\)")
 BACKTICK = re.compile(r"`([^`\s]+)`")
 PATH_LIKE = re.compile(r"^[\w.-]+(/[\w.-]+)*/[\w.-]+\.[A-Za-z]\w*$")
 BARE_MD = re.compile(r"^[\w.-]+\.md$")
-# In code, only the repository's own kind of document (README.md, STYLE.md): lower-case names such
+# In code, only the repository's own kind of document (README.md, NOTES.md): lower-case names such
 # as report.md are files the tools write.
 MD_NAME = re.compile(r"(?<![\w/.-])([A-Z][A-Z0-9_-]*\.md)\b")
 PLACEHOLDER = re.compile(r"(^|/)([A-Z][A-Z_]+|<[^>]*>|NAME|\*)(/|$|\.)")
@@ -158,7 +158,7 @@ def planted(tmp_path):
         ("The paper's text in /work/shared/paper/.\n", "outside the repository"),
         ("See [the contract](contract.md).\n", "link to contract.md"),
         ("See [the map](../hdl/missing.v#top).\n", "link to ../hdl/missing.v"),
-        ("The style is in `STYLE.md`.\n", "cites STYLE.md"),
+        ("The style is in `NOTES.md`.\n", "cites NOTES.md"),
         ("The module `hdl/rtl/nowhere.v` does it.\n", "cites hdl/rtl/nowhere.v"),
     ],
 )
@@ -232,6 +232,6 @@ def test_property_check_fails_on_an_unlabelled_assertion(tmp_path):
 
 
 def test_a_missing_markdown_file_named_in_code_is_caught(planted):
-    (planted / "tool.py").write_text('"""Plots are for a person (STYLE.md)."""\n')
+    (planted / "tool.py").write_text('"""Plots are for a person (NOTES.md)."""\n')
     found = check(planted, ["docs/real.md", "tool.py"], [""])
-    assert found == ["tool.py:1: cites STYLE.md, which the repository does not hold"], found
+    assert found == ["tool.py:1: cites NOTES.md, which the repository does not hold"], found

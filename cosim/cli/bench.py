@@ -21,7 +21,6 @@ import math
 import os
 import signal
 import sys
-import tempfile
 import threading
 import time
 from pathlib import Path
@@ -36,7 +35,7 @@ from cosim.bench.client import (
     fault_names,
     status_names,
 )
-from cosim.bench.config import backup_doc, write_all
+from cosim.bench.config import backup_doc, write_all, write_atomic
 from cosim.bench.device import ChainConfig
 from cosim.bench.diff import BACKUP_FORMAT
 from cosim.bench.protocol import ProtocolError, format_value, param, word_from_value
@@ -380,20 +379,10 @@ def _check_new_file(path: Path, force: bool, what: str) -> None:
 
 
 def _write_new_file(path: Path, text: str, force: bool, what: str) -> None:
-    """Write `text` to `path` atomically (a temporary file in the same folder, fsync'ed, then
-    renamed): only a regular file is replaced, and only with `force`."""
+    """Write `text` to `path` atomically (cosim.bench.config.write_atomic): only a regular file is
+    replaced, and only with `force`."""
     _check_new_file(path, force, what)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_atomic(path, text)
 
 
 def _cmd_simple(name: str, text: str):
