@@ -6,6 +6,10 @@ the `bowden` console script: cosim/__main__.py) install `interrupted_before_star
 nothing imported but the standard library's signal and os; `cosim.cli.main` hands SIGINT back to
 Python's handler (`release`) inside its own try block. Nothing has started before that point,
 so there is nothing to stop: the process leaves at once with 128 + SIGINT.
+
+After `release` a Ctrl-C is a KeyboardInterrupt again, and `seen` records that it came: an
+interrupt that lands inside an extension module's import can be replaced by an ImportError with
+no trace of it (numpy's C code importing datetime does so), and is an interrupt all the same.
 """
 
 from __future__ import annotations
@@ -13,6 +17,9 @@ from __future__ import annotations
 import os
 import signal
 import threading
+
+# True once a SIGINT arrived after release(): see the module's docstring.
+seen = False
 
 
 def interrupted_before_start(signum, _frame) -> None:
@@ -27,8 +34,15 @@ def install() -> None:
             signal.signal(signal.SIGINT, interrupted_before_start)
 
 
+def keyboard_interrupt(signum, frame) -> None:
+    """Python's default SIGINT handler (KeyboardInterrupt) that also records the signal (`seen`)."""
+    global seen
+    seen = True
+    signal.default_int_handler(signum, frame)
+
+
 def release() -> None:
-    """Python's own SIGINT handler again (KeyboardInterrupt), if install() put ours in place."""
+    """A KeyboardInterrupt on Ctrl-C again, if install() put our handler in place."""
     if threading.current_thread() is threading.main_thread():
         if signal.getsignal(signal.SIGINT) is interrupted_before_start:
-            signal.signal(signal.SIGINT, signal.default_int_handler)
+            signal.signal(signal.SIGINT, keyboard_interrupt)

@@ -101,6 +101,43 @@ def test_the_command_line_starts_without_the_heavy_libraries():
     assert out.stdout.strip() == "", f"imported while building the parser: {out.stdout.strip()}"
 
 
+_SWALLOWED_INTERRUPT = """
+import os, signal, sys, time
+from cosim import _early
+import cosim.cli as cli
+
+def parser_whose_import_swallows_the_interrupt():
+    # As numpy's C code does when a Ctrl-C lands in its import of datetime: the KeyboardInterrupt
+    # becomes an ImportError that keeps no trace of it.
+    try:
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(5)
+    except KeyboardInterrupt:
+        error = ImportError('PyCapsule_Import could not import module "datetime"')
+    error.__context__ = None
+    raise error
+
+_early.install()
+cli.build_parser = parser_whose_import_swallows_the_interrupt
+sys.exit(cli.main(["audit", "x.csv"]))
+"""
+
+
+def test_an_interrupt_that_an_import_turned_into_an_import_error_is_one_line(tmp_path):
+    """Seen in CI: SIGINT 0.1 s into `bowden audit` landed inside numpy's import, whose C code
+    replaced the KeyboardInterrupt with an ImportError carrying no trace of it; the traceback
+    was printed. The signal is recorded when it arrives, so the error is read as the interrupt."""
+    proc = subprocess.run(
+        [sys.executable, "-c", _SWALLOWED_INTERRUPT],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=tmp_path,
+    )
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stderr == "bowden: interrupted by SIGINT before the command started\n"
+
+
 @pytest.mark.parametrize("delay_s", [0.05, 0.1, 0.3])
 @pytest.mark.parametrize("entry", ["module", "script"])
 def test_ctrl_c_in_the_first_moments_is_one_line(entry, delay_s, tmp_path):

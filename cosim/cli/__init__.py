@@ -107,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
         _early.release()  # from here on a Ctrl-C is a KeyboardInterrupt caught below
         return _main(argv)
     except (KeyboardInterrupt, ImportError) as exc:  # Ctrl-C before the command's handlers
-        if _interruption(exc) is None:
+        if _interruption(exc) is None and not _early.seen:
             raise
         print("bowden: interrupted by SIGINT before the command started", file=sys.stderr)
         return 128 + int(signal.SIGINT)
@@ -132,9 +132,12 @@ def _main(argv: list[str] | None) -> int:
             return code
     except (Interrupted, KeyboardInterrupt, ImportError) as exc:
         interrupt = _interruption(exc)
-        if interrupt is None:
+        if interrupt is None and _pending is None:
             raise
-        signum = interrupt.signum if isinstance(interrupt, Interrupted) else int(signal.SIGINT)
+        if isinstance(interrupt, Interrupted):
+            signum = interrupt.signum
+        else:  # a KeyboardInterrupt, or an ImportError that replaced the signal's exception
+            signum = _pending or int(signal.SIGINT)
         procs.stop_all()  # whatever the command's own handler has not stopped yet
         print(
             f"bowden {args.command}: interrupted by {signal.Signals(signum).name}: stopped the run "
