@@ -13,6 +13,7 @@ from scipy.signal import fftconvolve
 from . import twin
 from .data import FIT, AuditData
 from .effects import Effect
+from .twin import PlantInputs
 
 MU_BOUNDS = (1e-4, 1.0)
 MU_SCALE = 0.01
@@ -29,6 +30,21 @@ SPREAD_START = 0.05
 # Fits use at most this many residuals of the fit blocks (evenly strided): enough for the
 # parameters, and it keeps the Jacobian small.
 MAX_FIT_RESIDUALS = 20_000
+# On long records the fits run the friction part of the twin on every q-th sample, q the
+# smallest that keeps it within this many samples, and read it between them by linear
+# interpolation (the sensor's creep, lag and delay still run at the full rate on it); the
+# residuals fitted sit on that grid. The friction is a hysteresis driven by the smoothed input:
+# what a coarser step changes is where a reversal's extreme falls (at a reversal the input is
+# flat, so it moves by about T'' (q dt)^2 / 8: 6e-4 N at 60 N/s^2 and q dt = 8 ms) and the
+# 10 ms filter of the cable speed (viscous friction only). Records up to this length are fitted
+# on every sample; every model is then simulated at the full rate, and the decision and the
+# report use those predictions only. The friction loop is most of an audit's time: without
+# this, 20 minutes of 1 kHz data cost about 1500 runs of 1.2 million samples.
+MAX_FIT_FRICTION_SAMPLES = 150_000
+# Friction outputs kept per fit (least recently used dropped): the Jacobian's columns for the
+# sensor's parameters (offset, gain, lag, delay, full scale, creep) reuse the friction of the
+# point they are taken at.
+FRICTION_CACHE = 4
 
 
 @dataclass
@@ -39,6 +55,7 @@ class Model:
     params: dict[str, float]
     prediction: np.ndarray
     nfev: int = 0
+    friction_runs: int = 0  # runs of the twin's friction loop the fit took (its main cost)
 
     def residual(self, data: AuditData) -> np.ndarray:
         return data.t_out_n - self.prediction
@@ -73,45 +90,52 @@ def fit_model(
     names: list[str] = ([] if data.mu_fixed else ["mu"]) + [SPREAD]
     names += [n for e in free if not e.discrete for n in e.fmu_params]
     delay = next((e for e in free if e.discrete), None)
+    ev = _Evaluator(data)
     fit_idx = np.flatnonzero(data.roles == FIT)
     stride = max(1, math.ceil(len(fit_idx) / MAX_FIT_RESIDUALS))
-    idx = fit_idx[::stride]
+    idx = ev.on_grid(fit_idx, stride)
     nfev = 0
     if delay is None:
         if names:
-            params, nfev = _least_squares(data, params, names, idx)
+            params, nfev = _least_squares(ev, params, names, idx)
     else:
         # Coordinate descent: scan the delay with the rest held, refit the rest, until the scan
         # stays; then walk to neighbouring delays (the rest refitted) while that fits better, as
         # mu and the delay trade off near the optimum.
         dt = data.inputs.dt_s
-        m = twin.delay_samples(_scan_delay(data, params, fit_idx), dt)
+        m = twin.delay_samples(_scan_delay(ev, params, fit_idx), dt)
         for _ in range(6):
             params[delay.fmu_param] = m * dt
             if names:
-                params, n_eval = _least_squares(data, params, names, idx)
+                params, n_eval = _least_squares(ev, params, names, idx)
                 nfev += n_eval
-            m_new = twin.delay_samples(_scan_delay(data, params, fit_idx), dt)
+            m_new = twin.delay_samples(_scan_delay(ev, params, fit_idx), dt)
             if m_new == m:
                 break
             m = m_new
-        best = (_sse(data, params, idx), params)
+        best = (_sse(ev, params, idx), params)
         m_max = int(round(delay.bounds[1] / dt))
         for step in (-1, 1):
             m = twin.delay_samples(best[1][delay.fmu_param], dt) + step
             while 0 <= m <= m_max:
                 trial = {**best[1], delay.fmu_param: m * dt}
                 if names:
-                    trial, n_eval = _least_squares(data, trial, names, idx)
+                    trial, n_eval = _least_squares(ev, trial, names, idx)
                     nfev += n_eval
-                sse = _sse(data, trial, idx)
+                sse = _sse(ev, trial, idx)
                 if sse >= best[0]:
                     break
                 best = (sse, trial)
                 m += step
         params = best[1]
     pred = twin.simulate(data.inputs, params)
-    return Model(effects=tuple(effects), params=params, prediction=pred, nfev=nfev)
+    return Model(
+        effects=tuple(effects),
+        params=params,
+        prediction=pred,
+        nfev=nfev,
+        friction_runs=ev.friction_runs + 1,
+    )
 
 
 def _start(e: Effect, data: AuditData) -> float:
@@ -125,8 +149,71 @@ def _start(e: Effect, data: AuditData) -> float:
     return e.off + (e.scale if e.off <= lo else 0.0)
 
 
-def _sse(data: AuditData, params: dict[str, float], idx: np.ndarray) -> float:
-    r = data.t_out_n[idx] - twin.simulate(data.inputs, params)[idx]
+class _Evaluator:
+    """The twin's reading of T_out_meas at chosen samples, for the fits (MAX_FIT_FRICTION_SAMPLES:
+    the friction on every q-th sample on long records; FRICTION_CACHE: friction outputs reused
+    while only the sensor's parameters change)."""
+
+    def __init__(self, data: AuditData):
+        self.data = data
+        inp = data.inputs
+        self.n = len(inp.t_in_n)
+        self.q = max(1, math.ceil(self.n / MAX_FIT_FRICTION_SAMPLES))
+        if self.q == 1:
+            self.inputs = inp
+        else:
+            sl = slice(None, None, self.q)
+            self.inputs = PlantInputs(
+                t_in_n=inp.t_in_n[sl],
+                phi_rad=inp.phi_rad[sl],
+                z_m=inp.z_m[sl],
+                position_m=None,
+                t0_s=inp.t0_s,
+                dt_s=inp.dt_s * self.q,
+                sheath_length_m=inp.sheath_length_m,
+                loop_routing=inp.loop_routing,
+            )
+        self._cache: dict[tuple, list] = {}
+        self.friction_runs = 0
+
+    def on_grid(self, indices: np.ndarray, stride: int) -> np.ndarray:
+        """Every stride-th of the indices, taken among those on the friction's grid."""
+        if self.q > 1:
+            indices = indices[indices % self.q == 0]
+            stride = max(1, math.ceil(len(indices) / MAX_FIT_RESIDUALS))
+        return indices[::stride]
+
+    def _entry(self, params: dict[str, float]) -> list:
+        key = tuple(params.get(k, 0.0) for k in twin.FRICTION_PARAMS)
+        entry = self._cache.pop(key, None)
+        if entry is None:
+            entry = [twin.friction_output(self.inputs, params), None]
+            self.friction_runs += 1
+            while len(self._cache) >= FRICTION_CACHE:
+                del self._cache[next(iter(self._cache))]
+        self._cache[key] = entry  # most recently used last
+        return entry
+
+    def friction_full(self, params: dict[str, float]) -> np.ndarray:
+        """The friction part at every sample (interpolated between the grid's samples)."""
+        entry = self._entry(params)
+        if self.q == 1:
+            return entry[0]
+        if entry[1] is None:
+            grid = np.arange(0, self.n, self.q, dtype=np.float64)
+            entry[1] = np.interp(np.arange(self.n, dtype=np.float64), grid, entry[0])
+        return entry[1]
+
+    def reading(self, params: dict[str, float], idx: np.ndarray) -> np.ndarray:
+        """The twin's T_out_meas at idx (on the grid when q > 1)."""
+        dt = self.data.inputs.dt_s
+        if self.q > 1 and not twin.sensor_dynamic(params):
+            return twin.sensor_output_at(self._entry(params)[0], params, dt, idx // self.q)
+        return twin.sensor_output_at(self.friction_full(params), params, dt, idx)
+
+
+def _sse(ev: _Evaluator, params: dict[str, float], idx: np.ndarray) -> float:
+    r = ev.data.t_out_n[idx] - ev.reading(params, idx)
     return float(r @ r)
 
 
@@ -144,22 +231,15 @@ def _bounds_and_scale(name: str) -> tuple[float, float, float]:
     return e.bounds[0], e.bounds[1], e.scale
 
 
-def _least_squares(data, params, names, idx):
+def _least_squares(ev: _Evaluator, params, names, idx):
     lo, hi, scale = (np.array(v) for v in zip(*(_bounds_and_scale(n) for n in names), strict=True))
     x0 = np.clip(np.array([params[n] for n in names]), lo, hi) / scale
-    y = data.t_out_n[idx]
-
-    cache: dict[tuple, np.ndarray] = {}
+    y = ev.data.t_out_n[idx]
 
     def fun(x):
         p = dict(params)
         p.update(zip(names, x * scale, strict=True))
-        # the sensor's parameters do not change the friction: reuse its output
-        key = tuple(p.get(k, 0.0) for k in twin.FRICTION_PARAMS)
-        if key not in cache:
-            cache.clear()
-            cache[key] = twin.friction_output(data.inputs, p)
-        return twin.sensor_output(cache[key], p, data.inputs.dt_s)[idx] - y
+        return ev.reading(p, idx) - y
 
     res = least_squares(
         fun,
@@ -176,13 +256,14 @@ def _least_squares(data, params, names, idx):
     return out, int(res.nfev)
 
 
-def _scan_delay(data: AuditData, params: dict[str, float], fit_idx: np.ndarray) -> float:
+def _scan_delay(ev: _Evaluator, params: dict[str, float], fit_idx: np.ndarray) -> float:
     """The whole-sample delay that fits best with the other parameters held (0 .. 0.2 s or a
     twentieth of the record): the sums of squares of every shift from two correlations."""
+    data = ev.data
     dt = data.inputs.dt_s
     p = {**params, "sensor_delay": 0.0}
     offset = p.get("sensor_offset", 0.0)
-    b = twin.sensor_output(twin.friction_output(data.inputs, p), p, dt) - offset
+    b = twin.sensor_output(ev.friction_full(p), p, dt) - offset
     n = len(b)
     m_max = int(min(0.2, 0.05 * n * dt) / dt)
     w = np.zeros(n)

@@ -125,6 +125,20 @@ def _friction(
     alpha_speed = 1.0 - math.exp(-dt / 0.01)
     speed = 0.0
     disp_prev = 0.0
+    # The exponentials depend on the sample only through mu_c * dphi (the segments) and the
+    # strands' widths w, ws: computed again only when those change (the same expressions, so
+    # the same numbers; positions are held for seconds and mu_c is constant without viscous
+    # friction or drift).
+    strand_sc = np.empty(N_STRAND + 1)
+    for j in range(N_STRAND + 1):
+        strand_sc[j] = math.exp(spread * (STRAND_Q[j] if j < N_STRAND else 0.0))
+    strand_e = np.empty(N_STRAND + 1)
+    strand_es = np.empty(N_STRAND + 1)
+    w_prev = -1.0
+    ws_prev = -1.0
+    seg_arg_prev = -1.0
+    ep = 1.0
+    em = 1.0
     for k in range(n):
         # friction_now(): mu from the cable speed of the last step and the time at the step start
         t = t0 + (k - 1) * dt if k > 0 else t0
@@ -132,8 +146,10 @@ def _friction(
         mu_c = mu_base if mu_base > 0.0 else 0.0
         phi = dphi_geom[k] + phi_off * z[k]
         dphi = (phi if phi > 0.0 else 0.0) / n_seg
-        ep = math.exp(mu_c * dphi)
-        em = 1.0 / ep
+        if mu_c * dphi != seg_arg_prev or slope != 0.0:
+            seg_arg_prev = mu_c * dphi
+            ep = math.exp(mu_c * dphi)
+            em = 1.0 / ep
         tin = t_in[k] if t_in[k] > 0.0 else 0.0
         tens[0] = tin
         stretch = 0.0
@@ -160,12 +176,19 @@ def _friction(
             # to the kinetic bound)
             w = mu_c * (phi if phi > 0.0 else 0.0)
             ws = (mu_c + static) * (phi if phi > 0.0 else 0.0)
+            if w != w_prev or ws != ws_prev:
+                w_prev = w
+                ws_prev = ws
+                for j in range(N_STRAND + 1):
+                    strand_e[j] = math.exp(w * strand_sc[j])
+                    if j < N_STRAND and static > 0.0:
+                        strand_es[j] = math.exp(ws * strand_sc[j])
+                    else:
+                        strand_es[j] = strand_e[j]
             total = 0.0
             for j in range(N_STRAND + 1):
-                q = STRAND_Q[j] if j < N_STRAND else 0.0
-                sc = math.exp(spread * q)
-                e = math.exp(w * sc)
-                es = math.exp(ws * sc) if (j < N_STRAND and static > 0.0) else e
+                e = strand_e[j]
+                es = strand_es[j]
                 lo = tin / (e if direction[j] > 0.0 else es)
                 hi = tin * (e if direction[j] < 0.0 else es)
                 if strands[j] < lo:
@@ -231,6 +254,40 @@ def sensor_output(t_out_n: np.ndarray, params: Mapping[str, float], dt_s: float)
         y = np.concatenate([np.full(min(m, len(y)), y[0]), y[: max(0, len(y) - m)]])
     return saturate(
         float(p["sensor_gain"]) * y + float(p["sensor_offset"]),
+        float(p["sensor_full_scale"]),
+        float(p["sensor_saturation_knee"]),
+    )
+
+
+SENSOR_DYNAMIC_PARAMS = ("sensor_creep", "sensor_tau", "sensor_delay")
+
+
+def sensor_dynamic(params: Mapping[str, float]) -> bool:
+    """Whether the sensor has memory with these parameters (creep, lag or delay): then a reading
+    needs the whole T_out before it, else it is a function of T_out at the same sample."""
+    return any(float(params.get(k, 0.0)) != 0.0 for k in SENSOR_DYNAMIC_PARAMS)
+
+
+def sensor_output_at(
+    t_out_n: np.ndarray, params: Mapping[str, float], dt_s: float, idx: np.ndarray
+) -> np.ndarray:
+    """sensor_output(t_out_n, params, dt_s)[idx], the same numbers, with the sample-by-sample
+    part (gain, offset, full scale) computed at idx only."""
+    p = _full(params)
+    y = np.asarray(t_out_n, dtype=np.float64)
+    creep = float(p["sensor_creep"])
+    if creep != 0.0:
+        a = math.exp(-dt_s / float(p["sensor_creep_tau"]))
+        lp = lfilter([1.0 - a], [1.0, -a], y, zi=[a * y[0]])[0]
+        y = y - creep * (y - lp)
+    tau = float(p["sensor_tau"])
+    if tau > 0.0:
+        a = math.exp(-dt_s / tau)
+        y = lfilter([1.0 - a], [1.0, -a], y, zi=[a * y[0]])[0]
+    m = delay_samples(float(p["sensor_delay"]), dt_s)
+    yi = y[np.maximum(idx - m, 0)] if m > 0 else y[idx]
+    return saturate(
+        float(p["sensor_gain"]) * yi + float(p["sensor_offset"]),
         float(p["sensor_full_scale"]),
         float(p["sensor_saturation_knee"]),
     )

@@ -1,0 +1,98 @@
+"""What makes long records affordable (cosim/audit/fit.py, MAX_FIT_FRICTION_SAMPLES and
+FRICTION_CACHE; cosim/audit/twin.py, sensor_output_at) gives the numbers it stands in for.
+
+- the sensor read at chosen samples is the sensor read everywhere, then indexed (exactly);
+- the friction loop with its exponentials computed once per change is the FMU's (held by the
+  twin-FMU test) and is not run again for the sensor's parameters;
+- on a record longer than MAX_FIT_FRICTION_SAMPLES the fits run the friction on every q-th
+  sample: the reading stays within a small fraction of the noise floor of the full-rate one, and
+  the fitted parameters stay those of the full-rate fit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cosim.audit import fit, twin
+from cosim.audit.data import FIT, prepare
+from cosim.audit.effects import BY_CAUSE
+from cosim.audit.synthetic import fmu_record
+from cosim.results import trace
+
+SENSORS = [
+    {},
+    {"sensor_offset": 0.3, "sensor_gain": 1.04},
+    {"sensor_tau": 0.012, "sensor_full_scale": 14.0, "sensor_saturation_knee": 0.8},
+    {"sensor_delay": 0.007, "sensor_full_scale": 12.0},
+    {"sensor_creep": -0.05, "sensor_creep_tau": 0.7, "sensor_tau": 0.004, "sensor_delay": 0.003},
+]
+
+
+@pytest.mark.parametrize("sensor", SENSORS)
+def test_the_sensor_read_at_chosen_samples_is_the_sensor_read_everywhere(sensor):
+    rng = np.random.default_rng(5)
+    t_out = 8.0 + np.cumsum(rng.normal(0.0, 0.05, 5000))
+    idx = np.sort(rng.choice(5000, 700, replace=False))
+    whole = twin.sensor_output(t_out, sensor, 1e-3)[idx]
+    assert np.array_equal(twin.sensor_output_at(t_out, sensor, 1e-3, idx), whole)
+
+
+@pytest.fixture(scope="module")
+def record(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("long")
+    path = fmu_record(
+        folder, {"sensor_offset": 0.4, "mu_tension_slope": 0.001}, seed=7, duration_s=40.0
+    )
+    return prepare(trace.read_trace(path, "measured"), str(path))
+
+
+def test_the_sensors_parameters_do_not_run_the_friction_again(record, monkeypatch):
+    # offset, gain, lag, creep act after the plant: the Jacobian's columns for them reuse the
+    # friction of the point they are taken at (before, a one-entry cache ran it again for each)
+    data = record
+    calls = []
+    real = twin.friction_output
+
+    def counting(inputs, params):
+        calls.append(dict(params))
+        return real(inputs, params)
+
+    monkeypatch.setattr(twin, "friction_output", counting)
+    ev = fit._Evaluator(data)
+    idx = np.flatnonzero(data.roles == FIT)[::50]
+    p = {"mu": 0.08, "dead_zone_spread": 0.05, "sensor_offset": 0.1, "sensor_gain": 1.0}
+    ev.reading(p, idx)  # the point
+    ev.reading({**p, "mu": 0.0801}, idx)  # a friction parameter's column
+    ev.reading({**p, "dead_zone_spread": 0.0501}, idx)
+    for name, value in (("sensor_offset", 0.1001), ("sensor_gain", 1.0001), ("sensor_tau", 1e-4)):
+        ev.reading({**p, name: value}, idx)  # a sensor parameter's column: the point's friction
+    assert len(calls) == 3 and ev.friction_runs == 3
+    ev.reading({**p, "mu_tension_slope": 1e-4}, idx)
+    assert len(calls) == 4
+
+
+def test_a_long_record_is_fitted_on_a_coarser_friction_grid_with_the_same_result(
+    record, monkeypatch
+):
+    data = record
+    effects = (BY_CAUSE["sensor_offset"], BY_CAUSE["tension_dependent_friction"])
+    full = fit.fit_model(data, effects)
+    ev_full = fit._Evaluator(data)
+    assert ev_full.q == 1
+    monkeypatch.setattr(fit, "MAX_FIT_FRICTION_SAMPLES", len(data.t_out_n) // 8)
+    ev = fit._Evaluator(data)
+    assert ev.q == 8
+    idx = ev.on_grid(np.flatnonzero(data.roles == FIT), 1)
+    assert np.all(idx % 8 == 0) and len(idx) > 1000
+    # the reading on the coarse grid against the full-rate one, sensor with memory or not
+    for sensor in ({}, {"sensor_tau": 0.01, "sensor_creep": 0.04, "sensor_creep_tau": 0.8}):
+        p = {**full.params, **sensor}
+        diff = ev.reading(p, idx) - ev_full.reading(p, idx)
+        assert np.sqrt(np.mean(diff * diff)) < 0.1 * data.noise_floor_n
+    coarse = fit.fit_model(data, effects)
+    for name in ("mu", "sensor_offset", "mu_tension_slope"):
+        assert coarse.params[name] == pytest.approx(full.params[name], rel=0.02), name
+    # the model it returns is simulated at the full rate
+    assert np.array_equal(coarse.prediction, twin.simulate(data.inputs, coarse.params))
+    assert coarse.friction_runs < full.friction_runs * 2
