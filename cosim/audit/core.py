@@ -165,6 +165,7 @@ def run(
         sig = sorted((c for c in cands if c.significant), key=lambda c: -c.explained_pct)
         chosen = sig[0] if sig else None
         rounds.append(Round(current, cands, chosen, dict(skipped)))
+        _release_predictions(cands, chosen)
         if chosen is None:
             break
         found.append(chosen.effect)
@@ -180,9 +181,12 @@ def run(
     findings = _findings(data, rounds, steps, withouts, rule)
 
     tick("running the nominal model through the FMU")
-    fmu_base = twin.run_fmu(data.inputs, baseline.params)
+    step = twin.fmu_step_for(data.inputs.dt_s)
+    fmu_base = twin.run_fmu(data.inputs, baseline.params, max_step_s=step)
     tick("running the extended model through the FMU")
-    fmu_ext = twin.run_fmu(data.inputs, current.params) if findings else fmu_base.copy()
+    fmu_ext = (
+        twin.run_fmu(data.inputs, current.params, max_step_s=step) if findings else fmu_base.copy()
+    )
     diff = float(np.max(np.abs(fmu_ext - current.prediction)))
     tick("describing what is left")
     unexplained = describe_residual(data, data.t_out_n - fmu_ext)
@@ -206,6 +210,20 @@ def run(
         result.extras["dropped_by_backward_check"] = dropped
     result.wall_s = time.perf_counter() - t_start
     return result
+
+
+def _release_predictions(cands: list[Candidate], chosen: Candidate | None) -> None:
+    """Free the full-length predictions of a round's candidates that nothing reads again (all
+    but the chosen one and its runner-up, which _findings compares): on 20 minutes of 1 kHz data
+    each is 10 MB, some 30 of them per audit."""
+    if chosen is None:
+        keep: set[int] = set()
+    else:
+        others = sorted((c for c in cands if c is not chosen), key=lambda c: -c.explained_pct)
+        keep = {id(chosen), *(id(c) for c in others[:1])}
+    for c in cands:
+        if id(c) not in keep:
+            c.model.prediction = None
 
 
 def plausibility_warnings(data: AuditData, result: AuditResult) -> list[str]:

@@ -19,13 +19,19 @@ class DecisionRule:
     The selection blocks are the folds. Adding the candidate to the current model (every
     parameter refitted on the fit blocks) must, on the selection blocks,
     - remove at least `min_explained_pct` % of their residual mean square;
-    - remove it consistently: the mean of the per-block drops of the mean square, over the
-      standard error that the blocks' own spread gives it (a one-sample t over the blocks,
-      block_stats), of at least `min_block_t`. This takes the significance from the
+    - remove it consistently: a block t of at least `min_block_t`, the per-block drops of the
+      mean square d_j against the per-block size of the candidate's change of the prediction
+      v_j (block_stats: a weighted t over the blocks). This takes the significance from the
       residual's block-to-block variability, not from white noise: with structure the model
       lacks, a candidate that bends the model a little helps some blocks and hurts others, and
       against white sensor noise alone such a candidate got z of 96 and 299 on rig data while
-      it made the held-out fit worse;
+      it made the held-out fit worse. The drops are judged per unit of the change the
+      candidate makes in the block (d_j = g v_j + e_j, Var e_j proportional to v_j: what white
+      noise gives, 4 sigma^2 v_j / N_j): an effect whose size follows the block (a creep or a
+      tension slope, large where the tension moves or is high, nothing elsewhere) is as
+      consistent as one of constant size, where the t of the plain drops (all v_j equal)
+      counted its large blocks' drops as spread (a 0.5 N offset with a tension slope of
+      1.2e-3/N got the slope's block t of 1.99, a creep of 5 % 1.98);
     - improve at least `min_improved_share` of the blocks (a sign test over the blocks: it does
       not ask every block to gain as much, as the t does, so an effect that lives where the
       input moves fast, or late in the record, is not penalised for the quiet blocks; and it
@@ -91,11 +97,12 @@ class BlockStats:
 
     explained_pct: float  # share of a's mean square over those blocks that b removes
     removed_rms_n: float  # sqrt of the mean-square drop (0 when b is worse)
-    t: float  # mean per-block drop over its standard error from the blocks' spread
+    t: float  # the drop per unit of b's change over its standard error from the blocks' spread
     improved_share: float  # share of blocks where b fits better
     worst_z: float  # the most negative per-block drop in white-noise standard errors (shown only)
     blocks: int
     per_block_pct: tuple[float, ...]  # each block's drop, % of a's mean square in it
+    t_plain: float = 0.0  # the t of the plain per-block drops (every block weighs the same)
 
 
 # A t or z without a spread (identical blocks) is capped here, not infinite: audit.json has no inf.
@@ -103,21 +110,32 @@ T_CAP = 1e9
 
 
 def block_stats(
-    data: AuditData, r_a: np.ndarray, r_b: np.ndarray, roles: tuple[int, ...] = (SELECT,)
+    data: AuditData,
+    r_a: np.ndarray,
+    r_b: np.ndarray,
+    roles: tuple[int, ...] = (SELECT,),
+    weighted: bool = True,
 ) -> BlockStats:
-    """Residual r_b against r_a block by block (DecisionRule). Per block of the roles: the drop
-    of the mean square d_j = mean(r_a^2 - r_b^2); t = mean(d) / (sd(d) / sqrt(K)) over the K
-    blocks; a block's z = sum(r_a^2 - r_b^2) / (2 sigma sqrt(sum (r_a - r_b)^2)), what white
-    noise of the noise floor sigma alone would make of it."""
+    """Residual r_b against r_a block by block (DecisionRule). Per block j of the roles: the
+    drop of the mean square d_j = mean(r_a^2 - r_b^2) and the size of b's change of the
+    prediction v_j = mean((r_a - r_b)^2). t is the weighted least-squares slope of d_j on v_j
+    (through 0, Var d_j proportional to v_j) over its standard error from the blocks' spread:
+    g = sum(d) / sum(v), s^2 = sum((d_j - g v_j)^2 / v_j) / (K - 1), t = g sqrt(sum v) / s
+    (blocks with v_j = 0 have d_j = 0 and no weight); with weighted=False every v_j is 1, the
+    one-sample t of the drops, mean(d) / (sd(d) / sqrt(K)) (t_plain). A block's z =
+    sum(r_a^2 - r_b^2) / (2 sigma sqrt(sum (r_a - r_b)^2)), what white noise of the noise floor
+    sigma alone would make of it."""
     sq_a = r_a * r_a
     sq_b = r_b * r_b
-    drops, pcts, zs = [], [], []
+    drops, sizes, pcts, zs = [], [], [], []
     for idx in data.block_indices(roles):
         da = float(np.sum(sq_a[idx]))
         d = da - float(np.sum(sq_b[idx]))
         delta = r_a[idx] - r_b[idx]
-        se = 2.0 * data.noise_floor_n * math.sqrt(float(delta @ delta))
+        dd = float(delta @ delta)
+        se = 2.0 * data.noise_floor_n * math.sqrt(dd)
         drops.append(d / len(idx))
+        sizes.append(dd / len(idx))
         pcts.append(100.0 * d / da if da > 0 else 0.0)
         zs.append(d / se if se > 0 else (0.0 if d == 0 else math.copysign(T_CAP, d)))
     m = np.isin(data.roles, roles)
@@ -125,21 +143,32 @@ def block_stats(
     removed = ms_a - float(np.mean(sq_b[m]))
     k = len(drops)
     d = np.asarray(drops)
-    sd = float(np.std(d, ddof=1)) if k > 1 else 0.0
-    mean = float(np.mean(d)) if k else 0.0
-    if sd > 0:
-        t = max(-T_CAP, min(T_CAP, mean / (sd / math.sqrt(k))))
-    else:
-        t = 0.0 if mean == 0 else math.copysign(T_CAP, mean)
+    t_plain = _slope_t(d, np.ones(k))
     return BlockStats(
         explained_pct=100.0 * removed / ms_a if ms_a > 0 else 0.0,
         removed_rms_n=math.sqrt(max(removed, 0.0)),
-        t=t,
+        t=_slope_t(d, np.asarray(sizes)) if weighted else t_plain,
         improved_share=float(np.mean(d > 0)) if k else 0.0,
         worst_z=float(min(zs)) if zs else 0.0,
         blocks=k,
         per_block_pct=tuple(pcts),
+        t_plain=t_plain,
     )
+
+
+def _slope_t(d: np.ndarray, v: np.ndarray) -> float:
+    """t of g in d_j = g v_j + e_j, Var e_j proportional to v_j (block_stats); capped."""
+    use = v > 0
+    d, v = d[use], v[use]
+    k = len(d)
+    total = float(np.sum(v))
+    if k == 0 or total <= 0:
+        return 0.0
+    g = float(np.sum(d)) / total
+    s2 = float(np.sum((d - g * v) ** 2 / v)) / (k - 1) if k > 1 else 0.0
+    if s2 > 0:
+        return max(-T_CAP, min(T_CAP, g * math.sqrt(total) / math.sqrt(s2)))
+    return 0.0 if g == 0 else math.copysign(T_CAP, g)
 
 
 @dataclass
@@ -243,7 +272,11 @@ def _findings(
             # Both have as many parameters, so the fit blocks favour neither: the separation
             # uses them with the selection blocks (the report blocks stay unseen).
             sep = block_stats(
-                data, runner.model.residual(data), c.model.residual(data), (FIT, SELECT)
+                data,
+                runner.model.residual(data),
+                c.model.residual(data),
+                (FIT, SELECT),
+                weighted=False,
             ).t
             nxt = rounds[i + 1] if i + 1 < len(rounds) else None
             still = nxt is not None and any(

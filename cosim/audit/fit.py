@@ -35,12 +35,12 @@ MAX_FIT_RESIDUALS = 20_000
 # interpolation (the sensor's creep, lag and delay still run at the full rate on it); the
 # residuals fitted sit on that grid. The friction is a hysteresis driven by the smoothed input:
 # what a coarser step changes is where a reversal's extreme falls (at a reversal the input is
-# flat, so it moves by about T'' (q dt)^2 / 8: 6e-4 N at 60 N/s^2 and q dt = 8 ms) and the
+# flat, so it moves by about T'' (q dt)^2 / 8: 1e-3 N at 60 N/s^2 and q dt = 12 ms) and the
 # 10 ms filter of the cable speed (viscous friction only). Records up to this length are fitted
 # on every sample; every model is then simulated at the full rate, and the decision and the
 # report use those predictions only. The friction loop is most of an audit's time: without
 # this, 20 minutes of 1 kHz data cost about 1500 runs of 1.2 million samples.
-MAX_FIT_FRICTION_SAMPLES = 150_000
+MAX_FIT_FRICTION_SAMPLES = 100_000
 # Friction outputs kept per fit (least recently used dropped): the Jacobian's columns for the
 # sensor's parameters (offset, gain, lag, delay, full scale, creep) reuse the friction of the
 # point they are taken at.
@@ -53,7 +53,7 @@ class Model:
 
     effects: tuple[Effect, ...]
     params: dict[str, float]
-    prediction: np.ndarray
+    prediction: np.ndarray | None  # None once the audit no longer needs it (core.run)
     nfev: int = 0
     friction_runs: int = 0  # runs of the twin's friction loop the fit took (its main cost)
 

@@ -355,9 +355,29 @@ def _full(params: Mapping[str, float]) -> dict[str, float]:
     return {**OFF, **params}
 
 
-def run_fmu(inputs: PlantInputs, params: Mapping[str, float], fmu_path=None) -> np.ndarray:
+# The FMU's largest internal step allowed (fmu/gen_model.py, max_step's maximum).
+FMU_MAX_STEP_LIMIT_S = 1e-3
+
+
+def fmu_step_for(dt_s: float) -> float:
+    """The internal step the audit runs the FMU with: one per sample (at most the FMU's limit).
+    In drive mode 1 the inlet tension is prescribed and held over the sample, so the internal
+    steps only repeat the same tension profile (they integrate the motor, which this mode does
+    not use); what moves within a sample is the time of mu_drift and the 10 ms filter of the
+    cable speed, which the twin also steps once per sample. The FMU's default (100 us, chosen for
+    the motor in drive mode 0) made its two runs most of a long audit's time."""
+    return min(float(dt_s), FMU_MAX_STEP_LIMIT_S)
+
+
+def run_fmu(
+    inputs: PlantInputs,
+    params: Mapping[str, float],
+    fmu_path=None,
+    max_step_s: float | None = None,
+) -> np.ndarray:
     """T_out_meas from the plant FMU itself (cosim.parts.plant.Plant, drive mode 1, no noise),
-    driven by the same inputs as the twin; the FMU starts at t0_s loaded from rest, as the twin."""
+    driven by the same inputs as the twin; the FMU starts at t0_s loaded from rest, as the twin.
+    max_step_s: the FMU's internal step (None: its default; the audit: fmu_step_for)."""
     from cosim.parts.plant import Plant  # noqa: PLC0415 (needs the built FMU)
 
     p = _full(params)
@@ -369,6 +389,8 @@ def run_fmu(inputs: PlantInputs, params: Mapping[str, float], fmu_path=None) -> 
     }
     # The FMU's delay reads its own time grid; a whole number of samples keeps it on a sample.
     fmu_params["sensor_delay"] = delay_samples(p["sensor_delay"], inputs.dt_s) * inputs.dt_s
+    if max_step_s is not None:
+        fmu_params["max_step"] = float(max_step_s)
     n = len(inputs.t_in_n)
     pos = inputs.position_m
     if pos is None:

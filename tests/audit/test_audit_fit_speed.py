@@ -96,3 +96,36 @@ def test_a_long_record_is_fitted_on_a_coarser_friction_grid_with_the_same_result
     # the model it returns is simulated at the full rate
     assert np.array_equal(coarse.prediction, twin.simulate(data.inputs, coarse.params))
     assert coarse.friction_runs < full.friction_runs * 2
+
+
+@pytest.mark.parametrize(
+    "effect",
+    [
+        {},
+        {"mu_viscous": 3.0, "dead_zone_spread": 0.3},
+        {"mu_drift": 2e-3, "mu_tension_slope": 1e-3},
+        {"sensor_creep": 0.05, "sensor_creep_tau": 0.5, "sensor_tau": 0.01},
+        {"mu_static_excess": 0.03, "dead_zone_spread": 0.2, "slack_tension": 4.0},
+    ],
+)
+def test_the_fmu_with_one_internal_step_per_sample_is_the_fmu_at_its_default(effect):
+    # drive mode 1 holds the inlet tension over a sample: the internal steps repeat the same
+    # profile, so the audit's FMU runs (twin.fmu_step_for) report what the default step gives
+    n, dt = 3000, 1e-3
+    t = np.arange(n) * dt
+    t_in = 10 + 6 * np.sin(2 * np.pi * 0.9 * t) + 2 * np.sin(2 * np.pi * 2.7 * t + 1)
+    z = 0.3 * np.sin(1.3 * t)
+    pos = np.column_stack([0.05 * np.sin(t), 0.5 + 0.2 * np.sin(0.7 * t), z])
+    from cosim.parts.geometry import bending_angle  # noqa: PLC0415
+
+    phi = bending_angle(pos[:, 0], pos[:, 1], pos[:, 2], 1.0, True)
+    inputs = twin.PlantInputs(t_in, phi, z, pos, 0.0, dt, 1.0, True)
+    params = {"mu": 0.08, **effect}
+    default = twin.run_fmu(inputs, params)
+    one = twin.run_fmu(inputs, params, max_step_s=twin.fmu_step_for(dt))
+    assert twin.fmu_step_for(dt) == dt
+    # within 1e-4 N; with creep and lag together the default's lag sees the creep move within
+    # a sample (1.6e-4 N here, twin.py's docstring), the per-sample step as the twin does
+    tol = 5e-4 if "sensor_creep" in effect and "sensor_tau" in effect else 1e-4
+    assert np.max(np.abs(one - default)) < tol, np.max(np.abs(one - default))
+    assert np.max(np.abs(one - twin.simulate(inputs, params))) < 1e-4

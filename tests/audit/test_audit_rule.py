@@ -127,3 +127,37 @@ def test_what_is_left_is_located(tmp_path, case):
     else:
         assert u["where"] and u["where"][0].startswith("near reversals"), u["where"]
         assert not any("outliers" in w for w in u["where"]), u["where"]
+
+
+def _blocks_data(k: int, n: int, noise_n: float):
+    """An AuditData stand-in with k selection blocks of n samples (what block_stats reads)."""
+    from types import SimpleNamespace  # noqa: PLC0415
+
+    from cosim.audit.data import SELECT  # noqa: PLC0415
+
+    blocks = [np.arange(j * n, (j + 1) * n) for j in range(k)]
+    return SimpleNamespace(
+        noise_floor_n=noise_n,
+        roles=np.full(k * n, SELECT),
+        block_indices=lambda roles: blocks,
+    )
+
+
+def test_an_effect_whose_size_follows_the_block_is_consistent():
+    # a tension slope's or a creep's size follows the block (the tension, how much it moves):
+    # its drops d_j grow with its change v_j; the t of the plain drops counted that as spread
+    # (the slope of "offset 0.5 N + tension slope" got 1.99), the weighted t sees d_j ~ v_j
+    from cosim.audit.decision import block_stats  # noqa: PLC0415
+
+    rng = np.random.default_rng(3)
+    k, n, sigma = 12, 800, 0.03
+    data = _blocks_data(k, n, sigma)
+    size = np.repeat(np.array([0.003, 0.004, 0.005, 0.006, 0.15] * 2 + [0.003, 0.004]), n)
+    effect = size * np.sin(np.arange(k * n) / 40.0)
+    noise = rng.normal(0.0, sigma, k * n)
+    right = block_stats(data, effect + noise, noise)
+    assert right.t_plain < 2.0 < right.t
+    # a candidate that helps half the blocks as much as it hurts the others stays below 2
+    sign = np.repeat(np.array([1.0, -1.0] * 6), n)
+    wrong = block_stats(data, noise + 0.5 * effect * (1 + sign), noise + 0.5 * effect * (1 - sign))
+    assert wrong.t < 2.0 and wrong.t_plain < 2.0
