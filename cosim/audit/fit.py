@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
-from scipy.signal import fftconvolve
+from scipy.signal import fftconvolve, lfilter
 
 from . import twin
 from .data import FIT, AuditData
@@ -163,10 +163,10 @@ class _Evaluator:
             self.inputs = inp
         else:
             sl = slice(None, None, self.q)
-            self.inputs = PlantInputs(
-                t_in_n=inp.t_in_n[sl],
-                phi_rad=inp.phi_rad[sl],
-                z_m=inp.z_m[sl],
+            self.inputs = PlantInputs(  # contiguous once, not copied at every friction run
+                t_in_n=np.ascontiguousarray(inp.t_in_n[sl], dtype=np.float64),
+                phi_rad=np.ascontiguousarray(inp.phi_rad[sl], dtype=np.float64),
+                z_m=np.ascontiguousarray(inp.z_m[sl], dtype=np.float64),
                 position_m=None,
                 t0_s=inp.t0_s,
                 dt_s=inp.dt_s * self.q,
@@ -205,11 +205,34 @@ class _Evaluator:
         return entry[1]
 
     def reading(self, params: dict[str, float], idx: np.ndarray) -> np.ndarray:
-        """The twin's T_out_meas at idx (on the grid when q > 1)."""
+        """The twin's T_out_meas at idx (on the grid when q > 1). With q > 1, a creep or a lag
+        (no delay) is filtered on the grid itself: each first-order stage as the full rate's
+        filter of an input linear between the grid's samples (_grid_lag)."""
         dt = self.data.inputs.dt_s
-        if self.q > 1 and not twin.sensor_dynamic(params):
-            return twin.sensor_output_at(self._entry(params)[0], params, dt, idx // self.q)
+        if self.q > 1 and float(params.get("sensor_delay", 0.0)) == 0.0:
+            y = self._entry(params)[0]
+            creep = float(params.get("sensor_creep", 0.0))
+            if creep != 0.0:
+                y = y - creep * (y - _grid_lag(y, float(params["sensor_creep_tau"]), dt, self.q))
+            tau = float(params.get("sensor_tau", 0.0))
+            if tau > 0.0:
+                y = _grid_lag(y, tau, dt, self.q)
+            static = {k: v for k, v in params.items() if k not in twin.SENSOR_DYNAMIC_PARAMS}
+            return twin.sensor_output_at(y, static, dt, idx // self.q)
         return twin.sensor_output_at(self.friction_full(params), params, dt, idx)
+
+
+def _grid_lag(u: np.ndarray, tau_s: float, dt_s: float, q: int) -> np.ndarray:
+    """The twin's first-order lag (y_k = a y_(k-1) + (1 - a) u_k at dt_s, a = exp(-dt_s/tau_s),
+    starting settled) read every q-th sample, for an input linear between those samples:
+    y_n = a^q y_(n-1) + b0 u_(n-1) + b1 u_n with b1 = (1 - a) sum_(i=1..q) a^(q-i) i / q and
+    b0 = 1 - a^q - b1 (the q steps summed)."""
+    a = math.exp(-dt_s / tau_s)
+    i = np.arange(1, q + 1, dtype=np.float64)
+    b1 = float((1.0 - a) * np.sum(a ** (q - i) * i / q))
+    aq = a**q
+    b0 = 1.0 - aq - b1
+    return lfilter([b1, b0], [1.0, -aq], u, zi=[(1.0 - b1) * u[0]])[0]
 
 
 def _sse(ev: _Evaluator, params: dict[str, float], idx: np.ndarray) -> float:

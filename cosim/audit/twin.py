@@ -139,6 +139,13 @@ def _friction(
     seg_arg_prev = -1.0
     ep = 1.0
     em = 1.0
+    # Without viscous friction and drift mu is the same at every sample; while phi also stays,
+    # a segment the input's change did not move leaves every segment after it where it is
+    # (each was inside its bounds from its unchanged neighbour after the last sample), so the
+    # sweep stops there: the same numbers. (The stretch, summed only up to there, feeds only the
+    # cable speed, which then enters nothing.)
+    may_stop = mu_visc == 0.0 and drift == 0.0
+    dphi_prev = -1.0
     for k in range(n):
         # friction_now(): mu from the cable speed of the last step and the time at the step start
         t = t0 + (k - 1) * dt if k > 0 else t0
@@ -153,6 +160,8 @@ def _friction(
         tin = t_in[k] if t_in[k] > 0.0 else 0.0
         tens[0] = tin
         stretch = 0.0
+        stop = may_stop and k > 0 and dphi == dphi_prev
+        dphi_prev = dphi
         for j in range(1, n_seg + 1):
             if slope != 0.0:
                 m = mu_base + slope * tens[j - 1]
@@ -168,6 +177,8 @@ def _friction(
                 tens[j] = lo
             elif tens[j] > hi:
                 tens[j] = hi
+            elif stop:
+                break
             stretch += 0.5 * (tens[j - 1] + tens[j])
         out[k] = tens[n_seg]
         if use_strands:

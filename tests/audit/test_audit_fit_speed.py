@@ -129,3 +129,13 @@ def test_the_fmu_with_one_internal_step_per_sample_is_the_fmu_at_its_default(eff
     tol = 5e-4 if "sensor_creep" in effect and "sensor_tau" in effect else 1e-4
     assert np.max(np.abs(one - default)) < tol, np.max(np.abs(one - default))
     assert np.max(np.abs(one - twin.simulate(inputs, params))) < 1e-4
+
+
+@pytest.mark.parametrize("tau_s", [0.004, 0.05, 1.5])
+def test_a_lag_on_the_coarse_grid_is_the_full_rate_lag_of_the_interpolated_input(tau_s):
+    q, dt = 12, 1e-3
+    coarse = np.cumsum(np.random.default_rng(0).normal(0.0, 1.0, 300))
+    n = (len(coarse) - 1) * q + 1
+    full = np.interp(np.arange(n), np.arange(0, n, q), coarse)
+    lagged = twin.sensor_output(full, {"sensor_tau": tau_s}, dt)[::q]
+    assert np.max(np.abs(fit._grid_lag(coarse, tau_s, dt, q) - lagged)) < 1e-12
