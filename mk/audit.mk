@@ -2,7 +2,9 @@
 #
 #   make perf-audit  wall and CPU time of `bowden audit` on 60 s of 1 kHz data (target <= 30 s),
 #                     for data with no effect, one effect, two effects and a recording of the
-#                     bench emulator (part of `make perf`)
+#                     bench emulator; then 20 min of 1 kHz data with two effects (target <= 2 min
+#                     wall and <= 2 GB peak memory; `python -m cosim.perf.audit long` runs only
+#                     that one) (part of `make perf`)
 #   make audit-sweep  every cause of the vocabulary at random magnitudes, AUDIT_SEEDS seeds each,
 #                     and no effect: the cause named against the hidden one (part of `make perf`;
 #                     about 30 s a case)

@@ -71,7 +71,8 @@ class DecisionRule:
         return (
             f"a finding removes >= {self.min_explained_pct:g} % of the selection blocks' residual "
             f"mean square, consistently over the selection blocks (block t >= "
-            f"{self.min_block_t:g} from the blocks' own spread, >= "
+            f"{self.min_block_t:g} from the blocks' own spread, each block's drop taken per "
+            "unit of the change the candidate makes there, >= "
             f"{100 * self.min_improved_share:.0f} % of the blocks better), and >= "
             f"{self.min_effect_rms_n * 1000:.1f} mN RMS and {self.min_effect_noise_ratio:g} x the "
             "combined sensor noise and sampling error; the largest is taken, then the next round; "

@@ -40,7 +40,13 @@ def _value_ok(cause: str, found: float, true: float) -> bool:
     return abs(found - true) <= 0.15 * abs(true)
 
 
-# Reported, not met: a creep of -6.6 % with 0.57 s (seed 112) is not named on FMU data.
+# Reported, not met: a creep of -6.6 % with 0.57 s (seed 112, noise 0.036 N) is not named on
+# FMU data. Its block t is now 6.5 (each block's drop per unit of the candidate's change), but
+# it improves 8 of 12 selection blocks (the rule asks 9: most of it sits in the first block)
+# and removes 0.021 N RMS, under half the combined noise (0.024 N). Its fit also stops along
+# the valley where the creep and its time constant trade off: -3.8 % with 0.88 s from the
+# default start, -6.4 % with 0.57 s from the truth's, the fit blocks' sums of squares 0.5 %
+# apart.
 MISSED = {"load_cell_creep"}
 
 
@@ -89,6 +95,20 @@ def test_audit_names_two_effects_at_once(tmp_path):
     assert [f.explains_pct for f in res.findings] == sorted(
         (f.explains_pct for f in res.findings), reverse=True
     )
+
+
+def test_an_offset_with_a_tension_slope_names_both(tmp_path):
+    # make perf-audit's case (60 s, seed 902): the slope's size follows the tension, so the t of
+    # the plain per-block drops was 1.99 and only the offset was named; the block t per unit of
+    # the candidate's change names both (the rule has no threshold chosen on this case)
+    effect = {"sensor_offset": 0.5, "mu_tension_slope": 0.0012}
+    path = fmu_record(tmp_path, effect, seed=902, duration_s=60.0)
+    res = _audit(path)
+    named = {f.effect.cause: f.value for f in res.findings}
+    assert set(named) == {"sensor_offset", "tension_dependent_friction"}, named
+    assert named["sensor_offset"] == pytest.approx(0.5, rel=0.05)
+    assert named["tension_dependent_friction"] == pytest.approx(0.0012, rel=0.05)
+    assert res.holdout_rms_after_n <= FLOOR_FACTOR * res.data.noise_floor_n
 
 
 def test_audit_claims_no_gain_without_an_effect(tmp_path):

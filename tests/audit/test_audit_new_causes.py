@@ -49,9 +49,14 @@ CASES = {
         ("sensor_creep", -0.06, 0.15),
     ),
 }
-# Reported, not met: on this rig (noise 0.02 N) the creep is fitted at 3.3 % with 1.2 s and
-# its block t is 1.98 against the rule's 2 (one selection block gets worse where the nominal
-# model's own mismatch to the rig's strands and the creep cancel), so nothing is named.
+# Reported, not met: on this rig (noise 0.02 N) the creep is now named alone (block t 4.1 once
+# each block's drop is taken per unit of the candidate's change there; the plain t was 1.98)
+# and brings the held-out residual to 1.5x the floor, but its value is 3.3 % with 1.2 s, not
+# 5 % with 1.5 s. Every start (the truth's, 3 % with 0.5 or 3 s, -3 % with 1 s) ends there,
+# and the truth with mu and the spread refitted fits two selection blocks 2.3x and 6.7x worse
+# than the fitted creep: the nominal model's mismatch to the rig's braid (its own strands and
+# Coulomb segments against the FMU's 8 lumped capstans), not the fit's start or the time
+# constant's bound, takes part of the creep.
 MISSED = {
     "creep 5 % with 1.5 s": (
         dict(seed=44, mu=0.09, spread=0.3, noise_n=0.02, creep=0.05, creep_tau_s=1.5),
