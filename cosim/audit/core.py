@@ -28,8 +28,9 @@ The steps (modules: data, fit, decision, residual):
    significant once the finding is in) and that did not beat it significantly is marked
    ambiguous, naming the alternative.
 5. **Report.** The baseline and the extended model are run through the FMU itself (drive mode 1,
-   the measured input tension and positions); their residuals on the report blocks are the gain.
-   What is left is described: size, whiteness, dominant frequency, the signals it follows.
+   the measured input tension and positions, one internal step per sample: twin.fmu_step_for);
+   their residuals on the report blocks are the gain. What is left is described: size,
+   whiteness, dominant frequency, the signals it follows.
 """
 
 from __future__ import annotations
