@@ -41,7 +41,7 @@ U = 0x4C
 INTEG = 0x50
 TC_EFF = 0x54
 TC_MIN = 0x58
-UFF = 0x5C
+UFF = 0x88
 T_OUT = 0x80
 ADC_FLAGS = 0x84
 
@@ -226,7 +226,7 @@ REGISTERS: dict[str, Register] = {
     ),
     "UFF": Register(
         "UFF",
-        0x5C,
+        0x88,
         (Field("VALUE", 0, 16, "rw", True, 12, 0),),
     ),
     "T_OUT": Register(

@@ -253,7 +253,7 @@
 #define BOWDEN_TC_MIN_MAX (32767)
 
 /* UFF: Current feedforward added to the command before its saturation, u = Kff*T_c + UFF + Kp*e + I, outside the PI: the integrator does not see it. The processor writes it at each tick after TC (its rate feedforward, firmware/README.md). */
-#define BOWDEN_REG_UFF 0x5Cu
+#define BOWDEN_REG_UFF 0x88u
 /* VALUE (rw Q3.12 A): u_ff in amperes; reset 0 A */
 #define BOWDEN_UFF_SHIFT 0u
 #define BOWDEN_UFF_MASK 0x0000FFFFu

@@ -99,7 +99,7 @@ localparam [ADDR_W-3:0] A_U = 6'd19;
 localparam [ADDR_W-3:0] A_INTEG = 6'd20;
 localparam [ADDR_W-3:0] A_TC_EFF = 6'd21;
 localparam [ADDR_W-3:0] A_TC_MIN = 6'd22;
-localparam [ADDR_W-3:0] A_UFF = 6'd23;
+localparam [ADDR_W-3:0] A_UFF = 6'd34;
 localparam [ADDR_W-3:0] A_T_OUT = 6'd32;
 localparam [ADDR_W-3:0] A_ADC_FLAGS = 6'd33;
 
