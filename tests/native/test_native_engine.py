@@ -126,7 +126,9 @@ def test_native_matches_cocotb_with_the_rate_feedforward(builds):
         }
     )
     fixed, res = _both("fig14", "preview", "board", FIG14_S, cfg=cfg)
-    off = SimConfig.from_dict({"compensator": {"est_enable": 1, "est_rate_per_s": 0.5}, "plant": plant})
+    off = SimConfig.from_dict(
+        {"compensator": {"est_enable": 1, "est_rate_per_s": 0.5}, "plant": plant}
+    )
     _, _, spec = _spec("fig14", "preview", "board", FIG14_S, off)
     base, _ = engine.run_closed_loop(spec, progress=False)
     assert np.any(base["current_A"] != fixed["current_A"])
