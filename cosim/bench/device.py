@@ -51,7 +51,7 @@ class EmuLoop(ctypes.Structure):
         (n, ctypes.c_int32)
         for n in (
             "tc kff kp ki_ts i_limit slew wdt_timeout adc_offset adc_gain adc_min adc_max "
-            "adc_stale oc_timeout tc_min"
+            "adc_stale oc_timeout tc_min uff"
         ).split()
     ] + [
         ("enable", ctypes.c_uint32),

@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PROTOCOL_VERSION = 2
-TABLE_HASH = 0xA97A4087
+TABLE_HASH = 0xE770657B
 MAX_PAYLOAD = 48
 CAN_NODE_BITS = 6
 CAN_MESSAGE_BITS = 5
@@ -943,6 +943,34 @@ PARAMS: tuple[Param, ...] = (
     ),
     Param(
         32,
+        "loop.kv",
+        "fw.loop.kv",
+        False,
+        24,
+        "",
+        None,
+        False,
+        -2147483648,
+        2147483647,
+        0xD85D9185,
+        "rate feedforward gain, A s/N, Q7.24 in [0, FW_KV_MAX]; 0: off",
+    ),
+    Param(
+        33,
+        "loop.uff_limit",
+        "fw.loop.uff_limit",
+        False,
+        12,
+        "",
+        None,
+        False,
+        -2147483648,
+        2147483647,
+        0x50623590,
+        "|UFF| bound, UQ3.12 A",
+    ),
+    Param(
+        34,
         "est.enable",
         "fw.est.enable",
         False,
@@ -956,7 +984,7 @@ PARAMS: tuple[Param, ...] = (
         "0 off (default), 1 on",
     ),
     Param(
-        33,
+        35,
         "est.tau_ticks",
         "fw.est.tau_ticks",
         False,
@@ -970,7 +998,7 @@ PARAMS: tuple[Param, ...] = (
         "forgetting time constant, accepted samples, 2^s in [16, 32768]",
     ),
     Param(
-        34,
+        36,
         "est.rate",
         "fw.est.rate_q28",
         False,
@@ -984,7 +1012,7 @@ PARAMS: tuple[Param, ...] = (
         "largest change of the estimate per tick, Q3.28, [0, 1/16]",
     ),
     Param(
-        35,
+        37,
         "est.mu_phi_min",
         "fw.est.mu_phi_min_q28",
         False,
@@ -998,7 +1026,7 @@ PARAMS: tuple[Param, ...] = (
         "lower bound of mu*phi, Q3.28, [0, 4]",
     ),
     Param(
-        36,
+        38,
         "est.mu_phi_max",
         "fw.est.mu_phi_max_q28",
         False,
@@ -1012,7 +1040,7 @@ PARAMS: tuple[Param, ...] = (
         "upper bound of mu*phi, Q3.28, (min, 4]",
     ),
     Param(
-        37,
+        39,
         "est.t_min_n",
         "fw.est.t_min_n_q8",
         False,
@@ -1026,7 +1054,7 @@ PARAMS: tuple[Param, ...] = (
         "minimum tension on both cells, Q7.8 N, [0, 64]",
     ),
     Param(
-        38,
+        40,
         "dev.telemetry_div",
         "dev.telemetry_div",
         True,
@@ -1040,7 +1068,7 @@ PARAMS: tuple[Param, ...] = (
         "telemetry every N ticks, [1, 1000]; default 1",
     ),
     Param(
-        39,
+        41,
         "dev.can_node",
         "dev.can_node",
         True,

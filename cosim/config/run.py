@@ -40,6 +40,13 @@ class ControllerParams:
     ki_a_per_n_s: float = 2.5
     i_limit_a: float = 4.0  # ESCON 36/2 peak current (RTL reset value of I_LIMIT)
     slew_n_per_sample: float = 0.0  # 0 = slew limit off
+    # Rate feedforward (fw.h; written to UFF, outside the PI): u += kv * dT_c/dt, bounded by
+    # uff_limit_a. The current the drive needs to move the cable at T_c's rate: the motor's
+    # viscous damping b, geared to the spool, against the cable's stretch, kv = b N / (r k_t k)
+    # (k the cable's stiffness EA / length); 0 = off. The value for the bench is chosen on a
+    # tuning set (docs/results.md, "Rate feedforward").
+    kv_a_s_per_n: float = 0.0
+    uff_limit_a: float = 0.5
 
 
 # Fields of the run's configuration a params file may not set: the command line owns them.
@@ -70,6 +77,8 @@ def field_ranges(sample_rate_hz: float) -> dict[str, tuple[float, float]]:
         "controller.ki_a_per_n_s": (0.0, sample_rate_hz / 32.0),
         "controller.i_limit_a": (0.0, 7.9997),
         "controller.slew_n_per_sample": (0.0, 127.99),
+        "controller.kv_a_s_per_n": (0.0, 1.0 / 16.0),  # fw.h FW_KV_MAX, Q7.24
+        "controller.uff_limit_a": (0.0, 7.9997),  # UQ3.12, as UFF's range
         "compensator.mu": (0.0, 1.0),
         "compensator.phi_rad": (0.0, 4.0 * math.pi),
         "compensator.band_n": (1.0 / 256.0, 128.0),

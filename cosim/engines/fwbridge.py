@@ -33,7 +33,21 @@ def loop_words(ctrl: ControllerParams, sample_rate_hz: float) -> dict[str, int]:
         "slew_en": 1 if ctrl.slew_n_per_sample > 0 else 0,
         "adc_offset": rtl_model.DEFAULT_ADC_OFFSET,
         "adc_gain": rtl_model.DEFAULT_ADC_GAIN,
+        # The rate feedforward (fw.h): kv in A s/N as Q7.24, its bound as UQ3.12 A.
+        "kv": kv_word(ctrl.kv_a_s_per_n),
+        "uff_limit": _field_word("UFF", ctrl.uff_limit_a),
     }
+
+
+KV_FRAC = 24  # fw.h: loop.kv, A s/N, Q7.24
+
+
+def kv_word(kv_a_s_per_n: float) -> int:
+    """The firmware's rate feedforward gain word (fw.h loop.kv, Q7.24 A s/N), range-checked."""
+    word = int(round(kv_a_s_per_n * (1 << KV_FRAC)))
+    if not 0 <= word <= firmware.FW_KV_MAX:
+        raise ValueError(f"kv = {kv_a_s_per_n!r} A s/N is outside the firmware's range [0, 1/16]")
+    return word
 
 
 class FirmwareBridge:

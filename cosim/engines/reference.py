@@ -16,7 +16,9 @@ Timing, identical to the co-simulation harness (cosim/engines/cocotb/tb_closed_l
   with the ideal interface) and, from the sensors at t_k+1, gives the ADC sample of tick k+1
   (with the ideal interface, T_in_meas(t_k+1) at every sample).
 - Firmware tick i at sample k = i*D (D = f_s / f_fw): T_c,i = comp(T_ref(t_k)); the write reaches
-  the loop for sample k + 2 (TC_LATENCY_SAMPLES), as the AXI write does in the co-simulation.
+  the loop for sample k + 2 (TC_LATENCY_SAMPLES), as the AXI write does in the co-simulation;
+  with the rate feedforward on (controller.kv_a_s_per_n, fw.h), u_ff,i = clamp(kv * (T_c,i -
+  T_c,i-1) * f_fw, +-uff_limit) with it (none at the first tick), as the firmware's UFF write.
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from cosim.parts.rtl_model import FloatTensionLoop
 from cosim.project.progress import Progress
 
 from .common import TC_LATENCY_SAMPLES, Record, open_plant, plant_rows, store_plant_rows
-from .fwbridge import loop_words
+from .fwbridge import KV_FRAC, loop_words
 
 
 def make_float_loop(cfg: SimConfig) -> FloatTensionLoop:
@@ -114,10 +116,17 @@ def run_reference(
     y = plant.y
     chain = chain if chain is not None else make_chain(cfg, interface, fixed=False)
     t_in_meas = chain.start(y[T_IN_MEAS])  # the ADC sample in force (N)
+    # The rate feedforward in SI units (fw.h loop.kv, uff_limit), from the words the firmware holds.
+    kv = words["kv"] / (1 << KV_FRAC)
+    uff_lim = words["uff_limit"] / (1 << rtl_model.CURRENT_FRAC)
+    tc_prev = None  # T_c of the previous firmware tick (None before the first)
+    uff_new = 0.0
     drive, sense = chain.drive, chain.sense
     for k in range(n):
         if k >= TC_LATENCY_SAMPLES and (k - TC_LATENCY_SAMPLES) % dec == 0:
             tc = tc_new
+            if kv > 0.0:
+                loop.uff_a = uff_new
         if slew > 0.0:  # RTL's slew limit on T_c (CTRL.SLEW_EN, SLEW per sample)
             tc_eff = min(max(tc, tc_eff - slew), tc_eff + slew)
         else:
@@ -126,6 +135,10 @@ def run_reference(
         u = loop.step(tc_eff, t_in_meas)
         if k % dec == 0:
             tc_new = comp.step(tension_word(t_ref[k]) / 256.0)
+            if kv > 0.0:
+                rate = 0.0 if tc_prev is None else (tc_new - tc_prev) * cfg.firmware_rate_hz
+                uff_new = min(max(kv * rate, -uff_lim), uff_lim)
+                tc_prev = tc_new
         # Record sample k: the sensors as the loop saw them and the command it gave.
         out_tc[k] = tc_eff
         out_u[k] = u

@@ -36,6 +36,7 @@ Q7_8_MIN, Q7_8_MAX = -32768, 32767
 MODES = {"none": 0, "paper": 1, "smooth": 2, "preview": 3}
 SOURCES = {"host": 0, "wave": 1}
 WAVE_KINDS = {"constant": 0, "sine": 1, "triangle": 2, "ramp": 3, "step": 4}  # WAVE_* of wave.h
+FW_KV_MAX = 1 << 20  # fw.h: the rate feedforward gain loop.kv at most 1/16 A s/N (Q7.24)
 
 # Bound of |fixed - double twin| in Q7.8 LSB without a friction slope (COMP_ERR_BOUND_LSB).
 ERR_BOUND_LSB = 1.0
@@ -118,6 +119,8 @@ LOOP_FIELDS = (
     "adc_max",
     "adc_stale",
     "oc_timeout",
+    "kv",
+    "uff_limit",
 )
 
 

@@ -41,6 +41,7 @@ U = 0x4C
 INTEG = 0x50
 TC_EFF = 0x54
 TC_MIN = 0x58
+UFF = 0x88
 T_OUT = 0x80
 ADC_FLAGS = 0x84
 
@@ -222,6 +223,11 @@ REGISTERS: dict[str, Register] = {
         "TC_MIN",
         0x58,
         (Field("VALUE", 0, 16, "rw", True, 8, 0),),
+    ),
+    "UFF": Register(
+        "UFF",
+        0x88,
+        (Field("VALUE", 0, 16, "rw", True, 12, 0),),
     ),
     "T_OUT": Register(
         "T_OUT",

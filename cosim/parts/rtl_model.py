@@ -11,8 +11,11 @@ Per sample tick (`TensionLoopModel.tick`):
     e    = sat16(T_c' - T_in)
     I'   = clamp(I + s, +-I_LIMIT*2^16), s = 0 if the previous output was saturated high and
            KI_TS*e > 0 (or low and < 0), else s = KI_TS*e          (Q3.28, anti-windup)
-    r    = floor((Kff*T_c' + Kp*e + 2^8 + floor(I' / 2^7)) / 2^9)   (Q3.12, rounded)
+    r    = floor((Kff*T_c' + Kp*e + 2^8 + floor(I' / 2^7)) / 2^9) + UFF   (Q3.12, rounded)
     u    = clamp(r, +-I_LIMIT); saturated high/low = r > I_LIMIT / r < -I_LIMIT
+
+UFF (Q3.12 A) is the processor's current feedforward (its rate feedforward, fw.h): a whole
+number of output LSB added outside the PI, so the integrator never sees it.
 
 `FloatTensionLoop` is the same loop in double precision (the oracle for the fixed-point error).
 """
@@ -228,7 +231,7 @@ class TensionLoopModel:
             # A held integrator is clamped too: I_LIMIT may have been lowered since it was stored.
             step = 0 if windup else pi
             self.integ = _clamp(integ_prev + step, -(lim << 16), lim << 16)
-            r_out = (ff + pp + 256 + (self.integ >> 7)) >> 9
+            r_out = ((ff + pp + 256 + (self.integ >> 7)) >> 9) + r["UFF"]
             self.u = _clamp(r_out, -lim, lim)
             self.sat_hi, self.sat_lo = r_out > lim, r_out < -lim
             self.saturated = self.sat_hi or self.sat_lo
@@ -269,9 +272,10 @@ class TensionLoopModel:
 class FloatTensionLoop:
     """The PI + feedforward loop in double precision, in SI units (the fixed-point oracle).
 
-    Same structure as the RTL: u = Kff*T_c + Kp*e + I, I += Ki*Ts*e unless the previous output
-    was saturated in the direction e pushes; u and I clamped to +-i_limit_a. No quantization,
-    no rounding, no fault logic.
+    Same structure as the RTL: u = Kff*T_c + u_ff + Kp*e + I, I += Ki*Ts*e unless the previous
+    output was saturated in the direction e pushes; u and I clamped to +-i_limit_a. No
+    quantization, no rounding, no fault logic. `uff_a` is the UFF register's current
+    feedforward, which the caller sets as the processor writes it.
     """
 
     kff_a_per_n: float
@@ -280,6 +284,7 @@ class FloatTensionLoop:
     i_limit_a: float
     integ_a: float = 0.0
     sat_sign: int = 0
+    uff_a: float = 0.0
 
     def step(self, tc_n: float, t_in_n: float) -> float:
         """One sample: the current command in A for command `tc_n` and measurement `t_in_n`."""
@@ -288,7 +293,7 @@ class FloatTensionLoop:
         pi = self.ki_ts_a_per_n * e
         if not ((self.sat_sign > 0 and pi > 0) or (self.sat_sign < 0 and pi < 0)):
             self.integ_a = min(max(self.integ_a + pi, -self.i_limit_a), self.i_limit_a)
-        v = fp + self.integ_a
+        v = fp + self.integ_a + self.uff_a
         self.sat_sign = 1 if v > self.i_limit_a else -1 if v < -self.i_limit_a else 0
         return min(max(v, -self.i_limit_a), self.i_limit_a)
 
@@ -300,4 +305,5 @@ class FloatTensionLoop:
             kp_a_per_n=regs["KP"] / (1 << GAIN_FRAC),
             ki_ts_a_per_n=regs["KI_TS"] / (1 << KI_TS_FRAC),
             i_limit_a=regs["I_LIMIT"] / (1 << CURRENT_FRAC),
+            uff_a=regs.get("UFF", 0) / (1 << CURRENT_FRAC),
         )

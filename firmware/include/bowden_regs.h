@@ -252,6 +252,16 @@
 #define BOWDEN_TC_MIN_MIN (-32768)
 #define BOWDEN_TC_MIN_MAX (32767)
 
+/* UFF: Current feedforward added to the command before its saturation, u = Kff*T_c + UFF + Kp*e + I, outside the PI: the integrator does not see it. The processor writes it at each tick after TC (its rate feedforward, firmware/README.md). */
+#define BOWDEN_REG_UFF 0x88u
+/* VALUE (rw Q3.12 A): u_ff in amperes; reset 0 A */
+#define BOWDEN_UFF_SHIFT 0u
+#define BOWDEN_UFF_MASK 0x0000FFFFu
+#define BOWDEN_UFF_FRAC_BITS 12u
+#define BOWDEN_UFF_RESET (0)
+#define BOWDEN_UFF_MIN (-32768)
+#define BOWDEN_UFF_MAX (32767)
+
 /* T_OUT: Raw code of the output load cell (ADS131M02 CH1, sampled with T_in), from the last good frame; 0 with the ADS1220 front-end. Not used by the loop: for evaluation and the model audit. */
 #define BOWDEN_REG_T_OUT 0x80u
 /* VALUE (ro Q23.0 code): T_out_meas ADC code */

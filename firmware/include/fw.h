@@ -7,7 +7,10 @@
  *   1. read STATUS, FAULT, T_IN, U and SAMPLE_COUNT into the telemetry (the previous period);
  *   2. take T_ref from its source: the waveform generator (wave.h) or the value the host passes;
  *   3. T_c = comp_step_q7_8(T_ref) (comp.h);
- *   4. write T_c to TC, which also refreshes the FPGA's watchdog.
+ *   4. write T_c to TC, which also refreshes the FPGA's watchdog;
+ *   5. with the rate feedforward on (loop.kv > 0): write UFF = clamp(round(kv * dT_c/dt),
+ *      +-uff_limit), the current the drive needs to move the cable at T_c's rate (the motor's
+ *      damping and the cable's stretch; firmware/README.md), outside the PI.
  * With the online friction estimate on (est.enable), between 1 and 3: read T_OUT and ADC_FLAGS,
  * convert T_OUT with the loop's ADC_OFFSET/ADC_GAIN (the far-end cell assumed of the same scale
  * as the drive's; an offset of it does not bias the estimate), step fric_est and hand its
@@ -47,6 +50,13 @@
 #define FW_ERR_ADC_STALE 54
 #define FW_ERR_OC_TIMEOUT 55
 #define FW_ERR_SLEW_EN 56     /* not 0 or 1 */
+#define FW_ERR_KV 57          /* rate feedforward gain outside [0, FW_KV_MAX] */
+#define FW_ERR_UFF_LIMIT 58   /* rate feedforward limit outside [0, 32767] (UQ3.12 A) */
+
+/* Rate feedforward (written to UFF at each tick, outside the PI): kv in A s/N, Q7.24, at most
+ * 1/16 A s/N (2^20); its current is bounded by uff_limit (UQ3.12 A). Default off (kv 0). */
+#define FW_KV_MAX 1048576
+#define FW_UFF_LIMIT_DEFAULT 2048 /* 0.5 A */
 
 /* Register words of the FPGA's loop, in the formats of bowden_regs.h (defaults: reset values). */
 typedef struct {
@@ -63,6 +73,8 @@ typedef struct {
     int32_t adc_max;      /* ADC_MAX, code */
     int32_t adc_stale;    /* ADC_STALE, samples */
     int32_t oc_timeout;   /* OC_TIMEOUT, samples */
+    int32_t kv;           /* rate feedforward gain, A s/N, Q7.24 in [0, FW_KV_MAX]; 0: off */
+    int32_t uff_limit;    /* |UFF| bound, UQ3.12 A */
 } fw_loop_config_t;
 
 typedef struct {
@@ -101,6 +113,9 @@ typedef struct {
     fric_est_t est;
     q3_28_t est_applied_q28; /* the exponent the compensator's tables hold */
     fw_telemetry_t tel;
+    int32_t uff_prev_tc;     /* rate feedforward: the T_c of the previous tick, Q7.8 N */
+    int32_t uff_primed;      /* a previous T_c exists since fw_start (the first tick feeds none) */
+    int32_t uff_written;     /* the last UFF word written (0 after fw_stop) */
 } fw_t;
 
 /* Defaults: 1 kHz tick, 10 kHz FPGA, host source, comp/wave defaults, register reset values. */

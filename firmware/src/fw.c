@@ -26,6 +26,8 @@ void fw_config_default(fw_config_t *cfg)
     cfg->loop.adc_max = BOWDEN_ADC_MAX_RESET;
     cfg->loop.adc_stale = BOWDEN_ADC_STALE_RESET;
     cfg->loop.oc_timeout = BOWDEN_OC_TIMEOUT_RESET;
+    cfg->loop.kv = 0;
+    cfg->loop.uff_limit = FW_UFF_LIMIT_DEFAULT;
     fric_est_config_default(&cfg->est);
 }
 
@@ -78,6 +80,12 @@ static int32_t loop_config_check(const fw_loop_config_t *l, uint32_t samples_per
     }
     if (!in_field(l->oc_timeout, BOWDEN_OC_TIMEOUT_MIN, BOWDEN_OC_TIMEOUT_MAX)) {
         return FW_ERR_OC_TIMEOUT;
+    }
+    if (!in_field(l->kv, 0, FW_KV_MAX)) {
+        return FW_ERR_KV;
+    }
+    if (!in_field(l->uff_limit, 0, BOWDEN_UFF_MAX)) {
+        return FW_ERR_UFF_LIMIT;
     }
     return FW_OK;
 }
@@ -145,6 +153,9 @@ void fw_init(fw_t *fw, const hal_t *hal)
     fw_config_t cfg;
     fw_config_default(&cfg);
     fw->hal = hal;
+    fw->uff_prev_tc = 0;
+    fw->uff_primed = 0;
+    fw->uff_written = 0;
     comp_init(&fw->comp);
     (void)fw_configure(fw, &cfg); /* the defaults are valid (unit-tested) */
     fw->tel = (fw_telemetry_t){0};
@@ -179,6 +190,11 @@ void fw_start(fw_t *fw)
     write_word(fw, BOWDEN_REG_ADC_STALE, l->adc_stale);
     write_word(fw, BOWDEN_REG_OC_TIMEOUT, l->oc_timeout);
     write_word(fw, BOWDEN_REG_TC_MIN, fw->cfg.comp.tc_min_n_q8); /* the floor, in the FPGA too */
+    if (l->kv != 0 || fw->uff_written != 0) { /* no feedforward left from an earlier run */
+        write_word(fw, BOWDEN_REG_UFF, 0);
+        fw->uff_written = 0;
+    }
+    fw->uff_primed = 0;
     write_word(fw, BOWDEN_REG_TC, 0);
     hal_write(fw->hal, BOWDEN_REG_CTRL,
               BOWDEN_CTRL_FAULT_CLEAR_MASK | BOWDEN_CTRL_INTEG_RESET_MASK);
@@ -202,6 +218,26 @@ void fw_stop(fw_t *fw)
 {
     write_word(fw, BOWDEN_REG_TC, 0);
     write_word(fw, BOWDEN_REG_CTRL, 0);
+    if (fw->uff_written != 0) {
+        write_word(fw, BOWDEN_REG_UFF, 0);
+        fw->uff_written = 0;
+    }
+}
+
+/*
+ * The rate feedforward word: UFF = clamp(round(kv * (T_c - T_c,prev) * f_tick), +-uff_limit), Q3.12 A.
+ * Scaling and overflow: kv (Q7.24, <= 2^20) * dT_c (Q7.8, |.| < 2^17) * f_tick (< 2^16 Hz) is
+ * below 2^53 in int64, in units of 2^-32 A; + 2^19 and >> 20 (floor) rounds to Q3.12 (half up).
+ */
+static int32_t uff_word(const fw_loop_config_t *l, int32_t dtc, uint32_t tick_rate_hz)
+{
+    int64_t v = ((int64_t)l->kv * dtc * (int64_t)tick_rate_hz + (INT64_C(1) << 19)) >> 20;
+    if (v > l->uff_limit) {
+        v = l->uff_limit;
+    } else if (v < -(int64_t)l->uff_limit) {
+        v = -(int64_t)l->uff_limit;
+    }
+    return (int32_t)v;
 }
 
 void fw_fault_clear(fw_t *fw)
@@ -250,6 +286,20 @@ q7_8_t fw_tick(fw_t *fw, q7_8_t host_t_ref)
     q7_8_t t_ref = (fw->cfg.source == FW_SOURCE_WAVE) ? wave_next_q7_8(&fw->wave) : host_t_ref;
     q7_8_t t_c = comp_step_q7_8(&fw->comp, t_ref);
     write_word(fw, BOWDEN_REG_TC, t_c); /* refreshes the watchdog */
+    if (fw->cfg.loop.kv != 0 || fw->uff_written != 0) {
+        /* The first tick after fw_start has no rate and feeds nothing; a feedforward switched
+         * off by a new configuration is taken back at once. UFF is written when it changes. */
+        const int32_t on = (fw->cfg.loop.kv != 0);
+        int32_t w = (on && fw->uff_primed != 0)
+                        ? uff_word(&fw->cfg.loop, t_c - fw->uff_prev_tc, fw->cfg.tick_rate_hz)
+                        : 0;
+        if (w != fw->uff_written) {
+            write_word(fw, BOWDEN_REG_UFF, w);
+            fw->uff_written = w;
+        }
+        fw->uff_prev_tc = t_c;
+        fw->uff_primed = on;
+    }
 
     ++t->ticks;
     t->t_ref = t_ref;
@@ -335,6 +385,10 @@ const char *fw_strerror(int32_t code)
         return "loop.adc_stale: outside [0, 65535] samples";
     case FW_ERR_OC_TIMEOUT:
         return "loop.oc_timeout: outside [0, 65535] samples";
+    case FW_ERR_KV:
+        return "loop.kv: outside [0, 1/16] A s/N";
+    case FW_ERR_UFF_LIMIT:
+        return "loop.uff_limit: outside [0, 7.9998] A";
     case FE_ERR_NULL:
         return "null pointer";
     case FE_ERR_ENABLE:

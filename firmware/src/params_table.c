@@ -36,12 +36,14 @@ const proto_param_t params_table[PROTO_N_PARAMS] = {
     {0x867EF7E3UL, (uint16_t)offsetof(settings_t, fw.loop.adc_max), PROTO_PARAM_I32, 0u}, /* 29: loop.adc_max */
     {0xE6DB7DA5UL, (uint16_t)offsetof(settings_t, fw.loop.adc_stale), PROTO_PARAM_I32, 0u}, /* 30: loop.adc_stale */
     {0xC48C578DUL, (uint16_t)offsetof(settings_t, fw.loop.oc_timeout), PROTO_PARAM_I32, 0u}, /* 31: loop.oc_timeout */
-    {0xAB95BB8AUL, (uint16_t)offsetof(settings_t, fw.est.enable), PROTO_PARAM_I32, 0u}, /* 32: est.enable */
-    {0x1106A0C1UL, (uint16_t)offsetof(settings_t, fw.est.tau_ticks), PROTO_PARAM_I32, 0u}, /* 33: est.tau_ticks */
-    {0x2B1E7F15UL, (uint16_t)offsetof(settings_t, fw.est.rate_q28), PROTO_PARAM_I32, 0u}, /* 34: est.rate */
-    {0x43E48277UL, (uint16_t)offsetof(settings_t, fw.est.mu_phi_min_q28), PROTO_PARAM_I32, 0u}, /* 35: est.mu_phi_min */
-    {0xE80F6148UL, (uint16_t)offsetof(settings_t, fw.est.mu_phi_max_q28), PROTO_PARAM_I32, 0u}, /* 36: est.mu_phi_max */
-    {0x2CD88E0DUL, (uint16_t)offsetof(settings_t, fw.est.t_min_n_q8), PROTO_PARAM_I32, 0u}, /* 37: est.t_min_n */
-    {0xA4E9F30AUL, (uint16_t)offsetof(settings_t, dev.telemetry_div), PROTO_PARAM_U32, 0u}, /* 38: dev.telemetry_div */
-    {0xC4FD1CC2UL, (uint16_t)offsetof(settings_t, dev.can_node), PROTO_PARAM_U32, 0u}, /* 39: dev.can_node */
+    {0xD85D9185UL, (uint16_t)offsetof(settings_t, fw.loop.kv), PROTO_PARAM_I32, 0u}, /* 32: loop.kv */
+    {0x50623590UL, (uint16_t)offsetof(settings_t, fw.loop.uff_limit), PROTO_PARAM_I32, 0u}, /* 33: loop.uff_limit */
+    {0xAB95BB8AUL, (uint16_t)offsetof(settings_t, fw.est.enable), PROTO_PARAM_I32, 0u}, /* 34: est.enable */
+    {0x1106A0C1UL, (uint16_t)offsetof(settings_t, fw.est.tau_ticks), PROTO_PARAM_I32, 0u}, /* 35: est.tau_ticks */
+    {0x2B1E7F15UL, (uint16_t)offsetof(settings_t, fw.est.rate_q28), PROTO_PARAM_I32, 0u}, /* 36: est.rate */
+    {0x43E48277UL, (uint16_t)offsetof(settings_t, fw.est.mu_phi_min_q28), PROTO_PARAM_I32, 0u}, /* 37: est.mu_phi_min */
+    {0xE80F6148UL, (uint16_t)offsetof(settings_t, fw.est.mu_phi_max_q28), PROTO_PARAM_I32, 0u}, /* 38: est.mu_phi_max */
+    {0x2CD88E0DUL, (uint16_t)offsetof(settings_t, fw.est.t_min_n_q8), PROTO_PARAM_I32, 0u}, /* 39: est.t_min_n */
+    {0xA4E9F30AUL, (uint16_t)offsetof(settings_t, dev.telemetry_div), PROTO_PARAM_U32, 0u}, /* 40: dev.telemetry_div */
+    {0xC4FD1CC2UL, (uint16_t)offsetof(settings_t, dev.can_node), PROTO_PARAM_U32, 0u}, /* 41: dev.can_node */
 };

@@ -122,7 +122,7 @@ axil_regbus #(.ADDR_W(ADDR_W)) axil (
 );
 
 wire        ctrl_enable, ctrl_integ_reset, ctrl_fault_clear, ctrl_slew_en, tc_wr;
-wire [15:0] tc, tc_min, kff, kp, ki_ts, wdt_timeout, adc_gain, adc_stale, oc_timeout;
+wire [15:0] tc, tc_min, kff, kp, ki_ts, wdt_timeout, adc_gain, adc_stale, oc_timeout, uff;
 wire [14:0] i_limit, slew;
 wire [23:0] adc_offset, adc_min, adc_max;
 
@@ -148,7 +148,7 @@ bowden_regs #(.ADDR_W(ADDR_W)) regs (
     .adc_min(adc_min), .adc_max(adc_max), .adc_stale(adc_stale), .oc_timeout(oc_timeout),
     .hw_sample_count(sample_count), .hw_t_in(t_in), .hw_u(u), .hw_integ(integ),
     .hw_tc_eff(tc_eff), .hw_t_out(adc_aux_data), .hw_adc_flags_drdy_lost(adc_drdy_lost),
-    .hw_adc_flags_crc_err(adc_crc_err), .tc_min(tc_min)
+    .hw_adc_flags_crc_err(adc_crc_err), .tc_min(tc_min), .uff(uff)
 );
 
 // --- loop and drive ------------------------------------------------------------------------
@@ -159,8 +159,8 @@ tension_loop #(.WDT_RAMP_STEP(WDT_RAMP_STEP)) loop (
     .adc_valid(adc_valid), .adc_data(adc_data),
     .enable(ctrl_enable), .slew_en(ctrl_slew_en), .integ_reset(ctrl_integ_reset),
     .fault_clear(ctrl_fault_clear), .tc_wr(tc_wr),
-    .tc(tc), .tc_min(tc_min), .kff(kff), .kp(kp), .ki_ts(ki_ts), .i_limit(i_limit), .slew(slew),
-    .wdt_timeout(wdt_timeout), .adc_offset(adc_offset), .adc_gain(adc_gain),
+    .tc(tc), .tc_min(tc_min), .kff(kff), .uff(uff), .kp(kp), .ki_ts(ki_ts), .i_limit(i_limit),
+    .slew(slew), .wdt_timeout(wdt_timeout), .adc_offset(adc_offset), .adc_gain(adc_gain),
     .adc_min(adc_min), .adc_max(adc_max), .adc_stale(adc_stale), .oc_timeout(oc_timeout),
     .u(u), .out_en(out_en), .out_valid(out_valid),
     .saturated(saturated), .wdt_ramp(wdt_ramp), .faults(faults),

@@ -69,6 +69,7 @@ module bowden_regs #(
     input  wire [31:0]  hw_integ,  // INTEG Q3.28
     input  wire [15:0]  hw_tc_eff,  // TC_EFF Q7.8
     output wire [15:0]  tc_min,  // TC_MIN Q7.8
+    output wire [15:0]  uff,  // UFF Q3.12
     input  wire [23:0]  hw_t_out,  // T_OUT Q23.0
     input  wire         hw_adc_flags_drdy_lost,  // ADC_FLAGS
     input  wire         hw_adc_flags_crc_err   // ADC_FLAGS
@@ -98,12 +99,13 @@ localparam [ADDR_W-3:0] A_U = 6'd19;
 localparam [ADDR_W-3:0] A_INTEG = 6'd20;
 localparam [ADDR_W-3:0] A_TC_EFF = 6'd21;
 localparam [ADDR_W-3:0] A_TC_MIN = 6'd22;
+localparam [ADDR_W-3:0] A_UFF = 6'd34;
 localparam [ADDR_W-3:0] A_T_OUT = 6'd32;
 localparam [ADDR_W-3:0] A_ADC_FLAGS = 6'd33;
 
 wire [ADDR_W-3:0] wr_word = reg_wr_addr[ADDR_W-1:2];
 wire [ADDR_W-3:0] rd_word = reg_rd_addr[ADDR_W-1:2];
-reg  [24:0]        rd_sel;   // one-hot register select of the read in flight
+reg  [25:0]        rd_sel;   // one-hot register select of the read in flight
 reg               rd_miss;  // the read address is unmapped
 reg               rd_pend;  // a read is in its second cycle
 reg  [31:0]       rd_grp0;  // OR of registers 0..3
@@ -112,7 +114,7 @@ reg  [31:0]       rd_grp2;  // OR of registers 8..11
 reg  [31:0]       rd_grp3;  // OR of registers 12..15
 reg  [31:0]       rd_grp4;  // OR of registers 16..19
 reg  [31:0]       rd_grp5;  // OR of registers 20..23
-reg  [31:0]       rd_grp6;  // OR of registers 24..24
+reg  [31:0]       rd_grp6;  // OR of registers 24..25
 reg               rd_miss2;
 reg               rd_pend2;  // a read is in its third cycle
 reg               rd_valid;  // reg_rd_data holds a new read
@@ -157,6 +159,8 @@ reg  [15:0] oc_timeout_reg, oc_timeout_next;
 wire [15:0] oc_timeout_wval = (reg_wr_data[15:0] & wr_mask[15:0]) | (oc_timeout_reg & ~wr_mask[15:0]);
 reg  [15:0] tc_min_reg, tc_min_next;
 wire [15:0] tc_min_wval = (reg_wr_data[15:0] & wr_mask[15:0]) | (tc_min_reg & ~wr_mask[15:0]);
+reg  [15:0] uff_reg, uff_next;
+wire [15:0] uff_wval = (reg_wr_data[15:0] & wr_mask[15:0]) | (uff_reg & ~wr_mask[15:0]);
 reg  [31:0] rd_data_reg, rd_data_next;
 reg         rd_err_reg, rd_err_next;
 reg         wr_hit;
@@ -185,6 +189,7 @@ wire [31:0] rword_u = {{16{hw_u[15]}}, hw_u};
 wire [31:0] rword_integ = {hw_integ};
 wire [31:0] rword_tc_eff = {{16{hw_tc_eff[15]}}, hw_tc_eff};
 wire [31:0] rword_tc_min = {{16{tc_min_reg[15]}}, tc_min_reg};
+wire [31:0] rword_uff = {{16{uff_reg[15]}}, uff_reg};
 wire [31:0] rword_t_out = {{8{hw_t_out[23]}}, hw_t_out};
 wire [31:0] rword_adc_flags = {30'd0, hw_adc_flags_crc_err, hw_adc_flags_drdy_lost};
 
@@ -208,6 +213,7 @@ always @* begin
     adc_stale_next = adc_stale_reg;
     oc_timeout_next = oc_timeout_reg;
     tc_min_next = tc_min_reg;
+    uff_next = uff_reg;
     wr_hit = 1'b0;
     if (reg_wr_en) begin
         case (wr_word)
@@ -299,6 +305,10 @@ always @* begin
                 wr_hit = 1'b1;
                 tc_min_next = tc_min_wval;
             end
+            A_UFF: begin
+                wr_hit = 1'b1;
+                uff_next = uff_wval;
+            end
             A_T_OUT: begin
                 wr_hit = 1'b1;
             end
@@ -338,6 +348,7 @@ always @(posedge clk) begin
     adc_stale_reg <= adc_stale_next;
     oc_timeout_reg <= oc_timeout_next;
     tc_min_reg <= tc_min_next;
+    uff_reg <= uff_next;
     rd_data_reg <= rd_data_next;
     rd_pend <= reg_rd_en;
     rd_pend2 <= rd_pend;
@@ -367,8 +378,9 @@ always @(posedge clk) begin
     rd_grp5 <= ({32{rd_sel[20]}} & rword_integ)
         | ({32{rd_sel[21]}} & rword_tc_eff)
         | ({32{rd_sel[22]}} & rword_tc_min)
-        | ({32{rd_sel[23]}} & rword_t_out);
-    rd_grp6 <= ({32{rd_sel[24]}} & rword_adc_flags);
+        | ({32{rd_sel[23]}} & rword_uff);
+    rd_grp6 <= ({32{rd_sel[24]}} & rword_t_out)
+        | ({32{rd_sel[25]}} & rword_adc_flags);
     if (reg_rd_en) begin
         rd_sel[0] <= (rd_word == A_ID);
         rd_sel[1] <= (rd_word == A_CTRL);
@@ -393,8 +405,9 @@ always @(posedge clk) begin
         rd_sel[20] <= (rd_word == A_INTEG);
         rd_sel[21] <= (rd_word == A_TC_EFF);
         rd_sel[22] <= (rd_word == A_TC_MIN);
-        rd_sel[23] <= (rd_word == A_T_OUT);
-        rd_sel[24] <= (rd_word == A_ADC_FLAGS);
+        rd_sel[23] <= (rd_word == A_UFF);
+        rd_sel[24] <= (rd_word == A_T_OUT);
+        rd_sel[25] <= (rd_word == A_ADC_FLAGS);
         rd_miss <= !(
             (rd_word == A_ID) ||
             (rd_word == A_CTRL) ||
@@ -419,6 +432,7 @@ always @(posedge clk) begin
             (rd_word == A_INTEG) ||
             (rd_word == A_TC_EFF) ||
             (rd_word == A_TC_MIN) ||
+            (rd_word == A_UFF) ||
             (rd_word == A_T_OUT) ||
             (rd_word == A_ADC_FLAGS));
     end
@@ -447,6 +461,7 @@ always @(posedge clk) begin
         adc_stale_reg <= 16'd10;
         oc_timeout_reg <= 16'd5000;
         tc_min_reg <= 16'd0;
+        uff_reg <= 16'd0;
     end
 end
 
@@ -469,6 +484,7 @@ assign adc_max = adc_max_reg;
 assign adc_stale = adc_stale_reg;
 assign oc_timeout = oc_timeout_reg;
 assign tc_min = tc_min_reg;
+assign uff = uff_reg;
 assign reg_wr_err = reg_wr_en & ~wr_hit;
 assign reg_rd_data = rd_data_reg;
 assign reg_rd_err = rd_err_reg;
@@ -509,6 +525,7 @@ wire [31:0] f_reset =
     (f_a == A_INTEG) ? 32'h00000000 :
     (f_a == A_TC_EFF) ? 32'h00000000 :
     (f_a == A_TC_MIN) ? 32'h00000000 :
+    (f_a == A_UFF) ? 32'h00000000 :
     (f_a == A_T_OUT) ? 32'h00000000 :
     (f_a == A_ADC_FLAGS) ? 32'h00000000 :
     32'd0;
@@ -536,6 +553,7 @@ wire [31:0] f_rw_mask =
     (f_a == A_INTEG) ? 32'h00000000 :
     (f_a == A_TC_EFF) ? 32'h00000000 :
     (f_a == A_TC_MIN) ? 32'h0000FFFF :
+    (f_a == A_UFF) ? 32'h0000FFFF :
     (f_a == A_T_OUT) ? 32'h00000000 :
     (f_a == A_ADC_FLAGS) ? 32'h00000000 :
     32'd0;
@@ -563,6 +581,7 @@ wire [31:0] f_const_mask =
     (f_a == A_INTEG) ? 32'h00000000 :
     (f_a == A_TC_EFF) ? 32'h00000000 :
     (f_a == A_TC_MIN) ? 32'h00000000 :
+    (f_a == A_UFF) ? 32'h00000000 :
     (f_a == A_T_OUT) ? 32'h00000000 :
     (f_a == A_ADC_FLAGS) ? 32'h00000000 :
     32'd0;
@@ -590,6 +609,7 @@ wire f_a_mapped =
     (f_a == A_INTEG) ||
     (f_a == A_TC_EFF) ||
     (f_a == A_TC_MIN) ||
+    (f_a == A_UFF) ||
     (f_a == A_T_OUT) ||
     (f_a == A_ADC_FLAGS);
 wire f_wr_mapped = 
@@ -616,6 +636,7 @@ wire f_wr_mapped =
     (wr_word == A_INTEG) ||
     (wr_word == A_TC_EFF) ||
     (wr_word == A_TC_MIN) ||
+    (wr_word == A_UFF) ||
     (wr_word == A_T_OUT) ||
     (wr_word == A_ADC_FLAGS);
 
@@ -668,6 +689,8 @@ always @* if (f_past_valid && !rst) begin
     if (f_a == A_OC_TIMEOUT) regs_value_oc_timeout_value: assert(oc_timeout == f_w[15:0]);
     // property regs_value_tc_min_value: TC_MIN.VALUE is its reset value after reset, then the last write's by byte strobe
     if (f_a == A_TC_MIN) regs_value_tc_min_value: assert(tc_min == f_w[15:0]);
+    // property regs_value_uff_value: UFF.VALUE is its reset value after reset, then the last write's by byte strobe
+    if (f_a == A_UFF) regs_value_uff_value: assert(uff == f_w[15:0]);
     // property regs_write_error: a write errs exactly at an unmapped word
     regs_write_error: assert(reg_wr_err == (reg_wr_en && !f_wr_mapped));
     // property regs_read: a read answers 3 clocks later, SLVERR and 0 exactly when unmapped, else the rw bits last written and the constant bits

@@ -11,7 +11,9 @@
  *   e    = sat16(T_c' - T_in)                                          Q7.8 N
  *   I'   = clamp(I + KI_TS*e, +-I_LIMIT), or clamp(I, +-I_LIMIT) when the previous output
  *          was saturated in the direction KI_TS*e pushes (conditional integration)     Q3.28 A
- *   u    = clamp(round(Kff*T_c' + Kp*e + I'), +-I_LIMIT)                 Q3.12 A
+ *   u    = clamp(round(Kff*T_c' + Kp*e + I') + UFF, +-I_LIMIT)           Q3.12 A
+ * UFF (Q3.12 A) is a current feedforward the processor writes (its rate feedforward): added
+ * outside the PI, so the integrator never sees it; exact (a whole number of output LSB).
  * The exact bit-level definition is the Python model cosim/rtl_model.py; hdl/README.md has
  * the formats and why this anti-windup scheme.
  *
@@ -51,6 +53,7 @@ module tension_loop #(
     input  wire [15:0] tc,           // Q7.8 N
     input  wire [15:0] tc_min,       // Q7.8 N, floor of T_c' (a cable cannot push)
     input  wire [15:0] kff,          // Q2.13 A/N
+    input  wire [15:0] uff,          // Q3.12 A, added to u outside the PI
     input  wire [15:0] kp,           // Q2.13 A/N
     input  wire [15:0] ki_ts,        // 2^-20 A/N per sample
     input  wire [14:0] i_limit,      // UQ3.12 A
@@ -110,6 +113,7 @@ reg         slew_en_s_reg, slew_en_s_next;
 reg  [15:0] tc_s_reg, tc_s_next;
 reg  [15:0] tcmin_s_reg, tcmin_s_next;
 reg  [15:0] kff_s_reg, kff_s_next;
+reg  [15:0] uff_s_reg, uff_s_next;
 reg  [15:0] kp_s_reg, kp_s_next;
 reg  [15:0] ki_s_reg, ki_s_next;
 reg  [15:0] gain_s_reg, gain_s_next;
@@ -242,8 +246,8 @@ wire windup = (sat_hi_reg && pi_pos_reg) || (sat_lo_reg && pi_neg_reg);
 wire [33:0] ip_above = {lim28[32], lim28} - {{2{iprev_reg[31]}}, iprev_reg};
 wire [33:0] ip_below = {{2{iprev_reg[31]}}, iprev_reg} - {nlim28[32], nlim28};
 
-// Clock 12: rounded sum, Q3.12 in 25 bits: |fp| < 2^32, |I >> 7| < 2^24, so 34 bits hold it
-// (the +2^8 in ff_reg turns the arithmetic shift's floor into rounding).
+// Clock 12: rounded sum, Q3.12 in 25 bits: |fp| < 2^32 + 2^25, |I >> 7| < 2^24, so 34 bits hold
+// it (the +2^8 in ff_reg turns the arithmetic shift's floor into rounding).
 wire signed [33:0] v_sum = $signed(fp_reg) + $signed({{9{inew_reg[31]}}, inew_reg[31:7]});
 
 // Clocks 13-14: output saturation at +-I_LIMIT.
@@ -287,6 +291,7 @@ always @* begin
     tc_s_next = tc_s_reg;
     tcmin_s_next = tcmin_s_reg;
     kff_s_next = kff_s_reg;
+    uff_s_next = uff_s_reg;
     kp_s_next = kp_s_reg;
     ki_s_next = ki_s_reg;
     gain_s_next = gain_s_reg;
@@ -362,6 +367,7 @@ always @* begin
         tc_s_next = tc;
         tcmin_s_next = tc_min;
         kff_s_next = kff;
+        uff_s_next = uff;
         kp_s_next = kp;
         ki_s_next = ki_ts;
         gain_s_next = adc_gain;
@@ -424,10 +430,11 @@ always @* begin
         t_in_next = t_in_now;
     end
 
-    // Clock 6: error; feedforward plus the rounding half of the final >> 9.
+    // Clock 6: error; feedforward plus UFF << 9 (Q3.12 -> Q.21) and the rounding half of the
+    // final >> 9, one addend {UFF, 9'h100} (exact: 256 < 2^9): |ff| < 2^31 + 2^24 + 2^8.
     if (seq_reg[5]) begin
         e_next = e_now;
-        ff_next = {{2{m2_p[31]}}, m2_p} + 34'd256;
+        ff_next = {{2{m2_p[31]}}, m2_p} + {{9{uff_s_reg[15]}}, uff_s_reg, 9'h100};
     end
 
     // Clock 7: P and I products.
@@ -518,6 +525,7 @@ always @(posedge clk) begin
     tc_s_reg <= tc_s_next;
     tcmin_s_reg <= tcmin_s_next;
     kff_s_reg <= kff_s_next;
+    uff_s_reg <= uff_s_next;
     kp_s_reg <= kp_s_next;
     ki_s_reg <= ki_s_next;
     gain_s_reg <= gain_s_next;

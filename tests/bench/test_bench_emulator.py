@@ -318,7 +318,7 @@ def test_settings_survive_an_emulator_restart(tmp_path, capsys):
             emu.stop()
     out = capsys.readouterr().out
     assert "loop.kp    0.0699463 A/N" in out and "comp.mode  smooth" in out
-    assert "restored 38 parameters" in out and "configuration flash" in out
+    assert "restored 40 parameters" in out and "configuration flash" in out
 
 
 # A value this host or the device refuses is a usage error (exit 2); a file that is missing,

@@ -31,6 +31,7 @@ PORTS = {
     "TC": "tc",
     "TC_MIN": "tc_min",
     "KFF": "kff",
+    "UFF": "uff",
     "KP": "kp",
     "KI_TS": "ki_ts",
     "I_LIMIT": "i_limit",
@@ -173,6 +174,8 @@ async def random_against_model(dut):
             tb.write("SLEW", rng.choice([0, 1, 128, 32767]))
         if rng.random() < 0.3:
             tb.write("TC", rng.choice(corners16 + [rng.randint(-32768, 32767)] * 6))
+        if rng.random() < 0.1:
+            tb.write("UFF", rng.choice(corners16 + [rng.randint(-2048, 2048)] * 4))
         if rng.random() < 0.03:
             tb.write("TC_MIN", rng.choice(corners16 + [rng.randint(-32768, 32767)] * 2))
         if rng.random() < 0.04:
@@ -219,6 +222,40 @@ async def full_scale_errors_and_gain_extremes(dut):
     # With T_in at -/+ full scale the calibrated value saturates to the Q7.8 ends.
     assert calibrate(-(1 << 23), 0, 2048) == -16384
     assert saw_hi and saw_lo, "the output never reached both saturation limits"
+
+
+@cocotb.test()
+async def current_feedforward_at_full_scale(dut):
+    """UFF (Q3.12 A, outside the PI) at its full scale both ways, with the PI terms at their
+    extremes: the sum saturates at +-I_LIMIT (the limit at full scale and at 1 A), the integrator
+    never sees UFF, and every sample equals the model."""
+    tb = LoopTb(dut)
+    await tb.start()
+    tb.write("WDT_TIMEOUT", 0)
+    tb.write("OC_TIMEOUT", 0)
+    tb.write("ADC_MIN", -(1 << 23))
+    tb.write("ADC_MAX", (1 << 23) - 1)
+    await _enable(tb)
+    await tb.sample(0)
+    seen = set()
+    for lim in (32767, 4096):
+        tb.write("I_LIMIT", lim)
+        for kff, kp in ((32767, 32767), (0, 0), (-32768, 32767)):
+            tb.write("KFF", kff)
+            tb.write("KP", kp)
+            tb.write("KI_TS", 0)
+            for uff in (-32768, -32767, -1, 0, 1, 32767):
+                tb.write("UFF", uff)
+                for tc, code in ((32767, -(1 << 23)), (-32768, (1 << 23) - 1), (0, 0)):
+                    tb.write("TC", tc)
+                    tb.write("CTRL", regmap.CTRL_ENABLE | regmap.CTRL_INTEG_RESET)
+                    for _ in range(2):
+                        await tb.sample(code)
+                        assert tb.last.integ == 0, "the integrator saw UFF (KI_TS is 0)"
+                        assert -lim <= tb.last.u <= lim
+                        seen.add(tb.last.u)
+    # UFF alone (gains 0, T_c 0) reaches both limits, and passes through exactly below them.
+    assert {32767, -32767, 4096, -4096, 1, -1} <= seen
 
 
 @cocotb.test()

@@ -112,6 +112,31 @@ def test_native_matches_cocotb_with_the_online_friction_estimate(builds, failure
     assert est[0] == pytest.approx(0.075 * 2 * np.pi, abs=2.0**-20) and est.max() > est[0] * 1.1
 
 
+def test_native_matches_cocotb_with_the_rate_feedforward(builds):
+    """The firmware's rate feedforward (loop.kv, written to the RTL's UFF at each tick) with the
+    online estimate, on the plant of the robustness figure's worst peak (mu +20 %, cable 20 %
+    softer): the same record in both engines; the feedforward acts (the command differs from
+    the run without it) and lowers the peak at fig14's first reversal."""
+    plant = {"mu": 0.09, "cable_EA": 6400.0}
+    cfg = SimConfig.from_dict(
+        {
+            "compensator": {"est_enable": 1, "est_rate_per_s": 0.5},
+            "plant": plant,
+            "controller": {"kv_a_s_per_n": 0.001},
+        }
+    )
+    fixed, res = _both("fig14", "preview", "board", FIG14_S, cfg=cfg)
+    off = SimConfig.from_dict(
+        {"compensator": {"est_enable": 1, "est_rate_per_s": 0.5}, "plant": plant}
+    )
+    _, _, spec = _spec("fig14", "preview", "board", FIG14_S, off)
+    base, _ = engine.run_closed_loop(spec, progress=False)
+    assert np.any(base["current_A"] != fixed["current_A"])
+    peak = np.max(np.abs(fixed["T_out_N"] - fixed["T_ref_N"]))
+    peak_off = np.max(np.abs(base["T_out_N"] - base["T_ref_N"]))
+    assert peak < 0.7 * peak_off, (peak, peak_off)
+
+
 def test_native_matches_cocotb_on_characterize_and_positions(builds):
     _, res = _both("characterize", "none", "board", 3.0)
     assert res["friction_fit"][0]["mu"] == pytest.approx(0.075, rel=0.03)

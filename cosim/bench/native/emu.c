@@ -53,6 +53,7 @@ void emu_loop_reset(emu_loop_t *m)
     m->adc_stale = BOWDEN_ADC_STALE_RESET;
     m->oc_timeout = BOWDEN_OC_TIMEOUT_RESET;
     m->tc_min = BOWDEN_TC_MIN_RESET;
+    m->uff = BOWDEN_UFF_RESET;
     m->enable = m->slew_en = 0U;
     m->raw = 0;
     m->fresh = m->tc_written = m->integ_reset_pending = m->fault_clear_pending = 0U;
@@ -115,6 +116,9 @@ void emu_loop_write(emu_loop_t *m, uint32_t addr, uint32_t w)
         break;
     case BOWDEN_REG_TC_MIN:
         m->tc_min = FIELD(TC_MIN, w);
+        break;
+    case BOWDEN_REG_UFF:
+        m->uff = FIELD(UFF, w);
         break;
     default: /* read-only registers ignore writes, as the RTL does */
         break;
@@ -183,7 +187,7 @@ void emu_loop_tick(emu_loop_t *m)
         /* A held integrator is clamped too: I_LIMIT may have been lowered since it was stored. */
         m->integ = clamp64(integ_prev + (windup ? 0 : pi), -(lim << 16), lim << 16);
         /* Arithmetic shifts of negative values floor, as Python's >> does (gcc, clang). */
-        int64_t r_out = (ff + pp + 256 + (m->integ >> 7)) >> 9;
+        int64_t r_out = ((ff + pp + 256 + (m->integ >> 7)) >> 9) + m->uff; /* UFF outside the PI */
         m->u = (int32_t)clamp64(r_out, -lim, lim);
         m->sat_hi = r_out > lim;
         m->sat_lo = r_out < -lim;

@@ -21,7 +21,7 @@
 typedef struct {
     /* registers (field values, sign-extended) */
     int32_t tc, kff, kp, ki_ts, i_limit, slew, wdt_timeout, adc_offset, adc_gain, adc_min, adc_max,
-        adc_stale, oc_timeout, tc_min;
+        adc_stale, oc_timeout, tc_min, uff;
     uint32_t enable, slew_en;
     /* state */
     int32_t raw;
