@@ -31,8 +31,10 @@ HDL = ROOT / "hdl"
 BUILD = ROOT / "build" / "synth"
 # nextpnr placement seeds, tried in this order until one meets the target: fixed so that the
 # figures are reproducible. On the UP5K at 48 MHz the margin is about 2 %, within the spread of
-# placements (hdl/README.md, Measured).
-SEEDS = (1, 2, 3, 4)
+# placements (hdl/README.md, Measured). The seed that met the target at the last change of the
+# RTL comes first (4: seeds 1-3 placed the loop with the UFF register at 43.7-46.7 MHz), so a
+# clean build places each board once; the others stay as the sweep's fall-back.
+SEEDS = (4, 1, 2, 3)
 
 
 @dataclass(frozen=True)
