@@ -245,11 +245,8 @@ def friction_output(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndar
     )
 
 
-def sensor_output(t_out_n: np.ndarray, params: Mapping[str, float], dt_s: float) -> np.ndarray:
-    """The output sensor of the FMU applied to a true T_out: creep, lag, delay, gain, offset,
-    full scale."""
-    p = _full(params)
-    y = np.asarray(t_out_n, dtype=np.float64)
+def _creep_and_lag(y: np.ndarray, p: Mapping[str, float], dt_s: float) -> np.ndarray:
+    """The output sensor's creep and first-order lag applied to a true T_out (p: _full)."""
     creep = float(p["sensor_creep"])
     if creep != 0.0:
         # creep_lp follows T_out with sensor_creep_tau (exact for a value held over the sample)
@@ -260,6 +257,14 @@ def sensor_output(t_out_n: np.ndarray, params: Mapping[str, float], dt_s: float)
     if tau > 0.0:
         a = math.exp(-dt_s / tau)
         y = lfilter([1.0 - a], [1.0, -a], y, zi=[a * y[0]])[0]
+    return y
+
+
+def sensor_output(t_out_n: np.ndarray, params: Mapping[str, float], dt_s: float) -> np.ndarray:
+    """The output sensor of the FMU applied to a true T_out: creep, lag, delay, gain, offset,
+    full scale."""
+    p = _full(params)
+    y = _creep_and_lag(np.asarray(t_out_n, dtype=np.float64), p, dt_s)
     m = delay_samples(float(p["sensor_delay"]), dt_s)
     if m > 0:
         y = np.concatenate([np.full(min(m, len(y)), y[0]), y[: max(0, len(y) - m)]])
@@ -285,16 +290,7 @@ def sensor_output_at(
     """sensor_output(t_out_n, params, dt_s)[idx], the same numbers, with the sample-by-sample
     part (gain, offset, full scale) computed at idx only."""
     p = _full(params)
-    y = np.asarray(t_out_n, dtype=np.float64)
-    creep = float(p["sensor_creep"])
-    if creep != 0.0:
-        a = math.exp(-dt_s / float(p["sensor_creep_tau"]))
-        lp = lfilter([1.0 - a], [1.0, -a], y, zi=[a * y[0]])[0]
-        y = y - creep * (y - lp)
-    tau = float(p["sensor_tau"])
-    if tau > 0.0:
-        a = math.exp(-dt_s / tau)
-        y = lfilter([1.0 - a], [1.0, -a], y, zi=[a * y[0]])[0]
+    y = _creep_and_lag(np.asarray(t_out_n, dtype=np.float64), p, dt_s)
     m = delay_samples(float(p["sensor_delay"]), dt_s)
     yi = y[np.maximum(idx - m, 0)] if m > 0 else y[idx]
     return saturate(

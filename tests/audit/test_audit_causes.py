@@ -53,7 +53,15 @@ MISSED = {"load_cell_creep"}
 @pytest.mark.parametrize(
     "cause",
     [
-        pytest.param(c, marks=pytest.mark.xfail(strict=True, reason="missed")) if c in MISSED else c
+        pytest.param(
+            c,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="missed on FMU data: 8 of 12 blocks improve, the rule asks 9",
+            ),
+        )
+        if c in MISSED
+        else c
         for c in SEEDS
     ],
 )

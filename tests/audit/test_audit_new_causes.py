@@ -70,7 +70,16 @@ MISSED = {
     "case",
     [
         *CASES,
-        *(pytest.param(c, marks=pytest.mark.xfail(strict=True, reason="missed")) for c in MISSED),
+        *(
+            pytest.param(
+                c,
+                marks=pytest.mark.xfail(
+                    strict=True,
+                    reason="missed: valued 3.3 % with 1.2 s (the rig's braid, see above)",
+                ),
+            )
+            for c in MISSED
+        ),
     ],
 )
 def test_a_new_cause_on_the_rig_is_named_alone_and_brought_to_the_floor(tmp_path, case):
