@@ -150,6 +150,20 @@ async def _enable(tb: LoopTb, ctrl_extra: int = 0) -> None:
     tb.write("CTRL", regmap.CTRL_ENABLE | ctrl_extra)
 
 
+async def _enabled_without_faults(dut) -> LoopTb:
+    """The loop started and enabled with its watchdog and over-current timer off and the ADC's
+    limits at full scale, so that the extremes a test drives trip no fault; one sample at 0."""
+    tb = LoopTb(dut)
+    await tb.start()
+    tb.write("WDT_TIMEOUT", 0)
+    tb.write("OC_TIMEOUT", 0)
+    tb.write("ADC_MIN", -(1 << 23))
+    tb.write("ADC_MAX", (1 << 23) - 1)
+    await _enable(tb)
+    await tb.sample(0)
+    return tb
+
+
 @cocotb.test()
 async def random_against_model(dut):
     """Random commands, measurements, gains and control events; every sample equals the model."""
@@ -229,14 +243,7 @@ async def current_feedforward_at_full_scale(dut):
     """UFF (Q3.12 A, outside the PI) at its full scale both ways, with the PI terms at their
     extremes: the sum saturates at +-I_LIMIT (the limit at full scale and at 1 A), the integrator
     never sees UFF, and every sample equals the model."""
-    tb = LoopTb(dut)
-    await tb.start()
-    tb.write("WDT_TIMEOUT", 0)
-    tb.write("OC_TIMEOUT", 0)
-    tb.write("ADC_MIN", -(1 << 23))
-    tb.write("ADC_MAX", (1 << 23) - 1)
-    await _enable(tb)
-    await tb.sample(0)
+    tb = await _enabled_without_faults(dut)
     seen = set()
     for lim in (32767, 4096):
         tb.write("I_LIMIT", lim)
@@ -263,14 +270,7 @@ async def floor_holds_at_the_limits(dut):
     """TC_MIN (a cable cannot push): full-scale negative and positive T_c against floors of
     -128 N (off), 0 N, 2 N and full scale, with and without the slew limit; T_c' never goes
     below the floor, and every sample equals the model."""
-    tb = LoopTb(dut)
-    await tb.start()
-    tb.write("WDT_TIMEOUT", 0)
-    tb.write("OC_TIMEOUT", 0)
-    tb.write("ADC_MIN", -(1 << 23))
-    tb.write("ADC_MAX", (1 << 23) - 1)
-    await _enable(tb)
-    await tb.sample(0)
+    tb = await _enabled_without_faults(dut)
     floored = 0
     for slew_en, slew in ((0, 0), (regmap.CTRL_SLEW_EN, 128), (regmap.CTRL_SLEW_EN, 32767)):
         tb.write("SLEW", slew)
