@@ -41,6 +41,11 @@ PICO_BASE = {
     "ENABLE_IRQ": 1, "ENABLE_IRQ_QREGS": 0, "ENABLE_IRQ_TIMER": 0, "ENABLE_PCPI": 0,
 }  # fmt: skip
 # The configuration bowden_soc uses: picorv32-pcpi-noirq with soc_mul on its co-processor port.
+# Two-stage shifter, no traps, dual-port registers: what most candidates below share.
+LEAN = {
+    "TWO_STAGE_SHIFT": 1, "BARREL_SHIFTER": 0, "CATCH_MISALIGN": 0, "CATCH_ILLINSN": 0,
+    "ENABLE_REGS_DUALPORT": 1,
+}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -83,11 +88,7 @@ CANDIDATES = {
             "picorv32-zmmul-2port",
             "picorv32 RV32I+Zmmul (DSP multiplier), two-stage shifter, no traps, dual-port",
             ENABLE_FAST_MUL=1,
-            TWO_STAGE_SHIFT=1,
-            BARREL_SHIFTER=0,
-            CATCH_MISALIGN=0,
-            CATCH_ILLINSN=0,
-            ENABLE_REGS_DUALPORT=1,
+            **LEAN,
         ),
         pico(
             "picorv32-zmmul-1bit",
@@ -103,31 +104,19 @@ CANDIDATES = {
             "picorv32-rv32i",
             "picorv32 RV32I (no multiplier), two-stage shifter, no traps, dual-port",
             ENABLE_FAST_MUL=0,
-            TWO_STAGE_SHIFT=1,
-            BARREL_SHIFTER=0,
-            CATCH_MISALIGN=0,
-            CATCH_ILLINSN=0,
-            ENABLE_REGS_DUALPORT=1,
+            **LEAN,
         ),
         pico(
             "picorv32-seqmul",
             "picorv32 RV32I+M's multiply, sequential (ENABLE_MUL), two-stage shifter, no traps",
             ENABLE_MUL=1,
-            TWO_STAGE_SHIFT=1,
-            BARREL_SHIFTER=0,
-            CATCH_MISALIGN=0,
-            CATCH_ILLINSN=0,
-            ENABLE_REGS_DUALPORT=1,
+            **LEAN,
         ),
         pico(
             "picorv32-zmmul-noirq",
             "picorv32 RV32I+Zmmul, two-stage shifter, no traps, dual-port, no interrupt",
             ENABLE_FAST_MUL=1,
-            TWO_STAGE_SHIFT=1,
-            BARREL_SHIFTER=0,
-            CATCH_MISALIGN=0,
-            CATCH_ILLINSN=0,
-            ENABLE_REGS_DUALPORT=1,
+            **LEAN,
             ENABLE_IRQ=0,
         ),
         pico(
@@ -135,11 +124,7 @@ CANDIDATES = {
             "picorv32 RV32I, co-processor port, two-stage shifter, no traps, no interrupt",
             ENABLE_FAST_MUL=0,
             ENABLE_PCPI=1,
-            TWO_STAGE_SHIFT=1,
-            BARREL_SHIFTER=0,
-            CATCH_MISALIGN=0,
-            CATCH_ILLINSN=0,
-            ENABLE_REGS_DUALPORT=1,
+            **LEAN,
             ENABLE_IRQ=0,
         ),
         pico(
@@ -147,11 +132,7 @@ CANDIDATES = {
             "the same with 16 registers (RV32E)",
             ENABLE_FAST_MUL=0,
             ENABLE_PCPI=1,
-            TWO_STAGE_SHIFT=1,
-            BARREL_SHIFTER=0,
-            CATCH_MISALIGN=0,
-            CATCH_ILLINSN=0,
-            ENABLE_REGS_DUALPORT=1,
+            **LEAN,
             ENABLE_IRQ=0,
             ENABLE_REGS_16_31=0,
         ),
