@@ -721,6 +721,14 @@ def _add_emulate(subparsers) -> None:
         "until Ctrl-C or --seconds.",
     )
     p.add_argument(
+        "--target",
+        choices=("host", "soc"),
+        default="host",
+        help="host (default): the firmware's host build and the loop's model; soc: the whole "
+        "board simulated (bowden_soc executing the RV32 firmware in Verilator, its pins modelled; "
+        "a pty only, slower than real time)",
+    )
+    p.add_argument(
         "--baud",
         type=_positive(int),
         default=921_600,
@@ -809,6 +817,10 @@ def _plant_assignments(items: list[str]) -> dict:
 
 
 def emulate_main(args: argparse.Namespace) -> int:
+    if args.target == "soc":
+        from cosim.bench.soc.cli import emulate_soc  # noqa: PLC0415
+
+        return emulate_soc(args)
     from cosim.bench.emulator import Emulator  # noqa: PLC0415
 
     identity = None

@@ -22,15 +22,18 @@ module spi_flash_model #(
     output reg  miso
 );
 
-reg [7:0]  mem [0:(1 << AW) - 1];
+// public: the full-system co-simulation (cosim/bench/soc) loads and saves the array and
+// watches the counters of erases and programs.
+reg [7:0]  mem [0:(1 << AW) - 1] /*verilator public_flat_rw*/;
 reg [7:0]  cmd;
 reg [7:0]  shift;
 reg [23:0] addr;
 reg [31:0] nbits;
 reg        wel;
-integer    busy;
+integer    busy /*verilator public_flat_rd*/;
 integer    i;
-integer    erases, programs;
+integer    erases /*verilator public_flat_rd*/;
+integer    programs /*verilator public_flat_rd*/;
 
 initial begin
     for (i = 0; i < (1 << AW); i = i + 1) mem[i] = 8'hFF;

@@ -1,0 +1,67 @@
+"""`bowden emulate --target soc`: the simulated board (cosim.bench.soc.harness) behind a pty.
+
+Prints the pty as the host emulator does, runs until Ctrl-C (or --seconds of wall time): the
+board's run ends, the flash file is written, and the command's interrupt line is the only one
+printed (exit 130, from cosim.cli's handler).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+# What the host emulator offers that the simulated board has not (a TCP port, a CAN bus, the
+# host emulator's own link and engine options): named in one line, exit 2.
+HOST_ONLY = {
+    "no_pty": "--no-pty",
+    "can": "--can",
+    "table_hash": "--table-hash",
+    "garbage_every": "--garbage-every",
+}
+
+
+def emulate_soc(args: argparse.Namespace) -> int:
+    for dest, flag in HOST_ONLY.items():
+        if getattr(args, dest, None):
+            print(f"bowden emulate: {flag} is not available with --target soc", file=sys.stderr)
+            return 2
+    from .harness import SocBoard, check_flash_file  # noqa: PLC0415
+
+    flash = Path(args.flash) if args.flash else None
+    if flash is not None:
+        try:
+            check_flash_file(flash)
+        except ValueError as exc:
+            print(f"bowden emulate: {exc}", file=sys.stderr)
+            return 2
+    try:
+        board = SocBoard(flash_path=flash)
+    except ValueError as exc:
+        print(f"bowden emulate: {exc}", file=sys.stderr)
+        return 2
+    except (OSError, RuntimeError) as exc:
+        print(f"bowden emulate: {exc}", file=sys.stderr)
+        return 1
+    print("bowden emulate: simulated board running (bowden_soc executing the RV32 firmware in "
+          "Verilator; ADS131M02, ESCON and SPI flash at pin level)")  # fmt: skip
+    print(f"  pty     bowden bench --port {board.pty_name} info")
+    if flash is not None:
+        print(f"  flash   {flash}")
+    print("  Ctrl-C stops", flush=True)
+    board.start()
+    t0 = time.monotonic()
+    try:
+        while board.running and (args.seconds is None or time.monotonic() - t0 < args.seconds):
+            time.sleep(0.05)
+    finally:
+        stats = board.stop()
+    if board.status:
+        print(f"bowden emulate: the simulated board stopped: {board.error}", file=sys.stderr)
+        return 1
+    print(
+        f"bowden emulate: stopped after {stats.sim_s:.3f} s of simulated time "
+        f"({stats.speed:.2f}x real time), {stats.ticks} firmware ticks"
+    )
+    return 0

@@ -1,0 +1,235 @@
+"""The full-system co-simulation from Python: `SocBoard` runs the native harness (harness.cpp,
+soc_api.h mirrored here) in a thread, with its UART on a pseudo-terminal.
+
+The pty is raw (tty.setraw: 0x0D, 0x03, 0x11, 0x13 pass unchanged, no echo) and its slave side
+stays open here, so a client that closes it leaves the master readable (no EIO). The flash's
+content lives in a file (2 MiB, the flash model's array; written temp + rename); a simulated
+power cycle is a new SocBoard on the same file. Without a plant the ADS131M02's two channels
+carry constant tensions; with one (`plant=` an opened cosim.parts.plant.Plant) the FMU is
+stepped every loop sample with the ESCON's current and its T_in and T_out go to CH0 and CH1.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import threading
+import tty
+from ctypes import (
+    POINTER,
+    Structure,
+    c_char,
+    c_char_p,
+    c_double,
+    c_int32,
+    c_int64,
+    c_uint8,
+    c_uint16,
+    c_uint32,
+    c_void_p,
+)
+from dataclasses import dataclass
+from pathlib import Path
+
+from cosim.parts import rtl_model
+
+from . import build as soc_build
+
+SOC_API_VERSION = 1
+N_IN, N_OUT = 5, 8
+FLASH_BYTES = 1 << 21
+
+
+class Spec(Structure):
+    _fields_ = [
+        ("pty_fd", c_int32),
+        ("flash_path", c_char_p),
+        ("max_sim_s", c_double),
+        ("realtime", c_int32),
+        ("stop", c_int32),
+        ("adc_offset", c_int32),
+        ("adc_gain", c_int32),
+        ("const_t_in_n", c_double),
+        ("const_t_out_n", c_double),
+        ("fmu_component", c_void_p),
+        ("fmu_set_real", c_void_p),
+        ("fmu_do_step", c_void_p),
+        ("fmu_get_real", c_void_p),
+        ("in_vr", c_uint32 * N_IN),
+        ("out_vr", c_uint32 * N_OUT),
+        ("u0", c_double * N_IN),
+        ("y0", c_double * N_OUT),
+        ("time0_s", c_double),
+        ("escon_imax_a", c_double),
+        ("clocks", c_int64),
+        ("boot_clks", c_int64),
+        ("ticks", c_int64),
+        ("tick_worst_clks", c_int64),
+        ("tick_median_clks", c_int64),
+        ("uart_rx_bytes", c_int64),
+        ("uart_tx_bytes", c_int64),
+        ("uart_frame_errors", c_int64),
+        ("adc_frames", c_int64),
+        ("flash_saves", c_int64),
+        ("plant_steps", c_int64),
+        ("cpu_trap", c_int32),
+        ("wall_s", c_double),
+        ("error", c_char * 256),
+    ]
+
+
+_lib = None
+
+
+def load_library() -> ctypes.CDLL:
+    """Build (or reuse) libbowden_soc_sim.so and load it once per process."""
+    global _lib
+    if _lib is None:
+        lib = ctypes.CDLL(str(soc_build.build()))
+        lib.soc_run.argtypes = [POINTER(Spec)]
+        lib.soc_run.restype = c_int32
+        lib.soc_adc_crc.argtypes = [POINTER(c_uint8), c_int32]
+        lib.soc_adc_crc.restype = c_uint16
+        if lib.soc_api_version() != SOC_API_VERSION or lib.soc_spec_size() != ctypes.sizeof(Spec):
+            raise RuntimeError("libbowden_soc_sim.so does not match cosim/bench/soc/harness.py")
+        _lib = lib
+    return _lib
+
+
+def adc_crc(bits: list[int]) -> int:
+    """The ADS131M02 model's CRC of a bit sequence (harness.cpp)."""
+    arr = (c_uint8 * len(bits))(*bits)
+    return int(load_library().soc_adc_crc(arr, len(bits)))
+
+
+@dataclass
+class SocStats:
+    sim_s: float
+    wall_s: float
+    boot_ms: float
+    ticks: int
+    tick_worst_clks: int
+    tick_median_clks: int
+    uart_rx_bytes: int
+    uart_tx_bytes: int
+    uart_frame_errors: int
+    adc_frames: int
+    flash_saves: int
+    plant_steps: int
+
+    @property
+    def speed(self) -> float:
+        """Simulated seconds per wall second."""
+        return self.sim_s / self.wall_s if self.wall_s > 0 else 0.0
+
+
+def check_flash_file(path: Path) -> None:
+    """A flash file is absent (a blank flash) or a whole flash image: ValueError naming it."""
+    if path.exists():
+        if not path.is_file():
+            raise ValueError(f"flash file {path}: not a regular file")
+        size = path.stat().st_size
+        if size != FLASH_BYTES:
+            raise ValueError(f"flash file {path}: {size} bytes, a flash image has {FLASH_BYTES}")
+
+
+class SocBoard:
+    """One power-on of the simulated board, from `start()` to `stop()`."""
+
+    def __init__(
+        self,
+        flash_path: str | Path | None = None,
+        pty: bool = True,
+        realtime: bool = True,
+        tensions_n: tuple[float, float] = (5.0, 5.0),
+        plant=None,
+        escon_imax_a: float = 2.0,
+        max_sim_s: float = 0.0,
+    ) -> None:
+        self.lib = load_library()
+        self.flash_path = Path(flash_path) if flash_path is not None else None
+        if self.flash_path is not None:
+            check_flash_file(self.flash_path)
+        s = self.spec = Spec()
+        s.pty_fd = -1
+        self._master = self._slave = None
+        self.pty_name = None
+        if pty:
+            self._master, self._slave = os.openpty()
+            tty.setraw(self._slave)
+            os.set_blocking(self._master, False)
+            self.pty_name = os.ttyname(self._slave)
+            s.pty_fd = self._master
+        self._flash_bytes = str(self.flash_path).encode() if self.flash_path else None
+        s.flash_path = self._flash_bytes
+        s.max_sim_s = max_sim_s
+        s.realtime = int(realtime)
+        s.adc_offset = rtl_model.DEFAULT_ADC_OFFSET
+        s.adc_gain = rtl_model.DEFAULT_ADC_GAIN
+        s.const_t_in_n, s.const_t_out_n = tensions_n
+        s.escon_imax_a = escon_imax_a
+        self.plant = plant
+        if plant is not None:
+            dll = plant._fmu.dll
+            s.fmu_component = plant._c
+            s.fmu_set_real = ctypes.cast(dll["fmi2SetReal"], c_void_p).value
+            s.fmu_do_step = ctypes.cast(dll["fmi2DoStep"], c_void_p).value
+            s.fmu_get_real = ctypes.cast(dll["fmi2GetReal"], c_void_p).value
+            s.in_vr[:] = list(plant._in_vr)
+            s.out_vr[:] = list(plant._out_vr)
+            s.u0[:] = list(plant.u)
+            s.y0[:] = list(plant.y)
+            s.time0_s = plant.time_s
+        self._thread: threading.Thread | None = None
+        self.status: int | None = None
+
+    def start(self) -> SocBoard:
+        self._thread = threading.Thread(target=self._run, name="soc-board", daemon=True)
+        self._thread.start()
+        return self
+
+    def _run(self) -> None:
+        self.status = self.lib.soc_run(ctypes.byref(self.spec))  # ctypes releases the GIL
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    @property
+    def error(self) -> str:
+        return self.spec.error.decode(errors="replace")
+
+    def wait(self, timeout_s: float | None = None) -> bool:
+        """Wait for the run to end (max_sim_s reached or an error); True when it has."""
+        if self._thread is not None:
+            self._thread.join(timeout_s)
+        return not self.running
+
+    def stop(self) -> SocStats:
+        """End the run (the flash is saved first), close the pty; the run's figures."""
+        self.spec.stop = 1
+        if self._thread is not None:
+            self._thread.join()
+        for fd in (self._master, self._slave):
+            if fd is not None:
+                os.close(fd)
+        self._master = self._slave = None
+        return self.stats()
+
+    def stats(self) -> SocStats:
+        s = self.spec
+        clk = soc_build.CLK_HZ
+        return SocStats(
+            sim_s=s.clocks / clk,
+            wall_s=s.wall_s,
+            boot_ms=s.boot_clks / clk * 1e3,
+            ticks=s.ticks,
+            tick_worst_clks=s.tick_worst_clks,
+            tick_median_clks=s.tick_median_clks,
+            uart_rx_bytes=s.uart_rx_bytes,
+            uart_tx_bytes=s.uart_tx_bytes,
+            uart_frame_errors=s.uart_frame_errors,
+            adc_frames=s.adc_frames,
+            flash_saves=s.flash_saves,
+            plant_steps=s.plant_steps,
+        )
