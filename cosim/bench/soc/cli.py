@@ -27,6 +27,12 @@ def emulate_soc(args: argparse.Namespace) -> int:
         if getattr(args, dest, None):
             print(f"bowden emulate: {flag} is not available with --target soc", file=sys.stderr)
             return 2
+    from cosim.bench.client import BenchUsageError  # noqa: PLC0415
+    from cosim.bench.device import ChainConfig  # noqa: PLC0415
+    from cosim.bench.device import _open_plant as open_plant  # noqa: PLC0415
+    from cosim.cli.bench import _plant_assignments, check_geometry  # noqa: PLC0415
+    from cosim.config.run import BoardParams  # noqa: PLC0415
+
     from .harness import SocBoard, check_flash_file  # noqa: PLC0415
 
     flash = Path(args.flash) if args.flash else None
@@ -37,7 +43,15 @@ def emulate_soc(args: argparse.Namespace) -> int:
             print(f"bowden emulate: {exc}", file=sys.stderr)
             return 2
     try:
-        board = SocBoard(flash_path=flash)
+        plant = _plant_assignments(args.plant)
+        check_geometry(args.position, 1.0, plant)
+    except (ValueError, BenchUsageError) as exc:
+        print(f"bowden emulate: {exc}", file=sys.stderr)
+        return 2
+    chain = ChainConfig(position_m=args.position, loop_routing=args.loop_routing, plant=plant)
+    try:
+        fmu = open_plant(chain)
+        board = SocBoard(flash_path=flash, plant=fmu, escon_imax_a=BoardParams().escon_imax_a)
     except ValueError as exc:
         print(f"bowden emulate: {exc}", file=sys.stderr)
         return 2
@@ -45,7 +59,7 @@ def emulate_soc(args: argparse.Namespace) -> int:
         print(f"bowden emulate: {exc}", file=sys.stderr)
         return 1
     print("bowden emulate: simulated board running (bowden_soc executing the RV32 firmware in "
-          "Verilator; ADS131M02, ESCON and SPI flash at pin level)")  # fmt: skip
+          "Verilator; ADS131M02, ESCON and SPI flash at pin level; the plant FMU)")  # fmt: skip
     print(f"  pty     bowden bench --port {board.pty_name} info")
     if flash is not None:
         print(f"  flash   {flash}")

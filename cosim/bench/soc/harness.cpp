@@ -60,7 +60,7 @@ constexpr uint16_t ADC_STATUS = 0x0503;  // tests/hdl/hdl_sim.py Ads131m02's STA
 // The flash model's array (spi_flash_model.v AW = 21).
 constexpr size_t FLASH_BYTES = size_t(1) << 21;
 // firmware/soc/soc.h SOC_MARK_*
-constexpr uint8_t MARK_IDLE = 2, MARK_TICK = 3;
+constexpr uint8_t MARK_IDLE = 2, MARK_TICK = 3, MARK_RX = 4;
 // The harness looks at the pty and the flash every this many clocks (about 4 bytes at the
 // UART's rate: the receive FIFO is 512 bytes, the link never starves the model).
 constexpr int64_t SERVICE_CLKS = 4 * 10 * BIT_CLKS;
@@ -297,6 +297,7 @@ class Board {
     uint8_t mark_prev_ = 0;
     int64_t mark_since_ = 0;
     std::vector<uint32_t> tick_clks_;
+    int64_t tick_start_ = 0;
 
     // Flash saves.
     uint32_t flash_changes_ = 0;
@@ -344,6 +345,14 @@ class Board {
         uint8_t m = io.rootp->soc_tb__DOT__soc__DOT__mark_reg;
         if (m != mark_prev_) {
             if (mark_prev_ == MARK_TICK) tick_clks_.push_back(uint32_t(clk_ - mark_since_));
+            if (mark_prev_ == MARK_RX)
+                s_.rx_worst_clks = std::max<int64_t>(s_.rx_worst_clks, clk_ - mark_since_);
+            if (m == MARK_TICK) {
+                if (tick_start_ > 0)
+                    s_.tick_gap_worst_clks = std::max<int64_t>(s_.tick_gap_worst_clks,
+                                                               clk_ - tick_start_);
+                tick_start_ = clk_;
+            }
             if (m == MARK_IDLE && s_.boot_clks == 0) s_.boot_clks = clk_;
             mark_prev_ = m;
             mark_since_ = clk_;
@@ -478,6 +487,7 @@ int32_t soc_run(soc_spec_t *spec) {
     spec->error[0] = '\0';
     spec->clocks = spec->boot_clks = spec->ticks = 0;
     spec->tick_worst_clks = spec->tick_median_clks = 0;
+    spec->rx_worst_clks = spec->tick_gap_worst_clks = 0;
     spec->uart_rx_bytes = spec->uart_tx_bytes = spec->uart_frame_errors = 0;
     spec->adc_frames = spec->flash_saves = spec->plant_steps = 0;
     spec->cpu_trap = 0;

@@ -66,6 +66,8 @@ class Spec(Structure):
         ("ticks", c_int64),
         ("tick_worst_clks", c_int64),
         ("tick_median_clks", c_int64),
+        ("rx_worst_clks", c_int64),
+        ("tick_gap_worst_clks", c_int64),
         ("uart_rx_bytes", c_int64),
         ("uart_tx_bytes", c_int64),
         ("uart_frame_errors", c_int64),
@@ -110,6 +112,8 @@ class SocStats:
     ticks: int
     tick_worst_clks: int
     tick_median_clks: int
+    rx_worst_clks: int
+    tick_gap_worst_clks: int
     uart_rx_bytes: int
     uart_tx_bytes: int
     uart_frame_errors: int
@@ -226,6 +230,8 @@ class SocBoard:
             ticks=s.ticks,
             tick_worst_clks=s.tick_worst_clks,
             tick_median_clks=s.tick_median_clks,
+            rx_worst_clks=s.rx_worst_clks,
+            tick_gap_worst_clks=s.tick_gap_worst_clks,
             uart_rx_bytes=s.uart_rx_bytes,
             uart_tx_bytes=s.uart_tx_bytes,
             uart_frame_errors=s.uart_frame_errors,

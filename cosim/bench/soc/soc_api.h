@@ -54,6 +54,8 @@ typedef struct {
     int64_t ticks;            /* firmware ticks seen (phase TICK) */
     int64_t tick_worst_clks;  /* the longest tick, clocks */
     int64_t tick_median_clks; /* the median tick, clocks */
+    int64_t rx_worst_clks;    /* the longest handling of received bytes (phase RX), clocks */
+    int64_t tick_gap_worst_clks; /* the longest time from one tick's start to the next's */
     int64_t uart_rx_bytes, uart_tx_bytes, uart_frame_errors;
     int64_t adc_frames;       /* ADS131M02 frames read by the SoC */
     int64_t flash_saves;
