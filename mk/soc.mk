@@ -130,9 +130,15 @@ soc-cpus: $(VENV_STAMP)
 #   make bench-soc  the SoC's boot and the firmware's cycles per tick (worst, median) against the
 #                   tick's budget, from the Verilator simulation, and its speed (simulated ns per
 #                   wall second, cocotb's summary)
+#   make perf-soc   the full-system co-simulation (`bowden emulate --target soc`, the plant FMU in
+#                   the loop): simulated seconds per wall second (target >= 0.2x), the tick's
+#                   cycles (worst, median) over a recorded run, the longest request handling
 
-BENCH_TARGETS += bench-soc
-.PHONY: bench-soc
+PERF_TARGETS += bench-soc perf-soc
+.PHONY: bench-soc perf-soc
 bench-soc: firmware-soc
 	$(PY) -m pytest tests/soc/test_soc_boot.py -q -n 0 -s -p no:cacheprovider \
 	  | grep -E "boot:|cycles per tick|TESTS="
+
+perf-soc: firmware-soc fmu
+	$(PY) -m cosim.perf.soc

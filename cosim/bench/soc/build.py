@@ -13,6 +13,7 @@ from __future__ import annotations
 import fcntl
 import hashlib
 import os
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -114,6 +115,7 @@ def _build(fp: str, stamp: Path) -> None:
          str(HDL_DIR / "soc" / "bowden_soc.vlt"), *[str(p) for p in rtl_sources()]],
         log,
     )  # fmt: skip
+    check_ico(obj)
     cxx = os.environ.get("CXX", "g++")
     tmp = LIB_PATH.with_name(f"{LIB_PATH.name}.{os.getpid()}")
     _run(
@@ -127,6 +129,24 @@ def _build(fp: str, stamp: Path) -> None:
     tmp_stamp = stamp.with_name(f"{stamp.name}.{os.getpid()}")
     tmp_stamp.write_text(fp)
     os.replace(tmp_stamp, stamp)
+
+
+def check_ico(obj: Path) -> None:
+    """What harness.cpp's Board::clock assumes to skip the input-combinational region when only
+    clk changed: the region's code (ico_sequent) does not read clk, and the inputs it compares
+    are every input of soc_tb but clk."""
+    header = (obj / "Vsoc_tb.h").read_text()
+    ports = set(re.findall(r"VL_IN(?:8|16|64|W)?\(&(\w+),", header))
+    if ports != {"clk", "rst", "uart_rx", "adc_dout", "adc_drdy_n"}:
+        raise RuntimeError(f"soc_tb's inputs are {sorted(ports)}: update harness.cpp's Inputs")
+    head = re.compile(r"void Vsoc_tb___024root___ico_sequent__\w+\(Vsoc_tb___024root\* vlSelf\) \{")
+    for path in sorted(obj.glob("Vsoc_tb___024root__*.cpp")):
+        text = path.read_text()
+        bodies = re.findall(head.pattern + r"(.*?)\n\}", text, re.S)
+        if len(bodies) != len(head.findall(text)):
+            raise RuntimeError(f"cannot read the input-combinational region in {path.name}")
+        if any(re.search(r"\bvlSelfRef\.clk\b|\bvlSelf->clk\b", b) for b in bodies):
+            raise RuntimeError("soc_tb's input-combinational region reads clk")
 
 
 def _fmpy_include() -> Path:

@@ -47,6 +47,7 @@ class Spec(Structure):
         ("max_sim_s", c_double),
         ("realtime", c_int32),
         ("stop", c_int32),
+        ("clear_stats", c_int32),
         ("adc_offset", c_int32),
         ("adc_gain", c_int32),
         ("const_t_in_n", c_double),
@@ -76,6 +77,7 @@ class Spec(Structure):
         ("plant_steps", c_int64),
         ("cpu_trap", c_int32),
         ("wall_s", c_double),
+        ("fmu_s", c_double),
         ("error", c_char * 256),
     ]
 
@@ -108,6 +110,7 @@ def adc_crc(bits: list[int]) -> int:
 class SocStats:
     sim_s: float
     wall_s: float
+    fmu_s: float
     boot_ms: float
     ticks: int
     tick_worst_clks: int
@@ -209,6 +212,11 @@ class SocBoard:
             self._thread.join(timeout_s)
         return not self.running
 
+    def clear_stats(self) -> None:
+        """Restart the tick and receive figures (from the harness's next look, within 1040
+        clocks)."""
+        self.spec.clear_stats = 1
+
     def stop(self) -> SocStats:
         """End the run (the flash is saved first), close the pty; the run's figures."""
         self.spec.stop = 1
@@ -226,6 +234,7 @@ class SocBoard:
         return SocStats(
             sim_s=s.clocks / clk,
             wall_s=s.wall_s,
+            fmu_s=s.fmu_s,
             boot_ms=s.boot_clks / clk * 1e3,
             ticks=s.ticks,
             tick_worst_clks=s.tick_worst_clks,

@@ -37,6 +37,7 @@ typedef struct {
     double max_sim_s;        /* stop after this much simulated time; <= 0: until `stop` */
     int32_t realtime;        /* 1: never ahead of the wall clock; 0: as fast as it goes */
     volatile int32_t stop;   /* set by the caller (another thread) to end the run */
+    volatile int32_t clear_stats; /* set by the caller: the tick and receive figures restart */
     /* --- sensors: the ADS131M02's codes of a tension, round(offset + T * 2^28 / gain) ----------- */
     int32_t adc_offset, adc_gain;
     double const_t_in_n, const_t_out_n; /* without a plant: the two tensions, N */
@@ -62,6 +63,7 @@ typedef struct {
     int64_t plant_steps;
     int32_t cpu_trap;
     double wall_s;
+    double fmu_s;             /* wall time in the FMU's steps */
     char error[256];
 } soc_spec_t;
 
