@@ -17,6 +17,8 @@ pins modelled, the plant FMU in the loop), driven over its pty by the scripting 
 from __future__ import annotations
 
 import argparse
+import os
+import resource
 import tempfile
 from pathlib import Path
 
@@ -30,6 +32,11 @@ from cosim.config.run import BoardParams
 TICK_HZ = 1000  # the firmware's default tick rate (tick_rate_hz)
 
 
+def _cpu_s() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=1.0, help="simulated seconds recorded")
@@ -39,10 +46,10 @@ def main(argv: list[str] | None = None) -> int:
     board = SocBoard(realtime=False, plant=plant, escon_imax_a=BoardParams().escon_imax_a)
     board.start()
     with tempfile.TemporaryDirectory() as tmp, Bench(board.pty_name) as bench:
-        start = board.stats()
+        start, cpu0 = board.stats(), _cpu_s()
         board.clear_stats()
         run = bench.run("sine", seconds=args.seconds, out=str(Path(tmp) / "run.csv"))
-        end = board.stats()
+        end, cpu1 = board.stats(), _cpu_s()
     ticks = board.stop()  # the tick figures are taken when the board stops (a few idle ticks
     # after the run are among them; the run's ticks are most)
     sim_s = end.sim_s - start.sim_s
@@ -52,6 +59,10 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"  speed    {sim_s / wall_s:.3f}x real time ({sim_s:.2f} simulated s in {wall_s:.1f} "
         f"wall s; target >= 0.2x); FMU {100 * (end.fmu_s - start.fmu_s) / wall_s:.1f} % of it"
+    )
+    print(
+        f"           {sim_s / (cpu1 - cpu0):.3f} simulated s per CPU s of this process (the wall "
+        f"figure on an idle core; load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs)"
     )
     print(
         f"  tick     worst {ticks.tick_worst_clks} cycles, median {ticks.tick_median_clks} "
