@@ -14,6 +14,7 @@ import re
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -338,3 +339,53 @@ def test_recorded_run_is_read_by_audit(soc_lib, tmp_path):
     )
     assert r.returncode == 0, r.stderr
     assert "findings none" in r.stdout, r.stdout
+
+
+# --- the same bits --------------------------------------------------------------------------------
+
+
+def _same_t_c(seconds: float) -> None:
+    """One bench script (the sine of Fig. 14: 2 to 15 N at 0.5 Hz, the bench's default run) on
+    the simulated board (the RV32 firmware binary, plant in the loop) and on the host emulator
+    (the host library built from the same sources, stepped in this process): the T_ref and T_c
+    words of the telemetry (what each firmware computed and wrote at its tick) are equal at every
+    tick. T_in and T_out differ: the board's chain (ADS131M02, PWM, ESCON at the pins) is not the
+    host emulator's ideal interface, and no T_c depends on them in this configuration."""
+    import numpy as np  # noqa: PLC0415
+
+    from cosim.bench.api import Bench  # noqa: PLC0415
+    from cosim.bench.device import ChainConfig  # noqa: PLC0415
+    from cosim.bench.device import _open_plant as open_plant  # noqa: PLC0415
+    from cosim.bench.soc.harness import SocBoard  # noqa: PLC0415
+
+    wave = {"mean_n": 8.5, "amplitude_n": 6.5, "freq_hz": 0.5}
+    board = SocBoard(realtime=False, plant=open_plant(ChainConfig()), escon_imax_a=4.0).start()
+    try:
+        with tempfile.TemporaryDirectory() as tmp, Bench(board.pty_name) as bench:
+            soc = bench.run("sine", seconds=seconds, out=f"{tmp}/soc.csv", **wave)
+    finally:
+        board.stop()
+    with tempfile.TemporaryDirectory() as tmp, Bench(emulate=True) as bench:
+        host = bench.run("sine", seconds=seconds, out=f"{tmp}/host.csv", **wave)
+    n = int(round(seconds * 1000))
+    assert soc.samples == host.samples == n and soc.drops == host.drops == 0
+    for col in ("T_ref_N", "T_c_N"):
+        differ = np.nonzero(soc[col] != host[col])[0]
+        assert differ.size == 0, f"{col} differs at ticks {differ[:10]}"
+    # Both branches of the compensator were taken: T_c above T_ref while it rises, below after
+    # the reversal at its peak (t = 0.5 s).
+    assert np.any(soc["T_c_N"] > soc["T_ref_N"] + 1.0) and np.any(
+        soc["T_c_N"] < soc["T_ref_N"] - 1.0
+    )
+    # The loop's output follows on the board: T_in tracks T_c in the last 100 ms.
+    late = slice(n - 100, n)
+    assert np.mean(np.abs(soc["T_in_N"][late] - soc["T_c_N"][late])) < 1.0
+
+
+def test_t_c_words_equal_the_host_librarys(soc_lib):
+    _same_t_c(0.6)
+
+
+@pytest.mark.long
+def test_t_c_words_equal_the_host_librarys_over_two_periods(soc_lib):
+    _same_t_c(4.0)
