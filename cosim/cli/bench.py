@@ -817,10 +817,6 @@ def _plant_assignments(items: list[str]) -> dict:
 
 
 def emulate_main(args: argparse.Namespace) -> int:
-    if args.target == "soc":
-        from cosim.bench.soc.cli import emulate_soc  # noqa: PLC0415
-
-        return emulate_soc(args)
     from cosim.bench.emulator import Emulator  # noqa: PLC0415
 
     identity = None
@@ -846,6 +842,10 @@ def emulate_main(args: argparse.Namespace) -> int:
     except BenchUsageError as exc:
         print(f"bowden emulate: {exc}", file=sys.stderr)
         return 2
+    if args.target == "soc":
+        from cosim.bench.soc.cli import emulate_soc  # noqa: PLC0415
+
+        return emulate_soc(args, plant)
     engine = args.engine
     if args.interface != "ideal" and engine == "native":
         engine = "python"

@@ -22,15 +22,15 @@ HOST_ONLY = {
 }
 
 
-def emulate_soc(args: argparse.Namespace) -> int:
+def emulate_soc(args: argparse.Namespace, plant: dict) -> int:
+    """`args` as `bowden emulate` parsed them; `plant` its --plant overrides, checked (with the
+    position) by cosim.cli.bench."""
     for dest, flag in HOST_ONLY.items():
         if getattr(args, dest, None):
             print(f"bowden emulate: {flag} is not available with --target soc", file=sys.stderr)
             return 2
-    from cosim.bench.client import BenchUsageError  # noqa: PLC0415
     from cosim.bench.device import ChainConfig  # noqa: PLC0415
     from cosim.bench.device import _open_plant as open_plant  # noqa: PLC0415
-    from cosim.cli.bench import _plant_assignments, check_geometry  # noqa: PLC0415
     from cosim.config.run import BoardParams  # noqa: PLC0415
 
     from .harness import SocBoard, check_flash_file  # noqa: PLC0415
@@ -42,13 +42,9 @@ def emulate_soc(args: argparse.Namespace) -> int:
         except ValueError as exc:
             print(f"bowden emulate: {exc}", file=sys.stderr)
             return 2
-    try:
-        plant = _plant_assignments(args.plant)
-        check_geometry(args.position, 1.0, plant)
-    except (ValueError, BenchUsageError) as exc:
-        print(f"bowden emulate: {exc}", file=sys.stderr)
-        return 2
-    chain = ChainConfig(position_m=args.position, loop_routing=args.loop_routing, plant=plant)
+    chain = ChainConfig(
+        position_m=args.position, loop_routing=args.loop_routing, plant=plant or None
+    )
     try:
         fmu = open_plant(chain)
         board = SocBoard(flash_path=flash, plant=fmu, escon_imax_a=BoardParams().escon_imax_a)
