@@ -127,6 +127,9 @@ void fw_init(fw_t *fw, const hal_t *hal);
 /* Apply a configuration; on error return its code and leave everything as it was. Takes effect
  * in the FPGA at the next fw_start. */
 int32_t fw_configure(fw_t *fw, const fw_config_t *cfg);
+/* fw_configure without its check, for a configuration fw_config_check has just accepted (the
+ * device's settings after params_set or flash_load, which check them): the check runs once. */
+void fw_configure_checked(fw_t *fw, const fw_config_t *cfg);
 /* Disable the loop, write every loop register, TC = 0, clear faults and the integrator, enable. */
 void fw_start(fw_t *fw);
 /* TC = 0 and disable the loop (drive enable drops). */

@@ -24,7 +24,17 @@ void *memcpy(void *dst, const void *src, size_t n)
     if ((((uintptr_t)d | (uintptr_t)s | n) & 3U) == 0U) {
         uint32_t *dw = (uint32_t *)dst;
         const uint32_t *sw = (const uint32_t *)src;
-        for (size_t i = 0; i < n / 4U; ++i) {
+        size_t words = n / 4U;
+        size_t i = 0;
+        /* Four words a step: the loop's own instructions cost as much as a copy on picorv32. */
+        for (; i + 4U <= words; i += 4U) {
+            uint32_t a = sw[i], b = sw[i + 1U], c = sw[i + 2U], e = sw[i + 3U];
+            dw[i] = a;
+            dw[i + 1U] = b;
+            dw[i + 2U] = c;
+            dw[i + 3U] = e;
+        }
+        for (; i < words; ++i) {
             dw[i] = sw[i];
         }
         return dst;
@@ -80,23 +90,32 @@ int memcmp(const void *a, const void *b, size_t n)
     return 0;
 }
 
-/* Restoring division, one quotient bit per step; d == 0 gives all ones (RISC-V's DIVU result). */
+/* Restoring division, one quotient bit per step; d == 0 gives all ones (RISC-V's DIVU result).
+ * The divisor is first shifted up under the dividend's top bit, so only the quotient's own bits
+ * are stepped (a small quotient takes few steps), and every shift is by one place: picorv32's
+ * two-stage shifter takes up to seven clocks for a shift by a variable amount. */
 static uint32_t udivmod(uint32_t n, uint32_t d, uint32_t *rem)
 {
     if (d == 0U) {
         *rem = n;
         return 0xFFFFFFFFUL;
     }
-    uint32_t q = 0U;
-    uint32_t r = 0U;
-    for (int i = 31; i >= 0; --i) {
-        r = (r << 1) | ((n >> i) & 1U);
-        if (r >= d) {
-            r -= d;
-            q |= 1UL << i;
-        }
+    uint32_t bit = 1U;
+    while (d < n && (d & 0x80000000UL) == 0U) {
+        d <<= 1;
+        bit <<= 1;
     }
-    *rem = r;
+    /* Now n < 2d (d >= n, or d's top bit set): the quotient has no bit above `bit`. */
+    uint32_t q = 0U;
+    while (bit != 0U) {
+        if (n >= d) {
+            n -= d;
+            q |= bit;
+        }
+        d >>= 1;
+        bit >>= 1;
+    }
+    *rem = n;
     return q;
 }
 

@@ -39,6 +39,10 @@ static int32_t t_out_q8(const fw_loop_config_t *l)
 }
 
 static uint32_t g_timer_rate_hz;
+/* A tick's length, 1e6 / rate microseconds, as quotient and remainder: divided once per rate,
+ * not at every tick (the CPU has no divide instruction: libc.c's routine). */
+static uint32_t g_tick_us;
+static uint32_t g_tick_us_rem;
 
 /* Program the timer for the configured tick rate (checked by dev_settings_check: 1..65535 Hz). */
 static void timer_follow_rate(void)
@@ -46,6 +50,8 @@ static void timer_follow_rate(void)
     uint32_t rate = g_dev.settings.fw.tick_rate_hz;
     if (rate != g_timer_rate_hz && rate != 0U) {
         g_timer_rate_hz = rate;
+        g_tick_us = 1000000U / rate;
+        g_tick_us_rem = 1000000U % rate;
         soc_io_write(SOC_TIMER_PERIOD, soc_io_read(SOC_SYS_CLK_HZ) / rate);
     }
 }
@@ -116,11 +122,10 @@ int main(void)
             dev_overrun(&g_dev);
         }
         /* Time in microseconds, exact for any rate: 1e6 / rate with its remainder carried. */
-        uint32_t rate = g_timer_rate_hz;
-        time_us += 1000000U / rate;
-        us_rem += 1000000U % rate;
-        if (us_rem >= rate) {
-            us_rem -= rate;
+        time_us += g_tick_us;
+        us_rem += g_tick_us_rem;
+        if (us_rem >= g_timer_rate_hz) {
+            us_rem -= g_timer_rate_hz;
             ++time_us;
         }
         soc_io_write(SOC_SYS_MARK, SOC_MARK_TICK);

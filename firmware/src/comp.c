@@ -186,20 +186,35 @@ int32_t comp_configure(comp_t *c, const comp_config_t *cfg)
     if (err != COMP_OK) {
         return err;
     }
-    uq8_24_t up[COMP_TAB_NODES];
-    uq8_24_t dn[COMP_TAB_NODES];
-    err = build_tables(cfg, up, dn);
-    if (err != COMP_OK) {
-        return err;
+    /* The tables depend on mu, phi and mu_slope alone: when those are the ones the tables in
+     * force were built from, they are kept (a change of another field, such as the band, costs
+     * no exponential and no division; the same words either way). */
+    int32_t same_tables = c->tables_of_cfg != 0 && c->cfg.mu_q28 == cfg->mu_q28 &&
+                          c->cfg.phi_rad_q24 == cfg->phi_rad_q24 &&
+                          c->cfg.mu_slope_per_n_q28 == cfg->mu_slope_per_n_q28;
+    if (same_tables == 0 && cfg->mu_slope_per_n_q28 == 0) {
+        (void)build_tables(cfg, c->g_up, c->g_dn); /* constant gains: cannot fail, in place */
+        c->tables_of_cfg = 1;
+    } else if (same_tables == 0) {
+        uq8_24_t up[COMP_TAB_NODES];
+        uq8_24_t dn[COMP_TAB_NODES];
+        err = build_tables(cfg, up, dn);
+        if (err != COMP_OK) {
+            return err;
+        }
+        for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
+            c->g_up[i] = up[i];
+            c->g_dn[i] = dn[i];
+        }
+        c->tables_of_cfg = 1;
     }
     int32_t new_line = (c->cfg.preview_ticks != cfg->preview_ticks);
     c->cfg = *cfg;
-    for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
-        c->g_up[i] = up[i];
-        c->g_dn[i] = dn[i];
+    int32_t top = (cfg->mode == COMP_MODE_PREVIEW) ? cfg->ramp_ticks : cfg->band_n_q8;
+    if (c->inv_band == 0U || top != c->blend_top) { /* 0: not yet set (comp_init) */
+        c->blend_top = top;
+        set_inv_band(c, (uint32_t)top); /* three divisions: only for a new top */
     }
-    c->blend_top = (cfg->mode == COMP_MODE_PREVIEW) ? cfg->ramp_ticks : cfg->band_n_q8;
-    set_inv_band(c, (uint32_t)c->blend_top);
     blend_to_branch(c);
     if (new_line) {
         c->started = 0; /* a new horizon: the delay line refills at the next step */
@@ -216,6 +231,8 @@ void comp_init(comp_t *c)
     comp_config_default(&cfg);
     c->dir = 1;
     c->started = 0;
+    c->tables_of_cfg = 0;
+    c->inv_band = 0U;
     c->cfg.preview_ticks = cfg.preview_ticks;
     (void)comp_configure(c, &cfg); /* the defaults are valid (unit-tested) */
     comp_reset(c);
@@ -355,6 +372,7 @@ int32_t comp_set_exponent_q28(comp_t *c, q3_28_t x_q28)
         c->g_up[i] = e;
         c->g_dn[i] = einv;
     }
+    c->tables_of_cfg = 0; /* the estimate's tables: the next comp_configure rebuilds cfg's */
     return COMP_OK;
 }
 

@@ -242,7 +242,7 @@ static void on_param_set(dev_t *d, uint32_t port, const proto_frame_t *req)
     } else if (err != 0) {
         reply_error(d, port, req, (uint32_t)err, (int32_t)PROTO_N_PARAMS, "unknown parameter id");
     } else {
-        (void)fw_configure(d->fw, &d->settings.fw); /* checked by params_set */
+        fw_configure_checked(d->fw, &d->settings.fw); /* checked by params_set */
         d->dirty = 1U;
         reply_param(d, port, req, m.param);
     }
@@ -298,7 +298,7 @@ static void on_load(dev_t *d, uint32_t port, const proto_frame_t *req)
         return;
     }
     d->settings = s;
-    (void)fw_configure(d->fw, &d->settings.fw);
+    fw_configure_checked(d->fw, &d->settings.fw); /* checked by flash_load */
     d->dirty = 0U;
     d->config_source = PROTO_CONFIG_SOURCE_FLASH;
     reply_ack(d, port, req, seq);

@@ -140,12 +140,17 @@ int32_t fw_configure(fw_t *fw, const fw_config_t *cfg)
     if (err != FW_OK) {
         return err;
     }
-    /* Both checks passed above, so neither of these can fail half-way. */
+    fw_configure_checked(fw, cfg);
+    return FW_OK;
+}
+
+void fw_configure_checked(fw_t *fw, const fw_config_t *cfg)
+{
+    /* The configuration passed fw_config_check, so neither of these can fail half-way. */
     (void)comp_configure(&fw->comp, &cfg->comp);
     (void)wave_configure(&fw->wave, &cfg->wave, cfg->tick_rate_hz);
     fw->cfg = *cfg;
     est_restart(fw); /* comp_configure rebuilt the tables from mu*phi */
-    return FW_OK;
 }
 
 void fw_init(fw_t *fw, const hal_t *hal)

@@ -15,6 +15,15 @@ static int64_t shr_round_i64(int64_t v, unsigned s)
     return (v + (INT64_C(1) << (s - 1U))) >> s;
 }
 
+/* One step of exp's Horner form: 1 + r*p/n in Q1.30, r*p/n rounded to nearest (C division
+ * truncates toward zero). Inlined with a constant n. */
+static inline int32_t exp_term(int32_t r, int32_t p, int32_t n)
+{
+    int32_t rp = (int32_t)shr_round_i64((int64_t)r * p, 30U); /* |r*p| < 0.53 */
+    int32_t q = (rp >= 0) ? (rp + n / 2) / n : -((-rp + n / 2) / n);
+    return (int32_t)Q1_30_ONE + q;
+}
+
 uq8_24_t fxp_exp_uq8_24(q3_28_t x)
 {
     if (x > FXP_EXP_X_MAX_Q28) {
@@ -27,14 +36,22 @@ uq8_24_t fxp_exp_uq8_24(q3_28_t x)
     /* r = x - k*ln2 in Q3.60: x << 32 < 2^63, k*ln2 < 2^63. */
     int64_t r60 = ((int64_t)x * (INT64_C(1) << 32)) - (int64_t)k * LN2_Q60;
     int32_t r = (int32_t)shr_round_i64(r60, 30U); /* Q1.30, |r| <= 0.347 */
-    /* exp(r) = 1 + r(1 + r/2(1 + r/3(... (1 + r/11)))) in Q1.30; p stays in [0.7, 1.5]. */
+    /* exp(r) = 1 + r(1 + r/2(1 + r/3(... (1 + r/11)))) in Q1.30; p stays in [0.7, 1.5]. Written
+     * out term by term so that each divisor is a constant: a compiler divides by a constant with
+     * a multiply (Hacker's Delight, 2nd ed., ch. 10), where a CPU without a divide instruction
+     * would otherwise call its 32-bit division routine eleven times. Same quotients, same bits. */
     int32_t p = (int32_t)Q1_30_ONE;
-    for (int32_t n = 11; n >= 1; --n) {
-        int32_t rp = (int32_t)shr_round_i64((int64_t)r * p, 30U); /* |r*p| < 0.53 */
-        /* rp / n rounded to nearest (C division truncates toward zero). */
-        int32_t q = (rp >= 0) ? (rp + n / 2) / n : -((-rp + n / 2) / n);
-        p = (int32_t)Q1_30_ONE + q;
-    }
+    p = exp_term(r, p, 11);
+    p = exp_term(r, p, 10);
+    p = exp_term(r, p, 9);
+    p = exp_term(r, p, 8);
+    p = exp_term(r, p, 7);
+    p = exp_term(r, p, 6);
+    p = exp_term(r, p, 5);
+    p = exp_term(r, p, 4);
+    p = exp_term(r, p, 3);
+    p = exp_term(r, p, 2);
+    p = exp_term(r, p, 1);
     /* exp(x) = exp(r) * 2^k; Q1.30 -> UQ8.24 is a right shift by 6, so shift by k - 6. */
     int32_t shift = k - 6;
     uint64_t g;

@@ -32,14 +32,18 @@ int32_t params_set(settings_t *s, uint32_t id, int32_t word, int32_t *status)
     if ((params_table[id].flags & PROTO_PARAM_READ_ONLY) != 0U) {
         return (int32_t)PROTO_ERR_READ_ONLY;
     }
-    settings_t trial = *s;
-    params_word_write(&trial, params_table[id].offset, word);
-    int32_t err = settings_check(&trial);
+    /* Tried in place, the old word put back on a refusal: the same outcome as a trial copy,
+     * without two copies of the whole settings (on a small CPU, a good part of a request's
+     * handling). */
+    int32_t old;
+    word_read(s, params_table[id].offset, &old);
+    params_word_write(s, params_table[id].offset, word);
+    int32_t err = settings_check(s);
     if (err != 0) {
+        params_word_write(s, params_table[id].offset, old);
         *status = err;
         return (int32_t)PROTO_ERR_INVALID_VALUE;
     }
-    *s = trial;
     return 0;
 }
 

@@ -604,6 +604,37 @@ static void test_reconfigure_keeps_direction(void)
     CHECK(c.dir == 1 && c.blend == cfg.band_n_q8 && c.started == 0, "reset");
 }
 
+/* comp_configure keeps the tables when mu, phi and mu_slope are those they were built from, and
+ * rebuilds them otherwise: after comp_set_exponent_q28 (the estimate's tables) and after a
+ * change of mu, the tables equal a fresh compensator's of the same configuration, word for word;
+ * a change of the band alone keeps them and moves 1/band. */
+static void test_reconfigure_tables_follow_mu_phi(void)
+{
+    comp_config_t cfg;
+    comp_config_default(&cfg);
+    comp_t c;
+    comp_t fresh;
+    comp_init(&c);
+    CHECK(comp_set_exponent_q28(&c, Q3_28_ONE) == COMP_OK, "estimate");
+    CHECK(comp_configure(&c, &cfg) == COMP_OK, "configure after the estimate");
+    comp_init(&fresh);
+    CHECK(memcmp(c.g_up, fresh.g_up, sizeof c.g_up) == 0 &&
+              memcmp(c.g_dn, fresh.g_dn, sizeof c.g_dn) == 0,
+          "the estimate's tables kept");
+    cfg.mu_q28 += Q3_28_ONE / 64;
+    CHECK(comp_configure(&c, &cfg) == COMP_OK && comp_configure(&fresh, &cfg) == COMP_OK, "mu");
+    comp_t other;
+    comp_init(&other);
+    CHECK(memcmp(c.g_up, other.g_up, sizeof c.g_up) != 0, "mu did not change the tables");
+    CHECK(memcmp(c.g_up, fresh.g_up, sizeof c.g_up) == 0, "tables after a change of mu");
+    uint32_t inv_band = c.inv_band;
+    cfg.band_n_q8 *= 3; /* not a power of two: 1/band's word moves, not only its shift */
+    CHECK(comp_configure(&c, &cfg) == COMP_OK, "band");
+    CHECK(memcmp(c.g_up, fresh.g_up, sizeof c.g_up) == 0 && c.inv_band != inv_band &&
+              c.blend_top == cfg.band_n_q8,
+          "band: tables kept, 1/band moved");
+}
+
 /* NONE passes T_ref through for every input word at or above the floor, and gives the floor
  * below it (floors 0 and 64 N). */
 static void test_mode_none_passthrough(void)
@@ -727,6 +758,7 @@ const unit_test_t comp_tests[] = {
     {"blend_saturates_at_branches", test_blend_saturates_at_branches},
     {"blend_weight_precision_every_band", test_blend_weight_precision_every_band},
     {"reconfigure_keeps_direction", test_reconfigure_keeps_direction},
+    {"reconfigure_tables_follow_mu_phi", test_reconfigure_tables_follow_mu_phi},
     {"mode_none_passthrough", test_mode_none_passthrough},
     {"preview_blend_moves_in_time", test_preview_blend_moves_in_time},
     {"preview_matches_twin", test_preview_matches_twin},

@@ -389,3 +389,32 @@ def test_t_c_words_equal_the_host_librarys(soc_lib):
 @pytest.mark.long
 def test_t_c_words_equal_the_host_librarys_over_two_periods(soc_lib):
     _same_t_c(4.0)
+
+
+# The tick's budget: the SoC's clock / the tick rate (24000 clocks at 24 MHz and 1 kHz).
+TICK_BUDGET_CLKS = soc_build.CLK_HZ // 1000
+
+
+def test_parameter_sets_before_a_run_leave_the_ticks_on_time(soc_lib):
+    """Parameters set and a run started straight after, as `bench run` does (source, wave.*,
+    then START): the run ends without OVERRUN, no two ticks are two budgets apart, and no
+    request's handling measured on the board (the firmware's receive phase, its reply
+    included) takes a whole tick budget. One PARAM_SET used to hold the RV32 for 76 500
+    clocks (three periods: OVERRUN). The sets cover a loop gain, the compensator's band (its
+    1/band) and mode, and the reference's fields (bench.run's own). The aim of half a
+    budget per request is not met yet (hdl/README.md, "The whole board simulated")."""
+    from cosim.bench.api import Bench  # noqa: PLC0415
+    from cosim.bench.soc.harness import SocBoard  # noqa: PLC0415
+
+    board = SocBoard(realtime=False).start()
+    try:
+        with Bench(board.pty_name) as bench:
+            board.clear_stats()
+            bench.set(**{"loop.kp": 0.08, "comp.band_n": 0.75, "comp.mode": "smooth"})
+            run = bench.run("sine", seconds=0.03, freq_hz=5.0)
+            stats = board.stats()
+    finally:
+        board.stop()
+    assert run.complete and "OVERRUN" not in run.faults, (run.faults, run.drops)
+    assert stats.tick_gap_worst_clks < 2 * TICK_BUDGET_CLKS, stats
+    assert 0 < stats.rx_worst_clks < TICK_BUDGET_CLKS, stats
