@@ -728,13 +728,15 @@ def _add_emulate(subparsers) -> None:
         "board simulated (bowden_soc executing the RV32 firmware in Verilator, its pins modelled; "
         "a pty only, slower than real time)",
     )
+    # --baud, --tcp-port, --interface and --engine default to None so that --target soc can
+    # tell one given from one left out (it refuses them); emulate_main fills in the host's.
     p.add_argument(
         "--baud",
         type=_positive(int),
-        default=921_600,
+        default=None,
         help="throttle the pty and the socket to this baud rate (default 921600)",
     )
-    p.add_argument("--tcp-port", type=int, default=0, help="TCP port (default: any free one)")
+    p.add_argument("--tcp-port", type=int, default=None, help="TCP port (default: any free one)")
     p.add_argument("--no-pty", action="store_true", help="no pseudo-terminal")
     p.add_argument("--no-tcp", action="store_true", help="no TCP port")
     p.add_argument(
@@ -760,14 +762,14 @@ def _add_emulate(subparsers) -> None:
     p.add_argument(
         "--interface",
         choices=("ideal", "adc", "board"),
-        default="ideal",
+        default=None,
         help="sensing and actuation between plant and loop (cosim.parts.interface): ideal "
         "(default, in C), or the board's ADC / ADC + PWM -> ESCON (on the Python engine)",
     )
     p.add_argument(
         "--engine",
         choices=("native", "python"),
-        default="native",
+        default=None,
         help="loop model in C (default) or Python (the definition; slower)",
     )
     p.add_argument("--seconds", type=_positive(float), default=None, help="stop after S seconds")
@@ -816,9 +818,23 @@ def _plant_assignments(items: list[str]) -> dict:
     return plant_overrides(raw, "--plant")
 
 
+# The host emulator's values of the options --target soc refuses (default None in the parser).
+HOST_EMULATOR_DEFAULTS = {"baud": 921_600, "tcp_port": 0, "interface": "ideal", "engine": "native"}
+
+
 def emulate_main(args: argparse.Namespace) -> int:
     from cosim.bench.emulator import Emulator  # noqa: PLC0415
 
+    if args.target == "soc":
+        from cosim.bench.soc.cli import refused_option  # noqa: PLC0415
+
+        flag = refused_option(args)
+        if flag is not None:
+            print(f"bowden emulate: {flag} is not available with --target soc", file=sys.stderr)
+            return 2
+    for dest, value in HOST_EMULATOR_DEFAULTS.items():
+        if getattr(args, dest) is None:
+            setattr(args, dest, value)
     identity = None
     if args.table_hash is not None:
         try:

@@ -13,22 +13,42 @@ import time
 from pathlib import Path
 
 # What the host emulator offers that the simulated board has not (a TCP port, a CAN bus, the
-# host emulator's own link and engine options): named in one line, exit 2.
+# host emulator's own link and engine options): named in one line, exit 2. The flags first, then
+# the options whose presence counts (default None), whatever their value: the board's UART runs
+# at its own 921600 baud (soc_uart.v's bit time, fixed in the RTL), its pins are the interface
+# and Verilator the engine.
 HOST_ONLY = {
     "no_pty": "--no-pty",
     "can": "--can",
     "table_hash": "--table-hash",
     "garbage_every": "--garbage-every",
 }
+HOST_ONLY_GIVEN = {
+    "baud": "--baud",
+    "tcp_port": "--tcp-port",
+    "interface": "--interface",
+    "engine": "--engine",
+}
+
+
+def refused_option(args: argparse.Namespace) -> str | None:
+    """The first host-emulator option given with --target soc, or None."""
+    for dest, flag in HOST_ONLY.items():
+        if getattr(args, dest, None):
+            return flag
+    for dest, flag in HOST_ONLY_GIVEN.items():
+        if getattr(args, dest, None) is not None:
+            return flag
+    return None
 
 
 def emulate_soc(args: argparse.Namespace, plant: dict) -> int:
     """`args` as `bowden emulate` parsed them; `plant` its --plant overrides, checked (with the
     position) by cosim.cli.bench."""
-    for dest, flag in HOST_ONLY.items():
-        if getattr(args, dest, None):
-            print(f"bowden emulate: {flag} is not available with --target soc", file=sys.stderr)
-            return 2
+    flag = refused_option(args)
+    if flag is not None:
+        print(f"bowden emulate: {flag} is not available with --target soc", file=sys.stderr)
+        return 2
     from cosim.bench.device import ChainConfig  # noqa: PLC0415
     from cosim.bench.device import _open_plant as open_plant  # noqa: PLC0415
     from cosim.config.run import BoardParams  # noqa: PLC0415
