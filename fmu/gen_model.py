@@ -128,6 +128,8 @@ VARIABLES: list[Var] = [
         "Load-cell creep: share of a step change read only after sensor_creep_tau"),
     Var("sensor_creep_tau", "Real", PARAM, 1.0, "s", 0.001, 3600.0,
         "Time constant of the load cell's creep"),
+    Var("mu_viscous_tension_rate", "Real", PARAM, 0.0, "s/N", 0.0, 1.0,
+        "Friction coefficient rise per |dT_in/dt| (viscous friction, tension-rate form)"),
 ]
 # fmt: on
 
@@ -142,6 +144,7 @@ UNITS: dict[str, dict[str, int]] = {
     "rad/s": {"rad": 1, "s": -1},
     "rad/m": {"rad": 1, "m": -1},
     "s/m": {"s": 1, "m": -1},
+    "s/N": {"kg": -1, "m": -1, "s": 3},
     "1/N": {"kg": -1, "m": -1, "s": 2},
     "1/s": {"s": -1},
     "Hz": {"s": -1},

@@ -8,6 +8,14 @@ optimiser's scale), the equation it adds, and `applicable(data)`, which says why
 fitted on some data. Fitting and prediction go through one model (cosim.audit.twin: the FMU's
 physics, vectorised, with these parameters), so adding a cause is adding one object to
 VOCABULARY.
+
+Forms: a cause may come in more than one form, each its own FMU parameter and law (viscous
+friction that grows with the cable's speed, or with the inlet tension's rate). VOCABULARY holds
+each cause's first form, which every round fits; FORMS lists all of a cause's forms, and the
+others are fitted only for a cause whose first form survives (it removes at least the rule's
+minimum share of the selection blocks' residual: cosim.audit.core.FORM_SCREEN), so a form costs
+fits only where its cause shows. The form is chosen on the selection blocks, as the cause is,
+and printed with the finding (`label`).
 """
 
 from __future__ import annotations
@@ -45,6 +53,14 @@ class Effect:
     # where its fit starts when "off" gives it no slope: "t_out_high" (near the largest output
     # reading: a full scale), "t_in_low" (at a low input tension: a slack threshold)
     start_from: str | None = None
+    form: str = ""  # the form's name when the cause has more than one (FORMS)
+
+    @property
+    def label(self) -> str:
+        """The cause as a finding prints it: with its form when it has several."""
+        if len(FORMS.get(self.cause, ())) > 1:
+            return f"{self.cause} (form: {self.form})"
+        return self.cause
 
     @property
     def fmu_params(self) -> tuple[str, ...]:
@@ -116,6 +132,7 @@ VOCABULARY: tuple[Effect, ...] = (
         0.0,
         1.0,
         "mu_eff = mu + mu_viscous * |v_c| (v_c: cable speed at the inlet)",
+        form="cable speed",
     ),
     Effect(
         "tension_dependent_friction",
@@ -198,7 +215,26 @@ VOCABULARY: tuple[Effect, ...] = (
     ),
 )
 
+# The further forms of causes of VOCABULARY (each its own FMU parameter), fitted only when the
+# cause's first form survives (module docstring).
+OTHER_FORMS: tuple[Effect, ...] = (
+    Effect(
+        "viscous_friction",
+        "mu_viscous_tension_rate",
+        "s/N",
+        (0.0, 0.05),
+        0.0,
+        1e-3,
+        "mu_eff = mu + mu_viscous_tension_rate * |r_in| (r_in: rate of the inlet tension)",
+        form="tension rate",
+    ),
+)
+
 BY_CAUSE = {e.cause: e for e in VOCABULARY}
-BY_PARAM = {e.fmu_param: e for e in VOCABULARY}
-SHAPES = {sh.fmu_param: sh for e in VOCABULARY for sh in e.shape}
+FORMS: dict[str, tuple[Effect, ...]] = {
+    c: (e, *(o for o in OTHER_FORMS if o.cause == c)) for c, e in BY_CAUSE.items()
+}
+ALL_FORMS: tuple[Effect, ...] = (*VOCABULARY, *OTHER_FORMS)
+BY_PARAM = {e.fmu_param: e for e in ALL_FORMS}
+SHAPES = {sh.fmu_param: sh for e in ALL_FORMS for sh in e.shape}
 CAUSES = tuple(e.cause for e in VOCABULARY)

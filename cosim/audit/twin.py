@@ -11,9 +11,10 @@ What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effe
 - the sheath as BOWDEN_N_SEG = 32 segments; each node keeps its tension unless the capstan bound
   to its neighbour, T_{k-1} exp(-mu dphi) <= T_k <= T_{k-1} exp(+mu dphi), pushes it (Eq. 1-3,
   the dead zone at reversals included), with dphi = max(0, phi(x, y, z) + phi_offset_per_z z)/32;
-- mu_eff = mu + mu_viscous |v_c| + mu_drift t (+ mu_tension_slope T_{k-1} per segment), with
-  v_c the rate of the cable's inlet displacement (stretch in the sheath / EA + T_out / k_lc)
-  low-pass filtered with 10 ms, as the FMU computes it after each step and uses in the next;
+- mu_eff = mu + mu_viscous |v_c| + mu_viscous_tension_rate |r_in| + mu_drift t
+  (+ mu_tension_slope T_{k-1} per segment), with v_c the rate of the cable's inlet displacement
+  (stretch in the sheath / EA + T_out / k_lc) and r_in the rate of the inlet tension, each
+  low-pass filtered with 10 ms, as the FMU computes them after each step and uses in the next;
 - the gradual dead zone (fmu/README.md, "Gradual dead zone"): with dead_zone_spread > 0 the
   output is T_n * mean_j(S_j) / S_ref over 8 lumped capstans of log-normally spread widths;
 - static friction (fmu/README.md, "Static friction"): the strands remember the way they last
@@ -60,7 +61,7 @@ STRAND_Q = np.array(
         1.5341205443525463,
     ]
 )
-SPEED_TAU_S = 0.01  # BOWDEN_SPEED_TAU_S, filter of the cable speed v_c
+SPEED_TAU_S = 0.01  # BOWDEN_SPEED_TAU_S, filter of the cable speed v_c and the tension rate
 CABLE_EA_N = 8000.0  # cable_EA default
 LOADCELL_N_PER_M = 2e5  # loadcell_stiffness default
 
@@ -103,6 +104,7 @@ def _friction(
     phi_off,
     mu,
     mu_visc,
+    mu_rate,
     slope,
     drift,
     spread,
@@ -125,6 +127,8 @@ def _friction(
     alpha_speed = 1.0 - math.exp(-dt / 0.01)
     speed = 0.0
     disp_prev = 0.0
+    rate = 0.0  # the inlet tension's rate, filtered as the cable speed
+    tin_prev = 0.0
     # The exponentials depend on the sample only through mu_c * dphi (the segments) and the
     # strands' widths w, ws: computed again only when those change (the same expressions, so
     # the same numbers; positions are held for seconds and mu_c is constant without viscous
@@ -144,12 +148,12 @@ def _friction(
     # (each was inside its bounds from its unchanged neighbour after the last sample), so the
     # sweep stops there: the same numbers. (The stretch, summed only up to there, feeds only the
     # cable speed, which then enters nothing.)
-    may_stop = mu_visc == 0.0 and drift == 0.0
+    may_stop = mu_visc == 0.0 and mu_rate == 0.0 and drift == 0.0
     dphi_prev = -1.0
     for k in range(n):
         # friction_now(): mu from the cable speed of the last step and the time at the step start
         t = t0 + (k - 1) * dt if k > 0 else t0
-        mu_base = mu + mu_visc * abs(speed) + drift * t
+        mu_base = mu + mu_visc * abs(speed) + mu_rate * abs(rate) + drift * t
         mu_c = mu_base if mu_base > 0.0 else 0.0
         phi = dphi_geom[k] + phi_off * z[k]
         dphi = (phi if phi > 0.0 else 0.0) / n_seg
@@ -217,7 +221,9 @@ def _friction(
         disp = stretch * ds / ea + tens[n_seg] / klc
         if k > 0:
             speed += ((disp - disp_prev) / dt - speed) * alpha_speed
+            rate += ((tin - tin_prev) / dt - rate) * alpha_speed
         disp_prev = disp
+        tin_prev = tin
     return out
 
 
@@ -231,6 +237,7 @@ def friction_output(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndar
         float(p["phi_offset_per_z"]),
         float(p["mu"]),
         float(p["mu_viscous"]),
+        float(p["mu_viscous_tension_rate"]),
         float(p["mu_tension_slope"]),
         float(p["mu_drift"]),
         float(p["dead_zone_spread"]),
@@ -326,6 +333,7 @@ def simulate(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndarray:
 FRICTION_PARAMS = (
     "mu",
     "mu_viscous",
+    "mu_viscous_tension_rate",
     "mu_tension_slope",
     "phi_offset_per_z",
     "mu_drift",
@@ -340,6 +348,7 @@ OFF = {
     "sensor_offset": 0.0,
     "sensor_gain": 1.0,
     "mu_viscous": 0.0,
+    "mu_viscous_tension_rate": 0.0,
     "mu_tension_slope": 0.0,
     "phi_offset_per_z": 0.0,
     "sensor_tau": 0.0,

@@ -18,7 +18,8 @@
    bracket turns any cycling into bisection, which 60 iterations take below 1e-18 of the range. */
 #define BOWDEN_NEWTON_MAX 60
 
-/* Time constant of the cable-speed estimate that mu_viscous uses [s] (assumed; README). */
+/* Time constant of the cable-speed and tension-rate estimates that mu_viscous and
+   mu_viscous_tension_rate use [s] (assumed; README). */
 #define BOWDEN_SPEED_TAU_S 0.01
 
 void bowden_model_defaults(BowdenModel *m)
@@ -119,7 +120,9 @@ typedef struct {
 static Friction friction_now(BowdenModel *m)
 {
     Friction f;
-    double mu = m->p.mu + m->p.mu_viscous * fabs(m->cable_speed_m_s) + m->p.mu_drift * m->time_s;
+    double mu = m->p.mu + m->p.mu_viscous * fabs(m->cable_speed_m_s) +
+                m->p.mu_viscous_tension_rate * fabs(m->tension_rate_n_s) +
+                m->p.mu_drift * m->time_s;
     f.dphi = effective_phi(m) / BOWDEN_N_SEG;
     f.mu_base = mu;
     f.slope = m->p.mu_tension_slope;
@@ -517,6 +520,7 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
     m->motor_angle_rad = 0.0;
     m->motor_speed_rad_s = 0.0;
     m->cable_speed_m_s = 0.0;
+    m->tension_rate_n_s = 0.0;
     memset(m->tension_n, 0, sizeof(m->tension_n));
     memset(m->strand_n, 0, sizeof(m->strand_n));
     memset(m->strand_dir, 0, sizeof(m->strand_dir));
@@ -549,7 +553,7 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
 
 int bowden_model_step(BowdenModel *m, double step_s, char *msg, size_t msg_len)
 {
-    double n_sub_f, h, disp0;
+    double n_sub_f, h, disp0, t_in0, alpha_rate;
     long n_sub, i;
     if (!(step_s > 0.0) || !isfinite(step_s)) {
         snprintf(msg, msg_len, "communicationStepSize = %g s must be > 0 and finite", step_s);
@@ -570,6 +574,7 @@ int bowden_model_step(BowdenModel *m, double step_s, char *msg, size_t msg_len)
     h = step_s / (double)n_sub;
     update_step_constants(m, h);
     disp0 = m->inlet_disp_m;
+    t_in0 = m->tension_n[0];
     for (i = 0; i < n_sub; i++) {
         substep(m, h);
     }
@@ -577,8 +582,11 @@ int bowden_model_step(BowdenModel *m, double step_s, char *msg, size_t msg_len)
        drive mode 1 the cable moves in the first internal step only), low-pass filtered with
        BOWDEN_SPEED_TAU_S. Unfiltered, the explicit speed -> friction -> stretch coupling
        chatters between stick and slip from one step to the next. */
-    m->cable_speed_m_s += ((m->inlet_disp_m - disp0) / step_s - m->cable_speed_m_s) *
-                          (1.0 - exp(-step_s / BOWDEN_SPEED_TAU_S));
+    alpha_rate = 1.0 - exp(-step_s / BOWDEN_SPEED_TAU_S);
+    m->cable_speed_m_s += ((m->inlet_disp_m - disp0) / step_s - m->cable_speed_m_s) * alpha_rate;
+    /* The inlet tension's rate for mu_viscous_tension_rate (README, "Viscous friction"): the
+       same mean over the communication step and the same filter. */
+    m->tension_rate_n_s += ((m->tension_n[0] - t_in0) / step_s - m->tension_rate_n_s) * alpha_rate;
     if (m->p.noise_std > 0.0) {
         double g1, g2;
         rng_gauss_pair(&m->rng_state, &g1, &g2);
@@ -601,6 +609,7 @@ int bowden_model_check_state(const BowdenModel *m, char *msg, size_t msg_len)
         {"motor_speed_rad_s", m->motor_speed_rad_s},
         {"inlet_disp_m", m->inlet_disp_m},
         {"cable_speed_m_s", m->cable_speed_m_s},
+        {"tension_rate_n_s", m->tension_rate_n_s},
         {"sensor_lag_n", m->sensor_lag_n},
         {"creep_lp_n", m->creep_lp_n},
         {"delay_t0_s", m->delay_t0_s},

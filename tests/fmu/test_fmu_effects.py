@@ -63,6 +63,24 @@ def test_mu_viscous_raises_friction_with_cable_speed(make_plant):
     assert seen[2] > seen[1] + 0.1
 
 
+def test_mu_viscous_tension_rate_raises_friction_with_the_inlet_tension_rate(make_plant):
+    """The second form of viscous friction (fmu/README.md "Viscous friction"): the same 0 -> 20 N
+    ramp in 2 s and 0.2 s, so 10 and 100 N/s; once the 10 ms filter of the rate has settled,
+    the loading line's mu is mu + mu_viscous_tension_rate * rate, whatever the cable's speed."""
+    rate_coef = 1e-3
+    for n, rate in ((20000, 10.0), (2000, 100.0)):
+        plant = make_plant({"drive_mode": 1, "mu_viscous_tension_rate": rate_coef})
+        out = ramp(plant, np.linspace(0, 20, n))
+        assert loading_mu(out, -1) == pytest.approx(MU + rate_coef * rate, rel=1e-3)
+    # held: the rate decays with the filter and mu returns to the plain coefficient's loading
+    # line at a new loading (the held tension itself stays in the dead zone)
+    plant = make_plant({"drive_mode": 1, "mu_viscous_tension_rate": rate_coef})
+    ramp(plant, np.linspace(0, 20, 2000))
+    ramp(plant, np.full(2000, 20.0))
+    out = ramp(plant, np.linspace(20, 24, 40000))
+    assert loading_mu(out, -1) == pytest.approx(MU + rate_coef * 1.0, rel=1e-3)
+
+
 def test_mu_tension_slope_makes_friction_grow_with_tension(make_plant):
     plant = make_plant({"drive_mode": 1, "mu_tension_slope": 0.002})
     out = ramp(plant, np.linspace(0, 20, 2000))

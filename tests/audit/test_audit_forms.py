@@ -1,0 +1,109 @@
+"""A cause in more than one form (cosim/audit/effects.py, FORMS): the form hidden in data of the
+rig written here (tests/audit/rig_models.py: its own laws, not the FMU's), the cause and its
+form named alone, the form printed with the finding, the held-out residual brought within 2x
+the noise floor through the FMU.
+
+Viscous friction has two forms (fmu/README.md "Viscous friction"): mu rising with the cable's
+speed (`mu_viscous`) or with the inlet tension's rate (`mu_viscous_tension_rate`). The rig's
+forms: every strand's mu raised by a coefficient times |dT_in/dt| (central differences of the
+true input), or times the rate of its cable's elastic stretch (its four segments' held tensions).
+
+Which cases chose what: the form's bounds, start and scale and the screen that fits further
+forms (cosim.audit.core.FORM_SCREEN_PCT, the rule's minimum share) were set on the tuning seeds
+32 (tension rate 0.002 and 0.001 s/N, wandering input), 33 (cable speed 20 and 6 s/m) and 34
+(tension rate 0.001 s/N, ramps), 40 s each, mu 0.08, spread 0.3, noise 0.03 N. The cases below
+use other seeds, mu, spreads, noise and magnitudes and were run once those were fixed; they are
+reported as they came out (MISSED). The decision rule is the one of test_audit_rule.py.
+"""
+
+from __future__ import annotations
+
+import pytest
+from rig_models import rig_record
+
+from cosim.audit import core, report
+from cosim.results import trace
+
+pytestmark = pytest.mark.slow
+
+DURATION_S = 40.0
+FLOOR_FACTOR = 2.0  # the acceptance's factor
+
+CASES = {
+    "tension rate 1.2e-3 s/N, wandering input": (
+        dict(seed=42, mu=0.085, spread=0.35, noise_n=0.025, viscous_rate_s_n=0.0012),
+        "tension rate",
+        # the rig's linearised capstan (a segment passes T (1 - mu dphi)) and its strands'
+        # additive excess make a change of mu act about 1.2x as strongly as in the FMU's
+        # exponential law: the fitted coefficient comes out that much higher (1.5e-3 here)
+        ("mu_viscous_tension_rate", 0.0012, 0.35),
+    ),
+}
+# Reported, not met (each run once on its report seed):
+# - ramps at held positions (seed 43, mu 0.075, spread 0.25, noise 0.035 N, 1e-3 s/N): the
+#   right cause and form (98 % of the selection blocks' residual, block t 50), but 0.125 N
+#   left held-out, 3.6x the floor. At every reversal of a triangle the rate passes through zero,
+#   the friction drops to mu alone and the output latches at the loading line of mu; the rig's
+#   rate dips for one sample at the peak, the FMU's filtered rate for about 10 ms after it, and
+#   the rig's linearised capstan answers a change of mu 1.2x as strongly, so each ramp's
+#   unloading is left 0.1-0.3 N off with a sign that depends on its rate.
+# - the cable-speed form on the rig (seed 44, mu 0.09, 8 s/m): named viscous_friction in the
+#   tension-rate form (90 % against 81 % for the cable speed). The rig's cable has four
+#   segments per strand, so in a dead zone its stretch still moves with a fifth of the input's
+#   rate and then in steps, which is closer to the tension-rate form than to the FMU's 32
+#   segments, whose inlet speed starts from zero after a reversal and grows as the sliding part
+#   spreads. (On the FMU's own data the cable-speed form is named: test_audit_causes.py.)
+MISSED = {
+    "tension rate 1e-3 s/N, ramps at positions": (
+        dict(
+            seed=43,
+            mu=0.075,
+            spread=0.25,
+            noise_n=0.035,
+            viscous_rate_s_n=0.001,
+            drive="ramp",
+            positions=True,
+        ),
+        "tension rate",
+        ("mu_viscous_tension_rate", 0.001, 0.35),
+    ),
+    "cable speed 8 s/m, wandering input": (
+        dict(seed=44, mu=0.09, spread=0.3, noise_n=0.03, viscous_speed_s_m=8.0),
+        "cable speed",
+        None,
+    ),
+}
+WHY_MISSED = {
+    "tension rate 1e-3 s/N, ramps at positions": "3.6x the floor: the latch at each reversal",
+    "cable speed 8 s/m, wandering input": "named the tension-rate form (the rig's 4 segments)",
+}
+
+
+@pytest.mark.parametrize(
+    "case",
+    [
+        *CASES,
+        *(
+            pytest.param(c, marks=pytest.mark.xfail(strict=True, reason=WHY_MISSED[c]))
+            for c in MISSED
+        ),
+    ],
+)
+def test_a_form_on_the_rig_is_named_with_its_cause_and_brought_to_the_floor(tmp_path, case):
+    kw, form, value = {**CASES, **MISSED}[case]
+    path = rig_record(tmp_path, duration_s=DURATION_S, **kw)
+    res = core.run(core.prepare(trace.read_trace(path, "measured"), str(path)))
+    named = [(f.effect.label, f.value) for f in res.findings]
+    assert [c for c, _ in named] == [f"viscous_friction (form: {form})"], named
+    f = res.findings[0]
+    assert f.explains_pct > 0.0 and f.ambiguous_with is None, f.evidence
+    # the form was chosen among both, on the selection blocks, and the report says so
+    assert set(f.forms) == {"cable speed", "tension rate"}, f.forms
+    assert f"viscous_friction (form: {form})" in report.summary(res)
+    assert f"its form {form} was chosen over" in f.evidence
+    if value is not None:
+        param, true, rel = value
+        assert res.extended.params[param] == pytest.approx(true, rel=rel), res.extended.params
+    assert res.holdout_rms_after_n <= FLOOR_FACTOR * res.data.noise_floor_n
+    assert res.holdout_rms_after_n < res.holdout_rms_before_n
+    assert res.twin_fmu_max_diff_n < 1e-4
