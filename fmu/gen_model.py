@@ -130,6 +130,14 @@ VARIABLES: list[Var] = [
         "Time constant of the load cell's creep"),
     Var("mu_viscous_tension_rate", "Real", PARAM, 0.0, "s/N", 0.0, 1.0,
         "Friction coefficient rise per |dT_in/dt| (viscous friction, tension-rate form)"),
+    Var("mu_warmup", "Real", PARAM, 0.0, "1", -1.0, 1.0,
+        "Friction coefficient change of a warm-up: mu + mu_warmup*(1 - exp(-(t - t_start)/tau))"),
+    Var("mu_warmup_tau", "Real", PARAM, 60.0, "s", 0.001, 1e5,
+        "Time constant of the friction's warm-up from the start"),
+    Var("mu_step", "Real", PARAM, 0.0, "1", -1.0, 1.0,
+        "Friction coefficient step at mu_step_time: mu + mu_step once t >= mu_step_time"),
+    Var("mu_step_time", "Real", PARAM, 0.0, "s", -1e9, 1e9,
+        "Time of the friction coefficient's step"),
 ]
 # fmt: on
 

@@ -226,8 +226,9 @@ def _candidate(
     """The cause of `e` added to the current model in its best form. Every parameter is
     refitted together (a finding fitted alone absorbs part of an effect not yet in the model:
     an offset takes some of a tension-dependent friction). The form is chosen as the cause is,
-    on the selection blocks only: among the forms that pass the rule the one removing most, else
-    the one removing most; the others' shares are kept for the report (Candidate.forms)."""
+    on the selection blocks only: the first form, unless others fit those blocks better by a
+    block t of the rule's separation_t, and then the one of those that passes the rule and
+    removes most; the others' shares are kept for the report (Candidate.forms)."""
 
     def fit(form: Effect) -> Candidate:
         m = fit_model(data, (*found, form), current.params)
@@ -238,7 +239,17 @@ def _candidate(
     forms = [first]
     if first.explained_pct >= FORM_SCREEN_PCT:
         forms += [fit(f) for f in FORMS.get(e.cause, (e,)) if f is not e]
-    best = max(forms, key=lambda c: (c.significant, c.explained_pct))
+    # another form replaces the first only when it fits the selection blocks better by a block
+    # t of the rule's separation (the plain t of the per-block differences): a warm-up with a
+    # long time constant is a linear drift, and the simpler, first form stays then
+    r_first = first.model.residual(data)
+    better = [
+        c
+        for c in forms[1:]
+        if block_stats(data, r_first, c.model.residual(data), (SELECT,), weighted=False).t
+        >= rule.separation_t
+    ]
+    best = max(better, key=lambda c: (c.significant, c.explained_pct)) if better else first
     best.forms = {c.effect.form: c.explained_pct for c in forms} if len(forms) > 1 else {}
     for c in forms:
         if c is not best:

@@ -33,6 +33,7 @@ class Shape:
     bounds: tuple[float, float]
     start: float
     scale: float
+    scanned: bool = False  # not moved by the least squares (no slope): set by the form's scan
 
 
 @dataclass(frozen=True)
@@ -54,6 +55,9 @@ class Effect:
     # reading: a full scale), "t_in_low" (at a low input tension: a slack threshold)
     start_from: str | None = None
     form: str = ""  # the form's name when the cause has more than one (FORMS)
+    # a start found by a scan before the least squares (cosim.audit.fit._scan_start): "warmup"
+    # (the time constant), "step" (the instant, which the least squares then holds)
+    scan: str | None = None
 
     @property
     def label(self) -> str:
@@ -181,6 +185,7 @@ VOCABULARY: tuple[Effect, ...] = (
         0.0,
         1e-4,
         "mu_eff = mu + mu_drift * t",
+        form="linear",
     ),
     Effect(
         "slack",
@@ -227,6 +232,30 @@ OTHER_FORMS: tuple[Effect, ...] = (
         1e-3,
         "mu_eff = mu + mu_viscous_tension_rate * |r_in| (r_in: rate of the inlet tension)",
         form="tension rate",
+    ),
+    Effect(
+        "friction_drift",
+        "mu_warmup",
+        "1",
+        (-0.1, 0.1),
+        0.0,
+        0.005,
+        "mu_eff = mu + mu_warmup * (1 - exp(-(t - t_start) / mu_warmup_tau))",
+        shape=(Shape("mu_warmup_tau", "s", (0.2, 1e4), 10.0, 5.0),),
+        form="warm-up",
+        scan="warmup",
+    ),
+    Effect(
+        "friction_drift",
+        "mu_step",
+        "1",
+        (-0.1, 0.1),
+        0.0,
+        0.005,
+        "mu_eff = mu + mu_step * [t >= mu_step_time]",
+        shape=(Shape("mu_step_time", "s", (-1e9, 1e9), 0.0, 1.0, scanned=True),),
+        form="step",
+        scan="step",
     ),
 )
 

@@ -12,6 +12,7 @@ What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effe
   to its neighbour, T_{k-1} exp(-mu dphi) <= T_k <= T_{k-1} exp(+mu dphi), pushes it (Eq. 1-3,
   the dead zone at reversals included), with dphi = max(0, phi(x, y, z) + phi_offset_per_z z)/32;
 - mu_eff = mu + mu_viscous |v_c| + mu_viscous_tension_rate |r_in| + mu_drift t
+  + mu_warmup (1 - exp(-(t - t0) / mu_warmup_tau)) + mu_step [t >= mu_step_time]
   (+ mu_tension_slope T_{k-1} per segment), with v_c the rate of the cable's inlet displacement
   (stretch in the sheath / EA + T_out / k_lc) and r_in the rate of the inlet tension, each
   low-pass filtered with 10 ms, as the FMU computes them after each step and uses in the next;
@@ -29,8 +30,10 @@ What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effe
   step).
 
 Assumptions of the twin that the FMU does not make: the friction of a step uses the time at its
-start for mu_drift (the FMU moves it on by each internal step of max_step within a sample: a
-change of at most mu_drift * 1 ms), and the cable's axial rigidity and the load cell's stiffness
+start for mu_drift, mu_warmup and mu_step (the FMU moves it on by each internal step of max_step
+within a sample: a change of at most mu_drift * 1 ms, and a step seen up to one sample earlier;
+with one internal step per sample, as the audit runs it, the two agree), and the cable's axial
+rigidity and the load cell's stiffness
 are the FMU's defaults (they enter only through v_c, so only mu_viscous depends on them).
 """
 
@@ -107,6 +110,10 @@ def _friction(
     mu_rate,
     slope,
     drift,
+    warm,
+    warm_tau,
+    step,
+    step_t,
     spread,
     static,
     slack,
@@ -148,12 +155,16 @@ def _friction(
     # (each was inside its bounds from its unchanged neighbour after the last sample), so the
     # sweep stops there: the same numbers. (The stretch, summed only up to there, feeds only the
     # cable speed, which then enters nothing.)
-    may_stop = mu_visc == 0.0 and mu_rate == 0.0 and drift == 0.0
+    may_stop = mu_visc == 0.0 and mu_rate == 0.0 and drift == 0.0 and warm == 0.0 and step == 0.0
     dphi_prev = -1.0
     for k in range(n):
         # friction_now(): mu from the cable speed of the last step and the time at the step start
         t = t0 + (k - 1) * dt if k > 0 else t0
         mu_base = mu + mu_visc * abs(speed) + mu_rate * abs(rate) + drift * t
+        if warm != 0.0:
+            mu_base += warm * (1.0 - math.exp(-(t - t0) / warm_tau))
+        if step != 0.0 and t >= step_t:
+            mu_base += step
         mu_c = mu_base if mu_base > 0.0 else 0.0
         phi = dphi_geom[k] + phi_off * z[k]
         dphi = (phi if phi > 0.0 else 0.0) / n_seg
@@ -240,6 +251,10 @@ def friction_output(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndar
         float(p["mu_viscous_tension_rate"]),
         float(p["mu_tension_slope"]),
         float(p["mu_drift"]),
+        float(p["mu_warmup"]),
+        float(p["mu_warmup_tau"]),
+        float(p["mu_step"]),
+        float(p["mu_step_time"]),
         float(p["dead_zone_spread"]),
         float(p["mu_static_excess"]),
         float(p["slack_tension"]),
@@ -337,6 +352,10 @@ FRICTION_PARAMS = (
     "mu_tension_slope",
     "phi_offset_per_z",
     "mu_drift",
+    "mu_warmup",
+    "mu_warmup_tau",
+    "mu_step",
+    "mu_step_time",
     "dead_zone_spread",
     "mu_static_excess",
     "slack_tension",
@@ -354,6 +373,10 @@ OFF = {
     "sensor_tau": 0.0,
     "sensor_delay": 0.0,
     "mu_drift": 0.0,
+    "mu_warmup": 0.0,
+    "mu_warmup_tau": 60.0,
+    "mu_step": 0.0,
+    "mu_step_time": 0.0,
     "dead_zone_spread": 0.0,
     "mu_static_excess": 0.0,
     "slack_tension": 0.0,

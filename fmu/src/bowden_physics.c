@@ -123,6 +123,13 @@ static Friction friction_now(BowdenModel *m)
     double mu = m->p.mu + m->p.mu_viscous * fabs(m->cable_speed_m_s) +
                 m->p.mu_viscous_tension_rate * fabs(m->tension_rate_n_s) +
                 m->p.mu_drift * m->time_s;
+    /* the drift's other forms (README, "Friction drift") */
+    if (m->p.mu_warmup != 0.0) {
+        mu += m->p.mu_warmup * (1.0 - exp(-(m->time_s - m->start_time_s) / m->p.mu_warmup_tau));
+    }
+    if (m->p.mu_step != 0.0 && m->time_s >= m->p.mu_step_time) {
+        mu += m->p.mu_step;
+    }
     f.dphi = effective_phi(m) / BOWDEN_N_SEG;
     f.mu_base = mu;
     f.slope = m->p.mu_tension_slope;
@@ -509,6 +516,7 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
         return 1;
     }
     m->time_s = start_time_s;
+    m->start_time_s = start_time_s;
     m->geom_valid = 0;
     m->cache_h_s = -1.0;
     m->cache_mu = -1.0;
@@ -610,6 +618,7 @@ int bowden_model_check_state(const BowdenModel *m, char *msg, size_t msg_len)
         {"inlet_disp_m", m->inlet_disp_m},
         {"cable_speed_m_s", m->cable_speed_m_s},
         {"tension_rate_n_s", m->tension_rate_n_s},
+        {"start_time_s", m->start_time_s},
         {"sensor_lag_n", m->sensor_lag_n},
         {"creep_lp_n", m->creep_lp_n},
         {"delay_t0_s", m->delay_t0_s},

@@ -58,6 +58,7 @@ typedef struct {
     double inlet_disp_m;                    /* cable displacement at the sheath inlet */
     double cable_speed_m_s;                 /* d(inlet_disp_m)/dt */
     double tension_rate_n_s;                /* d(T_in)/dt, filtered as cable_speed_m_s */
+    double start_time_s;                    /* time of the start (mu_warmup counts from it) */
     double sensor_lag_n;                    /* output sensor after its first-order lag */
     double delay_buf_n[BOWDEN_DELAY_LEN];   /* ring buffer of sensor_lag_n on the grid */
     double delay_t0_s;                      /* time of grid sample 0 */

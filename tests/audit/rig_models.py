@@ -171,6 +171,7 @@ def rig_record(
     ring: tuple[float, float, float] | None = None,
     viscous_rate_s_n: float = 0.0,
     viscous_speed_s_m: float = 0.0,
+    drift: tuple[str, float, float] | None = None,
     name: str = "rig.csv",
 ) -> Path:
     """Write a rig record (CSV and a sidecar without mu). `periodic` = (amplitude N, frequency
@@ -192,6 +193,10 @@ def rig_record(
       elastic stretch, RIG_LENGTH_M / RIG_EA_N times the rate of the braid's mean tension along
       the cable (braid_mean_tension; central differences, no filter; of the braid without the
       viscous part: one pass, the part's effect on the stretch is second order);
+    - `drift` = (form, size, time): every strand's mu changes over the record, "linear" by size
+      per second from the start (time unused), "warm-up" by size * (1 - exp(-t / time)) (the
+      lubricant settling from the start), "step" by size from the instant time on (a new
+      stretch of liner reached, a lubricant lost);
     - `creep`, `creep_tau_s`: the load cell's spring and a viscoelastic element in parallel (a
       standard linear solid): a share `creep` of a change in tension is read only as the element
       relaxes with creep_tau_s (integrated by backward Euler at the sample rate).
@@ -217,6 +222,15 @@ def rig_record(
     mus = strand_mus(mu, spread, rng)
     if viscous_rate_s_n != 0.0:
         extra_mu = viscous_rate_s_n * np.abs(np.gradient(t_in) * RATE_HZ)
+    if drift is not None:
+        form, size, when = drift
+        if form == "linear":
+            change = size * t
+        elif form == "warm-up":
+            change = size * (1.0 - np.exp(-t / when))
+        else:
+            change = np.where(t >= when, size, 0.0)
+        extra_mu = change if extra_mu is None else extra_mu + change
     if viscous_speed_s_m != 0.0:
         along = braid_mean_tension(t_in, phi, mus, static_ratio=static_ratio)
         speed = RIG_LENGTH_M / RIG_EA_N * np.gradient(along) * RATE_HZ

@@ -219,6 +219,9 @@ def test_emit_params_into_a_file_where_a_folder_is_needed_is_one_clear_line(tmp_
         # tension rate, when the report gave 55 mN between twin and FMU)
         {"mu_viscous": 40.0, "sensor_tau": 0.04, "sensor_gain": 0.9, "sensor_offset": 0.6},
         {"mu_viscous_tension_rate": 0.02, "sensor_tau": 0.04, "sensor_gain": 0.9},
+        {"mu_warmup": -0.03, "mu_warmup_tau": 1.5},
+        {"mu_step": 0.02, "mu_step_time": 1.2345, "dead_zone_spread": 0.4, "sensor_tau": 0.005},
+        {"mu_step": -0.015, "mu_step_time": 2.5005, "mu_warmup": 0.01, "mu_warmup_tau": 0.7},
     ],
 )
 def test_twin_agrees_with_the_fmu(effect):
@@ -235,8 +238,11 @@ def test_twin_agrees_with_the_fmu(effect):
     )
     params = {"mu": 0.08, **effect}
     a = twin.simulate(inputs, params)
-    b = twin.run_fmu(inputs, params)
-    assert np.max(np.abs(a - b)) < 1e-4, np.max(np.abs(a - b))
+    if "mu_warmup" not in effect and "mu_step" not in effect:
+        # (a warm-up or a step moves mu within a sample at the FMU's default internal step,
+        # where the twin uses the time at the sample's start: cosim/audit/twin.py)
+        b = twin.run_fmu(inputs, params)
+        assert np.max(np.abs(a - b)) < 1e-4, np.max(np.abs(a - b))
     b = twin.run_fmu(inputs, params, max_step_s=twin.fmu_step_for(dt))
     assert np.max(np.abs(a - b)) < 1e-4, np.max(np.abs(a - b))
 

@@ -81,6 +81,26 @@ def test_mu_viscous_tension_rate_raises_friction_with_the_inlet_tension_rate(mak
     assert loading_mu(out, -1) == pytest.approx(MU + rate_coef * 1.0, rel=1e-3)
 
 
+def test_friction_drift_warms_up_from_the_start_or_steps_at_an_instant(make_plant):
+    """The drift's other forms (fmu/README.md "Friction drift"): a slow ramp keeps the cable on
+    its loading line, whose mu is mu + mu_warmup (1 - exp(-(t - t_start)/tau)), or mu + mu_step
+    once t >= mu_step_time; t_start is the FMU's start time (the make_plant fixture's 0)."""
+    n, dt = 20000, 1e-4  # 2 s of loading, 0 -> 20 N
+    plant = make_plant({"drive_mode": 1, "mu_warmup": -0.02, "mu_warmup_tau": 0.5})
+    out = ramp(plant, np.linspace(0, 20, n), dt)
+    for k in (4999, 9999, n - 1):  # the friction of a step uses the time at its start
+        t = k * dt
+        expected = MU - 0.02 * (1.0 - math.exp(-t / 0.5))
+        assert loading_mu(out, k) == pytest.approx(expected, rel=1e-6)
+    # (a falling mu, so that the loading cable follows it at once: a rising one would hold it
+    # in a dead zone until the input caught up)
+    plant = make_plant({"drive_mode": 1, "mu_step": -0.01, "mu_step_time": 1.00005})
+    out = ramp(plant, np.linspace(0, 20, n), dt)
+    assert loading_mu(out, 9999) == pytest.approx(MU, rel=1e-9)  # starts at t = 0.9999 s
+    assert loading_mu(out, 10001) == pytest.approx(MU - 0.01, rel=1e-9)
+    assert loading_mu(out, n - 1) == pytest.approx(MU - 0.01, rel=1e-9)
+
+
 def test_mu_tension_slope_makes_friction_grow_with_tension(make_plant):
     plant = make_plant({"drive_mode": 1, "mu_tension_slope": 0.002})
     out = ramp(plant, np.linspace(0, 20, 2000))
