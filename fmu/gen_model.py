@@ -138,6 +138,8 @@ VARIABLES: list[Var] = [
         "Friction coefficient step at mu_step_time: mu + mu_step once t >= mu_step_time"),
     Var("mu_step_time", "Real", PARAM, 0.0, "s", -1e9, 1e9,
         "Time of the friction coefficient's step"),
+    Var("sensor_tau2", "Real", PARAM, 0.0, "s", 0.0, 1.0,
+        "Output sensor's second-order lag: two first-order stages of this time constant"),
 ]
 # fmt: on
 

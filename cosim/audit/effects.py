@@ -166,6 +166,7 @@ VOCABULARY: tuple[Effect, ...] = (
         0.0,
         0.005,
         "T_out_meas = Lag_{sensor_tau}[T_out] (first order)",
+        form="first order",
     ),
     Effect(
         "time_delay",
@@ -232,6 +233,16 @@ OTHER_FORMS: tuple[Effect, ...] = (
         1e-3,
         "mu_eff = mu + mu_viscous_tension_rate * |r_in| (r_in: rate of the inlet tension)",
         form="tension rate",
+    ),
+    Effect(
+        "lag",
+        "sensor_tau2",
+        "s",
+        (0.0, 0.2),
+        0.0,
+        0.005,
+        "T_out_meas = Lag_{sensor_tau2}[Lag_{sensor_tau2}[T_out]] (second order, critical)",
+        form="second order",
     ),
     Effect(
         "friction_drift",

@@ -280,6 +280,9 @@ class _Evaluator:
             creep = float(params.get("sensor_creep", 0.0))
             if creep != 0.0:
                 y = y - creep * (y - _grid_lag(y, float(params["sensor_creep_tau"]), dt, self.q))
+            tau2 = float(params.get("sensor_tau2", 0.0))
+            if tau2 > 0.0:
+                y = _grid_lag(_grid_lag(y, tau2, dt, self.q), tau2, dt, self.q)
             tau = float(params.get("sensor_tau", 0.0))
             if tau > 0.0:
                 y = _grid_lag(y, tau, dt, self.q)

@@ -474,7 +474,7 @@ static void substep(BowdenModel *m, double h)
 {
     const double ds = m->p.sheath_length / BOWDEN_N_SEG;
     Friction f = friction_now(m);
-    double t0 = m->time_s, y0 = m->sensor_lag_n, stretch = 0.0, t_out;
+    double t0 = m->time_s, y0 = m->sensor_lag_n, stretch = 0.0, t_out, reading;
     int k;
 
     if (m->p.drive_mode == 1) {
@@ -490,7 +490,16 @@ static void substep(BowdenModel *m, double h)
     m->time_s = t0 + h;
     t_out = output_tension(m);
     m->creep_lp_n += (t_out - m->creep_lp_n) * m->alpha_creep;
-    m->sensor_lag_n += (creep_reading(m, t_out) - m->sensor_lag_n) * m->alpha_sensor;
+    reading = creep_reading(m, t_out);
+    if (m->p.sensor_tau2 > 0.0) {
+        /* the second-order lag (README, "Sensor dynamics"): two equal first-order stages,
+           exact for their input held over the step (the second sees the first move) */
+        const double a = m->decay_sensor2, c = h / m->p.sensor_tau2, x1 = m->sensor_lag2a_n;
+        m->sensor_lag2b_n = reading + a * (m->sensor_lag2b_n - reading) + c * a * (x1 - reading);
+        m->sensor_lag2a_n = reading + a * (x1 - reading);
+        reading = m->sensor_lag2b_n;
+    }
+    m->sensor_lag_n += (reading - m->sensor_lag_n) * m->alpha_sensor;
     delay_push(m, t0, y0, m->time_s, m->sensor_lag_n);
 }
 
@@ -503,6 +512,7 @@ static void update_step_constants(BowdenModel *m, double h)
     m->alpha_current = 1.0 - exp(-h * TWO_PI * m->p.current_bandwidth);
     m->alpha_sensor = m->p.sensor_tau > 0.0 ? 1.0 - exp(-h / m->p.sensor_tau) : 1.0;
     m->alpha_creep = 1.0 - exp(-h / m->p.sensor_creep_tau);
+    m->decay_sensor2 = m->p.sensor_tau2 > 0.0 ? exp(-h / m->p.sensor_tau2) : 0.0;
 }
 
 /* ---- public ------------------------------------------------------------------------------- */
@@ -552,6 +562,8 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
         inlet_displacement(m, stretch * m->p.sheath_length / BOWDEN_N_SEG, m->tension_n[BOWDEN_N_SEG]);
     m->creep_lp_n = output_tension(m); /* the initial load has settled on the load cell */
     m->sensor_lag_n = output_tension(m);
+    m->sensor_lag2a_n = m->sensor_lag_n;
+    m->sensor_lag2b_n = m->sensor_lag_n;
     m->delay_t0_s = start_time_s;
     m->delay_buf_n[0] = m->sensor_lag_n;
     m->delay_count = 1;
@@ -620,6 +632,8 @@ int bowden_model_check_state(const BowdenModel *m, char *msg, size_t msg_len)
         {"tension_rate_n_s", m->tension_rate_n_s},
         {"start_time_s", m->start_time_s},
         {"sensor_lag_n", m->sensor_lag_n},
+        {"sensor_lag2a_n", m->sensor_lag2a_n},
+        {"sensor_lag2b_n", m->sensor_lag2b_n},
         {"creep_lp_n", m->creep_lp_n},
         {"delay_t0_s", m->delay_t0_s},
         {"noise_in_n", m->noise_in_n},
@@ -631,6 +645,7 @@ int bowden_model_check_state(const BowdenModel *m, char *msg, size_t msg_len)
         {"cache_h_s", m->cache_h_s},
         {"alpha_current", m->alpha_current},
         {"alpha_sensor", m->alpha_sensor},
+        {"decay_sensor2", m->decay_sensor2},
         {"alpha_creep", m->alpha_creep},
         {"cache_mu", m->cache_mu},
         {"cache_dphi", m->cache_dphi},

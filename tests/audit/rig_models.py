@@ -172,6 +172,7 @@ def rig_record(
     viscous_rate_s_n: float = 0.0,
     viscous_speed_s_m: float = 0.0,
     drift: tuple[str, float, float] | None = None,
+    lag2_s: float = 0.0,
     name: str = "rig.csv",
 ) -> Path:
     """Write a rig record (CSV and a sidecar without mu). `periodic` = (amplitude N, frequency
@@ -197,6 +198,9 @@ def rig_record(
       per second from the start (time unused), "warm-up" by size * (1 - exp(-t / time)) (the
       lubricant settling from the start), "step" by size from the instant time on (a new
       stretch of liner reached, a lubricant lost);
+    - `lag2_s`: the output sensor as a critically damped second-order system of two equal time
+      constants (a load cell's mass on its spring, or an amplifier's two-pole filter), by the
+      bilinear transform (after the first-order `lag_s` when both are set);
     - `creep`, `creep_tau_s`: the load cell's spring and a viscoelastic element in parallel (a
       standard linear solid): a share `creep` of a change in tension is read only as the element
       relaxes with creep_tau_s (integrated by backward Euler at the sample rate).
@@ -254,6 +258,12 @@ def rig_record(
             acc = a * acc + (1.0 - a) * out[k]
             y[k] = acc
         out = y
+    if lag2_s > 0.0:  # a critically damped second-order sensor, 1 / (lag2_s s + 1)^2, by
+        # the bilinear transform at the sample rate, starting settled
+        from scipy.signal import bilinear, lfilter, lfilter_zi  # noqa: PLC0415
+
+        b, a = bilinear([1.0], [lag2_s**2, 2.0 * lag2_s, 1.0], fs=RATE_HZ)
+        out = lfilter(b, a, out, zi=lfilter_zi(b, a) * out[0])[0]
     reading = gain * out + offset_n
     if full_scale_n > 0.0:
         reading = np.minimum(reading, full_scale_n)

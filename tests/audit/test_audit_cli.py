@@ -222,6 +222,10 @@ def test_emit_params_into_a_file_where_a_folder_is_needed_is_one_clear_line(tmp_
         {"mu_warmup": -0.03, "mu_warmup_tau": 1.5},
         {"mu_step": 0.02, "mu_step_time": 1.2345, "dead_zone_spread": 0.4, "sensor_tau": 0.005},
         {"mu_step": -0.015, "mu_step_time": 2.5005, "mu_warmup": 0.01, "mu_warmup_tau": 0.7},
+        {"sensor_tau2": 0.006},
+        {"sensor_tau2": 0.02, "sensor_gain": 1.1, "sensor_delay": 0.004},
+        {"sensor_tau2": 0.008, "sensor_creep": 0.03, "sensor_creep_tau": 1.0},
+        {"sensor_tau2": 0.01, "sensor_tau": 0.004},
     ],
 )
 def test_twin_agrees_with_the_fmu(effect):
@@ -238,9 +242,13 @@ def test_twin_agrees_with_the_fmu(effect):
     )
     params = {"mu": 0.08, **effect}
     a = twin.simulate(inputs, params)
-    if "mu_warmup" not in effect and "mu_step" not in effect:
+    if not {"mu_warmup", "mu_step"} & set(effect) and not {"sensor_tau2", "sensor_tau"} <= set(
+        effect
+    ):
         # (a warm-up or a step moves mu within a sample at the FMU's default internal step,
-        # where the twin uses the time at the sample's start: cosim/audit/twin.py)
+        # where the twin uses the time at the sample's start; the first-order lag after the
+        # second-order one sees its input move within the sample, 20 mN here, where the twin
+        # holds it: cosim/audit/twin.py. The audit never fits both lags: one cause, two forms)
         b = twin.run_fmu(inputs, params)
         assert np.max(np.abs(a - b)) < 1e-4, np.max(np.abs(a - b))
     b = twin.run_fmu(inputs, params, max_step_s=twin.fmu_step_for(dt))

@@ -101,6 +101,22 @@ def test_friction_drift_warms_up_from_the_start_or_steps_at_an_instant(make_plan
     assert loading_mu(out, n - 1) == pytest.approx(MU - 0.01, rel=1e-9)
 
 
+def test_sensor_tau2_reads_a_step_through_two_equal_stages(make_plant):
+    """The second-order form of the sensor's lag (fmu/README.md "Sensor dynamics"): a step of
+    the true output is read as 1 - (1 + t/tau) exp(-t/tau) of it (critically damped), at any
+    internal step, and not at all by the input sensor."""
+    tau = 0.01
+    plant = make_plant({"drive_mode": 1, "sensor_tau2": tau, "max_step": 1e-4})
+    ramp(plant, np.full(500, 10.0), 1e-3)  # settled at 10 N on the loading line
+    before = plant.y[Plant.T_OUT]
+    out = ramp(plant, np.full(400, 14.0), 1e-3)
+    step = out[0, Plant.T_OUT] - before
+    t = np.arange(1, 401) * 1e-3
+    expected = before + step * (1.0 - (1.0 + t / tau) * np.exp(-t / tau))
+    assert np.allclose(out[:, Plant.T_OUT_MEAS], expected, atol=1e-9 * step)
+    assert np.array_equal(out[:, Plant.T_IN_MEAS], out[:, Plant.T_IN])
+
+
 def test_mu_tension_slope_makes_friction_grow_with_tension(make_plant):
     plant = make_plant({"drive_mode": 1, "mu_tension_slope": 0.002})
     out = ramp(plant, np.linspace(0, 20, 2000))
