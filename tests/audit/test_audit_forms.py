@@ -160,7 +160,11 @@ FORMS_OF = {
     [
         *CASES,
         *(
-            pytest.param(c, marks=pytest.mark.xfail(strict=True, reason=WHY_MISSED[c]))
+            # the known misses run in make test-long: they show a fix when one comes, and their
+            # two minutes would take make test past its budget
+            pytest.param(
+                c, marks=[pytest.mark.long, pytest.mark.xfail(strict=True, reason=WHY_MISSED[c])]
+            )
             for c in MISSED
         ),
     ],
