@@ -128,6 +128,18 @@ VARIABLES: list[Var] = [
         "Load-cell creep: share of a step change read only after sensor_creep_tau"),
     Var("sensor_creep_tau", "Real", PARAM, 1.0, "s", 0.001, 3600.0,
         "Time constant of the load cell's creep"),
+    Var("mu_viscous_tension_rate", "Real", PARAM, 0.0, "s/N", 0.0, 1.0,
+        "Friction coefficient rise per |dT_in/dt| (viscous friction, tension-rate form)"),
+    Var("mu_warmup", "Real", PARAM, 0.0, "1", -1.0, 1.0,
+        "Friction coefficient change of a warm-up: mu + mu_warmup*(1 - exp(-(t - t_start)/tau))"),
+    Var("mu_warmup_tau", "Real", PARAM, 60.0, "s", 0.001, 1e5,
+        "Time constant of the friction's warm-up from the start"),
+    Var("mu_step", "Real", PARAM, 0.0, "1", -1.0, 1.0,
+        "Friction coefficient step at mu_step_time: mu + mu_step once t >= mu_step_time"),
+    Var("mu_step_time", "Real", PARAM, 0.0, "s", -1e9, 1e9,
+        "Time of the friction coefficient's step"),
+    Var("sensor_tau2", "Real", PARAM, 0.0, "s", 0.0, 1.0,
+        "Output sensor's second-order lag: two first-order stages of this time constant"),
 ]
 # fmt: on
 
@@ -142,6 +154,7 @@ UNITS: dict[str, dict[str, int]] = {
     "rad/s": {"rad": 1, "s": -1},
     "rad/m": {"rad": 1, "m": -1},
     "s/m": {"s": 1, "m": -1},
+    "s/N": {"kg": -1, "m": -1, "s": 3},
     "1/N": {"kg": -1, "m": -1, "s": 2},
     "1/s": {"s": -1},
     "Hz": {"s": -1},

@@ -76,7 +76,7 @@ from .decision import (  # noqa: F401
     block_stats,
     judge,
 )
-from .effects import VOCABULARY, Effect
+from .effects import FORMS, VOCABULARY, Effect
 from .fit import Model, fit_model
 from .residual import describe_residual
 
@@ -155,14 +155,10 @@ def run(
         cands: list[Candidate] = []
         r0 = current.residual(data)
         for e in usable:
-            if e in found:
+            if e.cause in {f.cause for f in found}:
                 continue
             tick(f"round {len(rounds) + 1}: {e.cause} ({e.fmu_param})")
-            # every parameter refitted together: a finding fitted alone absorbs part of an
-            # effect not yet in the model (an offset takes some of a tension-dependent friction)
-            m = fit_model(data, (*found, e), current.params)
-            stats = block_stats(data, r0, m.residual(data))
-            cands.append(Candidate(e, m, stats, rule.passes(stats, data)))
+            cands.append(_candidate(data, found, e, current, r0, rule))
         sig = sorted((c for c in cands if c.significant), key=lambda c: -c.explained_pct)
         chosen = sig[0] if sig else None
         rounds.append(Round(current, cands, chosen, dict(skipped)))
@@ -213,6 +209,54 @@ def run(
     return result
 
 
+# A cause's further forms (effects.FORMS) are fitted only when its first form removes at least
+# this share (%) of the selection blocks' residual mean square: the rule's minimum share, so a
+# cause that could not become a finding in any form that resembles its first costs no more fits.
+FORM_SCREEN_PCT = RULE.min_explained_pct
+
+
+def _candidate(
+    data: AuditData,
+    found: list[Effect],
+    e: Effect,
+    current,
+    r0: np.ndarray,
+    rule: DecisionRule,
+) -> Candidate:
+    """The cause of `e` added to the current model in its best form. Every parameter is
+    refitted together (a finding fitted alone absorbs part of an effect not yet in the model:
+    an offset takes some of a tension-dependent friction). The form is chosen as the cause is,
+    on the selection blocks only: the first form, unless others fit those blocks better by a
+    block t of the rule's separation_t, and then the one of those that passes the rule and
+    removes most; the others' shares are kept for the report (Candidate.forms)."""
+
+    def fit(form: Effect) -> Candidate:
+        m = fit_model(data, (*found, form), current.params)
+        stats = block_stats(data, r0, m.residual(data))
+        return Candidate(form, m, stats, rule.passes(stats, data))
+
+    first = fit(e)
+    forms = [first]
+    if first.explained_pct >= FORM_SCREEN_PCT:
+        forms += [fit(f) for f in FORMS.get(e.cause, (e,)) if f is not e]
+    # another form replaces the first only when it fits the selection blocks better by a block
+    # t of the rule's separation (the plain t of the per-block differences): a warm-up with a
+    # long time constant is a linear drift, and the simpler, first form stays then
+    r_first = first.model.residual(data)
+    better = [
+        c
+        for c in forms[1:]
+        if block_stats(data, r_first, c.model.residual(data), (SELECT,), weighted=False).t
+        >= rule.separation_t
+    ]
+    best = max(better, key=lambda c: (c.significant, c.explained_pct)) if better else first
+    best.forms = {c.effect.form: c.explained_pct for c in forms} if len(forms) > 1 else {}
+    for c in forms:
+        if c is not best:
+            c.model.prediction = None
+    return best
+
+
 def _release_predictions(cands: list[Candidate], chosen: Candidate | None) -> None:
     """Free the full-length predictions of a round's candidates that nothing reads again (all
     but the chosen one and its runner-up, which _findings compares): on 20 minutes of 1 kHz data
@@ -241,7 +285,29 @@ def plausibility_warnings(data: AuditData, result: AuditResult) -> list[str]:
         why = plausible.at_bound(f.effect.fmu_param, f.value, *f.effect.bounds)
         if why:
             out.append(f"{f.effect.cause}: {why}")
+    why = twin_fmu_warning(result.twin_fmu_max_diff_n, data.noise_floor_n)
+    if why:
+        out.append(why)
     return out
+
+
+# The fitting twin and the FMU must agree far below the noise (a test holds them within 1e-4 N
+# under strong effects); beyond this share of the noise floor the report says by how much.
+TWIN_FMU_MAX_FLOOR_SHARE = 0.1
+
+
+def twin_fmu_warning(diff_n: float, noise_floor_n: float) -> str | None:
+    """One line when the twin that fitted and decided and the FMU that reports differ by more
+    than TWIN_FMU_MAX_FLOOR_SHARE of the noise floor (or by a non-finite amount), else None."""
+    if math.isfinite(diff_n) and diff_n <= TWIN_FMU_MAX_FLOOR_SHARE * noise_floor_n:
+        return None
+    return (
+        f"the fitting twin and the FMU differ by up to {diff_n * 1000:.1f} mN "
+        f"({diff_n / noise_floor_n:.2g} x the noise floor) on the extended model: the held-out "
+        "figures are the FMU's, the fits and the decision the twin's"
+        if noise_floor_n > 0
+        else f"the fitting twin and the FMU differ by up to {diff_n * 1000:.1f} mN"
+    )
 
 
 def sampling_error(data: AuditData, prediction: np.ndarray) -> float:
@@ -276,6 +342,11 @@ def _evidence(result: AuditResult, f: Finding) -> str:
         text += f"; the next candidate, {f.runner_up}, removes {max(f.runner_up_pct, 0):.0f} %"
         if f.separation_t is not None and math.isfinite(f.separation_t):
             text += f" (worse by block t = {f.separation_t:.1f})"
+    if f.forms:
+        others = ", ".join(
+            f"{name} {max(pct, 0):.0f} %" for name, pct in f.forms.items() if name != f.effect.form
+        )
+        text += f"; its form {f.effect.form} was chosen over {others} on the selection blocks"
     if f.ambiguous_with:
         text += (
             f"; {f.ambiguous_with} explains the same residual and is not significantly worse, "

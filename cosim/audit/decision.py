@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -180,6 +180,9 @@ class Candidate:
     model: Model
     stats: BlockStats
     significant: bool
+    # the cause's forms fitted in this round (effects.FORMS), each with the share of the
+    # selection blocks' residual it removed; empty when only the first form was fitted
+    forms: dict[str, float] = field(default_factory=dict)
 
     @property
     def explained_pct(self) -> float:  # of the current model's selection-block mean square
@@ -217,6 +220,7 @@ class Finding:
     separation_t: float | None
     ambiguous_with: str | None = None
     evidence: str = ""
+    forms: dict[str, float] = field(default_factory=dict)  # Candidate.forms of its round
 
 
 def judge(
@@ -281,7 +285,7 @@ def _findings(
             ).t
             nxt = rounds[i + 1] if i + 1 < len(rounds) else None
             still = nxt is not None and any(
-                o.effect is runner.effect and o.significant for o in nxt.candidates
+                o.effect.cause == runner.effect.cause and o.significant for o in nxt.candidates
             )
             if runner.significant and not still and sep < rule.separation_t:
                 ambiguous = runner.effect.cause
@@ -298,6 +302,7 @@ def _findings(
                 runner_up_pct=runner.explained_pct if runner else None,
                 separation_t=sep,
                 ambiguous_with=ambiguous,
+                forms=dict(c.forms),
             )
         )
     # the final values are those of the extended model (refitted with every finding)

@@ -8,6 +8,14 @@ optimiser's scale), the equation it adds, and `applicable(data)`, which says why
 fitted on some data. Fitting and prediction go through one model (cosim.audit.twin: the FMU's
 physics, vectorised, with these parameters), so adding a cause is adding one object to
 VOCABULARY.
+
+Forms: a cause may come in more than one form, each its own FMU parameter and law (viscous
+friction that grows with the cable's speed, or with the inlet tension's rate). VOCABULARY holds
+each cause's first form, which every round fits; FORMS lists all of a cause's forms, and the
+others are fitted only for a cause whose first form survives (it removes at least the rule's
+minimum share of the selection blocks' residual: cosim.audit.core.FORM_SCREEN), so a form costs
+fits only where its cause shows. The form is chosen on the selection blocks, as the cause is,
+and printed with the finding (`label`).
 """
 
 from __future__ import annotations
@@ -25,6 +33,7 @@ class Shape:
     bounds: tuple[float, float]
     start: float
     scale: float
+    scanned: bool = False  # not moved by the least squares (no slope): set by the form's scan
 
 
 @dataclass(frozen=True)
@@ -45,6 +54,17 @@ class Effect:
     # where its fit starts when "off" gives it no slope: "t_out_high" (near the largest output
     # reading: a full scale), "t_in_low" (at a low input tension: a slack threshold)
     start_from: str | None = None
+    form: str = ""  # the form's name when the cause has more than one (FORMS)
+    # a start found by a scan before the least squares (cosim.audit.fit._scan_start): "warmup"
+    # (the time constant), "step" (the instant, which the least squares then holds)
+    scan: str | None = None
+
+    @property
+    def label(self) -> str:
+        """The cause as a finding prints it: with its form when it has several."""
+        if len(FORMS.get(self.cause, ())) > 1:
+            return f"{self.cause} (form: {self.form})"
+        return self.cause
 
     @property
     def fmu_params(self) -> tuple[str, ...]:
@@ -116,6 +136,7 @@ VOCABULARY: tuple[Effect, ...] = (
         0.0,
         1.0,
         "mu_eff = mu + mu_viscous * |v_c| (v_c: cable speed at the inlet)",
+        form="cable speed",
     ),
     Effect(
         "tension_dependent_friction",
@@ -145,6 +166,7 @@ VOCABULARY: tuple[Effect, ...] = (
         0.0,
         0.005,
         "T_out_meas = Lag_{sensor_tau}[T_out] (first order)",
+        form="first order",
     ),
     Effect(
         "time_delay",
@@ -164,6 +186,7 @@ VOCABULARY: tuple[Effect, ...] = (
         0.0,
         1e-4,
         "mu_eff = mu + mu_drift * t",
+        form="linear",
     ),
     Effect(
         "slack",
@@ -198,7 +221,60 @@ VOCABULARY: tuple[Effect, ...] = (
     ),
 )
 
+# The further forms of causes of VOCABULARY (each its own FMU parameter), fitted only when the
+# cause's first form survives (module docstring).
+OTHER_FORMS: tuple[Effect, ...] = (
+    Effect(
+        "viscous_friction",
+        "mu_viscous_tension_rate",
+        "s/N",
+        (0.0, 0.05),
+        0.0,
+        1e-3,
+        "mu_eff = mu + mu_viscous_tension_rate * |r_in| (r_in: rate of the inlet tension)",
+        form="tension rate",
+    ),
+    Effect(
+        "lag",
+        "sensor_tau2",
+        "s",
+        (0.0, 0.2),
+        0.0,
+        0.005,
+        "T_out_meas = Lag_{sensor_tau2}[Lag_{sensor_tau2}[T_out]] (second order, critical)",
+        form="second order",
+    ),
+    Effect(
+        "friction_drift",
+        "mu_warmup",
+        "1",
+        (-0.1, 0.1),
+        0.0,
+        0.005,
+        "mu_eff = mu + mu_warmup * (1 - exp(-(t - t_start) / mu_warmup_tau))",
+        shape=(Shape("mu_warmup_tau", "s", (0.2, 1e4), 10.0, 5.0),),
+        form="warm-up",
+        scan="warmup",
+    ),
+    Effect(
+        "friction_drift",
+        "mu_step",
+        "1",
+        (-0.1, 0.1),
+        0.0,
+        0.005,
+        "mu_eff = mu + mu_step * [t >= mu_step_time]",
+        shape=(Shape("mu_step_time", "s", (-1e9, 1e9), 0.0, 1.0, scanned=True),),
+        form="step",
+        scan="step",
+    ),
+)
+
 BY_CAUSE = {e.cause: e for e in VOCABULARY}
-BY_PARAM = {e.fmu_param: e for e in VOCABULARY}
-SHAPES = {sh.fmu_param: sh for e in VOCABULARY for sh in e.shape}
+FORMS: dict[str, tuple[Effect, ...]] = {
+    c: (e, *(o for o in OTHER_FORMS if o.cause == c)) for c, e in BY_CAUSE.items()
+}
+ALL_FORMS: tuple[Effect, ...] = (*VOCABULARY, *OTHER_FORMS)
+BY_PARAM = {e.fmu_param: e for e in ALL_FORMS}
+SHAPES = {sh.fmu_param: sh for e in ALL_FORMS for sh in e.shape}
 CAUSES = tuple(e.cause for e in VOCABULARY)

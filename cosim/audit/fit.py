@@ -79,6 +79,8 @@ def fit_model(
     grid of whole samples (scanned, then its neighbours with the rest refitted)."""
     free = tuple(effects) if free is None else tuple(free)
     start = dict(start or {})
+    # forms whose start a scan finds (effects.Effect.scan), unless the start gives them
+    to_scan = [e for e in free if e.scan and e.fmu_param not in start]
     params: dict[str, float] = {"mu": data.mu_given if data.mu_fixed else 0.075}
     params.update({k: v for k, v in start.items() if k != "mu" or not data.mu_fixed})
     for e in effects:
@@ -88,12 +90,14 @@ def fit_model(
             params.setdefault(sh.fmu_param, sh.start)
     params.setdefault(SPREAD, SPREAD_START)
     names: list[str] = ([] if data.mu_fixed else ["mu"]) + [SPREAD]
-    names += [n for e in free if not e.discrete for n in e.fmu_params]
+    names += [n for e in free if not e.discrete for n in e.fmu_params if n not in _SCANNED]
     delay = next((e for e in free if e.discrete), None)
     ev = _Evaluator(data)
     fit_idx = np.flatnonzero(data.roles == FIT)
     stride = max(1, math.ceil(len(fit_idx) / MAX_FIT_RESIDUALS))
     idx = ev.on_grid(fit_idx, stride)
+    for e in to_scan:
+        params.update(_scan_start(ev, params, e, idx))
     nfev = 0
     if delay is None:
         if names:
@@ -136,6 +140,68 @@ def fit_model(
         nfev=nfev,
         friction_runs=ev.friction_runs + 1,
     )
+
+
+def _scanned() -> frozenset[str]:
+    from .effects import SHAPES  # noqa: PLC0415
+
+    return frozenset(n for n, sh in SHAPES.items() if sh.scanned)
+
+
+_SCANNED = _scanned()
+# the time constants a warm-up's scan tries: from this many seconds to SCAN_TAU_SPAN records
+SCAN_TAU_MIN_S = 0.2
+SCAN_TAU_SPAN = 10.0
+SCAN_TAU_COUNT = 48
+# a step's scan keeps this share of the fit residuals on each side of the instant
+SCAN_STEP_EDGE = 0.05
+SCAN_D_MU = 1e-3  # mu's change for the model's slope in mu that the scans use
+
+
+def _scan_start(ev: _Evaluator, params: dict[str, float], e: Effect, idx: np.ndarray) -> dict:
+    """The start of a drift form whose shape the least squares cannot find from its default
+    (a warm-up's time constant, a step's instant, where the slope is zero): the model's slope in
+    mu, J = d(reading)/d(mu) at the fit residuals, times the form's time course g(t) is the
+    change a small amplitude a makes, a J g; for each time constant (geometric grid) or instant
+    (every gap between fit residuals, SCAN_STEP_EDGE kept on each side) the amplitude that fits
+    the residual r best is a = (r . Jg) / (Jg . Jg), and it removes (r . Jg)^2 / (Jg . Jg). The
+    shape that removes most is taken, with its amplitude (clipped to the bounds). A step's
+    instant falls in the middle of a sample, so that no sample sits on it."""
+    data = ev.data
+    dt = data.inputs.dt_s
+    t0 = data.inputs.t0_s
+    p0 = {**params, e.fmu_param: e.off}
+    pred0 = ev.reading(p0, idx)
+    j = (ev.reading({**p0, "mu": p0["mu"] + SCAN_D_MU}, idx) - pred0) / SCAN_D_MU
+    r = data.t_out_n[idx] - pred0
+    tk = t0 + idx * dt
+    lo, hi = e.bounds
+    shape = e.shape[0].fmu_param
+    if e.scan == "step":
+        rj = np.cumsum((r * j)[::-1])[::-1]
+        jj = np.cumsum((j * j)[::-1])[::-1]
+        n = len(idx)
+        a, b = max(1, int(n * SCAN_STEP_EDGE)), max(2, n - int(n * SCAN_STEP_EDGE))
+        score = rj[a:b] ** 2 / np.maximum(jj[a:b], 1e-300)
+        i = a + int(np.argmax(score))
+        instant = 0.5 * (tk[i - 1] + tk[i])
+        instant = t0 + (math.floor((instant - t0) / dt) + 0.5) * dt
+        amp = rj[i] / jj[i] if jj[i] > 0 else 0.0
+        return {e.fmu_param: float(np.clip(amp, lo, hi)), shape: float(instant)}
+    span = max(float(tk[-1] - t0), SCAN_TAU_MIN_S)
+    best = (-1.0, e.shape[0].start, 0.0)
+    for tau in np.geomspace(SCAN_TAU_MIN_S, SCAN_TAU_SPAN * span, SCAN_TAU_COUNT):
+        jg = j * (1.0 - np.exp(-(tk - t0) / tau))
+        ss = float(jg @ jg)
+        if ss > 0:
+            rg = float(r @ jg)
+            if rg * rg / ss > best[0]:
+                best = (rg * rg / ss, float(tau), rg / ss)
+    tau_lo, tau_hi = e.shape[0].bounds
+    return {
+        e.fmu_param: float(np.clip(best[2], lo, hi)),
+        shape: float(np.clip(best[1], tau_lo, tau_hi)),
+    }
 
 
 def _start(e: Effect, data: AuditData) -> float:
@@ -214,6 +280,9 @@ class _Evaluator:
             creep = float(params.get("sensor_creep", 0.0))
             if creep != 0.0:
                 y = y - creep * (y - _grid_lag(y, float(params["sensor_creep_tau"]), dt, self.q))
+            tau2 = float(params.get("sensor_tau2", 0.0))
+            if tau2 > 0.0:
+                y = _grid_lag(_grid_lag(y, tau2, dt, self.q), tau2, dt, self.q)
             tau = float(params.get("sensor_tau", 0.0))
             if tau > 0.0:
                 y = _grid_lag(y, tau, dt, self.q)

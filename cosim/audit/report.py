@@ -57,6 +57,8 @@ def to_dict(result: AuditResult) -> dict:
         findings.append(
             {
                 "cause": f.effect.cause,
+                "form": f.effect.form or None,
+                "forms_selection_explains_pct": {k: _num(v, 4) for k, v in f.forms.items()},
                 "params": {
                     n: _num(f.value if n == f.effect.fmu_param else result.extended.params[n], 8)
                     for n in f.effect.fmu_params
@@ -82,6 +84,7 @@ def to_dict(result: AuditResult) -> dict:
                 "candidates": [
                     {
                         "cause": c.effect.cause,
+                        "form": c.effect.form or None,
                         "params": {n: _num(c.model.params[n]) for n in c.effect.fmu_params},
                         "selection_explains_pct": _num(c.explained_pct, 4),
                         "block_t": _num(c.t, 4),
@@ -203,11 +206,12 @@ def summary(result: AuditResult) -> str:
         f"  rule     {result.rule.text()}",
     ]
     if result.findings:
-        lines.append(f"  {'finding':<28}{'FMU parameter':<32}{'explains':>9}{'block t':>9}")
+        w = max(28, *(len(f.effect.label) + 2 for f in result.findings))
+        lines.append(f"  {'finding':<{w}}{'FMU parameter':<32}{'explains':>9}{'block t':>9}")
         for f in result.findings:
             flag = f"  (or {f.ambiguous_with})" if f.ambiguous_with else ""
             lines.append(
-                f"  {f.effect.cause:<28}{f.effect.describe(f.value):<32}"
+                f"  {f.effect.label:<{w}}{f.effect.describe(f.value):<32}"
                 f"{f.explains_pct:>8.1f}%{f.t:>9.1f}{flag}"
             )
             lines.append(f"      why: {f.evidence}")
@@ -447,7 +451,7 @@ def markdown(result: AuditResult, data: dict, plot_names: list[str]) -> str:
         ]
         for f in result.findings:
             lines.append(
-                f"| {f.effect.cause}{' (or ' + f.ambiguous_with + ')' if f.ambiguous_with else ''} "
+                f"| {f.effect.label}{' (or ' + f.ambiguous_with + ')' if f.ambiguous_with else ''} "
                 f"| {f.effect.describe_all(result.extended.params)} "
                 f"| {f.explains_pct:.1f} % | {f.t:.1f} "
                 f"| {f.evidence} |"

@@ -11,25 +11,32 @@ What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effe
 - the sheath as BOWDEN_N_SEG = 32 segments; each node keeps its tension unless the capstan bound
   to its neighbour, T_{k-1} exp(-mu dphi) <= T_k <= T_{k-1} exp(+mu dphi), pushes it (Eq. 1-3,
   the dead zone at reversals included), with dphi = max(0, phi(x, y, z) + phi_offset_per_z z)/32;
-- mu_eff = mu + mu_viscous |v_c| + mu_drift t (+ mu_tension_slope T_{k-1} per segment), with
-  v_c the rate of the cable's inlet displacement (stretch in the sheath / EA + T_out / k_lc)
-  low-pass filtered with 10 ms, as the FMU computes it after each step and uses in the next;
+- mu_eff = mu + mu_viscous |v_c| + mu_viscous_tension_rate |r_in| + mu_drift t
+  + mu_warmup (1 - exp(-(t - t0) / mu_warmup_tau)) + mu_step [t >= mu_step_time]
+  (+ mu_tension_slope T_{k-1} per segment), with v_c the rate of the cable's inlet displacement
+  (stretch in the sheath / EA + T_out / k_lc) and r_in the rate of the inlet tension, each
+  low-pass filtered with 10 ms, as the FMU computes them after each step and uses in the next;
 - the gradual dead zone (fmu/README.md, "Gradual dead zone"): with dead_zone_spread > 0 the
   output is T_n * mean_j(S_j) / S_ref over 8 lumped capstans of log-normally spread widths;
 - static friction (fmu/README.md, "Static friction"): the strands remember the way they last
   slid, and one that must reverse is held by the breakaway width (mu + mu_static_excess) phi
   before it jumps to the kinetic bound; slack: T_out * min(1, T_in / slack_tension);
-- the output sensor: the load cell's creep (sensor_creep, sensor_creep_tau), first-order lag
-  sensor_tau (exact for a step held over the sample), pure delay sensor_delay (a whole number
-  of samples here, which the FMU then reproduces exactly), gain and offset, and the full scale
-  (sensor_full_scale, a hard clip or a hyperbolic knee sensor_saturation_knee). With both creep
-  and lag on, the FMU's lag sees the creep move within a sample, which the twin's per-sample
-  cascade does not (a difference of the order of sensor_creep * dt / sensor_creep_tau of a
-  step).
+- the output sensor: the load cell's creep (sensor_creep, sensor_creep_tau), the second-order
+  lag sensor_tau2 (two equal first-order stages, exact for a value held over the sample),
+  first-order lag sensor_tau (exact for a step held over the sample), pure delay sensor_delay (a
+  whole number of samples here, which the FMU then reproduces exactly), gain and offset, and the
+  full scale (sensor_full_scale, a hard clip or a hyperbolic knee sensor_saturation_knee). With
+  both creep and lag on, the FMU's lag sees the creep move within a sample, which the twin's
+  per-sample cascade does not (a difference of the order of sensor_creep * dt / sensor_creep_tau
+  of a step); so does the first-order lag after the second-order one (20 mN at the FMU's default
+  step on a test input; the audit runs one internal step per sample, where they agree, and never
+  fits both lags).
 
 Assumptions of the twin that the FMU does not make: the friction of a step uses the time at its
-start for mu_drift (the FMU moves it on by each internal step of max_step within a sample: a
-change of at most mu_drift * 1 ms), and the cable's axial rigidity and the load cell's stiffness
+start for mu_drift, mu_warmup and mu_step (the FMU moves it on by each internal step of max_step
+within a sample: a change of at most mu_drift * 1 ms, and a step seen up to one sample earlier;
+with one internal step per sample, as the audit runs it, the two agree), and the cable's axial
+rigidity and the load cell's stiffness
 are the FMU's defaults (they enter only through v_c, so only mu_viscous depends on them).
 """
 
@@ -41,7 +48,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from scipy.signal import lfilter
+from scipy.signal import lfilter, lfilter_zi
 
 # Constants of fmu/src/bowden_physics.[ch] and the FMU's defaults (fmu/gen_model.py); a test
 # compares them with the built FMU.
@@ -60,7 +67,7 @@ STRAND_Q = np.array(
         1.5341205443525463,
     ]
 )
-SPEED_TAU_S = 0.01  # BOWDEN_SPEED_TAU_S, filter of the cable speed v_c
+SPEED_TAU_S = 0.01  # BOWDEN_SPEED_TAU_S, filter of the cable speed v_c and the tension rate
 CABLE_EA_N = 8000.0  # cable_EA default
 LOADCELL_N_PER_M = 2e5  # loadcell_stiffness default
 
@@ -103,8 +110,13 @@ def _friction(
     phi_off,
     mu,
     mu_visc,
+    mu_rate,
     slope,
     drift,
+    warm,
+    warm_tau,
+    step,
+    step_t,
     spread,
     static,
     slack,
@@ -125,6 +137,8 @@ def _friction(
     alpha_speed = 1.0 - math.exp(-dt / 0.01)
     speed = 0.0
     disp_prev = 0.0
+    rate = 0.0  # the inlet tension's rate, filtered as the cable speed
+    tin_prev = 0.0
     # The exponentials depend on the sample only through mu_c * dphi (the segments) and the
     # strands' widths w, ws: computed again only when those change (the same expressions, so
     # the same numbers; positions are held for seconds and mu_c is constant without viscous
@@ -144,12 +158,16 @@ def _friction(
     # (each was inside its bounds from its unchanged neighbour after the last sample), so the
     # sweep stops there: the same numbers. (The stretch, summed only up to there, feeds only the
     # cable speed, which then enters nothing.)
-    may_stop = mu_visc == 0.0 and drift == 0.0
+    may_stop = mu_visc == 0.0 and mu_rate == 0.0 and drift == 0.0 and warm == 0.0 and step == 0.0
     dphi_prev = -1.0
     for k in range(n):
         # friction_now(): mu from the cable speed of the last step and the time at the step start
         t = t0 + (k - 1) * dt if k > 0 else t0
-        mu_base = mu + mu_visc * abs(speed) + drift * t
+        mu_base = mu + mu_visc * abs(speed) + mu_rate * abs(rate) + drift * t
+        if warm != 0.0:
+            mu_base += warm * (1.0 - math.exp(-(t - t0) / warm_tau))
+        if step != 0.0 and t >= step_t:
+            mu_base += step
         mu_c = mu_base if mu_base > 0.0 else 0.0
         phi = dphi_geom[k] + phi_off * z[k]
         dphi = (phi if phi > 0.0 else 0.0) / n_seg
@@ -217,7 +235,9 @@ def _friction(
         disp = stretch * ds / ea + tens[n_seg] / klc
         if k > 0:
             speed += ((disp - disp_prev) / dt - speed) * alpha_speed
+            rate += ((tin - tin_prev) / dt - rate) * alpha_speed
         disp_prev = disp
+        tin_prev = tin
     return out
 
 
@@ -231,8 +251,13 @@ def friction_output(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndar
         float(p["phi_offset_per_z"]),
         float(p["mu"]),
         float(p["mu_viscous"]),
+        float(p["mu_viscous_tension_rate"]),
         float(p["mu_tension_slope"]),
         float(p["mu_drift"]),
+        float(p["mu_warmup"]),
+        float(p["mu_warmup_tau"]),
+        float(p["mu_step"]),
+        float(p["mu_step_time"]),
         float(p["dead_zone_spread"]),
         float(p["mu_static_excess"]),
         float(p["slack_tension"]),
@@ -253,6 +278,13 @@ def _creep_and_lag(y: np.ndarray, p: Mapping[str, float], dt_s: float) -> np.nda
         a = math.exp(-dt_s / float(p["sensor_creep_tau"]))
         lp = lfilter([1.0 - a], [1.0, -a], y, zi=[a * y[0]])[0]
         y = y - creep * (y - lp)
+    tau2 = float(p["sensor_tau2"])
+    if tau2 > 0.0:  # the second-order lag: 1 / (tau2 s + 1)^2 exact for a value held over the
+        # sample, before the first-order lag (x2_k = u + a (x2 - u) + c a (x1 - u), c = dt/tau2)
+        a = math.exp(-dt_s / tau2)
+        c = dt_s / tau2
+        b, den = [1.0 - a - c * a, a * a - a + c * a], [1.0, -2.0 * a, a * a]
+        y = lfilter(b, den, y, zi=lfilter_zi(b, den) * y[0])[0]
     tau = float(p["sensor_tau"])
     if tau > 0.0:
         a = math.exp(-dt_s / tau)
@@ -275,7 +307,7 @@ def sensor_output(t_out_n: np.ndarray, params: Mapping[str, float], dt_s: float)
     )
 
 
-SENSOR_DYNAMIC_PARAMS = ("sensor_creep", "sensor_tau", "sensor_delay")
+SENSOR_DYNAMIC_PARAMS = ("sensor_creep", "sensor_tau", "sensor_tau2", "sensor_delay")
 
 
 def sensor_dynamic(params: Mapping[str, float]) -> bool:
@@ -326,9 +358,14 @@ def simulate(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndarray:
 FRICTION_PARAMS = (
     "mu",
     "mu_viscous",
+    "mu_viscous_tension_rate",
     "mu_tension_slope",
     "phi_offset_per_z",
     "mu_drift",
+    "mu_warmup",
+    "mu_warmup_tau",
+    "mu_step",
+    "mu_step_time",
     "dead_zone_spread",
     "mu_static_excess",
     "slack_tension",
@@ -340,11 +377,16 @@ OFF = {
     "sensor_offset": 0.0,
     "sensor_gain": 1.0,
     "mu_viscous": 0.0,
+    "mu_viscous_tension_rate": 0.0,
     "mu_tension_slope": 0.0,
     "phi_offset_per_z": 0.0,
     "sensor_tau": 0.0,
     "sensor_delay": 0.0,
     "mu_drift": 0.0,
+    "mu_warmup": 0.0,
+    "mu_warmup_tau": 60.0,
+    "mu_step": 0.0,
+    "mu_step_time": 0.0,
     "dead_zone_spread": 0.0,
     "mu_static_excess": 0.0,
     "slack_tension": 0.0,
@@ -352,6 +394,7 @@ OFF = {
     "sensor_saturation_knee": 0.0,
     "sensor_creep": 0.0,
     "sensor_creep_tau": 1.0,
+    "sensor_tau2": 0.0,
 }
 
 

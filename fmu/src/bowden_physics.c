@@ -18,7 +18,8 @@
    bracket turns any cycling into bisection, which 60 iterations take below 1e-18 of the range. */
 #define BOWDEN_NEWTON_MAX 60
 
-/* Time constant of the cable-speed estimate that mu_viscous uses [s] (assumed; README). */
+/* Time constant of the cable-speed and tension-rate estimates that mu_viscous and
+   mu_viscous_tension_rate use [s] (assumed; README). */
 #define BOWDEN_SPEED_TAU_S 0.01
 
 void bowden_model_defaults(BowdenModel *m)
@@ -119,7 +120,16 @@ typedef struct {
 static Friction friction_now(BowdenModel *m)
 {
     Friction f;
-    double mu = m->p.mu + m->p.mu_viscous * fabs(m->cable_speed_m_s) + m->p.mu_drift * m->time_s;
+    double mu = m->p.mu + m->p.mu_viscous * fabs(m->cable_speed_m_s) +
+                m->p.mu_viscous_tension_rate * fabs(m->tension_rate_n_s) +
+                m->p.mu_drift * m->time_s;
+    /* the drift's other forms (README, "Friction drift") */
+    if (m->p.mu_warmup != 0.0) {
+        mu += m->p.mu_warmup * (1.0 - exp(-(m->time_s - m->start_time_s) / m->p.mu_warmup_tau));
+    }
+    if (m->p.mu_step != 0.0 && m->time_s >= m->p.mu_step_time) {
+        mu += m->p.mu_step;
+    }
     f.dphi = effective_phi(m) / BOWDEN_N_SEG;
     f.mu_base = mu;
     f.slope = m->p.mu_tension_slope;
@@ -464,7 +474,7 @@ static void substep(BowdenModel *m, double h)
 {
     const double ds = m->p.sheath_length / BOWDEN_N_SEG;
     Friction f = friction_now(m);
-    double t0 = m->time_s, y0 = m->sensor_lag_n, stretch = 0.0, t_out;
+    double t0 = m->time_s, y0 = m->sensor_lag_n, stretch = 0.0, t_out, reading;
     int k;
 
     if (m->p.drive_mode == 1) {
@@ -480,7 +490,16 @@ static void substep(BowdenModel *m, double h)
     m->time_s = t0 + h;
     t_out = output_tension(m);
     m->creep_lp_n += (t_out - m->creep_lp_n) * m->alpha_creep;
-    m->sensor_lag_n += (creep_reading(m, t_out) - m->sensor_lag_n) * m->alpha_sensor;
+    reading = creep_reading(m, t_out);
+    if (m->p.sensor_tau2 > 0.0) {
+        /* the second-order lag (README, "Sensor dynamics"): two equal first-order stages,
+           exact for their input held over the step (the second sees the first move) */
+        const double a = m->decay_sensor2, c = h / m->p.sensor_tau2, x1 = m->sensor_lag2a_n;
+        m->sensor_lag2b_n = reading + a * (m->sensor_lag2b_n - reading) + c * a * (x1 - reading);
+        m->sensor_lag2a_n = reading + a * (x1 - reading);
+        reading = m->sensor_lag2b_n;
+    }
+    m->sensor_lag_n += (reading - m->sensor_lag_n) * m->alpha_sensor;
     delay_push(m, t0, y0, m->time_s, m->sensor_lag_n);
 }
 
@@ -493,6 +512,7 @@ static void update_step_constants(BowdenModel *m, double h)
     m->alpha_current = 1.0 - exp(-h * TWO_PI * m->p.current_bandwidth);
     m->alpha_sensor = m->p.sensor_tau > 0.0 ? 1.0 - exp(-h / m->p.sensor_tau) : 1.0;
     m->alpha_creep = 1.0 - exp(-h / m->p.sensor_creep_tau);
+    m->decay_sensor2 = m->p.sensor_tau2 > 0.0 ? exp(-h / m->p.sensor_tau2) : 0.0;
 }
 
 /* ---- public ------------------------------------------------------------------------------- */
@@ -506,6 +526,7 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
         return 1;
     }
     m->time_s = start_time_s;
+    m->start_time_s = start_time_s;
     m->geom_valid = 0;
     m->cache_h_s = -1.0;
     m->cache_mu = -1.0;
@@ -517,6 +538,7 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
     m->motor_angle_rad = 0.0;
     m->motor_speed_rad_s = 0.0;
     m->cable_speed_m_s = 0.0;
+    m->tension_rate_n_s = 0.0;
     memset(m->tension_n, 0, sizeof(m->tension_n));
     memset(m->strand_n, 0, sizeof(m->strand_n));
     memset(m->strand_dir, 0, sizeof(m->strand_dir));
@@ -540,6 +562,8 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
         inlet_displacement(m, stretch * m->p.sheath_length / BOWDEN_N_SEG, m->tension_n[BOWDEN_N_SEG]);
     m->creep_lp_n = output_tension(m); /* the initial load has settled on the load cell */
     m->sensor_lag_n = output_tension(m);
+    m->sensor_lag2a_n = m->sensor_lag_n;
+    m->sensor_lag2b_n = m->sensor_lag_n;
     m->delay_t0_s = start_time_s;
     m->delay_buf_n[0] = m->sensor_lag_n;
     m->delay_count = 1;
@@ -549,7 +573,7 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
 
 int bowden_model_step(BowdenModel *m, double step_s, char *msg, size_t msg_len)
 {
-    double n_sub_f, h, disp0;
+    double n_sub_f, h, disp0, t_in0, alpha_rate;
     long n_sub, i;
     if (!(step_s > 0.0) || !isfinite(step_s)) {
         snprintf(msg, msg_len, "communicationStepSize = %g s must be > 0 and finite", step_s);
@@ -570,6 +594,7 @@ int bowden_model_step(BowdenModel *m, double step_s, char *msg, size_t msg_len)
     h = step_s / (double)n_sub;
     update_step_constants(m, h);
     disp0 = m->inlet_disp_m;
+    t_in0 = m->tension_n[0];
     for (i = 0; i < n_sub; i++) {
         substep(m, h);
     }
@@ -577,8 +602,11 @@ int bowden_model_step(BowdenModel *m, double step_s, char *msg, size_t msg_len)
        drive mode 1 the cable moves in the first internal step only), low-pass filtered with
        BOWDEN_SPEED_TAU_S. Unfiltered, the explicit speed -> friction -> stretch coupling
        chatters between stick and slip from one step to the next. */
-    m->cable_speed_m_s += ((m->inlet_disp_m - disp0) / step_s - m->cable_speed_m_s) *
-                          (1.0 - exp(-step_s / BOWDEN_SPEED_TAU_S));
+    alpha_rate = 1.0 - exp(-step_s / BOWDEN_SPEED_TAU_S);
+    m->cable_speed_m_s += ((m->inlet_disp_m - disp0) / step_s - m->cable_speed_m_s) * alpha_rate;
+    /* The inlet tension's rate for mu_viscous_tension_rate (README, "Viscous friction"): the
+       same mean over the communication step and the same filter. */
+    m->tension_rate_n_s += ((m->tension_n[0] - t_in0) / step_s - m->tension_rate_n_s) * alpha_rate;
     if (m->p.noise_std > 0.0) {
         double g1, g2;
         rng_gauss_pair(&m->rng_state, &g1, &g2);
@@ -601,7 +629,11 @@ int bowden_model_check_state(const BowdenModel *m, char *msg, size_t msg_len)
         {"motor_speed_rad_s", m->motor_speed_rad_s},
         {"inlet_disp_m", m->inlet_disp_m},
         {"cable_speed_m_s", m->cable_speed_m_s},
+        {"tension_rate_n_s", m->tension_rate_n_s},
+        {"start_time_s", m->start_time_s},
         {"sensor_lag_n", m->sensor_lag_n},
+        {"sensor_lag2a_n", m->sensor_lag2a_n},
+        {"sensor_lag2b_n", m->sensor_lag2b_n},
         {"creep_lp_n", m->creep_lp_n},
         {"delay_t0_s", m->delay_t0_s},
         {"noise_in_n", m->noise_in_n},
@@ -613,6 +645,7 @@ int bowden_model_check_state(const BowdenModel *m, char *msg, size_t msg_len)
         {"cache_h_s", m->cache_h_s},
         {"alpha_current", m->alpha_current},
         {"alpha_sensor", m->alpha_sensor},
+        {"decay_sensor2", m->decay_sensor2},
         {"alpha_creep", m->alpha_creep},
         {"cache_mu", m->cache_mu},
         {"cache_dphi", m->cache_dphi},

@@ -57,7 +57,10 @@ typedef struct {
                                                filtered with sensor_creep_tau */
     double inlet_disp_m;                    /* cable displacement at the sheath inlet */
     double cable_speed_m_s;                 /* d(inlet_disp_m)/dt */
+    double tension_rate_n_s;                /* d(T_in)/dt, filtered as cable_speed_m_s */
+    double start_time_s;                    /* time of the start (mu_warmup counts from it) */
     double sensor_lag_n;                    /* output sensor after its first-order lag */
+    double sensor_lag2a_n, sensor_lag2b_n;  /* the two stages of its second-order lag */
     double delay_buf_n[BOWDEN_DELAY_LEN];   /* ring buffer of sensor_lag_n on the grid */
     double delay_t0_s;                      /* time of grid sample 0 */
     int64_t delay_count;                    /* grid samples written so far */
@@ -68,7 +71,7 @@ typedef struct {
     double geom_x_m, geom_y_m, geom_z_m;
     double phi_geom_rad;
     int geom_valid;
-    double cache_h_s, alpha_current, alpha_sensor, alpha_creep;
+    double cache_h_s, alpha_current, alpha_sensor, alpha_creep, decay_sensor2;
     double cache_mu, cache_dphi, exp_plus, exp_minus;
 } BowdenModel;
 

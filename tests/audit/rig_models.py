@@ -32,6 +32,10 @@ from cosim.results import trace
 RATE_HZ = 1000.0
 STRANDS = 12
 SEGMENTS = 4
+# the rig's cable for its viscous friction along the sheath (rig_record): 1 m of a braided line
+# of 6 kN axial rigidity (assumed)
+RIG_LENGTH_M = 1.0
+RIG_EA_N = 6000.0
 
 
 def wandering_input(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -94,6 +98,7 @@ def _braid(t_in, phi, mus, extra_mu, segments, static_ratio):
     # its whole length; then every segment drops to sliding friction at once (stick-slip).
     slid = np.zeros(mus.shape[0])
     out = np.empty(n)
+    along = np.empty(n)  # the mean tension along the cable: the input and every segment's
     for k in range(n):
         dphi = phi[k] / segments
         total = 0.0
@@ -108,7 +113,8 @@ def _braid(t_in, phi, mus, extra_mu, segments, static_ratio):
                 t, moved = _chain(held, j, t_in[k], c, c, segments)
             total += t
         out[k] = total / mus.shape[0]
-    return out
+        along[k] = (t_in[k] + np.sum(held) / mus.shape[0]) / (segments + 1)
+    return out, along
 
 
 def braid_output(t_in, phi, mus, extra_mu=None, static_ratio: float = 1.0) -> np.ndarray:
@@ -119,7 +125,16 @@ def braid_output(t_in, phi, mus, extra_mu=None, static_ratio: float = 1.0) -> np
     t_in = np.ascontiguousarray(t_in, dtype=float)
     extra = np.zeros(len(t_in)) if extra_mu is None else np.ascontiguousarray(extra_mu, float)
     phi = np.ascontiguousarray(phi, float)
-    return _braid(t_in, phi, np.asarray(mus, float), extra, SEGMENTS, float(static_ratio))
+    return _braid(t_in, phi, np.asarray(mus, float), extra, SEGMENTS, float(static_ratio))[0]
+
+
+def braid_mean_tension(t_in, phi, mus, static_ratio: float = 1.0) -> np.ndarray:
+    """The braid's mean tension along the cable per sample (its input and its segments' held
+    tensions, averaged over the strands), without extra friction."""
+    t_in = np.ascontiguousarray(t_in, dtype=float)
+    phi = np.ascontiguousarray(phi, float)
+    extra = np.zeros(len(t_in))
+    return _braid(t_in, phi, np.asarray(mus, float), extra, SEGMENTS, float(static_ratio))[1]
 
 
 def held_positions(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -154,11 +169,15 @@ def rig_record(
     creep_tau_s: float = 1.0,
     spikes: tuple[int, float] | None = None,
     ring: tuple[float, float, float] | None = None,
+    viscous_rate_s_n: float = 0.0,
+    viscous_speed_s_m: float = 0.0,
+    drift: tuple[str, float, float] | None = None,
+    lag2_s: float = 0.0,
     name: str = "rig.csv",
 ) -> Path:
     """Write a rig record (CSV and a sidecar without mu). `periodic` = (amplitude N, frequency
     Hz) adds a sinusoidal pickup to the output sensor (mains, a pump, a fan). The rig's own
-    forms of four effects, each off by default:
+    forms of five effects, each off by default:
 
     - `static_ratio`: static friction, breakaway at that multiple of the sliding friction in
       every segment, overcome along a strand's whole length before it moves (braid_output);
@@ -167,6 +186,21 @@ def rig_record(
       the share t_in / slack_n of the braid's tension;
     - `full_scale_n`: the output amplifier's rail: its reading is clipped there (before the
       noise of the acquisition);
+    - `viscous_rate_s_n`: a lubricant's shear that follows how fast the tension changes: every
+      strand's mu rises by viscous_rate_s_n * |dT_in/dt|, the input's rate by central
+      differences of the true input (no filter);
+    - `viscous_speed_s_m`: the lubricant's shear follows the cable's speed along the sheath
+      instead: every strand's mu rises by viscous_speed_s_m * |v|, v the rate of the cable's
+      elastic stretch, RIG_LENGTH_M / RIG_EA_N times the rate of the braid's mean tension along
+      the cable (braid_mean_tension; central differences, no filter; of the braid without the
+      viscous part: one pass, the part's effect on the stretch is second order);
+    - `drift` = (form, size, time): every strand's mu changes over the record, "linear" by size
+      per second from the start (time unused), "warm-up" by size * (1 - exp(-t / time)) (the
+      lubricant settling from the start), "step" by size from the instant time on (a new
+      stretch of liner reached, a lubricant lost);
+    - `lag2_s`: the output sensor as a critically damped second-order system of two equal time
+      constants (a load cell's mass on its spring, or an amplifier's two-pole filter), by the
+      bilinear transform (after the first-order `lag_s` when both are set);
     - `creep`, `creep_tau_s`: the load cell's spring and a viscoelastic element in parallel (a
       standard linear solid): a share `creep` of a change in tension is read only as the element
       relaxes with creep_tau_s (integrated by backward Euler at the sample rate).
@@ -188,7 +222,24 @@ def rig_record(
     else:
         pos = None
         phi = np.full(n, 2.0 * math.pi)  # loop routing in the loop's plane (paper Sec. III-A)
-    out = braid_output(t_in, phi, strand_mus(mu, spread, rng), static_ratio=static_ratio)
+    extra_mu = None
+    mus = strand_mus(mu, spread, rng)
+    if viscous_rate_s_n != 0.0:
+        extra_mu = viscous_rate_s_n * np.abs(np.gradient(t_in) * RATE_HZ)
+    if drift is not None:
+        form, size, when = drift
+        if form == "linear":
+            change = size * t
+        elif form == "warm-up":
+            change = size * (1.0 - np.exp(-t / when))
+        else:
+            change = np.where(t >= when, size, 0.0)
+        extra_mu = change if extra_mu is None else extra_mu + change
+    if viscous_speed_s_m != 0.0:
+        along = braid_mean_tension(t_in, phi, mus, static_ratio=static_ratio)
+        speed = RIG_LENGTH_M / RIG_EA_N * np.gradient(along) * RATE_HZ
+        extra_mu = (0.0 if extra_mu is None else extra_mu) + viscous_speed_s_m * np.abs(speed)
+    out = braid_output(t_in, phi, mus, extra_mu=extra_mu, static_ratio=static_ratio)
     if slack_n > 0.0:
         out = out * np.clip(t_in / slack_n, 0.0, 1.0)
     if creep != 0.0:
@@ -207,6 +258,12 @@ def rig_record(
             acc = a * acc + (1.0 - a) * out[k]
             y[k] = acc
         out = y
+    if lag2_s > 0.0:  # a critically damped second-order sensor, 1 / (lag2_s s + 1)^2, by
+        # the bilinear transform at the sample rate, starting settled
+        from scipy.signal import bilinear, lfilter, lfilter_zi  # noqa: PLC0415
+
+        b, a = bilinear([1.0], [lag2_s**2, 2.0 * lag2_s, 1.0], fs=RATE_HZ)
+        out = lfilter(b, a, out, zi=lfilter_zi(b, a) * out[0])[0]
     reading = gain * out + offset_n
     if full_scale_n > 0.0:
         reading = np.minimum(reading, full_scale_n)

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cosim.audit import twin
+from cosim.audit import core, twin
 from cosim.audit.synthetic import fmu_record
 from cosim.config.run import load_params
 from cosim.engines import experiment as sim
@@ -212,10 +212,25 @@ def test_emit_params_into_a_file_where_a_folder_is_needed_is_one_clear_line(tmp_
         {"sensor_full_scale": 10.0, "sensor_saturation_knee": 2.0, "sensor_offset": 0.4},
         {"sensor_creep": 0.05, "sensor_creep_tau": 0.8},
         {"sensor_creep": -0.04, "sensor_creep_tau": 2.0, "sensor_delay": 0.005},
+        {"mu_viscous_tension_rate": 0.003},
+        {"mu_viscous_tension_rate": 0.002, "dead_zone_spread": 0.5, "mu_static_excess": 0.03},
+        # strong effects (viscous friction raising mu by up to 0.5, with the sensor's gain,
+        # offset and lag: the set the audit once named on a rig whose friction followed the
+        # tension rate, when the report gave 55 mN between twin and FMU)
+        {"mu_viscous": 40.0, "sensor_tau": 0.04, "sensor_gain": 0.9, "sensor_offset": 0.6},
+        {"mu_viscous_tension_rate": 0.02, "sensor_tau": 0.04, "sensor_gain": 0.9},
+        {"mu_warmup": -0.03, "mu_warmup_tau": 1.5},
+        {"mu_step": 0.02, "mu_step_time": 1.2345, "dead_zone_spread": 0.4, "sensor_tau": 0.005},
+        {"mu_step": -0.015, "mu_step_time": 2.5005, "mu_warmup": 0.01, "mu_warmup_tau": 0.7},
+        {"sensor_tau2": 0.006},
+        {"sensor_tau2": 0.02, "sensor_gain": 1.1, "sensor_delay": 0.004},
+        {"sensor_tau2": 0.008, "sensor_creep": 0.03, "sensor_creep_tau": 1.0},
+        {"sensor_tau2": 0.01, "sensor_tau": 0.004},
     ],
 )
 def test_twin_agrees_with_the_fmu(effect):
-    """The fitting twin and the FMU that reports, on the same inputs (4 s at 1 kHz, moving)."""
+    """The fitting twin and the FMU that reports, on the same inputs (4 s at 1 kHz, moving), at
+    the FMU's default internal step and at the audit's (one per sample)."""
     n, dt = 4000, 1e-3
     t = np.arange(n) * dt
     rng = np.random.default_rng(7)
@@ -227,7 +242,16 @@ def test_twin_agrees_with_the_fmu(effect):
     )
     params = {"mu": 0.08, **effect}
     a = twin.simulate(inputs, params)
-    b = twin.run_fmu(inputs, params)
+    if not {"mu_warmup", "mu_step"} & set(effect) and not {"sensor_tau2", "sensor_tau"} <= set(
+        effect
+    ):
+        # (a warm-up or a step moves mu within a sample at the FMU's default internal step,
+        # where the twin uses the time at the sample's start; the first-order lag after the
+        # second-order one sees its input move within the sample, 20 mN here, where the twin
+        # holds it: cosim/audit/twin.py. The audit never fits both lags: one cause, two forms)
+        b = twin.run_fmu(inputs, params)
+        assert np.max(np.abs(a - b)) < 1e-4, np.max(np.abs(a - b))
+    b = twin.run_fmu(inputs, params, max_step_s=twin.fmu_step_for(dt))
     assert np.max(np.abs(a - b)) < 1e-4, np.max(np.abs(a - b))
 
 
@@ -240,3 +264,14 @@ def test_an_audit_without_positions_prints_no_warning(tmp_path):
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stderr == "", out.stderr
     assert (tmp_path / "rig_audit" / "residual_vs_tin.png").is_file()
+
+
+def test_the_report_says_by_how_much_the_twin_and_the_fmu_differ():
+    """A difference between the twin that fitted and the FMU that reports beyond a tenth of the
+    noise floor is a warning with its size (the 55 mN once seen under a strong viscous friction
+    was only in audit.json's figure); agreement far below the noise says nothing."""
+    line = core.twin_fmu_warning(0.055, 0.03)
+    assert line is not None and "55.0 mN" in line and "1.8 x the noise floor" in line
+    assert core.twin_fmu_warning(2e-15, 0.03) is None
+    assert core.twin_fmu_warning(0.002, 0.03) is None
+    assert core.twin_fmu_warning(float("nan"), 0.03) is not None

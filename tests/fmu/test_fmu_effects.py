@@ -63,6 +63,60 @@ def test_mu_viscous_raises_friction_with_cable_speed(make_plant):
     assert seen[2] > seen[1] + 0.1
 
 
+def test_mu_viscous_tension_rate_raises_friction_with_the_inlet_tension_rate(make_plant):
+    """The second form of viscous friction (fmu/README.md "Viscous friction"): the same 0 -> 20 N
+    ramp in 2 s and 0.2 s, so 10 and 100 N/s; once the 10 ms filter of the rate has settled,
+    the loading line's mu is mu + mu_viscous_tension_rate * rate, whatever the cable's speed."""
+    rate_coef = 1e-3
+    for n, rate in ((20000, 10.0), (2000, 100.0)):
+        plant = make_plant({"drive_mode": 1, "mu_viscous_tension_rate": rate_coef})
+        out = ramp(plant, np.linspace(0, 20, n))
+        assert loading_mu(out, -1) == pytest.approx(MU + rate_coef * rate, rel=1e-3)
+    # held: the rate decays with the filter and mu returns to the plain coefficient's loading
+    # line at a new loading (the held tension itself stays in the dead zone)
+    plant = make_plant({"drive_mode": 1, "mu_viscous_tension_rate": rate_coef})
+    ramp(plant, np.linspace(0, 20, 2000))
+    ramp(plant, np.full(2000, 20.0))
+    out = ramp(plant, np.linspace(20, 24, 40000))
+    assert loading_mu(out, -1) == pytest.approx(MU + rate_coef * 1.0, rel=1e-3)
+
+
+def test_friction_drift_warms_up_from_the_start_or_steps_at_an_instant(make_plant):
+    """The drift's other forms (fmu/README.md "Friction drift"): a slow ramp keeps the cable on
+    its loading line, whose mu is mu + mu_warmup (1 - exp(-(t - t_start)/tau)), or mu + mu_step
+    once t >= mu_step_time; t_start is the FMU's start time (the make_plant fixture's 0)."""
+    n, dt = 20000, 1e-4  # 2 s of loading, 0 -> 20 N
+    plant = make_plant({"drive_mode": 1, "mu_warmup": -0.02, "mu_warmup_tau": 0.5})
+    out = ramp(plant, np.linspace(0, 20, n), dt)
+    for k in (4999, 9999, n - 1):  # the friction of a step uses the time at its start
+        t = k * dt
+        expected = MU - 0.02 * (1.0 - math.exp(-t / 0.5))
+        assert loading_mu(out, k) == pytest.approx(expected, rel=1e-6)
+    # (a falling mu, so that the loading cable follows it at once: a rising one would hold it
+    # in a dead zone until the input caught up)
+    plant = make_plant({"drive_mode": 1, "mu_step": -0.01, "mu_step_time": 1.00005})
+    out = ramp(plant, np.linspace(0, 20, n), dt)
+    assert loading_mu(out, 9999) == pytest.approx(MU, rel=1e-9)  # starts at t = 0.9999 s
+    assert loading_mu(out, 10001) == pytest.approx(MU - 0.01, rel=1e-9)
+    assert loading_mu(out, n - 1) == pytest.approx(MU - 0.01, rel=1e-9)
+
+
+def test_sensor_tau2_reads_a_step_through_two_equal_stages(make_plant):
+    """The second-order form of the sensor's lag (fmu/README.md "Sensor dynamics"): a step of
+    the true output is read as 1 - (1 + t/tau) exp(-t/tau) of it (critically damped), at any
+    internal step, and not at all by the input sensor."""
+    tau = 0.01
+    plant = make_plant({"drive_mode": 1, "sensor_tau2": tau, "max_step": 1e-4})
+    ramp(plant, np.full(500, 10.0), 1e-3)  # settled at 10 N on the loading line
+    before = plant.y[Plant.T_OUT]
+    out = ramp(plant, np.full(400, 14.0), 1e-3)
+    step = out[0, Plant.T_OUT] - before
+    t = np.arange(1, 401) * 1e-3
+    expected = before + step * (1.0 - (1.0 + t / tau) * np.exp(-t / tau))
+    assert np.allclose(out[:, Plant.T_OUT_MEAS], expected, atol=1e-9 * step)
+    assert np.array_equal(out[:, Plant.T_IN_MEAS], out[:, Plant.T_IN])
+
+
 def test_mu_tension_slope_makes_friction_grow_with_tension(make_plant):
     plant = make_plant({"drive_mode": 1, "mu_tension_slope": 0.002})
     out = ramp(plant, np.linspace(0, 20, 2000))

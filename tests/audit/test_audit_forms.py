@@ -1,0 +1,192 @@
+"""A cause in more than one form (cosim/audit/effects.py, FORMS): the form hidden in data of the
+rig written here (tests/audit/rig_models.py: its own laws, not the FMU's), the cause and its
+form named alone, the form printed with the finding, the held-out residual brought within 2x
+the noise floor through the FMU.
+
+Viscous friction has two forms (fmu/README.md "Viscous friction"): mu rising with the cable's
+speed (`mu_viscous`) or with the inlet tension's rate (`mu_viscous_tension_rate`). The rig's
+forms: every strand's mu raised by a coefficient times |dT_in/dt| (central differences of the
+true input), or times the rate of its cable's elastic stretch (its four segments' held tensions).
+Friction drift has three (fmu/README.md "Friction drift"): linear in time (`mu_drift`), an
+exponential warm-up from the start (`mu_warmup`, `mu_warmup_tau`) and a step at an instant
+(`mu_step`, `mu_step_time`); the rig changes every strand's mu by its own time course. The
+sensor's lag has two (fmu/README.md "Sensor dynamics"): first order (`sensor_tau`) and a
+critically damped second order (`sensor_tau2`); the rig's second-order sensor is discretised by
+the bilinear transform, the FMU's exactly for a held input.
+
+Which cases chose what: the form's bounds, start and scale and the screen that fits further
+forms (cosim.audit.core.FORM_SCREEN_PCT, the rule's minimum share), the drift forms' scans
+(cosim.audit.fit._scan_start) and the rule that another form must beat the first by the rule's
+separation t were set on the tuning seeds 32 (tension rate 0.002 and 0.001 s/N, wandering
+input; warm-up -0.012 with 8 s), 33 (cable speed 20 and 6 s/m; a step of +0.008 at 23.4 s) and
+34 (tension rate 0.001 s/N, ramps; linear +2.5e-4 /s), 40 s each, mu 0.08, spread 0.3, noise
+0.03 N; the lag's forms on 32 (second order 8 and 30 ms), 33 (first order 10 ms) and 34 (second
+order 15 and 20 ms, ramps), where they showed what the forms cannot tell: a second-order lag of
+8 ms on the wandering input fits as well in the first order (0.0362 against 0.0366 N) and a
+delay of 16 ms took it, and on ramps a delay took 15 and 20 ms (lag ambiguous with it). The
+cases below
+use other seeds, mu, spreads, noise and magnitudes and were run once those were fixed; they are
+reported as they came out (MISSED). The decision rule is the one of test_audit_rule.py.
+"""
+
+from __future__ import annotations
+
+import pytest
+from rig_models import rig_record
+
+from cosim.audit import core, report
+from cosim.results import trace
+
+pytestmark = pytest.mark.slow
+
+DURATION_S = 40.0
+FLOOR_FACTOR = 2.0  # the acceptance's factor
+
+CASES = {
+    "tension rate 1.2e-3 s/N, wandering input": (
+        dict(seed=42, mu=0.085, spread=0.35, noise_n=0.025, viscous_rate_s_n=0.0012),
+        "viscous_friction",
+        "tension rate",
+        # the rig's linearised capstan (a segment passes T (1 - mu dphi)) and its strands'
+        # additive excess make a change of mu act about 1.2x as strongly as in the FMU's
+        # exponential law: the fitted coefficient comes out that much higher (1.5e-3 here)
+        ("mu_viscous_tension_rate", 0.0012, 0.35),
+    ),
+    "drift, a step of -0.009 at 17.7 s, ramps": (
+        dict(
+            seed=46,
+            mu=0.075,
+            spread=0.25,
+            noise_n=0.035,
+            drive="ramp",
+            drift=("step", -0.009, 17.7),
+        ),
+        "friction_drift",
+        "step",
+        # the linearised capstan again: about 1.1x in the amplitude; the instant within 0.1 s
+        ("mu_step", -0.009, 0.3),
+    ),
+    "drift, linear -2e-4 /s, at positions": (
+        dict(
+            seed=47,
+            mu=0.085,
+            spread=0.3,
+            noise_n=0.02,
+            positions=True,
+            drift=("linear", -2e-4, 0.0),
+        ),
+        "friction_drift",
+        "linear",
+        ("mu_drift", -2e-4, 0.3),
+    ),
+    "lag, second order 25 ms, wandering input": (
+        dict(seed=48, mu=0.09, spread=0.25, noise_n=0.025, lag2_s=0.025),
+        "lag",
+        "second order",
+        ("sensor_tau2", 0.025, 0.15),
+    ),
+}
+# Reported, not met (each run once on its report seed):
+# - ramps at held positions (seed 43, mu 0.075, spread 0.25, noise 0.035 N, 1e-3 s/N): the
+#   right cause and form (98 % of the selection blocks' residual, block t 50), but 0.125 N
+#   left held-out, 3.6x the floor. At every reversal of a triangle the rate passes through zero,
+#   the friction drops to mu alone and the output latches at the loading line of mu; the rig's
+#   rate dips for one sample at the peak, the FMU's filtered rate for about 10 ms after it, and
+#   the rig's linearised capstan answers a change of mu 1.2x as strongly, so each ramp's
+#   unloading is left 0.1-0.3 N off with a sign that depends on its rate.
+# - the cable-speed form on the rig (seed 44, mu 0.09, 8 s/m): named viscous_friction in the
+#   tension-rate form (90 % against 81 % for the cable speed). The rig's cable has four
+#   segments per strand, so in a dead zone its stretch still moves with a fifth of the input's
+#   rate and then in steps, which is closer to the tension-rate form than to the FMU's 32
+#   segments, whose inlet speed starts from zero after a reversal and grows as the sliding part
+#   spreads. (On the FMU's own data the cable-speed form is named: test_audit_causes.py.)
+# - a warm-up of +0.01 with 5 s (seed 45, mu 0.09, spread 0.35, noise 0.025 N): friction_drift
+#   named in the warm-up form (+0.0112 with 5.4 s, 93 % of the selection blocks' residual), and
+#   then sensor_offset (-0.045 N, ambiguous with sensor_gain, 33 % of what the warm-up left);
+#   held-out 0.033 N, 1.3x the floor. The offset is a wrong cause: what the rig's linearised
+#   capstan leaves when its mu has risen by 0.01 (the fitted mu is 0.098).
+# - a first-order lag of 25 ms (seed 49, mu 0.075, spread 0.35, noise 0.03 N): named lag in
+#   the first order (24.2 ms, 1.3x the floor), but ambiguous with time_delay (83 % against 86 %
+#   of the selection blocks' residual, block t 0.4): the forms do not tell these apart either.
+MISSED = {
+    "tension rate 1e-3 s/N, ramps at positions": (
+        dict(
+            seed=43,
+            mu=0.075,
+            spread=0.25,
+            noise_n=0.035,
+            viscous_rate_s_n=0.001,
+            drive="ramp",
+            positions=True,
+        ),
+        "viscous_friction",
+        "tension rate",
+        ("mu_viscous_tension_rate", 0.001, 0.35),
+    ),
+    "cable speed 8 s/m, wandering input": (
+        dict(seed=44, mu=0.09, spread=0.3, noise_n=0.03, viscous_speed_s_m=8.0),
+        "viscous_friction",
+        "cable speed",
+        None,
+    ),
+    "drift, a warm-up of +0.01 with 5 s": (
+        dict(seed=45, mu=0.09, spread=0.35, noise_n=0.025, drift=("warm-up", 0.01, 5.0)),
+        "friction_drift",
+        "warm-up",
+        ("mu_warmup", 0.01, 0.3),
+    ),
+    "lag, first order 25 ms, wandering input": (
+        dict(seed=49, mu=0.075, spread=0.35, noise_n=0.03, lag_s=0.025),
+        "lag",
+        "first order",
+        ("sensor_tau", 0.025, 0.15),
+    ),
+}
+WHY_MISSED = {
+    "tension rate 1e-3 s/N, ramps at positions": "3.6x the floor: the latch at each reversal",
+    "cable speed 8 s/m, wandering input": "named the tension-rate form (the rig's 4 segments)",
+    "drift, a warm-up of +0.01 with 5 s": "also named sensor_offset -0.045 N (ambiguous)",
+    "lag, first order 25 ms, wandering input": "right form, ambiguous with time_delay",
+}
+FORMS_OF = {
+    "viscous_friction": {"cable speed", "tension rate"},
+    "friction_drift": {"linear", "warm-up", "step"},
+    "lag": {"first order", "second order"},
+}
+
+
+@pytest.mark.parametrize(
+    "case",
+    [
+        *CASES,
+        *(
+            # the known misses run in make test-long: they show a fix when one comes, and their
+            # two minutes would take make test past its budget
+            pytest.param(
+                c, marks=[pytest.mark.long, pytest.mark.xfail(strict=True, reason=WHY_MISSED[c])]
+            )
+            for c in MISSED
+        ),
+    ],
+)
+def test_a_form_on_the_rig_is_named_with_its_cause_and_brought_to_the_floor(tmp_path, case):
+    kw, cause, form, value = {**CASES, **MISSED}[case]
+    path = rig_record(tmp_path, duration_s=DURATION_S, **kw)
+    res = core.run(core.prepare(trace.read_trace(path, "measured"), str(path)))
+    named = [(f.effect.label, f.value) for f in res.findings]
+    assert [c for c, _ in named] == [f"{cause} (form: {form})"], named
+    f = res.findings[0]
+    assert f.explains_pct > 0.0 and f.ambiguous_with is None, f.evidence
+    # the form was chosen among all of the cause's, on the selection blocks, and the report
+    # says so
+    assert set(f.forms) == FORMS_OF[cause], f.forms
+    assert f"{cause} (form: {form})" in report.summary(res)
+    assert f"its form {form} was chosen over" in f.evidence
+    if value is not None:
+        param, true, rel = value
+        assert res.extended.params[param] == pytest.approx(true, rel=rel), res.extended.params
+    if form == "step":  # the rig's instant, within 0.1 s
+        assert res.extended.params["mu_step_time"] == pytest.approx(kw["drift"][2], abs=0.1)
+    assert res.holdout_rms_after_n <= FLOOR_FACTOR * res.data.noise_floor_n
+    assert res.holdout_rms_after_n < res.holdout_rms_before_n
+    assert res.twin_fmu_max_diff_n < 1e-4
