@@ -832,9 +832,10 @@ def emulate_main(args: argparse.Namespace) -> int:
         if flag is not None:
             print(f"bowden emulate: {flag} is not available with --target soc", file=sys.stderr)
             return 2
-    for dest, value in HOST_EMULATOR_DEFAULTS.items():
-        if getattr(args, dest) is None:
-            setattr(args, dest, value)
+    else:
+        for dest, value in HOST_EMULATOR_DEFAULTS.items():
+            if getattr(args, dest) is None:
+                setattr(args, dest, value)
     identity = None
     if args.table_hash is not None:
         try:
@@ -845,7 +846,7 @@ def emulate_main(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
             return 2
-    if not 0 <= args.tcp_port <= 65535:
+    if args.tcp_port is not None and not 0 <= args.tcp_port <= 65535:
         print(f"bowden emulate: --tcp-port {args.tcp_port}: outside 0..65535", file=sys.stderr)
         return 2
     try:
