@@ -140,6 +140,10 @@ VARIABLES: list[Var] = [
         "Time of the friction coefficient's step"),
     Var("sensor_tau2", "Real", PARAM, 0.0, "s", 0.0, 1.0,
         "Output sensor's second-order lag: two first-order stages of this time constant"),
+    Var("phi_offset_per_x", "Real", PARAM, 0.0, "rad/m", -100.0, 100.0,
+        "Bending angle added per metre of x displacement: phi + phi_offset_per_x*x"),
+    Var("phi_offset_per_y", "Real", PARAM, 0.0, "rad/m", -100.0, 100.0,
+        "Bending angle added per metre of y displacement: phi + phi_offset_per_y*y"),
 ]
 # fmt: on
 

@@ -130,11 +130,13 @@ def run(
 
     t_start = time.perf_counter()
     say = progress or (lambda msg, frac: None)
-    usable = [e for e in VOCABULARY if e.applicable(data.has_positions, data.z_span_m) is None]
+    # a cause is fitted when one of its forms can be (the bending error when x, y or z moves),
+    # in the first form that can; it is skipped with its first form's reason otherwise
+    usable = [fs[0] for fs in (_applicable_forms(data, e) for e in VOCABULARY) if fs]
     skipped = {
-        e.cause: e.applicable(data.has_positions, data.z_span_m)
+        e.cause: e.applicable(data.has_positions, data.spans_m)
         for e in VOCABULARY
-        if e not in usable
+        if e.cause not in {u.cause for u in usable}
     }
     total = 2 + len(usable) * 2 + 4
     done = 0
@@ -215,6 +217,15 @@ def run(
 FORM_SCREEN_PCT = RULE.min_explained_pct
 
 
+def _applicable_forms(data: AuditData, e: Effect) -> list[Effect]:
+    """The forms of e's cause that can be fitted on these data, the first form first."""
+    return [
+        f
+        for f in FORMS.get(e.cause, (e,))
+        if f.applicable(data.has_positions, data.spans_m) is None
+    ]
+
+
 def _candidate(
     data: AuditData,
     found: list[Effect],
@@ -237,8 +248,10 @@ def _candidate(
 
     first = fit(e)
     forms = [first]
-    if first.explained_pct >= FORM_SCREEN_PCT:
-        forms += [fit(f) for f in FORMS.get(e.cause, (e,)) if f is not e]
+    screen = first.explained_pct >= FORM_SCREEN_PCT
+    forms += [
+        fit(f) for f in _applicable_forms(data, e) if f is not e and (screen or not f.screened)
+    ]
     # another form replaces the first only when it fits the selection blocks better by a block
     # t of the rule's separation (the plain t of the per-block differences): a warm-up with a
     # long time constant is a linear drift, and the simpler, first form stays then

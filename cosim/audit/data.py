@@ -109,8 +109,12 @@ class AuditData:
         return self.mu_given is not None and self.has_positions
 
     @property
-    def z_span_m(self) -> float:
-        return float(np.ptp(self.positions_m[:, 2])) if self.has_positions else 0.0
+    def spans_m(self) -> tuple[float, float, float]:
+        """How far x, y and z move over the record (0 without positions)."""
+        if not self.has_positions:
+            return (0.0, 0.0, 0.0)
+        x, y, z = (float(v) for v in np.ptp(self.positions_m, axis=0))
+        return (x, y, z)
 
     def mask(self, role: int) -> np.ndarray:
         return self.roles == role
@@ -214,17 +218,19 @@ def prepare(tr: trace_mod.Trace, source: str) -> AuditData:
     rate_n_s = savgol_filter(t_in, max(win, int(round(0.05 * rate)) | 1), 2, deriv=1, delta=dt)
     if positions is not None:
         phi = bending_angle(positions[:, 0], positions[:, 1], positions[:, 2], length, loop)
-        z = positions[:, 2].copy()
+        x, y, z = (positions[:, i].copy() for i in range(3))
         phi_ref = None
     else:
         p = twin.fixed_position(length)
         phi_ref = float(bending_angle(p[0], p[1], p[2], length, loop))
         phi = np.full(n, phi_ref)
-        z = np.zeros(n)
+        x = y = z = np.zeros(n)
     inputs = twin.PlantInputs(
         t_in_n=t_in_s,
         phi_rad=np.asarray(phi, dtype=float),
         z_m=z,
+        x_m=x,
+        y_m=y,
         position_m=positions,
         t0_s=float(t_s[0]),
         dt_s=dt,

@@ -14,8 +14,10 @@ friction that grows with the cable's speed, or with the inlet tension's rate). V
 each cause's first form, which every round fits; FORMS lists all of a cause's forms, and the
 others are fitted only for a cause whose first form survives (it removes at least the rule's
 minimum share of the selection blocks' residual: cosim.audit.core.FORM_SCREEN), so a form costs
-fits only where its cause shows. The form is chosen on the selection blocks, as the cause is,
-and printed with the finding (`label`).
+fits only where its cause shows. A form that stands on its own (`screened` False: the bending
+error along x or y, which the form along z cannot stand in for, the coordinates being
+independent) is fitted with the first whenever its cause is. The form is chosen on the
+selection blocks, as the cause is, and printed with the finding (`label`).
 """
 
 from __future__ import annotations
@@ -58,6 +60,8 @@ class Effect:
     # a start found by a scan before the least squares (cosim.audit.fit._scan_start): "warmup"
     # (the time constant), "step" (the instant, which the least squares then holds)
     scan: str | None = None
+    axis: int = 2  # the position coordinate (0 x, 1 y, 2 z) a needs_positions effect follows
+    screened: bool = True  # fitted only when the cause's first form survives the screen
 
     @property
     def label(self) -> str:
@@ -71,12 +75,15 @@ class Effect:
         """Every FMU parameter the effect sets: its own, then its shape's."""
         return (self.fmu_param, *(s.fmu_param for s in self.shape))
 
-    def applicable(self, has_positions: bool, z_span_m: float) -> str | None:
-        """None when the effect can be fitted on these data, else why not."""
+    def applicable(self, has_positions: bool, spans_m: tuple[float, ...]) -> str | None:
+        """None when the effect can be fitted on these data, else why not (spans_m: how far
+        x, y and z move)."""
         if self.needs_positions and not has_positions:
             return "the data have no positions (x_m, y_m, z_m)"
-        if self.needs_positions and z_span_m < MIN_Z_SPAN_M:
-            return f"z spans only {z_span_m * 1000:.0f} mm (at least {MIN_Z_SPAN_M * 1000:.0f} mm)"
+        span = spans_m[self.axis]
+        if self.needs_positions and span < MIN_SPAN_M:
+            name = "xyz"[self.axis]
+            return f"{name} spans only {span * 1000:.0f} mm (at least {MIN_SPAN_M * 1000:.0f} mm)"
         return None
 
     def describe(self, value: float) -> str:
@@ -104,9 +111,9 @@ def _describe(s: Shape, value: float) -> str:
 # tension-dependent friction (it took their place on the FMU cases of the other causes).
 KNEE_MAX_N = 2.0
 
-# phi_offset_per_z is only observable when z moves by at least this much (5 cm: a phi change of
-# 0.05 rad per rad/m, under 1 % of the 2 pi of a loop).
-MIN_Z_SPAN_M = 0.05
+# phi_offset_per_x, _y, _z are only observable when their coordinate moves by at least this much
+# (5 cm: a phi change of 0.05 rad per rad/m, under 1 % of the 2 pi of a loop).
+MIN_SPAN_M = 0.05
 
 VOCABULARY: tuple[Effect, ...] = (
     Effect(
@@ -157,6 +164,7 @@ VOCABULARY: tuple[Effect, ...] = (
         0.5,
         "phi_eff = phi(x, y, z) + phi_offset_per_z * z",
         needs_positions=True,
+        form="z",
     ),
     Effect(
         "lag",
@@ -224,6 +232,32 @@ VOCABULARY: tuple[Effect, ...] = (
 # The further forms of causes of VOCABULARY (each its own FMU parameter), fitted only when the
 # cause's first form survives (module docstring).
 OTHER_FORMS: tuple[Effect, ...] = (
+    Effect(
+        "bending_angle_error",
+        "phi_offset_per_x",
+        "rad/m",
+        (-10.0, 10.0),
+        0.0,
+        0.5,
+        "phi_eff = phi(x, y, z) + phi_offset_per_x * x",
+        needs_positions=True,
+        form="x",
+        axis=0,
+        screened=False,
+    ),
+    Effect(
+        "bending_angle_error",
+        "phi_offset_per_y",
+        "rad/m",
+        (-10.0, 10.0),
+        0.0,
+        0.5,
+        "phi_eff = phi(x, y, z) + phi_offset_per_y * y",
+        needs_positions=True,
+        form="y",
+        axis=1,
+        screened=False,
+    ),
     Effect(
         "viscous_friction",
         "mu_viscous_tension_rate",

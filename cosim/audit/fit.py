@@ -233,6 +233,8 @@ class _Evaluator:
                 t_in_n=np.ascontiguousarray(inp.t_in_n[sl], dtype=np.float64),
                 phi_rad=np.ascontiguousarray(inp.phi_rad[sl], dtype=np.float64),
                 z_m=np.ascontiguousarray(inp.z_m[sl], dtype=np.float64),
+                x_m=None if inp.x_m is None else np.ascontiguousarray(inp.x_m[sl]),
+                y_m=None if inp.y_m is None else np.ascontiguousarray(inp.y_m[sl]),
                 position_m=None,
                 t0_s=inp.t0_s,
                 dt_s=inp.dt_s * self.q,

@@ -10,7 +10,8 @@ What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effe
 
 - the sheath as BOWDEN_N_SEG = 32 segments; each node keeps its tension unless the capstan bound
   to its neighbour, T_{k-1} exp(-mu dphi) <= T_k <= T_{k-1} exp(+mu dphi), pushes it (Eq. 1-3,
-  the dead zone at reversals included), with dphi = max(0, phi(x, y, z) + phi_offset_per_z z)/32;
+  the dead zone at reversals included), with dphi = max(0, phi(x, y, z) + phi_offset_per_x x
+  + phi_offset_per_y y + phi_offset_per_z z)/32;
 - mu_eff = mu + mu_viscous |v_c| + mu_viscous_tension_rate |r_in| + mu_drift t
   + mu_warmup (1 - exp(-(t - t0) / mu_warmup_tau)) + mu_step [t >= mu_step_time]
   (+ mu_tension_slope T_{k-1} per segment), with v_c the rate of the cable's inlet displacement
@@ -77,13 +78,25 @@ class PlantInputs:
     """What drives the twin and the FMU, one value per sample at a fixed step dt_s."""
 
     t_in_n: np.ndarray  # inlet tension (T_in_cmd of drive mode 1)
-    phi_rad: np.ndarray  # bending angle from the geometry (before phi_offset_per_z)
+    phi_rad: np.ndarray  # bending angle from the geometry (before the phi_offset_per_* effects)
     z_m: np.ndarray  # z of the end-effector (for phi_offset_per_z)
     position_m: np.ndarray | None  # (n, 3) positions for the FMU, None: constant phi
     t0_s: float  # time of the first sample
     dt_s: float  # sample period
     sheath_length_m: float
     loop_routing: bool
+    x_m: np.ndarray | None = None  # x of the end-effector (for phi_offset_per_x), None: 0
+    y_m: np.ndarray | None = None  # y of the end-effector (for phi_offset_per_y), None: 0
+
+
+def _phi_xy(inputs: PlantInputs, p: Mapping[str, float]) -> np.ndarray:
+    """The geometry's phi plus the bending error along x and y (z's is added in the kernel)."""
+    phi = np.asarray(inputs.phi_rad, dtype=np.float64)
+    for coord, key in ((inputs.x_m, "phi_offset_per_x"), (inputs.y_m, "phi_offset_per_y")):
+        k = float(p[key])
+        if k != 0.0 and coord is not None:
+            phi = phi + k * np.asarray(coord, dtype=np.float64)
+    return phi
 
 
 @njit(cache=True)
@@ -246,7 +259,7 @@ def friction_output(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndar
     p = _full(params)
     return _friction(
         np.ascontiguousarray(inputs.t_in_n, dtype=np.float64),
-        np.ascontiguousarray(inputs.phi_rad, dtype=np.float64),
+        np.ascontiguousarray(_phi_xy(inputs, p), dtype=np.float64),
         np.ascontiguousarray(inputs.z_m, dtype=np.float64),
         float(p["phi_offset_per_z"]),
         float(p["mu"]),
@@ -361,6 +374,8 @@ FRICTION_PARAMS = (
     "mu_viscous_tension_rate",
     "mu_tension_slope",
     "phi_offset_per_z",
+    "phi_offset_per_x",
+    "phi_offset_per_y",
     "mu_drift",
     "mu_warmup",
     "mu_warmup_tau",
@@ -395,6 +410,8 @@ OFF = {
     "sensor_creep": 0.0,
     "sensor_creep_tau": 1.0,
     "sensor_tau2": 0.0,
+    "phi_offset_per_x": 0.0,
+    "phi_offset_per_y": 0.0,
 }
 
 

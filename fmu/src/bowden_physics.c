@@ -99,10 +99,12 @@ static int update_geometry(BowdenModel *m, char *msg, size_t msg_len)
     return 0;
 }
 
-/* Bending angle seen by the friction: geometry plus the phi_offset_per_z effect. */
+/* Bending angle seen by the friction: geometry plus the bending error along x, y and z
+   (README, "Bending angle error"). */
 static double effective_phi(const BowdenModel *m)
 {
-    double phi = m->phi_geom_rad + m->p.phi_offset_per_z * m->u.z;
+    double phi = m->phi_geom_rad + m->p.phi_offset_per_x * m->u.x + m->p.phi_offset_per_y * m->u.y
+                 + m->p.phi_offset_per_z * m->u.z;
     return phi > 0.0 ? phi : 0.0;
 }
 

@@ -173,6 +173,7 @@ def rig_record(
     viscous_speed_s_m: float = 0.0,
     drift: tuple[str, float, float] | None = None,
     lag2_s: float = 0.0,
+    bend: tuple[int, float] | None = None,
     name: str = "rig.csv",
 ) -> Path:
     """Write a rig record (CSV and a sidecar without mu). `periodic` = (amplitude N, frequency
@@ -201,6 +202,11 @@ def rig_record(
     - `lag2_s`: the output sensor as a critically damped second-order system of two equal time
       constants (a load cell's mass on its spring, or an amplifier's two-pole filter), by the
       bilinear transform (after the first-order `lag_s` when both are set);
+    - `bend` = (axis, size rad/m): the sheath bends by more than the geometry says as the
+      end-effector moves along one coordinate (0 x, 1 y, 2 z; needs `positions`), as at a
+      clamp it wraps around further: the braid's phi rises by size * coordinate (at least 0),
+      seen through the rig's own friction (its strands' spread of mu, four segments, the
+      linearised capstan law);
     - `creep`, `creep_tau_s`: the load cell's spring and a viscoelastic element in parallel (a
       standard linear solid): a share `creep` of a change in tension is read only as the element
       relaxes with creep_tau_s (integrated by backward Euler at the sample rate).
@@ -222,6 +228,9 @@ def rig_record(
     else:
         pos = None
         phi = np.full(n, 2.0 * math.pi)  # loop routing in the loop's plane (paper Sec. III-A)
+    if bend is not None:
+        axis, size = bend
+        phi = np.maximum(0.0, phi + size * pos[:, axis])
     extra_mu = None
     mus = strand_mus(mu, spread, rng)
     if viscous_rate_s_n != 0.0:

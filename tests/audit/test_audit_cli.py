@@ -226,6 +226,8 @@ def test_emit_params_into_a_file_where_a_folder_is_needed_is_one_clear_line(tmp_
         {"sensor_tau2": 0.02, "sensor_gain": 1.1, "sensor_delay": 0.004},
         {"sensor_tau2": 0.008, "sensor_creep": 0.03, "sensor_creep_tau": 1.0},
         {"sensor_tau2": 0.01, "sensor_tau": 0.004},
+        {"phi_offset_per_x": 4.0},
+        {"phi_offset_per_y": -1.2, "phi_offset_per_z": 0.5},
     ],
 )
 def test_twin_agrees_with_the_fmu(effect):
@@ -238,7 +240,16 @@ def test_twin_agrees_with_the_fmu(effect):
     t_in = t_in + 0.01 * rng.standard_normal(n)
     x, y, z = 0.05 * np.sin(t), 0.5 + 0.2 * np.sin(0.7 * t), 0.3 * np.sin(1.3 * t)
     inputs = twin.PlantInputs(
-        t_in, bending_angle(x, y, z, 1.0, True), z, np.column_stack([x, y, z]), 0.0, dt, 1.0, True
+        t_in,
+        bending_angle(x, y, z, 1.0, True),
+        z,
+        np.column_stack([x, y, z]),
+        0.0,
+        dt,
+        1.0,
+        True,
+        x_m=x,
+        y_m=y,
     )
     params = {"mu": 0.08, **effect}
     a = twin.simulate(inputs, params)

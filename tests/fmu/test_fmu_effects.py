@@ -136,6 +136,24 @@ def test_phi_offset_per_z_changes_the_bending_angle_with_z(make_plant):
     )
 
 
+def test_phi_offset_per_x_and_y_change_the_bending_angle_with_x_and_y(make_plant):
+    """The bending error's forms along x and y (fmu/README.md "Bending angle error"): each adds
+    its coefficient times its coordinate to phi, they add with z's, and the friction sees it."""
+    where = {"x": 0.2, "y": 0.5, "z": -0.3}
+    base = make_plant({"drive_mode": 1}, where)
+    for params, extra in (
+        ({"phi_offset_per_x": 1.5}, 1.5 * 0.2),
+        ({"phi_offset_per_y": -1.2}, -1.2 * 0.5),
+        ({"phi_offset_per_x": 1.5, "phi_offset_per_y": -1.2, "phi_offset_per_z": 0.8}, -0.54),
+    ):
+        bent = make_plant({"drive_mode": 1, **params}, where)
+        assert bent.y[Plant.PHI] == pytest.approx(base.y[Plant.PHI] + extra, abs=1e-12)
+        out = ramp(bent, np.linspace(0, 20, 200))
+        assert out[-1, Plant.T_OUT] / out[-1, Plant.T_IN] == pytest.approx(
+            math.exp(-MU * bent.y[Plant.PHI]), rel=1e-9
+        )
+
+
 def test_sensor_tau_lags_the_output_sensor(make_plant):
     tau = 0.01
     plant = make_plant({"drive_mode": 1, "sensor_tau": tau})
