@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import math
 import os
 import time
@@ -263,7 +264,12 @@ def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log) ->
             # The scheduler still serves its HTTP routes, by default on port 8787, and warns
             # when a second sweep finds that port taken: any free local port, said nothing.
             scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-            silence_logs=40,  # errors only: the sweep prints its own progress
+            # Nothing but critical: the sweep reports each point's failure itself (a failed
+            # row, the progress line) and prints its own progress. What the cluster logs at
+            # ERROR is its shutdown after Ctrl-C (a worker's heartbeat to the scheduler just
+            # closed, with a traceback), which is no fault of the run and would bury the
+            # sweep's one line.
+            silence_logs=logging.CRITICAL,
         )
         client = Client(cluster)
     try:
