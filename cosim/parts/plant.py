@@ -45,6 +45,22 @@ OUTPUT_NAMES = (
     "current",
 )
 
+# The fields a C harness holds to step this plant's FMU itself, in this order inside its spec
+# structure (bn_spec_t of the native engine, soc_spec_t of the simulated board): the instance,
+# fmi2SetReal / fmi2DoStep / fmi2GetReal, the value references of INPUT_NAMES and OUTPUT_NAMES,
+# the inputs and outputs as they are now and the plant's time. Plant.link fills them.
+FMU_LINK_FIELDS = [
+    ("fmu_component", c_void_p),
+    ("fmu_set_real", c_void_p),
+    ("fmu_do_step", c_void_p),
+    ("fmu_get_real", c_void_p),
+    ("in_vr", c_uint * len(INPUT_NAMES)),
+    ("out_vr", c_uint * len(OUTPUT_NAMES)),
+    ("u0", c_double * len(INPUT_NAMES)),
+    ("y0", c_double * len(OUTPUT_NAMES)),
+    ("time0_s", c_double),
+]
+
 
 class PlantError(RuntimeError):
     """An FMI call of the plant failed; the message is the FMU's log message."""
@@ -272,6 +288,20 @@ class Plant:
         """Drive mode 0 shortcut: set current_cmd, step, return the outputs array."""
         self.u[0] = current_a
         return self.step(dt_s)
+
+    def link(self, spec: ctypes.Structure) -> None:
+        """Fill the FMU_LINK_FIELDS of a C harness's `spec`: the harness then steps this FMU
+        directly, from the plant's present inputs, outputs and time."""
+        dll = self._fmu.dll
+        spec.fmu_component = self._c
+        spec.fmu_set_real = ctypes.cast(dll["fmi2SetReal"], c_void_p).value
+        spec.fmu_do_step = ctypes.cast(dll["fmi2DoStep"], c_void_p).value
+        spec.fmu_get_real = ctypes.cast(dll["fmi2GetReal"], c_void_p).value
+        spec.in_vr[:] = list(self._in_vr)
+        spec.out_vr[:] = list(self._out_vr)
+        spec.u0[:] = list(self.u)
+        spec.y0[:] = list(self.y)
+        spec.time0_s = self.time_s
 
     # --- FMU state --------------------------------------------------------------------------
 

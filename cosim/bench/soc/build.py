@@ -18,7 +18,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
-from cosim.project import procs
+from cosim.engines.native.build import check_ico_ignores_clk, fmpy_include, run_logged, verilator
 from cosim.project.paths import BUILD_DIR, HDL_DIR
 from cosim.project.toolchain import setup_env
 
@@ -54,18 +54,8 @@ def rtl_sources() -> list[Path]:
     return [picorv32_source(), *rtl, *soc, *sim]
 
 
-def _verilator() -> tuple[str, Path]:
-    exe = shutil.which("verilator")
-    if exe is None:
-        raise RuntimeError("verilator is not on PATH: run `make setup`")
-    root = subprocess.run(
-        [exe, "--getenv", "VERILATOR_ROOT"], capture_output=True, text=True, check=True
-    ).stdout.strip()
-    return exe, Path(root)
-
-
 def fingerprint() -> str:
-    exe, _ = _verilator()
+    exe, _ = verilator()
     version = subprocess.run([exe, "--version"], capture_output=True, text=True).stdout
     h = hashlib.sha256()
     for path in [*rtl_sources(), HDL_DIR / "soc" / "bowden_soc.vlt", *CXX_SOURCES, *HEADERS,
@@ -74,15 +64,6 @@ def fingerprint() -> str:
         h.update(path.read_bytes())
     h.update(repr((VERILATOR_ARGS, CXXFLAGS, MAKEFLAGS, CLK_HZ, version)).encode())
     return h.hexdigest()
-
-
-def _run(cmd: list[str], log: Path) -> None:
-    with log.open("a") as f:
-        f.write("$ " + " ".join(cmd) + "\n")
-        f.flush()
-        status = procs.run(cmd, stdout=f, stderr=subprocess.STDOUT)
-    if status != 0:
-        raise RuntimeError(f"SoC simulation build failed ({Path(cmd[0]).name}); see {log}")
 
 
 def build(force: bool = False) -> Path:
@@ -102,28 +83,28 @@ def build(force: bool = False) -> Path:
 
 
 def _build(fp: str, stamp: Path) -> None:
-    exe, root = _verilator()
+    exe, root = verilator()
     obj = OUT_DIR / "obj"
     shutil.rmtree(obj, ignore_errors=True)
     obj.mkdir(parents=True)
     log = OUT_DIR / "build.log"
     log.write_text("")
-    _run(
+    run_logged(
         [exe, "--cc", "--build", "-j", "2", *VERILATOR_ARGS, "--top-module", "soc_tb",
          f"-GCLK_HZ={CLK_HZ}", f'-GROM_INIT="{FW_HEX}"', f"-I{HDL_DIR / 'rtl'}",
          "--Mdir", str(obj), "-CFLAGS", " ".join(CXXFLAGS), "-MAKEFLAGS", MAKEFLAGS,
          str(HDL_DIR / "soc" / "bowden_soc.vlt"), *[str(p) for p in rtl_sources()]],
-        log,
+        log, "SoC simulation build",
     )  # fmt: skip
     check_ico(obj)
     cxx = os.environ.get("CXX", "g++")
     tmp = LIB_PATH.with_name(f"{LIB_PATH.name}.{os.getpid()}")
-    _run(
+    run_logged(
         [cxx, *CXXFLAGS, "-shared", "-Wall", "-Wextra", f"-DSOC_CLK_HZ={CLK_HZ}", f"-I{obj}",
          "-isystem", str(root / "include"), "-isystem", str(root / "include" / "vltstd"),
-         f"-I{_fmpy_include()}", f"-I{SOC_DIR}", *[str(p) for p in CXX_SOURCES],
+         f"-I{fmpy_include()}", f"-I{SOC_DIR}", *[str(p) for p in CXX_SOURCES],
          str(obj / "Vsoc_tb__ALL.a"), str(obj / "libverilated.a"), "-pthread", "-o", str(tmp)],
-        log,
+        log, "SoC simulation build",
     )  # fmt: skip
     os.replace(tmp, LIB_PATH)  # atomic: a run in parallel loads the old or the new library
     tmp_stamp = stamp.with_name(f"{stamp.name}.{os.getpid()}")
@@ -139,17 +120,4 @@ def check_ico(obj: Path) -> None:
     ports = set(re.findall(r"VL_IN(?:8|16|64|W)?\(&(\w+),", header))
     if ports != {"clk", "rst", "uart_rx", "adc_dout", "adc_drdy_n"}:
         raise RuntimeError(f"soc_tb's inputs are {sorted(ports)}: update harness.cpp's Inputs")
-    head = re.compile(r"void Vsoc_tb___024root___ico_sequent__\w+\(Vsoc_tb___024root\* vlSelf\) \{")
-    for path in sorted(obj.glob("Vsoc_tb___024root__*.cpp")):
-        text = path.read_text()
-        bodies = re.findall(head.pattern + r"(.*?)\n\}", text, re.S)
-        if len(bodies) != len(head.findall(text)):
-            raise RuntimeError(f"cannot read the input-combinational region in {path.name}")
-        if any(re.search(r"\bvlSelfRef\.clk\b|\bvlSelf->clk\b", b) for b in bodies):
-            raise RuntimeError("soc_tb's input-combinational region reads clk")
-
-
-def _fmpy_include() -> Path:
-    from cosim.engines.native.build import fmpy_include  # noqa: PLC0415
-
-    return fmpy_include()
+    check_ico_ignores_clk(obj, "soc_tb")

