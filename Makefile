@@ -39,6 +39,11 @@ export OBJCACHE := $(SCCACHE)
 export SCCACHE_DIR := $(BUILD)/sccache
 export SCCACHE_SERVER_UDS := $(or $(TMPDIR),/tmp)/bowden-sccache-$(firstword $(shell printf %s '$(CURDIR)' | cksum)).sock
 export SCCACHE_IDLE_TIMEOUT := 60
+# Preprocessor mode only: sccache 0.16's direct mode served one testbench's verilator.o (cocotb's
+# main, which includes the model's Vtop.h from the build folder) to another testbench (measured:
+# two testbenches built in turn, the second's object differed from its own uncached build; its
+# simulation crashed). Hashing the preprocessed source keys on Vtop.h's contents.
+export SCCACHE_DIRECT := false
 endif
 # The server is started before the first compile (compilers starting it at once would each start
 # one; the losers idle out after a minute) and stopped after a test run, whatever its outcome.
