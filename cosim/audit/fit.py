@@ -80,7 +80,7 @@ def fit_model(
     free = tuple(effects) if free is None else tuple(free)
     start = dict(start or {})
     # forms whose start a scan finds (effects.Effect.scan), unless the start gives them
-    to_scan = [e for e in free if e.scan and e.fmu_param not in start]
+    to_scan = [e for e in free if e.scan in ("warmup", "step") and e.fmu_param not in start]
     params: dict[str, float] = {"mu": data.mu_given if data.mu_fixed else 0.075}
     params.update({k: v for k, v in start.items() if k != "mu" or not data.mu_fixed})
     for e in effects:
@@ -98,6 +98,9 @@ def fit_model(
     idx = ev.on_grid(fit_idx, stride)
     for e in to_scan:
         params.update(_scan_start(ev, params, e, idx))
+    for e in free:
+        if e.scan == "breakaway" and e.fmu_param not in start:
+            params.update(_breakaway_start(ev, params, e, idx))
     nfev = 0
     if delay is None:
         if names:
@@ -204,6 +207,25 @@ def _scan_start(ev: _Evaluator, params: dict[str, float], e: Effect, idx: np.nda
     }
 
 
+# a breakaway's start: its scan tries "off" and this many values from SCAN_BREAKAWAY_MIN to
+# its bound (geometric)
+SCAN_BREAKAWAY_COUNT = 28
+SCAN_BREAKAWAY_MIN = 1e-3
+
+
+def _breakaway_start(ev: _Evaluator, params, e: Effect, idx) -> dict:
+    """The start of static friction's excess: at "off" the model has no slope in it (a strand
+    held a little longer jumps a little less, a change of second order), so the least squares
+    cannot leave it; the value of a geometric grid with the smallest sum of squares on the fit
+    residuals, the rest held."""
+    lo, hi = e.bounds
+    grid = np.concatenate(
+        [[e.off], np.geomspace(max(lo, SCAN_BREAKAWAY_MIN), hi, SCAN_BREAKAWAY_COUNT)]
+    )
+    scores = [_sse(ev, {**params, e.fmu_param: float(g)}, idx) for g in grid]
+    return {e.fmu_param: float(grid[int(np.argmin(scores))])}
+
+
 def _start(e: Effect, data: AuditData) -> float:
     """Where the fit of an effect starts: where its parameter has a slope on these data."""
     lo, hi = e.bounds
@@ -255,7 +277,7 @@ class _Evaluator:
         key = tuple(params.get(k, 0.0) for k in twin.FRICTION_PARAMS)
         entry = self._cache.pop(key, None)
         if entry is None:
-            entry = [twin.friction_output(self.inputs, params), None]
+            entry = [twin.friction_output(self.inputs, params, smooth=True), None]
             self.friction_runs += 1
             while len(self._cache) >= FRICTION_CACHE:
                 del self._cache[next(iter(self._cache))]

@@ -10,12 +10,17 @@ the cases below use other seeds, mu, spreads and noise and were run once those w
 are reported as they came out (MISSED). The decision rule is the one of test_audit_rule.py
 (not tuned here).
 
-Static friction (fmu/README.md "Static friction", the rig's `static_ratio`) is in the FMU and
-the twin but not in the vocabulary: its jumps move by whole samples with mu, the spread and the
-excess, so the fit's finite differences see nothing; a graduated fit on a smoothed residual
-found it on FMU data but left 1.3-1.5x the floor there, and on the rig (12 strands whose jumps
-fall at other instants than the FMU's 8) it did not fit, while on the tuning seed 31 (spread
-0.3, 1.3x) the audit named sensor_gain instead: a wrong cause this vocabulary cannot avoid yet.
+Static friction (fmu/README.md "Static friction", the rig's `static_ratio`) is a cause of the
+vocabulary too (`static_friction`, mu_static_excess; found on FMU data in test_audit_causes.py),
+but on this rig it is missed (MISSED_STATIC, strict xfail, make test-long): the rig's 12
+strands break loose at other instants than the FMU's 8 lumped ones, and the FMU's form, fitted
+with mu and the spread, leaves a staircase of mismatched jumps and held levels. Tuning seed 31
+(40 s, mu 0.08, spread 0.3, noise 0.03 N, static_ratio 1.4): the best of four starts of the
+three parameters left 0.09 N on the report blocks (3x the floor; the nominal model 0.108 N) and
+the audit named sensor_gain (ambiguous with sensor_offset), static_friction removing 33 % with
+a block t of 2.5 in 58 % of the blocks; with no spread (seed 31, ratio 1.4, spread 0) each
+jump of about 2 N falls a sample or two off and leaves 3.5x. The report case (seed 46) names
+nothing: the miss is an honest `unexplained`, not a wrong cause.
 """
 
 from __future__ import annotations
@@ -66,6 +71,18 @@ MISSED = {
 }
 
 
+# Reported, not met (run once, after the tuning above): nothing is named; static_friction
+# removes 33 % of the selection blocks' residual with a block t of 1.8 in 67 % of the blocks
+# (the rule asks 2 and 75 %), sensor_offset 40 % (t 1.97), and 2.7x the floor is left.
+MISSED_STATIC = {
+    "static friction 1.3x the sliding one": (
+        dict(seed=46, mu=0.085, spread=0.25, noise_n=0.025, static_ratio=1.3),
+        "static_friction",
+        ("mu_static_excess", 0.3 * 0.085, 0.3),
+    ),
+}
+
+
 @pytest.mark.parametrize(
     "case",
     [
@@ -80,10 +97,23 @@ MISSED = {
             )
             for c in MISSED
         ),
+        *(
+            pytest.param(
+                c,
+                marks=[
+                    pytest.mark.long,
+                    pytest.mark.xfail(
+                        strict=True,
+                        reason="missed: the rig's 12 strands against the FMU's 8 (see above)",
+                    ),
+                ],
+            )
+            for c in MISSED_STATIC
+        ),
     ],
 )
 def test_a_new_cause_on_the_rig_is_named_alone_and_brought_to_the_floor(tmp_path, case):
-    kw, cause, value = {**CASES, **MISSED}[case]
+    kw, cause, value = {**CASES, **MISSED, **MISSED_STATIC}[case]
     path = rig_record(tmp_path, duration_s=DURATION_S, **kw)
     res = core.run(core.prepare(trace.read_trace(path, "measured"), str(path)))
     named = [(f.effect.cause, f.value) for f in res.findings]
