@@ -98,12 +98,23 @@ def fit_model(
     idx = ev.on_grid(fit_idx, stride)
     for e in to_scan:
         params.update(_scan_start(ev, params, e, idx))
+    nfev = 0
+    started = False  # fitted from a breakaway's starts already
     for e in free:
         if e.scan == "breakaway" and e.fmu_param not in start:
-            params.update(_breakaway_start(ev, params, e, idx))
-    nfev = 0
+            # each start fitted (the delay held), the best kept; with a delay the fit below
+            # goes on from it
+            started = True
+            best = None
+            for st in _breakaway_starts(ev, params, e, idx):
+                trial, n_eval = _least_squares(ev, {**params, **st}, names, idx)
+                nfev += n_eval
+                sse = _sse(ev, trial, idx)
+                if best is None or sse < best[0]:
+                    best = (sse, trial)
+            params = best[1]
     if delay is None:
-        if names:
+        if names and not started:
             params, nfev = _least_squares(ev, params, names, idx)
     else:
         # Coordinate descent: scan the delay with the rest held, refit the rest, until the scan
@@ -207,23 +218,30 @@ def _scan_start(ev: _Evaluator, params: dict[str, float], e: Effect, idx: np.nda
     }
 
 
-# a breakaway's start: its scan tries "off" and this many values from SCAN_BREAKAWAY_MIN to
-# its bound (geometric)
-SCAN_BREAKAWAY_COUNT = 28
-SCAN_BREAKAWAY_MIN = 1e-3
+# a breakaway's starts: its scan tries this many values of the excess from SCAN_BREAKAWAY_MIN
+# to its bound (geometric) at the current spread and each of SCAN_BREAKAWAY_SPREADS, and the
+# least squares
+# starts from the SCAN_BREAKAWAY_STARTS best (the sum of squares has several valleys in the
+# excess and the spread: the strands' jumps fall after other reversals)
+SCAN_BREAKAWAY_COUNT = 16
+SCAN_BREAKAWAY_MIN = 2e-3
+SCAN_BREAKAWAY_SPREADS = (0.0, 0.1, 0.2, 0.35, 0.6)
+SCAN_BREAKAWAY_STARTS = 2
 
 
-def _breakaway_start(ev: _Evaluator, params, e: Effect, idx) -> dict:
-    """The start of static friction's excess: at "off" the model has no slope in it (a strand
-    held a little longer jumps a little less, a change of second order), so the least squares
-    cannot leave it; the value of a geometric grid with the smallest sum of squares on the fit
-    residuals, the rest held."""
+def _breakaway_starts(ev: _Evaluator, params, e: Effect, idx) -> list[dict]:
+    """Starts of static friction's excess and the spread: at "off" the model has no slope in
+    the excess (a strand held a little longer jumps a little less, a change of second order),
+    and the spread that the nominal model fitted without it took part of its hold; the points
+    of a grid in both with the smallest sums of squares on the fit residuals, the rest held."""
     lo, hi = e.bounds
-    grid = np.concatenate(
-        [[e.off], np.geomspace(max(lo, SCAN_BREAKAWAY_MIN), hi, SCAN_BREAKAWAY_COUNT)]
+    xs = np.geomspace(max(lo, SCAN_BREAKAWAY_MIN), hi, SCAN_BREAKAWAY_COUNT)
+    scored = sorted(
+        (_sse(ev, {**params, SPREAD: sp, e.fmu_param: float(x)}, idx), sp, float(x))
+        for sp in (float(params[SPREAD]), *SCAN_BREAKAWAY_SPREADS)
+        for x in xs
     )
-    scores = [_sse(ev, {**params, e.fmu_param: float(g)}, idx) for g in grid]
-    return {e.fmu_param: float(grid[int(np.argmin(scores))])}
+    return [{SPREAD: sp, e.fmu_param: x} for _, sp, x in scored[:SCAN_BREAKAWAY_STARTS]]
 
 
 def _start(e: Effect, data: AuditData) -> float:
