@@ -18,6 +18,12 @@ fits only where its cause shows. A form that stands on its own (`screened` False
 error along x or y, which the form along z cannot stand in for, the coordinates being
 independent) is fitted with the first whenever its cause is. The form is chosen on the
 selection blocks, as the cause is, and printed with the finding (`label`).
+
+Static friction moves the output in jumps (each strand's breakaway after a reversal), whose
+instants move by whole samples with its excess, mu and the spread: the fits run the twin with
+each jump spread over its sample by where the threshold was crossed (twin._friction, `smooth`),
+so that the least squares sees a slope; predictions, the decision and the report use the exact
+twin and the FMU.
 """
 
 from __future__ import annotations
@@ -58,7 +64,8 @@ class Effect:
     start_from: str | None = None
     form: str = ""  # the form's name when the cause has more than one (FORMS)
     # a start found by a scan before the least squares (cosim.audit.fit._scan_start): "warmup"
-    # (the time constant), "step" (the instant, which the least squares then holds)
+    # (the time constant), "step" (the instant, which the least squares then holds);
+    # "breakaway" (fit._breakaway_start): static friction's excess, which has no slope at "off"
     scan: str | None = None
     axis: int = 2  # the position coordinate (0 x, 1 y, 2 z) a needs_positions effect follows
     screened: bool = True  # fitted only when the cause's first form survives the screen
@@ -226,6 +233,17 @@ VOCABULARY: tuple[Effect, ...] = (
         0.01,
         "T_read = T_out - sensor_creep * (T_out - Lag_{sensor_creep_tau}[T_out])",
         shape=(Shape("sensor_creep_tau", "s", (0.05, 30.0), 1.0, 0.5),),
+    ),
+    Effect(
+        "static_friction",
+        "mu_static_excess",
+        "1",
+        (0.0, 0.3),
+        0.0,
+        0.005,
+        "ws_j = (mu_eff + mu_static_excess) * phi_eff * exp(dead_zone_spread * q_j): a strand "
+        "that must reverse holds to its breakaway width, then jumps to the kinetic bound",
+        scan="breakaway",
     ),
 )
 

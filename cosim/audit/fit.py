@@ -80,7 +80,7 @@ def fit_model(
     free = tuple(effects) if free is None else tuple(free)
     start = dict(start or {})
     # forms whose start a scan finds (effects.Effect.scan), unless the start gives them
-    to_scan = [e for e in free if e.scan and e.fmu_param not in start]
+    to_scan = [e for e in free if e.scan in ("warmup", "step") and e.fmu_param not in start]
     params: dict[str, float] = {"mu": data.mu_given if data.mu_fixed else 0.075}
     params.update({k: v for k, v in start.items() if k != "mu" or not data.mu_fixed})
     for e in effects:
@@ -99,8 +99,22 @@ def fit_model(
     for e in to_scan:
         params.update(_scan_start(ev, params, e, idx))
     nfev = 0
+    started = False  # fitted from a breakaway's starts already
+    for e in free:
+        if e.scan == "breakaway" and e.fmu_param not in start:
+            # each start fitted (the delay held), the best kept; with a delay the fit below
+            # goes on from it
+            started = True
+            best = None
+            for st in _breakaway_starts(ev, params, e, idx):
+                trial, n_eval = _least_squares(ev, {**params, **st}, names, idx)
+                nfev += n_eval
+                sse = _sse(ev, trial, idx)
+                if best is None or sse < best[0]:
+                    best = (sse, trial)
+            params = best[1]
     if delay is None:
-        if names:
+        if names and not started:
             params, nfev = _least_squares(ev, params, names, idx)
     else:
         # Coordinate descent: scan the delay with the rest held, refit the rest, until the scan
@@ -204,6 +218,32 @@ def _scan_start(ev: _Evaluator, params: dict[str, float], e: Effect, idx: np.nda
     }
 
 
+# a breakaway's starts: its scan tries this many values of the excess from SCAN_BREAKAWAY_MIN
+# to its bound (geometric) at the current spread and each of SCAN_BREAKAWAY_SPREADS, and the
+# least squares
+# starts from the SCAN_BREAKAWAY_STARTS best (the sum of squares has several valleys in the
+# excess and the spread: the strands' jumps fall after other reversals)
+SCAN_BREAKAWAY_COUNT = 16
+SCAN_BREAKAWAY_MIN = 2e-3
+SCAN_BREAKAWAY_SPREADS = (0.0, 0.1, 0.2, 0.35, 0.6)
+SCAN_BREAKAWAY_STARTS = 2
+
+
+def _breakaway_starts(ev: _Evaluator, params, e: Effect, idx) -> list[dict]:
+    """Starts of static friction's excess and the spread: at "off" the model has no slope in
+    the excess (a strand held a little longer jumps a little less, a change of second order),
+    and the spread that the nominal model fitted without it took part of its hold; the points
+    of a grid in both with the smallest sums of squares on the fit residuals, the rest held."""
+    lo, hi = e.bounds
+    xs = np.geomspace(max(lo, SCAN_BREAKAWAY_MIN), hi, SCAN_BREAKAWAY_COUNT)
+    scored = sorted(
+        (_sse(ev, {**params, SPREAD: sp, e.fmu_param: float(x)}, idx), sp, float(x))
+        for sp in (float(params[SPREAD]), *SCAN_BREAKAWAY_SPREADS)
+        for x in xs
+    )
+    return [{SPREAD: sp, e.fmu_param: x} for _, sp, x in scored[:SCAN_BREAKAWAY_STARTS]]
+
+
 def _start(e: Effect, data: AuditData) -> float:
     """Where the fit of an effect starts: where its parameter has a slope on these data."""
     lo, hi = e.bounds
@@ -255,7 +295,7 @@ class _Evaluator:
         key = tuple(params.get(k, 0.0) for k in twin.FRICTION_PARAMS)
         entry = self._cache.pop(key, None)
         if entry is None:
-            entry = [twin.friction_output(self.inputs, params), None]
+            entry = [twin.friction_output(self.inputs, params, smooth=True), None]
             self.friction_runs += 1
             while len(self._cache) >= FRICTION_CACHE:
                 del self._cache[next(iter(self._cache))]

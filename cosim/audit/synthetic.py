@@ -123,6 +123,7 @@ def cause_magnitude(cause: str, rng: np.random.Generator) -> dict[str, float]:
             "sensor_creep": sign * rng.uniform(0.03, 0.08),
             "sensor_creep_tau": rng.uniform(0.5, 2.0),
         },
+        "static_friction": lambda: {"mu_static_excess": rng.uniform(0.015, 0.04)},
     }[cause]()
 
 
@@ -141,4 +142,5 @@ CAUSE_SEEDS = {
     "slack": 110,
     "sensor_saturation": 111,
     "load_cell_creep": 112,
+    "static_friction": 114,  # (113: the tuning seed of its fit's start, not a case)
 }

@@ -139,8 +139,13 @@ def _friction(
     ea,
     klc,
     n_seg,
+    smooth,
 ):
-    """T_out (true) at every sample: the drive-mode-1 physics of bowden_physics.c."""
+    """T_out (true) at every sample: the drive-mode-1 physics of bowden_physics.c. With
+    `smooth` (the fits only: friction_output), a strand's breakaway jump is spread over the
+    sample it falls in by where, between the two samples, its threshold was crossed
+    (linearly): the output then moves continuously with the parameters instead of by whole
+    samples."""
     n = t_in.shape[0]
     out = np.empty(n)
     tens = np.zeros(n_seg + 1)
@@ -161,6 +166,9 @@ def _friction(
         strand_sc[j] = math.exp(spread * (STRAND_Q[j] if j < N_STRAND else 0.0))
     strand_e = np.empty(N_STRAND + 1)
     strand_es = np.empty(N_STRAND + 1)
+    # each strand's breakaway thresholds of the sample before (smooth): tin / es_j, tin * es_j
+    brk_lo = np.zeros(N_STRAND + 1)
+    brk_hi = np.zeros(N_STRAND + 1)
     w_prev = -1.0
     ws_prev = -1.0
     seg_arg_prev = -1.0
@@ -233,14 +241,23 @@ def _friction(
                 es = strand_es[j]
                 lo = tin / (e if direction[j] > 0.0 else es)
                 hi = tin * (e if direction[j] < 0.0 else es)
-                if strands[j] < lo:
+                held = strands[j]
+                share = 1.0  # of the jump in this sample's output (smooth)
+                if held < lo:
+                    if smooth and direction[j] <= 0.0 and k > 0 and lo - brk_lo[j] > 0.0:
+                        share = min(1.0, (lo - held) / (lo - brk_lo[j]))
                     strands[j] = tin / e
                     direction[j] = 1.0
-                elif strands[j] > hi:
+                elif held > hi:
+                    if smooth and direction[j] >= 0.0 and k > 0 and brk_hi[j] - hi > 0.0:
+                        share = min(1.0, (held - hi) / (brk_hi[j] - hi))
                     strands[j] = tin * e
                     direction[j] = -1.0
+                if smooth:
+                    brk_lo[j] = tin / es
+                    brk_hi[j] = tin * es
                 if j < N_STRAND:
-                    total += strands[j]
+                    total += held + share * (strands[j] - held)
             if strands[N_STRAND] > 0.0:
                 out[k] = tens[n_seg] * (total / N_STRAND) / strands[N_STRAND]
         if slack > 0.0 and tin < slack:
@@ -254,8 +271,11 @@ def _friction(
     return out
 
 
-def friction_output(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndarray:
-    """True T_out of the twin (no sensor): the friction part of the model."""
+def friction_output(
+    inputs: PlantInputs, params: Mapping[str, float], smooth: bool = False
+) -> np.ndarray:
+    """True T_out of the twin (no sensor): the friction part of the model (smooth: the
+    breakaway jumps spread over their sample, for the fits; _friction)."""
     p = _full(params)
     return _friction(
         np.ascontiguousarray(inputs.t_in_n, dtype=np.float64),
@@ -280,6 +300,7 @@ def friction_output(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndar
         CABLE_EA_N,
         LOADCELL_N_PER_M,
         N_SEG,
+        bool(smooth and float(p["mu_static_excess"]) > 0.0),
     )
 
 

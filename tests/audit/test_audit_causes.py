@@ -26,6 +26,12 @@ DURATION_S = 30.0
 # factor: the input's smoothed noise passed through the friction model adds about 5 % (0.0315
 # against 0.0299 N on FMU data with no effect), and a fitted parameter a little more.
 FLOOR_FACTOR = 1.15
+# Static friction's jumps: the breakaway falls on the sample where the smoothed input, noise
+# and all, crosses the strands' threshold, so the input's noise moves every jump by samples and
+# each misplaced jump leaves its size in the residual. The hidden parameters themselves leave
+# 2.2x the floor on the report blocks of the tuning seed 113 (0.067 N on 0.030 N); the
+# acceptance's factor of 2 holds for it.
+FLOOR_FACTORS = {"static_friction": 2.0}
 
 
 def _audit(path) -> core.AuditResult:
@@ -46,7 +52,13 @@ def _value_ok(cause: str, found: float, true: float) -> bool:
 # and removes 0.021 N RMS, under half the combined noise (0.024 N). Its fit also stops along
 # the valley where the creep and its time constant trade off: -3.8 % with 0.88 s from the
 # default start, -6.4 % with 0.57 s from the truth's, the fit blocks' sums of squares 0.5 %
-# apart.
+# apart. Where it sits (measured, not tuned): the creep changes the prediction in two of the 12
+# selection blocks (the first, at the session's largest move, takes 74 % of its drop, 80 % with
+# the truth's start); in the last four it changes nothing (the output held in the dead zone,
+# the creep settled) and only mu's refit shifts the held levels by 3 mN, which costs those
+# blocks 0.6-2.4 % each; the truth's creep, mu refitted, also improves 8 of 12. The nominal
+# model already leaves 1.03x the floor on the report blocks. 60 s of the same session: still
+# 8 of 12, block t 1.6: a cause this small in this record, not a form or the data's length.
 MISSED = {"load_cell_creep"}
 
 
@@ -82,7 +94,8 @@ def test_audit_names_the_hidden_effect(tmp_path, cause):
     assert _value_ok(cause, f.value, true), f"{param}: found {f.value}, hidden {true}"
     floor = res.data.noise_floor_n
     assert floor == pytest.approx(noise, rel=0.1)
-    assert res.holdout_rms_after_n <= FLOOR_FACTOR * floor, (res.holdout_rms_after_n, floor)
+    factor = FLOOR_FACTORS.get(cause, FLOOR_FACTOR)
+    assert res.holdout_rms_after_n <= factor * floor, (res.holdout_rms_after_n, floor)
     assert res.holdout_rms_after_n < res.holdout_rms_before_n
     assert f.explains_pct > 0 and res.gain_pct > 0
     # the reported figure comes from the FMU, and the fitting twin agrees with it

@@ -54,9 +54,9 @@ def test_the_sensors_parameters_do_not_run_the_friction_again(record, monkeypatc
     calls = []
     real = twin.friction_output
 
-    def counting(inputs, params):
+    def counting(inputs, params, smooth=False):
         calls.append(dict(params))
-        return real(inputs, params)
+        return real(inputs, params, smooth=smooth)
 
     monkeypatch.setattr(twin, "friction_output", counting)
     ev = fit._Evaluator(data)
@@ -139,3 +139,37 @@ def test_a_lag_on_the_coarse_grid_is_the_full_rate_lag_of_the_interpolated_input
     full = np.interp(np.arange(n), np.arange(0, n, q), coarse)
     lagged = twin.sensor_output(full, {"sensor_tau": tau_s}, dt)[::q]
     assert np.max(np.abs(fit._grid_lag(coarse, tau_s, dt, q) - lagged)) < 1e-12
+
+
+def test_static_frictions_jumps_have_a_slope_in_the_fits_only():
+    # the exact twin moves each breakaway jump by whole samples, so a small change of the
+    # excess changes nothing and the least squares sees no slope; the fits' twin (smooth)
+    # spreads each jump over its sample by where the threshold was crossed: its output has the
+    # same slope from two step sizes, and differs from the exact one only on jump samples
+    n, dt = 4000, 1e-3
+    t = np.arange(n) * dt
+    t_in = 10 + 6 * np.sin(2 * np.pi * 0.9 * t) + 2 * np.sin(2 * np.pi * 2.7 * t + 1)
+    phi = np.full(n, 4.0)
+    inputs = twin.PlantInputs(t_in, phi, np.zeros(n), None, 0.0, dt, 1.0, True)
+    p = {"mu": 0.08, "dead_zone_spread": 0.2, "mu_static_excess": 0.03}
+
+    def out(excess: float, smooth: bool) -> np.ndarray:
+        return twin.friction_output(inputs, {**p, "mu_static_excess": excess}, smooth=smooth)
+
+    exact = out(0.03, False)
+    assert np.array_equal(exact, twin.friction_output(inputs, p))  # the default is exact
+    assert np.array_equal(out(0.03 + 1e-8, False), exact)  # no slope: the problem
+    smooth = out(0.03, True)
+    slope_a = (out(0.03 + 1e-6, True) - smooth) / 1e-6
+    slope_b = (out(0.03 + 1e-7, True) - smooth) / 1e-7
+    assert np.sum(slope_a**2) > 0.0
+    assert np.sum(slope_a * slope_b) / np.sqrt(np.sum(slope_a**2) * np.sum(slope_b**2)) > 0.99
+    jumps = np.abs(np.diff(exact, prepend=exact[0]))
+    differ = np.flatnonzero(np.abs(smooth - exact) > 1e-9)
+    assert 0 < len(differ) < 0.02 * n
+    assert np.all(np.abs(smooth - exact)[differ] <= jumps[differ] + 1e-9)
+    # without static friction the fits' twin is the exact one
+    p0 = {**p, "mu_static_excess": 0.0}
+    assert np.array_equal(
+        twin.friction_output(inputs, p0, smooth=True), twin.friction_output(inputs, p0)
+    )

@@ -10,12 +10,20 @@ the cases below use other seeds, mu, spreads and noise and were run once those w
 are reported as they came out (MISSED). The decision rule is the one of test_audit_rule.py
 (not tuned here).
 
-Static friction (fmu/README.md "Static friction", the rig's `static_ratio`) is in the FMU and
-the twin but not in the vocabulary: its jumps move by whole samples with mu, the spread and the
-excess, so the fit's finite differences see nothing; a graduated fit on a smoothed residual
-found it on FMU data but left 1.3-1.5x the floor there, and on the rig (12 strands whose jumps
-fall at other instants than the FMU's 8) it did not fit, while on the tuning seed 31 (spread
-0.3, 1.3x) the audit named sensor_gain instead: a wrong cause this vocabulary cannot avoid yet.
+Static friction (fmu/README.md "Static friction", the rig's `static_ratio`) is a cause of the
+vocabulary too (`static_friction`, mu_static_excess; found on FMU data in test_audit_causes.py),
+but on this rig it is not reliably found (MISSED_STATIC, strict xfail, make test-long): the
+rig's 12 strands break loose at other instants than the FMU's 8 lumped ones, and the sum of
+squares has several valleys in the excess and the spread. Tuning seeds (40 s, noise 0.03 N
+unless said): 31 with mu 0.08, spread 0.3, static_ratio 1.4: the best of four starts of mu,
+the spread and the excess left 0.09 N on the report blocks (3x the floor; the nominal model
+0.108 N) and the audit named sensor_gain (ambiguous with sensor_offset); 31 with spread 0 and
+ratio 1.4: each jump of about 2 N falls a sample or two off and leaves 3.5x; 31 with spread 0.1
+and ratio 1.3: tension_dependent_friction was named (wrong) until the excess's start was
+scanned with the spread (cosim.audit.fit._breakaway_starts), then static_friction alone,
+0.0231 for 0.3 x 0.08, with 2.3x the floor left; 46 (mu 0.085, spread 0.25, noise 0.025 N,
+ratio 1.3): nothing named before and after that change (static_friction 33 %, block t 1.8 in
+67 % of the blocks), 2.7x the floor left.
 """
 
 from __future__ import annotations
@@ -56,12 +64,26 @@ CASES = {
 # and the truth with mu and the spread refitted fits two selection blocks 2.3x and 6.7x worse
 # than the fitted creep: the nominal model's mismatch to the rig's braid (its own strands and
 # Coulomb segments against the FMU's 8 lumped capstans), not the fit's start or the time
-# constant's bound, takes part of the creep.
+# constant's bound, takes part of the creep. The same rig over 80 s (measured, not tuned): 12 of
+# 12 blocks improve (block t 5.6) and 1.3x the floor is left, but the value is 4.0 % with 0.9 s
+# from either start: more data make it consistent, not right.
 MISSED = {
     "creep 5 % with 1.5 s": (
         dict(seed=44, mu=0.09, spread=0.3, noise_n=0.02, creep=0.05, creep_tau_s=1.5),
         "load_cell_creep",
         ("sensor_creep", 0.05, 0.15),
+    ),
+}
+
+
+# Reported, not met (run once, after the tuning above): sensor_gain (1.015) is named, a wrong
+# cause, leaving 3.2x the floor; static_friction removes 10 % of the selection blocks' residual
+# (block t 1.7), sensor_gain 70 % (t 4.0, 83 % of the blocks).
+MISSED_STATIC = {
+    "static friction 1.35x the sliding one": (
+        dict(seed=47, mu=0.075, spread=0.15, noise_n=0.025, static_ratio=1.35),
+        "static_friction",
+        ("mu_static_excess", 0.35 * 0.075, 0.3),
     ),
 }
 
@@ -80,10 +102,23 @@ MISSED = {
             )
             for c in MISSED
         ),
+        *(
+            pytest.param(
+                c,
+                marks=[
+                    pytest.mark.long,
+                    pytest.mark.xfail(
+                        strict=True,
+                        reason="sensor_gain named: the rig's 12 strands, the FMU's 8 (above)",
+                    ),
+                ],
+            )
+            for c in MISSED_STATIC
+        ),
     ],
 )
 def test_a_new_cause_on_the_rig_is_named_alone_and_brought_to_the_floor(tmp_path, case):
-    kw, cause, value = {**CASES, **MISSED}[case]
+    kw, cause, value = {**CASES, **MISSED, **MISSED_STATIC}[case]
     path = rig_record(tmp_path, duration_s=DURATION_S, **kw)
     res = core.run(core.prepare(trace.read_trace(path, "measured"), str(path)))
     named = [(f.effect.cause, f.value) for f in res.findings]
