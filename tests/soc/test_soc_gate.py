@@ -125,10 +125,9 @@ async def netlist_runs_100_ms_of_the_loop(dut):
     ticks = 100
     clock, rises = [0], []
     cocotb.start_soon(pwm_rises(dut, rises, clock))
-    frames0 = len(adc.frames)
     reply = await bench.request("START", duration_ticks=ticks)
     assert reply is not None and reply.name == "ACK", reply
-    t_start = clock[0]
+    t_start, frames0 = clock[0], len(adc.frames)  # the window opens at START's answer
     await ClockCycles(dut.clk, (ticks + 5) * TICK_CLKS)
     window = clock[0] - t_start
     tel = [protocol.unpack("TELEMETRY", f.payload) for f in bench.poll() if f.name == "TELEMETRY"]
