@@ -20,9 +20,9 @@ module SB_PLL40_PAD #(
     parameter FDA_FEEDBACK = 4'b0000,
     parameter FDA_RELATIVE = 4'b0000,
     parameter PLLOUT_SELECT = "GENCLK",
-    parameter DIVR = 4'b0000,
-    parameter DIVF = 7'b0000000,
-    parameter DIVQ = 3'b000,
+    parameter [3:0] DIVR = 4'b0000,
+    parameter [6:0] DIVF = 7'b0000000,
+    parameter [2:0] DIVQ = 3'b000,
     parameter FILTER_RANGE = 3'b000,
     parameter ENABLE_ICEGATE = 1'b0,
     parameter TEST_MODE = 1'b0,
@@ -42,12 +42,12 @@ module SB_PLL40_PAD #(
     input  wire       SCLK
 );
 
-localparam integer F_IN_HZ = 12000000;   // the iCEBreaker's oscillator (pin 35)
-localparam integer F_OUT_HZ = 24000000;  // the SoC's clock (ice40_up5k_soc_top CLK_HZ)
-localparam integer LOCK_CLKS = 16;
+localparam [63:0] F_IN_HZ = 64'd12000000;   // the iCEBreaker's oscillator (pin 35)
+localparam [63:0] F_OUT_HZ = 64'd24000000;  // the SoC's clock (ice40_up5k_soc_top CLK_HZ)
+localparam [4:0]  LOCK_CLKS = 5'd16;
 
-localparam [63:0] PFD_HZ = F_IN_HZ / (DIVR + 1);
-localparam [63:0] VCO_HZ = PFD_HZ * (DIVF + 1);
+localparam [63:0] PFD_HZ = F_IN_HZ / (64'd1 + {60'd0, DIVR});
+localparam [63:0] VCO_HZ = PFD_HZ * (64'd1 + {57'd0, DIVF});
 localparam [63:0] OUT_HZ = VCO_HZ >> DIVQ;
 
 initial begin
@@ -57,7 +57,9 @@ initial begin
     if (PFD_HZ < 10000000 || PFD_HZ > 133000000) $fatal(1, "SB_PLL40_PAD: PFD %0d Hz", PFD_HZ);
 end
 
-reg [4:0] count = 5'd0;
+reg [4:0] count;
+
+initial count = 5'd0;  // flip-flops start at zero, as the netlist's do
 
 always @(posedge PACKAGEPIN or negedge RESETB) begin
     if (!RESETB) begin
