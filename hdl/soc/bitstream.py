@@ -118,9 +118,9 @@ def input_hash(board: Board) -> str:
     return h.hexdigest()[:16]
 
 
-def build(board: Board) -> dict:
-    """hdl/synth/synth.py's synthesis and placement steps, then the packer, for `board`."""
-    out = BUILD / board.name
+def synthesize(board: Board, out: Path) -> float:
+    """yosys alone for `board` into out/: netlist.json (for nextpnr) and, for the iCE40,
+    netlist.v (the gate-level simulation's). Returns the seconds yosys took."""
     out.mkdir(parents=True, exist_ok=True)
     before = after = ""
     if board.image_in_bitstream:
@@ -131,7 +131,26 @@ def build(board: Board) -> dict:
         before = f'chparam -set BOOT_INIT "boot.hex" {board.top}; '
     if board.family == "ice40":
         after = "write_verilog -noattr netlist.v; "  # the gate-level simulation's netlist
-    yosys_s = yosys(out, sources(board), board.top, board.family, "netlist.json", before, after)
+    return yosys(out, sources(board), board.top, board.family, "netlist.json", before, after)
+
+
+def netlist(board: Board, out: Path) -> Path:
+    """out/netlist.v of `board`, synthesized again only when its inputs changed (the gate-level
+    simulation's netlist: no place and route)."""
+    stamp = out / "netlist.hash"
+    key = input_hash(board)
+    if not (out / "netlist.v").exists() or not stamp.exists() or stamp.read_text() != key:
+        synthesize(board, out)
+        tmp = stamp.with_suffix(".tmp")
+        tmp.write_text(key)
+        tmp.replace(stamp)
+    return out / "netlist.v"
+
+
+def build(board: Board) -> dict:
+    """hdl/synth/synth.py's synthesis and placement steps, then the packer, for `board`."""
+    out = BUILD / board.name
+    yosys_s = synthesize(board, out)
     packed = "bowden.asc" if board.family == "ice40" else "bowden.config"
     pnr = place(
         out, board.family, board.nextpnr_args, "netlist.json", board.constraints,
