@@ -191,6 +191,7 @@ def _run_gate(testcase: str) -> None:
     )  # fmt: skip
 
 
+@pytest.mark.long  # a cold build is ~5 min of C++ and the boot 2-3 min: beyond make test's budget
 def test_soc_gate_level_boot():
     _run_gate("netlist_boots_from_flash_and_answers_hello")
 
