@@ -4,8 +4,10 @@ Importing the command line (argparse, the subcommands' modules) takes a noticeab
 `cosim.cli.main` can catch an interrupt only once it runs. The entry points (`python -m cosim`,
 the `bowden` console script: cosim/__main__.py) install `interrupted_before_start` first, with
 nothing imported but the standard library's signal and os; `cosim.cli.main` hands SIGINT back to
-Python's handler (`release`) inside its own try block. Nothing has started before that point,
-so there is nothing to stop: the process leaves at once with 128 + SIGINT.
+Python's handler (`release`) when the command starts, after the command line's imports and the
+parse (an interrupt raised inside the import machinery can be printed with a traceback before
+any handler sees it). Nothing has started before that point, so there is nothing to stop: the
+process leaves at once with 128 + SIGINT.
 
 After `release` a Ctrl-C is a KeyboardInterrupt again, and `seen` records that it came: an
 interrupt that lands inside an extension module's import can be replaced by an ImportError with

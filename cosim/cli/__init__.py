@@ -104,7 +104,10 @@ def main(argv: list[str] | None = None) -> int:
     global _pending
     _pending = None
     try:
-        _early.release()  # from here on a Ctrl-C is a KeyboardInterrupt caught below
+        # The early handler (one line, exit) stays through the command line's imports and the
+        # parse: nothing has started, and a KeyboardInterrupt raised inside the import machinery
+        # can be printed with a traceback by the interpreter before it reaches any handler
+        # (seen once in importlib's module locks). _main releases it when the command starts.
         return _main(argv)
     except (KeyboardInterrupt, ImportError) as exc:  # Ctrl-C before the command's handlers
         if _interruption(exc) is None and not _early.seen:
@@ -125,6 +128,7 @@ def _main(argv: list[str] | None) -> int:
     if getattr(args, "func", None) is None:
         parser.print_help()
         return 2
+    _early.release()  # from here on a Ctrl-C is a KeyboardInterrupt caught below
     try:
         with _signals_interrupt():
             code = int(args.func(args) or 0)
