@@ -220,9 +220,8 @@ def _scan_start(ev: _Evaluator, params: dict[str, float], e: Effect, idx: np.nda
 
 # a breakaway's starts: its scan tries this many values of the excess from SCAN_BREAKAWAY_MIN
 # to its bound (geometric) at the current spread and each of SCAN_BREAKAWAY_SPREADS, and the
-# least squares
-# starts from the SCAN_BREAKAWAY_STARTS best (the sum of squares has several valleys in the
-# excess and the spread: the strands' jumps fall after other reversals)
+# least squares starts from the SCAN_BREAKAWAY_STARTS best (the sum of squares has several
+# valleys in the excess and the spread: the strands' jumps fall after other reversals)
 SCAN_BREAKAWAY_COUNT = 16
 SCAN_BREAKAWAY_MIN = 2e-3
 SCAN_BREAKAWAY_SPREADS = (0.0, 0.1, 0.2, 0.35, 0.6)
