@@ -325,8 +325,10 @@ def gen_read_path(spec: dict) -> list[str]:
     ngrp = (n + 3) // 4
     out: list[str] = []
     w = out.append
-    miss = [f"            (rd_word == A_{reg['name']}){' ||' if i < n - 1 else ');'}"
-            for i, reg in enumerate(regs)]
+    miss = [
+        f"            (rd_word == A_{reg['name']}){' ||' if i < n - 1 else ');'}"
+        for i, reg in enumerate(regs)
+    ]
     w("// Read path, RD_STAGES clocks; the data and the error flag hold until the next read.")
     w("generate")
     w("    if (RD_STAGES != 1 && RD_STAGES != 3) begin : g_check")
@@ -424,8 +426,8 @@ def gen_formal(spec: dict) -> list[str]:
     f_a, free and fixed (anyconst), stands for every address; its shadow f_w starts at the
     table's reset word and takes every write with its byte strobes. Every rw field output equals
     its bits of the shadow, write pulses follow their writes by one clock, unmapped addresses
-    answer an error, and a read returns the shadow's rw and const bits RD_STAGES clocks later. Writes
-    to other words, read-only registers and unmapped addresses therefore change nothing.
+    answer an error, and a read returns the shadow's rw and const bits RD_STAGES clocks later.
+    Writes to other words, read-only registers and unmapped addresses therefore change nothing.
     """
     regs = spec["registers"]
     out: list[str] = []
