@@ -26,7 +26,7 @@
  *
  * SNAPSHOT 1 (the default, the external-MCU boards): the configuration is copied at the tick
  * into snapshot registers that the later clocks of the sample use. SNAPSHOT 0 (bowden_soc, where
- * the UP5K has no room for the ~220 snapshot flip-flops): the sample reads the live register
+ * the UP5K has no room for the 226 snapshot flip-flops): the sample reads the live register
  * outputs, and `cfg_busy` (the tick clock and the 13 after it) tells the register bus to hold
  * any write until the sample no longer reads them, so the same rule holds: a write held over
  * the tick lands after it and is used by the next sample (property tl_cfg_held).

@@ -314,8 +314,8 @@ wire [15:0] cmd_current;
 wire        cmd_valid;
 wire unused_cmd = &{1'b0, cmd_current, cmd_valid};
 
-// The UP5K has no room for the 48 MHz boards' read pipeline and configuration snapshot (some 250
-// flip-flops, each a logic cell): at 24/25 MHz a one-clock read-back meets timing, and the loop
+// The UP5K has no room for the 48 MHz boards' read pipeline and configuration snapshot (355
+// flip-flops, most of them a logic cell each): at 24/25 MHz a one-clock read-back meets timing, and the loop
 // reads the live registers while a store to them waits out the 14 clocks of a sample that read
 // them (hdl/README.md, "Bitstreams").
 bowden_core #(
