@@ -117,10 +117,14 @@ def property_table(props: list[Property]) -> str:
 # Every task `make formal` runs, in order (the slowest first, so two jobs finish together).
 TASKS = [
     "bowden_core:prove",
+    "bowden_core:prove_soc",
     "spi_axil_bridge:cover",
     "tension_loop:cover",
+    "tension_loop:cover_soc",
     "bowden_core:cover",
+    "bowden_core:cover_soc",
     "tension_loop:prove",
+    "tension_loop:prove_soc",
     "spi_axil_bridge:prove_aw8",
     "spi_axil_bridge:prove_aw9",
     "pwm_escon:prove_48mhz",
@@ -156,8 +160,8 @@ MUTANTS = [
         "u_clamp_removed",
         "tl_current_limit",
         "tension_loop.v",
-        "wire [15:0] u_sat = rhi_reg ? {1'b0, lim_s_reg} : rlo_reg ? nlim_reg : r_reg[15:0];",
-        "wire [15:0] u_sat = rhi_reg ? {1'b0, lim_s_reg} : r_reg[15:0];",
+        "wire [15:0] u_sat = rhi_reg ? {1'b0, lim_cfg} : rlo_reg ? nlim_reg : r_reg[15:0];",
+        "wire [15:0] u_sat = rhi_reg ? {1'b0, lim_cfg} : r_reg[15:0];",
         "tension_loop:bmc",
     ),
     Mutant(
@@ -236,8 +240,8 @@ MUTANTS = [
         "watchdog_ramps_with_other_fault",
         "tl_hard_fault_safe",
         "tension_loop.v",
-        "        ramp_next = en_s_reg && (faults_now == F_WDT);",
-        "        ramp_next = en_s_reg && faults_now[2];",
+        "        ramp_next = en_cfg && (faults_now == F_WDT);",
+        "        ramp_next = en_cfg && faults_now[2];",
         "tension_loop:bmc",
     ),
     Mutant(
@@ -255,6 +259,14 @@ MUTANTS = [
         "    tick_next = (tick_cnt_reg == TICK_LAST);",
         "    tick_next = (tick_cnt_reg == TICK_LAST) || (tick_cnt_reg == 3);",
         "bowden_core:bmc",
+    ),
+    Mutant(
+        "cfg_hold_one_clock_short",
+        "tl_cfg_held",
+        "tension_loop.v",
+        "assign cfg_busy = (SNAPSHOT == 0) && (tick || (|seq_reg[LATENCY-3:0]));",
+        "assign cfg_busy = (SNAPSHOT == 0) && (tick || (|seq_reg[LATENCY-4:0]));",
+        "bowden_core:bmc_soc",
     ),
     Mutant(
         "axil_double_response",

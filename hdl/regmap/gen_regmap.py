@@ -118,17 +118,20 @@ def gen_verilog(spec: dict) -> str:
     out.extend("// " + line for line in textwrap.wrap(spec["description"], 96))
     w("//")
     w("// Register bus: a write (reg_wr_en) takes effect at the clock edge; a read (reg_rd_en)")
-    w("// returns reg_rd_data and reg_rd_err with reg_rd_valid three cycles later: a registered")
-    w("// one-hot select, then groups of four registers, then the final OR, which keeps the iCE40")
-    w("// at 48 MHz. Unmapped addresses read 0 and report an error (SLVERR on AXI4-Lite);")
-    w("// writes to read-only registers are ignored.")
+    w("// returns reg_rd_data and reg_rd_err with reg_rd_valid RD_STAGES cycles later. RD_STAGES 3")
+    w("// (the default, the external-MCU boards): a registered one-hot select, then groups of four")
+    w("// registers, then the final OR, which keeps the iCE40 at 48 MHz. RD_STAGES 1 (bowden_soc,")
+    w("// 24/25 MHz): the whole multiplexer in one clock, without the pipeline's flip-flops. The")
+    w("// bus master waits for reg_rd_valid. Unmapped addresses read 0 and report an error (SLVERR")
+    w("// on AXI4-Lite); writes to read-only registers are ignored.")
     w("")
     w("`resetall")
     w("`timescale 1ns / 1ps")
     w("`default_nettype none")
     w("")
     w("module bowden_regs #(")
-    w(f"    parameter ADDR_W = {aw}  // byte address width of the register bus")
+    w(f"    parameter ADDR_W = {aw},  // byte address width of the register bus")
+    w("    parameter RD_STAGES = 3  // clocks from reg_rd_en to reg_rd_valid: 3 or 1")
     w(") (")
     w("    input  wire              clk,")
     w("    input  wire              rst,")
@@ -175,16 +178,10 @@ def gen_verilog(spec: dict) -> str:
     w("")
     w("wire [ADDR_W-3:0] wr_word = reg_wr_addr[ADDR_W-1:2];")
     w("wire [ADDR_W-3:0] rd_word = reg_rd_addr[ADDR_W-1:2];")
-    n = len(spec["registers"])
-    w(f"reg  [{n - 1}:0]        rd_sel;   // one-hot register select of the read in flight")
-    w("reg               rd_miss;  // the read address is unmapped")
-    w("reg               rd_pend;  // a read is in its second cycle")
-    ngrp = (n + 3) // 4
-    for g in range(ngrp):
-        w(f"reg  [31:0]       rd_grp{g};  // OR of registers {4 * g}..{min(4 * g + 3, n - 1)}")
-    w("reg               rd_miss2;")
-    w("reg               rd_pend2;  // a read is in its third cycle")
-    w("reg               rd_valid;  // reg_rd_data holds a new read")
+    w("wire [31:0]       rd_data;  // the read path's result (generate blocks below)")
+    w("wire              rd_err;")
+    w("wire              rd_valid;  // rd_data holds a new read")
+    w("wire              rd_last;   // the read path's last stage: rd_valid on the next clock")
     w("")
     w("// Write data with the byte strobes applied to the stored value: bit i is written when")
     w("// strobe i/8 is set.")
@@ -209,8 +206,6 @@ def gen_verilog(spec: dict) -> str:
                 )
         if reg.get("wr_pulse"):
             w(f"reg  {reg['name'].lower()}_wr_reg, {reg['name'].lower()}_wr_next;")
-    w("reg  [31:0] rd_data_reg, rd_data_next;")
-    w("reg         rd_err_reg, rd_err_next;")
     w("reg         wr_hit;")
     w("")
     w("// Read value of every register.")
@@ -273,15 +268,6 @@ def gen_verilog(spec: dict) -> str:
     w("            default: wr_hit = 1'b0;")
     w("        endcase")
     w("    end")
-    w("")
-    w("    // Third read cycle: OR of the group results.")
-    ngrp = (len(spec["registers"]) + 3) // 4
-    w("    rd_data_next = " + " | ".join(f"rd_grp{g}" for g in range(ngrp)) + ";")
-    w("    rd_err_next = rd_miss2;")
-    w("    if (!rd_pend2) begin")
-    w("        rd_data_next = rd_data_reg;")
-    w("        rd_err_next = rd_err_reg;")
-    w("    end")
     w("end")
     w("")
     w("always @(posedge clk) begin")
@@ -292,36 +278,7 @@ def gen_verilog(spec: dict) -> str:
         if reg.get("wr_pulse"):
             n = reg["name"].lower()
             w(f"    {n}_wr_reg <= {n}_wr_next;")
-    w("    rd_data_reg <= rd_data_next;")
-    w("    rd_pend <= reg_rd_en;")
-    w("    rd_pend2 <= rd_pend;")
-    w("    rd_valid <= rd_pend2;")
-    w("    rd_miss2 <= rd_miss;")
-    w("    // Second read cycle: AND-OR of the one-hot select within groups of four registers.")
-    regs = spec["registers"]
-    for g in range(0, len(regs), 4):
-        terms = [
-            f"({{32{{rd_sel[{i}]}}}} & rword_{regs[i]['name'].lower()})"
-            for i in range(g, min(g + 4, len(regs)))
-        ]
-        w(f"    rd_grp{g // 4} <= " + terms[0])
-        for t in terms[1:]:
-            w(f"        | {t}")
-        out[-1] += ";"
-    w("    if (reg_rd_en) begin")
-    for i, reg in enumerate(spec["registers"]):
-        w(f"        rd_sel[{i}] <= (rd_word == A_{reg['name']});")
-    w("        rd_miss <= !(")
-    for i, reg in enumerate(spec["registers"]):
-        sep = " ||" if i < len(spec["registers"]) - 1 else ");"
-        w(f"            (rd_word == A_{reg['name']}){sep}")
-    w("    end")
-    w("    rd_err_reg <= rd_err_next;")
-    w("")
     w("    if (rst) begin")
-    w("        rd_pend <= 1'b0;")
-    w("        rd_pend2 <= 1'b0;")
-    w("        rd_valid <= 1'b0;")
     for reg in spec["registers"]:
         for f in reg["fields"]:
             if f["access"] in ("rw", "w1p"):
@@ -340,18 +297,126 @@ def gen_verilog(spec: dict) -> str:
             n = reg["name"].lower()
             w(f"assign {n}_wr = {n}_wr_reg;")
     w("assign reg_wr_err = reg_wr_en & ~wr_hit;")
-    w("assign reg_rd_data = rd_data_reg;")
-    w("assign reg_rd_err = rd_err_reg;")
+    out.extend(gen_read_path(spec))
+    w("assign reg_rd_data = rd_data;")
+    w("assign reg_rd_err = rd_err;")
     w("assign reg_rd_valid = rd_valid;")
     w("")
     w("// Unused write-data bits: registers narrower than 32 bits ignore the rest.")
     w("wire unused_wr_bits = &{1'b0, reg_wr_data, wr_mask, reg_wr_addr[1:0], reg_rd_addr[1:0]};")
+    w("// The read path's last stage serves the formal properties only.")
+    w("wire unused_rd_last = rd_last;")
     w("")
     out.extend(gen_formal(spec))
     w("endmodule")
     w("")
     w("`resetall")
     return "\n".join(out) + "\n"
+
+
+def gen_read_path(spec: dict) -> list[str]:
+    """The read multiplexer: three registered stages (RD_STAGES 3) or one (RD_STAGES 1).
+
+    Each in its own generate block, so that at the default the three-stage logic of the 48 MHz
+    boards is exactly what it was before the parameter existed.
+    """
+    regs = spec["registers"]
+    n = len(regs)
+    ngrp = (n + 3) // 4
+    out: list[str] = []
+    w = out.append
+    miss = [
+        f"            (rd_word == A_{reg['name']}){' ||' if i < n - 1 else ');'}"
+        for i, reg in enumerate(regs)
+    ]
+    w("// Read path, RD_STAGES clocks; the data and the error flag hold until the next read.")
+    w("generate")
+    w("    if (RD_STAGES != 1 && RD_STAGES != 3) begin : g_check")
+    w("        bowden_regs_RD_STAGES_must_be_1_or_3 error_RD_STAGES ();")
+    w("    end")
+    w("    if (RD_STAGES == 1) begin : g_rd1")
+    w("        // One clock: the one-hot select and the AND-OR of all registers in one stage.")
+    w(f"        wire [{n - 1}:0] sel;")
+    for i, reg in enumerate(regs):
+        w(f"        assign sel[{i}] = (rd_word == A_{reg['name']});")
+    w("        reg  [31:0] rd_data_reg;")
+    w("        reg         rd_err_reg;")
+    w("        reg         rd_valid_reg;")
+    w("        always @(posedge clk) begin")
+    w("            if (reg_rd_en) begin")
+    terms = [f"({{32{{sel[{i}]}}}} & rword_{reg['name'].lower()})" for i, reg in enumerate(regs)]
+    w("                rd_data_reg <= " + terms[0])
+    for t in terms[1:]:
+        w(f"                    | {t}")
+    out[-1] += ";"
+    w(f"                rd_err_reg <= sel == {n}'d0;")
+    w("            end")
+    w("            rd_valid_reg <= reg_rd_en;")
+    w("            if (rst) begin")
+    w("                rd_valid_reg <= 1'b0;")
+    w("            end")
+    w("        end")
+    w("        assign rd_data = rd_data_reg;")
+    w("        assign rd_err = rd_err_reg;")
+    w("        assign rd_valid = rd_valid_reg;")
+    w("        assign rd_last = reg_rd_en;")
+    w("    end else begin : g_rd3")
+    w(f"        reg  [{n - 1}:0] rd_sel;   // one-hot register select of the read in flight")
+    w("        reg         rd_miss;  // the read address is unmapped")
+    w("        reg         rd_pend;  // a read is in its second cycle")
+    for g in range(ngrp):
+        w(f"        reg  [31:0] rd_grp{g};  // OR of registers {4 * g}..{min(4 * g + 3, n - 1)}")
+    w("        reg         rd_miss2;")
+    w("        reg         rd_pend2;  // a read is in its third cycle")
+    w("        reg         rd_valid_reg;")
+    w("        reg  [31:0] rd_data_reg, rd_data_next;")
+    w("        reg         rd_err_reg, rd_err_next;")
+    w("        always @* begin")
+    w("            // Third read cycle: OR of the group results.")
+    w("            rd_data_next = " + " | ".join(f"rd_grp{g}" for g in range(ngrp)) + ";")
+    w("            rd_err_next = rd_miss2;")
+    w("            if (!rd_pend2) begin")
+    w("                rd_data_next = rd_data_reg;")
+    w("                rd_err_next = rd_err_reg;")
+    w("            end")
+    w("        end")
+    w("        always @(posedge clk) begin")
+    w("            rd_data_reg <= rd_data_next;")
+    w("            rd_pend <= reg_rd_en;")
+    w("            rd_pend2 <= rd_pend;")
+    w("            rd_valid_reg <= rd_pend2;")
+    w("            rd_miss2 <= rd_miss;")
+    w("            // Second read cycle: AND-OR of the one-hot select within groups of four.")
+    for g in range(0, n, 4):
+        terms = [
+            f"({{32{{rd_sel[{i}]}}}} & rword_{regs[i]['name'].lower()})"
+            for i in range(g, min(g + 4, n))
+        ]
+        w(f"            rd_grp{g // 4} <= " + terms[0])
+        for t in terms[1:]:
+            w(f"                | {t}")
+        out[-1] += ";"
+    w("            if (reg_rd_en) begin")
+    for i, reg in enumerate(regs):
+        w(f"                rd_sel[{i}] <= (rd_word == A_{reg['name']});")
+    w("                rd_miss <= !(")
+    out.extend("        " + m for m in miss)
+    w("            end")
+    w("            rd_err_reg <= rd_err_next;")
+    w("            if (rst) begin")
+    w("                rd_pend <= 1'b0;")
+    w("                rd_pend2 <= 1'b0;")
+    w("                rd_valid_reg <= 1'b0;")
+    w("            end")
+    w("        end")
+    w("        assign rd_data = rd_data_reg;")
+    w("        assign rd_err = rd_err_reg;")
+    w("        assign rd_valid = rd_valid_reg;")
+    w("        assign rd_last = rd_pend2;")
+    w("    end")
+    w("endgenerate")
+    w("")
+    return out
 
 
 def gen_formal(spec: dict) -> list[str]:
@@ -361,8 +426,8 @@ def gen_formal(spec: dict) -> list[str]:
     f_a, free and fixed (anyconst), stands for every address; its shadow f_w starts at the
     table's reset word and takes every write with its byte strobes. Every rw field output equals
     its bits of the shadow, write pulses follow their writes by one clock, unmapped addresses
-    answer an error, and a read returns the shadow's rw and const bits three clocks later. Writes
-    to other words, read-only registers and unmapped addresses therefore change nothing.
+    answer an error, and a read returns the shadow's rw and const bits RD_STAGES clocks later.
+    Writes to other words, read-only registers and unmapped addresses therefore change nothing.
     """
     regs = spec["registers"]
     out: list[str] = []
@@ -404,7 +469,11 @@ def gen_formal(spec: dict) -> list[str]:
     w("                      {8{reg_wr_strb[0]}}};")
     w("wire f_wr_a = reg_wr_en && wr_word == f_a;")
     w("reg [2:0] f_rd_a;    // a read of f_a one, two, three clocks ago")
-    w("reg [31:0] f_w_rd1, f_w_rd2;  // the shadow when those reads sampled the registers")
+    w("reg [31:0] f_w_rd1, f_w_rd2;  // the shadow one and two clocks ago")
+    w("// The read of f_a answered now, and the shadow when it sampled the registers: the read")
+    w("// clock itself (RD_STAGES 1), or the clock after it, when the groups are formed (3).")
+    w("wire f_rd_hit = (RD_STAGES == 1) ? f_rd_a[0] : f_rd_a[2];")
+    w("wire [31:0] f_w_rd = (RD_STAGES == 1) ? f_w_rd1 : f_w_rd2;")
     w("always @(posedge clk) begin")
     w("    if (f_wr_a) f_w <= (f_w & ~f_strb) | (reg_wr_data & f_strb);")
     w("    f_rd_a <= {f_rd_a[1:0], reg_rd_en && rd_word == f_a};")
@@ -432,13 +501,14 @@ def gen_formal(spec: dict) -> list[str]:
     w("    // property regs_write_error: a write errs exactly at an unmapped word")
     w("    regs_write_error: assert(reg_wr_err == (reg_wr_en && !f_wr_mapped));")
     w(
-        "    // property regs_read: a read answers 3 clocks later, SLVERR and 0 exactly when"
-        " unmapped, else the rw bits last written and the constant bits"
+        "    // property regs_read: a read answers RD_STAGES clocks later (3; 1 in the SoC),"
+        " SLVERR and 0 exactly when unmapped, else the rw bits last written and the constant"
+        " bits"
     )
-    w("    if (f_rd_a[2]) begin")
+    w("    if (f_rd_hit) begin")
     w("        regs_read: assert(reg_rd_valid);")
     w("        regs_read_2: assert(reg_rd_err == !f_a_mapped);")
-    w("        regs_read_3: assert((reg_rd_data & f_rw_mask) == (f_w_rd2 & f_rw_mask));")
+    w("        regs_read_3: assert((reg_rd_data & f_rw_mask) == (f_w_rd & f_rw_mask));")
     w("        regs_read_4: assert((reg_rd_data & f_const_mask) == (f_reset & f_const_mask));")
     w("        if (!f_a_mapped) regs_read_5: assert(reg_rd_data == 32'd0);")
     w("    end")
@@ -471,14 +541,14 @@ def gen_formal(spec: dict) -> list[str]:
             n = reg["name"]
             hit = f"$past(reg_wr_en && wr_word == A_{n})"
             w(f"        {pulse_label()}: assert({n.lower()}_wr == {hit});")
-    w(f"        {pulse_label()}: assert(reg_rd_valid == $past(rd_pend2));")
+    w(f"        {pulse_label()}: assert(reg_rd_valid == $past(rd_last));")
     w("    end")
     w("end")
     w("")
     w("always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin")
-    w("    cover(f_rd_a[2] && f_rw_mask != 32'd0 &&")
-    w("          (f_w_rd2 & f_rw_mask) != (f_reset & f_rw_mask));  // a write read back")
-    w("    cover(f_rd_a[2] && !f_a_mapped);")
+    w("    cover(f_rd_hit && f_rw_mask != 32'd0 &&")
+    w("          (f_w_rd & f_rw_mask) != (f_reset & f_rw_mask));  // a write read back")
+    w("    cover(f_rd_hit && !f_a_mapped);")
     w("    cover(reg_wr_err);")
     w("end")
     w("`endif")

@@ -6,15 +6,19 @@
  * AXI4-Lite slave to the simple register bus of bowden_regs.
  *
  * One transaction of each kind at a time: a write is taken when address and data are both
- * valid (and the previous response has been accepted), a read when the address is valid and no
- * read is in flight. The register file answers a read with reg_rd_valid. Decode errors give
- * SLVERR; everything else OKAY.
+ * valid (and the previous response has been accepted) and wr_hold is low, a read when the
+ * address is valid and no read is in flight. wr_hold stalls writes while the loop reads its
+ * live configuration (bowden_soc: tension_loop's cfg_busy, at most 14 clocks; 0 elsewhere).
+ * The register file answers a read with reg_rd_valid, however many clocks later. Decode errors
+ * give SLVERR; everything else OKAY.
  */
 module axil_regbus #(
     parameter ADDR_W = 8  // byte address width
 ) (
     input  wire              clk,
     input  wire              rst,
+
+    input  wire              wr_hold,  // hold writes (not taken) while high
 
     /*
      * AXI4-Lite slave
@@ -62,7 +66,7 @@ reg [1:0] bresp_reg, bresp_next;
 reg       rvalid_reg, rvalid_next;
 reg       rwait_reg, rwait_next;  // read issued, waiting for reg_rd_valid
 
-wire wr_go = s_axil_awvalid && s_axil_wvalid && !bvalid_reg;
+wire wr_go = s_axil_awvalid && s_axil_wvalid && !bvalid_reg && !wr_hold;
 wire rd_go = s_axil_arvalid && !rvalid_reg && !rwait_reg;
 
 always @* begin
@@ -163,11 +167,12 @@ always @* if (f_past_valid && !rst) begin
     if (s_axil_rvalid) axil_one_response_2: assert(f_rd_out == 2'd1);
     if (s_axil_awready) axil_one_response_3: assert(f_wr_out == 2'd0 || f_b_hs);
     if (s_axil_arready) axil_one_response_4: assert(f_rd_out == 2'd0);
-    // property axil_no_deadlock: a read is answered within 4 clocks, a write on the next clock, and a request finding nothing outstanding is taken at once
+    // property axil_no_deadlock: a read is answered within 4 clocks, a write on the next clock, and a request finding nothing outstanding is taken at once (a write unless wr_hold)
     // No deadlock: a read is answered within 4 clocks, a write on the next clock (above), and
-    // a request finding nothing outstanding is taken at once.
+    // a request finding nothing outstanding is taken at once (a write unless held: how long
+    // bowden_core holds it is core_write_hold).
     axil_no_deadlock: assert(f_rd_age <= 3'd3);
-    if (s_axil_awvalid && s_axil_wvalid && f_wr_out == 2'd0) axil_no_deadlock_2: assert(s_axil_awready);
+    if (s_axil_awvalid && s_axil_wvalid && f_wr_out == 2'd0 && !wr_hold) axil_no_deadlock_2: assert(s_axil_awready);
     if (s_axil_arvalid && f_rd_out == 2'd0) axil_no_deadlock_3: assert(s_axil_arready);
     // property axil_resp_code: BRESP and RRESP are SLVERR exactly for unmapped addresses, else OKAY
     // The write response is the register file's verdict (SLVERR for unmapped, else OKAY).

@@ -10,6 +10,12 @@
  * starts one loop computation on the most recent ADC sample; cmd_valid pulses LATENCY (15)
  * clocks later with the new command. CLKS_PER_SAMPLE may be as low as 15, which the
  * co-simulation uses to spend few simulated clocks per sample.
+ *
+ * RD_STAGES and SNAPSHOT trade flip-flops for clock speed: the defaults (3, 1) are the
+ * external-MCU boards' at 48 MHz (a three-clock registered read-back, a configuration snapshot
+ * at the tick); bowden_soc (24/25 MHz, the UP5K full) sets 1 and 0: a one-clock read-back, and
+ * the loop reads the live registers while the bus holds a write for the 14 clocks of a sample
+ * that read them (tension_loop, property tl_cfg_held).
  */
 module bowden_core #(
     parameter CLK_HZ = 48000000,                  // system clock, Hz
@@ -18,7 +24,9 @@ module bowden_core #(
     parameter PWM_HZ = 5000,                      // PWM set value frequency, Hz (ESCON <= 5 kHz)
     parameter PWM_IMAX_Q12 = 16384,               // current at 90 % duty, Q3.12 A (4 A)
     parameter [15:0] WDT_RAMP_STEP = 16'd41,      // watchdog ramp, Q3.12 A per sample
-    parameter ADDR_W = 8                          // register byte address width
+    parameter ADDR_W = 8,                         // register byte address width
+    parameter RD_STAGES = 3,                      // register read-back clocks: 3 or 1
+    parameter SNAPSHOT = 1                        // 1: configuration snapshot; 0: writes held
 ) (
     input  wire              clk,
     input  wire              rst,
@@ -104,8 +112,10 @@ wire [ADDR_W-1:0] reg_wr_addr, reg_rd_addr;
 wire [31:0]       reg_wr_data, reg_rd_data;
 wire [3:0]        reg_wr_strb;
 
+wire cfg_busy;  // the loop reads its live configuration (SNAPSHOT 0): hold writes
+
 axil_regbus #(.ADDR_W(ADDR_W)) axil (
-    .clk(clk), .rst(rst),
+    .clk(clk), .rst(rst), .wr_hold(cfg_busy),
     .s_axil_awaddr(s_axil_awaddr), .s_axil_awprot(s_axil_awprot),
     .s_axil_awvalid(s_axil_awvalid), .s_axil_awready(s_axil_awready),
     .s_axil_wdata(s_axil_wdata), .s_axil_wstrb(s_axil_wstrb),
@@ -131,7 +141,7 @@ wire [31:0] integ, sample_count;
 wire [3:0]  faults;
 wire        out_en, out_valid, saturated, wdt_ramp;
 
-bowden_regs #(.ADDR_W(ADDR_W)) regs (
+bowden_regs #(.ADDR_W(ADDR_W), .RD_STAGES(RD_STAGES)) regs (
     .clk(clk), .rst(rst),
     .reg_wr_en(reg_wr_en), .reg_wr_addr(reg_wr_addr), .reg_wr_data(reg_wr_data),
     .reg_wr_strb(reg_wr_strb), .reg_wr_err(reg_wr_err),
@@ -153,7 +163,7 @@ bowden_regs #(.ADDR_W(ADDR_W)) regs (
 
 // --- loop and drive ------------------------------------------------------------------------
 
-tension_loop #(.WDT_RAMP_STEP(WDT_RAMP_STEP)) loop (
+tension_loop #(.WDT_RAMP_STEP(WDT_RAMP_STEP), .SNAPSHOT(SNAPSHOT)) loop (
     .clk(clk), .rst(rst),
     .tick(tick_reg),
     .adc_valid(adc_valid), .adc_data(adc_data),
@@ -162,6 +172,7 @@ tension_loop #(.WDT_RAMP_STEP(WDT_RAMP_STEP)) loop (
     .tc(tc), .tc_min(tc_min), .kff(kff), .uff(uff), .kp(kp), .ki_ts(ki_ts), .i_limit(i_limit),
     .slew(slew), .wdt_timeout(wdt_timeout), .adc_offset(adc_offset), .adc_gain(adc_gain),
     .adc_min(adc_min), .adc_max(adc_max), .adc_stale(adc_stale), .oc_timeout(oc_timeout),
+    .cfg_busy(cfg_busy),
     .u(u), .out_en(out_en), .out_valid(out_valid),
     .saturated(saturated), .wdt_ramp(wdt_ramp), .faults(faults),
     .t_in(t_in), .integ(integ), .tc_eff(tc_eff), .sample_count(sample_count)
@@ -212,6 +223,28 @@ end
 
 always @(posedge clk) if (f_past_valid && !rst && !$past(rst))
     cover(sample_tick && $past(f_ticked));  // the second tick
+
+// SNAPSHOT 0: a write waits at most 14 clocks (the loop's cfg_busy), so the CPU's store stalls
+// that long at worst. f_hold_run: consecutive clocks of hold before this one.
+reg [4:0] f_hold_run;
+always @(posedge clk) begin
+    f_hold_run <= cfg_busy ? f_hold_run + 5'd1 : 5'd0;
+    if (rst) f_hold_run <= 5'd0;
+end
+// property core_write_hold: the register bus holds a write for at most 14 consecutive clocks (SNAPSHOT 0; never with the snapshot)
+always @* if (f_past_valid && !rst) begin
+    if (SNAPSHOT != 0) core_write_hold: assert(!cfg_busy);
+    else core_write_hold_2: assert(!cfg_busy || f_hold_run < 5'd14);
+end
+
+generate
+    if (SNAPSHOT == 0) begin : g_f_hold
+        // A write that found the bus held, taken once the sample no longer reads the registers.
+        always @(posedge clk) if (f_past_valid && !rst && !$past(rst))
+            cover($past(s_axil_awvalid && s_axil_wvalid && !s_axil_bvalid && cfg_busy) &&
+                  s_axil_awready);
+    end
+endgenerate
 `endif
 
 endmodule

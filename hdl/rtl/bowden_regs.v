@@ -5,17 +5,20 @@
 // integer bits, n fractional bits; UQm.n unsigned.
 //
 // Register bus: a write (reg_wr_en) takes effect at the clock edge; a read (reg_rd_en)
-// returns reg_rd_data and reg_rd_err with reg_rd_valid three cycles later: a registered
-// one-hot select, then groups of four registers, then the final OR, which keeps the iCE40
-// at 48 MHz. Unmapped addresses read 0 and report an error (SLVERR on AXI4-Lite);
-// writes to read-only registers are ignored.
+// returns reg_rd_data and reg_rd_err with reg_rd_valid RD_STAGES cycles later. RD_STAGES 3
+// (the default, the external-MCU boards): a registered one-hot select, then groups of four
+// registers, then the final OR, which keeps the iCE40 at 48 MHz. RD_STAGES 1 (bowden_soc,
+// 24/25 MHz): the whole multiplexer in one clock, without the pipeline's flip-flops. The
+// bus master waits for reg_rd_valid. Unmapped addresses read 0 and report an error (SLVERR
+// on AXI4-Lite); writes to read-only registers are ignored.
 
 `resetall
 `timescale 1ns / 1ps
 `default_nettype none
 
 module bowden_regs #(
-    parameter ADDR_W = 8  // byte address width of the register bus
+    parameter ADDR_W = 8,  // byte address width of the register bus
+    parameter RD_STAGES = 3  // clocks from reg_rd_en to reg_rd_valid: 3 or 1
 ) (
     input  wire              clk,
     input  wire              rst,
@@ -105,19 +108,10 @@ localparam [ADDR_W-3:0] A_ADC_FLAGS = 6'd33;
 
 wire [ADDR_W-3:0] wr_word = reg_wr_addr[ADDR_W-1:2];
 wire [ADDR_W-3:0] rd_word = reg_rd_addr[ADDR_W-1:2];
-reg  [25:0]        rd_sel;   // one-hot register select of the read in flight
-reg               rd_miss;  // the read address is unmapped
-reg               rd_pend;  // a read is in its second cycle
-reg  [31:0]       rd_grp0;  // OR of registers 0..3
-reg  [31:0]       rd_grp1;  // OR of registers 4..7
-reg  [31:0]       rd_grp2;  // OR of registers 8..11
-reg  [31:0]       rd_grp3;  // OR of registers 12..15
-reg  [31:0]       rd_grp4;  // OR of registers 16..19
-reg  [31:0]       rd_grp5;  // OR of registers 20..23
-reg  [31:0]       rd_grp6;  // OR of registers 24..25
-reg               rd_miss2;
-reg               rd_pend2;  // a read is in its third cycle
-reg               rd_valid;  // reg_rd_data holds a new read
+wire [31:0]       rd_data;  // the read path's result (generate blocks below)
+wire              rd_err;
+wire              rd_valid;  // rd_data holds a new read
+wire              rd_last;   // the read path's last stage: rd_valid on the next clock
 
 // Write data with the byte strobes applied to the stored value: bit i is written when
 // strobe i/8 is set.
@@ -161,8 +155,6 @@ reg  [15:0] tc_min_reg, tc_min_next;
 wire [15:0] tc_min_wval = (reg_wr_data[15:0] & wr_mask[15:0]) | (tc_min_reg & ~wr_mask[15:0]);
 reg  [15:0] uff_reg, uff_next;
 wire [15:0] uff_wval = (reg_wr_data[15:0] & wr_mask[15:0]) | (uff_reg & ~wr_mask[15:0]);
-reg  [31:0] rd_data_reg, rd_data_next;
-reg         rd_err_reg, rd_err_next;
 reg         wr_hit;
 
 // Read value of every register.
@@ -318,14 +310,6 @@ always @* begin
             default: wr_hit = 1'b0;
         endcase
     end
-
-    // Third read cycle: OR of the group results.
-    rd_data_next = rd_grp0 | rd_grp1 | rd_grp2 | rd_grp3 | rd_grp4 | rd_grp5 | rd_grp6;
-    rd_err_next = rd_miss2;
-    if (!rd_pend2) begin
-        rd_data_next = rd_data_reg;
-        rd_err_next = rd_err_reg;
-    end
 end
 
 always @(posedge clk) begin
@@ -349,99 +333,7 @@ always @(posedge clk) begin
     oc_timeout_reg <= oc_timeout_next;
     tc_min_reg <= tc_min_next;
     uff_reg <= uff_next;
-    rd_data_reg <= rd_data_next;
-    rd_pend <= reg_rd_en;
-    rd_pend2 <= rd_pend;
-    rd_valid <= rd_pend2;
-    rd_miss2 <= rd_miss;
-    // Second read cycle: AND-OR of the one-hot select within groups of four registers.
-    rd_grp0 <= ({32{rd_sel[0]}} & rword_id)
-        | ({32{rd_sel[1]}} & rword_ctrl)
-        | ({32{rd_sel[2]}} & rword_status)
-        | ({32{rd_sel[3]}} & rword_fault);
-    rd_grp1 <= ({32{rd_sel[4]}} & rword_tc)
-        | ({32{rd_sel[5]}} & rword_kff)
-        | ({32{rd_sel[6]}} & rword_kp)
-        | ({32{rd_sel[7]}} & rword_ki_ts);
-    rd_grp2 <= ({32{rd_sel[8]}} & rword_i_limit)
-        | ({32{rd_sel[9]}} & rword_slew)
-        | ({32{rd_sel[10]}} & rword_wdt_timeout)
-        | ({32{rd_sel[11]}} & rword_adc_offset);
-    rd_grp3 <= ({32{rd_sel[12]}} & rword_adc_gain)
-        | ({32{rd_sel[13]}} & rword_adc_min)
-        | ({32{rd_sel[14]}} & rword_adc_max)
-        | ({32{rd_sel[15]}} & rword_adc_stale);
-    rd_grp4 <= ({32{rd_sel[16]}} & rword_oc_timeout)
-        | ({32{rd_sel[17]}} & rword_sample_count)
-        | ({32{rd_sel[18]}} & rword_t_in)
-        | ({32{rd_sel[19]}} & rword_u);
-    rd_grp5 <= ({32{rd_sel[20]}} & rword_integ)
-        | ({32{rd_sel[21]}} & rword_tc_eff)
-        | ({32{rd_sel[22]}} & rword_tc_min)
-        | ({32{rd_sel[23]}} & rword_uff);
-    rd_grp6 <= ({32{rd_sel[24]}} & rword_t_out)
-        | ({32{rd_sel[25]}} & rword_adc_flags);
-    if (reg_rd_en) begin
-        rd_sel[0] <= (rd_word == A_ID);
-        rd_sel[1] <= (rd_word == A_CTRL);
-        rd_sel[2] <= (rd_word == A_STATUS);
-        rd_sel[3] <= (rd_word == A_FAULT);
-        rd_sel[4] <= (rd_word == A_TC);
-        rd_sel[5] <= (rd_word == A_KFF);
-        rd_sel[6] <= (rd_word == A_KP);
-        rd_sel[7] <= (rd_word == A_KI_TS);
-        rd_sel[8] <= (rd_word == A_I_LIMIT);
-        rd_sel[9] <= (rd_word == A_SLEW);
-        rd_sel[10] <= (rd_word == A_WDT_TIMEOUT);
-        rd_sel[11] <= (rd_word == A_ADC_OFFSET);
-        rd_sel[12] <= (rd_word == A_ADC_GAIN);
-        rd_sel[13] <= (rd_word == A_ADC_MIN);
-        rd_sel[14] <= (rd_word == A_ADC_MAX);
-        rd_sel[15] <= (rd_word == A_ADC_STALE);
-        rd_sel[16] <= (rd_word == A_OC_TIMEOUT);
-        rd_sel[17] <= (rd_word == A_SAMPLE_COUNT);
-        rd_sel[18] <= (rd_word == A_T_IN);
-        rd_sel[19] <= (rd_word == A_U);
-        rd_sel[20] <= (rd_word == A_INTEG);
-        rd_sel[21] <= (rd_word == A_TC_EFF);
-        rd_sel[22] <= (rd_word == A_TC_MIN);
-        rd_sel[23] <= (rd_word == A_UFF);
-        rd_sel[24] <= (rd_word == A_T_OUT);
-        rd_sel[25] <= (rd_word == A_ADC_FLAGS);
-        rd_miss <= !(
-            (rd_word == A_ID) ||
-            (rd_word == A_CTRL) ||
-            (rd_word == A_STATUS) ||
-            (rd_word == A_FAULT) ||
-            (rd_word == A_TC) ||
-            (rd_word == A_KFF) ||
-            (rd_word == A_KP) ||
-            (rd_word == A_KI_TS) ||
-            (rd_word == A_I_LIMIT) ||
-            (rd_word == A_SLEW) ||
-            (rd_word == A_WDT_TIMEOUT) ||
-            (rd_word == A_ADC_OFFSET) ||
-            (rd_word == A_ADC_GAIN) ||
-            (rd_word == A_ADC_MIN) ||
-            (rd_word == A_ADC_MAX) ||
-            (rd_word == A_ADC_STALE) ||
-            (rd_word == A_OC_TIMEOUT) ||
-            (rd_word == A_SAMPLE_COUNT) ||
-            (rd_word == A_T_IN) ||
-            (rd_word == A_U) ||
-            (rd_word == A_INTEG) ||
-            (rd_word == A_TC_EFF) ||
-            (rd_word == A_TC_MIN) ||
-            (rd_word == A_UFF) ||
-            (rd_word == A_T_OUT) ||
-            (rd_word == A_ADC_FLAGS));
-    end
-    rd_err_reg <= rd_err_next;
-
     if (rst) begin
-        rd_pend <= 1'b0;
-        rd_pend2 <= 1'b0;
-        rd_valid <= 1'b0;
         ctrl_enable_reg <= 1'd0;
         ctrl_integ_reset_reg <= 1'd0;
         ctrl_fault_clear_reg <= 1'd0;
@@ -486,12 +378,217 @@ assign oc_timeout = oc_timeout_reg;
 assign tc_min = tc_min_reg;
 assign uff = uff_reg;
 assign reg_wr_err = reg_wr_en & ~wr_hit;
-assign reg_rd_data = rd_data_reg;
-assign reg_rd_err = rd_err_reg;
+// Read path, RD_STAGES clocks; the data and the error flag hold until the next read.
+generate
+    if (RD_STAGES != 1 && RD_STAGES != 3) begin : g_check
+        bowden_regs_RD_STAGES_must_be_1_or_3 error_RD_STAGES ();
+    end
+    if (RD_STAGES == 1) begin : g_rd1
+        // One clock: the one-hot select and the AND-OR of all registers in one stage.
+        wire [25:0] sel;
+        assign sel[0] = (rd_word == A_ID);
+        assign sel[1] = (rd_word == A_CTRL);
+        assign sel[2] = (rd_word == A_STATUS);
+        assign sel[3] = (rd_word == A_FAULT);
+        assign sel[4] = (rd_word == A_TC);
+        assign sel[5] = (rd_word == A_KFF);
+        assign sel[6] = (rd_word == A_KP);
+        assign sel[7] = (rd_word == A_KI_TS);
+        assign sel[8] = (rd_word == A_I_LIMIT);
+        assign sel[9] = (rd_word == A_SLEW);
+        assign sel[10] = (rd_word == A_WDT_TIMEOUT);
+        assign sel[11] = (rd_word == A_ADC_OFFSET);
+        assign sel[12] = (rd_word == A_ADC_GAIN);
+        assign sel[13] = (rd_word == A_ADC_MIN);
+        assign sel[14] = (rd_word == A_ADC_MAX);
+        assign sel[15] = (rd_word == A_ADC_STALE);
+        assign sel[16] = (rd_word == A_OC_TIMEOUT);
+        assign sel[17] = (rd_word == A_SAMPLE_COUNT);
+        assign sel[18] = (rd_word == A_T_IN);
+        assign sel[19] = (rd_word == A_U);
+        assign sel[20] = (rd_word == A_INTEG);
+        assign sel[21] = (rd_word == A_TC_EFF);
+        assign sel[22] = (rd_word == A_TC_MIN);
+        assign sel[23] = (rd_word == A_UFF);
+        assign sel[24] = (rd_word == A_T_OUT);
+        assign sel[25] = (rd_word == A_ADC_FLAGS);
+        reg  [31:0] rd_data_reg;
+        reg         rd_err_reg;
+        reg         rd_valid_reg;
+        always @(posedge clk) begin
+            if (reg_rd_en) begin
+                rd_data_reg <= ({32{sel[0]}} & rword_id)
+                    | ({32{sel[1]}} & rword_ctrl)
+                    | ({32{sel[2]}} & rword_status)
+                    | ({32{sel[3]}} & rword_fault)
+                    | ({32{sel[4]}} & rword_tc)
+                    | ({32{sel[5]}} & rword_kff)
+                    | ({32{sel[6]}} & rword_kp)
+                    | ({32{sel[7]}} & rword_ki_ts)
+                    | ({32{sel[8]}} & rword_i_limit)
+                    | ({32{sel[9]}} & rword_slew)
+                    | ({32{sel[10]}} & rword_wdt_timeout)
+                    | ({32{sel[11]}} & rword_adc_offset)
+                    | ({32{sel[12]}} & rword_adc_gain)
+                    | ({32{sel[13]}} & rword_adc_min)
+                    | ({32{sel[14]}} & rword_adc_max)
+                    | ({32{sel[15]}} & rword_adc_stale)
+                    | ({32{sel[16]}} & rword_oc_timeout)
+                    | ({32{sel[17]}} & rword_sample_count)
+                    | ({32{sel[18]}} & rword_t_in)
+                    | ({32{sel[19]}} & rword_u)
+                    | ({32{sel[20]}} & rword_integ)
+                    | ({32{sel[21]}} & rword_tc_eff)
+                    | ({32{sel[22]}} & rword_tc_min)
+                    | ({32{sel[23]}} & rword_uff)
+                    | ({32{sel[24]}} & rword_t_out)
+                    | ({32{sel[25]}} & rword_adc_flags);
+                rd_err_reg <= sel == 26'd0;
+            end
+            rd_valid_reg <= reg_rd_en;
+            if (rst) begin
+                rd_valid_reg <= 1'b0;
+            end
+        end
+        assign rd_data = rd_data_reg;
+        assign rd_err = rd_err_reg;
+        assign rd_valid = rd_valid_reg;
+        assign rd_last = reg_rd_en;
+    end else begin : g_rd3
+        reg  [25:0] rd_sel;   // one-hot register select of the read in flight
+        reg         rd_miss;  // the read address is unmapped
+        reg         rd_pend;  // a read is in its second cycle
+        reg  [31:0] rd_grp0;  // OR of registers 0..3
+        reg  [31:0] rd_grp1;  // OR of registers 4..7
+        reg  [31:0] rd_grp2;  // OR of registers 8..11
+        reg  [31:0] rd_grp3;  // OR of registers 12..15
+        reg  [31:0] rd_grp4;  // OR of registers 16..19
+        reg  [31:0] rd_grp5;  // OR of registers 20..23
+        reg  [31:0] rd_grp6;  // OR of registers 24..25
+        reg         rd_miss2;
+        reg         rd_pend2;  // a read is in its third cycle
+        reg         rd_valid_reg;
+        reg  [31:0] rd_data_reg, rd_data_next;
+        reg         rd_err_reg, rd_err_next;
+        always @* begin
+            // Third read cycle: OR of the group results.
+            rd_data_next = rd_grp0 | rd_grp1 | rd_grp2 | rd_grp3 | rd_grp4 | rd_grp5 | rd_grp6;
+            rd_err_next = rd_miss2;
+            if (!rd_pend2) begin
+                rd_data_next = rd_data_reg;
+                rd_err_next = rd_err_reg;
+            end
+        end
+        always @(posedge clk) begin
+            rd_data_reg <= rd_data_next;
+            rd_pend <= reg_rd_en;
+            rd_pend2 <= rd_pend;
+            rd_valid_reg <= rd_pend2;
+            rd_miss2 <= rd_miss;
+            // Second read cycle: AND-OR of the one-hot select within groups of four.
+            rd_grp0 <= ({32{rd_sel[0]}} & rword_id)
+                | ({32{rd_sel[1]}} & rword_ctrl)
+                | ({32{rd_sel[2]}} & rword_status)
+                | ({32{rd_sel[3]}} & rword_fault);
+            rd_grp1 <= ({32{rd_sel[4]}} & rword_tc)
+                | ({32{rd_sel[5]}} & rword_kff)
+                | ({32{rd_sel[6]}} & rword_kp)
+                | ({32{rd_sel[7]}} & rword_ki_ts);
+            rd_grp2 <= ({32{rd_sel[8]}} & rword_i_limit)
+                | ({32{rd_sel[9]}} & rword_slew)
+                | ({32{rd_sel[10]}} & rword_wdt_timeout)
+                | ({32{rd_sel[11]}} & rword_adc_offset);
+            rd_grp3 <= ({32{rd_sel[12]}} & rword_adc_gain)
+                | ({32{rd_sel[13]}} & rword_adc_min)
+                | ({32{rd_sel[14]}} & rword_adc_max)
+                | ({32{rd_sel[15]}} & rword_adc_stale);
+            rd_grp4 <= ({32{rd_sel[16]}} & rword_oc_timeout)
+                | ({32{rd_sel[17]}} & rword_sample_count)
+                | ({32{rd_sel[18]}} & rword_t_in)
+                | ({32{rd_sel[19]}} & rword_u);
+            rd_grp5 <= ({32{rd_sel[20]}} & rword_integ)
+                | ({32{rd_sel[21]}} & rword_tc_eff)
+                | ({32{rd_sel[22]}} & rword_tc_min)
+                | ({32{rd_sel[23]}} & rword_uff);
+            rd_grp6 <= ({32{rd_sel[24]}} & rword_t_out)
+                | ({32{rd_sel[25]}} & rword_adc_flags);
+            if (reg_rd_en) begin
+                rd_sel[0] <= (rd_word == A_ID);
+                rd_sel[1] <= (rd_word == A_CTRL);
+                rd_sel[2] <= (rd_word == A_STATUS);
+                rd_sel[3] <= (rd_word == A_FAULT);
+                rd_sel[4] <= (rd_word == A_TC);
+                rd_sel[5] <= (rd_word == A_KFF);
+                rd_sel[6] <= (rd_word == A_KP);
+                rd_sel[7] <= (rd_word == A_KI_TS);
+                rd_sel[8] <= (rd_word == A_I_LIMIT);
+                rd_sel[9] <= (rd_word == A_SLEW);
+                rd_sel[10] <= (rd_word == A_WDT_TIMEOUT);
+                rd_sel[11] <= (rd_word == A_ADC_OFFSET);
+                rd_sel[12] <= (rd_word == A_ADC_GAIN);
+                rd_sel[13] <= (rd_word == A_ADC_MIN);
+                rd_sel[14] <= (rd_word == A_ADC_MAX);
+                rd_sel[15] <= (rd_word == A_ADC_STALE);
+                rd_sel[16] <= (rd_word == A_OC_TIMEOUT);
+                rd_sel[17] <= (rd_word == A_SAMPLE_COUNT);
+                rd_sel[18] <= (rd_word == A_T_IN);
+                rd_sel[19] <= (rd_word == A_U);
+                rd_sel[20] <= (rd_word == A_INTEG);
+                rd_sel[21] <= (rd_word == A_TC_EFF);
+                rd_sel[22] <= (rd_word == A_TC_MIN);
+                rd_sel[23] <= (rd_word == A_UFF);
+                rd_sel[24] <= (rd_word == A_T_OUT);
+                rd_sel[25] <= (rd_word == A_ADC_FLAGS);
+                rd_miss <= !(
+                    (rd_word == A_ID) ||
+                    (rd_word == A_CTRL) ||
+                    (rd_word == A_STATUS) ||
+                    (rd_word == A_FAULT) ||
+                    (rd_word == A_TC) ||
+                    (rd_word == A_KFF) ||
+                    (rd_word == A_KP) ||
+                    (rd_word == A_KI_TS) ||
+                    (rd_word == A_I_LIMIT) ||
+                    (rd_word == A_SLEW) ||
+                    (rd_word == A_WDT_TIMEOUT) ||
+                    (rd_word == A_ADC_OFFSET) ||
+                    (rd_word == A_ADC_GAIN) ||
+                    (rd_word == A_ADC_MIN) ||
+                    (rd_word == A_ADC_MAX) ||
+                    (rd_word == A_ADC_STALE) ||
+                    (rd_word == A_OC_TIMEOUT) ||
+                    (rd_word == A_SAMPLE_COUNT) ||
+                    (rd_word == A_T_IN) ||
+                    (rd_word == A_U) ||
+                    (rd_word == A_INTEG) ||
+                    (rd_word == A_TC_EFF) ||
+                    (rd_word == A_TC_MIN) ||
+                    (rd_word == A_UFF) ||
+                    (rd_word == A_T_OUT) ||
+                    (rd_word == A_ADC_FLAGS));
+            end
+            rd_err_reg <= rd_err_next;
+            if (rst) begin
+                rd_pend <= 1'b0;
+                rd_pend2 <= 1'b0;
+                rd_valid_reg <= 1'b0;
+            end
+        end
+        assign rd_data = rd_data_reg;
+        assign rd_err = rd_err_reg;
+        assign rd_valid = rd_valid_reg;
+        assign rd_last = rd_pend2;
+    end
+endgenerate
+
+assign reg_rd_data = rd_data;
+assign reg_rd_err = rd_err;
 assign reg_rd_valid = rd_valid;
 
 // Unused write-data bits: registers narrower than 32 bits ignore the rest.
 wire unused_wr_bits = &{1'b0, reg_wr_data, wr_mask, reg_wr_addr[1:0], reg_rd_addr[1:0]};
+// The read path's last stage serves the formal properties only.
+wire unused_rd_last = rd_last;
 
 `ifdef FORMAL
 // --- formal properties of the map (hdl/formal/bowden_core.sby), made from the table --
@@ -644,7 +741,11 @@ wire [31:0] f_strb = {{8{reg_wr_strb[3]}}, {8{reg_wr_strb[2]}}, {8{reg_wr_strb[1
                       {8{reg_wr_strb[0]}}};
 wire f_wr_a = reg_wr_en && wr_word == f_a;
 reg [2:0] f_rd_a;    // a read of f_a one, two, three clocks ago
-reg [31:0] f_w_rd1, f_w_rd2;  // the shadow when those reads sampled the registers
+reg [31:0] f_w_rd1, f_w_rd2;  // the shadow one and two clocks ago
+// The read of f_a answered now, and the shadow when it sampled the registers: the read
+// clock itself (RD_STAGES 1), or the clock after it, when the groups are formed (3).
+wire f_rd_hit = (RD_STAGES == 1) ? f_rd_a[0] : f_rd_a[2];
+wire [31:0] f_w_rd = (RD_STAGES == 1) ? f_w_rd1 : f_w_rd2;
 always @(posedge clk) begin
     if (f_wr_a) f_w <= (f_w & ~f_strb) | (reg_wr_data & f_strb);
     f_rd_a <= {f_rd_a[1:0], reg_rd_en && rd_word == f_a};
@@ -693,11 +794,11 @@ always @* if (f_past_valid && !rst) begin
     if (f_a == A_UFF) regs_value_uff_value: assert(uff == f_w[15:0]);
     // property regs_write_error: a write errs exactly at an unmapped word
     regs_write_error: assert(reg_wr_err == (reg_wr_en && !f_wr_mapped));
-    // property regs_read: a read answers 3 clocks later, SLVERR and 0 exactly when unmapped, else the rw bits last written and the constant bits
-    if (f_rd_a[2]) begin
+    // property regs_read: a read answers RD_STAGES clocks later (3; 1 in the SoC), SLVERR and 0 exactly when unmapped, else the rw bits last written and the constant bits
+    if (f_rd_hit) begin
         regs_read: assert(reg_rd_valid);
         regs_read_2: assert(reg_rd_err == !f_a_mapped);
-        regs_read_3: assert((reg_rd_data & f_rw_mask) == (f_w_rd2 & f_rw_mask));
+        regs_read_3: assert((reg_rd_data & f_rw_mask) == (f_w_rd & f_rw_mask));
         regs_read_4: assert((reg_rd_data & f_const_mask) == (f_reset & f_const_mask));
         if (!f_a_mapped) regs_read_5: assert(reg_rd_data == 32'd0);
     end
@@ -713,14 +814,14 @@ always @(posedge clk) if (f_past_valid) begin
         regs_write_pulse_4: assert(ctrl_integ_reset == $past(reg_wr_en && wr_word == A_CTRL && reg_wr_data[1] && reg_wr_strb[0]));
         regs_write_pulse_5: assert(ctrl_fault_clear == $past(reg_wr_en && wr_word == A_CTRL && reg_wr_data[2] && reg_wr_strb[0]));
         regs_write_pulse_6: assert(tc_wr == $past(reg_wr_en && wr_word == A_TC));
-        regs_write_pulse_7: assert(reg_rd_valid == $past(rd_pend2));
+        regs_write_pulse_7: assert(reg_rd_valid == $past(rd_last));
     end
 end
 
 always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
-    cover(f_rd_a[2] && f_rw_mask != 32'd0 &&
-          (f_w_rd2 & f_rw_mask) != (f_reset & f_rw_mask));  // a write read back
-    cover(f_rd_a[2] && !f_a_mapped);
+    cover(f_rd_hit && f_rw_mask != 32'd0 &&
+          (f_w_rd & f_rw_mask) != (f_reset & f_rw_mask));  // a write read back
+    cover(f_rd_hit && !f_a_mapped);
     cover(reg_wr_err);
 end
 `endif

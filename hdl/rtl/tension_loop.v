@@ -23,10 +23,19 @@
  * edge before it is used by that sample, one updated on the tick edge or later by the next
  * (write pulses such as the TC strobe follow the same rule). An ADC sample whose valid clock is
  * the tick clock counts for that tick.
+ *
+ * SNAPSHOT 1 (the default, the external-MCU boards): the configuration is copied at the tick
+ * into snapshot registers that the later clocks of the sample use. SNAPSHOT 0 (bowden_soc, where
+ * the UP5K has no room for the 226 snapshot flip-flops): the sample reads the live register
+ * outputs, and `cfg_busy` (the tick clock and the 13 after it) tells the register bus to hold
+ * any write until the sample no longer reads them, so the same rule holds: a write held over
+ * the tick lands after it and is used by the next sample (property tl_cfg_held).
  */
 module tension_loop #(
-    parameter [15:0] WDT_RAMP_STEP = 16'd41  // watchdog ramp-down of u, Q3.12 A per sample
+    parameter [15:0] WDT_RAMP_STEP = 16'd41, // watchdog ramp-down of u, Q3.12 A per sample
                                              // (41/4096 A: 4 A reach zero in 40 ms at 10 kHz)
+    parameter SNAPSHOT = 1                   // 1: configuration snapshot at the tick; 0: the
+                                             // live registers, writes held by cfg_busy
 ) (
     input  wire        clk,
     input  wire        rst,
@@ -65,6 +74,7 @@ module tension_loop #(
     input  wire [23:0] adc_max,      // code
     input  wire [15:0] adc_stale,    // samples, 0 = off
     input  wire [15:0] oc_timeout,   // samples, 0 = off
+    output wire        cfg_busy,     // SNAPSHOT 0: the configuration is in use, hold writes
 
     /*
      * Drive command
@@ -136,6 +146,25 @@ reg         iphi_reg, iphi_next;  // I entering the sample > +I_LIMIT (I_LIMIT l
 reg         iplo_reg, iplo_next;  // I entering the sample < -I_LIMIT
 reg  [31:0] ihold_reg, ihold_next;  // clamp(I, +-I_LIMIT): the integrator when it holds
 
+// The configuration the sample uses: the snapshot (SNAPSHOT 1), or the live registers, which
+// cfg_busy keeps stable from the tick to the last clock that reads them (SNAPSHOT 0; the
+// snapshot registers then have no load and synthesis removes them).
+wire        en_cfg = (SNAPSHOT != 0) ? en_s_reg : enable;
+wire        slew_en_cfg = (SNAPSHOT != 0) ? slew_en_s_reg : slew_en;
+wire [15:0] tc_cfg = (SNAPSHOT != 0) ? tc_s_reg : tc;              // Q7.8 N
+wire [15:0] tcmin_cfg = (SNAPSHOT != 0) ? tcmin_s_reg : tc_min;    // Q7.8 N
+wire [15:0] kff_cfg = (SNAPSHOT != 0) ? kff_s_reg : kff;           // Q2.13 A/N
+wire [15:0] uff_cfg = (SNAPSHOT != 0) ? uff_s_reg : uff;           // Q3.12 A
+wire [15:0] kp_cfg = (SNAPSHOT != 0) ? kp_s_reg : kp;              // Q2.13 A/N
+wire [15:0] ki_cfg = (SNAPSHOT != 0) ? ki_s_reg : ki_ts;           // 2^-20 A/N per sample
+wire [15:0] gain_cfg = (SNAPSHOT != 0) ? gain_s_reg : adc_gain;    // 2^-20 Q7.8-LSB per code
+wire [14:0] lim_cfg = (SNAPSHOT != 0) ? lim_s_reg : i_limit;       // UQ3.12 A
+wire [15:0] stale_to_cfg = (SNAPSHOT != 0) ? stale_to_s_reg : adc_stale;
+wire [15:0] wdt_to_cfg = (SNAPSHOT != 0) ? wdt_to_s_reg : wdt_timeout;
+wire [15:0] oc_to_cfg = (SNAPSHOT != 0) ? oc_to_s_reg : oc_timeout;
+wire [23:0] min_cfg = (SNAPSHOT != 0) ? min_s_reg : adc_min;       // Q23.0 code
+wire [23:0] max_cfg = (SNAPSHOT != 0) ? max_s_reg : adc_max;       // Q23.0 code
+
 // Pipeline.
 reg  [3:0]  det_reg, det_next;
 reg         cmp_hi_reg, cmp_hi_next;
@@ -204,23 +233,23 @@ wire [16:0] wdt_now = (!enable || tcw_now) ? 17'd0 : fclr_now ? 17'd1 : wdt_inc;
 
 // Clock 1: range check of the sample. Clock 2: fault detection on the snapshot (thresholds
 // of 0 switch a check off).
-wire [24:0] below_min = {raw_s_reg[23], raw_s_reg} - {min_s_reg[23], min_s_reg};
-wire [24:0] above_max = {max_s_reg[23], max_s_reg} - {raw_s_reg[23], raw_s_reg};
-wire [3:0] detect = {(oc_to_s_reg != 16'd0) && (oc_cnt_reg >= {1'b0, oc_to_s_reg}),
-                     (wdt_to_s_reg != 16'd0) && (wdt_cnt_reg >= {1'b0, wdt_to_s_reg}),
+wire [24:0] below_min = {raw_s_reg[23], raw_s_reg} - {min_cfg[23], min_cfg};
+wire [24:0] above_max = {max_cfg[23], max_cfg} - {raw_s_reg[23], raw_s_reg};
+wire [3:0] detect = {(oc_to_cfg != 16'd0) && (oc_cnt_reg >= {1'b0, oc_to_cfg}),
+                     (wdt_to_cfg != 16'd0) && (wdt_cnt_reg >= {1'b0, wdt_to_cfg}),
                      lo_bad_reg || hi_bad_reg,
-                     (stale_to_s_reg != 16'd0) && (stale_cnt_reg >= {1'b0, stale_to_s_reg})};
+                     (stale_to_cfg != 16'd0) && (stale_cnt_reg >= {1'b0, stale_to_cfg})};
 wire [3:0] faults_now = fbase_s_reg | det_reg;
 
 // Clock 2: slew limit, T_c' = clamp(T_c, T_c'[n-1] - SLEW, T_c'[n-1] + SLEW); the result lies
 // between T_c'[n-1] and T_c, both Q7.8, so its low 16 bits are exact.
-wire [17:0] tc_above = {hi_s_reg[16], hi_s_reg} - {{2{tc_s_reg[15]}}, tc_s_reg};
-wire [17:0] tc_below = {{2{tc_s_reg[15]}}, tc_s_reg} - {lo_s_reg[16], lo_s_reg};
-wire [16:0] tce_slew = cmp_hi_reg ? hi_s_reg : cmp_lo_reg ? lo_s_reg : {tc_s_reg[15], tc_s_reg};
+wire [17:0] tc_above = {hi_s_reg[16], hi_s_reg} - {{2{tc_cfg[15]}}, tc_cfg};
+wire [17:0] tc_below = {{2{tc_cfg[15]}}, tc_cfg} - {lo_s_reg[16], lo_s_reg};
+wire [16:0] tce_slew = cmp_hi_reg ? hi_s_reg : cmp_lo_reg ? lo_s_reg : {tc_cfg[15], tc_cfg};
 // Clock 3: the floor, T_c' = max(slew result, TC_MIN), on registered values: one carry chain
 // (the sign of T_s - TC_MIN, both Q7.8) and a select, a stage of its own (the feedforward
 // product starts a clock later for it, in clock 4).
-wire [16:0] tce_flr = {tce_s_reg[15], tce_s_reg} - {tcmin_s_reg[15], tcmin_s_reg};
+wire [16:0] tce_flr = {tce_s_reg[15], tce_s_reg} - {tcmin_cfg[15], tcmin_cfg};
 
 // Clock 5: round(x / 2^20) fits Q7.8 unless bits 40..35 differ: saturate to the Q7.8 range.
 wire cal_ovf = !((&cal_sum_reg[40:35]) || !(|cal_sum_reg[40:35]));
@@ -235,7 +264,7 @@ wire [15:0] e_now = e_ovf ? {e_full[16], {15{~e_full[16]}}} : e_full[15:0];
 
 // Clocks 10-11: integrator, clamped to +-I_LIMIT in Q3.28 (33-bit compare, exact), held while
 // the previous output was saturated in the direction KI_TS*e pushes (conditional integration).
-wire signed [32:0] lim28 = $signed({2'b00, lim_s_reg, 16'd0});
+wire signed [32:0] lim28 = $signed({2'b00, lim_cfg, 16'd0});
 wire signed [32:0] nlim28 = $signed({nlim_reg[15], nlim_reg, 16'd0});
 wire [33:0] i_above = {lim28[32], lim28} - {isum_reg[32], isum_reg};
 wire [33:0] i_below = {isum_reg[32], isum_reg} - {nlim28[32], nlim28};
@@ -251,13 +280,13 @@ wire [33:0] ip_below = {{2{iprev_reg[31]}}, iprev_reg} - {nlim28[32], nlim28};
 wire signed [33:0] v_sum = $signed(fp_reg) + $signed({{9{inew_reg[31]}}, inew_reg[31:7]});
 
 // Clocks 13-14: output saturation at +-I_LIMIT.
-wire signed [24:0] lim12 = $signed({10'd0, lim_s_reg});
+wire signed [24:0] lim12 = $signed({10'd0, lim_cfg});
 wire signed [24:0] nlim12 = $signed({{9{nlim_reg[15]}}, nlim_reg});
 // Comparisons as subtractions, whose sign bit comes out of one carry chain (yosys otherwise
 // builds some of them from LUT trees on the iCE40): r > lim <=> lim - r < 0.
 wire [25:0] r_above = {lim12[24], lim12} - {r_reg[24], r_reg};
 wire [25:0] r_below = {r_reg[24], r_reg} - {nlim12[24], nlim12};
-wire [15:0] u_sat = rhi_reg ? {1'b0, lim_s_reg} : rlo_reg ? nlim_reg : r_reg[15:0];
+wire [15:0] u_sat = rhi_reg ? {1'b0, lim_cfg} : rlo_reg ? nlim_reg : r_reg[15:0];
 
 // Watchdog ramp of the previous command towards zero: comparisons and both steps in clock 12,
 // the choice in clock 13 (u_ramp is nonzero exactly when |u| > step).
@@ -392,27 +421,27 @@ always @* begin
         cmp_hi_next = tc_above[17];
         cmp_lo_next = tc_below[17];
         m1_a = diff_reg[24:9];
-        m1_b = gain_s_reg;
-        nlim_next = -{1'b0, lim_s_reg};
+        m1_b = gain_cfg;
+        nlim_next = -{1'b0, lim_cfg};
     end
 
     // Clock 2: detection, T_c' before the floor (slew limit), the held integrator's clamp comparisons; low 9 bits of the difference (non-negative) times the gain.
     if (seq_reg[1]) begin
-        det_next = en_s_reg ? detect : 4'd0;
+        det_next = en_cfg ? detect : 4'd0;
         iphi_next = ip_above[33];  // I > +I_LIMIT
         iplo_next = ip_below[33];  // I < -I_LIMIT
-        tce_s_next = slew_en_s_reg ? tce_slew[15:0] : tc_s_reg;
+        tce_s_next = slew_en_cfg ? tce_slew[15:0] : tc_cfg;
         m1_a = {7'd0, diff_reg[8:0]};
-        m1_b = gain_s_reg;
+        m1_b = gain_cfg;
     end
 
     // Clock 3: faults latch and the mode; the floor on T_c'; high partial product arrives
     // (+ 2^19: round at >> 20); the held integrator, clamped.
     if (seq_reg[2]) begin
         fault_next = faults_now;
-        run_next = en_s_reg && (faults_now == 4'd0);
-        ramp_next = en_s_reg && (faults_now == F_WDT);
-        tce_s_next = tce_flr[16] ? tcmin_s_reg : tce_s_reg;  // T_s < TC_MIN: the floor
+        run_next = en_cfg && (faults_now == 4'd0);
+        ramp_next = en_cfg && (faults_now == F_WDT);
+        tce_s_next = tce_flr[16] ? tcmin_cfg : tce_s_reg;  // T_s < TC_MIN: the floor
         cal_acc_next = {m1_p, 9'd0} + 41'd524288;
         ihold_next = iphi_reg ? lim28[31:0] : iplo_reg ? nlim28[31:0] : iprev_reg;
     end
@@ -422,7 +451,7 @@ always @* begin
     if (seq_reg[3]) begin
         cal_sum_next = cal_acc_reg + {{9{m1_p[31]}}, m1_p};
         m2_a = tce_s_reg;
-        m2_b = kff_s_reg;
+        m2_b = kff_cfg;
     end
 
     // Clock 5: T_in.
@@ -434,15 +463,15 @@ always @* begin
     // final >> 9, one addend {UFF, 9'h100} (exact: 256 < 2^9): |ff| < 2^31 + 2^24 + 2^8.
     if (seq_reg[5]) begin
         e_next = e_now;
-        ff_next = {{2{m2_p[31]}}, m2_p} + {{9{uff_s_reg[15]}}, uff_s_reg, 9'h100};
+        ff_next = {{2{m2_p[31]}}, m2_p} + {{9{uff_cfg[15]}}, uff_cfg, 9'h100};
     end
 
     // Clock 7: P and I products.
     if (seq_reg[6]) begin
         m1_a = e_reg;
-        m1_b = kp_s_reg;
+        m1_b = kp_cfg;
         m2_a = e_reg;
-        m2_b = ki_s_reg;
+        m2_b = ki_cfg;
     end
 
     // Clock 9: feedforward + proportional (34 bits), integrator sum (33 bits), both exact.
@@ -609,6 +638,10 @@ always @(posedge clk) begin
     end
 end
 
+// The tick clock and the next 13 read the configuration (clock 14 still reads I_LIMIT, so a
+// write in clock 13 would be too late): a write is held through them, 14 clocks at most.
+assign cfg_busy = (SNAPSHOT == 0) && (tick || (|seq_reg[LATENCY-3:0]));
+
 assign u = u_reg;
 assign out_en = out_en_reg;
 assign out_valid = out_valid_reg;
@@ -648,6 +681,25 @@ always @(posedge clk) begin
 end
 // property tl_tick_spacing: ticks come at least LATENCY clocks apart (assumed when tension_loop is the top, asserted inside bowden_core)
 always @* if (f_past_valid && !rst && tick) tl_tick_spacing: `TL_ENV(f_since_tick == F_LAT);
+
+// A sample is in flight: the clocks after its tick up to the one that sets u.
+wire f_busy = f_since_tick != F_LAT;
+
+// SNAPSHOT 0: the configuration a sample reads does not change from its tick to its end, which
+// the register bus guarantees by holding writes while cfg_busy (assumed when tension_loop is
+// the top, asserted inside bowden_core). With it, the live registers are the snapshot.
+wire [263:0] f_cfg = {enable, slew_en, tc, tc_min, kff, uff, kp, ki_ts, i_limit, slew,
+                      wdt_timeout, adc_offset, adc_gain, adc_min, adc_max, adc_stale, oc_timeout};
+generate
+    if (SNAPSHOT == 0) begin : g_f_cfg_held
+        // property tl_cfg_held: while a sample is in flight the configuration it reads does not change (SNAPSHOT 0; assumed when tension_loop is the top, asserted inside bowden_core)
+        always @(posedge clk) if (f_past_valid && !rst && f_busy)
+            tl_cfg_held: `TL_ENV(f_cfg == $past(f_cfg));
+        // The hold is not vacuous: the configuration changes on the clock after a sample.
+        always @(posedge clk) if (f_past_valid && !rst && !$past(rst))
+            cover(!f_busy && $past(f_busy) && f_cfg != $past(f_cfg));
+    end
+endgenerate
 
 // One sample in flight at a time: the schedule is the position in the sample.
 wire [LATENCY-2:0] f_seq_exp = (f_since_tick == F_LAT) ? {(LATENCY-1){1'b0}} :
@@ -728,7 +780,7 @@ always @(posedge clk) begin
     end
     if (seq_reg[8]) f_pi <= m2_p;
     if (f_run_done) begin
-        f_ulim <= lim_s_reg;
+        f_ulim <= lim_cfg;
         f_sat_hi <= rhi_reg;
         f_sat_lo <= rlo_reg;
         f_oc <= (rhi_reg || rlo_reg) ? f_oc + {15'd0, f_oc != 16'hFFFF} : 16'd0;
@@ -767,12 +819,11 @@ always @* if (f_past_valid && !rst) begin
 end
 
 // While a sample is in flight its snapshot is the shadow's (helpers for the induction).
-wire f_busy = f_since_tick != F_LAT;
 always @* if (f_past_valid && !rst && f_busy) begin
     // property tl_snapshot: while a sample is in flight its register snapshot is the shadow's (induction helper)
-    tl_snapshot: assert(en_s_reg == f_en_s && lim_s_reg == f_lim_s && iprev_reg == f_iprev);
+    tl_snapshot: assert(en_cfg == f_en_s && lim_cfg == f_lim_s && iprev_reg == f_iprev);
     tl_snapshot_2: assert(fbase_s_reg == (f_fclr_s ? 4'd0 : f_fault_tick));
-    if (f_since_tick >= 4'd2) tl_snapshot_3: assert(nlim_reg == -{1'b0, lim_s_reg});
+    if (f_since_tick >= 4'd2) tl_snapshot_3: assert(nlim_reg == -{1'b0, lim_cfg});
     if (f_since_tick >= 4'd10) begin
         tl_snapshot_4: assert(pi_pos_reg == ($signed(f_pi) > 0));
         tl_snapshot_5: assert(pi_neg_reg == ($signed(f_pi) < 0));
@@ -880,7 +931,7 @@ always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
     cover($past(f_run_done) && $past(f_sat_hi) && $signed($past(f_pi)) > 0 &&
           integ_reg != 32'd0 && integ_reg == $past(f_iprev));            // windup held
     cover($past(f_run_done) && $past(f_hold) && integ_reg != $past(f_iprev)); // held, clamped
-    cover($past(f_run_done) && $signed($past(tc_s_reg)) < $signed($past(f_tcmin_s)) &&
+    cover($past(f_run_done) && $signed($past(tc_cfg)) < $signed($past(f_tcmin_s)) &&
           tc_eff_reg == $past(f_tcmin_s) && $signed(tc_eff_reg) > 0);      // floor applied
     cover($rose(fault_reg[0]));                                           // ADC stale
     cover($rose(fault_reg[1]));                                           // ADC range

@@ -314,8 +314,13 @@ wire [15:0] cmd_current;
 wire        cmd_valid;
 wire unused_cmd = &{1'b0, cmd_current, cmd_valid};
 
+// The UP5K has no room for the 48 MHz boards' read pipeline and configuration snapshot (355
+// flip-flops, most of them a logic cell each): at 24/25 MHz a one-clock read-back meets timing, and the loop
+// reads the live registers while a store to them waits out the 14 clocks of a sample that read
+// them (hdl/README.md, "Bitstreams").
 bowden_core #(
-    .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .PWM_HZ(PWM_HZ), .ADDR_W(ADDR_W)
+    .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .PWM_HZ(PWM_HZ), .ADDR_W(ADDR_W),
+    .RD_STAGES(1), .SNAPSHOT(0)
 ) core (
     .clk(clk), .rst(rst),
     .s_axil_awaddr(axi_awaddr[ADDR_W-1:0]), .s_axil_awprot(axi_awprot),

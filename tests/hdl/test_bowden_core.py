@@ -4,10 +4,17 @@ The core runs at its minimum of 15 clocks per sample, as the co-simulation runs 
 watches the bus and ports every clock and replays into the bit-exact model what the RTL sees at
 each clock edge: ADC samples, sample ticks and register writes, in the RTL's order (a write that
 completes on a tick edge counts for the next sample). Every cmd_valid is compared to the model.
+
+Built in two configurations: `mcu` (the defaults of the external-MCU boards: three-clock read,
+configuration snapshot at the tick) and `soc` (bowden_soc's RD_STAGES 1, SNAPSHOT 0: one-clock
+read, the loop reads the live registers and the bus holds a write while a sample is in flight).
+At 15 clocks per sample the soc configuration holds writes 14 clocks of every 15, so nearly
+every write of the random test is held; the monitor counts them and the longest hold.
 """
 
 from __future__ import annotations
 
+import os
 import random
 from collections import deque
 
@@ -23,6 +30,11 @@ from cosim.parts.rtl_model import FAULT_WATCHDOG, TensionLoopModel, adc_code_fro
 
 CLKS_PER_SAMPLE = 15
 RESP_OKAY, RESP_SLVERR = 0, 2
+CONFIGS = {
+    "mcu": {},
+    "soc": {"RD_STAGES": 1, "SNAPSHOT": 0},
+}
+MAX_HOLD_CLKS = 14  # tension_loop's cfg_busy: the tick clock and the 13 after it
 
 
 class CoreTb:
@@ -34,6 +46,10 @@ class CoreTb:
         self.expected: deque = deque()
         self.compared = 0
         self.axi: AxiLiteMaster | None = None
+        self.config = os.environ.get("BOWDEN_CORE_CONFIG", "mcu")
+        self.held_writes = 0  # writes that waited for the hold
+        self.hold_run = 0  # clocks the current write has been held
+        self.max_hold = 0
 
     async def start(self) -> None:
         cocotb.start_soon(Clock(self.dut.clk, 10, unit="ns").start())
@@ -75,6 +91,13 @@ class CoreTb:
                 self.model.adc_sample(signed(int(d.adc_data.value), 24))
             if d.sample_tick.value:
                 self.expected.append(self.model.tick())
+            waiting = d.s_axil_awvalid.value and d.s_axil_wvalid.value
+            if waiting and not d.s_axil_awready.value and not d.s_axil_bvalid.value:
+                self.hold_run += 1  # a write the bus could take, held
+                self.max_hold = max(self.max_hold, self.hold_run)
+            elif waiting and d.s_axil_awready.value:
+                self.held_writes += self.hold_run > 0
+                self.hold_run = 0
             if d.s_axil_awvalid.value and d.s_axil_wvalid.value and d.s_axil_awready.value:
                 replay_write(
                     self.model,
@@ -195,6 +218,13 @@ async def loop_through_axi_against_model(dut):
         await ClockCycles(dut.clk, rng.randint(0, 12))
     assert tb.compared > 200, f"only {tb.compared} samples compared"
     assert tb.model.sample_count > 200
+    # The configuration's hold: none with the snapshot; with SNAPSHOT 0 most writes are held
+    # (14 clocks of every 15), never longer than the loop reads its configuration.
+    if tb.config == "soc":
+        assert tb.held_writes > 100, f"only {tb.held_writes} writes held"
+        assert tb.max_hold <= MAX_HOLD_CLKS, f"a write held {tb.max_hold} clocks"
+    else:
+        assert tb.held_writes == 0 and tb.max_hold == 0
 
 
 @cocotb.test()
@@ -238,10 +268,19 @@ async def readback_and_watchdog_over_axi(dut):
     assert tb.compared > 300
 
 
+@pytest.mark.parametrize("config", list(CONFIGS))
 @pytest.mark.parametrize("simulator", SIMULATORS)
-def test_bowden_core(simulator):
-    """Build bowden_core at 15 clocks per sample and run the coroutines above."""
+def test_bowden_core(simulator, config):
+    """Build bowden_core at 15 clocks per sample in `config` and run the coroutines above."""
     sources = rtl("bowden_core", "axil_regbus", "bowden_regs", "tension_loop", "mul_s16")
     sources += rtl("pwm_escon")
     params = {"CLKS_PER_SAMPLE": CLKS_PER_SAMPLE, "CLK_HZ": 1_000_000, "PWM_HZ": 5000}
-    run_cocotb("bowden_core", "test_bowden_core", sources, simulator, parameters=params)
+    run_cocotb(
+        "bowden_core",
+        "test_bowden_core",
+        sources,
+        simulator,
+        parameters={**params, **CONFIGS[config]},
+        tag=config,
+        extra_env={"BOWDEN_CORE_CONFIG": config},
+    )

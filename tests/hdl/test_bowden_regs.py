@@ -1,6 +1,13 @@
-"""Testbench of the generated hdl/rtl/bowden_regs.v on its register bus (no AXI in between)."""
+"""Testbench of the generated hdl/rtl/bowden_regs.v on its register bus (no AXI in between).
+
+Built twice: RD_STAGES 3 (the default: the external-MCU boards' three-clock read at 48 MHz) and
+RD_STAGES 1 (`rd1`, bowden_soc's one-clock read); the read must answer in exactly that many
+clocks, with the same data.
+"""
 
 from __future__ import annotations
+
+import os
 
 import cocotb
 import pytest
@@ -69,8 +76,25 @@ async def pulses_readback_and_errors(dut):
     dut.hw_u.value = 0x8001
     dut.hw_sample_count.value = 0xDEADBEEF
     dut.hw_status_saturated.value = 1
+    stages = int(os.environ["BOWDEN_RD_STAGES"])
     data, err, clocks = await read(dut, regmap.U)
-    assert (data, err, clocks) == (0xFFFF8001, False, 3)
+    assert (data, err, clocks) == (0xFFFF8001, False, stages)
+    # The answer holds until the next read, whatever the registers do meanwhile.
+    dut.hw_u.value = 0x0002
+    await ClockCycles(dut.clk, 2)
+    await FallingEdge(dut.clk)
+    assert int(dut.reg_rd_data.value) == 0xFFFF8001 and not dut.reg_rd_valid.value
+    # Back-to-back reads, one per clock: each answer in its clock, in order.
+    names = ["KFF", "KP", "KI_TS", "I_LIMIT"]
+    answers = []
+    for i in range(len(names) + stages):
+        dut.reg_rd_en.value = int(i < len(names))
+        dut.reg_rd_addr.value = regmap.REGISTERS[names[min(i, len(names) - 1)]].addr
+        await FallingEdge(dut.clk)
+        if dut.reg_rd_valid.value:
+            answers.append(int(dut.reg_rd_data.value))
+    dut.reg_rd_en.value = 0
+    assert answers == [regmap.REGISTERS[n].fields[0].reset for n in names]
     assert (await read(dut, regmap.SAMPLE_COUNT))[0] == 0xDEADBEEF
     assert (await read(dut, regmap.STATUS))[0] == regmap.STATUS_SATURATED
     # Unmapped: error on write and read, data 0; read-only write accepted and ignored.
@@ -81,7 +105,16 @@ async def pulses_readback_and_errors(dut):
     assert (await read(dut, regmap.ID))[0] == 0x424F0100
 
 
+@pytest.mark.parametrize("stages", [3, 1], ids=["rd3", "rd1"])
 @pytest.mark.parametrize("simulator", SIMULATORS)
-def test_bowden_regs(simulator):
-    """Build bowden_regs and run the coroutine above."""
-    run_cocotb("bowden_regs", "test_bowden_regs", rtl("bowden_regs"), simulator)
+def test_bowden_regs(simulator, stages):
+    """Build bowden_regs with RD_STAGES `stages` and run the coroutine above."""
+    run_cocotb(
+        "bowden_regs",
+        "test_bowden_regs",
+        rtl("bowden_regs"),
+        simulator,
+        parameters={"RD_STAGES": stages},
+        tag=f"rd{stages}",
+        extra_env={"BOWDEN_RD_STAGES": str(stages)},
+    )
