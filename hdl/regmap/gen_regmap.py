@@ -325,6 +325,14 @@ def gen_read_path(spec: dict) -> list[str]:
     ngrp = (n + 3) // 4
     out: list[str] = []
     w = out.append
+
+    def or_of_selected(first: str, cont: str, sel: str, indices) -> None:
+        """`first` (sel[i] AND register i) OR ... over indices, one term a line."""
+        terms = [f"({{32{{{sel}[{i}]}}}} & rword_{regs[i]['name'].lower()})" for i in indices]
+        w(first + terms[0])
+        out.extend(cont + t for t in terms[1:])
+        out[-1] += ";"
+
     miss = [
         f"            (rd_word == A_{reg['name']}){' ||' if i < n - 1 else ');'}"
         for i, reg in enumerate(regs)
@@ -344,11 +352,7 @@ def gen_read_path(spec: dict) -> list[str]:
     w("        reg         rd_valid_reg;")
     w("        always @(posedge clk) begin")
     w("            if (reg_rd_en) begin")
-    terms = [f"({{32{{sel[{i}]}}}} & rword_{reg['name'].lower()})" for i, reg in enumerate(regs)]
-    w("                rd_data_reg <= " + terms[0])
-    for t in terms[1:]:
-        w(f"                    | {t}")
-    out[-1] += ";"
+    or_of_selected("                rd_data_reg <= ", "                    | ", "sel", range(n))
     w(f"                rd_err_reg <= sel == {n}'d0;")
     w("            end")
     w("            rd_valid_reg <= reg_rd_en;")
@@ -388,14 +392,12 @@ def gen_read_path(spec: dict) -> list[str]:
     w("            rd_miss2 <= rd_miss;")
     w("            // Second read cycle: AND-OR of the one-hot select within groups of four.")
     for g in range(0, n, 4):
-        terms = [
-            f"({{32{{rd_sel[{i}]}}}} & rword_{regs[i]['name'].lower()})"
-            for i in range(g, min(g + 4, n))
-        ]
-        w(f"            rd_grp{g // 4} <= " + terms[0])
-        for t in terms[1:]:
-            w(f"                | {t}")
-        out[-1] += ";"
+        or_of_selected(
+            f"            rd_grp{g // 4} <= ",
+            "                | ",
+            "rd_sel",
+            range(g, min(g + 4, n)),
+        )
     w("            if (reg_rd_en) begin")
     for i, reg in enumerate(regs):
         w(f"                rd_sel[{i}] <= (rd_word == A_{reg['name']});")
