@@ -7,6 +7,13 @@
  * and the protocol's receiver never run at once and need no locking. A tick found with more than
  * one pending was late: the device's OVERRUN fault says so (dev_overrun) and the missed ticks are not
  * run twice (the loop in the FPGA holds its last T_c meanwhile, guarded by its watchdog).
+ *
+ * Requests use the time the tick leaves and never delay it: a received frame is served (decoded,
+ * dispatched, its reply queued) only when the clocks left before the next tick hold the longest
+ * request's handling, or when it is the first frame after a tick (then that tick and that one
+ * request share the period; hdl/README.md gives the measured figures). A frame that has to wait
+ * stays in the UART's receive FIFO (512 bytes: 5.5 ms at 921600 baud) until then; its bytes
+ * before the delimiter are taken at once, which costs little (no decoding until the delimiter).
  */
 #include <stdint.h>
 
@@ -39,6 +46,7 @@ static int32_t t_out_q8(const fw_loop_config_t *l)
 }
 
 static uint32_t g_timer_rate_hz;
+static uint32_t g_tick_period_clks; /* the timer's period: SoC clocks per tick */
 /* A tick's length, 1e6 / rate microseconds, as quotient and remainder: divided once per rate,
  * not at every tick (the CPU has no divide instruction: libc.c's routine). */
 static uint32_t g_tick_us;
@@ -52,31 +60,72 @@ static void timer_follow_rate(void)
         g_timer_rate_hz = rate;
         g_tick_us = 1000000U / rate;
         g_tick_us_rem = 1000000U % rate;
-        soc_io_write(SOC_TIMER_PERIOD, soc_io_read(SOC_SYS_CLK_HZ) / rate);
+        g_tick_period_clks = soc_io_read(SOC_SYS_CLK_HZ) / rate;
+        soc_io_write(SOC_TIMER_PERIOD, g_tick_period_clks);
     }
+}
+
+/* The longest request's handling in clocks, with its margin: START on the UP5K's configuration
+ * (the slower shifter and multiplier), 12 234 clocks measured (tests/soc/tb_soc_tick.py), plus
+ * the delay between the timer's tick and the main loop seeing it (one pass of the idle loop). */
+#define RX_ADMIT_CLKS 13500U
+/* Received bytes taken in one pass of the main loop at most: a pass stays short, so a tick is
+ * seen soon after the timer counts it. */
+#define RX_BYTES_PER_PASS 64U
+
+static uint32_t g_tick_clk;    /* SOC_TIMER_COUNT when the main loop found the last tick */
+static uint32_t g_frame_owed;  /* 1: in this pass, the first after a tick, a frame is served
+                                  whatever the time left */
+static uint32_t g_delim_held;  /* 1: a frame's delimiter was read and its handling waits */
+
+/* Whether a frame's handling may start now (the rule in this file's header). */
+static uint32_t rx_admitted(void)
+{
+    if (g_frame_owed != 0U) {
+        return 1U;
+    }
+    uint32_t since = soc_io_read(SOC_TIMER_COUNT) - g_tick_clk;
+    return (since < g_tick_period_clks && g_tick_period_clks - since >= RX_ADMIT_CLKS) ? 1U : 0U;
+}
+
+static void rx_hand_over(uint8_t *buf, uint32_t n)
+{
+    soc_io_write(SOC_SYS_MARK, SOC_MARK_RX);
+    dev_rx_bytes(&g_dev, DEV_PORT_SERIAL, buf, n);
 }
 
 static void uart_poll(void)
 {
-    /* Received bytes, in chunks, so that a full FIFO is handled in few calls. */
+    /* Received bytes, in chunks: each frame's delimiter ends a chunk (its handling is what costs). */
     uint8_t buf[32];
     uint32_t n = 0U;
-    for (;;) {
-        uint32_t v = soc_io_read(SOC_UART_DATA);
-        if ((v & 0x100U) == 0U) {
-            break;
+    for (uint32_t i = 0U; i < RX_BYTES_PER_PASS; ++i) {
+        uint8_t byte = 0U;
+        if (g_delim_held == 0U) {
+            uint32_t v = soc_io_read(SOC_UART_DATA);
+            if ((v & 0x100U) == 0U) {
+                break;
+            }
+            byte = (uint8_t)v;
         }
-        buf[n++] = (uint8_t)v;
-        if (n == sizeof buf) {
-            soc_io_write(SOC_SYS_MARK, SOC_MARK_RX);
-            dev_rx_bytes(&g_dev, DEV_PORT_SERIAL, buf, n);
+        if (byte == 0U) {
+            if (rx_admitted() == 0U) {
+                g_delim_held = 1U;
+                break;
+            }
+            g_delim_held = 0U;
+            g_frame_owed = 0U;
+        }
+        buf[n++] = byte;
+        if (byte == 0U || n == sizeof buf) {
+            rx_hand_over(buf, n);
             n = 0U;
         }
     }
     if (n > 0U) {
-        soc_io_write(SOC_SYS_MARK, SOC_MARK_RX);
-        dev_rx_bytes(&g_dev, DEV_PORT_SERIAL, buf, n);
+        rx_hand_over(buf, n);
     }
+    g_frame_owed = 0U; /* owed in the first pass after a tick only */
     /* Transmit what the FIFO has room for, in chunks (one dev_tx_bytes call per chunk). */
     uint32_t room = SOC_UART_TX_DEPTH - (soc_io_read(SOC_UART_STATUS) >> 16);
     while (room > 0U) {
@@ -108,16 +157,20 @@ int main(void)
     uint32_t time_us = 0U;
     uint32_t us_rem = 0U;
     uint32_t taken = soc_io_read(SOC_TIMER_TICKS);
+    g_tick_clk = soc_io_read(SOC_TIMER_COUNT);
     for (;;) {
         soc_io_write(SOC_SYS_MARK, SOC_MARK_IDLE);
         uart_poll();
-        /* The timer's 16-bit count only goes up; the ticks not yet run are the difference. */
+        /* The timer's 16-bit count only goes up; the ticks not yet run are the difference. The
+         * clock count is read first: the tick's edge lies before it. */
+        uint32_t now_clk = soc_io_read(SOC_TIMER_COUNT);
         uint32_t seen = soc_io_read(SOC_TIMER_TICKS);
         uint32_t pending = (seen - taken) & 0xFFFFU;
         if (pending == 0U) {
             continue;
         }
         taken = seen;
+        g_tick_clk = now_clk;
         if (pending > 1U) {
             dev_overrun(&g_dev);
         }
@@ -131,5 +184,6 @@ int main(void)
         soc_io_write(SOC_SYS_MARK, SOC_MARK_TICK);
         dev_tick(&g_dev, time_us, t_out_q8(&g_dev.settings.fw.loop));
         timer_follow_rate();
+        g_frame_owed = 1U;
     }
 }

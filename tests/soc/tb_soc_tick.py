@@ -5,13 +5,17 @@ feeding the loop.
 A run is started over the UART (a sine reference from the firmware's generator, the paper's
 compensator, telemetry every tick); the firmware writes its phase to SOC_SYS_MARK, so the clocks
 of each tick (dev_tick: reference, compensator, T_c write, the telemetry frame) and of each burst
-of received bytes (dev_rx_bytes, with the reply's transmission) are read off the bus. The worst
-tick must leave 2x margin, the worst tick plus a request's handling must fit one period. Figures
-are printed (make bench-soc). Run by test_soc_boot.py in its simulation (one build).
+of received bytes (dev_rx_bytes, with the reply's transmission) are read off the bus. Requests
+(HELLO) arrive during the run at pseudo-random points of the period. The worst tick must leave 2x
+margin, also counted from the timer's edge (the firmware serves a request only in the time the
+tick leaves: a request never delays a tick), and the worst tick plus a request's handling must
+fit one period. Figures are printed (make bench-soc). Run by test_soc_boot.py in its simulation
+(one build).
 """
 
 from __future__ import annotations
 
+import random
 import statistics
 
 import cocotb
@@ -40,9 +44,9 @@ async def adc_source(adc: Ads131m02, dut, code: int):
         adc.convert(code, code)
 
 
-async def phase_spans(dut, spans: dict[int, list[int]], stop):
+async def phase_spans(dut, spans: dict[int, list[int]], stop, ends: dict[int, list[int]]):
     """Clocks spent in each phase the firmware writes, span by span: the SoC's clock counter
-    (SOC_TIMER_COUNT) read at each change of the phase word."""
+    (SOC_TIMER_COUNT) read at each change of the phase word; `ends` gets each span's last clock."""
     soc = dut.soc
     cur, t0 = mark(dut), int(soc.timer_count_reg.value)
     while not stop():
@@ -50,7 +54,39 @@ async def phase_spans(dut, spans: dict[int, list[int]], stop):
         m, t = mark(dut), int(soc.timer_count_reg.value)
         if m != cur:
             spans.setdefault(cur, []).append(t - t0)
+            ends.setdefault(cur, []).append(t)
             cur, t0 = m, t
+
+
+async def timer_edges(dut, edges: list[int], stop):
+    """The clock count at each step of the timer's tick count (the tick's edge)."""
+    soc = dut.soc
+    while not stop():
+        await Edge(soc.timer_ticks_reg)
+        edges.append(int(soc.timer_count_reg.value))
+
+
+def from_edge(edges: list[int], tick_ends: list[int]) -> list[int]:
+    """Clocks from each tick's timer edge to the end of its handling: the last edge before the
+    end. (A tick that ran a whole period late would be counted from the later edge; the tick's
+    own span, also asserted, and OVERRUN catch that.)"""
+    out = []
+    i = 0
+    for end in tick_ends:
+        while i + 1 < len(edges) and edges[i + 1] <= end:
+            i += 1
+        if edges and edges[i] <= end:
+            out.append(end - edges[i])
+    return out
+
+
+async def hello_during_run(bench: Bench, dut, n: int, answered: list[int]):
+    """`n` HELLO requests, each after a pseudo-random wait (fixed seed) within about a period."""
+    rng = random.Random(7)
+    for _ in range(n):
+        await ClockCycles(dut.clk, rng.randrange(TICK_BUDGET // 4, 2 * TICK_BUDGET))
+        reply = await bench.request("HELLO", timeout_clks=20 * TICK_BUDGET)
+        answered.append(int(reply is not None and reply.name == "HELLO_ACK"))
 
 
 async def set_param(bench: Bench, name: str, value):
@@ -79,35 +115,48 @@ async def tick_cycles_have_margin(dut):
     ):
         await set_param(bench, name, value)
     spans: dict[int, list[int]] = {}
+    ends: dict[int, list[int]] = {}
+    edges: list[int] = []
     done = False
-    cocotb.start_soon(phase_spans(dut, spans, lambda: done))
+    cocotb.start_soon(phase_spans(dut, spans, lambda: done, ends))
     ticks = 40
     reply = await bench.request("START", duration_ticks=ticks)
     assert reply is not None and reply.name == "ACK", reply
-    await ClockCycles(dut.clk, (ticks + 2) * TICK_BUDGET)
     # START's own handling (the configuration written to the loop, fw_start) is a one-off at the
     # run's start, kept apart from the requests handled while a run goes on
     start_rx = list(spans.get(MARK_RX, []))
     spans[MARK_RX] = []
-    for _ in range(3):
-        assert await bench.request("HELLO") is not None
+    ends[MARK_TICK] = []
+    spans[MARK_TICK] = []
+    cocotb.start_soon(timer_edges(dut, edges, lambda: done))
+    answered: list[int] = []
+    hellos = 12
+    asker = cocotb.start_soon(hello_during_run(bench, dut, hellos, answered))
+    await ClockCycles(dut.clk, (ticks + 2) * TICK_BUDGET)
+    await asker
     done = True
     await ClockCycles(dut.clk, 10)
     tick = spans.get(MARK_TICK, [])
     rx = spans.get(MARK_RX, [])
+    edge_to_end = from_edge(edges, ends.get(MARK_TICK, []))
     assert len(tick) >= ticks, f"{len(tick)} ticks seen"
     tel = [f for f in bench.poll() if f.name == "TELEMETRY"]
     assert len(tel) >= ticks - 2, f"{len(tel)} telemetry frames"
+    assert answered == [1] * hellos, f"HELLO answered: {answered}"
     worst, median = max(tick), statistics.median(tick)
+    worst_edge = max(edge_to_end)
     worst_rx = max(rx) if rx else 0
     dut._log.info(
-        "cycles per tick: worst %d, median %d; a request (HELLO) worst %d; START %d; budget %d "
-        "(tick margin x%.1f, tick + request x%.2f)",
-        worst, median, worst_rx, max(start_rx, default=0), TICK_BUDGET, TICK_BUDGET / worst,
-        TICK_BUDGET / (worst + worst_rx),
+        "cycles per tick: worst %d, median %d; from the timer's edge worst %d; a request (HELLO) "
+        "worst %d; START %d; budget %d (tick margin x%.2f, from the edge x%.2f, tick + request "
+        "x%.2f)",
+        worst, median, worst_edge, worst_rx, max(start_rx, default=0), TICK_BUDGET,
+        TICK_BUDGET / worst, TICK_BUDGET / worst_edge, TICK_BUDGET / (worst + worst_rx),
     )  # fmt: skip
     assert not int(dut.cpu_trap.value)
-    # The tick itself with 2x margin; the tick and a request's handling within one period (no
-    # overrun). The 2x margin for both together is not met at 24 MHz (hdl/README.md).
+    # The tick itself with 2x margin, also counted from the timer's edge with requests arriving
+    # during the run (they are served in the time the tick leaves); the tick and a request's
+    # handling within one period (the request served first after a tick).
     assert worst <= TICK_BUDGET // 2, "the tick has less than 2x margin"
+    assert worst_edge <= TICK_BUDGET // 2, "a tick ends later than half a period after its edge"
     assert worst + worst_rx <= TICK_BUDGET, "a tick and a request do not fit one period"
