@@ -109,8 +109,8 @@ def test_tick_margin_in_the_up5k_configuration():
     """tb_soc_tick (the tick's cycles with 2x margin, also from the timer's edge with requests
     arriving during the run; a tick and a request within one period) on the UP5K's
     configuration, booted from the flash: its shifter and multiplier are the slower ones.
-    Measured: worst tick 11 480 cycles of 24 000 (x2.09), 11 588 from the edge (x2.07), median
-    9 984, a request (HELLO, during the run) 9 938. Long (80 s of simulation, the boot's copy
+    Measured: worst tick 11 477 cycles of 24 000 (x2.09), 11 748 from the edge (x2.04), median
+    9 981, a request (HELLO, during the run) 5 846. Long (80 s of simulation, the boot's copy
     included): left out of make test's budget; make test holds the same assertions on the ECP5's
     configuration (test_soc_boot.py)."""
     _run_up5k("tb_soc_tick")
