@@ -8,8 +8,9 @@ pins modelled, the plant FMU in the loop), driven over its pty by the scripting 
 - the firmware's tick in CPU cycles (clocks of the SoC from the tick's start to the main loop's
   next idle phase: reference, compensator, T_c write, telemetry frame), worst and median over
   the run, against its budget (the SoC's clock / tick rate: 24000 at 24 MHz and 1 kHz);
-- the longest handling of received bytes (one burst: a request and its reply) and the longest
-  time between two ticks' starts (over 2 budgets: the device's OVERRUN fault).
+- the longest handling of received bytes (the firmware's RX phase: a frame decoded, dispatched
+  and its reply queued; firmware/soc/main.c serves one only when it fits before the next tick)
+  and the longest time between two ticks' starts (over 2 budgets: the device's OVERRUN fault).
 
     python -m cosim.perf.soc [--seconds 1.0]
 """
