@@ -115,8 +115,11 @@ FIELD_MAX_CHARS = 131072
 # A plain decimal number (see the module docstring), spaces or tabs around it.
 _NUMBER = r"[ \t]*[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?[ \t]*"
 _NUMBER_RE = re.compile(_NUMBER)
-# A whole column joined with newlines (checked in one pass of the regex engine).
+# A column's cells joined with newlines, checked in one pass of the regex engine per chunk of
+# COLUMN_CHUNK_CELLS: the engine keeps a backtracking entry for every repetition of the group, so
+# a whole 20-minute column (1.2 million cells) at once took 860 MB; a chunk takes a few.
 _COLUMN_RE = re.compile(f"(?:{_NUMBER}\n)*{_NUMBER}")
+COLUMN_CHUNK_CELLS = 8192
 _BOM = b"\xef\xbb\xbf"
 
 
@@ -364,17 +367,26 @@ def _read_rows(
     return header, rows, lines
 
 
+def _all_numbers(cells: list[str]) -> bool:
+    """Whether every cell is a plain number (and none a quoted cell holding a line break), the
+    cells checked COLUMN_CHUNK_CELLS at a time."""
+    if not cells:
+        return False
+    for i in range(0, len(cells), COLUMN_CHUNK_CELLS):
+        chunk = cells[i : i + COLUMN_CHUNK_CELLS]
+        joined = "\n".join(chunk)
+        if _COLUMN_RE.fullmatch(joined) is None or joined.count("\n") != len(chunk) - 1:
+            return False
+    return True
+
+
 def _parse_column(
     path: Path, name: str, cells: list[str], lines: list[int], strict: bool
 ) -> np.ndarray | None:
     """The cells of one column as finite float64 values in the column's range. strict=False
     (an extra column of a measured trace): return None instead of raising when a cell is not a
     finite number."""
-    joined = "\n".join(cells)
-    if (
-        _COLUMN_RE.fullmatch(joined) is None
-        or joined.count("\n") != len(cells) - 1  # a quoted cell held a line break
-    ):
+    if not _all_numbers(cells):
         if not strict:
             return None
         for cell, line in zip(cells, lines, strict=True):

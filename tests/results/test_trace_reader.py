@@ -242,6 +242,32 @@ def test_measured_rejects_bad_files_with_one_clear_error(tmp_path, text, message
         tr.read_trace(_write(tmp_path, text.encode(), meta=None), mode="measured")
 
 
+@pytest.mark.parametrize(
+    "row", [0, tr.COLUMN_CHUNK_CELLS - 1, tr.COLUMN_CHUNK_CELLS, 2 * tr.COLUMN_CHUNK_CELLS + 2999]
+)
+def test_a_long_column_is_checked_in_every_chunk(tmp_path, row):
+    """A column is checked COLUMN_CHUNK_CELLS cells at a time (bounded memory): a bad cell or a
+    quoted line break in any chunk, at either side of a chunk's edge, is named with its line,
+    and an extra column with such a cell is kept as text."""
+    n = 2 * tr.COLUMN_CHUNK_CELLS + 3000
+    lines = ["t_s,T_in_N,T_out_N,note"] + [f"{k / 1000},1,1,{k}" for k in range(n)]
+    good = _write(tmp_path, ("\n".join(lines) + "\n").encode(), meta=None, name="ok.csv")
+    back = tr.read_trace(good, mode="measured")
+    assert len(back) == n and back["note"][-1] == n - 1
+    # (a row with a quoted line break is named by the line it ends on, as csv counts lines)
+    for cell, shown, line in (("1x", "'1x'", row + 2), ('"1\n2"', "'1\\n2'", row + 3)):
+        bad = list(lines)
+        bad[row + 1] = f"{row / 1000},{cell},1,{row}"
+        path = _write(tmp_path, ("\n".join(bad) + "\n").encode(), meta=None, name="bad.csv")
+        with pytest.raises(tr.TraceError) as err:
+            tr.read_trace(path, mode="measured")
+        assert f"bad.csv:{line}: column T_in_N is {shown}, not a number" in str(err.value)
+        bad[row + 1] = f"{row / 1000},1,1,{cell}"
+        path = _write(tmp_path, ("\n".join(bad) + "\n").encode(), meta=None, name="bad.csv")
+        back = tr.read_trace(path, mode="measured")
+        assert "note" in back.text_columns and "note" not in back.columns
+
+
 def test_byte_order_mark_and_crlf_line_ends_are_read(tmp_path):
     text = _measured_text().replace("\n", "\r\n").encode()
     back = tr.read_trace(_write(tmp_path, b"\xef\xbb\xbf" + text, meta=None), mode="measured")
