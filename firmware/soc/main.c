@@ -172,7 +172,8 @@ int main(void)
         soc_io_write(SOC_SYS_MARK, SOC_MARK_IDLE);
         uart_poll();
         /* The timer's 16-bit count only goes up; the ticks not yet run are the difference. The
-         * clock count is read first: the tick's edge lies before it. */
+         * clock count is read first: a tick whose edge falls between the two reads is dated a
+         * few clocks early, never late (late would overstate the time left before the next). */
         uint32_t now_clk = soc_io_read(SOC_TIMER_COUNT);
         uint32_t seen = soc_io_read(SOC_TIMER_TICKS);
         uint32_t pending = (seen - taken) & 0xFFFFU;
