@@ -212,7 +212,8 @@ def _friction(
         for j in range(1, n_seg + 1):
             if slope != 0.0:
                 tp = tens[j - 1]
-                if mu_base + slope * tp > 0.0:
+                m = mu_base + slope * tp
+                if m > 0.0:
                     y = sd * tp
                     if -0.01 <= y <= 0.01:
                         # exp((mu_base + slope T) dphi) = exp(mu_base dphi) exp(y): y small, its
@@ -223,7 +224,6 @@ def _friction(
                         lo = tp * bm * (1.0 - d + y2 * c)
                         hi = tp * bp * (1.0 + d + y2 * c)
                     else:
-                        m = mu_base + slope * tp
                         lo = tp * _exp_small(-m * dphi)
                         hi = tp * _exp_small(m * dphi)
                 else:
