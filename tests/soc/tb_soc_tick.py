@@ -4,13 +4,13 @@ feeding the loop.
 
 A run is started over the UART (a sine reference from the firmware's generator, the paper's
 compensator, telemetry every tick); the firmware writes its phase to SOC_SYS_MARK, so the clocks
-of each tick (dev_tick: reference, compensator, T_c write, the telemetry frame) and of each burst
-of received bytes (dev_rx_bytes, with the reply's transmission) are read off the bus. Requests
-(HELLO) arrive during the run at pseudo-random points of the period. The worst tick must leave 2x
-margin, also counted from the timer's edge (the firmware serves a request only in the time the
-tick leaves: a request never delays a tick), and the worst tick plus a request's handling must
-fit one period. Figures are printed (make bench-soc). Run by test_soc_boot.py in its simulation
-(one build).
+of each tick (dev_tick: reference, compensator, T_c write, the telemetry frame) and of each
+received frame's handling (dev_rx_bytes: decoded, dispatched, the reply queued) are read off the
+bus. Requests (HELLO) arrive during the run at pseudo-random points of the period. The worst tick
+must leave 2x margin, also counted from the timer's edge (the firmware serves a request only in
+the time the tick leaves: a request never delays a tick), and the worst tick plus a request's
+handling must fit one period. Figures are printed (make bench-soc). Run by test_soc_boot.py in
+its simulation (one build).
 """
 
 from __future__ import annotations
@@ -44,17 +44,16 @@ async def adc_source(adc: Ads131m02, dut, code: int):
         adc.convert(code, code)
 
 
-async def phase_spans(dut, spans: dict[int, list[int]], stop, ends: dict[int, list[int]]):
-    """Clocks spent in each phase the firmware writes, span by span: the SoC's clock counter
-    (SOC_TIMER_COUNT) read at each change of the phase word; `ends` gets each span's last clock."""
+async def phase_spans(dut, spans: dict[int, list[tuple[int, int]]], stop):
+    """Each span of each phase the firmware writes, as (first clock, last clock): the SoC's clock
+    counter (SOC_TIMER_COUNT) read at each change of the phase word."""
     soc = dut.soc
     cur, t0 = mark(dut), int(soc.timer_count_reg.value)
     while not stop():
         await Edge(soc.mark_reg)
         m, t = mark(dut), int(soc.timer_count_reg.value)
         if m != cur:
-            spans.setdefault(cur, []).append(t - t0)
-            ends.setdefault(cur, []).append(t)
+            spans.setdefault(cur, []).append((t0, t))
             cur, t0 = m, t
 
 
@@ -114,19 +113,17 @@ async def tick_cycles_have_margin(dut):
         ("comp.mode", "paper"),
     ):
         await set_param(bench, name, value)
-    spans: dict[int, list[int]] = {}
-    ends: dict[int, list[int]] = {}
+    spans: dict[int, list[tuple[int, int]]] = {}
     edges: list[int] = []
     done = False
-    cocotb.start_soon(phase_spans(dut, spans, lambda: done, ends))
+    cocotb.start_soon(phase_spans(dut, spans, lambda: done))
     ticks = 40
     reply = await bench.request("START", duration_ticks=ticks)
     assert reply is not None and reply.name == "ACK", reply
     # START's own handling (the configuration written to the loop, fw_start) is a one-off at the
     # run's start, kept apart from the requests handled while a run goes on
-    start_rx = list(spans.get(MARK_RX, []))
+    start_rx = [end - start for start, end in spans.get(MARK_RX, [])]
     spans[MARK_RX] = []
-    ends[MARK_TICK] = []
     spans[MARK_TICK] = []
     cocotb.start_soon(timer_edges(dut, edges, lambda: done))
     answered: list[int] = []
@@ -136,9 +133,9 @@ async def tick_cycles_have_margin(dut):
     await asker
     done = True
     await ClockCycles(dut.clk, 10)
-    tick = spans.get(MARK_TICK, [])
-    rx = spans.get(MARK_RX, [])
-    edge_to_end = from_edge(edges, ends.get(MARK_TICK, []))
+    tick = [end - start for start, end in spans.get(MARK_TICK, [])]
+    rx = [end - start for start, end in spans.get(MARK_RX, [])]
+    edge_to_end = from_edge(edges, [end for _, end in spans.get(MARK_TICK, [])])
     assert len(tick) >= ticks, f"{len(tick)} ticks seen"
     tel = [f for f in bench.poll() if f.name == "TELEMETRY"]
     assert len(tel) >= ticks - 2, f"{len(tel)} telemetry frames"
