@@ -88,6 +88,20 @@ def test_an_unwritable_output_folder_is_a_clear_error_not_a_traceback(tmp_path: 
     assert "bowden workspace:" in out.stderr and str(blocker) in out.stderr
 
 
+def test_output_into_a_reader_that_closed_ends_quietly_with_the_pipes_status():
+    """`bowden ... | head -1`: once the reader has closed the pipe the command stops with a
+    shell's status for it (128 + SIGPIPE) and no 'Broken pipe' line."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "cosim", "bench", "--emulate", "get"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    proc.stdout.close()  # the reader goes before the first line is written
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 141, (proc.returncode, err)
+    assert err.decode().strip() == ""
+
+
 def test_the_command_line_starts_without_the_heavy_libraries():
     """`bowden --help` and argument errors must answer at once: building the parser of every
     subcommand imports none of scipy, matplotlib, numba or the co-simulation's runners (each

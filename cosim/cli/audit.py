@@ -13,6 +13,8 @@ from pathlib import Path
 from cosim.audit.params import FIG14_DEFAULT_DURATION_S
 from cosim.project.cliargs import output_dir
 
+from . import output_reader_gone
+
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
@@ -125,6 +127,8 @@ def main(args: argparse.Namespace) -> int:
         return 1
     except OSError as exc:  # --out or --emit-params cannot be written
         bar.close()
+        if output_reader_gone(exc):
+            raise  # `... | head`: main() ends quietly
         where = f": {exc.filename}" if exc.filename else ""
         print(f"bowden audit: {exc.strerror or exc}{where}", file=sys.stderr)
         return 1

@@ -44,7 +44,7 @@ from cosim.parts import regmap
 from cosim.parts.geometry import in_workspace
 from cosim.results import trace as trace_mod
 
-from . import bench_tools
+from . import bench_tools, output_reader_gone
 
 # The FPGA's drive enable in the STATUS register (FAULTS.fpga_status).
 STATUS_OUT_EN = 1 << next(f.lsb for f in regmap.REGISTERS["STATUS"].fields if f.name == "OUT_EN")
@@ -267,6 +267,8 @@ def bench_main(args: argparse.Namespace) -> int:
             print(f"bowden bench: {exc}{stop}", file=sys.stderr)
             return 1
         except OSError as exc:  # a full disk, a folder that cannot be written: say which
+            if output_reader_gone(exc):
+                raise  # `... | head`: main() ends quietly
             where = f": {exc.filename}" if exc.filename else ""
             stop = f"; {args.stop_report}" if args.stop_report else ""
             print(f"bowden bench: {exc.strerror or exc}{where}{stop}", file=sys.stderr)
