@@ -1,8 +1,9 @@
 /*
  * crc32c.h - CRC-32C (Castagnoli; iSCSI, RFC 3720): reflected polynomial 0x82F63B78, initial value
  * and final XOR 0xFFFFFFFF. Check value: crc32c("123456789") = 0xE3069283.
- * A 16-entry table (64 bytes of flash) and two look-ups per byte: small enough for any target,
- * about 20 instructions per byte.
+ * A 256-entry table (1 KiB of flash) and one look-up per byte: every frame sent or received runs
+ * through it, and on the soft CPU the telemetry frame's CRC was a fifth of the tick (measured
+ * with a 16-entry table and two look-ups per byte).
  */
 #ifndef BOWDEN_CRC32C_H
 #define BOWDEN_CRC32C_H
