@@ -54,11 +54,17 @@ void proto_rx_init(proto_rx_t *rx);
 /* Feed one received byte. Returns 1 when it completed a frame whose CRC is good (written to
  * *out), 0 otherwise. */
 int proto_rx_byte(proto_rx_t *rx, uint8_t byte, proto_frame_t *out);
+/* Feed up to n received bytes, as many calls of proto_rx_byte: stops after the delimiter that
+ * completed a good frame (written to *out, *got = 1; else *got = 0). Returns the bytes used. */
+uint32_t proto_rx_bytes(proto_rx_t *rx, const uint8_t *data, uint32_t n, proto_frame_t *out,
+                        int *got);
 
 /* Encode a frame for the wire: 0x00, COBS(header + payload + CRC), 0x00. Returns the bytes
  * written to out, or 0 when f->len exceeds PROTO_MAX_PAYLOAD or cap < the encoded size
  * (PROTO_MAX_WIRE always suffices). */
 uint32_t proto_encode(const proto_frame_t *f, uint8_t *out, uint32_t cap);
+/* The bytes proto_encode writes for f, or 0 when f->len exceeds PROTO_MAX_PAYLOAD. */
+uint32_t proto_wire_len(const proto_frame_t *f);
 
 /* COBS of n bytes without delimiter; out needs n + n/254 + 1 bytes. Returns the length. */
 uint32_t proto_cobs_encode(const uint8_t *in, uint32_t n, uint8_t *out);

@@ -67,13 +67,22 @@ void dev_init(dev_t *d, fw_t *fw, const flash_hal_t *flash)
 
 /* --- transmit ------------------------------------------------------------------------------ */
 
+_Static_assert((DEV_TX_BYTES & (DEV_TX_BYTES - 1U)) == 0U,
+               "DEV_TX_BYTES a power of two: the ring's index wraps with a mask, not a division");
+
 static int tx_push(dev_port_t *p, const uint8_t *b, uint32_t n, uint32_t reserve)
 {
     if (DEV_TX_BYTES - p->tx_len < n + reserve) {
         return 0;
     }
-    for (uint32_t i = 0; i < n; ++i) {
-        p->tx[(p->tx_head + p->tx_len + i) % DEV_TX_BYTES] = b[i];
+    /* Up to the ring's end, then from its start. */
+    const uint32_t at = (p->tx_head + p->tx_len) % DEV_TX_BYTES;
+    const uint32_t first = (DEV_TX_BYTES - at < n) ? DEV_TX_BYTES - at : n;
+    for (uint32_t i = 0; i < first; ++i) {
+        p->tx[at + i] = b[i];
+    }
+    for (uint32_t i = first; i < n; ++i) {
+        p->tx[i - first] = b[i];
     }
     p->tx_len += n;
     return 1;
@@ -101,9 +110,19 @@ static int send_frame(dev_t *d, uint32_t port, const proto_frame_t *f, int telem
         uint32_t n = proto_can_encode(d->settings.dev.can_node, f, cf, PROTO_CAN_MAX_FRAMES);
         ok = n != 0U && can_push(p, cf, n, telemetry ? RESERVE_CAN : 0U);
     } else {
-        uint8_t wire[PROTO_MAX_WIRE];
-        uint32_t n = proto_encode(f, wire, PROTO_MAX_WIRE);
-        ok = n != 0U && tx_push(p, wire, n, telemetry ? RESERVE_BYTES : 0U);
+        /* Encoded in place in the ring when it does not wrap there (a copy less on every frame:
+         * on the soft CPU the telemetry frame is most of the tick), else through a buffer. */
+        const uint32_t n = proto_wire_len(f);
+        const uint32_t at = (p->tx_head + p->tx_len) % DEV_TX_BYTES;
+        if (n == 0U || DEV_TX_BYTES - p->tx_len < n + (telemetry ? RESERVE_BYTES : 0U)) {
+            ok = 0;
+        } else if (DEV_TX_BYTES - at >= n) {
+            ok = proto_encode(f, &p->tx[at], n) == n;
+            p->tx_len += ok ? n : 0U;
+        } else {
+            uint8_t wire[PROTO_MAX_WIRE];
+            ok = proto_encode(f, wire, PROTO_MAX_WIRE) == n && tx_push(p, wire, n, 0U);
+        }
     }
     if (ok) {
         ++p->tx_frames;
@@ -535,8 +554,11 @@ void dev_rx_bytes(dev_t *d, uint32_t port, const uint8_t *data, uint32_t n)
         return;
     }
     proto_frame_t f;
-    for (uint32_t i = 0; i < n; ++i) {
-        if (proto_rx_byte(&d->ports[port].rx, data[i], &f)) {
+    uint32_t i = 0;
+    while (i < n) {
+        int got;
+        i += proto_rx_bytes(&d->ports[port].rx, &data[i], n - i, &f, &got);
+        if (got != 0) {
             dispatch(d, port, &f);
         }
     }
@@ -588,7 +610,8 @@ void dev_tick(dev_t *d, uint32_t time_us, int32_t t_out_q8)
     ++d->run_ticks;
     const fw_telemetry_t *t = &d->fw->tel;
     uint32_t sample = t->ticks - 1U; /* fw_start zeroes ticks, fw_tick counts this one */
-    if (sample % d->settings.dev.telemetry_div == 0U) {
+    const uint32_t div = d->settings.dev.telemetry_div;
+    if (div == 1U || sample % div == 0U) { /* the soft CPU has no divider: skip it at 1 */
         proto_telemetry_t m;
         m.time_us = time_us;
         m.sample = sample;

@@ -3,30 +3,50 @@
 
 #include "crc32c.h"
 
+/* COBS written a byte at a time, so that a frame is encoded from its parts without first being
+ * copied into one buffer. The current block's code byte is its length so far, o - code_at. */
+typedef struct {
+    uint8_t *out;
+    uint32_t code_at; /* where the current block's code byte goes */
+    uint32_t o;       /* where the next byte goes */
+} cobs_writer_t;
+
+/* One byte of a message shorter than a COBS block (254 bytes): a zero closes the block with its
+ * code, any other byte is data. */
+static void cobs_put_short(cobs_writer_t *w, uint8_t b)
+{
+    if (b == 0U) {
+        w->out[w->code_at] = (uint8_t)(w->o - w->code_at);
+        w->code_at = w->o++;
+    } else {
+        w->out[w->o++] = b;
+    }
+}
+
+/* One byte of any message; `more`: bytes still to come after it. A full block of 254 bytes has no
+ * implied zero; a new block starts only if more data follows (the canonical encoding). */
+static void cobs_put(cobs_writer_t *w, uint8_t b, uint32_t more)
+{
+    cobs_put_short(w, b);
+    if (w->o - w->code_at == 0xFFU && more != 0U) {
+        w->out[w->code_at] = 0xFFU;
+        w->code_at = w->o++;
+    }
+}
+
+static uint32_t cobs_end(cobs_writer_t *w)
+{
+    w->out[w->code_at] = (uint8_t)(w->o - w->code_at);
+    return w->o;
+}
+
 uint32_t proto_cobs_encode(const uint8_t *in, uint32_t n, uint8_t *out)
 {
-    uint32_t code_at = 0; /* where the current block's code byte goes */
-    uint32_t o = 1;
-    uint8_t code = 1;
+    cobs_writer_t w = {out, 0U, 1U};
     for (uint32_t i = 0; i < n; ++i) {
-        if (in[i] == 0U) {
-            out[code_at] = code;
-            code_at = o++;
-            code = 1;
-        } else {
-            out[o++] = in[i];
-            ++code;
-            /* A full block of 254 bytes has no implied zero; a new block starts only if more
-             * data follows (the canonical encoding). */
-            if (code == 0xFFU && i + 1U < n) {
-                out[code_at] = code;
-                code_at = o++;
-                code = 1;
-            }
-        }
+        cobs_put(&w, in[i], n - 1U - i);
     }
-    out[code_at] = code;
-    return o;
+    return cobs_end(&w);
 }
 
 int32_t proto_cobs_decode(const uint8_t *in, uint32_t n, uint8_t *out, uint32_t cap)
@@ -97,55 +117,77 @@ static int rx_frame(proto_rx_t *rx, proto_frame_t *out)
     return 1;
 }
 
+uint32_t proto_rx_bytes(proto_rx_t *rx, const uint8_t *data, uint32_t n, proto_frame_t *out,
+                        int *got)
+{
+    *got = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+        const uint8_t byte = data[i];
+        if (byte != 0U) {
+            if (rx->discard != 0U) {
+                continue;
+            }
+            if (rx->len < PROTO_MAX_COBS) {
+                rx->buf[rx->len++] = byte;
+            } else {
+                ++rx->stats.overlong;
+                rx->discard = 1U;
+                rx->len = 0U;
+            }
+            continue;
+        }
+        /* Delimiter: an empty frame (two delimiters in a row) is not an error. */
+        if (rx->discard == 0U && rx->len > 0U) {
+            *got = rx_frame(rx, out);
+        }
+        rx->len = 0U;
+        rx->discard = 0U;
+        if (*got != 0) {
+            return i + 1U;
+        }
+    }
+    return n;
+}
+
 int proto_rx_byte(proto_rx_t *rx, uint8_t byte, proto_frame_t *out)
 {
-    if (byte != 0U) {
-        if (rx->discard != 0U) {
-            return 0;
-        }
-        if (rx->len < PROTO_MAX_COBS) {
-            rx->buf[rx->len++] = byte;
-        } else {
-            ++rx->stats.overlong;
-            rx->discard = 1U;
-            rx->len = 0U;
-        }
-        return 0;
-    }
-    /* Delimiter: an empty frame (two delimiters in a row) is not an error. */
-    int got = 0;
-    if (rx->discard == 0U && rx->len > 0U) {
-        got = rx_frame(rx, out);
-    }
-    rx->len = 0U;
-    rx->discard = 0U;
+    int got;
+    (void)proto_rx_bytes(rx, &byte, 1U, out, &got);
     return got;
+}
+
+uint32_t proto_wire_len(const proto_frame_t *f)
+{
+    /* A frame is shorter than a COBS block (254 bytes): one code byte, and the two delimiters. */
+    _Static_assert(PROTO_MAX_RAW < 254U, "a frame fits one COBS block");
+    return (f->len > PROTO_MAX_PAYLOAD) ? 0U
+                                        : PROTO_HEADER_LEN + f->len + PROTO_CRC_LEN + 1U + 2U;
 }
 
 uint32_t proto_encode(const proto_frame_t *f, uint8_t *out, uint32_t cap)
 {
-    if (f->len > PROTO_MAX_PAYLOAD) {
+    const uint32_t need = proto_wire_len(f);
+    if (need == 0U || cap < need) {
         return 0U;
     }
-    uint8_t raw[PROTO_MAX_RAW];
-    uint32_t n = 0;
-    raw[n++] = f->version;
-    raw[n++] = f->msg;
-    raw[n++] = f->seq;
-    for (uint32_t i = 0; i < f->len; ++i) {
-        raw[n++] = f->payload[i];
-    }
-    uint32_t crc = crc32c(raw, n);
-    raw[n++] = (uint8_t)crc;
-    raw[n++] = (uint8_t)(crc >> 8);
-    raw[n++] = (uint8_t)(crc >> 16);
-    raw[n++] = (uint8_t)(crc >> 24);
-    uint32_t need = n + n / 254U + 1U + 2U;
-    if (cap < need) {
-        return 0U;
-    }
+    /* The header, the payload and the CRC go through COBS where they are: no raw copy. No block
+     * fills (proto_wire_len): each byte is a code or data. */
+    const uint8_t head[PROTO_HEADER_LEN] = {f->version, f->msg, f->seq};
+    uint32_t crc = crc32c_update(CRC32C_INIT, head, PROTO_HEADER_LEN);
+    crc = crc32c_update(crc, f->payload, f->len) ^ 0xFFFFFFFFUL;
     out[0] = 0U;
-    uint32_t m = proto_cobs_encode(raw, n, &out[1]);
+    cobs_writer_t w = {&out[1], 0U, 1U};
+    for (uint32_t i = 0; i < PROTO_HEADER_LEN; ++i) {
+        cobs_put_short(&w, head[i]);
+    }
+    const uint32_t len = f->len;
+    for (uint32_t i = 0; i < len; ++i) {
+        cobs_put_short(&w, f->payload[i]);
+    }
+    for (uint32_t i = 0; i < PROTO_CRC_LEN; ++i) {
+        cobs_put_short(&w, (uint8_t)(crc >> (8U * i)));
+    }
+    uint32_t m = cobs_end(&w);
     out[1U + m] = 0U;
     return m + 2U;
 }

@@ -3,8 +3,9 @@
  * (proto_rx_byte) and the whole device behind it (dev_rx_bytes, dev_rx_can, dev_tick), fed
  * arbitrary bytes. Invariants, checked on every frame: the decoder never accepts a frame whose
  * CRC-32C fails (recomputed here with an independent bitwise CRC over an independent COBS decode
- * of the same bytes), decoded lengths stay within bounds, and the device's buffers stay
- * consistent. ASan and UBSan catch the rest (out-of-bounds, overflow, undefined shifts).
+ * of the same bytes), decoded lengths stay within bounds, the decoder fed a whole buffer at once
+ * (proto_rx_bytes) accepts the same frames and counts the same errors as byte by byte, and the
+ * device's buffers stay consistent. ASan and UBSan catch the rest (out-of-bounds, overflow, undefined shifts).
  *
  * Used by fuzz_main.c (random and mutated frames, gcc, in `make test`) and by libFuzzer
  * (LLVMFuzzerTestOneInput, clang: `make fuzz-proto-libfuzzer`).
@@ -18,6 +19,7 @@
 
 static dev_host_t dev;
 static proto_rx_t rx;
+static proto_rx_t rx_bulk; /* the same bytes through proto_rx_bytes */
 static uint8_t seg[PROTO_MAX_COBS + 8];
 static uint32_t seg_len;
 static uint32_t seg_over;
@@ -70,6 +72,7 @@ void fuzz_reset(void)
     dev_host_init(&dev);
     dev_port_kind(&dev.dev, 2U, DEV_PORT_CAN);
     proto_rx_init(&rx);
+    proto_rx_init(&rx_bulk);
     seg_len = seg_over = 0U;
     ready = 1;
 }
@@ -109,6 +112,43 @@ static void check_accepted(const proto_frame_t *f)
     ++stats.crc_checked;
 }
 
+static uint32_t frame_digest(uint32_t digest, const proto_frame_t *f)
+{
+    const uint8_t head[4] = {f->version, f->msg, f->seq, f->len};
+    digest = ref_crc(head, 4U) ^ (digest * 31U);
+    return ref_crc(f->payload, f->len) ^ (digest * 31U);
+}
+
+/* The same bytes through proto_rx_bytes, a buffer at a time: the same frames in the same order
+ * and the same error counts as the byte-by-byte decoder. */
+static void bulk_matches(const uint8_t *data, size_t n, uint32_t accepted, uint32_t digest)
+{
+    uint32_t got_n = 0U;
+    uint32_t got_digest = 0U;
+    size_t i = 0;
+    while (i < n) {
+        proto_frame_t f;
+        int got;
+        uint32_t used = proto_rx_bytes(&rx_bulk, &data[i], (uint32_t)(n - i), &f, &got);
+        if (used == 0U || used > n - i || (got != 0 && data[i + used - 1U] != 0U)) {
+            fail("proto_rx_bytes: bytes used");
+        }
+        i += used;
+        if (got != 0) {
+            ++got_n;
+            got_digest = frame_digest(got_digest, &f);
+        }
+    }
+    const proto_rx_stats_t *a = &rx.stats;
+    const proto_rx_stats_t *b = &rx_bulk.stats;
+    if (got_n != accepted || got_digest != digest || a->frames != b->frames ||
+        a->crc_errors != b->crc_errors || a->framing_errors != b->framing_errors ||
+        a->short_frames != b->short_frames || a->overlong != b->overlong ||
+        rx.len != rx_bulk.len || rx.discard != rx_bulk.discard) {
+        fail("proto_rx_bytes differs from proto_rx_byte");
+    }
+}
+
 void fuzz_feed(const uint8_t *data, size_t n)
 {
     fuzz_feed_decoder(data, n);
@@ -121,6 +161,8 @@ void fuzz_feed_decoder(const uint8_t *data, size_t n)
         fuzz_reset();
     }
     proto_rx_stats_t before = rx.stats;
+    uint32_t accepted = 0U;
+    uint32_t digest = 0U; /* of the accepted frames in order, byte by byte */
     for (size_t i = 0; i < n; ++i) {
         uint8_t b = data[i];
         proto_frame_t f;
@@ -129,6 +171,8 @@ void fuzz_feed_decoder(const uint8_t *data, size_t n)
             if (got) {
                 check_accepted(&f);
                 ++stats.accepted;
+                ++accepted;
+                digest = frame_digest(digest, &f);
                 last = f;
             }
             seg_len = seg_over = 0U;
@@ -140,6 +184,7 @@ void fuzz_feed_decoder(const uint8_t *data, size_t n)
             seg_over = 1U;
         }
     }
+    bulk_matches(data, n, accepted, digest);
     stats.bytes += n;
     stats.rejected += (rx.stats.crc_errors - before.crc_errors) +
                       (rx.stats.framing_errors - before.framing_errors) +
