@@ -156,6 +156,9 @@ typedef struct {
     int32_t started;               /* 0 until the first step */
     int32_t line[COMP_PREVIEW_MAX_TICKS + 1]; /* PREVIEW: the last P + 1 inputs, Q7.8 */
     int32_t line_pos;              /* PREVIEW: index of the newest input in line */
+    int32_t line_writes;           /* PREVIEW: inputs written to line since the first step, at
+                                      most P + 1 */
+    int32_t line_first;            /* the first step's input: what an unwritten slot reads */
     int32_t tables_of_cfg;         /* 1 while g_up, g_dn are the tables of cfg's mu, phi and
                                       mu_slope (comp_configure); 0 after comp_set_exponent_q28 */
 } comp_t;

@@ -257,9 +257,11 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
         c->started = 1;
         c->prev_ref = ref;
         c->extreme = ref;
-        for (int32_t i = 0; i <= COMP_PREVIEW_MAX_TICKS; ++i) {
-            c->line[i] = ref; /* a reference at rest */
-        }
+        /* The delay line reads as a reference at rest (this first input) where this start has
+         * not written it yet; no fill of its 129 slots here, so a run's first tick costs no more
+         * than the others (the soft CPU's worst tick). */
+        c->line_first = ref;
+        c->line_writes = 0;
         c->line_pos = 0;
     }
     int32_t diff = ref - c->prev_ref; /* |diff| <= 65535 */
@@ -292,8 +294,16 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
         const int32_t len = cfg->preview_ticks + 1;
         c->line_pos = (c->line_pos + 1 < len) ? c->line_pos + 1 : 0;
         c->line[c->line_pos] = ref;
+        if (c->line_writes < len) {
+            ++c->line_writes;
+        }
         int32_t back = c->line_pos - (cfg->preview_ticks - cfg->lead_ticks);
-        applied = c->line[(back < 0) ? back + len : back];
+        if (back < 0) {
+            back += len;
+        }
+        /* Written since the start: slots 1 .. line_writes in order, then all of them. */
+        int32_t written = (c->line_writes >= len) || (back >= 1 && back <= c->line_writes);
+        applied = written ? c->line[back] : c->line_first;
     }
 
     /* Blend position s in [0, top]: PAPER jumps to the branch, SMOOTH travels |diff| towards it,
