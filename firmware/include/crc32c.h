@@ -12,6 +12,16 @@
 
 #define CRC32C_INIT 0xFFFFFFFFUL
 
+/* The table of crc32c.c: the CRC of each byte value. */
+extern const uint32_t crc32c_table[256];
+
+/* Continue a CRC over one byte (for a loop that does more with each byte, as the frame encoder
+ * does). */
+static inline uint32_t crc32c_step(uint32_t crc, uint8_t byte)
+{
+    return (crc >> 8) ^ crc32c_table[(crc ^ byte) & 0xFFU];
+}
+
 /* Continue a CRC over n bytes: crc = crc32c_update(CRC32C_INIT, ...), ..., result = crc ^ ~0. */
 uint32_t crc32c_update(uint32_t crc, const uint8_t *data, uint32_t n);
 /* The CRC-32C of n bytes. */

@@ -1,10 +1,10 @@
 /* crc32c.c - CRC-32C of crc32c.h, a byte at a time. */
 #include "crc32c.h"
 
-/* crc32c_byte[i] = the reflected CRC of byte i: i shifted through eight rounds of
+/* crc32c_table[i] = the reflected CRC of byte i: i shifted through eight rounds of
  * (c >> 1) ^ (0x82F63B78 if c & 1). firmware/tests/bench/test_proto.c checks every entry against
  * that definition. */
-static const uint32_t crc32c_byte[256] = {
+const uint32_t crc32c_table[256] = {
     0x00000000UL, 0xF26B8303UL, 0xE13B70F7UL, 0x1350F3F4UL, 0xC79A971FUL, 0x35F1141CUL,
     0x26A1E7E8UL, 0xD4CA64EBUL, 0x8AD958CFUL, 0x78B2DBCCUL, 0x6BE22838UL, 0x9989AB3BUL,
     0x4D43CFD0UL, 0xBF284CD3UL, 0xAC78BF27UL, 0x5E133C24UL, 0x105EC76FUL, 0xE235446CUL,
@@ -53,7 +53,7 @@ static const uint32_t crc32c_byte[256] = {
 uint32_t crc32c_update(uint32_t crc, const uint8_t *data, uint32_t n)
 {
     for (uint32_t i = 0; i < n; ++i) {
-        crc = (crc >> 8) ^ crc32c_byte[(crc ^ data[i]) & 0xFFU];
+        crc = crc32c_step(crc, data[i]);
     }
     return crc;
 }

@@ -170,20 +170,23 @@ uint32_t proto_encode(const proto_frame_t *f, uint8_t *out, uint32_t cap)
     if (need == 0U || cap < need) {
         return 0U;
     }
-    /* The header, the payload and the CRC go through COBS where they are: no raw copy. No block
-     * fills (proto_wire_len): each byte is a code or data. */
+    /* The header, the payload and the CRC go through COBS where they are (no raw copy), the CRC
+     * taken in the same pass. No block fills (proto_wire_len): each byte is a code or data. */
     const uint8_t head[PROTO_HEADER_LEN] = {f->version, f->msg, f->seq};
-    uint32_t crc = crc32c_update(CRC32C_INIT, head, PROTO_HEADER_LEN);
-    crc = crc32c_update(crc, f->payload, f->len) ^ 0xFFFFFFFFUL;
+    uint32_t crc = CRC32C_INIT;
     out[0] = 0U;
     cobs_writer_t w = {&out[1], 0U, 1U};
     for (uint32_t i = 0; i < PROTO_HEADER_LEN; ++i) {
+        crc = crc32c_step(crc, head[i]);
         cobs_put_short(&w, head[i]);
     }
     const uint32_t len = f->len;
     for (uint32_t i = 0; i < len; ++i) {
-        cobs_put_short(&w, f->payload[i]);
+        const uint8_t b = f->payload[i];
+        crc = crc32c_step(crc, b);
+        cobs_put_short(&w, b);
     }
+    crc ^= 0xFFFFFFFFUL;
     for (uint32_t i = 0; i < PROTO_CRC_LEN; ++i) {
         cobs_put_short(&w, (uint8_t)(crc >> (8U * i)));
     }
