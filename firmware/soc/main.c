@@ -65,8 +65,9 @@ static void timer_follow_rate(void)
     }
 }
 
-/* The longest request's handling in clocks, with its margin: 12 650 measured (make perf-soc; START
- * 11 103 on the UP5K's configuration, tests/soc/tb_soc_tick.py) and one pass of the idle loop.
+/* The longest request's handling in clocks, with its margin: 11 056 measured (make perf-soc, the
+ * ECP5's configuration; START 10 509 on the UP5K's, tests/soc/tb_soc_tick.py; the UP5K's clocks
+ * run some 10 % above the ECP5's) and one pass of the idle loop.
  * During a run the requests that take long are refused (BUSY), so the ticks that matter meet
  * only short ones. */
 #define RX_ADMIT_CLKS 13500U

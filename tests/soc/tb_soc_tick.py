@@ -7,9 +7,9 @@ compensator, telemetry every tick); the firmware writes its phase to SOC_SYS_MAR
 of each tick (dev_tick: reference, compensator, T_c write, the telemetry frame) and of each
 received frame's handling (dev_rx_bytes: decoded, dispatched, the reply queued) are read off the
 bus. Requests (HELLO) arrive during the run at pseudo-random points of the period. The worst tick
-must leave 2x margin, also counted from the timer's edge (the firmware serves a request only in
-the time the tick leaves: a request never delays a tick), and the worst tick plus a request's
-handling must fit one period. Figures are printed (make bench-soc). Run by test_soc_boot.py in
+and the worst request's handling back to back must leave 2x margin, and so must the tick counted
+from the timer's edge (the firmware serves a request only in the time the tick leaves: a request
+never delays a tick). Figures are printed (make bench-soc). Run by test_soc_boot.py in
 its simulation (one build).
 """
 
@@ -151,9 +151,10 @@ async def tick_cycles_have_margin(dut):
         TICK_BUDGET / worst, TICK_BUDGET / worst_edge, TICK_BUDGET / (worst + worst_rx),
     )  # fmt: skip
     assert not int(dut.cpu_trap.value)
-    # The tick itself with 2x margin, also counted from the timer's edge with requests arriving
-    # during the run (they are served in the time the tick leaves); the tick and a request's
-    # handling within one period (the request served first after a tick).
-    assert worst <= TICK_BUDGET // 2, "the tick has less than 2x margin"
+    # 2x margin for the worst tick and the worst request's handling back to back (the first
+    # frame after a tick is served whatever the time left), and for the tick counted from the
+    # timer's edge with requests arriving during the run (they are served in the time the tick
+    # leaves). Measured: 11 190 and 6 676 clocks on the UP5K's configuration, 10 105 and 5 854 on
+    # the ECP5's, against 12 000.
+    assert worst + worst_rx <= TICK_BUDGET // 2, "a tick and a request have less than 2x margin"
     assert worst_edge <= TICK_BUDGET // 2, "a tick ends later than half a period after its edge"
-    assert worst + worst_rx <= TICK_BUDGET, "a tick and a request do not fit one period"
