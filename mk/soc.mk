@@ -137,11 +137,24 @@ soc-cpus: $(VENV_STAMP)
 #                   the loop): simulated seconds per wall second (target >= 0.2x), the tick's
 #                   cycles (worst, median) over a recorded run, the longest request handling
 
-PERF_TARGETS += bench-soc perf-soc
-.PHONY: bench-soc perf-soc
+#   make soc-profile  where the firmware's clocks go: the program counter sampled at every clock
+#                   of 24 ticks and of the received bytes' handling during a run (HELLOs
+#                   arriving), by function of the image, median and worst span
+#                   (firmware/soc/tools/rv32_profile.py)
+
+PERF_TARGETS += bench-soc perf-soc soc-profile
+.PHONY: bench-soc perf-soc soc-profile
 bench-soc: firmware-soc
-	$(PY) -m pytest tests/soc/test_soc_boot.py -q -n 0 -s -p no:cacheprovider \
-	  | grep -E "boot:|cycles per tick|TESTS="
+	@mkdir -p build/soc
+	@$(PY) -m pytest tests/soc/test_soc_boot.py -q -n 0 -s -p no:cacheprovider \
+	  > build/soc/bench-soc.log 2>&1 || { cat build/soc/bench-soc.log; exit 1; }
+	@grep -E "boot:|cycles per tick|TESTS=" build/soc/bench-soc.log
 
 perf-soc: firmware-soc fmu
 	$(PY) -m cosim.perf.soc
+
+soc-profile: firmware-soc
+	@mkdir -p build/soc
+	@$(PY) -m pytest tests/soc/test_soc_profile.py::test_soc_profile -q -n 0 -s -m long \
+	  -p no:cacheprovider > build/soc/profile.log 2>&1 || { cat build/soc/profile.log; exit 1; }
+	@sed -n '/^tick:/,/^$$/p' build/soc/profile.log

@@ -1,0 +1,69 @@
+"""The firmware's profile on bowden_soc (make soc-profile): the program counter sampled at every
+clock of each tick and of each received frame's handling, while a run goes on with requests
+arriving, as in tb_soc_tick.py (a sine from the firmware's generator, the paper's compensator,
+telemetry every tick, the ADS131M02 at pin level, HELLOs at pseudo-random points of the period).
+
+Writes {"tick": [span, ...], "received bytes": [span, ...]} to $SOC_PROFILE_JSON, a span being
+{"0x<pc>": clocks}; firmware/soc/tools/rv32_profile.py names the functions. A clock costs a
+Python callback here, so the run is kept short (TICKS).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections import Counter
+
+import cocotb
+from cocotb.clock import Clock
+from cocotb.triggers import RisingEdge
+from hdl_sim import Ads131m02
+from soc_sim import MARK_IDLE, MARK_RX, MARK_TICK, Bench, mark, reset, wait_mark
+from tb_soc_tick import TICK_BUDGET, adc_source, hello_during_run, set_param
+
+TICKS = 24
+PHASES = {MARK_TICK: "tick", MARK_RX: "received bytes"}
+
+
+@cocotb.test()
+async def profile_ticks_and_requests(dut):
+    cocotb.start_soon(Clock(dut.clk, 40, unit="ns").start())
+    adc = Ads131m02(dut)
+    cocotb.start_soon(adc.run())
+    cocotb.start_soon(adc_source(adc, dut, 1 << 18))
+    bench = Bench(dut)
+    await reset(dut)
+    await wait_mark(dut, MARK_IDLE, 3_000_000)
+    for name, value in (
+        ("source", "wave"),
+        ("wave.kind", "sine"),
+        ("wave.mean_n", 8.0),
+        ("wave.amplitude_n", 6.0),
+        ("wave.freq_hz", 5.0),
+        ("comp.mode", "paper"),
+    ):
+        await set_param(bench, name, value)
+    reply = await bench.request("START", duration_ticks=TICKS)
+    assert reply is not None and reply.name == "ACK", reply
+    answered: list[int] = []
+    cocotb.start_soon(hello_during_run(bench, dut, TICKS // 3, answered))
+    pc = dut.soc.cpu.reg_pc
+    spans: dict[int, list[Counter]] = {m: [] for m in PHASES}
+    last = mark(dut)
+    for _ in range(TICKS * TICK_BUDGET):
+        await RisingEdge(dut.clk)
+        m = mark(dut)
+        if m in spans:
+            if m != last:
+                spans[m].append(Counter())
+            spans[m][-1][int(pc.value)] += 1
+        last = m
+    assert not int(dut.cpu_trap.value)
+    assert len(spans[MARK_TICK]) >= TICKS - 1, f"{len(spans[MARK_TICK])} ticks seen"
+    assert spans[MARK_RX], "no request handled during the run"
+    out = {
+        PHASES[m]: [{f"0x{a:x}": n for a, n in sorted(s.items())} for s in v]
+        for m, v in spans.items()
+    }
+    with open(os.environ["SOC_PROFILE_JSON"], "w") as fh:
+        json.dump(out, fh)

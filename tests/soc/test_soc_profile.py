@@ -1,0 +1,77 @@
+"""The firmware's profile by function (make soc-profile): firmware/soc/tools/rv32_profile.py
+names the function of each sampled program counter from the image's symbol table; the long test
+runs the profile in the simulation (tb_soc_profile.py) and prints it."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from collections import Counter
+
+import pytest
+from hdl_sim import run_cocotb
+from soc_sim import FW_HEX, VERILATOR_ARGS, soc_sources
+
+from cosim.project.paths import BUILD_DIR, REPO_ROOT
+
+TOOLS = REPO_ROOT / "firmware" / "soc" / "tools"
+ELF = BUILD_DIR / "firmware" / "soc" / "bowden_fw.elf"
+sys.path.insert(0, str(TOOLS))
+from rv32_profile import Functions  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def funcs():
+    assert ELF.exists(), "make firmware-soc first (make test builds it)"
+    return Functions.of_elf(ELF)
+
+
+def test_a_pc_is_named_by_the_function_that_holds_it(funcs):
+    from rv32_report import load
+
+    table = {name: (addr, size) for addr, (name, size) in load(ELF)[2].items()}
+    addr, size = table["proto_encode"]
+    assert funcs.name_at(addr) == "proto_encode"
+    assert funcs.name_at(addr + size - 4) == "proto_encode"
+    assert funcs.name_at(addr + size) != "proto_encode"  # the next function's, or "?"
+    assert funcs.name_at(0x7FFF_FFF0) == "?"  # past the image
+    hist = {addr: 5, addr + 4: 2, table["fw_tick"][0]: 3, 0x7FFF_FFF0: 1}
+    assert funcs.attribute(hist) == {"proto_encode": 7, "fw_tick": 3, "?": 1}
+
+
+def test_the_tool_refuses_a_missing_profile(tmp_path):
+    run = subprocess.run(
+        [sys.executable, str(TOOLS / "rv32_profile.py"), str(ELF), str(tmp_path / "none.json")],
+        capture_output=True,
+        text=True,
+    )
+    assert run.returncode == 2 and run.stderr.count("\n") == 1, run.stderr
+    assert "none.json: no such file" in run.stderr
+
+
+@pytest.mark.long  # a Python callback a clock: some 20 s of simulation for 24 ticks
+def test_soc_profile(tmp_path):
+    out = tmp_path / "profile.json"
+    params = {"ROM_INIT": f'"{FW_HEX}"', "ADC_WAIT_CLKS": 256}
+    run_cocotb(
+        "soc_tb", "tb_soc_profile", soc_sources(), "verilator", params, tag="boot",
+        extra_env={"SOC_PROFILE_JSON": str(out)}, build_args=VERILATOR_ARGS,
+    )  # fmt: skip
+    profile = json.loads(out.read_text())
+    funcs = Functions.of_elf(ELF)
+    for phase, must in (
+        ("tick", {"dev_tick", "fw_tick", "proto_encode"}),
+        ("received bytes", {"proto_rx_bytes"}),
+    ):
+        total = Counter()
+        for span in profile[phase]:
+            total.update(funcs.attribute({int(pc, 16): n for pc, n in span.items()}))
+        # every clock of a phase is in some function of the image, and the tick's work is seen
+        assert total["?"] == 0, f"{phase}: {total['?']} clocks outside the image's functions"
+        assert must <= set(total), f"{phase}: {sorted(must - set(total))} not seen"
+    report = subprocess.run(
+        [sys.executable, str(TOOLS / "rv32_profile.py"), str(ELF), str(out)],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    print("\n" + report.stdout)
