@@ -147,6 +147,27 @@ def netlist(board: Board, out: Path) -> Path:
     return out / "netlist.v"
 
 
+def write_summary(path: Path, summary: dict) -> None:
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(summary, indent=2) + "\n")
+    tmp.replace(path)
+
+
+def stage_flash_image(board: Board, out: Path, summary: dict, fw: Path = FW) -> dict:
+    """For a board that boots its firmware from the flash: the image to program beside the
+    bitstream, copied from the firmware build on every run (the bitstream does not depend on
+    the image, so it is not rebuilt when only the firmware changed), and its size in the
+    summary. Returns the summary."""
+    if board.image_in_bitstream:
+        return summary
+    shutil.copyfile(fw / "bowden_fw_flash.bin", out / "bowden_fw_flash.bin")
+    image = (fw / "bowden_fw.bin").stat().st_size
+    if summary.get("image_bytes") != image:
+        summary = {**summary, "image_bytes": image}
+        write_summary(out / "summary.json", summary)
+    return summary
+
+
 def build(board: Board) -> dict:
     """hdl/synth/synth.py's synthesis and placement steps, then the packer, for `board`."""
     out = BUILD / board.name
@@ -158,7 +179,6 @@ def build(board: Board) -> dict:
     )  # fmt: skip
     if board.family == "ice40":
         run([tool("yowasp-icepack"), packed, "bowden.bin"], out / "pack.log")
-        shutil.copyfile(FW / "bowden_fw_flash.bin", out / "bowden_fw_flash.bin")
         bitstream = out / "bowden.bin"
     else:
         run([tool("yowasp-ecppack"), packed, "bowden.bit"], out / "pack.log")
@@ -195,9 +215,7 @@ def build(board: Board) -> dict:
     path = out / "summary.json"
     if path.exists():
         shutil.copyfile(path, out / "summary.prev.json")
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(summary, indent=2) + "\n")
-    tmp.replace(path)
+    write_summary(path, summary)
     return summary
 
 
@@ -230,6 +248,7 @@ def main(argv: list[str] | None = None) -> int:
             except SystemExit as exc:  # a tool failed: report it, go on with the next board
                 failed.append(failure(name, exc, BUILD / name))
                 continue
+        summary = stage_flash_image(board, BUILD / name, summary)
         prev = BUILD / name / "summary.prev.json"
         line = (
             f"{name}: {summary['luts']} LUTs ({100 * summary['lut_fraction']:.1f} %), "

@@ -5,6 +5,7 @@ here in nextpnr's format. The bitstreams themselves are built by make bitstream.
 from __future__ import annotations
 
 import importlib.util
+import json
 import sys
 
 from cosim.project.paths import HDL_DIR
@@ -43,3 +44,25 @@ def test_another_failure_keeps_the_tools_first_line(tmp_path):
     exc = SystemExit("yowasp-ecppack failed (log y):\nsomething")
     line = bitstream.failure("ecp5-25f", exc, tmp_path)
     assert line == "ecp5-25f: yowasp-ecppack failed (log y):"
+
+
+def test_the_flash_image_follows_the_firmware_when_the_bitstream_is_up_to_date(tmp_path):
+    """The UP5K's bitstream does not depend on the firmware (its image is in the flash), so a
+    run after a firmware change keeps the bitstream; the image to program beside it and its size
+    in summary.json must still be the new firmware's, not the one of the bitstream's build."""
+    fw, out = tmp_path / "fw", tmp_path / "out"
+    fw.mkdir()
+    out.mkdir()
+    (out / "bowden_fw_flash.bin").write_bytes(b"old image")
+    old = {"board": "ice40-up5k", "image_bytes": 5}
+    (out / "summary.json").write_text(json.dumps(old))
+    (fw / "bowden_fw.bin").write_bytes(b"\x13" * 12)
+    (fw / "bowden_fw_flash.bin").write_bytes(b"\x0c\x00\x00\x00" + b"\x13" * 12)
+    up5k = bitstream.BOARDS["ice40-up5k"]
+    new = bitstream.stage_flash_image(up5k, out, old, fw=fw)
+    assert (out / "bowden_fw_flash.bin").read_bytes() == (fw / "bowden_fw_flash.bin").read_bytes()
+    assert new["image_bytes"] == 12
+    assert json.loads((out / "summary.json").read_text()) == {**old, "image_bytes": 12}
+    # the ECP5 carries its image inside the bitstream: nothing to stage
+    ecp5 = bitstream.BOARDS["ecp5-25f"]
+    assert bitstream.stage_flash_image(ecp5, tmp_path, old, fw=fw) is old
