@@ -112,7 +112,7 @@ lint-soc: $(VENV_STAMP)
 #                   UP5K boots from its flash) and build/bitstream/ecp5-25f/bowden.bit (the image
 #                   in it), summary.json each (LUTs, logic cells, FFs, DSPs, RAMs, Fmax); fails
 #                   when a board does not fit or misses timing; cached by input hash. Part of
-#                   make bench (perf): both boards take 6 to 16 minutes from nothing (most of it
+#                   make bench (perf): both boards take 4 to 16 minutes from nothing (most of it
 #                   the UP5K's router), beyond make test's budget
 
 PERF_TARGETS += bitstream
