@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Bitstreams of bowden_soc for both boards (make bitstream): yosys, nextpnr, icepack / ecppack.
 
-    python hdl/soc/bitstream.py [--all | BOARD ...] [--force] [--bench]
+    python hdl/soc/bitstream.py [--all | BOARD ...] [--force] [--bench] [--fit]
 
 Writes build/bitstream/<board>/: the bitstream (ice40-up5k: bowden.bin; ecp5-25f: bowden.bit,
 the firmware image inside it), summary.json (LUTs, flip-flops, DSPs, block and single-port RAMs,
@@ -11,7 +11,8 @@ bitstream. Exits non-zero when timing is not met or a tool fails. Placement trie
 hdl/synth/synth.py in order and stops at the first that meets the target, as `make synth`
 does. A board whose inputs (sources, constraints, this script, for the ECP5 the image) are
 unchanged since its last run is not built again. --bench prints the figures beside the
-previous run's.
+previous run's. --fit stops after nextpnr's packer: the logic cells against the device's, in
+seconds (make test checks the UP5K so; its place and route take minutes).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import os
 import shutil
 import sys
 from dataclasses import dataclass
@@ -139,15 +141,38 @@ def synthesize(board: Board, out: Path) -> float:
 
 def netlist(board: Board, out: Path) -> Path:
     """out/netlist.v of `board`, synthesized again only when its inputs changed (the gate-level
-    simulation's netlist: no place and route)."""
+    simulation's netlist: no place and route; out/netlist.json beside it)."""
     stamp = out / "netlist.hash"
     key = input_hash(board)
-    if not (out / "netlist.v").exists() or not stamp.exists() or stamp.read_text() != key:
+    made = (out / "netlist.json").exists() and (
+        board.family != "ice40" or (out / "netlist.v").exists()
+    )
+    if not made or not stamp.exists() or stamp.read_text() != key:
         synthesize(board, out)
         tmp = stamp.with_suffix(".tmp")
         tmp.write_text(key)
         tmp.replace(stamp)
     return out / "netlist.v"
+
+
+def fit(board: Board, out: Path) -> tuple[int, int]:
+    """(used, available) logic cells of `board` from its synthesis (netlist(), cached) and
+    nextpnr's packer alone: whether the design still fits the device, in seconds where place and
+    route take minutes (make test's check of the UP5K; SystemExit when a tool fails)."""
+    netlist(board, out)
+    log = out / "pack-only.log"
+    run(
+        [
+            tool(f"yowasp-nextpnr-{board.family}"), *board.nextpnr_args, "--json", "netlist.json",
+            "--pcf" if board.family == "ice40" else "--lpf",
+            os.path.relpath(board.constraints, out), "--pack-only",
+        ],
+        log,
+    )  # fmt: skip
+    use = cell_use(log)
+    if use is None:
+        raise SystemExit(f"{board.name}: no logic-cell count in {log}")
+    return use
 
 
 def write_summary(path: Path, summary: dict) -> None:
@@ -222,12 +247,36 @@ def build(board: Board) -> dict:
     return summary
 
 
+def check_fit(names: list[str]) -> int:
+    """--fit: each board's logic cells against its device; 1 when one does not fit."""
+    status = 0
+    for name in names:
+        out = BUILD / name / "fit"
+        out.mkdir(parents=True, exist_ok=True)
+        try:
+            used, avail = fit(BOARDS[name], out)
+        except SystemExit as exc:
+            print(f"bitstream: FAILED: {name}: {str(exc).splitlines()[0]}", file=sys.stderr)
+            status = 1
+            continue
+        verdict = "fits" if used <= avail else "does not fit"
+        print(f"{name}: {verdict}: {used} of {avail} logic cells ({100 * used / avail:.1f} %)")
+        status |= used > avail
+    return status
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("boards", nargs="*", help=f"any of {', '.join(BOARDS)}")
     ap.add_argument("--all", action="store_true")
     ap.add_argument("--force", action="store_true")
     ap.add_argument("--bench", action="store_true")
+    ap.add_argument(
+        "--fit",
+        action="store_true",
+        help="synthesis and nextpnr's packer only (build/bitstream/<board>/fit/): the logic cells "
+        "used, whether the board fits; no bitstream",
+    )
     args = ap.parse_args(argv)
     names = list(BOARDS) if args.all or not args.boards else args.boards
     for name in names:
@@ -239,6 +288,8 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 2
+    if args.fit:
+        return check_fit(names)
     failed = []
     for name in names:
         board = BOARDS[name]

@@ -1,6 +1,9 @@
-"""hdl/soc/bitstream.py's reading of nextpnr's report: the logic cells used and available, and the
-one line a board that does not fit gets (its cells against the device's), from logs written
-here in nextpnr's format. The bitstreams themselves are built by make bitstream."""
+"""hdl/soc/bitstream.py: its reading of nextpnr's report (the logic cells used and available, and
+the one line a board that does not fit gets), from logs written here in nextpnr's format; the
+flash image staged beside the UP5K's bitstream; and, on the real design, the ECP5's bitstream
+built with the firmware inside (about a minute) and the UP5K's synthesis packed to check it still
+fits. The UP5K's place and route (some three minutes of routing a 93 % full device) is left to
+make bitstream, part of make bench."""
 
 from __future__ import annotations
 
@@ -8,7 +11,7 @@ import importlib.util
 import json
 import sys
 
-from cosim.project.paths import HDL_DIR
+from cosim.project.paths import BUILD_DIR, HDL_DIR
 
 _spec = importlib.util.spec_from_file_location("bowden_bitstream", HDL_DIR / "soc" / "bitstream.py")
 bitstream = sys.modules.setdefault("bowden_bitstream", importlib.util.module_from_spec(_spec))
@@ -66,3 +69,27 @@ def test_the_flash_image_follows_the_firmware_when_the_bitstream_is_up_to_date(t
     # the ECP5 carries its image inside the bitstream: nothing to stage
     ecp5 = bitstream.BOARDS["ecp5-25f"]
     assert bitstream.stage_flash_image(ecp5, tmp_path, old, fw=fw) is old
+
+
+def test_the_ecp5_bitstream_is_built_with_the_firmware_and_meets_timing():
+    assert bitstream.main(["ecp5-25f"]) == 0  # 1 when timing is missed or a tool fails
+    out = bitstream.BUILD / "ecp5-25f"
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["timing_met"] and summary["fmax_mhz"] >= summary["target_mhz"] == 25.0
+    assert summary["image_in_bitstream"]
+    fw = BUILD_DIR / "firmware" / "soc"
+    assert summary["image_bytes"] == (fw / "bowden_fw.bin").stat().st_size
+    assert (out / "bowden_fw.hex").read_bytes() == (fw / "bowden_fw.hex").read_bytes()
+    assert summary["logic_cells"] <= 24288
+    head = (out / "bowden.bit").read_bytes()[:64]
+    # ecppack's file: a comment naming the part, then the preamble 0xFFFFBDB3 (Lattice's ECP5
+    # sysCONFIG Usage Guide, FPGA-TN-02039; Project Trellis, "Bitstream format")
+    assert b"Part: LFE5U-25F" in head and b"\xff\xff\xbd\xb3" in head
+
+
+def test_the_up5k_soc_fits_its_device(capsys):
+    assert bitstream.main(["ice40-up5k", "--fit"]) == 0
+    line = capsys.readouterr().out
+    used, avail = bitstream.cell_use(bitstream.BUILD / "ice40-up5k" / "fit" / "pack-only.log")
+    assert avail == 5280 and used <= avail, line
+    assert line.startswith(f"ice40-up5k: fits: {used} of 5280 logic cells")
