@@ -40,14 +40,37 @@ def test_a_pc_is_named_by_the_function_that_holds_it(funcs):
     assert funcs.attribute(hist) == {"proto_encode": 7, "fw_tick": 3, "?": 1}
 
 
-def test_the_tool_refuses_a_missing_profile(tmp_path):
-    run = subprocess.run(
-        [sys.executable, str(TOOLS / "rv32_profile.py"), str(ELF), str(tmp_path / "none.json")],
+def _tool(elf, profile):
+    return subprocess.run(
+        [sys.executable, str(TOOLS / "rv32_profile.py"), str(elf), str(profile)],
         capture_output=True,
         text=True,
     )
+
+
+@pytest.mark.parametrize(
+    ("text", "says"),
+    [
+        (None, "none.json: no such file"),
+        ("{bad", "not a profile of tb_soc_profile.py"),
+        ('{"tick": [{"zz": 3}]}', "not a profile of tb_soc_profile.py"),
+        ("[1, 2]", "not a profile of tb_soc_profile.py"),
+    ],
+)
+def test_the_tool_refuses_a_bad_profile_in_one_line(tmp_path, text, says):
+    path = tmp_path / "none.json"
+    if text is not None:
+        path.write_text(text)
+    run = _tool(ELF, path)
     assert run.returncode == 2 and run.stderr.count("\n") == 1, run.stderr
-    assert "none.json: no such file" in run.stderr
+    assert says in run.stderr
+
+
+def test_the_tool_refuses_a_file_that_is_not_an_image(tmp_path):
+    (tmp_path / "p.json").write_text("{}")
+    run = _tool(tmp_path / "p.json", tmp_path / "p.json")
+    assert run.returncode == 2 and run.stderr.count("\n") == 1, run.stderr
+    assert "not an RV32 image with symbols" in run.stderr
 
 
 @pytest.mark.long  # a Python callback a clock: some 20 s of simulation for 24 ticks

@@ -20,6 +20,7 @@ from collections import Counter
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from elftools.common.exceptions import ELFError  # noqa: E402
 from rv32_report import load  # noqa: E402
 
 
@@ -87,13 +88,26 @@ def main(argv: list[str] | None = None) -> int:
         if not path.is_file():
             print(f"rv32_profile: {path}: no such file", file=sys.stderr)
             return 2
-    funcs = Functions.of_elf(args.elf)
-    profile = json.loads(args.profile.read_text())
-    for phase, spans in profile.items():
-        if not spans:
-            continue
+    try:
+        funcs = Functions.of_elf(args.elf)
+    except (ELFError, KeyError) as exc:
+        print(f"rv32_profile: {args.elf}: not an RV32 image with symbols ({exc})", file=sys.stderr)
+        return 2
+    try:
+        profile = json.loads(args.profile.read_text())
+        tables = {
+            phase: table(funcs, spans_of(profile, phase)) for phase in profile if profile[phase]
+        }
+    except (ValueError, TypeError, AttributeError) as exc:
+        print(
+            f"rv32_profile: {args.profile}: not a profile of tb_soc_profile.py "
+            f'({{phase: [{{"0x<pc>": clocks}}, ...]}}): {exc}',
+            file=sys.stderr,
+        )
+        return 2
+    for phase, lines in tables.items():
         print(f"{phase}:")
-        print("\n".join(table(funcs, spans_of(profile, phase))))
+        print("\n".join(lines))
     return 0
 
 
