@@ -11,6 +11,10 @@
 #include <stdint.h>
 
 #define CRC32C_INIT 0xFFFFFFFFUL
+/* The register (before the final XOR) after a message followed by its own CRC, least significant
+ * byte first: the same for every message, and reached only when those four bytes are the
+ * message's CRC (the "residue" of CRC-32/ISCSI in Greg Cook's CRC RevEng catalogue). */
+#define CRC32C_RESIDUE 0xB798B438UL
 
 /* The table of crc32c.c: the CRC of each byte value. */
 extern const uint32_t crc32c_table[256];

@@ -49,20 +49,28 @@ uint32_t proto_cobs_encode(const uint8_t *in, uint32_t n, uint8_t *out)
     return cobs_end(&w);
 }
 
-int32_t proto_cobs_decode(const uint8_t *in, uint32_t n, uint8_t *out, uint32_t cap)
+/* COBS decode (proto_cobs_decode's contract) that, when crc is not null, also runs the CRC
+ * register over every decoded byte in the same pass: one pass over a received frame. */
+static inline int32_t cobs_decode(const uint8_t *in, uint32_t n, uint8_t *out, uint32_t cap,
+                                  uint32_t *crc)
 {
     uint32_t i = 0;
     uint32_t o = 0;
+    uint32_t c = (crc != 0) ? *crc : 0U;
     while (i < n) {
         uint32_t code = in[i++];
         if (code == 0U || i + code - 1U > n) {
             return -1;
         }
         for (uint32_t k = 1; k < code; ++k) {
-            if (in[i] == 0U || o >= cap) {
+            const uint8_t b = in[i++];
+            if (b == 0U || o >= cap) {
                 return -1;
             }
-            out[o++] = in[i++];
+            out[o++] = b;
+            if (crc != 0) {
+                c = crc32c_step(c, b);
+            }
         }
         /* A block shorter than 254 bytes stands for a zero, except at the very end. */
         if (code < 0xFFU && i < n) {
@@ -70,9 +78,20 @@ int32_t proto_cobs_decode(const uint8_t *in, uint32_t n, uint8_t *out, uint32_t 
                 return -1;
             }
             out[o++] = 0U;
+            if (crc != 0) {
+                c = crc32c_step(c, 0U);
+            }
         }
     }
+    if (crc != 0) {
+        *crc = c;
+    }
     return (int32_t)o;
+}
+
+int32_t proto_cobs_decode(const uint8_t *in, uint32_t n, uint8_t *out, uint32_t cap)
+{
+    return cobs_decode(in, n, out, cap, 0);
 }
 
 void proto_rx_init(proto_rx_t *rx)
@@ -82,17 +101,12 @@ void proto_rx_init(proto_rx_t *rx)
     rx->stats = (proto_rx_stats_t){0};
 }
 
-static uint32_t get_u32_le(const uint8_t *p)
-{
-    return (uint32_t)p[0] | ((uint32_t)p[1] << 8) | ((uint32_t)p[2] << 16) |
-           ((uint32_t)p[3] << 24);
-}
-
 /* A complete frame between two delimiters: decode, check, copy out. */
 static int rx_frame(proto_rx_t *rx, proto_frame_t *out)
 {
     uint8_t raw[PROTO_MAX_RAW];
-    int32_t n = proto_cobs_decode(rx->buf, rx->len, raw, PROTO_MAX_RAW);
+    uint32_t crc = CRC32C_INIT;
+    int32_t n = cobs_decode(rx->buf, rx->len, raw, PROTO_MAX_RAW, &crc);
     if (n < 0) {
         ++rx->stats.framing_errors;
         return 0;
@@ -101,8 +115,10 @@ static int rx_frame(proto_rx_t *rx, proto_frame_t *out)
         ++rx->stats.short_frames;
         return 0;
     }
+    /* The CRC run over the body and its own CRC field ends at the residue exactly when the field
+     * is the body's CRC (crc32c.h). */
     uint32_t body = (uint32_t)n - PROTO_CRC_LEN;
-    if (crc32c(raw, body) != get_u32_le(&raw[body])) {
+    if (crc != CRC32C_RESIDUE) {
         ++rx->stats.crc_errors;
         return 0;
     }
@@ -121,32 +137,40 @@ uint32_t proto_rx_bytes(proto_rx_t *rx, const uint8_t *data, uint32_t n, proto_f
                         int *got)
 {
     *got = 0;
-    for (uint32_t i = 0; i < n; ++i) {
-        const uint8_t byte = data[i];
+    /* The frame's length and discard flag in locals: a store to the byte buffer may alias any
+     * object, which would otherwise reload them at every byte. */
+    uint32_t len = rx->len;
+    uint32_t discard = rx->discard;
+    uint32_t i = 0;
+    while (i < n) {
+        const uint8_t byte = data[i++];
         if (byte != 0U) {
-            if (rx->discard != 0U) {
+            if (discard != 0U) {
                 continue;
             }
-            if (rx->len < PROTO_MAX_COBS) {
-                rx->buf[rx->len++] = byte;
+            if (len < PROTO_MAX_COBS) {
+                rx->buf[len++] = byte;
             } else {
                 ++rx->stats.overlong;
-                rx->discard = 1U;
-                rx->len = 0U;
+                discard = 1U;
+                len = 0U;
             }
             continue;
         }
         /* Delimiter: an empty frame (two delimiters in a row) is not an error. */
-        if (rx->discard == 0U && rx->len > 0U) {
+        if (discard == 0U && len > 0U) {
+            rx->len = len;
             *got = rx_frame(rx, out);
         }
-        rx->len = 0U;
-        rx->discard = 0U;
+        len = 0U;
+        discard = 0U;
         if (*got != 0) {
-            return i + 1U;
+            break;
         }
     }
-    return n;
+    rx->len = len;
+    rx->discard = discard;
+    return i;
 }
 
 int proto_rx_byte(proto_rx_t *rx, uint8_t byte, proto_frame_t *out)

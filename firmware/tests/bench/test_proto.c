@@ -50,6 +50,30 @@ static void test_crc32c_table_is_the_definition(void)
     }
 }
 
+static void test_crc32c_residue(void)
+{
+    /* A message followed by its CRC (least significant byte first) leaves the register at the
+     * residue; one bit flipped anywhere, in the message or the CRC, does not. */
+    uint8_t buf[40];
+    for (uint32_t n = 0; n + 4U <= sizeof buf; n += 7U) {
+        for (uint32_t i = 0; i < n; ++i) {
+            buf[i] = (uint8_t)(i * 37U + n);
+        }
+        uint32_t crc = crc32c(buf, n);
+        for (uint32_t k = 0; k < 4U; ++k) {
+            buf[n + k] = (uint8_t)(crc >> (8U * k));
+        }
+        CHECK(crc32c_update(CRC32C_INIT, buf, n + 4U) == CRC32C_RESIDUE, "%lu bytes",
+              (unsigned long)n);
+        for (uint32_t bit = 0; bit < 8U * (n + 4U); bit += 5U) {
+            buf[bit / 8U] ^= (uint8_t)(1U << (bit % 8U));
+            CHECK(crc32c_update(CRC32C_INIT, buf, n + 4U) != CRC32C_RESIDUE, "bit %lu of %lu",
+                  (unsigned long)bit, (unsigned long)n);
+            buf[bit / 8U] ^= (uint8_t)(1U << (bit % 8U));
+        }
+    }
+}
+
 /* COBS examples of Cheshire & Baker's encoding (as tabulated by the COBS literature). */
 static void test_cobs_examples(void)
 {
@@ -327,6 +351,7 @@ static void test_can_rx_errors(void)
 const unit_test_t proto_tests[] = {
     {"crc32c_check_value", test_crc32c_check_value},
     {"crc32c_table_is_the_definition", test_crc32c_table_is_the_definition},
+    {"crc32c_residue", test_crc32c_residue},
     {"cobs_examples", test_cobs_examples},
     {"cobs_round_trip_and_errors", test_cobs_round_trip_and_errors},
     {"shared_vectors", test_shared_vectors},
