@@ -106,13 +106,14 @@ def test_soc_flash_boot():
 
 @pytest.mark.long
 def test_tick_margin_in_the_up5k_configuration():
-    """tb_soc_tick (the tick's cycles with 2x margin, also from the timer's edge with requests
-    arriving during the run; a tick and a request within one period) on the UP5K's
-    configuration, booted from the flash: its shifter and multiplier are the slower ones.
-    Measured: worst tick 11 477 cycles of 24 000 (x2.09), 11 748 from the edge (x2.04), median
-    9 981, a request (HELLO, during the run) 5 846. Long (80 s of simulation, the boot's copy
-    included): left out of make test's budget; make test holds the same assertions on the ECP5's
-    configuration (test_soc_boot.py)."""
+    """tb_soc_tick (2x margin for the worst tick and a request back to back, and for the tick
+    from the timer's edge with requests arriving during the run; a streamed run's tick and a full
+    STREAM frame within one period) on the UP5K's configuration, booted from the flash: its
+    shifter and multiplier are the slower ones. Measured: worst tick 6 573 cycles of 24 000,
+    6 830 from the edge (x3.51), median 6 331, a request (HELLO, during the run) 4 436, the two
+    back to back x2.18; a full STREAM frame 9 810 (with the tick x1.52). Long (80 s of
+    simulation, the boot's copy included): left out of make test's budget; make test holds the
+    same assertions on the ECP5's configuration (test_soc_boot.py)."""
     _run_up5k("tb_soc_tick")
 
 
