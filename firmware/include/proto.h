@@ -42,11 +42,17 @@ typedef struct {
     uint32_t short_frames;   /* fewer than header + CRC bytes */
 } proto_rx_stats_t;
 
+/* The receiver decodes COBS as the bytes arrive, with the CRC register run over the decoded
+ * bytes, so a frame is complete and checked at its delimiter without a second pass. */
 typedef struct {
-    uint8_t buf[PROTO_MAX_COBS];
-    uint32_t len;     /* bytes of the frame received so far */
+    uint32_t len;     /* encoded bytes of the frame received so far */
     uint32_t discard; /* 1: overlong, dropping bytes up to the next delimiter */
+    uint32_t code;    /* the current COBS block's code byte (0 before the first) */
+    uint32_t left;    /* data bytes still to come in the current block */
+    uint32_t n;       /* decoded bytes in raw */
+    uint32_t crc;     /* CRC-32C register over raw */
     proto_rx_stats_t stats;
+    uint8_t raw[PROTO_MAX_RAW]; /* the frame decoded so far */
 } proto_rx_t;
 
 void proto_rx_init(proto_rx_t *rx);

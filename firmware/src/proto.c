@@ -49,28 +49,20 @@ uint32_t proto_cobs_encode(const uint8_t *in, uint32_t n, uint8_t *out)
     return cobs_end(&w);
 }
 
-/* COBS decode (proto_cobs_decode's contract) that, when crc is not null, also runs the CRC
- * register over every decoded byte in the same pass: one pass over a received frame. */
-static inline int32_t cobs_decode(const uint8_t *in, uint32_t n, uint8_t *out, uint32_t cap,
-                                  uint32_t *crc)
+int32_t proto_cobs_decode(const uint8_t *in, uint32_t n, uint8_t *out, uint32_t cap)
 {
     uint32_t i = 0;
     uint32_t o = 0;
-    uint32_t c = (crc != 0) ? *crc : 0U;
     while (i < n) {
         uint32_t code = in[i++];
         if (code == 0U || i + code - 1U > n) {
             return -1;
         }
         for (uint32_t k = 1; k < code; ++k) {
-            const uint8_t b = in[i++];
-            if (b == 0U || o >= cap) {
+            if (in[i] == 0U || o >= cap) {
                 return -1;
             }
-            out[o++] = b;
-            if (crc != 0) {
-                c = crc32c_step(c, b);
-            }
+            out[o++] = in[i++];
         }
         /* A block shorter than 254 bytes stands for a zero, except at the very end. */
         if (code < 0xFFU && i < n) {
@@ -78,98 +70,119 @@ static inline int32_t cobs_decode(const uint8_t *in, uint32_t n, uint8_t *out, u
                 return -1;
             }
             out[o++] = 0U;
-            if (crc != 0) {
-                c = crc32c_step(c, 0U);
-            }
         }
-    }
-    if (crc != 0) {
-        *crc = c;
     }
     return (int32_t)o;
 }
 
-int32_t proto_cobs_decode(const uint8_t *in, uint32_t n, uint8_t *out, uint32_t cap)
+static void rx_restart(proto_rx_t *rx)
 {
-    return cobs_decode(in, n, out, cap, 0);
+    rx->len = 0U;
+    rx->discard = 0U;
+    rx->code = 0U;
+    rx->left = 0U;
+    rx->n = 0U;
+    rx->crc = CRC32C_INIT;
 }
 
 void proto_rx_init(proto_rx_t *rx)
 {
-    rx->len = 0U;
-    rx->discard = 0U;
+    rx_restart(rx);
     rx->stats = (proto_rx_stats_t){0};
 }
 
-/* A complete frame between two delimiters: decode, check, copy out. */
+/* At a delimiter: the frame decoded so far checked and copied out (1), or counted as an error. */
 static int rx_frame(proto_rx_t *rx, proto_frame_t *out)
 {
-    uint8_t raw[PROTO_MAX_RAW];
-    uint32_t crc = CRC32C_INIT;
-    int32_t n = cobs_decode(rx->buf, rx->len, raw, PROTO_MAX_RAW, &crc);
-    if (n < 0) {
+    if (rx->left != 0U) { /* the last block's code points past the delimiter */
         ++rx->stats.framing_errors;
         return 0;
     }
-    if ((uint32_t)n < PROTO_HEADER_LEN + PROTO_CRC_LEN) {
+    if (rx->n < PROTO_HEADER_LEN + PROTO_CRC_LEN) {
         ++rx->stats.short_frames;
         return 0;
     }
     /* The CRC run over the body and its own CRC field ends at the residue exactly when the field
      * is the body's CRC (crc32c.h). */
-    uint32_t body = (uint32_t)n - PROTO_CRC_LEN;
-    if (crc != CRC32C_RESIDUE) {
+    if (rx->crc != CRC32C_RESIDUE) {
         ++rx->stats.crc_errors;
         return 0;
     }
-    out->version = raw[0];
-    out->msg = raw[1];
-    out->seq = raw[2];
-    out->len = (uint8_t)(body - PROTO_HEADER_LEN); /* <= PROTO_MAX_PAYLOAD: raw is bounded */
-    for (uint32_t i = 0; i < out->len; ++i) {
-        out->payload[i] = raw[PROTO_HEADER_LEN + i];
+    const uint32_t len = rx->n - PROTO_HEADER_LEN - PROTO_CRC_LEN; /* <= PROTO_MAX_PAYLOAD */
+    out->version = rx->raw[0];
+    out->msg = rx->raw[1];
+    out->seq = rx->raw[2];
+    out->len = (uint8_t)len;
+    for (uint32_t i = 0; i < len; ++i) {
+        out->payload[i] = rx->raw[PROTO_HEADER_LEN + i];
     }
     ++rx->stats.frames;
     return 1;
 }
 
+/* At most PROTO_MAX_COBS encoded bytes are taken, which decode to at most PROTO_MAX_RAW. */
+_Static_assert(PROTO_MAX_COBS - 1U <= PROTO_MAX_RAW, "a frame's decoded bytes fit raw");
+
 uint32_t proto_rx_bytes(proto_rx_t *rx, const uint8_t *data, uint32_t n, proto_frame_t *out,
                         int *got)
 {
     *got = 0;
-    /* The frame's length and discard flag in locals: a store to the byte buffer may alias any
-     * object, which would otherwise reload them at every byte. */
+    /* The decoder's state in locals while bytes come: a store to raw may alias any object, which
+     * would otherwise reload them at every byte. */
     uint32_t len = rx->len;
-    uint32_t discard = rx->discard;
+    uint32_t code = rx->code;
+    uint32_t left = rx->left;
+    uint32_t o = rx->n;
+    uint32_t crc = rx->crc;
     uint32_t i = 0;
     while (i < n) {
         const uint8_t byte = data[i++];
         if (byte != 0U) {
-            if (discard != 0U) {
+            if (rx->discard != 0U) {
                 continue;
             }
-            if (len < PROTO_MAX_COBS) {
-                rx->buf[len++] = byte;
-            } else {
+            if (len >= PROTO_MAX_COBS) {
                 ++rx->stats.overlong;
-                discard = 1U;
-                len = 0U;
+                rx->discard = 1U;
+                continue;
+            }
+            ++len;
+            if (left != 0U) { /* a data byte of the current block */
+                rx->raw[o++] = byte;
+                crc = crc32c_step(crc, byte);
+                --left;
+            } else { /* a code byte: a block shorter than 254 bytes before it stood for a zero */
+                if (code != 0U && code < 0xFFU) {
+                    rx->raw[o++] = 0U;
+                    crc = crc32c_step(crc, 0U);
+                }
+                code = byte;
+                left = byte - 1U;
             }
             continue;
         }
         /* Delimiter: an empty frame (two delimiters in a row) is not an error. */
-        if (discard == 0U && len > 0U) {
-            rx->len = len;
+        if (rx->discard == 0U && len > 0U) {
+            rx->left = left;
+            rx->n = o;
+            rx->crc = crc;
             *got = rx_frame(rx, out);
         }
+        rx_restart(rx);
         len = 0U;
-        discard = 0U;
+        code = 0U;
+        left = 0U;
+        o = 0U;
+        crc = CRC32C_INIT;
         if (*got != 0) {
             break;
         }
     }
     rx->len = len;
-    rx->discard = discard;
+    rx->code = code;
+    rx->left = left;
+    rx->n = o;
+    rx->crc = crc;
     return i;
 }
 
