@@ -45,13 +45,13 @@ typedef struct {
 /* The receiver decodes COBS as the bytes arrive, with the CRC register run over the decoded
  * bytes, so a frame is complete and checked at its delimiter without a second pass. */
 typedef struct {
+    proto_rx_stats_t stats; /* first: a reader through an FFI finds it at offset 0 */
     uint32_t len;     /* encoded bytes of the frame received so far */
     uint32_t discard; /* 1: overlong, dropping bytes up to the next delimiter */
     uint32_t code;    /* the current COBS block's code byte (0 before the first) */
     uint32_t left;    /* data bytes still to come in the current block */
     uint32_t n;       /* decoded bytes in raw */
     uint32_t crc;     /* CRC-32C register over raw */
-    proto_rx_stats_t stats;
     uint8_t raw[PROTO_MAX_RAW]; /* the frame decoded so far */
 } proto_rx_t;
 

@@ -98,7 +98,7 @@ class CDecoder:
         lib.proto_rx_byte.argtypes = [ctypes.c_void_p, ctypes.c_uint8, ctypes.c_void_p]
         lib.proto_rx_byte.restype = ctypes.c_int
         self.lib = lib
-        self.rx = ctypes.create_string_buffer(512)  # proto_rx_t is 84 bytes
+        self.rx = ctypes.create_string_buffer(512)  # proto_rx_t is under 100 bytes
         self.out = ctypes.create_string_buffer(64)  # proto_frame_t: 4 + 48 bytes
         lib.proto_rx_init(self.rx)
 
@@ -111,10 +111,8 @@ class CDecoder:
         return got
 
     def stats(self) -> tuple[int, ...]:
-        # frames, crc, framing, overlong, short after buf[PROTO_MAX_COBS=56], len, discard
-        return tuple(
-            int.from_bytes(self.rx.raw[64 + 4 * i : 68 + 4 * i], "little") for i in range(5)
-        )
+        # proto_rx_t starts with its counters: frames, crc, framing, overlong, short (proto.h)
+        return tuple(int.from_bytes(self.rx.raw[4 * i : 4 + 4 * i], "little") for i in range(5))
 
 
 @given(st.lists(st.one_of(frames.map(proto.encode_frame), st.binary(max_size=120)), max_size=12))
