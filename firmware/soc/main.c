@@ -66,7 +66,7 @@ static void timer_follow_rate(void)
 }
 
 /* The longest request's handling in clocks, with its margin: 10 449 measured (make perf-soc, the
- * ECP5's configuration; START 10 018 on the UP5K's, tests/soc/tb_soc_tick.py; the UP5K's clocks
+ * ECP5's configuration; START 9 997 on the UP5K's, tests/soc/tb_soc_tick.py; the UP5K's clocks
  * run some 10 % above the ECP5's) and one pass of the idle loop.
  * During a run the requests that take long are refused (BUSY), so the ticks that matter meet
  * only short ones. */

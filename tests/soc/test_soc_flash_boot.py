@@ -110,8 +110,8 @@ def test_tick_margin_in_the_up5k_configuration():
     the next, and for the tick from the timer's edge with requests arriving during the run; a
     streamed run's period within the period) on the UP5K's configuration, booted from the flash:
     its shifter and multiplier are the slower ones. Measured: worst tick 6 573 cycles of 24 000,
-    6 718 from the edge (x3.57), median 6 331, a request (HELLO, during the run) 4 345, a
-    period's work 11 215 (x2.14); with full STREAM frames arriving 13 827 (x1.74). Long (80 s of
+    6 786 from the edge (x3.54), median 6 331, a request (HELLO, during the run) 4 327, a
+    period's work 11 197 (x2.14); with full STREAM frames arriving 13 827 (x1.74). Long (80 s of
     simulation, the boot's copy included): left out of make test's budget; make test holds the
     same assertions on the ECP5's configuration (test_soc_boot.py)."""
     _run_up5k("tb_soc_tick")
