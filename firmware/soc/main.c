@@ -12,8 +12,10 @@
  * dispatched, its reply queued) only when the clocks left before the next tick hold the longest
  * request's handling, or when it is the first frame after a tick (then that tick and that one
  * request share the period; hdl/README.md gives the measured figures). A frame that has to wait
- * stays in the UART's receive FIFO (512 bytes: 5.5 ms at 921600 baud) until then; its bytes
- * before the delimiter are taken at once, which costs little (no decoding until the delimiter).
+ * stays in the UART's receive FIFO (512 bytes: 5.5 ms at 921600 baud) until then. Its bytes
+ * before the delimiter are taken at once and decoded as they come (a byte or two a pass, some
+ * hundred clocks each, so such a handling never holds the tick back by much); the frame's
+ * check, its dispatch and its reply wait for the admitted delimiter.
  */
 #include <stdint.h>
 
