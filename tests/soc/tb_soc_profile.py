@@ -15,11 +15,9 @@ import os
 from collections import Counter
 
 import cocotb
-from cocotb.clock import Clock
 from cocotb.triggers import RisingEdge
-from hdl_sim import Ads131m02
-from soc_sim import MARK_IDLE, MARK_RX, MARK_TICK, Bench, mark, reset, wait_mark
-from tb_soc_tick import TICK_BUDGET, adc_source, hello_during_run, set_param
+from soc_sim import MARK_RX, MARK_TICK, mark
+from tb_soc_tick import TICK_BUDGET, WAVE_RUN, booted, hello_during_run, set_params
 
 TICKS = 24
 PHASES = {MARK_TICK: "tick", MARK_RX: "received bytes"}
@@ -27,22 +25,8 @@ PHASES = {MARK_TICK: "tick", MARK_RX: "received bytes"}
 
 @cocotb.test()
 async def profile_ticks_and_requests(dut):
-    cocotb.start_soon(Clock(dut.clk, 40, unit="ns").start())
-    adc = Ads131m02(dut)
-    cocotb.start_soon(adc.run())
-    cocotb.start_soon(adc_source(adc, dut, 1 << 18))
-    bench = Bench(dut)
-    await reset(dut)
-    await wait_mark(dut, MARK_IDLE, 3_000_000)
-    for name, value in (
-        ("source", "wave"),
-        ("wave.kind", "sine"),
-        ("wave.mean_n", 8.0),
-        ("wave.amplitude_n", 6.0),
-        ("wave.freq_hz", 5.0),
-        ("comp.mode", "paper"),
-    ):
-        await set_param(bench, name, value)
+    bench = await booted(dut)
+    await set_params(bench, WAVE_RUN)
     reply = await bench.request("START", duration_ticks=TICKS)
     assert reply is not None and reply.name == "ACK", reply
     answered: list[int] = []

@@ -110,6 +110,31 @@ async def set_param(bench: Bench, name: str, value):
     assert reply is not None and reply.name != "ERROR", (name, reply)
 
 
+# The run both measurements use: a sine from the firmware's generator, the paper's compensator.
+WAVE_RUN = (
+    ("source", "wave"),
+    ("wave.kind", "sine"),
+    ("wave.mean_n", 8.0),
+    ("wave.amplitude_n", 6.0),
+    ("wave.freq_hz", 5.0),
+    ("comp.mode", "paper"),
+)
+
+
+async def set_params(bench: Bench, pairs) -> None:
+    for name, value in pairs:
+        await set_param(bench, name, value)
+
+
+def measured(spans: dict[int, list[tuple[int, int]]], edges: list[int]):
+    """(each tick's clocks, each handling of received bytes' clocks, each tick's end from its
+    timer edge, the worst period's work) from the phase spans and the timer's edges."""
+    tick = [end - start for start, end in spans.get(MARK_TICK, [])]
+    rx = [end - start for start, end in spans.get(MARK_RX, [])]
+    edge_to_end = from_edge(edges, [end for _, end in spans.get(MARK_TICK, [])])
+    return tick, rx, edge_to_end, max(period_work(spans))
+
+
 async def booted(dut) -> Bench:
     """The board clocked, the ADC converting, reset released and the firmware at its idle loop."""
     cocotb.start_soon(Clock(dut.clk, 40, unit="ns").start())
@@ -125,15 +150,7 @@ async def booted(dut) -> Bench:
 @cocotb.test()
 async def tick_cycles_have_margin(dut):
     bench = await booted(dut)
-    for name, value in (
-        ("source", "wave"),
-        ("wave.kind", "sine"),
-        ("wave.mean_n", 8.0),
-        ("wave.amplitude_n", 6.0),
-        ("wave.freq_hz", 5.0),
-        ("comp.mode", "paper"),
-    ):
-        await set_param(bench, name, value)
+    await set_params(bench, WAVE_RUN)
     spans: dict[int, list[tuple[int, int]]] = {}
     edges: list[int] = []
     done = False
@@ -154,9 +171,7 @@ async def tick_cycles_have_margin(dut):
     await asker
     done = True
     await ClockCycles(dut.clk, 10)
-    tick = [end - start for start, end in spans.get(MARK_TICK, [])]
-    rx = [end - start for start, end in spans.get(MARK_RX, [])]
-    edge_to_end = from_edge(edges, [end for _, end in spans.get(MARK_TICK, [])])
+    tick, rx, edge_to_end, work = measured(spans, edges)
     assert len(tick) >= ticks, f"{len(tick)} ticks seen"
     tel = [f for f in bench.poll() if f.name == "TELEMETRY"]
     assert len(tel) >= ticks - 2, f"{len(tel)} telemetry frames"
@@ -164,7 +179,6 @@ async def tick_cycles_have_margin(dut):
     worst, median = max(tick), statistics.median(tick)
     worst_edge = max(edge_to_end)
     worst_rx = max(rx) if rx else 0
-    work = max(period_work(spans))
     dut._log.info(
         "cycles per tick: worst %d, median %d; from the timer's edge worst %d; a request (HELLO) "
         "worst %d; START %d; a period's work (tick + received bytes) worst %d; budget %d (tick "
@@ -205,8 +219,7 @@ async def stream_frames_during_a_run_leave_the_tick_on_time(dut):
     on this CPU: a period's work 13 827 clocks on the UP5K's configuration, x1.74 of the period,
     and 13 487 on the ECP5's, x1.78; the figures are printed)."""
     bench = await booted(dut)
-    await set_param(bench, "source", "host")
-    await set_param(bench, "comp.mode", "paper")
+    await set_params(bench, (("source", "host"), ("comp.mode", "paper")))
     answered: list[int] = []
     await stream_during_run(bench, dut, 2, answered)  # 48 samples before the run
     spans: dict[int, list[tuple[int, int]]] = {}
@@ -223,16 +236,13 @@ async def stream_frames_during_a_run_leave_the_tick_on_time(dut):
     await streamer
     done = True
     await ClockCycles(dut.clk, 10)
-    tick = [end - start for start, end in spans.get(MARK_TICK, [])]
-    rx = [end - start for start, end in spans.get(MARK_RX, [])]
-    edge_to_end = from_edge(edges, [end for _, end in spans.get(MARK_TICK, [])])
+    tick, rx, edge_to_end, work = measured(spans, edges)
     assert answered == [1] * (frames + 2), f"STREAM answered: {answered}"
     tel = [protocol.unpack("TELEMETRY", f.payload) for f in bench.poll() if f.name == "TELEMETRY"]
     assert len(tel) >= ticks - 2, f"{len(tel)} telemetry frames"
     assert len({t["t_ref"] for t in tel}) > 10, "the streamed reference did not reach the loop"
     assert not any(t["faults"] & protocol.msgs.FAULTS["STREAM_UNDERRUN"] for t in tel)
     worst, worst_edge, worst_rx = max(tick), max(edge_to_end), max(rx)
-    work = max(period_work(spans))
     dut._log.info(
         "streamed run: cycles per tick worst %d; from the timer's edge worst %d; a handling of "
         "received bytes worst %d; a period's work (tick + received bytes) worst %d (x%.2f of the "
