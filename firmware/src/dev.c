@@ -70,13 +70,19 @@ void dev_init(dev_t *d, fw_t *fw, const flash_hal_t *flash)
 _Static_assert((DEV_TX_BYTES & (DEV_TX_BYTES - 1U)) == 0U,
                "DEV_TX_BYTES a power of two: the ring's index wraps with a mask, not a division");
 
+/* Where the next byte queued on a serial port goes. */
+static uint32_t tx_tail(const dev_port_t *p)
+{
+    return (p->tx_head + p->tx_len) % DEV_TX_BYTES;
+}
+
 static int tx_push(dev_port_t *p, const uint8_t *b, uint32_t n, uint32_t reserve)
 {
     if (DEV_TX_BYTES - p->tx_len < n + reserve) {
         return 0;
     }
     /* Up to the ring's end, then from its start. */
-    const uint32_t at = (p->tx_head + p->tx_len) % DEV_TX_BYTES;
+    const uint32_t at = tx_tail(p);
     const uint32_t first = (DEV_TX_BYTES - at < n) ? DEV_TX_BYTES - at : n;
     for (uint32_t i = 0; i < first; ++i) {
         p->tx[at + i] = b[i];
@@ -113,7 +119,7 @@ static int send_frame(dev_t *d, uint32_t port, const proto_frame_t *f, int telem
         /* Encoded in place in the ring when it does not wrap there (a copy less on every frame:
          * on the soft CPU the telemetry frame is most of the tick), else through a buffer. */
         const uint32_t n = proto_wire_len(f);
-        const uint32_t at = (p->tx_head + p->tx_len) % DEV_TX_BYTES;
+        const uint32_t at = tx_tail(p);
         if (n == 0U || DEV_TX_BYTES - p->tx_len < n + (telemetry ? RESERVE_BYTES : 0U)) {
             ok = 0;
         } else if (DEV_TX_BYTES - at >= n) {
