@@ -20,7 +20,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import os
 import shutil
 import sys
 from dataclasses import dataclass
@@ -31,7 +30,7 @@ import pythondata_cpu_picorv32
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "hdl" / "synth"))
 import synth  # noqa: E402
-from synth import place, run, tool, yosys  # noqa: E402
+from synth import place, pnr_command, run, tool, yosys  # noqa: E402
 
 HDL = ROOT / "hdl"
 SOC = HDL / "soc"
@@ -161,14 +160,8 @@ def fit(board: Board, out: Path) -> tuple[int, int]:
     route take minutes (make test's check of the UP5K; SystemExit when a tool fails)."""
     netlist(board, out)
     log = out / "pack-only.log"
-    run(
-        [
-            tool(f"yowasp-nextpnr-{board.family}"), *board.nextpnr_args, "--json", "netlist.json",
-            "--pcf" if board.family == "ice40" else "--lpf",
-            os.path.relpath(board.constraints, out), "--pack-only",
-        ],
-        log,
-    )  # fmt: skip
+    cmd = pnr_command(board.family, board.nextpnr_args, "netlist.json", board.constraints, out)
+    run([*cmd, "--pack-only"], log)
     use = cell_use(log)
     if use is None:
         raise SystemExit(f"{board.name}: no logic-cell count in {log}")

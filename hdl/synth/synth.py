@@ -151,6 +151,21 @@ def yosys(
     return time.monotonic() - t0
 
 
+def pnr_command(
+    family: str, nextpnr_args: tuple[str, ...], netlist: str, constraints: Path, out: Path
+) -> list[str]:
+    """nextpnr for `family` on out/<netlist> with its constraints: the part every run shares
+    (place(), and bitstream.py's packer-only fit check)."""
+    return [
+        tool(f"yowasp-nextpnr-{family}"),
+        *nextpnr_args,
+        "--json",
+        netlist,
+        "--pcf" if family == "ice40" else "--lpf",
+        os.path.relpath(constraints, out),
+    ]
+
+
 def place(
     out: Path,
     family: str,
@@ -168,12 +183,7 @@ def place(
     tried = {}
     for seed in seeds:
         pnr = [
-            tool(f"yowasp-nextpnr-{family}"),
-            *nextpnr_args,
-            "--json",
-            netlist,
-            "--pcf" if family == "ice40" else "--lpf",
-            os.path.relpath(constraints, out),
+            *pnr_command(family, nextpnr_args, netlist, constraints, out),
             *extra,
             "--freq",
             str(target_mhz),
