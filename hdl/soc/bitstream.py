@@ -317,4 +317,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    try:
+        sys.exit(main())
+    except KeyboardInterrupt:  # the tools stop with it; a summary is only ever replaced whole
+        print("bitstream: interrupted; the boards' earlier summaries are kept", file=sys.stderr)
+        sys.exit(130)
