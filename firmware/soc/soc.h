@@ -36,6 +36,11 @@
 /* System. */
 #define SOC_SYS_CLK_HZ 0x30U /* the SoC's clock in Hz (RO) */
 #define SOC_SYS_MARK 0x34U   /* WO: [7:0] the firmware's phase (the simulation probes it) */
+/* CRC-32C unit (soc_crc32c.v; crc32c.h's CRC32C_UNIT_ADDR, which the build sets to
+ * SOC_IO_BASE + SOC_CRC_STATE): a byte written to DATA is taken in the next 8 clocks, and an
+ * access meanwhile waits for it. */
+#define SOC_CRC_STATE 0x40U /* the register (before the final XOR): write to begin or resume */
+#define SOC_CRC_DATA 0x44U  /* WO: [7:0] the next byte */
 
 /* Phases the firmware writes to SOC_SYS_MARK. */
 #define SOC_MARK_BOOT 1U  /* start-up, before dev_init */

@@ -12,7 +12,7 @@
  *              +-- 0x1000_0000 RAM: data and stack
  *              +-- 0x2000_0000 bowden_core's register map (AXI4-Lite via picorv32_axi_adapter)
  *              +-- 0x3000_0000 UART (bench protocol), timer (the 1 kHz tick's count), SPI flash
- *                              master (settings), system words (firmware/soc/soc.h)
+ *                              master (settings), system words, CRC-32C unit (firmware/soc/soc.h)
  *   bowden_core <- ads131m02_reader <- ADS131M02;  bowden_core -> ESCON (PWM set value, enable)
  *
  * Every rate is an exact number of clocks at CLK_HZ (checked at elaboration): the loop's sample
@@ -172,7 +172,8 @@ wire la_ram = (la_addr[31:28] == 4'h1);
 wire la_go = la_read || la_write;
 
 reg  ready_reg;
-wire access = mem_valid && !ready_reg && (sel_io || sel_none);
+wire crc_wait;  // an access to the CRC unit while it takes a byte waits for it (soc_crc32c.v)
+wire access = mem_valid && !ready_reg && (sel_io || sel_none) && !crc_wait;
 wire io_access = access && sel_io;
 
 always @(posedge clk) begin
@@ -341,13 +342,14 @@ bowden_core #(
 // firmware/soc/soc.h offsets (word index = offset / 4)
 localparam [5:0] IO_UART_DATA = 6'h00, IO_UART_STATUS = 6'h01, IO_TIMER_COUNT = 6'h04,
                  IO_TIMER_PERIOD = 6'h05, IO_TIMER_TICKS = 6'h06, IO_SPI_CS = 6'h08,
-                 IO_SPI_DATA = 6'h09, IO_SYS_CLK_HZ = 6'h0C, IO_SYS_MARK = 6'h0D;
+                 IO_SPI_DATA = 6'h09, IO_SYS_CLK_HZ = 6'h0C, IO_SYS_MARK = 6'h0D,
+                 IO_CRC_STATE = 6'h10, IO_CRC_DATA = 6'h11;
 
 wire [5:0] io_word = mem_addr[7:2];
 wire       io_wr = io_access && (mem_wstrb != 4'd0);
 wire       io_rd = io_access && (mem_wstrb == 4'd0);
 wire       unused_io_addr = &{1'b0, mem_addr[27:8], mem_addr[1:0], sel_none, la_addr[27:15],
-                              la_addr[1:0], mem_wdata[31:TIMER_W], la_boot};
+                              la_addr[1:0], la_boot};
 
 wire [7:0] uart_rx_data;
 wire       uart_rx_avail, uart_tx_full, uart_overrun, uart_frame_err;
@@ -361,6 +363,18 @@ soc_uart #(.CLK_HZ(CLK_HZ), .BAUD(BAUD), .FIFO_AW(UART_FIFO_AW)) uart (
     .rx_avail(uart_rx_avail), .rx_overrun(uart_overrun), .rx_frame_err(uart_frame_err),
     .clear_overrun(io_wr && io_word == IO_UART_STATUS && mem_wdata[2]),
     .clear_frame_err(io_wr && io_word == IO_UART_STATUS && mem_wdata[3])
+);
+
+wire        crc_busy;
+wire [31:0] crc_state;
+wire        crc_sel = sel_io && (io_word == IO_CRC_STATE || io_word == IO_CRC_DATA);
+assign crc_wait = crc_sel && crc_busy;
+
+soc_crc32c crc (
+    .clk(clk), .rst(rst),
+    .load(io_wr && io_word == IO_CRC_STATE), .load_value(mem_wdata),
+    .push(io_wr && io_word == IO_CRC_DATA), .byte_in(mem_wdata[7:0]),
+    .busy(crc_busy), .state(crc_state)
 );
 
 reg        spi_cs_reg;
@@ -415,6 +429,7 @@ always @(posedge clk) begin
             IO_TIMER_TICKS: io_rdata_reg <= {16'd0, timer_ticks_reg};
             IO_SPI_DATA: io_rdata_reg <= {23'd0, spi_busy, spi_dout};
             IO_SYS_CLK_HZ: io_rdata_reg <= CLK_HZ;
+            IO_CRC_STATE: io_rdata_reg <= crc_state;
             default: io_rdata_reg <= 32'd0;
         endcase
     end
