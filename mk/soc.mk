@@ -19,9 +19,10 @@ SOC_FW_HDR := $(sort $(wildcard firmware/include/*.h firmware/soc/*.h))
 # RV32I with Zmmul (multiply, no divide: picorv32 with ENABLE_FAST_MUL, without ENABLE_DIV and
 # COMPRESSED_ISA, which the UP5K has no room for; hdl/soc/bowden_soc.v). Division goes through
 # firmware/soc/libc.c. No library is linked: a soft-float helper or a libm function would be an
-# undefined symbol.
+# undefined symbol. Frames' CRCs run in the SoC's CRC unit (firmware/soc/soc.h, SOC_CRC_STATE).
 SOC_FW_FLAGS := -target riscv32-freestanding-none -mcpu=generic_rv32+zmmul -ffreestanding -fno-builtin \
-  -O2 -ffunction-sections -fdata-sections -fno-unwind-tables -fno-asynchronous-unwind-tables
+  -DCRC32C_UNIT_ADDR=0x30000040UL -O2 -ffunction-sections -fdata-sections -fno-unwind-tables \
+  -fno-asynchronous-unwind-tables
 SOC_FW_OBJ := $(patsubst %.c,$(SOC_FW_OUT)/obj/%.o,$(notdir $(SOC_FW_SRC))) \
   $(SOC_FW_OUT)/obj/start.o
 SOC_FW_ELF := $(SOC_FW_OUT)/bowden_fw.elf

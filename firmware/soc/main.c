@@ -13,18 +13,22 @@
  * request's handling, or when it is the first frame after a tick (then that tick and that one
  * request share the period; hdl/README.md gives the measured figures). A frame that has to wait
  * stays in the UART's receive FIFO (512 bytes: 5.5 ms at 921600 baud) until then. Its bytes
- * before the delimiter are taken at once and decoded as they come (a byte or two a pass, some
- * hundred clocks each, so such a handling never holds the tick back by much); the frame's
- * check, its dispatch and its reply wait for the admitted delimiter.
+ * before the delimiter are gathered as they come and handed to the decoder together (at the
+ * delimiter, at 64 bytes, or while the delimiter waits: a handling's fixed cost is paid once a
+ * frame, not once a byte); the frame's check, its dispatch and its reply wait for the admitted
+ * delimiter. Frames' CRCs run in the SoC's CRC unit (crc32c.h, soc.h).
  */
 #include <stdint.h>
 
 #include "bowden_regs.h"
+#include "crc32c.h"
 #include "dev.h"
 #include "fw.h"
 #include "hal.h"
 #include "soc.h"
 #include "spi_flash.h"
+
+_Static_assert(CRC32C_UNIT_ADDR == SOC_IO_BASE + SOC_CRC_STATE, "crc32c.h uses the SoC's CRC unit");
 
 static hal_t g_hal;
 static fw_t g_fw;
@@ -67,8 +71,8 @@ static void timer_follow_rate(void)
     }
 }
 
-/* The longest request's handling in clocks, with its margin: 10 449 measured (make perf-soc, the
- * ECP5's configuration; START 9 997 on the UP5K's, tests/soc/tb_soc_tick.py; the UP5K's clocks
+/* The longest request's handling in clocks, with its margin: 9 271 measured (make perf-soc, the
+ * ECP5's configuration; START 8 473 on the UP5K's, tests/soc/tb_soc_tick.py; the UP5K's clocks
  * run some 10 % above the ECP5's) and one pass of the idle loop.
  * During a run the requests that take long are refused (BUSY), so the ticks that matter meet
  * only short ones. */
@@ -103,11 +107,16 @@ static void rx_hand_over(uint8_t *buf, uint32_t n)
     soc_io_write(SOC_SYS_MARK, SOC_MARK_IDLE);
 }
 
+/* Received bytes gathered until a frame's delimiter or a full buffer: each handling has a fixed
+ * cost (some 500 clocks of calls into the device and the decoder), so a frame's bytes are handed
+ * over in one or two handlings, not in one for every byte or two the UART brings a pass. */
+static uint8_t g_rx_buf[64];
+static uint32_t g_rx_n;
+
 static void uart_poll(void)
 {
-    /* Received bytes, in chunks: each frame's delimiter ends a chunk (its handling is what costs). */
-    uint8_t buf[32];
-    uint32_t n = 0U;
+    uint8_t *const buf = g_rx_buf;
+    uint32_t n = g_rx_n;
     for (uint32_t i = 0U; i < RX_BYTES_PER_PASS; ++i) {
         uint8_t byte = 0U;
         if (g_delim_held == 0U) {
@@ -126,14 +135,17 @@ static void uart_poll(void)
             g_frame_owed = 0U;
         }
         buf[n++] = byte;
-        if (byte == 0U || n == sizeof buf) {
+        if (byte == 0U || n == sizeof g_rx_buf) {
             rx_hand_over(buf, n);
             n = 0U;
         }
     }
-    if (n > 0U) {
+    /* A delimiter that waits for its time: the bytes before it are decoded meanwhile. */
+    if (g_delim_held != 0U && n > 0U) {
         rx_hand_over(buf, n);
+        n = 0U;
     }
+    g_rx_n = n;
     g_frame_owed = 0U; /* owed in the first pass after a tick only */
     /* Transmit what the FIFO has room for, up to TX_BYTES_PER_PASS, in chunks (one dev_tx_bytes
      * call per chunk). */
@@ -141,13 +153,14 @@ static void uart_poll(void)
     if (room > TX_BYTES_PER_PASS) {
         room = TX_BYTES_PER_PASS;
     }
+    uint8_t out[32];
     while (room > 0U) {
-        uint32_t got = dev_tx_bytes(&g_dev, DEV_PORT_SERIAL, buf, room < sizeof buf ? room : sizeof buf);
+        uint32_t got = dev_tx_bytes(&g_dev, DEV_PORT_SERIAL, out, room < sizeof out ? room : sizeof out);
         if (got == 0U) {
             break;
         }
         for (uint32_t i = 0U; i < got; ++i) {
-            soc_io_write(SOC_UART_DATA, buf[i]);
+            soc_io_write(SOC_UART_DATA, out[i]);
         }
         room -= got;
     }

@@ -53,7 +53,7 @@ const uint32_t crc32c_table[256] = {
 uint32_t crc32c_update(uint32_t crc, const uint8_t *data, uint32_t n)
 {
     for (uint32_t i = 0; i < n; ++i) {
-        crc = crc32c_step(crc, data[i]);
+        crc = crc32c_table_step(crc, data[i]);
     }
     return crc;
 }

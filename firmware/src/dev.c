@@ -364,10 +364,17 @@ static void on_stream(dev_t *d, uint32_t port, const proto_frame_t *req)
                     "stream buffer full");
         return;
     }
-    for (uint32_t i = 0; i < m.samples_count; ++i) {
-        d->stream[(d->stream_head + d->stream_len) % DEV_STREAM_LEN] = m.samples[i];
-        ++d->stream_len;
+    /* Into the ring in at most two contiguous pieces (the end of the array, then its start). */
+    const uint32_t tail = (d->stream_head + d->stream_len) % DEV_STREAM_LEN;
+    const uint32_t first = (m.samples_count < DEV_STREAM_LEN - tail) ? m.samples_count
+                                                                     : DEV_STREAM_LEN - tail;
+    for (uint32_t i = 0; i < first; ++i) {
+        d->stream[tail + i] = m.samples[i];
     }
+    for (uint32_t i = first; i < m.samples_count; ++i) {
+        d->stream[i - first] = m.samples[i];
+    }
+    d->stream_len += m.samples_count;
     reply_ack(d, port, req, DEV_STREAM_LEN - d->stream_len);
 }
 
