@@ -10,8 +10,8 @@ bus. Requests (HELLO) arrive during the run at pseudo-random points of the perio
 work (its tick and every handling of received bytes before the next tick) must leave 2x margin,
 and so must the tick counted from the timer's edge (the firmware serves a request only in the
 time the tick leaves: a request never delays a tick). A second run is fed by the host with full
-STREAM frames, the longest frame a run serves: the tick from the edge keeps 2x, a period's work
-fits the period. Figures are printed (make bench-soc). Run by test_soc_boot.py in its
+STREAM frames, the longest frame a run serves: a period's work and the tick from the edge keep
+2x there too. Figures are printed (make bench-soc). Run by test_soc_boot.py in its
 simulation (one build).
 """
 
@@ -191,8 +191,8 @@ async def tick_cycles_have_margin(dut):
     # 2x margin for the worst tick and the worst request's handling back to back (the first
     # frame after a tick is served whatever the time left), and for the tick counted from the
     # timer's edge with requests arriving during the run (they are served in the time the tick
-    # leaves). Measured on the UP5K's configuration: a tick and a request 10 900 clocks, a period's
-    # work 11 197, from the edge 6 786; on the ECP5's 9 806, 10 100 and 5 818; against 12 000.
+    # leaves). Measured on the UP5K's configuration: a tick and a request 8 125 clocks, a period's
+    # work 8 241, from the edge 5 253; on the ECP5's 7 367, 7 483 and 4 665; against 12 000.
     assert worst + worst_rx <= TICK_BUDGET // 2, "a tick and a request have less than 2x margin"
     assert work <= TICK_BUDGET // 2, "a period's work (tick + received bytes) over half of it"
     assert worst_edge <= TICK_BUDGET // 2, "a tick ends later than half a period after its edge"
@@ -214,10 +214,10 @@ async def stream_frames_during_a_run_leave_the_tick_on_time(dut):
     """A run whose reference the host streams (source host): full STREAM frames (24 samples, 58
     bytes on the wire, the longest frame a run serves) arrive at pseudo-random points of the
     period, as a full receive buffer would. Each is served in the time the tick leaves, so the
-    tick counted from the timer's edge keeps 2x margin; the tick and a frame's handling back to
-    back fit one period but do not leave 2x of it (the frame decoded with its CRC a byte at a time
-    on this CPU: a period's work 13 827 clocks on the UP5K's configuration, x1.74 of the period,
-    and 13 487 on the ECP5's, x1.78; the figures are printed)."""
+    tick counted from the timer's edge keeps 2x margin, and a period's work (its tick, the frame's
+    bytes decoded, the samples queued, the ACK) keeps 2x too: 10 681 clocks on the UP5K's
+    configuration (x2.25) and 11 057 on the ECP5's (x2.17), against 12 000 (the CRC in the SoC's
+    unit, the bytes handed to the decoder a frame at a time; the figures are printed)."""
     bench = await booted(dut)
     await set_params(bench, (("source", "host"), ("comp.mode", "paper")))
     answered: list[int] = []
@@ -252,4 +252,4 @@ async def stream_frames_during_a_run_leave_the_tick_on_time(dut):
     )  # fmt: skip
     assert not int(dut.cpu_trap.value)
     assert worst_edge <= TICK_BUDGET // 2, "a tick ends later than half a period after its edge"
-    assert work <= TICK_BUDGET, "a tick and a STREAM frame do not fit one period"
+    assert work <= TICK_BUDGET // 2, "a period's work with a STREAM frame over half of it"

@@ -108,10 +108,10 @@ def test_soc_flash_boot():
 def test_tick_margin_in_the_up5k_configuration():
     """tb_soc_tick (2x margin for a period's work, a tick and the received bytes handled before
     the next, and for the tick from the timer's edge with requests arriving during the run; a
-    streamed run's period within the period) on the UP5K's configuration, booted from the flash:
-    its shifter and multiplier are the slower ones. Measured: worst tick 6 573 cycles of 24 000,
-    6 786 from the edge (x3.54), median 6 331, a request (HELLO, during the run) 4 327, a
-    period's work 11 197 (x2.14); with full STREAM frames arriving 13 827 (x1.74). Long (80 s of
+    streamed run's too) on the UP5K's configuration, booted from the flash: its shifter and
+    multiplier are the slower ones. Measured: worst tick 5 141 cycles of 24 000, 5 253 from the
+    edge (x4.57), median 4 967, a request (HELLO, during the run) 2 984, a period's work 8 241
+    (x2.91); with full STREAM frames arriving 10 681 (x2.25). Long (80 s of
     simulation, the boot's copy included): left out of make test's budget; make test holds the
     same assertions on the ECP5's configuration (test_soc_boot.py)."""
     _run_up5k("tb_soc_tick")
