@@ -144,9 +144,12 @@ soc-cpus: $(VENV_STAMP)
 #                   of 24 ticks and of the received bytes' handling during a run (HELLOs
 #                   arriving), by function of the image, median and worst span
 #                   (firmware/soc/tools/rv32_profile.py)
+#   make soc-gate   the gate-level runs of the UP5K's synthesized netlist (tests/soc/
+#                   test_soc_gate.py: boot from the flash and HELLO, 100 ms of the loop); the
+#                   netlist's C++ build (some 5 min cold) is beyond make test's budget
 
-PERF_TARGETS += bench-soc perf-soc soc-profile
-.PHONY: bench-soc perf-soc soc-profile
+PERF_TARGETS += bench-soc perf-soc soc-profile soc-gate
+.PHONY: bench-soc perf-soc soc-profile soc-gate
 bench-soc: firmware-soc
 	@mkdir -p build/soc
 	@$(PY) -m pytest tests/soc/test_soc_boot.py -q -n 0 -s -p no:cacheprovider \
@@ -161,3 +164,9 @@ soc-profile: firmware-soc
 	@$(PY) -m pytest tests/soc/test_soc_profile.py::test_soc_profile -q -n 0 -s -m long \
 	  -p no:cacheprovider > build/soc/profile.log 2>&1 || { cat build/soc/profile.log; exit 1; }
 	@sed -n '/^tick:/,/^$$/p' build/soc/profile.log
+
+soc-gate: firmware-soc
+	@mkdir -p build/soc
+	@$(PY) -m pytest tests/soc/test_soc_gate.py -q -n 0 -s -m long -p no:cacheprovider \
+	  > build/soc/gate.log 2>&1 || { cat build/soc/gate.log; exit 1; }
+	@grep -E "gate level:|TESTS=" build/soc/gate.log
