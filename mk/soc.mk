@@ -154,7 +154,7 @@ bench-soc: firmware-soc
 	@mkdir -p build/soc
 	@$(PY) -m pytest tests/soc/test_soc_boot.py -q -n 0 -s -p no:cacheprovider \
 	  > build/soc/bench-soc.log 2>&1 || { cat build/soc/bench-soc.log; exit 1; }
-	@grep -E "boot:|cycles per tick|TESTS=" build/soc/bench-soc.log
+	@grep -E "boot:|cycles per tick|full receive buffer|TESTS=" build/soc/bench-soc.log
 
 perf-soc: firmware-soc fmu
 	$(PY) -m cosim.perf.soc

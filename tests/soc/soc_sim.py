@@ -93,12 +93,17 @@ class Bench:
         self.frames += self.decoder.feed(new)
         return self.frames
 
-    async def request(self, name: str, timeout_clks: int = 2_000_000, **values):
-        """Send `name` and wait for the reply with its sequence number (None on timeout)."""
+    def encode(self, name: str, **values) -> bytes:
+        """The next request `name` as it goes on the wire (its sequence number taken), unsent."""
         self.seq = (self.seq + 1) & 0xFF
         msg = protocol.msgs.MESSAGES[name].id
         frame = protocol.Frame(msg=msg, seq=self.seq, payload=protocol.pack(name, **values))
-        await self.uart.send(protocol.encode_frame(frame))
+        return protocol.encode_frame(frame)
+
+    async def request(self, name: str, timeout_clks: int = 2_000_000, **values):
+        """Send `name` and wait for the reply with its sequence number (None on timeout)."""
+        msg = protocol.msgs.MESSAGES[name].id
+        await self.uart.send(self.encode(name, **values))
         waited = 0
         while waited < timeout_clks:
             for f in self.poll():

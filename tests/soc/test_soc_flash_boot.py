@@ -111,7 +111,8 @@ def test_tick_margin_in_the_up5k_configuration():
     streamed run's too) on the UP5K's configuration, booted from the flash: its shifter and
     multiplier are the slower ones. Measured: worst tick 5 141 cycles of 24 000, 5 253 from the
     edge (x4.57), median 4 967, a request (HELLO, during the run) 2 984, a period's work 8 241
-    (x2.91); with full STREAM frames arriving 10 681 (x2.25). Long (80 s of
+    (x2.91); with full STREAM frames arriving 10 681 (x2.25), with eight sent back to back 11 192
+    (x2.14). Long (100 s of
     simulation, the boot's copy included): left out of make test's budget; make test holds the
     same assertions on the ECP5's configuration (test_soc_boot.py)."""
     _run_up5k("tb_soc_tick")
