@@ -135,6 +135,29 @@ def measured(spans: dict[int, list[tuple[int, int]]], edges: list[int]):
     return tick, rx, edge_to_end, max(period_work(spans))
 
 
+class Recording:
+    """The firmware's phase spans and the timer's edges from its creation until stop(), which
+    gives what measured() makes of them."""
+
+    def __init__(self, dut):
+        self.dut = dut
+        self.spans: dict[int, list[tuple[int, int]]] = {}
+        self.edges: list[int] = []
+        self._done = False
+        cocotb.start_soon(phase_spans(dut, self.spans, lambda: self._done))
+        cocotb.start_soon(timer_edges(dut, self.edges, lambda: self._done))
+
+    def restart(self) -> None:
+        """Forget what was recorded so far."""
+        self.spans.clear()
+        self.edges.clear()
+
+    async def stop(self):
+        self._done = True
+        await ClockCycles(self.dut.clk, 10)
+        return measured(self.spans, self.edges)
+
+
 async def booted(dut) -> Bench:
     """The board clocked, the ADC converting, reset released and the firmware at its idle loop."""
     cocotb.start_soon(Clock(dut.clk, 40, unit="ns").start())
@@ -151,27 +174,20 @@ async def booted(dut) -> Bench:
 async def tick_cycles_have_margin(dut):
     bench = await booted(dut)
     await set_params(bench, WAVE_RUN)
-    spans: dict[int, list[tuple[int, int]]] = {}
-    edges: list[int] = []
-    done = False
-    cocotb.start_soon(phase_spans(dut, spans, lambda: done))
+    rec = Recording(dut)
     ticks = 40
     reply = await bench.request("START", duration_ticks=ticks)
     assert reply is not None and reply.name == "ACK", reply
     # START's own handling (the configuration written to the loop, fw_start) is a one-off at the
     # run's start, kept apart from the requests handled while a run goes on
-    start_rx = [end - start for start, end in spans.get(MARK_RX, [])]
-    spans[MARK_RX] = []
-    spans[MARK_TICK] = []
-    cocotb.start_soon(timer_edges(dut, edges, lambda: done))
+    start_rx = [end - start for start, end in rec.spans.get(MARK_RX, [])]
+    rec.restart()
     answered: list[int] = []
     hellos = 12
     asker = cocotb.start_soon(hello_during_run(bench, dut, hellos, answered))
     await ClockCycles(dut.clk, (ticks + 2) * TICK_BUDGET)
     await asker
-    done = True
-    await ClockCycles(dut.clk, 10)
-    tick, rx, edge_to_end, work = measured(spans, edges)
+    tick, rx, edge_to_end, work = await rec.stop()
     assert len(tick) >= ticks, f"{len(tick)} ticks seen"
     tel = [f for f in bench.poll() if f.name == "TELEMETRY"]
     assert len(tel) >= ticks - 2, f"{len(tel)} telemetry frames"
@@ -228,21 +244,15 @@ async def stream_frames_during_a_run_leave_the_tick_on_time(dut):
     await set_params(bench, (("source", "host"), ("comp.mode", "paper")))
     answered: list[int] = []
     await stream_during_run(bench, dut, 2, answered)  # 48 samples before the run
-    spans: dict[int, list[tuple[int, int]]] = {}
-    edges: list[int] = []
-    done = False
     ticks = 40
     reply = await bench.request("START", duration_ticks=ticks)
     assert reply is not None and reply.name == "ACK", reply
-    cocotb.start_soon(phase_spans(dut, spans, lambda: done))
-    cocotb.start_soon(timer_edges(dut, edges, lambda: done))
+    rec = Recording(dut)
     frames = 12
     streamer = cocotb.start_soon(stream_during_run(bench, dut, frames, answered))
     await ClockCycles(dut.clk, (ticks + 2) * TICK_BUDGET)
     await streamer
-    done = True
-    await ClockCycles(dut.clk, 10)
-    tick, rx, edge_to_end, work = measured(spans, edges)
+    tick, rx, edge_to_end, work = await rec.stop()
     assert answered == [1] * (frames + 2), f"STREAM answered: {answered}"
     tel = [protocol.unpack("TELEMETRY", f.payload) for f in bench.poll() if f.name == "TELEMETRY"]
     assert len(tel) >= ticks - 2, f"{len(tel)} telemetry frames"
@@ -271,22 +281,16 @@ async def a_full_receive_buffer_of_stream_frames_leaves_the_tick_on_time(dut):
     10 294 on the ECP5's (x2.33)."""
     bench = await booted(dut)
     await set_params(bench, (("source", "host"), ("comp.mode", "paper")))
-    spans: dict[int, list[tuple[int, int]]] = {}
-    edges: list[int] = []
-    done = False
     reply = await bench.request("START", duration_ticks=40)
     assert reply is not None and reply.name == "ACK", reply
-    cocotb.start_soon(phase_spans(dut, spans, lambda: done))
-    cocotb.start_soon(timer_edges(dut, edges, lambda: done))
+    rec = Recording(dut)
     frames = 8
     wire = b"".join(bench.encode("STREAM", samples=stream_samples(k)) for k in range(frames))
     assert 448 < len(wire) <= 512, len(wire)
     await ClockCycles(dut.clk, 3 * TICK_BUDGET + 5000)  # mid-period, a few ticks into the run
     await bench.uart.send(wire)
     await ClockCycles(dut.clk, 12 * TICK_BUDGET)
-    done = True
-    await ClockCycles(dut.clk, 10)
-    _, _, edge_to_end, work = measured(spans, edges)
+    _, _, edge_to_end, work = await rec.stop()
     acks = [f for f in bench.poll() if f.name == "ACK"]
     dut._log.info(
         "a full receive buffer (%d STREAM frames, %d bytes): a period's work worst %d (x%.2f of "

@@ -43,22 +43,23 @@ async def busy_clocks(dut) -> int:
         await RisingEdge(dut.clk)
 
 
+async def strobe(dut, name: str, port: str, value: int) -> int:
+    """A one-clock strobe `name` with `value` on `port`, as the bus gives it; the clocks busy
+    after it."""
+    await RisingEdge(dut.clk)
+    getattr(dut, port).value = value
+    getattr(dut, name).value = 1
+    await RisingEdge(dut.clk)
+    getattr(dut, name).value = 0
+    return await busy_clocks(dut)
+
+
 async def push(dut, byte: int) -> None:
-    await RisingEdge(dut.clk)
-    dut.byte_in.value = byte
-    dut.push.value = 1
-    await RisingEdge(dut.clk)
-    dut.push.value = 0
-    assert await busy_clocks(dut) == 8  # the byte's bits, one a clock after the push's
+    assert await strobe(dut, "push", "byte_in", byte) == 8  # a bit a clock after the push's
 
 
 async def load(dut, value: int) -> None:
-    await RisingEdge(dut.clk)
-    dut.load_value.value = value
-    dut.load.value = 1
-    await RisingEdge(dut.clk)
-    dut.load.value = 0
-    assert await busy_clocks(dut) == 0
+    assert await strobe(dut, "load", "load_value", value) == 0
 
 
 async def state(dut) -> int:
