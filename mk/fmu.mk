@@ -69,3 +69,9 @@ perf-fmu: $(FMU_FILE)
 .PHONY: fmu-convergence
 fmu-convergence: $(FMU_FILE) native
 	$(PY) -m cosim.studies.convergence
+
+# The strands of the gradual dead zone against the continuous distribution they sample
+# (cosim/studies/strands.py, fmu/README.md "Convergence"). Not part of `make test`.
+.PHONY: fmu-strands
+fmu-strands: $(VENV_STAMP)
+	$(PY) -m cosim.studies.strands

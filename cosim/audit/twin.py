@@ -18,7 +18,8 @@ What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effe
   (stretch in the sheath / EA + T_out / k_lc) and r_in the rate of the inlet tension, each
   low-pass filtered with 10 ms, as the FMU computes them after each step and uses in the next;
 - the gradual dead zone (fmu/README.md, "Gradual dead zone"): with dead_zone_spread > 0 the
-  output is T_n * mean_j(S_j) / S_ref over 8 lumped capstans of log-normally spread widths;
+  output is T_n * mean_j(S_j) / S_ref over N_STRAND = 32 lumped capstans of log-normally
+  spread widths;
 - static friction (fmu/README.md, "Static friction"): the strands remember the way they last
   slid, and one that must reverse is held by the breakaway width (mu + mu_static_excess) phi
   before it jumps to the kinetic bound; slack: T_out * min(1, T_in / slack_tension);
@@ -50,24 +51,15 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 from scipy.signal import lfilter, lfilter_zi
+from scipy.stats import norm
 
 # Constants of fmu/src/bowden_physics.[ch] and the FMU's defaults (fmu/gen_model.py); a test
 # compares them with the built FMU.
 N_SEG = 32  # BOWDEN_N_SEG
-N_STRAND = 8  # BOWDEN_N_STRAND
-# STRAND_Q of bowden_physics.c: standard normal quantiles at (j + 1/2) / N_STRAND
-STRAND_Q = np.array(
-    [
-        -1.5341205443525463,
-        -0.88714655901887596,
-        -0.48877641111466952,
-        -0.1573106846101707,
-        0.1573106846101707,
-        0.48877641111466952,
-        0.88714655901887596,
-        1.5341205443525463,
-    ]
-)
+N_STRAND = 32  # BOWDEN_N_STRAND
+# STRAND_Q of bowden_physics.c: standard normal quantiles at (j + 1/2) / N_STRAND (the C table
+# holds these numbers; tests/fmu/test_fmu_dead_zone.py compares them)
+STRAND_Q = norm.ppf((np.arange(N_STRAND) + 0.5) / N_STRAND)
 SPEED_TAU_S = 0.01  # BOWDEN_SPEED_TAU_S, filter of the cable speed v_c and the tension rate
 CABLE_EA_N = 8000.0  # cable_EA default
 LOADCELL_N_PER_M = 2e5  # loadcell_stiffness default
@@ -140,17 +132,20 @@ def _friction(
     klc,
     n_seg,
     smooth,
+    strand_q,
 ):
-    """T_out (true) at every sample: the drive-mode-1 physics of bowden_physics.c. With
+    """T_out (true) at every sample: the drive-mode-1 physics of bowden_physics.c, with the
+    strands at the standard normal quantiles `strand_q` (STRAND_Q: the FMU's). With
     `smooth` (the fits only: friction_output), a strand's breakaway jump is spread over the
     sample it falls in by where, between the two samples, its threshold was crossed
     (linearly): the output then moves continuously with the parameters instead of by whole
     samples."""
     n = t_in.shape[0]
+    n_str = strand_q.shape[0]
     out = np.empty(n)
     tens = np.zeros(n_seg + 1)
-    strands = np.zeros(N_STRAND + 1)
-    direction = np.zeros(N_STRAND + 1)
+    strands = np.zeros(n_str + 1)
+    direction = np.zeros(n_str + 1)
     use_strands = spread > 0.0 or static > 0.0
     alpha_speed = 1.0 - math.exp(-dt / 0.01)
     speed = 0.0
@@ -161,14 +156,16 @@ def _friction(
     # strands' widths w, ws: computed again only when those change (the same expressions, so
     # the same numbers; positions are held for seconds and mu_c is constant without viscous
     # friction or drift).
-    strand_sc = np.empty(N_STRAND + 1)
-    for j in range(N_STRAND + 1):
-        strand_sc[j] = math.exp(spread * (STRAND_Q[j] if j < N_STRAND else 0.0))
-    strand_e = np.empty(N_STRAND + 1)
-    strand_es = np.empty(N_STRAND + 1)
+    strand_sc = np.empty(n_str + 1)
+    for j in range(n_str + 1):
+        strand_sc[j] = math.exp(spread * (strand_q[j] if j < n_str else 0.0))
+    strand_e = np.empty(n_str + 1)
+    strand_es = np.empty(n_str + 1)
+    strand_ie = np.empty(n_str + 1)  # 1 / strand_e: a product per strand and sample, not a
+    strand_ies = np.empty(n_str + 1)  # quotient (bowden_physics.c multiplies the same way)
     # each strand's breakaway thresholds of the sample before (smooth): tin / es_j, tin * es_j
-    brk_lo = np.zeros(N_STRAND + 1)
-    brk_hi = np.zeros(N_STRAND + 1)
+    brk_lo = np.zeros(n_str + 1)
+    brk_hi = np.zeros(n_str + 1)
     w_prev = -1.0
     ws_prev = -1.0
     seg_arg_prev = -1.0
@@ -249,37 +246,56 @@ def _friction(
             if w != w_prev or ws != ws_prev:
                 w_prev = w
                 ws_prev = ws
-                for j in range(N_STRAND + 1):
+                for j in range(n_str + 1):
                     strand_e[j] = math.exp(w * strand_sc[j])
-                    if j < N_STRAND and static > 0.0:
+                    strand_ie[j] = 1.0 / strand_e[j]
+                    if j < n_str and static > 0.0:
                         strand_es[j] = math.exp(ws * strand_sc[j])
                     else:
                         strand_es[j] = strand_e[j]
+                    strand_ies[j] = 1.0 / strand_es[j]
             total = 0.0
-            for j in range(N_STRAND + 1):
-                e = strand_e[j]
-                es = strand_es[j]
-                lo = tin / (e if direction[j] > 0.0 else es)
-                hi = tin * (e if direction[j] < 0.0 else es)
-                held = strands[j]
-                share = 1.0  # of the jump in this sample's output (smooth)
-                if held < lo:
-                    if smooth and direction[j] <= 0.0 and k > 0 and lo - brk_lo[j] > 0.0:
-                        share = min(1.0, (lo - held) / (lo - brk_lo[j]))
-                    strands[j] = tin / e
-                    direction[j] = 1.0
-                elif held > hi:
-                    if smooth and direction[j] >= 0.0 and k > 0 and brk_hi[j] - hi > 0.0:
-                        share = min(1.0, (held - hi) / (brk_hi[j] - hi))
-                    strands[j] = tin * e
-                    direction[j] = -1.0
-                if smooth:
-                    brk_lo[j] = tin / es
-                    brk_hi[j] = tin * es
-                if j < N_STRAND:
-                    total += held + share * (strands[j] - held)
-            if strands[N_STRAND] > 0.0:
-                out[k] = tens[n_seg] * (total / N_STRAND) / strands[N_STRAND]
+            if static == 0.0:
+                # no breakaway part: every strand slides at its kinetic bounds (the loop below
+                # with es = e, without its bookkeeping)
+                for j in range(n_str + 1):
+                    held = strands[j]
+                    lo = tin * strand_ie[j]
+                    if held < lo:
+                        strands[j] = lo
+                        direction[j] = 1.0
+                    else:
+                        hi = tin * strand_e[j]
+                        if held > hi:
+                            strands[j] = hi
+                            direction[j] = -1.0
+                    if j < n_str:
+                        total += strands[j]
+            else:
+                for j in range(n_str + 1):
+                    e = strand_e[j]
+                    es = strand_es[j]
+                    lo = tin * (strand_ie[j] if direction[j] > 0.0 else strand_ies[j])
+                    hi = tin * (e if direction[j] < 0.0 else es)
+                    held = strands[j]
+                    share = 1.0  # of the jump in this sample's output (smooth)
+                    if held < lo:
+                        if smooth and direction[j] <= 0.0 and k > 0 and lo - brk_lo[j] > 0.0:
+                            share = min(1.0, (lo - held) / (lo - brk_lo[j]))
+                        strands[j] = tin * strand_ie[j]
+                        direction[j] = 1.0
+                    elif held > hi:
+                        if smooth and direction[j] >= 0.0 and k > 0 and brk_hi[j] - hi > 0.0:
+                            share = min(1.0, (held - hi) / (brk_hi[j] - hi))
+                        strands[j] = tin * e
+                        direction[j] = -1.0
+                    if smooth:
+                        brk_lo[j] = tin * strand_ies[j]
+                        brk_hi[j] = tin * es
+                    if j < n_str:
+                        total += held + share * (strands[j] - held)
+            if strands[n_str] > 0.0:
+                out[k] = tens[n_seg] * (total / n_str) / strands[n_str]
         if slack > 0.0 and tin < slack:
             out[k] *= tin / slack
         disp = stretch * ds / ea + tens[n_seg] / klc
@@ -292,10 +308,14 @@ def _friction(
 
 
 def friction_output(
-    inputs: PlantInputs, params: Mapping[str, float], smooth: bool = False
+    inputs: PlantInputs,
+    params: Mapping[str, float],
+    smooth: bool = False,
+    strand_q: np.ndarray | None = None,
 ) -> np.ndarray:
     """True T_out of the twin (no sensor): the friction part of the model (smooth: the
-    breakaway jumps spread over their sample, for the fits; _friction)."""
+    breakaway jumps spread over their sample, for the fits; _friction). `strand_q`: other
+    quantiles for the strands than the FMU's STRAND_Q (cosim.studies.strands compares counts)."""
     p = _full(params)
     return _friction(
         np.ascontiguousarray(inputs.t_in_n, dtype=np.float64),
@@ -321,6 +341,7 @@ def friction_output(
         LOADCELL_N_PER_M,
         N_SEG,
         bool(smooth and float(p["mu_static_excess"]) > 0.0),
+        np.ascontiguousarray(STRAND_Q if strand_q is None else strand_q, dtype=np.float64),
     )
 
 

@@ -193,7 +193,15 @@ static double profile(const Friction *f, const double *old, double t_in_n, doubl
  * log standard deviation dead_zone_spread), and one of width mu*phi; each holds its tension
  * unless T_in exp(-w) <= T <= T_in exp(+w) is violated, then slides to the bound (the lumped
  * form of Eq. 1-3). Only when dead_zone_spread > 0. */
-static const double STRAND_Q[BOWDEN_N_STRAND] = {-1.5341205443525463, -0.88714655901887596, -0.48877641111466952, -0.1573106846101707, 0.1573106846101707, 0.48877641111466952, 0.88714655901887596, 1.5341205443525463};
+static const double STRAND_Q[BOWDEN_N_STRAND] = {
+    -2.1538746940614564, -1.6759397227734438, -1.4177971379962671, -1.229858759216589,
+    -1.0775155670402803, -0.94678175630104566, -0.83051087820539926, -0.72451438349236541,
+    -0.62609901234642118, -0.53340970624128059, -0.44509652498551638, -0.36012989178956945,
+    -0.27769043982157676, -0.1970990842943123, -0.1177698745790953, -0.039176085503097625,
+    0.039176085503097625, 0.1177698745790953, 0.1970990842943123, 0.27769043982157676,
+    0.36012989178956945, 0.44509652498551638, 0.53340970624128059, 0.62609901234642118,
+    0.72451438349236541, 0.83051087820539926, 0.94678175630104566, 1.0775155670402803,
+    1.229858759216589, 1.4177971379962671, 1.6759397227734438, 2.1538746940614564};
 
 /* The strands are followed when the dead zone is gradual or the friction has a breakaway
    part (README, "Static friction"); otherwise the output is the sheath's outlet node. */
@@ -221,10 +229,12 @@ static void strands_update(BowdenModel *m, const Friction *f, double t_in_n)
         double s = exp(m->p.dead_zone_spread * q);
         double e = exp(w * s);
         double es = (j < BOWDEN_N_STRAND && m->p.mu_static_excess > 0.0) ? exp(ws * s) : e;
-        double lo = t_in_n / (m->strand_dir[j] > 0.0 ? e : es);
+        /* products with the inverse factors, as the audit's twin computes them */
+        double ie = 1.0 / e, ies = 1.0 / es;
+        double lo = t_in_n * (m->strand_dir[j] > 0.0 ? ie : ies);
         double hi = t_in_n * (m->strand_dir[j] < 0.0 ? e : es);
         if (m->strand_n[j] < lo) {
-            m->strand_n[j] = t_in_n / e;
+            m->strand_n[j] = t_in_n * ie;
             m->strand_dir[j] = 1.0;
         } else if (m->strand_n[j] > hi) {
             m->strand_n[j] = t_in_n * e;

@@ -49,15 +49,6 @@ DURATION_S = 40.0
 FLOOR_FACTOR = 2.0  # the acceptance's factor
 
 CASES = {
-    "tension rate 1.2e-3 s/N, wandering input": (
-        dict(seed=42, mu=0.085, spread=0.35, noise_n=0.025, viscous_rate_s_n=0.0012),
-        "viscous_friction",
-        "tension rate",
-        # the rig's linearised capstan (a segment passes T (1 - mu dphi)) and its strands'
-        # additive excess make a change of mu act about 1.2x as strongly as in the FMU's
-        # exponential law: the fitted coefficient comes out that much higher (1.5e-3 here)
-        ("mu_viscous_tension_rate", 0.0012, 0.35),
-    ),
     "drift, a step of -0.009 at 17.7 s, ramps": (
         dict(
             seed=46,
@@ -91,6 +82,23 @@ CASES = {
         "second order",
         ("sensor_tau2", 0.025, 0.15),
     ),
+    # Both missed while the FMU's gradual dead zone had 8 strands (its discretisation left
+    # 27-53 mN RMS against the continuous distribution: fmu/README.md "Strands of the gradual
+    # dead zone"): the warm-up was named with a wrong sensor_offset beside it, the lag in the
+    # right form but ambiguous with time_delay. With 32 strands, a count chosen by that study
+    # and the audit's time budget, not on these cases, each was run once and met.
+    "drift, a warm-up of +0.01 with 5 s": (
+        dict(seed=45, mu=0.09, spread=0.35, noise_n=0.025, drift=("warm-up", 0.01, 5.0)),
+        "friction_drift",
+        "warm-up",
+        ("mu_warmup", 0.01, 0.3),
+    ),
+    "lag, first order 25 ms, wandering input": (
+        dict(seed=49, mu=0.075, spread=0.35, noise_n=0.03, lag_s=0.025),
+        "lag",
+        "first order",
+        ("sensor_tau", 0.025, 0.15),
+    ),
     "bending error along x, at positions": (
         dict(seed=50, mu=0.09, spread=0.25, noise_n=0.025, positions=True, bend=(0, 1.5)),
         "bending_angle_error",
@@ -108,28 +116,30 @@ LONG_CASES = {
         ("phi_offset_per_y", -1.2, 0.15),
     ),
 }
-# Reported, not met (each run once on its report seed):
+# Reported, not met (each run once on its report seed; the figures with the FMU's 32 strands):
 # - ramps at held positions (seed 43, mu 0.075, spread 0.25, noise 0.035 N, 1e-3 s/N): the
-#   right cause and form (98 % of the selection blocks' residual, block t 50), but 0.125 N
-#   left held-out, 3.6x the floor. At every reversal of a triangle the rate passes through zero,
-#   the friction drops to mu alone and the output latches at the loading line of mu; the rig's
-#   rate dips for one sample at the peak, the FMU's filtered rate for about 10 ms after it, and
-#   the rig's linearised capstan answers a change of mu 1.2x as strongly, so each ramp's
-#   unloading is left 0.1-0.3 N off with a sign that depends on its rate.
-# - the cable-speed form on the rig (seed 44, mu 0.09, 8 s/m): named viscous_friction in the
-#   tension-rate form (90 % against 81 % for the cable speed). The rig's cable has four
-#   segments per strand, so in a dead zone its stretch still moves with a fifth of the input's
-#   rate and then in steps, which is closer to the tension-rate form than to the FMU's 32
-#   segments, whose inlet speed starts from zero after a reversal and grows as the sliding part
-#   spreads. (On the FMU's own data the cable-speed form is named: test_audit_causes.py.)
-# - a warm-up of +0.01 with 5 s (seed 45, mu 0.09, spread 0.35, noise 0.025 N): friction_drift
-#   named in the warm-up form (+0.0112 with 5.4 s, 93 % of the selection blocks' residual), and
-#   then sensor_offset (-0.045 N, ambiguous with sensor_gain, 33 % of what the warm-up left);
-#   held-out 0.033 N, 1.3x the floor. The offset is a wrong cause: what the rig's linearised
-#   capstan leaves when its mu has risen by 0.01 (the fitted mu is 0.098).
-# - a first-order lag of 25 ms (seed 49, mu 0.075, spread 0.35, noise 0.03 N): named lag in
-#   the first order (24.2 ms, 1.3x the floor), but ambiguous with time_delay (83 % against 86 %
-#   of the selection blocks' residual, block t 0.4): the forms do not tell these apart either.
+#   right cause and form (98 % of the selection blocks' residual, block t 55, 1.11e-3 s/N), but
+#   0.124 N left held-out, 3.5x the floor (3.6x with 8 strands). At every reversal of a
+#   triangle the rate passes through zero, the friction drops to mu alone and the output
+#   latches at the loading line of mu; the rig's rate dips for one sample at the peak, the
+#   FMU's filtered rate for about 10 ms after it, and the rig's linearised capstan answers a
+#   change of mu 1.2x as strongly, so each ramp's unloading is left 0.1-0.3 N off with a sign
+#   that depends on its rate.
+# - the cable-speed form on the rig (seed 44, mu 0.09, 8 s/m): with 8 strands viscous_friction
+#   was named in the tension-rate form (90 % against 81 % for the cable speed); with 32,
+#   time_delay (55 ms, 23 % of the selection blocks' residual, block t 3.6), a wrong cause,
+#   3.8x the floor left. The rig's cable has four segments per strand, so in a dead zone its
+#   stretch still moves with a fifth of the input's rate and then in steps, neither the FMU's
+#   cable speed (32 segments: its inlet speed starts from zero after a reversal and grows as the
+#   sliding part spreads) nor its tension rate. (On the FMU's own data the cable-speed form is
+#   named: test_audit_causes.py.)
+# - the tension-rate form on the wandering input (seed 42, mu 0.085, spread 0.35, 1.2e-3 s/N):
+#   met with 8 strands (1.5e-3 s/N alone); with 32 the form is named (1.63e-3 s/N, 96 %), and
+#   then load_cell_creep, -11 % with 50 ms (its bound), 20 % of what the form left, block t
+#   4.6: a lead that stands in for the rates' timing. The FMU filters the rate with 10 ms and
+#   uses the previous sample's (fmu/README.md "Viscous friction"), the rig takes central
+#   differences of the true input, so the FMU's friction follows the rig's about 11 ms late;
+#   with 8 strands the coarser turn through the dead zone hid it. Held-out 1.8x the floor.
 MISSED = {
     "tension rate 1e-3 s/N, ramps at positions": (
         dict(
@@ -151,24 +161,20 @@ MISSED = {
         "cable speed",
         None,
     ),
-    "drift, a warm-up of +0.01 with 5 s": (
-        dict(seed=45, mu=0.09, spread=0.35, noise_n=0.025, drift=("warm-up", 0.01, 5.0)),
-        "friction_drift",
-        "warm-up",
-        ("mu_warmup", 0.01, 0.3),
-    ),
-    "lag, first order 25 ms, wandering input": (
-        dict(seed=49, mu=0.075, spread=0.35, noise_n=0.03, lag_s=0.025),
-        "lag",
-        "first order",
-        ("sensor_tau", 0.025, 0.15),
+    "tension rate 1.2e-3 s/N, wandering input": (
+        dict(seed=42, mu=0.085, spread=0.35, noise_n=0.025, viscous_rate_s_n=0.0012),
+        "viscous_friction",
+        "tension rate",
+        # the rig's linearised capstan (a segment passes T (1 - mu dphi)) and its strands'
+        # additive excess make a change of mu act about 1.2x as strongly as in the FMU's
+        # exponential law: the fitted coefficient comes out that much higher
+        ("mu_viscous_tension_rate", 0.0012, 0.35),
     ),
 }
 WHY_MISSED = {
     "tension rate 1e-3 s/N, ramps at positions": "3.6x the floor: the latch at each reversal",
     "cable speed 8 s/m, wandering input": "named the tension-rate form (the rig's 4 segments)",
-    "drift, a warm-up of +0.01 with 5 s": "also named sensor_offset -0.045 N (ambiguous)",
-    "lag, first order 25 ms, wandering input": "right form, ambiguous with time_delay",
+    "tension rate 1.2e-3 s/N, wandering input": "also named load_cell_creep -11 % with 50 ms",
 }
 FORMS_OF = {
     "viscous_friction": {"cable speed", "tension rate"},

@@ -5,11 +5,14 @@ strand slides the slopes are the strands' mean capstan factors."""
 from __future__ import annotations
 
 import math
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy.stats import norm
 
+from cosim.audit import twin
 from cosim.parts.plant import Plant
 
 MU = 0.08
@@ -28,14 +31,31 @@ def _run(spread: float, t_in: np.ndarray) -> np.ndarray:
 
 
 def _strand_factors(spread: float, sign: float) -> float:
-    q = norm.ppf((np.arange(8) + 0.5) / 8)
+    n = twin.N_STRAND
+    q = norm.ppf((np.arange(n) + 0.5) / n)
     return float(np.mean(np.exp(sign * MU * PHI * np.exp(spread * q))))
 
 
-@pytest.mark.parametrize("spread", [0.3, 1.0])
+def test_the_c_quantile_table_is_the_twins():
+    """The FMU's strand count and quantile table (written out in C, which has no normal
+    quantile function) are the twin's, computed by scipy: the same thresholds to the last bits."""
+    src = Path(__file__).resolve().parents[2] / "fmu" / "src"
+    header = (src / "bowden_physics.h").read_text()
+    count = int(re.search(r"#define BOWDEN_N_STRAND (\d+)", header).group(1))
+    body = re.search(
+        r"STRAND_Q\[BOWDEN_N_STRAND\] = \{([^}]*)\}", (src / "bowden_physics.c").read_text()
+    )
+    table = np.array([float(v) for v in body.group(1).split(",")])
+    assert count == twin.N_STRAND == len(table)
+    assert np.allclose(table, twin.STRAND_Q, rtol=1e-15, atol=0.0)
+    assert np.all(np.diff(table) > 0) and np.allclose(table, -table[::-1], rtol=0, atol=1e-16)
+
+
+@pytest.mark.parametrize("spread", [0.3, 0.8])
 def test_slopes_are_the_strands_mean_and_the_turn_is_gradual(spread):
     up = np.linspace(2.0, 20.0, 1801)
-    down = np.linspace(20.0, 0.1, 1801)[1:]  # widest strand at spread 1: back below 0.19 N
+    # the widest strand (q = 2.15) at spread 0.8 slides back below 20 N exp(-2 w) = 0.071 N
+    down = np.linspace(20.0, 0.05, 1801)[1:]
     t_in = np.concatenate([up, down])
     sharp = _run(0.0, t_in)
     soft = _run(spread, t_in)
