@@ -246,14 +246,19 @@ def _friction(
             if w != w_prev or ws != ws_prev:
                 w_prev = w
                 ws_prev = ws
-                for j in range(n_str + 1):
-                    strand_e[j] = math.exp(w * strand_sc[j])
-                    strand_ie[j] = 1.0 / strand_e[j]
-                    if j < n_str and static > 0.0:
-                        strand_es[j] = math.exp(ws * strand_sc[j])
-                    else:
-                        strand_es[j] = strand_e[j]
-                    strand_ies[j] = 1.0 / strand_es[j]
+                if static == 0.0:  # the breakaway factors are the kinetic ones
+                    for j in range(n_str + 1):
+                        strand_e[j] = math.exp(w * strand_sc[j])
+                        strand_ie[j] = 1.0 / strand_e[j]
+                else:
+                    for j in range(n_str + 1):
+                        strand_e[j] = math.exp(w * strand_sc[j])
+                        strand_ie[j] = 1.0 / strand_e[j]
+                        if j < n_str:
+                            strand_es[j] = math.exp(ws * strand_sc[j])
+                        else:
+                            strand_es[j] = strand_e[j]
+                        strand_ies[j] = 1.0 / strand_es[j]
             total = 0.0
             if static == 0.0:
                 # no breakaway part: every strand slides at its kinetic bounds (the loop below
