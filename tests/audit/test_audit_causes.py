@@ -67,10 +67,13 @@ MISSED = {"load_cell_creep"}
     [
         pytest.param(
             c,
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="missed on FMU data: 8 of 12 blocks improve, the rule asks 9",
-            ),
+            marks=[
+                pytest.mark.long,  # a known miss: make test-long shows a fix when one comes
+                pytest.mark.xfail(
+                    strict=True,
+                    reason="missed on FMU data: 8 of 12 blocks improve, the rule asks 9",
+                ),
+            ],
         )
         if c in MISSED
         else c

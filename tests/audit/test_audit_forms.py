@@ -63,6 +63,37 @@ CASES = {
         # the linearised capstan again: about 1.1x in the amplitude; the instant within 0.1 s
         ("mu_step", -0.009, 0.3),
     ),
+    "lag, second order 25 ms, wandering input": (
+        dict(seed=48, mu=0.09, spread=0.25, noise_n=0.025, lag2_s=0.025),
+        "lag",
+        "second order",
+        ("sensor_tau2", 0.025, 0.15),
+    ),
+    # Missed while the FMU's gradual dead zone had 8 strands (its discretisation left
+    # 27-53 mN RMS against the continuous distribution: fmu/README.md "Strands of the gradual
+    # dead zone"): the warm-up was named with a wrong sensor_offset beside it (the same for the
+    # first-order lag below, in LONG_CASES). With 32 strands, a count chosen by that study and
+    # the audit's time budget, not on these cases, each was run once and met.
+    "drift, a warm-up of +0.01 with 5 s": (
+        dict(seed=45, mu=0.09, spread=0.35, noise_n=0.025, drift=("warm-up", 0.01, 5.0)),
+        "friction_drift",
+        "warm-up",
+        ("mu_warmup", 0.01, 0.3),
+    ),
+    "bending error along x, at positions": (
+        dict(seed=50, mu=0.09, spread=0.25, noise_n=0.025, positions=True, bend=(0, 1.5)),
+        "bending_angle_error",
+        "x",
+        ("phi_offset_per_x", 1.5, 0.15),
+    ),
+}
+# Run in make test-long (each a whole audit of up to 30 s of one worker; make test keeps one case
+# of each kind): the bending error on another coordinate; the linear drift at held positions
+# (make test names it on FMU data, test_audit_causes.py); the first-order lag in its form (make
+# test names it on this rig, test_audit_rule.py), which with 8 strands was named in the right
+# form but ambiguous with time_delay (83 % against 86 % of the selection blocks' residual, block
+# t 0.4), and with 32 was run once and met (24.2 ms, 1.07x the floor).
+LONG_CASES = {
     "drift, linear -2e-4 /s, at positions": (
         dict(
             seed=47,
@@ -76,39 +107,12 @@ CASES = {
         "linear",
         ("mu_drift", -2e-4, 0.3),
     ),
-    "lag, second order 25 ms, wandering input": (
-        dict(seed=48, mu=0.09, spread=0.25, noise_n=0.025, lag2_s=0.025),
-        "lag",
-        "second order",
-        ("sensor_tau2", 0.025, 0.15),
-    ),
-    # Both missed while the FMU's gradual dead zone had 8 strands (its discretisation left
-    # 27-53 mN RMS against the continuous distribution: fmu/README.md "Strands of the gradual
-    # dead zone"): the warm-up was named with a wrong sensor_offset beside it, the lag in the
-    # right form but ambiguous with time_delay. With 32 strands, a count chosen by that study
-    # and the audit's time budget, not on these cases, each was run once and met.
-    "drift, a warm-up of +0.01 with 5 s": (
-        dict(seed=45, mu=0.09, spread=0.35, noise_n=0.025, drift=("warm-up", 0.01, 5.0)),
-        "friction_drift",
-        "warm-up",
-        ("mu_warmup", 0.01, 0.3),
-    ),
     "lag, first order 25 ms, wandering input": (
         dict(seed=49, mu=0.075, spread=0.35, noise_n=0.03, lag_s=0.025),
         "lag",
         "first order",
         ("sensor_tau", 0.025, 0.15),
     ),
-    "bending error along x, at positions": (
-        dict(seed=50, mu=0.09, spread=0.25, noise_n=0.025, positions=True, bend=(0, 1.5)),
-        "bending_angle_error",
-        "x",
-        ("phi_offset_per_x", 1.5, 0.15),
-    ),
-}
-# The same on another coordinate, run in make test-long (each case is a whole audit at held
-# positions, about 30 s of one worker, and make test keeps one)
-LONG_CASES = {
     "bending error along y, at positions": (
         dict(seed=51, mu=0.075, spread=0.35, noise_n=0.035, positions=True, bend=(1, -1.2)),
         "bending_angle_error",
