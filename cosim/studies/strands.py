@@ -25,6 +25,7 @@ changes nothing itself.
 from __future__ import annotations
 
 import math
+import sys
 import time
 
 import numpy as np
@@ -118,4 +119,8 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    try:
+        raise SystemExit(main())
+    except KeyboardInterrupt:  # nothing is written: the table so far stays on the terminal
+        print("strands study: interrupted", file=sys.stderr)
+        raise SystemExit(130) from None

@@ -1,0 +1,36 @@
+"""The strands study (cosim/studies/strands.py, `make fmu-strands`): the FMU's strand count
+against the continuous distribution of friction thresholds, the figures fmu/README.md quotes
+("Strands of the gradual dead zone")."""
+
+from __future__ import annotations
+
+import pytest
+
+from cosim.audit import twin
+from cosim.studies import strands
+
+
+@pytest.fixture(scope="module")
+def rows() -> list[dict]:
+    return strands.study()
+
+
+def test_the_fmus_count_is_within_a_few_mn_of_the_continuous_distribution(rows):
+    ours = [r for r in rows if r["strands"] == twin.N_STRAND]
+    assert len(ours) == len(strands.SPREADS) * len(strands.inputs())
+    # measured 2.3-7.6 mN RMS and 8-18 mN at most; the budget leaves a fifth
+    assert max(r["t_out_rms_diff_n"] for r in ours) <= 0.009
+    assert max(r["t_out_max_diff_n"] for r in ours) <= 0.022
+
+
+def test_every_doubling_of_the_strands_brings_the_output_nearer(rows):
+    for name in strands.inputs():
+        for spread in strands.SPREADS:
+            rms = [
+                r["t_out_rms_diff_n"] for r in rows if r["input"] == name and r["spread"] == spread
+            ]
+            assert len(rms) == len(strands.STRANDS)
+            assert all(b < a for a, b in zip(rms, rms[1:], strict=False)), (name, spread, rms)
+    # the count before (8) left as much as the rigs' sensor noise at spreads of 0.3 and more
+    eight = [r for r in rows if r["strands"] == 8 and r["spread"] >= 0.3]
+    assert min(r["t_out_rms_diff_n"] for r in eight) > 0.02
