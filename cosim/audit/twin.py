@@ -19,7 +19,8 @@ What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effe
   low-pass filtered with 10 ms, as the FMU computes them after each step and uses in the next;
 - the gradual dead zone (fmu/README.md, "Gradual dead zone"): with dead_zone_spread > 0 the
   output is T_n * mean_j(S_j) / S_ref over N_STRAND = 32 lumped capstans of log-normally
-  spread widths;
+  spread widths (their factors follow a small change of the widths by a polynomial,
+  STRAND_STEP_MAX: the FMU's numbers to round-off);
 - static friction (fmu/README.md, "Static friction"): the strands remember the way they last
   slid, and one that must reverse is held by the breakaway width (mu + mu_static_excess) phi
   before it jumps to the kinetic bound; slack: T_out * min(1, T_in / slack_tension);
@@ -60,6 +61,13 @@ N_STRAND = 32  # BOWDEN_N_STRAND
 # STRAND_Q of bowden_physics.c: standard normal quantiles at (j + 1/2) / N_STRAND (the C table
 # holds these numbers; tests/fmu/test_fmu_dead_zone.py compares them)
 STRAND_Q = norm.ppf((np.arange(N_STRAND) + 0.5) / N_STRAND)
+# A change of the strands' width w from one sample to the next of at most this much (times the
+# widest strand's scale) updates their factors exp(w s_j) by exp(dw s_j) to degree 6, whose
+# truncation (x^7 / 5040 < 2e-18) is below round-off, instead of a libm exp and a division per
+# strand; after STRAND_EXACT_EVERY such updates they are computed exactly again, so round-off
+# cannot build up (the FMU's numbers to about 1e-13 relative in between).
+STRAND_STEP_MAX = 0.01
+STRAND_EXACT_EVERY = 1024
 SPEED_TAU_S = 0.01  # BOWDEN_SPEED_TAU_S, filter of the cable speed v_c and the tension rate
 CABLE_EA_N = 8000.0  # cable_EA default
 LOADCELL_N_PER_M = 2e5  # loadcell_stiffness default
@@ -168,6 +176,8 @@ def _friction(
     brk_hi = np.zeros(n_str + 1)
     w_prev = -1.0
     ws_prev = -1.0
+    since_exact = 0  # small updates of the strands' factors since they were computed exactly
+    sc_max = strand_sc[n_str - 1] if n_str > 0 else 1.0  # the widest strand's scale
     seg_arg_prev = -1.0
     base_arg_prev = -1.0
     bp = 1.0
@@ -243,7 +253,31 @@ def _friction(
             # to the kinetic bound)
             w = mu_c * (phi if phi > 0.0 else 0.0)
             ws = (mu_c + static) * (phi if phi > 0.0 else 0.0)
-            if w != w_prev or ws != ws_prev:
+            dw = w - w_prev
+            if (
+                static == 0.0
+                and w_prev >= 0.0
+                and dw != 0.0
+                and abs(dw) * sc_max <= STRAND_STEP_MAX
+                and since_exact < STRAND_EXACT_EVERY
+            ):
+                # a small change of the width (mu drifting, or following a rate, from one
+                # sample to the next): each factor times exp(dw s_j), by a polynomial exact to
+                # round-off at these arguments, where a libm exp and a division per strand
+                # cost most of the fits' time
+                since_exact += 1
+                w_prev = w
+                ws_prev = ws
+                for j in range(n_str + 1):
+                    x = dw * strand_sc[j]
+                    # exp(x) and exp(-x) to degree 6 (Horner), from the even and odd parts
+                    x2 = x * x
+                    even = 1.0 + x2 * (0.5 + x2 * (1.0 / 24.0 + x2 * (1.0 / 720.0)))
+                    odd = x * (1.0 + x2 * (1.0 / 6.0 + x2 * (1.0 / 120.0)))
+                    strand_e[j] *= even + odd
+                    strand_ie[j] *= even - odd
+            elif w != w_prev or ws != ws_prev:
+                since_exact = 0
                 w_prev = w
                 ws_prev = ws
                 if static == 0.0:  # the breakaway factors are the kinetic ones
@@ -263,19 +297,12 @@ def _friction(
             if static == 0.0:
                 # no breakaway part: every strand slides at its kinetic bounds (the loop below
                 # with es = e, without its bookkeeping)
+                # (the way each slid is read only by the breakaway part: not kept here)
                 for j in range(n_str + 1):
-                    held = strands[j]
-                    lo = tin * strand_ie[j]
-                    if held < lo:
-                        strands[j] = lo
-                        direction[j] = 1.0
-                    else:
-                        hi = tin * strand_e[j]
-                        if held > hi:
-                            strands[j] = hi
-                            direction[j] = -1.0
-                    if j < n_str:
-                        total += strands[j]
+                    # lo <= hi (the factors are >= 1): the clamp, without branches
+                    strands[j] = min(max(strands[j], tin * strand_ie[j]), tin * strand_e[j])
+                for j in range(n_str):
+                    total += strands[j]
             else:
                 for j in range(n_str + 1):
                     e = strand_e[j]

@@ -175,3 +175,26 @@ def test_static_frictions_jumps_have_a_slope_in_the_fits_only():
     assert np.array_equal(
         twin.friction_output(inputs, p0, smooth=True), twin.friction_output(inputs, p0)
     )
+
+
+@pytest.mark.parametrize(
+    "effect",
+    [
+        {"mu_warmup": 0.01, "mu_warmup_tau": 5.0},  # widths change a little every sample
+        {"mu_viscous_tension_rate": 0.002},  # ... and by more where the rate moves fast
+    ],
+)
+def test_small_width_changes_keep_the_strands_on_the_fmus_numbers(effect):
+    # the twin updates the strands' factors by a polynomial of the change where it is small
+    # (twin.STRAND_STEP_MAX) and exactly again every STRAND_EXACT_EVERY samples: over 40 s the
+    # FMU, which takes a libm exp per strand and step, agrees to round-off
+    n, dt = 40000, 1e-3
+    t = np.arange(n) * dt
+    rng = np.random.default_rng(3)
+    t_in = 11 + 5 * np.sin(2 * np.pi * 0.3 * t) + 2 * np.sin(2 * np.pi * 1.1 * t)
+    t_in = t_in + 0.01 * rng.standard_normal(n)
+    inputs = twin.PlantInputs(t_in, np.full(n, 2 * np.pi), np.zeros(n), None, 0.0, dt, 1.0, True)
+    params = {"mu": 0.09, "dead_zone_spread": 0.5, **effect}
+    a = twin.simulate(inputs, params)
+    b = twin.run_fmu(inputs, params, max_step_s=twin.fmu_step_for(dt))
+    assert np.max(np.abs(a - b)) < 1e-9
