@@ -229,8 +229,9 @@ static void strands_update(BowdenModel *m, const Friction *f, double t_in_n)
         double s = exp(m->p.dead_zone_spread * q);
         double e = exp(w * s);
         double es = (j < BOWDEN_N_STRAND && m->p.mu_static_excess > 0.0) ? exp(ws * s) : e;
-        /* products with the inverse factors, as the audit's twin computes them */
-        double ie = 1.0 / e, ies = 1.0 / es;
+        /* products with the inverse factors, as the audit's twin computes them (without a
+           breakaway part es is e: one division) */
+        double ie = 1.0 / e, ies = es == e ? ie : 1.0 / es;
         double lo = t_in_n * (m->strand_dir[j] > 0.0 ? ie : ies);
         double hi = t_in_n * (m->strand_dir[j] < 0.0 ? e : es);
         if (m->strand_n[j] < lo) {
