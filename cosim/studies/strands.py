@@ -100,7 +100,14 @@ def study() -> list[dict]:
     return rows
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
+    import argparse  # noqa: PLC0415
+
+    argparse.ArgumentParser(
+        prog="python -m cosim.studies.strands",
+        description="The gradual dead zone's strands against the continuous distribution "
+        "(fmu/README.md, 'Strands of the gradual dead zone'). No options.",
+    ).parse_args(argv)
     rows = study()
     print(
         f"strands against {REF_STRANDS} (the continuous distribution), mu {MU}, phi 2 pi, "

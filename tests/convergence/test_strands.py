@@ -34,3 +34,10 @@ def test_every_doubling_of_the_strands_brings_the_output_nearer(rows):
     # the count before (8) left as much as the rigs' sensor noise at spreads of 0.3 and more
     eight = [r for r in rows if r["strands"] == 8 and r["spread"] >= 0.3]
     assert min(r["t_out_rms_diff_n"] for r in eight) > 0.02
+
+
+def test_an_option_the_study_does_not_have_is_one_error(capsys):
+    with pytest.raises(SystemExit) as exc:
+        strands.main(["--spread", "3"])
+    assert exc.value.code == 2
+    assert "unrecognized arguments: --spread 3" in capsys.readouterr().err
