@@ -244,7 +244,10 @@ def _candidate(
     def fit(form: Effect) -> Candidate:
         m = fit_model(data, (*found, form), current.params)
         stats = block_stats(data, r0, m.residual(data))
-        return Candidate(form, m, stats, rule.passes(stats, data))
+        # a form whose shape ends at a bound that is not one of its values is not an estimate
+        # of that form, however much it removes (effects.Shape.at_bound)
+        why = next((w for sh in form.shape if (w := sh.at_bound(m.params[sh.fmu_param]))), None)
+        return Candidate(form, m, stats, rule.passes(stats, data) and why is None, at_bound=why)
 
     first = fit(e)
     forms = [first]

@@ -46,6 +46,10 @@ class DecisionRule:
       errors-in-variables bias of a hysteresis) that a candidate can partly absorb; the record
       gives the input at its sample instants only, and where between two samples it reaches
       its extremes, which the friction model holds, is unknown (sampling_error).
+    A candidate whose form's shape (a time constant, a knee: effects.Shape) ends at a bound of its
+    range that is not a value of the form is not significant, whatever it removes: the data ask
+    for a value the form does not have, and the cause stands in for something else (a load
+    cell's creep at its fastest acts as a lead and took the place of the timing of a friction).
     The largest such candidate is taken. It is marked ambiguous when the runner-up stops being
     significant once it is in the model and the two differ by a block t (fit and selection
     blocks) under `separation_t`. At most `max_findings` rounds. The report blocks take no part
@@ -75,8 +79,9 @@ class DecisionRule:
             "unit of the change the candidate makes there, >= "
             f"{100 * self.min_improved_share:.0f} % of the blocks better), and >= "
             f"{self.min_effect_rms_n * 1000:.1f} mN RMS and {self.min_effect_noise_ratio:g} x the "
-            "combined sensor noise and sampling error; the largest is taken, then the next round; "
-            "the report blocks take no part"
+            "combined sensor noise and sampling error, and its form's time constant or knee is not "
+            "at a bound of its range; the largest is taken, then the next round; the report "
+            "blocks take no part"
         )
 
     def passes(self, stats: BlockStats, data: AuditData) -> bool:
@@ -183,6 +188,9 @@ class Candidate:
     # the cause's forms fitted in this round (effects.FORMS), each with the share of the
     # selection blocks' residual it removed; empty when only the first form was fitted
     forms: dict[str, float] = field(default_factory=dict)
+    # why its fit is not an estimate of its form (a shape at a bound: effects.Shape.at_bound);
+    # such a candidate is not significant, whatever it removes
+    at_bound: str | None = None
 
     @property
     def explained_pct(self) -> float:  # of the current model's selection-block mean square

@@ -30,6 +30,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+# A shape's fitted value within this share of a bound's own size is at that bound (Shape.at_bound).
+# Chosen before any case was run with it: the least squares ends on an active bound to round-off,
+# and 1 % keeps a creep of 50.5 ms, or a knee of 1.98 N, from passing as an estimate.
+SHAPE_AT_BOUND_SHARE = 0.01
+
 
 @dataclass(frozen=True)
 class Shape:
@@ -42,6 +47,28 @@ class Shape:
     start: float
     scale: float
     scanned: bool = False  # not moved by the least squares (no slope): set by the form's scan
+    # which bounds (lower, upper) are values of the form itself (the knee's 0: a hard clip).
+    # A fit that ends at any other bound wants a value the form does not have (a creep faster
+    # than its range is a gain or a lead, a knee of its widest bends every reading as a gain
+    # would): the candidate is not a finding (at_bound).
+    bound_is_form: tuple[bool, bool] = (False, False)
+
+    def at_bound(self, value: float) -> str | None:
+        """Why `value` is not an estimate of this shape, or None: it sits at a bound that is not
+        a value of the form, within SHAPE_AT_BOUND_SHARE of that bound (or of the range, for a
+        bound at 0)."""
+        lo, hi = self.bounds
+        for side, bound, is_form in (
+            ("lower", lo, self.bound_is_form[0]),
+            ("upper", hi, self.bound_is_form[1]),
+        ):
+            tol = SHAPE_AT_BOUND_SHARE * (abs(bound) if bound != 0.0 else hi - lo)
+            if not is_form and abs(value - bound) <= tol:
+                return (
+                    f"{self.fmu_param} = {value:.4g} {self.unit} is at the {side} bound of its "
+                    f"range [{lo:g}, {hi:g}]"
+                )
+        return None
 
 
 @dataclass(frozen=True)
@@ -221,7 +248,16 @@ VOCABULARY: tuple[Effect, ...] = (
         0.0,
         0.5,
         "T_out_meas = sat_{sensor_full_scale, sensor_saturation_knee}[...] (hard clip at knee 0)",
-        shape=(Shape("sensor_saturation_knee", "N", (0.0, KNEE_MAX_N), 0.2, 0.5),),
+        shape=(
+            Shape(
+                "sensor_saturation_knee",
+                "N",
+                (0.0, KNEE_MAX_N),
+                0.2,
+                0.5,
+                bound_is_form=(True, False),
+            ),
+        ),
         start_from="t_out_high",
     ),
     Effect(

@@ -91,6 +91,7 @@ def to_dict(result: AuditResult) -> dict:
                         "improved_share": _num(c.stats.improved_share, 4),
                         "worst_block_z": _num(c.stats.worst_z, 4),
                         "significant": c.significant,
+                        "at_bound": c.at_bound,
                     }
                     for c in sorted(rnd.candidates, key=lambda c: -c.explained_pct)
                 ],
@@ -217,6 +218,13 @@ def summary(result: AuditResult) -> str:
             lines.append(f"      why: {f.evidence}")
     else:
         lines.append("  findings none: no cause of the vocabulary passes the rule")
+    for rnd in result.rounds:
+        for c in rnd.candidates:
+            if c.at_bound and result.rule.passes(c.stats, d):
+                lines.append(
+                    f"  not named {c.effect.label}: removes {c.explained_pct:.1f} % of the "
+                    f"selection blocks' residual, but {c.at_bound}: not an estimate of that form"
+                )
     lines += [
         f"  extended FMU with the findings: RMS {ext_rms:.4f} N, held-out "
         f"{result.holdout_rms_after_n:.4f} N (twin within {result.twin_fmu_max_diff_n:.1e} N)",

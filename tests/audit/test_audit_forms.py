@@ -94,6 +94,23 @@ CASES = {
 # form but ambiguous with time_delay (83 % against 86 % of the selection blocks' residual, block
 # t 0.4), and with 32 was run once and met (24.2 ms, 1.07x the floor).
 LONG_CASES = {
+    # Met with 8 strands (1.5e-3 s/N alone). With 32 the form was named (1.63e-3 s/N, 96 %),
+    # and then load_cell_creep, -11 % with its fastest 50 ms, 20 % of what the form left, block t
+    # 4.6: a lead standing in for the rates' timing (the FMU filters the rate with 10 ms and
+    # uses the previous sample's, fmu/README.md "Viscous friction"; the rig takes central
+    # differences of the true input), 1.8x the floor. Since a form whose time constant ends at a
+    # bound of its range is not a finding (cosim.audit.effects.Shape.at_bound, a rule set
+    # without running a case), it was run once more: the form alone, 1.51e-3 s/N, 1.89x the
+    # floor, and the creep printed as not named.
+    "tension rate 1.2e-3 s/N, wandering input": (
+        dict(seed=42, mu=0.085, spread=0.35, noise_n=0.025, viscous_rate_s_n=0.0012),
+        "viscous_friction",
+        "tension rate",
+        # the rig's linearised capstan (a segment passes T (1 - mu dphi)) and its strands'
+        # additive excess make a change of mu act about 1.2x as strongly as in the FMU's
+        # exponential law: the fitted coefficient comes out that much higher
+        ("mu_viscous_tension_rate", 0.0012, 0.35),
+    ),
     "drift, linear -2e-4 /s, at positions": (
         dict(
             seed=47,
@@ -137,13 +154,6 @@ LONG_CASES = {
 #   cable speed (32 segments: its inlet speed starts from zero after a reversal and grows as the
 #   sliding part spreads) nor its tension rate. (On the FMU's own data the cable-speed form is
 #   named: test_audit_causes.py.)
-# - the tension-rate form on the wandering input (seed 42, mu 0.085, spread 0.35, 1.2e-3 s/N):
-#   met with 8 strands (1.5e-3 s/N alone); with 32 the form is named (1.63e-3 s/N, 96 %), and
-#   then load_cell_creep, -11 % with 50 ms (its bound), 20 % of what the form left, block t
-#   4.6: a lead that stands in for the rates' timing. The FMU filters the rate with 10 ms and
-#   uses the previous sample's (fmu/README.md "Viscous friction"), the rig takes central
-#   differences of the true input, so the FMU's friction follows the rig's about 11 ms late;
-#   with 8 strands the coarser turn through the dead zone hid it. Held-out 1.8x the floor.
 MISSED = {
     "tension rate 1e-3 s/N, ramps at positions": (
         dict(
@@ -165,20 +175,10 @@ MISSED = {
         "cable speed",
         None,
     ),
-    "tension rate 1.2e-3 s/N, wandering input": (
-        dict(seed=42, mu=0.085, spread=0.35, noise_n=0.025, viscous_rate_s_n=0.0012),
-        "viscous_friction",
-        "tension rate",
-        # the rig's linearised capstan (a segment passes T (1 - mu dphi)) and its strands'
-        # additive excess make a change of mu act about 1.2x as strongly as in the FMU's
-        # exponential law: the fitted coefficient comes out that much higher
-        ("mu_viscous_tension_rate", 0.0012, 0.35),
-    ),
 }
 WHY_MISSED = {
     "tension rate 1e-3 s/N, ramps at positions": "3.6x the floor: the latch at each reversal",
-    "cable speed 8 s/m, wandering input": "named the tension-rate form (the rig's 4 segments)",
-    "tension rate 1.2e-3 s/N, wandering input": "also named load_cell_creep -11 % with 50 ms",
+    "cable speed 8 s/m, wandering input": "named time_delay 55 ms (the rig's 4 segments)",
 }
 FORMS_OF = {
     "viscous_friction": {"cable speed", "tension rate"},

@@ -161,3 +161,66 @@ def test_an_effect_whose_size_follows_the_block_is_consistent():
     sign = np.repeat(np.array([1.0, -1.0] * 6), n)
     wrong = block_stats(data, noise + 0.5 * effect * (1 + sign), noise + 0.5 * effect * (1 - sign))
     assert wrong.t < 2.0 and wrong.t_plain < 2.0
+
+
+@pytest.mark.parametrize(
+    ("cause", "value", "at_bound"),
+    [
+        # the creep's time constant: 50 ms is its fastest, not a value of the form
+        ("load_cell_creep", 0.05, "lower"),
+        ("load_cell_creep", 0.0504, "lower"),  # within 1 % of the bound
+        ("load_cell_creep", 0.06, None),
+        ("load_cell_creep", 30.0, "upper"),
+        # the knee: 0 is a hard clip, a value of the form; its widest stands in for a gain
+        ("sensor_saturation", 0.0, None),
+        ("sensor_saturation", 0.001, None),
+        ("sensor_saturation", 2.0, "upper"),
+        ("sensor_saturation", 1.985, "upper"),
+        ("sensor_saturation", 1.97, None),
+    ],
+)
+def test_a_shape_at_a_bound_that_is_not_its_forms_is_named(cause, value, at_bound):
+    from cosim.audit.effects import BY_CAUSE  # noqa: PLC0415
+
+    why = BY_CAUSE[cause].shape[0].at_bound(value)
+    if at_bound is None:
+        assert why is None, why
+    else:
+        assert why is not None and f"at the {at_bound} bound" in why, why
+        assert BY_CAUSE[cause].shape[0].fmu_param in why
+
+
+def test_a_candidate_whose_shape_sits_at_a_bound_is_not_significant(monkeypatch):
+    # the same fit twice, its creep time constant inside the range and at its fastest: it
+    # passes the rule in the first case only (the drops are the same, so only the bound decides)
+    from types import SimpleNamespace  # noqa: PLC0415
+
+    from cosim.audit import core as core_mod  # noqa: PLC0415
+    from cosim.audit.effects import BY_CAUSE  # noqa: PLC0415
+
+    rng = np.random.default_rng(5)
+    k, n, sigma = 12, 800, 0.03
+    data = _blocks_data(k, n, sigma)
+    data.input_noise_n, data.sampling_error_n = sigma, 0.0
+    data.has_positions, data.spans_m = False, (0.0, 0.0, 0.0)
+    effect = 0.2 * np.sin(np.arange(k * n) / 40.0)
+    noise = rng.normal(0.0, sigma, k * n)
+    creep = BY_CAUSE["load_cell_creep"]
+
+    def fitted(tau_s):
+        model = SimpleNamespace(
+            params={"sensor_creep": -0.1, "sensor_creep_tau": tau_s},
+            residual=lambda d: noise,
+            prediction=None,
+        )
+        monkeypatch.setattr(core_mod, "fit_model", lambda *a, **kw: model)
+        return core_mod._candidate(
+            data, [], creep, SimpleNamespace(params={}), effect + noise, core_mod.RULE
+        )
+
+    inside = fitted(0.8)
+    assert inside.significant and inside.at_bound is None
+    at_fastest = fitted(0.05)
+    assert at_fastest.stats == inside.stats
+    assert not at_fastest.significant
+    assert "sensor_creep_tau = 0.05 s is at the lower bound" in at_fastest.at_bound
