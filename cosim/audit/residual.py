@@ -1,12 +1,13 @@
 """What is left after the findings, described (cosim.audit.core, step 5): size, whiteness,
 dominant frequency, the signals it follows, and where it sits (near reversals, at low or high
-input tension, early or late in the record, in outliers)."""
+input tension, while it rises or falls, early or late in the record, in outliers)."""
 
 from __future__ import annotations
 
 import math
 
 import numpy as np
+from scipy.ndimage import median_filter
 from scipy.signal import fftconvolve, welch
 
 from cosim.results import trace as trace_mod
@@ -100,11 +101,20 @@ def describe_residual(data: AuditData, resid: np.ndarray) -> dict:
 # Where the residual sits (locate): a part of the held-out record "holds" the residual when its
 # RMS is at least WHERE_RATIO times that of the rest and its excess over the noise floor is at
 # least WHERE_MIN_EXCESS of the floor; near a reversal means within REVERSAL_S after the input
-# tension turned; an outlier is a sample beyond OUTLIER_SIGMAS times the noise floor.
+# tension turned; rising and falling follow the sign of the smoothed input rate (the loading
+# and the unloading branch of the friction's hysteresis). An outlier is a sample that stands
+# more than OUTLIER_SIGMAS noise floors off the running median of the residual over
+# OUTLIER_WINDOW samples around it: the Hampel identifier (R. K. Pearson, "Outliers in process
+# modeling and identification", IEEE Trans. Control Syst. Technol. 10(1), 2002), with the
+# noise floor as its scale. A spike stands off its neighbours; a residual that is large for a
+# stretch (structure the model lacks, such as a whole unloading branch off) carries its median
+# with it and is not counted: beyond the floor alone it once made "5322 outliers" of a ramp's
+# every unloading.
 WHERE_RATIO = 1.5
 WHERE_MIN_EXCESS = 0.5
 REVERSAL_S = 0.3
 OUTLIER_SIGMAS = 6.0
+OUTLIER_WINDOW = 11
 REVERSAL_MIN_N = 0.05
 
 
@@ -148,6 +158,8 @@ def locate(data: AuditData, resid: np.ndarray, held: np.ndarray) -> tuple[list[s
         "near reversals": near,
         "at low input tension": t_in <= lo_t,
         "at high input tension": t_in >= hi_t,
+        "while the input tension rises": data.rate_n_s > 0.0,
+        "while the input tension falls": data.rate_n_s < 0.0,
         "early in the record": data.t_s < half,
         "late in the record": data.t_s >= half,
     }
@@ -163,12 +175,14 @@ def locate(data: AuditData, resid: np.ndarray, held: np.ndarray) -> tuple[list[s
         excess = math.sqrt(max(a * a - floor * floor, 0.0))
         if a >= WHERE_RATIO * b and excess >= WHERE_MIN_EXCESS * floor:
             where.append((a / b, f"{name} ({a:.3g} N RMS against {b:.3g} N elsewhere)"))
-    big = np.abs(r[held]) > OUTLIER_SIGMAS * floor
+    off = (r - median_filter(r, size=OUTLIER_WINDOW, mode="nearest"))[held]
+    big = np.abs(off) > OUTLIER_SIGMAS * floor
     total = float(np.sum(r[held] ** 2))
     outliers = {
         "count": int(np.sum(big)),
-        "largest_n": round(float(np.max(np.abs(r[held][big]))), 5) if big.any() else 0.0,
-        "share_pct": round(100.0 * float(np.sum(r[held][big] ** 2)) / total, 2) if total else 0.0,
+        # each outlier's size: how far it stands off its neighbours
+        "largest_n": round(float(np.max(np.abs(off[big]))), 5) if big.any() else 0.0,
+        "share_pct": round(100.0 * float(np.sum(off[big] ** 2)) / total, 2) if total else 0.0,
     }
     phrases = [p for _, p in sorted(where, key=lambda w: -w[0])]
     if outliers["count"] and outliers["share_pct"] >= 10.0:

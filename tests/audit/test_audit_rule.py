@@ -224,3 +224,34 @@ def test_a_candidate_whose_shape_sits_at_a_bound_is_not_significant(monkeypatch)
     assert at_fastest.stats == inside.stats
     assert not at_fastest.significant
     assert "sensor_creep_tau = 0.05 s is at the lower bound" in at_fastest.at_bound
+
+
+def test_a_branch_left_off_is_placed_on_it_and_is_not_counted_as_outliers():
+    # a triangle input whose every unloading is left 0.25 N off (a friction the model lacks when
+    # releasing), plus 6 one-sample spikes of 1 N: the residual sits while the input falls, and
+    # only the spikes are outliers (the 0.25 N branch is 8x the floor, every sample of it)
+    from types import SimpleNamespace  # noqa: PLC0415
+
+    from cosim.audit.residual import locate  # noqa: PLC0415
+
+    rate_hz, floor = 1000.0, 0.03
+    t = np.arange(20000) / rate_hz
+    t_in = 5.0 + 3.0 * (2.0 * np.abs((t / 2.0) % 1.0 - 0.5))  # 2 s triangles, 3 N/s
+    rate = np.gradient(t_in) * rate_hz
+    resid = np.random.default_rng(8).normal(0.0, floor, t.size) + np.where(rate < 0, 0.25, 0.0)
+    spikes = np.array([1500, 4700, 8100, 11900, 15300, 18800])
+    resid[spikes] += 1.0
+    data = SimpleNamespace(
+        noise_floor_n=floor,
+        input_noise_n=floor,
+        rate_hz=rate_hz,
+        t_s=t,
+        rate_n_s=rate,
+        inputs=SimpleNamespace(t_in_n=t_in),
+    )
+    where, parts, outliers = locate(data, resid, np.full(t.size, True))
+    assert where and where[0].startswith("while the input tension falls"), where
+    assert parts["while the input tension falls"] == pytest.approx(0.252, abs=0.01)
+    assert outliers["count"] == len(spikes), outliers
+    assert outliers["largest_n"] == pytest.approx(1.0, abs=0.15)
+    assert not any("outliers" in w for w in where), where  # 6 spikes hold < 10 % of it
