@@ -218,13 +218,14 @@ def summary(result: AuditResult) -> str:
             lines.append(f"      why: {f.evidence}")
     else:
         lines.append("  findings none: no cause of the vocabulary passes the rule")
-    for rnd in result.rounds:
-        for c in rnd.candidates:
-            if c.at_bound and result.rule.passes(c.stats, d):
-                lines.append(
-                    f"  not named {c.effect.label}: removes {c.explained_pct:.1f} % of the "
-                    f"selection blocks' residual, but {c.at_bound}: not an estimate of that form"
-                )
+    # what the last round (against the model with the findings) would have named but for a
+    # shape at a bound (decision.Candidate.at_bound): a hint at what is left, not a finding
+    for c in result.rounds[-1].candidates if result.rounds else ():
+        if c.at_bound and result.rule.passes(c.stats, d):
+            lines.append(
+                f"  not named {c.effect.label}: removes {c.explained_pct:.1f} % of the "
+                f"selection blocks' residual, but {c.at_bound}: not an estimate of that form"
+            )
     lines += [
         f"  extended FMU with the findings: RMS {ext_rms:.4f} N, held-out "
         f"{result.holdout_rms_after_n:.4f} N (twin within {result.twin_fmu_max_diff_n:.1e} N)",
