@@ -28,8 +28,12 @@ ratio 1.4, spread 0.3, with the FMU's 32 strands): not the fit's start (static f
 from the rig's own values, mu 0.08, spread 0.3 and an excess of 0.4 x 0.08, removes 40 % of the
 selection blocks' residual, from the scan's start 51 %, sensor_gain 1.024 57 %) and not the
 rig's 12 strands' staircase of jumps (with 48 strands in the rig: 48 % from the rig's values,
-sensor_gain 1.015 78 %). The rig's breakaway leaves something a gain of 1.5-2.4 % takes up
-better than the FMU's static friction does; what, is open.
+sensor_gain 1.015 78 %). A likely part, computed from the rig's law and not yet tested by a
+fit: its segments' linearised capstan makes a strand's breakaway log-width -4 ln(1 - 1.4 c_j)
+grow faster with its friction c_j than its sliding one -4 ln(1 - c_j), so their ratio runs from
+1.42 to 1.48 over the 12 strands (mu 0.08, spread 0.3), where the FMU's excess keeps one ratio
+for all: the breakaway thresholds are more spread than the sliding ones, by up to 0.05 in log
+(5 % of the tension), and a gain takes part of that up.
 """
 
 from __future__ import annotations
