@@ -1,5 +1,5 @@
 """How many strands the gradual dead zone needs (`make fmu-strands`, `python -m
-cosim.studies.strands`, about 20 s): the plant's output with BOWDEN_N_STRAND strands against
+cosim.studies.strands`, a few seconds): the plant's output with BOWDEN_N_STRAND strands against
 the continuous distribution of friction thresholds it stands for (fmu/README.md, "Gradual dead
 zone"), and what the count costs the model audit.
 
@@ -12,8 +12,10 @@ continuous distribution as the figures need (doubling it moves them by well unde
 
 Inputs, each DURATION_S at 1 kHz, mu MU on loop routing (phi = 2 pi): a wandering input tension
 (three sines, 4-18 N) and triangle ramps between 1 and 20 N (the paper's identification,
-Sec. V); spreads SPREADS. Figures per strand count: the RMS and largest difference of the true
-T_out from the reference's after the first reversal, and the twin's time per sample.
+Sec. V); spreads SPREADS, without and with a breakaway friction (BREAKAWAY: static
+friction, where each strand jumps as it breaks loose). Figures per strand count: the RMS and
+largest difference of the true T_out from the reference's after the first reversal, and the
+twin's time per sample.
 
 The project's choice (fmu/README.md, "Convergence"): 32 strands, where the difference is a
 few mN RMS (a fraction of the 0.02-0.04 N sensor noise of the rigs the audit is tested on) and
@@ -37,6 +39,10 @@ DURATION_S = 20.0
 RATE_HZ = 1000.0
 MU = 0.08
 SPREADS = (0.15, 0.3, 0.6)
+# the breakaway friction's ratio to the sliding one (mu_static_excess = (ratio - 1) mu): 1 is
+# none; with one, each strand that breaks loose after a reversal jumps instead of kinking, and
+# the output comes down in as many steps as there are strands
+BREAKAWAY = (1.0, 1.4)
 STRANDS = (8, 16, 32, 64)
 REF_STRANDS = 1024
 SKIP_S = 0.5  # loading from rest: every strand slides, the counts agree exactly until the turn
@@ -62,12 +68,14 @@ def inputs() -> dict[str, np.ndarray]:
     return {"wandering": wander, "ramps": ramps}
 
 
-def _output(t_in: np.ndarray, spread: float, q: np.ndarray) -> tuple[np.ndarray, float]:
+def _output(
+    t_in: np.ndarray, spread: float, q: np.ndarray, breakaway: float = 1.0
+) -> tuple[np.ndarray, float]:
     n = len(t_in)
     plant = twin.PlantInputs(
         t_in, np.full(n, 2.0 * math.pi), np.zeros(n), None, 0.0, 1.0 / RATE_HZ, 1.0, True
     )
-    params = {"mu": MU, "dead_zone_spread": spread}
+    params = {"mu": MU, "dead_zone_spread": spread, "mu_static_excess": (breakaway - 1.0) * MU}
     twin.friction_output(plant, params, strand_q=q[:2])  # compiled before it is timed
     best = math.inf
     for _ in range(3):  # the best of three: the machine's other jobs only add
@@ -78,25 +86,27 @@ def _output(t_in: np.ndarray, spread: float, q: np.ndarray) -> tuple[np.ndarray,
 
 
 def study() -> list[dict]:
-    """One row per input, spread and strand count."""
+    """One row per input, breakaway ratio, spread and strand count."""
     rows = []
     skip = int(SKIP_S * RATE_HZ)
     for name, t_in in inputs().items():
-        for spread in SPREADS:
-            ref, _ = _output(t_in, spread, quantiles(REF_STRANDS))
-            for n in STRANDS:
-                y, per_sample = _output(t_in, spread, quantiles(n))
-                d = (y - ref)[skip:]
-                rows.append(
-                    {
-                        "input": name,
-                        "spread": spread,
-                        "strands": n,
-                        "t_out_rms_diff_n": float(np.sqrt(np.mean(d * d))),
-                        "t_out_max_diff_n": float(np.max(np.abs(d))),
-                        "twin_us_per_sample": 1e6 * per_sample,
-                    }
-                )
+        for ratio in BREAKAWAY:
+            for spread in SPREADS:
+                ref, _ = _output(t_in, spread, quantiles(REF_STRANDS), ratio)
+                for n in STRANDS:
+                    y, per_sample = _output(t_in, spread, quantiles(n), ratio)
+                    d = (y - ref)[skip:]
+                    rows.append(
+                        {
+                            "input": name,
+                            "breakaway": ratio,
+                            "spread": spread,
+                            "strands": n,
+                            "t_out_rms_diff_n": float(np.sqrt(np.mean(d * d))),
+                            "t_out_max_diff_n": float(np.max(np.abs(d))),
+                            "twin_us_per_sample": 1e6 * per_sample,
+                        }
+                    )
     return rows
 
 
@@ -113,12 +123,14 @@ def main(argv: list[str] | None = None) -> int:
         f"strands against {REF_STRANDS} (the continuous distribution), mu {MU}, phi 2 pi, "
         f"{DURATION_S:g} s at {RATE_HZ:g} Hz; the FMU has {twin.N_STRAND}"
     )
-    print("| input | spread | strands | dT_out rms mN | dT_out max mN | twin us/sample |")
-    print("| --- | --- | --- | --- | --- | --- |")
+    print(
+        "| input | breakaway | spread | strands | dT_out rms mN | dT_out max mN | twin us/sample |"
+    )
+    print("| --- | --- | --- | --- | --- | --- | --- |")
     for r in rows:
         mark = "**" if r["strands"] == twin.N_STRAND else ""
         print(
-            f"| {r['input']} | {r['spread']:g} | {mark}{r['strands']}{mark} | "
+            f"| {r['input']} | {r['breakaway']:g} | {r['spread']:g} | {mark}{r['strands']}{mark} | "
             f"{1000 * r['t_out_rms_diff_n']:.1f} | {1000 * r['t_out_max_diff_n']:.1f} | "
             f"{r['twin_us_per_sample']:.2f} |"
         )
