@@ -121,7 +121,8 @@ def main(argv: list[str] | None = None) -> int:
     rows = study()
     print(
         f"strands against {REF_STRANDS} (the continuous distribution), mu {MU}, phi 2 pi, "
-        f"{DURATION_S:g} s at {RATE_HZ:g} Hz; the FMU has {twin.N_STRAND}"
+        f"{DURATION_S:g} s at {RATE_HZ:g} Hz; breakaway: static over sliding friction "
+        f"(1: none); the FMU has {twin.N_STRAND}"
     )
     print(
         "| input | breakaway | spread | strands | dT_out rms mN | dT_out max mN | twin us/sample |"
@@ -134,6 +135,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{1000 * r['t_out_rms_diff_n']:.1f} | {1000 * r['t_out_max_diff_n']:.1f} | "
             f"{r['twin_us_per_sample']:.2f} |"
         )
+    sys.stdout.flush()  # written here, where a closed pipe is caught, not at the exit
     return 0
 
 
@@ -143,3 +145,8 @@ if __name__ == "__main__":
     except KeyboardInterrupt:  # nothing is written: the table so far stays on the terminal
         print("strands study: interrupted", file=sys.stderr)
         raise SystemExit(130) from None
+    except BrokenPipeError:  # the table piped into a reader that stopped (| head): not an error
+        import os  # noqa: PLC0415
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        raise SystemExit(0) from None

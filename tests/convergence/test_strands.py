@@ -61,3 +61,20 @@ def test_an_option_the_study_does_not_have_is_one_error(capsys):
         strands.main(["--spread", "3"])
     assert exc.value.code == 2
     assert "unrecognized arguments: --spread 3" in capsys.readouterr().err
+
+
+def test_the_table_piped_into_a_reader_that_stops_is_not_an_error():
+    # `python -m cosim.studies.strands | head -2`: the reader closes the pipe after two lines
+    import subprocess  # noqa: PLC0415
+    import sys  # noqa: PLC0415
+
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "cosim.studies.strands"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert proc.stdout.readline().startswith(b"strands against")
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 0, err
+    assert "Traceback" not in err, err
