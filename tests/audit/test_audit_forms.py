@@ -145,7 +145,14 @@ LONG_CASES = {
 #   latches at the loading line of mu; the rig's rate dips for one sample at the peak, the
 #   FMU's filtered rate for about 10 ms after it, and the rig's linearised capstan answers a
 #   change of mu 1.2x as strongly, so each ramp's unloading is left 0.1-0.3 N off with a sign
-#   that depends on its rate.
+#   that depends on its rate. Measured since, noise-free on tuning seed 34's ramps with one
+#   strand (the rig's and the FMU's laws otherwise agree there to 0.3 %): whether the rig
+#   latches at all depends on how its top is sampled. A top on one sample has a central
+#   difference of 0 there, and the rig latches at the loading line of mu as the FMU does (the
+#   FMU 0.04-0.07 N below it through the dead zone); a top on two equal samples has +-r/2 at
+#   both, the rate's friction never leaves, and the FMU, whose filtered rate passes through
+#   zero, latches 0.45 N above the rig (a top of 18.41 N). The audit now places this residual
+#   on the unloading branch (`sits while the input tension falls`).
 # - the cable-speed form on the rig (seed 44, mu 0.09, 8 s/m): with 8 strands viscous_friction
 #   was named in the tension-rate form (90 % against 81 % for the cable speed); with 32,
 #   time_delay (55 ms, 23 % of the selection blocks' residual, block t 3.6), a wrong cause,
