@@ -14,8 +14,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
-import os
-import select
 import signal
 import sys
 import threading
@@ -23,6 +21,7 @@ import threading
 from cosim import __version__, _early
 from cosim.project import procs
 from cosim.project.cliargs import ArgumentParser, harden, subparsers
+from cosim.project.pipes import end_for_gone_reader, output_reader_gone
 
 # The subcommands, in the order `bowden --help` lists them: cosim/cli/NAME.py for each; `bench`
 # adds `bowden bench` and `bowden emulate`.
@@ -153,30 +152,12 @@ def _main(argv: list[str] | None) -> int:
         return 128 + signum
     except OSError as exc:
         if output_reader_gone(exc):
-            # Whatever read the output went away (`bowden bench ... faults | head -2`): nothing
-            # more goes to it, and a shell's exit status for it (128 + SIGPIPE), no message. The
-            # command's own clean-up (a run's output disabled) ran while the error came up.
-            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-            return 128 + int(signal.SIGPIPE)
+            # The command's own clean-up (a run's output disabled) ran while the error came up.
+            return end_for_gone_reader()
         # A folder that cannot be created, a file that cannot be read or written: say which.
         where = f": {exc.filename}" if exc.filename else ""
         print(f"bowden {args.command}: {exc.strerror or exc}{where}", file=sys.stderr)
         return 1
-
-
-def output_reader_gone(exc: OSError) -> bool:
-    """Whether `exc` is standard output's reader having closed the pipe (poll reports an error on
-    its write end), as opposed to a broken pipe elsewhere (a device's TCP link), which is said.
-    A subcommand that catches OSError itself re-raises this one for main() to end quietly."""
-    if not isinstance(exc, BrokenPipeError):
-        return False
-    try:
-        fd = sys.stdout.fileno()
-    except (AttributeError, OSError, ValueError):
-        return False
-    poller = select.poll()
-    poller.register(fd, select.POLLOUT)
-    return any(events & select.POLLERR for _, events in poller.poll(0))
 
 
 if __name__ == "__main__":

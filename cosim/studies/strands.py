@@ -145,8 +145,9 @@ if __name__ == "__main__":
     except KeyboardInterrupt:  # nothing is written: the table so far stays on the terminal
         print("strands study: interrupted", file=sys.stderr)
         raise SystemExit(130) from None
-    except BrokenPipeError:  # the table piped into a reader that stopped (| head): not an error
-        import os  # noqa: PLC0415
+    except BrokenPipeError as exc:  # piped into a reader that stopped (| head): as `bowden` does
+        from cosim.project.pipes import end_for_gone_reader, output_reader_gone  # noqa: PLC0415
 
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        raise SystemExit(0) from None
+        if not output_reader_gone(exc):
+            raise
+        raise SystemExit(end_for_gone_reader()) from None

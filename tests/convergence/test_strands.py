@@ -64,7 +64,8 @@ def test_an_option_the_study_does_not_have_is_one_error(capsys):
 
 
 def test_the_table_piped_into_a_reader_that_stops_is_not_an_error():
-    # `python -m cosim.studies.strands | head -2`: the reader closes the pipe after two lines
+    # `python -m cosim.studies.strands | head -2`: the reader closes the pipe after the first
+    # line; no traceback, and the shell's status for it (128 + SIGPIPE), as `bowden` gives
     import subprocess  # noqa: PLC0415
     import sys  # noqa: PLC0415
 
@@ -76,5 +77,5 @@ def test_the_table_piped_into_a_reader_that_stops_is_not_an_error():
     assert proc.stdout.readline().startswith(b"strands against")
     proc.stdout.close()
     err = proc.stderr.read().decode()
-    assert proc.wait(timeout=120) == 0, err
+    assert proc.wait(timeout=120) in (0, 141), err  # 0: all written before the reader closed
     assert "Traceback" not in err, err
