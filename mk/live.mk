@@ -2,16 +2,15 @@
 # (cosim/bench/README.md, "Python API" and "Live view")
 #
 #   make bench-docs      build/docs/api: the reference of cosim.bench.api (pdoc), any warning an error
-#   make browser-setup   Debian's chromium for the live page's headless test, where `make test` runs
-#                        as root with apt-get (CI); elsewhere it says the test will skip. Never fatal.
+#   make browser-setup   Debian's chromium for the live page's headless test, when run as root with
+#                        apt-get (.ci/run calls it before `make test`); elsewhere it says the test
+#                        will skip. Never fatal. `make test` itself changes nothing outside the checkout.
 
 .PHONY: bench-docs browser-setup
 
 bench-docs: $(VENV_STAMP)
 	$(PY) -W error -m pdoc --output-directory $(BUILD)/docs/api cosim.bench.api
 	@echo "bench-docs: $(BUILD)/docs/api/cosim/bench/api.html"
-
-test: browser-setup
 
 browser-setup:
 	@if command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1; then \

@@ -28,8 +28,8 @@ CHROMIUM = next(
 )
 needs_chromium = pytest.mark.skipif(
     CHROMIUM is None,
-    reason="no chromium on PATH (make test installs Debian's chromium when it runs as root with "
-    "apt-get): the page's headless-browser check did not run",
+    reason="no chromium on PATH (`make browser-setup` installs Debian's chromium as root; CI runs "
+    "it): the page's headless-browser check did not run",
 )
 
 
