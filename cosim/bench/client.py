@@ -73,7 +73,22 @@ class LinkTimeoutError(BenchError):
     """No reply in time."""
 
 
+class PortBusyError(BenchError):
+    """Another client holds the port (`PortLock`): `holder` is what its lock file says (its pid
+    and command line)."""
+
+    def __init__(self, message: str, holder: str) -> None:
+        super().__init__(message)
+        self.holder = holder
+
+
 # --- links ---------------------------------------------------------------------------------------
+
+
+def runtime_dir() -> str:
+    """Where a user's bench tools leave their locks and registrations: $XDG_RUNTIME_DIR (the
+    user's own, cleared at logout), else the temporary folder."""
+    return os.environ.get("XDG_RUNTIME_DIR") or tempfile.gettempdir()
 
 
 class PortLock:
@@ -86,7 +101,7 @@ class PortLock:
     def __init__(self, url: str, option: str = "--port", key: str | None = None) -> None:
         if key is None:
             key = url if "://" in url else os.path.realpath(url)
-        folder = os.environ.get("XDG_RUNTIME_DIR") or tempfile.gettempdir()
+        folder = runtime_dir()
         digest = hashlib.sha256(key.encode()).hexdigest()[:16]
         self.path = os.path.join(folder, f"bowden-bench-{digest}.lock")
         self._fd: int | None = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
@@ -95,9 +110,10 @@ class PortLock:
         except BlockingIOError:
             holder = os.read(self._fd, 512).decode(errors="replace").strip() or "another process"
             self.close()
-            raise BenchError(
+            raise PortBusyError(
                 f"{option} {url}: in use by another client ({holder}): one client at a time "
-                "(a second one would stop the first one's run)"
+                "(a second one would stop the first one's run)",
+                holder,
             ) from None
         os.ftruncate(self._fd, 0)
         os.pwrite(self._fd, f"pid {os.getpid()}: {' '.join(sys.argv)[:300]}\n".encode(), 0)

@@ -4,24 +4,44 @@ Every candidate is asked HELLO (answered by a device of any protocol version, PR
 nothing else, so probing never changes a device's state, not even a run in progress:
 
 - serial: the ports pyserial lists (`serial.tools.list_ports.comports()`), one after the other,
-  each with a short reply timeout. `serial_ports` is the one place the list comes from, so that
-  tests (and a script that knows of ports pyserial cannot list, such as an emulator's pty or a
-  `socket://` URL) can pass their own `ports`.
+  each with a short reply timeout, then the emulators that registered themselves (below).
+  `serial_ports` is the one place pyserial's list comes from, so that tests (and a script that
+  knows of other ports, such as a `socket://` URL) can pass their own `ports`.
 - CAN: HELLO to every node id (0..63) of one bus at once; every node that answers within the
   timeout is a controller.
 
-A port that does not open (in use, no permission) or a device that does not answer is not a
-controller and is skipped; `Found` describes one that answered.
+A port that another bench client holds (its advisory lock, `client.PortLock`) is listed as
+busy, with the holder its lock names; a port that does not open for another reason (no
+permission, no device) or a device that does not answer is not a controller and is skipped.
+`Found` describes one that answered or is busy.
+
+pyserial cannot list a pseudo-terminal, so `bowden emulate` makes itself findable: while it
+runs, a registry file in the user's runtime folder (`client.runtime_dir()`: $XDG_RUNTIME_DIR,
+else the temporary folder, where the port locks are) names its process and its URLs
+(`register_emulator`, from the emulator's own start and stop). A file whose process is gone (an
+emulator killed outright) is stale: it is ignored, and removed.
 """
 
 from __future__ import annotations
 
+import itertools
+import json
+import os
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from pathlib import Path
 
 from . import messages as msgs
-from .client import BenchClient, BenchError, BenchUsageError, DeviceInfo, SerialLink
+from .client import (
+    BenchClient,
+    BenchError,
+    BenchUsageError,
+    DeviceInfo,
+    PortBusyError,
+    SerialLink,
+    runtime_dir,
+)
 from .protocol import CanReassembler, Frame, ProtocolError, can_encode, pack, unpack
 
 PROBE_TIMEOUT_S = 0.5  # per serial port (a loaded host answers HELLO within it)
@@ -33,29 +53,57 @@ class AmbiguousPortError(BenchUsageError):
 
 @dataclass(frozen=True)
 class Found:
-    """One controller that answered HELLO: where (port, CAN node) and who it says it is."""
+    """One controller that answered HELLO: where (port, CAN node) and who it says it is; or a
+    port another client holds (`info` None, `holder`: its pid and command line, as its lock
+    says), which was not asked anything."""
 
     port: str
     node: int | None
-    info: DeviceInfo
+    info: DeviceInfo | None
+    holder: str | None = None
+
+    @property
+    def busy(self) -> bool:
+        """Another client holds the port: who is behind it is not known."""
+        return self.info is None
 
     @property
     def compatible(self) -> bool:
-        """Same protocol version and table hash as this host (a session may go on)."""
+        """Same protocol version and table hash as this host (a session may go on); False for a
+        busy port (not known)."""
         return (
-            self.info.proto_version == msgs.PROTOCOL_VERSION
+            self.info is not None
+            and self.info.proto_version == msgs.PROTOCOL_VERSION
             and self.info.table_hash == msgs.TABLE_HASH
         )
 
     @property
     def state(self) -> str:
+        if self.info is None:
+            return f"busy: in use by another client ({self.holder})"
         i = self.info
         run = "running" if i.running else "idle"
         saved = ", unsaved changes" if i.dirty else ""
         return f"{run}, configuration {i.config_source}{saved}"
 
+    def brief(self) -> str:
+        """The port and its state in a few words (the refusals of `--port auto`)."""
+        if self.info is None:
+            return f"{self.port} (busy: {self.holder})"
+        run = "running" if self.info.running else "idle"
+        return f"{self.port} (firmware {self.info.firmware}, {run})"
+
     def row(self) -> list[str]:
         i = self.info
+        if i is None:
+            return [
+                self.port,
+                "-" if self.node is None else str(self.node),
+                "-",
+                "-",
+                "-",
+                self.state,
+            ]
         proto = f"{i.proto_version}" + ("" if self.compatible else " (host: other)")
         return [
             self.port,
@@ -87,9 +135,13 @@ def serial_ports() -> list[str]:
 
 
 def probe_port(url: str, baud: int = 921_600, timeout_s: float = PROBE_TIMEOUT_S) -> Found | None:
-    """HELLO on one serial URL; the controller there, or None (no answer, does not open)."""
+    """HELLO on one serial URL; the controller there, a busy Found when another client holds
+    the port (nothing is sent: its requests would meet ours), or None (no answer, does not
+    open)."""
     try:
         link = SerialLink(url, baud=baud)
+    except PortBusyError as exc:
+        return Found(port=url, node=None, info=None, holder=exc.holder)
     except BenchError:
         return None
     try:
@@ -108,8 +160,12 @@ def probe_serial(
     timeout_s: float = PROBE_TIMEOUT_S,
     probe: Callable[..., Found | None] = probe_port,
 ) -> tuple[list[Found], list[str]]:
-    """Probe `ports` (default: `serial_ports()`); returns (controllers found, ports probed)."""
-    probed = list(serial_ports() if ports is None else ports)
+    """Probe `ports` (default: `serial_ports()`, then the registered emulators'); returns
+    (controllers found, ports probed)."""
+    if ports is None:
+        listed = serial_ports()
+        ports = listed + [p for p in registered_ports() if p not in listed]
+    probed = list(ports)
     found = [f for f in (probe(url, baud=baud, timeout_s=timeout_s) for url in probed) if f]
     return found, probed
 
@@ -162,15 +218,110 @@ def auto_port(
     """`--port auto`: the URL of the only controller found; BenchError (one line) when there is
     none or when there are several (listing them: which one is for the user to say)."""
     found, probed = probe_serial(ports, baud=baud, timeout_s=timeout_s)
-    if len(found) == 1:
+    if len(found) == 1 and not found[0].busy:
         return found[0].port
     if not found:
         where = f"{len(probed)} serial port(s) probed" if probed else "pyserial lists no ports"
         raise BenchError(f"--port auto: no controller answered HELLO ({where})")
-    names = ", ".join(
-        f"{f.port} (firmware {f.info.firmware}, {'running' if f.info.running else 'idle'})"
-        for f in found
-    )
+    if len(found) == 1:  # what a session there would meet: the holder's refusal
+        f = found[0]
+        raise PortBusyError(
+            f"--port auto: the only controller found, {f.port}, is in use by another client "
+            f"({f.holder}): one client at a time",
+            f.holder or "",
+        )
+    # A busy port counts: which of them the user means is theirs to say.
+    names = ", ".join(f.brief() for f in found)
     raise AmbiguousPortError(
         f"--port auto: {len(found)} controllers found, name one with --port: {names}"
     )
+
+
+# --- emulators' registry -------------------------------------------------------------------------
+
+REGISTRY_PREFIX = "bowden-emulator-"
+_registrations = itertools.count()  # several emulators in one process (tests, scripts)
+
+
+def _process_start(pid: int) -> str | None:
+    """When process `pid` started (clock ticks since boot, /proc/PID/stat's 22nd field): a pid
+    the system gave to a new process since is not the emulator's. None without /proc."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[19]
+    except (OSError, IndexError):
+        return None
+
+
+def _alive(pid: int, start: str | None) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        pass  # alive, another user's (their files are skipped before this)
+    now = _process_start(pid)
+    return start is None or now is None or now == start
+
+
+def register_emulator(urls: dict[str, str]) -> Path | None:
+    """Make an emulator on this process findable by `list` and `--port auto`: its pty and its
+    `socket://` URL (`urls`, as `Emulator.urls` names them) in a registry file. Returns the
+    file, for `unregister_emulator`; None when there is nothing serial to name or the runtime
+    folder cannot be written (the emulator works all the same, named with --port)."""
+    serial = {k: urls[k] for k in ("pty", "socket") if k in urls}
+    if not serial:
+        return None
+    pid = os.getpid()
+    doc = {"pid": pid, "start": _process_start(pid), "urls": serial}
+    path = Path(runtime_dir()) / f"{REGISTRY_PREFIX}{pid}-{next(_registrations)}.json"
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        tmp.write_text(json.dumps(doc) + "\n")
+        os.replace(tmp, path)  # `list` never reads half a file
+    except OSError:
+        tmp.unlink(missing_ok=True)
+        return None
+    return path
+
+
+def unregister_emulator(path: Path | None) -> None:
+    """The emulator ended: `list` no longer finds it."""
+    if path is not None:
+        path.unlink(missing_ok=True)
+
+
+def registered_emulators() -> list[dict]:
+    """The registry's emulators whose process still runs, this user's only, oldest first: each
+    `{"pid", "start", "urls"}`. A stale file (its process gone) is removed."""
+    folder = Path(runtime_dir())
+    entries = []
+    try:
+        paths = sorted(folder.glob(f"{REGISTRY_PREFIX}*.json"))
+    except OSError:
+        return []
+    for path in paths:
+        try:
+            st = path.stat()
+            if st.st_uid != os.getuid():
+                continue
+            doc = json.loads(path.read_text())
+            pid, urls = int(doc["pid"]), dict(doc["urls"])
+        except (OSError, ValueError, KeyError, TypeError):
+            continue  # gone meanwhile, or not a registry file
+        if not _alive(pid, doc.get("start")):
+            path.unlink(missing_ok=True)
+            continue
+        entries.append((st.st_mtime, {"pid": pid, "start": doc.get("start"), "urls": urls}))
+    return [e for _, e in sorted(entries, key=lambda m: m[0])]
+
+
+def registered_ports() -> list[str]:
+    """One URL per registered emulator: its pty, else its `socket://` URL (both lead to the
+    same device: probing both would list it twice)."""
+    ports = []
+    for e in registered_emulators():
+        url = e["urls"].get("pty") or e["urls"].get("socket")
+        if isinstance(url, str) and url not in ports:
+            ports.append(url)
+    return ports

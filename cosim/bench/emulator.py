@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .device import PORT_CAN, ChainConfig, Device, LoopChain
+from .discover import register_emulator, unregister_emulator
 
 PORT_PTY, PORT_TCP, PORT_BUS = 0, 1, 2
 DEFAULT_BAUD = 921_600
@@ -105,7 +106,10 @@ class Emulator:
     """The emulated bench: a Device and its LoopChain in real time, on a pty, TCP and a CAN bus.
 
     Call `start()` (a background thread) or `run()` (this thread, until `stop()` or Ctrl-C);
-    `urls` says where to connect.
+    `urls` says where to connect. `findable`: while it runs, `bowden bench list` and `--port
+    auto` find it (cosim.bench.discover's registry: pyserial cannot list a pty), however it
+    ends (`bowden emulate` is; an emulator a test or a script starts for itself is not, unless
+    it asks).
     """
 
     def __init__(
@@ -121,7 +125,10 @@ class Emulator:
         flash_path: str | Path | None = None,
         identity: tuple[int, int] | None = None,
         max_lag_s: float = 0.05,
+        findable: bool = False,
     ) -> None:
+        self.findable = findable
+        self._registration = None  # the registry file while it is findable
         self.device = Device()
         self.flash_path = Path(flash_path) if flash_path else None
         if self.flash_path is not None and self.flash_path.exists():
@@ -173,6 +180,7 @@ class Emulator:
 
     def start(self) -> Emulator:
         """Run in a background thread; returns self."""
+        self._register()  # findable as soon as start returns
         self._thread = threading.Thread(target=self.run, name="bowden-emulator", daemon=True)
         self._thread.start()
         return self
@@ -189,9 +197,18 @@ class Emulator:
             if link is not None:
                 link.inject_garbage()
 
+    def _register(self) -> None:
+        if self.findable and self._registration is None:
+            self._registration = register_emulator(self.urls)
+
+    def _unregister(self) -> None:
+        registration, self._registration = self._registration, None
+        unregister_emulator(registration)
+
     def run(self) -> None:
         next_t = time.perf_counter()
         last_flash_check = next_t
+        self._register()
         try:
             while not self._stop.is_set():
                 now = time.perf_counter()
@@ -216,6 +233,8 @@ class Emulator:
                 if wait > 0:
                     self._wait_io(min(wait, 0.002))
         finally:
+            # However the loop ends (stop(), Ctrl-C, an error): no longer findable.
+            self._unregister()
             self._save_flash()
 
     # --- links -------------------------------------------------------------------------------
@@ -323,6 +342,7 @@ class Emulator:
             self._flash_image = image
 
     def _close(self) -> None:
+        self._unregister()  # (stopped before it ran, or its thread did not end in time)
         for fd in (self._master, self._slave):
             if fd is not None:
                 try:

@@ -888,6 +888,7 @@ def emulate_main(args: argparse.Namespace) -> int:
             engine=engine,
             flash_path=args.flash,
             identity=identity,
+            findable=True,  # `bowden bench list` and --port auto find its pty
         )
     except (OSError, ValueError, RuntimeError) as exc:
         print(f"bowden emulate: {exc}", file=sys.stderr)

@@ -20,11 +20,11 @@ def add_parsers(sub) -> None:
     """Add `list`, `diff` and `watch` to the `bowden bench` COMMAND subparsers."""
     sub.add_parser(
         "list",
-        help="find controllers: HELLO on every serial port pyserial lists (or the --port "
-        "given), or every node of the --can bus",
+        help="find controllers: HELLO on every serial port pyserial lists and every running "
+        "`bowden emulate` (or the --port given), or every node of the --can bus",
         description="Print every controller that answers HELLO: port, CAN node, firmware, "
         "protocol version, table hash and state. Nothing but HELLO is sent: a run in progress "
-        "goes on.",
+        "goes on. A port another client holds is listed as busy, with the holder's pid.",
     )
     d = sub.add_parser(
         "diff",
@@ -240,7 +240,7 @@ def cmd_list(args, chain=None) -> int:
         print(f"bowden bench list: no controller answered HELLO {where}", file=sys.stderr)
         return 1
     print(discover.table(found))
-    if any(not f.compatible for f in found):
+    if any(not f.busy and not f.compatible for f in found):
         print(
             "note: a controller marked 'host: other' speaks another protocol version or table "
             "than this host: update the host or its firmware before a session"

@@ -3,6 +3,7 @@ controller says, a device of another table marked, a run in progress left runnin
 cases (none found, several found) in one line each. pyserial cannot list ptys or socket:// URLs,
 so the tests hand their ports to `discover.serial_ports`."""
 
+import json
 import os
 
 import pytest
@@ -30,6 +31,16 @@ def silent_pty():
     yield os.ttyname(slave)
     os.close(master)
     os.close(slave)
+
+
+@pytest.fixture(autouse=True)
+def own_runtime_dir(monkeypatch, tmp_path):
+    """Locks and the emulators' registry in this test's own folder: a `bowden emulate` of
+    someone else on this machine is not found here, nor are this test's emulators there."""
+    folder = tmp_path / "runtime"
+    folder.mkdir()
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(folder))
+    return folder
 
 
 def _ports(monkeypatch, ports):
@@ -121,3 +132,125 @@ def test_list_finds_every_node_of_a_can_bus(capsys):
         five.stop()
     assert bench_cli(["bench", "--can", f"virtual:empty_{os.getpid()}", "list"]) == 1
     assert "no controller answered HELLO on virtual:empty" in capsys.readouterr().err
+
+
+def test_list_names_a_busy_port_and_its_holder(two_emulators, monkeypatch, capsys):
+    """A port another client records on is listed as busy with the holder's pid (its lock says
+    who), not skipped as if no controller were there; nothing is sent to it."""
+    a, b = two_emulators
+    owner = BenchClient(SerialLink(a.urls["pty"]))
+    owner.connect()
+    owner.set("source", "wave")
+    owner.simple("START", duration_ticks=5000)
+    try:
+        _ports(monkeypatch, [a.urls["pty"]])
+        assert bench_cli(["bench", "list"]) == 0
+        out = capsys.readouterr().out.splitlines()
+        assert len(out) == 2 and out[1].split()[:5] == [a.urls["pty"], "-", "-", "-", "-"]
+        assert f"busy: in use by another client (pid {os.getpid()}:" in out[1]
+        # --port auto: the only controller is busy: the holder's refusal, as a session meets it.
+        assert bench_cli(["bench", "--port", "auto", "info"]) == 1
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1
+        assert f"{a.urls['pty']}, is in use by another client (pid {os.getpid()}:" in err
+        # With another controller beside it, which one is meant is the user's to say.
+        _ports(monkeypatch, [a.urls["pty"], b.urls["socket"]])
+        assert bench_cli(["bench", "--port", "auto", "info"]) == 2
+        err = capsys.readouterr().err
+        assert "2 controllers found" in err and f"{a.urls['pty']} (busy: pid {os.getpid()}" in err
+        assert b.urls["socket"] in err
+        assert owner.hello().running  # the run went on
+    finally:
+        owner.request("STOP")
+        owner.link.close()
+
+
+def test_list_and_port_auto_find_a_registered_emulator(monkeypatch, capsys, own_runtime_dir):
+    """pyserial cannot list a pty: a findable emulator names its own in the runtime folder while
+    it runs, and the file goes when it stops."""
+    _ports(monkeypatch, [])
+    emu = Emulator(tcp_port=0, findable=True).start()
+    try:
+        assert [e["urls"] for e in discover.registered_emulators()] == [emu.urls]
+        assert bench_cli(["bench", "list"]) == 0
+        rows = capsys.readouterr().out.splitlines()[1:]
+        assert [r.split()[0] for r in rows] == [emu.urls["pty"]]  # once, not once a URL
+        assert bench_cli(["bench", "--port", "auto", "info"]) == 0
+        assert f"device        {emu.urls['pty']}" in capsys.readouterr().out
+    finally:
+        emu.stop()
+    assert list(own_runtime_dir.glob("bowden-emulator-*")) == []
+    assert bench_cli(["bench", "list"]) == 1
+    assert "no controller answered HELLO" in capsys.readouterr().err
+
+
+def test_a_stale_registration_is_ignored_and_removed(monkeypatch, capsys, own_runtime_dir):
+    """An emulator killed outright leaves its file: its process is gone, so `list` does not
+    probe its URLs (a later device there is not that emulator) and removes the file."""
+    import subprocess
+    import sys
+
+    _ports(monkeypatch, [])
+    gone = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    emu = Emulator(tcp_port=0, pty=False).start()  # answers, but is not the registered one
+    stale = own_runtime_dir / "bowden-emulator-1-0.json"
+    stale.write_text(
+        json.dumps({"pid": int(gone.stdout), "start": None, "urls": {"socket": emu.urls["socket"]}})
+    )
+    try:
+        assert discover.registered_ports() == []
+        assert not stale.exists()
+        stale.write_text(
+            json.dumps(
+                {"pid": int(gone.stdout), "start": None, "urls": {"socket": emu.urls["socket"]}}
+            )
+        )
+        assert bench_cli(["bench", "list"]) == 1
+        assert "no controller answered HELLO" in capsys.readouterr().err
+        # The same pid given to a new process since (its start time differs): stale too.
+        stale.write_text(
+            json.dumps({"pid": os.getpid(), "start": "1", "urls": {"socket": emu.urls["socket"]}})
+        )
+        assert discover.registered_ports() == []
+    finally:
+        emu.stop()
+
+
+def test_bowden_emulate_is_findable_until_it_ends(own_runtime_dir, monkeypatch):
+    """`bowden emulate` registers itself; SIGTERM (its usual end) removes the file, SIGKILL
+    leaves one that `list` finds stale."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    _ports(monkeypatch, [])
+    env = {**os.environ, "XDG_RUNTIME_DIR": str(own_runtime_dir)}
+    for sig, left in ((signal.SIGTERM, 0), (signal.SIGKILL, 1)):
+        emu = subprocess.Popen(
+            [sys.executable, "-m", "cosim.bench", "emulate", "--no-tcp"],
+            env=env,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            lines = [emu.stdout.readline() for _ in range(2)]
+            pty = lines[1].split("--port ")[1].split()[0]
+            deadline = time.monotonic() + 10
+            while not discover.registered_ports() and time.monotonic() < deadline:
+                time.sleep(0.05)
+            assert discover.registered_ports() == [pty]
+            # It answers (and is past its start, where a signal ends it before its handler is
+            # in place: the file that leaves is stale, and found so, as after SIGKILL).
+            assert discover.probe_port(pty) is not None
+        finally:
+            emu.send_signal(sig)
+            emu.wait(timeout=10)
+            emu.stdout.close()
+        assert len(list(own_runtime_dir.glob("bowden-emulator-*"))) == left, sig
+        assert discover.registered_ports() == []
