@@ -66,6 +66,11 @@ class Param:
     hi: int
     key: int
     doc: str
+    # The words the device's settings check accepts for this parameter alone: the register
+    # map's limits or the range the firmware's header documents, else the word's range;
+    # other parameters may narrow it (comp.lead_ticks <= comp.preview_ticks).
+    accept_lo: int
+    accept_hi: int
 
 
 MESSAGES: dict[str, Message] = {
@@ -478,6 +483,8 @@ PARAMS: tuple[Param, ...] = (
         4294967295,
         0x9FA6DCB9,
         "processor tick, [1, 65535] Hz; default 1000",
+        1,
+        65535,
     ),
     Param(
         1,
@@ -491,7 +498,9 @@ PARAMS: tuple[Param, ...] = (
         0,
         4294967295,
         0xC95B340E,
-        "FPGA loop sample rate, for the watchdog check; default 10000",
+        "FPGA loop sample rate, for the watchdog check, [1, 1000000] Hz; default 10000",
+        1,
+        1000000,
     ),
     Param(
         2,
@@ -506,6 +515,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0xA3A22F95,
         "FW_SOURCE_*",
+        -2147483648,
+        2147483647,
     ),
     Param(
         3,
@@ -520,6 +531,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0x2B8AB633,
         "COMP_MODE_*",
+        -2147483648,
+        2147483647,
     ),
     Param(
         4,
@@ -534,6 +547,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0x8128A1C1,
         "friction coefficient mu, Q3.28, [0, 1]",
+        0,
+        268435456,
     ),
     Param(
         5,
@@ -548,6 +563,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0xFFF98FEF,
         "total bending angle phi, Q7.24 rad, [0, 4*pi]",
+        0,
+        210828714,
     ),
     Param(
         6,
@@ -562,6 +579,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0x83277C36,
         "d(mu)/d|T|, Q3.28 per N, [-1/128, 1/128]",
+        -2097152,
+        2097152,
     ),
     Param(
         7,
@@ -576,6 +595,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0xAFE1A4A2,
         "output sensor offset, Q7.8 N, [-64, 64]",
+        -16384,
+        16384,
     ),
     Param(
         8,
@@ -590,6 +611,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0x255601BB,
         "detector band H, Q7.8 N, [1/256, 32]",
+        1,
+        8192,
     ),
     Param(
         9,
@@ -604,6 +627,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0xA4443E8C,
         "smooth inverse band B, Q7.8 N, [1/256, 128]",
+        1,
+        32768,
     ),
     Param(
         10,
@@ -618,6 +643,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0xE51DDAF4,
         "floor of T_c (minimum pretension), Q7.8 N, [0, 64]",
+        0,
+        16384,
     ),
     Param(
         11,
@@ -632,6 +659,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0xAE88E68E,
         "PREVIEW: P, how far ahead the input is, [0, 128] ticks",
+        0,
+        128,
     ),
     Param(
         12,
@@ -645,7 +674,9 @@ PARAMS: tuple[Param, ...] = (
         -2147483648,
         2147483647,
         0x41FCA257,
-        "PREVIEW: L, the reference the gain applies to, [0, P]",
+        "PREVIEW: L, the gain's reference, [0, 128] and at most P",
+        0,
+        128,
     ),
     Param(
         13,
@@ -660,6 +691,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0xBEEC108A,
         "PREVIEW: D, ticks of a change of branch, [1, 256]",
+        1,
+        256,
     ),
     Param(
         14,
@@ -674,6 +707,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0xDB6411EB,
         "WAVE_*",
+        -2147483648,
+        2147483647,
     ),
     Param(
         15,
@@ -688,6 +723,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0xFFCCD848,
         "Q7.8 N, [-128, 127.996]",
+        -32768,
+        32767,
     ),
     Param(
         16,
@@ -702,6 +739,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0x931F3DB7,
         "Q7.8 N, [0, 128]; mean +- amplitude saturates to Q7.8",
+        0,
+        32768,
     ),
     Param(
         17,
@@ -716,6 +755,8 @@ PARAMS: tuple[Param, ...] = (
         4294967295,
         0xBC9D67C4,
         "UQ16.16 Hz, [0, rate/2]",
+        0,
+        4294967295,
     ),
     Param(
         18,
@@ -730,6 +771,8 @@ PARAMS: tuple[Param, ...] = (
         4294967295,
         0x6B1E8780,
         "initial phase, UQ0.32 turns",
+        0,
+        4294967295,
     ),
     Param(
         19,
@@ -747,6 +790,8 @@ PARAMS: tuple[Param, ...] = (
             "Feedforward gain r/(N*eta*k_t). Kff; reset 0.088 A/N (the paper's bench: 10 mm "
             "spool, 5.4:1 gearhead at 0.9, k_t 23.4 mNm/A)"
         ),
+        0,
+        32767,
     ),
     Param(
         20,
@@ -764,6 +809,8 @@ PARAMS: tuple[Param, ...] = (
             "Proportional gain. Kp; reset 0.1 A/N (bowden tune on the ADS131M02 board chain: Kp "
             "margin x3.05)"
         ),
+        0,
+        32767,
     ),
     Param(
         21,
@@ -781,6 +828,8 @@ PARAMS: tuple[Param, ...] = (
             "Integral gain times the sample period. Ki*Ts, LSB 2^-20 A/N, range +-1/32; reset "
             "2.5e-4 (Ki 2.5 A/(N s) at 10 kHz, bowden tune)"
         ),
+        0,
+        32767,
     ),
     Param(
         22,
@@ -795,6 +844,8 @@ PARAMS: tuple[Param, ...] = (
         32767,
         0x9E5341BF,
         "Output saturation. |u| limit; reset 4 A (ESCON 36/2 peak current)",
+        0,
+        32767,
     ),
     Param(
         23,
@@ -809,6 +860,8 @@ PARAMS: tuple[Param, ...] = (
         32767,
         0x5713FC1B,
         ("Slew limit of T_c (used when CTRL.SLEW_EN). Max change of T_c per sample; reset 0.5 N"),
+        0,
+        32767,
     ),
     Param(
         24,
@@ -827,6 +880,8 @@ PARAMS: tuple[Param, ...] = (
             "write-1 pulses applied at the next sample tick and read as 0. Limit the change of "
             "T_c per sample to SLEW"
         ),
+        0,
+        1,
     ),
     Param(
         25,
@@ -841,6 +896,8 @@ PARAMS: tuple[Param, ...] = (
         65535,
         0xB91E18F1,
         "Watchdog timeout. Samples without a TC write before the watchdog fault; 0 disables",
+        0,
+        65535,
     ),
     Param(
         26,
@@ -855,6 +912,8 @@ PARAMS: tuple[Param, ...] = (
         8388607,
         0xBBDFD4B5,
         "Raw ADC code at zero tension. Offset subtracted from the raw code",
+        -8388608,
+        8388607,
     ),
     Param(
         27,
@@ -872,6 +931,8 @@ PARAMS: tuple[Param, ...] = (
             "T_in[Q7.8] = sat16(round((raw - ADC_OFFSET) * ADC_GAIN / 2^20)). Gain; reset 2^-9 "
             "LSB/code: +-2^23 codes = +-64 N"
         ),
+        -32768,
+        32767,
     ),
     Param(
         28,
@@ -889,6 +950,8 @@ PARAMS: tuple[Param, ...] = (
             "Lowest valid raw code. Codes below are an ADC_RANGE fault; reset excludes the "
             "clipped -2^23"
         ),
+        -8388608,
+        8388607,
     ),
     Param(
         29,
@@ -906,6 +969,8 @@ PARAMS: tuple[Param, ...] = (
             "Highest valid raw code. Codes above are an ADC_RANGE fault; reset excludes the "
             "clipped 2^23-1"
         ),
+        -8388608,
+        8388607,
     ),
     Param(
         30,
@@ -923,6 +988,8 @@ PARAMS: tuple[Param, ...] = (
             "ADC stale limit. Consecutive samples without a valid ADC sample before the fault; 0 "
             "disables"
         ),
+        0,
+        65535,
     ),
     Param(
         31,
@@ -940,6 +1007,8 @@ PARAMS: tuple[Param, ...] = (
             "Over-current command limit. Consecutive saturated samples before the OVERCURRENT "
             "fault; 0 disables"
         ),
+        0,
+        65535,
     ),
     Param(
         32,
@@ -947,13 +1016,15 @@ PARAMS: tuple[Param, ...] = (
         "fw.loop.kv",
         False,
         24,
-        "",
+        "A s/N",
         None,
         False,
         -2147483648,
         2147483647,
         0xD85D9185,
-        "rate feedforward gain, A s/N, Q7.24 in [0, FW_KV_MAX]; 0: off",
+        "rate feedforward gain, A s/N, Q7.24, [0, 1/16] (FW_KV_MAX); 0: off",
+        0,
+        1048576,
     ),
     Param(
         33,
@@ -961,13 +1032,15 @@ PARAMS: tuple[Param, ...] = (
         "fw.loop.uff_limit",
         False,
         12,
-        "",
+        "A",
         None,
         False,
         -2147483648,
         2147483647,
         0x50623590,
-        "|UFF| bound, UQ3.12 A",
+        "|UFF| bound, UQ3.12 A, [0, 7.9998] (UFF's positive range)",
+        0,
+        32767,
     ),
     Param(
         34,
@@ -981,7 +1054,9 @@ PARAMS: tuple[Param, ...] = (
         -2147483648,
         2147483647,
         0xAB95BB8A,
-        "0 off (default), 1 on",
+        "[0, 1]: 0 off (default), 1 on",
+        0,
+        1,
     ),
     Param(
         35,
@@ -996,6 +1071,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0x1106A0C1,
         "forgetting time constant, accepted samples, 2^s in [16, 32768]",
+        16,
+        32768,
     ),
     Param(
         36,
@@ -1003,13 +1080,15 @@ PARAMS: tuple[Param, ...] = (
         "fw.est.rate_q28",
         False,
         28,
-        "",
+        "per tick",
         None,
         False,
         -2147483648,
         2147483647,
         0x2B1E7F15,
         "largest change of the estimate per tick, Q3.28, [0, 1/16]",
+        0,
+        16777216,
     ),
     Param(
         37,
@@ -1023,7 +1102,9 @@ PARAMS: tuple[Param, ...] = (
         -2147483648,
         2147483647,
         0x43E48277,
-        "lower bound of mu*phi, Q3.28, [0, 4]",
+        "lower bound of mu*phi, Q3.28, [0, 4), below max",
+        0,
+        1073741823,
     ),
     Param(
         38,
@@ -1037,7 +1118,9 @@ PARAMS: tuple[Param, ...] = (
         -2147483648,
         2147483647,
         0xE80F6148,
-        "upper bound of mu*phi, Q3.28, (min, 4]",
+        "upper bound of mu*phi, Q3.28, (0, 4], above min",
+        1,
+        1073741824,
     ),
     Param(
         39,
@@ -1052,6 +1135,8 @@ PARAMS: tuple[Param, ...] = (
         2147483647,
         0x2CD88E0D,
         "minimum tension on both cells, Q7.8 N, [0, 64]",
+        0,
+        16384,
     ),
     Param(
         40,
@@ -1066,6 +1151,8 @@ PARAMS: tuple[Param, ...] = (
         4294967295,
         0xA4E9F30A,
         "telemetry every N ticks, [1, 1000]; default 1",
+        1,
+        1000,
     ),
     Param(
         41,
@@ -1080,6 +1167,8 @@ PARAMS: tuple[Param, ...] = (
         4294967295,
         0xC4FD1CC2,
         "CAN node id, [0, 63]; default 1",
+        0,
+        63,
     ),
 )
 PARAM_BY_NAME: dict[str, Param] = {p.name: p for p in PARAMS}

@@ -137,7 +137,7 @@ typedef struct {
     q7_8w_t band_n_q8;             /* smooth inverse band B, Q7.8 N, [1/256, 128] */
     q7_8w_t tc_min_n_q8;           /* floor of T_c (minimum pretension), Q7.8 N, [0, 64] */
     int32_t preview_ticks;         /* PREVIEW: P, how far ahead the input is, [0, 128] ticks */
-    int32_t lead_ticks;            /* PREVIEW: L, the reference the gain applies to, [0, P] */
+    int32_t lead_ticks;            /* PREVIEW: L, the gain's reference, [0, 128] and at most P */
     int32_t ramp_ticks;            /* PREVIEW: D, ticks of a change of branch, [1, 256] */
 } comp_config_t;
 

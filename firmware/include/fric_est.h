@@ -91,11 +91,11 @@
 
 /* Configuration (a part of fw_config_t; parameters est.*). */
 typedef struct {
-    int32_t enable;          /* 0 off (default), 1 on */
+    int32_t enable;          /* [0, 1]: 0 off (default), 1 on */
     int32_t tau_ticks;       /* forgetting time constant, accepted samples, 2^s in [16, 32768] */
     q3_28_t rate_q28;        /* largest change of the estimate per tick, Q3.28, [0, 1/16] */
-    q3_28_t mu_phi_min_q28;  /* lower bound of mu*phi, Q3.28, [0, 4] */
-    q3_28_t mu_phi_max_q28;  /* upper bound of mu*phi, Q3.28, (min, 4] */
+    q3_28_t mu_phi_min_q28;  /* lower bound of mu*phi, Q3.28, [0, 4), below max */
+    q3_28_t mu_phi_max_q28;  /* upper bound of mu*phi, Q3.28, (0, 4], above min */
     q7_8w_t t_min_n_q8;      /* minimum tension on both cells, Q7.8 N, [0, 64] */
 } fric_est_config_t;
 

@@ -73,13 +73,14 @@ typedef struct {
     int32_t adc_max;      /* ADC_MAX, code */
     int32_t adc_stale;    /* ADC_STALE, samples */
     int32_t oc_timeout;   /* OC_TIMEOUT, samples */
-    int32_t kv;           /* rate feedforward gain, A s/N, Q7.24 in [0, FW_KV_MAX]; 0: off */
-    int32_t uff_limit;    /* |UFF| bound, UQ3.12 A */
+    int32_t kv;           /* rate feedforward gain, A s/N, Q7.24, [0, 1/16] (FW_KV_MAX); 0: off */
+    int32_t uff_limit;    /* |UFF| bound, UQ3.12 A, [0, 7.9998] (UFF's positive range) */
 } fw_loop_config_t;
 
 typedef struct {
     uint32_t tick_rate_hz;   /* processor tick, [1, 65535] Hz; default 1000 */
-    uint32_t sample_rate_hz; /* FPGA loop sample rate, for the watchdog check; default 10000 */
+    uint32_t sample_rate_hz; /* FPGA loop sample rate, for the watchdog check, [1, 1000000] Hz;
+                                default 10000 */
     int32_t source;          /* FW_SOURCE_* */
     comp_config_t comp;
     wave_config_t wave;

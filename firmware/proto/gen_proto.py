@@ -23,8 +23,10 @@ Usage: gen_proto.py [--check]   (--check: exit 1 naming every output that is sta
 
 from __future__ import annotations
 
+import ast
 import hashlib
 import json
+import math
 import re
 import struct
 import subprocess
@@ -127,6 +129,10 @@ class Param:
     lo: int | None = None  # word range where known (register fields), else the C type's
     hi: int | None = None
     register: str | None = None
+    # The words the device's check accepts for this parameter alone (the register map's limits,
+    # or the range its header documents); others may narrow it (lead_ticks <= preview_ticks).
+    accept_lo: int | None = None
+    accept_hi: int | None = None
 
     @property
     def key(self) -> int:
@@ -252,6 +258,54 @@ def _enum_for(doc: str, headers_text: str) -> dict[str, int] | None:
     return values or None
 
 
+# A documented range: [lo, hi], ( or ) for an end that is left out, each end a number, a fraction
+# or a product with pi ("[1/256, 32]", "(0, 4]", "[0, 4*pi]").
+_RANGE_RE = re.compile(r"([\[(])\s*([-+*/.\w ]+?)\s*,\s*([-+*/.\w ]+?)\s*([\])])")
+
+
+def _si_number(text: str) -> float | None:
+    """A range end as the headers write it: numbers, pi, + - * /; None for anything else (a
+    bound named after another field, "P", "rate/2", is not a range of the field alone)."""
+    try:
+        tree = ast.parse(text, mode="eval").body
+    except SyntaxError:
+        return None
+
+    def ev(node) -> float:
+        if isinstance(node, ast.Constant) and isinstance(node.value, int | float):
+            return float(node.value)
+        if isinstance(node, ast.Name) and node.id == "pi":
+            return math.pi
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub | ast.UAdd):
+            v = ev(node.operand)
+            return -v if isinstance(node.op, ast.USub) else v
+        if isinstance(node, ast.BinOp) and isinstance(
+            node.op, ast.Add | ast.Sub | ast.Mult | ast.Div
+        ):
+            a, b = ev(node.left), ev(node.right)
+            ops = {ast.Add: a + b, ast.Sub: a - b, ast.Mult: a * b}
+            return ops[type(node.op)] if type(node.op) in ops else a / b
+        raise ValueError(text)
+
+    try:
+        return ev(tree)
+    except (ValueError, ZeroDivisionError):
+        return None
+
+
+def doc_range(doc: str, frac: int) -> tuple[int, int] | None:
+    """The words of the first range a member's comment documents, its ends rounded to the nearest
+    word (the headers round their decimals: 127.996 N is the Q7.8 word 32767); an open end is
+    one word inside. tests/bench checks each against the device's own check."""
+    for m in _RANGE_RE.finditer(doc):
+        lo, hi = _si_number(m.group(2)), _si_number(m.group(3))
+        if lo is None or hi is None:
+            continue
+        lo_w, hi_w = round(lo * (1 << frac)), round(hi * (1 << frac))
+        return lo_w + (m.group(1) == "("), hi_w - (m.group(4) == ")")
+    return None
+
+
 def load_params(raw: dict, regmap: dict) -> list[Param]:
     cfg = raw["params"]
     structs, headers_text = _parse_headers([ROOT / h for h in cfg["headers"]])
@@ -295,13 +349,17 @@ def load_params(raw: dict, regmap: dict) -> list[Param]:
                 # The register map's documented limits, where it gives them (gains >= 0).
                 p.lo, p.hi = max(p.lo, fld.get("min", p.lo)), min(p.hi, fld.get("max", p.hi))
                 p.doc = f"{reg['doc']} {fld['doc']}"
+                p.accept_lo, p.accept_hi = p.lo, p.hi
             else:
                 fm = _FORMAT_RE.search(doc)
                 p.frac = int(fm.group(1)) if fm else 0
                 for suffix, unit in suffix_units.items():
                     if uname.endswith(suffix):
                         p.unit = unit
+                p.unit = cfg.get("units", {}).get(uname, p.unit)
                 p.enum = _enum_for(doc, headers_text)
+                if p.enum is None and (rng := doc_range(doc, p.frac)) is not None:
+                    p.accept_lo, p.accept_hi = rng
             params.append(p)
 
     walk(cfg["root"]["struct"], [], [])
@@ -315,6 +373,9 @@ def load_params(raw: dict, regmap: dict) -> list[Param]:
     missing = set(cfg["read_only"]) - set(names)
     if missing:
         raise ValueError(f"params.read_only names unknown parameters {sorted(missing)}")
+    missing = set(cfg.get("units", {})) - set(names)
+    if missing:
+        raise ValueError(f"params.units names unknown parameters {sorted(missing)}")
     return params
 
 
@@ -716,6 +777,11 @@ def gen_py(spec: Spec) -> str:
     w("    hi: int")
     w("    key: int")
     w("    doc: str")
+    w("    # The words the device's settings check accepts for this parameter alone: the register")
+    w("    # map's limits or the range the firmware's header documents, else the word's range;")
+    w("    # other parameters may narrow it (comp.lead_ticks <= comp.preview_ticks).")
+    w("    accept_lo: int")
+    w("    accept_hi: int")
     w("")
     w("")
     w("MESSAGES: dict[str, Message] = {")
@@ -785,6 +851,8 @@ def gen_py(spec: Spec) -> str:
                 sep = " " if i < len(chunks) - 1 else ""
                 w(f'            "{c}{sep}"')
             w("        ),")
+        w(f"        {p.accept_lo if p.accept_lo is not None else lo},")
+        w(f"        {p.accept_hi if p.accept_hi is not None else hi},")
         w("    ),")
     w(")")
     w("PARAM_BY_NAME: dict[str, Param] = {p.name: p for p in PARAMS}")
@@ -912,8 +980,8 @@ def gen_md(spec: Spec) -> str:
     w("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for p in spec.params:
         vals = ", ".join(f"{k}={v}" for k, v in p.enum.items()) if p.enum else ""
-        if p.lo is not None:
-            vals = vals or f"word {p.lo}..{p.hi}"
+        if p.accept_lo is not None:
+            vals = vals or f"word {p.accept_lo}..{p.accept_hi}"
         ro = " RO" if p.read_only else ""
         kind = ("u32" if p.ctype == "uint32_t" else "i32") + ro
         w(f"| {p.id} | {p.name} | {p.cpath} | {kind} | {p.frac} | {p.unit} | {vals} | {p.doc} |")
