@@ -128,22 +128,44 @@ def test_sweep_killed_midway_resumes_and_matches_single_runs(native, tmp_path):
             assert r["rms_error_pct"] < twin["rms_error_pct"], (r, twin)
 
 
-def test_sweep_records_a_failed_point_and_goes_on(native, tmp_path):
+def test_sweep_records_a_failed_point_and_goes_on(native, tmp_path, monkeypatch):
     """A point whose run fails (an end-effector beyond the 1 m sheath's reach) is a row with
-    its error; the next point runs."""
+    its error; the next point runs. The worker's part only returns the rows (it writes nothing,
+    in its folder or elsewhere); the client writes them."""
     data = {
         "scenario": "fig14",
         "duration_s": 0.05,
         "axes": {"position_m": [[0, 1.5, 0], [0, 0.5, 0]]},
     }
     far, near = parse_spec(data).points()
-    row = sweep_run.run_point(data, far.values, str(tmp_path), far.run_key)
+    worker_dir = tmp_path / "worker"
+    worker_dir.mkdir()
+    monkeypatch.chdir(worker_dir)
+    row = sweep_run.run_point(data, far.values, far.run_key)
     assert row["status"] == "failed" and row["error"], row
     assert "\n" not in row["error"]
-    ok = sweep_run.run_point(data, near.values, str(tmp_path), near.run_key)
+    ok = sweep_run.run_point(data, near.values, near.run_key)
     assert ok["status"] == "ok", ok
-    done = sweep_run.done_points(tmp_path)
+    assert list(worker_dir.iterdir()) == []
+    out = tmp_path / "out"
+    sweep_run.write_point(out, far, row)
+    sweep_run.write_point(out, near, ok)
+    done = sweep_run.done_points(out)
     assert done[far.point_id]["status"] == "failed" and done[near.point_id]["status"] == "ok"
+
+
+def test_a_sweep_missing_points_after_its_run_is_an_error_not_a_short_table(
+    native, tmp_path, monkeypatch
+):
+    """Points that have no result once the cluster is done (written somewhere the client does
+    not see, say) make the sweep fail naming how many, not return a shorter table (it wrote a
+    table of 0 points and exited 0)."""
+    monkeypatch.setattr(sweep_run, "_dask_run", lambda *args: None)  # runs, returns nothing
+    data = {"scenario": "fig14", "duration_s": 0.05, "axes": {"compensator": ["paper", "smooth"]}}
+    with pytest.raises(sweep_run.SweepIncompleteError) as info:
+        sweep_run.run_sweep(parse_spec(data), data, tmp_path / "out", progress=False, log=str)
+    msg = str(info.value)
+    assert "\n" not in msg and "2 of the 2 points have no result" in msg, msg
 
 
 @pytest.mark.parametrize(

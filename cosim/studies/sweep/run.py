@@ -1,12 +1,19 @@
 """Run a sweep on Dask: one native closed-loop run per point (cosim/native), one result file per
 point, one table at the end.
 
-Resumable by construction: each point's figures are written by the worker that ran it, to
+A worker only runs a point and returns its row through Dask; the client writes it. So a worker
+needs the project (installed and built) but never the sweep's output folder: on a cluster whose
+workers run in another folder or on another machine, every result still ends in the client's
+--out.
+
+Resumable by construction: the client writes each point's row as its result arrives, to
 OUT/points/<point id>.json, atomically (a temporary file renamed into place), so a sweep killed
 at any moment keeps every finished point and loses at most the runs in flight. A restart lists
 the files, submits only the points that have none, and assembles the table (OUT/sweep.parquet)
 from all of them. A point whose run fails is a result too (status "failed" and the error), and
-the sweep goes on; it is not retried on resume (the same inputs fail the same way).
+the sweep goes on; it is not retried on resume (the same inputs fail the same way). A point whose
+result never comes back (the scheduler lost, the client's connection cut) is no result: nothing
+is written for it, and the sweep says how many came back and exits non-zero (SweepIncompleteError).
 """
 
 from __future__ import annotations
@@ -42,9 +49,10 @@ def build_id() -> str:
     return h.hexdigest()[:16]
 
 
-def run_point(spec_dict: dict, values: dict, out_dir: str, run_key: str = "") -> dict:
-    """Run one point (in a Dask worker) and write its result file; return the row. run_key:
-    the client's SweepSpec.run_key (the point's id covers it)."""
+def run_point(spec_dict: dict, values: dict, run_key: str = "") -> dict:
+    """Run one point (in a Dask worker) and return its row; nothing is written here (the
+    client writes the row: write_point). run_key: the client's SweepSpec.run_key (the point's
+    id covers it)."""
     from .spec import parse_spec  # noqa: PLC0415
 
     point = Point(values, run_key)
@@ -60,7 +68,6 @@ def run_point(spec_dict: dict, values: dict, out_dir: str, run_key: str = "") ->
         row["error"] = f"{type(exc).__name__}: {msg[0] if msg else ''}"[:500]
         row["traceback_tail"] = traceback.format_exc().splitlines()[-1][:500]
     row["wall_s"] = time.perf_counter() - t0
-    write_point(Path(out_dir), point, row)
     return row
 
 
@@ -104,6 +111,10 @@ def _run(spec: SweepSpec, point: Point) -> dict:
 
 
 RUN_FILE = "run.json"  # the run context (SweepSpec.run_context) of the points in a folder
+
+
+class SweepIncompleteError(RuntimeError):
+    """Fewer results came back from Dask than points were run (one line: how many, and why)."""
 
 
 class OutDirMismatchError(ValueError):
@@ -212,7 +223,7 @@ def run_sweep(
     spec.build_id = build_id()
     check_out_dir(spec, out_dir)  # before anything is written there
     out_dir.mkdir(parents=True, exist_ok=True)
-    (out_dir / "spec.json").write_text(json.dumps(spec_dict, indent=2, sort_keys=True))
+    _write_json(out_dir / "spec.json", spec_dict)
     _write_json(out_dir / RUN_FILE, spec.run_context())
     points = spec.points()
     have = done_points(out_dir)
@@ -223,7 +234,13 @@ def run_sweep(
     if todo:
         _dask_run(todo, spec_dict, out_dir, scheduler, workers, progress, log)
     have = done_points(out_dir)
-    return [have[p.point_id] for p in points if p.point_id in have]
+    missing = sum(p.point_id not in have for p in points)
+    if missing:  # a table without them would look whole
+        raise SweepIncompleteError(
+            f"{missing} of the {len(points)} points have no result in {out_dir / POINTS_DIR} "
+            "after the run: the same command again runs them"
+        )
+    return [have[p.point_id] for p in points]
 
 
 # Dask's connection timeouts (30 s by default) for a cluster on a loaded machine: starting a
@@ -236,12 +253,18 @@ DASK_TIMEOUTS = {
 
 def _dask_run(todo, spec_dict, out_dir, scheduler, workers, progress, log) -> None:
     import dask  # noqa: PLC0415
+    from distributed.utils import silence_logging_cmgr  # noqa: PLC0415
 
-    with dask.config.set(DASK_TIMEOUTS):
+    # Only critical lines from Dask's own loggers, as from the local cluster's (below): what the
+    # client logs at ERROR is its connection lost with the scheduler (a traceback per attempt to
+    # connect again), which the sweep reports itself in one line (SweepIncompleteError).
+    with dask.config.set(DASK_TIMEOUTS), silence_logging_cmgr(logging.CRITICAL):
         _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log)
 
 
 def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log) -> None:
+    from concurrent.futures import CancelledError  # noqa: PLC0415 (distributed's is one)
+
     from distributed import Client, LocalCluster, as_completed  # noqa: PLC0415
 
     cluster = None
@@ -273,31 +296,44 @@ def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log) ->
         )
         client = Client(cluster)
     try:
-        log(f"sweep: Dask scheduler {client.scheduler.address}")
+        address = client.scheduler.address
+        log(f"sweep: Dask scheduler {address}")
+        if scheduler and not client.scheduler_info().get("workers"):
+            log("sweep: the scheduler has no workers yet: the points wait for one to join")
         futures = {
             client.submit(
                 run_point,
                 spec_dict,
                 p.values,
-                str(out_dir),
                 p.run_key,
                 key=f"point-{p.point_id}-{time.time_ns()}",
             ): p
             for p in todo
         }
-        done = failed = 0
+        gathered = failed = 0
+        lost = ""  # why the last result that never came back did not
         t0 = time.perf_counter()
         for fut in as_completed(futures):
+            point = futures[fut]
             try:
                 row = fut.result()
+            except CancelledError as exc:  # no result: the scheduler or the connection lost
+                lost = getattr(exc, "reason", None) or "cancelled"
+                continue
             except Exception as exc:  # noqa: BLE001 (the task itself failed: recorded, go on)
-                row = failed_row(futures[fut], exc)
-                write_point(out_dir, futures[fut], row)
-            done += 1
+                row = failed_row(point, exc)
+            write_point(out_dir, point, row)  # here, by the client alone, as each one arrives
+            gathered += 1
             failed += row["status"] != "ok"
             if progress:
-                rate = done / max(1e-9, time.perf_counter() - t0)
-                log(f"sweep: {done}/{len(todo)} points ({failed} failed), {rate:.2f} points/s")
+                rate = gathered / max(1e-9, time.perf_counter() - t0)
+                log(f"sweep: {gathered}/{len(todo)} points ({failed} failed), {rate:.2f} points/s")
+        if gathered < len(todo):
+            raise SweepIncompleteError(
+                f"only {gathered} of the {len(todo)} points run came back from the Dask "
+                f"scheduler {address} (the others: {lost or 'no result'}); the points that came "
+                f"back are kept in {out_dir / POINTS_DIR}, and the same command again runs the rest"
+            )
     finally:
         client.close()
         if cluster is not None:
