@@ -5,11 +5,11 @@ scenario settings, end-effector position, plant parameters, gains and compensato
 of the native engine (cosim/engines/native); the command line is cosim/cli/sweep.py. The points run
 on a Dask cluster: by default a LocalCluster with one single-threaded worker process per core of
 this machine; `--scheduler tcp://HOST:PORT` sends the same sweep to a running cluster (its workers
-need this project installed and built, with
-BOWDEN_ROOT pointing at it). Outputs in DIR:
+need this project installed and built, but not DIR: each returns its points' rows through Dask).
+Outputs in DIR, written by `bowden sweep` alone:
 
-- ``points/<id>.json``: one file per finished point, written atomically by the worker (a killed
-  sweep restarts where it stopped: `bowden sweep` again with the same SPEC and DIR);
+- ``points/<id>.json``: one file per finished point, written atomically as its result arrives (a
+  killed sweep restarts where it stopped: `bowden sweep` again with the same SPEC and DIR);
 - ``sweep.parquet``: the table, one row per point (axis values, status, error, figures);
 - ``error_map.png`` (with a position_m axis) and ``error_vs_<axis>.png`` per numeric axis.
 """
