@@ -318,7 +318,7 @@ def _bench_session(args: argparse.Namespace, plant: dict) -> int:
             baud=args.baud,
             timeout_s=args.timeout,
             emulate=args.emulate,
-            chain=chain,
+            chain=chain if args.emulate else None,  # a real device has no emulated bench
         )
         return _COMMANDS[args.bench_command](session.client, args, session.connect_info)
     finally:

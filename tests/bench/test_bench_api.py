@@ -4,6 +4,8 @@ stopped however a session ends; the README's worked example run as written; the 
 by pdoc without a warning."""
 
 import re
+import subprocess
+import sys
 import warnings
 
 import numpy as np
@@ -11,7 +13,7 @@ import pytest
 
 from cosim.bench import messages as msgs
 from cosim.bench.api import Bench, Faults, ProtocolError
-from cosim.bench.client import BenchClient, BenchError, SerialLink
+from cosim.bench.client import BenchClient, BenchError, BenchUsageError, SerialLink
 from cosim.bench.emulator import Emulator
 from cosim.project.paths import REPO_ROOT
 from cosim.results import trace as trace_mod
@@ -129,3 +131,201 @@ def test_api_docs_build_without_warnings(tmp_path):
     page = (tmp_path / "cosim" / "bench" / "api.html").read_text()
     for name in ("Bench", "info", "get", "set", "persist", "run", "faults", "Run", "Faults"):
         assert f'id="{name}"' in page or f'id="Bench.{name}"' in page, name
+
+
+# --- every failure a BenchError, checked before anything is sent or written ------------------
+
+_CLOSED_SCRIPT = """
+from cosim.bench.api import Bench
+from cosim.bench.client import BenchError
+
+b = Bench(emulate=True)
+b.close()
+b.close()  # idempotent
+calls = {
+    "info": lambda: b.info(),
+    "get": lambda: b.get("loop.kp"),
+    "set": lambda: b.set(loop_kp=0.1),
+    "persist": lambda: b.persist(),
+    "faults": lambda: b.faults(),
+    "run": lambda: b.run("sine", seconds=0.1),
+    "client": lambda: b.client.hello(),
+}
+for name, call in calls.items():
+    try:
+        call()
+    except BenchError as exc:
+        print(name, "refused:", exc)
+    else:
+        print(name, "ANSWERED")
+"""
+
+
+def test_a_closed_session_refuses_every_call():
+    """After close() the emulated device's plant is freed: a run stepped it and crashed the
+    interpreter (exit 139), info and get still answered. Every call is one BenchError now (in
+    a process of its own: the crash would take pytest with it)."""
+    r = subprocess.run(
+        [sys.executable, "-c", _CLOSED_SCRIPT],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=REPO_ROOT,
+    )
+    assert r.returncode == 0, (r.returncode, r.stdout, r.stderr)
+    lines = r.stdout.splitlines()
+    assert len(lines) == 7 and all("refused:" in line for line in lines), r.stdout
+    assert all("closed" in line for line in lines), r.stdout
+
+
+def test_a_bool_is_not_a_parameter_value():
+    """set(loop_kp=True) wrote 1.0 A/N: True is not a gain. Refused, naming the parameter, and
+    nothing is written (not even the other values of the call)."""
+    with Bench(emulate=True) as b:
+        before = b.get("loop.kp", "comp.mode", "comp.mu")
+        with pytest.raises(ProtocolError, match=r"^loop.kp=True: a bool is not a number") as exc:
+            b.set(comp_mu=0.08, loop_kp=True)
+        assert isinstance(exc.value, BenchError)
+        with pytest.raises(ProtocolError, match=r"^comp.mode=False: a bool is not a number"):
+            b.set(comp_mode=False)
+        with pytest.raises(ProtocolError, match=r"^comp.mu=True"):
+            b.set(comp_mu=np.True_)
+        assert b.get("loop.kp", "comp.mode", "comp.mu") == before
+
+
+@pytest.fixture(scope="module")
+def bench():
+    with Bench(emulate=True) as b:
+        yield b
+
+
+def _refused(call, cls=BenchError) -> str:
+    with pytest.raises(cls) as exc:
+        call()
+    msg = str(exc.value)
+    assert "\n" not in msg and len(msg) < 1000, msg
+    return msg
+
+
+def test_values_that_leaked_other_exceptions_are_bench_errors(bench, tmp_path):
+    """Each raised something else (OverflowError, FileNotFoundError, IsADirectoryError after
+    writing a stray sidecar, PlantError, KeyError): now a BenchError of one line naming it."""
+    msg = _refused(lambda: bench.set(loop_kp=10**400), ProtocolError)
+    assert msg.startswith("loop.kp=an integer of 401 digits: outside [0, 3.9")
+    msg = _refused(lambda: bench.run("sine", 0.1, out="/proc/x.csv"))
+    assert msg.startswith("out=/proc/x.csv: cannot write in /proc")
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    msg = _refused(lambda: bench.run("sine", 0.1, out=folder))
+    assert msg == f"out={folder}: is a folder; give a CSV file name (e.g. run.csv)"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["runs"]  # no stray runs.meta.json
+    assert not any(folder.iterdir())
+    msg = _refused(lambda: Bench(emulate=True, plant={"mu": -5}), BenchUsageError)
+    assert msg == "plant.mu must be in [0, 1]; got -5"
+    msg = _refused(lambda: Bench(emulate=True, plant={"bogus": 1}), BenchUsageError)
+    assert msg.startswith("plant: 'bogus' is not a parameter of the FMU; parameters: mu, ")
+    assert not bench.info().running
+
+
+@pytest.mark.parametrize(
+    ("call", "words"),
+    [
+        (lambda b: b.run("sine", "1"), "seconds='1': expected a finite number > 0"),
+        (lambda b: b.run("sine", True), "seconds=True: expected a finite number > 0"),
+        (lambda b: b.run("sine", float("nan")), "seconds=nan: expected a finite number > 0"),
+        (lambda b: b.run("sine", -1), "seconds=-1: expected a finite number > 0"),
+        (lambda b: b.run("sine", 1, mean_n=float("inf")), "mean_n=inf: expected a finite"),
+        (lambda b: b.run("sine", 1, freq_hz=True), "freq_hz=True: expected a finite number"),
+        (lambda b: b.run("sine", 1, freq_hz=-1), "wave.freq_hz=-1.0: outside [0, 65536] Hz"),
+        (lambda b: b.run([], 1), "waveform: no samples"),
+        (lambda b: b.run([[1.0, 2.0]], 1), "waveform [[1.0, 2.0]]: expected one of sine"),
+        (lambda b: b.run([1.0, float("nan")], 1), "waveform[1]: wave.mean_n=nan: expected"),
+        (lambda b: b.run([True, False], 1), "waveform [True, False]: expected one of"),
+        (lambda b: b.run(5.0, 1), "waveform 5.0: expected one of sine"),
+        (lambda b: b.run("sine", 1, out=3), "out=3: expected a CSV file name"),
+        (lambda b: b.run("sine", 1, out=""), "out='': expected a CSV file name"),
+        (lambda b: b.run("sine", 1, on_telemetry=5), "on_telemetry=5: expected a function"),
+        (lambda b: b.run("sine", 1, position_m=(0, 2, 0)), "position_m=(0.0, 2.0, 0.0): the"),
+        (lambda b: b.run("sine", 1, position_m="0,1,0"), "position_m='0,1,0': expected (x, y, z)"),
+        (lambda b: b.run("sine", 1, loop_routing=False), "loop_routing=False: the emulated"),
+        (lambda b: b.run("sine", 1, sheath_length_m=0), "sheath_length_m=0: outside [0.01, 10] m"),
+        (lambda b: b.run("sine", 1, sheath_length_m=2.0), "sheath_length_m=2.0: the emulated"),
+        (lambda b: b.set(loop_kp=0.1, **{"loop.kp": 0.2}), "loop.kp given twice"),
+        (lambda b: b.set(loop_kp=None), "loop.kp=None: expected a number"),
+        (lambda b: b.get(5), "parameter name 5: expected a str"),
+        (lambda b: b.faults(clear="no"), "clear='no': expected True or False"),
+    ],
+)
+def test_bad_arguments_are_refused_before_anything_is_sent(bench, call, words, tmp_path):
+    """Every argument of the public calls checked first: one BenchError line naming it (a
+    value of the wrong type used to leak a TypeError or be taken: seconds=True ran 1 s)."""
+    before = bench.get()
+    msg = _refused(lambda: call(bench))
+    assert msg.startswith(words), msg
+    assert bench.get() == before and not bench.info().running
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "words"),
+    [
+        ({"emulate": "no"}, "emulate='no': expected True or False"),
+        ({"port": 5}, "port=5: expected a pyserial URL or 'auto'"),
+        ({"port": "x", "plant": {"mu": 0.1}}, "plant and chain describe the emulated bench"),
+        ({"emulate": True, "timeout_s": 0}, "timeout_s=0: expected a finite number > 0"),
+        ({"emulate": True, "plant": {"mu": 0.1}, "chain": None}, None),
+        ({"emulate": True, "plant": "mu=0.1"}, "plant must be an object of FMU parameter"),
+        ({"emulate": True, "plant": {"mu": True}}, "plant.mu must be a number in [0, 1]"),
+        ({"emulate": True, "chain": "x"}, "chain='x': expected a cosim.bench.device.ChainConfig"),
+        ({"can": "virtual:x", "node": "1"}, "node='1': expected a whole number"),
+    ],
+)
+def test_bad_sessions_are_refused_before_anything_starts(kwargs, words):
+    if words is None:  # the good one: numbers of numpy taken as the numbers they are
+        with Bench(**{**kwargs, "plant": {"mu": np.float64(0.1), "seed": np.int64(3)}}) as b:
+            assert b.info().proto_version == msgs.PROTOCOL_VERSION
+        return
+    assert _refused(lambda: Bench(**kwargs)).startswith(words)
+
+
+def test_plant_and_chain_together_are_refused():
+    from cosim.bench.device import ChainConfig
+
+    msg = _refused(lambda: Bench(emulate=True, plant={"mu": 0.1}, chain=ChainConfig()))
+    assert msg == "give plant or chain (with its plant), not both"
+    msg = _refused(lambda: Bench(emulate=True, chain=ChainConfig(position_m=(0, 3, 0))))
+    assert msg.startswith("chain.position_m=(0, 3, 0): outside the workspace of a 1 m sheath")
+
+
+def test_set_is_all_or_nothing():
+    """A value the device's settings check refuses puts back those written before it (loop.kp
+    stayed at 0.2 when comp.mu=2 was refused)."""
+    with Bench(emulate=True) as b:
+        before = b.get()
+        msg = _refused(lambda: b.set(loop_kp=0.2, comp_mu=2), BenchUsageError)
+        assert "comp.mu: outside [0, 1]" in msg and "nothing written" in msg
+        assert b.get() == before
+
+
+def test_a_run_that_records_nothing_keeps_an_earlier_recording(tmp_path, monkeypatch):
+    """out= is written when the run has recorded (into NAME.partial.csv until then): a run whose
+    START fails leaves an earlier recording as it was (it was emptied to its header), and no
+    partial file behind."""
+    out = tmp_path / "r.csv"
+    with Bench(emulate=True) as b:
+        first = b.run("sine", 0.2, out=out)
+        assert first.complete
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv", "r.meta.json"]
+        kept = out.read_bytes(), (tmp_path / "r.meta.json").read_bytes()
+        simple = b.client.simple
+
+        def start_fails(name, **fields):
+            if name == "START":
+                raise BenchError("START: the link went down")
+            return simple(name, **fields)
+
+        monkeypatch.setattr(b.client, "simple", start_fails)
+        with pytest.raises(BenchError, match="the link went down"):
+            b.run("sine", 0.2, out=out)
+        assert (out.read_bytes(), (tmp_path / "r.meta.json").read_bytes()) == kept
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv", "r.meta.json"]
+        assert not b.info().running
