@@ -759,7 +759,7 @@ def _add_emulate(subparsers) -> None:
         default=[],
         metavar="NAME=VALUE[,...]",
         help="FMU parameters of the emulated plant, e.g. --plant sensor_offset=0.5,noise_std=0.03 "
-        "(an effect for `bowden audit` to find); repeatable",
+        "(an effect for `bowden audit` to find); repeatable, each parameter once",
     )
     p.add_argument(
         "--interface",
@@ -798,10 +798,18 @@ def _plant_assignments(items: list[str]) -> dict:
     from cosim.config.run import plant_overrides  # noqa: PLC0415 (reads the built FMU)
 
     raw: dict[str, float | bool] = {}
+    given: dict[str, str] = {}  # name -> the value's text (a second value is refused, not taken)
     for item in (part for arg in items for part in arg.split(",")):
         name, sep, text = item.partition("=")
+        name, text = name.strip(), text.strip()
         if not sep or not name:
             raise ValueError(f"--plant {item!r}: expected NAME=VALUE (e.g. sensor_offset=0.5)")
+        if name in given:
+            raise ValueError(
+                f"--plant {name}={given[name]} and {name}={text}: {name} given twice; "
+                "give each parameter once"
+            )
+        given[name] = text
         if text.lower() in ("true", "false"):
             raw[name] = text.lower() == "true"
             continue

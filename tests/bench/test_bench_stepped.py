@@ -84,6 +84,9 @@ def test_the_online_estimate_is_recorded_and_finds_the_plants_friction(engine, t
         ("drive_mode=1", "fixed by the closed loop"),
         ("seed=1.5", "--plant.seed must be a whole number"),
         ("sensor_offset=nan", "--plant.sensor_offset must be in [-100, 100]; got NaN"),
+        # a second value used to win silently
+        ("mu=0.09,mu=0.12", "--plant mu=0.09 and mu=0.12: mu given twice"),
+        ("mu=0.09, mu =0.12", "--plant mu=0.09 and mu=0.12: mu given twice"),
     ],
 )
 def test_emulate_plant_option_refuses_a_bad_value_in_one_line(args, words, capsys):
@@ -135,6 +138,13 @@ def test_bench_emulate_without_a_link_records_the_stepped_emulator(tmp_path, cap
         (["--port", "x", "--plant", "sensor_offset=0.5", "info"], 2, "it needs --emulate"),
         (["--emulate", "--port", "x", "info"], 2, "--emulate works with --can or alone"),
         (["--emulate", "--plant", "nope=1", "info"], 2, "'nope' is not a parameter of the FMU"),
+        # one parameter given twice, in one --plant or in two: refused, not the last one taken
+        (["--emulate", "--plant", "mu=0.09,mu=0.12", "get"], 2, "mu given twice"),
+        (
+            ["--emulate", "--plant", "mu=0.09", "--plant", "mu=0.12", "calibrate", "--out", "c"],
+            2,
+            "--plant mu=0.09 and mu=0.12: mu given twice; give each parameter once",
+        ),
     ],
 )
 def test_bench_emulate_options_refuse_in_one_line(args, rc, words, capsys):
