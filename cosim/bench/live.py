@@ -16,11 +16,14 @@ ones being written.
 
 from __future__ import annotations
 
+import errno
 import json
+import math
 import os
 import select
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -49,6 +52,13 @@ _FIELDS = ("sample",) + tuple(f for f, _, _ in SIGNALS.values())
 WINDOW_RANGE_S = (1.0, 60.0)
 DEFAULT_WINDOW_S = 8.0
 DEFAULT_FPS = 10.0
+# The smallest terminal the view draws in (columns, rows): two panels of plotext's least height
+# (8 rows, with the status lines under them) and a time axis that can be read. A smaller one
+# gets a one-line note instead; one that reports no size (0x0) too.
+MIN_TERMINAL = (40, 12)
+# How long the recording process waits, once the run has ended, for its view to draw the end
+# and exit, before it ends the view itself (a view stopped or hung must not hold the command).
+STOP_WAIT_S = 5.0
 NO_RUN_MESSAGE = (
     "No run is active: this page shows a run while `bowden bench run --live web` or "
     "`bowden bench watch --live web` records one."
@@ -133,7 +143,7 @@ class LiveBuffer:
 
 
 def _decimate(n: int, points: int) -> slice:
-    return slice(None, None, max(1, -(-n // points)))
+    return slice(None, None, max(1, -(-n // max(points, 1))))
 
 
 def snapshot(buffer: LiveBuffer, signals: list[str], window_s: float, points: int) -> dict:
@@ -221,6 +231,23 @@ def status_text(snap: dict, fps: float = 0.0) -> str:
     return "  ".join(parts) + "\n" + line2
 
 
+HIDE_CURSOR = "\x1b[?25l"
+SHOW_CURSOR = "\x1b[?25h\n"
+
+
+def too_small_text(cols: int, rows: int) -> str:
+    """The one line a terminal too small for the view gets (cut to its width when it has one)."""
+    if cols <= 0 or rows <= 0:
+        text = (
+            f"live view: the terminal reports its size as {cols}x{rows}: nothing drawn (the run "
+            "is recorded; `stty cols 100 rows 30` gives it one)"
+        )
+    else:
+        need = "x".join(str(v) for v in MIN_TERMINAL)
+        text = f"live view: the terminal is {cols}x{rows}, it needs {need}: nothing drawn"
+    return text[:cols] if cols > 0 else text
+
+
 def _terminal_size(out) -> tuple[int, int]:
     """The terminal's size as the terminal says it now (it follows a resize; COLUMNS and LINES
     in the environment may be stale), else shutil's guess."""
@@ -253,13 +280,14 @@ class TermView:
         self.frames = 0
         self.draw_s = 0.0  # wall time spent drawing
         self.cpu_s = 0.0  # CPU time spent drawing (the cost, whatever else the machine runs)
+        self.failed = ""  # why drawing stopped, when a frame failed
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._t0 = 0.0
 
     def start(self) -> TermView:
         self._t0 = time.monotonic()
-        self.out.write("\x1b[2J\x1b[?25l")  # clear the screen, hide the cursor
+        self.out.write("\x1b[2J" + HIDE_CURSOR)  # clear the screen, hide the cursor
         self._thread = threading.Thread(target=self._loop, name="bowden-live-term", daemon=True)
         self._thread.start()
         return self
@@ -268,23 +296,42 @@ class TermView:
         """One frame."""
         t, c = time.monotonic(), time.thread_time()
         cols, rows = self.size or _terminal_size(self.out)
-        # plotext fits a plot to shutil's terminal size, which reads COLUMNS and LINES first.
-        os.environ["COLUMNS"], os.environ["LINES"] = str(cols), str(rows)
-        snap = snapshot(self.buffer, self.signals, self.window_s, points=2 * cols)
-        fps = self.frames / max(t - self._t0, 1e-9)
-        # Each line cleared to its end (ESC [K) and the rest of the screen below (ESC [J): a line
-        # of an earlier, longer frame must not linger beside or under this one.
-        text = render_text(snap, cols, rows, fps).replace("\n", "\x1b[K\n")
+        if cols < MIN_TERMINAL[0] or rows < MIN_TERMINAL[1]:
+            text = too_small_text(cols, rows)
+        else:
+            # plotext fits a plot to shutil's terminal size, which reads COLUMNS and LINES first.
+            os.environ["COLUMNS"], os.environ["LINES"] = str(cols), str(rows)
+            snap = snapshot(self.buffer, self.signals, self.window_s, points=2 * cols)
+            fps = self.frames / max(t - self._t0, 1e-9)
+            # Each line cleared to its end (ESC [K) and the rest of the screen below (ESC [J): a
+            # line of an earlier, longer frame must not linger beside or under this one.
+            text = render_text(snap, cols, rows, fps).replace("\n", "\x1b[K\n")
         self.out.write("\x1b[H" + text + "\x1b[K\x1b[J")
         self.out.flush()
         self.frames += 1
         self.draw_s += time.monotonic() - t
         self.cpu_s += time.thread_time() - c
 
+    def _draw_or_give_up(self) -> bool:
+        """One frame; a frame that fails ends the drawing with one line saying why (the view is
+        not worth a traceback in the run's terminal, and the recording does not depend on it)."""
+        if self.failed:
+            return False
+        try:
+            self.draw()
+            return True
+        except Exception as exc:  # noqa: BLE001 (any: the run goes on without its view)
+            self.failed = f"{type(exc).__name__}: {exc}"
+        try:
+            self.out.write(f"\r\x1b[Klive view: stopped drawing ({self.failed})\n")
+            self.out.flush()
+        except (OSError, ValueError):
+            pass  # the terminal is gone
+        return False
+
     def _loop(self) -> None:
         next_t = time.monotonic()
-        while not self._stop.is_set():
-            self.draw()
+        while not self._stop.is_set() and self._draw_or_give_up():
             next_t = max(next_t + self.period_s, time.monotonic() - self.period_s)
             self._stop.wait(max(0.0, next_t - time.monotonic()))
 
@@ -293,12 +340,56 @@ class TermView:
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=10.0)
-        self.draw()
-        self.out.write("\x1b[?25h\n")
-        self.out.flush()
+        self._draw_or_give_up()
+        self.show_cursor()
+
+    def show_cursor(self) -> None:
+        """The cursor back (start hid it), on a line of its own."""
+        try:
+            self.out.write(SHOW_CURSOR)
+            self.out.flush()
+        except (OSError, ValueError):
+            pass  # the terminal is gone
 
 
 # --- web page ------------------------------------------------------------------------------------
+
+
+POINTS_RANGE = (10, 20_000)  # samples a /data.json answer may ask for
+
+
+def data_query(query: str, default_window_s: float) -> tuple[float, int]:
+    """`/data.json`'s `window` (s) and `points` from a query string: a window outside
+    WINDOW_RANGE_S and points outside POINTS_RANGE are brought to the nearest end; ValueError
+    (the page's 400, with this reason) for what is not a finite number."""
+    q = parse_qs(query, keep_blank_values=True)
+    window_text = q.get("window", [None])[0]
+    points_text = q.get("points", ["2000"])[0]
+    lo, hi = WINDOW_RANGE_S
+    try:
+        window_s = default_window_s if window_text is None else float(window_text)
+    except ValueError:
+        window_s = math.nan
+    if not math.isfinite(window_s):
+        raise ValueError(
+            f"window={window_text[:40]}: expected seconds, a finite number ({lo:g}..{hi:g})"
+        )
+    try:
+        points = int(points_text) if len(points_text) <= 12 else None
+    except ValueError:
+        points = None
+    if points is None:
+        p_lo, p_hi = POINTS_RANGE
+        raise ValueError(f"points={points_text[:40]}: expected a whole number ({p_lo}..{p_hi})")
+    return min(max(window_s, lo), hi), min(max(points, POINTS_RANGE[0]), POINTS_RANGE[1])
+
+
+class _QuietServer(ThreadingHTTPServer):
+    """http.server that never prints: the run's terminal is not its log. A request that fails
+    (the page went away mid-answer) is dropped; the recording process does not see it."""
+
+    def handle_error(self, request, client_address) -> None:
+        pass
 
 
 class LiveServer:
@@ -324,21 +415,23 @@ class LiveServer:
 
         class Handler(BaseHTTPRequestHandler):
             def do_GET(self) -> None:  # noqa: N802 (http.server's name)
+                try:
+                    self._get()
+                except Exception as exc:  # noqa: BLE001 (an answer, not a traceback in the run)
+                    self._send(500, "text/plain", f"{type(exc).__name__}: {exc}\n".encode())
+
+            def _get(self) -> None:
                 server.requests += 1
                 url = urlparse(self.path)
                 if url.path == "/":
                     self._send(200, "text/html; charset=utf-8", page.encode())
                 elif url.path == "/data.json":
-                    q = parse_qs(url.query)
                     try:
-                        window = float(q.get("window", [server.window_s])[0])
-                        points = int(q.get("points", ["2000"])[0])
-                    except ValueError:
-                        self._send(400, "text/plain", b"window and points must be numbers\n")
+                        window, points = data_query(url.query, server.window_s)
+                    except ValueError as exc:
+                        self._send(400, "text/plain; charset=utf-8", f"{exc}\n".encode())
                         return
-                    window = min(max(window, WINDOW_RANGE_S[0]), WINDOW_RANGE_S[1])
-                    body = server.body(window, max(10, min(points, 20000)))
-                    self._send(200, "application/json", body)
+                    self._send(200, "application/json", server.body(window, points))
                 else:
                     self._send(404, "text/plain", b"not found: / and /data.json\n")
 
@@ -356,7 +449,7 @@ class LiveServer:
             def log_message(self, *args) -> None:  # quiet: the terminal belongs to the run
                 pass
 
-        self.httpd = ThreadingHTTPServer(("127.0.0.1", port), Handler)
+        self.httpd = _QuietServer(("127.0.0.1", port), Handler)
         self.httpd.daemon_threads = True
         self.url = f"http://127.0.0.1:{self.httpd.server_address[1]}/"
         self._thread: threading.Thread | None = None
@@ -406,7 +499,8 @@ class ViewProcess:
     docstring): `python -m cosim.bench.live` maps the ring, draws or serves it, and follows the
     run's state (label, active, message) that `update` and `stop` send it. For "web", `url` is
     the page's address once `start` returns. `sink`: draw into this file instead of the
-    terminal (benchmarks); `size`: the terminal's columns and rows instead of asking it."""
+    terminal (benchmarks); `size`: the terminal's columns and rows instead of asking it.
+    After `stop`, `ended` says what went wrong with the view, if anything (one line)."""
 
     def __init__(
         self,
@@ -431,6 +525,7 @@ class ViewProcess:
         self.frames = 0
         self.draw_s = self.cpu_s = 0.0
         self.requests = 0
+        self.ended = ""
         self._proc: subprocess.Popen | None = None
         self._ready = None
 
@@ -450,14 +545,21 @@ class ViewProcess:
         if self.kind == "web":
             line = self._line(30.0)
             if not line.startswith("url "):
-                self.stop("")
-                raise OSError(f"the live page did not start ({line or 'no answer'})")
+                self.stop()
+                why = line.removeprefix("error ") or "no answer"
+                raise OSError(f"the live page did not start ({why})")
             self.url = line.split()[1]
         return self
 
     def _line(self, timeout_s: float) -> str:
-        if select.select([self._ready], [], [], timeout_s)[0]:
-            return self._ready.readline().strip()
+        """The view's next line on the ready pipe within `timeout_s` ("" when none: the view
+        ended, or is stopped, or did not answer in time)."""
+        deadline = time.monotonic() + timeout_s
+        while (left := deadline - time.monotonic()) > 0:
+            if select.select([self._ready], [], [], min(left, 0.1))[0]:
+                return self._ready.readline().strip()  # (EOF: the view is gone)
+            if _stopped(self._proc.pid):
+                return ""  # SIGSTOP: it will not answer
         return ""
 
     def _send(self, doc) -> None:
@@ -472,13 +574,16 @@ class ViewProcess:
         b = self.buffer
         self._send({"label": b.label, "active": b.active, "message": b.message})
 
-    def stop(self, message: str | None = None) -> None:
-        """The run ended (`message` says how): the view shows it, ends, and reports its counts."""
+    def stop(self, message: str | None = None, wait_s: float = STOP_WAIT_S) -> None:
+        """The run ended (`message` says how): the view shows it, ends, and reports its counts.
+        A view that has not ended within `wait_s` (stopped by SIGSTOP: at once) is killed;
+        `ended` then says so, and the terminal's cursor, which the view hid, is shown again."""
         if message is not None:
             self.buffer.stop(message)
         self.update()
         self._send(None)
-        counts = self._line(20.0).split()
+        t0 = time.monotonic()
+        counts = self._line(wait_s).split()
         if len(counts) == 4:
             self.frames, self.requests = int(counts[0]), int(counts[3])
             self.draw_s, self.cpu_s = float(counts[1]), float(counts[2])
@@ -486,12 +591,91 @@ class ViewProcess:
             self._proc.stdin.close()
         except OSError:
             pass
+        stopped = _stopped(self._proc.pid)
         try:
-            self._proc.wait(timeout=10.0)
+            # It answered: it is ending. It did not: only what is left of the wait.
+            left = 2.0 if len(counts) == 4 else wait_s - (time.monotonic() - t0)
+            self._proc.wait(timeout=0 if stopped else max(left, 0.1))
         except subprocess.TimeoutExpired:
             self._proc.kill()
             self._proc.wait()
+            how = "was stopped (SIGSTOP)" if stopped else f"did not end within {wait_s:g} s"
+            self.ended = f"the view {how}: ended it"
+        else:
+            rc = self._proc.returncode
+            if rc:
+                self.ended = f"the view had ended early ({_exit_text(rc)})"
         self._ready.close()
+        if self.ended and self.kind == "term":
+            self.restore_terminal()
+
+    def restore_terminal(self) -> None:
+        """Show the cursor again where the view drew (the view hides it, and shows it when it
+        ends; one killed or stopped could not)."""
+        try:
+            if self.sink:
+                with open(self.sink, "a") as out:
+                    out.write(SHOW_CURSOR)
+            else:
+                sys.stdout.write(SHOW_CURSOR)
+                sys.stdout.flush()
+        except (OSError, ValueError):
+            pass  # the terminal is gone
+
+
+def _exit_text(returncode: int) -> str:
+    if returncode >= 0:
+        return f"status {returncode}"
+    try:
+        return f"by {signal.Signals(-returncode).name}"
+    except ValueError:
+        return f"by signal {-returncode}"
+
+
+def _bind_error(port: int, exc: OSError) -> str:
+    """Why the page's port cannot be had, in a few words."""
+    if exc.errno == errno.EADDRINUSE:
+        return f"port {port} is in use"
+    if exc.errno == errno.EACCES:
+        return f"port {port} needs privileges this user has not (ports below 1024)"
+    return f"port {port}: {exc.strerror or exc}"
+
+
+def check_http_port(port: int) -> str | None:
+    """Whether the page could be served on 127.0.0.1:`port` now (0: any free one, always):
+    None, or why not (`port 8080 is in use`). Checked before a run starts; the view binds it
+    again (another program may take it meanwhile: the view then says so, as here)."""
+    if port == 0:
+        return None
+    probe = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    try:
+        # As http.server binds: SO_REUSEADDR, so that a connection of a page just closed
+        # (TIME_WAIT) does not count as the port in use.
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        probe.bind(("127.0.0.1", port))
+    except OSError as exc:
+        return _bind_error(port, exc)
+    finally:
+        probe.close()
+    return None
+
+
+class _Terminated(BaseException):
+    """SIGTERM in the view process: unwinds to where the cursor is shown again."""
+
+
+def _terminated(signum, _frame) -> None:
+    raise _Terminated
+
+
+def _stopped(pid: int) -> bool:
+    """Process `pid` is stopped (SIGSTOP, SIGTSTP: state T in /proc/PID/stat); False where
+    there is no /proc."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] in ("T", "t")
+    except (OSError, IndexError):
+        return False
 
 
 def _view_main(argv: list[str]) -> int:
@@ -511,6 +695,17 @@ def _view_main(argv: list[str]) -> int:
     # Ctrl-C reaches the whole process group: the recording process stops the run and then
     # this view (which shows how the run ended), not the other way round.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # SIGTERM ends the view, but with the cursor shown again (it is hidden while it draws).
+    signal.signal(signal.SIGTERM, _terminated)
+    try:
+        return _view_run(a)
+    except _Terminated:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        os.kill(os.getpid(), signal.SIGTERM)  # ended by SIGTERM, as the recording process sees
+        return 128 + signal.SIGTERM
+
+
+def _view_run(a) -> int:
     # The recording comes first: on a busy machine the view draws less often, the recording
     # process (and an emulated device beside it) keeps its share of the CPU.
     os.nice(10)
@@ -520,17 +715,26 @@ def _view_main(argv: list[str]) -> int:
     term = web = None
     out = None
     if a.kind == "web":
-        web = LiveServer(buf, port=a.http_port, signals=signals, window_s=a.window).start()
+        try:
+            web = LiveServer(buf, port=a.http_port, signals=signals, window_s=a.window).start()
+        except OSError as exc:  # the recording process says it, in one line
+            ready.write(f"error {_bind_error(a.http_port, exc)}\n")
+            return 1
         ready.write(f"url {web.url}\n")
     else:
         out = open(a.sink, "w") if a.sink != "-" else sys.stdout  # noqa: SIM115 (closed below)
         size = tuple(int(v) for v in a.size.split("x")) if a.size else None
         term = TermView(buf, signals, a.window, out=out, size=size).start()
-    for line in sys.stdin:  # the run's state, until `null` (or the recording process is gone)
-        state = json.loads(line)
-        if state is None:
-            break
-        buf.label, buf.active, buf.message = state["label"], state["active"], state["message"]
+    try:
+        for line in sys.stdin:  # the run's state, until `null` (or the recording process is gone)
+            state = json.loads(line)
+            if state is None:
+                break
+            buf.label, buf.active, buf.message = state["label"], state["active"], state["message"]
+    except _Terminated:
+        if term is not None:
+            term.show_cursor()
+        raise
     if term is not None:
         term.stop()
         if out is not sys.stdout:

@@ -6,6 +6,7 @@ sent, and dispatches to the handlers; the work is done in cosim.bench (discover,
 
 from __future__ import annotations
 
+import math
 import sys
 import tempfile
 from pathlib import Path
@@ -13,7 +14,7 @@ from pathlib import Path
 from cosim.bench import diff, discover, live
 from cosim.bench import messages as msgs
 from cosim.bench.protocol import param
-from cosim.bench.recorder import RunResult, record_run
+from cosim.bench.recorder import RunResult, record_run, run_ticks
 
 
 def add_parsers(sub) -> None:
@@ -120,9 +121,16 @@ def precheck(args) -> int | None:
                 args.signal_list = live.parse_signals(args.signals)
             except ValueError as exc:
                 problem = str(exc)
+        problem = problem or _live_place_problem(args)
         if problem:
             print(f"bowden bench: {problem}", file=sys.stderr)
             return 2
+    if args.bench_command == "watch" and not (math.isfinite(args.seconds) and args.seconds > 0):
+        print(
+            f"bowden bench watch: --seconds {args.seconds:g}: expected a duration > 0 s",
+            file=sys.stderr,
+        )
+        return 2
     if args.bench_command == "calibrate":
         return _precheck_calibrate(args)
     if args.bench_command != "diff":
@@ -136,6 +144,20 @@ def precheck(args) -> int | None:
         except diff.DiffFileError as exc:
             print(f"bowden bench {exc}", file=sys.stderr)
             return 2
+    return None
+
+
+def _live_place_problem(args) -> str | None:
+    """Where the view would go, checked before the run: a terminal for `term` (drawn into a
+    file or a pipe it would be escape codes, tens of kB a second), a port free for `web`."""
+    if args.live == "term" and not sys.stdout.isatty():
+        other = "--live web" if args.bench_command == "watch" else "--live web, or no --live"
+        return (
+            f"--live term draws in a terminal and the output is not one: use {other} (a page on "
+            "127.0.0.1)"
+        )
+    if args.live == "web" and (why := live.check_http_port(args.http_port)):
+        return f"--http-port {args.http_port}: {why} (choose another, or 0 for a free one)"
     return None
 
 
@@ -287,7 +309,9 @@ def record_with_view(client, args, out, label: str, **kw) -> RunResult:
     progress line gives way to a terminal view)."""
     if not getattr(args, "live", None):
         return record_run(client, out, **kw)
-    rate_hz = float(client.get("tick_rate_hz")) / int(client.get("dev.telemetry_div"))
+    tick_hz = float(client.get("tick_rate_hz"))
+    run_ticks(kw["seconds"], tick_hz)  # a duration refused before the view clears the screen
+    rate_hz = tick_hz / int(client.get("dev.telemetry_div"))
     view = open_view(args, label, rate_hz)
     if view.kind == "term":
         kw["progress"] = None
@@ -297,14 +321,19 @@ def record_with_view(client, args, out, label: str, **kw) -> RunResult:
     finally:
         view.stop(f"run ended: {result.summary()}" if result else "run interrupted")
         Path(view.buffer.path).unlink(missing_ok=True)
+        if view.ended:  # killed, stopped or hung: the recording is whole all the same
+            print(f"live view: {view.ended}", file=sys.stderr, flush=True)
     return result
 
 
 def cmd_watch(client, args, info, run_cmd) -> int:
     """`bowden bench watch`: `run` (`run_cmd`, with every exit path of a run) of the waveform
     the device is set to, with the live view; recorded to --out or a new temporary file."""
+    run_ticks(args.seconds, float(client.get("tick_rate_hz")))  # before any file or view
+    folder = None
     if args.out is None:
-        args.out = str(Path(tempfile.mkdtemp(prefix="bowden-watch-")) / "watch.csv")
+        folder = Path(tempfile.mkdtemp(prefix="bowden-watch-"))
+        args.out = str(folder / "watch.csv")
     args.waveform = str(client.get("wave.kind"))
     args.mean = float(client.get("wave.mean_n"))
     args.amplitude = float(client.get("wave.amplitude_n"))
@@ -312,4 +341,8 @@ def cmd_watch(client, args, info, run_cmd) -> int:
     args.ref = None
     args.position, args.loop_routing, args.sheath_length = (0.0, 0.5, 0.0), True, 1.0
     args.quiet = False
-    return run_cmd(client, args, info)
+    try:
+        return run_cmd(client, args, info)
+    finally:
+        if folder is not None and not any(folder.iterdir()):
+            folder.rmdir()  # the run recorded nothing: no empty folder left behind

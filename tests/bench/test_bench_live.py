@@ -3,10 +3,13 @@ the labels and the latest values, which match the recording), the page in headle
 screenshot, and the values it shows checked against the recording), the page opened when no run
 is active, and the ring buffer the recorder writes without waiting for a view."""
 
+import io
 import json
 import os
 import re
+import select
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -303,3 +306,298 @@ def test_a_stalled_or_dead_view_costs_the_recording_nothing(tmp_path):
     assert run.complete and run.samples == 3000
     assert views["term"].frames >= 1  # it drew, and drew the end after SIGCONT
     assert buf.count == 3000 and not buf.active
+
+
+# --- what goes wrong around a view: each a one-line note, never a traceback -------------------
+
+
+def _filled_buffer(path=None, samples=2000):
+    buf = live.LiveBuffer(path=path)
+    buf.start("sine", 1000.0)
+    for k in range(samples):
+        buf.add(_telemetry(k, t_ref=2000 + k % 500, t_out=1900, current=400))
+    return buf
+
+
+def _cursor_shown_last(text: str) -> bool:
+    """The view hides the cursor while it draws: the last word on it must show it again."""
+    return text.rfind("\x1b[?25h") > text.rfind("\x1b[?25l") >= 0
+
+
+def test_a_terminal_of_no_size_gets_a_note_not_a_traceback(tmp_path, capfd):
+    """A terminal that reports 0x0 (a serial console, some containers) or one too small for two
+    panels: one line saying so, in the view's own thread and in its last frame."""
+    import fcntl
+    import struct
+    import termios
+
+    master, slave = os.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 0, 0, 0, 0))
+    try:
+        with open(slave, "w", closefd=False) as tty:
+            view = live.TermView(_filled_buffer(), out=tty)
+            view.draw()  # the size as the terminal reports it
+            shown = os.read(master, 65536).decode()
+        assert "the terminal reports its size as 0x0: nothing drawn" in shown
+    finally:
+        os.close(master)
+        os.close(slave)
+    for cols, rows in ((30, 20), (100, 5)):
+        small = live.TermView(_filled_buffer(), out=io.StringIO(), size=(cols, rows))
+        small.draw()
+        note = small.out.getvalue().replace("\x1b[H", "").split("\x1b[K")[0]
+        assert note.startswith(f"live view: the terminal is {cols}x{rows}"[:cols]), note
+        assert len(note) <= cols
+    # The view in its process, as `run --live` starts it: the note, and nothing on stderr.
+    sink = tmp_path / "screen.txt"
+    buf = _filled_buffer(path=live.ring_file())
+    try:
+        view = live.ViewProcess(buf, "term", sink=str(sink), size=(0, 0)).start()
+        time.sleep(0.5)
+        view.stop("run ended")
+    finally:
+        os.unlink(buf.path)
+    assert view.ended == "" and view.frames >= 1
+    assert "nothing drawn" in sink.read_text() and _cursor_shown_last(sink.read_text())
+    assert "Traceback" not in capfd.readouterr().err
+
+
+def test_a_page_port_in_use_is_refused_before_the_run(tmp_path, capfd, monkeypatch):
+    """--http-port taken by another program: one line, exit 2, before a session is opened (so
+    nothing is sent to the device); the view meeting it (taken meanwhile) says it too."""
+    import socket
+
+    from cosim.cli import bench as bench_mod
+
+    def no_session(*args, **kwargs):
+        raise AssertionError("a session was opened")
+
+    monkeypatch.setattr(bench_mod, "Bench", no_session)
+    taken = socket.socket()
+    taken.bind(("127.0.0.1", 0))
+    taken.listen(1)
+    port = taken.getsockname()[1]
+    try:
+        out = tmp_path / "x.csv"
+        for argv in (
+            ["run", "sine", "--seconds", "1", "--out", str(out), "--live", "web"],
+            ["watch", "--seconds", "1", "--out", str(out), "--live", "web"],
+        ):
+            assert bench_cli(["bench", "--emulate", *argv, "--http-port", str(port)]) == 2
+            err = capfd.readouterr().err
+            assert err == (
+                f"bowden bench: --http-port {port}: port {port} is in use (choose another, or 0 "
+                "for a free one)\n"
+            )
+        assert not out.exists()
+        buf = live.LiveBuffer(path=live.ring_file())
+        try:
+            with pytest.raises(OSError, match=rf"^the live page did not start \(port {port} is "):
+                live.ViewProcess(buf, "web", http_port=port).start()
+        finally:
+            os.unlink(buf.path)
+    finally:
+        taken.close()
+    assert "Traceback" not in capfd.readouterr().err
+
+
+def test_page_data_query_is_checked(capfd):
+    """`/data.json`'s window and points: what is not a finite number is a 400 with the reason,
+    a number out of range is brought into it; never an empty answer or a traceback."""
+    import urllib.error
+
+    server = live.LiveServer(_filled_buffer()).start()
+
+    def get(query):
+        try:
+            with urllib.request.urlopen(f"{server.url}data.json?{query}", timeout=10) as r:
+                return r.status, json.loads(r.read())
+        except urllib.error.HTTPError as exc:
+            return exc.code, exc.read().decode()
+
+    try:
+        for query in (
+            "window=nan",
+            "window=NaN",
+            "window=inf",
+            "window=-inf",
+            "window=1e999",
+            "window=abc",
+            "window=",
+            "points=nan",
+            "points=1e3",
+            "points=" + "9" * 40,
+        ):
+            code, body = get(query)
+            assert code == 400, (query, body)
+            assert body.startswith(query.split("=")[0] + "=") and "expected" in body, body
+        for query, window_s, samples in (
+            ("window=-5", 1.0, 1000),
+            ("window=1e300", 60.0, 2000),
+            ("window=2&points=-1", 2.0, 2000),
+            ("window=2&points=7", 2.0, 2000),
+        ):
+            code, doc = get(query)
+            assert code == 200 and doc["window_s"] == window_s and doc["samples"] == samples
+            assert len(doc["t_s"]) <= max(10, samples), query
+        assert get("window=3")[1]["samples"] == 2000  # (3 s asked, 2 s recorded)
+    finally:
+        server.stop()
+    assert "Traceback" not in capfd.readouterr().err
+
+
+def _view_with_frames(tmp_path, buf):
+    sink = tmp_path / "screen.txt"
+    view = live.ViewProcess(buf, "term", sink=str(sink), size=(100, 30)).start()
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and not (
+        sink.exists() and "\x1b[H" in sink.read_text(errors="replace")
+    ):
+        time.sleep(0.05)  # until it has drawn a frame: the cursor is hidden
+    return view, sink
+
+
+def test_a_stopped_or_hung_view_is_ended_soon_and_the_cursor_shown(tmp_path, monkeypatch):
+    """SIGSTOP: the recording process does not wait for an answer that cannot come; a view that
+    does not answer for another reason is given STOP_WAIT_S (here shortened); a view ended by
+    SIGTERM shows the cursor itself. Each time `ended` says what happened, and the cursor is
+    shown again where the view drew."""
+    import signal as sig
+
+    buf = _filled_buffer(path=live.ring_file())
+    try:
+        view, sink = _view_with_frames(tmp_path, buf)
+        os.kill(view._proc.pid, sig.SIGSTOP)
+        t0 = time.monotonic()
+        view.stop("run ended")
+        assert time.monotonic() - t0 < 2.0
+        assert view.ended == "the view was stopped (SIGSTOP): ended it"
+        assert _cursor_shown_last(sink.read_text(errors="replace"))
+
+        monkeypatch.setattr(live, "_stopped", lambda pid: False)  # as if hung, not stopped
+        view, sink = _view_with_frames(tmp_path, buf)
+        os.kill(view._proc.pid, sig.SIGSTOP)
+        t0 = time.monotonic()
+        view.stop("run ended", wait_s=1.0)
+        assert 0.9 < time.monotonic() - t0 < 3.0
+        assert view.ended == "the view did not end within 1 s: ended it"
+        assert _cursor_shown_last(sink.read_text(errors="replace"))
+        monkeypatch.undo()
+
+        view, sink = _view_with_frames(tmp_path, buf)
+        view._proc.terminate()
+        view._proc.wait(timeout=10)
+        screen = sink.read_text(errors="replace")
+        assert _cursor_shown_last(screen)  # by the view itself, before it ended
+        view.stop("run ended")
+        assert view.ended == "the view had ended early (by SIGTERM)"
+    finally:
+        os.unlink(buf.path)
+
+
+def test_live_term_without_a_terminal_is_refused_first(tmp_path, capsys):
+    """No terminal on stdout (a log, a pipe): `--live term` would write escape codes into it,
+    tens of kB a second; refused before the run, and before `watch` makes its folder."""
+    out = tmp_path / "x.csv"
+    run = ["bench", "--emulate", "run", "sine", "--seconds", "1", "--out", str(out)]
+    for argv in ([*run, "--live"], [*run, "--live", "term"]):
+        assert bench_cli(argv) == 2
+        text = capsys.readouterr()
+        assert text.err == (
+            "bowden bench: --live term draws in a terminal and the output is not one: use "
+            "--live web, or no --live (a page on 127.0.0.1)\n"
+        )
+        assert text.out == ""
+    assert not out.exists()
+    assert bench_cli(["bench", "--emulate", "watch", "--seconds", "1", "--out", str(out)]) == 2
+    assert "use --live web (a page on 127.0.0.1)" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_watch_arguments_are_checked_before_any_side_effect(tmp_path, capsys, monkeypatch):
+    """`watch --seconds 0` (or one shorter than a tick): refused before the screen is cleared,
+    the view started or a folder made."""
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # where watch's folder would go
+    for seconds in ("0", "-1", "nan", "inf"):
+        argv = ["bench", "--emulate", "watch", "--live", "web", "--seconds", seconds]
+        assert bench_cli(argv) == 2
+        text = capsys.readouterr()
+        assert text.err == (
+            f"bowden bench watch: --seconds {float(seconds):g}: expected a duration > 0 s\n"
+        )
+        assert "\x1b[2J" not in text.out
+    # Shorter than a tick: the device's tick rate says so, before the folder or the view.
+    assert bench_cli(["bench", "--emulate", "watch", "--live", "web", "--seconds", "1e-6"]) == 2
+    err = capsys.readouterr().err
+    assert "--seconds 1e-06: shorter than one tick" in err and "live view:" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def _run_in_pty(argv, act, timeout_s=60.0):
+    """Run `argv` in a session of its own on a pseudo-terminal of 100x30 (as a user's shell
+    does); `act(proc)` once the view has drawn its first frame. Returns (status, everything the
+    terminal received, seconds from `act` to the end)."""
+    import fcntl
+    import struct
+    import termios
+
+    master, slave = os.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", 30, 100, 0, 0))
+    proc = subprocess.Popen(
+        argv, stdin=slave, stdout=slave, stderr=slave, cwd=REPO_ROOT, start_new_session=True
+    )
+    os.close(slave)
+    screen, acted, t_act = b"", False, None
+    deadline = time.monotonic() + timeout_s
+    try:
+        while time.monotonic() < deadline:
+            ready = select.select([master], [], [], 0.1)[0]
+            if ready:
+                try:
+                    data = os.read(master, 65536)
+                except OSError:  # EIO: every process on the terminal has gone
+                    break
+                screen += data
+            if not acted and b"\x1b[H" in screen:
+                acted, t_act = True, time.monotonic()
+                act(proc)
+            if not ready and proc.poll() is not None:
+                break
+        status = proc.wait(timeout=max(1.0, deadline - time.monotonic()))
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+        os.close(master)
+    return status, screen.decode(errors="replace"), time.monotonic() - (t_act or 0.0)
+
+
+@pytest.mark.slow
+def test_run_live_with_a_stopped_view_or_sigterm_ends_soon_with_the_cursor_shown(
+    emulator, tmp_path
+):
+    """`run --live` on a terminal: a view frozen with SIGSTOP costs the command a moment after
+    the run, one line says so, and the cursor is shown again; SIGTERM to the whole session
+    (the view too) stops the device, confirmed, and leaves the cursor shown."""
+    import psutil
+
+    argv = [sys.executable, "-m", "cosim.bench", "bench", "--port", emulator.urls["socket"]]
+    argv += ["run", "sine", "--seconds", "3", "--out", str(tmp_path / "x.csv"), "--live"]
+
+    def freeze_view(proc):
+        for child in psutil.Process(proc.pid).children():
+            os.kill(child.pid, signal.SIGSTOP)
+
+    status, screen, after_s = _run_in_pty(argv, freeze_view)
+    assert status == 0, screen[-2000:]
+    assert after_s < 3.0 + 5.0, after_s  # the run's 3 s, then not the view's 30
+    assert "live view: the view was stopped (SIGSTOP): ended it" in screen
+    assert _cursor_shown_last(screen)
+    assert "3000 samples of 3000" in screen
+
+    status, screen, _ = _run_in_pty(argv, lambda proc: os.killpg(proc.pid, signal.SIGTERM))
+    assert status == 128 + signal.SIGTERM, screen[-2000:]
+    assert "device stopped, output disabled (confirmed by the device)" in screen
+    assert _cursor_shown_last(screen), screen[-500:]
+    assert "Traceback" not in screen
