@@ -828,6 +828,27 @@ def _plant_assignments(items: list[str]) -> dict:
     return plant_overrides(raw, "--plant")
 
 
+def _flash_problem(text: str, target: str) -> str | None:
+    """--flash checked before anything starts: a flash image of the target's size that can be
+    read, or no file yet, in a folder that can be written (the emulator saves the flash there
+    while it runs; a save that failed then would stop it). None when it will do."""
+    from cosim.bench.soc.harness import FLASH_BYTES, check_flash_file  # noqa: PLC0415
+
+    if not text.strip():
+        return f"--flash {text!r}: expected a file name (a flash image, or none yet)"
+    if target == "soc":
+        size_bytes = FLASH_BYTES
+    else:
+        from cosim.bench.device import load_library  # noqa: PLC0415
+
+        size_bytes = 4 * load_library().dev_host_flash_n_words()
+    try:
+        check_flash_file(Path(text), size_bytes)
+    except ValueError as exc:
+        return str(exc)
+    return None
+
+
 # The host emulator's values of the options --target soc refuses (default None in the parser).
 HOST_EMULATOR_DEFAULTS = {"baud": 921_600, "tcp_port": 0, "interface": "ideal", "engine": "native"}
 
@@ -858,6 +879,9 @@ def emulate_main(args: argparse.Namespace) -> int:
             return 2
     if args.tcp_port is not None and not 0 <= args.tcp_port <= 65535:
         print(f"bowden emulate: --tcp-port {args.tcp_port}: outside 0..65535", file=sys.stderr)
+        return 2
+    if args.flash is not None and (problem := _flash_problem(args.flash, args.target)):
+        print(f"bowden emulate: {problem}", file=sys.stderr)
         return 2
     try:
         plant = _plant_assignments(args.plant)

@@ -321,6 +321,38 @@ def test_settings_survive_an_emulator_restart(tmp_path, capsys):
     assert "restored 40 parameters" in out and "configuration flash" in out
 
 
+@pytest.mark.parametrize("target", ["host", "soc"])
+@pytest.mark.parametrize(
+    ("where", "words"),
+    [
+        ("/proc/x.bin", "flash file /proc/x.bin: cannot be written in /proc"),
+        ("missing/flash.bin", "missing/flash.bin: the folder {tmp}/missing does not exist"),
+        ("", "flash file {tmp}: not a regular file"),
+        ("short.bin", "flash file {tmp}/short.bin: 1000 bytes, a flash image has"),
+    ],
+)
+def test_a_flash_file_that_cannot_be_kept_is_refused_before_the_start(
+    target, where, words, tmp_path, monkeypatch, capsys
+):
+    """--flash is checked before anything starts, for both targets: the emulator used to start
+    on /proc/x.bin and fail at the first save (the simulated board stopped, the client read
+    only 'read failed'; the host emulator's thread died). Nothing is started (a board or an
+    emulator that starts fails the test), nothing is written."""
+
+    def started(*args, **kwargs):
+        raise AssertionError("the emulator started")
+
+    monkeypatch.setattr("cosim.bench.emulator.Emulator", started)
+    monkeypatch.setattr("cosim.bench.soc.harness.SocBoard", started)
+    (tmp_path / "short.bin").write_bytes(b"\0" * 1000)
+    flash = where if where.startswith("/") else str(tmp_path / where) if where else str(tmp_path)
+    rc = bench_cli(["emulate", "--target", target, "--flash", flash, "--seconds", "0.1"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1, err
+    assert err.startswith("bowden emulate: ") and words.format(tmp=tmp_path) in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["short.bin"]
+
+
 # A value this host or the device refuses is a usage error (exit 2); a file that is missing,
 # exit 1.
 @pytest.mark.parametrize(

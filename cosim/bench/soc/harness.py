@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import ctypes
 import os
+import tempfile
 import threading
 import tty
 from ctypes import (
@@ -120,14 +121,32 @@ class SocStats:
         return self.sim_s / self.wall_s if self.wall_s > 0 else 0.0
 
 
-def check_flash_file(path: Path) -> None:
-    """A flash file is absent (a blank flash) or a whole flash image: ValueError naming it."""
-    if path.exists():
+def check_flash_file(path: Path, size_bytes: int = FLASH_BYTES) -> None:
+    """A flash file is a whole flash image of `size_bytes` this process can read, or absent (a
+    blank flash); either way in a folder it can write (a save writes a temporary file there and
+    renames it): ValueError naming the file, before a board starts (a save that fails later
+    stops the board)."""
+    if path.exists() or path.is_symlink():
         if not path.is_file():
             raise ValueError(f"flash file {path}: not a regular file")
         size = path.stat().st_size
-        if size != FLASH_BYTES:
-            raise ValueError(f"flash file {path}: {size} bytes, a flash image has {FLASH_BYTES}")
+        if size != size_bytes:
+            raise ValueError(f"flash file {path}: {size} bytes, a flash image has {size_bytes}")
+        try:
+            with path.open("rb"):
+                pass
+        except OSError as exc:
+            raise ValueError(f"flash file {path}: cannot be read ({exc.strerror or exc})") from None
+    folder = path.parent
+    if not folder.is_dir():
+        raise ValueError(f"flash file {path}: the folder {folder} does not exist")
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=f".{path.name}.", suffix=".tmp"):
+            pass
+    except OSError as exc:
+        raise ValueError(
+            f"flash file {path}: cannot be written in {folder} ({exc.strerror or exc})"
+        ) from None
 
 
 class SocBoard:
