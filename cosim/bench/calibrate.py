@@ -393,7 +393,9 @@ class Options:
     out_dir: Path
     apply: bool = False
     persist: bool = False
-    restore_hint: str = "bowden bench ... restore"  # the command line that restores before.json
+    # The command line that restores before.json; None for an emulated device, which ends with
+    # the calibration (a restore would start a new one).
+    restore_hint: str | None = "bowden bench ... restore"
     position_m: tuple[float, float, float] = (0.0, 0.5, 0.0)
     loop_routing: bool = True
     sheath_length_m: float = 1.0
@@ -437,9 +439,14 @@ def run_calibration(
     # before.json first of all: whatever happens next, the configuration can be restored
     backup = out / "before.json"
     write_atomic(backup, json.dumps(before, indent=2) + "\n")
-    if opts.apply:
+    if opts.apply and opts.restore_hint is not None:
         say(f"saved the device's configuration to {backup}; restore it with:")
         say(f"  {opts.restore_hint} {backup}")
+    elif opts.apply:
+        say(
+            f"saved the device's configuration to {backup} (the emulated device ends with this "
+            "command: nothing to restore)"
+        )
     state = _State()
     failure: BaseException | None = None
     try:
@@ -480,14 +487,14 @@ def _explain(failure, undo_error, state: _State, opts: Options, backup: Path) ->
         holds = (
             f"the values written ({', '.join(state.written)}) could NOT be put back "
             f"({undo_error}): the device holds them in RAM only (nothing was persisted); "
-            f"restore with {opts.restore_hint} {backup}"
+            f"{_way_back(opts, backup)}"
         )
     elif state.written:
         holds = f"the values written ({', '.join(state.written)}) were put back"
     elif undo_error is not None:
         holds = (
             f"no compensator value was written; the run settings (source, wave.*) could not "
-            f"be put back ({undo_error}): restore with {opts.restore_hint} {backup}"
+            f"be put back ({undo_error}): {_way_back(opts, backup)}"
         )
     else:
         holds = "no compensator value was written"
@@ -505,6 +512,13 @@ def _explain(failure, undo_error, state: _State, opts: Options, backup: Path) ->
         print(msg, file=sys.stderr)
         return
     raise CalibrationError(msg) from None
+
+
+def _way_back(opts: Options, backup: Path) -> str:
+    """How to get the configuration of before.json back."""
+    if opts.restore_hint is None:
+        return f"the emulated device ends with this command ({backup} holds what it had)"
+    return f"restore with {opts.restore_hint} {backup}"
 
 
 # Putting the configuration back after a failure: tries, PUT_BACK_WAIT_S apart (a link that

@@ -179,16 +179,13 @@ def _precheck_calibrate(args) -> int | None:
     return None
 
 
-def restore_command(args) -> str:
-    """The `bowden bench ... restore` command line for this session's link."""
-    if args.can:
-        link = f"--can {args.can} --node {args.node}"
-        if args.emulate:
-            link += " --emulate"
-    elif args.port:
-        link = f"--port {args.port}"
-    else:  # the stepped emulator lives in this process only
-        link = "--emulate"
+def restore_command(args) -> str | None:
+    """The `bowden bench ... restore` command line for this session's link; None for an
+    emulated device (--emulate): it lives in this process and ends with it, and a restore
+    would start a new one, on its defaults."""
+    if args.emulate:
+        return None
+    link = f"--can {args.can} --node {args.node}" if args.can else f"--port {args.port}"
     return f"bowden bench {link} restore"
 
 

@@ -5,6 +5,7 @@ it was when the link drops mid-run (before.json written, one line); bad options 
 exit 2. The stepped emulator (no wall clock) keeps these to seconds, the longer ones are marked
 slow; the runs over real links are in tests/bench/test_bench_calibrate_links.py."""
 
+import argparse
 import json
 
 import numpy as np
@@ -18,6 +19,7 @@ from cosim.bench.client import BenchClient, BenchError
 from cosim.bench.device import ChainConfig
 from cosim.bench.emulator import SteppedLink
 from cosim.bench.protocol import value_from_word
+from cosim.cli import bench_tools
 
 # Stated tolerance of the mu found on the emulated plant (whose mu the audit fits to 5e-4 on a
 # sine, tests/audit/test_audit_bench.py): 1 % of the plant's.
@@ -260,6 +262,59 @@ def test_a_link_lost_for_good_after_the_write_says_how_to_restore(tmp_path):
 
 
 @pytest.mark.parametrize(
+    ("link", "command"),
+    [
+        ({"port": "/dev/ttyUSB0"}, "bowden bench --port /dev/ttyUSB0 restore"),
+        (
+            {"can": "socketcan:can0", "node": 3},
+            "bowden bench --can socketcan:can0 --node 3 restore",
+        ),
+        # an emulated device ends with the command: `--emulate restore` would start a new one
+        ({"emulate": True}, None),
+        ({"can": "virtual:calibrate", "emulate": True}, None),
+    ],
+)
+def test_the_restore_command_is_given_for_a_device_that_outlives_the_calibration(link, command):
+    args = argparse.Namespace(**{"port": None, "can": None, "node": 1, "emulate": False, **link})
+    assert bench_tools.restore_command(args) == command
+
+
+@pytest.mark.parametrize("hint", [None, "bowden bench --port /dev/ttyUSB0 restore"])
+def test_a_failed_calibration_says_how_to_get_the_configuration_back(hint, tmp_path, monkeypatch):
+    """With a real device, the restore command; with an emulated one (no command), that the
+    device ends with the command: never a restore into a new emulated device."""
+
+    def link_lost(client, opts, before_words, state, **kw):
+        state.step, state.written = "the verification after the changes", ["comp.mu"]
+        raise BenchError("the link went down")
+
+    def put_back_fails(client, before_words, keep):
+        raise BenchError("no answer")
+
+    monkeypatch.setattr(cal, "_calibrate", link_lost)
+    monkeypatch.setattr(cal, "_put_back", put_back_fails)
+    lines = []
+    opts = cal.Options(out_dir=tmp_path / "c", apply=True, restore_hint=hint)
+    with Bench(emulate=True) as bench, pytest.raises(cal.CalibrationError) as exc:
+        cal.run_calibration(bench.client, bench.connect_info, opts, say=lines.append)
+    backup = tmp_path / "c" / "before.json"
+    msg = str(exc.value)
+    if hint is None:
+        assert lines == [
+            f"saved the device's configuration to {backup} (the emulated device ends with this "
+            "command: nothing to restore)"
+        ]
+        assert "restore with" not in msg
+        assert f"the emulated device ends with this command ({backup} holds what it had)" in msg
+    else:
+        assert lines == [
+            f"saved the device's configuration to {backup}; restore it with:",
+            f"  {hint} {backup}",
+        ]
+        assert f"restore with {hint} {backup}" in msg
+
+
+@pytest.mark.parametrize(
     ("setup", "extra", "message"),
     [
         ("file", [], "is a file, not a folder"),
@@ -300,7 +355,8 @@ def test_calibrate_command_applies_and_persists_on_the_stepped_emulator(tmp_path
     )
     text = capsys.readouterr().out
     assert rc == 0, text
-    assert "bowden bench --emulate restore" in text and "saved in flash" in text
+    assert "nothing to restore" in text and "saved in flash" in text
+    assert "bowden bench --emulate restore" not in text  # a new emulated device, on defaults
     rep = json.loads((out / "calibration.json").read_text())
     assert rep["persisted"] and rep["applied"]["comp.mu"] == pytest.approx(0.06, rel=MU_TOLERANCE)
     assert any(p.suffix == ".png" for p in (out / "audit").iterdir())
