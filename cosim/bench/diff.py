@@ -1,35 +1,55 @@
 """`bowden bench diff`: how a device's parameters differ from a file or the factory defaults.
 
-Three kinds of file are read (each checked before anything is sent to the device):
+Three kinds of file are read, told apart by their structure (each checked before anything is
+sent to the device, with the reader `restore` uses: cosim.bench.paramfiles):
 
-- a backup (`bowden bench backup`): the words as saved. A backup of another protocol version is
-  refused in one line (its words may mean other things); one of another parameter table but the
-  same protocol is compared by name, as `restore` writes it, and its names this device does not
-  know are listed.
+- a backup (`bowden bench backup`, it names its format): the words as saved. A backup of another
+  protocol version is refused in one line (its words may mean other things); one of another
+  parameter table but the same protocol is compared by name, as `restore` writes it, and its
+  names this device does not know are listed.
+- a co-simulation params file (`bowden sim --params`, `bowden tune`'s tuned_params.json: it has a
+  `controller`, `compensator`, `plant` or `board` section or `firmware_rate_hz`): every key it
+  sets in `controller` and `compensator` and its rates, as the co-simulation gives them to the
+  firmware (SIM_TO_DEVICE; `controller.ki_a_per_n_s` is the device's `loop.ki_ts` times the
+  file's sample rate). `plant` and `board` describe the model, not the device, and are skipped
+  (said so); a key that is null (the scenario's bending angle) is listed as not compared.
 - a bench params file: a JSON object of parameter names and values as `set` takes them, in SI
   units or mode names (`{"loop.kp": 0.1, "comp.mode": "smooth"}`).
-- a co-simulation params file (`bowden sim --params`, `bowden tune`'s tuned_params.json): the
-  keys it sets in `controller` and `compensator` and its rates, as the device holds them
-  (`controller.ki_a_per_n_s` is the device's `loop.ki_ts` times the file's sample rate); `plant`
-  and `board` describe the model, not the device, and are skipped (said so).
 
-Values are compared as the device's words (the file's SI values rounded to the parameter's fixed
-point, as `set` would write them), and shown in SI units with the difference device - file.
+Every value must be one the device accepts for its parameter (a file the device would refuse is
+refused, one line). Values are compared as the device's words (the file's SI values rounded to
+the parameter's fixed point, as `set` would write them), and shown in SI units with the difference
+device - file. A value that acts only while a switch is on (the slew limit, the rate
+feedforward's bound, the estimate's settings: SWITCHED_BY) is not a difference when the switch is
+off on both sides; the table says "off" and a line names it.
 """
 
 from __future__ import annotations
 
-import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+from cosim.config.run import ControllerParams, SimConfig
+from cosim.parts.firmware import CompensatorParams
+
 from . import messages as msgs
-from .protocol import ProtocolError, format_value, param, value_from_word, word_from_value
+from .paramfiles import (
+    BACKUP_FORMAT,
+    ParamFileError,
+    bench_params,
+    is_backup,
+    read_backup,
+    read_json,
+    word_of_value,
+)
+from .protocol import ProtocolError, format_value, param, value_from_word
 
-BACKUP_FORMAT = 1
+__all__ = ["BACKUP_FORMAT", "DiffFileError", "Reference", "compare", "load_file", "render"]
 
-# Co-simulation params file key -> device parameter (cosim.config.scenarios.SimConfig; the
-# firmware's configuration holds the same quantities, fw.h and the register map).
+# Co-simulation params file key -> device parameter, as the co-simulation gives each to the
+# firmware (cosim.engines.fwbridge.loop_words for the loop's words, kv and its bound;
+# cosim.parts.firmware.CompensatorParams.to_c and EstimatorParams.to_c for the compensator and the
+# online estimate; FirmwareConfig for the rates), in the same units unless SIM_PER_RATE says.
 SIM_TO_DEVICE = {
     "firmware_rate_hz": "tick_rate_hz",
     "sample_rate_hz": "sample_rate_hz",
@@ -38,6 +58,8 @@ SIM_TO_DEVICE = {
     "controller.ki_a_per_n_s": "loop.ki_ts",
     "controller.i_limit_a": "loop.i_limit",
     "controller.slew_n_per_sample": "loop.slew",
+    "controller.kv_a_s_per_n": "loop.kv",
+    "controller.uff_limit_a": "loop.uff_limit",
     **{
         f"compensator.{k}": f"comp.{k}"
         for k in (
@@ -53,6 +75,44 @@ SIM_TO_DEVICE = {
             "ramp_ticks",
         )
     },
+    "compensator.est_enable": "est.enable",
+    "compensator.est_tau_ticks": "est.tau_ticks",
+    "compensator.est_rate_per_s": "est.rate",
+    "compensator.est_mu_phi_min": "est.mu_phi_min",
+    "compensator.est_mu_phi_max": "est.mu_phi_max",
+    "compensator.est_t_min_n": "est.t_min_n",
+}
+# Keys given per second whose device word is per FPGA sample or per firmware tick: the value
+# divided by the file's rate (Ki * Ts, Ts one FPGA sample; the estimate's rate per tick).
+SIM_PER_RATE = {
+    "controller.ki_a_per_n_s": "sample_rate_hz",
+    "compensator.est_rate_per_s": "firmware_rate_hz",
+}
+# Keys whose 0 means "off": the device holds the switch apart (fwbridge: slew_en = slew > 0), and
+# the value is compared only when on.
+SIM_SWITCHED = {"controller.slew_n_per_sample": "loop.slew_en"}
+# Keys with no device parameter of their own, and why.
+SIM_NOT_ON_DEVICE = {
+    "compensator.mode": "set by the run's --compensator, not by a params file",
+    "plant": "the co-simulation's plant (FMU parameters)",
+    "board": "the co-simulation's model of the board's sensing and drive chain",
+}
+# What a null value means where the co-simulation takes one.
+SIM_NULL = {
+    "compensator.phi_rad": "the scenario's bending angle at its start position, found per run; "
+    "not a device value",
+}
+
+# A value that acts only while another parameter is on (non-zero): the slew limit with
+# CTRL.SLEW_EN (the register map), the bound of the rate feedforward with a non-zero kv (fw.h:
+# kv 0 writes no feedforward), the estimate's settings with est.enable (fric_est.h).
+SWITCHED_BY = {
+    "loop.slew": "loop.slew_en",
+    "loop.uff_limit": "loop.kv",
+    **{
+        f"est.{k}": "est.enable"
+        for k in ("tau_ticks", "rate", "mu_phi_min", "mu_phi_max", "t_min_n")
+    },
 }
 
 
@@ -63,34 +123,38 @@ class DiffFileError(ValueError):
 @dataclass
 class Reference:
     """What the device is compared with: words by parameter name, and what the file held
-    besides (names this device does not know, sections that are not device parameters)."""
+    besides (names this device does not know, sections that are not device parameters, keys
+    not compared and why)."""
 
     label: str
     words: dict[str, int]
     unknown: list[str] = field(default_factory=list)
     skipped: list[str] = field(default_factory=list)
     note: str = ""
+    not_compared: list[str] = field(default_factory=list)
+
+
+# Top-level keys only a co-simulation params file has (its sample_rate_hz is also a device
+# parameter's name, so it does not tell the kinds apart).
+SIM_ONLY_KEYS = frozenset(f.name for f in fields(SimConfig) if f.name not in msgs.PARAM_BY_NAME)
 
 
 def load_file(path: str | Path) -> Reference:
     """Read a backup, bench params file or co-simulation params file (DiffFileError)."""
     path = Path(path)
     try:
-        doc = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise DiffFileError(f"diff: {path} does not exist") from None
-    except IsADirectoryError:
-        raise DiffFileError(f"diff: {path} is a directory, not a file") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise DiffFileError(f"diff: {path} is not JSON ({exc})") from None
-    if not isinstance(doc, dict):
-        raise DiffFileError(f"diff: {path}: expected a JSON object at the top level")
-    if "bowden_bench_backup" in doc:
-        return _backup(path, doc)
-    if any(k in msgs.PARAM_BY_NAME for k in doc):
-        return _bench_params(path, doc)
-    if any(k in doc for k in ("controller", "compensator", "sample_rate_hz", "firmware_rate_hz")):
-        return _sim_params(path, doc)
+        doc = read_json(path, "a file")
+        if not isinstance(doc, dict):
+            raise ParamFileError(f"{path}: expected a JSON object at the top level")
+        if is_backup(doc):
+            return _backup(path, doc)
+        if SIM_ONLY_KEYS & doc.keys():
+            return _sim_params(path, doc)
+        if any(k in msgs.PARAM_BY_NAME for k in doc):
+            words, unknown = bench_params(path, doc)
+            return Reference(label=path.name, words=words, unknown=unknown)
+    except ParamFileError as exc:
+        raise DiffFileError(f"diff: {exc}") from None
     raise DiffFileError(
         f"diff: {path} is neither a bowden bench backup, nor a params file of device parameters "
         '(e.g. {"loop.kp": 0.1}), nor a co-simulation params file (controller, compensator)'
@@ -98,88 +162,78 @@ def load_file(path: str | Path) -> Reference:
 
 
 def _backup(path: Path, doc: dict) -> Reference:
-    if doc.get("bowden_bench_backup") != BACKUP_FORMAT:
-        raise DiffFileError(
-            f"diff: {path}: backup format {doc.get('bowden_bench_backup')!r}, this host reads "
-            f"format {BACKUP_FORMAT}"
-        )
-    version = doc.get("protocol_version")
-    if version != msgs.PROTOCOL_VERSION:
-        raise DiffFileError(
-            f"diff: {path} is a backup of protocol version {version}, this host speaks "
-            f"{msgs.PROTOCOL_VERSION}: its words may mean other things; compare it with a host "
-            "of that version"
-        )
-    params = doc.get("params")
-    if not isinstance(params, dict):
-        raise DiffFileError(f"diff: {path}: no 'params' object")
-    words, unknown = {}, []
-    for name, entry in params.items():
-        if name not in msgs.PARAM_BY_NAME:
-            unknown.append(name)
-            continue
-        word = entry.get("word") if isinstance(entry, dict) else None
-        if isinstance(word, bool) or not isinstance(word, int) or not -(1 << 31) <= word < 1 << 32:
-            raise DiffFileError(f"diff: {path}: {name}.word must be a 32-bit integer")
-        words[name] = word - (1 << 32) if word >= 1 << 31 else word
+    b = read_backup(path, doc)
     note = ""
-    if doc.get("table_hash") != f"{msgs.TABLE_HASH:08x}":
+    if not b.same_table:
         note = (
-            f"backup of table {doc.get('table_hash')}, this host's table {msgs.TABLE_HASH:08x}: "
+            f"backup of table {b.table_hash}, this host's table {msgs.TABLE_HASH:08x}: "
             "compared by parameter name"
         )
-    return Reference(label=path.name, words=words, unknown=unknown, note=note)
-
-
-def _bench_params(path: Path, doc: dict) -> Reference:
-    words, unknown = {}, []
-    for name, value in doc.items():
-        if name not in msgs.PARAM_BY_NAME:
-            unknown.append(name)
-            continue
-        if isinstance(value, bool) or not isinstance(value, int | float | str):
-            raise DiffFileError(f"diff: {path}: {name}: expected a number or a mode name")
-        try:
-            words[name] = word_from_value(param(name), value)
-        except ProtocolError as exc:
-            raise DiffFileError(f"diff: {path}: {exc}") from None
-    return Reference(label=path.name, words=words, unknown=unknown)
+    return Reference(label=path.name, words=b.words, unknown=b.unknown, note=note)
 
 
 def _sim_params(path: Path, doc: dict) -> Reference:
-    from cosim.config.scenarios import SimConfig  # noqa: PLC0415 (the co-simulation's checks, on demand)
-
     try:
-        cfg = SimConfig.from_dict(doc, source=f"diff: {path}")
+        cfg = SimConfig.from_dict(doc, source=str(path))
     except ValueError as exc:
-        raise DiffFileError(str(exc)) from None
-    words = {}
+        raise ParamFileError(str(exc)) from None
+    try:
+        words, not_compared = sim_words(doc, cfg)
+    except ProtocolError as exc:
+        raise ParamFileError(f"{path}: {exc}") from None
+    skipped = [k for k in ("plant", "board") if doc.get(k)]
+    return Reference(label=path.name, words=words, skipped=skipped, not_compared=not_compared)
+
+
+def sim_words(doc: dict, cfg: SimConfig) -> tuple[dict[str, int], list[str]]:
+    """The device words of the keys a co-simulation params file sets (`doc`, read into `cfg`),
+    and the keys it sets that are not compared, with the reason. ProtocolError names the key
+    of a value the device does not accept."""
+    words: dict[str, int] = {}
+    not_compared: list[str] = []
     for key, name in SIM_TO_DEVICE.items():
         group, _, leaf = key.rpartition(".")
-        given = doc.get(group, {}) if group else doc
-        if not isinstance(given, dict) or leaf not in given or given[leaf] is None:
+        given = doc.get(group) if group else doc
+        if not isinstance(given, dict) or leaf not in given:
             continue  # only what the file sets (the rest are the co-simulation's defaults)
+        if given[leaf] is None:
+            not_compared.append(f"{key} (null: {SIM_NULL[key]})")
+            continue
         value = getattr(getattr(cfg, group), leaf) if group else getattr(cfg, leaf)
-        if name == "loop.ki_ts":
-            value = value / cfg.sample_rate_hz  # Ki * Ts, Ts one FPGA sample
+        if key in SIM_PER_RATE:
+            value = value / getattr(cfg, SIM_PER_RATE[key])
+        if key in SIM_SWITCHED:
+            words[SIM_SWITCHED[key]] = 1 if value > 0 else 0
+            if value == 0:
+                continue  # off: the device's value of it means nothing
         try:
-            words[name] = word_from_value(param(name), value)
+            words[name] = word_of_value(param(name), value)
         except ProtocolError as exc:
-            raise DiffFileError(f"diff: {path}: {key}: {exc}") from None
-    skipped = [k for k in ("plant", "board") if doc.get(k)]
-    return Reference(label=path.name, words=words, skipped=skipped)
+            raise ProtocolError(f"{key}: {exc}") from None
+    return words, not_compared
+
+
+def unmapped_sim_keys(controller=ControllerParams, compensator=CompensatorParams) -> list[str]:
+    """Keys of a co-simulation params file (SimConfig's top level, its controller and compensator
+    fields) that neither map to a device parameter nor are listed as having none."""
+    keys = [f.name for f in fields(SimConfig) if f.name not in ("controller", "compensator")]
+    keys += [f"controller.{f.name}" for f in fields(controller)]
+    keys += [f"compensator.{f.name}" for f in fields(compensator)]
+    return [k for k in keys if k not in SIM_TO_DEVICE and k not in SIM_NOT_ON_DEVICE]
 
 
 @dataclass(frozen=True)
 class Row:
-    """One parameter: its words on the device and in the reference."""
+    """One parameter: its words on the device and in the reference; `off` names the switch that
+    is off on both sides (the words then change nothing the device does)."""
 
     name: str
     device: int
     reference: int
+    off: str | None = None
 
     @property
-    def differs(self) -> bool:
+    def words_differ(self) -> bool:
         p = param(self.name)
         mask = 0xFFFFFFFF
         return (
@@ -188,26 +242,40 @@ class Row:
             else (self.device != self.reference)
         )
 
+    @property
+    def differs(self) -> bool:
+        return self.off is None and self.words_differ
+
     def cells(self) -> list[str]:
         p = param(self.name)
         dev, ref = value_from_word(p, self.device), value_from_word(p, self.reference)
         delta = ""
-        if not isinstance(dev, str) and not isinstance(ref, str):
+        if self.off is not None:
+            delta = "off"
+        elif not isinstance(dev, str) and not isinstance(ref, str):
             delta = f"{dev - ref:+.6g}" + (f" {p.unit}" if p.unit else "")
         return [self.name, format_value(p, self.device), format_value(p, self.reference), delta]
 
 
 def compare(device: dict[str, int], ref: Reference) -> list[Row]:
-    """Rows in parameter order for every parameter the reference holds."""
-    return [
-        Row(p.name, device[p.name], ref.words[p.name])
-        for p in msgs.PARAMS
-        if p.name in ref.words and p.name in device
-    ]
+    """Rows in parameter order for every parameter the reference holds. A switch the reference
+    does not hold is the device's on its side (the file changes only what it names)."""
+    rows = []
+    for p in msgs.PARAMS:
+        if p.name not in ref.words or p.name not in device:
+            continue
+        switch = SWITCHED_BY.get(p.name)
+        off = None
+        if switch is not None and switch in device:
+            if device[switch] == 0 and ref.words.get(switch, device[switch]) == 0:
+                off = switch
+        rows.append(Row(p.name, device[p.name], ref.words[p.name], off))
+    return rows
 
 
 def render(rows: list[Row], ref: Reference, show_all: bool = False) -> str:
-    """The differing rows (every row with show_all) as a table, then a one-line summary."""
+    """The differing rows (every row with show_all) as a table, then a one-line summary and what
+    was not compared."""
     shown = [r for r in rows if show_all or r.differs]
     lines = []
     if ref.note:
@@ -226,8 +294,13 @@ def render(rows: list[Row], ref: Reference, show_all: bool = False) -> str:
         if n
         else f"no differences in {len(rows)} parameters"
     )
+    off = [f"{r.name} ({r.off} 0)" for r in rows if r.off is not None and r.words_differ]
+    if off:
+        lines.append(f"off on both sides, not a difference: {', '.join(off)}")
     if ref.unknown:
         lines.append(f"in {ref.label} but unknown to this device: {', '.join(ref.unknown)}")
+    if ref.not_compared:
+        lines.append(f"not compared: {', '.join(ref.not_compared)}")
     if ref.skipped:
         lines.append(
             f"not device parameters (the co-simulation's model), skipped: {', '.join(ref.skipped)}"

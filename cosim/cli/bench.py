@@ -37,7 +37,7 @@ from cosim.bench.client import (
 )
 from cosim.bench.config import backup_doc, write_all, write_atomic
 from cosim.bench.device import ChainConfig
-from cosim.bench.diff import BACKUP_FORMAT
+from cosim.bench.paramfiles import ParamFileError, restore_plan
 from cosim.bench.protocol import ProtocolError, format_value, param, word_from_value
 from cosim.bench.recorder import WAVE_KINDS, stderr_progress
 from cosim.parts import regmap
@@ -405,83 +405,18 @@ def _cmd_backup(client: BenchClient, args, info) -> int:
     return 0
 
 
-def _no_duplicate_keys(pairs: list) -> dict:
-    keys = [k for k, _ in pairs]
-    dup = next((k for k in keys if keys.count(k) > 1), None)
-    if dup is not None:
-        raise ValueError(f"key {dup!r} appears twice")
-    return dict(pairs)
-
-
-def _entry_word(path: Path, p, entry) -> int:
-    """A backup entry's word: `word` and `value` must agree (a hand-edited value is not
-    silently replaced by the raw word); a value alone is converted."""
-    if not isinstance(entry, dict):
-        raise BenchError(f"restore: {path}: {p.name} must be an object with 'word' and 'value'")
-    word = entry.get("word")
-    value = entry.get("value")
-    if word is not None and (
-        isinstance(word, bool) or not isinstance(word, int) or not -(1 << 31) <= word < (1 << 32)
-    ):
-        raise BenchError(f"restore: {path}: {p.name}.word must be a 32-bit integer")
-    if word is not None:
-        word = word - (1 << 32) if word >= 1 << 31 else word
-    if value is not None and not isinstance(value, str | int | float):
-        raise BenchError(f"restore: {path}: {p.name}.value must be a string or a number")
-    if value is None:
-        if word is None:
-            raise BenchError(f"restore: {path}: {p.name} has neither 'word' nor 'value'")
-        return word
-    text = str(value).strip()
-    if word is not None and text == format_value(p, word):
-        return word
-    number = text.split()[0] if text else text  # "0.0699463 A/N" -> its number
-    from_value = word_from_value(p, number)
-    if word is not None and from_value != word:
-        raise BenchError(
-            f"restore: {path}: {p.name}: value {text!r} and word {word} "
-            f"({format_value(p, word)}) disagree: edit one to match the other or remove it"
-        )
-    return from_value
-
-
 def _cmd_restore(client: BenchClient, args, info) -> int:
     path = Path(args.file)
-    try:
-        doc = json.loads(path.read_text(), object_pairs_hook=_no_duplicate_keys)
-    except FileNotFoundError:
-        raise BenchError(f"restore: {path} does not exist") from None
-    except IsADirectoryError:
-        raise BenchError(f"restore: {path} is a folder, not a backup file") from None
-    except RecursionError:
-        raise BenchError(f"restore: {path}: JSON nested too deeply for a backup") from None
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise BenchError(f"restore: {path} is not a JSON backup ({exc})") from None
-    if not isinstance(doc, dict) or doc.get("bowden_bench_backup") != BACKUP_FORMAT:
-        raise BenchError(f"restore: {path} is not a bowden bench backup (format {BACKUP_FORMAT})")
-    params = doc.get("params")
-    if not isinstance(params, dict):
-        raise BenchError(f"restore: {path}: no 'params' object")
-    unknown = [n for n in params if n not in msgs.PARAM_BY_NAME]
-    if unknown:
-        raise BenchError(
-            f"restore: {path} has parameters this device does not know: {', '.join(unknown)} "
-            f"(backup table {doc.get('table_hash')}, device table {msgs.TABLE_HASH:08x})"
-        )
-    todo = []
-    for name, entry in params.items():
-        p = param(name)
+    # Read and checked before the link opened (bench_tools.precheck), or here when called alone.
+    plan = getattr(args, "restore_plan", None)
+    if plan is None:
         try:
-            word = _entry_word(path, p, entry)
-        except ProtocolError as exc:
-            raise BenchError(f"restore: {path}: {exc}") from None
-        if not p.read_only:
-            todo.append((p, word))
-    if doc.get("table_hash") != f"{msgs.TABLE_HASH:08x}":
-        print(
-            f"note: backup of table {doc.get('table_hash')}, device table {msgs.TABLE_HASH:08x}: "
-            "restoring by parameter name"
-        )
+            plan = restore_plan(path)
+        except ParamFileError as exc:
+            raise BenchError(f"restore: {exc}") from None
+    todo, note = plan
+    if note:
+        print(f"note: {note}")
     try:
         done = write_all(client, todo, "restore")
     except BenchUsageError as exc:

@@ -11,7 +11,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from cosim.bench import diff, discover, live
+from cosim.bench import diff, discover, live, paramfiles
 from cosim.bench import messages as msgs
 from cosim.bench.protocol import param
 from cosim.bench.recorder import RunResult, record_run, run_ticks
@@ -133,6 +133,13 @@ def precheck(args) -> int | None:
         return 2
     if args.bench_command == "calibrate":
         return _precheck_calibrate(args)
+    if args.bench_command == "restore":  # the backup read and checked as diff reads it
+        try:
+            args.restore_plan = paramfiles.restore_plan(args.file)
+        except paramfiles.ParamFileError as exc:
+            print(f"bowden bench: restore: {exc}", file=sys.stderr)
+            return 1  # restore's exit for a missing or bad backup, as before the link opened
+        return None
     if args.bench_command != "diff":
         return None
     if (args.file is None) == (not args.defaults):

@@ -142,3 +142,271 @@ def test_diff_over_can(capsys):
         capsys, "--can", f"virtual:diff_{os.getpid()}", "--emulate", "diff", "--defaults"
     )
     assert rc == 0 and out.strip() == f"no differences in {len(msgs.PARAMS)} parameters"
+
+
+# --- co-simulation params files: every key compared or said not to be ---------------------------
+
+
+def test_a_sim_file_compares_the_rate_feedforward_and_the_estimate(url, tmp_path, capsys):
+    """kv, its bound and the online estimate's settings are device parameters (loop.kv,
+    loop.uff_limit, est.*): each key the file sets is a row, none left out silently."""
+    _run(capsys, "--port", url, "defaults")
+    sim = tmp_path / "tuned_params.json"
+    sim.write_text(
+        json.dumps(
+            {
+                "controller": {"kp_a_per_n": 0.1, "kv_a_s_per_n": 0.01, "uff_limit_a": 1.0},
+                "compensator": {
+                    "mu": 0.075,
+                    "est_enable": 1,
+                    "est_tau_ticks": 256,
+                    "est_rate_per_s": 1.0,
+                    "est_mu_phi_min": 0.1,
+                    "est_mu_phi_max": 1.5,
+                    "est_t_min_n": 1.0,
+                },
+            }
+        )
+    )
+    rc, out, err = _run(capsys, "--port", url, "diff", str(sim))
+    lines = out.splitlines()
+    rows = _rows("\n".join(lines[:-1]))
+    assert rc == 0 and err == "", err
+    assert set(rows) == {
+        "loop.kv",
+        "loop.uff_limit",
+        "est.enable",
+        "est.tau_ticks",
+        "est.rate",
+        "est.mu_phi_min",
+        "est.mu_phi_max",
+        "est.t_min_n",
+    }, out
+    assert lines[-1] == "8 of 10 parameters differ"  # kp and mu as the device holds them
+    # The estimate's rate is per firmware tick on the device: 1 per s at the file's 1 kHz is
+    # 0.001 per tick, in Q3.28; kv 0.01 A s/N in Q7.24.
+    assert rows["est.rate"][1:5] == ["0.002", "per", "tick", "0.000999998"]
+    assert rows["loop.kv"][1:5] == ["0", "A", "s/N", "0.00999999"]
+
+
+def test_a_null_bending_angle_is_listed_as_not_compared(url, tmp_path, capsys):
+    _run(capsys, "--port", url, "defaults")
+    sim = tmp_path / "sim.json"
+    sim.write_text(json.dumps({"compensator": {"phi_rad": None, "mu": 0.075}}))
+    rc, out, _ = _run(capsys, "--port", url, "diff", str(sim))
+    lines = out.splitlines()
+    assert rc == 0 and lines[0] == "no differences in 1 parameters", out
+    assert lines[1].startswith("not compared: compensator.phi_rad (null: "), out
+
+
+def test_every_sim_key_is_mapped_or_said_to_have_no_device_counterpart():
+    """The co-simulation's controller and compensator fields (and the file's top level) each map
+    to a device parameter or are listed with the reason they have none; a field added to the
+    co-simulation without either is found."""
+    import dataclasses
+
+    from cosim.bench import diff
+    from cosim.config.run import ControllerParams
+
+    assert diff.unmapped_sim_keys() == []
+    for key, name in diff.SIM_TO_DEVICE.items():
+        assert name in msgs.PARAM_BY_NAME, key
+    assert not set(diff.SIM_TO_DEVICE) & set(diff.SIM_NOT_ON_DEVICE)
+
+    @dataclasses.dataclass
+    class Grown(ControllerParams):
+        kd_a_s_per_n: float = 0.0
+
+    assert diff.unmapped_sim_keys(controller=Grown) == ["controller.kd_a_s_per_n"]
+
+
+def test_sim_words_are_the_words_the_cosimulation_gives_the_firmware():
+    """Units and scaling: for a params file that sets every mapped key away from its default,
+    the device words diff compares with are the firmware configuration the co-simulation builds
+    from that file (cosim.engines.fwbridge), word for word."""
+    from cosim.bench import diff
+    from cosim.config.run import SimConfig
+    from cosim.engines.fwbridge import FirmwareBridge
+    from cosim.parts import firmware
+
+    doc = {
+        "sample_rate_hz": 20000,
+        "firmware_rate_hz": 2000,
+        "controller": {
+            "kff_a_per_n": 0.09,
+            "kp_a_per_n": 0.12,
+            "ki_a_per_n_s": 3.0,
+            "i_limit_a": 3.5,
+            "slew_n_per_sample": 0.25,
+            "kv_a_s_per_n": 0.02,
+            "uff_limit_a": 1.25,
+        },
+        "compensator": {
+            "mu": 0.1,
+            "phi_rad": 3.0,
+            "band_n": 0.75,
+            "hysteresis_n": 0.05,
+            "offset_n": 0.2,
+            "mu_slope_per_n": 0.0,
+            "tc_min_n": 0.3,
+            "preview_ticks": 40,
+            "lead_ticks": 5,
+            "ramp_ticks": 100,
+            "est_enable": 1,
+            "est_tau_ticks": 512,
+            "est_rate_per_s": 3.0,
+            "est_mu_phi_min": 0.1,
+            "est_mu_phi_max": 1.5,
+            "est_t_min_n": 0.75,
+        },
+    }
+    mapped = {k for k in diff.SIM_TO_DEVICE if "." in k} | {"sample_rate_hz", "firmware_rate_hz"}
+    given = {f"{g}.{k}" for g in ("controller", "compensator") for k in doc[g]}
+    assert mapped <= given | {"sample_rate_hz", "firmware_rate_hz"}
+    words = diff.sim_words(doc, SimConfig.from_dict(doc))[0]
+    cfg = SimConfig.from_dict(doc)
+    bridge = FirmwareBridge(cfg, "paper", cfg.compensator.phi_rad)
+    c = bridge.fw.config.to_c(firmware.load_library())
+    for name, word in words.items():
+        node = c
+        for part in msgs.PARAM_BY_NAME[name].cpath.removeprefix("fw.").split("."):
+            node = getattr(node, part)
+        assert word == node, name
+    assert {"loop.slew_en", "loop.slew", "est.rate", "loop.ki_ts"} <= set(words)
+
+
+def test_a_sim_file_with_its_rates_is_read_as_a_sim_file(url, tmp_path, capsys):
+    _run(capsys, "--port", url, "defaults")
+    sim = tmp_path / "sim.json"
+    sim.write_text(
+        json.dumps(
+            {
+                "sample_rate_hz": 10000,
+                "controller": {"kp_a_per_n": 0.2},
+                "compensator": {"mu": 0.075},
+                "plant": {"mu": 0.2},
+            }
+        )
+    )
+    rc, out, _ = _run(capsys, "--port", url, "diff", str(sim))
+    lines = out.splitlines()
+    assert rc == 0 and set(_rows("\n".join(lines[:-2]))) == {"loop.kp"}, out
+    assert lines[-2:] == [
+        "1 of 3 parameters differ",
+        "not device parameters (the co-simulation's model), skipped: plant",
+    ]
+
+
+# --- a setting that is off on both sides ---------------------------------------------------------
+
+
+def test_a_value_whose_switch_is_off_on_both_sides_is_not_a_difference(url, tmp_path, capsys):
+    """The device's slew limit is off (loop.slew_en 0, loop.slew 0.5 N): a file whose slew is off
+    too (the co-simulation's 0, or a slew value without the switch) differs in nothing that
+    acts; with the switch on in the file, both rows differ."""
+    _run(capsys, "--port", url, "defaults")
+    f = tmp_path / "f.json"
+    f.write_text(json.dumps({"controller": {"slew_n_per_sample": 0}}))
+    rc, out, _ = _run(capsys, "--port", url, "diff", str(f))
+    assert rc == 0 and out.strip() == "no differences in 1 parameters", out
+    f.write_text(json.dumps({"loop.slew": 0}))
+    rc, out, _ = _run(capsys, "--port", url, "diff", str(f))
+    lines = out.splitlines()
+    assert rc == 0 and lines[0] == "no differences in 1 parameters", out
+    assert lines[1] == "off on both sides, not a difference: loop.slew (loop.slew_en 0)", out
+    f.write_text(json.dumps({"loop.slew": 0, "loop.slew_en": 1}))
+    rc, out, _ = _run(capsys, "--port", url, "diff", str(f))
+    assert out.splitlines()[-1] == "2 of 2 parameters differ", out
+    f.write_text(json.dumps({"controller": {"slew_n_per_sample": 1.0}}))
+    rc, out, _ = _run(capsys, "--port", url, "diff", str(f))
+    assert set(_rows("\n".join(out.splitlines()[:-1]))) == {"loop.slew", "loop.slew_en"}, out
+    # A backup: the slew changed while off, and the estimate's rate while it is off.
+    backup = tmp_path / "b.json"
+    _run(capsys, "--port", url, "backup", str(backup))
+    _run(capsys, "--port", url, "set", "loop.slew=2", "est.rate=0.01")
+    rc, out, _ = _run(capsys, "--port", url, "diff", str(backup), "--all")
+    lines = out.splitlines()
+    assert lines[-2] == f"no differences in {len(msgs.PARAMS)} parameters", out
+    assert lines[-1] == (
+        "off on both sides, not a difference: loop.slew (loop.slew_en 0), est.rate (est.enable 0)"
+    )
+    slew = next(line for line in lines if line.startswith("loop.slew "))
+    assert slew.split()[1:] == ["2", "N", "per", "sample", "0.5", "N", "per", "sample", "off"]
+    _run(capsys, "--port", url, "defaults")
+
+
+# --- files refused in one line, exit 2, before the link -----------------------------------------
+
+
+def _backup_doc(**params):
+    doc = {
+        "bowden_bench_backup": 1,
+        "protocol_version": msgs.PROTOCOL_VERSION,
+        "table_hash": f"{msgs.TABLE_HASH:08x}",
+        "params": {"loop.kp": {"word": 819, "value": "0.0999756 A/N"}},
+    }
+    doc["params"].update(params)
+    return doc
+
+
+@pytest.mark.parametrize(
+    ("content", "words"),
+    [
+        ({"comp.mu": 2.0}, "comp.mu=2: outside [0, 1]"),
+        ({"comp.mu": -0.1}, "comp.mu=-0.1: outside [0, 1]"),
+        ({"comp.mode": 7}, "comp.mode=7: expected one of none, paper, smooth, preview"),
+        ({"est.tau_ticks": 8}, "est.tau_ticks=8: outside [16, 32768]"),
+        ({"controller": {"kv_a_s_per_n": 1.0}}, "controller.kv_a_s_per_n must be in [0, 0.0625]"),
+        (_backup_doc(**{"loop.kv": {"word": 2**31 - 1}}), "loop.kv: word 2147483647 outside"),
+        (_backup_doc(**{"comp.mode": {"word": 99}}), "comp.mode: word 99 is none of none=0"),
+        (_backup_doc(**{"comp.mu": {"value": "1.5"}}), "comp.mu=1.5: outside [0, 1]"),
+        ('{"loop.kp": 0.1, "loop.kp": 0.5}', "key 'loop.kp' appears twice"),
+        (
+            '{"controller": {"kp_a_per_n": 0.1, "kp_a_per_n": 0.5}}',
+            "key 'kp_a_per_n' appears twice",
+        ),
+        (
+            json.dumps(_backup_doc()).replace('"params": {', '"params": {"loop.kp": {"word": 1}, '),
+            "key 'loop.kp' appears twice",
+        ),
+        ('{"loop.kp": ' + "9" * 5000 + "}", "loop.kp: an integer of 5000 digits"),
+        ('{"controller": {"kp_a_per_n": ' + "9" * 5000 + "}}", "an integer of 5000 digits"),
+        ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
+        ('{"a": ' * 100_000 + "1" + "}" * 100_000, "nested too deeply"),
+    ],
+)
+def test_out_of_range_duplicate_huge_and_deep_files_are_one_line(content, words, tmp_path, capsys):
+    f = tmp_path / "f.json"
+    f.write_text(content if isinstance(content, str) else json.dumps(content))
+    rc, out, err = _run(capsys, "--port", str(tmp_path / "no-port"), "diff", str(f))
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and words in err, err
+    assert err.startswith("bowden bench diff: ") and out == ""
+
+
+# --- restore reads a backup with the same reader ------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("content", "words"),
+    [
+        (_backup_doc(**{"loop.kv": {"word": 2**31 - 1}}), "loop.kv: word 2147483647 outside"),
+        (_backup_doc(**{"comp.mode": {"word": 99}}), "comp.mode: word 99 is none of none=0"),
+        (_backup_doc(**{"comp.mu": {"value": 2}}), "comp.mu=2: outside [0, 1]"),
+        ({**_backup_doc(), "protocol_version": OLD}, f"is a backup of protocol version {OLD}"),
+        (
+            json.dumps(_backup_doc()).replace('"params": {', '"params": {"loop.kp": {"word": 1}, '),
+            "key 'loop.kp' appears twice",
+        ),
+        (
+            json.dumps(_backup_doc()).replace('"word": 819', '"word": ' + "9" * 5000),
+            "loop.kp.word must be a 32-bit integer; got an integer of 5000 digits",
+        ),
+        ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
+    ],
+)
+def test_restore_refuses_what_diff_refuses_before_the_link(content, words, tmp_path, capsys):
+    f = tmp_path / "b.json"
+    f.write_text(content if isinstance(content, str) else json.dumps(content))
+    rc, out, err = _run(capsys, "--port", str(tmp_path / "no-port"), "restore", str(f))
+    assert rc == 1 and len(err.strip().splitlines()) == 1 and words in err, err
+    assert err.startswith("bowden bench: restore: ") and out == ""
