@@ -10,7 +10,7 @@ import json
 import sys
 from pathlib import Path
 
-from cosim.project.cliargs import output_dir
+from cosim.project.cliargs import output_dir, shown
 
 
 def add_parser(subparsers) -> None:
@@ -48,6 +48,13 @@ def main(args: argparse.Namespace) -> int:
         spec = load_spec(args.spec)
         if args.workers is not None and not 1 <= args.workers <= 256:
             raise SpecError(f"--workers must be in [1, 256]; got {args.workers}")
+        if args.workers is not None and args.scheduler is not None:
+            raise SpecError(
+                "--workers sizes the local cluster; with --scheduler the cluster's own workers "
+                "run the points (give one or the other)"
+            )
+        if args.out.exists() and not args.out.is_dir():  # before the scheduler is asked
+            raise SpecError(f"--out {shown(args.out)}: is a file, not a folder")
         if args.scheduler is not None and "://" not in args.scheduler:
             raise SpecError(
                 f"--scheduler must be an address like tcp://HOST:PORT; got {args.scheduler!r}"
@@ -76,13 +83,13 @@ def run_and_report(
         if not quiet:
             print(msg, file=sys.stderr, flush=True)
 
-    from cosim.studies.sweep.run import OutDirMismatchError  # noqa: PLC0415
+    from cosim.studies.sweep.run import OutDirError  # noqa: PLC0415
 
     try:
         rows = run_sweep(
             spec, spec_dict, out, scheduler, workers, not quiet, log, retry_failed=retry_failed
         )
-    except OutDirMismatchError as exc:  # --out holds another run's points: a usage error
+    except OutDirError as exc:  # --out a file, or holding another run's points: a usage error
         print(f"bowden sweep: {exc}", file=sys.stderr)
         return 2
     except (OSError, RuntimeError, TimeoutError) as exc:

@@ -273,3 +273,69 @@ def test_the_probe_lets_a_real_scheduler_through():
         n_workers=0, processes=False, protocol="tcp://", dashboard_address=None
     ) as cluster:
         scheduler.probe(cluster.scheduler_address, timeout_s=10.0)  # raises if refused
+
+
+@pytest.mark.parametrize(
+    ("address", "words"),
+    [
+        ("http://127.0.0.1:8787", "expected a tcp://, tls://, ws://, wss:// address"),
+        ("ucx://127.0.0.1:8786", "expected a tcp://, tls://, ws://, wss:// address"),
+        ("tcp://127.0.0.1:8786/status", "expected an address like tcp://HOST:PORT"),
+        ("tls://127.0.0.1:8786", "needs Dask's TLS configuration"),
+    ],
+)
+def test_a_scheduler_address_dask_cannot_use_is_one_line_before_anything_is_written(
+    address, words, tmp_path, capsys
+):
+    """Addresses the probe does not read (http://, a Dask scheme that needs extra packages, a
+    path after the port, tls:// without Dask's TLS settings) are refused like the others: exit 2,
+    one line, nothing written. Before, they went to Dask's client after --out was written: exit 1
+    for the first and third, a traceback for ucx:// and tls://."""
+    import dask
+
+    from cosim.cli import main as cli_main
+
+    spec_path = tmp_path / "spec.yaml"
+    spec_path.write_text("duration_s: 0.05\n")
+    no_tls = {f"distributed.comm.tls.{k}": None for k in ("ca-file", "client.cert", "client.key")}
+    with dask.config.set(no_tls):
+        rc = cli_main(
+            ["sweep", str(spec_path), "--out", str(tmp_path / "o"), "--scheduler", address]
+        )
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert err.count("\n") == 1 and address in err and words in err, err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    ("out", "words"),
+    [("afile", "is a file, not a folder"), ("afile/sub", "cannot make this folder")],
+)
+def test_an_out_that_is_a_file_is_one_line_and_exit_2(out, words, tmp_path, capsys, monkeypatch):
+    """--out naming a file, or a folder under one: a usage error naming --out (it was exit 1
+    with Python's '[Errno 17] File exists'), and the file is left as it was."""
+    from cosim.cli import main as cli_main
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "spec.yaml").write_text("duration_s: 0.05\n")
+    (tmp_path / "afile").write_text("kept\n")
+    rc = cli_main(["sweep", "spec.yaml", "--out", out, "--quiet"])
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert err.count("\n") == 1 and f"--out {out}: {words}" in err, err
+    assert (tmp_path / "afile").read_text() == "kept\n"
+
+
+def test_workers_with_a_scheduler_is_a_usage_error(tmp_path, capsys):
+    """--workers sizes the local cluster only: given with --scheduler it was silently ignored."""
+    from cosim.cli import main as cli_main
+
+    spec_path = tmp_path / "spec.yaml"
+    spec_path.write_text("duration_s: 0.05\n")
+    argv = ["sweep", str(spec_path), "--out", str(tmp_path / "o"), "--workers", "2"]
+    rc = cli_main([*argv, "--scheduler", "tcp://127.0.0.1:8786"])
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert err.count("\n") == 1 and "--workers" in err and "--scheduler" in err, err
+    assert not (tmp_path / "o").exists()

@@ -117,7 +117,11 @@ class SweepIncompleteError(RuntimeError):
     """Fewer results came back from Dask than points were run (one line: how many, and why)."""
 
 
-class OutDirMismatchError(ValueError):
+class OutDirError(ValueError):
+    """--out cannot hold a sweep (a file, or a folder that cannot be made): a usage error."""
+
+
+class OutDirMismatchError(OutDirError):
     """--out holds the points of another spec, engine or build."""
 
 
@@ -145,6 +149,19 @@ def check_out_dir(spec: SweepSpec, out_dir: Path) -> None:
             f"--out {out_dir} holds a sweep of another run: {', '.join(changed)} changed "
             "(use another --out folder, or remove that one)"
         )
+
+
+def make_out_dir(out_dir: Path) -> None:
+    """Make --out (and its parents) unless it is there; OutDirError, naming it, when it is a
+    file or cannot be made."""
+    if out_dir.exists() and not out_dir.is_dir():
+        raise OutDirError(f"--out {out_dir}: is a file, not a folder")
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutDirError(
+            f"--out {out_dir}: cannot make this folder ({exc.strerror or type(exc).__name__})"
+        ) from None
 
 
 def _changed(old, new, prefix: str = "") -> list[str]:
@@ -222,7 +239,7 @@ def run_sweep(
     engine.load_library()  # built before its hash goes into the points' ids
     spec.build_id = build_id()
     check_out_dir(spec, out_dir)  # before anything is written there
-    out_dir.mkdir(parents=True, exist_ok=True)
+    make_out_dir(out_dir)
     _write_json(out_dir / "spec.json", spec_dict)
     _write_json(out_dir / RUN_FILE, spec.run_context())
     points = spec.points()
@@ -272,7 +289,7 @@ def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log) ->
         try:
             # An existing scheduler answers at once; a wrong address fails in seconds.
             client = Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError, ValueError) as exc:
+        except Exception as exc:  # noqa: BLE001 (whatever Dask's client raises: one line)
             msg = str(exc).strip().splitlines()
             raise RuntimeError(
                 f"cannot connect to the Dask scheduler {scheduler} ({msg[0] if msg else exc})"

@@ -11,8 +11,10 @@ nothing, and retries a refused or unknown host for seconds. The probe therefore:
    length per frame, the frames) and checks that the lengths add up and stay small;
 3. only then is Dask's Client connected, with the same timeout (`client_timeout`).
 
-Only `tcp://` addresses are probed at the byte level (a `tls://` greeting is encrypted); others go
-straight to step 3.
+Only `tcp://` addresses are probed at the byte level (a `tls://` greeting is encrypted); `tls://`,
+`ws://` and `wss://` go straight to step 3, and an address of another kind (Dask's `inproc://`
+and `ucx://`, or no Dask address at all) is refused, as is a `tls://` or `wss://` address without
+Dask's TLS configuration (its client would fail on it with a traceback).
 """
 
 from __future__ import annotations
@@ -26,6 +28,9 @@ from urllib.parse import urlsplit
 PROBE_TIMEOUT_S = 5.0  # each of: name lookup, connection, greeting
 MAX_GREETING_BYTES = 1 << 20  # a handshake is a few hundred bytes
 MAX_FRAMES = 64
+# The schemes of a Dask scheduler on another host that its client can reach without extra packages.
+SCHEMES = ("tcp", "tls", "ws", "wss")
+TLS_SCHEMES = ("tls", "wss")
 
 
 class SchedulerError(ValueError):
@@ -81,6 +86,16 @@ def _check_greeting(sock: socket.socket, timeout_s: float) -> None:
         raise SchedulerError("answers, but not as a Dask scheduler (frame lengths disagree)")
 
 
+def _tls_configured() -> bool:
+    """Whether Dask's configuration gives its client a TLS context (distributed.comm.tls)."""
+    from distributed.security import Security  # noqa: PLC0415
+
+    try:
+        return Security().get_connection_args("client").get("ssl_context") is not None
+    except (OSError, ValueError):  # configured, but a file that cannot be read: Dask says so
+        return True
+
+
 def probe(address: str, timeout_s: float | None = None) -> None:
     """Raise SchedulerError (one line naming `address`) unless a Dask scheduler greets there
     within about 3 x timeout_s (default PROBE_TIMEOUT_S)."""
@@ -90,8 +105,19 @@ def probe(address: str, timeout_s: float | None = None) -> None:
         host, port = parts.hostname, parts.port
     except ValueError:  # a port that is not a number in [0, 65535]
         host = port = None
-    if not host or port is None:
+    if not host or port is None or parts.path or parts.query or parts.fragment:
         raise SchedulerError(f"--scheduler {address}: expected an address like tcp://HOST:PORT")
+    if parts.scheme not in SCHEMES:
+        raise SchedulerError(
+            f"--scheduler {address}: expected a {', '.join(s + '://' for s in SCHEMES)} address "
+            "of a Dask scheduler"
+        )
+    if parts.scheme in TLS_SCHEMES and not _tls_configured():
+        raise SchedulerError(
+            f"--scheduler {address}: a TLS address needs Dask's TLS configuration (its "
+            "distributed.comm.tls settings: the CA file, the client's certificate and key); none "
+            "is set"
+        )
     if parts.scheme != "tcp":
         return  # the greeting of tls:// and others is not readable here: Dask's timeout holds
     try:
