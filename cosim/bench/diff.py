@@ -141,11 +141,15 @@ SIM_ONLY_KEYS = frozenset(f.name for f in fields(SimConfig) if f.name not in msg
 
 def load_file(path: str | Path) -> Reference:
     """Read a backup, bench params file or co-simulation params file (DiffFileError)."""
-    path = Path(path)
     try:
-        doc = read_json(path, "a file")
+        if not str(path).strip():
+            raise ParamFileError("an empty file name: expected a backup or params file")
+        path = Path(path)
+        doc = read_json(path, "a backup or params file")
         if not isinstance(doc, dict):
             raise ParamFileError(f"{path}: expected a JSON object at the top level")
+        if not doc:
+            raise ParamFileError(f"{path} is an empty object: nothing to compare")
         if is_backup(doc):
             return _backup(path, doc)
         if SIM_ONLY_KEYS & doc.keys():

@@ -71,6 +71,7 @@ class Param:
     # other parameters may narrow it (comp.lead_ticks <= comp.preview_ticks).
     accept_lo: int
     accept_hi: int
+    accept_power_of_two: bool  # only powers of two ("2^s in [16, 32768]")
 
 
 MESSAGES: dict[str, Message] = {
@@ -485,6 +486,7 @@ PARAMS: tuple[Param, ...] = (
         "processor tick, [1, 65535] Hz; default 1000",
         1,
         65535,
+        False,
     ),
     Param(
         1,
@@ -501,6 +503,7 @@ PARAMS: tuple[Param, ...] = (
         "FPGA loop sample rate, for the watchdog check, [1, 1000000] Hz; default 10000",
         1,
         1000000,
+        False,
     ),
     Param(
         2,
@@ -517,6 +520,7 @@ PARAMS: tuple[Param, ...] = (
         "FW_SOURCE_*",
         -2147483648,
         2147483647,
+        False,
     ),
     Param(
         3,
@@ -533,6 +537,7 @@ PARAMS: tuple[Param, ...] = (
         "COMP_MODE_*",
         -2147483648,
         2147483647,
+        False,
     ),
     Param(
         4,
@@ -549,6 +554,7 @@ PARAMS: tuple[Param, ...] = (
         "friction coefficient mu, Q3.28, [0, 1]",
         0,
         268435456,
+        False,
     ),
     Param(
         5,
@@ -565,6 +571,7 @@ PARAMS: tuple[Param, ...] = (
         "total bending angle phi, Q7.24 rad, [0, 4*pi]",
         0,
         210828714,
+        False,
     ),
     Param(
         6,
@@ -581,6 +588,7 @@ PARAMS: tuple[Param, ...] = (
         "d(mu)/d|T|, Q3.28 per N, [-1/128, 1/128]",
         -2097152,
         2097152,
+        False,
     ),
     Param(
         7,
@@ -597,6 +605,7 @@ PARAMS: tuple[Param, ...] = (
         "output sensor offset, Q7.8 N, [-64, 64]",
         -16384,
         16384,
+        False,
     ),
     Param(
         8,
@@ -613,6 +622,7 @@ PARAMS: tuple[Param, ...] = (
         "detector band H, Q7.8 N, [1/256, 32]",
         1,
         8192,
+        False,
     ),
     Param(
         9,
@@ -629,6 +639,7 @@ PARAMS: tuple[Param, ...] = (
         "smooth inverse band B, Q7.8 N, [1/256, 128]",
         1,
         32768,
+        False,
     ),
     Param(
         10,
@@ -645,6 +656,7 @@ PARAMS: tuple[Param, ...] = (
         "floor of T_c (minimum pretension), Q7.8 N, [0, 64]",
         0,
         16384,
+        False,
     ),
     Param(
         11,
@@ -661,6 +673,7 @@ PARAMS: tuple[Param, ...] = (
         "PREVIEW: P, how far ahead the input is, [0, 128] ticks",
         0,
         128,
+        False,
     ),
     Param(
         12,
@@ -677,6 +690,7 @@ PARAMS: tuple[Param, ...] = (
         "PREVIEW: L, the gain's reference, [0, 128] and at most P",
         0,
         128,
+        False,
     ),
     Param(
         13,
@@ -693,6 +707,7 @@ PARAMS: tuple[Param, ...] = (
         "PREVIEW: D, ticks of a change of branch, [1, 256]",
         1,
         256,
+        False,
     ),
     Param(
         14,
@@ -709,6 +724,7 @@ PARAMS: tuple[Param, ...] = (
         "WAVE_*",
         -2147483648,
         2147483647,
+        False,
     ),
     Param(
         15,
@@ -725,6 +741,7 @@ PARAMS: tuple[Param, ...] = (
         "Q7.8 N, [-128, 127.996]",
         -32768,
         32767,
+        False,
     ),
     Param(
         16,
@@ -741,6 +758,7 @@ PARAMS: tuple[Param, ...] = (
         "Q7.8 N, [0, 128]; mean +- amplitude saturates to Q7.8",
         0,
         32768,
+        False,
     ),
     Param(
         17,
@@ -757,6 +775,7 @@ PARAMS: tuple[Param, ...] = (
         "UQ16.16 Hz, [0, rate/2]",
         0,
         4294967295,
+        False,
     ),
     Param(
         18,
@@ -773,6 +792,7 @@ PARAMS: tuple[Param, ...] = (
         "initial phase, UQ0.32 turns",
         0,
         4294967295,
+        False,
     ),
     Param(
         19,
@@ -792,6 +812,7 @@ PARAMS: tuple[Param, ...] = (
         ),
         0,
         32767,
+        False,
     ),
     Param(
         20,
@@ -811,6 +832,7 @@ PARAMS: tuple[Param, ...] = (
         ),
         0,
         32767,
+        False,
     ),
     Param(
         21,
@@ -830,6 +852,7 @@ PARAMS: tuple[Param, ...] = (
         ),
         0,
         32767,
+        False,
     ),
     Param(
         22,
@@ -846,6 +869,7 @@ PARAMS: tuple[Param, ...] = (
         "Output saturation. |u| limit; reset 4 A (ESCON 36/2 peak current)",
         0,
         32767,
+        False,
     ),
     Param(
         23,
@@ -862,6 +886,7 @@ PARAMS: tuple[Param, ...] = (
         ("Slew limit of T_c (used when CTRL.SLEW_EN). Max change of T_c per sample; reset 0.5 N"),
         0,
         32767,
+        False,
     ),
     Param(
         24,
@@ -882,6 +907,7 @@ PARAMS: tuple[Param, ...] = (
         ),
         0,
         1,
+        False,
     ),
     Param(
         25,
@@ -898,6 +924,7 @@ PARAMS: tuple[Param, ...] = (
         "Watchdog timeout. Samples without a TC write before the watchdog fault; 0 disables",
         0,
         65535,
+        False,
     ),
     Param(
         26,
@@ -914,6 +941,7 @@ PARAMS: tuple[Param, ...] = (
         "Raw ADC code at zero tension. Offset subtracted from the raw code",
         -8388608,
         8388607,
+        False,
     ),
     Param(
         27,
@@ -933,6 +961,7 @@ PARAMS: tuple[Param, ...] = (
         ),
         -32768,
         32767,
+        False,
     ),
     Param(
         28,
@@ -952,6 +981,7 @@ PARAMS: tuple[Param, ...] = (
         ),
         -8388608,
         8388607,
+        False,
     ),
     Param(
         29,
@@ -971,6 +1001,7 @@ PARAMS: tuple[Param, ...] = (
         ),
         -8388608,
         8388607,
+        False,
     ),
     Param(
         30,
@@ -990,6 +1021,7 @@ PARAMS: tuple[Param, ...] = (
         ),
         0,
         65535,
+        False,
     ),
     Param(
         31,
@@ -1009,6 +1041,7 @@ PARAMS: tuple[Param, ...] = (
         ),
         0,
         65535,
+        False,
     ),
     Param(
         32,
@@ -1025,6 +1058,7 @@ PARAMS: tuple[Param, ...] = (
         "rate feedforward gain, A s/N, Q7.24, [0, 1/16] (FW_KV_MAX); 0: off",
         0,
         1048576,
+        False,
     ),
     Param(
         33,
@@ -1041,6 +1075,7 @@ PARAMS: tuple[Param, ...] = (
         "|UFF| bound, UQ3.12 A, [0, 7.9998] (UFF's positive range)",
         0,
         32767,
+        False,
     ),
     Param(
         34,
@@ -1057,6 +1092,7 @@ PARAMS: tuple[Param, ...] = (
         "[0, 1]: 0 off (default), 1 on",
         0,
         1,
+        False,
     ),
     Param(
         35,
@@ -1073,6 +1109,7 @@ PARAMS: tuple[Param, ...] = (
         "forgetting time constant, accepted samples, 2^s in [16, 32768]",
         16,
         32768,
+        True,
     ),
     Param(
         36,
@@ -1089,6 +1126,7 @@ PARAMS: tuple[Param, ...] = (
         "largest change of the estimate per tick, Q3.28, [0, 1/16]",
         0,
         16777216,
+        False,
     ),
     Param(
         37,
@@ -1105,6 +1143,7 @@ PARAMS: tuple[Param, ...] = (
         "lower bound of mu*phi, Q3.28, [0, 4), below max",
         0,
         1073741823,
+        False,
     ),
     Param(
         38,
@@ -1121,6 +1160,7 @@ PARAMS: tuple[Param, ...] = (
         "upper bound of mu*phi, Q3.28, (0, 4], above min",
         1,
         1073741824,
+        False,
     ),
     Param(
         39,
@@ -1137,6 +1177,7 @@ PARAMS: tuple[Param, ...] = (
         "minimum tension on both cells, Q7.8 N, [0, 64]",
         0,
         16384,
+        False,
     ),
     Param(
         40,
@@ -1153,6 +1194,7 @@ PARAMS: tuple[Param, ...] = (
         "telemetry every N ticks, [1, 1000]; default 1",
         1,
         1000,
+        False,
     ),
     Param(
         41,
@@ -1169,6 +1211,7 @@ PARAMS: tuple[Param, ...] = (
         "CAN node id, [0, 63]; default 1",
         0,
         63,
+        False,
     ),
 )
 PARAM_BY_NAME: dict[str, Param] = {p.name: p for p in PARAMS}

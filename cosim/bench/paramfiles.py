@@ -40,6 +40,8 @@ class ParamFileError(ValueError):
 def read_json(path: str | Path, what: str = "a file", not_json: str = "JSON") -> object:
     """The JSON document in `path` (strict: see the module); `what` names the file expected
     ("a backup file") and `not_json` what it is not when it does not parse ("a JSON backup")."""
+    if not str(path).strip():
+        raise ParamFileError(f"an empty file name: expected {what}")
     path = Path(path)
     try:
         with path.open("rb") as f:
@@ -62,6 +64,8 @@ def read_json(path: str | Path, what: str = "a file", not_json: str = "JSON") ->
             f"{path} is not {not_json} (not UTF-8 text: byte 0x{raw[exc.start]:02x} at offset "
             f"{exc.start})"
         ) from None
+    if not text.strip():
+        raise ParamFileError(f"{path} is empty: expected {what}")
     try:
         return json.loads(text, object_pairs_hook=unique_keys, parse_int=parse_int)
     except DuplicateKeyError as exc:
@@ -78,6 +82,21 @@ def accepted(p: msgs.Param) -> str:
         return "one of " + ", ".join(p.enum)
     lo, hi = p.accept_lo / (1 << p.frac), p.accept_hi / (1 << p.frac)
     return f"[{lo:g}, {hi:g}]" + (f" {p.unit}" if p.unit else "")
+
+
+def _not_power_of_two(p: msgs.Param, word: int) -> bool:
+    return p.accept_power_of_two and (word <= 0 or word & (word - 1) != 0)
+
+
+def _json(value) -> str:
+    """A value as the file wrote it (JSON), shortened: `819.0`, `"1"`, `true`."""
+    if _huge(value):
+        return _shown(value)
+    try:
+        text = json.dumps(value)
+    except (TypeError, ValueError):
+        text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def _huge(value) -> bool:
@@ -119,6 +138,8 @@ def word_of_value(p: msgs.Param, value: str | float | int) -> int:
     word = word_from_value(p, value.strip() if isinstance(value, str) else value)
     if p.enum is not None and word not in p.enum.values():
         raise ProtocolError(f"{p.name}={_shown(value)}: expected {accepted(p)}")
+    if _not_power_of_two(p, word):
+        raise ProtocolError(f"{p.name}={_shown(value)}: not a power of two in {accepted(p)}")
     return word
 
 
@@ -134,6 +155,8 @@ def check_word(p: msgs.Param, word: int) -> None:
             f"{p.name}: word {w} outside the words {p.accept_lo}..{p.accept_hi} the device "
             f"accepts ({accepted(p)})"
         )
+    elif _not_power_of_two(p, w):
+        raise ProtocolError(f"{p.name}: word {w} is not a power of two in {accepted(p)}")
 
 
 def entry_word(path: Path, p: msgs.Param, entry) -> int:
@@ -147,9 +170,7 @@ def entry_word(path: Path, p: msgs.Param, entry) -> int:
     if word is not None and (
         isinstance(word, bool) or not isinstance(word, int) or not -(1 << 31) <= word < (1 << 32)
     ):
-        raise ParamFileError(
-            f"{path}: {p.name}.word must be a 32-bit integer; got {_shown(word)[:40]}"
-        )
+        raise ParamFileError(f"{path}: {p.name}.word must be a 32-bit integer; got {_json(word)}")
     if value is not None and (isinstance(value, bool) or not isinstance(value, str | int | float)):
         raise ParamFileError(f"{path}: {p.name}.value must be a string or a number")
     try:
@@ -197,20 +218,20 @@ def is_backup(doc) -> bool:
 
 def read_backup(path: str | Path, doc=None) -> Backup:
     """A backup file (or its document, already read), checked entry by entry (ParamFileError)."""
-    path = Path(path)
     if doc is None:
         doc = read_json(path, "a backup file", "a JSON backup")
+    path = Path(path)
     if not is_backup(doc):
         raise ParamFileError(f"{path} is not a bowden bench backup (format {BACKUP_FORMAT})")
     fmt = doc["bowden_bench_backup"]
     if type(fmt) is not int or fmt != BACKUP_FORMAT:
         raise ParamFileError(
-            f"{path}: backup format {_shown(fmt)[:40]}, this host reads format {BACKUP_FORMAT}"
+            f"{path}: backup format {_json(fmt)}, this host reads format {BACKUP_FORMAT}"
         )
     version = doc.get("protocol_version")
     if type(version) is not int or version != msgs.PROTOCOL_VERSION:
         raise ParamFileError(
-            f"{path} is a backup of protocol version {_shown(version)[:40]}, this host speaks "
+            f"{path} is a backup of protocol version {_json(version)}, this host speaks "
             f"{msgs.PROTOCOL_VERSION}: its words may mean other things; use a host of that version"
         )
     params = doc.get("params")

@@ -133,6 +133,7 @@ class Param:
     # or the range its header documents); others may narrow it (lead_ticks <= preview_ticks).
     accept_lo: int | None = None
     accept_hi: int | None = None
+    accept_power_of_two: bool = False  # documented as "2^s in [lo, hi]"
 
     @property
     def key(self) -> int:
@@ -293,16 +294,18 @@ def _si_number(text: str) -> float | None:
         return None
 
 
-def doc_range(doc: str, frac: int) -> tuple[int, int] | None:
+def doc_range(doc: str, frac: int) -> tuple[int, int, bool] | None:
     """The words of the first range a member's comment documents, its ends rounded to the nearest
     word (the headers round their decimals: 127.996 N is the Q7.8 word 32767); an open end is
-    one word inside. tests/bench checks each against the device's own check."""
+    one word inside; True when only its powers of two are taken ("2^s in [16, 32768]").
+    tests/bench checks each against the device's own check."""
     for m in _RANGE_RE.finditer(doc):
         lo, hi = _si_number(m.group(2)), _si_number(m.group(3))
         if lo is None or hi is None:
             continue
         lo_w, hi_w = round(lo * (1 << frac)), round(hi * (1 << frac))
-        return lo_w + (m.group(1) == "("), hi_w - (m.group(4) == ")")
+        pow2 = doc[: m.start()].rstrip().endswith("2^s in")
+        return lo_w + (m.group(1) == "("), hi_w - (m.group(4) == ")"), pow2
     return None
 
 
@@ -359,7 +362,7 @@ def load_params(raw: dict, regmap: dict) -> list[Param]:
                 p.unit = cfg.get("units", {}).get(uname, p.unit)
                 p.enum = _enum_for(doc, headers_text)
                 if p.enum is None and (rng := doc_range(doc, p.frac)) is not None:
-                    p.accept_lo, p.accept_hi = rng
+                    p.accept_lo, p.accept_hi, p.accept_power_of_two = rng
             params.append(p)
 
     walk(cfg["root"]["struct"], [], [])
@@ -782,6 +785,7 @@ def gen_py(spec: Spec) -> str:
     w("    # other parameters may narrow it (comp.lead_ticks <= comp.preview_ticks).")
     w("    accept_lo: int")
     w("    accept_hi: int")
+    w('    accept_power_of_two: bool  # only powers of two ("2^s in [16, 32768]")')
     w("")
     w("")
     w("MESSAGES: dict[str, Message] = {")
@@ -853,6 +857,7 @@ def gen_py(spec: Spec) -> str:
             w("        ),")
         w(f"        {p.accept_lo if p.accept_lo is not None else lo},")
         w(f"        {p.accept_hi if p.accept_hi is not None else hi},")
+        w(f"        {p.accept_power_of_two},")
         w("    ),")
     w(")")
     w("PARAM_BY_NAME: dict[str, Param] = {p.name: p for p in PARAMS}")
@@ -981,7 +986,8 @@ def gen_md(spec: Spec) -> str:
     for p in spec.params:
         vals = ", ".join(f"{k}={v}" for k, v in p.enum.items()) if p.enum else ""
         if p.accept_lo is not None:
-            vals = vals or f"word {p.accept_lo}..{p.accept_hi}"
+            pow2 = "powers of two in " if p.accept_power_of_two else ""
+            vals = vals or f"word {pow2}{p.accept_lo}..{p.accept_hi}"
         ro = " RO" if p.read_only else ""
         kind = ("u32" if p.ctype == "uint32_t" else "i32") + ro
         w(f"| {p.id} | {p.name} | {p.cpath} | {kind} | {p.frac} | {p.unit} | {vals} | {p.doc} |")

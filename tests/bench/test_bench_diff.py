@@ -129,6 +129,14 @@ def test_bad_diff_files_are_one_line_before_any_link(content, words, tmp_path, c
     assert err.startswith("bowden bench diff: ") and out == ""
 
 
+def test_an_empty_file_name_or_a_device_file_is_one_line(capsys, tmp_path):
+    for command, rc in (("diff", 2), ("restore", 1)):
+        got, _, err = _run(capsys, "--port", str(tmp_path / "no-port"), command, "")
+        assert (got, len(err.splitlines())) == (rc, 1) and "an empty file name" in err, err
+        got, _, err = _run(capsys, "--port", str(tmp_path / "no-port"), command, "/dev/zero")
+        assert got == rc and "/dev/zero is larger than 16 MiB" in err, err
+
+
 def test_diff_needs_a_file_or_defaults(capsys, tmp_path):
     for args in (["diff"], ["diff", "x.json", "--defaults"]):
         rc, _, err = _run(capsys, "--port", "x", *args)
@@ -373,6 +381,13 @@ def _backup_doc(**params):
         ('{"controller": {"kp_a_per_n": ' + "9" * 5000 + "}}", "an integer of 5000 digits"),
         ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
         ('{"a": ' * 100_000 + "1" + "}" * 100_000, "nested too deeply"),
+        # Found by trying again as a new user:
+        ({"est.tau_ticks": 100}, "est.tau_ticks=100: not a power of two in [16, 32768]"),
+        ({"compensator": {"est_tau_ticks": 100}}, "compensator.est_tau_ticks: est.tau_ticks=100"),
+        (_backup_doc(**{"est.tau_ticks": {"word": 48}}), "word 48 is not a power of two"),
+        (_backup_doc(**{"loop.kp": {"word": 819.0}}), "must be a 32-bit integer; got 819.0"),
+        (" \n", "f.json is empty: expected a backup or params file"),
+        ({}, "f.json is an empty object: nothing to compare"),
     ],
 )
 def test_out_of_range_duplicate_huge_and_deep_files_are_one_line(content, words, tmp_path, capsys):
