@@ -118,29 +118,40 @@ def _shown(value) -> str:
 
 def word_of_value(p: msgs.Param, value: str | float | int) -> int:
     """The word for a value in SI units or a mode name, as `set` converts it (rounded to the
-    parameter's fixed point), refused with ProtocolError when the device would refuse it on its
-    own: outside the parameter's accepted range or not one of its enum's values."""
+    parameter's fixed point; a phase in turns wraps), refused with ProtocolError when the device
+    would refuse it on its own: outside the parameter's accepted range, not one of its enum's
+    values, not a power of two where only those are taken."""
     if _huge(value):
         raise ProtocolError(f"{p.name}: {_shown(value)}, outside {accepted(p)}")
-    number = None
-    if not isinstance(value, str):
-        number = float(value)
-    elif p.enum is None or value.strip() not in p.enum:
-        try:
-            number = float(value)
-        except ValueError:
-            number = None  # word_from_value says what it expected
-    if number is not None and math.isfinite(number):
-        scaled = number * (1 << p.frac)
-        if not math.isfinite(scaled) or not p.accept_lo <= round(scaled) <= p.accept_hi:
-            if p.enum is None:
-                raise ProtocolError(f"{p.name}={_shown(value)}: outside {accepted(p)}")
-    word = word_from_value(p, value.strip() if isinstance(value, str) else value)
-    if p.enum is not None and word not in p.enum.values():
-        raise ProtocolError(f"{p.name}={_shown(value)}: expected {accepted(p)}")
-    if _not_power_of_two(p, word):
+    given = value.strip() if isinstance(value, str) else value
+    try:
+        word = word_from_value(p, given)
+    except ProtocolError:
+        # Beyond the word itself: say what the device accepts, not the word's range.
+        if p.enum is None and _beyond_the_word(p, given):
+            raise ProtocolError(f"{p.name}={_shown(value)}: outside {accepted(p)}") from None
+        raise
+    w = word & 0xFFFFFFFF if p.unsigned else word
+    if p.enum is not None:
+        if w not in p.enum.values():
+            raise ProtocolError(f"{p.name}={_shown(value)}: expected {accepted(p)}")
+    elif not p.accept_lo <= w <= p.accept_hi:
+        raise ProtocolError(f"{p.name}={_shown(value)}: outside {accepted(p)}")
+    if _not_power_of_two(p, w):
         raise ProtocolError(f"{p.name}={_shown(value)}: not a power of two in {accepted(p)}")
     return word
+
+
+def _beyond_the_word(p: msgs.Param, value) -> bool:
+    """A finite number whose fixed-point word does not fit the parameter's 32 bits."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError, OverflowError):
+        return False
+    if not math.isfinite(number):
+        return False
+    scaled = number * (1 << p.frac)
+    return not math.isfinite(scaled) or not p.lo <= round(scaled) <= p.hi
 
 
 def check_word(p: msgs.Param, word: int) -> None:

@@ -129,6 +129,14 @@ def test_bad_diff_files_are_one_line_before_any_link(content, words, tmp_path, c
     assert err.startswith("bowden bench diff: ") and out == ""
 
 
+def test_a_phase_in_turns_wraps_as_set_wraps_it(url, tmp_path, capsys):
+    _run(capsys, "--port", url, "defaults")
+    f = tmp_path / "f.json"
+    f.write_text(json.dumps({"wave.phase0": 1.25}))
+    rc, out, err = _run(capsys, "--port", url, "diff", str(f))
+    assert rc == 0 and _rows(out)["wave.phase0"][1:4] == ["0", "0.25", "-0.25"], out + err
+
+
 def test_an_empty_file_name_or_a_device_file_is_one_line(capsys, tmp_path):
     for command, rc in (("diff", 2), ("restore", 1)):
         got, _, err = _run(capsys, "--port", str(tmp_path / "no-port"), command, "")
@@ -388,6 +396,7 @@ def _backup_doc(**params):
         (_backup_doc(**{"loop.kp": {"word": 819.0}}), "must be a 32-bit integer; got 819.0"),
         (" \n", "f.json is empty: expected a backup or params file"),
         ({}, "f.json is an empty object: nothing to compare"),
+        ({"comp.mu": 1e9}, "comp.mu=1e+09: outside [0, 1]"),  # beyond the word: the device's range
     ],
 )
 def test_out_of_range_duplicate_huge_and_deep_files_are_one_line(content, words, tmp_path, capsys):
