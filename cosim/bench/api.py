@@ -424,8 +424,10 @@ class Bench:
         `cosim.bench.messages` names them, words not SI), from the thread that records: it must
         not block.
 
-        Every argument is checked before anything is sent or written. The device stops by
-        itself after `seconds`; an exception or Ctrl-C stops it at once.
+        Every argument is checked before anything is sent or written (the device checks its
+        own limits of the waveform's values: a DeviceError). The device stops by itself after
+        `seconds`; an exception or Ctrl-C stops it at once (an exception raised by
+        `on_telemetry` is raised as it is, after the device stopped).
         """
         client = self._live()
         seconds = _number(seconds, "seconds", positive=True)
@@ -568,8 +570,8 @@ def _emulated_chain(plant, chain):
     length = _sheath_m(chain)
     if not bool(in_workspace(x, y, z, length)):
         raise BenchUsageError(
-            f"chain.position_m={_show(tuple(pos))}: outside the workspace of a {length:g} m "
-            f"sheath (sqrt(x^2 + y^2 + z^2) <= {length:g} m and y >= 0)"
+            f"the emulated end-effector at ({x:g}, {y:g}, {z:g}) m is outside the workspace of "
+            f"a {length:g} m sheath (sqrt(x^2 + y^2 + z^2) <= {length:g} m and y >= 0)"
         )
     if not _is_bool(chain.loop_routing):
         raise BenchUsageError(f"chain.loop_routing={_show(chain.loop_routing)}: expected a bool")
@@ -586,15 +588,17 @@ def _sheath_m(chain) -> float:
 
 def _emulated(chain, can: str | None):
     """The stepped link (alone) or the real-time emulator on `can`, started; what fails while
-    the plant FMU and the device are built is one BenchError."""
+    the plant FMU and the device are built is one BenchError. The C chain has the ideal
+    interface only: another (`chain.interface`) runs on the Python engine."""
+    engine = "native" if chain.interface == "ideal" else "python"
     try:
         if can is None:
             from .emulator import SteppedLink  # noqa: PLC0415
 
-            return SteppedLink(chain)
+            return SteppedLink(chain, engine=engine)
         from .emulator import Emulator  # noqa: PLC0415
 
-        return Emulator(pty=False, tcp_port=None, can=can, chain=chain).start()
+        return Emulator(pty=False, tcp_port=None, can=can, chain=chain, engine=engine).start()
     except BenchError:
         raise
     except Exception as exc:  # noqa: BLE001 (the FMU's, ctypes', python-can's: named below)
@@ -631,12 +635,21 @@ def _waveform(waveform) -> tuple[str, list[int] | None]:
     if samples.size == 0:
         raise ProtocolError("waveform: no samples (expected T_ref samples in N, one per tick)")
     p = param("wave.mean_n")
+    # The STREAM message carries each sample as a signed word of its field's size (Q7.8 N).
+    field = msgs.MESSAGES["STREAM"].fields[-1]
+    top = 1 << (8 * field.size - 1)
     words = []
     for i, v in enumerate(samples.tolist()):
         try:
-            words.append(_word(p, v))
+            word = _word(p, v)
         except ProtocolError as exc:
             raise ProtocolError(f"waveform[{i}]: {exc}") from None
+        if not -top <= word < top:
+            raise ProtocolError(
+                f"waveform[{i}]={v:g}: outside [{-top * field.scale:g}, "
+                f"{(top - 1) * field.scale:g}] {field.unit} (a T_ref sample of the stream)"
+            )
+        words.append(word)
     return "stream", words
 
 

@@ -240,6 +240,7 @@ def test_values_that_leaked_other_exceptions_are_bench_errors(bench, tmp_path):
         (lambda b: b.run([], 1), "waveform: no samples"),
         (lambda b: b.run([[1.0, 2.0]], 1), "waveform [[1.0, 2.0]]: expected one of sine"),
         (lambda b: b.run([1.0, float("nan")], 1), "waveform[1]: wave.mean_n=nan: expected"),
+        (lambda b: b.run([1.0, 200.0], 1), "waveform[1]=200: outside [-128, 127.996] N"),
         (lambda b: b.run([True, False], 1), "waveform [True, False]: expected one of"),
         (lambda b: b.run(5.0, 1), "waveform 5.0: expected one of sine"),
         (lambda b: b.run("sine", 1, out=3), "out=3: expected a CSV file name"),
@@ -293,7 +294,20 @@ def test_plant_and_chain_together_are_refused():
     msg = _refused(lambda: Bench(emulate=True, plant={"mu": 0.1}, chain=ChainConfig()))
     assert msg == "give plant or chain (with its plant), not both"
     msg = _refused(lambda: Bench(emulate=True, chain=ChainConfig(position_m=(0, 3, 0))))
-    assert msg.startswith("chain.position_m=(0, 3, 0): outside the workspace of a 1 m sheath")
+    assert msg.startswith("the emulated end-effector at (0, 3, 0) m is outside the workspace")
+    msg = _refused(lambda: Bench(emulate=True, plant={"sheath_length": 0.3}))
+    assert msg.startswith("the emulated end-effector at (0, 0.5, 0) m is outside the workspace")
+    assert "of a 0.3 m sheath" in msg
+
+
+def test_an_emulated_bench_with_the_boards_interface_runs_on_the_python_engine():
+    """ChainConfig(interface="adc") was refused by the stepped link's C chain (ideal only)."""
+    from cosim.bench.device import ChainConfig
+
+    with Bench(emulate=True, chain=ChainConfig(interface="adc")) as b:
+        assert b.link.chain.engine == "python"
+        run = b.run("sine", 0.2)
+        assert run.complete and run["T_out_N"].max() > 5.0
 
 
 def test_set_is_all_or_nothing():
