@@ -145,6 +145,7 @@ class Emulator:
         self.max_lag_seen_s = 0.0
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self.error: Exception | None = None  # what ended start()'s thread, if anything did
         self._flash_image = self.device.flash_image()
         self.pty_link = self.tcp_link = None
         self._master = self._slave = None
@@ -179,11 +180,24 @@ class Emulator:
     # --- run ---------------------------------------------------------------------------------
 
     def start(self) -> Emulator:
-        """Run in a background thread; returns self."""
+        """Run in a background thread; returns self. An error that ends it (the plant FMU
+        failing, a flash file that can no longer be written) is kept in `error`, and `running`
+        turns False: the caller reports it (a thread's exception would only be printed)."""
         self._register()  # findable as soon as start returns
-        self._thread = threading.Thread(target=self.run, name="bowden-emulator", daemon=True)
+        self._thread = threading.Thread(target=self._run_kept, name="bowden-emulator", daemon=True)
         self._thread.start()
         return self
+
+    def _run_kept(self) -> None:
+        try:
+            self.run()
+        except Exception as exc:  # noqa: BLE001 (kept for the caller, see start())
+            self.error = exc
+
+    @property
+    def running(self) -> bool:
+        """start()'s thread is running (False after stop() or an error)."""
+        return self._thread is not None and self._thread.is_alive()
 
     def stop(self) -> None:
         self._stop.set()

@@ -784,6 +784,25 @@ def _flash_problem(text: str, target: str) -> str | None:
     return None
 
 
+def _start_problem(exc: Exception, args: argparse.Namespace) -> str:
+    """Why the host emulator did not start, naming the option it comes from: the TCP port
+    (the only socket it binds) or the --can bus (an error raised inside python-can)."""
+    import errno  # noqa: PLC0415
+    import traceback  # noqa: PLC0415
+
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    if isinstance(exc, OSError) and exc.errno in (errno.EADDRINUSE, errno.EACCES):
+        return f"--tcp-port {args.tcp_port}: {exc.strerror} (0, the default, takes a free port)"
+    if args.can:
+        import can  # noqa: PLC0415 (imported by the emulator already)
+
+        where = os.path.dirname(can.__file__)
+        frames = traceback.extract_tb(exc.__traceback__)
+        if isinstance(exc, can.CanError) or any(f.filename.startswith(where) for f in frames):
+            return f"--can {args.can}: cannot open the bus ({text})"
+    return text
+
+
 # The host emulator's values of the options --target soc refuses (default None in the parser).
 HOST_EMULATOR_DEFAULTS = {"baud": 921_600, "tcp_port": 0, "interface": "ideal", "engine": "native"}
 
@@ -799,6 +818,13 @@ def emulate_main(args: argparse.Namespace) -> int:
             print(f"bowden emulate: {flag} is not available with --target soc", file=sys.stderr)
             return 2
     else:
+        if args.engine == "native" and args.interface not in (None, "ideal"):
+            print(
+                f"bowden emulate: --engine native has the ideal interface only: --interface "
+                f"{args.interface} runs on the Python engine (leave --engine out)",
+                file=sys.stderr,
+            )
+            return 2
         for dest, value in HOST_EMULATOR_DEFAULTS.items():
             if getattr(args, dest) is None:
                 setattr(args, dest, value)
@@ -857,8 +883,8 @@ def emulate_main(args: argparse.Namespace) -> int:
             identity=identity,
             findable=True,  # `bowden bench list` and --port auto find its pty
         )
-    except (OSError, ValueError, RuntimeError) as exc:
-        print(f"bowden emulate: {exc}", file=sys.stderr)
+    except Exception as exc:  # noqa: BLE001 (the FMU's, the OS's, python-can's: named below)
+        print(f"bowden emulate: {_start_problem(exc, args)}", file=sys.stderr)
         return 1
     print("bowden emulate: controller running (firmware + FPGA loop model + plant FMU)")
     for kind, url in emu.urls.items():
@@ -872,7 +898,7 @@ def emulate_main(args: argparse.Namespace) -> int:
     next_garbage = t0 + (args.garbage_every or math.inf)
     prev = signal.signal(signal.SIGTERM, _sigterm)
     try:
-        while args.seconds is None or time.monotonic() - t0 < args.seconds:
+        while emu.running and (args.seconds is None or time.monotonic() - t0 < args.seconds):
             time.sleep(0.05)
             if time.monotonic() >= next_garbage:
                 emu.inject_garbage()
@@ -882,6 +908,15 @@ def emulate_main(args: argparse.Namespace) -> int:
     finally:
         signal.signal(signal.SIGTERM, prev)
         emu.stop()
+    if emu.error is not None:  # the emulated controller is gone: say why, once
+        exc = emu.error
+        why = f"{exc.strerror}: {exc.filename}" if isinstance(exc, OSError) else str(exc)
+        print(
+            f"bowden emulate: the emulated controller stopped after {emu.chain.ticks} ticks: "
+            f"{' '.join(why.split())}",
+            file=sys.stderr,
+        )
+        return 1
     print(
         f"bowden emulate: stopped after {emu.chain.ticks} ticks; lag behind real time at most "
         f"{emu.max_lag_seen_s * 1e3:.1f} ms, {emu.overruns} overrun(s)"

@@ -7,6 +7,7 @@ import ctypes
 import os
 import random
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -351,6 +352,70 @@ def test_a_flash_file_that_cannot_be_kept_is_refused_before_the_start(
     assert rc == 2 and err.count("\n") == 1, err
     assert err.startswith("bowden emulate: ") and words.format(tmp=tmp_path) in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["short.bin"]
+
+
+def test_a_flash_file_lost_while_the_emulator_runs_stops_it_in_one_line(tmp_path):
+    """The flash's folder removed under a running `bowden emulate`: the next save failed in the
+    emulator's thread (a traceback), the controller was gone and the command went on until
+    --seconds and exited 0. It now stops at once: one line naming the file, exit 1."""
+    folder = tmp_path / "kept"
+    folder.mkdir()
+    cmd = [sys.executable, "-m", "cosim.bench", "emulate", "--no-pty", "--seconds", "30"]
+    proc = subprocess.Popen(
+        [*cmd, "--flash", str(folder / "flash.bin")],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=REPO_ROOT,
+    )
+    try:
+        url = next(line.split()[4] for line in proc.stdout if "socket://" in line)
+        for p in folder.iterdir():
+            p.unlink()
+        folder.rmdir()
+        client = BenchClient(SerialLink(url))
+        try:
+            client.connect()
+            client.simple("PERSIST")  # the device's flash changes: the emulator saves it
+        finally:
+            client.link.close()
+        out, err = proc.communicate(timeout=10)
+    finally:
+        proc.kill()
+    assert proc.returncode == 1, (out, err)
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert err.startswith("bowden emulate: the emulated controller stopped after "), err
+    assert f"No such file or directory: {folder / 'flash.bin'}" in err, err
+
+
+@pytest.mark.parametrize(
+    ("option", "rc", "words"),
+    [
+        (["--tcp-port", "BUSY"], 1, "--tcp-port BUSY: Address already in use"),
+        (
+            ["--can", "nope:x"],
+            1,
+            '--can nope:x: cannot open the bus (Unknown interface type "nope")',
+        ),
+        (
+            ["--interface", "adc", "--engine", "native"],
+            2,
+            "--engine native has the ideal interface only: --interface adc runs on the Python",
+        ),
+    ],
+)
+def test_emulate_start_problems_name_the_option(option, rc, words, capsys):
+    """A port in use or a bus that does not open was an errno line naming no option; --engine
+    native given with --interface adc was replaced by the Python engine, silently."""
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = str(busy.getsockname()[1])
+        args = [port if a == "BUSY" else a for a in option]
+        got = bench_cli(["emulate", "--no-pty", "--seconds", "0.1", *args])
+    err = capsys.readouterr().err
+    assert got == rc and err.count("\n") == 1, err
+    assert err.startswith("bowden emulate: " + words.replace("BUSY", port)), err
 
 
 # A value this host or the device refuses is a usage error (exit 2); a file that is missing,
