@@ -734,9 +734,11 @@ def _plant_assignments(items: list[str]) -> dict:
 
     raw: dict[str, float | bool] = {}
     given: dict[str, str] = {}  # name -> the value's text (a second value is refused, not taken)
-    for item in (part for arg in items for part in arg.split(",")):
+    for option, item in ((arg, part) for arg in items for part in arg.split(",")):
         name, sep, text = item.partition("=")
         name, text = name.strip(), text.strip()
+        if not item.strip():
+            raise ValueError(f"--plant {option!r}: an empty item; expected NAME=VALUE[,...]")
         if not sep or not name:
             raise ValueError(f"--plant {item!r}: expected NAME=VALUE (e.g. sensor_offset=0.5)")
         if name in given:

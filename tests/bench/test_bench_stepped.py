@@ -87,6 +87,7 @@ def test_the_online_estimate_is_recorded_and_finds_the_plants_friction(engine, t
         # a second value used to win silently
         ("mu=0.09,mu=0.12", "--plant mu=0.09 and mu=0.12: mu given twice"),
         ("mu=0.09, mu =0.12", "--plant mu=0.09 and mu=0.12: mu given twice"),
+        ("mu=0.09,", "--plant 'mu=0.09,': an empty item; expected NAME=VALUE[,...]"),
     ],
 )
 def test_emulate_plant_option_refuses_a_bad_value_in_one_line(args, words, capsys):
