@@ -378,14 +378,28 @@ class CalibrationError(BenchError):
 
 
 def check_out_dir(path: Path, force: bool) -> None:
-    """--out: a folder that does not exist, or an empty one, or any with --force (a
-    BenchUsageError names the problem)."""
+    """--out: a folder that does not exist, or an empty one, or any with --force, where files
+    can be written (a probe file is made and removed in it, or in the nearest folder above it
+    that exists: nothing is made before the device is reached); a BenchUsageError names the
+    problem."""
     if path.exists() and not path.is_dir():
         raise BenchUsageError(f"calibrate --out {path}: is a file, not a folder")
     if path.is_dir() and any(path.iterdir()) and not force:
         raise BenchUsageError(
             f"calibrate --out {path}: exists and is not empty; --force writes into it"
         )
+    above = path.absolute()
+    while not above.exists() and above != above.parent:
+        above = above.parent
+    if not above.is_dir():
+        raise BenchUsageError(f"calibrate --out {path}: {above} is a file, not a folder")
+    try:
+        with tempfile.NamedTemporaryFile(dir=above, prefix=".bowden-calibrate.", suffix=".tmp"):
+            pass
+    except OSError as exc:
+        raise BenchUsageError(
+            f"calibrate --out {path}: cannot write in {above} ({exc.strerror or exc})"
+        ) from None
 
 
 @dataclass

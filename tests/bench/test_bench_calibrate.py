@@ -7,6 +7,7 @@ slow; the runs over real links are in tests/bench/test_bench_calibrate_links.py.
 
 import argparse
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -320,11 +321,19 @@ def test_a_failed_calibration_says_how_to_get_the_configuration_back(hint, tmp_p
         ("file", [], "is a file, not a folder"),
         ("full", [], "exists and is not empty; --force writes into it"),
         ("none", ["--persist"], "--persist saves what --apply writes: give --apply too"),
+        # used to be found after the session opened: exit 1, "No such file or directory"
+        ("proc", [], "calibrate --out /proc/bowden-cal: cannot write in /proc"),
+        ("under a file", [], "is a file, not a folder"),
     ],
 )
 def test_bad_calibrate_options_are_one_line_and_exit_2(setup, extra, message, tmp_path, capsys):
     out = tmp_path / "d"
-    if setup == "file":
+    if setup == "proc":
+        out = Path("/proc/bowden-cal")
+    elif setup == "under a file":
+        (tmp_path / "f").write_text("x")
+        out = tmp_path / "f" / "d"
+    elif setup == "file":
         out.write_text("x")
     elif setup == "full":
         out.mkdir()
