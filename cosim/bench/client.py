@@ -82,6 +82,10 @@ class PortBusyError(BenchError):
         self.holder = holder
 
 
+class LockFolderError(BenchUsageError):
+    """The folder for port locks (`runtime_dir()`) cannot be written: no port can be used."""
+
+
 # --- links ---------------------------------------------------------------------------------------
 
 
@@ -104,7 +108,13 @@ class PortLock:
         folder = runtime_dir()
         digest = hashlib.sha256(key.encode()).hexdigest()[:16]
         self.path = os.path.join(folder, f"bowden-bench-{digest}.lock")
-        self._fd: int | None = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            self._fd: int | None = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:  # every port alike: not a port's problem, the folder's
+            raise LockFolderError(
+                f"cannot make a port lock in {folder} ({exc.strerror}): $XDG_RUNTIME_DIR, or "
+                "the temporary folder without it, must be a folder this user can write"
+            ) from None
         try:
             fcntl.flock(self._fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:

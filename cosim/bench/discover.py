@@ -38,6 +38,7 @@ from .client import (
     BenchError,
     BenchUsageError,
     DeviceInfo,
+    LockFolderError,
     PortBusyError,
     SerialLink,
     runtime_dir,
@@ -134,21 +135,31 @@ def serial_ports() -> list[str]:
     return sorted(p.device for p in list_ports.comports())
 
 
-def probe_port(url: str, baud: int = 921_600, timeout_s: float = PROBE_TIMEOUT_S) -> Found | None:
+def probe_port(
+    url: str,
+    baud: int = 921_600,
+    timeout_s: float = PROBE_TIMEOUT_S,
+    why_not: dict[str, str] | None = None,
+) -> Found | None:
     """HELLO on one serial URL; the controller there, a busy Found when another client holds
     the port (nothing is sent: its requests would meet ours), or None (no answer, does not
-    open)."""
+    open: `why_not[url]` says which, for a port the user named)."""
+    why_not = {} if why_not is None else why_not
     try:
         link = SerialLink(url, baud=baud)
     except PortBusyError as exc:
         return Found(port=url, node=None, info=None, holder=exc.holder)
-    except BenchError:
+    except LockFolderError:
+        raise  # no port can be probed: the user must hear why
+    except BenchError as exc:
+        why_not[url] = str(exc).removeprefix(f"--port {url}: ")
         return None
     try:
         client = BenchClient(link, timeout_s=timeout_s)
         try:
             return Found(port=url, node=None, info=client.hello())
         except (BenchError, ProtocolError):
+            why_not[url] = f"no answer to HELLO within {timeout_s:g} s"
             return None
     finally:
         link.close()
@@ -159,14 +170,17 @@ def probe_serial(
     baud: int = 921_600,
     timeout_s: float = PROBE_TIMEOUT_S,
     probe: Callable[..., Found | None] = probe_port,
+    why_not: dict[str, str] | None = None,
 ) -> tuple[list[Found], list[str]]:
     """Probe `ports` (default: `serial_ports()`, then the registered emulators'); returns
-    (controllers found, ports probed)."""
+    (controllers found, ports probed). `why_not`: filled with why each port that is not listed
+    is not (see `probe_port`)."""
     if ports is None:
         listed = serial_ports()
         ports = listed + [p for p in registered_ports() if p not in listed]
     probed = list(ports)
-    found = [f for f in (probe(url, baud=baud, timeout_s=timeout_s) for url in probed) if f]
+    kw = {} if why_not is None else {"why_not": why_not}
+    found = [f for f in (probe(url, baud=baud, timeout_s=timeout_s, **kw) for url in probed) if f]
     return found, probed
 
 
@@ -179,7 +193,7 @@ def probe_can(spec: str, timeout_s: float = 1.0, bus=None) -> list[Found]:
     if own:
         interface, sep, channel = spec.partition(":")
         if not sep or not interface:
-            raise BenchError(f"--can {spec}: expected INTERFACE:CHANNEL (e.g. virtual:bench)")
+            raise BenchUsageError(f"--can {spec}: expected INTERFACE:CHANNEL (e.g. virtual:bench)")
         try:
             bus = can.Bus(interface=interface, channel=channel)
         except (can.CanError, ValueError, ImportError, OSError) as exc:

@@ -246,6 +246,18 @@ def cmd_list(args, chain=None) -> int:
     """`bowden bench list`: one row per controller found; exit 1 when there is none. With
     `--emulate --can BUS` the emulator joins the bus first (python-can's virtual bus)."""
     timeout_s = min(args.timeout, discover.PROBE_TIMEOUT_S)
+    if args.port == "":
+        print(
+            "bowden bench list: --port is empty: give a port, or leave --port out", file=sys.stderr
+        )
+        return 2
+    if args.emulate and not args.can:
+        print(
+            "bowden bench list: --emulate lists an emulator on the --can bus given (a stepped "
+            "one in this process has no port to list): add --can, or start `bowden emulate`",
+            file=sys.stderr,
+        )
+        return 2
     if args.can:  # one wait for every node at once: the whole reply timeout
         emulator = None
         if args.emulate:
@@ -260,8 +272,14 @@ def cmd_list(args, chain=None) -> int:
         where = f"on {args.can} (nodes 0..{(1 << msgs.CAN_NODE_BITS) - 1})"
     else:
         ports = [args.port] if args.port and args.port != "auto" else None
-        found, probed = discover.probe_serial(ports, baud=args.baud, timeout_s=timeout_s)
+        why_not: dict[str, str] = {}
+        # A port the user named is given the whole reply timeout; each of a list, a short one.
+        found, probed = discover.probe_serial(
+            ports, baud=args.baud, timeout_s=args.timeout if ports else timeout_s, why_not=why_not
+        )
         where = f"on {len(probed)} serial port(s) probed" if probed else "(pyserial lists no ports)"
+        if ports:  # the port the user named: why it is not listed
+            where = f"on {args.port} ({why_not.get(args.port, 'no answer')})"
     if not found:
         print(f"bowden bench list: no controller answered HELLO {where}", file=sys.stderr)
         return 1

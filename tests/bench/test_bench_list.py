@@ -254,3 +254,31 @@ def test_bowden_emulate_is_findable_until_it_ends(own_runtime_dir, monkeypatch):
             emu.stdout.close()
         assert len(list(own_runtime_dir.glob("bowden-emulator-*"))) == left, sig
         assert discover.registered_ports() == []
+
+
+def test_list_bad_and_odd_arguments_are_one_line_each(silent_pty, capsys, monkeypatch, tmp_path):
+    """A port named with --port that is not listed says why; what list cannot take is a usage
+    error (exit 2), not ignored: an empty --port, --emulate without the bus it would join, a
+    --can that is no INTERFACE:CHANNEL; a runtime folder that cannot hold the port locks is
+    said once, not taken for ports without controllers."""
+    _ports(monkeypatch, [silent_pty])
+    gone = tmp_path / "gone"
+    cases = [
+        (["--port", str(gone), "list"], 1, f"no controller answered HELLO on {gone} (cannot open"),
+        (
+            ["--port", silent_pty, "--timeout", "0.2", "list"],
+            1,
+            f"no controller answered HELLO on {silent_pty} (no answer to HELLO within 0.2 s)",
+        ),
+        (["--port", "", "list"], 2, "--port is empty"),
+        (["--emulate", "list"], 2, "--emulate lists an emulator on the --can bus given"),
+        (["--can", "bogus", "list"], 2, "--can bogus: expected INTERFACE:CHANNEL"),
+    ]
+    for argv, status, text in cases:
+        assert bench_cli(["bench", *argv]) == status, argv
+        err = capsys.readouterr().err
+        assert len(err.splitlines()) == 1 and text in err, (argv, err)
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(gone))
+    assert bench_cli(["bench", "list"]) == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1 and f"cannot make a port lock in {gone}" in err, err
