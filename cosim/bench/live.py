@@ -59,6 +59,10 @@ MIN_TERMINAL = (40, 12)
 # How long the recording process waits, once the run has ended, for its view to draw the end
 # and exit, before it ends the view itself (a view stopped or hung must not hold the command).
 STOP_WAIT_S = 5.0
+ORPHAN_MESSAGE = (
+    "the recording process is gone (killed?): the view stopped here; the device stops a run "
+    "whose host falls silent by itself (its host watchdog)"
+)
 NO_RUN_MESSAGE = (
     "No run is active: this page shows a run while `bowden bench run --live web` or "
     "`bowden bench watch --live web` records one."
@@ -67,7 +71,7 @@ NO_RUN_MESSAGE = (
 
 def parse_signals(text: str) -> list[str]:
     """`--signals T_ref,T_out,current`: names checked (ValueError naming the bad one)."""
-    names = [s.strip() for s in text.split(",") if s.strip()]
+    names = list(dict.fromkeys(s.strip() for s in text.split(",") if s.strip()))  # once each
     bad = [n for n in names if n not in SIGNALS]
     if bad or not names:
         raise ValueError(
@@ -242,9 +246,9 @@ def too_small_text(cols: int, rows: int) -> str:
             f"live view: the terminal reports its size as {cols}x{rows}: nothing drawn (the run "
             "is recorded; `stty cols 100 rows 30` gives it one)"
         )
-    else:
+    else:  # what matters first: a narrow terminal shows only the start of the line
         need = "x".join(str(v) for v in MIN_TERMINAL)
-        text = f"live view: the terminal is {cols}x{rows}, it needs {need}: nothing drawn"
+        text = f"{cols}x{rows}: too small for the live view (it needs {need}); nothing drawn"
     return text[:cols] if cols > 0 else text
 
 
@@ -718,23 +722,34 @@ def _view_run(a) -> int:
         try:
             web = LiveServer(buf, port=a.http_port, signals=signals, window_s=a.window).start()
         except OSError as exc:  # the recording process says it, in one line
-            ready.write(f"error {_bind_error(a.http_port, exc)}\n")
+            _tell(ready, f"error {_bind_error(a.http_port, exc)}")
             return 1
-        ready.write(f"url {web.url}\n")
+        _tell(ready, f"url {web.url}")
     else:
         out = open(a.sink, "w") if a.sink != "-" else sys.stdout  # noqa: SIM115 (closed below)
         size = tuple(int(v) for v in a.size.split("x")) if a.size else None
         term = TermView(buf, signals, a.window, out=out, size=size).start()
+    orphan = True  # until the recording process says the run has ended
     try:
         for line in sys.stdin:  # the run's state, until `null` (or the recording process is gone)
-            state = json.loads(line)
+            try:
+                state = json.loads(line)
+            except ValueError:
+                break  # half a line: its writer died while writing it
             if state is None:
+                orphan = False
                 break
             buf.label, buf.active, buf.message = state["label"], state["active"], state["message"]
     except _Terminated:
         if term is not None:
             term.show_cursor()
         raise
+    if orphan:  # killed outright: nobody else will say so, nor remove the ring
+        buf.active, buf.message = False, ORPHAN_MESSAGE
+        try:
+            os.unlink(a.ring)  # (mapped here and in any other view: they keep their pages)
+        except OSError:
+            pass
     if term is not None:
         term.stop()
         if out is not sys.stdout:
@@ -742,8 +757,16 @@ def _view_run(a) -> int:
     if web is not None:
         web.stop()
     frames, draw_s, cpu_s = (term.frames, term.draw_s, term.cpu_s) if term else (0, 0.0, 0.0)
-    ready.write(f"{frames} {draw_s} {cpu_s} {web.requests if web else 0}\n")
+    _tell(ready, f"{frames} {draw_s} {cpu_s} {web.requests if web else 0}")
     return 0
+
+
+def _tell(ready, line: str) -> None:
+    """A line to the recording process, which may be gone (killed outright): then nobody asks."""
+    try:
+        ready.write(line + "\n")
+    except OSError:
+        pass
 
 
 if __name__ == "__main__":

@@ -13,7 +13,8 @@ from pathlib import Path
 
 from cosim.bench import diff, discover, live, paramfiles
 from cosim.bench import messages as msgs
-from cosim.bench.protocol import param
+from cosim.bench.client import BenchError
+from cosim.bench.protocol import ProtocolError, param
 from cosim.bench.recorder import RunResult, record_run, run_ticks
 
 
@@ -86,29 +87,60 @@ def add_live_arguments(p, required_live: bool = False) -> None:
             help="show the run as it goes: in the terminal (--live, --live term) or on a page "
             "on 127.0.0.1 (--live web); the recording loses nothing to it",
         )
-    signals = ",".join(live.SIGNALS)
+    # The view's options default to None, so that one given without a view to take it is
+    # refused (`precheck`) rather than ignored; `precheck` fills in the defaults.
     p.add_argument(
         "--signals",
-        default=signals,
-        help=f"what the live view shows, comma-separated (default {signals})",
+        default=None,
+        help=f"what the live view shows, comma-separated (default {_LIVE_DEFAULTS['signals']})",
     )
     lo, hi = live.WINDOW_RANGE_S
     p.add_argument(
         "--window",
         type=float,
-        default=live.DEFAULT_WINDOW_S,
+        default=None,
         metavar="S",
         help=f"the live view's rolling window in s (default {live.DEFAULT_WINDOW_S:g}, "
         f"{lo:g}..{hi:g})",
     )
     p.add_argument(
-        "--http-port", type=int, default=0, help="--live web: the page's port (default: a free one)"
+        "--http-port",
+        type=int,
+        default=None,
+        help="--live web: the page's port (default: a free one)",
     )
+
+
+_LIVE_DEFAULTS = {
+    "signals": ",".join(live.SIGNALS),
+    "window": live.DEFAULT_WINDOW_S,
+    "http_port": 0,
+}
+_LIVE_OPTIONS = {"signals": "--signals", "window": "--window", "http_port": "--http-port"}
+
+
+def _live_options_problem(args) -> str | None:
+    """A view's option with no view to take it (no --live; --http-port with the terminal's):
+    refused, not ignored. Fills in the defaults of those not given."""
+    given = [opt for dest, opt in _LIVE_OPTIONS.items() if getattr(args, dest, None) is not None]
+    if not getattr(args, "live", None):
+        if given:
+            return f"{', '.join(given)}: for the live view, which needs --live"
+        return None
+    if args.live == "term" and args.http_port is not None:
+        return "--http-port: for the page (--live web); the terminal's view has no port"
+    for dest, default in _LIVE_DEFAULTS.items():
+        if getattr(args, dest) is None:
+            setattr(args, dest, default)
+    return None
 
 
 def precheck(args) -> int | None:
     """Checks of a command's files and options before anything is sent: one line and exit 2 on
     bad input."""
+    if problem := _live_options_problem(args):
+        print(f"bowden bench: {problem}", file=sys.stderr)
+        return 2
     if getattr(args, "live", None):
         lo, hi = live.WINDOW_RANGE_S
         problem = None
@@ -341,11 +373,27 @@ def record_with_view(client, args, out, label: str, **kw) -> RunResult:
     try:
         result = record_run(client, out, tap=view.buffer.add, **kw)
     finally:
-        view.stop(f"run ended: {result.summary()}" if result else "run interrupted")
-        Path(view.buffer.path).unlink(missing_ok=True)
-        if view.ended:  # killed, stopped or hung: the recording is whole all the same
-            print(f"live view: {view.ended}", file=sys.stderr, flush=True)
+        try:
+            if result is None:  # interrupted or failed: the device before the view
+                _stop_at_once(client, args)
+        finally:
+            view.stop(f"run ended: {result.summary()}" if result else "run interrupted")
+            Path(view.buffer.path).unlink(missing_ok=True)
+            if view.ended:  # killed, stopped or hung: the recording is whole all the same
+                print(f"live view: {view.ended}", file=sys.stderr, flush=True)
     return result
+
+
+def _stop_at_once(client, args) -> None:
+    """STOP, before the view is given its seconds to show how the run ended (the motor is
+    not kept driven while a view draws); the run's own exit path then stops the device again
+    and asks it to confirm, and says when it could not."""
+    client.on_telemetry = None
+    with args.signals.hold():  # a second Ctrl-C does not cut the STOP short
+        try:
+            client.request("STOP")
+        except (BenchError, ProtocolError, OSError):
+            pass  # said by the confirmation that follows
 
 
 def cmd_watch(client, args, info, run_cmd) -> int:

@@ -346,7 +346,7 @@ def test_a_terminal_of_no_size_gets_a_note_not_a_traceback(tmp_path, capfd):
         small = live.TermView(_filled_buffer(), out=io.StringIO(), size=(cols, rows))
         small.draw()
         note = small.out.getvalue().replace("\x1b[H", "").split("\x1b[K")[0]
-        assert note.startswith(f"live view: the terminal is {cols}x{rows}"[:cols]), note
+        assert note.startswith(f"{cols}x{rows}: too small for the live view"[:cols]), note
         assert len(note) <= cols
     # The view in its process, as `run --live` starts it: the note, and nothing on stderr.
     sink = tmp_path / "screen.txt"
@@ -601,3 +601,93 @@ def test_run_live_with_a_stopped_view_or_sigterm_ends_soon_with_the_cursor_shown
     assert "device stopped, output disabled (confirmed by the device)" in screen
     assert _cursor_shown_last(screen), screen[-500:]
     assert "Traceback" not in screen
+
+
+def test_view_options_without_a_view_are_refused(tmp_path, capsys):
+    """--signals, --window or --http-port with no view to take them (no --live; --http-port
+    with the terminal's view) are refused, not ignored; a signal named twice is drawn once."""
+    assert live.parse_signals("T_ref,T_out, T_ref") == ["T_ref", "T_out"]
+    run = ["bench", "--emulate", "run", "sine", "--seconds", "1", "--out", str(tmp_path / "x")]
+    for extra, text in (
+        (["--signals", "T_ref"], "--signals: for the live view, which needs --live"),
+        (["--window", "3", "--http-port", "0"], "--window, --http-port: for the live view"),
+        (["--live", "--http-port", "8080"], "--http-port: for the page (--live web)"),
+    ):
+        assert bench_cli([*run, *extra]) == 2, extra
+        err = capsys.readouterr().err
+        assert len(err.splitlines()) == 1 and err.startswith(f"bowden bench: {text}"), err
+    assert bench_cli(["bench", "--emulate", "watch", "--http-port", "8080"]) == 2
+    assert "--http-port: for the page" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+_KILLED_PARENT = """
+import os, sys, time
+from cosim.bench import live
+buf = live.LiveBuffer(path=live.ring_file())
+buf.start("sine", 1000.0)
+view = live.ViewProcess(buf, "term", sink=sys.argv[1], size=(100, 30)).start()
+print(buf.path, view._proc.pid, flush=True)
+time.sleep(1.0)
+os.kill(os.getpid(), 9)
+"""
+
+
+def test_a_view_whose_recording_process_is_killed_ends_quietly(tmp_path):
+    """The recording process killed outright (SIGKILL): its view says so in its last frame,
+    shows the cursor, removes the ring nobody else will, and ends without a traceback."""
+    import psutil
+
+    sink = tmp_path / "screen.txt"
+    parent = subprocess.Popen(
+        [sys.executable, "-c", _KILLED_PARENT, str(sink)],
+        cwd=REPO_ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    ring, view_pid = parent.stdout.readline().split()
+    parent.wait(timeout=30)
+    try:
+        psutil.Process(int(view_pid)).wait(timeout=30)
+    except psutil.NoSuchProcess:
+        pass
+    err = parent.stderr.read()  # the view wrote its stderr here too: all of it, now it is gone
+    parent.stdout.close()
+    parent.stderr.close()
+    assert "Traceback" not in err and "Exception ignored" not in err, err
+    assert not os.path.exists(ring)
+    screen = sink.read_text()
+    assert "the recording process is gone (killed?)" in screen and _cursor_shown_last(screen)
+
+
+def test_an_interrupted_run_stops_the_device_before_the_view_ends(tmp_path, capsys, monkeypatch):
+    """Ctrl-C in a run with a view: STOP goes to the device before the view is given its
+    seconds to draw the end (the motor is not kept driven meanwhile), then the run's exit path
+    confirms it."""
+    from cosim.cli import bench_tools
+
+    seen = {}
+    real_record_run, real_stop = bench_tools.record_run, live.ViewProcess.stop
+
+    def record_run(client, out, tap, **kw):
+        seen["client"] = client
+
+        def interrupt(t):
+            tap(t)
+            if t["sample"] == 300:
+                raise KeyboardInterrupt
+
+        return real_record_run(client, out, tap=interrupt, **kw)
+
+    def stop(self, message=None, **kw):
+        seen["running"] = seen["client"].hello().running
+        return real_stop(self, message, **kw)
+
+    monkeypatch.setattr(bench_tools, "record_run", record_run)
+    monkeypatch.setattr(live.ViewProcess, "stop", stop)
+    out = tmp_path / "x.csv"
+    argv = ["bench", "--emulate", "run", "sine", "--seconds", "3", "--out", str(out)]
+    assert bench_cli([*argv, "--live", "web"]) == 130
+    assert seen["running"] is False
+    assert "device stopped, output disabled (confirmed by the device)" in capsys.readouterr().err
