@@ -76,6 +76,7 @@ def main(args: argparse.Namespace) -> int:
 def run_and_report(
     spec, spec_dict, out: Path, scheduler, workers, quiet, retry_failed=False
 ) -> int:
+    from cosim.studies.sweep.atomic import write_text  # noqa: PLC0415
     from cosim.studies.sweep.run import TABLE, run_sweep  # noqa: PLC0415
     from cosim.studies.sweep.table import plot_sweep, summary, write_table  # noqa: PLC0415
 
@@ -97,7 +98,8 @@ def run_and_report(
         return 1
     write_table(rows, out / TABLE)
     plots = plot_sweep(rows, list(spec.axes), out)
-    (out / "summary.json").write_text(
+    write_text(
+        out / "summary.json",
         json.dumps(
             {
                 "points": len(rows),
@@ -107,7 +109,7 @@ def run_and_report(
             },
             indent=2,
         )
-        + "\n"
+        + "\n",
     )
     print(summary(rows))
     print(f"wrote {out / TABLE} ({len(rows)} points) and {len(plots)} plots")

@@ -27,6 +27,7 @@ import time
 import traceback
 from pathlib import Path
 
+from .atomic import write_text
 from .spec import Point, SweepSpec
 
 POINTS_DIR = "points"
@@ -177,9 +178,7 @@ def _changed(old, new, prefix: str = "") -> list[str]:
 
 
 def _write_json(path: Path, data) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n")
-    os.replace(tmp, path)
+    write_text(path, json.dumps(data, indent=2, sort_keys=True) + "\n")
 
 
 def write_point(out_dir: Path, point: Point, row: dict) -> Path:
@@ -187,9 +186,7 @@ def write_point(out_dir: Path, point: Point, row: dict) -> Path:
     d = out_dir / POINTS_DIR
     d.mkdir(parents=True, exist_ok=True)
     path = d / f"{point.point_id}.json"
-    tmp = d / f".{point.point_id}.{os.getpid()}.tmp"
-    tmp.write_text(json.dumps({"values": point.values, "row": _finite(row)}, sort_keys=True))
-    os.replace(tmp, path)
+    write_text(path, json.dumps({"values": point.values, "row": _finite(row)}, sort_keys=True))
     return path
 
 

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .atomic import replacing
+
 # Columns first in the table, when present; the rest follow in name order.
 LEAD = ("point_id", "status", "compensator", "loop_routing", "x_m", "y_m", "z_m")
 
@@ -20,9 +22,8 @@ def write_table(rows: list[dict], path: Path) -> None:
     order = [c for c in LEAD if c in names] + [c for c in names if c not in LEAD]
     cols = {c: [r.get(c) for r in rows] for c in order}
     table = pa.table(cols)
-    tmp = path.with_name(f".{path.name}.tmp")
-    pq.write_table(table, tmp)
-    tmp.replace(path)
+    with replacing(path) as tmp:  # a name of this process's own: two sweeps never share it
+        pq.write_table(table, tmp)
 
 
 def read_table(path: Path) -> list[dict]:
@@ -95,7 +96,7 @@ def plot_sweep(rows: list[dict], axes: list[str], out_dir: Path, metric="rms_err
         fig.colorbar(sc, ax=axs[0].tolist(), label=f"worst {label}")
         fig.suptitle("tracking error over the workspace (worst case per position)", fontsize=10)
         path = out_dir / "error_map.png"
-        fig.savefig(path, dpi=110)
+        _save(fig, path)
         plt.close(fig)
         written.append(path)
     for a in numeric_axes(ok, axes):
@@ -112,10 +113,16 @@ def plot_sweep(rows: list[dict], axes: list[str], out_dir: Path, metric="rms_err
         ax.legend(fontsize=7)
         fig.tight_layout()
         path = out_dir / f"error_vs_{a.replace('.', '_')}.png"
-        fig.savefig(path, dpi=110)
+        _save(fig, path)
         plt.close(fig)
         written.append(path)
     return written
+
+
+def _save(fig, path: Path) -> None:
+    """Write a figure as PNG atomically (a failed write keeps the plot already there)."""
+    with replacing(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
 
 
 def summary(rows: list[dict], metric: str = "rms_error_pct") -> str:
