@@ -58,6 +58,84 @@ def test_out_of_another_run_is_refused_naming_what_changed(tmp_path):
     assert "build" in msg
 
 
+def _tree(root, files: dict) -> None:
+    for name, text in files.items():
+        path = root / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+
+
+def test_the_build_stamp_covers_what_a_point_runs_and_not_the_bench_tool_or_the_cli(tmp_path):
+    """build_id changes with the engines, the plant, the config, the sweep (any module of the
+    package but two) and each library a point loads, the firmware's included (a firmware rebuild
+    can leave the native library's bytes as they were); it does not change with the bench tool or
+    the command lines, whose edits by others made a sweep's resume say "build changed". A build
+    folder outside the package's parent (BOWDEN_ROOT) is hashed too (it raised ValueError)."""
+    package, build = tmp_path / "src" / "cosim", tmp_path / "elsewhere" / "build"
+    _tree(
+        package,
+        {
+            "__init__.py": "",
+            "engines/native/engine.py": "a = 1\n",
+            "studies/sweep/run.py": "b = 1\n",
+            "bench/client.py": "c = 1\n",
+            "cli/sweep.py": "d = 1\n",
+            "cli/bench_tools.py": "e = 1\n",
+        },
+    )
+    _tree(build, {name: "lib 1" for name in sweep_run.STAMP_BUILD_FILES})
+
+    def stamp():
+        return sweep_run.build_id(package, build)
+
+    first = stamp()
+    assert first == stamp()
+    for name in ("bench/client.py", "cli/sweep.py", "cli/bench_tools.py", "bench/new.py"):
+        _tree(package, {name: "edited = 2\n"})
+        assert stamp() == first, name
+    seen = {first}
+    for name in ("engines/native/engine.py", "studies/sweep/run.py", "parts/new.py"):
+        _tree(package, {name: "edited = 2\n"})
+        assert stamp() not in seen, name
+        seen.add(stamp())
+    assert set(sweep_run.STAMP_BUILD_FILES) >= {
+        "native/libbowden_native.so",
+        "firmware/host/libbowden_fw.so",
+        "fmu/BowdenPlant.fmu",
+    }
+    for name in sweep_run.STAMP_BUILD_FILES:
+        _tree(build, {name: "lib 2"})
+        assert stamp() not in seen, name
+        seen.add(stamp())
+        (build / name).unlink()
+        assert stamp() not in seen, f"{name} removed"
+        seen.add(stamp())
+
+
+def test_a_point_imports_nothing_the_build_stamp_leaves_out():
+    """What build_id leaves out must be what no point runs: a point run in a fresh interpreter
+    (as in a Dask worker) imports no module of those folders."""
+    code = (
+        "import sys\n"
+        "from cosim.studies.sweep.run import run_point\n"
+        "from cosim.studies.sweep.spec import parse_spec\n"
+        "data = {'scenario': 'fig14', 'duration_s': 0.05, 'axes': {'compensator': ['smooth']}}\n"
+        "point = parse_spec(data).points()[0]\n"
+        "assert run_point(data, point.values, point.run_key)['status'] == 'ok'\n"
+        "print(' '.join(m for m in sys.modules if m.startswith('cosim')))\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    modules = proc.stdout.split()
+    assert "cosim.engines.native.engine" in modules, modules
+    left_out = tuple(f"cosim.{name}" for name in sweep_run.STAMP_LEFT_OUT)
+    assert left_out, "the stamp leaves nothing out: this test checks nothing"
+    imported = [
+        m for m in modules if m in left_out or m.startswith(tuple(f"{p}." for p in left_out))
+    ]
+    assert imported == [], f"a point imports modules the build stamp leaves out: {imported}"
+
+
 @pytest.mark.slow
 def test_bowden_sweep_into_the_out_of_another_spec_exits_2(tmp_path):
     spec_path, out = tmp_path / "spec.yaml", tmp_path / "out"

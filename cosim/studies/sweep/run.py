@@ -36,16 +36,45 @@ TABLE = "sweep.parquet"
 FIGURES = ("rms_error_n", "rms_error_pct", "peak_error_n", "peak_error_pct", "max_ref_n")
 
 
-def build_id() -> str:
-    """The project build a point runs on: a hash of the Python package's sources, the native
-    engine's library and the plant FMU (a rebuild or an edit makes earlier results stale)."""
+# What build_id hashes: what a point's result depends on. The package's Python sources but two
+# folders: cosim/bench (the bench tool, which talks to a board over a link) and cosim/cli (the
+# command lines, which parse arguments and call the studies; `bowden sweep`'s writes the rows as
+# they came back). No point runs them, so an edit there cannot change a point's figures, while a
+# resume refused for one ("build changed") runs the whole sweep again; they are also what is
+# edited most while sweeps run. test_a_point_imports_nothing_the_build_stamp_leaves_out runs a
+# point in a fresh interpreter and fails if it imports any module of them. Kept conservative:
+# every other folder stays in, also those no point imports today (the audit, perf, the other
+# studies), since a stale result taken for a new one costs more than a sweep run again.
+STAMP_LEFT_OUT = ("bench", "cli")
+# The build's files a point loads (under BUILD_DIR): the native engine (the Verilated RTL and the
+# C++ loop), the firmware library it links at run time (a firmware rebuild may relink the native
+# library to the same bytes) and the plant FMU.
+STAMP_BUILD_FILES = (
+    "native/libbowden_native.so",
+    "firmware/host/libbowden_fw.so",
+    "fmu/BowdenPlant.fmu",
+)
+
+
+def build_id(package_dir: Path | None = None, build_dir: Path | None = None) -> str:
+    """The project build a point runs on: a hash of the Python package's sources (but
+    STAMP_LEFT_OUT) and of the libraries a point loads (STAMP_BUILD_FILES), so that a rebuild or
+    an edit makes earlier results stale. By default the package this module belongs to and the
+    project's build folder (cosim.project.paths)."""
     from cosim.project.paths import BUILD_DIR, PACKAGE_DIR  # noqa: PLC0415
 
+    package_dir = PACKAGE_DIR if package_dir is None else package_dir
+    build_dir = BUILD_DIR if build_dir is None else build_dir
+    left_out = {package_dir / name for name in STAMP_LEFT_OUT}
+    files = [
+        (f"cosim/{f.relative_to(package_dir).as_posix()}", f)
+        for f in sorted(package_dir.rglob("*.py"))
+        if not left_out.intersection(f.parents)
+    ]
+    files += [(f"build/{name}", build_dir / name) for name in STAMP_BUILD_FILES]
     h = hashlib.sha256()
-    files = sorted(PACKAGE_DIR.rglob("*.py"))
-    files += [BUILD_DIR / "native" / "libbowden_native.so", BUILD_DIR / "fmu" / "BowdenPlant.fmu"]
-    for f in files:
-        h.update(str(f.relative_to(PACKAGE_DIR.parent)).encode() + b"\0")
+    for name, f in files:
+        h.update(name.encode() + b"\0")
         h.update(f.read_bytes() if f.is_file() else b"(absent)")
     return h.hexdigest()[:16]
 
