@@ -36,6 +36,7 @@ class Apart:
         self.logs = root / "logs"
         self.logs.mkdir()
         self.procs: list[subprocess.Popen] = []
+        self.names: dict[str, subprocess.Popen] = {}  # the workers started and not stopped
 
     def folder(self, name: str) -> Path:
         path = self.root / name
@@ -82,13 +83,15 @@ class Apart:
                 time.sleep(0.1)
         pytest.fail(f"the scheduler did not start:\n{self.log('scheduler')}")
 
-    def workers(self, address: str, n: int) -> list[Path]:
-        """Start n single-threaded workers (each with its nanny), each working in its own folder
-        and keeping its scratch space outside it; return once all have joined."""
-        from distributed import Client  # noqa: PLC0415
-
+    def workers(
+        self, address: str, n: int, first: int = 0, preload: Path | None = None
+    ) -> list[Path]:
+        """Start n single-threaded workers (each with its nanny), named worker<first>... and
+        each working in its own folder and keeping its scratch space outside it, each running
+        `preload` (Dask's --preload) when given; return once the scheduler has exactly the
+        workers started and not stopped."""
         folders = []
-        for i in range(n):
+        for i in range(first, first + n):
             folders.append(self.folder(f"worker{i}_cwd"))
             self.start(
                 f"worker{i}",
@@ -104,17 +107,37 @@ class Apart:
                     f"worker{i}",
                     "--local-directory",
                     str(self.root / f"worker{i}_scratch"),
+                    *(["--preload", str(preload)] if preload is not None else []),
                 ],
                 folders[-1],
             )
-        with Client(address, timeout=f"{START_TIMEOUT_S}s") as client:
-            client.wait_for_workers(n, timeout=START_TIMEOUT_S)
+            self.names[f"worker{i}"] = self.procs[-1]
+        self.wait_for_workers(address)
         return folders
 
-    def sweep(self, cwd: Path, address: str) -> subprocess.Popen:
+    def stop_worker(self, address: str, name: str) -> None:
+        """SIGKILL a worker and its nanny; return once the scheduler has let it go."""
+        proc = self.names.pop(name)
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+        self.wait_for_workers(address)
+
+    def wait_for_workers(self, address: str) -> None:
+        from distributed import Client  # noqa: PLC0415
+
+        deadline = time.monotonic() + START_TIMEOUT_S
+        with Client(address, timeout=f"{START_TIMEOUT_S}s") as client:
+            while time.monotonic() < deadline:
+                info = client.scheduler_info()["workers"].values()
+                if sorted(w["name"] for w in info) == sorted(self.names):
+                    return
+                time.sleep(0.1)
+        pytest.fail(f"the scheduler's workers are not {sorted(self.names)}")
+
+    def sweep(self, cwd: Path, address: str, name: str = "sweep") -> subprocess.Popen:
         """`bowden sweep s.yaml --out out --scheduler ADDRESS` run in `cwd` (relative paths)."""
         return self.start(
-            "sweep", [BOWDEN, "sweep", "s.yaml", "--out", "out", "--scheduler", address], cwd
+            name, [BOWDEN, "sweep", "s.yaml", "--out", "out", "--scheduler", address], cwd
         )
 
     def stop(self) -> None:
@@ -246,3 +269,48 @@ def test_a_scheduler_killed_mid_sweep_is_one_line_and_keeps_what_came_back(apart
     assert f"only {len(kept)} of the 8 points" in said[0], (said, len(kept))
     assert 1 <= len(kept) < 8 and all(r["status"] == "ok" for r in kept), kept
     assert not (client_dir / "out" / sweep_run.TABLE).exists()
+
+
+# A worker's preload (Dask's --preload) that makes it a worker of another build, as one started
+# from another checkout, or before a rebuild, is: no second checkout to build.
+ANOTHER_BUILD = """\
+from cosim.studies.sweep import run
+
+run.build_id = lambda *args: "0ther0checkout00"
+"""
+
+
+@pytest.mark.slow
+def test_points_from_a_worker_of_another_build_are_not_saved_and_a_worker_of_this_one_runs_them(
+    apart,
+):
+    """A worker whose build differs from the client's (here by its preload) returns every point:
+    none is saved, the sweep exits 1 with one line naming the worker's build and the client's,
+    and once that worker is replaced by one of this build the same command runs every point
+    (before, each was saved as a result of the client's build and the sweep exited 0)."""
+    client_dir = apart.folder("client_cwd")
+    (client_dir / "s.yaml").write_text(
+        "scenario: fig14\nduration_s: 0.2\naxes:\n  compensator: [paper, smooth]\n"
+    )
+    preload = apart.root / "another_build.py"
+    preload.write_text(ANOTHER_BUILD)
+    address = apart.scheduler()
+    apart.workers(address, 1, preload=preload)
+    proc = apart.sweep(client_dir, address)
+    assert proc.wait(timeout=300) == 1, apart.log("sweep")
+    said = [line for line in apart.log("sweep").splitlines() if not line.startswith("sweep: ")]
+    assert len(said) == 1, said
+    assert "2 of the 2 points" in said[0] and "0ther0checkout00" in said[0], said
+    assert f"this client's build {sweep_run.build_id()}" in said[0], said
+    points = client_dir / "out" / sweep_run.POINTS_DIR
+    assert not points.is_dir() or list(points.glob("*.json")) == []
+    assert not (client_dir / "out" / sweep_run.TABLE).exists()
+
+    apart.stop_worker(address, "worker0")
+    apart.workers(address, 1, first=1)
+    again = apart.sweep(client_dir, address, "sweep_again")
+    assert again.wait(timeout=300) == 0, apart.log("sweep_again")
+    assert "2 to run" in apart.log("sweep_again"), apart.log("sweep_again")
+    rows = read_table(client_dir / "out" / sweep_run.TABLE)
+    assert {r["point_id"] for r in rows} == _ids(client_dir / "s.yaml"), rows
+    assert all(r["status"] == "ok" and r["build_id"] == sweep_run.build_id() for r in rows), rows

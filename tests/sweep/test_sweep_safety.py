@@ -136,6 +136,51 @@ def test_a_point_imports_nothing_the_build_stamp_leaves_out():
     assert imported == [], f"a point imports modules the build stamp leaves out: {imported}"
 
 
+def test_a_row_says_which_build_computed_it():
+    """run_point (what a worker runs) puts its own build into the row it returns."""
+    data = {**BASE, "duration_s": 0.02}
+    point = parse_spec(data).points()[0]
+    row = sweep_run.run_point(data, point.values, point.run_key)
+    assert row["status"] == "ok" and row["build_id"] == sweep_run.build_id(), row
+
+
+def test_points_computed_by_another_build_are_not_saved_and_the_sweep_fails(tmp_path, monkeypatch):
+    """A worker of another checkout or build returns rows under its own build: the client keeps
+    the points of its own build and saves none of the others (their ids name the client's build),
+    and the sweep fails with one line naming both builds (before, every row was saved as a result
+    of the client's build and the sweep exited 0)."""
+    from distributed import LocalCluster  # noqa: PLC0415
+
+    real = sweep_run.run_point
+
+    def smooth_on_another_build(spec_dict, values, run_key=""):
+        row = real(spec_dict, values, run_key)
+        if values["compensator"] == "smooth":
+            row["build_id"] = "0ther0build00000"
+        return row
+
+    monkeypatch.setattr(sweep_run, "run_point", smooth_on_another_build)
+    data = {**BASE, "duration_s": 0.02, "axes": {"compensator": ["paper", "smooth", "none"]}}
+    spec = parse_spec(data)
+    out = tmp_path / "out"
+    with LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None
+    ) as cluster:
+        with pytest.raises(sweep_run.SweepIncompleteError) as info:
+            sweep_run.run_sweep(
+                spec, data, out, scheduler=cluster.scheduler_address, progress=False, log=str
+            )
+    msg = str(info.value)
+    assert "\n" not in msg, msg
+    assert "1 of the 3 points" in msg and "0ther0build00000" in msg and spec.build_id in msg, msg
+    assert "not saved" in msg, msg
+    done = sweep_run.done_points(out)
+    by_mode = {p.values["compensator"]: p.point_id for p in spec.points()}
+    assert set(done) == {by_mode["paper"], by_mode["none"]}, done
+    assert all(r["status"] == "ok" and r["build_id"] == spec.build_id for r in done.values())
+    assert not (out / sweep_run.TABLE).exists()
+
+
 @pytest.mark.slow
 def test_bowden_sweep_into_the_out_of_another_spec_exits_2(tmp_path):
     spec_path, out = tmp_path / "spec.yaml", tmp_path / "out"

@@ -98,7 +98,21 @@ def run_point(spec_dict: dict, values: dict, run_key: str = "") -> dict:
         row["error"] = f"{type(exc).__name__}: {msg[0] if msg else ''}"[:500]
         row["traceback_tail"] = traceback.format_exc().splitlines()[-1][:500]
     row["wall_s"] = time.perf_counter() - t0
+    row["build_id"] = running_build()  # the client saves only the rows of its own build
     return row
+
+
+_RUNNING_BUILD: str | None = None
+
+
+def running_build() -> str:
+    """The build this process runs: build_id() when it ran its first point, kept for the
+    process's life. Its modules and the libraries it loaded then are what it runs, whatever is
+    edited or rebuilt on disk later (a Dask worker started before a rebuild)."""
+    global _RUNNING_BUILD  # noqa: PLW0603 (one per process, as the loaded library: engine._LIB)
+    if _RUNNING_BUILD is None:
+        _RUNNING_BUILD = build_id()
+    return _RUNNING_BUILD
 
 
 def _row_base(point: Point) -> dict:
@@ -145,6 +159,11 @@ RUN_FILE = "run.json"  # the run context (SweepSpec.run_context) of the points i
 
 class SweepIncompleteError(RuntimeError):
     """Fewer results came back from Dask than points were run (one line: how many, and why)."""
+
+
+class ForeignBuildError(SweepIncompleteError):
+    """Rows came back from workers of another build than the client's: not saved (one line:
+    how many, which builds on which workers, and the client's)."""
 
 
 class OutDirError(ValueError):
@@ -275,7 +294,7 @@ def run_sweep(
     todo = [p for p in points if p.point_id not in have]
     log(f"sweep: {len(points)} points, {len(points) - len(todo)} already done, {len(todo)} to run")
     if todo:
-        _dask_run(todo, spec_dict, out_dir, scheduler, workers, progress, log)
+        _dask_run(todo, spec_dict, out_dir, scheduler, workers, progress, log, spec.build_id)
     have = done_points(out_dir)
     missing = sum(p.point_id not in have for p in points)
     if missing:  # a table without them would look whole
@@ -286,6 +305,15 @@ def run_sweep(
     return [have[p.point_id] for p in points]
 
 
+def _holders(client, fut) -> list[str]:
+    """The addresses of the workers holding a finished task's result (for a message: none when
+    the scheduler cannot say)."""
+    try:
+        return sorted(client.who_has(fut).get(fut.key, ()))
+    except Exception:  # noqa: BLE001 (only a message's detail)
+        return []
+
+
 # Dask's connection timeouts (30 s by default) for a cluster on a loaded machine: starting a
 # worker process that imports numpy and distributed took longer than that on 2 cores at load 9.
 DASK_TIMEOUTS = {
@@ -294,7 +322,7 @@ DASK_TIMEOUTS = {
 }
 
 
-def _dask_run(todo, spec_dict, out_dir, scheduler, workers, progress, log) -> None:
+def _dask_run(todo, spec_dict, out_dir, scheduler, workers, progress, log, build) -> None:
     import dask  # noqa: PLC0415
     from distributed.utils import silence_logging_cmgr  # noqa: PLC0415
 
@@ -302,10 +330,12 @@ def _dask_run(todo, spec_dict, out_dir, scheduler, workers, progress, log) -> No
     # client logs at ERROR is its connection lost with the scheduler (a traceback per attempt to
     # connect again), which the sweep reports itself in one line (SweepIncompleteError).
     with dask.config.set(DASK_TIMEOUTS), silence_logging_cmgr(logging.CRITICAL):
-        _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log)
+        _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log, build)
 
 
-def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log) -> None:
+def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log, build) -> None:
+    """Run the points of `todo` and save the row of each as it comes back, if it was computed by
+    `build` (the client's build_id: the points' ids name it)."""
     from concurrent.futures import CancelledError  # noqa: PLC0415 (distributed's is one)
 
     from distributed import Client, LocalCluster, as_completed  # noqa: PLC0415
@@ -355,22 +385,47 @@ def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log) ->
         }
         gathered = failed = 0
         lost = ""  # why the last result that never came back did not
+        foreign: dict[str, set[str]] = {}  # another build -> the workers that ran it
+        n_foreign = 0
         t0 = time.perf_counter()
         for fut in as_completed(futures):
             point = futures[fut]
+            mine = True  # computed by this client's build
             try:
                 row = fut.result()
             except CancelledError as exc:  # no result: the scheduler or the connection lost
                 lost = getattr(exc, "reason", None) or "cancelled"
                 continue
             except Exception as exc:  # noqa: BLE001 (the task itself failed: recorded, go on)
-                row = failed_row(point, exc)
-            write_point(out_dir, point, row)  # here, by the client alone, as each one arrives
+                row = failed_row(point, exc)  # made here: no worker's build in it
+            else:
+                mine = row.get("build_id") == build
+            if mine:
+                write_point(out_dir, point, row)  # here, by the client alone, as it arrives
+            else:  # another checkout or build: not a result of this run, whatever its status
+                other = str(row.get("build_id") or "(none: an older version)")
+                foreign.setdefault(other, set()).update(_holders(client, fut))
+                n_foreign += 1
             gathered += 1
-            failed += row["status"] != "ok"
+            failed += mine and row["status"] != "ok"
             if progress:
                 rate = gathered / max(1e-9, time.perf_counter() - t0)
-                log(f"sweep: {gathered}/{len(todo)} points ({failed} failed), {rate:.2f} points/s")
+                other = f", {n_foreign} of another build" if n_foreign else ""
+                log(
+                    f"sweep: {gathered}/{len(todo)} points ({failed} failed{other}), "
+                    f"{rate:.2f} points/s"
+                )
+        if foreign:
+            builds = "; ".join(
+                f"build {b}" + (f" on {', '.join(sorted(w))}" if w else "")
+                for b, w in sorted(foreign.items())
+            )
+            raise ForeignBuildError(
+                f"{n_foreign} of the {len(todo)} points run came back from workers of another "
+                f"build ({builds}), not of this client's build {build}: they are not saved (the "
+                f"points of this build are, in {out_dir / POINTS_DIR}); start the workers from "
+                "this checkout and build, and the same command again runs the rest"
+            )
         if gathered < len(todo):
             raise SweepIncompleteError(
                 f"only {gathered} of the {len(todo)} points run came back from the Dask "
