@@ -168,6 +168,90 @@ def test_a_sweep_missing_points_after_its_run_is_an_error_not_a_short_table(
     assert "\n" not in msg and "2 of the 2 points have no result" in msg, msg
 
 
+# Every point beyond the 1 m sheath's reach: each run fails, with the same error.
+UNREACHABLE = "scenario: fig14\nduration_s: 0.05\naxes:\n  position_m: [[0, 1.5, 0], [0, 1.6, 0]]\n"
+
+
+def _said(stderr: str) -> list[str]:
+    return [line for line in stderr.splitlines() if not line.startswith("sweep: ")]
+
+
+def test_a_sweep_whose_every_point_failed_exits_1_with_the_first_error(native, tmp_path):
+    """Every point failed (a worker's broken setup does this to every point, with one error): the
+    points are saved as failed, and the sweep exits 1 with one line giving the first point's
+    error and how to run them again (before: a table of failures and exit 0). The same command
+    again, with nothing to run, says so again instead of writing that table."""
+    spec_path = tmp_path / "spec.yaml"
+    spec_path.write_text(UNREACHABLE)
+    out = tmp_path / "out"
+    proc = _sweep(spec_path, out, cwd=tmp_path)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 1, err
+    spec = load_spec(spec_path)
+    spec.build_id = sweep_run.build_id()
+    done = sweep_run.done_points(out)
+    rows = [done[p.point_id] for p in spec.points()]
+    assert [r["status"] for r in rows] == ["failed", "failed"], rows
+    said = _said(err)
+    assert len(said) == 1 and "Traceback" not in err, err
+    assert "all 2 points run failed" in said[0] and rows[0]["error"] in said[0], said
+    assert "--retry-failed" in said[0], said
+    assert not (out / sweep_run.TABLE).exists()
+    again = _sweep(spec_path, out, cwd=tmp_path)
+    _, err = again.communicate(timeout=300)
+    assert again.returncode == 1, err
+    said = _said(err)
+    assert len(said) == 1 and "all 2 points of this sweep are recorded as failed" in said[0], err
+    assert rows[0]["error"] in said[0] and "--retry-failed" in said[0], said
+
+
+@pytest.mark.parametrize("ok_in_run", [0, 1])
+def test_a_resume_whose_every_point_run_failed_exits_1(
+    native, tmp_path, monkeypatch, capsys, ok_in_run
+):
+    """A resume after a worker's setup broke: the points done before are ok, every point run now
+    fails with the worker's error. The sweep exits 1 naming it (it wrote the table and exited
+    0); a run in which one point came out ok exits 0 with its failed points in the table."""
+    from cosim.cli.sweep import run_and_report  # noqa: PLC0415
+
+    data = {
+        "scenario": "fig14",
+        "duration_s": 0.02,
+        "axes": {"compensator": ["paper", "smooth", "none"]},
+    }
+    spec = parse_spec(data)
+    spec.build_id = sweep_run.build_id()
+    out = tmp_path / "out"
+    sweep_run.make_out_dir(out)
+    sweep_run._write_json(out / sweep_run.RUN_FILE, spec.run_context())
+    first, *rest = spec.points()
+    sweep_run.write_point(out, first, sweep_run.run_point(data, first.values, first.run_key))
+    broken = ModuleNotFoundError("No module named 'fmpy'")
+
+    def broken_worker(todo, spec_dict, out_dir, *args):
+        assert [p.point_id for p in todo] == [p.point_id for p in rest]
+        for i, point in enumerate(todo):
+            if i < ok_in_run:
+                row = sweep_run.run_point(data, point.values, point.run_key)
+            else:
+                row = sweep_run.failed_row(point, broken)
+            sweep_run.write_point(out_dir, point, row)
+
+    monkeypatch.setattr(sweep_run, "_dask_run", broken_worker)
+    status = run_and_report(spec, data, out, None, None, quiet=True)
+    said = capsys.readouterr().err.splitlines()
+    if ok_in_run:
+        assert status == 0 and said == [], said
+        rows = read_table(out / sweep_run.TABLE)
+        assert [r["status"] for r in rows] == ["ok", "ok", "failed"], rows
+    else:
+        assert status == 1
+        assert len(said) == 1 and "all 2 points run failed" in said[0], said
+        assert "ModuleNotFoundError: No module named 'fmpy'" in said[0], said
+        assert "--retry-failed" in said[0], said
+        assert not (out / sweep_run.TABLE).exists()
+
+
 @pytest.mark.parametrize(
     ("text", "expected"),
     [

@@ -161,6 +161,10 @@ class SweepIncompleteError(RuntimeError):
     """Fewer results came back from Dask than points were run (one line: how many, and why)."""
 
 
+class SweepFailedError(RuntimeError):
+    """Every point run failed (one line: how many, the first error, how to run them again)."""
+
+
 class ForeignBuildError(SweepIncompleteError):
     """Rows came back from workers of another build than the client's: not saved (one line:
     how many, which builds on which workers, and the client's)."""
@@ -278,7 +282,8 @@ def run_sweep(
     retry_failed: bool = False,
 ) -> list[dict]:
     """Run every point without a result file on Dask (and, with retry_failed, those recorded as
-    failed); return every point's row (spec order)."""
+    failed); return every point's row (spec order). SweepFailedError when every point run failed
+    (_check_not_all_failed), SweepIncompleteError when points have no result."""
     from cosim.engines.native import engine  # noqa: PLC0415
 
     engine.load_library()  # built before its hash goes into the points' ids
@@ -302,7 +307,24 @@ def run_sweep(
             f"{missing} of the {len(points)} points have no result in {out_dir / POINTS_DIR} "
             "after the run: the same command again runs them"
         )
-    return [have[p.point_id] for p in points]
+    rows = [have[p.point_id] for p in points]
+    _check_not_all_failed(rows, {p.point_id for p in todo}, out_dir)
+    return rows
+
+
+def _check_not_all_failed(rows: list[dict], ran: set[str], out_dir: Path) -> None:
+    """SweepFailedError when every point this run ran failed (what a worker's broken setup does
+    to each), or, with nothing to run, when every point of the sweep is recorded as failed: the
+    points stay saved as failed, and no table of failures stands for a sweep."""
+    these = [r for r in rows if r["point_id"] in ran] if ran else rows
+    if not these or any(r.get("status") == "ok" for r in these):
+        return
+    what = "points run failed" if ran else "points of this sweep are recorded as failed"
+    raise SweepFailedError(
+        f"all {len(these)} {what} (the first: {these[0].get('error') or 'no error recorded'}); "
+        f"each is saved as failed in {out_dir / POINTS_DIR}: fix what made them fail (a "
+        "worker's setup, the spec), then run the same command with --retry-failed"
+    )
 
 
 def _holders(client, fut) -> list[str]:
