@@ -412,8 +412,8 @@ def _cmd_restore(client: BenchClient, args, info) -> int:
     if plan is None:
         try:
             plan = restore_plan(path)
-        except ParamFileError as exc:
-            raise BenchError(f"restore: {exc}") from None
+        except ParamFileError as exc:  # the file, not the device: a usage error (exit 2)
+            raise BenchUsageError(f"restore: {exc}") from None
     todo, note = plan
     if note:
         print(f"note: {note}")

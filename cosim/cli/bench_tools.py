@@ -170,7 +170,7 @@ def precheck(args) -> int | None:
             args.restore_plan = paramfiles.restore_plan(args.file)
         except paramfiles.ParamFileError as exc:
             print(f"bowden bench: restore: {exc}", file=sys.stderr)
-            return 1  # restore's exit for a missing or bad backup, as before the link opened
+            return 2  # a missing, unreadable or bad backup is a usage error, as for diff
         return None
     if args.bench_command != "diff":
         return None

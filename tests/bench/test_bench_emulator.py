@@ -418,8 +418,8 @@ def test_emulate_start_problems_name_the_option(option, rc, words, capsys):
     assert err.startswith("bowden emulate: " + words.replace("BUSY", port)), err
 
 
-# A value this host or the device refuses is a usage error (exit 2); a file that is missing,
-# exit 1.
+# A value this host or the device refuses is a usage error (exit 2), and so is a backup file that
+# is missing (refused before the link opens, as diff refuses it).
 @pytest.mark.parametrize(
     ("args", "rc", "words"),
     [
@@ -429,7 +429,7 @@ def test_emulate_start_problems_name_the_option(option, rc, words, capsys):
         (["set", "tick_rate_hz=500"], 2, "tick_rate_hz is read-only"),
         (["set", "comp.mu"], 2, "expected NAME=VALUE"),
         (["get", "x.y"], 2, "unknown parameter 'x.y'"),
-        (["restore", "/no/such.json"], 1, "does not exist"),
+        (["restore", "/no/such.json"], 2, "does not exist"),
         (["run", "stream", "--seconds", "1", "--out", "x.csv"], 2, "needs --ref"),
     ],
 )
@@ -460,7 +460,7 @@ def test_bad_links_and_options(capsys, tmp_path):
     bad.write_text("{not json")
     emu = Emulator(tcp_port=0, pty=False).start()
     try:
-        assert bench_cli(["bench", "--port", emu.urls["socket"], "restore", str(bad)]) == 1
+        assert bench_cli(["bench", "--port", emu.urls["socket"], "restore", str(bad)]) == 2
         assert "is not a JSON backup" in capsys.readouterr().err
         ref = tmp_path / "ref.csv"
         ref.write_text("T_ref_N\n1.0\nabc\n")

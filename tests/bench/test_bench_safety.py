@@ -286,7 +286,7 @@ def test_restore_refuses_a_value_that_disagrees_with_its_word(tmp_path, capsys):
     b.write_text(json.dumps(doc))
     rc = bench_cli(["bench", "--emulate", "restore", str(b)])
     err = capsys.readouterr().err.strip()
-    assert rc == 1 and len(err.splitlines()) == 1 and "loop.kp" in err and "disagree" in err, err
+    assert rc == 2 and len(err.splitlines()) == 1 and "loop.kp" in err and "disagree" in err, err
     # The value alone is taken (converted); the word alone too.
     del doc["params"]["loop.kp"]["word"]
     b.write_text(json.dumps(doc))
@@ -303,7 +303,39 @@ def test_restore_of_a_deeply_nested_json_is_one_line(tmp_path, capsys):
     deep.write_text("[" * 100_000 + "]" * 100_000)
     rc = bench_cli(["bench", "--emulate", "restore", str(deep)])
     err = capsys.readouterr().err.strip()
-    assert rc == 1 and len(err.splitlines()) == 1 and "nested too deeply" in err, err
+    assert rc == 2 and len(err.splitlines()) == 1 and "nested too deeply" in err, err
+
+
+def test_restore_exits_2_for_its_file_and_1_for_what_the_device_refuses(tmp_path, capsys):
+    """A backup that is missing, a folder, unreadable or not JSON is the user's to fix: one line,
+    exit 2, as diff says it, before the link opens (the port named does not exist). A backup
+    whose words the device refuses as a set once the link is open (adc_min above adc_max, each
+    word in its own range) is the device's answer, not a usage error: exit 1, nothing written."""
+    import json
+
+    no_port = str(tmp_path / "no-port")
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    for path, words in (
+        (tmp_path / "missing.json", "does not exist"),
+        (tmp_path, "is a folder, not a backup file"),
+        (bad / "x.json", "cannot read it (Not a directory)"),
+        (bad, "is not a JSON backup"),
+    ):
+        rc = bench_cli(["bench", "--port", no_port, "restore", str(path)])
+        err = capsys.readouterr().err
+        assert rc == 2 and err.count("\n") == 1 and words in err, (path, err)
+        assert err.startswith("bowden bench: restore: "), err
+    with pytest.raises(BenchUsageError, match="does not exist"):  # called alone, as the API may
+        write_all_from_backup(None, tmp_path / "missing.json")
+    b, doc = _backup(tmp_path, capsys)
+    p = doc["params"]
+    p["loop.adc_min"], p["loop.adc_max"] = dict(p["loop.adc_max"]), dict(p["loop.adc_min"])
+    b.write_text(json.dumps(doc))
+    rc = bench_cli(["bench", "--emulate", "restore", str(b)])
+    err = capsys.readouterr().err
+    assert rc == 1 and err.count("\n") == 1 and "INVALID_VALUE" in err, err
+    assert "nothing written" in err and str(b) in err, err
 
 
 def test_set_is_all_or_nothing_and_takes_no_fraction_of_a_count(capsys):
