@@ -10,6 +10,11 @@ Outputs in DIR, written by `bowden sweep` alone:
 
 - ``points/<id>.json``: one file per finished point, written atomically as its result arrives (a
   killed sweep restarts where it stopped: `bowden sweep` again with the same SPEC and DIR);
-- ``sweep.parquet``: the table, one row per point (axis values, status, error, figures);
-- ``error_map.png`` (with a position_m axis) and ``error_vs_<axis>.png`` per numeric axis.
+- ``sweep.parquet``: the table, one row per point (axis values, status, error, figures, the
+  build that computed it: a row of a worker of another build is not saved, and the sweep exits 1);
+- ``error_map.png`` (with a position_m axis) and ``error_vs_<axis>.png`` per numeric axis;
+- ``summary.json``: points, failed, the table's and the plots' names.
+
+Every file is written to a temporary name of the process's own and renamed into place. When every
+point a run ran failed, no table is written and the sweep exits 1 with the first error.
 """

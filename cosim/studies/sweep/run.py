@@ -14,6 +14,8 @@ from all of them. A point whose run fails is a result too (status "failed" and t
 the sweep goes on; it is not retried on resume (the same inputs fail the same way). A point whose
 result never comes back (the scheduler lost, the client's connection cut) is no result: nothing
 is written for it, and the sweep says how many came back and exits non-zero (SweepIncompleteError).
+A row computed by a worker of another build than the client's is no result of this sweep either
+(ForeignBuildError), and a run whose every point failed ends in SweepFailedError.
 """
 
 from __future__ import annotations
