@@ -329,13 +329,14 @@ def _check_not_all_failed(rows: list[dict], ran: set[str], out_dir: Path) -> Non
     )
 
 
-def _holders(client, fut) -> list[str]:
-    """The addresses of the workers holding a finished task's result (for a message: none when
-    the scheduler cannot say)."""
+def _holders(client, futures) -> dict:
+    """Task key -> the addresses of the workers holding its result, for a message: asked of the
+    scheduler within 5 s (not the 180 s of DASK_TIMEOUTS), and nothing when it cannot say."""
     try:
-        return sorted(client.who_has(fut).get(fut.key, ()))
+        keys = [f.key for f in futures]
+        return dict(client.sync(client.scheduler.who_has, keys=keys, callback_timeout=5))
     except Exception:  # noqa: BLE001 (only a message's detail)
-        return []
+        return {}
 
 
 # Dask's connection timeouts (30 s by default) for a cluster on a loaded machine: starting a
@@ -409,7 +410,7 @@ def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log, bu
         }
         gathered = failed = 0
         lost = ""  # why the last result that never came back did not
-        foreign: dict[str, set[str]] = {}  # another build -> the workers that ran it
+        foreign: dict[str, list] = {}  # another build -> the futures of its rows
         n_foreign = 0
         t0 = time.perf_counter()
         for fut in as_completed(futures):
@@ -427,8 +428,8 @@ def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log, bu
             if mine:
                 write_point(out_dir, point, row)  # here, by the client alone, as it arrives
             else:  # another checkout or build: not a result of this run, whatever its status
-                other = str(row.get("build_id") or "(none: an older version)")
-                foreign.setdefault(other, set()).update(_holders(client, fut))
+                other = str(row.get("build_id") or "")  # none: a version before build ids
+                foreign.setdefault(other, []).append(fut)
                 n_foreign += 1
             gathered += 1
             failed += mine and row["status"] != "ok"
@@ -440,10 +441,13 @@ def _dask_run_in(todo, spec_dict, out_dir, scheduler, workers, progress, log, bu
                     f"{rate:.2f} points/s"
                 )
         if foreign:
-            builds = "; ".join(
-                f"build {b}" + (f" on {', '.join(sorted(w))}" if w else "")
-                for b, w in sorted(foreign.items())
-            )
+            holders = _holders(client, [f for futs in foreign.values() for f in futs])
+            builds = []
+            for other, futs in sorted(foreign.items()):
+                on = sorted({w for f in futs for w in holders.get(f.key, ())})
+                named = f"build {other}" if other else "no build named (an older version)"
+                builds.append(named + (f" on {', '.join(on)}" if on else ""))
+            builds = "; ".join(builds)
             raise ForeignBuildError(
                 f"{n_foreign} of the {len(todo)} points run came back from workers of another "
                 f"build ({builds}), not of this client's build {build}: they are not saved (the "
