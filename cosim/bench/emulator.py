@@ -26,6 +26,7 @@ import errno
 import os
 import random
 import select
+import signal
 import socket
 import threading
 import time
@@ -372,6 +373,35 @@ class Emulator:
             self.bus.shutdown()
             self.bus = None
         self.chain.close()
+
+
+class StopSignals:
+    """SIGINT and SIGTERM while `bowden emulate` runs an emulator (either target), from before
+    its start until it has stopped: each is only noted (`signum`: the first), never raised, so
+    that none lands inside the start or the stop, where the registry file that makes the
+    emulator findable (cosim.bench.discover) is written and removed; the command's wait loop
+    polls `signum` and ends, and the emulator is stopped whole. Outside the main thread (where
+    no handler can be set) nothing is noted."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self) -> None:
+        self.signum: int | None = None
+        self._previous: dict = {}
+
+    def __enter__(self) -> StopSignals:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = {sig: signal.signal(sig, self._note) for sig in self.SIGNALS}
+        return self
+
+    def __exit__(self, *exc) -> None:
+        previous, self._previous = self._previous, {}
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+    def _note(self, signum, _frame) -> None:
+        if self.signum is None:
+            self.signum = signum
 
 
 class SteppedLink:

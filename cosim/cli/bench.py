@@ -557,10 +557,6 @@ def _cmd_run(client: BenchClient, args, info) -> int:
     return 0
 
 
-def _sigterm(signum, frame):
-    raise KeyboardInterrupt
-
-
 def stop_and_confirm(client: BenchClient, tries: int = 3, settle_s: float = 0.5) -> str | None:
     """Send STOP, then ask the device: None when HELLO says no run is active and the FPGA's
     STATUS shows the drive output disabled; otherwise why that could not be confirmed. The FPGA
@@ -810,7 +806,7 @@ HOST_EMULATOR_DEFAULTS = {"baud": 921_600, "tcp_port": 0, "interface": "ideal", 
 
 
 def emulate_main(args: argparse.Namespace) -> int:
-    from cosim.bench.emulator import Emulator  # noqa: PLC0415
+    from cosim.bench.emulator import Emulator, StopSignals  # noqa: PLC0415
 
     if args.target == "soc":
         from cosim.bench.soc.cli import refused_option  # noqa: PLC0415
@@ -888,28 +884,34 @@ def emulate_main(args: argparse.Namespace) -> int:
     except Exception as exc:  # noqa: BLE001 (the FMU's, the OS's, python-can's: named below)
         print(f"bowden emulate: {_start_problem(exc, args)}", file=sys.stderr)
         return 1
-    print("bowden emulate: controller running (firmware + FPGA loop model + plant FMU)")
-    for kind, url in emu.urls.items():
-        print(f"  {kind:<7} bowden bench {'--can' if kind == 'can' else '--port'} {url} info")
-    if plant:  # as the FMU holds them (read back)
-        held = " ".join(f"{k}={emu.chain.plant.get(k):g}" for k in plant)
-        print(f"  plant FMU parameters set: {held}")
-    print(f"  serial links throttled to {args.baud} baud; Ctrl-C stops", flush=True)
-    emu.start()
-    t0 = time.monotonic()
-    next_garbage = t0 + (args.garbage_every or math.inf)
-    prev = signal.signal(signal.SIGTERM, _sigterm)
-    try:
-        while emu.running and (args.seconds is None or time.monotonic() - t0 < args.seconds):
-            time.sleep(0.05)
-            if time.monotonic() >= next_garbage:
-                emu.inject_garbage()
-                next_garbage += args.garbage_every
-    except KeyboardInterrupt:
-        pass
-    finally:
-        signal.signal(signal.SIGTERM, prev)
-        emu.stop()
+    # From before the start until the emulator has stopped, SIGINT and SIGTERM are noted, not
+    # raised (StopSignals): one that comes while it starts, runs or stops ends the wait below,
+    # and the stop, never cut short, removes the registry file that makes it findable.
+    with StopSignals() as signals:
+        try:
+            print("bowden emulate: controller running (firmware + FPGA loop model + plant FMU)")
+            for kind, url in emu.urls.items():
+                print(
+                    f"  {kind:<7} bowden bench {'--can' if kind == 'can' else '--port'} {url} info"
+                )
+            if plant:  # as the FMU holds them (read back)
+                held = " ".join(f"{k}={emu.chain.plant.get(k):g}" for k in plant)
+                print(f"  plant FMU parameters set: {held}")
+            print(f"  serial links throttled to {args.baud} baud; Ctrl-C stops", flush=True)
+            emu.start()
+            t0 = time.monotonic()
+            next_garbage = t0 + (args.garbage_every or math.inf)
+            while (
+                emu.running
+                and signals.signum is None
+                and (args.seconds is None or time.monotonic() - t0 < args.seconds)
+            ):
+                time.sleep(0.05)
+                if time.monotonic() >= next_garbage:
+                    emu.inject_garbage()
+                    next_garbage += args.garbage_every
+        finally:
+            emu.stop()
     if emu.error is not None:  # the emulated controller is gone: say why, once
         exc = emu.error
         why = f"{exc.strerror}: {exc.filename}" if isinstance(exc, OSError) else str(exc)
@@ -919,6 +921,13 @@ def emulate_main(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 1
+    if signals.signum == signal.SIGINT:
+        print(
+            f"bowden emulate: interrupted by SIGINT: stopped after {emu.chain.ticks} ticks",
+            file=sys.stderr,
+        )
+        return 128 + signal.SIGINT
+    # --seconds, or SIGTERM (its usual end: a service manager's, a script's)
     print(
         f"bowden emulate: stopped after {emu.chain.ticks} ticks; lag behind real time at most "
         f"{emu.max_lag_seen_s * 1e3:.1f} ms, {emu.overruns} overrun(s)"

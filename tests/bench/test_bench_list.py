@@ -245,15 +245,95 @@ def test_bowden_emulate_is_findable_until_it_ends(own_runtime_dir, monkeypatch):
             while not discover.registered_ports() and time.monotonic() < deadline:
                 time.sleep(0.05)
             assert discover.registered_ports() == [pty]
-            # It answers (and is past its start, where a signal ends it before its handler is
-            # in place: the file that leaves is stale, and found so, as after SIGKILL).
-            assert discover.probe_port(pty) is not None
+            assert discover.probe_port(pty) is not None  # it answers
         finally:
             emu.send_signal(sig)
             emu.wait(timeout=10)
             emu.stdout.close()
         assert len(list(own_runtime_dir.glob("bowden-emulator-*"))) == left, sig
         assert discover.registered_ports() == []
+
+
+# `bowden emulate` with a signal sent to itself at one moment of its start or stop (argv: the
+# moment, the signal, the entry point). It prints how many registry files there were then.
+_SIGNAL_AT = """
+import os, signal, sys
+from pathlib import Path
+from cosim.bench import emulator
+moment, sig, entry = sys.argv[1], getattr(signal, sys.argv[2]), sys.argv[3]
+
+def signal_now():
+    files = list(Path(os.environ["XDG_RUNTIME_DIR"]).glob("bowden-emulator-*"))
+    print(f"registry files at the signal: {len(files)}", flush=True)
+    os.kill(os.getpid(), sig)
+
+register, start, stop = emulator.register_emulator, emulator.Emulator.start, emulator.Emulator.stop
+if moment == "registered":  # inside start(): the file just written, the thread not started
+    def patched(urls):
+        path = register(urls)
+        signal_now()
+        return path
+    emulator.register_emulator = patched
+elif moment == "started":  # start() returned, before the command's wait
+    def patched(self):
+        start(self)
+        signal_now()
+        return self
+    emulator.Emulator.start = patched
+else:  # "stopping": --seconds is over, stop() begins
+    def patched(self):
+        signal_now()
+        stop(self)
+    emulator.Emulator.stop = patched
+if entry == "bowden":
+    from cosim.cli import main
+else:
+    from cosim.bench.__main__ import main
+seconds = "0.5" if moment == "stopping" else "30"
+sys.exit(main(["emulate", "--no-tcp", "--seconds", seconds]))
+"""
+
+
+@pytest.mark.parametrize("entry", ["bowden", "python -m cosim.bench"])
+@pytest.mark.parametrize(
+    ("moment", "sig"),
+    [
+        ("registered", "SIGTERM"),
+        ("started", "SIGTERM"),
+        ("started", "SIGINT"),
+        ("stopping", "SIGTERM"),
+        ("stopping", "SIGINT"),
+    ],
+)
+def test_a_signal_at_any_moment_of_the_start_or_stop_removes_the_registry_file(
+    moment, sig, entry, own_runtime_dir
+):
+    """The handler used to be put in place after the start, and taken away before the stop: a
+    SIGTERM in between killed `python -m cosim.bench emulate` outright, and raised in `bowden
+    emulate` where nothing stopped the emulator, leaving its registry file each time (and a
+    Ctrl-C there was a traceback). Now a signal at any of those moments ends the command
+    cleanly: SIGTERM as its usual end (exit 0, the line a run's end prints), SIGINT in one line
+    (exit 130); the file goes either way."""
+    import subprocess
+    import sys
+
+    proc = subprocess.run(
+        [sys.executable, "-c", _SIGNAL_AT, moment, sig, entry],
+        env={**os.environ, "XDG_RUNTIME_DIR": str(own_runtime_dir)},
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    out, err = proc.stdout, proc.stderr
+    assert "registry files at the signal: 1" in out, (out, err)
+    assert list(own_runtime_dir.glob("bowden-emulator-*")) == [], (proc.returncode, out, err)
+    if sig == "SIGTERM":
+        assert proc.returncode == 0 and err == "", (proc.returncode, out, err)
+        assert "bowden emulate: stopped after " in out, out
+    else:
+        assert proc.returncode == 130, (proc.returncode, out, err)
+        assert err.startswith("bowden emulate: interrupted by SIGINT: stopped after "), err
+        assert err.count("\n") == 1, err
 
 
 def test_list_bad_and_odd_arguments_are_one_line_each(silent_pty, capsys, monkeypatch, tmp_path):
