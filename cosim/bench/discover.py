@@ -15,10 +15,11 @@ busy, with the holder its lock names; a port that does not open for another reas
 permission, no device) or a device that does not answer is not a controller and is skipped.
 `Found` describes one that answered or is busy.
 
-pyserial cannot list a pseudo-terminal, so `bowden emulate` makes itself findable: while it
-runs, a registry file in the user's runtime folder (`client.runtime_dir()`: $XDG_RUNTIME_DIR,
-else the temporary folder, where the port locks are) names its process and its URLs
-(`register_emulator`, from the emulator's own start and stop). A file whose process is gone (an
+pyserial cannot list a pseudo-terminal, so `bowden emulate` makes itself findable, either
+target: while it runs, a registry file in the user's runtime folder (`client.runtime_dir()`:
+$XDG_RUNTIME_DIR, else the temporary folder, where the port locks are) names its process and its
+URLs (`register_emulator`, from the start and stop of the host emulator, `Emulator`, or of the
+simulated board, `soc.harness.SocBoard`). A file whose process is gone (an
 emulator killed outright) is stale: it is ignored, and removed.
 """
 
@@ -280,7 +281,8 @@ def _alive(pid: int, start: str | None) -> bool:
 
 def register_emulator(urls: dict[str, str]) -> Path | None:
     """Make an emulator on this process findable by `list` and `--port auto`: its pty and its
-    `socket://` URL (`urls`, as `Emulator.urls` names them) in a registry file. Returns the
+    `socket://` URL (`urls`, as `Emulator.urls` names them; a simulated board has a pty only)
+    in a registry file. Returns the
     file, for `unregister_emulator`; None when there is nothing serial to name or the runtime
     folder cannot be written (the emulator works all the same, named with --port)."""
     serial = {k: urls[k] for k in ("pty", "socket") if k in urls}

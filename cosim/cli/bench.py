@@ -651,7 +651,7 @@ def _add_emulate(subparsers) -> None:
         description="The controller in real time: the firmware's host build with the protocol, "
         "the bit-exact model of the FPGA loop and the plant FMU, behind a pseudo-terminal, a TCP "
         "port (pyserial socket://) and optionally a python-can bus. Prints where to connect; runs "
-        "until Ctrl-C or --seconds.",
+        "until Ctrl-C, SIGTERM or --seconds.",
     )
     p.add_argument(
         "--target",

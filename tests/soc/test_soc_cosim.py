@@ -152,6 +152,66 @@ def test_emulate_soc_stops_after_seconds(soc_lib):
     assert os.path.exists(soc_lib)
 
 
+@pytest.fixture
+def own_runtime_dir(monkeypatch, tmp_path):
+    """The emulators' registry in this test's own folder (its processes inherit it): a `bowden
+    emulate` of someone else on this machine is not found here, nor is this test's board there."""
+    folder = tmp_path / "runtime"
+    folder.mkdir()
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(folder))
+    return folder
+
+
+def test_the_board_is_findable_until_sigterm_ends_it(soc_lib, own_runtime_dir, monkeypatch, capsys):
+    """`bowden emulate --target soc` was not in the registry the host emulator writes, so
+    `bowden bench list` and `--port auto` (pyserial cannot list a pty) did not find it. It is
+    now, while it runs, and SIGTERM ends it as the host emulator's (its figures, exit 0),
+    removing the file."""
+    from cosim.bench import discover  # noqa: PLC0415
+    from cosim.bench.__main__ import main as bench_cli  # noqa: PLC0415
+
+    monkeypatch.setattr(discover, "serial_ports", lambda: [])  # this machine's own: not probed
+    board = Emulated()
+    try:
+        deadline = time.monotonic() + 60  # the board registers, then boots at its own pace
+        while discover.probe_port(board.pty) is None:
+            assert board.proc.poll() is None and time.monotonic() < deadline, "no HELLO_ACK"
+        assert discover.registered_ports() == [board.pty]
+        assert bench_cli(["bench", "list"]) == 0
+        rows = capsys.readouterr().out.splitlines()[1:]
+        assert [r.split()[0] for r in rows] == [board.pty] and "idle" in rows[0], rows
+        assert bench_cli(["bench", "--port", "auto", "info"]) == 0
+        assert f"device        {board.pty}" in capsys.readouterr().out
+    finally:
+        board.proc.send_signal(signal.SIGTERM)
+        out, err = board.proc.communicate(timeout=30)
+    assert board.proc.returncode == 0 and err == "", (board.proc.returncode, out, err)
+    assert "bowden emulate: stopped after " in out and "firmware ticks" in out, out
+    assert list(own_runtime_dir.glob("bowden-emulator-*")) == []
+    assert discover.registered_ports() == []
+
+
+def test_a_board_whose_run_ends_by_itself_is_no_longer_findable(soc_lib, own_runtime_dir):
+    """The registry file goes when the board's run ends, not only when it is stopped (here its
+    max_sim_s; an error ends it the same way): a board that no longer runs is not listed."""
+    from cosim.bench import discover  # noqa: PLC0415
+    from cosim.bench.soc.harness import SocBoard  # noqa: PLC0415
+
+    # At most real time: its 50 ms of simulated time take longer than the look that follows.
+    board = SocBoard(realtime=True, max_sim_s=0.05, findable=True).start()
+    try:
+        assert discover.registered_ports() == [board.pty_name]
+        assert board.wait(60)
+        assert list(own_runtime_dir.glob("bowden-emulator-*")) == []
+    finally:
+        board.stop()
+    unfindable = SocBoard(realtime=False, max_sim_s=0.002).start()  # tests' own: not listed
+    try:
+        assert discover.registered_ports() == []
+    finally:
+        unfindable.stop()
+
+
 @pytest.mark.parametrize(
     "option",
     [

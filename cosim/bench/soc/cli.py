@@ -1,13 +1,16 @@
 """`bowden emulate --target soc`: the simulated board (cosim.bench.soc.harness) behind a pty.
 
-Prints the pty as the host emulator does, runs until Ctrl-C (or --seconds of wall time): the
-board's run ends, the flash file is written, and the command's interrupt line is the only one
-printed (exit 130, from cosim.cli's handler).
+Prints the pty as the host emulator does and is findable as it is (`bowden bench list`, `--port
+auto`: cosim.bench.discover's registry), runs until Ctrl-C, SIGTERM or --seconds of wall time
+(signals noted, as the host emulator's, by cosim.bench.emulator.StopSignals): the board's run
+ends, the flash file is written, the registry file removed; Ctrl-C's line is the only one printed
+(exit 130), SIGTERM and --seconds print the run's figures (exit 0).
 """
 
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import time
 from pathlib import Path
@@ -51,6 +54,7 @@ def emulate_soc(args: argparse.Namespace, plant: dict) -> int:
         return 2
     from cosim.bench.device import ChainConfig  # noqa: PLC0415
     from cosim.bench.device import _open_plant as open_plant  # noqa: PLC0415
+    from cosim.bench.emulator import StopSignals  # noqa: PLC0415
     from cosim.config.run import BoardParams  # noqa: PLC0415
 
     from .harness import SocBoard, check_flash_file  # noqa: PLC0415
@@ -67,30 +71,52 @@ def emulate_soc(args: argparse.Namespace, plant: dict) -> int:
     )
     try:
         fmu = open_plant(chain)
-        board = SocBoard(flash_path=flash, plant=fmu, escon_imax_a=BoardParams().escon_imax_a)
+        board = SocBoard(
+            flash_path=flash,
+            plant=fmu,
+            escon_imax_a=BoardParams().escon_imax_a,
+            findable=True,  # `bowden bench list` and --port auto find its pty
+        )
     except ValueError as exc:
         print(f"bowden emulate: {exc}", file=sys.stderr)
         return 2
     except (OSError, RuntimeError) as exc:
         print(f"bowden emulate: {exc}", file=sys.stderr)
         return 1
-    print("bowden emulate: simulated board running (bowden_soc executing the RV32 firmware in "
-          "Verilator; ADS131M02, ESCON and SPI flash at pin level; the plant FMU)")  # fmt: skip
-    print(f"  pty     bowden bench --port {board.pty_name} info")
-    if flash is not None:
-        print(f"  flash   {flash}")
-    print("  Ctrl-C stops", flush=True)
-    board.start()
-    t0 = time.monotonic()
-    try:
-        while board.running and (args.seconds is None or time.monotonic() - t0 < args.seconds):
-            time.sleep(0.05)
-    finally:
-        stats = board.stop()
+    # As the host emulator's (cosim.cli.bench.emulate_main): signals noted from before the start
+    # until the board has stopped, so that none cuts the start or the stop (and the removal of
+    # the registry file) short.
+    with StopSignals() as signals:
+        try:
+            print(
+                "bowden emulate: simulated board running (bowden_soc executing the RV32 firmware "
+                "in Verilator; ADS131M02, ESCON and SPI flash at pin level; the plant FMU)"
+            )
+            print(f"  pty     bowden bench --port {board.pty_name} info")
+            if flash is not None:
+                print(f"  flash   {flash}")
+            print("  Ctrl-C stops", flush=True)
+            board.start()
+            t0 = time.monotonic()
+            while (
+                board.running
+                and signals.signum is None
+                and (args.seconds is None or time.monotonic() - t0 < args.seconds)
+            ):
+                time.sleep(0.05)
+        finally:
+            stats = board.stop()
     if board.status:
         print(f"bowden emulate: the simulated board stopped: {board.error}", file=sys.stderr)
         return 1
-    print(
+    if signals.signum == signal.SIGINT:
+        print(
+            f"bowden emulate: interrupted by SIGINT: stopped after {stats.sim_s:.3f} s of "
+            "simulated time",
+            file=sys.stderr,
+        )
+        return 128 + signal.SIGINT
+    print(  # --seconds, or SIGTERM (its usual end)
         f"bowden emulate: stopped after {stats.sim_s:.3f} s of simulated time "
         f"({stats.speed:.2f}x real time), {stats.ticks} firmware ticks"
     )

@@ -7,6 +7,8 @@ content lives in a file (2 MiB, the flash model's array; written temp + rename);
 power cycle is a new SocBoard on the same file. Without a plant the ADS131M02's two channels
 carry constant tensions; with one (`plant=` an opened cosim.parts.plant.Plant) the FMU is
 stepped every loop sample with the ESCON's current and its T_in and T_out go to CH0 and CH1.
+`findable`: while it runs, `bowden bench list` and `--port auto` find its pty, as they find the
+host emulator's (cosim.bench.discover's registry; `bowden emulate --target soc` asks for it).
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from ctypes import (
 from dataclasses import dataclass
 from pathlib import Path
 
+from cosim.bench.discover import register_emulator, unregister_emulator
 from cosim.parts import rtl_model
 from cosim.parts.plant import FMU_LINK_FIELDS
 
@@ -161,7 +164,10 @@ class SocBoard:
         plant=None,
         escon_imax_a: float = 2.0,
         max_sim_s: float = 0.0,
+        findable: bool = False,
     ) -> None:
+        self.findable = findable
+        self._registration = None  # the registry file while it is findable
         self.lib = load_library()
         self.flash_path = Path(flash_path) if flash_path is not None else None
         if self.flash_path is not None:
@@ -191,12 +197,21 @@ class SocBoard:
         self.status: int | None = None
 
     def start(self) -> SocBoard:
+        if self.findable and self.pty_name is not None:  # findable as soon as start returns
+            self._registration = register_emulator({"pty": self.pty_name})
         self._thread = threading.Thread(target=self._run, name="soc-board", daemon=True)
         self._thread.start()
         return self
 
     def _run(self) -> None:
-        self.status = self.lib.soc_run(ctypes.byref(self.spec))  # ctypes releases the GIL
+        try:
+            self.status = self.lib.soc_run(ctypes.byref(self.spec))  # ctypes releases the GIL
+        finally:
+            self._unregister()  # however the run ends (stop(), an error, max_sim_s)
+
+    def _unregister(self) -> None:
+        registration, self._registration = self._registration, None
+        unregister_emulator(registration)
 
     @property
     def running(self) -> bool:
@@ -222,6 +237,7 @@ class SocBoard:
         self.spec.stop = 1
         if self._thread is not None:
             self._thread.join()
+        self._unregister()  # (stopped before it ran)
         for fd in (self._master, self._slave):
             if fd is not None:
                 os.close(fd)
