@@ -4,7 +4,7 @@ Given a measured trace (a bench recording, a user's CSV with t_s, T_in_N, T_out_
 the end-effector position, or a `bowden sim` trace), the audit fits the plant model, shows what it
 gets wrong, names the cause from the vocabulary of the FMU's effects by its share of held-out
 residual, extends the model, re-simulates it through the FMU and measures the gain on data no fit
-saw. See cosim/audit/core.py for the method and README.md ("Model audit") for a worked example.
+saw. See cosim/audit/core.py for the method and docs/design.md ("Model audit") for worked examples.
 
     from cosim.audit import audit_file
     result = audit_file("rig.csv")          # cosim.audit.core.AuditResult

@@ -1,7 +1,7 @@
 """Close the loop: the `--params` file implied by the extended model, and what it changes in the
 fig14 experiment.
 
-The file (cosim/config/scenarios.py SimConfig format) has two parts:
+The file (cosim/config/run.py SimConfig format) has two parts:
 
 - ``plant``: the fitted mu and every finding's FMU parameter, so that `bowden sim --params FILE`
   simulates the rig the data came from (never loop_routing or drive_mode: the command line and the

@@ -3,7 +3,7 @@
  * Frame: the actuator outlet A is the origin, the sheath leaves A along +y (O = (0,-1,0)) and
  * enters the end-effector C = (x, y, z) along +y (E = C + (0,1,0)); z is up. The derivation,
  * including the parts of Eq. 4-14 lost in the paper's text, is in fmu/README.md. The Python
- * twin is cosim/geometry.py; both are held to tests/fmu/geometry_vectors.json.
+ * twin is cosim/parts/geometry.py; both are held to tests/fmu/geometry_vectors.json.
  */
 #ifndef BOWDEN_GEOMETRY_H
 #define BOWDEN_GEOMETRY_H

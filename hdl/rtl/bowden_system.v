@@ -129,7 +129,7 @@ endgenerate
 // loop's sample path (valid -> sample mux -> offset subtraction) by the multipliers, and the
 // route between them was the iCE40's longest path; the second stage has only the loop as its
 // load, so it can sit there. Two clocks (42 ns at 48 MHz) more from DRDY to the core, which
-// cosim.interface.CORE_PIPE_CLKS counts.
+// cosim.parts.interface.CORE_PIPE_CLKS counts.
 reg [1:0]  adc_valid_pipe_reg;
 reg [23:0] adc_data_pipe_reg [0:1];  // no reset: taken only with its valid bit
 

@@ -14,8 +14,8 @@
  *   u    = clamp(round(Kff*T_c' + Kp*e + I') + UFF, +-I_LIMIT)           Q3.12 A
  * UFF (Q3.12 A) is a current feedforward the processor writes (its rate feedforward): added
  * outside the PI, so the integrator never sees it; exact (a whole number of output LSB).
- * The exact bit-level definition is the Python model cosim/rtl_model.py; hdl/README.md has
- * the formats and why this anti-windup scheme.
+ * The exact bit-level definition is the Python model cosim/parts/rtl_model.py; hdl/README.md
+ * has the formats and why this anti-windup scheme.
  *
  * Two registered multipliers (mul_s16) compute the five products in a fixed schedule; the
  * results appear LATENCY (15) clocks after the tick, marked by `out_valid`. Ticks must be at least

@@ -299,9 +299,9 @@ ads131m02_reader #(
 
 wire unused_adc_status = &{1'b0, adc_status};
 
-// The same two clocks of latency as bowden_system (cosim.interface.CORE_PIPE_CLKS) on the valid
-// bit; the data needs no pipeline of its own: the reader holds a code from its valid clock until
-// the next frame's (some 750 clocks later), so the code at the delayed valid is the same.
+// The same two clocks of latency as bowden_system (cosim.parts.interface.CORE_PIPE_CLKS) on the
+// valid bit; the data needs no pipeline of its own: the reader holds a code from its valid clock
+// until the next frame's (some 750 clocks later), so the code at the delayed valid is the same.
 reg [1:0]  adc_valid_pipe_reg;
 
 always @(posedge clk) begin

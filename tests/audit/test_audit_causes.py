@@ -1,6 +1,6 @@
 """The audit finds an effect hidden in data it did not see being made.
 
-Data are made by the plant FMU in drive mode 1 (tests/audit/plant_data.py: a bench session of
+Data are made by the plant FMU in drive mode 1 (cosim/audit/synthetic.py: a bench session of
 30 s at 1 kHz, sensor noise on, positions held for seconds), with one effect of the vocabulary
 switched on at a random magnitude (drawn here from the case's seed; the audit reads only the CSV
 and a sidecar without mu). Required per named case: the cause right and not ambiguous, its value

@@ -1,5 +1,6 @@
 """SoC testbench set-up: this folder and tests/hdl (hdl_sim.run_cocotb) on sys.path, as
-tests/hdl/conftest.py does for the RTL testbenches (cocotb's Python inherits it)."""
+pytest's `pythonpath` (pyproject.toml) does for the RTL testbenches (cocotb's Python inherits
+it)."""
 
 import sys
 from pathlib import Path
