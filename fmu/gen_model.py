@@ -2,7 +2,7 @@
 """One source for the BowdenPlant variables: generates modelDescription.xml and the C header.
 
 The table VARIABLES below is the only place where a variable's name, value reference, type,
-causality, start value, unit and allowed range are written. `python fmu/gen_model.py OUTDIR`
+causality, start value, unit and allowed range are written. `python -m fmu.gen_model OUTDIR`
 writes OUTDIR/modelDescription.xml and OUTDIR/bowden_vars.h (C structs holding the parameters,
 inputs and outputs, their defaults, and a table mapping each value reference to a struct member
 with its allowed range). A test checks that the packaged FMU and the binary agree with it.
@@ -329,7 +329,7 @@ def c_header() -> str:
 
 def main(argv: list[str]) -> int:
     if len(argv) != 2:
-        print("usage: gen_model.py OUTDIR", file=sys.stderr)
+        print("usage: python -m fmu.gen_model OUTDIR", file=sys.stderr)
         return 2
     outdir = Path(argv[1])
     outdir.mkdir(parents=True, exist_ok=True)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The FMU's reference output: a short simulation whose result the tests compare to.
 
-    .venv/bin/python fmu/make_reference.py          # rewrite fmu/reference/*.csv
+    .venv/bin/python -m fmu.make_reference       # rewrite fmu/reference/*.csv
     fmpy simulate build/fmu/BowdenPlant.fmu --input-file fmu/reference/BowdenPlant_in.csv ...
 
 The run (0.4 s, 100 us step through fmpy.simulate_fmu, outputs every 1 ms): drive mode 0 with a
@@ -18,10 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))  # run as a script from any folder: the cosim package
+from cosim.parts.plant import FMU_PATH, OUTPUT_NAMES
 
-from cosim.parts.plant import FMU_PATH, OUTPUT_NAMES  # noqa: E402
+HERE = Path(__file__).resolve().parent
 
 INPUT_CSV = HERE / "reference" / "BowdenPlant_in.csv"
 REF_CSV = HERE / "reference" / "BowdenPlant_ref.csv"

@@ -52,10 +52,10 @@ LINT_TARGETS += bench-lint
 PERF_TARGETS += perf-proto
 
 proto: $(VENV_STAMP)
-	$(PY) firmware/proto/gen_proto.py
+	$(PY) -m firmware.proto.gen_proto
 
 proto-check: $(VENV_STAMP)
-	$(PY) firmware/proto/gen_proto.py --check
+	$(PY) -m firmware.proto.gen_proto --check
 
 bench-build: $(BENCH_SO) $(BENCH_UNIT) $(BENCH_UNIT_SAN) $(BENCH_FUZZ)
 
@@ -111,7 +111,7 @@ $(BENCH_M4_LIB): $(BENCH_M4_OBJ)
 	$(PY) -m ziglang ar rcs $@ $^
 
 bench-target: $(BENCH_M4_LIB) $(BENCH_M4)/bench_sizes.o
-	$(PY) firmware/tools/elf_report.py $(BENCH_M4_LIB) --sizes $(BENCH_M4)/bench_sizes.o \
+	$(PY) -m firmware.tools.elf_report $(BENCH_M4_LIB) --sizes $(BENCH_M4)/bench_sizes.o \
 	  --out $(BENCH_M4)/size.txt
 
 # `make fuzz` (mk/fuzz.mk: the Hypothesis suites with the fuzz profile) runs this one too.

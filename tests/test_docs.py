@@ -22,10 +22,8 @@ every assertion labelled after its tag, and the README's table the one `formal.p
 
 from __future__ import annotations
 
-import importlib.util
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -190,11 +188,9 @@ def test_checker_reads_only_its_roots(planted):
 
 
 def _formal():
-    spec = importlib.util.spec_from_file_location("formal", ROOT / "hdl" / "formal" / "formal.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules.setdefault("formal", mod)  # dataclasses look their module up while defining
-    spec.loader.exec_module(mod)
-    return mod
+    from hdl.formal import formal
+
+    return formal
 
 
 def test_every_assertion_is_named_after_its_property():
@@ -214,7 +210,7 @@ def test_property_table_in_hdl_readme_is_the_generated_one():
     )
     assert m, "hdl/README.md lost the markers of the named-property table"
     assert m.group(1) == formal.property_table(props), (
-        "hdl/README.md's property table is stale: paste `python hdl/formal/formal.py --properties`"
+        "hdl/README.md's property table is stale: paste `python -m hdl.formal.formal --properties`"
     )
 
 

@@ -188,13 +188,9 @@ def core():
 
 @pytest.fixture(scope="module")
 def boards():
-    import importlib.util
+    from hdl.synth import synth
 
-    spec = importlib.util.spec_from_file_location("bowden_synth", REPO_ROOT / "hdl/synth/synth.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up while it executes
-    spec.loader.exec_module(module)
-    return module.BOARDS
+    return synth.BOARDS
 
 
 def _files(core, target: str) -> dict[str, str]:

@@ -18,7 +18,8 @@ loop's register words. A field added to the firmware's configuration (a new comp
 new register) becomes a parameter at the next `make proto`; the table hash changes with it, so a
 host and a device built from different tables refuse each other at HELLO.
 
-Usage: gen_proto.py [--check]   (--check: exit 1 naming every output that is stale)
+Usage: python -m firmware.proto.gen_proto [--check]
+  (--check: exit 1 naming every output that is stale)
 """
 
 from __future__ import annotations
@@ -1282,7 +1283,7 @@ def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     check = args == ["--check"]
     if args and not check:
-        print("usage: gen_proto.py [--check]", file=sys.stderr)
+        print("usage: python -m firmware.proto.gen_proto [--check]", file=sys.stderr)
         return 2
     try:
         spec = load()

@@ -1,6 +1,6 @@
 """Instructions per compensator step, counted by valgrind's callgrind on the host.
 
-    python firmware/tools/bench_callgrind.py BENCH_EXE [--steps N] [--json OUT]
+    python -m firmware.tools.bench_callgrind BENCH_EXE [--steps N] [--json OUT]
 
 Runs BENCH_EXE (firmware/perf/bench_comp.c) under callgrind with collection switched on only
 inside comp_step_q7_8, for each scenario, and prints instructions per step (total Ir / steps).

@@ -3,7 +3,7 @@
 A small reader of ELF32 little-endian relocatable objects and of `ar` archives (standard library
 only, so the check needs neither binutils for ARM nor LLVM tools):
 
-    python firmware/tools/elf_report.py LIB.a [--sizes SIZES.o] [--out size.txt]
+    python -m firmware.tools.elf_report LIB.a [--sizes SIZES.o] [--out size.txt]
 
 prints (and writes to --out) the size of each object's code (.text), read-only data, data and bss
 and the largest functions, then fails (exit 1) if any object has an undefined reference to a libm

@@ -17,8 +17,9 @@ counterexample trace, SURVIVED (an error) otherwise. The tree itself is never mo
 and the mutants that attack it) and checks the naming rule: exit 1 when an assertion has no label
 or a label that does not follow its tag.
 
-Usage: formal.py [--tasks NAME:TASK ...] [--mutants [MUTANT ...]] [--out DIR] [--jobs N]
-       formal.py --properties
+Usage: python -m hdl.formal.formal [--tasks NAME:TASK ...] [--mutants [MUTANT ...]]
+           [--out DIR] [--jobs N]
+       python -m hdl.formal.formal --properties
 Exit status: 0 when every task passed (every mutant was killed), 1 otherwise, 2 on bad usage.
 """
 

@@ -11,7 +11,8 @@ give directly: read-only registers fed live from the datapath, write-1 pulse fie
 reset, fault clear) and a write strobe on TC (watchdog refresh), all on one register bus that
 both the AXI4-Lite slave and the SPI bridge drive.
 
-Usage: gen_regmap.py [--check]   (--check: exit 1 naming every output that is stale)
+Usage: python -m hdl.regmap.gen_regmap [--check]
+  (--check: exit 1 naming every output that is stale)
 """
 
 from __future__ import annotations
@@ -728,7 +729,7 @@ def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     check = args == ["--check"]
     if args and not check:
-        print("usage: gen_regmap.py [--check]", file=sys.stderr)
+        print("usage: python -m hdl.regmap.gen_regmap [--check]", file=sys.stderr)
         return 2
     stale = []
     for path, text in outputs(load()).items():

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Bitstreams of bowden_soc for both boards (make bitstream): yosys, nextpnr, icepack / ecppack.
 
-    python hdl/soc/bitstream.py [--all | BOARD ...] [--force] [--bench] [--fit]
+    python -m hdl.soc.bitstream [--all | BOARD ...] [--force] [--bench] [--fit]
 
 Writes build/bitstream/<board>/: the bitstream (ice40-up5k: bowden.bin; ecp5-25f: bowden.bit,
 the firmware image inside it), summary.json (LUTs, flip-flops, DSPs, block and single-port RAMs,
@@ -27,10 +27,10 @@ from pathlib import Path
 
 import pythondata_cpu_picorv32
 
+from hdl.synth import synth
+from hdl.synth.synth import place, pnr_command, run, tool, yosys
+
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "hdl" / "synth"))
-import synth  # noqa: E402
-from synth import place, pnr_command, run, tool, yosys  # noqa: E402
 
 HDL = ROOT / "hdl"
 SOC = HDL / "soc"

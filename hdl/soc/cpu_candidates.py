@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The soft-CPU candidates for bowden_soc, each synthesized alone for the iCE40 UP5K.
 
-    python hdl/soc/cpu_candidates.py [NAME ...] [--force]
+    python -m hdl.soc.cpu_candidates [NAME ...] [--force]
 
 For each candidate (every one from its PyPI package, none copied here) runs yosys's
 `synth_ice40 -dsp` with the CPU as the top and writes build/soc/cpu/<name>/stat.json; prints a
@@ -25,9 +25,9 @@ import pythondata_cpu_picorv32
 import pythondata_cpu_serv
 import pythondata_cpu_vexriscv
 
+from hdl.synth.synth import count, run, tool
+
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "hdl" / "synth"))
-from synth import count, run, tool  # noqa: E402
 
 OUT = ROOT / "build" / "soc" / "cpu"
 PICORV32 = Path(pythondata_cpu_picorv32.data_location) / "picorv32.v"

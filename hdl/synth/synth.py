@@ -9,7 +9,7 @@ the margin is a few per cent: the placed design that is reported is the one that
 summary records every seed's Fmax. A board whose sources, constraints and script are unchanged
 since its last run is not synthesized again (the summary records a hash of them).
 
-Usage: synth.py [--all | BOARD ...] [--force] [--bench]
+Usage: python -m hdl.synth.synth [--all | BOARD ...] [--force] [--bench]
   --bench  print LUT / DSP / Fmax per board next to the previous run's figures
 """
 

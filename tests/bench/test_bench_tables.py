@@ -1,7 +1,6 @@
 """The protocol table and its generated outputs: up to date, consistent between C and Python, the
 parameters taken from the firmware's configuration, the DBC readable by cantools."""
 
-import importlib.util
 import json
 import subprocess
 import sys
@@ -14,12 +13,17 @@ from cosim.bench import protocol
 from cosim.bench.device import Device
 from cosim.project.paths import REPO_ROOT
 
-GEN = REPO_ROOT / "firmware" / "proto" / "gen_proto.py"
+PROTO = REPO_ROOT / "firmware" / "proto"
 VECTORS = REPO_ROOT / "firmware" / "proto" / "vectors.json"
 
 
 def test_generated_files_are_up_to_date():
-    run = subprocess.run([sys.executable, str(GEN), "--check"], capture_output=True, text=True)
+    run = subprocess.run(
+        [sys.executable, "-m", "firmware.proto.gen_proto", "--check"],
+        cwd=REPO_ROOT,
+        capture_output=True,
+        text=True,
+    )
     assert run.returncode == 0, run.stdout + run.stderr
 
 
@@ -88,11 +92,9 @@ def test_dbc_describes_the_can_frames():
 
 def test_generator_refuses_a_bad_table(tmp_path):
     """A duplicate id, an id beyond 5 bits and an oversized message are named."""
-    spec = importlib.util.spec_from_file_location("gen_proto", GEN)
-    gen_proto = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = gen_proto  # its dataclasses look their module up there
-    spec.loader.exec_module(gen_proto)
-    raw = json.loads((GEN.parent / "bowden_proto.json").read_text())
+    from firmware.proto import gen_proto
+
+    raw = json.loads((PROTO / "bowden_proto.json").read_text())
     for change, words in (
         (lambda r: r["messages"][1].update(id=1), "already used"),
         (lambda r: r["messages"][1].update(id=32), "outside 1..31"),

@@ -6,7 +6,6 @@ ELF/ar reader) rejects those and libm names. A float-using probe compiled with t
 shows that the check does catch them.
 """
 
-import importlib.util
 import shlex
 import subprocess
 import sys
@@ -14,6 +13,7 @@ import sys
 import pytest
 
 from cosim.project.paths import BUILD_DIR, REPO_ROOT
+from firmware.tools import elf_report
 
 M4 = BUILD_DIR / "firmware" / "cortex-m4"
 ZIG_CC = [sys.executable, "-m", "ziglang", "cc"]
@@ -21,16 +21,6 @@ M4_FLAGS = shlex.split(
     "-target thumb-freestanding-eabihf -mcpu=cortex_m4 -ffreestanding -O2 "
     "-fno-unwind-tables -fno-asynchronous-unwind-tables"
 )
-
-
-def _elf_report():
-    spec = importlib.util.spec_from_file_location(
-        "elf_report", REPO_ROOT / "firmware" / "tools" / "elf_report.py"
-    )
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # dataclasses look their module up while the class is built
-    spec.loader.exec_module(mod)
-    return mod
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +38,7 @@ def target_build():
 
 
 def test_fw_target_has_no_libm_or_soft_float(target_build):
-    er = _elf_report()
+    er = elf_report
     objs = er.read_objects(M4 / "libbowden_fw.a")
     assert {o.name for o in objs} == {"fxp.o", "comp.o", "fric_est.o", "hal.o", "wave.o", "fw.o"}
     assert all(o.data[18] == 40 for o in objs)  # e_machine = EM_ARM
@@ -80,6 +70,6 @@ def test_fw_float_probe_is_caught(tmp_path, target_build):
     )
     obj = tmp_path / "probe.o"
     subprocess.run([*ZIG_CC, *M4_FLAGS, "-c", str(src), "-o", str(obj)], check=True)
-    bad = {name for _, name in _elf_report().forbidden(_elf_report().read_objects(obj))}
+    bad = {name for _, name in elf_report.forbidden(elf_report.read_objects(obj))}
     assert any(n.startswith("__aeabi_f") for n in bad), bad
     assert any(n.startswith("__aeabi_d") for n in bad), bad

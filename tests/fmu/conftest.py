@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -27,14 +25,10 @@ def fmu_path() -> Path:
 
 @pytest.fixture(scope="session")
 def gen_model():
-    """fmu/gen_model.py, the one source of the variables, as a module."""
-    spec = importlib.util.spec_from_file_location(
-        "bowden_gen_model", REPO_ROOT / "fmu/gen_model.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up while it executes
-    spec.loader.exec_module(module)
-    return module
+    """fmu/gen_model.py, the one source of the variables."""
+    from fmu import gen_model
+
+    return gen_model
 
 
 @pytest.fixture

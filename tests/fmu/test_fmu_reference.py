@@ -2,26 +2,14 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-
 import numpy as np
 from fmpy.util import read_csv
 
-from cosim.project.paths import REPO_ROOT
-
-
-def _make_reference():
-    path = REPO_ROOT / "fmu" / "make_reference.py"
-    spec = importlib.util.spec_from_file_location("bowden_make_reference", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+from fmu import make_reference
 
 
 def test_reference_input_file_is_the_scripts_input():
-    ref = _make_reference()
+    ref = make_reference
     stored = read_csv(str(ref.INPUT_CSV))
     signals = ref.input_signals()
     for name in signals.dtype.names:
@@ -29,7 +17,7 @@ def test_reference_input_file_is_the_scripts_input():
 
 
 def test_simulation_matches_reference_output(fmu_path):
-    ref = _make_reference()
+    ref = make_reference
     stored = read_csv(str(ref.REF_CSV))
     result = ref.simulate(fmu_path)
     assert len(result) == len(stored) == 401

@@ -7,17 +7,9 @@ must fail. `make formal-mutants` runs every mutant.
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-
 import pytest
 
-from cosim.project.paths import HDL_DIR
-
-_spec = importlib.util.spec_from_file_location("formal", HDL_DIR / "formal" / "formal.py")
-formal = importlib.util.module_from_spec(_spec)
-sys.modules["formal"] = formal
-_spec.loader.exec_module(formal)
+from hdl.formal import formal
 
 
 @pytest.mark.parametrize("task", formal.TASKS)

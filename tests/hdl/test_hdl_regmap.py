@@ -2,27 +2,17 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 
 import pytest
 
 from cosim.parts import regmap
-from cosim.project.paths import HDL_DIR
-
-GEN = HDL_DIR / "regmap" / "gen_regmap.py"
-
-
-def _generator():
-    spec = importlib.util.spec_from_file_location("gen_regmap", GEN)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+from hdl.regmap import gen_regmap
 
 
 def test_generated_files_are_fresh():
     """Every committed output equals what the generator makes from bowden_regs.json now."""
-    gen = _generator()
+    gen = gen_regmap
     for path, text in gen.outputs(gen.load()).items():
         assert path.exists(), f"{path} missing: run make regmap"
         assert path.read_text() == text, f"{path} is stale: run make regmap"
@@ -30,7 +20,7 @@ def test_generated_files_are_fresh():
 
 def test_check_mode_detects_a_stale_file(tmp_path, monkeypatch):
     """The --check mode reports an edited output and leaves it untouched."""
-    gen = _generator()
+    gen = gen_regmap
     stale = tmp_path / "regmap.py"
     stale.write_text("# edited by hand\n")
     monkeypatch.setattr(gen, "outputs", lambda spec: {stale: "generated\n"})
@@ -43,7 +33,7 @@ def test_check_mode_detects_a_stale_file(tmp_path, monkeypatch):
 
 def test_source_rejects_overlapping_addresses(tmp_path):
     """A table with two registers at one address is an error naming both."""
-    gen = _generator()
+    gen = gen_regmap
     spec = json.loads(gen.SOURCE.read_text())
     spec["registers"][1]["addr"] = spec["registers"][0]["addr"]
     bad = tmp_path / "bad.json"

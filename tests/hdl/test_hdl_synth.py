@@ -6,19 +6,14 @@ constraints and the script are unchanged, so this takes seconds after the first 
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import subprocess
 import sys
 
 import pytest
 
-from cosim.project.paths import BUILD_DIR, HDL_DIR
-
-# hdl/synth/synth.py is a script, not a package module (its dataclasses need it registered).
-_spec = importlib.util.spec_from_file_location("bowden_synth", HDL_DIR / "synth" / "synth.py")
-synth = sys.modules.setdefault("bowden_synth", importlib.util.module_from_spec(_spec))
-_spec.loader.exec_module(synth)
+from cosim.project.paths import BUILD_DIR, REPO_ROOT
+from hdl.synth import synth
 
 KEYS = {"luts", "ffs", "dsps", "brams", "fmax_mhz", "target_mhz"}
 
@@ -27,7 +22,8 @@ KEYS = {"luts", "ffs", "dsps", "brams", "fmax_mhz", "target_mhz"}
 def summaries():
     """Synthesize (or reuse) both boards; the script's exit status says whether they pass."""
     result = subprocess.run(
-        [sys.executable, str(HDL_DIR / "synth" / "synth.py"), "--all"],
+        [sys.executable, "-m", "hdl.synth.synth", "--all"],
+        cwd=REPO_ROOT,
         capture_output=True,
         text=True,
     )

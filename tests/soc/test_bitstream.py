@@ -7,15 +7,10 @@ make bitstream, part of make bench."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 
-from cosim.project.paths import BUILD_DIR, HDL_DIR
-
-_spec = importlib.util.spec_from_file_location("bowden_bitstream", HDL_DIR / "soc" / "bitstream.py")
-bitstream = sys.modules.setdefault("bowden_bitstream", importlib.util.module_from_spec(_spec))
-_spec.loader.exec_module(bitstream)
+from cosim.project.paths import BUILD_DIR
+from hdl.soc import bitstream
 
 ICE40_LOG = """Info: Device utilisation:
 Info: \t         ICESTORM_LC:    5351/   5280   101%

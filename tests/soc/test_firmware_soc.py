@@ -13,8 +13,8 @@ import pytest
 from cosim.project.paths import BUILD_DIR, REPO_ROOT
 
 SOC = BUILD_DIR / "firmware" / "soc"
-REPORT = REPO_ROOT / "firmware" / "soc" / "tools" / "rv32_report.py"
-ELF_REPORT = REPO_ROOT / "firmware" / "tools" / "elf_report.py"
+REPORT = [sys.executable, "-m", "firmware.soc.tools.rv32_report"]
+ELF_REPORT = [sys.executable, "-m", "firmware.tools.elf_report"]
 ZIG = [sys.executable, "-m", "ziglang"]
 FLAGS = shlex.split(
     "-target riscv32-freestanding-none -mcpu=generic_rv32+zmmul -ffreestanding -fno-builtin -O2 "
@@ -35,9 +35,7 @@ def soc_build():
 
 
 def _report(*args):
-    return subprocess.run(
-        [sys.executable, str(REPORT), *map(str, args)], capture_output=True, text=True
-    )
+    return subprocess.run([*REPORT, *map(str, args)], cwd=REPO_ROOT, capture_output=True, text=True)
 
 
 def test_image_is_rv32_and_starts_at_reset(soc_build):
@@ -67,7 +65,8 @@ def test_size_and_stack_reported(soc_build):
 
 def test_objects_have_no_soft_float_or_libm(soc_build):
     run = subprocess.run(
-        [sys.executable, str(ELF_REPORT), str(SOC / "libbowden_fw_soc.a")],
+        [*ELF_REPORT, str(SOC / "libbowden_fw_soc.a")],
+        cwd=REPO_ROOT,
         capture_output=True,
         text=True,
     )
@@ -103,9 +102,7 @@ def float_probe(tmp_path_factory):
 
 def test_float_probe_fails_the_object_check(float_probe):
     obj, _ = float_probe
-    run = subprocess.run(
-        [sys.executable, str(ELF_REPORT), str(obj)], capture_output=True, text=True
-    )
+    run = subprocess.run([*ELF_REPORT, str(obj)], cwd=REPO_ROOT, capture_output=True, text=True)
     assert run.returncode == 1
     assert "__mulsf3" in run.stdout and "__divdf3" in run.stdout
 

@@ -16,7 +16,6 @@ boot, does not answer or runs off time.
 from __future__ import annotations
 
 import re
-import sys
 from pathlib import Path
 
 import cocotb
@@ -153,8 +152,7 @@ async def netlist_runs_100_ms_of_the_loop(dut):
 def gate_sources() -> list[Path]:
     """The netlist (synthesized again when its inputs changed), yosys's cell models less the PLL's
     black box (the stand-in replaces it), the stand-in, the flash model and the testbench."""
-    sys.path.insert(0, str(HDL_DIR / "soc"))
-    import bitstream
+    from hdl.soc import bitstream
 
     netlist = bitstream.netlist(bitstream.BOARDS["ice40-up5k"], GATE_DIR)
     cells = CELLS_SIM.read_text()

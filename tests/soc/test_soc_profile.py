@@ -14,11 +14,11 @@ from hdl_sim import run_cocotb
 from soc_sim import FW_HEX, VERILATOR_ARGS, soc_sources
 
 from cosim.project.paths import BUILD_DIR, REPO_ROOT
+from firmware.soc.tools.rv32_profile import Functions
+from firmware.soc.tools.rv32_report import load
 
-TOOLS = REPO_ROOT / "firmware" / "soc" / "tools"
+PROFILE = [sys.executable, "-m", "firmware.soc.tools.rv32_profile"]
 ELF = BUILD_DIR / "firmware" / "soc" / "bowden_fw.elf"
-sys.path.insert(0, str(TOOLS))
-from rv32_profile import Functions  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -28,8 +28,6 @@ def funcs():
 
 
 def test_a_pc_is_named_by_the_function_that_holds_it(funcs):
-    from rv32_report import load
-
     table = {name: (addr, size) for addr, (name, size) in load(ELF)[2].items()}
     addr, size = table["proto_encode"]
     assert funcs.name_at(addr) == "proto_encode"
@@ -42,7 +40,8 @@ def test_a_pc_is_named_by_the_function_that_holds_it(funcs):
 
 def _tool(elf, profile):
     return subprocess.run(
-        [sys.executable, str(TOOLS / "rv32_profile.py"), str(elf), str(profile)],
+        [*PROFILE, str(elf), str(profile)],
+        cwd=REPO_ROOT,
         capture_output=True,
         text=True,
     )
@@ -94,7 +93,7 @@ def test_soc_profile(tmp_path):
         assert total["?"] == 0, f"{phase}: {total['?']} clocks outside the image's functions"
         assert must <= set(total), f"{phase}: {sorted(must - set(total))} not seen"
     report = subprocess.run(
-        [sys.executable, str(TOOLS / "rv32_profile.py"), str(ELF), str(out)],
-        capture_output=True, text=True, check=True,
+        [*PROFILE, str(ELF), str(out)],
+        cwd=REPO_ROOT, capture_output=True, text=True, check=True,
     )  # fmt: skip
     print("\n" + report.stdout)

@@ -1,6 +1,6 @@
 """The firmware's image in the forms the SoC loads (make firmware-soc).
 
-    python firmware/soc/tools/mkimage.py IMAGE.bin --rom-bytes N --hex OUT.hex [--flash OUT.bin]
+    python -m firmware.soc.tools.mkimage IMAGE.bin --rom-bytes N --hex OUT.hex [--flash OUT.bin]
 
 --hex: one 32-bit little-endian word per line, the ROM's $readmemh file, padded with zeros to
 the ROM's size (hdl/soc/bowden_soc.v, ROM_WORDS). --flash: the image as the UP5K's boot loader reads

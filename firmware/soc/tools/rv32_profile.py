@@ -1,6 +1,6 @@
 """Where the firmware's clocks go: a profile of the RV32 image by function (make soc-profile).
 
-    python firmware/soc/tools/rv32_profile.py build/firmware/soc/bowden_fw.elf profile.json
+    python -m firmware.soc.tools.rv32_profile build/firmware/soc/bowden_fw.elf profile.json
 
 profile.json is written by the simulation (tests/soc/tb_soc_profile.py): for each phase the
 firmware marks (the tick, a received frame's handling), the program counter sampled at every
@@ -19,9 +19,9 @@ import sys
 from collections import Counter
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from elftools.common.exceptions import ELFError  # noqa: E402
-from rv32_report import load  # noqa: E402
+from elftools.common.exceptions import ELFError
+
+from firmware.soc.tools.rv32_report import load
 
 
 class Functions:

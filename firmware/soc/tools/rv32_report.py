@@ -1,6 +1,6 @@
 """Size and worst-case stack of the RV32 firmware image (make firmware-soc).
 
-    python firmware/soc/tools/rv32_report.py build/firmware/soc/bowden_fw.elf [--out size.txt]
+    python -m firmware.soc.tools.rv32_report build/firmware/soc/bowden_fw.elf [--out size.txt]
         [--stack-max BYTES] [--isr-frame BYTES]
 
 Sizes: code and read-only data (the image in ROM), .data, .bss (RAM), from the ELF's sections.
@@ -27,8 +27,7 @@ from pathlib import Path
 import capstone
 from elftools.elf.elffile import ELFFile
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tools"))
-from elf_report import LIBM, SOFT_FLOAT  # noqa: E402
+from firmware.tools.elf_report import LIBM, SOFT_FLOAT
 
 # RISC-V relocation types that call, jump, branch or only pair another relocation (RISC-V ELF
 # psABI, "Relocations"): BRANCH 16, JAL 17, CALL 18, CALL_PLT 19, PCREL_LO12_I/S 24/25, ALIGN 43,

@@ -1,0 +1,1 @@
+"""The bench protocol's table and its generator (`python -m firmware.proto.gen_proto`)."""

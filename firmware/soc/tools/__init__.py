@@ -1,0 +1,1 @@
+"""The RV32 image's tools: mkimage, rv32_report, rv32_profile."""

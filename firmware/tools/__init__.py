@@ -1,0 +1,1 @@
+"""Reports on the firmware's objects and benchmarks: elf_report, bench_callgrind."""

@@ -1,0 +1,1 @@
+"""The boards' top modules and pin files."""

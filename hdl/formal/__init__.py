@@ -1,0 +1,1 @@
+"""The formal proofs' runner (`python -m hdl.formal.formal`)."""

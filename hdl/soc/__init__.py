@@ -1,0 +1,2 @@
+"""The SoC's RTL and its tools: `python -m hdl.soc.bitstream`,
+`python -m hdl.soc.cpu_candidates`."""

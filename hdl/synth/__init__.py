@@ -1,0 +1,1 @@
+"""Synthesis of the board tops (`python -m hdl.synth.synth`)."""
