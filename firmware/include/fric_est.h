@@ -99,6 +99,23 @@ typedef struct {
     q7_8w_t t_min_n_q8;      /* minimum tension on both cells, Q7.8 N, [0, 64] */
 } fric_est_config_t;
 
+/*
+ * The window (Measurement and Gate above), one for the estimate and its double twin: the two
+ * cells' Q7.8 words of the last W + 1 ticks and the far-end code's run of unchanged ticks (STUCK).
+ * fric_est_step and fric_est_f64_step keep one each and ask it the same questions, so both take
+ * the same ticks onto the same branch with the same increments.
+ */
+typedef struct {
+    int16_t hist_in[FE_WINDOW_TICKS]; /* T(k-W) .. T(k-1), Q7.8, ring */
+    int16_t hist_out[FE_WINDOW_TICKS];
+    int16_t hist_in_last;             /* T(k), Q7.8 */
+    int16_t hist_out_last;
+    uint32_t filled;                  /* ticks in the history (saturates at W + 1) */
+    uint32_t pos;                     /* ring slot of T(k-W), the next to overwrite */
+    int32_t last_code;                /* the far-end code of the last tick */
+    uint32_t same_ticks;              /* ticks the code has not changed */
+} fric_est_window_t;
+
 typedef struct {
     fric_est_config_t cfg;
     int32_t tau_shift;                /* s with tau = 2^s */
@@ -108,14 +125,7 @@ typedef struct {
     q3_28_t x;                        /* the estimate mu*phi, Q3.28 */
     q3_28_t x_meas;                   /* the last measurement, Q3.28 */
     uq8_24_t band_hi;                 /* e^(5x/4), UQ8.24 (the STUCK band) */
-    int16_t hist_in[FE_WINDOW_TICKS]; /* T(k-W) .. T(k-1), Q7.8, ring */
-    int16_t hist_out[FE_WINDOW_TICKS];
-    int16_t hist_in_last;             /* T(k), Q7.8 */
-    int16_t hist_out_last;
-    uint32_t filled;                  /* ticks in the history (saturates at W + 1) */
-    uint32_t pos;                     /* ring slot of T(k-W), the next to overwrite */
-    int32_t last_code;                /* the far-end code of the last tick */
-    uint32_t same_ticks;              /* ticks the code has not changed */
+    fric_est_window_t win;            /* the last W + 1 ticks, the far-end code's run */
     int32_t implausible;              /* T_in left the band while the code was unchanged */
     uint32_t faults;                  /* FE_FAULT_* (latched) */
     int32_t accepted;                 /* 1 if the last tick's sample was used */
@@ -143,6 +153,24 @@ void fric_est_reset(fric_est_t *e, q3_28_t x0_q28);
  */
 q3_28_t fric_est_step(fric_est_t *e, int32_t t_in_q8, int32_t t_out_q8, int32_t code,
                       int32_t code_min, int32_t code_max, uint32_t adc_flags);
+
+/* The window's parts of fric_est_step, shared with the double twin (fric_est_f64.c). */
+
+/* Empty window: no ticks, no code seen. */
+void fric_est_window_reset(fric_est_window_t *w);
+
+/* Count the ticks the far-end code has not changed (saturating); 1 when it changed or at the
+ * first tick (the run starts again), else 0. */
+int32_t fric_est_window_code(fric_est_window_t *w, int32_t code);
+
+/* Add a tick's words (Q7.8, in range); 1 once the window holds W + 1 ticks, else 0. */
+int32_t fric_est_window_push(fric_est_window_t *w, int32_t t_in_q8, int32_t t_out_q8);
+
+/* The gate over a full window: the branch of the newest tick, 0 loading, 1 unloading, -1 none
+ * (a cell below t_min_q8 at either end, or not sliding one way over the whole window), and the
+ * increments T(k) - T(k-W) of both cells (Q7.8, |d| < 2^15; set only for a branch). */
+int32_t fric_est_window_branch(const fric_est_window_t *w, int32_t t_min_q8, int32_t *d_in_q8,
+                               int32_t *d_out_q8);
 
 /*
  * ln(v) for v in UQ8.24 (v > 0), in Q3.28, clamped to [-8, 8 - 2^-28] (0 gives -8).

@@ -1,9 +1,10 @@
 /*
  * fric_est_f64.h - the double twin of the friction estimate (host only: libm's log and exp), the
- * oracle fric_est.h is held against. The same method (fric_est.h), the same integer gates on the
- * same Q7.8 words, and in double: the accumulators P_b, Q_b (no rounding), the ratios, ln, the
- * band e^x_max, the branch average and the rate bound. Configured from the same fixed-point
- * configuration (fric_est_config_t), so both hold the same values.
+ * oracle fric_est.h is held against. The same method (fric_est.h), the same window and gate
+ * (fric_est_window_*, fric_est.c) on the same Q7.8 words, and in double: the accumulators P_b,
+ * Q_b (no rounding), the ratios, ln, the band e^x_max, the branch average and the rate bound.
+ * Configured from the same fixed-point configuration (fric_est_config_t), so both hold the same
+ * values.
  */
 #ifndef BOWDEN_FRIC_EST_F64_H
 #define BOWDEN_FRIC_EST_F64_H
@@ -21,14 +22,7 @@ typedef struct {
     double x;                         /* mu*phi */
     double x_meas;
     double band_hi;                   /* e^(5x/4) */
-    int16_t hist_in[FE_WINDOW_TICKS]; /* as fric_est_t */
-    int16_t hist_out[FE_WINDOW_TICKS];
-    int16_t hist_in_last;
-    int16_t hist_out_last;
-    uint32_t filled;
-    uint32_t pos;
-    int32_t last_code;
-    uint32_t same_ticks;
+    fric_est_window_t win;            /* the integer estimate's window (fric_est.h) */
     int32_t implausible;
     uint32_t faults;
     int32_t accepted;

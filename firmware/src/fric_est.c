@@ -81,16 +81,7 @@ void fric_est_reset(fric_est_t *e, q3_28_t x0_q28)
     }
     e->x = x0_q28;
     e->x_meas = x0_q28;
-    for (int32_t i = 0; i < FE_WINDOW_TICKS; ++i) {
-        e->hist_in[i] = 0;
-        e->hist_out[i] = 0;
-    }
-    e->hist_in_last = 0;
-    e->hist_out_last = 0;
-    e->filled = 0U;
-    e->pos = 0U;
-    e->last_code = 0;
-    e->same_ticks = 0U;
+    fric_est_window_reset(&e->win);
     e->implausible = 0;
     e->faults = 0U;
     e->accepted = 0;
@@ -108,6 +99,51 @@ void fric_est_configure(fric_est_t *e, const fric_est_config_t *cfg, q3_28_t x0_
     fric_est_reset(e, x0_q28);
 }
 
+void fric_est_window_reset(fric_est_window_t *w)
+{
+    for (int32_t i = 0; i < FE_WINDOW_TICKS; ++i) {
+        w->hist_in[i] = 0;
+        w->hist_out[i] = 0;
+    }
+    w->hist_in_last = 0;
+    w->hist_out_last = 0;
+    w->filled = 0U;
+    w->pos = 0U;
+    w->last_code = 0;
+    w->same_ticks = 0U;
+}
+
+int32_t fric_est_window_code(fric_est_window_t *w, int32_t code)
+{
+    int32_t changed = 0;
+    if (w->filled > 0U && code == w->last_code) {
+        if (w->same_ticks < 0xFFFFFFFFU) {
+            ++w->same_ticks;
+        }
+    } else {
+        w->same_ticks = 0U;
+        changed = 1;
+    }
+    w->last_code = code;
+    return changed;
+}
+
+int32_t fric_est_window_push(fric_est_window_t *w, int32_t t_in_q8, int32_t t_out_q8)
+{
+    /* The newest sample in *_last, the W before it in the ring. */
+    if (w->filled > 0U) {
+        w->hist_in[w->pos] = w->hist_in_last;
+        w->hist_out[w->pos] = w->hist_out_last;
+        w->pos = (w->pos + 1U < (uint32_t)FE_WINDOW_TICKS) ? w->pos + 1U : 0U;
+    }
+    w->hist_in_last = (int16_t)t_in_q8;
+    w->hist_out_last = (int16_t)t_out_q8;
+    if (w->filled < (uint32_t)FE_HIST) {
+        ++w->filled;
+    }
+    return (w->filled < (uint32_t)FE_HIST) ? 0 : 1;
+}
+
 /* The history entry j ticks before the newest (j in [0, W]). */
 static inline int32_t hist_at(const int16_t *h, int16_t newest_val, uint32_t pos, uint32_t j)
 {
@@ -121,6 +157,39 @@ static inline int32_t hist_at(const int16_t *h, int16_t newest_val, uint32_t pos
         i -= (uint32_t)FE_WINDOW_TICKS;
     }
     return h[i];
+}
+
+int32_t fric_est_window_branch(const fric_est_window_t *w, int32_t t_min_q8, int32_t *d_in_q8,
+                               int32_t *d_out_q8)
+{
+    const uint32_t n = (uint32_t)FE_WINDOW_TICKS;
+    const int32_t in_a = hist_at(w->hist_in, w->hist_in_last, w->pos, n);
+    const int32_t in_m = hist_at(w->hist_in, w->hist_in_last, w->pos, n / 2U);
+    const int32_t in_e = hist_at(w->hist_in, w->hist_in_last, w->pos, n / 8U);
+    const int32_t in_s = hist_at(w->hist_in, w->hist_in_last, w->pos, n - n / 8U);
+    const int32_t out_a = hist_at(w->hist_out, w->hist_out_last, w->pos, n);
+    const int32_t out_m = hist_at(w->hist_out, w->hist_out_last, w->pos, n / 2U);
+    const int32_t out_e = hist_at(w->hist_out, w->hist_out_last, w->pos, n / 8U);
+    const int32_t out_s = hist_at(w->hist_out, w->hist_out_last, w->pos, n - n / 8U);
+    const int32_t in_c = w->hist_in_last;
+    const int32_t out_c = w->hist_out_last;
+    if (in_a < t_min_q8 || in_c < t_min_q8 || out_a < t_min_q8 || out_c < t_min_q8) {
+        return -1;
+    }
+    const int32_t half = FE_SLIDE_MIN_Q8 / 2;
+    int32_t b = -1;
+    for (int32_t s = 1; s >= -1; s -= 2) {
+        if (s * (in_m - in_a) >= half && s * (in_c - in_m) >= half && s * (in_c - in_e) > 0 &&
+            s * (in_s - in_a) > 0 && s * (out_m - out_a) >= half &&
+            s * (out_c - out_m) >= half && s * (out_c - out_e) > 0 && s * (out_s - out_a) > 0) {
+            b = (s > 0) ? 0 : 1;
+        }
+    }
+    if (b >= 0) {
+        *d_in_q8 = in_c - in_a;
+        *d_out_q8 = out_c - out_a;
+    }
+    return b;
 }
 
 /* acc <- acc + (v 2^FE_ACC_FRAC - acc) / 2^s, rounded (v in [0, 2^30), acc in [0, 2^58)). */
@@ -147,16 +216,10 @@ q3_28_t fric_est_step(fric_est_t *e, int32_t t_in_q8, int32_t t_out_q8, int32_t 
     }
 
     /* STUCK: an unchanged code while T_in leaves the band friction allows around it. */
-    if (e->filled > 0U && code == e->last_code) {
-        if (e->same_ticks < 0xFFFFFFFFU) {
-            ++e->same_ticks;
-        }
-    } else {
-        e->same_ticks = 0U;
+    if (fric_est_window_code(&e->win, code) != 0) {
         e->implausible = 0;
     }
-    e->last_code = code;
-    if (e->same_ticks > 0U && t_in_q8 >= e->cfg.t_min_n_q8) {
+    if (e->win.same_ticks > 0U && t_in_q8 >= e->cfg.t_min_n_q8) {
         /* Q7.8 * UQ8.24 in int64: |T| < 2^15, band < 2^30 (e^4 < 55). */
         int64_t in24 = (int64_t)t_in_q8 * (INT64_C(1) << 24);
         int64_t hi = (int64_t)t_out_q8 * (int64_t)e->band_hi;
@@ -166,57 +229,24 @@ q3_28_t fric_est_step(fric_est_t *e, int32_t t_in_q8, int32_t t_out_q8, int32_t 
             e->implausible = 1;
         }
     }
-    if (e->same_ticks >= (uint32_t)FE_STUCK_TICKS && e->implausible != 0) {
+    if (e->win.same_ticks >= (uint32_t)FE_STUCK_TICKS && e->implausible != 0) {
         e->faults |= FE_FAULT_STUCK;
         return e->x;
     }
 
-    /* History: the newest sample in *_last, the W before it in the ring. */
-    if (e->filled > 0U) {
-        e->hist_in[e->pos] = e->hist_in_last;
-        e->hist_out[e->pos] = e->hist_out_last;
-        e->pos = (e->pos + 1U < (uint32_t)FE_WINDOW_TICKS) ? e->pos + 1U : 0U;
-    }
-    e->hist_in_last = (int16_t)t_in_q8;
-    e->hist_out_last = (int16_t)t_out_q8;
-    if (e->filled < (uint32_t)FE_HIST) {
-        ++e->filled;
-    }
-    if (e->filled < (uint32_t)FE_HIST) {
+    if (fric_est_window_push(&e->win, t_in_q8, t_out_q8) == 0) {
         return e->x;
     }
-
-    const uint32_t w = (uint32_t)FE_WINDOW_TICKS;
-    const int32_t in_a = hist_at(e->hist_in, e->hist_in_last, e->pos, w);
-    const int32_t in_m = hist_at(e->hist_in, e->hist_in_last, e->pos, w / 2U);
-    const int32_t in_e = hist_at(e->hist_in, e->hist_in_last, e->pos, w / 8U);
-    const int32_t in_s = hist_at(e->hist_in, e->hist_in_last, e->pos, w - w / 8U);
-    const int32_t out_a = hist_at(e->hist_out, e->hist_out_last, e->pos, w);
-    const int32_t out_m = hist_at(e->hist_out, e->hist_out_last, e->pos, w / 2U);
-    const int32_t out_e = hist_at(e->hist_out, e->hist_out_last, e->pos, w / 8U);
-    const int32_t out_s = hist_at(e->hist_out, e->hist_out_last, e->pos, w - w / 8U);
-    const int32_t in_c = t_in_q8;
-    const int32_t out_c = t_out_q8;
-    const int32_t tmin = e->cfg.t_min_n_q8;
-    if (in_a < tmin || in_c < tmin || out_a < tmin || out_c < tmin) {
-        return e->x;
-    }
-    const int32_t half = FE_SLIDE_MIN_Q8 / 2;
-    int32_t b = -1;
-    for (int32_t s = 1; s >= -1; s -= 2) {
-        if (s * (in_m - in_a) >= half && s * (in_c - in_m) >= half && s * (in_c - in_e) > 0 &&
-            s * (in_s - in_a) > 0 && s * (out_m - out_a) >= half &&
-            s * (out_c - out_m) >= half && s * (out_c - out_e) > 0 && s * (out_s - out_a) > 0) {
-            b = (s > 0) ? 0 : 1;
-        }
-    }
+    int32_t d_in_q8 = 0;
+    int32_t d_out_q8 = 0;
+    const int32_t b = fric_est_window_branch(&e->win, e->cfg.t_min_n_q8, &d_in_q8, &d_out_q8);
     if (b < 0) {
         return e->x;
     }
 
     /* Increments |d| < 2^15 with the same sign: products in (0, 2^30). */
-    const int64_t d_in = in_c - in_a;
-    const int64_t d_out = out_c - out_a;
+    const int64_t d_in = d_in_q8;
+    const int64_t d_out = d_out_q8;
     e->p[b] = forget(e->p[b], d_in * d_out, e->tau_shift);
     e->q[b] = forget(e->q[b], d_out * d_out, e->tau_shift);
     if (e->n[b] < 0xFFFFFFFFU) {
