@@ -42,11 +42,6 @@ LATENCY_CLKS = 15
 #: Default watchdog ramp of u towards zero, Q3.12 A per sample (tension_loop WDT_RAMP_STEP).
 WDT_RAMP_STEP = 41
 
-FAULT_ADC_STALE = 1
-FAULT_ADC_RANGE = 2
-FAULT_WATCHDOG = 4
-FAULT_OVERCURRENT = 8
-
 # Default calibration: reset values of the register map (+-2^23 codes = +-64 N).
 DEFAULT_ADC_OFFSET = regmap.REGISTERS["ADC_OFFSET"].fields[0].reset
 DEFAULT_ADC_GAIN = regmap.REGISTERS["ADC_GAIN"].fields[0].reset
@@ -197,17 +192,17 @@ class TensionLoopModel:
         detect = 0
         if self.enable:
             if r["ADC_STALE"] and stale_now >= r["ADC_STALE"]:
-                detect |= FAULT_ADC_STALE
+                detect |= regmap.FAULT_ADC_STALE
             if range_bad:
-                detect |= FAULT_ADC_RANGE
+                detect |= regmap.FAULT_ADC_RANGE
             if r["WDT_TIMEOUT"] and wdt_now >= r["WDT_TIMEOUT"]:
-                detect |= FAULT_WATCHDOG
+                detect |= regmap.FAULT_WATCHDOG
             if r["OC_TIMEOUT"] and oc_base >= r["OC_TIMEOUT"]:
-                detect |= FAULT_OVERCURRENT
+                detect |= regmap.FAULT_OVERCURRENT
         self.faults = (0 if fclr else self.faults) | detect
         self.stale_cnt, self.wdt_cnt, self.oc_cnt = stale_now, wdt_now, oc_base
         run = self.enable and self.faults == 0
-        ramp = self.enable and self.faults == FAULT_WATCHDOG
+        ramp = self.enable and self.faults == regmap.FAULT_WATCHDOG
         integ_prev = 0 if self.integ_reset_pending else self.integ
         self.fresh = self.tc_written = False
         self.integ_reset_pending = self.fault_clear_pending = False

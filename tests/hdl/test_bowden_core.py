@@ -26,7 +26,8 @@ from cocotbext.axi import AxiLiteBus, AxiLiteMaster
 from hdl_sim import ADDR_TO_NAME, SIMULATORS, replay_write, rtl, run_cocotb, signed
 
 from cosim.parts import regmap
-from cosim.parts.rtl_model import FAULT_WATCHDOG, TensionLoopModel, adc_code_from_tension
+from cosim.parts.regmap import FAULT_WATCHDOG
+from cosim.parts.rtl_model import TensionLoopModel, adc_code_from_tension
 
 CLKS_PER_SAMPLE = 15
 RESP_OKAY, RESP_SLVERR = 0, 2

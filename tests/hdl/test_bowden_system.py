@@ -45,7 +45,8 @@ from hdl_sim import (
 )
 
 from cosim.parts import interface, regmap
-from cosim.parts.rtl_model import FAULT_ADC_STALE, TensionLoopModel, adc_code_from_tension
+from cosim.parts.regmap import FAULT_ADC_STALE
+from cosim.parts.rtl_model import TensionLoopModel, adc_code_from_tension
 
 CLK_HZ = 1_000_000
 CLKS_PER_SAMPLE = CLK_HZ // 10_000  # bowden_core's default SAMPLE_HZ

@@ -15,11 +15,8 @@ from cocotb.triggers import FallingEdge
 from hdl_sim import SIMULATORS, rtl, run_cocotb
 
 from cosim.parts import regmap
+from cosim.parts.regmap import FAULT_ADC_RANGE, FAULT_ADC_STALE, FAULT_OVERCURRENT, FAULT_WATCHDOG
 from cosim.parts.rtl_model import (
-    FAULT_ADC_RANGE,
-    FAULT_ADC_STALE,
-    FAULT_OVERCURRENT,
-    FAULT_WATCHDOG,
     LATENCY_CLKS,
     WDT_RAMP_STEP,
     TensionLoopModel,
