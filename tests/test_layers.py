@@ -31,7 +31,7 @@ RANKS: dict[str, float] = {
     "cosim.config": 3,
     "cosim.results": 4,
     "cosim.engines": 5,
-    "cosim.engines.common": 5.0,
+    "cosim.engines.harness": 5.0,
     "cosim.engines.fwbridge": 5.1,
     "cosim.engines.reference": 5.2,
     "cosim.engines.cocotb": 5.3,
@@ -153,7 +153,7 @@ def test_every_module_has_a_role():
     # (_early, standard library only) sit at the top level
     top = {m for m in graph if rank_of(m)[0] == "cosim"}
     assert top == {"cosim", "cosim.__main__", "cosim._early"}
-    assert roles >= {"cosim.project", "cosim.parts", "cosim.engines.common", "cosim.cli"}
+    assert roles >= {"cosim.project", "cosim.parts", "cosim.engines.harness", "cosim.cli"}
 
 
 def test_imports_run_one_way():
@@ -184,12 +184,12 @@ def test_a_planted_relative_back_import_fails(copy):
 
 
 def test_a_planted_circle_fails(copy):
-    # reference imports common; common importing reference closes a circle (and runs uphill)
-    common = copy / "engines" / "common.py"
-    common.write_text(common.read_text() + "\nfrom . import reference\n")
+    # reference imports harness; harness importing reference closes a circle (and runs uphill)
+    harness = copy / "engines" / "harness.py"
+    harness.write_text(harness.read_text() + "\nfrom . import reference\n")
     graph = import_graph(copy)
-    assert circles(graph) == [["cosim.engines.common", "cosim.engines.reference"]]
-    assert "cosim.engines.common -> cosim.engines.reference" in back_imports(graph)
+    assert circles(graph) == [["cosim.engines.harness", "cosim.engines.reference"]]
+    assert "cosim.engines.harness -> cosim.engines.reference" in back_imports(graph)
 
 
 def test_a_circle_within_one_role_fails():

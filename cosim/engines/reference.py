@@ -35,8 +35,15 @@ from cosim.parts.interface import make_chain
 from cosim.parts.rtl_model import FloatTensionLoop
 from cosim.project.progress import Progress
 
-from .common import TC_LATENCY_SAMPLES, Record, open_plant, plant_rows, store_plant_rows
 from .fwbridge import KV_FRAC, loop_words
+from .harness import (
+    TC_LATENCY_SAMPLES,
+    CommandTension,
+    Record,
+    open_plant,
+    plant_rows,
+    store_plant_rows,
+)
 
 
 def make_float_loop(cfg: SimConfig) -> FloatTensionLoop:
@@ -79,7 +86,7 @@ def run_reference(
     loop=None,
 ) -> dict[str, np.ndarray]:
     """Run the float reference with the interface stage `interface`
-    (cosim.parts.interface.INTERFACES); return its record (the arrays of cosim.engines.common).
+    (cosim.parts.interface.INTERFACES); return its record (the arrays of cosim.engines.harness).
 
     A study of other front-ends (cosim.studies.sensing) may hand its own interface stage `chain`
     (the float form of cosim.parts.interface.Chain: start / drive / sense) and its own `loop` (an
@@ -108,11 +115,9 @@ def run_reference(
 
     tc_new = 0.0  # T_c computed at the last firmware tick, in force from the next sample
     tc = 0.0
-    tc_eff = 0.0  # T_c after the slew limit, as the loop uses it
     words = loop_words(cfg.controller, cfg.sample_rate_hz)
-    slew = words["slew"] / 256.0 if words["slew_en"] else 0.0  # the SLEW word, as programmed
-    # The floor TC_MIN as the firmware programs it (the compensator's, Q7.8).
-    floor_n = tension_word(cfg.compensator.tc_min_n) / 256.0
+    # T_c after the RTL's slew limit and floor (SLEW, TC_MIN as programmed), as the loop uses it.
+    tc_path = CommandTension.programmed(words, cfg.compensator.tc_min_n)
     y = plant.y
     chain = chain if chain is not None else make_chain(cfg, interface, fixed=False)
     t_in_meas = chain.start(y[T_IN_MEAS])  # the ADC sample in force (N)
@@ -127,11 +132,7 @@ def run_reference(
             tc = tc_new
             if kv > 0.0:
                 loop.uff_a = uff_new
-        if slew > 0.0:  # RTL's slew limit on T_c (CTRL.SLEW_EN, SLEW per sample)
-            tc_eff = min(max(tc, tc_eff - slew), tc_eff + slew)
-        else:
-            tc_eff = tc
-        tc_eff = max(tc_eff, floor_n)  # after the slew limit, as the RTL (TC_MIN)
+        tc_eff = tc_path.step(tc)
         u = loop.step(tc_eff, t_in_meas)
         if k % dec == 0:
             tc_new = comp.step(tension_word(t_ref[k]) / 256.0)

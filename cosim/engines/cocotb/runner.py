@@ -19,7 +19,7 @@ import tempfile
 import threading
 from pathlib import Path
 
-from cosim.engines.common import CLKS_PER_SAMPLE, ENGINES_DIR, rtl_sources
+from cosim.engines.harness import CLKS_PER_SAMPLE, ENGINES_DIR, rtl_sources
 from cosim.project import procs
 from cosim.project.paths import BUILD_DIR, HDL_DIR
 from cosim.project.toolchain import setup_env
@@ -149,7 +149,7 @@ def run_closed_loop(
     The simulator's own output goes to WORK/sim.log; the progress bar is drawn here from the
     progress file the testbench updates (a few times a second), so it stays one clean line.
     """
-    from cosim.engines.common import Record  # noqa: PLC0415
+    from cosim.engines.harness import Record  # noqa: PLC0415
     from cosim.project.progress import Progress  # noqa: PLC0415
 
     runner = build(simulator)

@@ -48,16 +48,16 @@ from cocotbext.axi import AxiLiteBus, AxiLiteMaster
 
 from cosim.config.run import SimConfig
 from cosim.config.scenarios import firmware_t_ref, get_scenario, sample_inputs
-from cosim.engines.common import (
+from cosim.engines.fwbridge import FirmwareBridge, loop_words
+from cosim.engines.harness import (
     TC_LATENCY_SAMPLES,
+    CommandTension,
     Record,
     open_plant,
     plant_rows,
     store_plant_rows,
 )
-from cosim.engines.fwbridge import FirmwareBridge, loop_words
 from cosim.parts import regmap, rtl_model
-from cosim.parts.firmware import tension_word
 from cosim.parts.interface import make_chain
 
 from . import fastio
@@ -229,10 +229,10 @@ async def closed_loop(dut):
     fmu_s = 0.0
     await_s = 0.0
     tc_set = 0.0  # T_c written and in force in the RTL, Q7.8 value in N
-    tc = 0.0  # T_c after the RTL's slew limit (TC_EFF), recorded in the trace
-    words = loop_words(cfg.controller, cfg.sample_rate_hz)
-    slew_n = words["slew"] / 256.0 if words["slew_en"] else 0.0
-    floor_n = tension_word(cfg.compensator.tc_min_n) / 256.0  # TC_MIN as fw_start writes it
+    # T_c after the RTL's slew limit and floor (TC_EFF), recorded in the trace.
+    tc_path = CommandTension.programmed(
+        loop_words(cfg.controller, cfg.sample_rate_hz), cfg.compensator.tc_min_n
+    )
     cpu_start = time.process_time()
     t_start = perf()
     for k in range(n):
@@ -242,13 +242,7 @@ async def closed_loop(dut):
             await_s += perf() - t_a
         if k >= TC_LATENCY_SAMPLES and (k - TC_LATENCY_SAMPLES) % dec == 0:
             tc_set = tc_new[0]
-        # T_c as the RTL uses it: the slew limit (CTRL.SLEW_EN) moves it by at most SLEW per
-        # sample towards the value written; exact in double (Q7.8 values).
-        if slew_n > 0.0:
-            tc = min(max(tc_set, tc - slew_n), tc + slew_n)
-        else:
-            tc = tc_set
-        tc = max(tc, floor_n)  # the floor after the slew limit (TC_MIN)
+        tc = tc_path.step(tc_set)  # T_c as the RTL uses it
         word = read_u()
         u_words[k] = word
         u_a = word / 4096.0

@@ -33,7 +33,7 @@ typedef struct {
     int64_t n;                  /* samples */
     int32_t decimation;         /* FPGA samples per firmware tick */
     int32_t clks_per_sample;    /* must equal the build's CLKS_PER_SAMPLE */
-    int32_t tc_latency_samples; /* cosim.engines.common.TC_LATENCY_SAMPLES */
+    int32_t tc_latency_samples; /* cosim.engines.harness.TC_LATENCY_SAMPLES */
     int32_t shadow_refresh_ticks;
     double slew_n;              /* SLEW in N per sample when CTRL.SLEW_EN, else 0 */
     double floor_n;             /* T_c floor (TC_MIN) in N after the slew limit; -inf: none */

@@ -18,7 +18,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from cosim.engines.common import CLKS_PER_SAMPLE, rtl_sources
+from cosim.engines.harness import CLKS_PER_SAMPLE, rtl_sources
 from cosim.parts.firmware import LIB_PATH as FW_LIB
 from cosim.project import procs
 from cosim.project.paths import BUILD_DIR, FIRMWARE_DIR, HDL_DIR

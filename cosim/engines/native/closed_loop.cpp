@@ -696,7 +696,7 @@ void Harness::run() {
     io.rst = 0;
     for (int i = 0; i < 2; ++i) clock();
     uint32_t ident = read_now(BOWDEN_REG_ID);
-    if ((ident >> 16) != 0x424F) fail("ID register reads 0x%08llx", ident);
+    if ((ident >> 16) != BOWDEN_ID_MAGIC) fail("ID register reads 0x%08llx", ident);
     // The cocotb harness times 1000 bare samples here (its RTL cost calibration); the same
     // clocks run here so that every counter of the RTL (SAMPLE_COUNT) reads the same.
     for (int i = 0; i < 1000 * cps; ++i) clock();
@@ -742,6 +742,7 @@ void Harness::run() {
             rtl += Clock::now() - t0;
         }
         if (k >= lat && (k - lat) % dec == 0) tc_set = tc_new_;
+        // T_c as the RTL takes it: cosim.engines.harness.CommandTension.step, compiled.
         if (s_.slew_n > 0.0)
             tc = pymin(pymax(tc_set, tc - s_.slew_n), tc + s_.slew_n);
         else

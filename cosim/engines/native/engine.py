@@ -20,16 +20,17 @@ import numpy as np
 from cosim.config import scenarios
 from cosim.config.run import SimConfig
 from cosim.config.scenarios import get_scenario, held_at, sample_inputs
-from cosim.engines.common import (
+from cosim.engines.fwbridge import FirmwareBridge, loop_words
+from cosim.engines.harness import (
     CLKS_PER_SAMPLE,
     TC_LATENCY_SAMPLES,
+    CommandTension,
     Record,
     open_plant,
     plant_rows,
     store_plant_rows,
 )
-from cosim.engines.fwbridge import FirmwareBridge, loop_words
-from cosim.parts.firmware import tension_word, tension_words
+from cosim.parts.firmware import tension_words
 from cosim.parts.interface import make_chain
 from cosim.parts.plant import FMU_LINK_FIELDS
 from cosim.project.progress import Progress
@@ -186,8 +187,9 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
         s.clks_per_sample = CLKS_PER_SAMPLE
         s.tc_latency_samples = TC_LATENCY_SAMPLES
         s.shadow_refresh_ticks = SHADOW_REFRESH_TICKS
-        s.slew_n = words["slew"] / 256.0 if words["slew_en"] else 0.0
-        s.floor_n = tension_word(cfg.compensator.tc_min_n) / 256.0  # TC_MIN as fw_start writes it
+        # The RTL's slew limit and floor on T_c, for the loop's port of CommandTension.step.
+        tc_path = CommandTension.programmed(words, cfg.compensator.tc_min_n)
+        s.slew_n, s.floor_n = tc_path.slew_n, tc_path.floor_n
         s.t_ref_word = _ptr(t_ref_word, c_int16)
         s.x_m, s.y_m, s.z_m = _ptr(xs, c_double), _ptr(ys, c_double), _ptr(zs, c_double)
         s.fw_host = ctypes.addressof(fw.fw._buf)

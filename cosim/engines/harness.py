@@ -1,6 +1,7 @@
-"""What every closed loop shares (the cocotb co-simulation, the native loop and the float
-reference): the RTL top both RTL engines build (cosim_top.v) and the sample timing they keep, the
-plant handle set up for a run, and the pre-allocated record of a run."""
+"""The harness every closed-loop engine runs its loop in (the cocotb co-simulation, the native
+loop and the float reference): the RTL top both RTL engines build (cosim_top.v), the sample
+timing they keep, T_c as the RTL takes it at each sample (CommandTension), the plant handle set up
+for a run, and the pre-allocated record of a run."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import numpy as np
 
 from cosim.config.run import SimConfig
 from cosim.parts import rtl_model
+from cosim.parts.firmware import tension_word
 from cosim.parts.plant import OUTPUT_NAMES
 from cosim.project.paths import HDL_DIR
 
@@ -28,6 +30,38 @@ CLKS_PER_SAMPLE = rtl_model.LATENCY_CLKS + 1
 # clocks later, so tick k+2 is the first to use it (checked in every co-simulation run through
 # the TC_EFF read-back, cosim/engines/cocotb/tb_closed_loop.py).
 TC_LATENCY_SAMPLES = 2
+
+
+@dataclass
+class CommandTension:
+    """T_c as the RTL's loop takes it at each sample (tension_loop.v; the integer form is
+    cosim.parts.rtl_model.TensionLoopModel.tick): the slew limit (CTRL.SLEW_EN) moves it by at
+    most SLEW per sample towards the T_c written, then the floor TC_MIN holds it up. In double on
+    Q7.8 values, so exact: every Python engine records the same T_c at every sample with it, and
+    the native loop (native/closed_loop.cpp) does the same with the same two numbers."""
+
+    slew_n: float  # SLEW, N per sample (Q7.8), as programmed; 0 with CTRL.SLEW_EN off
+    floor_n: float  # TC_MIN, N (Q7.8), as fw_start writes it
+    tc_n: float = 0.0  # T_c of the last sample (TC_EFF), 0 after reset
+
+    @classmethod
+    def programmed(cls, words: dict[str, int], tc_min_n: float) -> CommandTension:
+        """The path as the firmware programs it: `words` the loop's register words
+        (cosim.engines.fwbridge.loop_words), `tc_min_n` the compensator's floor in N."""
+        lsb = 1 << rtl_model.TENSION_FRAC
+        slew_n = words["slew"] / lsb if words["slew_en"] else 0.0
+        return cls(slew_n=slew_n, floor_n=tension_word(tc_min_n) / lsb)
+
+    def step(self, tc_set_n: float) -> float:
+        """T_c of this sample (N) when `tc_set_n` is the T_c written and in force."""
+        tc = self.tc_n
+        if self.slew_n > 0.0:
+            tc = min(max(tc_set_n, tc - self.slew_n), tc + self.slew_n)
+        else:
+            tc = tc_set_n
+        tc = max(tc, self.floor_n)  # the floor after the slew limit
+        self.tc_n = tc
+        return tc
 
 
 def rtl_sources() -> list[Path]:
