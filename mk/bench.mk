@@ -40,7 +40,7 @@ BENCH_UNIT := $(BENCH_HOST)/bench_unit_tests
 BENCH_UNIT_SAN := $(BENCH_HOST)/bench_unit_tests_san
 BENCH_FUZZ := $(BENCH_HOST)/proto_fuzz_san
 BENCH_LIBFUZZER := $(BENCH_HOST)/proto_libfuzzer
-BENCH_CG := $(BENCH_HOST)/bench_proto
+PERF_PROTO := $(BENCH_HOST)/perf_proto
 BENCH_M4_LIB := $(BENCH_M4)/libbowden_bench.a
 BENCH_M4_OBJ := $(patsubst firmware/src/%.c,$(BENCH_M4)/obj/%.o,$(BENCH_OWN_SRC))
 PROTO_SRC := firmware/proto/bowden_proto.json firmware/proto/gen_proto.py
@@ -81,15 +81,15 @@ $(BENCH_FUZZ): firmware/tests/bench/fuzz_proto.c firmware/tests/bench/fuzz_main.
 	  firmware/host/flash_ram.c firmware/host/dev_host.c firmware/tests/bench/fuzz_proto.c \
 	  firmware/tests/bench/fuzz_main.c -o $@
 
-$(BENCH_CG): firmware/perf/bench_proto.c $(BENCH_TARGET_SRC) $(BENCH_HDR)
+$(PERF_PROTO): firmware/perf/perf_proto.c $(BENCH_TARGET_SRC) $(BENCH_HDR)
 	@mkdir -p $(dir $@)
-	$(BENCH_CC) $(BENCH_WARN) -O2 -g $(BENCH_INC) firmware/perf/bench_proto.c $(BENCH_TARGET_SRC) \
+	$(BENCH_CC) $(BENCH_WARN) -O2 -g $(BENCH_INC) firmware/perf/perf_proto.c $(BENCH_TARGET_SRC) \
 	  -o $@
 
 bench-lint: proto-check
 	@mkdir -p $(BENCH_M4)/lint
 	@set -e; for f in $(BENCH_OWN_SRC) $(BENCH_HOST_SRC) $(BENCH_TEST_SRC) \
-	  firmware/tests/bench/fuzz_proto.c firmware/tests/bench/fuzz_main.c firmware/perf/bench_proto.c; do \
+	  firmware/tests/bench/fuzz_proto.c firmware/tests/bench/fuzz_main.c firmware/perf/perf_proto.c; do \
 	  $(BENCH_CC) $(BENCH_WARN) $(BENCH_LINT_EXTRA) $(BENCH_INC) -fsyntax-only $$f; \
 	done; \
 	for f in $(BENCH_OWN_SRC) firmware/tools/bench_sizes.c; do \
@@ -132,5 +132,5 @@ fuzz-proto-libfuzzer:
 	  echo "fuzz-proto-libfuzzer: clang not found: the libFuzzer harness (firmware/tests/bench/fuzz_proto.c) was NOT run; make fuzz-proto runs the gcc random/mutation fuzzer"; \
 	fi
 
-perf-proto: bench-target $(BENCH_CG) $(BENCH_SO) fmu
-	$(PY) -m cosim.perf.rig --cg $(BENCH_CG) --size $(BENCH_M4)/size.txt
+perf-proto: bench-target $(PERF_PROTO) $(BENCH_SO) fmu
+	$(PY) -m cosim.perf.rig --cg $(PERF_PROTO) --size $(BENCH_M4)/size.txt

@@ -16,7 +16,7 @@ FW_SO := $(FW_HOST_OUT)/libbowden_fw.so
 FW_UNIT := $(FW_HOST_OUT)/fw_unit_tests
 FW_UNIT_SAN := $(FW_HOST_OUT)/fw_unit_tests_san
 FW_SAN := -fsanitize=undefined,address -fno-sanitize-recover=all
-FW_BENCH := $(FW_HOST_OUT)/bench_comp
+FW_PERF := $(FW_HOST_OUT)/perf_comp
 FW_M4_LIB := $(FW_M4_OUT)/libbowden_fw.a
 FW_M4_SIZE := $(FW_M4_OUT)/size.txt
 
@@ -62,9 +62,9 @@ $(FW_UNIT_SAN): $(FW_TARGET_SRC) $(FW_HOST_SRC) $(FW_TEST_SRC) $(FW_HDR)
 	$(FW_CC) $(FW_WARN) -O1 -g $(FW_SAN) $(FW_INC) $(FW_TARGET_SRC) $(FW_HOST_SRC) $(FW_TEST_SRC) \
 	  -lm -o $@
 
-$(FW_BENCH): firmware/perf/bench_comp.c $(FW_TARGET_SRC) $(FW_HDR)
+$(FW_PERF): firmware/perf/perf_comp.c $(FW_TARGET_SRC) $(FW_HDR)
 	@mkdir -p $(dir $@)
-	$(FW_CC) $(FW_WARN) -O2 -g $(FW_INC) firmware/perf/bench_comp.c $(FW_TARGET_SRC) -o $@
+	$(FW_CC) $(FW_WARN) -O2 -g $(FW_INC) firmware/perf/perf_comp.c $(FW_TARGET_SRC) -o $@
 
 firmware-lint: $(VENV_STAMP)
 	@mkdir -p $(FW_M4_OUT)/lint
@@ -92,5 +92,5 @@ firmware-target: $(FW_M4_LIB) $(FW_M4_OUT)/target_sizes.o
 	$(PY) -m firmware.tools.elf_report $(FW_M4_LIB) --sizes $(FW_M4_OUT)/target_sizes.o \
 	  --out $(FW_M4_SIZE)
 
-perf-firmware: $(FW_BENCH) $(VENV_STAMP)
-	$(PY) -m firmware.tools.bench_callgrind $(FW_BENCH)
+perf-firmware: $(FW_PERF) $(VENV_STAMP)
+	$(PY) -m firmware.tools.bench_callgrind $(FW_PERF)

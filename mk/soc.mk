@@ -115,7 +115,7 @@ lint-soc: $(VENV_STAMP)
 #                   UP5K boots from its flash) and build/bitstream/ecp5-25f/bowden.bit (the image
 #                   in it), summary.json each (LUTs, logic cells, FFs, DSPs, RAMs, Fmax); fails
 #                   when a board does not fit or misses timing; cached by input hash. Part of
-#                   make bench (perf): both boards take 4 to 16 minutes from nothing (most of it
+#                   make perf: both boards take 4 to 16 minutes from nothing (most of it
 #                   the UP5K's router), beyond make test's budget
 
 PERF_TARGETS += bitstream
@@ -131,9 +131,9 @@ bitstream: firmware-soc
 soc-cpus: $(VENV_STAMP)
 	$(PY) -m hdl.soc.cpu_candidates
 
-# --- benchmark (part of make bench) ------------------------------------------------------------
+# --- benchmark (part of make perf) -------------------------------------------------------------
 #
-#   make bench-soc  the SoC's boot and the firmware's cycles per tick (worst, median) against the
+#   make perf-soc-tick  the SoC's boot and the firmware's cycles per tick (worst, median) against the
 #                   tick's budget, from the Verilator simulation, and its speed (simulated ns per
 #                   wall second, cocotb's summary)
 #   make perf-soc   the full-system co-simulation (`bowden emulate --target soc`, the plant FMU in
@@ -148,13 +148,13 @@ soc-cpus: $(VENV_STAMP)
 #                   test_soc_gate.py: boot from the flash and HELLO, 100 ms of the loop); the
 #                   netlist's C++ build (some 5 min cold) is beyond make test's budget
 
-PERF_TARGETS += bench-soc perf-soc soc-profile soc-gate
-.PHONY: bench-soc perf-soc soc-profile soc-gate
-bench-soc: firmware-soc
+PERF_TARGETS += perf-soc-tick perf-soc soc-profile soc-gate
+.PHONY: perf-soc-tick perf-soc soc-profile soc-gate
+perf-soc-tick: firmware-soc
 	@mkdir -p build/soc
 	@$(PY) -m pytest tests/soc/test_soc_boot.py -q -n 0 -s -p no:cacheprovider \
-	  > build/soc/bench-soc.log 2>&1 || { cat build/soc/bench-soc.log; exit 1; }
-	@grep -E "boot:|cycles per tick|full receive buffer|TESTS=" build/soc/bench-soc.log
+	  > build/soc/perf-soc-tick.log 2>&1 || { cat build/soc/perf-soc-tick.log; exit 1; }
+	@grep -E "boot:|cycles per tick|full receive buffer|TESTS=" build/soc/perf-soc-tick.log
 
 perf-soc: firmware-soc fmu
 	$(PY) -m cosim.perf.soc

@@ -1,4 +1,4 @@
-"""Closed-loop speed benchmark (`make perf-cosim`, part of `make bench`).
+"""Closed-loop speed benchmark (`make perf-cosim`, part of `make perf`).
 
 Runs the 30 s fig14 scenario (compensator paper, loop routing) through the RTL on Verilator at
 the default 10 kHz loop with the firmware and the FMU, and prints simulated seconds per wall

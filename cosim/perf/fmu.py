@@ -1,4 +1,4 @@
-"""Benchmark of the plant FMU (`make bench`): wall time per simulated second at a 100 us
+"""Benchmark of the plant FMU (`make perf-fmu`): wall time per simulated second at a 100 us
 communication step, and the factor faster than real time. Prints figures; never fails on a slow
 machine (the target, 20x real time through fmpy, is reported, not asserted).
 

@@ -1,7 +1,7 @@
-"""Figures of the bench protocol (`make perf-proto`, part of `make bench`):
+"""Figures of the bench protocol (`make perf-proto`, part of `make perf`):
 
 - the Cortex-M4 code size of the protocol and device code (build/bench/cortex-m4/size.txt);
-- instructions per frame on the host under callgrind (firmware/perf/bench_proto.c): decoding a
+- instructions per frame on the host under callgrind (firmware/perf/perf_proto.c): decoding a
   telemetry frame byte by byte, and packing + encoding one;
 - the host decoders' frames per second (Python: cosim.bench.protocol.FrameDecoder; C: the
   firmware's proto_rx_byte, natively);
@@ -9,7 +9,7 @@
   in its own process, recorded by this one): samples, drops, the device's overflow count, and
   the gaps between frame arrivals (p50, p99, max). Target: zero drops.
 
-    python -m cosim.perf.rig [--cg BENCH_PROTO] [--size SIZE_TXT] [--seconds 60]
+    python -m cosim.perf.rig [--cg PERF_PROTO] [--size SIZE_TXT] [--seconds 60]
 """
 
 from __future__ import annotations
@@ -30,13 +30,13 @@ from cosim.bench.protocol import Frame, FrameDecoder, encode_frame, pack
 
 
 def callgrind_per_frame(exe: Path, mode: str, frames: int = 20000) -> float | None:
-    """Instructions inside bench_run per frame, or None without valgrind."""
+    """Instructions inside perf_run per frame, or None without valgrind."""
     if shutil.which("valgrind") is None:
         return None
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "cg.out"
         subprocess.run(
-            ["valgrind", "--tool=callgrind", "--toggle-collect=bench_run",
+            ["valgrind", "--tool=callgrind", "--toggle-collect=perf_run",
              f"--callgrind-out-file={out}", str(exe), mode, str(frames)],
             check=True, capture_output=True, text=True,
         )  # fmt: skip
@@ -128,7 +128,7 @@ def pty_run(seconds: float) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cg", type=Path, default=None, help="build/bench/host/bench_proto")
+    ap.add_argument("--cg", type=Path, default=None, help="build/bench/host/perf_proto")
     ap.add_argument("--size", type=Path, default=None, help="build/bench/cortex-m4/size.txt")
     ap.add_argument("--seconds", type=float, default=60.0)
     args = ap.parse_args(argv)

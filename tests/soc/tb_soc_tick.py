@@ -12,7 +12,7 @@ and so must the tick counted from the timer's edge (the firmware serves a reques
 time the tick leaves: a request never delays a tick). A second run is fed by the host with full
 STREAM frames, the longest frame a run serves, and a third gets eight of them back to back (a
 full receive buffer): a period's work and the tick from the edge keep 2x there too. Figures are
-printed (make bench-soc). Run by test_soc_boot.py in its simulation (one build).
+printed (make perf-soc-tick). Run by test_soc_boot.py in its simulation (one build).
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@ the one line a board that does not fit gets), from logs written here in nextpnr'
 flash image staged beside the UP5K's bitstream; and, on the real design, the ECP5's bitstream
 built with the firmware inside (about a minute) and the UP5K's synthesis packed to check it still
 fits. The UP5K's place and route (some three minutes of routing a 93 % full device) is left to
-make bitstream, part of make bench."""
+make bitstream, part of make perf."""
 
 from __future__ import annotations
 

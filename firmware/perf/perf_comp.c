@@ -1,7 +1,7 @@
 /*
- * bench_comp.c - host driver for the instruction count of one compensator step (callgrind).
+ * perf_comp.c - host driver for the instruction count of one compensator step (callgrind).
  *
- *   valgrind --tool=callgrind --toggle-collect=comp_step_q7_8 bench_comp SCENARIO STEPS
+ *   valgrind --tool=callgrind --toggle-collect=comp_step_q7_8 perf_comp SCENARIO STEPS
  *
  * counts only the instructions executed inside comp_step_q7_8 (including its return), so the
  * loop and the input generation here are excluded; dividing by STEPS gives instructions per step.

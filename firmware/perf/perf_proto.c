@@ -1,8 +1,8 @@
 /*
- * bench_proto.c - driver for the instruction counts of the bench protocol under callgrind
- * (cosim/perf/rig.py collects inside bench_run only):
- *   bench_proto decode N   decode N telemetry frames, byte by byte (proto_rx_byte)
- *   bench_proto encode N   pack and encode N telemetry frames (proto_telemetry_pack, proto_encode)
+ * perf_proto.c - driver for the instruction counts of the bench protocol under callgrind
+ * (cosim/perf/rig.py collects inside perf_run only):
+ *   perf_proto decode N   decode N telemetry frames, byte by byte (proto_rx_byte)
+ *   perf_proto encode N   pack and encode N telemetry frames (proto_telemetry_pack, proto_encode)
  * Instructions per frame = callgrind's total / N.
  */
 #include <stdio.h>
@@ -29,8 +29,8 @@ static void make_frame(uint32_t i, proto_frame_t *f)
 }
 
 /* The measured work: N frames decoded or encoded. noinline so that callgrind can toggle on it. */
-__attribute__((noinline)) void bench_run(int decode, uint32_t n);
-__attribute__((noinline)) void bench_run(int decode, uint32_t n)
+__attribute__((noinline)) void perf_run(int decode, uint32_t n);
+__attribute__((noinline)) void perf_run(int decode, uint32_t n)
 {
     if (decode) {
         proto_rx_t rx;
@@ -56,7 +56,7 @@ __attribute__((noinline)) void bench_run(int decode, uint32_t n)
 int main(int argc, char **argv)
 {
     if (argc != 3 || (strcmp(argv[1], "decode") != 0 && strcmp(argv[1], "encode") != 0)) {
-        fprintf(stderr, "usage: bench_proto decode|encode N\n");
+        fprintf(stderr, "usage: perf_proto decode|encode N\n");
         return 2;
     }
     uint32_t n = (uint32_t)strtoul(argv[2], NULL, 10);
@@ -65,7 +65,7 @@ int main(int argc, char **argv)
         make_frame(i, &f);
         wire_len[i] = proto_encode(&f, wire[i], PROTO_MAX_WIRE);
     }
-    bench_run(strcmp(argv[1], "decode") == 0, n);
+    perf_run(strcmp(argv[1], "decode") == 0, n);
     printf("%s %u frames, sink %u\n", argv[1], n, sink);
     return 0;
 }
