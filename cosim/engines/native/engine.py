@@ -222,7 +222,7 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
         s.out_tc_n = _ptr(rec["T_c_N"], c_double)
         s.out_current_a = _ptr(rec["current_A"], c_double)
         s.out_u_word = _ptr(out_u_word, c_int32)
-        # The far-end cell for the online friction estimate (cosim/native/bn_api.h).
+        # The far-end cell for the online friction estimate (cosim/engines/native/bn_api.h).
         est_on = bool(cfg.compensator.est_enable) and run_spec["compensator"] != "none"
         out_est = np.zeros(n, dtype=np.int32)
         s.est_feed = 1 if est_on else 0
