@@ -20,12 +20,12 @@ BENCH_M4 := $(BENCH_OUT)/cortex-m4
 BENCH_TARGET_SRC := $(filter-out firmware/src/comp_f64.c firmware/src/fric_est_f64.c,$(sort $(wildcard firmware/src/*.c)))
 BENCH_OWN_SRC := $(addprefix firmware/src/,crc32c.c proto.c proto_can.c proto_msgs.c settings.c params.c \
   params_table.c flash.c dev.c)
-BENCH_HOST_SRC := firmware/host/flash_ram.c firmware/host/dev_host.c cosim/bench/native/emu.c
-BENCH_HDR := $(sort $(wildcard firmware/include/*.h firmware/host/*.h cosim/bench/native/*.h \
+BENCH_HOST_SRC := firmware/host/flash_ram.c firmware/host/dev_host.c cosim/bench/emulate/native/emu.c
+BENCH_HDR := $(sort $(wildcard firmware/include/*.h firmware/host/*.h cosim/bench/emulate/native/*.h \
   firmware/tests/*.h firmware/tests/bench/*.h))
 BENCH_TEST_SRC := $(sort $(wildcard firmware/tests/bench/test_*.c)) firmware/tests/bench/bench_main.c \
   firmware/tests/unit_main.c
-BENCH_INC := -Ifirmware/include -Ifirmware/host -Icosim/bench/native -Ifirmware/tests \
+BENCH_INC := -Ifirmware/include -Ifirmware/host -Icosim/bench/emulate/native -Ifirmware/tests \
   -Ifirmware/tests/bench
 # Build id: the first 32 bits of SHA-256 over the sources (HELLO reports it).
 BENCH_BUILD_ID := 0x$(shell cat $(BENCH_TARGET_SRC) $(BENCH_HDR) 2>/dev/null | sha256sum | cut -c1-8)

@@ -4,8 +4,13 @@ Every module of the package is read as source (ast, nothing is imported or run) 
 it makes, at the top or inside a function, is an edge of the module graph. Two rules:
 
 - rank: a module may import only from a role ranked below its own, or from its own role (RANKS,
-  longest prefix wins; within engines/ the shared code ranks below the engines built on it);
+  longest prefix wins; within engines/ the shared code ranks below the engines built on it),
+  but for the imports UPHILL_INSIDE_A_FUNCTION names, which run only when a function is called;
 - no circle: the module graph has no cycle, whatever the ranks say.
+
+The bench's link (cosim.bench.link: the protocol, the links, the Python API) is also imported in
+a fresh interpreter, which must not load the simulation (SIMULATION): a script that only talks to
+a board starts without it.
 
 `__main__` modules are entry points (`python -m cosim.X`), the top of the graph: they may import
 anything and nothing imports them. The checks run on a copy with a planted back-import and a
@@ -16,6 +21,8 @@ from __future__ import annotations
 
 import ast
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -30,6 +37,10 @@ RANKS: dict[str, float] = {
     "cosim.parts": 2,
     "cosim.config": 3,
     "cosim.results": 4,
+    # the bench's link to a board (protocol, links, recording, the Python API): below the
+    # engines, which it never needs, and the live view that shows its telemetry beside it
+    "cosim.bench.link": 4.5,
+    "cosim.bench.live": 4.6,
     "cosim.engines": 5,
     "cosim.engines.harness": 5.0,
     "cosim.engines.fwbridge": 5.1,
@@ -37,15 +48,27 @@ RANKS: dict[str, float] = {
     "cosim.engines.cocotb": 5.3,
     "cosim.engines.native": 5.3,
     "cosim.engines.experiment": 5.4,
+    # the emulated controller: the loop's model, the plant, the simulated board (built with the
+    # native engine's Verilator build)
+    "cosim.bench.emulate": 5.5,
     "cosim.audit": 6,
+    # the bench package itself: its __init__, and `api`, the documented name of link.api
     "cosim.bench": 6,
-    # `bowden bench calibrate` runs the bench and judges with the audit: above both (nothing in
-    # cosim.bench imports it)
-    "cosim.bench.calibrate": 6.5,
+    # procedures at the rig: `bench calibrate` runs the bench and judges with the audit
+    "cosim.bench.rig": 6.5,
     "cosim.studies": 7,
     "cosim.perf": 8,
     "cosim.cli": 9,
 }
+
+
+# Imports that run uphill, allowed only inside a function (never when the importer is imported):
+# `Bench(emulate=True)`, the Python API's emulated bench, starts the emulator; importing the
+# link stays light. Importer -> the role it may reach.
+UPHILL_INSIDE_A_FUNCTION = {"cosim.bench.link.api": "cosim.bench.emulate"}
+
+# What importing the link must not load.
+SIMULATION = ("cosim.audit", "cosim.engines", "numba", "fmpy")
 
 
 def module_name(root: Path, path: Path) -> str:
@@ -55,14 +78,29 @@ def module_name(root: Path, path: Path) -> str:
     return ".".join(parts)
 
 
-def import_graph(root: Path) -> dict[str, set[str]]:
-    """Module -> the cosim modules (or packages) it imports, from the sources under `root`."""
+def _outside_functions(tree: ast.AST):
+    """The nodes of `tree` that run when the module is imported (not those of a function)."""
+    stack = [tree]
+    while stack:
+        node = stack.pop()
+        yield node
+        stack.extend(
+            child
+            for child in ast.iter_child_nodes(node)
+            if not isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda)
+        )
+
+
+def import_graph(root: Path, *, top_level_only: bool = False) -> dict[str, set[str]]:
+    """Module -> the cosim modules (or packages) it imports, from the sources under `root`; with
+    `top_level_only`, only the imports that run when the module is imported."""
     files = {module_name(root, p): p for p in root.rglob("*.py")}
     graph: dict[str, set[str]] = {}
     for name, path in files.items():
         package = name if path.name == "__init__.py" else name.rpartition(".")[0]
         edges: set[str] = set()
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        tree = ast.parse(path.read_text(), str(path))
+        for node in _outside_functions(tree) if top_level_only else ast.walk(tree):
             if isinstance(node, ast.Import):
                 targets = [a.name for a in node.names]
             elif isinstance(node, ast.ImportFrom):
@@ -90,8 +128,13 @@ def rank_of(module: str) -> tuple[str, float]:
     return best, RANKS[best]
 
 
-def back_imports(graph: dict[str, set[str]]) -> list[str]:
-    """Every import that runs against the ranks, as 'importer -> imported'."""
+def back_imports(
+    graph: dict[str, set[str]], top_level: dict[str, set[str]] | None = None
+) -> list[str]:
+    """Every import that runs against the ranks, as 'importer -> imported'. `top_level`: the
+    imports run at import time (import_graph's top_level_only), which UPHILL_INSIDE_A_FUNCTION
+    does not cover; without it every import counts as one."""
+    top_level = graph if top_level is None else top_level
     found = []
     for importer, targets in sorted(graph.items()):
         if importer.endswith("__main__"):
@@ -104,6 +147,10 @@ def back_imports(graph: dict[str, set[str]]) -> list[str]:
             target_role, target_rank = rank_of(target)
             same_role = target_role == role or target.startswith(role + ".")
             if target_rank > rank or (target_rank == rank and not same_role):
+                reach = UPHILL_INSIDE_A_FUNCTION.get(importer)
+                inside_a_function = target not in top_level.get(importer, ())
+                if reach and inside_a_function and (target + ".").startswith(reach + "."):
+                    continue
                 found.append(f"{importer} -> {target}")
     return found
 
@@ -156,8 +203,37 @@ def test_every_module_has_a_role():
     assert roles >= {"cosim.project", "cosim.parts", "cosim.engines.harness", "cosim.cli"}
 
 
+def uphill(root: Path) -> list[str]:
+    """back_imports of the package under `root`, with its import-time imports known."""
+    return back_imports(import_graph(root), import_graph(root, top_level_only=True))
+
+
 def test_imports_run_one_way():
-    assert back_imports(import_graph(COSIM_DIR)) == []
+    graph = import_graph(COSIM_DIR)
+    assert uphill(COSIM_DIR) == []
+    # the allowance is used (drop it when the API no longer starts the emulator)
+    assert any(t.startswith("cosim.bench.emulate.") for t in graph["cosim.bench.link.api"])
+
+
+def simulation_loaded(root: Path) -> list[str]:
+    """The SIMULATION modules in sys.modules of a fresh interpreter that imported every module
+    of the link under `root` and `cosim.bench.api`."""
+    graph = import_graph(root)
+    modules = sorted(m for m in graph if m.startswith("cosim.bench.link")) + ["cosim.bench.api"]
+    code = (
+        "import importlib, sys\n"
+        f"for m in {modules!r}:\n    importlib.import_module(m)\n"
+        f"print(' '.join(sorted(m for m in sys.modules if m.startswith({SIMULATION!r}))))"
+    )
+    # run from the folder that holds `root`, so that its copy of the package is the one imported
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=root.parent, capture_output=True, text=True, check=True
+    )
+    return out.stdout.split()
+
+
+def test_the_link_loads_no_simulation():
+    assert simulation_loaded(COSIM_DIR) == []
 
 
 def test_no_circle_of_imports():
@@ -174,13 +250,34 @@ def copy(tmp_path):
 def test_a_planted_back_import_fails(copy):
     geometry = copy / "parts" / "geometry.py"
     geometry.write_text(geometry.read_text() + "\n\ndef _late():\n    from cosim.cli import main\n")
-    assert back_imports(import_graph(copy)) == ["cosim.parts.geometry -> cosim.cli"]
+    assert uphill(copy) == ["cosim.parts.geometry -> cosim.cli"]
 
 
 def test_a_planted_relative_back_import_fails(copy):
     trace = copy / "results" / "trace.py"
     trace.write_text(trace.read_text() + "\nfrom ..engines import experiment\n")
-    assert back_imports(import_graph(copy)) == ["cosim.results.trace -> cosim.engines.experiment"]
+    assert uphill(copy) == ["cosim.results.trace -> cosim.engines.experiment"]
+
+
+def test_a_planted_simulation_import_in_the_link_fails(copy):
+    recorder = copy / "bench" / "link" / "recorder.py"
+    recorder.write_text(recorder.read_text() + "\nfrom cosim import audit\n")
+    assert "cosim.audit" in simulation_loaded(copy)
+    assert uphill(copy) == ["cosim.bench.link.recorder -> cosim.audit"]
+
+
+def test_the_api_imports_the_emulator_only_inside_a_function(copy):
+    api = copy / "bench" / "link" / "api.py"
+    api.write_text(api.read_text() + "\nfrom cosim.bench.emulate import emulator\n")
+    assert uphill(copy) == ["cosim.bench.link.api -> cosim.bench.emulate.emulator"]
+
+
+def test_only_the_api_may_import_the_emulator_inside_a_function(copy):
+    client = copy / "bench" / "link" / "client.py"
+    client.write_text(
+        client.read_text() + "\n\ndef _late():\n    from cosim.bench.emulate import emulator\n"
+    )
+    assert uphill(copy) == ["cosim.bench.link.client -> cosim.bench.emulate.emulator"]
 
 
 def test_a_planted_circle_fails(copy):

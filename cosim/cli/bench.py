@@ -25,9 +25,10 @@ import threading
 import time
 from pathlib import Path
 
-from cosim.bench import messages as msgs
-from cosim.bench.api import Bench
-from cosim.bench.client import (
+from cosim.bench.emulate.host_device import ChainConfig
+from cosim.bench.link import messages as msgs
+from cosim.bench.link.api import Bench
+from cosim.bench.link.client import (
     BenchClient,
     BenchError,
     BenchUsageError,
@@ -35,11 +36,10 @@ from cosim.bench.client import (
     fault_names,
     status_names,
 )
-from cosim.bench.config import backup_doc, write_all, write_atomic
-from cosim.bench.device import ChainConfig
-from cosim.bench.paramfiles import ParamFileError, restore_plan
-from cosim.bench.protocol import ProtocolError, format_value, param, word_from_value
-from cosim.bench.recorder import WAVE_KINDS, stderr_progress
+from cosim.bench.link.paramfiles import ParamFileError, restore_plan
+from cosim.bench.link.paramset import backup_doc, write_all, write_atomic
+from cosim.bench.link.protocol import ProtocolError, format_value, param, word_from_value
+from cosim.bench.link.recorder import WAVE_KINDS, stderr_progress
 from cosim.parts import regmap
 from cosim.parts.geometry import in_workspace
 from cosim.results import trace as trace_mod
@@ -381,8 +381,8 @@ def _check_new_file(path: Path, force: bool, what: str) -> None:
 
 
 def _write_new_file(path: Path, text: str, force: bool, what: str) -> None:
-    """Write `text` to `path` atomically (cosim.bench.config.write_atomic): only a regular file is
-    replaced, and only with `force`."""
+    """Write `text` to `path` atomically (cosim.bench.link.paramset.write_atomic): only a regular
+    file is replaced, and only with `force`."""
     _check_new_file(path, force, what)
     write_atomic(path, text)
 
@@ -765,14 +765,14 @@ def _flash_problem(text: str, target: str) -> str | None:
     """--flash checked before anything starts: a flash image of the target's size that can be
     read, or no file yet, in a folder that can be written (the emulator saves the flash there
     while it runs; a save that failed then would stop it). None when it will do."""
-    from cosim.bench.soc.harness import FLASH_BYTES, check_flash_file  # noqa: PLC0415
+    from cosim.bench.emulate.soc.harness import FLASH_BYTES, check_flash_file  # noqa: PLC0415
 
     if not text.strip():
         return f"--flash {text!r}: expected a file name (a flash image, or none yet)"
     if target == "soc":
         size_bytes = FLASH_BYTES
     else:
-        from cosim.bench.device import load_library  # noqa: PLC0415
+        from cosim.bench.emulate.host_device import load_library  # noqa: PLC0415
 
         size_bytes = 4 * load_library().dev_host_flash_n_words()
     try:
@@ -806,10 +806,10 @@ HOST_EMULATOR_DEFAULTS = {"baud": 921_600, "tcp_port": 0, "interface": "ideal", 
 
 
 def emulate_main(args: argparse.Namespace) -> int:
-    from cosim.bench.emulator import Emulator, StopSignals  # noqa: PLC0415
+    from cosim.bench.emulate.emulator import Emulator, StopSignals  # noqa: PLC0415
 
     if args.target == "soc":
-        from cosim.bench.soc.cli import refused_option  # noqa: PLC0415
+        from cosim.bench.emulate.soc.cli import refused_option  # noqa: PLC0415
 
         flag = refused_option(args)
         if flag is not None:
@@ -853,7 +853,7 @@ def emulate_main(args: argparse.Namespace) -> int:
         print(f"bowden emulate: {exc}", file=sys.stderr)
         return 2
     if args.target == "soc":
-        from cosim.bench.soc.cli import emulate_soc  # noqa: PLC0415
+        from cosim.bench.emulate.soc.cli import emulate_soc  # noqa: PLC0415
 
         return emulate_soc(args, plant)
     engine = args.engine

@@ -11,11 +11,13 @@ import sys
 import tempfile
 from pathlib import Path
 
-from cosim.bench import diff, discover, live, paramfiles
-from cosim.bench import messages as msgs
-from cosim.bench.client import BenchError
-from cosim.bench.protocol import ProtocolError, param
-from cosim.bench.recorder import RunResult, record_run, run_ticks
+from cosim.bench.link import discover, paramfiles
+from cosim.bench.link import messages as msgs
+from cosim.bench.link.client import BenchError
+from cosim.bench.link.protocol import ProtocolError, param
+from cosim.bench.link.recorder import RunResult, record_run, run_ticks
+from cosim.bench.live import view as live
+from cosim.bench.rig import diff
 
 
 def add_parsers(sub) -> None:
@@ -201,8 +203,8 @@ def _live_place_problem(args) -> str | None:
 
 
 def _precheck_calibrate(args) -> int | None:
-    from cosim.bench.calibrate import check_out_dir  # noqa: PLC0415
-    from cosim.bench.client import BenchUsageError  # noqa: PLC0415
+    from cosim.bench.link.client import BenchUsageError  # noqa: PLC0415
+    from cosim.bench.rig.calibrate import check_out_dir  # noqa: PLC0415
 
     if args.persist and not args.apply:
         print(
@@ -229,11 +231,11 @@ def restore_command(args) -> str | None:
 
 
 def cmd_calibrate(client, args, info, stop_and_confirm) -> int:
-    """`bowden bench calibrate` (cosim.bench.calibrate): every run ends with `stop_and_confirm`
+    """`bowden bench calibrate` (cosim.bench.rig.calibrate): every run ends with `stop_and_confirm`
     (the device stopped, its output disabled, confirmed by the device)."""
-    from cosim.bench import calibrate  # noqa: PLC0415
-    from cosim.bench.client import BenchError  # noqa: PLC0415
-    from cosim.bench.recorder import stderr_progress  # noqa: PLC0415
+    from cosim.bench.link.client import BenchError  # noqa: PLC0415
+    from cosim.bench.link.recorder import stderr_progress  # noqa: PLC0415
+    from cosim.bench.rig import calibrate  # noqa: PLC0415
 
     def after_run() -> None:
         with args.signals.hold():
@@ -293,7 +295,7 @@ def cmd_list(args, chain=None) -> int:
     if args.can:  # one wait for every node at once: the whole reply timeout
         emulator = None
         if args.emulate:
-            from cosim.bench.emulator import Emulator  # noqa: PLC0415
+            from cosim.bench.emulate.emulator import Emulator  # noqa: PLC0415
 
             emulator = Emulator(pty=False, tcp_port=None, can=args.can, chain=chain).start()
         try:

@@ -33,9 +33,9 @@ LONG = ("offset 0.5 N + tension slope 1.2e-3/N", {"sensor_offset": 0.5, "mu_tens
 
 def emulator_record(folder: Path, seconds: float) -> Path:
     """A `bowden bench run sine` recording of the emulator (stepped in process, no drops)."""
-    from cosim.bench.client import BenchClient  # noqa: PLC0415
-    from cosim.bench.emulator import SteppedLink  # noqa: PLC0415
-    from cosim.bench.recorder import record_run  # noqa: PLC0415
+    from cosim.bench.emulate.emulator import SteppedLink  # noqa: PLC0415
+    from cosim.bench.link.client import BenchClient  # noqa: PLC0415
+    from cosim.bench.link.recorder import record_run  # noqa: PLC0415
 
     link = SteppedLink()
     try:

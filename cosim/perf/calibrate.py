@@ -1,13 +1,13 @@
 """Does `bowden bench calibrate --apply` bring an off plant back to the nominal plant's tracking?
 (`make perf-calibrate`, part of `make perf`)
 
-On the emulated controller (the stepped emulator: the recording `bowden emulate --plant mu=X`
-gives, sample for sample, without the wall clock) with the compensator at its default mu 0.075,
-for each compensator mode given: the verification waveform's tracking error (cosim.bench.calibrate
-VERIFY, measured on T_out from SETTLE_S) on the nominal plant (mu 0.075), then `calibrate
---apply` on plants with mu 0.06 and 0.09, its verification error before and after, the mu it
-wrote, and the ratio after / nominal (target <= 1.3). The last column is the floor: the same
-waveform with the compensator set to the plant's true mu, what a perfect calibration gives.
+On the emulated controller (the stepped emulator: the recording `bowden emulate --plant mu=X` gives,
+sample for sample, without the wall clock) with the compensator at its default mu 0.075, for each
+compensator mode given: the verification waveform's tracking error (cosim.bench.rig.calibrate
+VERIFY, measured on T_out from SETTLE_S) on the nominal plant (mu 0.075), then `calibrate --apply`
+on plants with mu 0.06 and 0.09, its verification error before and after, the mu it wrote, and the
+ratio after / nominal (target <= 1.3). The last column is the floor: the same waveform with the
+compensator set to the plant's true mu, what a perfect calibration gives.
 
     python -m cosim.perf.calibrate [--modes paper,smooth] [--out DIR]
 """
@@ -20,8 +20,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from cosim.bench import calibrate as cal
-from cosim.bench.api import Bench
+from cosim.bench.link.api import Bench
+from cosim.bench.rig import calibrate as cal
 
 NOMINAL_MU = 0.075
 OFF_MU = (0.06, 0.09)

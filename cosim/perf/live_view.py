@@ -21,8 +21,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from cosim.bench import live
-from cosim.bench.api import Bench
+from cosim.bench.link.api import Bench
+from cosim.bench.live import view as live
 
 # What an open page does, in a process of its own: a request per frame, 80 ms apart at most,
 # one character printed per answer.

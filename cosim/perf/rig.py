@@ -3,7 +3,7 @@
 - the Cortex-M4 code size of the protocol and device code (build/bench/cortex-m4/size.txt);
 - instructions per frame on the host under callgrind (firmware/perf/perf_proto.c): decoding a
   telemetry frame byte by byte, and packing + encoding one;
-- the host decoders' frames per second (Python: cosim.bench.protocol.FrameDecoder; C: the
+- the host decoders' frames per second (Python: cosim.bench.link.protocol.FrameDecoder; C: the
   firmware's proto_rx_byte, natively);
 - 60 s of 1 kHz telemetry over the emulator's pseudo-terminal (`python -m cosim.bench emulate`
   in its own process, recorded by this one): samples, drops, the device's overflow count, and
@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cosim.bench import messages as msgs
-from cosim.bench.protocol import Frame, FrameDecoder, encode_frame, pack
+from cosim.bench.link import messages as msgs
+from cosim.bench.link.protocol import Frame, FrameDecoder, encode_frame, pack
 
 
 def callgrind_per_frame(exe: Path, mode: str, frames: int = 20000) -> float | None:
@@ -75,8 +75,8 @@ def c_decoder_fps(exe: Path, n: int = 2_000_000) -> float:
 
 def pty_run(seconds: float) -> dict:
     """Record `seconds` of telemetry from an emulator in another process, over its pty."""
-    from cosim.bench.client import BenchClient, SerialLink  # noqa: PLC0415
-    from cosim.bench.recorder import record_run  # noqa: PLC0415
+    from cosim.bench.link.client import BenchClient, SerialLink  # noqa: PLC0415
+    from cosim.bench.link.recorder import record_run  # noqa: PLC0415
 
     emu = subprocess.Popen(
         [sys.executable, "-m", "cosim.bench", "emulate", "--no-tcp", "--seconds",

@@ -23,11 +23,11 @@ import resource
 import tempfile
 from pathlib import Path
 
-from cosim.bench.api import Bench
-from cosim.bench.device import ChainConfig
-from cosim.bench.device import _open_plant as open_plant
-from cosim.bench.soc import build as soc_build
-from cosim.bench.soc.harness import SocBoard
+from cosim.bench.emulate.host_device import ChainConfig
+from cosim.bench.emulate.host_device import _open_plant as open_plant
+from cosim.bench.emulate.soc import build as soc_build
+from cosim.bench.emulate.soc.harness import SocBoard
+from cosim.bench.link.api import Bench
 from cosim.config.run import BoardParams
 
 TICK_HZ = 1000  # the firmware's default tick rate (tick_rate_hz)

@@ -4,7 +4,7 @@ in docs/results.md ("With the online friction estimate").
 For every plant of the robustness grid (cosim/studies/sweep/examples/robustness_estimator.yaml:
 plant mu, cable_EA and current_bandwidth at -20 % / nominal / +20 %, 27 plants):
 
-1. `calibrate` (cosim.bench.calibrate, without --apply: its proposal) on the emulated controller
+1. `calibrate` (cosim.bench.rig.calibrate, without --apply: its proposal) on the emulated controller
    (the stepped emulator, at the home position) with that plant: the compensator values it
    proposes (comp.mu, and comp.offset_n / comp.mu_slope_per_n where it finds them);
 2. the grid's own runs (fig14, 6 s, board interface, preview compensator, the five positions;
@@ -48,8 +48,8 @@ def _spec():
 def calibrate_plant(plant: dict, folder: str) -> dict:
     """The compensator values `calibrate` proposes for an emulated plant (FMU parameters), as
     the sweep's config keys (compensator.mu, ...), and the decision for each."""
-    from cosim.bench import calibrate as cal  # noqa: PLC0415
-    from cosim.bench.api import Bench  # noqa: PLC0415
+    from cosim.bench.link.api import Bench  # noqa: PLC0415
+    from cosim.bench.rig import calibrate as cal  # noqa: PLC0415
 
     with Bench(emulate=True, plant=plant) as bench:
         opts = cal.Options(out_dir=Path(folder), audit_plots=False)

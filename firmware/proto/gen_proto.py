@@ -5,7 +5,7 @@ Outputs (committed, never edited by hand):
   firmware/include/proto_msgs.h     C: message ids, payload structs, pack/unpack, parameter entry
   firmware/src/proto_msgs.c         C: the pack/unpack functions
   firmware/src/params_table.c       C: the parameter table over settings_t (the params unit's)
-  cosim/bench/messages.py           Python: the same tables (cosim.bench.protocol packs with them)
+  cosim/bench/link/messages.py      Python: the same tables (cosim.bench.link.protocol packs them)
   firmware/proto/PROTOCOL.md        the protocol document
   firmware/proto/bowden_bench.dbc   CAN database (DBC) of the CAN mapping, for users' CAN tools
   firmware/proto/vectors.json       shared test vectors (values -> bytes) for the Python tests
@@ -41,7 +41,7 @@ SOURCE = ROOT / "firmware" / "proto" / "bowden_proto.json"
 OUT_H = ROOT / "firmware" / "include" / "proto_msgs.h"
 OUT_C = ROOT / "firmware" / "src" / "proto_msgs.c"
 OUT_TABLE_C = ROOT / "firmware" / "src" / "params_table.c"
-OUT_PY = ROOT / "cosim" / "bench" / "messages.py"
+OUT_PY = ROOT / "cosim" / "bench" / "link" / "messages.py"
 OUT_MD = ROOT / "firmware" / "proto" / "PROTOCOL.md"
 OUT_DBC = ROOT / "firmware" / "proto" / "bowden_bench.dbc"
 OUT_VEC = ROOT / "firmware" / "proto" / "vectors.json"
@@ -721,7 +721,7 @@ def gen_py(spec: Spec) -> str:
     w("")
     w("MESSAGES maps a name to a Message (id, direction, fields with their struct codes); PARAMS")
     w("lists the parameters in id order (name, C field, word kind, fractional bits, unit, enum).")
-    w("cosim.bench.protocol packs and unpacks with them; firmware/proto/PROTOCOL.md documents")
+    w("cosim.bench.link.protocol packs and unpacks with them; firmware/proto/PROTOCOL.md documents")
     w('them."""')
     w("")
     w("from __future__ import annotations")

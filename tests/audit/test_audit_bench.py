@@ -15,10 +15,10 @@ import pytest
 from scipy.signal import savgol_filter
 
 from cosim.audit import core
-from cosim.bench.client import BenchClient
-from cosim.bench.device import ChainConfig
-from cosim.bench.emulator import SteppedLink
-from cosim.bench.recorder import record_run
+from cosim.bench.emulate.emulator import SteppedLink
+from cosim.bench.emulate.host_device import ChainConfig
+from cosim.bench.link.client import BenchClient
+from cosim.bench.link.recorder import record_run
 from cosim.results import trace
 
 # The audit needs 10 s (1 s of warm-up: the loop starts from rest). With 12 s the default

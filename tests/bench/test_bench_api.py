@@ -11,10 +11,10 @@ import warnings
 import numpy as np
 import pytest
 
-from cosim.bench import messages as msgs
 from cosim.bench.api import Bench, Faults, ProtocolError
-from cosim.bench.client import BenchClient, BenchError, BenchUsageError, SerialLink
-from cosim.bench.emulator import Emulator
+from cosim.bench.emulate.emulator import Emulator
+from cosim.bench.link import messages as msgs
+from cosim.bench.link.client import BenchClient, BenchError, BenchUsageError, SerialLink
 from cosim.project.paths import REPO_ROOT
 from cosim.results import trace as trace_mod
 
@@ -137,7 +137,7 @@ def test_api_docs_build_without_warnings(tmp_path):
 
 _CLOSED_SCRIPT = """
 from cosim.bench.api import Bench
-from cosim.bench.client import BenchError
+from cosim.bench.link.client import BenchError
 
 b = Bench(emulate=True)
 b.close()
@@ -276,7 +276,10 @@ def test_bad_arguments_are_refused_before_anything_is_sent(bench, call, words, t
         ({"emulate": True, "plant": {"mu": 0.1}, "chain": None}, None),
         ({"emulate": True, "plant": "mu=0.1"}, "plant must be an object of FMU parameter"),
         ({"emulate": True, "plant": {"mu": True}}, "plant.mu must be a number in [0, 1]"),
-        ({"emulate": True, "chain": "x"}, "chain='x': expected a cosim.bench.device.ChainConfig"),
+        (
+            {"emulate": True, "chain": "x"},
+            "chain='x': expected a cosim.bench.emulate.host_device.ChainConfig",
+        ),
         ({"can": "virtual:x", "node": "1"}, "node='1': expected a whole number"),
     ],
 )
@@ -289,7 +292,7 @@ def test_bad_sessions_are_refused_before_anything_starts(kwargs, words):
 
 
 def test_plant_and_chain_together_are_refused():
-    from cosim.bench.device import ChainConfig
+    from cosim.bench.emulate.host_device import ChainConfig
 
     msg = _refused(lambda: Bench(emulate=True, plant={"mu": 0.1}, chain=ChainConfig()))
     assert msg == "give plant or chain (with its plant), not both"
@@ -302,7 +305,7 @@ def test_plant_and_chain_together_are_refused():
 
 def test_an_emulated_bench_with_the_boards_interface_runs_on_the_python_engine():
     """ChainConfig(interface="adc") was refused by the stepped link's C chain (ideal only)."""
-    from cosim.bench.device import ChainConfig
+    from cosim.bench.emulate.host_device import ChainConfig
 
     with Bench(emulate=True, chain=ChainConfig(interface="adc")) as b:
         assert b.link.chain.engine == "python"

@@ -1,4 +1,4 @@
-"""`bowden bench calibrate` (cosim.bench.calibrate) on the emulated controller: it finds a plant
+"""`bowden bench calibrate` (cosim.bench.rig.calibrate) on the emulated controller: it finds a plant
 mu the compensator does not know and applies it, proposes nothing on the nominal plant, refuses
 values outside the compensator's limits, never touches the loop gains, and leaves the device as
 it was when the link drops mid-run (before.json written, one line); bad options are one line and
@@ -12,14 +12,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cosim.bench import calibrate as cal
-from cosim.bench import messages as msgs
 from cosim.bench.__main__ import main as bench_cli
 from cosim.bench.api import Bench
-from cosim.bench.client import BenchClient, BenchError
-from cosim.bench.device import ChainConfig
-from cosim.bench.emulator import SteppedLink
-from cosim.bench.protocol import value_from_word
+from cosim.bench.emulate.emulator import SteppedLink
+from cosim.bench.emulate.host_device import ChainConfig
+from cosim.bench.link import messages as msgs
+from cosim.bench.link.client import BenchClient, BenchError
+from cosim.bench.link.protocol import value_from_word
+from cosim.bench.rig import calibrate as cal
 from cosim.cli import bench_tools
 
 # Stated tolerance of the mu found on the emulated plant (whose mu the audit fits to 5e-4 on a

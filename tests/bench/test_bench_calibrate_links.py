@@ -13,9 +13,9 @@ import time
 import pytest
 
 from cosim.bench.__main__ import main as bench_cli
-from cosim.bench.client import BenchClient, SerialLink
-from cosim.bench.device import ChainConfig
-from cosim.bench.emulator import Emulator
+from cosim.bench.emulate.emulator import Emulator
+from cosim.bench.emulate.host_device import ChainConfig
+from cosim.bench.link.client import BenchClient, SerialLink
 from cosim.cli.bench import STATUS_OUT_EN
 from cosim.project.paths import REPO_ROOT
 

@@ -8,9 +8,9 @@ import os
 
 import pytest
 
-from cosim.bench import messages as msgs
 from cosim.bench.__main__ import main as bench_cli
-from cosim.bench.emulator import Emulator
+from cosim.bench.emulate.emulator import Emulator
+from cosim.bench.link import messages as msgs
 
 OLD = msgs.PROTOCOL_VERSION - 1  # a backup made by the previous protocol
 
@@ -221,7 +221,7 @@ def test_every_sim_key_is_mapped_or_said_to_have_no_device_counterpart():
     co-simulation without either is found."""
     import dataclasses
 
-    from cosim.bench import diff
+    from cosim.bench.rig import diff
     from cosim.config.run import ControllerParams
 
     assert diff.unmapped_sim_keys() == []
@@ -240,7 +240,7 @@ def test_sim_words_are_the_words_the_cosimulation_gives_the_firmware():
     """Units and scaling: for a params file that sets every mapped key away from its default,
     the device words diff compares with are the firmware configuration the co-simulation builds
     from that file (cosim.engines.fwbridge), word for word."""
-    from cosim.bench import diff
+    from cosim.bench.rig import diff
     from cosim.config.run import SimConfig
     from cosim.engines.fwbridge import FirmwareBridge
     from cosim.parts import firmware

@@ -15,13 +15,13 @@ import time
 import numpy as np
 import pytest
 
-from cosim.bench import messages as msgs
-from cosim.bench import protocol as proto
 from cosim.bench.__main__ import main as bench_cli
-from cosim.bench.client import BenchClient, SerialLink, VersionMismatchError
-from cosim.bench.device import ChainConfig, Device, EmuLoop, LoopChain, load_library
-from cosim.bench.emulator import Emulator
-from cosim.bench.recorder import record_run
+from cosim.bench.emulate.emulator import Emulator
+from cosim.bench.emulate.host_device import ChainConfig, Device, EmuLoop, LoopChain, load_library
+from cosim.bench.link import messages as msgs
+from cosim.bench.link import protocol as proto
+from cosim.bench.link.client import BenchClient, SerialLink, VersionMismatchError
+from cosim.bench.link.recorder import record_run
 from cosim.parts import regmap, rtl_model
 from cosim.project.paths import REPO_ROOT
 from cosim.results import trace as trace_mod
@@ -343,8 +343,8 @@ def test_a_flash_file_that_cannot_be_kept_is_refused_before_the_start(
     def started(*args, **kwargs):
         raise AssertionError("the emulator started")
 
-    monkeypatch.setattr("cosim.bench.emulator.Emulator", started)
-    monkeypatch.setattr("cosim.bench.soc.harness.SocBoard", started)
+    monkeypatch.setattr("cosim.bench.emulate.emulator.Emulator", started)
+    monkeypatch.setattr("cosim.bench.emulate.soc.harness.SocBoard", started)
     (tmp_path / "short.bin").write_bytes(b"\0" * 1000)
     flash = where if where.startswith("/") else str(tmp_path / where) if where else str(tmp_path)
     rc = bench_cli(["emulate", "--target", target, "--flash", flash, "--seconds", "0.1"])

@@ -8,11 +8,11 @@ import os
 
 import pytest
 
-from cosim.bench import discover
-from cosim.bench import messages as msgs
 from cosim.bench.__main__ import main as bench_cli
-from cosim.bench.client import BenchClient, SerialLink
-from cosim.bench.emulator import Emulator
+from cosim.bench.emulate.emulator import Emulator
+from cosim.bench.link import discover
+from cosim.bench.link import messages as msgs
+from cosim.bench.link.client import BenchClient, SerialLink
 
 
 @pytest.fixture
@@ -259,7 +259,7 @@ def test_bowden_emulate_is_findable_until_it_ends(own_runtime_dir, monkeypatch):
 _SIGNAL_AT = """
 import os, signal, sys
 from pathlib import Path
-from cosim.bench import emulator
+from cosim.bench.emulate import emulator
 moment, sig, entry = sys.argv[1], getattr(signal, sys.argv[2]), sys.argv[3]
 
 def signal_now():

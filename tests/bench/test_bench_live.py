@@ -18,10 +18,10 @@ import urllib.request
 import numpy as np
 import pytest
 
-from cosim.bench import live
 from cosim.bench.__main__ import main as bench_cli
 from cosim.bench.api import Bench
-from cosim.bench.emulator import Emulator
+from cosim.bench.emulate.emulator import Emulator
+from cosim.bench.live import view as live
 from cosim.project.paths import REPO_ROOT
 from cosim.results import trace as trace_mod
 
@@ -91,7 +91,7 @@ def test_signals_and_window_options_are_checked(capsys):
 def _by_sample(path):
     """A recording's columns indexed by the sample number (rows are missing where samples
     were dropped, so a row's position is not its sample)."""
-    from cosim.bench.api import _read_columns  # the API's reader: gaps allowed
+    from cosim.bench.link.api import _read_columns  # the API's reader: gaps allowed
 
     tr = _read_columns(path)
     samples = tr["sample"].astype(int)
@@ -623,7 +623,7 @@ def test_view_options_without_a_view_are_refused(tmp_path, capsys):
 
 _KILLED_PARENT = """
 import os, sys, time
-from cosim.bench import live
+from cosim.bench.live import view as live
 buf = live.LiveBuffer(path=live.ring_file())
 buf.start("sine", 1000.0)
 view = live.ViewProcess(buf, "term", sink=sys.argv[1], size=(100, 30)).start()

@@ -7,10 +7,10 @@ takes or let through one it refuses."""
 
 import pytest
 
-from cosim.bench import messages as msgs
-from cosim.bench.client import BenchClient, DeviceError
-from cosim.bench.device import ChainConfig
-from cosim.bench.emulator import SteppedLink
+from cosim.bench.emulate.emulator import SteppedLink
+from cosim.bench.emulate.host_device import ChainConfig
+from cosim.bench.link import messages as msgs
+from cosim.bench.link.client import BenchClient, DeviceError
 
 # Parameters whose range is narrowed by others: the settings that let each end through.
 CONTEXT = {

@@ -1,4 +1,4 @@
-"""The host side of the protocol (cosim.bench.protocol): the shared vectors, Hypothesis
+"""The host side of the protocol (cosim.bench.link.protocol): the shared vectors, Hypothesis
 properties of the decoder (round trip, arbitrary bytes never raise, resynchronisation within one
 frame, the C decoder and the Python one agree), the CAN mapping and the parameter words."""
 
@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from cosim.bench import messages as msgs
-from cosim.bench import protocol as proto
-from cosim.bench.device import load_library
+from cosim.bench.emulate.host_device import load_library
+from cosim.bench.link import messages as msgs
+from cosim.bench.link import protocol as proto
 from cosim.project.paths import REPO_ROOT
 
 VECTORS = json.loads((REPO_ROOT / "firmware" / "proto" / "vectors.json").read_text())["vectors"]

@@ -14,18 +14,18 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from cosim.bench import messages as msgs
 from cosim.bench.__main__ import main as bench_cli
-from cosim.bench.client import (
+from cosim.bench.emulate.emulator import Emulator, SteppedLink
+from cosim.bench.emulate.host_device import ChainConfig
+from cosim.bench.link import messages as msgs
+from cosim.bench.link.client import (
     BenchClient,
     BenchError,
     BenchUsageError,
     DeviceError,
     SerialLink,
 )
-from cosim.bench.device import ChainConfig
-from cosim.bench.emulator import Emulator, SteppedLink
-from cosim.bench.protocol import ProtocolError
+from cosim.bench.link.protocol import ProtocolError
 from cosim.cli import bench as bench_cli_mod
 from cosim.parts import regmap
 from cosim.project.paths import REPO_ROOT
@@ -435,7 +435,7 @@ _WRITABLE = {p.name for p in msgs.PARAMS if not p.read_only}
 def test_a_second_client_of_a_can_node_is_refused_naming_the_holder():
     """CAN as serial: one client per node of a bus on this machine, the refusal naming the holder;
     another node of the same bus is free, and the lock goes with the client."""
-    from cosim.bench.client import BenchError, CanLink  # noqa: PLC0415
+    from cosim.bench.link.client import BenchError, CanLink  # noqa: PLC0415
 
     spec = f"virtual:lock_{os.getpid()}"
     first = CanLink(spec, node=1)

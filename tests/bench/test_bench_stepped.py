@@ -1,4 +1,4 @@
-"""The emulator without the wall clock (cosim.bench.emulator.SteppedLink) records what the
+"""The emulator without the wall clock (cosim.bench.emulate.emulator.SteppedLink) records what the
 real-time emulator records over its pty, sample for sample; `bowden emulate --plant` sets the
 emulated plant's FMU parameters, each checked, a bad one refused in one line."""
 
@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from cosim.bench.__main__ import main as bench_cli
-from cosim.bench.client import BenchClient, SerialLink
-from cosim.bench.device import ChainConfig
-from cosim.bench.emulator import Emulator, SteppedLink
-from cosim.bench.recorder import record_run
+from cosim.bench.emulate.emulator import Emulator, SteppedLink
+from cosim.bench.emulate.host_device import ChainConfig
+from cosim.bench.link.client import BenchClient, SerialLink
+from cosim.bench.link.recorder import record_run
 from cosim.results import trace as trace_mod
 
 SECONDS = 1.5

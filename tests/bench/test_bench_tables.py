@@ -8,9 +8,9 @@ import sys
 import cantools
 import pytest
 
-from cosim.bench import messages as msgs
-from cosim.bench import protocol
-from cosim.bench.device import Device
+from cosim.bench.emulate.host_device import Device
+from cosim.bench.link import messages as msgs
+from cosim.bench.link import protocol
 from cosim.project.paths import REPO_ROOT
 
 PROTO = REPO_ROOT / "firmware" / "proto"

@@ -13,7 +13,7 @@ import cocotb
 import pythondata_cpu_picorv32
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
 
-from cosim.bench import protocol
+from cosim.bench.link import protocol
 from cosim.project.paths import BUILD_DIR, HDL_DIR
 
 CLK_HZ = 24_000_000

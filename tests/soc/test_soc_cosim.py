@@ -1,5 +1,6 @@
 """The full-system co-simulation behind `bowden emulate --target soc`: bowden_soc executing the
-RV32 firmware in Verilator (cosim/bench/soc), reached by `bowden bench`, unchanged, over a pty.
+RV32 firmware in Verilator (cosim/bench/emulate/soc), reached by `bowden bench`, unchanged, over
+a pty.
 
 The harness library is built once (the module's fixture; later builds find it up to date) and
 every board here is a separate `bowden emulate --target soc` process, as a user starts it.
@@ -21,8 +22,8 @@ from pathlib import Path
 import pytest
 from cobs import cobs
 
-from cosim.bench import protocol
-from cosim.bench.soc import build as soc_build
+from cosim.bench.emulate.soc import build as soc_build
+from cosim.bench.link import protocol
 
 BOWDEN = [sys.executable, "-m", "cosim"]
 
@@ -167,8 +168,8 @@ def test_the_board_is_findable_until_sigterm_ends_it(soc_lib, own_runtime_dir, m
     `bowden bench list` and `--port auto` (pyserial cannot list a pty) did not find it. It is
     now, while it runs, and SIGTERM ends it as the host emulator's (its figures, exit 0),
     removing the file."""
-    from cosim.bench import discover  # noqa: PLC0415
     from cosim.bench.__main__ import main as bench_cli  # noqa: PLC0415
+    from cosim.bench.link import discover  # noqa: PLC0415
 
     monkeypatch.setattr(discover, "serial_ports", lambda: [])  # this machine's own: not probed
     board = Emulated()
@@ -194,8 +195,8 @@ def test_the_board_is_findable_until_sigterm_ends_it(soc_lib, own_runtime_dir, m
 def test_a_board_whose_run_ends_by_itself_is_no_longer_findable(soc_lib, own_runtime_dir):
     """The registry file goes when the board's run ends, not only when it is stopped (here its
     max_sim_s; an error ends it the same way): a board that no longer runs is not listed."""
-    from cosim.bench import discover  # noqa: PLC0415
-    from cosim.bench.soc.harness import SocBoard  # noqa: PLC0415
+    from cosim.bench.emulate.soc.harness import SocBoard  # noqa: PLC0415
+    from cosim.bench.link import discover  # noqa: PLC0415
 
     # At most real time: its 50 ms of simulated time take longer than the look that follows.
     board = SocBoard(realtime=True, max_sim_s=0.05, findable=True).start()
@@ -239,7 +240,7 @@ def test_adc_crc_is_the_data_sheets(soc_lib):
     (which the RTL reader is tested against) gives for a frame of STATUS, CH0, CH1."""
     from hdl_sim import crc16_ccitt, word_bits  # noqa: PLC0415
 
-    from cosim.bench.soc.harness import adc_crc  # noqa: PLC0415
+    from cosim.bench.emulate.soc.harness import adc_crc  # noqa: PLC0415
 
     bits = [(byte >> (7 - i)) & 1 for byte in b"123456789" for i in range(8)]
     assert adc_crc(bits) == 0x29B1
@@ -281,7 +282,7 @@ def test_request_during_boot_is_dropped_then_answered(soc_lib):
     """PROTOCOL.md leaves a request the device did not take unanswered (the host retries) and
     firmware/soc/main.c drops what arrived during start-up: a HELLO sent before the board boots
     gets no reply, not even after boot; the next HELLO is answered."""
-    from cosim.bench.soc.harness import SocBoard  # noqa: PLC0415
+    from cosim.bench.emulate.soc.harness import SocBoard  # noqa: PLC0415
 
     board = SocBoard(realtime=False)
     fd = os.open(board.pty_name, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
@@ -305,7 +306,7 @@ def test_request_during_boot_is_dropped_then_answered(soc_lib):
 def test_frame_with_a_bad_crc_is_dropped_and_counted(soc_lib):
     """A request whose CRC-32C fails is dropped without an answer (PROTOCOL.md, framing) and
     counted in STATS rx_crc_errors; the next good request is answered."""
-    from cosim.bench.soc.harness import SocBoard  # noqa: PLC0415
+    from cosim.bench.emulate.soc.harness import SocBoard  # noqa: PLC0415
 
     board = SocBoard(realtime=False).start()
     fd = os.open(board.pty_name, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
@@ -353,7 +354,7 @@ def test_corrupted_flash_record_falls_back_and_says_which(soc_lib, tmp_path):
     both corrupted: the factory defaults (`info`: configuration defaults). In-process boards
     (no plant) and the scripting API: the same protocol as `bowden bench`, quicker to start."""
     from cosim.bench.api import Bench  # noqa: PLC0415
-    from cosim.bench.soc.harness import SocBoard  # noqa: PLC0415
+    from cosim.bench.emulate.soc.harness import SocBoard  # noqa: PLC0415
 
     flash = tmp_path / "flash.bin"
 
@@ -427,9 +428,9 @@ def _same_t_c(seconds: float) -> None:
     import numpy as np  # noqa: PLC0415
 
     from cosim.bench.api import Bench  # noqa: PLC0415
-    from cosim.bench.device import ChainConfig  # noqa: PLC0415
-    from cosim.bench.device import _open_plant as open_plant  # noqa: PLC0415
-    from cosim.bench.soc.harness import SocBoard  # noqa: PLC0415
+    from cosim.bench.emulate.host_device import ChainConfig  # noqa: PLC0415
+    from cosim.bench.emulate.host_device import _open_plant as open_plant  # noqa: PLC0415
+    from cosim.bench.emulate.soc.harness import SocBoard  # noqa: PLC0415
 
     wave = {"mean_n": 8.5, "amplitude_n": 6.5, "freq_hz": 0.5}
     board = SocBoard(realtime=False, plant=open_plant(ChainConfig()), escon_imax_a=4.0).start()
@@ -477,7 +478,7 @@ def test_parameter_sets_before_a_run_leave_the_ticks_on_time(soc_lib):
     1/band) and mode, and the reference's fields (bench.run's own). The aim of half a
     budget per request is not met yet (hdl/README.md, "The whole board simulated")."""
     from cosim.bench.api import Bench  # noqa: PLC0415
-    from cosim.bench.soc.harness import SocBoard  # noqa: PLC0415
+    from cosim.bench.emulate.soc.harness import SocBoard  # noqa: PLC0415
 
     board = SocBoard(realtime=False).start()
     try:

@@ -22,7 +22,7 @@ module spi_flash_model #(
     output reg  miso
 );
 
-// public: the full-system co-simulation (cosim/bench/soc) loads and saves the array and
+// public: the full-system co-simulation (cosim/bench/emulate/soc) loads and saves the array and
 // watches the counters of erases and programs.
 reg [7:0]  mem [0:(1 << AW) - 1] /*verilator public_flat_rw*/;
 reg [7:0]  cmd;

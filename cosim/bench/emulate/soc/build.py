@@ -5,7 +5,7 @@ The build is reused while nothing it depends on changes (a fingerprint of the RT
 the harness, the flags and the Verilator version in build/soc_sim/fingerprint.txt). Processes
 that build at the same time take turns on a lock file: the second finds the first's build.
 
-    python -m cosim.bench.soc build     # what `bowden emulate --target soc` runs first
+    python -m cosim.bench.emulate.soc build     # what `bowden emulate --target soc` runs first
 """
 
 from __future__ import annotations

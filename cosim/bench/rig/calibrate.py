@@ -5,7 +5,7 @@ The steps (cosim/bench/README.md, "Calibration", says why each piece is there):
 
 1. **Identification.** A streamed T_ref (`identification_sequence`): holds, full-range ramps at
    three rates in both directions and small reversals at three tension levels, recorded with
-   T_out (the far-end load cell) by the ordinary run path (cosim.bench.recorder).
+   T_out (the far-end load cell) by the ordinary run path (cosim.bench.link.recorder).
 2. **Audit.** `bowden audit` on the recording (cosim.audit.core): mu (the product mu*phi: the
    bench does not measure the position), the dead zone, and the effects of its vocabulary.
 3. **Proposal** (`propose`). For each compensator parameter the audit can set (comp.mu,
@@ -42,11 +42,17 @@ from pathlib import Path
 
 import numpy as np
 
-from . import messages as msgs
-from .client import BenchClient, BenchError, BenchUsageError
-from .config import backup_doc, write_all, write_atomic
-from .protocol import ProtocolError, format_value, param, value_from_word, word_from_value
-from .recorder import record_run
+from cosim.bench.link import messages as msgs
+from cosim.bench.link.client import BenchClient, BenchError, BenchUsageError
+from cosim.bench.link.paramset import backup_doc, write_all, write_atomic
+from cosim.bench.link.protocol import (
+    ProtocolError,
+    format_value,
+    param,
+    value_from_word,
+    word_from_value,
+)
+from cosim.bench.link.recorder import record_run
 
 # --- the identification sequence ---------------------------------------------------------------
 
@@ -341,8 +347,8 @@ def predict(
     """The verification waveform's tracking error on the emulated controller with the audited
     plant (`plant`: FMU parameters), the device's compensator, loop and estimator settings, and
     then the proposed values: {"before": {...}, "after": {...}}."""
-    from .api import Bench  # noqa: PLC0415
-    from .device import ChainConfig  # noqa: PLC0415
+    from cosim.bench.emulate.host_device import ChainConfig  # noqa: PLC0415
+    from cosim.bench.link.api import Bench  # noqa: PLC0415
 
     out = {}
     chain = ChainConfig(position_m=tuple(position_m), loop_routing=loop_routing, plant=plant)
@@ -564,7 +570,7 @@ def _put_back(client, before_words: dict, keep: list[str]) -> None:
 def _record(client, path: Path, after_run, opts: Options, progress, **kw):
     """One run (record_run) into `path`, the device stopped afterwards however it ends (a
     failure to confirm the stop does not hide the run's own failure)."""
-    from .api import _read_columns  # noqa: PLC0415
+    from cosim.bench.link.api import _read_columns  # noqa: PLC0415
 
     try:
         result = record_run(

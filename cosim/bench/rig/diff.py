@@ -1,7 +1,7 @@
 """`bowden bench diff`: how a device's parameters differ from a file or the factory defaults.
 
 Three kinds of file are read, told apart by their structure (each checked before anything is
-sent to the device, with the reader `restore` uses: cosim.bench.paramfiles):
+sent to the device, with the reader `restore` uses: cosim.bench.link.paramfiles):
 
 - a backup (`bowden bench backup`, it names its format): the words as saved. A backup of another
   protocol version is refused in one line (its words may mean other things); one of another
@@ -29,11 +29,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
-from cosim.config.run import ControllerParams, SimConfig
-from cosim.parts.firmware import CompensatorParams
-
-from . import messages as msgs
-from .paramfiles import (
+from cosim.bench.link import messages as msgs
+from cosim.bench.link.paramfiles import (
     BACKUP_FORMAT,
     ParamFileError,
     bench_params,
@@ -42,7 +39,9 @@ from .paramfiles import (
     read_json,
     word_of_value,
 )
-from .protocol import ProtocolError, format_value, param, value_from_word
+from cosim.bench.link.protocol import ProtocolError, format_value, param, value_from_word
+from cosim.config.run import ControllerParams, SimConfig
+from cosim.parts.firmware import CompensatorParams
 
 __all__ = ["BACKUP_FORMAT", "DiffFileError", "Reference", "compare", "load_file", "render"]
 

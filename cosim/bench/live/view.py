@@ -33,8 +33,9 @@ from urllib.parse import parse_qs, urlparse
 
 import numpy as np
 
-from .client import fault_names
-from .live_page import PAGE
+from cosim.bench.link.client import fault_names
+
+from .page import PAGE
 
 Q7_8_LSB_N = 1.0 / 256.0
 Q3_12_LSB_A = 1.0 / 4096.0
@@ -682,7 +683,7 @@ def _stopped(pid: int) -> bool:
         return False
 
 
-def _view_main(argv: list[str]) -> int:
+def view_main(argv: list[str]) -> int:
     """The view process: map the ring, start the view, follow the state lines on stdin until
     `null`; then write `frames draw_s cpu_s requests` on --fd."""
     import argparse  # noqa: PLC0415
@@ -767,7 +768,3 @@ def _tell(ready, line: str) -> None:
         ready.write(line + "\n")
     except OSError:
         pass
-
-
-if __name__ == "__main__":
-    sys.exit(_view_main(sys.argv[1:]))

@@ -1,9 +1,9 @@
 """`bowden emulate`: the controller on the host, in real time, behind the links a bench has.
 
-The device is the firmware's host build with the protocol's device side (cosim.bench.device.Device:
-the same C code as the target), the FPGA loop is its bit-exact model, the plant is the FMU
-(cosim.bench.device.LoopChain), stepped at the tick rate against the wall clock. The device is
-reachable at once on
+The device is the firmware's host build with the protocol's device side
+(cosim.bench.emulate.host_device.Device: the same C code as the target), the FPGA loop is its
+bit-exact model, the plant is the FMU (cosim.bench.emulate.host_device.LoopChain), stepped at the
+tick rate against the wall clock. The device is reachable at once on
 
 - a pseudo-terminal (port 0): raw mode (tty.setraw, or 0x0D, 0x03, 0x11, 0x13 would be mangled
   and input echoed), the slave side kept open (no EIO when a client closes it), throttled to
@@ -34,8 +34,9 @@ import tty
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .device import PORT_CAN, ChainConfig, Device, LoopChain
-from .discover import register_emulator, unregister_emulator
+from cosim.bench.link.discover import register_emulator, unregister_emulator
+
+from .host_device import PORT_CAN, ChainConfig, Device, LoopChain
 
 PORT_PTY, PORT_TCP, PORT_BUS = 0, 1, 2
 DEFAULT_BAUD = 921_600
@@ -108,7 +109,7 @@ class Emulator:
 
     Call `start()` (a background thread) or `run()` (this thread, until `stop()` or Ctrl-C);
     `urls` says where to connect. `findable`: while it runs, `bowden bench list` and `--port
-    auto` find it (cosim.bench.discover's registry: pyserial cannot list a pty), however it
+    auto` find it (cosim.bench.link.discover's registry: pyserial cannot list a pty), however it
     ends (`bowden emulate` is; an emulator a test or a script starts for itself is not, unless
     it asks).
     """
@@ -379,7 +380,7 @@ class StopSignals:
     """SIGINT and SIGTERM while `bowden emulate` runs an emulator (either target), from before
     its start until it has stopped: each is only noted (`signum`: the first), never raised, so
     that none lands inside the start or the stop, where the registry file that makes the
-    emulator findable (cosim.bench.discover) is written and removed; the command's wait loop
+    emulator findable (cosim.bench.link.discover) is written and removed; the command's wait loop
     polls `signum` and ends, and the emulator is stopped whole. Outside the main thread (where
     no handler can be set) nothing is noted."""
 
@@ -415,7 +416,7 @@ class SteppedLink:
     def __init__(
         self, chain: ChainConfig | None = None, engine: str = "native", ticks_per_read: int = 50
     ) -> None:
-        from .protocol import FrameDecoder  # noqa: PLC0415
+        from cosim.bench.link.protocol import FrameDecoder  # noqa: PLC0415
 
         self.device = Device()
         self.chain = LoopChain(self.device, chain or ChainConfig(), engine=engine)
@@ -433,7 +434,7 @@ class SteppedLink:
         return self.chain.ticks / self.chain.cfg.tick_rate_hz
 
     def send(self, frame) -> None:
-        from .protocol import encode_frame  # noqa: PLC0415
+        from cosim.bench.link.protocol import encode_frame  # noqa: PLC0415
 
         self.device.rx_bytes(PORT_PTY, encode_frame(frame))
 

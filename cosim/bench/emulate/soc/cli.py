@@ -1,10 +1,11 @@
-"""`bowden emulate --target soc`: the simulated board (cosim.bench.soc.harness) behind a pty.
+"""`bowden emulate --target soc`: the simulated board (cosim.bench.emulate.soc.harness) behind a
+pty.
 
 Prints the pty as the host emulator does and is findable as it is (`bowden bench list`, `--port
-auto`: cosim.bench.discover's registry), runs until Ctrl-C, SIGTERM or --seconds of wall time
-(signals noted, as the host emulator's, by cosim.bench.emulator.StopSignals): the board's run
-ends, the flash file is written, the registry file removed; Ctrl-C's line is the only one printed
-(exit 130), SIGTERM and --seconds print the run's figures (exit 0).
+auto`: cosim.bench.link.discover's registry), runs until Ctrl-C, SIGTERM or --seconds of wall time
+(signals noted, as the host emulator's, by cosim.bench.emulate.emulator.StopSignals): the board's
+run ends, the flash file is written, the registry file removed; Ctrl-C's line is the only one
+printed (exit 130), SIGTERM and --seconds print the run's figures (exit 0).
 """
 
 from __future__ import annotations
@@ -52,9 +53,9 @@ def emulate_soc(args: argparse.Namespace, plant: dict) -> int:
     if flag is not None:
         print(f"bowden emulate: {flag} is not available with --target soc", file=sys.stderr)
         return 2
-    from cosim.bench.device import ChainConfig  # noqa: PLC0415
-    from cosim.bench.device import _open_plant as open_plant  # noqa: PLC0415
-    from cosim.bench.emulator import StopSignals  # noqa: PLC0415
+    from cosim.bench.emulate.emulator import StopSignals  # noqa: PLC0415
+    from cosim.bench.emulate.host_device import ChainConfig  # noqa: PLC0415
+    from cosim.bench.emulate.host_device import _open_plant as open_plant  # noqa: PLC0415
     from cosim.config.run import BoardParams  # noqa: PLC0415
 
     from .harness import SocBoard, check_flash_file  # noqa: PLC0415

@@ -7,7 +7,7 @@ start/stop, telemetry and faults, over a serial link (COBS frames) or classic CA
 
 MESSAGES maps a name to a Message (id, direction, fields with their struct codes); PARAMS
 lists the parameters in id order (name, C field, word kind, fractional bits, unit, enum).
-cosim.bench.protocol packs and unpacks with them; firmware/proto/PROTOCOL.md documents
+cosim.bench.link.protocol packs and unpacks with them; firmware/proto/PROTOCOL.md documents
 them."""
 
 from __future__ import annotations

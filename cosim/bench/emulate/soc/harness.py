@@ -8,7 +8,7 @@ power cycle is a new SocBoard on the same file. Without a plant the ADS131M02's 
 carry constant tensions; with one (`plant=` an opened cosim.parts.plant.Plant) the FMU is
 stepped every loop sample with the ESCON's current and its T_in and T_out go to CH0 and CH1.
 `findable`: while it runs, `bowden bench list` and `--port auto` find its pty, as they find the
-host emulator's (cosim.bench.discover's registry; `bowden emulate --target soc` asks for it).
+host emulator's (cosim.bench.link.discover's registry; `bowden emulate --target soc` asks for it).
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from ctypes import (
 from dataclasses import dataclass
 from pathlib import Path
 
-from cosim.bench.discover import register_emulator, unregister_emulator
+from cosim.bench.link.discover import register_emulator, unregister_emulator
 from cosim.parts import rtl_model
 from cosim.parts.plant import FMU_LINK_FIELDS
 
@@ -89,7 +89,9 @@ def load_library() -> ctypes.CDLL:
         lib.soc_adc_crc.argtypes = [POINTER(c_uint8), c_int32]
         lib.soc_adc_crc.restype = c_uint16
         if lib.soc_api_version() != SOC_API_VERSION or lib.soc_spec_size() != ctypes.sizeof(Spec):
-            raise RuntimeError("libbowden_soc_sim.so does not match cosim/bench/soc/harness.py")
+            raise RuntimeError(
+                "libbowden_soc_sim.so does not match cosim/bench/emulate/soc/harness.py"
+            )
         _lib = lib
     return _lib
 

@@ -1,6 +1,6 @@
 /*
  * soc_api.h - the full-system co-simulation's C interface (build/soc_sim/libbowden_soc_sim.so),
- * mirrored by cosim/bench/soc/harness.py (ctypes). One call, soc_run(), runs the Verilated
+ * mirrored by cosim/bench/emulate/soc/harness.py (ctypes). One call, soc_run(), runs the Verilated
  * soc_tb (hdl/soc/sim/soc_tb.v: bowden_soc executing the firmware image, with its SPI flash
  * model) until `stop` is set, with every pin of the board driven at bit level in C++:
  *

@@ -1,4 +1,4 @@
-"""python -m cosim.bench.soc build: build (or reuse) build/soc_sim/libbowden_soc_sim.so."""
+"""python -m cosim.bench.emulate.soc build: build (or reuse) build/soc_sim/libbowden_soc_sim.so."""
 
 import sys
 
@@ -7,7 +7,7 @@ from .build import build
 
 def main(argv: list[str]) -> int:
     if argv != ["build"]:
-        print("usage: python -m cosim.bench.soc build", file=sys.stderr)
+        print("usage: python -m cosim.bench.emulate.soc build", file=sys.stderr)
         return 2
     try:
         print(f"built {build()}")

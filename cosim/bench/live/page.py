@@ -1,4 +1,4 @@
-"""The live view's page (served by cosim.bench.live.LiveServer on 127.0.0.1): a canvas drawn
+"""The live view's page (served by cosim.bench.live.view.LiveServer on 127.0.0.1): a canvas drawn
 from `/data.json` about 12 times a second (`?frames=N`: N frames, then a still), a check box
 per signal, the latest values (with the sample they belong to) and the faults. Plain HTML and
 JavaScript: nothing is fetched from anywhere but the bench tool."""

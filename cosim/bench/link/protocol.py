@@ -1,6 +1,6 @@
 """The bench protocol on the host: frames, payloads, CAN mapping and parameter words.
 
-The layouts come from the generated tables (`cosim.bench.messages`, made by
+The layouts come from the generated tables (`cosim.bench.link.messages`, made by
 firmware/proto/gen_proto.py from firmware/proto/bowden_proto.json); the document is
 firmware/proto/PROTOCOL.md. COBS is the `cobs` package, CRC-32C the `crc32c` package (both C
 extensions); nothing here allocates per byte.

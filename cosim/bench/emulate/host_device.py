@@ -3,7 +3,8 @@
 `build/bench/host/libbowden_bench.so` (`make bench-build`) holds the firmware's target code
 (compensator, tick, waveforms), the device side of the protocol (firmware/src/dev.c: dispatcher,
 parameters, flash store, telemetry), an emulated flash, and the emulator's loop in C
-(cosim/bench/native/emu.c: the bit-exact model of the FPGA loop, the ideal ADC and the plant FMU).
+(cosim/bench/emulate/native/emu.c: the bit-exact model of the FPGA loop, the ideal ADC and the
+plant FMU).
 
 - `Device`: one device (dev_host_t): bytes or CAN frames in and out per port, the tick, power
   cycles, the flash image.
@@ -45,7 +46,7 @@ class HalWrite(ctypes.Structure):
 
 
 class EmuLoop(ctypes.Structure):
-    """emu_loop_t (cosim/bench/native/emu.h)"""
+    """emu_loop_t (cosim/bench/emulate/native/emu.h)"""
 
     _fields_ = [
         (n, ctypes.c_int32)
@@ -80,7 +81,7 @@ class EmuLoop(ctypes.Structure):
 
 
 class Emu(ctypes.Structure):
-    """emu_t (cosim/bench/native/emu.h)"""
+    """emu_t (cosim/bench/emulate/native/emu.h)"""
 
     _fields_ = [
         ("set_real", ctypes.c_void_p),

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from . import messages as msgs
 from .client import BenchClient, BenchUsageError, DeviceError
-from .diff import BACKUP_FORMAT
+from .paramfiles import BACKUP_FORMAT
 from .protocol import format_value, param
 
 
