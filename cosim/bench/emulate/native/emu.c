@@ -7,10 +7,8 @@
 
 /* --- the FPGA loop: cosim/parts/rtl_model.py TensionLoopModel, line by line ---------------------- */
 
-#define FAULT_ADC_STALE 1U
-#define FAULT_ADC_RANGE 2U
-#define FAULT_WATCHDOG 4U
-#define FAULT_OVERCURRENT 8U
+/* The watchdog's ramp is a parameter of the RTL (tension_loop's WDT_RAMP_STEP), not a register:
+ * the register map does not generate it. */
 #define WDT_RAMP_STEP 41 /* rtl_model.WDT_RAMP_STEP */
 
 static int64_t clamp64(int64_t v, int64_t lo, int64_t hi)
@@ -146,16 +144,16 @@ void emu_loop_tick(emu_loop_t *m)
     uint32_t detect = 0U;
     if (m->enable) {
         if (m->adc_stale != 0 && stale_now >= (uint32_t)m->adc_stale) {
-            detect |= FAULT_ADC_STALE;
+            detect |= BOWDEN_FAULT_ADC_STALE_MASK;
         }
         if (range_bad) {
-            detect |= FAULT_ADC_RANGE;
+            detect |= BOWDEN_FAULT_ADC_RANGE_MASK;
         }
         if (m->wdt_timeout != 0 && wdt_now >= (uint32_t)m->wdt_timeout) {
-            detect |= FAULT_WATCHDOG;
+            detect |= BOWDEN_FAULT_WATCHDOG_MASK;
         }
         if (m->oc_timeout != 0 && oc_base >= (uint32_t)m->oc_timeout) {
-            detect |= FAULT_OVERCURRENT;
+            detect |= BOWDEN_FAULT_OVERCURRENT_MASK;
         }
     }
     m->faults = (fclr ? 0U : m->faults) | detect;
@@ -163,7 +161,7 @@ void emu_loop_tick(emu_loop_t *m)
     m->wdt_cnt = wdt_now;
     m->oc_cnt = oc_base;
     int run = m->enable && m->faults == 0U;
-    int ramp = m->enable && m->faults == FAULT_WATCHDOG;
+    int ramp = m->enable && m->faults == BOWDEN_FAULT_WATCHDOG_MASK;
     int64_t integ_prev = m->integ_reset_pending ? 0 : m->integ;
     m->fresh = m->tc_written = 0U;
     m->integ_reset_pending = m->fault_clear_pending = 0U;
