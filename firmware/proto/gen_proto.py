@@ -380,6 +380,13 @@ def load_params(raw: dict, regmap: dict) -> list[Param]:
     missing = set(cfg.get("units", {})) - set(names)
     if missing:
         raise ValueError(f"params.units names unknown parameters {sorted(missing)}")
+    missing = set(cfg.get("cosim", {})) - set(names)
+    if missing:
+        raise ValueError(f"params.cosim names unknown parameters {sorted(missing)}")
+    sim_keys = list(cfg.get("cosim", {}).values())
+    dup = {k for k in sim_keys if sim_keys.count(k) > 1}
+    if dup:
+        raise ValueError(f"params.cosim gives {sorted(dup)} to more than one parameter")
     return params
 
 
@@ -862,6 +869,15 @@ def gen_py(spec: Spec) -> str:
         w("    ),")
     w(")")
     w("PARAM_BY_NAME: dict[str, Param] = {p.name: p for p in PARAMS}")
+    w("")
+    w("# The co-simulation's counterpart of each device parameter it sets: a co-simulation")
+    w("# params file's key (`bowden sim --params`) -> the device parameter it gives the firmware,")
+    w("# in the same units unless `bowden bench diff` says (firmware/proto/bowden_proto.json,")
+    w("# params.cosim; outside the table hash: the device never sees it).")
+    w("SIM_TO_DEVICE: dict[str, str] = {")
+    for name, key in spec.raw["params"].get("cosim", {}).items():
+        w(f'    "{key}": "{name}",')
+    w("}")
     return _ruff_format("\n".join(out) + "\n", OUT_PY)
 
 

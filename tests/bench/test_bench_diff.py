@@ -236,6 +236,33 @@ def test_every_sim_key_is_mapped_or_said_to_have_no_device_counterpart():
     assert diff.unmapped_sim_keys(controller=Grown) == ["controller.kd_a_s_per_n"]
 
 
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"loop.nope": "controller.x"}, r"params.cosim names unknown parameters \['loop.nope'\]"),
+        ({"loop.kff": "controller.kp_a_per_n"}, r"gives \['controller.kp_a_per_n'\] to more than"),
+    ],
+)
+def test_the_protocol_table_refuses_a_bad_co_simulation_name(change, message, tmp_path):
+    """The co-simulation <-> device table is generated from the protocol's table (params.cosim in
+    firmware/proto/bowden_proto.json); the generator refuses an unknown parameter or a key given
+    to two, and the table does not enter the hash the device reports."""
+    from firmware.proto import gen_proto
+
+    raw = json.loads(gen_proto.SOURCE.read_text())
+    spec = gen_proto.load()
+    assert dict(msgs.SIM_TO_DEVICE) == {k: v for v, k in raw["params"]["cosim"].items()}
+    raw["params"]["cosim"].update(change)
+    bad = tmp_path / "proto.json"
+    bad.write_text(json.dumps(raw))
+    with pytest.raises(ValueError, match=message):
+        gen_proto.load(bad)
+    del raw["params"]["cosim"]
+    bare = tmp_path / "bare.json"
+    bare.write_text(json.dumps(raw))
+    assert gen_proto.load(bare).table_hash == spec.table_hash == msgs.TABLE_HASH
+
+
 def test_sim_words_are_the_words_the_cosimulation_gives_the_firmware():
     """Units and scaling: for a params file that sets every mapped key away from its default,
     the device words diff compares with are the firmware configuration the co-simulation builds

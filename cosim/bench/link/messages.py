@@ -1215,3 +1215,35 @@ PARAMS: tuple[Param, ...] = (
     ),
 )
 PARAM_BY_NAME: dict[str, Param] = {p.name: p for p in PARAMS}
+
+# The co-simulation's counterpart of each device parameter it sets: a co-simulation
+# params file's key (`bowden sim --params`) -> the device parameter it gives the firmware,
+# in the same units unless `bowden bench diff` says (firmware/proto/bowden_proto.json,
+# params.cosim; outside the table hash: the device never sees it).
+SIM_TO_DEVICE: dict[str, str] = {
+    "firmware_rate_hz": "tick_rate_hz",
+    "sample_rate_hz": "sample_rate_hz",
+    "controller.kff_a_per_n": "loop.kff",
+    "controller.kp_a_per_n": "loop.kp",
+    "controller.ki_a_per_n_s": "loop.ki_ts",
+    "controller.i_limit_a": "loop.i_limit",
+    "controller.slew_n_per_sample": "loop.slew",
+    "controller.kv_a_s_per_n": "loop.kv",
+    "controller.uff_limit_a": "loop.uff_limit",
+    "compensator.mu": "comp.mu",
+    "compensator.phi_rad": "comp.phi_rad",
+    "compensator.band_n": "comp.band_n",
+    "compensator.hysteresis_n": "comp.hysteresis_n",
+    "compensator.offset_n": "comp.offset_n",
+    "compensator.mu_slope_per_n": "comp.mu_slope_per_n",
+    "compensator.tc_min_n": "comp.tc_min_n",
+    "compensator.preview_ticks": "comp.preview_ticks",
+    "compensator.lead_ticks": "comp.lead_ticks",
+    "compensator.ramp_ticks": "comp.ramp_ticks",
+    "compensator.est_enable": "est.enable",
+    "compensator.est_tau_ticks": "est.tau_ticks",
+    "compensator.est_rate_per_s": "est.rate",
+    "compensator.est_mu_phi_min": "est.mu_phi_min",
+    "compensator.est_mu_phi_max": "est.mu_phi_max",
+    "compensator.est_t_min_n": "est.t_min_n",
+}

@@ -48,39 +48,9 @@ __all__ = ["BACKUP_FORMAT", "DiffFileError", "Reference", "compare", "load_file"
 # Co-simulation params file key -> device parameter, as the co-simulation gives each to the
 # firmware (cosim.engines.fwbridge.loop_words for the loop's words, kv and its bound;
 # cosim.parts.firmware.CompensatorParams.to_c and EstimatorParams.to_c for the compensator and the
-# online estimate; FirmwareConfig for the rates), in the same units unless SIM_PER_RATE says.
-SIM_TO_DEVICE = {
-    "firmware_rate_hz": "tick_rate_hz",
-    "sample_rate_hz": "sample_rate_hz",
-    "controller.kff_a_per_n": "loop.kff",
-    "controller.kp_a_per_n": "loop.kp",
-    "controller.ki_a_per_n_s": "loop.ki_ts",
-    "controller.i_limit_a": "loop.i_limit",
-    "controller.slew_n_per_sample": "loop.slew",
-    "controller.kv_a_s_per_n": "loop.kv",
-    "controller.uff_limit_a": "loop.uff_limit",
-    **{
-        f"compensator.{k}": f"comp.{k}"
-        for k in (
-            "mu",
-            "phi_rad",
-            "band_n",
-            "hysteresis_n",
-            "offset_n",
-            "mu_slope_per_n",
-            "tc_min_n",
-            "preview_ticks",
-            "lead_ticks",
-            "ramp_ticks",
-        )
-    },
-    "compensator.est_enable": "est.enable",
-    "compensator.est_tau_ticks": "est.tau_ticks",
-    "compensator.est_rate_per_s": "est.rate",
-    "compensator.est_mu_phi_min": "est.mu_phi_min",
-    "compensator.est_mu_phi_max": "est.mu_phi_max",
-    "compensator.est_t_min_n": "est.t_min_n",
-}
+# online estimate; FirmwareConfig for the rates), in the same units unless SIM_PER_RATE says:
+# generated from the protocol's table (firmware/proto/bowden_proto.json, params.cosim).
+SIM_TO_DEVICE = msgs.SIM_TO_DEVICE
 # Keys given per second whose device word is per FPGA sample or per firmware tick: the value
 # divided by the file's rate (Ki * Ts, Ts one FPGA sample; the estimate's rate per tick).
 SIM_PER_RATE = {
