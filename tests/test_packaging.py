@@ -188,9 +188,10 @@ def core():
 
 @pytest.fixture(scope="module")
 def boards():
-    from hdl.synth import synth
+    """The board table that make synth and make bitstream read (hdl/boards/table.py)."""
+    from hdl.boards import table
 
-    return synth.BOARDS
+    return table.BOARDS
 
 
 def _files(core, target: str) -> dict[str, str]:
@@ -206,32 +207,61 @@ def test_fusesoc_core_lists_the_makefiles_rtl(core):
 
 
 def test_fusesoc_core_has_lint_sim_and_synth_of_each_board(core, boards):
+    """bowden.core is written by hand (a user's file, with its comments, read by fusesoc); each
+    board's facts in it are the board table's, field for field: top, pin file, device, package,
+    speed grade, nextpnr's options and the target clock."""
     rtl = _make_var("HDL_RTL")
     stubs = _make_var("HDL_BOARD_STUBS")
     tops = _make_var("HDL_BOARD_TOPS")
-    assert sorted(f"hdl/boards/{b.top}.v" for b in boards.values()) == tops
+    assert sorted(f"hdl/boards/{b.rtl.top}.v" for b in boards.values()) == tops
+    raw = yaml.safe_load((REPO_ROOT / "bowden.core").read_text())["targets"]
     for board in boards.values():
         name = board.name.replace("-", "_")
-        top = f"hdl/boards/{board.top}.v"
-        constraints = str(board.constraints.relative_to(REPO_ROOT))
-        kind = "PCF" if board.family == "ice40" else "LPF"
+        design = board.rtl
+        top = f"hdl/boards/{design.top}.v"
+        constraints = str(design.constraints.relative_to(REPO_ROOT))
+        kind = "PCF" if board.fpga.family == "ice40" else "LPF"
         for target in (f"lint_{name}", f"sim_{name}"):
             files = _files(core, target)
             assert sorted(f for f, t in files.items() if t == "verilogSource") == sorted(
                 rtl + stubs + [top]
             ), target
-            assert core.get_toplevel({"is_toplevel": True, "target": target}) == board.top
+            assert core.get_toplevel({"is_toplevel": True, "target": target}) == design.top
         synth = f"synth_{name}"
         files = _files(core, synth)
         assert files == {**dict.fromkeys(rtl, "verilogSource"), top: "verilogSource"} | {
             constraints: kind
         }, synth
         flags = {"is_toplevel": True, "target": synth}
-        assert core.get_toplevel(flags) == board.top
-        tool = "icestorm" if board.family == "ice40" else "trellis"
+        assert core.get_toplevel(flags) == design.top
+        tool = "icestorm" if board.fpga.family == "ice40" else "trellis"
+        assert raw[synth]["default_tool"] == tool, synth
         opts = core.get_tool_options({**flags, "tool": tool})["nextpnr_options"]
-        assert opts[: len(board.nextpnr_args)] == list(board.nextpnr_args), synth
-        assert float(opts[opts.index("--freq") + 1]) == board.target_mhz, synth
+        # one seed of make synth's order: fusesoc places once
+        assert opts[-2] == "--seed" and int(opts[-1]) >= 1, synth
+        assert opts[:-2] == [
+            *board.fpga.nextpnr_args,
+            *design.nextpnr_options,
+            "--freq",
+            f"{design.target_mhz:g}",
+        ], synth
+        description = raw[synth]["description"]
+        assert f"{design.target_mhz:g} MHz target" in description, synth
+        assert board.fpga.package.upper() in description.upper(), synth
+
+
+def test_fusesoc_core_check_fails_on_a_board_fact_changed(core, boards):
+    """The check above fails when the table and bowden.core disagree on one fact."""
+    import dataclasses
+
+    from hdl.boards import table
+
+    b = boards["ecp5-25f"]
+    changed = dataclasses.replace(b, fpga=dataclasses.replace(b.fpga, speed="8"))
+    with pytest.raises(AssertionError, match="synth_ecp5_25f"):
+        test_fusesoc_core_has_lint_sim_and_synth_of_each_board(
+            core, {**table.BOARDS, "ecp5-25f": changed}
+        )
 
 
 # --- the hosted CI workflow -------------------------------------------------------------------

@@ -1,1 +1,1 @@
-"""The boards' top modules and pin files."""
+"""The boards' top modules, pin files and the table of their facts (`hdl.boards.table`)."""

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import pythondata_cpu_picorv32
 
+from hdl.boards import table
 from hdl.synth import synth
 from hdl.synth.synth import place, pnr_command, run, tool, yosys
 
@@ -52,31 +53,27 @@ class Board:
     image_in_bitstream: bool
 
 
-BOARDS = {
-    "ecp5-25f": Board(
-        name="ecp5-25f",
-        top="ecp5_25f_soc_top",
-        family="ecp5",
-        nextpnr_args=("--25k", "--package", "CABGA381", "--speed", "6"),
-        constraints=SOC / "boards" / "ecp5_25f_soc.lpf",
-        target_mhz=25.0,
-        lut_capacity=24288,  # LFE5U-25F: 24k LUT4 (Lattice FPGA-DS-02012)
-        image_in_bitstream=True,
-    ),
-    "ice40-up5k": Board(
-        name="ice40-up5k",
-        top="ice40_up5k_soc_top",
-        family="ice40",
-        # Without --opt-timing (make synth's external-MCU top keeps it): on this 93 % full
-        # device it cost routability, seed 4 measured 238 s of routing at 25.13 MHz with it and
-        # 142 s at 26.30 MHz without (hdl/README.md "Bitstreams").
-        nextpnr_args=("--up5k", "--package", "sg48"),
-        constraints=SOC / "boards" / "ice40_up5k_soc.pcf",
-        target_mhz=24.0,
-        lut_capacity=5280,  # iCE40UP5K: 5280 LUT4 (Lattice FPGA-DS-02008)
-        image_in_bitstream=False,  # SPRAM: booted from the flash (firmware/soc/boot.S)
-    ),
-}
+# Where each board's firmware image lives: in the ECP5's bitstream (block RAM it initialises), or
+# for the UP5K in SPRAM, booted from the flash (firmware/soc/boot.S).
+IMAGE_IN_BITSTREAM = {"ecp5-25f": True, "ice40-up5k": False}
+
+
+def board_of(b: table.Board) -> Board:
+    """The SoC's top of board `b` (its `soc` design)."""
+    return Board(
+        name=b.name,
+        top=b.soc.top,
+        family=b.fpga.family,
+        nextpnr_args=(*b.fpga.nextpnr_args, *b.soc.nextpnr_options),
+        constraints=b.soc.constraints,
+        target_mhz=b.soc.target_mhz,
+        lut_capacity=b.fpga.luts,
+        image_in_bitstream=IMAGE_IN_BITSTREAM[b.name],
+    )
+
+
+# In the order `--all` builds them.
+BOARDS = {name: board_of(table.BOARDS[name]) for name in ("ecp5-25f", "ice40-up5k")}
 
 
 def cell_use(log: Path) -> tuple[int, int] | None:
@@ -116,7 +113,7 @@ def sources(board: Board) -> list[Path]:
 def input_hash(board: Board) -> str:
     h = hashlib.sha256()
     extra = [FW / ("bowden_fw.hex" if board.image_in_bitstream else "boot.hex")]
-    for path in [*sources(board), board.constraints, Path(__file__), *extra]:
+    for path in [*sources(board), board.constraints, Path(__file__), Path(table.__file__), *extra]:
         h.update(path.name.encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]

@@ -26,6 +26,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from hdl.boards import table
+
 ROOT = Path(__file__).resolve().parents[2]
 HDL = ROOT / "hdl"
 BUILD = ROOT / "build" / "synth"
@@ -54,33 +56,35 @@ class Board:
     seeds: tuple[int, ...] = SEEDS  # placement seeds, in order
 
 
-BOARDS = {
-    "ice40-up5k": Board(
-        name="ice40-up5k",
-        top="ice40_up5k_top",
-        family="ice40",
-        # --opt-timing: post-placement timing optimisation (nextpnr-ice40 option).
-        nextpnr_args=("--up5k", "--package", "sg48", "--opt-timing"),
-        constraints=HDL / "boards" / "ice40_up5k.pcf",
-        target_mhz=48.0,
-        lut_capacity=5280,  # iCE40UP5K: 5280 LUT4 (Lattice FPGA-DS-02008)
+# The LUT budget of each board's loop (a fraction of its device) and its placement seeds; the
+# board's facts (device, pins, clock) come from hdl/boards/table.py.
+BUDGET = {
+    "ice40-up5k": dict(
         max_lut_fraction=0.60,
         # 11 first: bowden_core's RD_STAGES / SNAPSHOT parameters left this board's logic as it
         # was (1921 LUTs, 1839 FFs) but renamed and re-mapped its cells, which moved the
         # placements: seeds 1-10 gave 42.9-47.7 MHz, seed 11 49.11 MHz (hdl/README.md, Measured).
         seeds=(11, 4, 1, 2, 3),
     ),
-    "ecp5-25f": Board(
-        name="ecp5-25f",
-        top="ecp5_25f_top",
-        family="ecp5",
-        nextpnr_args=("--25k", "--package", "CABGA381", "--speed", "6"),
-        constraints=HDL / "boards" / "ecp5_25f.lpf",
-        target_mhz=100.0,
-        lut_capacity=24288,  # LFE5U-25F: 24k LUT4 (Lattice FPGA-DS-02012)
-        max_lut_fraction=1.0,
-    ),
+    "ecp5-25f": dict(max_lut_fraction=1.0),
 }
+
+
+def board_of(b: table.Board) -> Board:
+    """The loop's top of board `b` (its `rtl` design), with its budget and seeds."""
+    return Board(
+        name=b.name,
+        top=b.rtl.top,
+        family=b.fpga.family,
+        nextpnr_args=(*b.fpga.nextpnr_args, *b.rtl.nextpnr_options),
+        constraints=b.rtl.constraints,
+        target_mhz=b.rtl.target_mhz,
+        lut_capacity=b.fpga.luts,
+        **BUDGET[b.name],
+    )
+
+
+BOARDS = {name: board_of(b) for name, b in table.BOARDS.items()}
 
 # Cells counted per family: LUT4s (an ECP5 CCU2C carry cell holds two), flip-flops, DSPs, RAMs.
 CELLS = {
@@ -106,7 +110,7 @@ def sources(board: Board) -> list[Path]:
 
 def input_hash(board: Board) -> str:
     h = hashlib.sha256()
-    for path in [*sources(board), board.constraints, Path(__file__)]:
+    for path in [*sources(board), board.constraints, Path(__file__), Path(table.__file__)]:
         h.update(path.name.encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]

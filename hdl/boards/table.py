@@ -1,0 +1,76 @@
+"""The boards: one table of their facts that every flow reads.
+
+Each board's FPGA (family, nextpnr's device option, package, speed grade, LUT4s) and, for each of
+its two designs, the top module, the pin file and the target clock: `rtl` is the tension loop's
+top for an external MCU (`make synth`, hdl/synth/synth.py), `soc` the top with the RISC-V
+firmware inside (`make bitstream`, hdl/soc/bitstream.py). bowden.core (FuseSoC) writes the same
+facts in its own form; tests/test_packaging.py fails when the two differ.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+HDL = Path(__file__).resolve().parents[1]
+
+
+@dataclass(frozen=True)
+class Device:
+    """One FPGA part, as nextpnr names it."""
+
+    family: str  # "ice40" or "ecp5": yosys's synth_<family>, nextpnr-<family>
+    device: str  # nextpnr's device option
+    package: str
+    speed: str  # the speed grade ("" where nextpnr takes none)
+    luts: int  # LUT4s of the device
+
+    @property
+    def nextpnr_args(self) -> tuple[str, ...]:
+        """nextpnr's options that choose this part."""
+        speed = ("--speed", self.speed) if self.speed else ()
+        return (self.device, "--package", self.package, *speed)
+
+
+@dataclass(frozen=True)
+class Design:
+    """One top of a board: its module, pin file and target clock."""
+
+    top: str
+    constraints: Path
+    target_mhz: float
+    nextpnr_options: tuple[str, ...] = ()  # beyond the device's (flow choices of this top)
+
+
+@dataclass(frozen=True)
+class Board:
+    name: str
+    kit: str  # the development board the pin files are written for
+    fpga: Device
+    rtl: Design  # the tension loop for an external MCU
+    soc: Design  # the tension loop with the RISC-V firmware inside
+
+
+ICE40_UP5K = Device("ice40", "--up5k", "sg48", "", 5280)  # iCE40UP5K: 5280 LUT4 (FPGA-DS-02008)
+ECP5_25F = Device("ecp5", "--25k", "CABGA381", "6", 24288)  # LFE5U-25F: 24k LUT4 (FPGA-DS-02012)
+
+BOARDS = {
+    "ice40-up5k": Board(
+        name="ice40-up5k",
+        kit="iCEBreaker",
+        fpga=ICE40_UP5K,
+        # --opt-timing: post-placement timing optimisation (nextpnr-ice40 option).
+        rtl=Design("ice40_up5k_top", HDL / "boards" / "ice40_up5k.pcf", 48.0, ("--opt-timing",)),
+        # Without --opt-timing: on this 93 % full device it cost routability, seed 4 measured
+        # 238 s of routing at 25.13 MHz with it and 142 s at 26.30 MHz without (hdl/README.md
+        # "Bitstreams").
+        soc=Design("ice40_up5k_soc_top", HDL / "soc" / "boards" / "ice40_up5k_soc.pcf", 24.0),
+    ),
+    "ecp5-25f": Board(
+        name="ecp5-25f",
+        kit="ULX3S",
+        fpga=ECP5_25F,
+        rtl=Design("ecp5_25f_top", HDL / "boards" / "ecp5_25f.lpf", 100.0),
+        soc=Design("ecp5_25f_soc_top", HDL / "soc" / "boards" / "ecp5_25f_soc.lpf", 25.0),
+    ),
+}
