@@ -2,7 +2,7 @@
 
     python -m firmware.tools.bench_callgrind BENCH_EXE [--steps N] [--json OUT]
 
-Runs BENCH_EXE (firmware/perf/bench_comp.c) under callgrind with collection switched on only
+Runs BENCH_EXE (firmware/perf/perf_comp.c) under callgrind with collection switched on only
 inside comp_step_q7_8, for each scenario, and prints instructions per step (total Ir / steps).
 The count is deterministic for a given binary. Target: <= 100 per step (firmware/README.md,
 Measured figures). Without valgrind on PATH it says so and exits 0 (a benchmark must not fail on
