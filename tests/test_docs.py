@@ -15,6 +15,17 @@ CHECKED_ROOTS and fails on
 Fenced code blocks are skipped (they show commands and their outputs, whose files a run
 writes), and so are paths under `build/` and paths with placeholders (`DIR/audit.json`).
 
+It also fails on a repository path named in text that does not exist: in a markdown file's text
+(fenced blocks included: a command names the script it runs) and in the comments and docstrings
+of source files (Python, C and C++, Verilog, linker scripts, make files and the other `#`-comment
+files), a path that starts with one of the repository's top-level folders (`cosim/`, `hdl/`,
+`firmware/`, ...) and ends in an extension or a slash (`cosim/parts/rtl_model.py`, `hdl/rtl/`),
+looked up from the repository root and from each folder above the file that names it
+(`tests/test_comp.c` in firmware/ is firmware/tests/test_comp.c). Not checked: `build/`, what git
+ignores (build outputs), globs (`hdl/rtl/*.v`), placeholders (`tests/hdl/test_<module>.py`),
+module paths (`cosim/parts/rtl_model.adc_code_from_tension`: no extension) and string literals in
+code, which name files a run reads or writes.
+
 It also holds the named formal properties to their rule (hdl/README.md, "Named properties"):
 every assertion labelled after its tag, and the README's table the one `formal.py
 --properties` prints.
@@ -22,6 +33,7 @@ every assertion labelled after its tag, and the README's table the one `formal.p
 
 from __future__ import annotations
 
+import bisect
 import re
 import subprocess
 from pathlib import Path
@@ -50,6 +62,19 @@ BARE_MD = re.compile(r"^[\w.-]+\.md$")
 # as report.md are files the tools write.
 MD_NAME = re.compile(r"(?<![\w/.-])([A-Z][A-Z0-9_-]*\.md)\b")
 PLACEHOLDER = re.compile(r"(^|/)([A-Z][A-Z_]+|<[^>]*>|NAME|\*)(/|$|\.)")
+
+# Paths named in text and comments (path_refs): source files by how they write comments.
+C_COMMENTS = {".c", ".h", ".cpp", ".S", ".ld", ".v", ".vh", ".sv", ".vlt"}
+HASH_COMMENTS = {".mk", ".sh", ".yaml", ".yml", ".toml", ".core", ".pcf", ".lpf", ".sby", ".txt"}
+HASH_COMMENT_NAMES = {"Makefile"}
+# A file name's extension: short and alphanumeric (`rtl_model.adc_code_from_tension` is a
+# module's function, not a file).
+EXTENSION = re.compile(r"\.[A-Za-z][A-Za-z0-9]{0,5}$")
+# What may follow a path that is not a path (a glob or a placeholder continues it).
+NOT_A_PATH_AFTER = tuple("*?[{<$")
+# Python's comments and the starts of its strings (_python_comments).
+PY_TOKEN = re.compile(r"(?P<comment>#[^\n]*)|(?P<quote>[rRbBuUfF]{0,2}(?:\"\"\"|\'\'\'|\"|\'))")
+LINK_TARGET = re.compile(r"\]\([^)\s]*\)")
 
 
 def tracked_files(root: Path = ROOT) -> list[str]:
@@ -81,8 +106,11 @@ def _exists(target: str, doc: Path, root: Path) -> bool:
     return (doc.parent / target).exists() or (root / target).exists()
 
 
-def check_file(root: Path, rel: str, basenames: set[str]) -> list[str]:
-    """Every finding in one tracked file, as `path:line: what`."""
+def check_file(
+    root: Path, rel: str, basenames: set[str], refs: re.Pattern | None = None
+) -> list[str]:
+    """Every finding in one tracked file, as `path:line: what`; `refs` (path_ref_pattern) finds
+    the repository paths it names, which must exist."""
     path = root / rel
     if path.suffix not in TEXT_SUFFIXES or not path.is_file():
         return []
@@ -91,6 +119,10 @@ def check_file(root: Path, rel: str, basenames: set[str]) -> list[str]:
     except UnicodeDecodeError:
         return []
     found = []
+    if refs is not None:
+        for n, ref in named_paths(rel, text, refs):
+            if not _exists_above(ref, rel, root):
+                found.append(f"{rel}:{n}: names {ref}, which does not exist")
     for n, line in enumerate(text.splitlines(), 1):
         if m := TRACKER.search(line):
             found.append(f"{rel}:{n}: tracker reference {m.group(0)!r}: name the decision")
@@ -116,6 +148,7 @@ def check_file(root: Path, rel: str, basenames: set[str]) -> list[str]:
             elif (
                 PATH_LIKE.match(token)
                 and not token.startswith(("build/", ".venv/"))
+                and not (refs is not None and refs.fullmatch(token))  # the path rule has it
                 and not PLACEHOLDER.search(token)
                 and not _exists(token, path, root)
             ):
@@ -125,11 +158,191 @@ def check_file(root: Path, rel: str, basenames: set[str]) -> list[str]:
 
 def check(root: Path, files: list[str], roots: list[str]) -> list[str]:
     basenames = {Path(f).name for f in files}
+    refs = path_ref_pattern(top_folders(files))
     found = []
     for rel in files:
         if in_roots(rel, roots):
-            found += check_file(root, rel, basenames)
-    return found
+            found += check_file(root, rel, basenames, refs)
+    return drop_ignored(root, found)
+
+
+# --- repository paths named in text and comments ---------------------------------------------
+
+
+def top_folders(files: list[str]) -> set[str]:
+    """The repository's top-level folders (those of its tracked files), build/ aside."""
+    return {f.split("/", 1)[0] for f in files if "/" in f} - {"build"}
+
+
+def path_ref_pattern(tops: set[str]) -> re.Pattern | None:
+    """A path that starts with a top-level folder: `hdl/rtl/x.v`, `cosim/parts/`. Not the tail of
+    a longer path, a URL or a module path (`/work/hdl/x.v`, `../hdl/x.v`, `x.hdl/y`)."""
+    if not tops:
+        return None
+    alt = "|".join(re.escape(t) for t in sorted(tops, key=len, reverse=True))
+    return re.compile(rf"(?<![\w./~$@-])(?:{alt})/(?:[\w.+-]+/)*(?:[\w+-][\w.+-]*)?")
+
+
+def named_paths(rel: str, text: str, refs: re.Pattern):
+    """(line number, path) of each repository path a file names in its text (markdown) or its
+    comments and docstrings (source files): module docstring's rules."""
+    for n, line in commented_lines(rel, text):
+        if rel.endswith(".md"):
+            line = LINK_TARGET.sub("]()", line)  # a link's target is checked as a link
+        for m in refs.finditer(line):
+            ref = m.group(0).rstrip(".")
+            name = ref.rsplit("/", 1)[-1]
+            if not (ref.endswith("/") or EXTENSION.search(name)):
+                continue  # a folder or a module named without a slash, or not a path
+            if line[m.end() : m.end() + 1] in NOT_A_PATH_AFTER or PLACEHOLDER.search(ref):
+                continue
+            yield n, ref
+
+
+def commented_lines(rel: str, text: str) -> list[tuple[int, str]]:
+    """(line number, text) of what a file says to a reader: every line of a markdown file, the
+    comments (and Python's docstrings) of a source file; nothing of other files."""
+    p = Path(rel)
+    if p.suffix == ".md":
+        return list(enumerate(text.splitlines(), 1))
+    if p.suffix == ".py":
+        return _python_comments(text)
+    if p.suffix in C_COMMENTS:
+        return _c_comments(text)
+    if p.suffix in HASH_COMMENTS or p.name in HASH_COMMENT_NAMES:
+        return _hash_comments(text)
+    return []
+
+
+def _python_comments(text: str) -> list[tuple[int, str]]:
+    """Comments and docstrings of Python source: a string that starts its line after a line that
+    ends in `:` (a def's or class's) or at the top of the file; other strings are code."""
+    starts = [0] + [k + 1 for k, ch in enumerate(text) if ch == "\n"]
+    lines = text.split("\n")
+
+    def line_of(i: int) -> int:
+        return bisect.bisect_right(starts, i)
+
+    out: list[tuple[int, str]] = []
+    pos, last_code = 0, ""
+    while m := PY_TOKEN.search(text, pos):
+        code = text[pos : m.start()].strip()
+        if code:
+            last_code = code[-1]
+        if m.group("comment"):
+            out.append((line_of(m.start()), m.group("comment")))
+            pos = m.end()
+            continue
+        delim = m.group("quote").lstrip("rRbBuUfF")
+        i = m.end()
+        while True:
+            j = text.find(delim, i)
+            if len(delim) == 1:
+                nl = text.find("\n", i)
+                if nl != -1 and (j == -1 or nl < j):
+                    j = nl - len(delim)  # an unterminated string ends at its line
+                    break
+            if j == -1:
+                j = len(text) - len(delim)
+                break
+            k = j
+            while k > i and text[k - 1] == "\\":
+                k -= 1
+            if (j - k) % 2 == 0:
+                break
+            i = j + 1
+        end = j + len(delim)
+        first = line_of(m.start())
+        at_line_start = not text[starts[first - 1] : m.start()].strip()
+        if at_line_start and last_code in ("", ":"):
+            last = line_of(end - 1)
+            out += [(k, lines[k - 1]) for k in range(first, last + 1)]
+        last_code = delim[-1]
+        pos = end
+    return out
+
+
+CHAR_LITERAL = re.compile(r"'(\\.|[^'\\\n])'")
+
+
+def _c_comments(text: str) -> list[tuple[int, str]]:
+    """`//` and `/* */` comments of C, C++, Verilog or a linker script, string and character
+    literals skipped."""
+    out: list[tuple[int, str]] = []
+    i, n, end = 0, 1, len(text)
+    while i < end:
+        if text.startswith("//", i):
+            j = text.find("\n", i)
+            j = end if j < 0 else j
+            out.append((n, text[i:j]))
+            i = j
+        elif text.startswith("/*", i):
+            j = text.find("*/", i + 2)
+            j = end if j < 0 else j + 2
+            out += [(n + k, part) for k, part in enumerate(text[i:j].split("\n"))]
+            n += text.count("\n", i, j)
+            i = j
+        elif text[i] == '"':
+            j = i + 1
+            while j < end and text[j] not in '"\n':
+                j += 2 if text[j] == "\\" else 1
+            i = j + 1 if j < end and text[j] == '"' else j
+        elif text[i] == "'" and (m := CHAR_LITERAL.match(text, i)):
+            i = m.end()
+        else:
+            n += text[i] == "\n"
+            i += 1
+    return out
+
+
+def _hash_comments(text: str) -> list[tuple[int, str]]:
+    """`#` comments (make, shell, YAML, TOML, ...): from a `#` outside quotes to the line's end."""
+    out = []
+    for n, line in enumerate(text.splitlines(), 1):
+        quote = None
+        for k, ch in enumerate(line):
+            if quote:
+                quote = None if ch == quote else quote
+            elif ch in "\"'":
+                quote = ch
+            elif ch == "#":
+                out.append((n, line[k:]))
+                break
+    return out
+
+
+def _exists_above(ref: str, rel: str, root: Path) -> bool:
+    """`ref` exists from the root or from a folder above `rel` (a part's own `tests/x.c`)."""
+    folder = Path(rel).parent
+    while True:
+        if (root / folder / ref).exists():
+            return True
+        if folder == Path("."):
+            return False
+        folder = folder.parent
+
+
+def drop_ignored(root: Path, found: list[str]) -> list[str]:
+    """The findings but those naming a path git ignores (a build output, a generated file)."""
+    named = {f.rsplit(": names ", 1)[1].split(",", 1)[0] for f in found if ": names " in f}
+    if not named:
+        return found
+    try:
+        out = subprocess.run(
+            ["git", "check-ignore", "--no-index", "--stdin"],
+            cwd=root,
+            input="\n".join(sorted(named)),
+            capture_output=True,
+            text=True,
+        )
+    except OSError:
+        return found
+    ignored = set(out.stdout.splitlines()) if out.returncode in (0, 1) else set()
+    return [
+        f
+        for f in found
+        if not (": names " in f and f.rsplit(": names ", 1)[1].split(",", 1)[0] in ignored)
+    ]
 
 
 def test_checked_roots_stand_alone():
@@ -182,6 +395,89 @@ def test_checker_reads_only_its_roots(planted):
     (planted / "other.md").write_text("issue 7\n")
     assert check(planted, ["other.md", "docs/real.md"], ["docs/"]) == []
     assert len(check(planted, ["other.md"], ["other.md"])) == 1
+
+
+# --- the path checker can fail ---------------------------------------------------------------
+
+# A small repository: one real file in each top-level folder the planted texts name.
+REAL = [
+    "docs/real.md",
+    "hdl/rtl/tension_loop.v",
+    "cosim/parts/rtl_model.py",
+    "firmware/tests/test_comp.c",
+    "tests/test_real.py",
+    "mk/real.mk",
+]
+
+
+@pytest.fixture
+def repo(tmp_path):
+    for rel in REAL:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_text("real\n")
+    return tmp_path
+
+
+@pytest.mark.parametrize(
+    "rel, text, line, ref",
+    [
+        ("docs/bad.md", "The model is cosim/rtl_model.py, in text.\n", 1, "cosim/rtl_model.py"),
+        ("docs/bad.md", "See `hdl/rtl/gone.v`.\n", 1, "hdl/rtl/gone.v"),
+        ("docs/bad.md", "```sh\npython hdl/formal/formal.py\n```\n", 2, "hdl/formal/formal.py"),
+        ("docs/bad.md", "Its tests are in tests/cosim/.\n", 1, "tests/cosim/"),
+        (
+            "hdl/rtl/bad.v",
+            "// The model: cosim/rtl_model.py.\nmodule bad;\n",
+            1,
+            "cosim/rtl_model.py",
+        ),
+        ("hdl/rtl/bad.v", "/*\n * Model: cosim/rtl_model.py\n */\n", 2, "cosim/rtl_model.py"),
+        (
+            "firmware/bad.c",
+            "char c = '\"'; /* twin: cosim/geometry.py */\n",
+            1,
+            "cosim/geometry.py",
+        ),
+        ("cosim/bad.py", '"""Driven by hdl/rtl/gone.v."""\n', 1, "hdl/rtl/gone.v"),
+        ("cosim/bad.py", "x = 1  # as hdl/rtl/gone.v does\n", 1, "hdl/rtl/gone.v"),
+        ("cosim/bad.py", 'def f():\n    """Reads\n    cosim/gone/ first."""\n', 3, "cosim/gone/"),
+        ("mk/bad.mk", "# built from firmware/src/gone.c\nall:\n", 1, "firmware/src/gone.c"),
+    ],
+)
+def test_path_checker_finds_a_planted_stale_path(repo, rel, text, line, ref):
+    (repo / rel).write_text(text)
+    found = check(repo, [*REAL, rel], [rel])
+    assert found == [f"{rel}:{line}: names {ref}, which does not exist"], found
+
+
+def test_path_checker_passes_what_exists_and_what_is_not_a_path(repo):
+    texts = {
+        "docs/good.md": (
+            "The model cosim/parts/rtl_model.py and `hdl/rtl/tension_loop.v`, the folder hdl/rtl/,"
+            " a glob hdl/rtl/*.v, a placeholder `tests/hdl/test_<module>.py`, the function"
+            " cosim/parts/rtl_model.adc_code_from_tension, output in build/demo/x.json and"
+            " DIR/cosim/x.json, a URL https://example.org/hdl/rtl/gone.v, a relative"
+            " ../cosim/gone.py and a [link](real.md).\n"
+        ),
+        # the part's own tests/ folder, and a string literal (a file a run writes)
+        "firmware/src/good.c": '/* its tests: tests/test_comp.c */\nconst char *p = "hdl/x.v";\n',
+        "cosim/good.py": 'PATH = "hdl/rtl/gone.v"\n\n\ndef f():\n    return "cosim/gone.py"\n',
+        "mk/good.mk": "OUT := hdl/gone.v  # written by the rule below\n",
+    }
+    for rel, text in texts.items():
+        (repo / rel).parent.mkdir(parents=True, exist_ok=True)
+        (repo / rel).write_text(text)
+    assert check(repo, [*REAL, *texts], list(texts)) == []
+
+
+def test_path_checker_skips_what_git_ignores(repo):
+    if subprocess.run(["git", "init", "-q"], cwd=repo).returncode:
+        pytest.skip("git cannot make a repository here")
+    (repo / ".gitignore").write_text("sim_build/\n")
+    (repo / "docs" / "waves.md").write_text("The waves are in hdl/sim_build/dump.vcd.\n")
+    (repo / "docs" / "bad.md").write_text("The waves are in hdl/waves/dump.vcd.\n")
+    found = check(repo, [*REAL, "docs/waves.md", "docs/bad.md"], ["docs/"])
+    assert found == ["docs/bad.md:1: names hdl/waves/dump.vcd, which does not exist"], found
 
 
 # --- the named formal properties --------------------------------------------------------------
