@@ -392,7 +392,8 @@ localparam TIMER_W = $clog2(CLK_HZ + 1);
 reg [31:0]        timer_count_reg;
 reg [TIMER_W-1:0] timer_period_reg, timer_phase_reg;
 reg [15:0]        timer_ticks_reg;
-// The firmware's phase, for the simulation's probes only (public: cosim/bench/soc reads it).
+// The firmware's phase, for the simulation's probes only (public: cosim/bench/emulate/soc/ reads
+// it).
 reg [7:0]                 mark_reg /*verilator public_flat_rd*/;
 wire                      unused_mark = &{1'b0, mark_reg};
 
