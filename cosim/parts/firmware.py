@@ -640,7 +640,7 @@ class EstimatorParams:
 
 
 def estimator_from(params) -> EstimatorParams:
-    """EstimatorParams from an object with est_* fields (cosim.scenarios.CompensatorParams);
+    """EstimatorParams from an object with est_* fields (`CompensatorParams` above);
     the defaults (off) for any it lacks."""
     d = EstimatorParams()
     return EstimatorParams(
