@@ -294,3 +294,15 @@ def test_a_circle_within_one_role_fails():
     graph = {"cosim.studies.a": {"cosim.studies.b"}, "cosim.studies.b": {"cosim.studies.a"}}
     assert back_imports(graph) == []
     assert circles(graph) == [["cosim.studies.a", "cosim.studies.b"]]
+
+
+def test_one_interrupted_type():
+    # SIGINT and SIGTERM raise one exception type wherever a handler raises (the dispatcher, a
+    # bench run's Signals): defined once, low, in cosim.project.interrupt
+    defined = sorted(
+        str(path.relative_to(COSIM_DIR))
+        for path in COSIM_DIR.rglob("*.py")
+        for node in ast.walk(ast.parse(path.read_text(), str(path)))
+        if isinstance(node, ast.ClassDef) and node.name == "Interrupted"
+    )
+    assert defined == ["project/interrupt.py"]

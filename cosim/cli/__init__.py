@@ -21,20 +21,12 @@ import threading
 from cosim import __version__, _early
 from cosim.project import procs
 from cosim.project.cliargs import ArgumentParser, harden, subparsers
+from cosim.project.interrupt import Interrupted
 from cosim.project.pipes import end_for_gone_reader, output_reader_gone
 
 # The subcommands, in the order `bowden --help` lists them: cosim/cli/NAME.py for each; `bench`
 # adds `bowden bench` and `bowden emulate`.
 SUBCOMMANDS: list[str] = ["doctor", "workspace", "sim", "demo", "tune", "audit", "bench", "sweep"]
-
-
-class Interrupted(BaseException):
-    """SIGINT or SIGTERM arrived: unwinds the run like KeyboardInterrupt (no `except Exception`
-    catches it)."""
-
-    def __init__(self, signum: int):
-        self.signum = signum
-        super().__init__(signal.Signals(signum).name)
 
 
 # The signal that arrived, kept in case its exception is lost: raised where Python cannot

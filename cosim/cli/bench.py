@@ -15,16 +15,13 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import csv
 import json
 import math
-import os
 import signal
 import sys
-import threading
-import time
 from pathlib import Path
 
+from cosim.bench.emulate.command import emulate_main, plant_assignments
 from cosim.bench.emulate.host_device import ChainConfig
 from cosim.bench.link import messages as msgs
 from cosim.bench.link.api import Bench
@@ -39,64 +36,11 @@ from cosim.bench.link.client import (
 from cosim.bench.link.paramfiles import ParamFileError, restore_plan
 from cosim.bench.link.paramset import backup_doc, write_all, write_atomic
 from cosim.bench.link.protocol import ProtocolError, format_value, param, word_from_value
-from cosim.bench.link.recorder import WAVE_KINDS, stderr_progress
-from cosim.parts import regmap
-from cosim.parts.geometry import in_workspace
-from cosim.results import trace as trace_mod
+from cosim.bench.link.recorder import WAVE_KINDS, check_geometry
+from cosim.bench.rig.run import Signals, cmd_run
+from cosim.project.interrupt import Interrupted
 
 from . import bench_tools, output_reader_gone
-
-# The FPGA's drive enable in the STATUS register (FAULTS.fpga_status).
-STATUS_OUT_EN = 1 << next(f.lsb for f in regmap.REGISTERS["STATUS"].fields if f.name == "OUT_EN")
-
-
-class Interrupted(KeyboardInterrupt):
-    """SIGINT or SIGTERM during a bench command (unwinds like Ctrl-C; exit 128 + signum)."""
-
-    def __init__(self, signum: int) -> None:
-        self.signum = signum
-        super().__init__(signal.Signals(signum).name)
-
-
-class Signals:
-    """SIGINT and SIGTERM raise Interrupted in the main thread, once: a later signal is noted,
-    not raised, so that it cannot cut short the STOP that follows. Inside `hold()` (stopping the
-    device) a signal is noted and raised when the hold ends."""
-
-    def __init__(self) -> None:
-        self.signum: int | None = None
-        self._raised = False
-        self._holding = False
-        self._previous: dict = {}
-
-    def __enter__(self) -> Signals:
-        if threading.current_thread() is threading.main_thread():
-            self._previous = {
-                sig: signal.signal(sig, self._handler) for sig in (signal.SIGINT, signal.SIGTERM)
-            }
-        return self
-
-    def __exit__(self, *exc) -> None:
-        for sig, handler in self._previous.items():
-            signal.signal(sig, handler)
-
-    def _handler(self, signum, _frame) -> None:
-        if self.signum is None:
-            self.signum = signum
-        if not self._raised and not self._holding:
-            self._raised = True
-            raise Interrupted(signum)
-
-    @contextlib.contextmanager
-    def hold(self):
-        self._holding = True
-        try:
-            yield
-        finally:
-            self._holding = False
-        if self.signum is not None and not self._raised:
-            self._raised = True
-            raise Interrupted(self.signum)
 
 
 def _position(text: str) -> tuple[float, float, float]:
@@ -238,7 +182,7 @@ def bench_main(args: argparse.Namespace) -> int:
     if (rc := bench_tools.precheck(args)) is not None:
         return rc
     try:
-        plant = _plant_assignments(args.plant)
+        plant = plant_assignments(args.plant)
     except ValueError as exc:
         print(f"bowden bench: {exc}", file=sys.stderr)
         return 2
@@ -247,7 +191,7 @@ def bench_main(args: argparse.Namespace) -> int:
     with args.signals:
         try:
             return _bench_session(args, plant)
-        except KeyboardInterrupt:  # Interrupted, or Ctrl-C before the handlers were in place
+        except (Interrupted, KeyboardInterrupt):  # or Ctrl-C before the handlers were in place
             signum = args.signals.signum or int(signal.SIGINT)
             print(
                 f"bowden bench: interrupted by {signal.Signals(signum).name}"
@@ -273,25 +217,6 @@ def bench_main(args: argparse.Namespace) -> int:
             stop = f"; {args.stop_report}" if args.stop_report else ""
             print(f"bowden bench: {exc.strerror or exc}{where}{stop}", file=sys.stderr)
             return 1
-
-
-def check_geometry(position_m, sheath_length_m: float, plant: dict | None = None) -> None:
-    """--position inside the workspace of the sheath (Eq. 13 of the paper: within the sheath's
-    length of the outlet, y >= 0) and --sheath-length in the trace format's range, before
-    anything is sent or written. `plant`: the emulated plant's overrides (its sheath_length,
-    when given, is the one the position must fit)."""
-    lo, hi, unit, _ = trace_mod.META_RANGES["sheath_length_m"]
-    if not lo <= sheath_length_m <= hi:
-        raise BenchUsageError(
-            f"--sheath-length {sheath_length_m:g}: outside [{lo:g}, {hi:g}] {unit}"
-        )
-    length = float((plant or {}).get("sheath_length", sheath_length_m))
-    x, y, z = position_m
-    if not bool(in_workspace(x, y, z, length)):
-        raise BenchUsageError(
-            f"--position {x:g},{y:g},{z:g}: outside the workspace of a {length:g} m sheath "
-            f"(sqrt(x^2 + y^2 + z^2) <= {length:g} m and y >= 0)"
-        )
 
 
 def _bench_session(args: argparse.Namespace, plant: dict) -> int:
@@ -454,162 +379,6 @@ def _cmd_stats(client: BenchClient, args, info) -> int:
     return 0
 
 
-def _read_ref(path: str) -> list[int]:
-    p = Path(path)
-    try:
-        text = p.read_text()
-    except FileNotFoundError:
-        raise BenchError(f"--ref {p}: no such file") from None
-    except UnicodeDecodeError:
-        raise BenchError(f"--ref {p}: not a text CSV") from None
-    rows = list(csv.reader(text.splitlines()))
-    if not rows:
-        raise BenchError(f"--ref {p}: empty")
-    header = [h.strip() for h in rows[0]]
-    col = header.index("T_ref_N") if "T_ref_N" in header else 0
-    start = 1 if not _is_number(rows[0][col] if col < len(rows[0]) else "") else 0
-    words = []
-    for i, row in enumerate(rows[start:], start=start + 1):
-        if not row:
-            continue
-        cell = row[col] if col < len(row) else ""
-        if not _is_number(cell):
-            raise BenchError(f"--ref {p}:{i}: T_ref {cell!r} is not a finite number")
-        v = float(cell)
-        if not -128.0 <= v <= 127.99:
-            raise BenchError(f"--ref {p}:{i}: T_ref {v:g} N outside [-128, 127.99] N")
-        words.append(round(v * 256.0))
-    if not words:
-        raise BenchError(f"--ref {p}: no samples")
-    return words
-
-
-def _is_number(text: str) -> bool:
-    try:
-        return math.isfinite(float(text))
-    except ValueError:
-        return False
-
-
-def _cmd_run(client: BenchClient, args, info) -> int:
-    words = None
-    if args.waveform == "stream":
-        if not args.ref:
-            raise BenchUsageError("run stream needs --ref FILE.csv (T_ref_N, one row per tick)")
-        words = _read_ref(args.ref)
-    elif args.ref:
-        raise BenchUsageError("--ref is for `run stream` only")
-    out = _run_target(args.out)
-    if client.stale_telemetry:
-        print(
-            f"note: the device was streaming when we connected: stopped it "
-            f"({client.stale_telemetry} stale frames skipped)",
-            file=sys.stderr,
-        )
-    # The run's rows go to NAME.partial.csv, moved onto --out when the run ends (a failed run
-    # never wipes an earlier recording; a run killed with SIGKILL leaves the partial file).
-    partial = out.with_name(f"{out.stem}.partial{out.suffix}")
-    result = None
-    try:
-        result = bench_tools.record_with_view(
-            client,
-            args,
-            partial,
-            f"{args.waveform} -> {out}",
-            seconds=args.seconds,
-            waveform=args.waveform,
-            mean_n=args.mean,
-            amplitude_n=args.amplitude,
-            freq_hz=args.freq,
-            stream_words=words,
-            position_m=args.position,
-            loop_routing=args.loop_routing,
-            sheath_length_m=args.sheath_length,
-            progress=None if args.quiet else stderr_progress,
-        )
-    finally:
-        # Every way out of a run (the end, a signal, a link error, an exception, a full disk)
-        # passes here: STOP, then the device's own word that it stopped and the output is off.
-        with args.signals.hold():
-            why_not = stop_and_confirm(client)
-            args.stop_report = (
-                "device stopped, output disabled (confirmed by the device)"
-                if why_not is None
-                else f"the device did NOT confirm that it stopped ({why_not}): it ends the run "
-                "by itself after --seconds; switch the drive off"
-            )
-            kept = _keep_recording(partial, out)
-            if result is None and kept:
-                args.stop_report = f"{out} holds the samples up to now; {args.stop_report}"
-    if why_not is not None:
-        raise BenchError(f"{out}: {result.summary()}")
-    print(f"{out}: {result.summary()} ({result.wall_s:.1f} s)")
-    for first, count in result.gaps[:5]:
-        print(f"  gap: {count} sample(s) missing from sample {first}")
-    if result.drops or result.stopped_early:
-        print(
-            f"bowden bench: the recording is incomplete ({result.drops} dropped, device stopped "
-            f"early: {result.stopped_early}); python -m cosim.results.trace will name the first "
-            "gap",
-            file=sys.stderr,
-        )
-        return 1
-    return 0
-
-
-def stop_and_confirm(client: BenchClient, tries: int = 3, settle_s: float = 0.5) -> str | None:
-    """Send STOP, then ask the device: None when HELLO says no run is active and the FPGA's
-    STATUS shows the drive output disabled; otherwise why that could not be confirmed. The FPGA
-    takes STOP's CTRL write at its next sample: STATUS is read again for up to `settle_s`."""
-    client.on_telemetry = None
-    why = "no answer"
-    for _ in range(tries):
-        try:
-            client.request("STOP")
-            deadline = time.monotonic() + settle_s
-            while True:
-                running = client.hello().running
-                out_en = client.faults()["fpga_status"] & STATUS_OUT_EN
-                if (not running and not out_en) or time.monotonic() >= deadline:
-                    break
-                client.poll(0.02)  # (the stepped emulator advances its loop here)
-        except (BenchError, ProtocolError, OSError) as exc:
-            why = str(exc)
-            continue
-        if not running and not out_en:
-            return None
-        why = "a run is still active" if running else "the FPGA's output is still enabled"
-    return why
-
-
-def _run_target(text: str) -> Path:
-    """--out checked before anything is sent or written: a CSV file name, not a folder."""
-    out = Path(text)
-    if out.is_dir() or text.endswith(os.sep):
-        raise BenchUsageError(f"--out {text}: is a folder; give a CSV file name (e.g. run.csv)")
-    if out.exists() and not out.is_file():
-        raise BenchUsageError(f"--out {text}: not a regular file")
-    return out
-
-
-def _keep_recording(partial: Path, out: Path) -> bool:
-    """Move a run's rows (and sidecar) onto `out` when it recorded any; otherwise remove the
-    partial files and leave `out` as it was. True when `out` now holds the run."""
-    meta = trace_mod.meta_path(partial)
-    rows = 0
-    if partial.exists():
-        with partial.open("rb") as f:
-            rows = sum(1 for _ in f) - 1
-    if rows <= 0:
-        for p in (partial, meta):
-            p.unlink(missing_ok=True)
-        return False
-    if meta.exists():
-        meta.replace(trace_mod.meta_path(out))
-    partial.replace(out)
-    return True
-
-
 _FAULT_DOCS = {
     "ADC_STALE": "no valid sample from the load-cell ADC: check its wiring and clock",
     "ADC_RANGE": "load-cell code outside [ADC_MIN, ADC_MAX]: overload or a broken bridge",
@@ -632,12 +401,10 @@ _COMMANDS = {
     "restore": _cmd_restore,
     "faults": _cmd_faults,
     "stats": _cmd_stats,
-    "run": _cmd_run,
+    "run": cmd_run,
     "diff": bench_tools.cmd_diff,
-    "watch": lambda client, args, info: bench_tools.cmd_watch(client, args, info, _cmd_run),
-    "calibrate": lambda client, args, info: bench_tools.cmd_calibrate(
-        client, args, info, stop_and_confirm
-    ),
+    "watch": bench_tools.cmd_watch,
+    "calibrate": bench_tools.cmd_calibrate,
 }
 
 
@@ -720,216 +487,3 @@ def _add_emulate(subparsers) -> None:
         help="send a burst of garbage bytes every S seconds (to try the resync)",
     )
     p.set_defaults(func=emulate_main)
-
-
-def _plant_assignments(items: list[str]) -> dict:
-    """--plant NAME=VALUE[,NAME=VALUE...] (repeatable) as FMU parameter overrides, checked as a
-    params file's plant section is (cosim.config.scenarios.plant_overrides: an FMU parameter, in its
-    range)."""
-    from cosim.config.run import plant_overrides  # noqa: PLC0415 (reads the built FMU)
-
-    raw: dict[str, float | bool] = {}
-    given: dict[str, str] = {}  # name -> the value's text (a second value is refused, not taken)
-    for option, item in ((arg, part) for arg in items for part in arg.split(",")):
-        name, sep, text = item.partition("=")
-        name, text = name.strip(), text.strip()
-        if not item.strip():
-            raise ValueError(f"--plant {option!r}: an empty item; expected NAME=VALUE[,...]")
-        if not sep or not name:
-            raise ValueError(f"--plant {item!r}: expected NAME=VALUE (e.g. sensor_offset=0.5)")
-        if name in given:
-            raise ValueError(
-                f"--plant {name}={given[name]} and {name}={text}: {name} given twice; "
-                "give each parameter once"
-            )
-        given[name] = text
-        if text.lower() in ("true", "false"):
-            raw[name] = text.lower() == "true"
-            continue
-        if text.strip().lstrip("+-").isdigit():
-            if len(text.strip()) > 30:  # beyond every parameter's range (and int()'s limit)
-                raise ValueError(
-                    f"--plant {name}: a whole number of {len(text.strip())} digits is outside "
-                    "every parameter's range"
-                )
-            raw[name] = int(text)  # Integer parameters (seed) take whole numbers
-            continue
-        try:
-            raw[name] = float(text)
-        except ValueError:
-            raise ValueError(f"--plant {item!r}: {text!r} is not a number") from None
-    return plant_overrides(raw, "--plant")
-
-
-def _flash_problem(text: str, target: str) -> str | None:
-    """--flash checked before anything starts: a flash image of the target's size that can be
-    read, or no file yet, in a folder that can be written (the emulator saves the flash there
-    while it runs; a save that failed then would stop it). None when it will do."""
-    from cosim.bench.emulate.soc.harness import FLASH_BYTES, check_flash_file  # noqa: PLC0415
-
-    if not text.strip():
-        return f"--flash {text!r}: expected a file name (a flash image, or none yet)"
-    if target == "soc":
-        size_bytes = FLASH_BYTES
-    else:
-        from cosim.bench.emulate.host_device import load_library  # noqa: PLC0415
-
-        size_bytes = 4 * load_library().dev_host_flash_n_words()
-    try:
-        check_flash_file(Path(text), size_bytes)
-    except ValueError as exc:
-        return str(exc)
-    return None
-
-
-def _start_problem(exc: Exception, args: argparse.Namespace) -> str:
-    """Why the host emulator did not start, naming the option it comes from: the TCP port
-    (the only socket it binds) or the --can bus (an error raised inside python-can)."""
-    import errno  # noqa: PLC0415
-    import traceback  # noqa: PLC0415
-
-    text = " ".join(str(exc).split()) or type(exc).__name__
-    if isinstance(exc, OSError) and exc.errno in (errno.EADDRINUSE, errno.EACCES):
-        return f"--tcp-port {args.tcp_port}: {exc.strerror} (0, the default, takes a free port)"
-    if args.can:
-        import can  # noqa: PLC0415 (imported by the emulator already)
-
-        where = os.path.dirname(can.__file__)
-        frames = traceback.extract_tb(exc.__traceback__)
-        if isinstance(exc, can.CanError) or any(f.filename.startswith(where) for f in frames):
-            return f"--can {args.can}: cannot open the bus ({text})"
-    return text
-
-
-# The host emulator's values of the options --target soc refuses (default None in the parser).
-HOST_EMULATOR_DEFAULTS = {"baud": 921_600, "tcp_port": 0, "interface": "ideal", "engine": "native"}
-
-
-def emulate_main(args: argparse.Namespace) -> int:
-    from cosim.bench.emulate.emulator import Emulator, StopSignals  # noqa: PLC0415
-
-    if args.target == "soc":
-        from cosim.bench.emulate.soc.cli import refused_option  # noqa: PLC0415
-
-        flag = refused_option(args)
-        if flag is not None:
-            print(f"bowden emulate: {flag} is not available with --target soc", file=sys.stderr)
-            return 2
-    else:
-        if args.engine == "native" and args.interface not in (None, "ideal"):
-            print(
-                f"bowden emulate: --engine native has the ideal interface only: --interface "
-                f"{args.interface} runs on the Python engine (leave --engine out)",
-                file=sys.stderr,
-            )
-            return 2
-        for dest, value in HOST_EMULATOR_DEFAULTS.items():
-            if getattr(args, dest) is None:
-                setattr(args, dest, value)
-    identity = None
-    if args.table_hash is not None:
-        try:
-            identity = (msgs.PROTOCOL_VERSION, int(args.table_hash, 16) & 0xFFFFFFFF)
-        except ValueError:
-            print(
-                f"bowden emulate: --table-hash {args.table_hash!r}: expected hex digits",
-                file=sys.stderr,
-            )
-            return 2
-    if args.tcp_port is not None and not 0 <= args.tcp_port <= 65535:
-        print(f"bowden emulate: --tcp-port {args.tcp_port}: outside 0..65535", file=sys.stderr)
-        return 2
-    if args.flash is not None and (problem := _flash_problem(args.flash, args.target)):
-        print(f"bowden emulate: {problem}", file=sys.stderr)
-        return 2
-    try:
-        plant = _plant_assignments(args.plant)
-    except ValueError as exc:
-        print(f"bowden emulate: {exc}", file=sys.stderr)
-        return 2
-    try:
-        check_geometry(args.position, 1.0, plant)
-    except BenchUsageError as exc:
-        print(f"bowden emulate: {exc}", file=sys.stderr)
-        return 2
-    if args.target == "soc":
-        from cosim.bench.emulate.soc.cli import emulate_soc  # noqa: PLC0415
-
-        return emulate_soc(args, plant)
-    engine = args.engine
-    if args.interface != "ideal" and engine == "native":
-        engine = "python"
-        print(
-            f"bowden emulate: --interface {args.interface} runs on the Python engine (the C chain "
-            "has the ideal interface only): real time is not guaranteed on a loaded machine; a "
-            "late tick sets the device's OVERRUN fault"
-        )
-    try:
-        emu = Emulator(
-            pty=not args.no_pty,
-            tcp_port=None if args.no_tcp else args.tcp_port,
-            can=args.can,
-            baud=args.baud,
-            chain=ChainConfig(
-                position_m=args.position,
-                loop_routing=args.loop_routing,
-                plant=plant or None,
-                interface=args.interface,
-            ),
-            engine=engine,
-            flash_path=args.flash,
-            identity=identity,
-            findable=True,  # `bowden bench list` and --port auto find its pty
-        )
-    except Exception as exc:  # noqa: BLE001 (the FMU's, the OS's, python-can's: named below)
-        print(f"bowden emulate: {_start_problem(exc, args)}", file=sys.stderr)
-        return 1
-    # From before the start until the emulator has stopped, SIGINT and SIGTERM are noted, not
-    # raised (StopSignals): one that comes while it starts, runs or stops ends the wait below,
-    # and the stop, never cut short, removes the registry file that makes it findable.
-    with StopSignals() as signals:
-        try:
-            print("bowden emulate: controller running (firmware + FPGA loop model + plant FMU)")
-            for kind, url in emu.urls.items():
-                print(
-                    f"  {kind:<7} bowden bench {'--can' if kind == 'can' else '--port'} {url} info"
-                )
-            if plant:  # as the FMU holds them (read back)
-                held = " ".join(f"{k}={emu.chain.plant.get(k):g}" for k in plant)
-                print(f"  plant FMU parameters set: {held}")
-            print(f"  serial links throttled to {args.baud} baud; Ctrl-C stops", flush=True)
-            emu.start()
-            t0 = time.monotonic()
-            next_garbage = t0 + (args.garbage_every or math.inf)
-            while (
-                emu.running
-                and signals.signum is None
-                and (args.seconds is None or time.monotonic() - t0 < args.seconds)
-            ):
-                time.sleep(0.05)
-                if time.monotonic() >= next_garbage:
-                    emu.inject_garbage()
-                    next_garbage += args.garbage_every
-        finally:
-            emu.stop()
-    if emu.error is not None:  # the emulated controller is gone: say why, once
-        exc = emu.error
-        why = f"{exc.strerror}: {exc.filename}" if isinstance(exc, OSError) else str(exc)
-        print(
-            f"bowden emulate: the emulated controller stopped after {emu.chain.ticks} ticks: "
-            f"{' '.join(why.split())}",
-            file=sys.stderr,
-        )
-        return 1
-    if signals.signum == signal.SIGINT:
-        print(
-            f"bowden emulate: interrupted by SIGINT: stopped after {emu.chain.ticks} ticks",
-            file=sys.stderr,
-        )
-        return 128 + signal.SIGINT
-    # --seconds, or SIGTERM (its usual end: a service manager's, a script's)
-    print(
-        f"bowden emulate: stopped after {emu.chain.ticks} ticks; lag behind real time at most "
-        f"{emu.max_lag_seen_s * 1e3:.1f} ms, {emu.overruns} overrun(s)"
-    )
-    return 0

@@ -1,7 +1,8 @@
 """The `bowden bench` commands beyond the protocol's own: `list` and `--port auto` (finding
 controllers), `diff` (what changed in a configuration), `watch` and `run --live` (the live view).
 cosim/cli/bench.py calls `add_parsers` and `add_live_arguments`, `precheck` before anything is
-sent, and dispatches to the handlers; the work is done in cosim.bench (discover, diff, live).
+sent, and dispatches to the handlers; the work is done in cosim.bench (discover, diff, live, and
+the run with its stop in rig/run.py).
 """
 
 from __future__ import annotations
@@ -14,10 +15,11 @@ from pathlib import Path
 from cosim.bench.link import discover, paramfiles
 from cosim.bench.link import messages as msgs
 from cosim.bench.link.client import BenchError
-from cosim.bench.link.protocol import ProtocolError, param
-from cosim.bench.link.recorder import RunResult, record_run, run_ticks
+from cosim.bench.link.protocol import param
+from cosim.bench.link.recorder import run_ticks
 from cosim.bench.live import view as live
 from cosim.bench.rig import diff
+from cosim.bench.rig.run import cmd_run, stop_and_confirm
 
 
 def add_parsers(sub) -> None:
@@ -230,10 +232,9 @@ def restore_command(args) -> str | None:
     return f"bowden bench {link} restore"
 
 
-def cmd_calibrate(client, args, info, stop_and_confirm) -> int:
+def cmd_calibrate(client, args, info) -> int:
     """`bowden bench calibrate` (cosim.bench.rig.calibrate): every run ends with `stop_and_confirm`
-    (the device stopped, its output disabled, confirmed by the device)."""
-    from cosim.bench.link.client import BenchError  # noqa: PLC0415
+    (cosim.bench.rig.run: the device stopped, its output disabled, confirmed by the device)."""
     from cosim.bench.link.recorder import stderr_progress  # noqa: PLC0415
     from cosim.bench.rig import calibrate  # noqa: PLC0415
 
@@ -341,66 +342,10 @@ def cmd_diff(client, args, info) -> int:
     return 0
 
 
-# --- live view -----------------------------------------------------------------------------------
-
-
-def open_view(args, label: str, rate_hz: float) -> live.ViewProcess:
-    """Start the view `args.live` asks for in its own process (a page's address on stderr)."""
-    buffer = live.LiveBuffer(rate_hz, path=live.ring_file())
-    buffer.start(label, rate_hz)
-    try:
-        view = live.ViewProcess(
-            buffer, args.live, args.signal_list, args.window, http_port=args.http_port
-        ).start()
-    except BaseException:
-        Path(buffer.path).unlink(missing_ok=True)
-        raise
-    if view.url:
-        print(f"live view: {view.url} (this machine only)", file=sys.stderr, flush=True)
-    return view
-
-
-def record_with_view(client, args, out, label: str, **kw) -> RunResult:
-    """record_run into `out`, with the live view `args.live` asks for when it asks for one (the
-    progress line gives way to a terminal view)."""
-    if not getattr(args, "live", None):
-        return record_run(client, out, **kw)
-    tick_hz = float(client.get("tick_rate_hz"))
-    run_ticks(kw["seconds"], tick_hz)  # a duration refused before the view clears the screen
-    rate_hz = tick_hz / int(client.get("dev.telemetry_div"))
-    view = open_view(args, label, rate_hz)
-    if view.kind == "term":
-        kw["progress"] = None
-    result = None
-    try:
-        result = record_run(client, out, tap=view.buffer.add, **kw)
-    finally:
-        try:
-            if result is None:  # interrupted or failed: the device before the view
-                _stop_at_once(client, args)
-        finally:
-            view.stop(f"run ended: {result.summary()}" if result else "run interrupted")
-            Path(view.buffer.path).unlink(missing_ok=True)
-            if view.ended:  # killed, stopped or hung: the recording is whole all the same
-                print(f"live view: {view.ended}", file=sys.stderr, flush=True)
-    return result
-
-
-def _stop_at_once(client, args) -> None:
-    """STOP, before the view is given its seconds to show how the run ended (the motor is
-    not kept driven while a view draws); the run's own exit path then stops the device again
-    and asks it to confirm, and says when it could not."""
-    client.on_telemetry = None
-    with args.signals.hold():  # a second Ctrl-C does not cut the STOP short
-        try:
-            client.request("STOP")
-        except (BenchError, ProtocolError, OSError):
-            pass  # said by the confirmation that follows
-
-
-def cmd_watch(client, args, info, run_cmd) -> int:
-    """`bowden bench watch`: `run` (`run_cmd`, with every exit path of a run) of the waveform
-    the device is set to, with the live view; recorded to --out or a new temporary file."""
+def cmd_watch(client, args, info) -> int:
+    """`bowden bench watch`: `run` (cosim.bench.rig.run.cmd_run, with every exit path of a run)
+    of the waveform the device is set to, with the live view; recorded to --out or a new
+    temporary file."""
     run_ticks(args.seconds, float(client.get("tick_rate_hz")))  # before any file or view
     folder = None
     if args.out is None:
@@ -414,7 +359,7 @@ def cmd_watch(client, args, info, run_cmd) -> int:
     args.position, args.loop_routing, args.sheath_length = (0.0, 0.5, 0.0), True, 1.0
     args.quiet = False
     try:
-        return run_cmd(client, args, info)
+        return cmd_run(client, args, info)
     finally:
         if folder is not None and not any(folder.iterdir()):
             folder.rmdir()  # the run recorded nothing: no empty folder left behind

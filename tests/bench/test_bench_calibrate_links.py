@@ -16,7 +16,7 @@ from cosim.bench.__main__ import main as bench_cli
 from cosim.bench.emulate.emulator import Emulator
 from cosim.bench.emulate.host_device import ChainConfig
 from cosim.bench.link.client import BenchClient, SerialLink
-from cosim.cli.bench import STATUS_OUT_EN
+from cosim.bench.rig.run import STATUS_OUT_EN
 from cosim.project.paths import REPO_ROOT
 
 # As tests/bench/test_bench_calibrate.py: the plant's mu found to 1 %.

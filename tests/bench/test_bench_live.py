@@ -665,10 +665,10 @@ def test_an_interrupted_run_stops_the_device_before_the_view_ends(tmp_path, caps
     """Ctrl-C in a run with a view: STOP goes to the device before the view is given its
     seconds to draw the end (the motor is not kept driven meanwhile), then the run's exit path
     confirms it."""
-    from cosim.cli import bench_tools
+    from cosim.bench.rig import run as rig_run
 
     seen = {}
-    real_record_run, real_stop = bench_tools.record_run, live.ViewProcess.stop
+    real_record_run, real_stop = rig_run.record_run, live.ViewProcess.stop
 
     def record_run(client, out, tap, **kw):
         seen["client"] = client
@@ -684,7 +684,7 @@ def test_an_interrupted_run_stops_the_device_before_the_view_ends(tmp_path, caps
         seen["running"] = seen["client"].hello().running
         return real_stop(self, message, **kw)
 
-    monkeypatch.setattr(bench_tools, "record_run", record_run)
+    monkeypatch.setattr(rig_run, "record_run", record_run)
     monkeypatch.setattr(live.ViewProcess, "stop", stop)
     out = tmp_path / "x.csv"
     argv = ["bench", "--emulate", "run", "sine", "--seconds", "3", "--out", str(out)]

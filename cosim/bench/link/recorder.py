@@ -28,6 +28,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from cosim.parts.geometry import in_workspace
 from cosim.results import trace as trace_mod
 
 from . import messages as msgs
@@ -148,6 +149,25 @@ def run_ticks(seconds: float, tick_hz: float) -> int:
             f"{longest / tick_hz:.0f} s at {tick_hz:g} Hz)"
         )
     return ticks
+
+
+def check_geometry(position_m, sheath_length_m: float, plant: dict | None = None) -> None:
+    """--position inside the workspace of the sheath (Eq. 13 of the paper: within the sheath's
+    length of the outlet, y >= 0) and --sheath-length in the trace format's range, before
+    anything is sent or written. `plant`: the emulated plant's overrides (its sheath_length,
+    when given, is the one the position must fit)."""
+    lo, hi, unit, _ = trace_mod.META_RANGES["sheath_length_m"]
+    if not lo <= sheath_length_m <= hi:
+        raise BenchUsageError(
+            f"--sheath-length {sheath_length_m:g}: outside [{lo:g}, {hi:g}] {unit}"
+        )
+    length = float((plant or {}).get("sheath_length", sheath_length_m))
+    x, y, z = position_m
+    if not bool(in_workspace(x, y, z, length)):
+        raise BenchUsageError(
+            f"--position {x:g},{y:g},{z:g}: outside the workspace of a {length:g} m sheath "
+            f"(sqrt(x^2 + y^2 + z^2) <= {length:g} m and y >= 0)"
+        )
 
 
 def record_run(

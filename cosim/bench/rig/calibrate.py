@@ -26,7 +26,7 @@ The steps (cosim/bench/README.md, "Calibration", says why each piece is there):
 
 Every way out puts back what the runs changed (source, wave.*) and, unless the calibration
 succeeded, the compensator values; the caller stops the device after each run
-(`after_run`, cosim/cli/bench.py stop_and_confirm).
+(`after_run`, cosim.bench.rig.run.stop_and_confirm).
 """
 
 from __future__ import annotations
@@ -53,6 +53,7 @@ from cosim.bench.link.protocol import (
     word_from_value,
 )
 from cosim.bench.link.recorder import record_run
+from cosim.project.interrupt import Interrupted
 
 # --- the identification sequence ---------------------------------------------------------------
 
@@ -443,7 +444,7 @@ def run_calibration(
     """The calibration (module docstring) on a connected client. `after_run` is called after
     every run however it ends (stop the device and confirm it; raise BenchError when that
     cannot be confirmed; default: STOP); `hold()` a context manager under which putting the
-    configuration back is not cut short by a signal (cosim/cli/bench.py Signals.hold).
+    configuration back is not cut short by a signal (cosim.bench.rig.run.Signals.hold).
 
     However it ends, what the runs changed (source, wave.*) is written back, and so are the
     compensator values unless they were applied and verified. A link or device failure is one
@@ -519,14 +520,14 @@ def _explain(failure, undo_error, state: _State, opts: Options, backup: Path) ->
     else:
         holds = "no compensator value was written"
     what = f"{failure}" if failure is not None else "putting the configuration back failed"
-    if isinstance(failure, KeyboardInterrupt):
+    if isinstance(failure, KeyboardInterrupt | Interrupted):
         if undo_error is None:
             return
         what = "interrupted"
     msg = f"calibrate: {what} during {state.step}; {holds}"
     if str(backup) not in holds:
         msg += f"; the configuration before: {backup}"
-    if isinstance(failure, KeyboardInterrupt):
+    if isinstance(failure, KeyboardInterrupt | Interrupted):
         import sys  # noqa: PLC0415
 
         print(msg, file=sys.stderr)

@@ -48,7 +48,7 @@ def refused_option(args: argparse.Namespace) -> str | None:
 
 def emulate_soc(args: argparse.Namespace, plant: dict) -> int:
     """`args` as `bowden emulate` parsed them; `plant` its --plant overrides, checked (with the
-    position) by cosim.cli.bench."""
+    position) by cosim.bench.emulate.command."""
     flag = refused_option(args)
     if flag is not None:
         print(f"bowden emulate: {flag} is not available with --target soc", file=sys.stderr)
@@ -84,9 +84,9 @@ def emulate_soc(args: argparse.Namespace, plant: dict) -> int:
     except (OSError, RuntimeError) as exc:
         print(f"bowden emulate: {exc}", file=sys.stderr)
         return 1
-    # As the host emulator's (cosim.cli.bench.emulate_main): signals noted from before the start
-    # until the board has stopped, so that none cuts the start or the stop (and the removal of
-    # the registry file) short.
+    # As the host emulator's (cosim.bench.emulate.command.emulate_main): signals noted from
+    # before the start until the board has stopped, so that none cuts the start or the stop (and
+    # the removal of the registry file) short.
     with StopSignals() as signals:
         try:
             print(

@@ -1,0 +1,286 @@
+"""A recorded run at the rig (`bowden bench run` and `watch`) and the way every run ends: STOP,
+then the device's own word that it stopped and that the FPGA's drive output is off
+(stop_and_confirm, which `calibrate` calls after each of its runs too). SIGINT and SIGTERM
+during a bench command raise Interrupted once (Signals); the command line parses the options and
+calls cmd_run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+import math
+import os
+import signal
+import sys
+import threading
+import time
+from pathlib import Path
+
+from cosim.bench.link.client import BenchClient, BenchError, BenchUsageError
+from cosim.bench.link.protocol import ProtocolError
+from cosim.bench.link.recorder import RunResult, record_run, run_ticks, stderr_progress
+from cosim.bench.live import view as live
+from cosim.parts import regmap
+from cosim.project.interrupt import Interrupted
+from cosim.results import trace as trace_mod
+
+# The FPGA's drive enable in the STATUS register (FAULTS.fpga_status).
+STATUS_OUT_EN = 1 << next(f.lsb for f in regmap.REGISTERS["STATUS"].fields if f.name == "OUT_EN")
+
+
+class Signals:
+    """SIGINT and SIGTERM raise Interrupted in the main thread, once: a later signal is noted,
+    not raised, so that it cannot cut short the STOP that follows. Inside `hold()` (stopping the
+    device) a signal is noted and raised when the hold ends."""
+
+    def __init__(self) -> None:
+        self.signum: int | None = None
+        self._raised = False
+        self._holding = False
+        self._previous: dict = {}
+
+    def __enter__(self) -> Signals:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = {
+                sig: signal.signal(sig, self._handler) for sig in (signal.SIGINT, signal.SIGTERM)
+            }
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+
+    def _handler(self, signum, _frame) -> None:
+        if self.signum is None:
+            self.signum = signum
+        if not self._raised and not self._holding:
+            self._raised = True
+            raise Interrupted(signum)
+
+    @contextlib.contextmanager
+    def hold(self):
+        self._holding = True
+        try:
+            yield
+        finally:
+            self._holding = False
+        if self.signum is not None and not self._raised:
+            self._raised = True
+            raise Interrupted(self.signum)
+
+
+def stop_and_confirm(client: BenchClient, tries: int = 3, settle_s: float = 0.5) -> str | None:
+    """Send STOP, then ask the device: None when HELLO says no run is active and the FPGA's
+    STATUS shows the drive output disabled; otherwise why that could not be confirmed. The FPGA
+    takes STOP's CTRL write at its next sample: STATUS is read again for up to `settle_s`."""
+    client.on_telemetry = None
+    why = "no answer"
+    for _ in range(tries):
+        try:
+            client.request("STOP")
+            deadline = time.monotonic() + settle_s
+            while True:
+                running = client.hello().running
+                out_en = client.faults()["fpga_status"] & STATUS_OUT_EN
+                if (not running and not out_en) or time.monotonic() >= deadline:
+                    break
+                client.poll(0.02)  # (the stepped emulator advances its loop here)
+        except (BenchError, ProtocolError, OSError) as exc:
+            why = str(exc)
+            continue
+        if not running and not out_en:
+            return None
+        why = "a run is still active" if running else "the FPGA's output is still enabled"
+    return why
+
+
+def _read_ref(path: str) -> list[int]:
+    p = Path(path)
+    try:
+        text = p.read_text()
+    except FileNotFoundError:
+        raise BenchError(f"--ref {p}: no such file") from None
+    except UnicodeDecodeError:
+        raise BenchError(f"--ref {p}: not a text CSV") from None
+    rows = list(csv.reader(text.splitlines()))
+    if not rows:
+        raise BenchError(f"--ref {p}: empty")
+    header = [h.strip() for h in rows[0]]
+    col = header.index("T_ref_N") if "T_ref_N" in header else 0
+    start = 1 if not _is_number(rows[0][col] if col < len(rows[0]) else "") else 0
+    words = []
+    for i, row in enumerate(rows[start:], start=start + 1):
+        if not row:
+            continue
+        cell = row[col] if col < len(row) else ""
+        if not _is_number(cell):
+            raise BenchError(f"--ref {p}:{i}: T_ref {cell!r} is not a finite number")
+        v = float(cell)
+        if not -128.0 <= v <= 127.99:
+            raise BenchError(f"--ref {p}:{i}: T_ref {v:g} N outside [-128, 127.99] N")
+        words.append(round(v * 256.0))
+    if not words:
+        raise BenchError(f"--ref {p}: no samples")
+    return words
+
+
+def _is_number(text: str) -> bool:
+    try:
+        return math.isfinite(float(text))
+    except ValueError:
+        return False
+
+
+def cmd_run(client: BenchClient, args, info) -> int:
+    """`bowden bench run` (and `watch`): the waveform of `args` recorded to `args.out` with the view
+    `args.live` asks for; every way out passes through stop_and_confirm, and `args.stop_report`
+    says what the device answered. `args.signals`: the run's Signals."""
+    words = None
+    if args.waveform == "stream":
+        if not args.ref:
+            raise BenchUsageError("run stream needs --ref FILE.csv (T_ref_N, one row per tick)")
+        words = _read_ref(args.ref)
+    elif args.ref:
+        raise BenchUsageError("--ref is for `run stream` only")
+    out = _run_target(args.out)
+    if client.stale_telemetry:
+        print(
+            f"note: the device was streaming when we connected: stopped it "
+            f"({client.stale_telemetry} stale frames skipped)",
+            file=sys.stderr,
+        )
+    # The run's rows go to NAME.partial.csv, moved onto --out when the run ends (a failed run
+    # never wipes an earlier recording; a run killed with SIGKILL leaves the partial file).
+    partial = out.with_name(f"{out.stem}.partial{out.suffix}")
+    result = None
+    try:
+        result = record_with_view(
+            client,
+            args,
+            partial,
+            f"{args.waveform} -> {out}",
+            seconds=args.seconds,
+            waveform=args.waveform,
+            mean_n=args.mean,
+            amplitude_n=args.amplitude,
+            freq_hz=args.freq,
+            stream_words=words,
+            position_m=args.position,
+            loop_routing=args.loop_routing,
+            sheath_length_m=args.sheath_length,
+            progress=None if args.quiet else stderr_progress,
+        )
+    finally:
+        # Every way out of a run (the end, a signal, a link error, an exception, a full disk)
+        # passes here: STOP, then the device's own word that it stopped and the output is off.
+        with args.signals.hold():
+            why_not = stop_and_confirm(client)
+            args.stop_report = (
+                "device stopped, output disabled (confirmed by the device)"
+                if why_not is None
+                else f"the device did NOT confirm that it stopped ({why_not}): it ends the run "
+                "by itself after --seconds; switch the drive off"
+            )
+            kept = _keep_recording(partial, out)
+            if result is None and kept:
+                args.stop_report = f"{out} holds the samples up to now; {args.stop_report}"
+    if why_not is not None:
+        raise BenchError(f"{out}: {result.summary()}")
+    print(f"{out}: {result.summary()} ({result.wall_s:.1f} s)")
+    for first, count in result.gaps[:5]:
+        print(f"  gap: {count} sample(s) missing from sample {first}")
+    if result.drops or result.stopped_early:
+        print(
+            f"bowden bench: the recording is incomplete ({result.drops} dropped, device stopped "
+            f"early: {result.stopped_early}); python -m cosim.results.trace will name the first "
+            "gap",
+            file=sys.stderr,
+        )
+        return 1
+    return 0
+
+
+def _run_target(text: str) -> Path:
+    """--out checked before anything is sent or written: a CSV file name, not a folder."""
+    out = Path(text)
+    if out.is_dir() or text.endswith(os.sep):
+        raise BenchUsageError(f"--out {text}: is a folder; give a CSV file name (e.g. run.csv)")
+    if out.exists() and not out.is_file():
+        raise BenchUsageError(f"--out {text}: not a regular file")
+    return out
+
+
+def _keep_recording(partial: Path, out: Path) -> bool:
+    """Move a run's rows (and sidecar) onto `out` when it recorded any; otherwise remove the
+    partial files and leave `out` as it was. True when `out` now holds the run."""
+    meta = trace_mod.meta_path(partial)
+    rows = 0
+    if partial.exists():
+        with partial.open("rb") as f:
+            rows = sum(1 for _ in f) - 1
+    if rows <= 0:
+        for p in (partial, meta):
+            p.unlink(missing_ok=True)
+        return False
+    if meta.exists():
+        meta.replace(trace_mod.meta_path(out))
+    partial.replace(out)
+    return True
+
+
+# --- live view -----------------------------------------------------------------------------------
+
+
+def open_view(args, label: str, rate_hz: float) -> live.ViewProcess:
+    """Start the view `args.live` asks for in its own process (a page's address on stderr)."""
+    buffer = live.LiveBuffer(rate_hz, path=live.ring_file())
+    buffer.start(label, rate_hz)
+    try:
+        view = live.ViewProcess(
+            buffer, args.live, args.signal_list, args.window, http_port=args.http_port
+        ).start()
+    except BaseException:
+        Path(buffer.path).unlink(missing_ok=True)
+        raise
+    if view.url:
+        print(f"live view: {view.url} (this machine only)", file=sys.stderr, flush=True)
+    return view
+
+
+def record_with_view(client, args, out, label: str, **kw) -> RunResult:
+    """record_run into `out`, with the live view `args.live` asks for when it asks for one (the
+    progress line gives way to a terminal view)."""
+    if not getattr(args, "live", None):
+        return record_run(client, out, **kw)
+    tick_hz = float(client.get("tick_rate_hz"))
+    run_ticks(kw["seconds"], tick_hz)  # a duration refused before the view clears the screen
+    rate_hz = tick_hz / int(client.get("dev.telemetry_div"))
+    view = open_view(args, label, rate_hz)
+    if view.kind == "term":
+        kw["progress"] = None
+    result = None
+    try:
+        result = record_run(client, out, tap=view.buffer.add, **kw)
+    finally:
+        try:
+            if result is None:  # interrupted or failed: the device before the view
+                _stop_at_once(client, args)
+        finally:
+            view.stop(f"run ended: {result.summary()}" if result else "run interrupted")
+            Path(view.buffer.path).unlink(missing_ok=True)
+            if view.ended:  # killed, stopped or hung: the recording is whole all the same
+                print(f"live view: {view.ended}", file=sys.stderr, flush=True)
+    return result
+
+
+def _stop_at_once(client, args) -> None:
+    """STOP, before the view is given its seconds to show how the run ended (the motor is
+    not kept driven while a view draws); the run's own exit path then stops the device again
+    and asks it to confirm, and says when it could not."""
+    client.on_telemetry = None
+    with args.signals.hold():  # a second Ctrl-C does not cut the STOP short
+        try:
+            client.request("STOP")
+        except (BenchError, ProtocolError, OSError):
+            pass  # said by the confirmation that follows
