@@ -123,7 +123,19 @@ test-quick: lint-py firmware fmu native bench-build
 	$(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile -m "not slow" --durations=5 \
 	  $(QUICK_TESTS) $(PYTEST_ARGS)
 
-demo: build
+# The demo prints progress lines and its tables; the build's compiler lines go to a log it names
+# (kept after a failure, with its last lines shown). `make build` shows them all.
+DEMO_BUILD_LOG := $(BUILD)/logs/demo-build.log
+
+demo: $(VENV_STAMP)
+	@mkdir -p $(dir $(DEMO_BUILD_LOG))
+	@echo "demo: building the RTL models, firmware, plant FMU and native engine (log: $(DEMO_BUILD_LOG))"
+	@start=$$(date +%s); \
+	if ! $(MAKE) --no-print-directory build >$(DEMO_BUILD_LOG) 2>&1; then \
+	  echo "demo: the build failed; its last lines (all of it in $(DEMO_BUILD_LOG)):" >&2; \
+	  tail -n 25 $(DEMO_BUILD_LOG) >&2; exit 1; \
+	fi; \
+	echo "demo: built in $$(( $$(date +%s) - start )) s; running the co-simulation"
 	$(VENV)/bin/bowden demo
 
 # Benchmarks are "perf" ("bench" is the test rig: cosim/bench, `bowden bench`); each prints its
