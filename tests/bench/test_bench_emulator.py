@@ -465,8 +465,14 @@ def test_bad_links_and_options(capsys, tmp_path):
         ref = tmp_path / "ref.csv"
         ref.write_text("T_ref_N\n1.0\nabc\n")
         args = ["bench", "--port", emu.urls["socket"], "run", "stream", "--ref", str(ref)]
-        assert bench_cli([*args, "--seconds", "1", "--out", str(tmp_path / "r.csv")]) == 1
+        # A reference file that cannot be used is the user's to fix, as every file named: exit 2.
+        assert bench_cli([*args, "--seconds", "1", "--out", str(tmp_path / "r.csv")]) == 2
         assert f"{ref}:3: T_ref 'abc' is not a finite number" in capsys.readouterr().err
+        fifo = tmp_path / "ref.fifo"
+        os.mkfifo(fifo)  # no writer: reading it would wait for ever
+        args[-1] = str(fifo)
+        assert bench_cli([*args, "--seconds", "1", "--out", str(tmp_path / "r.csv")]) == 2
+        assert f"--ref {fifo}: not a regular file" in capsys.readouterr().err
     finally:
         emu.stop()
 

@@ -326,6 +326,12 @@ def test_restore_exits_2_for_its_file_and_1_for_what_the_device_refuses(tmp_path
         err = capsys.readouterr().err
         assert rc == 2 and err.count("\n") == 1 and words in err, (path, err)
         assert err.startswith("bowden bench: restore: "), err
+    fifo = tmp_path / "backup.fifo"
+    os.mkfifo(fifo)  # no writer: opening it would wait for ever
+    for command in ("restore", "diff"):
+        rc = bench_cli(["bench", "--port", no_port, command, str(fifo)])
+        err = capsys.readouterr().err
+        assert rc == 2 and err.count("\n") == 1 and "is not a regular file" in err, err
     with pytest.raises(BenchUsageError, match="does not exist"):  # called alone, as the API may
         write_all_from_backup(None, tmp_path / "missing.json")
     b, doc = _backup(tmp_path, capsys)

@@ -43,6 +43,10 @@ def read_json(path: str | Path, what: str = "a file", not_json: str = "JSON") ->
     if not str(path).strip():
         raise ParamFileError(f"an empty file name: expected {what}")
     path = Path(path)
+    # A FIFO or a device would block the open or the read (a FIFO until a writer comes): only a
+    # regular file (or a link to one) is a backup or a params file.
+    if path.exists() and not path.is_dir() and not path.is_file():
+        raise ParamFileError(f"{path} is not a regular file: expected {what}")
     try:
         with path.open("rb") as f:
             raw = f.read(MAX_FILE_BYTES + 1)

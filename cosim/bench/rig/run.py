@@ -96,16 +96,24 @@ def stop_and_confirm(client: BenchClient, tries: int = 3, settle_s: float = 0.5)
 
 
 def _read_ref(path: str) -> list[int]:
+    """The T_ref words of a stream's reference file. A file that cannot be used is a usage error
+    (exit 2), as every other file the command line names."""
     p = Path(path)
+    if p.exists() and not p.is_dir() and not p.is_file():  # a FIFO would block the read
+        raise BenchUsageError(f"--ref {p}: not a regular file")
     try:
         text = p.read_text()
     except FileNotFoundError:
-        raise BenchError(f"--ref {p}: no such file") from None
+        raise BenchUsageError(f"--ref {p}: no such file") from None
+    except IsADirectoryError:
+        raise BenchUsageError(f"--ref {p}: is a folder; give a CSV file") from None
     except UnicodeDecodeError:
-        raise BenchError(f"--ref {p}: not a text CSV") from None
+        raise BenchUsageError(f"--ref {p}: not a text CSV") from None
+    except OSError as exc:
+        raise BenchUsageError(f"--ref {p}: cannot read it ({exc.strerror or exc})") from None
     rows = list(csv.reader(text.splitlines()))
     if not rows:
-        raise BenchError(f"--ref {p}: empty")
+        raise BenchUsageError(f"--ref {p}: empty")
     header = [h.strip() for h in rows[0]]
     col = header.index("T_ref_N") if "T_ref_N" in header else 0
     start = 1 if not _is_number(rows[0][col] if col < len(rows[0]) else "") else 0
@@ -115,13 +123,13 @@ def _read_ref(path: str) -> list[int]:
             continue
         cell = row[col] if col < len(row) else ""
         if not _is_number(cell):
-            raise BenchError(f"--ref {p}:{i}: T_ref {cell!r} is not a finite number")
+            raise BenchUsageError(f"--ref {p}:{i}: T_ref {cell!r} is not a finite number")
         v = float(cell)
         if not -128.0 <= v <= 127.99:
-            raise BenchError(f"--ref {p}:{i}: T_ref {v:g} N outside [-128, 127.99] N")
+            raise BenchUsageError(f"--ref {p}:{i}: T_ref {v:g} N outside [-128, 127.99] N")
         words.append(round(v * 256.0))
     if not words:
-        raise BenchError(f"--ref {p}: no samples")
+        raise BenchUsageError(f"--ref {p}: no samples")
     return words
 
 
