@@ -56,6 +56,10 @@ RANKS: dict[str, float] = {
     "cosim.bench": 6,
     # procedures at the rig: `bench calibrate` runs the bench and judges with the audit
     "cosim.bench.rig": 6.5,
+    # the `bench` and `emulate` command lines (parsers, handlers): above the procedures they call,
+    # below cosim.cli, which only adds them to `bowden`: `python -m cosim.bench` needs no cosim.cli
+    "cosim.bench.command": 6.8,
+    "cosim.bench.command_tools": 6.7,
     "cosim.studies": 7,
     "cosim.perf": 8,
     "cosim.cli": 9,
@@ -234,6 +238,36 @@ def simulation_loaded(root: Path) -> list[str]:
 
 def test_the_link_loads_no_simulation():
     assert simulation_loaded(COSIM_DIR) == []
+
+
+def bench_entry_loads(root: Path) -> list[str]:
+    """The cosim.cli modules in sys.modules of a fresh interpreter after `python -m cosim.bench
+    --help` (run from the folder that holds `root`), which must also have printed its usage."""
+    code = (
+        "import runpy, sys\n"
+        "sys.argv = ['cosim.bench', '--help']\n"
+        "try:\n    runpy.run_module('cosim.bench', run_name='__main__', alter_sys=True)\n"
+        "except SystemExit as exc:\n    assert exc.code in (0, None), exc.code\n"
+        "print('LOADED', *sorted(m for m in sys.modules\n"
+        "                        if m == 'cosim.cli' or m.startswith('cosim.cli.')))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=root.parent, capture_output=True, text=True, check=True
+    )
+    assert "usage: python -m cosim.bench" in out.stdout
+    return out.stdout.split("LOADED", 1)[1].split()
+
+
+def test_the_bench_entry_does_not_import_the_command_line():
+    """`python -m cosim.bench` has its own parsers and handlers (cosim.bench.command): it starts
+    without `bowden`'s dispatcher and its other commands."""
+    assert bench_entry_loads(COSIM_DIR) == []
+
+
+def test_a_planted_command_line_import_in_the_bench_entry_fails(copy):
+    command = copy / "bench" / "command.py"
+    command.write_text(command.read_text() + "\nimport cosim.cli.sim  # noqa: E402,F401\n")
+    assert "cosim.cli.sim" in bench_entry_loads(copy)
 
 
 def test_no_circle_of_imports():

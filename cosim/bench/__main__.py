@@ -4,7 +4,7 @@
 import argparse
 import sys
 
-from cosim.cli import bench as cli
+from cosim.bench import command as cli
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cosim.bench import command_tools as bench_tools
 from cosim.bench.__main__ import main as bench_cli
 from cosim.bench.api import Bench
 from cosim.bench.emulate.emulator import SteppedLink
@@ -20,7 +21,6 @@ from cosim.bench.link import messages as msgs
 from cosim.bench.link.client import BenchClient, BenchError
 from cosim.bench.link.protocol import value_from_word
 from cosim.bench.rig import calibrate as cal
-from cosim.cli import bench_tools
 
 # Stated tolerance of the mu found on the emulated plant (whose mu the audit fits to 5e-4 on a
 # sine, tests/audit/test_audit_bench.py): 1 % of the plant's.

@@ -367,7 +367,7 @@ def test_a_page_port_in_use_is_refused_before_the_run(tmp_path, capfd, monkeypat
     nothing is sent to the device); the view meeting it (taken meanwhile) says it too."""
     import socket
 
-    from cosim.cli import bench as bench_mod
+    from cosim.bench import command as bench_mod
 
     def no_session(*args, **kwargs):
         raise AssertionError("a session was opened")

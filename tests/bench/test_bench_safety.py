@@ -14,6 +14,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from cosim.bench import command as bench_cli_mod
 from cosim.bench.__main__ import main as bench_cli
 from cosim.bench.emulate.emulator import Emulator, SteppedLink
 from cosim.bench.emulate.host_device import ChainConfig
@@ -26,7 +27,6 @@ from cosim.bench.link.client import (
     SerialLink,
 )
 from cosim.bench.link.protocol import ProtocolError
-from cosim.cli import bench as bench_cli_mod
 from cosim.parts import regmap
 from cosim.project.paths import REPO_ROOT
 

@@ -105,7 +105,7 @@ HOST_EMULATOR_DEFAULTS = {"baud": 921_600, "tcp_port": 0, "interface": "ideal", 
 
 
 def emulate_main(args: argparse.Namespace) -> int:
-    """`bowden emulate` with the options parsed by cosim/cli/bench.py: checked (one line and
+    """`bowden emulate` with the options parsed by cosim/bench/command.py: checked (one line and
     exit 2 for a bad one), then the controller runs until its end; 128 + SIGINT when Ctrl-C ends
     it, 0 for --seconds or SIGTERM, 1 when it could not start or stopped by itself."""
     from cosim.bench.emulate.emulator import Emulator, StopSignals  # noqa: PLC0415

@@ -1,6 +1,6 @@
 """The `bowden bench` commands beyond the protocol's own: `list` and `--port auto` (finding
 controllers), `diff` (what changed in a configuration), `watch` and `run --live` (the live view).
-cosim/cli/bench.py calls `add_parsers` and `add_live_arguments`, `precheck` before anything is
+cosim/bench/command.py calls `add_parsers` and `add_live_arguments`, `precheck` before anything is
 sent, and dispatches to the handlers; the work is done in cosim.bench (discover, diff, live, and
 the run with its stop in rig/run.py).
 """
