@@ -21,4 +21,6 @@ elif _spawned and (_script or _sys.argv[0].endswith("/cosim/__main__.py")):
     # would print a KeyboardInterrupt traceback from inside Dask's event loop.
     import signal as _signal
 
-    _signal.signal(_signal.SIGINT, _signal.SIG_IGN)
+    from . import _signals
+
+    _signals.ignore(_signal.SIGINT)

@@ -3,7 +3,8 @@
 Importing the command line (argparse, the subcommands' modules) takes a noticeable time, and
 `cosim.cli.main` can catch an interrupt only once it runs. The entry points (`python -m cosim`,
 the `bowden` console script: cosim/__main__.py) install `interrupted_before_start` first, with
-nothing imported but the standard library's signal and os; `cosim.cli.main` hands SIGINT back to
+nothing imported but the standard library's signal and os and cosim._signals (which installs
+every handler, and imports only the standard library); `cosim.cli.main` hands SIGINT back to
 Python's handler (`release`) when the command starts, after the command line's imports and the
 parse (an interrupt raised inside the import machinery can be printed with a traceback before
 any handler sees it). Nothing has started before that point, so there is nothing to stop: the
@@ -18,7 +19,8 @@ from __future__ import annotations
 
 import os
 import signal
-import threading
+
+from cosim import _signals
 
 # True once a SIGINT arrived after release(): see the module's docstring.
 seen = False
@@ -30,10 +32,8 @@ def interrupted_before_start(signum, _frame) -> None:
 
 
 def install() -> None:
-    if threading.current_thread() is threading.main_thread():
-        # A shell that started us with SIGINT ignored (a background job) keeps it ignored.
-        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-            signal.signal(signal.SIGINT, interrupted_before_start)
+    # A shell that started us with SIGINT ignored (a background job) keeps it ignored.
+    _signals.swap(signal.SIGINT, signal.default_int_handler, interrupted_before_start)
 
 
 def keyboard_interrupt(signum, frame) -> None:
@@ -45,6 +45,4 @@ def keyboard_interrupt(signum, frame) -> None:
 
 def release() -> None:
     """A KeyboardInterrupt on Ctrl-C again, if install() put our handler in place."""
-    if threading.current_thread() is threading.main_thread():
-        if signal.getsignal(signal.SIGINT) is interrupted_before_start:
-            signal.signal(signal.SIGINT, keyboard_interrupt)
+    _signals.swap(signal.SIGINT, interrupted_before_start, keyboard_interrupt)

@@ -200,10 +200,11 @@ def test_every_module_has_a_role():
     graph = import_graph(COSIM_DIR)
     assert len(graph) > 50, "the package was not found"
     roles = {rank_of(m)[0] for m in graph}
-    # only the package's own __init__, the entry point (__main__) and its early Ctrl-C handler
-    # (_early, standard library only) sit at the top level
+    # only the package's own __init__, the entry point (__main__), its early Ctrl-C handler
+    # (_early) and the one module that installs signal handlers (_signals), both standard library
+    # only, sit at the top level
     top = {m for m in graph if rank_of(m)[0] == "cosim"}
-    assert top == {"cosim", "cosim.__main__", "cosim._early"}
+    assert top == {"cosim", "cosim.__main__", "cosim._early", "cosim._signals"}
     assert roles >= {"cosim.project", "cosim.parts", "cosim.engines.harness", "cosim.cli"}
 
 
@@ -340,3 +341,55 @@ def test_one_interrupted_type():
         if isinstance(node, ast.ClassDef) and node.name == "Interrupted"
     )
     assert defined == ["project/interrupt.py"]
+
+
+# The one module that installs signal handlers; the others call its policies.
+SIGNAL_INSTALLER = "cosim._signals"
+
+
+def signal_installers(root: Path) -> list[str]:
+    """Every `signal.signal(...)` call (under any name the signal module or its `signal` function
+    is imported as) outside SIGNAL_INSTALLER, as 'module:line'."""
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        rel = path.relative_to(root.parent).with_suffix("")
+        module = ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
+        if module == SIGNAL_INSTALLER:
+            continue
+        tree = ast.parse(path.read_text(), filename=str(path))
+        modules, functions = set(), set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                modules |= {a.asname or a.name for a in node.names if a.name == "signal"}
+            elif isinstance(node, ast.ImportFrom) and node.module == "signal":
+                functions |= {a.asname or a.name for a in node.names if a.name == "signal"}
+        for node in ast.walk(tree):
+            if not isinstance(node, ast.Call):
+                continue
+            f = node.func
+            if (
+                isinstance(f, ast.Attribute)
+                and f.attr == "signal"
+                and isinstance(f.value, ast.Name)
+                and f.value.id in modules
+            ) or (isinstance(f, ast.Name) and f.id in functions):
+                found.append(f"{module}:{node.lineno}")
+    return found
+
+
+def test_signal_handlers_are_installed_in_one_module():
+    assert signal_installers(COSIM_DIR) == []
+    assert (COSIM_DIR / "_signals.py").exists()
+
+
+def test_a_planted_signal_handler_fails(copy):
+    view = copy / "bench" / "live" / "page.py"
+    view.write_text(view.read_text() + "\nimport signal as _s\n_s.signal(_s.SIGINT, _s.SIG_IGN)\n")
+    paths = copy / "project" / "paths.py"
+    lines = len(paths.read_text().splitlines())
+    paths.write_text(paths.read_text() + "\nfrom signal import signal as _on\n_on(2, print)\n")
+    found = signal_installers(copy)
+    assert found == [
+        f"cosim.bench.live.page:{len(view.read_text().splitlines())}",
+        f"cosim.project.paths:{lines + 3}",
+    ]

@@ -16,9 +16,8 @@ import contextlib
 import importlib
 import signal
 import sys
-import threading
 
-from cosim import __version__, _early
+from cosim import __version__, _early, _signals
 from cosim.project import procs
 from cosim.project.cliargs import ArgumentParser, harden, subparsers
 from cosim.project.interrupt import Interrupted
@@ -40,8 +39,7 @@ def _raise_interrupted(signum, _frame):
     global _pending
     _pending = signum
     # A second Ctrl-C while the run is being stopped would only interrupt the stopping.
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, signal.SIG_IGN)
+    _signals.ignore(*_signals.STOP)
     raise Interrupted(signum)
 
 
@@ -55,17 +53,11 @@ def check_interrupted() -> None:
 @contextlib.contextmanager
 def _signals_interrupt():
     """SIGINT and SIGTERM raise Interrupted in the main thread while the command runs."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = {
-        sig: signal.signal(sig, _raise_interrupted) for sig in (signal.SIGINT, signal.SIGTERM)
-    }
+    previous = _signals.install(_raise_interrupted)
     try:
         yield
     finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+        _signals.restore(previous)
 
 
 def build_parser() -> argparse.ArgumentParser:

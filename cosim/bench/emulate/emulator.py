@@ -34,6 +34,7 @@ import tty
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from cosim import _signals
 from cosim.bench.link.discover import register_emulator, unregister_emulator
 
 from .host_device import PORT_CAN, ChainConfig, Device, LoopChain
@@ -391,14 +392,12 @@ class StopSignals:
         self._previous: dict = {}
 
     def __enter__(self) -> StopSignals:
-        if threading.current_thread() is threading.main_thread():
-            self._previous = {sig: signal.signal(sig, self._note) for sig in self.SIGNALS}
+        self._previous = _signals.install(self._note, self.SIGNALS)
         return self
 
     def __exit__(self, *exc) -> None:
         previous, self._previous = self._previous, {}
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+        _signals.restore(previous)
 
     def _note(self, signum, _frame) -> None:
         if self.signum is None:

@@ -33,6 +33,7 @@ from urllib.parse import parse_qs, urlparse
 
 import numpy as np
 
+from cosim import _signals
 from cosim.bench.link.client import fault_names
 
 from .page import PAGE
@@ -699,13 +700,13 @@ def view_main(argv: list[str]) -> int:
     a = p.parse_args(argv)
     # Ctrl-C reaches the whole process group: the recording process stops the run and then
     # this view (which shows how the run ended), not the other way round.
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _signals.ignore(signal.SIGINT)
     # SIGTERM ends the view, but with the cursor shown again (it is hidden while it draws).
-    signal.signal(signal.SIGTERM, _terminated)
+    _signals.handle(signal.SIGTERM, _terminated)
     try:
         return _view_run(a)
     except _Terminated:
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        _signals.default(signal.SIGTERM)
         os.kill(os.getpid(), signal.SIGTERM)  # ended by SIGTERM, as the recording process sees
         return 128 + signal.SIGTERM
 

@@ -11,12 +11,11 @@ import contextlib
 import csv
 import math
 import os
-import signal
 import sys
-import threading
 import time
 from pathlib import Path
 
+from cosim import _signals
 from cosim.bench.link.client import BenchClient, BenchError, BenchUsageError
 from cosim.bench.link.protocol import ProtocolError
 from cosim.bench.link.recorder import RunResult, record_run, run_ticks, stderr_progress
@@ -41,15 +40,11 @@ class Signals:
         self._previous: dict = {}
 
     def __enter__(self) -> Signals:
-        if threading.current_thread() is threading.main_thread():
-            self._previous = {
-                sig: signal.signal(sig, self._handler) for sig in (signal.SIGINT, signal.SIGTERM)
-            }
+        self._previous = _signals.install(self._handler)
         return self
 
     def __exit__(self, *exc) -> None:
-        for sig, handler in self._previous.items():
-            signal.signal(sig, handler)
+        _signals.restore(self._previous)
 
     def _handler(self, signum, _frame) -> None:
         if self.signum is None:
