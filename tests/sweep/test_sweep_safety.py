@@ -80,7 +80,7 @@ def test_the_build_stamp_covers_what_a_point_runs_and_not_the_bench_tool_or_the_
             "studies/sweep/run.py": "b = 1\n",
             "bench/client.py": "c = 1\n",
             "cli/sweep.py": "d = 1\n",
-            "cli/bench_tools.py": "e = 1\n",
+            "cli/bench.py": "e = 1\n",
         },
     )
     _tree(build, {name: "lib 1" for name in sweep_run.STAMP_BUILD_FILES})
@@ -90,7 +90,7 @@ def test_the_build_stamp_covers_what_a_point_runs_and_not_the_bench_tool_or_the_
 
     first = stamp()
     assert first == stamp()
-    for name in ("bench/client.py", "cli/sweep.py", "cli/bench_tools.py", "bench/new.py"):
+    for name in ("bench/client.py", "cli/sweep.py", "cli/bench.py", "bench/new.py"):
         _tree(package, {name: "edited = 2\n"})
         assert stamp() == first, name
     seen = {first}
