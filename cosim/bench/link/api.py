@@ -63,7 +63,7 @@ from .client import (
     fault_names,
 )
 from .protocol import param, value_from_word
-from .recorder import WAVE_KINDS, RunResult, record_run
+from .recorder import WAVE_KINDS, RunResult, keep_recording, record_run
 
 __all__ = [
     "Bench",
@@ -469,13 +469,13 @@ class Bench:
             except BenchError:
                 pass
             finally:
-                _keep_recording(partial, target)
+                keep_recording(partial, target)
             if isinstance(exc, OSError):  # a full disk, a folder removed under the run
                 raise BenchError(f"out={target}: {exc.strerror or exc} (device stopped)") from None
             if isinstance(exc, protocol.ProtocolError) and not isinstance(exc, BenchError):
                 raise ProtocolError(str(exc)) from None
             raise
-        if not _keep_recording(partial, target):
+        if not keep_recording(partial, target):
             raise BenchError(f"out={target}: the run recorded no sample ({result.summary()})")
         return Run(trace=target, columns=_read_columns(target), result=result)
 
@@ -683,24 +683,6 @@ def _trace_target(out) -> Path:
             f"out={text}: cannot write in {path.parent} ({exc.strerror or exc})"
         ) from None
     return path
-
-
-def _keep_recording(partial: Path, out: Path) -> bool:
-    """Move a run's rows (and sidecar) onto `out` when it recorded any; otherwise remove the
-    partial files and leave `out` as it was. True when `out` now holds the run."""
-    meta = meta_path(partial)
-    rows = 0
-    if partial.exists():
-        with partial.open("rb") as f:
-            rows = sum(1 for _ in f) - 1
-    if rows <= 0:
-        for p in (partial, meta):
-            p.unlink(missing_ok=True)
-        return False
-    if meta.exists():
-        meta.replace(meta_path(out))
-    partial.replace(out)
-    return True
 
 
 def _read_columns(path: Path) -> dict[str, np.ndarray]:

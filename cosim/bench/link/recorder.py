@@ -310,3 +310,21 @@ def stderr_progress(line: str) -> None:
     """A live progress line on stderr (carriage return, cleared at the end)."""
     sys.stderr.write("\r" + line.ljust(78) + ("\n" if not line else ""))
     sys.stderr.flush()
+
+
+def keep_recording(partial: Path, out: Path) -> bool:
+    """Move a run's rows (and sidecar) onto `out` when it recorded any; otherwise remove the
+    partial files and leave `out` as it was. True when `out` now holds the run."""
+    meta = trace_mod.meta_path(partial)
+    rows = 0
+    if partial.exists():
+        with partial.open("rb") as f:
+            rows = sum(1 for _ in f) - 1
+    if rows <= 0:
+        for p in (partial, meta):
+            p.unlink(missing_ok=True)
+        return False
+    if meta.exists():
+        meta.replace(trace_mod.meta_path(out))
+    partial.replace(out)
+    return True

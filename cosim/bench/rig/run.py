@@ -18,11 +18,16 @@ from pathlib import Path
 from cosim import _signals
 from cosim.bench.link.client import BenchClient, BenchError, BenchUsageError
 from cosim.bench.link.protocol import ProtocolError
-from cosim.bench.link.recorder import RunResult, record_run, run_ticks, stderr_progress
+from cosim.bench.link.recorder import (
+    RunResult,
+    keep_recording,
+    record_run,
+    run_ticks,
+    stderr_progress,
+)
 from cosim.bench.live import view as live
 from cosim.parts import regmap
 from cosim.project.interrupt import Interrupted
-from cosim.results import trace as trace_mod
 
 # The FPGA's drive enable in the STATUS register (FAULTS.fpga_status).
 STATUS_OUT_EN = 1 << next(f.lsb for f in regmap.REGISTERS["STATUS"].fields if f.name == "OUT_EN")
@@ -185,7 +190,7 @@ def cmd_run(client: BenchClient, args, info) -> int:
                 else f"the device did NOT confirm that it stopped ({why_not}): it ends the run "
                 "by itself after --seconds; switch the drive off"
             )
-            kept = _keep_recording(partial, out)
+            kept = keep_recording(partial, out)
             if result is None and kept:
                 args.stop_report = f"{out} holds the samples up to now; {args.stop_report}"
     if why_not is not None:
@@ -212,24 +217,6 @@ def _run_target(text: str) -> Path:
     if out.exists() and not out.is_file():
         raise BenchUsageError(f"--out {text}: not a regular file")
     return out
-
-
-def _keep_recording(partial: Path, out: Path) -> bool:
-    """Move a run's rows (and sidecar) onto `out` when it recorded any; otherwise remove the
-    partial files and leave `out` as it was. True when `out` now holds the run."""
-    meta = trace_mod.meta_path(partial)
-    rows = 0
-    if partial.exists():
-        with partial.open("rb") as f:
-            rows = sum(1 for _ in f) - 1
-    if rows <= 0:
-        for p in (partial, meta):
-            p.unlink(missing_ok=True)
-        return False
-    if meta.exists():
-        meta.replace(trace_mod.meta_path(out))
-    partial.replace(out)
-    return True
 
 
 # --- live view -----------------------------------------------------------------------------------
