@@ -43,6 +43,7 @@ from cosim.bench.link.paramset import backup_doc, write_all, write_atomic
 from cosim.bench.link.protocol import ProtocolError, format_value, param, word_from_value
 from cosim.bench.link.recorder import WAVE_KINDS, check_geometry
 from cosim.bench.rig.run import Signals, cmd_run
+from cosim.project.cliargs import finite_float
 from cosim.project.interrupt import Interrupted
 from cosim.project.pipes import output_reader_gone
 
@@ -68,16 +69,6 @@ def _positive(kind):
         return v
 
     return conv
-
-
-def _finite(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number; got {text!r}") from None
-    if not math.isfinite(v):
-        raise argparse.ArgumentTypeError(f"expected a finite number; got {text!r}")
-    return v
 
 
 def add_parser(subparsers) -> None:
@@ -144,9 +135,11 @@ def _add_bench(subparsers) -> None:
     sub.add_parser("stats", help="the device's link counters (frames, CRC errors, ...)")
     run = sub.add_parser("run", help="run a waveform and record telemetry in the trace format")
     run.add_argument("waveform", choices=(*WAVE_KINDS, "stream"))
-    run.add_argument("--mean", type=_finite, default=8.5, help="mean T_ref in N (default 8.5)")
-    run.add_argument("--amplitude", type=_finite, default=6.5, help="amplitude in N (default 6.5)")
-    run.add_argument("--freq", type=_finite, default=0.5, help="frequency in Hz (default 0.5)")
+    run.add_argument("--mean", type=finite_float, default=8.5, help="mean T_ref in N (default 8.5)")
+    run.add_argument(
+        "--amplitude", type=finite_float, default=6.5, help="amplitude in N (default 6.5)"
+    )
+    run.add_argument("--freq", type=finite_float, default=0.5, help="frequency in Hz (default 0.5)")
     run.add_argument("--ref", help="stream: CSV with T_ref_N (one row per tick), or one column")
     run.add_argument("--seconds", type=_positive(float), required=True)
     run.add_argument("--out", required=True, help="trace CSV (its .meta.json goes beside it)")
