@@ -12,6 +12,7 @@ from pathlib import Path
 from cosim.parts.firmware import MODES, CompensatorParams
 from cosim.parts.interface import ADC_PARTS
 from cosim.project.cliargs import shown
+from cosim.project.datafile import DataFileError, HugeInt, read_json
 
 # The firmware's compensator modes (firmware/include/comp.h, mirrored by cosim.parts.firmware).
 COMPENSATORS = tuple(MODES)
@@ -243,44 +244,6 @@ class SimConfig:
         return int(round(self.sample_rate_hz / self.firmware_rate_hz))
 
 
-class HugeInt(float):
-    """An integer too long for Python's int conversion (over INT_DIGITS digits) as a JSON or
-    YAML loader read it: infinite as a number, so every range check refuses it, and named for
-    what it is in a message."""
-
-    def __new__(cls, text: str) -> HugeInt:
-        v = super().__new__(cls, "-inf" if text.strip().startswith("-") else "inf")
-        v.digits = sum(c.isdigit() for c in text)
-        return v
-
-    def __repr__(self) -> str:
-        return f"an integer of {self.digits} digits"
-
-
-INT_DIGITS = 4000  # under CPython's limit for int(str) (4300): longer ones become HugeInt
-
-
-def parse_int(text: str) -> int | HugeInt:
-    """json's parse_int: a whole number, HugeInt when it is too long to convert."""
-    return int(text) if len(text) <= INT_DIGITS else HugeInt(text)
-
-
-class DuplicateKeyError(ValueError):
-    """A JSON object that names a key twice (json would keep the last one silently)."""
-
-
-def unique_keys(pairs: list[tuple[str, object]]) -> dict:
-    """json's object_pairs_hook: the object as a dict, DuplicateKeyError for a key given twice."""
-    out: dict = {}
-    for key, value in pairs:
-        if key in out:
-            raise DuplicateKeyError(
-                f"key {key!r} appears twice in the same object (the last would win)"
-            )
-        out[key] = value
-    return out
-
-
 def _show(value, limit: int = 60) -> str:
     """A value from a params file as it was written there (JSON), on one line, shortened."""
     if isinstance(value, HugeInt):
@@ -385,25 +348,7 @@ def load_params(path: str | Path | None) -> SimConfig:
     p = Path(path)
     name = shown(p)
     try:
-        raw = p.read_bytes()
-    except FileNotFoundError:
-        raise ValueError(f"--params: file {name} does not exist") from None
-    except OSError as exc:
-        raise ValueError(f"--params: cannot read {name} ({exc.strerror or exc})") from None
-    raw = raw.removeprefix(b"\xef\xbb\xbf")  # a byte-order mark, as some editors write it
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise ValueError(
-            f"--params: {name} is not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset "
-            f"{exc.start}); expected a JSON object"
-        ) from None
-    try:
-        data = json.loads(text, object_pairs_hook=unique_keys, parse_int=parse_int)
-    except DuplicateKeyError as exc:
-        raise ValueError(f"--params: {name}: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"--params: {name} is not valid JSON ({exc})") from None
-    except RecursionError:
-        raise ValueError(f"--params: {name} is nested too deeply to be a params file") from None
+        data = read_json(p, "a params file (a JSON object)", "valid JSON", name=name)
+    except DataFileError as exc:
+        raise ValueError(f"--params: {exc}") from None
     return SimConfig.from_dict(data, source=name)

@@ -163,16 +163,23 @@ def test_params_file_that_is_not_utf8_is_named(capsys, tmp_path):
     path = tmp_path / "latin1.json"
     path.write_bytes('{"plant": {"mu": 0.09}, "note": "caf\xe9"}'.encode("latin-1"))
     line = _sim_error(capsys, tmp_path, "--params", str(path))
-    assert f"--params: {path} is not UTF-8 text (byte 0xe9 at offset" in line
+    assert f"--params: {path} is not valid JSON (not UTF-8 text: byte 0xe9 at offset" in line
 
 
 def test_params_file_that_is_a_folder_or_nested_too_deep_is_one_line(capsys, tmp_path):
     line = _sim_error(capsys, tmp_path, "--params", str(tmp_path))
-    assert f"--params: cannot read {tmp_path}" in line
+    assert f"--params: {tmp_path} is a folder, not a params file" in line
     deep = tmp_path / "deep.json"
     deep.write_text("[" * 100_000 + "]" * 100_000)
     line = _sim_error(capsys, tmp_path, "--params", str(deep))
     assert "nested too deeply" in line
+
+
+def test_params_file_that_is_a_device_is_refused_before_it_is_read(capsys, tmp_path):
+    """The params file's reader is the bench's (cosim.project.datafile): /dev/zero would be read
+    without end, a FIFO would block the open; both are refused as not a regular file."""
+    line = _sim_error(capsys, tmp_path, "--params", "/dev/zero")
+    assert line.startswith("bowden") and "--params: /dev/zero is not a regular file" in line, line
 
 
 # --- item 4: durations ------------------------------------------------------------------------

@@ -22,15 +22,13 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from cosim.config.run import DuplicateKeyError, HugeInt, parse_int, unique_keys
+from cosim.project import datafile
+from cosim.project.datafile import HugeInt
 
 from . import messages as msgs
 from .protocol import ProtocolError, format_value, param, word_from_value
 
 BACKUP_FORMAT = 1
-# Larger than any parameter file (a backup is about 4 kB); a device file such as /dev/zero or a
-# wrong file chosen by mistake is refused instead of read into memory.
-MAX_FILE_BYTES = 16 << 20
 
 
 class ParamFileError(ValueError):
@@ -38,46 +36,10 @@ class ParamFileError(ValueError):
 
 
 def read_json(path: str | Path, what: str = "a file", not_json: str = "JSON") -> object:
-    """The JSON document in `path` (strict: see the module); `what` names the file expected
-    ("a backup file") and `not_json` what it is not when it does not parse ("a JSON backup")."""
-    if not str(path).strip():
-        raise ParamFileError(f"an empty file name: expected {what}")
-    path = Path(path)
-    # A FIFO or a device would block the open or the read (a FIFO until a writer comes): only a
-    # regular file (or a link to one) is a backup or a params file.
-    if path.exists() and not path.is_dir() and not path.is_file():
-        raise ParamFileError(f"{path} is not a regular file: expected {what}")
-    try:
-        with path.open("rb") as f:
-            raw = f.read(MAX_FILE_BYTES + 1)
-    except FileNotFoundError:
-        raise ParamFileError(f"{path} does not exist") from None
-    except IsADirectoryError:
-        raise ParamFileError(f"{path} is a folder, not {what}") from None
-    except OSError as exc:
-        raise ParamFileError(f"{path}: cannot read it ({exc.strerror or exc})") from None
-    if len(raw) > MAX_FILE_BYTES:
-        raise ParamFileError(
-            f"{path} is larger than {MAX_FILE_BYTES >> 20} MiB: too large to be {what}"
-        )
-    raw = raw.removeprefix(b"\xef\xbb\xbf")  # a byte-order mark, as some editors write it
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise ParamFileError(
-            f"{path} is not {not_json} (not UTF-8 text: byte 0x{raw[exc.start]:02x} at offset "
-            f"{exc.start})"
-        ) from None
-    if not text.strip():
-        raise ParamFileError(f"{path} is empty: expected {what}")
-    try:
-        return json.loads(text, object_pairs_hook=unique_keys, parse_int=parse_int)
-    except DuplicateKeyError as exc:
-        raise ParamFileError(f"{path}: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise ParamFileError(f"{path} is not {not_json} ({exc})") from None
-    except RecursionError:
-        raise ParamFileError(f"{path}: JSON nested too deeply to be {what}") from None
+    """The JSON document in `path`, read by the project's strict reader
+    (cosim.project.datafile.read_json); `what` names the file expected ("a backup file") and
+    `not_json` what it is not when it does not parse ("a JSON backup")."""
+    return datafile.read_json(path, what, not_json, error=ParamFileError)
 
 
 def accepted(p: msgs.Param) -> str:

@@ -37,10 +37,11 @@ import random
 from dataclasses import dataclass
 from pathlib import Path
 
-from cosim.config.run import COMPENSATORS, INT_DIGITS, HugeInt, SimConfig
+from cosim.config.run import COMPENSATORS, SimConfig
 from cosim.config.scenarios import SCENARIO_NAMES
 from cosim.parts.interface import INTERFACES
 from cosim.project.cliargs import shown
+from cosim.project.datafile import INT_DIGITS, HugeInt
 
 TOP_KEYS = ("scenario", "duration_s", "interface", "sampling", "samples", "seed", "config", "axes")
 PLAIN_AXES = ("scenario", "interface", "compensator", "loop_routing", "position_m")
