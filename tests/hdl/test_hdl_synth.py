@@ -13,6 +13,7 @@ import sys
 import pytest
 
 from cosim.project.paths import BUILD_DIR, REPO_ROOT
+from hdl.boards import table
 from hdl.synth import synth
 
 KEYS = {"luts", "ffs", "dsps", "brams", "fmax_mhz", "target_mhz"}
@@ -28,7 +29,7 @@ def summaries():
         text=True,
     )
     print(result.stdout, result.stderr)
-    boards = ("ice40-up5k", "ecp5-25f")
+    boards = sorted(synth.BOARDS)
     out = {b: json.loads((BUILD_DIR / "synth" / b / "summary.json").read_text()) for b in boards}
     return result.returncode, out
 
@@ -39,18 +40,18 @@ def test_synth_script_passes(summaries):
     assert code == 0, "hdl/synth/synth.py reported a board missing its target"
 
 
-@pytest.mark.parametrize(
-    ("board", "target_mhz", "max_lut_fraction"),
-    [("ice40-up5k", 48.0, 0.60), ("ecp5-25f", 100.0, 1.0)],
-)
-def test_board_figures(summaries, board, target_mhz, max_lut_fraction):
-    """Fmax at or above the target (hdl/README.md), LUTs in budget, the multipliers in DSP
-    blocks."""
+@pytest.mark.parametrize("board", sorted(synth.BOARDS))
+def test_board_figures(summaries, board):
+    """Fmax at or above the board table's target (hdl/boards/table.py), LUTs within the synthesis
+    budget of the device's LUT4s, the multipliers in DSP blocks."""
     s = summaries[1][board]
+    spec = synth.BOARDS[board]
+    target_mhz = spec.target_mhz
     assert KEYS <= s.keys()
-    assert s["target_mhz"] == target_mhz
+    assert s["target_mhz"] == target_mhz == table.BOARDS[board].rtl.target_mhz
+    assert s["lut_capacity"] == table.BOARDS[board].fpga.luts
     assert s["fmax_mhz"] >= target_mhz, f"{board}: {s['fmax_mhz']} MHz < {target_mhz}"
-    assert s["luts"] <= max_lut_fraction * s["lut_capacity"]
+    assert s["luts"] <= spec.max_lut_fraction * s["lut_capacity"]
     # Two loop multipliers and the PWM scaling: three 16 x 16 DSP multiplies.
     assert s["dsps"] == 3
     # The seed sweep: the board's seeds tried in order, the reported one the first at the target.
