@@ -12,6 +12,7 @@ is `make audit-sweep` (cosim/studies/audit_sweep.py).
 
 from __future__ import annotations
 
+import audit_cache
 import numpy as np
 import pytest
 
@@ -19,7 +20,6 @@ from cosim.audit import core
 from cosim.audit.synthetic import CAUSE_SEEDS as SEEDS
 from cosim.audit.synthetic import cause_magnitude as _magnitude
 from cosim.audit.synthetic import fmu_record
-from cosim.results import trace
 
 DURATION_S = 30.0
 # The held-out residual of the extended model may exceed the output sensor's noise floor by this
@@ -34,8 +34,8 @@ FLOOR_FACTOR = 1.15
 FLOOR_FACTORS = {"static_friction": 2.0}
 
 
-def _audit(path) -> core.AuditResult:
-    return core.run(core.prepare(trace.read_trace(path, "measured"), str(path)))
+def _audit(path, cache) -> core.AuditResult:
+    return audit_cache.audit(path, cache)
 
 
 def _value_ok(cause: str, found: float, true: float) -> bool:
@@ -80,14 +80,14 @@ MISSED = {"load_cell_creep"}
         for c in SEEDS
     ],
 )
-def test_audit_names_the_hidden_effect(tmp_path, cause):
+def test_audit_names_the_hidden_effect(tmp_path, cause, test_cache_dir):
     seed = SEEDS[cause]
     rng = np.random.default_rng(seed)
     effect = _magnitude(cause, rng)
     noise = rng.uniform(0.02, 0.04)
     mu = rng.uniform(0.06, 0.1)
     path = fmu_record(tmp_path, effect, seed, DURATION_S, noise_std_n=noise, mu=mu)
-    res = _audit(path)
+    res = _audit(path, test_cache_dir)
     param, true = next(iter(effect.items()))  # the cause's own parameter (then its shape)
     named = [(f.effect.cause, f.value) for f in res.findings]
     assert [c for c, _ in named] == [cause], f"hidden {effect}, found {named}"
@@ -105,10 +105,10 @@ def test_audit_names_the_hidden_effect(tmp_path, cause):
     assert res.twin_fmu_max_diff_n < 1e-4
 
 
-def test_audit_names_two_effects_at_once(tmp_path):
+def test_audit_names_two_effects_at_once(tmp_path, test_cache_dir):
     effect = {"sensor_tau": 0.009, "phi_offset_per_z": -0.6}
     path = fmu_record(tmp_path, effect, 201, DURATION_S, noise_std_n=0.03, mu=0.08)
-    res = _audit(path)
+    res = _audit(path, test_cache_dir)
     named = {f.effect.cause: f.value for f in res.findings}
     assert set(named) == {"lag", "bending_angle_error"}, named
     assert named["lag"] == pytest.approx(0.009, rel=0.15)
@@ -121,13 +121,13 @@ def test_audit_names_two_effects_at_once(tmp_path):
     )
 
 
-def test_an_offset_with_a_tension_slope_names_both(tmp_path):
+def test_an_offset_with_a_tension_slope_names_both(tmp_path, test_cache_dir):
     # make perf-audit's case (60 s, seed 902): the slope's size follows the tension, so the t of
     # the plain per-block drops was 1.99 and only the offset was named; the block t per unit of
     # the candidate's change names both (the rule has no threshold chosen on this case)
     effect = {"sensor_offset": 0.5, "mu_tension_slope": 0.0012}
     path = fmu_record(tmp_path, effect, seed=902, duration_s=60.0)
-    res = _audit(path)
+    res = _audit(path, test_cache_dir)
     named = {f.effect.cause: f.value for f in res.findings}
     assert set(named) == {"sensor_offset", "tension_dependent_friction"}, named
     assert named["sensor_offset"] == pytest.approx(0.5, rel=0.05)
@@ -135,9 +135,9 @@ def test_an_offset_with_a_tension_slope_names_both(tmp_path):
     assert res.holdout_rms_after_n <= FLOOR_FACTOR * res.data.noise_floor_n
 
 
-def test_audit_claims_no_gain_without_an_effect(tmp_path):
+def test_audit_claims_no_gain_without_an_effect(tmp_path, test_cache_dir):
     path = fmu_record(tmp_path, {}, 301, DURATION_S, noise_std_n=0.03, mu=0.075)
-    res = _audit(path)
+    res = _audit(path, test_cache_dir)
     assert res.findings == [], [(f.effect.cause, f.value, f.evidence) for f in res.findings]
     assert res.holdout_rms_after_n == res.holdout_rms_before_n
     assert res.gain_pct == 0.0
@@ -148,9 +148,9 @@ def test_audit_claims_no_gain_without_an_effect(tmp_path):
     assert not any(c.significant for c in res.rounds[0].candidates)
 
 
-def test_mains_pickup_stays_unexplained_with_its_frequency(tmp_path):
+def test_mains_pickup_stays_unexplained_with_its_frequency(tmp_path, test_cache_dir):
     path = fmu_record(tmp_path, {}, 401, DURATION_S, noise_std_n=0.03, mu=0.075, hum=(0.06, 50.0))
-    res = _audit(path)
+    res = _audit(path, test_cache_dir)
     assert res.findings == [], [(f.effect.cause, f.value) for f in res.findings]
     u = res.unexplained
     assert u["white"] is False

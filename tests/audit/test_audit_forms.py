@@ -37,11 +37,11 @@ reported as they came out (MISSED). The decision rule is the one of test_audit_r
 
 from __future__ import annotations
 
+import audit_cache
 import pytest
 from rig_models import rig_record
 
-from cosim.audit import core, report
-from cosim.results import trace
+from cosim.audit import report
 
 pytestmark = pytest.mark.slow
 
@@ -212,10 +212,12 @@ FORMS_OF = {
         ),
     ],
 )
-def test_a_form_on_the_rig_is_named_with_its_cause_and_brought_to_the_floor(tmp_path, case):
+def test_a_form_on_the_rig_is_named_with_its_cause_and_brought_to_the_floor(
+    tmp_path, case, test_cache_dir
+):
     kw, cause, form, value = {**CASES, **LONG_CASES, **MISSED}[case]
     path = rig_record(tmp_path, duration_s=DURATION_S, **kw)
-    res = core.run(core.prepare(trace.read_trace(path, "measured"), str(path)))
+    res = audit_cache.audit(path, test_cache_dir)
     named = [(f.effect.label, f.value) for f in res.findings]
     assert [c for c, _ in named] == [f"{cause} (form: {form})"], named
     f = res.findings[0]

@@ -39,11 +39,9 @@ nothing is the miss.
 
 from __future__ import annotations
 
+import audit_cache
 import pytest
 from rig_models import rig_record
-
-from cosim.audit import core
-from cosim.results import trace
 
 pytestmark = pytest.mark.slow
 
@@ -113,10 +111,12 @@ MISSED_STATIC = {
         ),
     ],
 )
-def test_a_new_cause_on_the_rig_is_named_alone_and_brought_to_the_floor(tmp_path, case):
+def test_a_new_cause_on_the_rig_is_named_alone_and_brought_to_the_floor(
+    tmp_path, case, test_cache_dir
+):
     kw, cause, value = {**CASES, **MISSED_STATIC}[case]
     path = rig_record(tmp_path, duration_s=DURATION_S, **kw)
-    res = core.run(core.prepare(trace.read_trace(path, "measured"), str(path)))
+    res = audit_cache.audit(path, test_cache_dir)
     named = [(f.effect.cause, f.value) for f in res.findings]
     assert [c for c, _ in named] == [cause], named
     f = res.findings[0]

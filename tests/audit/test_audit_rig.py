@@ -13,10 +13,10 @@ from __future__ import annotations
 import json
 import math
 
+import audit_cache
 import numpy as np
 import pytest
 
-from cosim.audit import core
 from cosim.parts.geometry import bending_angle
 from cosim.results import trace
 
@@ -71,9 +71,9 @@ def rig_record(folder, seed: int, duration_s: float = 60.0):
     return path
 
 
-def test_audit_finds_the_rollers_offset_on_a_rig_it_did_not_model(tmp_path):
+def test_audit_finds_the_rollers_offset_on_a_rig_it_did_not_model(tmp_path, test_cache_dir):
     path = rig_record(tmp_path, seed=501)
-    res = core.run(core.prepare(trace.read_trace(path, "measured"), str(path)))
+    res = audit_cache.audit(path, test_cache_dir)
     named = {f.effect.cause: f.value for f in res.findings}
     assert list(named) == ["sensor_offset"], named
     assert named["sensor_offset"] == pytest.approx(ROLLER_OFFSET_N, abs=0.03)

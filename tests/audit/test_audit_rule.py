@@ -14,12 +14,12 @@ which only report on them:
 
 from __future__ import annotations
 
+import audit_cache
 import numpy as np
 import pytest
 from rig_models import rig_record
 
 from cosim.audit import core
-from cosim.results import trace
 
 pytestmark = pytest.mark.slow
 
@@ -51,9 +51,9 @@ NAMED = {
 }
 
 
-def _audit(tmp_path, kw) -> core.AuditResult:
+def _audit(tmp_path, kw, cache) -> core.AuditResult:
     path = rig_record(tmp_path, duration_s=DURATION_S, **kw)
-    return core.run(core.prepare(trace.read_trace(path, "measured"), str(path)))
+    return audit_cache.audit(path, cache)
 
 
 def _named(res) -> list[tuple[str, float]]:
@@ -68,8 +68,8 @@ def _honest(res) -> None:
 
 
 @pytest.mark.parametrize("case", list(CLEAN))
-def test_a_clean_rig_names_nothing_and_leaves_noise(tmp_path, case):
-    res = _audit(tmp_path, CLEAN[case])
+def test_a_clean_rig_names_nothing_and_leaves_noise(tmp_path, case, test_cache_dir):
+    res = _audit(tmp_path, CLEAN[case], test_cache_dir)
     assert res.findings == [], _named(res)
     # the gradual dead zone is in the nominal model: what is left is near the sensor noise
     spread = res.baseline.params["dead_zone_spread"]
@@ -79,9 +79,11 @@ def test_a_clean_rig_names_nothing_and_leaves_noise(tmp_path, case):
 
 
 @pytest.mark.parametrize("case", list(DISTURBED))
-def test_a_disturbance_outside_the_vocabulary_is_unexplained_and_located(tmp_path, case):
+def test_a_disturbance_outside_the_vocabulary_is_unexplained_and_located(
+    tmp_path, case, test_cache_dir
+):
     kw, freq = DISTURBED[case]
-    res = _audit(tmp_path, kw)
+    res = _audit(tmp_path, kw, test_cache_dir)
     assert res.findings == [], _named(res)
     u = res.unexplained
     assert u["white"] is False
@@ -90,9 +92,11 @@ def test_a_disturbance_outside_the_vocabulary_is_unexplained_and_located(tmp_pat
 
 
 @pytest.mark.parametrize("case", list(NAMED))
-def test_a_hidden_cause_on_the_rig_is_named_alone_and_brought_to_the_floor(tmp_path, case):
+def test_a_hidden_cause_on_the_rig_is_named_alone_and_brought_to_the_floor(
+    tmp_path, case, test_cache_dir
+):
     kw, hidden = NAMED[case]
-    res = _audit(tmp_path, kw)
+    res = _audit(tmp_path, kw, test_cache_dir)
     params = {f.effect.fmu_param: f.value for f in res.findings}
     assert set(params) == set(hidden), _named(res)
     for name, true in hidden.items():
@@ -115,8 +119,8 @@ LOCATED = {
 
 
 @pytest.mark.parametrize("case", list(LOCATED))
-def test_what_is_left_is_located(tmp_path, case):
-    res = _audit(tmp_path, LOCATED[case])
+def test_what_is_left_is_located(tmp_path, case, test_cache_dir):
+    res = _audit(tmp_path, LOCATED[case], test_cache_dir)
     assert res.findings == [], _named(res)
     u = res.unexplained
     if "spikes" in LOCATED[case]:
