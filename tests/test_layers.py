@@ -20,6 +20,7 @@ planted circle to show that they fail.
 from __future__ import annotations
 
 import ast
+import functools
 import shutil
 import subprocess
 import sys
@@ -95,6 +96,13 @@ def _outside_functions(tree: ast.AST):
         )
 
 
+@functools.lru_cache(maxsize=4096)
+def _parse(text: str) -> ast.Module:
+    """A module's tree, parsed once per text: the planted tests copy the package and change one
+    file, so the other files' trees are reused (ast.walk does not change a tree)."""
+    return ast.parse(text)
+
+
 def import_graph(root: Path, *, top_level_only: bool = False) -> dict[str, set[str]]:
     """Module -> the cosim modules (or packages) it imports, from the sources under `root`; with
     `top_level_only`, only the imports that run when the module is imported."""
@@ -103,7 +111,7 @@ def import_graph(root: Path, *, top_level_only: bool = False) -> dict[str, set[s
     for name, path in files.items():
         package = name if path.name == "__init__.py" else name.rpartition(".")[0]
         edges: set[str] = set()
-        tree = ast.parse(path.read_text(), str(path))
+        tree = _parse(path.read_text())
         for node in _outside_functions(tree) if top_level_only else ast.walk(tree):
             if isinstance(node, ast.Import):
                 targets = [a.name for a in node.names]
@@ -337,7 +345,7 @@ def test_one_interrupted_type():
     defined = sorted(
         str(path.relative_to(COSIM_DIR))
         for path in COSIM_DIR.rglob("*.py")
-        for node in ast.walk(ast.parse(path.read_text(), str(path)))
+        for node in ast.walk(_parse(path.read_text()))
         if isinstance(node, ast.ClassDef) and node.name == "Interrupted"
     )
     assert defined == ["project/interrupt.py"]
@@ -356,7 +364,7 @@ def signal_installers(root: Path) -> list[str]:
         module = ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
         if module == SIGNAL_INSTALLER:
             continue
-        tree = ast.parse(path.read_text(), filename=str(path))
+        tree = _parse(path.read_text())
         modules, functions = set(), set()
         for node in ast.walk(tree):
             if isinstance(node, ast.Import):
