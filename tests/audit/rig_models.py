@@ -70,7 +70,7 @@ def strand_mus(mu: float, spread: float, rng: np.random.Generator) -> np.ndarray
     return mu * np.exp(spread * norm.ppf(q))
 
 
-@njit(cache=False)
+@njit(cache=True)
 def _chain(held, j, t, c_pull, c_release, segments):
     """One strand's segments for an input tension t; the direction its last segment slid."""
     moved = 0.0
@@ -88,7 +88,7 @@ def _chain(held, j, t, c_pull, c_release, segments):
     return t, moved
 
 
-@njit(cache=False)
+@njit(cache=True)
 def _braid(t_in, phi, mus, extra_mu, segments, static_ratio):
     n = t_in.shape[0]
     held = np.zeros((mus.shape[0], segments))
