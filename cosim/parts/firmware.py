@@ -43,6 +43,9 @@ ERR_BOUND_LSB = 1.0
 # Gain table spacing of the fixed-point compensator (COMP_TAB_SHIFT = 9: 512 LSB = 2 N).
 TABLE_STEP_N = 2.0
 FULL_SCALE_N = 128.0
+# comp.h COMP_MU_SLOPE_RANGE_N: the tension up to which the friction slope's law holds (mu + s*T
+# >= 0 is checked there) and above which the gain tables stay constant.
+MU_SLOPE_RANGE_N = 48.0
 
 
 class FirmwareConfigError(ValueError):
@@ -445,6 +448,7 @@ class CompensatorParams:
         """G_up and G_dn at output tension |T| (comp.h): the capstan relation integrated with
         mu(T) = mu + mu_slope_per_n*T; exp(+-mu*phi) without a slope."""
         a = np.minimum(np.abs(np.asarray(t_n, dtype=float)), Q7_8_MAX * Q7_8_LSB_N)
+        a = np.minimum(a, MU_SLOPE_RANGE_N)  # the law's range; the gains stay there above it
         x = self.mu * self.phi_c_rad
         e = math.exp(x)
         q = self.phi_c_rad * math.expm1(x) / x if x > 0 else self.phi_c_rad
@@ -452,12 +456,13 @@ class CompensatorParams:
         return e / (1.0 - c), 1.0 / (e + c)
 
     def _gain_stats(self) -> tuple[float, float, float, float]:
-        """Largest G_up, G_up - G_dn, |dG/dT| and |d2G/dT2| of either branch over [0, 128] N."""
+        """Largest G_up, G_up - G_dn, |dG/dT| and |d2G/dT2| of either branch over [0, 128] N
+        (constant above MU_SLOPE_RANGE_N: the extremes lie in [0, MU_SLOPE_RANGE_N])."""
         x = self.mu * self.phi_c_rad
         e = math.exp(x)
         q = self.phi_c_rad * math.expm1(x) / x if x > 0 else self.phi_c_rad
         k = self.mu_slope_per_n * q
-        a = np.linspace(0.0, FULL_SCALE_N, 513)
+        a = np.linspace(0.0, MU_SLOPE_RANGE_N, 193)
         du, dd = 1.0 - k * a, e + k * a
         gu, gd = e / du, 1.0 / dd
         d1 = np.maximum(np.abs(e * k / du**2), np.abs(k / dd**2))

@@ -49,7 +49,8 @@
  *      unloading: T_in = T * G_dn(T),  G_dn(T) = 1 / (E + s*q*T)
  *    with E = exp(mu*phi) and q = (E - 1)/mu = phi*(exp(mu*phi) - 1)/(mu*phi) (q = phi at mu = 0);
  *    with s = 0 these are exp(+-mu*phi). They are tabulated at configuration at 65 nodes every 2 N
- *    of |T_eff| (clamped to 127.996 N) and linearly interpolated per step.
+ *    of |T_eff| (clamped to 127.996 N) and linearly interpolated per step. The law holds up to
+ *    COMP_MU_SLOPE_RANGE_N (48 N, a node); above it the gains stay those at 48 N.
  * Full law of a step, with T_eff = T_ref - offset_n (mode NONE: T_c = T_ref):
  *   G_up, G_dn as above (exp(+-mu*phi) without a slope),
  *   w = s / B in [0, 1] (PAPER: w = 1 loading, 0 unloading; SMOOTH: s moves by |dT_ref| per step
@@ -84,6 +85,13 @@
 #define COMP_MU_MAX_Q28 ((q3_28_t)Q3_28_ONE)               /* mu in [0, 1] */
 #define COMP_PHI_MAX_Q24 ((q7_24_t)210828714L)             /* phi in [0, 4*pi] rad */
 #define COMP_MU_SLOPE_MAX_Q28 ((q3_28_t)(Q3_28_ONE / 128)) /* |mu_slope| <= 1/128 per N */
+/* Tension (N) up to which mu + mu_slope*T must stay >= 0: the highest tension the sheath can carry
+ * on the bench, the drive's 4 A limit at the RE25's k_t through 5.4:1 and a 10 mm spool (45.5 N at
+ * the inlet, fmu/README.md "Drive and motor"), rounded up. The whole Q7.8 range (128 N) refused
+ * measured slopes such as -0.0008 /N at mu 0.075 whose mu stays positive wherever a cable is
+ * pulled. Above it the tables hold the gains at COMP_MU_SLOPE_RANGE_N (comp.h's law above), so
+ * that a negative slope never makes the unloading gain exceed the loading one. */
+#define COMP_MU_SLOPE_RANGE_N 48
 #define COMP_EXPONENT_MAX_Q28 ((q3_28_t)(4L * Q3_28_ONE))  /* mu*phi <= 4 (gain <= 54.6) */
 #define COMP_GAIN_MAX ((uq8_24_t)916004956UL) /* every gain <= e^4 (UQ8.24, floor) */
 #define COMP_GAIN_MIN ((uq8_24_t)307286UL)    /* every gain >= e^-4 (UQ8.24, ceiling) */
@@ -115,7 +123,7 @@
 #define COMP_ERR_MODE 2       /* mode not NONE, PAPER or SMOOTH */
 #define COMP_ERR_MU 3         /* mu outside [0, 1] */
 #define COMP_ERR_PHI 4        /* phi outside [0, 4*pi] rad */
-#define COMP_ERR_MU_SLOPE 5   /* |mu_slope| > 1/128 per N, mu + mu_slope*128 N < 0, or a gain
+#define COMP_ERR_MU_SLOPE 5   /* |mu_slope| > 1/128 per N, mu + mu_slope*48 N < 0, or a gain
                                * outside [e^-4, e^4] somewhere in [0, 128] N */
 #define COMP_ERR_EXPONENT 6   /* mu*phi > 4 */
 #define COMP_ERR_OFFSET 7     /* |offset| > 64 N */

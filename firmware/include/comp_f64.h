@@ -20,7 +20,7 @@ typedef struct {
     int32_t mode;              /* COMP_MODE_* (comp.h) */
     double mu;                 /* [0, 1] */
     double phi_rad;            /* [0, 4*pi] */
-    double mu_slope_per_n;     /* [-1/128, 1/128] 1/N, with mu + 128*slope >= 0 */
+    double mu_slope_per_n;     /* [-1/128, 1/128] 1/N, with mu + 48*slope >= 0 */
     double offset_n;           /* [-64, 64] N */
     double hysteresis_n;       /* [1/256, 32] N */
     double band_n;             /* [1/256, 128] N */

@@ -59,7 +59,10 @@ static int32_t build_tables(const comp_config_t *cfg, uq8_24_t *up, uq8_24_t *dn
     int64_t e52 = (int64_t)e * (INT64_C(1) << 28);
     const int64_t one52 = INT64_C(1) << 52;
     for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
-        int64_t c = k52 * (2 * i);
+        /* The slope's law holds up to COMP_MU_SLOPE_RANGE_N (a node: 2 N steps); the gains stay
+         * there above it, so the branches never cross where mu + s*T would turn negative. */
+        int64_t t_n = (2 * i < COMP_MU_SLOPE_RANGE_N) ? 2 * i : COMP_MU_SLOPE_RANGE_N;
+        int64_t c = k52 * t_n;
         int64_t d_up = one52 - c;
         int64_t d_dn = e52 + c;
         if (d_up <= 0 || d_dn <= 0) {
@@ -106,7 +109,7 @@ static int32_t check_fields(const comp_config_t *cfg)
     }
     if (cfg->mu_slope_per_n_q28 < -COMP_MU_SLOPE_MAX_Q28 ||
         cfg->mu_slope_per_n_q28 > COMP_MU_SLOPE_MAX_Q28 ||
-        (int64_t)cfg->mu_q28 + (int64_t)cfg->mu_slope_per_n_q28 * 128 < 0) {
+        (int64_t)cfg->mu_q28 + (int64_t)cfg->mu_slope_per_n_q28 * COMP_MU_SLOPE_RANGE_N < 0) {
         return COMP_ERR_MU_SLOPE;
     }
     if (exponent_q28(cfg) > COMP_EXPONENT_MAX_Q28) {

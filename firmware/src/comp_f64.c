@@ -39,7 +39,8 @@ static void gains(const comp_f64_config_t *cfg, double a, double *gu, double *gd
     double x = cfg->mu * cfg->phi_rad;
     double e = exp(x);
     double q = (x > 0.0) ? cfg->phi_rad * expm1(x) / x : cfg->phi_rad;
-    double c = cfg->mu_slope_per_n * q * a;
+    /* The slope's law holds up to COMP_MU_SLOPE_RANGE_N; the gains stay there above it (comp.c). */
+    double c = cfg->mu_slope_per_n * q * fmin(a, (double)COMP_MU_SLOPE_RANGE_N);
     *gu = e / (1.0 - c);
     *gd = 1.0 / (e + c);
 }
@@ -66,7 +67,7 @@ int32_t comp_f64_config_check(const comp_f64_config_t *cfg)
         return COMP_ERR_PHI;
     }
     if (out_of(cfg->mu_slope_per_n, -1.0 / 128.0, 1.0 / 128.0) ||
-        cfg->mu + 128.0 * cfg->mu_slope_per_n < 0.0) {
+        cfg->mu + (double)COMP_MU_SLOPE_RANGE_N * cfg->mu_slope_per_n < 0.0) {
         return COMP_ERR_MU_SLOPE;
     }
     if (cfg->mu * cfg->phi_rad > 4.0) {
@@ -76,10 +77,10 @@ int32_t comp_f64_config_check(const comp_f64_config_t *cfg)
         /* Both gains are monotonic in |T|: check the end of the table (and its denominators). */
         double x = cfg->mu * cfg->phi_rad;
         double q = (x > 0.0) ? cfg->phi_rad * expm1(x) / x : cfg->phi_rad;
-        double c = cfg->mu_slope_per_n * q * 128.0;
+        double c = cfg->mu_slope_per_n * q * (double)COMP_MU_SLOPE_RANGE_N;
         double gu;
         double gd;
-        gains(cfg, 128.0, &gu, &gd);
+        gains(cfg, (double)COMP_MU_SLOPE_RANGE_N, &gu, &gd);
         if (1.0 - c <= 0.0 || exp(x) + c <= 0.0 || gu > exp(4.0) || gd < exp(-4.0)) {
             return COMP_ERR_MU_SLOPE;
         }

@@ -330,7 +330,7 @@ const char *fw_strerror(int32_t code)
     case COMP_ERR_PHI:
         return "comp.phi_rad: outside [0, 4*pi] rad";
     case COMP_ERR_MU_SLOPE:
-        return "comp.mu_slope_per_n: outside [-1/128, 1/128] 1/N, mu + 128 N * slope < 0, or a "
+        return "comp.mu_slope_per_n: outside [-1/128, 1/128] 1/N, mu + 48 N * slope < 0, or a "
                "gain beyond [exp(-4), exp(4)] below 128 N";
     case COMP_ERR_EXPONENT:
         return "comp.mu: mu * phi exceeds 4 (gain exp(4) = 54.6)";

@@ -204,12 +204,12 @@ static void test_bad_config_rejected_and_previous_kept(void)
         {"phi > 4pi", make_cfg(1, 0.075, 4.0 * PI_D + 2 * tiny_q24, 0, 0, 0.01, 2), COMP_ERR_PHI},
         {"slope > 1/128", make_cfg(1, 0.075, 1.0, 1.0 / 128 + tiny_q28, 0, 0.01, 2),
          COMP_ERR_MU_SLOPE},
-        {"mu_eff < 0 at 128 N", make_cfg(1, 0.075, 1.0, -0.075 / 128 - tiny_q28, 0, 0.01, 2),
+        {"mu_eff < 0 at 48 N", make_cfg(1, 3.0 / 32, 1.0, -1.0 / 512 - tiny_q28, 0, 0.01, 2),
          COMP_ERR_MU_SLOPE},
         {"mu*phi > 4", make_cfg(1, 0.5, 8.1, 0, 0, 0.01, 2), COMP_ERR_EXPONENT},
-        {"capstan diverges below 128 N", make_cfg(1, 0.1, 4.0 * PI_D, 0.002, 0, 0.01, 2),
+        {"capstan diverges below 48 N", make_cfg(1, 0.1, 4.0 * PI_D, 0.002, 0, 0.01, 2),
          COMP_ERR_MU_SLOPE},
-        {"gain > e^4 at 128 N", make_cfg(1, 0.3, 4.0 * PI_D, 2e-5, 0, 0.01, 2), COMP_ERR_MU_SLOPE},
+        {"gain > e^4 at 48 N", make_cfg(1, 0.3, 4.0 * PI_D, 4e-5, 0, 0.01, 2), COMP_ERR_MU_SLOPE},
         {"offset > 64 N", make_cfg(1, 0.075, 6.0, 0, 64.0 + LSB_N, 0.01, 2), COMP_ERR_OFFSET},
         {"offset < -64 N", make_cfg(1, 0.075, 6.0, 0, -64.0 - LSB_N, 0.01, 2), COMP_ERR_OFFSET},
         {"hysteresis 0", make_cfg(1, 0.075, 6.0, 0, 0, 0.0, 2), COMP_ERR_HYSTERESIS},
@@ -267,6 +267,12 @@ static void test_limits_accepted(void)
         make_cfg(COMP_MODE_SMOOTH, 0.3, 4.0 * PI_D, 0.0, -64.0, 1.0, 128.0),
         make_cfg(COMP_MODE_SMOOTH, 1.0 / 128, 0.5, 1.0 / 128, 0.0, 1.0, 1.0),
         make_cfg(COMP_MODE_SMOOTH, 0.5, 1.0, -1.0 / 256, 0.0, 1.0, 1.0),
+        /* mu + 48 N * slope = 0 exactly (3/32 and -1/512 are exact in Q3.28) */
+        make_cfg(COMP_MODE_SMOOTH, 3.0 / 32, 1.0, -1.0 / 512, 0.0, 1.0, 1.0),
+        /* a gain that would pass e^4 only above 48 N, where the tables hold it */
+        make_cfg(COMP_MODE_SMOOTH, 0.3, 4.0 * PI_D, 2e-5, 0.0, 1.0, 1.0),
+        /* a measured slope the 128 N rule refused: mu 0.075 at loop routing, -0.0008 /N */
+        make_cfg(COMP_MODE_PREVIEW, 0.075, 2.0 * PI_D, -0.0008, 0.0, 1.0, 1.0),
         make_cfg(COMP_MODE_NONE, 0.075, 2.0 * PI_D, 0.0, 0.0, 1.0, 1.0),
         with_floor_preview(make_cfg(COMP_MODE_PREVIEW, 0.075, 2.0 * PI_D, 0, 0, 1.0, 1.0), 64.0,
                            COMP_PREVIEW_MAX_TICKS, COMP_PREVIEW_MAX_TICKS),
@@ -298,6 +304,7 @@ static const struct {
     {"paper slope max", COMP_MODE_PAPER, 0.02, 0.5, 1.0 / 128, 0, LSB_N, 2},
     {"smooth slope offset -64", COMP_MODE_SMOOTH, 0.075, 2 * PI_D, 0.0005, -64.0, LSB_N, 3},
     {"smooth slope negative", COMP_MODE_SMOOTH, 0.2, 2 * PI_D, -0.001, 0, LSB_N, 5},
+    {"smooth slope measured", COMP_MODE_SMOOTH, 0.075, 2 * PI_D, -0.0008, 0, LSB_N, 5},
     {"none", COMP_MODE_NONE, 0.075, 2 * PI_D, 0, 0.5, LSB_N, 2},
 };
 

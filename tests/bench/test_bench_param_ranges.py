@@ -15,7 +15,7 @@ from cosim.bench.link.client import BenchClient, DeviceError
 # Parameters whose range is narrowed by others: the settings that let each end through.
 CONTEXT = {
     "comp.mu": {"comp.phi_rad": 1 << 24},  # mu * phi <= 4: phi 1 rad
-    # mu + 128 N * slope >= 0 at the lowest slope: mu 1; every gain within exp(+-4) at the
+    # mu + 48 N * slope >= 0 at the lowest slope: mu 1; every gain within exp(+-4) at the
     # highest: phi 0.5 rad (set first: mu * phi <= 4)
     "comp.mu_slope_per_n": {"comp.phi_rad": 1 << 23, "comp.mu": 1 << 28},
     "comp.lead_ticks": {"comp.preview_ticks": 128},  # L <= P
