@@ -116,20 +116,75 @@ def test_nominal_plant_gives_nothing_to_change(tmp_path):
     assert after == _before(tmp_path / "c")
 
 
-def test_a_value_outside_the_compensators_limits_is_refused(tmp_path):
+def test_a_value_outside_the_compensators_limits_is_clipped_to_the_limit(tmp_path):
     """A device set to phi = 0.3 rad against a plant of 2 pi: the plant's mu*phi (0.47) needs
-    comp.mu 1.57, outside the compensator's [0, 1]: refused with the reason, nothing written."""
+    comp.mu 1.57, outside the compensator's [0, 1]: clipped to 1 with the reason, applied, and
+    kept because the verification improves (mu*phi 0.0225 -> 0.3 of the plant's 0.47)."""
     with Bench(emulate=True) as bench:
         bench.set(comp_phi_rad=0.3)
         info = bench.info()
         outcome, lines = _calibrate(bench, info, tmp_path / "c", apply=True)
         after = _words(bench.client)
     mu = next(c for c in outcome.report["changes"] if c["name"] == "comp.mu")
-    assert mu["status"] == "refused" and "outside the compensator's limits" in mu["reason"]
-    assert "mu" in mu["reason"]
-    assert outcome.report["applied"] == []
-    assert after == _before(tmp_path / "c")
-    assert any("kept: refused" in line for line in lines)
+    assert mu["status"] == "clipped" and "outside the compensator's limits" in mu["reason"]
+    assert mu["proposed"] == pytest.approx(1.0, abs=1e-8)
+    assert "clipped from 1.5" in mu["reason"]
+    assert value_from_word(msgs.PARAM_BY_NAME["comp.mu"], after["comp.mu"]) == pytest.approx(1.0)
+    assert outcome.report["applied_kept"]
+
+
+def _device(**values) -> dict:
+    """The emulated device's defaults as values by name, with `values` (dotted names as
+    comp_mu) set."""
+    client = BenchClient(SteppedLink(ChainConfig()))
+    client.connect()
+    try:
+        words = client.params()
+    finally:
+        client.link.close()
+    dev = {n: value_from_word(msgs.PARAM_BY_NAME[n], w) for n, w in words.items()}
+    dev.update({k.replace("_", ".", 1): v for k, v in values.items()})
+    return dev
+
+
+def _change(name: str, current: float, proposed: float) -> cal.Change:
+    return cal.Change(name, "", current, proposed, 0.0, current, "change", "removes ...")
+
+
+def test_a_measured_negative_tension_slope_is_taken():
+    """-0.0008 /N at mu 0.075 on loop routing: the slope of a real cable (mu stays positive up
+    to 94 N), refused while the compensator asked mu + 128 N * slope >= 0."""
+    dev = _device()
+    changes = [_change("comp.mu", 0.075, 0.09), _change("comp.mu_slope_per_n", 0.0, -0.0008)]
+    cal._check_limits(changes, dev, dev["comp.phi_rad"])
+    assert [c.status for c in changes] == ["change", "change"], [c.reason for c in changes]
+
+
+def test_a_value_beyond_the_limits_is_clipped_and_the_others_still_apply():
+    """A slope of -0.01 /N (beyond the word's 1/128 and mu + 48 N * slope >= 0) is clipped to
+    the limit at the device's mu, -0.075 / 48; mu's change applies beside it."""
+    dev = _device()
+    changes = [_change("comp.mu", 0.075, 0.09), _change("comp.mu_slope_per_n", 0.0, -0.01)]
+    cal._check_limits(changes, dev, dev["comp.phi_rad"])
+    mu, slope = changes
+    assert mu.status == "change" and mu.proposed == 0.09
+    assert slope.status == "clipped" and "clipped from -0.01" in slope.reason
+    assert slope.proposed == pytest.approx(-0.075 / 48, rel=1e-6)
+    assert slope.proposed >= -0.075 / 48 - 1e-9  # on the side the compensator takes
+
+
+def test_values_that_hold_alone_but_not_together_keep_the_most_that_does():
+    """mu 0.075 -> 0.05 and a slope of -0.0013 /N each hold with the device's other values, not
+    together (0.05 - 48 N * 0.0013 < 0): mu applies and the slope is clipped to -0.05 / 48."""
+    dev = _device()
+    changes = [_change("comp.mu", 0.075, 0.05), _change("comp.mu_slope_per_n", 0.0, -0.0013)]
+    cal._check_limits(changes, dev, dev["comp.phi_rad"])
+    mu, slope = changes
+    assert mu.status == "change" and mu.proposed == 0.05
+    assert slope.status == "clipped" and "to hold with comp.mu" in slope.reason
+    assert slope.proposed == pytest.approx(-0.05 / 48, rel=1e-5)
+    together = {**dev, "comp.mu": 0.05, slope.name: slope.proposed}
+    assert cal._comp_refuses(together, str(dev["comp.mode"])) is None
 
 
 @pytest.mark.slow
@@ -156,6 +211,23 @@ def test_an_offset_the_device_has_and_the_plant_does_not_is_taken_back(tmp_path)
     c = {c["name"]: c for c in outcome.report["changes"]}
     assert c["comp.offset_n"]["status"] == "change"
     assert c["comp.offset_n"]["proposed"] == pytest.approx(0.0, abs=0.02)
+
+
+@pytest.mark.slow
+def test_the_tare_keeps_a_sensor_offset_out_of_the_compensator(tmp_path):
+    """A far-end load cell that reads 0.4 N above the cable (the plant's sensor_offset): the tare
+    reads it at zero load, and the compensator's offset stays 0 (before the tare, the audit took
+    the cell's error for the tension's and proposed comp.offset_n 0.4, shifting the cable's
+    tension by it); mu is still found."""
+    with Bench(emulate=True, plant={"mu": 0.09, "sensor_offset": 0.4}) as bench:
+        outcome, lines = _calibrate(bench, bench.info(), tmp_path / "c")
+    rep = outcome.report
+    assert rep["tare"]["offset_n"] == pytest.approx(0.4, abs=0.02)
+    tare_line = next(line for line in lines if line.startswith("tare: "))
+    assert f"reads {rep['tare']['offset_n']:+.3f} N at zero load" in tare_line, tare_line
+    c = {c["name"]: c for c in rep["changes"]}
+    assert c["comp.offset_n"]["status"] in ("unchanged", "not significant"), c["comp.offset_n"]
+    assert c["comp.mu"]["proposed"] == pytest.approx(0.09, rel=MU_TOLERANCE)
 
 
 def test_loop_gains_are_never_among_the_changes():
@@ -222,7 +294,7 @@ def _drop_run(tmp_path, when, down_calls, plant=None):
 
 def test_a_link_drop_during_identification_leaves_the_device_as_it_was(tmp_path):
     msg, before, (after, running) = _drop_run(
-        tmp_path, lambda link: link.starts == 1 and link.inner.chain.ticks > 3000, None
+        tmp_path, lambda link: link.starts == 2 and link.inner.chain.ticks > 3000, None
     )
     assert "during the identification run" in msg and "no compensator value was written" in msg
     assert "could not be put back" in msg and "restore with" in msg
@@ -238,7 +310,7 @@ def test_a_link_drop_after_the_changes_are_written_undoes_them(tmp_path):
     put back, and so is everything the runs set."""
     msg, before, (after, running) = _drop_run(
         tmp_path,
-        lambda link: link.starts == 3 and link.inner.chain.ticks % 1000 == 500,
+        lambda link: link.starts == 4 and link.inner.chain.ticks % 1000 == 500,
         down_calls=2,
         plant={"mu": 0.09},
     )
@@ -251,7 +323,7 @@ def test_a_link_drop_after_the_changes_are_written_undoes_them(tmp_path):
 def test_a_link_lost_for_good_after_the_write_says_how_to_restore(tmp_path):
     msg, before, (after, _) = _drop_run(
         tmp_path,
-        lambda link: link.starts == 3 and link.inner.chain.ticks % 1000 == 500,
+        lambda link: link.starts == 4 and link.inner.chain.ticks % 1000 == 500,
         down_calls=None,
         plant={"mu": 0.09},
     )

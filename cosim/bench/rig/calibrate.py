@@ -3,6 +3,9 @@ what the audit found to the device's compensator and check it on the device's ow
 
 The steps (cosim/bench/README.md, "Calibration", says why each piece is there):
 
+0. **Tare.** T_ref 0 for TARE_S with the cable at rest: the far-end load cell's reading at zero
+   load is its own offset, which is taken off T_out before the audit, so that what the audit
+   finds as an offset (comp.offset_n) is one of the tension, not the sensor's error.
 1. **Identification.** A streamed T_ref (`identification_sequence`): holds, full-range ramps at
    three rates in both directions and small reversals at three tension levels, recorded with
    T_out (the far-end load cell) by the ordinary run path (cosim.bench.link.recorder).
@@ -13,7 +16,10 @@ The steps (cosim/bench/README.md, "Calibration", says why each piece is there):
    audit's extended model in place of the fitted one; the change is proposed only when the
    fitted value beats the device's by the audit's own decision rule (cosim.audit.decision: on
    the selection blocks, the same thresholds as a finding), and only when the compensator takes
-   it (the firmware's configuration check through cosim.parts.firmware). Loop gains are never
+   it (the firmware's configuration check through cosim.parts.firmware). A value the
+   compensator does not take is clipped to the nearest one it takes on the way from the
+   device's value (status "clipped", the limit named), and a set that does not hold together
+   keeps the most of it that does: one value never blocks the others. Loop gains are never
    among them.
 4. **Prediction** (`predict`). The emulated controller (the device's firmware, the FPGA loop's
    model) with the audited plant and the device's compensator and loop settings runs the
@@ -68,6 +74,13 @@ SMALL_HALF_N = 1.5
 SMALL_RATE_N_S = 10.0
 HOLD_S = 0.5
 START_HOLD_S = 1.0  # the audit's warm-up (cosim.audit.data.WARMUP_S)
+
+# --- the tare ------------------------------------------------------------------------------------
+
+# T_ref 0 with the cable at rest before anything else: the loop holds the inlet at zero tension, so
+# the far-end load cell carries no load and reads its own offset. The reading is the median over
+# the second half (the loop's start-up left out).
+TARE_S = 1.0
 
 # --- the verification waveform -------------------------------------------------------------------
 
@@ -189,13 +202,13 @@ class Change:
     proposed: float | None  # device units (None: nothing to propose)
     audit_value: float  # the audit's extended model's value (its phi)
     device_as_audit: float | None  # the device's value in the audit's terms
-    status: str  # "change", "unchanged", "not significant", "refused"
+    status: str  # "change", "clipped", "unchanged", "not significant", "refused"
     reason: str
     stats: dict = field(default_factory=dict)
 
     @property
     def applies(self) -> bool:
-        return self.status == "change"
+        return self.status in ("change", "clipped")
 
 
 def audit_phi(data) -> float:
@@ -303,26 +316,96 @@ def _comp_refuses(values: dict[str, float], mode: str) -> str | None:
     return None
 
 
+def _takes(name: str, value: float, values: dict, mode: str) -> str | None:
+    """Why the device does not take `name` = value with the other values `values` (the
+    protocol's word, then the compensator's configuration check), or None."""
+    try:
+        word_from_value(param(name), value)
+    except ProtocolError as exc:
+        return f"outside the parameter's range: {exc}"
+    why = _comp_refuses({**values, name: value}, mode)
+    return None if why is None else f"outside the compensator's limits: {why}"
+
+
+# Bisection steps of a clipped value between the device's value and the proposed one: 2^-30 of
+# the way, below every parameter's word.
+CLIP_STEPS = 30
+
+
+def _clipped(name: str, current: float, proposed: float, values: dict, mode: str):
+    """The value nearest `proposed` on the way from `current` that the device takes with
+    `values`, or None when only `current` (or nothing) is taken. The compensator's limits are
+    intervals in each value (a range, a sign rule, a gain bound that grows with the value), so
+    the values taken on the way form one piece from `current`."""
+    if _takes(name, current, values, mode) is not None:
+        return None
+    lo, hi = 0.0, 1.0  # fraction of the way: lo taken, hi not
+    for _ in range(CLIP_STEPS):
+        mid = 0.5 * (lo + hi)
+        if _takes(name, current + mid * (proposed - current), values, mode) is None:
+            lo = mid
+        else:
+            hi = mid
+    value = current + lo * (proposed - current)
+    if _same_word(param(name), value, current):
+        return None
+    # The word nearest the limit may round outside it: step back a word until it is taken.
+    p = param(name)
+    word = word_from_value(p, value)
+    step = 1 if proposed < current else -1
+    for _ in range(4):
+        if _takes(name, value_from_word(p, word), values, mode) is None:
+            return value_from_word(p, word)
+        word += step
+    return None
+
+
 def _check_limits(changes: list[Change], device: dict, phi_device_rad: float) -> None:
-    """Refuse (status "refused", with the reason) each proposed value the protocol's word or
-    the compensator's configuration check does not take, alone or with the others."""
+    """Each proposed value the device does not take alone (the protocol's word or the
+    compensator's configuration check) is clipped to the nearest value it takes on the way from
+    the device's value (status "clipped") or, if none, refused; then the values that do not hold
+    together are left out one at a time, the later in AUDITED's order first (mu, the largest
+    effect, is kept longest), each named with the reason. One value never blocks the others."""
     mode = str(device["comp.mode"])
     for c in changes:
         if not c.applies:
             continue
-        try:
-            word_from_value(param(c.name), c.proposed)
-        except ProtocolError as exc:
-            c.status, c.reason = "refused", f"outside the parameter's range: {exc}"
+        why = _takes(c.name, c.proposed, device, mode)
+        if why is None:
             continue
-        why = _comp_refuses({**device, c.name: c.proposed}, mode)
-        if why:
-            c.status, c.reason = "refused", f"outside the compensator's limits: {why}"
+        clipped = _clipped(c.name, c.current, c.proposed, device, mode)
+        if clipped is None:
+            c.status, c.reason = "refused", why
+            continue
+        c.reason = (
+            f"clipped from {_fmt(c.proposed)} to {_fmt(clipped)} ({why}); the audit's value "
+            f"{c.reason}"
+        )
+        c.status, c.proposed = "clipped", clipped
     todo = [c for c in changes if c.applies]
-    why = _comp_refuses({**device, **{c.name: c.proposed for c in todo}}, mode)
-    if why:
-        for c in todo:
-            c.status, c.reason = "refused", f"refused with the other changes together: {why}"
+    while todo:
+        why = _comp_refuses({**device, **{c.name: c.proposed for c in todo}}, mode)
+        if why is None:
+            break
+        left = todo.pop()
+        others = {c.name: c.proposed for c in todo}
+        kept = ", ".join(others) or "nothing else"
+        clipped = _clipped(left.name, left.current, left.proposed, {**device, **others}, mode)
+        if clipped is not None and _comp_refuses({**device, **others, left.name: clipped}, mode):
+            clipped = None
+        if clipped is not None:
+            left.reason = (
+                f"clipped from {_fmt(left.proposed)} to {_fmt(clipped)} to hold with {kept} "
+                f"({why}); {left.reason}"
+            )
+            left.status, left.proposed = "clipped", clipped
+            todo.append(left)
+            continue
+        left.status = "refused"
+        left.reason = (
+            f"left out: with {kept} it is outside the compensator's limits ({why}); "
+            f"alone it would be taken"
+        )
 
 
 # --- the prediction ------------------------------------------------------------------------------
@@ -421,6 +504,10 @@ class Options:
     loop_routing: bool = True
     sheath_length_m: float = 1.0
     audit_plots: bool = True  # the audit's PNGs (most of the time outside the runs)
+    # Read the far-end cell at zero load first (TARE_S) and take that offset off T_out: the
+    # cable must be at rest and unloaded when calibrate starts. False: the audit's offset stands
+    # for the sensor's and the tension's together (as before the tare).
+    tare: bool = True
 
 
 @dataclass
@@ -595,6 +682,36 @@ def _record(client, path: Path, after_run, opts: Options, progress, **kw):
     return result, _read_columns(path)
 
 
+def _tare(client, path: Path, after_run, opts: Options, progress, tick_hz: float) -> dict:
+    """The far-end load cell's reading at zero load (TARE_S of T_ref 0, the cable at rest): the
+    median of T_out over the second half, and its spread (the 5-95 % range)."""
+    ticks = max(2, int(round(TARE_S * tick_hz)))
+    _, cols = _record(
+        client,
+        path,
+        after_run,
+        opts,
+        progress,
+        seconds=ticks / tick_hz,
+        waveform="stream",
+        mean_n=0.0,
+        amplitude_n=0.0,
+        freq_hz=0.0,
+        stream_words=[0] * ticks,
+    )
+    t = cols["t_s"]
+    t_out = cols["T_out_N"][t >= 0.5 * t[-1]]
+    if t_out.size == 0:
+        raise CalibrationError(f"calibrate: {path.name}: the tare recorded no far-end sample")
+    lo, hi = np.percentile(t_out, [5, 95])
+    return {
+        "offset_n": float(np.median(t_out)),
+        "spread_n": float(hi - lo),
+        "seconds": ticks / tick_hz,
+        "file": path.name,
+    }
+
+
 def _check_far_end(columns: dict, path: Path) -> None:
     """T_out must be there and move with T_ref: the calibration rests on the far-end cell."""
     t_out = columns["T_out_N"][columns["t_s"] >= SETTLE_S]
@@ -616,6 +733,14 @@ def _calibrate(client, opts: Options, before_words, state, *, after_run, say, pr
 
     out = opts.out_dir
     tick_hz = float(client.get("tick_rate_hz"))
+    tare = {"offset_n": 0.0, "file": None}
+    if opts.tare:
+        state.step = "the tare"
+        tare = _tare(client, out / "tare.csv", after_run, opts, progress, tick_hz)
+        say(
+            f"tare: the far-end load cell reads {tare['offset_n']:+.3f} N at zero load "
+            f"(spread {tare['spread_n']:.3f} N): taken off T_out before the audit"
+        )
     seq, pieces = identification_sequence(tick_hz)
     ident = out / "identification.csv"
     state.step = "the identification run"
@@ -639,6 +764,7 @@ def _calibrate(client, opts: Options, before_words, state, *, after_run, say, pr
     say("audit of the identification run ...")
     try:
         tr = trace_mod.read_trace(ident, mode="measured")
+        tr.columns["T_out_N"] = tr.columns["T_out_N"] - tare["offset_n"]
         result = core.run(core.prepare(tr, str(ident)))
     except (trace_mod.TraceError, core.AuditError) as exc:
         raise CalibrationError(f"calibrate: the audit refused the recording: {exc}") from None
@@ -715,6 +841,7 @@ def _calibrate(client, opts: Options, before_words, state, *, after_run, say, pr
             "holdout_rms_n": result.holdout_rms_after_n,
             "warnings": list(result.warnings),
         },
+        "tare": tare,
         "device_phi_rad": phi_dev,
         "changes": [asdict(c) for c in changes],
         "verification": {**VERIFY, "seconds": VERIFY_SECONDS, "settle_s": SETTLE_S},
@@ -747,10 +874,11 @@ def _metrics(m: dict) -> dict:
     return {k: v for k, v in m.items() if k != "series"}
 
 
-def _verify(client, name, opts, after_run, progress):
+def _verify(client, name, opts, after_run, progress, tare_n: float = 0.0):
     path = opts.out_dir / f"{name}.csv"
     _, cols = _record(client, path, after_run, opts, progress, seconds=VERIFY_SECONDS, **VERIFY)
     _check_far_end(cols, path)
+    cols = {**cols, "T_out_N": cols["T_out_N"] - tare_n}  # the tension, not the sensor's error
     m = verification_error(cols)
     m["series"] = (cols["t_s"], cols["T_ref_N"], cols["T_out_N"])
     return m
@@ -761,7 +889,8 @@ def _apply(
 ) -> int:
     state.step = "the verification before the changes"
     say("verification before (the device's values) ...")
-    vb = _verify(client, "verify_before", opts, after_run, progress)
+    tare_n = report["tare"]["offset_n"]
+    vb = _verify(client, "verify_before", opts, after_run, progress, tare_n)
     todo = [(param(c.name), word_from_value(param(c.name), c.proposed)) for c in to_apply]
     state.step = "writing the changes"
     done = write_all(client, todo, "calibrate --apply")
@@ -771,7 +900,7 @@ def _apply(
         say(f"  wrote {p.name} = {format_value(p, w)}")
     state.step = "the verification after the changes"
     say("verification after (the calibrated values) ...")
-    va = _verify(client, "verify_after", opts, after_run, progress)
+    va = _verify(client, "verify_after", opts, after_run, progress, tare_n)
     series["measured_before"] = vb["series"]
     series["measured_after"] = va["series"]
     report["measured"] = {"before": _metrics(vb), "after": _metrics(va)}
@@ -806,6 +935,14 @@ def _write_reports(out: Path, report: dict, series: dict) -> None:
 def markdown(report: dict) -> str:
     """calibration.md: what was run, what the audit found, the changes and the errors."""
     lines = ["# Calibration", "", f"Device: {report['device']}", ""]
+    tare = report.get("tare") or {}
+    if tare.get("file"):
+        lines += [
+            f"Tare (`{tare['file']}`, {tare['seconds']:g} s at zero load): the far-end load cell "
+            f"reads {tare['offset_n']:+.3f} N (spread {tare['spread_n']:.3f} N), taken off T_out "
+            "before the audit and in the verification.",
+            "",
+        ]
     ident = report["identification"]
     lines += [
         f"## Identification ({ident['seconds']:.1f} s, `{ident['file']}`)",
