@@ -504,6 +504,9 @@ class Options:
     loop_routing: bool = True
     sheath_length_m: float = 1.0
     audit_plots: bool = True  # the audit's PNGs (most of the time outside the runs)
+    # The prediction's two emulated verification runs (a study that uses only the proposal
+    # leaves them out; --apply measures on the device in any case).
+    predict: bool = True
     # Read the far-end cell at zero load first (TARE_S) and take that offset off T_out: the
     # cable must be at rest and unloaded when calibrate starts. False: the audit's offset stands
     # for the sensor's and the tension's together (as before the tare).
@@ -813,17 +816,22 @@ def _calibrate(client, opts: Options, before_words, state, *, after_run, say, pr
             say(f"  {c.name}: {_fmt(c.current)} kept: {c.status}: {c.reason}")
 
     state.step = "the prediction"
-    pred = predict(emitted["plant"], before_words, changes, opts.position_m, opts.loop_routing, out)
-    pb, pa = pred["before"], pred["after"]
-    say(
-        f"predicted verification error (emulated controller, audited plant): RMS "
-        f"{pb['rms_error_n']:.3f} N ({pb['rms_error_pct']:.2f} %) now"
-        + (
-            f" -> {pa['rms_error_n']:.3f} N ({pa['rms_error_pct']:.2f} %) with the changes"
-            if to_apply
-            else ""
+    pred, series = {}, {}
+    if opts.predict:
+        pred = predict(
+            emitted["plant"], before_words, changes, opts.position_m, opts.loop_routing, out
         )
-    )
+        pb, pa = pred["before"], pred["after"]
+        say(
+            f"predicted verification error (emulated controller, audited plant): RMS "
+            f"{pb['rms_error_n']:.3f} N ({pb['rms_error_pct']:.2f} %) now"
+            + (
+                f" -> {pa['rms_error_n']:.3f} N ({pa['rms_error_pct']:.2f} %) with the changes"
+                if to_apply
+                else ""
+            )
+        )
+        series = {"predicted_before": pb["series"], "predicted_after": pa["series"]}
     report = {
         "bowden_bench_calibration": 1,
         "device": client.link.url,
@@ -852,7 +860,6 @@ def _calibrate(client, opts: Options, before_words, state, *, after_run, say, pr
         "applied_kept": False,
         "persisted": False,
     }
-    series = {"predicted_before": pb["series"], "predicted_after": pa["series"]}
     exit_code = 0
     if not to_apply:
         say(
@@ -1010,6 +1017,8 @@ def markdown(report: dict) -> str:
 
 
 def _plot(path: Path, series: dict) -> None:
+    if not series:  # neither predicted nor measured: nothing to draw
+        return
     import matplotlib  # noqa: PLC0415
 
     matplotlib.use("Agg")
