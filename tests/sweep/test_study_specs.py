@@ -1,0 +1,77 @@
+"""The studies that take a sweep specification (cosim.studies.calibrated_robustness,
+cosim.studies.tracking_floor) read its plants from the spec's axes, whatever they are, and join
+a mode's results by plant and position."""
+
+import json
+
+import numpy as np
+
+from cosim.studies import calibrated_robustness as cr
+from cosim.studies import tracking_floor as tf
+from cosim.studies.sweep.spec import parse_spec
+
+RANDOM = {
+    "scenario": "fig14",
+    "sampling": "random",
+    "samples": 4,
+    "seed": 5,
+    "config": {"plant": {"noise_std": 0.01}},
+    "axes": {
+        "compensator": ["preview"],
+        "position_m": [[0.0, 0.6, 0.0], [0.0, 0.4, 0.25]],
+        "plant.mu": {"min": 0.05, "max": 0.1, "n": 2},
+        "plant.dead_zone_spread": {"min": 0.0, "max": 0.6, "n": 2},
+    },
+}
+
+
+def test_a_random_specs_plants_come_from_its_axes_over_its_base_plant():
+    spec = parse_spec(RANDOM)
+    plants = [cr.plant_of(spec, p.values) for p in spec.points()]
+    assert len({json.dumps(p, sort_keys=True) for p in plants}) == 4  # one plant a point
+    for p, point in zip(plants, spec.points(), strict=True):
+        assert set(p) == {"noise_std", "mu", "dead_zone_spread"}
+        assert p["mu"] == point.values["plant.mu"] and 0.05 <= p["mu"] <= 0.1
+        assert p["noise_std"] == 0.01
+
+
+def test_a_grids_plants_are_the_product_of_its_plant_axes():
+    grid = {
+        "scenario": "fig14",
+        "axes": {
+            "compensator.est_enable": [0, 1],
+            "position_m": [[0.0, 0.6, 0.0]],
+            "plant.mu": [0.06, 0.09],
+            "plant.cable_EA": [6400, 9600],
+        },
+    }
+    spec = parse_spec(grid)
+    plants = {json.dumps(cr.plant_of(spec, p.values), sort_keys=True) for p in spec.points()}
+    assert len(plants) == 4  # est_enable does not make a plant
+
+
+def test_the_floor_joins_a_modes_rows_by_plant_and_position(tmp_path):
+    """A mode's rows (a sweep folder's points) are matched to the floor's by plant and position,
+    not by the controller's axes; the ratios are the mode's figure over the floor's."""
+    spec = parse_spec(RANDOM)
+    points = [p.values for p in spec.points()]
+    floors = [{"rms_error_pct": 0.5, "peak_error_pct": 2.0} for _ in points]
+    folder = tmp_path / "sweep" / "points"
+    folder.mkdir(parents=True)
+    for i, v in enumerate(points):
+        row = {"rms_error_pct": 1.0 + i, "peak_error_pct": 4.0, "status": "ok"}
+        values = {**v, "compensator.est_enable": 1}  # a controller axis the floor ignores
+        (folder / f"{i}.json").write_text(json.dumps({"values": values, "row": row}))
+    mode = tf.load_mode(tmp_path / "sweep")
+    lines = tf.summary(points, floors, {"estimate": mode})
+    row = next(line for line in lines if line.startswith("| estimate"))
+    rms = [1.0 + i for i in range(len(points))]
+    assert f"| {np.median(rms):.2f} % | {max(rms):.2f} % |" in row
+    assert f"RMS {np.median(rms) / 0.5:.1f}x / {max(rms) / 0.5:.1f}x" in row
+    assert "peak 2.0x / 2.0x" in row
+
+
+def test_the_oracles_set_values_are_the_escons_duty_levels():
+    levels = tf._levels(4.0)
+    assert len(levels) == 801 and levels[0] == -4.0 and levels[-1] == 4.0
+    assert np.allclose(np.diff(levels), 0.01)
