@@ -24,7 +24,7 @@ compensator aims the cable's tension at T_ref, not the cell's reading. The JSON
 (`--mode sensorless=FILE`).
 
     python -m cosim.studies.calibrated_robustness [--spec SPEC.yaml] [--workers 2] [--out DIR]
-        [--limit N] [--no-tare]
+        [--limit N] [--no-tare] [--reuse]
 
 Without --spec: cosim/studies/sweep/examples/robustness_estimator.yaml (the robustness grid:
 plant mu, cable_EA and current_bandwidth at -20 % / nominal / +20 %, 27 plants, five positions).
@@ -56,29 +56,33 @@ def plant_of(spec, values: dict) -> dict:
     return plant
 
 
-def calibrate_plant(plant: dict, folder: str, tare: bool = True) -> dict:
+def calibrate_plant(plant: dict, folder: str, tare: bool = True, reuse: bool = False) -> dict:
     """The compensator values `calibrate` proposes for an emulated plant (FMU parameters), as
     the sweep's config keys (compensator.mu, ...), the decision and reason of each, and the
-    tare's reading."""
+    tare's reading. reuse: take the calibration.json a run before left in `folder`."""
     from cosim.bench.link.api import Bench  # noqa: PLC0415
     from cosim.bench.rig import calibrate as cal  # noqa: PLC0415
 
     t0 = time.perf_counter()
-    with Bench(emulate=True, plant=plant) as bench:
-        opts = cal.Options(out_dir=Path(folder), audit_plots=False, tare=tare, predict=False)
-        outcome = cal.run_calibration(bench.client, bench.info(), opts, say=lambda _: None)
+    done = Path(folder) / "calibration.json"
+    if reuse and done.is_file():
+        report = json.loads(done.read_text())
+    else:
+        with Bench(emulate=True, plant=plant) as bench:
+            opts = cal.Options(out_dir=Path(folder), audit_plots=False, tare=tare, predict=False)
+            report = cal.run_calibration(
+                bench.client, bench.info(), opts, say=lambda _: None
+            ).report
     out = {}
-    for c in outcome.report["changes"]:
+    for c in report["changes"]:
         key = "compensator." + c["name"].split(".", 1)[1]
         applies = c["status"] in ("change", "clipped") and c["proposed"] is not None
         out[key] = c["proposed"] if applies else c["current"]
-    out["decisions"] = {c["name"]: c["status"] for c in outcome.report["changes"]}
+    out["decisions"] = {c["name"]: c["status"] for c in report["changes"]}
     out["reasons"] = {
-        c["name"]: c["reason"]
-        for c in outcome.report["changes"]
-        if c["status"] in ("clipped", "refused")
+        c["name"]: c["reason"] for c in report["changes"] if c["status"] in ("clipped", "refused")
     }
-    out["tare_n"] = outcome.report["tare"]["offset_n"]
+    out["tare_n"] = report["tare"]["offset_n"]
     out["wall_s"] = time.perf_counter() - t0
     return out
 
@@ -137,6 +141,11 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="calibrate without the tare (the far-end cell's offset counts as the tension's)",
     )
+    ap.add_argument(
+        "--reuse",
+        action="store_true",
+        help="take each plant's calibration from --out where a run before left it (a resume)",
+    )
     args = ap.parse_args(argv)
     try:
         spec = load_spec(args.spec)
@@ -157,7 +166,13 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.workers) as pool:
         jobs = [
-            pool.submit(calibrate_plant, plants[k], str(folder / f"cal_{i:03d}"), not args.no_tare)
+            pool.submit(
+                calibrate_plant,
+                plants[k],
+                str(folder / f"cal_{i:03d}"),
+                not args.no_tare,
+                args.reuse,
+            )
             for i, k in enumerate(keys)
         ]
         calibrated = [j.result() for j in jobs]
