@@ -55,7 +55,11 @@ def test_the_floor_joins_a_modes_rows_by_plant_and_position(tmp_path):
     not by the controller's axes; the ratios are the mode's figure over the floor's."""
     spec = parse_spec(RANDOM)
     points = [p.values for p in spec.points()]
-    floors = [{"rms_error_pct": 0.5, "peak_error_pct": 2.0} for _ in points]
+    floors = [
+        {"rms_error_pct": 0.5, "peak_error_pct": 2.0}
+        | {"true_rms_error_pct": 0.5, "true_peak_error_pct": 2.0}
+        for _ in points
+    ]
     folder = tmp_path / "sweep" / "points"
     folder.mkdir(parents=True)
     for i, v in enumerate(points):
@@ -64,11 +68,16 @@ def test_the_floor_joins_a_modes_rows_by_plant_and_position(tmp_path):
         (folder / f"{i}.json").write_text(json.dumps({"values": values, "row": row}))
     mode = tf.load_mode(tmp_path / "sweep")
     lines = tf.summary(points, floors, {"estimate": mode})
-    row = next(line for line in lines if line.startswith("| estimate"))
+    row = next(line for line in lines if line.startswith("| estimate, far-end reading"))
     rms = [1.0 + i for i in range(len(points))]
     assert f"| {np.median(rms):.2f} % | {max(rms):.2f} % |" in row
     assert f"RMS {np.median(rms) / 0.5:.1f}x / {max(rms) / 0.5:.1f}x" in row
     assert "peak 2.0x / 2.0x" in row
+    assert "no floor) on 0 |" in row
+    # a floor above the mode's error (the oracle rang) is counted, not taken for a floor
+    floors[0] = {**floors[0], "rms_error_pct": 9.0}
+    row = next(line for line in tf.summary(points, floors, {"e": mode}) if line.startswith("| e,"))
+    assert "no floor) on 1 |" in row
 
 
 def test_the_oracles_set_values_are_the_escons_duty_levels():
