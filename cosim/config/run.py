@@ -96,6 +96,12 @@ def field_ranges(sample_rate_hz: float) -> dict[str, tuple[float, float]]:
         "compensator.est_mu_phi_min": (0.0, 4.0),
         "compensator.est_mu_phi_max": (0.0, 4.0),
         "compensator.est_t_min_n": (0.0, 64.0),
+        "compensator.corr_enable": (0, 1),
+        "compensator.corr_ki_shift": (4, 16),
+        "compensator.corr_hold_ticks": (0, 4096),
+        "compensator.corr_limit": (0.0, 1.0),
+        "compensator.corr_tare_ticks": (0, 1024),  # 0 or a power of two (the firmware's check)
+        "compensator.corr_tare_max_n": (0.0, 8.0),
         # The board's chain (cosim.parts.interface): conversion timing, reader and PWM clocks,
         # ESCON.
         "board.adc_period_s": (1e-6, 0.1),
@@ -130,6 +136,10 @@ WHOLE_FIELDS = {
     "compensator.ramp_ticks",
     "compensator.est_enable",
     "compensator.est_tau_ticks",
+    "compensator.corr_enable",
+    "compensator.corr_ki_shift",
+    "compensator.corr_hold_ticks",
+    "compensator.corr_tare_ticks",
 }
 
 

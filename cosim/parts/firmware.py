@@ -146,6 +146,19 @@ class EstConfig(ctypes.Structure):
     ]
 
 
+class CorrConfig(ctypes.Structure):
+    """fric_corr_config_t (fric_est.h)."""
+
+    _fields_ = [
+        ("enable", ctypes.c_int32),
+        ("ki_shift", ctypes.c_int32),
+        ("hold_ticks", ctypes.c_int32),
+        ("limit_q28", ctypes.c_int32),
+        ("tare_ticks", ctypes.c_int32),
+        ("tare_max_n_q8", ctypes.c_int32),
+    ]
+
+
 class FwConfig(ctypes.Structure):
     """fw_config_t (fw.h)."""
 
@@ -157,6 +170,7 @@ class FwConfig(ctypes.Structure):
         ("wave", WaveConfig),
         ("loop", LoopConfig),
         ("est", EstConfig),
+        ("corr", CorrConfig),
     ]
 
 
@@ -178,6 +192,8 @@ class Telemetry(ctypes.Structure):
         ("t_out", ctypes.c_int32),
         ("est_mu_phi_q28", ctypes.c_int32),
         ("est_faults", ctypes.c_uint32),
+        ("corr_n_q8", ctypes.c_int32),
+        ("corr_faults", ctypes.c_uint32),
     ]
 
 
@@ -381,6 +397,14 @@ class CompensatorParams:
     est_mu_phi_min: float = 0.05
     est_mu_phi_max: float = 2.0
     est_t_min_n: float = 0.5
+    # Far-end output correction (fric_est.h, "The far-end output correction"; a part of
+    # fw_config_t), off by default: CorrectorParams's fields with corr_.
+    corr_enable: int = 0
+    corr_ki_shift: int = 8
+    corr_hold_ticks: int = 200
+    corr_limit: float = 0.25
+    corr_tare_ticks: int = 64
+    corr_tare_max_n: float = 0.5
 
     @property
     def phi_c_rad(self) -> float:
@@ -659,6 +683,44 @@ def estimator_from(params) -> EstimatorParams:
 
 
 @dataclass
+class CorrectorParams:
+    """The far-end output correction (fric_est.h) in SI units: off by default; the integral
+    rate 2^-ki_shift per tick, the ticks a branch is held after a change of branch, the bound of
+    each branch's relative gain correction, the far-end tare's ticks and the largest T_in during it."""
+
+    enable: int = 0  # 0 off, 1 on
+    ki_shift: int = 8  # rate 2^-ki_shift per tick, [4, 16]
+    hold_ticks: int = 200  # [0, 4096]
+    limit: float = 0.25  # bound of each branch's relative gain correction, [0, 1]
+    tare_ticks: int = 64  # 0 (no tare) or a power of two up to 1024
+    tare_max_n: float = 0.5  # [0, 8] N
+
+    def to_c(self) -> CorrConfig:
+        return CorrConfig(
+            enable=_whole("corr.enable", self.enable, -(2**31), 2**31 - 1, "0 or 1"),
+            ki_shift=_whole("corr.ki_shift", self.ki_shift, -(2**31), 2**31 - 1, "a shift"),
+            hold_ticks=_whole("corr.hold_ticks", self.hold_ticks, -(2**31), 2**31 - 1, "ticks"),
+            limit_q28=_fixed("corr.limit", self.limit, 28),
+            tare_ticks=_whole("corr.tare_ticks", self.tare_ticks, -(2**31), 2**31 - 1, "ticks"),
+            tare_max_n_q8=_fixed("corr.tare_max_n", self.tare_max_n, 8),
+        )
+
+
+def corrector_from(params) -> CorrectorParams:
+    """CorrectorParams from an object with corr_* fields (`CompensatorParams` above); the
+    defaults (off) for any it lacks."""
+    d = CorrectorParams()
+    return CorrectorParams(
+        enable=int(getattr(params, "corr_enable", d.enable)),
+        ki_shift=int(getattr(params, "corr_ki_shift", d.ki_shift)),
+        hold_ticks=int(getattr(params, "corr_hold_ticks", d.hold_ticks)),
+        limit=float(getattr(params, "corr_limit", d.limit)),
+        tare_ticks=int(getattr(params, "corr_tare_ticks", d.tare_ticks)),
+        tare_max_n=float(getattr(params, "corr_tare_max_n", d.tare_max_n)),
+    )
+
+
+@dataclass
 class FirmwareConfig:
     """The firmware's configuration (fw.h). `loop` overrides register words of the FPGA's loop
     by field name (LOOP_FIELDS, formats of bowden_regs.h); the rest keep their reset values."""
@@ -670,6 +732,7 @@ class FirmwareConfig:
     wave: WaveParams = field(default_factory=WaveParams)
     loop: dict[str, int] = field(default_factory=dict)
     est: EstimatorParams = field(default_factory=EstimatorParams)
+    corr: CorrectorParams = field(default_factory=CorrectorParams)
 
     def to_c(self, lib: ctypes.CDLL) -> FwConfig:
         c = FwConfig()
@@ -692,6 +755,7 @@ class FirmwareConfig:
             word = _whole(f"loop.{name}", value, -(2**31), 2**31 - 1, "a 32-bit register word")
             setattr(c.loop, name, word)
         c.est = self.est.to_c(self.tick_rate_hz)
+        c.corr = self.corr.to_c()
         return c
 
 
@@ -713,6 +777,7 @@ def make_firmware(
         comp=_params_from(mode, params, phi_rad),
         loop=dict(loop or {}),
         est=estimator_from(params),
+        corr=corrector_from(params),
     )
     return Firmware(config)
 
@@ -802,4 +867,5 @@ class Firmware:
         t["blend"] = t["blend_q30"] / 2**30
         t["t_out_n"] = t["t_out"] * Q7_8_LSB_N
         t["mu_phi"] = t["est_mu_phi_q28"] / 2**28
+        t["corr_n"] = t["corr_n_q8"] * Q7_8_LSB_N
         return t

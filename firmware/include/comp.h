@@ -169,6 +169,9 @@ typedef struct {
     int32_t line_first;            /* the first step's input: what an unwritten slot reads */
     int32_t tables_of_cfg;         /* 1 while g_up, g_dn are the tables of cfg's mu, phi and
                                       mu_slope (comp_configure); 0 after comp_set_exponent_q28 */
+    int32_t corr_q8;               /* the far-end output correction added to T_eff, Q7.8 N, [-16,
+                                      16] (comp_set_correction_q8; 0 after comp_reset) */
+    int32_t applied_q8;            /* the reference the last step applied, T_ref(t + L), Q7.8 */
 } comp_t;
 
 /* Defaults: PAPER mode, mu = 0.075 (paper Fig. 11), phi = 2*pi (loop routing), no slope, no offset,
@@ -220,6 +223,15 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref);
  * two table fills); comp_configure restores exp(+-mu*phi).
  */
 int32_t comp_set_exponent_q28(comp_t *c, q3_28_t x_q28);
+
+/*
+ * The far-end output correction (fric_est.h, fric_corr_step): from the next step on T_eff =
+ * T_ref - offset + corr, corr clamped to [-16, 16] N (Q7.8). Not in mode NONE (T_c = T_ref).
+ */
+void comp_set_correction_q8(comp_t *c, int32_t corr_q8);
+/* The reference the last step applied its gain to (T_ref(t + L) in PREVIEW, else T_ref), Q7.8:
+ * what the output should read now. */
+int32_t comp_applied_ref_q8(const comp_t *c);
 
 /* Current direction (+1 loading, -1 unloading) and blend weight s/B in Q1.30 (for telemetry). */
 int32_t comp_direction(const comp_t *c);

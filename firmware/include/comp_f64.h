@@ -39,6 +39,7 @@ typedef struct {
     int32_t started;
     double line[COMP_PREVIEW_MAX_TICKS + 1]; /* PREVIEW: the last P + 1 inputs */
     int32_t line_pos;
+    double corr_n; /* the far-end output correction added to T_eff, N (0 after a reset) */
 } comp_f64_t;
 
 /* Same defaults as comp_config_default. */
@@ -48,6 +49,9 @@ int32_t comp_f64_config_check(const comp_f64_config_t *cfg);
 void comp_f64_init(comp_f64_t *c);
 int32_t comp_f64_configure(comp_f64_t *c, const comp_f64_config_t *cfg);
 void comp_f64_reset(comp_f64_t *c);
+/* The far-end output correction (comp_set_correction_q8's twin): T_eff = T_ref - offset + corr,
+ * corr clamped to [-16, 16] N; not in mode NONE. */
+void comp_f64_set_correction(comp_f64_t *c, double corr_n);
 /* One step: T_ref in N (any finite value) -> T_c in N, saturated to [-128, 127.99609375]. */
 double comp_step_f64(comp_f64_t *c, double t_ref_n);
 

@@ -180,4 +180,128 @@ int32_t fric_est_window_branch(const fric_est_window_t *w, int32_t t_min_q8, int
  */
 q3_28_t fric_est_ln_q28(uq8_24_t v);
 
+/*
+ * The far-end output correction (off by default): the second use of the far-end load cell. The
+ * compensator is the feedforward; on top of it a slow integral of the far-end error corrects
+ * the output tension it aims at (a two-degree-of-freedom structure):
+ *   e = T_ref - (T_out,meas - T_tare),    T_eff = T_ref - offset + c,   c = g T_ref
+ * (comp.h, comp_set_correction_q8), with T_ref the reference the compensator applied at the last
+ * tick (comp_applied_ref_q8) and g a relative correction of the compensator's gain. A gain, not an
+ * offset: what the feedforward leaves on a branch (mu*phi off, friction rising with tension or
+ * speed, a bending-angle error) scales with the tension, and an offset integrated at high
+ * tension pulls a low tension towards zero and slackens the cable there. One integrator per
+ * branch, g_up (loading) and g_dn (unloading), because a friction error of the model changes sign
+ * with the branch (T_out = T_in e^-+x); the applied correction follows the compensator's blend w
+ * (Q1.30, 1 loading), so it changes branch with the gain and never jumps:
+ *   g = g_dn + w (g_up - g_dn).
+ * Integration (per tick, ki = 2^-ki_shift): g_b <- clamp(g_b + ki e T_ref / T_0^2, +-limit), T_0 =
+ * 16 N (the least-squares gradient of e^2 in g, normalised so that the loop's rate at 16 N is ki),
+ * only on the branch fully in force (w = 1 or 0) and only after hold_ticks ticks of it (held
+ * through a change of branch and the dead zone after it, where T_out does not follow T_c), and not
+ * towards a command limit (anti-windup: no integration up while T_c or the drive's current is at
+ * its upper limit or the loop is faulted, none down at the floor or the lower current limit;
+ * FC_LIM_* of the caller).
+ * Loop margin: from g to T_out the plant's low-frequency gain is T_ref G_plant / G_model, about
+ * T_ref (G_plant / G_model in 0.7 .. 1.4 for mu*phi 25 % off the compensator's); the integrator's
+ * loop gain crosses over at w_c = (T_ref / T_0)^2 (G_plant / G_model) f_tick 2^-ki_shift rad/s,
+ * at most 1.4 f_tick 2^-ki_shift below 16 N, and the tension loop's and the far-end sensor's lag
+ * tau_d leaves the phase margin 90 deg - w_c tau_d and the gain margin (pi / (2 tau_d)) / w_c (an
+ * integrator with a delay); firmware/README.md gives the figures.
+ * Tare: the far-end cell's zero is the mean of its readings over the first tare_ticks ticks after
+ * the start (a slack cable: the run starts at zero tension); T_in above tare_max on any of them is
+ * the fault TARE (the offset would then carry tension). No correction before the tare ends.
+ * Faults (latched until fric_corr_reset, which fw_start calls): FC_FAULT_ADC (the ADC front-end
+ * flags), FC_FAULT_RANGE (code outside [code_min, code_max] or its tension outside Q7.8),
+ * FC_FAULT_STUCK (the code unchanged for FC_STUCK_TICKS ticks while T_in, above FC_STUCK_T_MIN_Q8,
+ * left the band [T_out e^-2x, T_out e^2x] around the held reading, x the compensator's configured
+ * mu*phi: a dead zone of friction up to twice the configured one stays inside it, as the
+ * estimate's STUCK band does), FC_FAULT_TARE. With a fault the integrators stop and bleed to
+ * zero, g_b <- g_b - ceil(|g_b| 2^-FC_BLEED_SHIFT) sign(g_b), a first-order decay of
+ * 2^FC_BLEED_SHIFT ticks: the compensator falls back to the feedforward alone without a step.
+ * Formats: tensions and e in Q7.8 N (32-bit, |e| < 2^17); e T_ref in Q15.16 N^2 (int64, < 2^33);
+ * g_b in Q3.28 (|g_b| <= limit <= 1); the step ki e T_ref / T_0^2 = e T_ref 2^(4 - ki_shift) in
+ * Q3.28 (ki_shift in [4, 16]: a right shift by 0 .. 12, rounded half up); the blend in Q1.16
+ * (w >> 14), (g_up - g_dn) w16 < 2^47 in int64 (floor); c = T_ref g rounded half up to Q7.8
+ * (< 2^45). The double twin (fric_est_f64.h) holds g_b as numbers: every value is an integer
+ * multiple of 2^-28 below 2^53 of them, so both are exact and agree bit for bit (unit test).
+ */
+#define FC_STUCK_TICKS 100            /* ticks of an unchanged far-end code before STUCK can latch */
+#define FC_STUCK_T_MIN_Q8 (Q7_8_ONE / 2) /* ... while T_in, above 0.5 N, left the band */
+#define FC_BLEED_SHIFT 7              /* a dropped correction decays with 128 ticks */
+#define FC_KI_SHIFT_MIN 4             /* ki = 2^-ki_shift per tick, ki_shift in [4, 16] */
+#define FC_KI_SHIFT_MAX 16
+#define FC_HOLD_MAX_TICKS 4096        /* hold_ticks in [0, 4096] */
+#define FC_LIMIT_MAX_Q28 ((q3_28_t)Q3_28_ONE) /* limit in [0, 1] */
+#define FC_TARE_MAX_TICKS 1024        /* tare_ticks: 0 (none) or a power of two in [1, 1024] */
+#define FC_TARE_T_MAX_Q8 (8 * Q7_8_ONE) /* tare_max in [0, 8] N */
+
+/* Limits the caller reports (fric_corr_step's lim): the command cannot go higher / lower. */
+#define FC_LIM_HI 0x1u
+#define FC_LIM_LO 0x2u
+
+/* Fault bits (fric_corr_t.faults and the telemetry). */
+#define FC_FAULT_ADC 0x1u
+#define FC_FAULT_RANGE 0x2u
+#define FC_FAULT_STUCK 0x4u
+#define FC_FAULT_TARE 0x8u
+
+/* Status codes of fric_corr_config_check (80-89). */
+#define FC_ERR_ENABLE 80   /* enable not 0 or 1 */
+#define FC_ERR_KI 81       /* ki_shift outside [4, 16] */
+#define FC_ERR_HOLD 82     /* hold_ticks outside [0, 4096] */
+#define FC_ERR_LIMIT 83    /* limit outside [0, 1] */
+#define FC_ERR_TARE 84     /* tare_ticks not 0 or a power of two up to 1024 */
+#define FC_ERR_TARE_MAX 85 /* tare_max outside [0, 8] N */
+
+/* Configuration (a part of fw_config_t; parameters corr.*). */
+typedef struct {
+    int32_t enable;          /* [0, 1]: 0 off (default), 1 on */
+    int32_t ki_shift;        /* integral rate 2^-ki_shift per tick, [4, 16] */
+    int32_t hold_ticks;      /* ticks a branch is in force before it integrates, [0, 4096] */
+    q3_28_t limit_q28;       /* |g_up|, |g_dn| bound, Q3.28, [0, 1] */
+    int32_t tare_ticks;      /* ticks of the far-end zero after the start, 0 or 2^s <= 1024 */
+    q7_8w_t tare_max_n_q8;   /* largest T_in during the tare, Q7.8 N, [0, 8] */
+} fric_corr_config_t;
+
+typedef struct {
+    fric_corr_config_t cfg;
+    q3_28_t g_q28[2];        /* g_up, g_dn, Q3.28 */
+    int32_t held[2];         /* ticks each branch has been fully in force (saturating) */
+    int64_t tare_sum_q8;     /* sum of the far-end words over the tare, Q7.8 N */
+    int32_t tare_n;          /* ticks of the tare so far */
+    int32_t tare_q8;         /* the far-end zero, Q7.8 N */
+    int32_t tared;           /* 1 once the tare is complete */
+    int32_t last_code;       /* STUCK: the far-end code of the last tick */
+    int32_t implausible;     /* STUCK: T_in left the band since the code last changed */
+    uq8_24_t band_q24;       /* STUCK: e^2x, UQ8.24 (x clamped to 2.75: the exp's domain) */
+    uint32_t same_ticks;     /* STUCK: ticks the code has not changed (saturating) */
+    int32_t started;         /* 0 until the first tick */
+    uint32_t faults;         /* FC_FAULT_* (latched) */
+    int32_t out_q8;          /* the correction c, Q7.8 N */
+    int32_t branch;          /* the branch integrated at the last tick (0, 1), -1 none */
+} fric_corr_t;
+
+/* Defaults: off; ki_shift, hold_ticks and limit chosen on the tuning set (firmware/README.md);
+ * tare 64 ticks below 0.5 N. */
+void fric_corr_config_default(fric_corr_config_t *cfg);
+/* FE_OK or the FC_ERR_* of the first bad field (FE_ERR_NULL for a null pointer). */
+int32_t fric_corr_config_check(const fric_corr_config_t *cfg);
+/* Apply a checked configuration and reset; x0 is the compensator's mu*phi (Q3.28, the STUCK
+ * band). */
+void fric_corr_configure(fric_corr_t *c, const fric_corr_config_t *cfg, q3_28_t x0_q28);
+/* Forget everything (integrators, tare, faults): the start of a run. */
+void fric_corr_reset(fric_corr_t *c);
+/*
+ * One tick: the reference the compensator applied (Q7.8), T_in (Q7.8), the far-end word (Q7.8,
+ * 32-bit) and raw code with its limits and the ADC flags (as fric_est_step), the compensator's
+ * blend w (Q1.30, [0, 2^30]) and the command limits reached (FC_LIM_*). Returns c (Q7.8 N).
+ */
+int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_t t_out_q8,
+                       int32_t code, int32_t code_min, int32_t code_max, uint32_t adc_flags,
+                       int32_t w_q30, uint32_t lim);
+/* The checks of a tick shared with the double twin: adds FC_FAULT_* of the inputs to *faults
+ * (ADC flags, range, STUCK run of *c). */
+void fric_corr_check_inputs(fric_corr_t *c, int32_t t_in_q8, int32_t t_out_q8, int32_t code,
+                            int32_t code_min, int32_t code_max, uint32_t adc_flags);
+
 #endif /* BOWDEN_FRIC_EST_H */

@@ -36,4 +36,24 @@ void fric_est_f64_reset(fric_est_f64_t *e, double x0);
 double fric_est_f64_step(fric_est_f64_t *e, int32_t t_in_q8, int32_t t_out_q8, int32_t code,
                          int32_t code_min, int32_t code_max, uint32_t adc_flags);
 
+/*
+ * The double twin of the far-end output correction (fric_est.h): the same input checks and tare
+ * on the same words (the integer part's watch, base), the integrators g_up, g_dn, the blend, the
+ * bleed and the correction in double. Every value is a multiple of 2^-28 below 2^53 of them (g)
+ * or of 2^-36 N (T_ref g), so it is exact and equals the integer correction's bit for bit (unit
+ * test).
+ */
+typedef struct {
+    fric_corr_t base;  /* configuration, tare, STUCK run and faults (its integrators unused) */
+    double g[2];       /* g_up, g_dn */
+    double out;        /* the correction, N, rounded to 1/256 N */
+} fric_corr_f64_t;
+
+void fric_corr_f64_configure(fric_corr_f64_t *c, const fric_corr_config_t *cfg, q3_28_t x0_q28);
+void fric_corr_f64_reset(fric_corr_f64_t *c);
+/* One tick, the arguments of fric_corr_step; returns c in N. */
+double fric_corr_f64_step(fric_corr_f64_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_t t_out_q8,
+                          int32_t code, int32_t code_min, int32_t code_max, uint32_t adc_flags,
+                          int32_t w_q30, uint32_t lim);
+
 #endif /* BOWDEN_FRIC_EST_F64_H */

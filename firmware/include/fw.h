@@ -14,7 +14,11 @@
  * With the online friction estimate on (est.enable), between 1 and 3: read T_OUT and ADC_FLAGS,
  * convert T_OUT with the loop's ADC_OFFSET/ADC_GAIN (the far-end cell assumed of the same scale
  * as the drive's; an offset of it does not bias the estimate), step fric_est and hand its
- * mu*phi to the compensator (comp_set_exponent_q28) when it changed.
+ * mu*phi to the compensator (comp_set_exponent_q28) when it changed. With the far-end output
+ * correction on (corr.enable), the same far-end word feeds fric_corr_step with the reference the
+ * compensator applied at the last tick, its blend and the command limits reached (T_c at its
+ * floor or Q7.8's top, U at +-I_LIMIT, a latched FAULT: both), and the correction goes to the
+ * compensator (comp_set_correction_q8) before step 3.
  * A latched fault is reported (telemetry fault word, fault_ticks) and never cleared by the tick:
  * clearing a safety latch is the operator's decision (fw_fault_clear). The tick keeps writing TC
  * while a fault is latched, so the watchdog does not add a second fault.
@@ -86,6 +90,7 @@ typedef struct {
     wave_config_t wave;
     fw_loop_config_t loop;
     fric_est_config_t est; /* online friction estimate (fric_est.h), off by default */
+    fric_corr_config_t corr; /* far-end output correction (fric_est.h), off by default */
 } fw_config_t;
 
 /* Telemetry of the last tick (words as read from the FPGA, sign-extended where signed). */
@@ -104,6 +109,8 @@ typedef struct {
     int32_t t_out;         /* with the estimate on: T_OUT converted, Q7.8 N (32-bit), else 0 */
     int32_t est_mu_phi_q28; /* the compensator's mu*phi in force, Q3.28 */
     uint32_t est_faults;   /* FE_FAULT_* of the estimate (latched until fw_start) */
+    int32_t corr_n_q8;     /* the far-end output correction in force, Q7.8 N (0 while off) */
+    uint32_t corr_faults;  /* FC_FAULT_* of the correction (latched until fw_start) */
 } fw_telemetry_t;
 
 typedef struct {
@@ -112,6 +119,7 @@ typedef struct {
     comp_t comp;
     wave_t wave;
     fric_est_t est;
+    fric_corr_t corr;        /* the far-end output correction */
     q3_28_t est_applied_q28; /* the exponent the compensator's tables hold */
     fw_telemetry_t tel;
     int32_t uff_prev_tc;     /* rate feedforward: the T_c of the previous tick, Q7.8 N */

@@ -177,6 +177,8 @@ void comp_reset(comp_t *c)
     c->dir = 1;
     c->started = 0;
     c->line_pos = 0;
+    c->corr_q8 = 0;
+    c->applied_q8 = 0;
     blend_to_branch(c);
 }
 
@@ -288,6 +290,7 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
     }
 
     if (cfg->mode == COMP_MODE_NONE) {
+        c->applied_q8 = ref;
         return (ref < cfg->tc_min_n_q8) ? (q7_8_t)cfg->tc_min_n_q8 : t_ref;
     }
 
@@ -330,8 +333,10 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
         }
     }
     c->blend = s;
+    c->applied_q8 = applied;
 
-    int32_t t_eff = applied - cfg->offset_n_q8; /* |t_eff| <= 32768 + 16384 */
+    /* |t_eff| <= 32768 + 16384 + 4096 */
+    int32_t t_eff = applied - cfg->offset_n_q8 + c->corr_q8;
     uint32_t a = (uint32_t)((t_eff < 0) ? -t_eff : t_eff);
     if (a > (uint32_t)Q7_8_MAX) {
         a = (uint32_t)Q7_8_MAX; /* the gain tables end at 127.996 N (see comp.h) */
@@ -387,6 +392,17 @@ int32_t comp_set_exponent_q28(comp_t *c, q3_28_t x_q28)
     }
     c->tables_of_cfg = 0; /* the estimate's tables: the next comp_configure rebuilds cfg's */
     return COMP_OK;
+}
+
+void comp_set_correction_q8(comp_t *c, int32_t corr_q8)
+{
+    const int32_t m = 16 * Q7_8_ONE;
+    c->corr_q8 = (corr_q8 > m) ? m : (corr_q8 < -m) ? -m : corr_q8;
+}
+
+int32_t comp_applied_ref_q8(const comp_t *c)
+{
+    return c->applied_q8;
 }
 
 int32_t comp_direction(const comp_t *c)

@@ -110,7 +110,13 @@ void comp_f64_reset(comp_f64_t *c)
     c->dir = 1;
     c->started = 0;
     c->line_pos = 0;
+    c->corr_n = 0.0;
     c->blend = blend_top(&c->cfg);
+}
+
+void comp_f64_set_correction(comp_f64_t *c, double corr_n)
+{
+    c->corr_n = fmin(16.0, fmax(-16.0, corr_n));
 }
 
 int32_t comp_f64_configure(comp_f64_t *c, const comp_f64_config_t *cfg)
@@ -198,7 +204,7 @@ double comp_step_f64(comp_f64_t *c, double t_ref_n)
     }
     c->blend = s;
 
-    double t_eff = applied - cfg->offset_n;
+    double t_eff = applied - cfg->offset_n + c->corr_n;
     double a = fmin(fabs(t_eff), Q7_8_MAX_N); /* the fixed-point table ends there too */
     double gu;
     double gd;

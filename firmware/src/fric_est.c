@@ -337,3 +337,177 @@ q3_28_t fric_est_ln_q28(uq8_24_t v)
     }
     return (q3_28_t)r;
 }
+
+/* ---- The far-end output correction (fric_est.h, "The far-end output correction") ---------- */
+
+void fric_corr_config_default(fric_corr_config_t *cfg)
+{
+    if (cfg == 0) {
+        return;
+    }
+    cfg->enable = 0;
+    cfg->ki_shift = 8;
+    cfg->hold_ticks = 200;
+    cfg->limit_q28 = (q3_28_t)(Q3_28_ONE / 4); /* 0.25 */
+    cfg->tare_ticks = 64;
+    cfg->tare_max_n_q8 = Q7_8_ONE / 2;
+}
+
+int32_t fric_corr_config_check(const fric_corr_config_t *cfg)
+{
+    if (cfg == 0) {
+        return FE_ERR_NULL;
+    }
+    if (cfg->enable != 0 && cfg->enable != 1) {
+        return FC_ERR_ENABLE;
+    }
+    if (cfg->ki_shift < FC_KI_SHIFT_MIN || cfg->ki_shift > FC_KI_SHIFT_MAX) {
+        return FC_ERR_KI;
+    }
+    if (cfg->hold_ticks < 0 || cfg->hold_ticks > FC_HOLD_MAX_TICKS) {
+        return FC_ERR_HOLD;
+    }
+    if (cfg->limit_q28 < 0 || cfg->limit_q28 > FC_LIMIT_MAX_Q28) {
+        return FC_ERR_LIMIT;
+    }
+    if (cfg->tare_ticks != 0 &&
+        (cfg->tare_ticks > FC_TARE_MAX_TICKS || log2_exact(cfg->tare_ticks) < 0)) {
+        return FC_ERR_TARE;
+    }
+    if (cfg->tare_max_n_q8 < 0 || cfg->tare_max_n_q8 > FC_TARE_T_MAX_Q8) {
+        return FC_ERR_TARE_MAX;
+    }
+    return FE_OK;
+}
+
+void fric_corr_reset(fric_corr_t *c)
+{
+    for (int32_t b = 0; b < 2; ++b) {
+        c->g_q28[b] = 0;
+        c->held[b] = 0;
+    }
+    c->tare_sum_q8 = 0;
+    c->tare_n = 0;
+    c->tare_q8 = 0;
+    c->tared = (c->cfg.tare_ticks == 0) ? 1 : 0;
+    c->last_code = 0;
+    c->implausible = 0;
+    c->same_ticks = 0U;
+    c->started = 0;
+    c->faults = 0U;
+    c->out_q8 = 0;
+    c->branch = -1;
+}
+
+void fric_corr_configure(fric_corr_t *c, const fric_corr_config_t *cfg, q3_28_t x0_q28)
+{
+    const q3_28_t x_max = (q3_28_t)(11L * (Q3_28_ONE / 4)); /* 2x <= 5.5: fxp_exp's domain */
+    q3_28_t x = (x0_q28 < 0) ? 0 : (x0_q28 > x_max) ? x_max : x0_q28;
+    c->cfg = *cfg;
+    c->band_q24 = fxp_exp_uq8_24((q3_28_t)(2 * x));
+    fric_corr_reset(c);
+}
+
+void fric_corr_check_inputs(fric_corr_t *c, int32_t t_in_q8, int32_t t_out_q8, int32_t code,
+                            int32_t code_min, int32_t code_max, uint32_t adc_flags)
+{
+    if (adc_flags != 0U) {
+        c->faults |= FC_FAULT_ADC;
+    }
+    if (code < code_min || code > code_max || t_out_q8 < Q7_8_MIN || t_out_q8 > Q7_8_MAX ||
+        t_in_q8 < Q7_8_MIN || t_in_q8 > Q7_8_MAX) {
+        c->faults |= FC_FAULT_RANGE;
+    }
+    if (c->started == 0 || code != c->last_code) {
+        c->started = 1;
+        c->last_code = code;
+        c->implausible = 0;
+        c->same_ticks = 0U;
+        return;
+    }
+    if (c->same_ticks < 0xFFFFFFFFU) {
+        ++c->same_ticks;
+    }
+    if (t_in_q8 >= FC_STUCK_T_MIN_Q8) {
+        /* Q7.8 * UQ8.24 in int64: |T| < 2^17, band < 2^30 (e^5.5 < 245). */
+        const int64_t in24 = (int64_t)t_in_q8 * (INT64_C(1) << 24);
+        const int64_t out24 = (int64_t)t_out_q8 * (INT64_C(1) << 24);
+        if (in24 > (int64_t)t_out_q8 * (int64_t)c->band_q24 ||
+            (int64_t)t_in_q8 * (int64_t)c->band_q24 < out24) {
+            c->implausible = 1;
+        }
+    }
+    if (c->same_ticks >= (uint32_t)FC_STUCK_TICKS && c->implausible != 0) {
+        c->faults |= FC_FAULT_STUCK;
+    }
+}
+
+/* v - sign(v) ceil(|v| 2^-s): the bleed, reaching 0 (|v| < 2^31). */
+static inline int32_t bleed(int32_t v, int32_t s)
+{
+    const int32_t r = (INT32_C(1) << s) - 1;
+    return (v >= 0) ? v - ((v + r) >> s) : v + ((-v + r) >> s);
+}
+
+int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_t t_out_q8,
+                       int32_t code, int32_t code_min, int32_t code_max, uint32_t adc_flags,
+                       int32_t w_q30, uint32_t lim)
+{
+    c->branch = -1;
+    fric_corr_check_inputs(c, t_in_q8, t_out_q8, code, code_min, code_max, adc_flags);
+    if (c->faults == 0U && c->tared == 0) {
+        if (t_in_q8 > c->cfg.tare_max_n_q8) {
+            c->faults |= FC_FAULT_TARE;
+        } else {
+            c->tare_sum_q8 += t_out_q8;
+            if (++c->tare_n >= c->cfg.tare_ticks) {
+                const int32_t s = log2_exact(c->cfg.tare_ticks); /* >= 0: checked */
+                /* The mean, rounded half up (|sum| < 2^27). */
+                c->tare_q8 = (int32_t)((c->tare_sum_q8 + ((INT64_C(1) << s) >> 1)) >> s);
+                c->tared = 1;
+            }
+        }
+    }
+    if (w_q30 < 0) {
+        w_q30 = 0;
+    } else if (w_q30 > (int32_t)Q1_30_ONE) {
+        w_q30 = (int32_t)Q1_30_ONE;
+    }
+    /* Which branch is fully in force, and for how long. */
+    const int32_t full = (w_q30 == (int32_t)Q1_30_ONE) ? 0 : (w_q30 == 0) ? 1 : -1;
+    for (int32_t b = 0; b < 2; ++b) {
+        if (b != full) {
+            c->held[b] = 0;
+        } else if (c->held[b] < c->cfg.hold_ticks) {
+            ++c->held[b];
+        }
+    }
+    if (c->faults != 0U) {
+        for (int32_t b = 0; b < 2; ++b) {
+            c->g_q28[b] = bleed(c->g_q28[b], FC_BLEED_SHIFT);
+        }
+    } else if (c->tared != 0 && full >= 0 && c->held[full] >= c->cfg.hold_ticks) {
+        const int32_t e = t_ref_q8 - (t_out_q8 - c->tare_q8); /* |e| < 2^17 */
+        if ((e > 0 && (lim & FC_LIM_HI) == 0U) || (e < 0 && (lim & FC_LIM_LO) == 0U)) {
+            const int64_t g_max = c->cfg.limit_q28; /* <= 2^28 */
+            const int64_t p = (int64_t)e * (int64_t)t_ref_q8; /* Q15.16 N^2, |p| < 2^33 */
+            const int32_t k = c->cfg.ki_shift - 4;             /* in [0, 12] */
+            const int64_t step = (k == 0) ? p : ((p + (INT64_C(1) << (k - 1))) >> k);
+            int64_t v = (int64_t)c->g_q28[full] + step;
+            if (v > g_max) {
+                v = g_max;
+            } else if (v < -g_max) {
+                v = -g_max;
+            }
+            c->g_q28[full] = (q3_28_t)v;
+            c->branch = full;
+        }
+    }
+    /* g = g_dn + w16 (g_up - g_dn) in Q3.28 (floor); c = T_ref g rounded half up to Q7.8. */
+    const int64_t w16 = (int64_t)(w_q30 >> 14); /* Q1.16, [0, 2^16] */
+    const int64_t d = (int64_t)c->g_q28[0] - (int64_t)c->g_q28[1]; /* |d| <= 2^29 */
+    const int64_t g = (((int64_t)c->g_q28[1] * (INT64_C(1) << 16)) + d * w16) >> 16;
+    const int64_t cq = (int64_t)t_ref_q8 * g; /* Q7.8 * Q3.28, |.| < 2^45 */
+    c->out_q8 = (int32_t)((cq + (INT64_C(1) << 27)) >> 28);
+    return c->out_q8;
+}

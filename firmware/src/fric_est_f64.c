@@ -98,3 +98,73 @@ double fric_est_f64_step(fric_est_f64_t *e, int32_t t_in_q8, int32_t t_out_q8, i
     e->band_hi = exp(1.25 * e->x);
     return e->x;
 }
+
+/* ---- The far-end output correction's twin (fric_est_f64.h) -------------------------------- */
+
+void fric_corr_f64_reset(fric_corr_f64_t *c)
+{
+    fric_corr_reset(&c->base);
+    c->g[0] = 0.0;
+    c->g[1] = 0.0;
+    c->out = 0.0;
+}
+
+void fric_corr_f64_configure(fric_corr_f64_t *c, const fric_corr_config_t *cfg, q3_28_t x0_q28)
+{
+    fric_corr_configure(&c->base, cfg, x0_q28); /* the watch's band, as the integer part's */
+    fric_corr_f64_reset(c);
+}
+
+double fric_corr_f64_step(fric_corr_f64_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_t t_out_q8,
+                          int32_t code, int32_t code_min, int32_t code_max, uint32_t adc_flags,
+                          int32_t w_q30, uint32_t lim)
+{
+    fric_corr_t *b = &c->base;
+    const fric_corr_config_t *cfg = &b->cfg;
+    const double q28 = 268435456.0;
+    b->branch = -1;
+    fric_corr_check_inputs(b, t_in_q8, t_out_q8, code, code_min, code_max, adc_flags);
+    if (b->faults == 0U && b->tared == 0) {
+        if (t_in_q8 > cfg->tare_max_n_q8) {
+            b->faults |= FC_FAULT_TARE;
+        } else {
+            b->tare_sum_q8 += t_out_q8;
+            if (++b->tare_n >= cfg->tare_ticks) {
+                b->tare_q8 = (int32_t)floor((double)b->tare_sum_q8 / (double)cfg->tare_ticks + 0.5);
+                b->tared = 1;
+            }
+        }
+    }
+    const double w = fmin(1.0, fmax(0.0, (double)w_q30 / 1073741824.0));
+    const int32_t full = (w == 1.0) ? 0 : (w == 0.0) ? 1 : -1;
+    for (int32_t k = 0; k < 2; ++k) {
+        if (k != full) {
+            b->held[k] = 0;
+        } else if (b->held[k] < cfg->hold_ticks) {
+            ++b->held[k];
+        }
+    }
+    if (b->faults != 0U) {
+        const double f = ldexp(1.0, -FC_BLEED_SHIFT);
+        for (int32_t k = 0; k < 2; ++k) {
+            /* g - sign(g) ceil(|g| 2^28 2^-s) 2^-28 */
+            const double m = ceil(fabs(c->g[k]) * q28 * f) / q28;
+            c->g[k] = (c->g[k] >= 0.0) ? c->g[k] - m : c->g[k] + m;
+        }
+    } else if (b->tared != 0 && full >= 0 && b->held[full] >= cfg->hold_ticks) {
+        /* e in N, T_ref in N: the step ki e T_ref / (16 N)^2, rounded half up to 2^-28. */
+        const double e_n = ((double)t_ref_q8 - ((double)t_out_q8 - (double)b->tare_q8)) / 256.0;
+        if ((e_n > 0.0 && (lim & FC_LIM_HI) == 0U) || (e_n < 0.0 && (lim & FC_LIM_LO) == 0U)) {
+            const double t_n = (double)t_ref_q8 / 256.0;
+            const double step = floor(ldexp(e_n * t_n / 256.0, -cfg->ki_shift) * q28 + 0.5) / q28;
+            const double lim_g = (double)cfg->limit_q28 / q28;
+            c->g[full] = fmin(lim_g, fmax(-lim_g, c->g[full] + step));
+            b->branch = full;
+        }
+    }
+    /* The blend in Q1.16 as the integer correction takes it (w >> 14), in double: exact. */
+    const double w16 = floor(w * 65536.0) / 65536.0;
+    const double g = floor((c->g[1] + (c->g[0] - c->g[1]) * w16) * q28) / q28;
+    c->out = floor((double)t_ref_q8 / 256.0 * g * 256.0 + 0.5) / 256.0;
+    return c->out;
+}

@@ -29,6 +29,7 @@ void fw_config_default(fw_config_t *cfg)
     cfg->loop.kv = 0;
     cfg->loop.uff_limit = FW_UFF_LIMIT_DEFAULT;
     fric_est_config_default(&cfg->est);
+    fric_corr_config_default(&cfg->corr);
 }
 
 /* v within [min, max] (bowden_regs.h: the field's range, or its documented LIMIT_MIN/MAX where
@@ -119,8 +120,12 @@ int32_t fw_config_check(const fw_config_t *cfg)
     if (err != FW_OK) {
         return err;
     }
-    return fric_est_config_check(&cfg->est, comp_config_exponent_q28(&cfg->comp),
-                                 cfg->comp.mu_slope_per_n_q28);
+    err = fric_est_config_check(&cfg->est, comp_config_exponent_q28(&cfg->comp),
+                                cfg->comp.mu_slope_per_n_q28);
+    if (err != FE_OK) {
+        return err;
+    }
+    return fric_corr_config_check(&cfg->corr);
 }
 
 /* The estimate starts from the configured mu*phi, and the compensator's tables hold it. */
@@ -129,6 +134,7 @@ static void est_restart(fw_t *fw)
     q3_28_t x0 = comp_config_exponent_q28(&fw->cfg.comp);
     fric_est_configure(&fw->est, &fw->cfg.est, x0);
     fw->est_applied_q28 = x0;
+    fric_corr_configure(&fw->corr, &fw->cfg.corr, x0);
 }
 
 int32_t fw_configure(fw_t *fw, const fw_config_t *cfg)
@@ -268,7 +274,7 @@ q7_8_t fw_tick(fw_t *fw, q7_8_t host_t_ref)
         ++t->fault_ticks;
     }
 
-    if (fw->cfg.est.enable != 0) {
+    if (fw->cfg.est.enable != 0 || fw->cfg.corr.enable != 0) {
         const fw_loop_config_t *l = &fw->cfg.loop;
         uint32_t raw = hal_read(fw->hal, BOWDEN_REG_T_OUT) & BOWDEN_T_OUT_MASK;
         uint32_t flags = hal_read(fw->hal, BOWDEN_REG_ADC_FLAGS) &
@@ -278,13 +284,36 @@ q7_8_t fw_tick(fw_t *fw, q7_8_t host_t_ref)
          * * gain (|gain| <= 2^15) < 2^40 in int64; Q(-5).20 -> >> 20 with rounding = Q7.8. */
         int32_t t_out = (int32_t)(((int64_t)(code - l->adc_offset) * l->adc_gain +
                                    (INT64_C(1) << 19)) >> 20);
-        q3_28_t x = fric_est_step(&fw->est, t->t_in, t_out, code, l->adc_min, l->adc_max, flags);
-        if (x != fw->est_applied_q28 &&
-            comp_set_exponent_q28(&fw->comp, x) == COMP_OK) { /* x within the checked bounds */
-            fw->est_applied_q28 = x;
+        if (fw->cfg.est.enable != 0) {
+            q3_28_t x = fric_est_step(&fw->est, t->t_in, t_out, code, l->adc_min, l->adc_max,
+                                      flags);
+            if (x != fw->est_applied_q28 &&
+                comp_set_exponent_q28(&fw->comp, x) == COMP_OK) { /* x within the bounds */
+                fw->est_applied_q28 = x;
+            }
+            t->est_faults = fw->est.faults;
+        }
+        if (fw->cfg.corr.enable != 0) {
+            /* The command limits of the last tick: T_c at its floor or at Q7.8's top, U at the
+             * drive's limit, or the loop faulted (the drive off: neither way). */
+            uint32_t lim = 0U;
+            if (t->t_c >= Q7_8_MAX || t->u >= l->i_limit) {
+                lim |= FC_LIM_HI;
+            }
+            if (t->t_c <= fw->cfg.comp.tc_min_n_q8 || t->u <= -l->i_limit) {
+                lim |= FC_LIM_LO;
+            }
+            if (t->fault != 0U) {
+                lim |= FC_LIM_HI | FC_LIM_LO;
+            }
+            int32_t corr = fric_corr_step(&fw->corr, comp_applied_ref_q8(&fw->comp), t->t_in,
+                                          t_out, code, l->adc_min, l->adc_max, flags,
+                                          comp_blend_q1_30(&fw->comp), lim);
+            comp_set_correction_q8(&fw->comp, corr);
+            t->corr_n_q8 = corr;
+            t->corr_faults = fw->corr.faults;
         }
         t->t_out = t_out;
-        t->est_faults = fw->est.faults;
     }
     t->est_mu_phi_q28 = fw->est_applied_q28;
 
@@ -409,6 +438,18 @@ const char *fw_strerror(int32_t code)
         return "est.t_min_n: outside [0, 64] N";
     case FE_ERR_SLOPE:
         return "est.enable: the online estimate needs comp.mu_slope_per_n = 0";
+    case FC_ERR_ENABLE:
+        return "corr.enable: must be 0 (off) or 1 (on)";
+    case FC_ERR_KI:
+        return "corr.ki_shift: outside [4, 16] (the rate 2^-ki_shift per tick)";
+    case FC_ERR_HOLD:
+        return "corr.hold_ticks: outside [0, 4096] ticks";
+    case FC_ERR_LIMIT:
+        return "corr.limit: outside [0, 1] (a relative gain correction)";
+    case FC_ERR_TARE:
+        return "corr.tare_ticks: must be 0 or a power of two up to 1024 ticks";
+    case FC_ERR_TARE_MAX:
+        return "corr.tare_max_n: outside [0, 8] N";
     default:
         return "unknown status code";
     }

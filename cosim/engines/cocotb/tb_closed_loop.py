@@ -135,8 +135,10 @@ async def closed_loop(dut):
     chain = make_chain(cfg, spec.get("interface", "board"), True, adc_offset, adc_gain)
     # The far-end load cell for the online friction estimate (the front-end's second channel,
     # the same conversion as T_in's, then the scenario's failure): the firmware reads T_OUT and
-    # ADC_FLAGS, and T_IN at every tick, from these codes (as the native engine's firmware_wake).
-    est_on = bool(cfg.compensator.est_enable) and spec["compensator"] != "none"
+    # ADC_FLAGS, and T_IN at every tick, from these codes (as the native engine's firmware_wake);
+    # the far-end output correction reads the same.
+    far_end = bool(cfg.compensator.est_enable) or bool(cfg.compensator.corr_enable)
+    est_on = far_end and spec["compensator"] != "none"
     far = make_chain(cfg, spec.get("interface", "board"), True, adc_offset, adc_gain)
     stuck_s, absent_s = cfg.board.t_out_stuck_s, cfg.board.t_out_absent_s
     codes = {"in": 0, "out": 0}

@@ -16,7 +16,7 @@
 extern "C" {
 #endif
 
-#define BN_API_VERSION 4
+#define BN_API_VERSION 5
 
 /* Interface stages (cosim/parts/interface.py). */
 #define BN_IFACE_IDEAL 0
@@ -61,12 +61,14 @@ typedef struct {
      * est_feed 1: T_out_meas through a second ADC of the same kernel (the ADS131M02 samples both
      * channels at once), and at every firmware tick the shadow's T_IN (the last code as the RTL
      * converts it), T_OUT (raw code) and ADC_FLAGS (0) are the fresh values a board's MMIO reads
-     * would give. Far-end failures: from t_out_stuck_s the code holds; from t_out_absent_s it
+     * would give (the far-end output correction reads the same). Far-end failures: from t_out_stuck_s the code holds; from t_out_absent_s it
      * sits at the positive rail (an open bridge); negative: never. */
     int32_t est_feed;
     double t_out_stuck_s, t_out_absent_s;
     int32_t *out_est_q28; /* n: the firmware's mu*phi in force (telemetry), held between ticks */
     uint32_t est_faults;  /* the estimate's fault bits at the end */
+    int32_t *out_corr_q8; /* n: the far-end output correction in force (telemetry), Q7.8 N */
+    uint32_t corr_faults; /* the correction's fault bits at the end */
     /* --- outputs -------------------------------------------------------------------------- */
     double *out_tc_n;     /* n: T_c in force in the RTL (after its slew limit) */
     double *out_current_a;/* n: command, A */

@@ -317,6 +317,7 @@ class Harness {
     std::unique_ptr<Pwm> pwm_;
     int32_t code_in_ = 0, code_out_ = 0;  // the last codes of both channels
     int32_t est_q28_ = 0;
+    int32_t corr_q8_ = 0;
 
     int64_t edges_ = 0;  // rising edges so far; "now" after edge E is 2E half clocks
     uint8_t cmd_valid_prev_ = 0;
@@ -666,6 +667,8 @@ void Harness::firmware_wake(int64_t k) {
         fw_host_telemetry(fw_, &tel);
         est_q28_ = tel.est_mu_phi_q28;
         s_.est_faults = tel.est_faults;
+        corr_q8_ = tel.corr_n_q8;
+        s_.corr_faults = tel.corr_faults;
     }
     auto writes = drain_writes();
     fw_time_ += Clock::now() - t0;
@@ -776,6 +779,7 @@ void Harness::run() {
         }
         if (k % dec == 0) firmware_wake(k);
         if (s_.out_est_q28) s_.out_est_q28[k] = est_q28_;
+        if (s_.out_corr_q8) s_.out_corr_q8[k] = corr_q8_;
         if ((k & 1023) == 0) {
             s_.progress = k;
             if (s_.stop) fail("stopped at sample %lld", k);

@@ -35,7 +35,7 @@ from cosim.parts.interface import make_chain
 from cosim.parts.plant import FMU_LINK_FIELDS
 from cosim.project.progress import Progress
 
-API_VERSION = 4
+API_VERSION = 5
 IFACE_CODES = {"ideal": 0, "adc": 1, "board": 2}
 # As the cocotb harness (tb_closed_loop.SHADOW_REFRESH_TICKS).
 SHADOW_REFRESH_TICKS = 10
@@ -82,6 +82,8 @@ class Spec(ctypes.Structure):
         ("t_out_absent_s", c_double),
         ("out_est_q28", POINTER(c_int32)),
         ("est_faults", c_uint32),
+        ("out_corr_q8", POINTER(c_int32)),
+        ("corr_faults", c_uint32),
         ("out_tc_n", _D),
         ("out_current_a", _D),
         ("out_u_word", POINTER(c_int32)),
@@ -222,13 +224,17 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
         s.out_tc_n = _ptr(rec["T_c_N"], c_double)
         s.out_current_a = _ptr(rec["current_A"], c_double)
         s.out_u_word = _ptr(out_u_word, c_int32)
-        # The far-end cell for the online friction estimate (cosim/engines/native/bn_api.h).
-        est_on = bool(cfg.compensator.est_enable) and run_spec["compensator"] != "none"
+        # The far-end cell for the online friction estimate and the far-end output correction
+        # (cosim/engines/native/bn_api.h).
+        far_end = bool(cfg.compensator.est_enable) or bool(cfg.compensator.corr_enable)
+        est_on = far_end and run_spec["compensator"] != "none"
         out_est = np.zeros(n, dtype=np.int32)
+        out_corr = np.zeros(n, dtype=np.int32)
         s.est_feed = 1 if est_on else 0
         s.t_out_stuck_s = _when(cfg.board.t_out_stuck_s)
         s.t_out_absent_s = _when(cfg.board.t_out_absent_s)
         s.out_est_q28 = _ptr(out_est, c_int32) if est_on else None
+        s.out_corr_q8 = _ptr(out_corr, c_int32) if est_on else None
         s.out_rows = _ptr(rows, c_double)
 
         status = _call(lib, s, n, cfg.sample_rate_hz, progress)
@@ -244,6 +250,7 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
     rec["u_word"] = out_u_word.astype(np.float64)
     if s.est_feed:
         rec["mu_phi_est"] = out_est / 2.0**28  # the firmware's mu*phi in force
+        rec["corr_n"] = out_corr / 256.0  # the far-end output correction in force
     cost = {
         "rtl_s": s.rtl_s,
         "fmu_s": s.fmu_s,
@@ -262,6 +269,7 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
         "status_word": s.status_word,
         "tc_latency_samples": TC_LATENCY_SAMPLES,
         "est_faults": int(s.est_faults),
+        "corr_faults": int(s.corr_faults),
     }
     if s.late_writes:
         raise RuntimeError(

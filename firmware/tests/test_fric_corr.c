@@ -1,0 +1,468 @@
+/*
+ * test_fric_corr.c - the far-end output correction (fric_est.h, "The far-end output correction"):
+ * bit-exact against its double twin over closed-loop runs, its loop against a capstan plant with
+ * a dead zone (Jeong & Cho 2015, Eq. 1-3) whose friction the compensator has wrong, the hold at a
+ * change of branch, the anti-windup at the command limits and at full scale, the tare, and the
+ * faults that drop it back to the feedforward alone.
+ */
+#include <math.h>
+#include <stdint.h>
+
+#include "bowden_regs.h"
+#include "comp.h"
+#include "fric_est.h"
+#include "fric_est_f64.h"
+#include "fw.h"
+#include "hal.h"
+#include "unit.h"
+
+#define PI_D 3.14159265358979323846
+#define Q28 268435456.0
+#define CODE_MIN (-8388607)
+#define CODE_MAX 8388606
+#define TICKS 8000 /* fig14 for 8 s at 1 kHz: four reversals after the start-up */
+
+static int32_t q8(double v)
+{
+    return (int32_t)floor(v * 256.0 + 0.5);
+}
+
+/* Code of a tension with the default conversion (ADC gain 2048: 512 codes per Q7.8 LSB). */
+static int32_t code_of(int32_t t_q8)
+{
+    return t_q8 * 512;
+}
+
+/* fig14's reference: 2 .. 15 N at 0.5 Hz after a 0.5 s raised-cosine ease-in (1 kHz ticks). */
+static double fig14_n(int32_t k)
+{
+    double t = (double)k / 1000.0;
+    double a = (t < 0.5) ? t / 0.5 : 1.0;
+    double ease = 0.5 - 0.5 * cos(PI_D * a);
+    return (8.5 - 6.5 * cos(2.0 * PI_D * 0.5 * t)) * ease;
+}
+
+/* The closed loop of the test: the compensator (paper mode, mu*phi = x0), a tension loop of the
+ * first order at 20 Hz (slower than the FPGA's), a capstan plant of exponent x with its dead zone,
+ * and the far-end cell with an offset. */
+typedef struct {
+    comp_t comp;
+    double t_in;   /* N */
+    double t_out;  /* N, true */
+    double x;      /* the plant's mu*phi */
+    double offset; /* far-end sensor offset, N */
+    double a;      /* the tension loop's factor per tick */
+} loop_t;
+
+static void loop_init(loop_t *l, double x, double offset)
+{
+    comp_init(&l->comp);
+    l->t_in = 0.0;
+    l->t_out = 0.0;
+    l->x = x;
+    l->offset = offset;
+    l->a = 1.0 - exp(-2.0 * PI_D * 20.0 / 1000.0);
+}
+
+/* One tick: T_c for T_ref, the tension loop and the plant move; returns the far-end word. */
+static int32_t loop_tick(loop_t *l, int32_t tref, int32_t *tc_out)
+{
+    int32_t tc = comp_step_q7_8(&l->comp, (q7_8_t)tref);
+    l->t_in += l->a * ((double)tc / 256.0 - l->t_in);
+    double lo = l->t_in * exp(-l->x);
+    double hi = l->t_in * exp(l->x);
+    l->t_out = (l->t_out < lo) ? lo : (l->t_out > hi) ? hi : l->t_out;
+    *tc_out = tc;
+    return q8(l->t_out + l->offset);
+}
+
+static fric_corr_config_t on_config(void)
+{
+    fric_corr_config_t c;
+    fric_corr_config_default(&c);
+    c.enable = 1;
+    return c;
+}
+
+/* Runs fig14 through the loop with the correction (integer) driving the compensator and its twin
+ * fed the same words; counts the ticks where they differ. Returns the RMS of T_out - T_ref over
+ * the last 4 s, N, and in *peak_n the largest |T_out - T_ref| from fault_from on (the last 4 s
+ * when -1). fault_from: the tick from which the ADC flags are set (-1: never). */
+static double run_loop(const fric_corr_config_t *cfg, double x_plant, double offset, int32_t on,
+                       int32_t fault_from, int32_t *mismatches, fric_corr_t *out_state,
+                       double *peak_n)
+{
+    loop_t l;
+    loop_init(&l, x_plant, offset);
+    q3_28_t x0 = (q3_28_t)comp_config_exponent_q28(&l.comp.cfg);
+    fric_corr_t c;
+    fric_corr_f64_t f;
+    fric_corr_configure(&c, cfg, x0);
+    fric_corr_f64_configure(&f, cfg, x0);
+    double sum2 = 0.0;
+    int32_t n = 0;
+    int32_t bad = 0;
+    int32_t tc = 0;
+    double peak = 0.0;
+    const int32_t peak_from = (fault_from >= 0) ? fault_from : TICKS - 4000;
+    int32_t tout = 0;
+    for (int32_t k = 0; k < TICKS; ++k) {
+        int32_t tref = q8(fig14_n(k));
+        if (on != 0) {
+            uint32_t flags = (fault_from >= 0 && k >= fault_from) ? 1U : 0U;
+            uint32_t lim = (tc <= 0) ? FC_LIM_LO : 0U;
+            int32_t ref = comp_applied_ref_q8(&l.comp);
+            int32_t w = comp_blend_q1_30(&l.comp);
+            int32_t tin = q8(l.t_in);
+            int32_t v = fric_corr_step(&c, ref, tin, tout, code_of(tout), CODE_MIN, CODE_MAX,
+                                       flags, w, lim);
+            double vf = fric_corr_f64_step(&f, ref, tin, tout, code_of(tout), CODE_MIN, CODE_MAX,
+                                           flags, w, lim);
+            if ((double)v != vf * 256.0 || (double)c.g_q28[0] != f.g[0] * Q28 ||
+                (double)c.g_q28[1] != f.g[1] * Q28 || c.faults != f.base.faults) {
+                ++bad;
+            }
+            comp_set_correction_q8(&l.comp, v);
+        }
+        tout = loop_tick(&l, tref, &tc);
+        if (k >= peak_from) {
+            double d = fabs(l.t_out - (double)tref / 256.0);
+            peak = (d > peak) ? d : peak;
+        }
+        if (k >= TICKS - 4000) {
+            double e = l.t_out - (double)tref / 256.0;
+            sum2 += e * e;
+            ++n;
+        }
+    }
+    if (mismatches != 0) {
+        *mismatches = bad;
+    }
+    if (out_state != 0) {
+        *out_state = c;
+    }
+    if (peak_n != 0) {
+        *peak_n = peak;
+    }
+    return sqrt(sum2 / (double)n);
+}
+
+/* The integer correction equals its double twin bit for bit (g_up, g_dn, c, faults) at every tick
+ * over closed-loop runs at every rate, hold and limit at their ends, plants on both sides. */
+static void test_corr_twin_bit_exact(void)
+{
+    const int32_t shifts[] = {FC_KI_SHIFT_MIN, 8, FC_KI_SHIFT_MAX};
+    const int32_t holds[] = {0, 200, FC_HOLD_MAX_TICKS};
+    const q3_28_t limits[] = {0, (q3_28_t)(Q3_28_ONE / 4), FC_LIMIT_MAX_Q28};
+    const double x0 = 0.075 * 2.0 * PI_D;
+    for (int32_t i = 0; i < 3; ++i) {
+        for (int32_t j = 0; j < 3; ++j) {
+            for (int32_t s = -1; s <= 1; s += 2) {
+                fric_corr_config_t cfg = on_config();
+                cfg.ki_shift = shifts[i];
+                cfg.hold_ticks = holds[j];
+                cfg.limit_q28 = limits[(i + j) % 3];
+                int32_t bad = 0;
+                (void)run_loop(&cfg, x0 * (1.0 + 0.3 * s), 0.3 * s, 1, 6000, &bad, 0, 0);
+                CHECK(bad == 0, "ki_shift %d hold %d: %d ticks differ from the twin", shifts[i],
+                      holds[j], bad);
+            }
+        }
+    }
+}
+
+/* The loop against a plant whose friction the compensator has 30 % wrong, either way: the
+ * correction removes nearly all of the error (the RMS of the last 4 s, 1.26-1.29 N with the
+ * feedforward alone, is 0.060 N with it: budget 0.1 N); at the fastest rate (ki_shift 4: 62 per
+ * second at 16 N) it neither rings nor winds up (0.045 N, budget 0.1 N; g inside its limit). */
+static void test_corr_loop_converges(void)
+{
+    const double x0 = 0.075 * 2.0 * PI_D;
+    for (int32_t s = -1; s <= 1; s += 2) {
+        fric_corr_config_t cfg = on_config();
+        cfg.ki_shift = 6;
+        cfg.hold_ticks = 60;
+        cfg.limit_q28 = (q3_28_t)(Q3_28_ONE / 2);
+        double ff = run_loop(&cfg, x0 * (1.0 + 0.3 * s), 0.0, 0, -1, 0, 0, 0);
+        int32_t bad = 0;
+        double with = run_loop(&cfg, x0 * (1.0 + 0.3 * s), 0.0, 1, -1, &bad, 0, 0);
+        CHECK(with <= 0.1 && ff > 1.0, "plant x %+.0f %%: RMS %.3f N with, %.3f N without", 30.0 * s,
+              with, ff);
+        CHECK(bad == 0, "twin: %d ticks differ", bad);
+    }
+    fric_corr_config_t cfg = on_config();
+    cfg.ki_shift = FC_KI_SHIFT_MIN;
+    cfg.hold_ticks = 0;
+    cfg.limit_q28 = FC_LIMIT_MAX_Q28;
+    fric_corr_t st;
+    double rms = run_loop(&cfg, x0 * 1.3, 0.0, 1, -1, 0, &st, 0);
+    CHECK(rms < 0.1, "fastest rate: RMS %.3f N", rms);
+    CHECK(st.g_q28[0] < FC_LIMIT_MAX_Q28 && st.g_q28[1] > -FC_LIMIT_MAX_Q28,
+          "fastest rate: g at the limit (%ld, %ld): wound up", (long)st.g_q28[0],
+          (long)st.g_q28[1]);
+}
+
+/* A far-end offset is tared away: with 0.4 N on the cell the loop converges on the true T_out
+ * (its RMS as without the offset, 0.060 N, within 0.01 N), and without the tare it does not
+ * (0.38 N: it aims the reading, not the cable, at T_ref). */
+static void test_corr_tare_removes_offset(void)
+{
+    const double x0 = 0.075 * 2.0 * PI_D;
+    fric_corr_config_t cfg = on_config();
+    cfg.ki_shift = 6;
+    cfg.hold_ticks = 60;
+    double clean = run_loop(&cfg, x0 * 1.2, 0.0, 1, -1, 0, 0, 0);
+    double tared = run_loop(&cfg, x0 * 1.2, 0.4, 1, -1, 0, 0, 0);
+    CHECK(fabs(tared - clean) <= 0.01, "tared %.3f N, without offset %.3f N", tared, clean);
+    cfg.tare_ticks = 0;
+    double raw = run_loop(&cfg, x0 * 1.2, 0.4, 1, -1, 0, 0, 0);
+    CHECK(raw > clean + 0.2, "no tare: %.3f N, without offset %.3f N", raw, clean);
+}
+
+/* Held at a change of branch: while the blend is between the branches nothing integrates, and
+ * for hold_ticks after it reached one; then that branch, and only it, moves. */
+static void test_corr_holds_through_branch_change(void)
+{
+    fric_corr_config_t cfg = on_config();
+    cfg.tare_ticks = 0;
+    cfg.hold_ticks = 50;
+    fric_corr_t c;
+    fric_corr_configure(&c, &cfg, (q3_28_t)(0.47 * Q28));
+    const int32_t ref = q8(10.0);
+    const int32_t tout = q8(9.0); /* 1 N short */
+    for (int32_t k = 0; k < 300; ++k) {
+        int32_t w = (k < 100) ? (int32_t)Q1_30_ONE / 2 : 0; /* between, then unloading */
+        (void)fric_corr_step(&c, ref, ref, tout, code_of(tout) + (k & 1), CODE_MIN, CODE_MAX, 0U,
+                             w, 0U);
+        if (k < 100 + 50 - 1) {
+            CHECK(c.g_q28[0] == 0 && c.g_q28[1] == 0 && c.branch == -1, "tick %d: integrated",
+                  k);
+        }
+    }
+    CHECK(c.g_q28[1] > 0 && c.g_q28[0] == 0, "after the hold: g_up %ld g_dn %ld",
+          (long)c.g_q28[0], (long)c.g_q28[1]);
+    CHECK(c.out_q8 > 0, "unloading correction %d", c.out_q8);
+}
+
+/* Anti-windup: at a command limit the integrator does not move towards it (and does move away
+ * from it); at full scale (the extreme Q7.8 words of T_ref and T_out, the fastest rate) g stops
+ * exactly at +-limit and c stays within |T_ref| * limit + 1/2 LSB. */
+static void test_corr_anti_windup_and_full_scale(void)
+{
+    fric_corr_config_t cfg = on_config();
+    cfg.tare_ticks = 0;
+    cfg.hold_ticks = 0;
+    cfg.ki_shift = FC_KI_SHIFT_MIN;
+    cfg.limit_q28 = FC_LIMIT_MAX_Q28;
+    fric_corr_t c;
+    fric_corr_configure(&c, &cfg, (q3_28_t)(0.47 * Q28));
+    const int32_t one = (int32_t)Q1_30_ONE;
+    for (int32_t k = 0; k < 100; ++k) { /* short of the reference, upper limit reached */
+        (void)fric_corr_step(&c, q8(10.0), q8(16.0), q8(9.0), code_of(q8(9.0)) + (k & 1),
+                             CODE_MIN, CODE_MAX, 0U, one, FC_LIM_HI);
+    }
+    CHECK(c.g_q28[0] == 0, "wound up against the upper limit: %ld", (long)c.g_q28[0]);
+    (void)fric_corr_step(&c, q8(10.0), q8(16.0), q8(11.0), code_of(q8(11.0)), CODE_MIN, CODE_MAX,
+                         0U, one, FC_LIM_HI); /* over: moves down, away from the limit */
+    CHECK(c.g_q28[0] < 0, "did not move away from the upper limit");
+    fric_corr_reset(&c);
+    for (int32_t k = 0; k < 100; ++k) {
+        (void)fric_corr_step(&c, q8(2.0), 0, q8(3.0), code_of(q8(3.0)) + (k & 1), CODE_MIN,
+                             CODE_MAX, 0U, 0, FC_LIM_LO);
+    }
+    CHECK(c.g_q28[1] == 0, "wound up against the floor: %ld", (long)c.g_q28[1]);
+    /* Full scale, both signs of the error, both branches. */
+    const int32_t refs[] = {Q7_8_MAX, Q7_8_MIN, Q7_8_MAX, Q7_8_MIN};
+    const int32_t outs[] = {Q7_8_MIN, Q7_8_MAX, Q7_8_MIN, Q7_8_MAX};
+    for (int32_t i = 0; i < 4; ++i) {
+        fric_corr_reset(&c);
+        fric_corr_f64_t f;
+        fric_corr_f64_configure(&f, &cfg, (q3_28_t)(0.47 * Q28));
+        int32_t w = (i < 2) ? one : 0;
+        for (int32_t k = 0; k < 20; ++k) {
+            int32_t v = fric_corr_step(&c, refs[i], 0, outs[i], 0, CODE_MIN, CODE_MAX, 0U, w, 0U);
+            double vf = fric_corr_f64_step(&f, refs[i], 0, outs[i], 0, CODE_MIN, CODE_MAX, 0U, w,
+                                           0U);
+            CHECK((double)v == vf * 256.0, "full scale %d: %d vs twin %.4f", i, v, vf * 256.0);
+            CHECK(fabs((double)v) <= fabs((double)refs[i]) + 0.5, "full scale %d: c %d", i, v);
+        }
+        q3_28_t g = c.g_q28[(i < 2) ? 0 : 1];
+        CHECK(g == FC_LIMIT_MAX_Q28 || g == -FC_LIMIT_MAX_Q28, "full scale %d: g %ld", i, (long)g);
+        CHECK(c.faults == 0U, "full scale %d: faults 0x%x", i, c.faults);
+    }
+}
+
+/* A fault drops the correction: flagged at once, the integrators stop and bleed to zero (within
+ * 32 bleed time constants), and the fall-back to the feedforward alone has no transient: the
+ * largest error after the fault is no larger than the feedforward's alone over the same ticks. */
+static void test_corr_fault_bleeds_without_step(void)
+{
+    const double x0 = 0.075 * 2.0 * PI_D;
+    fric_corr_config_t cfg = on_config();
+    cfg.ki_shift = 6;
+    cfg.hold_ticks = 60;
+    cfg.limit_q28 = (q3_28_t)(Q3_28_ONE / 2);
+    for (int32_t s = -1; s <= 1; s += 2) {
+        fric_corr_t st;
+        double peak = 0.0;
+        double peak_ff = 0.0;
+        int32_t bad = 0;
+        (void)run_loop(&cfg, x0 * (1.0 + 0.3 * s), 0.0, 1, 4000, &bad, &st, &peak);
+        (void)run_loop(&cfg, x0 * (1.0 + 0.3 * s), 0.0, 0, 4000, 0, 0, &peak_ff);
+        CHECK(st.faults == FC_FAULT_ADC, "faults 0x%x", st.faults);
+        CHECK(st.g_q28[0] == 0 && st.g_q28[1] == 0 && st.out_q8 == 0, "not bled: %ld %ld %d",
+              (long)st.g_q28[0], (long)st.g_q28[1], st.out_q8);
+        CHECK(peak <= peak_ff + 0.01, "plant %+.0f %%: peak %.3f N after the fault, feedforward "
+              "alone %.3f N", 30.0 * s, peak, peak_ff);
+        CHECK(bad == 0, "twin: %d ticks differ", bad);
+    }
+}
+
+/* RANGE, STUCK and TARE faults, and no STUCK in a dead zone (T_out held, T_in within the band). */
+static void test_corr_fault_kinds(void)
+{
+    fric_corr_config_t cfg = on_config();
+    const q3_28_t x0 = (q3_28_t)(0.47 * Q28);
+    fric_corr_t c;
+    /* RANGE: the code at the rail. */
+    fric_corr_configure(&c, &cfg, x0);
+    (void)fric_corr_step(&c, 0, 0, 0, CODE_MAX + 1, CODE_MIN, CODE_MAX, 0U, 0, 0U);
+    CHECK(c.faults == FC_FAULT_RANGE, "range: 0x%x", c.faults);
+    /* TARE: tension on the cable during the tare. */
+    fric_corr_configure(&c, &cfg, x0);
+    (void)fric_corr_step(&c, 0, q8(2.0), q8(1.0), code_of(q8(1.0)), CODE_MIN, CODE_MAX, 0U, 0,
+                         0U);
+    CHECK(c.faults == FC_FAULT_TARE && c.tared == 0, "tare: 0x%x", c.faults);
+    /* A dead zone: T_out held while T_in swings inside [T_out e^-x, T_out e^x]: no fault. */
+    fric_corr_configure(&c, &cfg, x0);
+    for (int32_t k = 0; k < 64; ++k) {
+        (void)fric_corr_step(&c, 0, 0, 0, (k & 1), CODE_MIN, CODE_MAX, 0U, 0, 0U);
+    }
+    for (int32_t k = 0; k < 2000; ++k) {
+        double tin = 8.0 * exp(0.9 * 0.47 * sin(2.0 * PI_D * (double)k / 1000.0));
+        (void)fric_corr_step(&c, q8(8.0), q8(tin), q8(8.0), code_of(q8(8.0)), CODE_MIN, CODE_MAX,
+                             0U, 0, 0U);
+    }
+    CHECK(c.faults == 0U, "dead zone taken for a stuck cell: 0x%x", c.faults);
+    /* STUCK: the code held while T_in leaves the band. */
+    for (int32_t k = 0; k < 2000; ++k) {
+        double tin = 8.0 + 7.0 * sin(2.0 * PI_D * (double)k / 1000.0) + 7.0;
+        (void)fric_corr_step(&c, q8(8.0), q8(tin), q8(8.0), code_of(q8(8.0)), CODE_MIN, CODE_MAX,
+                             0U, 0, 0U);
+    }
+    CHECK(c.faults == FC_FAULT_STUCK, "stuck: 0x%x", c.faults);
+}
+
+static void test_corr_config_check(void)
+{
+    fric_corr_config_t d;
+    fric_corr_config_default(&d);
+    CHECK(fric_corr_config_check(&d) == FE_OK, "defaults refused");
+    CHECK(d.enable == 0, "on by default");
+    CHECK(fric_corr_config_check(0) == FE_ERR_NULL, "null");
+    struct {
+        int32_t field;
+        int32_t value;
+        int32_t code;
+    } cases[] = {
+        {0, 2, FC_ERR_ENABLE},         {0, -1, FC_ERR_ENABLE},
+        {1, FC_KI_SHIFT_MIN - 1, FC_ERR_KI}, {1, FC_KI_SHIFT_MAX + 1, FC_ERR_KI},
+        {2, -1, FC_ERR_HOLD},          {2, FC_HOLD_MAX_TICKS + 1, FC_ERR_HOLD},
+        {3, -1, FC_ERR_LIMIT},         {3, FC_LIMIT_MAX_Q28 + 1, FC_ERR_LIMIT},
+        {4, 3, FC_ERR_TARE},           {4, 2 * FC_TARE_MAX_TICKS, FC_ERR_TARE},
+        {4, -64, FC_ERR_TARE},         {5, -1, FC_ERR_TARE_MAX},
+        {5, FC_TARE_T_MAX_Q8 + 1, FC_ERR_TARE_MAX},
+    };
+    for (uint32_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        fric_corr_config_t c = d;
+        int32_t *f[] = {&c.enable, &c.ki_shift, &c.hold_ticks, &c.limit_q28, &c.tare_ticks,
+                        &c.tare_max_n_q8};
+        *f[cases[i].field] = cases[i].value;
+        CHECK(fric_corr_config_check(&c) == cases[i].code, "case %u: %d", i,
+              fric_corr_config_check(&c));
+    }
+    /* The ends of every range are accepted. */
+    fric_corr_config_t c = d;
+    c.enable = 1;
+    c.ki_shift = FC_KI_SHIFT_MAX;
+    c.hold_ticks = FC_HOLD_MAX_TICKS;
+    c.limit_q28 = FC_LIMIT_MAX_Q28;
+    c.tare_ticks = FC_TARE_MAX_TICKS;
+    c.tare_max_n_q8 = FC_TARE_T_MAX_Q8;
+    CHECK(fric_corr_config_check(&c) == FE_OK, "upper ends refused");
+    c.ki_shift = FC_KI_SHIFT_MIN;
+    c.hold_ticks = 0;
+    c.limit_q28 = 0;
+    c.tare_ticks = 0;
+    c.tare_max_n_q8 = 0;
+    CHECK(fric_corr_config_check(&c) == FE_OK, "lower ends refused");
+    fw_config_t fc;
+    fw_config_default(&fc);
+    fc.corr.ki_shift = 3;
+    CHECK(fw_config_check(&fc) == FC_ERR_KI, "fw_config_check let a bad corr.ki_shift through");
+}
+
+/* fw_tick with the correction on reads T_OUT, reports the correction and its faults in the
+ * telemetry and hands it to the compensator; an ADC fault is reported and bleeds it away; off
+ * (the default) nothing moves. */
+static void test_corr_fw_tick(void)
+{
+    for (int32_t on = 0; on <= 1; ++on) {
+        static hal_shadow_t s;
+        hal_t h;
+        fw_t fw;
+        hal_init_shadow(&h, &s);
+        fw_init(&fw, &h);
+        fw_config_t cfg;
+        fw_config_default(&cfg);
+        cfg.corr.enable = on;
+        cfg.corr.hold_ticks = 60;
+        cfg.corr.ki_shift = 6;
+        CHECK(fw_configure(&fw, &cfg) == FW_OK, "configure, correction %d", on);
+        fw_start(&fw);
+        double t_out = 0.0;
+        const double x = 0.075 * 2.0 * PI_D * 1.3;
+        int32_t seen = 0;
+        for (int32_t k = 0; k < 6000; ++k) {
+            double t_in = (double)fw.tel.t_c / 256.0; /* an ideal tension loop, one tick late */
+            double lo = t_in * exp(-x);
+            double hi = t_in * exp(x);
+            t_out = (t_out < lo) ? lo : (t_out > hi) ? hi : t_out;
+            int32_t code = code_of(q8(t_out)) + (k & 1);
+            hal_shadow_set(&s, BOWDEN_REG_T_IN, (uint32_t)q8(t_in));
+            hal_shadow_set(&s, BOWDEN_REG_T_OUT, (uint32_t)code & BOWDEN_T_OUT_MASK);
+            hal_shadow_set(&s, BOWDEN_REG_ADC_FLAGS,
+                           (k >= 5000) ? BOWDEN_ADC_FLAGS_CRC_ERR_MASK : 0U);
+            (void)fw_tick(&fw, (q7_8_t)q8(fig14_n(k)));
+            hal_write_t w[HAL_LOG_CAPACITY];
+            (void)hal_shadow_drain(&s, w, HAL_LOG_CAPACITY);
+            if (k == 4999) {
+                seen = fw.tel.corr_n_q8;
+            }
+        }
+        if (on != 0) {
+            CHECK(seen != 0, "fw: no correction before the fault");
+            CHECK(fw.tel.corr_faults == FC_FAULT_ADC, "fw: faults 0x%x", fw.tel.corr_faults);
+            CHECK(fw.tel.corr_n_q8 == 0 && fw.comp.corr_q8 == 0, "fw: not bled away: %d",
+                  fw.tel.corr_n_q8);
+        } else {
+            CHECK(seen == 0 && fw.tel.corr_faults == 0U && fw.comp.corr_q8 == 0,
+                  "fw off: correction %d faults 0x%x", seen, fw.tel.corr_faults);
+        }
+        fw_start(&fw);
+        CHECK(fw.corr.faults == 0U && fw.comp.corr_q8 == 0, "fw_start: not reset");
+    }
+}
+
+const unit_test_t fric_corr_tests[] = {
+    {"fric_corr_twin_bit_exact", test_corr_twin_bit_exact},
+    {"fric_corr_loop_converges", test_corr_loop_converges},
+    {"fric_corr_tare_removes_offset", test_corr_tare_removes_offset},
+    {"fric_corr_holds_through_branch_change", test_corr_holds_through_branch_change},
+    {"fric_corr_anti_windup_and_full_scale", test_corr_anti_windup_and_full_scale},
+    {"fric_corr_fault_bleeds_without_step", test_corr_fault_bleeds_without_step},
+    {"fric_corr_fault_kinds", test_corr_fault_kinds},
+    {"fric_corr_config_check", test_corr_config_check},
+    {"fric_corr_fw_tick", test_corr_fw_tick},
+};
+const int fric_corr_tests_count = (int)(sizeof fric_corr_tests / sizeof fric_corr_tests[0]);
