@@ -100,8 +100,10 @@ def field_ranges(sample_rate_hz: float) -> dict[str, tuple[float, float]]:
         "compensator.corr_ki_shift": (4, 16),
         "compensator.corr_hold_ticks": (0, 4096),
         "compensator.corr_limit": (0.0, 1.0),
-        "compensator.corr_tare_ticks": (0, 1024),  # 0 or a power of two (the firmware's check)
+        "compensator.corr_tare_ticks": (1, 1024),  # and a power of two (the firmware's check)
         "compensator.corr_tare_max_n": (0.0, 8.0),
+        "compensator.corr_slide_gate": (0, 1),
+        "compensator.corr_offset_term": (0, 1),
         # The board's chain (cosim.parts.interface): conversion timing, reader and PWM clocks,
         # ESCON.
         "board.adc_period_s": (1e-6, 0.1),
@@ -140,6 +142,8 @@ WHOLE_FIELDS = {
     "compensator.corr_ki_shift",
     "compensator.corr_hold_ticks",
     "compensator.corr_tare_ticks",
+    "compensator.corr_slide_gate",
+    "compensator.corr_offset_term",
 }
 
 

@@ -156,6 +156,8 @@ class CorrConfig(ctypes.Structure):
         ("limit_q28", ctypes.c_int32),
         ("tare_ticks", ctypes.c_int32),
         ("tare_max_n_q8", ctypes.c_int32),
+        ("slide_gate", ctypes.c_int32),
+        ("offset_term", ctypes.c_int32),
     ]
 
 
@@ -400,11 +402,13 @@ class CompensatorParams:
     # Far-end output correction (fric_est.h, "The far-end output correction"; a part of
     # fw_config_t), off by default: CorrectorParams's fields with corr_.
     corr_enable: int = 0
-    corr_ki_shift: int = 8
-    corr_hold_ticks: int = 200
-    corr_limit: float = 0.25
+    corr_ki_shift: int = 6
+    corr_hold_ticks: int = 30
+    corr_limit: float = 0.5
     corr_tare_ticks: int = 64
     corr_tare_max_n: float = 0.5
+    corr_slide_gate: int = 0
+    corr_offset_term: int = 0
 
     @property
     def phi_c_rad(self) -> float:
@@ -689,11 +693,13 @@ class CorrectorParams:
     each branch's relative gain correction, the far-end tare's ticks and the largest T_in during it."""
 
     enable: int = 0  # 0 off, 1 on
-    ki_shift: int = 8  # rate 2^-ki_shift per tick, [4, 16]
-    hold_ticks: int = 200  # [0, 4096]
-    limit: float = 0.25  # bound of each branch's relative gain correction, [0, 1]
-    tare_ticks: int = 64  # 0 (no tare) or a power of two up to 1024
+    ki_shift: int = 6  # rate 2^-ki_shift per tick, [4, 16]
+    hold_ticks: int = 30  # [0, 4096]
+    limit: float = 0.5  # bound of each branch's relative gain correction, [0, 1]
+    tare_ticks: int = 64  # a power of two in [1, 1024]
     tare_max_n: float = 0.5  # [0, 8] N
+    slide_gate: int = 0  # 1: integrate only while T_out slides with T_ref
+    offset_term: int = 0  # 1: an offset per branch besides the gain
 
     def to_c(self) -> CorrConfig:
         return CorrConfig(
@@ -703,6 +709,8 @@ class CorrectorParams:
             limit_q28=_fixed("corr.limit", self.limit, 28),
             tare_ticks=_whole("corr.tare_ticks", self.tare_ticks, -(2**31), 2**31 - 1, "ticks"),
             tare_max_n_q8=_fixed("corr.tare_max_n", self.tare_max_n, 8),
+            slide_gate=_whole("corr.slide_gate", self.slide_gate, -(2**31), 2**31 - 1, "0 or 1"),
+            offset_term=_whole("corr.offset_term", self.offset_term, -(2**31), 2**31 - 1, "0 or 1"),
         )
 
 
@@ -717,6 +725,8 @@ def corrector_from(params) -> CorrectorParams:
         limit=float(getattr(params, "corr_limit", d.limit)),
         tare_ticks=int(getattr(params, "corr_tare_ticks", d.tare_ticks)),
         tare_max_n=float(getattr(params, "corr_tare_max_n", d.tare_max_n)),
+        slide_gate=int(getattr(params, "corr_slide_gate", d.slide_gate)),
+        offset_term=int(getattr(params, "corr_offset_term", d.offset_term)),
     )
 
 

@@ -197,8 +197,12 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
  * Integration (per tick, ki = 2^-ki_shift): g_b <- clamp(g_b + ki e T_ref / T_0^2, +-limit), T_0 =
  * 16 N (the least-squares gradient of e^2 in g, normalised so that the loop's rate at 16 N is ki),
  * only on the branch fully in force (w = 1 or 0) and only after hold_ticks ticks of it (held
- * through a change of branch and the dead zone after it, where T_out does not follow T_c), and not
- * towards a command limit (anti-windup: no integration up while T_c or the drive's current is at
+ * through a change of branch and the dead zone after it, where T_out does not follow T_c), with
+ * the slide gate on (slide_gate 1) only while the output slides with the reference: over the last
+ * FC_GATE_TICKS ticks T_ref moved the branch's way by at least FC_GATE_MIN_Q8 and T_out,meas by at
+ * least half as much (a gradual dead zone, a breakaway or slack holds T_out while T_ref moves: the
+ * error there is the reversal's, which no gain of the branch removes), and not towards a command
+ * limit (anti-windup: no integration up while T_c or the drive's current is at
  * its upper limit or the loop is faulted, none down at the floor or the lower current limit;
  * FC_LIM_* of the caller).
  * Loop margin: from g to T_out the plant's low-frequency gain is T_ref G_plant / G_model, about
@@ -207,6 +211,11 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
  * at most 1.4 f_tick 2^-ki_shift below 16 N, and the tension loop's and the far-end sensor's lag
  * tau_d leaves the phase margin 90 deg - w_c tau_d and the gain margin (pi / (2 tau_d)) / w_c (an
  * integrator with a delay); firmware/README.md gives the figures.
+ * Offset term (offset_term 1): each branch also integrates an offset, o_b <- clamp(o_b + ki e,
+ * +-16 N limit), and c = g T_ref + o (o blended as g): with the gain's step ki e T_ref / T_0^2
+ * this is the normalised least-squares gradient of an affine error model a + b T_ref (regressors
+ * T_0 and T_ref), whose loop gain is at most twice the gain's alone below T_0 = 16 N. o_b is
+ * Q7.24 N (a step e 2^(16 - ki_shift)); the sum g T_ref + o is formed in Q.36 N before rounding.
  * Tare: the far-end cell's zero is the mean of its readings over the first tare_ticks ticks after
  * the start (a slack cable: the run starts at zero tension); T_in above tare_max on any of them is
  * the fault TARE (the offset would then carry tension). No correction before the tare ends.
@@ -232,8 +241,10 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
 #define FC_KI_SHIFT_MAX 16
 #define FC_HOLD_MAX_TICKS 4096        /* hold_ticks in [0, 4096] */
 #define FC_LIMIT_MAX_Q28 ((q3_28_t)Q3_28_ONE) /* limit in [0, 1] */
-#define FC_TARE_MAX_TICKS 1024        /* tare_ticks: 0 (none) or a power of two in [1, 1024] */
+#define FC_TARE_MAX_TICKS 1024        /* tare_ticks: a power of two in [1, 1024] */
 #define FC_TARE_T_MAX_Q8 (8 * Q7_8_ONE) /* tare_max in [0, 8] N */
+#define FC_GATE_TICKS 32              /* the slide gate's window, ticks */
+#define FC_GATE_MIN_Q8 16             /* ... over which T_ref moves at least 1/16 N (2 N/s) */
 
 /* Limits the caller reports (fric_corr_step's lim): the command cannot go higher / lower. */
 #define FC_LIM_HI 0x1u
@@ -250,8 +261,10 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
 #define FC_ERR_KI 81       /* ki_shift outside [4, 16] */
 #define FC_ERR_HOLD 82     /* hold_ticks outside [0, 4096] */
 #define FC_ERR_LIMIT 83    /* limit outside [0, 1] */
-#define FC_ERR_TARE 84     /* tare_ticks not 0 or a power of two up to 1024 */
+#define FC_ERR_TARE 84     /* tare_ticks not a power of two in [1, 1024] */
 #define FC_ERR_TARE_MAX 85 /* tare_max outside [0, 8] N */
+#define FC_ERR_GATE 86     /* slide_gate not 0 or 1 */
+#define FC_ERR_OFFSET 87   /* offset_term not 0 or 1 */
 
 /* Configuration (a part of fw_config_t; parameters corr.*). */
 typedef struct {
@@ -259,13 +272,16 @@ typedef struct {
     int32_t ki_shift;        /* integral rate 2^-ki_shift per tick, [4, 16] */
     int32_t hold_ticks;      /* ticks a branch is in force before it integrates, [0, 4096] */
     q3_28_t limit_q28;       /* |g_up|, |g_dn| bound, Q3.28, [0, 1] */
-    int32_t tare_ticks;      /* ticks of the far-end zero after the start, 0 or 2^s <= 1024 */
+    int32_t tare_ticks;      /* ticks of the far-end zero after the start, 2^s in [1, 1024] */
     q7_8w_t tare_max_n_q8;   /* largest T_in during the tare, Q7.8 N, [0, 8] */
+    int32_t slide_gate;      /* [0, 1]: 1 integrates only while T_out slides with T_ref */
+    int32_t offset_term;     /* [0, 1]: 1 adds an offset per branch, c = g T_ref + o_b */
 } fric_corr_config_t;
 
 typedef struct {
     fric_corr_config_t cfg;
     q3_28_t g_q28[2];        /* g_up, g_dn, Q3.28 */
+    int32_t o_q24[2];        /* o_up, o_dn (offset_term), Q7.24 N, |o_b| <= limit 16 N */
     int32_t held[2];         /* ticks each branch has been fully in force (saturating) */
     int64_t tare_sum_q8;     /* sum of the far-end words over the tare, Q7.8 N */
     int32_t tare_n;          /* ticks of the tare so far */
@@ -279,10 +295,14 @@ typedef struct {
     uint32_t faults;         /* FC_FAULT_* (latched) */
     int32_t out_q8;          /* the correction c, Q7.8 N */
     int32_t branch;          /* the branch integrated at the last tick (0, 1), -1 none */
+    int16_t gate_ref[FC_GATE_TICKS]; /* slide gate: T_ref, T_out,meas of the last ticks, Q7.8 */
+    int16_t gate_out[FC_GATE_TICKS];
+    uint32_t gate_pos;       /* ring slot of the oldest (the next to overwrite) */
+    uint32_t gate_filled;    /* ticks in the ring (saturates at FC_GATE_TICKS) */
 } fric_corr_t;
 
-/* Defaults: off; ki_shift, hold_ticks and limit chosen on the tuning set (firmware/README.md);
- * tare 64 ticks below 0.5 N. */
+/* Defaults: off; ki_shift 6, hold_ticks 30, limit 0.5 and the slide gate off, chosen on the
+ * random-plant tuning set (firmware/README.md); tare 64 ticks below 0.5 N. */
 void fric_corr_config_default(fric_corr_config_t *cfg);
 /* FE_OK or the FC_ERR_* of the first bad field (FE_ERR_NULL for a null pointer). */
 int32_t fric_corr_config_check(const fric_corr_config_t *cfg);
@@ -299,6 +319,10 @@ void fric_corr_reset(fric_corr_t *c);
 int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_t t_out_q8,
                        int32_t code, int32_t code_min, int32_t code_max, uint32_t adc_flags,
                        int32_t w_q30, uint32_t lim);
+/* The slide gate of a tick shared with the double twin: pushes the words (clamped to Q7.8) and
+ * returns 1 when branch b (0 loading, 1 unloading) slides over the window (always 1 with
+ * slide_gate 0; 0 until the window is full or for b < 0). */
+int32_t fric_corr_gate(fric_corr_t *c, int32_t t_ref_q8, int32_t t_out_q8, int32_t b);
 /* The checks of a tick shared with the double twin: adds FC_FAULT_* of the inputs to *faults
  * (ADC flags, range, STUCK run of *c). */
 void fric_corr_check_inputs(fric_corr_t *c, int32_t t_in_q8, int32_t t_out_q8, int32_t code,

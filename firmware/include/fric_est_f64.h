@@ -46,6 +46,7 @@ double fric_est_f64_step(fric_est_f64_t *e, int32_t t_in_q8, int32_t t_out_q8, i
 typedef struct {
     fric_corr_t base;  /* configuration, tare, STUCK run and faults (its integrators unused) */
     double g[2];       /* g_up, g_dn */
+    double o[2];       /* o_up, o_dn (offset_term), N */
     double out;        /* the correction, N, rounded to 1/256 N */
 } fric_corr_f64_t;
 

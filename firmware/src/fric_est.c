@@ -346,11 +346,13 @@ void fric_corr_config_default(fric_corr_config_t *cfg)
         return;
     }
     cfg->enable = 0;
-    cfg->ki_shift = 8;
-    cfg->hold_ticks = 200;
-    cfg->limit_q28 = (q3_28_t)(Q3_28_ONE / 4); /* 0.25 */
+    cfg->ki_shift = 6;                          /* 2^-6 per tick: 16 per second at 16 N */
+    cfg->hold_ticks = 30;
+    cfg->limit_q28 = (q3_28_t)(Q3_28_ONE / 2); /* 0.5 */
     cfg->tare_ticks = 64;
     cfg->tare_max_n_q8 = Q7_8_ONE / 2;
+    cfg->slide_gate = 0;
+    cfg->offset_term = 0;
 }
 
 int32_t fric_corr_config_check(const fric_corr_config_t *cfg)
@@ -370,12 +372,17 @@ int32_t fric_corr_config_check(const fric_corr_config_t *cfg)
     if (cfg->limit_q28 < 0 || cfg->limit_q28 > FC_LIMIT_MAX_Q28) {
         return FC_ERR_LIMIT;
     }
-    if (cfg->tare_ticks != 0 &&
-        (cfg->tare_ticks > FC_TARE_MAX_TICKS || log2_exact(cfg->tare_ticks) < 0)) {
+    if (cfg->tare_ticks > FC_TARE_MAX_TICKS || log2_exact(cfg->tare_ticks) < 0) {
         return FC_ERR_TARE;
     }
     if (cfg->tare_max_n_q8 < 0 || cfg->tare_max_n_q8 > FC_TARE_T_MAX_Q8) {
         return FC_ERR_TARE_MAX;
+    }
+    if (cfg->slide_gate != 0 && cfg->slide_gate != 1) {
+        return FC_ERR_GATE;
+    }
+    if (cfg->offset_term != 0 && cfg->offset_term != 1) {
+        return FC_ERR_OFFSET;
     }
     return FE_OK;
 }
@@ -384,12 +391,13 @@ void fric_corr_reset(fric_corr_t *c)
 {
     for (int32_t b = 0; b < 2; ++b) {
         c->g_q28[b] = 0;
+        c->o_q24[b] = 0;
         c->held[b] = 0;
     }
     c->tare_sum_q8 = 0;
     c->tare_n = 0;
     c->tare_q8 = 0;
-    c->tared = (c->cfg.tare_ticks == 0) ? 1 : 0;
+    c->tared = 0;
     c->last_code = 0;
     c->implausible = 0;
     c->same_ticks = 0U;
@@ -397,6 +405,12 @@ void fric_corr_reset(fric_corr_t *c)
     c->faults = 0U;
     c->out_q8 = 0;
     c->branch = -1;
+    for (int32_t i = 0; i < FC_GATE_TICKS; ++i) {
+        c->gate_ref[i] = 0;
+        c->gate_out[i] = 0;
+    }
+    c->gate_pos = 0U;
+    c->gate_filled = 0U;
 }
 
 void fric_corr_configure(fric_corr_t *c, const fric_corr_config_t *cfg, q3_28_t x0_q28)
@@ -442,6 +456,36 @@ void fric_corr_check_inputs(fric_corr_t *c, int32_t t_in_q8, int32_t t_out_q8, i
     }
 }
 
+static inline int16_t clamp16(int32_t v)
+{
+    return (int16_t)((v > Q7_8_MAX) ? Q7_8_MAX : (v < Q7_8_MIN) ? Q7_8_MIN : v);
+}
+
+int32_t fric_corr_gate(fric_corr_t *c, int32_t t_ref_q8, int32_t t_out_q8, int32_t b)
+{
+    const int32_t ref = clamp16(t_ref_q8);
+    const int32_t out = clamp16(t_out_q8);
+    const int32_t full = (c->gate_filled >= (uint32_t)FC_GATE_TICKS);
+    const int32_t ref_a = c->gate_ref[c->gate_pos]; /* FC_GATE_TICKS ticks ago once full */
+    const int32_t out_a = c->gate_out[c->gate_pos];
+    c->gate_ref[c->gate_pos] = (int16_t)ref;
+    c->gate_out[c->gate_pos] = (int16_t)out;
+    c->gate_pos = (c->gate_pos + 1U < (uint32_t)FC_GATE_TICKS) ? c->gate_pos + 1U : 0U;
+    if (!full) {
+        ++c->gate_filled;
+    }
+    if (c->cfg.slide_gate == 0) {
+        return 1;
+    }
+    if (!full || b < 0) {
+        return 0;
+    }
+    const int32_t s = (b == 0) ? 1 : -1;
+    const int32_t dref = s * (ref - ref_a); /* |.| < 2^16 */
+    const int32_t dout = s * (out - out_a);
+    return (dref >= FC_GATE_MIN_Q8 && 2 * dout >= dref) ? 1 : 0;
+}
+
 /* v - sign(v) ceil(|v| 2^-s): the bleed, reaching 0 (|v| < 2^31). */
 static inline int32_t bleed(int32_t v, int32_t s)
 {
@@ -482,11 +526,13 @@ int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_
             ++c->held[b];
         }
     }
+    const int32_t slides = fric_corr_gate(c, t_ref_q8, t_out_q8, full);
     if (c->faults != 0U) {
         for (int32_t b = 0; b < 2; ++b) {
             c->g_q28[b] = bleed(c->g_q28[b], FC_BLEED_SHIFT);
+            c->o_q24[b] = bleed(c->o_q24[b], FC_BLEED_SHIFT);
         }
-    } else if (c->tared != 0 && full >= 0 && c->held[full] >= c->cfg.hold_ticks) {
+    } else if (c->tared != 0 && full >= 0 && c->held[full] >= c->cfg.hold_ticks && slides != 0) {
         const int32_t e = t_ref_q8 - (t_out_q8 - c->tare_q8); /* |e| < 2^17 */
         if ((e > 0 && (lim & FC_LIM_HI) == 0U) || (e < 0 && (lim & FC_LIM_LO) == 0U)) {
             const int64_t g_max = c->cfg.limit_q28; /* <= 2^28 */
@@ -500,6 +546,12 @@ int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_
                 v = -g_max;
             }
             c->g_q28[full] = (q3_28_t)v;
+            if (c->cfg.offset_term != 0) {
+                /* o_b in Q7.24 N, bound 16 N * limit = limit_q28 in Q7.24 (16 * 2^24 = 2^28). */
+                int64_t o = (int64_t)c->o_q24[full] + (int64_t)e * (INT64_C(1) << (16 - c->cfg.ki_shift));
+                o = (o > g_max) ? g_max : (o < -g_max) ? -g_max : o;
+                c->o_q24[full] = (int32_t)o;
+            }
             c->branch = full;
         }
     }
@@ -507,7 +559,11 @@ int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_
     const int64_t w16 = (int64_t)(w_q30 >> 14); /* Q1.16, [0, 2^16] */
     const int64_t d = (int64_t)c->g_q28[0] - (int64_t)c->g_q28[1]; /* |d| <= 2^29 */
     const int64_t g = (((int64_t)c->g_q28[1] * (INT64_C(1) << 16)) + d * w16) >> 16;
-    const int64_t cq = (int64_t)t_ref_q8 * g; /* Q7.8 * Q3.28, |.| < 2^45 */
+    /* o = o_dn + w16 (o_up - o_dn) in Q7.24 (floor), as g. */
+    const int64_t od = (int64_t)c->o_q24[0] - (int64_t)c->o_q24[1]; /* |od| <= 2^29 */
+    const int64_t o = (((int64_t)c->o_q24[1] * (INT64_C(1) << 16)) + od * w16) >> 16;
+    /* Q7.8 * Q3.28 = Q.36 N (|.| < 2^45), + o in Q.36 (|.| < 2^41). */
+    const int64_t cq = (int64_t)t_ref_q8 * g + o * (INT64_C(1) << 12);
     c->out_q8 = (int32_t)((cq + (INT64_C(1) << 27)) >> 28);
     return c->out_q8;
 }

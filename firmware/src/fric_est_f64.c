@@ -106,6 +106,8 @@ void fric_corr_f64_reset(fric_corr_f64_t *c)
     fric_corr_reset(&c->base);
     c->g[0] = 0.0;
     c->g[1] = 0.0;
+    c->o[0] = 0.0;
+    c->o[1] = 0.0;
     c->out = 0.0;
 }
 
@@ -122,6 +124,7 @@ double fric_corr_f64_step(fric_corr_f64_t *c, int32_t t_ref_q8, int32_t t_in_q8,
     fric_corr_t *b = &c->base;
     const fric_corr_config_t *cfg = &b->cfg;
     const double q28 = 268435456.0;
+    const double q24 = 16777216.0;
     b->branch = -1;
     fric_corr_check_inputs(b, t_in_q8, t_out_q8, code, code_min, code_max, adc_flags);
     if (b->faults == 0U && b->tared == 0) {
@@ -144,14 +147,17 @@ double fric_corr_f64_step(fric_corr_f64_t *c, int32_t t_ref_q8, int32_t t_in_q8,
             ++b->held[k];
         }
     }
+    const int32_t slides = fric_corr_gate(b, t_ref_q8, t_out_q8, full);
     if (b->faults != 0U) {
         const double f = ldexp(1.0, -FC_BLEED_SHIFT);
         for (int32_t k = 0; k < 2; ++k) {
             /* g - sign(g) ceil(|g| 2^28 2^-s) 2^-28 */
             const double m = ceil(fabs(c->g[k]) * q28 * f) / q28;
             c->g[k] = (c->g[k] >= 0.0) ? c->g[k] - m : c->g[k] + m;
+            const double mo = ceil(fabs(c->o[k]) * q24 * f) / q24;
+            c->o[k] = (c->o[k] >= 0.0) ? c->o[k] - mo : c->o[k] + mo;
         }
-    } else if (b->tared != 0 && full >= 0 && b->held[full] >= cfg->hold_ticks) {
+    } else if (b->tared != 0 && full >= 0 && b->held[full] >= cfg->hold_ticks && slides != 0) {
         /* e in N, T_ref in N: the step ki e T_ref / (16 N)^2, rounded half up to 2^-28. */
         const double e_n = ((double)t_ref_q8 - ((double)t_out_q8 - (double)b->tare_q8)) / 256.0;
         if ((e_n > 0.0 && (lim & FC_LIM_HI) == 0U) || (e_n < 0.0 && (lim & FC_LIM_LO) == 0U)) {
@@ -159,12 +165,17 @@ double fric_corr_f64_step(fric_corr_f64_t *c, int32_t t_ref_q8, int32_t t_in_q8,
             const double step = floor(ldexp(e_n * t_n / 256.0, -cfg->ki_shift) * q28 + 0.5) / q28;
             const double lim_g = (double)cfg->limit_q28 / q28;
             c->g[full] = fmin(lim_g, fmax(-lim_g, c->g[full] + step));
+            if (cfg->offset_term != 0) {
+                const double lim_o = 16.0 * lim_g;
+                c->o[full] = fmin(lim_o, fmax(-lim_o, c->o[full] + ldexp(e_n, -cfg->ki_shift)));
+            }
             b->branch = full;
         }
     }
     /* The blend in Q1.16 as the integer correction takes it (w >> 14), in double: exact. */
     const double w16 = floor(w * 65536.0) / 65536.0;
     const double g = floor((c->g[1] + (c->g[0] - c->g[1]) * w16) * q28) / q28;
-    c->out = floor((double)t_ref_q8 / 256.0 * g * 256.0 + 0.5) / 256.0;
+    const double o = floor((c->o[1] + (c->o[0] - c->o[1]) * w16) * q24) / q24;
+    c->out = floor(((double)t_ref_q8 / 256.0 * g + o) * 256.0 + 0.5) / 256.0;
     return c->out;
 }

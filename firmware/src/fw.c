@@ -447,9 +447,13 @@ const char *fw_strerror(int32_t code)
     case FC_ERR_LIMIT:
         return "corr.limit: outside [0, 1] (a relative gain correction)";
     case FC_ERR_TARE:
-        return "corr.tare_ticks: must be 0 or a power of two up to 1024 ticks";
+        return "corr.tare_ticks: must be a power of two in [1, 1024] ticks";
     case FC_ERR_TARE_MAX:
         return "corr.tare_max_n: outside [0, 8] N";
+    case FC_ERR_GATE:
+        return "corr.slide_gate: must be 0 (off) or 1 (on)";
+    case FC_ERR_OFFSET:
+        return "corr.offset_term: must be 0 (off) or 1 (on)";
     default:
         return "unknown status code";
     }

@@ -50,6 +50,8 @@ const proto_param_t params_table[PROTO_N_PARAMS] = {
     {0x992F824BUL, (uint16_t)offsetof(settings_t, fw.corr.limit_q28), PROTO_PARAM_I32, 0u}, /* 43: corr.limit */
     {0x13DA56A2UL, (uint16_t)offsetof(settings_t, fw.corr.tare_ticks), PROTO_PARAM_I32, 0u}, /* 44: corr.tare_ticks */
     {0x94A54B75UL, (uint16_t)offsetof(settings_t, fw.corr.tare_max_n_q8), PROTO_PARAM_I32, 0u}, /* 45: corr.tare_max_n */
-    {0xA4E9F30AUL, (uint16_t)offsetof(settings_t, dev.telemetry_div), PROTO_PARAM_U32, 0u}, /* 46: dev.telemetry_div */
-    {0xC4FD1CC2UL, (uint16_t)offsetof(settings_t, dev.can_node), PROTO_PARAM_U32, 0u}, /* 47: dev.can_node */
+    {0x748AF127UL, (uint16_t)offsetof(settings_t, fw.corr.slide_gate), PROTO_PARAM_I32, 0u}, /* 46: corr.slide_gate */
+    {0x546CBBF4UL, (uint16_t)offsetof(settings_t, fw.corr.offset_term), PROTO_PARAM_I32, 0u}, /* 47: corr.offset_term */
+    {0xA4E9F30AUL, (uint16_t)offsetof(settings_t, dev.telemetry_div), PROTO_PARAM_U32, 0u}, /* 48: dev.telemetry_div */
+    {0xC4FD1CC2UL, (uint16_t)offsetof(settings_t, dev.can_node), PROTO_PARAM_U32, 0u}, /* 49: dev.can_node */
 };

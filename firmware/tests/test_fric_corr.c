@@ -52,7 +52,11 @@ typedef struct {
     double x;      /* the plant's mu*phi */
     double offset; /* far-end sensor offset, N */
     double a;      /* the tension loop's factor per tick */
+    int32_t k;     /* ticks so far */
 } loop_t;
+
+/* The tick from which the far-end offset reads (0: from the start, before the tare). */
+static int32_t offset_from_tick = 0;
 
 static void loop_init(loop_t *l, double x, double offset)
 {
@@ -62,6 +66,7 @@ static void loop_init(loop_t *l, double x, double offset)
     l->x = x;
     l->offset = offset;
     l->a = 1.0 - exp(-2.0 * PI_D * 20.0 / 1000.0);
+    l->k = 0;
 }
 
 /* One tick: T_c for T_ref, the tension loop and the plant move; returns the far-end word. */
@@ -73,7 +78,13 @@ static int32_t loop_tick(loop_t *l, int32_t tref, int32_t *tc_out)
     double hi = l->t_in * exp(l->x);
     l->t_out = (l->t_out < lo) ? lo : (l->t_out > hi) ? hi : l->t_out;
     *tc_out = tc;
-    return q8(l->t_out + l->offset);
+    return q8(l->t_out + ((l->k++ >= offset_from_tick) ? l->offset : 0.0));
+}
+
+/* A one-tick tare at zero load (tare_ticks 1): the far-end zero is 0. */
+static void tare_at_zero(fric_corr_t *c)
+{
+    (void)fric_corr_step(c, 0, 0, 0, 0, CODE_MIN, CODE_MAX, 0U, 0, 0U);
 }
 
 static fric_corr_config_t on_config(void)
@@ -119,7 +130,9 @@ static double run_loop(const fric_corr_config_t *cfg, double x_plant, double off
             double vf = fric_corr_f64_step(&f, ref, tin, tout, code_of(tout), CODE_MIN, CODE_MAX,
                                            flags, w, lim);
             if ((double)v != vf * 256.0 || (double)c.g_q28[0] != f.g[0] * Q28 ||
-                (double)c.g_q28[1] != f.g[1] * Q28 || c.faults != f.base.faults) {
+                (double)c.g_q28[1] != f.g[1] * Q28 || c.faults != f.base.faults ||
+                (double)c.o_q24[0] != f.o[0] * 16777216.0 ||
+                (double)c.o_q24[1] != f.o[1] * 16777216.0) {
                 ++bad;
             }
             comp_set_correction_q8(&l.comp, v);
@@ -147,8 +160,9 @@ static double run_loop(const fric_corr_config_t *cfg, double x_plant, double off
     return sqrt(sum2 / (double)n);
 }
 
-/* The integer correction equals its double twin bit for bit (g_up, g_dn, c, faults) at every tick
- * over closed-loop runs at every rate, hold and limit at their ends, plants on both sides. */
+/* The integer correction equals its double twin bit for bit (g_up, g_dn, o_up, o_dn, c, faults) at
+ * every tick over closed-loop runs at every rate, hold and limit at their ends, plants on both
+ * sides (the offset term on for one of them), a fault from 6 s on. */
 static void test_corr_twin_bit_exact(void)
 {
     const int32_t shifts[] = {FC_KI_SHIFT_MIN, 8, FC_KI_SHIFT_MAX};
@@ -159,6 +173,7 @@ static void test_corr_twin_bit_exact(void)
         for (int32_t j = 0; j < 3; ++j) {
             for (int32_t s = -1; s <= 1; s += 2) {
                 fric_corr_config_t cfg = on_config();
+                cfg.offset_term = (s > 0) ? 1 : 0;
                 cfg.ki_shift = shifts[i];
                 cfg.hold_ticks = holds[j];
                 cfg.limit_q28 = limits[(i + j) % 3];
@@ -203,8 +218,8 @@ static void test_corr_loop_converges(void)
 }
 
 /* A far-end offset is tared away: with 0.4 N on the cell the loop converges on the true T_out
- * (its RMS as without the offset, 0.060 N, within 0.01 N), and without the tare it does not
- * (0.38 N: it aims the reading, not the cable, at T_ref). */
+ * (its RMS as without the offset, 0.060 N, within 0.01 N); an offset that appears after the tare
+ * is not (0.37 N: the loop aims the reading, not the cable, at T_ref). */
 static void test_corr_tare_removes_offset(void)
 {
     const double x0 = 0.075 * 2.0 * PI_D;
@@ -214,9 +229,10 @@ static void test_corr_tare_removes_offset(void)
     double clean = run_loop(&cfg, x0 * 1.2, 0.0, 1, -1, 0, 0, 0);
     double tared = run_loop(&cfg, x0 * 1.2, 0.4, 1, -1, 0, 0, 0);
     CHECK(fabs(tared - clean) <= 0.01, "tared %.3f N, without offset %.3f N", tared, clean);
-    cfg.tare_ticks = 0;
+    offset_from_tick = 1000; /* the offset appears after the tare: the tare cannot see it */
     double raw = run_loop(&cfg, x0 * 1.2, 0.4, 1, -1, 0, 0, 0);
-    CHECK(raw > clean + 0.2, "no tare: %.3f N, without offset %.3f N", raw, clean);
+    offset_from_tick = 0;
+    CHECK(raw > clean + 0.2, "offset after the tare: %.3f N, without offset %.3f N", raw, clean);
 }
 
 /* Held at a change of branch: while the blend is between the branches nothing integrates, and
@@ -224,10 +240,12 @@ static void test_corr_tare_removes_offset(void)
 static void test_corr_holds_through_branch_change(void)
 {
     fric_corr_config_t cfg = on_config();
-    cfg.tare_ticks = 0;
+    cfg.tare_ticks = 1;
     cfg.hold_ticks = 50;
+    cfg.slide_gate = 0; /* a constant reference: the gate would hold it (test_corr_slide_gate) */
     fric_corr_t c;
     fric_corr_configure(&c, &cfg, (q3_28_t)(0.47 * Q28));
+    tare_at_zero(&c);
     const int32_t ref = q8(10.0);
     const int32_t tout = q8(9.0); /* 1 N short */
     for (int32_t k = 0; k < 300; ++k) {
@@ -244,18 +262,57 @@ static void test_corr_holds_through_branch_change(void)
     CHECK(c.out_q8 > 0, "unloading correction %d", c.out_q8);
 }
 
+/* The slide gate: a reference at rest, or a moving reference with the output held (a dead zone),
+ * integrates nothing; the output sliding with it (at half its rate or more) integrates. */
+static void test_corr_slide_gate(void)
+{
+    fric_corr_config_t cfg = on_config();
+    cfg.tare_ticks = 1;
+    cfg.hold_ticks = 0;
+    cfg.slide_gate = 1;
+    fric_corr_t c;
+    const int32_t one = (int32_t)Q1_30_ONE;
+    fric_corr_configure(&c, &cfg, (q3_28_t)(0.47 * Q28));
+    tare_at_zero(&c);
+    q3_28_t g0 = 0;
+    for (int32_t k = 0; k < 200; ++k) { /* at rest, 1 N short (after the window has filled) */
+        (void)fric_corr_step(&c, q8(10.0), q8(8.0), q8(9.0), code_of(q8(9.0)) + (k & 1),
+                             CODE_MIN, CODE_MAX, 0U, one, 0U);
+        if (k == FC_GATE_TICKS) {
+            g0 = c.g_q28[0];
+        }
+    }
+    CHECK(c.g_q28[0] == g0, "at rest: integrated %ld", (long)(c.g_q28[0] - g0));
+    for (int32_t k = 0; k < 200; ++k) { /* loading at 10 N/s, output held */
+        int32_t ref = q8(10.0 + 0.01 * k);
+        (void)fric_corr_step(&c, ref, ref, q8(9.0), code_of(q8(9.0)) + (k & 1), CODE_MIN,
+                             CODE_MAX, 0U, one, 0U);
+    }
+    CHECK(c.g_q28[0] == g0, "output held: integrated %ld", (long)(c.g_q28[0] - g0));
+    for (int32_t k = 0; k < 200; ++k) { /* loading at 10 N/s, output at 0.6 of its rate */
+        int32_t ref = q8(12.0 + 0.01 * k);
+        int32_t out = q8(11.0 + 0.006 * k);
+        (void)fric_corr_step(&c, ref, ref, out, code_of(out), CODE_MIN, CODE_MAX, 0U, one, 0U);
+    }
+    CHECK(c.g_q28[0] > g0 && c.g_q28[1] == 0, "sliding: g_up %ld g_dn %ld", (long)c.g_q28[0],
+          (long)c.g_q28[1]);
+}
+
 /* Anti-windup: at a command limit the integrator does not move towards it (and does move away
- * from it); at full scale (the extreme Q7.8 words of T_ref and T_out, the fastest rate) g stops
- * exactly at +-limit and c stays within |T_ref| * limit + 1/2 LSB. */
+ * from it); at full scale (the extreme Q7.8 words of T_ref and T_out, the fastest rate, the
+ * offset term on) g and o stop exactly at +-limit (o at 16 N limit) and c stays within
+ * |T_ref| limit + 16 N limit + 1/2 LSB, equal to the twin's. */
 static void test_corr_anti_windup_and_full_scale(void)
 {
     fric_corr_config_t cfg = on_config();
-    cfg.tare_ticks = 0;
+    cfg.tare_ticks = 1;
     cfg.hold_ticks = 0;
+    cfg.slide_gate = 0; /* constant words */
     cfg.ki_shift = FC_KI_SHIFT_MIN;
     cfg.limit_q28 = FC_LIMIT_MAX_Q28;
     fric_corr_t c;
     fric_corr_configure(&c, &cfg, (q3_28_t)(0.47 * Q28));
+    tare_at_zero(&c);
     const int32_t one = (int32_t)Q1_30_ONE;
     for (int32_t k = 0; k < 100; ++k) { /* short of the reference, upper limit reached */
         (void)fric_corr_step(&c, q8(10.0), q8(16.0), q8(9.0), code_of(q8(9.0)) + (k & 1),
@@ -266,28 +323,35 @@ static void test_corr_anti_windup_and_full_scale(void)
                          0U, one, FC_LIM_HI); /* over: moves down, away from the limit */
     CHECK(c.g_q28[0] < 0, "did not move away from the upper limit");
     fric_corr_reset(&c);
+    tare_at_zero(&c);
     for (int32_t k = 0; k < 100; ++k) {
         (void)fric_corr_step(&c, q8(2.0), 0, q8(3.0), code_of(q8(3.0)) + (k & 1), CODE_MIN,
                              CODE_MAX, 0U, 0, FC_LIM_LO);
     }
     CHECK(c.g_q28[1] == 0, "wound up against the floor: %ld", (long)c.g_q28[1]);
-    /* Full scale, both signs of the error, both branches. */
+    /* Full scale, both signs of the error, both branches, with the offset term. */
+    cfg.offset_term = 1;
     const int32_t refs[] = {Q7_8_MAX, Q7_8_MIN, Q7_8_MAX, Q7_8_MIN};
     const int32_t outs[] = {Q7_8_MIN, Q7_8_MAX, Q7_8_MIN, Q7_8_MAX};
     for (int32_t i = 0; i < 4; ++i) {
-        fric_corr_reset(&c);
+        fric_corr_configure(&c, &cfg, (q3_28_t)(0.47 * Q28));
+        tare_at_zero(&c);
         fric_corr_f64_t f;
         fric_corr_f64_configure(&f, &cfg, (q3_28_t)(0.47 * Q28));
+        (void)fric_corr_f64_step(&f, 0, 0, 0, 0, CODE_MIN, CODE_MAX, 0U, 0, 0U);
         int32_t w = (i < 2) ? one : 0;
         for (int32_t k = 0; k < 20; ++k) {
             int32_t v = fric_corr_step(&c, refs[i], 0, outs[i], 0, CODE_MIN, CODE_MAX, 0U, w, 0U);
             double vf = fric_corr_f64_step(&f, refs[i], 0, outs[i], 0, CODE_MIN, CODE_MAX, 0U, w,
                                            0U);
             CHECK((double)v == vf * 256.0, "full scale %d: %d vs twin %.4f", i, v, vf * 256.0);
-            CHECK(fabs((double)v) <= fabs((double)refs[i]) + 0.5, "full scale %d: c %d", i, v);
+            CHECK(fabs((double)v) <= fabs((double)refs[i]) + 16.0 * 256.0 + 0.5,
+                  "full scale %d: c %d", i, v);
         }
         q3_28_t g = c.g_q28[(i < 2) ? 0 : 1];
         CHECK(g == FC_LIMIT_MAX_Q28 || g == -FC_LIMIT_MAX_Q28, "full scale %d: g %ld", i, (long)g);
+        int32_t o = c.o_q24[(i < 2) ? 0 : 1];
+        CHECK(o == FC_LIMIT_MAX_Q28 || o == -FC_LIMIT_MAX_Q28, "full scale %d: o %ld", i, (long)o);
         CHECK(c.faults == 0U, "full scale %d: faults 0x%x", i, c.faults);
     }
 }
@@ -369,14 +433,15 @@ static void test_corr_config_check(void)
         {1, FC_KI_SHIFT_MIN - 1, FC_ERR_KI}, {1, FC_KI_SHIFT_MAX + 1, FC_ERR_KI},
         {2, -1, FC_ERR_HOLD},          {2, FC_HOLD_MAX_TICKS + 1, FC_ERR_HOLD},
         {3, -1, FC_ERR_LIMIT},         {3, FC_LIMIT_MAX_Q28 + 1, FC_ERR_LIMIT},
-        {4, 3, FC_ERR_TARE},           {4, 2 * FC_TARE_MAX_TICKS, FC_ERR_TARE},
+        {4, 3, FC_ERR_TARE},           {4, 2 * FC_TARE_MAX_TICKS, FC_ERR_TARE}, {4, 0, FC_ERR_TARE},
         {4, -64, FC_ERR_TARE},         {5, -1, FC_ERR_TARE_MAX},
-        {5, FC_TARE_T_MAX_Q8 + 1, FC_ERR_TARE_MAX},
+        {5, FC_TARE_T_MAX_Q8 + 1, FC_ERR_TARE_MAX}, {6, 2, FC_ERR_GATE},
+        {6, -1, FC_ERR_GATE},          {7, 2, FC_ERR_OFFSET},
     };
     for (uint32_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
         fric_corr_config_t c = d;
-        int32_t *f[] = {&c.enable, &c.ki_shift, &c.hold_ticks, &c.limit_q28, &c.tare_ticks,
-                        &c.tare_max_n_q8};
+        int32_t *f[] = {&c.enable,     &c.ki_shift,      &c.hold_ticks, &c.limit_q28,
+                        &c.tare_ticks, &c.tare_max_n_q8, &c.slide_gate, &c.offset_term};
         *f[cases[i].field] = cases[i].value;
         CHECK(fric_corr_config_check(&c) == cases[i].code, "case %u: %d", i,
               fric_corr_config_check(&c));
@@ -393,7 +458,7 @@ static void test_corr_config_check(void)
     c.ki_shift = FC_KI_SHIFT_MIN;
     c.hold_ticks = 0;
     c.limit_q28 = 0;
-    c.tare_ticks = 0;
+    c.tare_ticks = 1;
     c.tare_max_n_q8 = 0;
     CHECK(fric_corr_config_check(&c) == FE_OK, "lower ends refused");
     fw_config_t fc;
@@ -459,6 +524,7 @@ const unit_test_t fric_corr_tests[] = {
     {"fric_corr_loop_converges", test_corr_loop_converges},
     {"fric_corr_tare_removes_offset", test_corr_tare_removes_offset},
     {"fric_corr_holds_through_branch_change", test_corr_holds_through_branch_change},
+    {"fric_corr_slide_gate", test_corr_slide_gate},
     {"fric_corr_anti_windup_and_full_scale", test_corr_anti_windup_and_full_scale},
     {"fric_corr_fault_bleeds_without_step", test_corr_fault_bleeds_without_step},
     {"fric_corr_fault_kinds", test_corr_fault_kinds},

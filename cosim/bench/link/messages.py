@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PROTOCOL_VERSION = 2
-TABLE_HASH = 0x1F23FDD4
+TABLE_HASH = 0x0CC78CCD
 MAX_PAYLOAD = 48
 CAN_NODE_BITS = 6
 CAN_MESSAGE_BITS = 5
@@ -1259,10 +1259,10 @@ PARAMS: tuple[Param, ...] = (
         -2147483648,
         2147483647,
         0x13DA56A2,
-        "ticks of the far-end zero after the start, 0 or 2^s <= 1024",
-        -2147483648,
-        2147483647,
-        False,
+        "ticks of the far-end zero after the start, 2^s in [1, 1024]",
+        1,
+        1024,
+        True,
     ),
     Param(
         45,
@@ -1283,6 +1283,40 @@ PARAMS: tuple[Param, ...] = (
     ),
     Param(
         46,
+        "corr.slide_gate",
+        "fw.corr.slide_gate",
+        False,
+        0,
+        "",
+        None,
+        False,
+        -2147483648,
+        2147483647,
+        0x748AF127,
+        "[0, 1]: 1 integrates only while T_out slides with T_ref",
+        0,
+        1,
+        False,
+    ),
+    Param(
+        47,
+        "corr.offset_term",
+        "fw.corr.offset_term",
+        False,
+        0,
+        "",
+        None,
+        False,
+        -2147483648,
+        2147483647,
+        0x546CBBF4,
+        "[0, 1]: 1 adds an offset per branch, c = g T_ref + o_b",
+        0,
+        1,
+        False,
+    ),
+    Param(
+        48,
         "dev.telemetry_div",
         "dev.telemetry_div",
         True,
@@ -1299,7 +1333,7 @@ PARAMS: tuple[Param, ...] = (
         False,
     ),
     Param(
-        47,
+        49,
         "dev.can_node",
         "dev.can_node",
         True,
@@ -1354,4 +1388,6 @@ SIM_TO_DEVICE: dict[str, str] = {
     "compensator.corr_limit": "corr.limit",
     "compensator.corr_tare_ticks": "corr.tare_ticks",
     "compensator.corr_tare_max_n": "corr.tare_max_n",
+    "compensator.corr_slide_gate": "corr.slide_gate",
+    "compensator.corr_offset_term": "corr.offset_term",
 }
