@@ -153,6 +153,17 @@ def _run(spec: SweepSpec, point: Point) -> dict:
     out["rms_away_n"] = split.get("rms_away_n")
     out["compensator_phi_rad"] = run_spec["phi_rad"]
     out["samples"] = result["samples"]
+    # The same figures on the cable's true output tension (the plant's T_out, not the far-end
+    # cell's reading): they differ from the above by what the cell adds (offset, gain, lag), which
+    # a controller that trusts the cell cannot remove and a tare of it can.
+    if "T_out_true_N" in fixed:
+        from cosim.results import metrics  # noqa: PLC0415
+
+        true = metrics.tracking_error(
+            fixed["t_s"], fixed["T_ref_N"], fixed["T_out_true_N"], result["settle_s"]
+        )
+        out["rms_true_error_pct"] = true["rms_error_pct"]
+        out["peak_true_error_pct"] = true["peak_error_pct"]
     return out
 
 
