@@ -112,6 +112,23 @@ def test_native_matches_cocotb_with_the_online_friction_estimate(builds, failure
     assert est[0] == pytest.approx(0.075 * 2 * np.pi, abs=2.0**-20) and est.max() > est[0] * 1.1
 
 
+@pytest.mark.parametrize("failure", [{}, {"t_out_stuck_s": 1.2, "t_out_absent_s": 1.6}])
+def test_native_matches_cocotb_with_the_far_end_correction(builds, failure):
+    """The firmware's far-end output correction (fric_est.h) fed from the far-end cell through
+    the board's ADC, on a plant whose mu is 20 % above the calibration, healthy and with the
+    far-end cell stuck then absent: the same correction and record in both engines; it acts, and
+    after the failure it bleeds away."""
+    cfg = SimConfig.from_dict(
+        {"compensator": {"corr_enable": 1}, "plant": {"mu": 0.09}, "board": failure}
+    )
+    fixed, _ = _both("fig14", "preview", "board", FIG14_S, cfg=cfg)
+    corr, t = np.abs(fixed["corr_n"]), fixed["t_s"]
+    assert corr.max() > 0.05, corr.max()
+    if failure:
+        at_fault = corr[t >= 1.6][0]
+        assert corr[-1] < 0.5 * at_fault, (corr[-1], at_fault)
+
+
 def test_native_matches_cocotb_with_the_rate_feedforward(builds):
     """The firmware's rate feedforward (loop.kv, written to the RTL's UFF at each tick) with the
     online estimate, on the plant of the robustness figure's worst peak (mu +20 %, cable 20 %

@@ -170,6 +170,7 @@ async def closed_loop(dut):
     # --- the firmware task ------------------------------------------------------------------
     fw_wake = Event()
     est_ticks: list[tuple[int, int]] = []  # (sample, mu*phi in force Q3.28) per firmware tick
+    corr_ticks: list[tuple[int, int]] = []  # (sample, far-end correction Q7.8) per firmware tick
     fw_state = {"k": 0, "late_writes": 0, "tc_mismatch": 0, "ticks": 0, "checks": 0, "wake_ns": 0}
     tc_new = [0.0]
 
@@ -182,7 +183,9 @@ async def closed_loop(dut):
             tc_n, writes = fw.tick(fw_ref[k])
             cost["firmware_s"] += time.perf_counter() - t_fw
             if est_on:
-                est_ticks.append((k, fw.fw.telemetry()["est_mu_phi_q28"]))
+                tel = fw.fw.telemetry()
+                est_ticks.append((k, tel["est_mu_phi_q28"]))
+                corr_ticks.append((k, tel["corr_n_q8"]))
             tc_new[0] = tc_n
             # Tick k+2 is at C(k+2) clocks; the wake-up was at Ck + L + 0.5 = C(k+1) - 0.5.
             deadline = fw_state["wake_ns"] + (TC_LATENCY_SAMPLES - 1) * sample_ns + clk_ns // 2
@@ -307,6 +310,10 @@ async def closed_loop(dut):
         for k, x in est_ticks:
             est[k:] = x
         rec["mu_phi_est"] = est / 2.0**28
+        corr = np.zeros(n, dtype=np.int64)
+        for k, c in corr_ticks:
+            corr[k:] = c
+        rec["corr_n"] = corr / 256.0  # the far-end output correction in force
     # Cost split: the RTL's own cost is the calibrated bare sample times the samples; the waits
     # beyond it are the firmware's ticks (run inside them) and the AXI driver's coroutines
     # (harness); FMU steps are timed directly; the rest is the harness's per-sample glue.

@@ -1,0 +1,91 @@
+"""The far-end output correction in the closed loop (native engine, board chain, fig14 6 s,
+preview compensator calibrated at mu = 0.075, online estimate off, rate feedforward kv 1e-3 A s/N
+as docs/results.md documents): it removes most of a friction error the compensator does not know,
+tares a far-end offset away, and when the far-end cell fails mid-run it reports the fault and
+falls back to the feedforward alone without a transient above the feedforward's own peak
+(firmware/include/fric_est.h, "The far-end output correction")."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cosim.config.run import SimConfig
+from cosim.config.scenarios import get_scenario
+from cosim.engines.native import engine
+from cosim.engines.reference import resolve_phi
+from cosim.results import metrics
+
+FC_FAULT_RANGE, FC_FAULT_STUCK = 0x2, 0x4
+T_FAULT_S = 3.0
+
+
+def _run(plant: dict, corr: bool, board: dict | None = None) -> dict:
+    comp = {"corr_enable": 1 if corr else 0}
+    cfg = SimConfig.from_dict(
+        {
+            "plant": plant,
+            "board": board or {},
+            "compensator": comp,
+            "controller": {"kv_a_s_per_n": 0.001},
+        }
+    )
+    scen = get_scenario("fig14")
+    spec = {
+        "scenario": "fig14",
+        "duration_s": 6.0,
+        "interface": "board",
+        "compensator": "preview",
+        "loop_routing": True,
+        "config": cfg.to_dict(),
+        "phi_rad": resolve_phi(scen, cfg, True),
+        "bus": "native",
+        "engine": "native",
+    }
+    rec, cost = engine.run_closed_loop(spec, progress=False)
+    true = metrics.tracking_error(rec["t_s"], rec["T_ref_N"], rec["T_out_true_N"], scen.settle_s)
+    return {**true, "rec": rec, "corr_faults": cost["corr_faults"]}
+
+
+@pytest.mark.slow
+def test_correction_removes_a_friction_error_and_tares_an_offset():
+    """Plant mu 0.09 (20 % above the calibration) with 0.4 N on the far-end cell: the true output
+    tension's RMS error is at most half the feedforward's alone (measured: 2.43 % against 5.53 %
+    of 15 N, the rest is the reversals'), and the offset does not move it (the tare: within
+    0.05 % of the run without it; measured 0.002 %)."""
+    plant = {"mu": 0.09}
+    ff = _run(plant, corr=False)
+    on = _run(plant, corr=True)
+    tared = _run({**plant, "sensor_offset": 0.4}, corr=True)
+    assert on["corr_faults"] == 0 and tared["corr_faults"] == 0
+    assert on["rms_error_pct"] <= 0.5 * ff["rms_error_pct"], (on["rms_error_pct"], ff["rms_error_pct"])
+    assert abs(tared["rms_error_pct"] - on["rms_error_pct"]) <= 0.05, (
+        tared["rms_error_pct"],
+        on["rms_error_pct"],
+    )
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "board, want",
+    [
+        ({"t_out_stuck_s": T_FAULT_S}, FC_FAULT_STUCK),
+        # at the rail: out of range at once, and a code that no longer changes (STUCK)
+        ({"t_out_absent_s": T_FAULT_S}, FC_FAULT_RANGE | FC_FAULT_STUCK),
+    ],
+)
+def test_far_end_failure_falls_back_to_the_feedforward(board, want):
+    """The far-end cell stuck or absent from 3 s (plant mu 0.09): the fault is reported, the
+    correction bleeds to zero, and the true output's largest error after the fault is no larger
+    than the feedforward's alone over the same time (measured 1.411 N against 1.412 N; 0.05 N
+    margin)."""
+    plant = {"mu": 0.09}
+    on = _run(plant, corr=True, board=board)
+    ff = _run(plant, corr=False)
+    assert on["corr_faults"] == want, on["corr_faults"]
+    rec, rec_ff = on["rec"], ff["rec"]
+    after = rec["t_s"] >= T_FAULT_S
+    err = np.abs(rec["T_out_true_N"] - rec["T_ref_N"])[after]
+    err_ff = np.abs(rec_ff["T_out_true_N"] - rec_ff["T_ref_N"])[after]
+    assert err.max() <= err_ff.max() + 0.05, (err.max(), err_ff.max())
+    assert abs(rec["corr_n"][-1]) <= 1.0 / 256.0, rec["corr_n"][-1]
