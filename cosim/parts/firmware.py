@@ -690,7 +690,8 @@ def estimator_from(params) -> EstimatorParams:
 class CorrectorParams:
     """The far-end output correction (fric_est.h) in SI units: off by default; the integral
     rate 2^-ki_shift per tick, the ticks a branch is held after a change of branch, the bound of
-    each branch's relative gain correction, the far-end tare's ticks and the largest T_in during it."""
+    each branch's relative gain correction, the far-end tare's ticks and the largest T_in during
+    it, and its two options (slide gate, offset term)."""
 
     enable: int = 0  # 0 off, 1 on
     ki_shift: int = 6  # rate 2^-ki_shift per tick, [4, 16]

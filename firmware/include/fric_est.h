@@ -204,7 +204,10 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
  * error there is the reversal's, which no gain of the branch removes), and not towards a command
  * limit (anti-windup: no integration up while T_c or the drive's current is at
  * its upper limit or the loop is faulted, none down at the floor or the lower current limit;
- * FC_LIM_* of the caller).
+ * FC_LIM_* of the caller), and not on a reading that has not changed for FC_FRESH_TICKS ticks (a
+ * live cell's code moves with its noise and with a sliding cable: a held code is a dead zone, a
+ * reference at rest, or a cell that failed before STUCK can tell, and integrating a failed
+ * reading for the ~1 s STUCK needs winds the correction up).
  * Loop margin: from g to T_out the plant's low-frequency gain is T_ref G_plant / G_model, about
  * T_ref (G_plant / G_model in 0.7 .. 1.4 for mu*phi 25 % off the compensator's); the integrator's
  * loop gain crosses over at w_c = (T_ref / T_0)^2 (G_plant / G_model) f_tick 2^-ki_shift rad/s,
@@ -236,6 +239,7 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
  */
 #define FC_STUCK_TICKS 100            /* ticks of an unchanged far-end code before STUCK can latch */
 #define FC_STUCK_T_MIN_Q8 (Q7_8_ONE / 2) /* ... while T_in, above 0.5 N, left the band */
+#define FC_FRESH_TICKS 8              /* no integration once the code has held for 8 ticks */
 #define FC_BLEED_SHIFT 7              /* a dropped correction decays with 128 ticks */
 #define FC_KI_SHIFT_MIN 4             /* ki = 2^-ki_shift per tick, ki_shift in [4, 16] */
 #define FC_KI_SHIFT_MAX 16

@@ -532,7 +532,8 @@ int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_
             c->g_q28[b] = bleed(c->g_q28[b], FC_BLEED_SHIFT);
             c->o_q24[b] = bleed(c->o_q24[b], FC_BLEED_SHIFT);
         }
-    } else if (c->tared != 0 && full >= 0 && c->held[full] >= c->cfg.hold_ticks && slides != 0) {
+    } else if (c->tared != 0 && full >= 0 && c->held[full] >= c->cfg.hold_ticks && slides != 0 &&
+               c->same_ticks < (uint32_t)FC_FRESH_TICKS) {
         const int32_t e = t_ref_q8 - (t_out_q8 - c->tare_q8); /* |e| < 2^17 */
         if ((e > 0 && (lim & FC_LIM_HI) == 0U) || (e < 0 && (lim & FC_LIM_LO) == 0U)) {
             const int64_t g_max = c->cfg.limit_q28; /* <= 2^28 */

@@ -157,7 +157,8 @@ double fric_corr_f64_step(fric_corr_f64_t *c, int32_t t_ref_q8, int32_t t_in_q8,
             const double mo = ceil(fabs(c->o[k]) * q24 * f) / q24;
             c->o[k] = (c->o[k] >= 0.0) ? c->o[k] - mo : c->o[k] + mo;
         }
-    } else if (b->tared != 0 && full >= 0 && b->held[full] >= cfg->hold_ticks && slides != 0) {
+    } else if (b->tared != 0 && full >= 0 && b->held[full] >= cfg->hold_ticks && slides != 0 &&
+               b->same_ticks < (uint32_t)FC_FRESH_TICKS) {
         /* e in N, T_ref in N: the step ki e T_ref / (16 N)^2, rounded half up to 2^-28. */
         const double e_n = ((double)t_ref_q8 - ((double)t_out_q8 - (double)b->tare_q8)) / 256.0;
         if ((e_n > 0.0 && (lim & FC_LIM_HI) == 0U) || (e_n < 0.0 && (lim & FC_LIM_LO) == 0U)) {

@@ -50,15 +50,18 @@ def _run(plant: dict, corr: bool, board: dict | None = None) -> dict:
 @pytest.mark.slow
 def test_correction_removes_a_friction_error_and_tares_an_offset():
     """Plant mu 0.09 (20 % above the calibration) with 0.4 N on the far-end cell: the true output
-    tension's RMS error is at most half the feedforward's alone (measured: 2.43 % against 5.53 %
-    of 15 N, the rest is the reversals'), and the offset does not move it (the tare: within
-    0.05 % of the run without it; measured 0.002 %)."""
+    tension's RMS error is at most 0.3x the feedforward's alone (measured: 1.33 % against 5.53 %
+    of 15 N, 0.24x; the rest is the reversals'), and the offset does not move it (the tare: within
+    0.05 % of the run without it; measured 0.001 %)."""
     plant = {"mu": 0.09}
     ff = _run(plant, corr=False)
     on = _run(plant, corr=True)
     tared = _run({**plant, "sensor_offset": 0.4}, corr=True)
     assert on["corr_faults"] == 0 and tared["corr_faults"] == 0
-    assert on["rms_error_pct"] <= 0.5 * ff["rms_error_pct"], (on["rms_error_pct"], ff["rms_error_pct"])
+    assert on["rms_error_pct"] <= 0.3 * ff["rms_error_pct"], (
+        on["rms_error_pct"],
+        ff["rms_error_pct"],
+    )
     assert abs(tared["rms_error_pct"] - on["rms_error_pct"]) <= 0.05, (
         tared["rms_error_pct"],
         on["rms_error_pct"],
