@@ -68,7 +68,10 @@ def test_accepted_range_is_the_devices(client, p):
         assert not _accepts(client, p.name, p.accept_hi + 1)
     if p.accept_power_of_two:  # inside the range, only its powers of two
         assert _accepts(client, p.name, 2 * p.accept_lo)
-        assert not _accepts(client, p.name, p.accept_lo + 1)
+        odd = p.accept_lo + 1
+        while odd & (odd - 1) == 0:  # the next word above the lower end that is no power of 2
+            odd += 1
+        assert not _accepts(client, p.name, odd)
         assert not _accepts(client, p.name, 3 * p.accept_lo)
 
 
@@ -89,4 +92,7 @@ def test_the_documented_ranges_in_si_units():
     assert p["loop.kv"].accept_hi == 1 << 20  # fw.h FW_KV_MAX, 1/16 A s/N
     assert p["est.mu_phi_max"].accept_lo == 1 and p["est.mu_phi_min"].accept_hi == (4 << 28) - 1
     assert (p["loop.kv"].unit, p["loop.uff_limit"].unit) == ("A s/N", "A")
-    assert [q.name for q in msgs.PARAMS if q.accept_power_of_two] == ["est.tau_ticks"]
+    assert [q.name for q in msgs.PARAMS if q.accept_power_of_two] == [
+        "est.tau_ticks",
+        "corr.tare_ticks",
+    ]
