@@ -367,6 +367,20 @@ def load_params(raw: dict, regmap: dict) -> list[Param]:
             params.append(p)
 
     walk(cfg["root"]["struct"], [], [])
+    # Ids never move: a parameter added after a release is named in params.appended and takes an
+    # id after every other one, so that a host script or backup that uses ids keeps working.
+    appended = cfg.get("appended", [])
+    missing = set(appended) - {p.name for p in params}
+    if missing:
+        raise ValueError(f"params.appended names unknown parameters {sorted(missing)}")
+    if len(set(appended)) != len(appended):
+        raise ValueError("params.appended names a parameter twice")
+    late = {name: i for i, name in enumerate(appended)}
+    params = [p for p in params if p.name not in late] + sorted(
+        (p for p in params if p.name in late), key=lambda p: late[p.name]
+    )
+    for i, p in enumerate(params):
+        p.id = i
     names = [p.name for p in params]
     dup = {n for n in names if names.count(n) > 1}
     if dup:

@@ -44,14 +44,14 @@ const proto_param_t params_table[PROTO_N_PARAMS] = {
     {0x43E48277UL, (uint16_t)offsetof(settings_t, fw.est.mu_phi_min_q28), PROTO_PARAM_I32, 0u}, /* 37: est.mu_phi_min */
     {0xE80F6148UL, (uint16_t)offsetof(settings_t, fw.est.mu_phi_max_q28), PROTO_PARAM_I32, 0u}, /* 38: est.mu_phi_max */
     {0x2CD88E0DUL, (uint16_t)offsetof(settings_t, fw.est.t_min_n_q8), PROTO_PARAM_I32, 0u}, /* 39: est.t_min_n */
-    {0x04A9AEF2UL, (uint16_t)offsetof(settings_t, fw.corr.enable), PROTO_PARAM_I32, 0u}, /* 40: corr.enable */
-    {0x097E1077UL, (uint16_t)offsetof(settings_t, fw.corr.ki_shift), PROTO_PARAM_I32, 0u}, /* 41: corr.ki_shift */
-    {0x6DDEAD77UL, (uint16_t)offsetof(settings_t, fw.corr.hold_ticks), PROTO_PARAM_I32, 0u}, /* 42: corr.hold_ticks */
-    {0x992F824BUL, (uint16_t)offsetof(settings_t, fw.corr.limit_q28), PROTO_PARAM_I32, 0u}, /* 43: corr.limit */
-    {0x13DA56A2UL, (uint16_t)offsetof(settings_t, fw.corr.tare_ticks), PROTO_PARAM_I32, 0u}, /* 44: corr.tare_ticks */
-    {0x94A54B75UL, (uint16_t)offsetof(settings_t, fw.corr.tare_max_n_q8), PROTO_PARAM_I32, 0u}, /* 45: corr.tare_max_n */
-    {0x748AF127UL, (uint16_t)offsetof(settings_t, fw.corr.slide_gate), PROTO_PARAM_I32, 0u}, /* 46: corr.slide_gate */
-    {0x546CBBF4UL, (uint16_t)offsetof(settings_t, fw.corr.offset_term), PROTO_PARAM_I32, 0u}, /* 47: corr.offset_term */
-    {0xA4E9F30AUL, (uint16_t)offsetof(settings_t, dev.telemetry_div), PROTO_PARAM_U32, 0u}, /* 48: dev.telemetry_div */
-    {0xC4FD1CC2UL, (uint16_t)offsetof(settings_t, dev.can_node), PROTO_PARAM_U32, 0u}, /* 49: dev.can_node */
+    {0xA4E9F30AUL, (uint16_t)offsetof(settings_t, dev.telemetry_div), PROTO_PARAM_U32, 0u}, /* 40: dev.telemetry_div */
+    {0xC4FD1CC2UL, (uint16_t)offsetof(settings_t, dev.can_node), PROTO_PARAM_U32, 0u}, /* 41: dev.can_node */
+    {0x04A9AEF2UL, (uint16_t)offsetof(settings_t, fw.corr.enable), PROTO_PARAM_I32, 0u}, /* 42: corr.enable */
+    {0x097E1077UL, (uint16_t)offsetof(settings_t, fw.corr.ki_shift), PROTO_PARAM_I32, 0u}, /* 43: corr.ki_shift */
+    {0x6DDEAD77UL, (uint16_t)offsetof(settings_t, fw.corr.hold_ticks), PROTO_PARAM_I32, 0u}, /* 44: corr.hold_ticks */
+    {0x992F824BUL, (uint16_t)offsetof(settings_t, fw.corr.limit_q28), PROTO_PARAM_I32, 0u}, /* 45: corr.limit */
+    {0x13DA56A2UL, (uint16_t)offsetof(settings_t, fw.corr.tare_ticks), PROTO_PARAM_I32, 0u}, /* 46: corr.tare_ticks */
+    {0x94A54B75UL, (uint16_t)offsetof(settings_t, fw.corr.tare_max_n_q8), PROTO_PARAM_I32, 0u}, /* 47: corr.tare_max_n */
+    {0x748AF127UL, (uint16_t)offsetof(settings_t, fw.corr.slide_gate), PROTO_PARAM_I32, 0u}, /* 48: corr.slide_gate */
+    {0x546CBBF4UL, (uint16_t)offsetof(settings_t, fw.corr.offset_term), PROTO_PARAM_I32, 0u}, /* 49: corr.offset_term */
 };

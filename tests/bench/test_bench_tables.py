@@ -58,6 +58,21 @@ def test_parameters_come_from_the_firmware_configuration():
         assert reply["key"] == q.key == protocol.crc32c(q.name.encode()), q.name
 
 
+def test_no_parameter_id_moves_when_the_configuration_grows():
+    """A parameter added later (params.appended) takes an id after every other one, so that a
+    host script or a backup that uses ids keeps working: the last ids of the first table stay
+    where they were, and the appended ones follow in the order the table lists them."""
+    p = msgs.PARAM_BY_NAME
+    assert [p[n].id for n in ("comp.mode", "est.t_min_n", "dev.telemetry_div", "dev.can_node")] == [
+        3, 39, 40, 41,
+    ]  # fmt: skip
+    raw = json.loads((PROTO / "bowden_proto.json").read_text())
+    appended = raw["params"]["appended"]
+    n = len(msgs.PARAMS)
+    assert [q.name for q in msgs.PARAMS[n - len(appended) :]] == appended
+    assert [q.id for q in msgs.PARAMS] == list(range(n))
+
+
 def _request(dev, name, **fields):
     dev.rx_bytes(
         0,
@@ -101,6 +116,7 @@ def test_generator_refuses_a_bad_table(tmp_path):
         (lambda r: r["messages"][1]["fields"].append(
             {"name": "x", "type": "u32", "count": [0, 20]}), "max_payload"),
         (lambda r: r["params"]["read_only"].append("no.such"), "unknown parameters"),
+        (lambda r: r["params"]["appended"].append("no.such"), "appended names unknown"),
     ):  # fmt: skip
         bad = json.loads(json.dumps(raw))
         change(bad)
