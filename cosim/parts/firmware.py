@@ -158,6 +158,12 @@ class CorrConfig(ctypes.Structure):
         ("tare_max_n_q8", ctypes.c_int32),
         ("slide_gate", ctypes.c_int32),
         ("offset_term", ctypes.c_int32),
+        ("rev_enable", ctypes.c_int32),
+        ("rev_ki_shift", ctypes.c_int32),
+        ("rev_bin_shift", ctypes.c_int32),
+        ("rev_lead_ticks", ctypes.c_int32),
+        ("rev_leak_shift", ctypes.c_int32),
+        ("rev_limit_n_q8", ctypes.c_int32),
     ]
 
 
@@ -409,6 +415,12 @@ class CompensatorParams:
     corr_tare_max_n: float = 0.5
     corr_slide_gate: int = 0
     corr_offset_term: int = 0
+    corr_rev_enable: int = 0
+    corr_rev_ki_shift: int = 4
+    corr_rev_bin_shift: int = 6
+    corr_rev_lead_ticks: int = 0
+    corr_rev_leak_shift: int = 12
+    corr_rev_limit_n: float = 2.0
 
     @property
     def phi_c_rad(self) -> float:
@@ -691,7 +703,9 @@ class CorrectorParams:
     """The far-end output correction (fric_est.h) in SI units: off by default; the integral
     rate 2^-ki_shift per tick, the ticks a branch is held after a change of branch, the bound of
     each branch's relative gain correction, the far-end tare's ticks and the largest T_in during
-    it, and its two options (slide gate, offset term)."""
+    it, its two options (slide gate, offset term) and the reversal table (rate 2^-rev_ki_shift
+    per tick, bins of 2^rev_bin_shift ticks, the error credited rev_lead_ticks back, the leak
+    2^-rev_leak_shift per update, the bound of an entry in N)."""
 
     enable: int = 0  # 0 off, 1 on
     ki_shift: int = 6  # rate 2^-ki_shift per tick, [4, 16]
@@ -701,6 +715,12 @@ class CorrectorParams:
     tare_max_n: float = 0.5  # [0, 8] N
     slide_gate: int = 0  # 1: integrate only while T_out slides with T_ref
     offset_term: int = 0  # 1: an offset per branch besides the gain
+    rev_enable: int = 0  # 1: learn and apply the reversal table
+    rev_ki_shift: int = 4  # [2, 16]
+    rev_bin_shift: int = 6  # [0, 6]
+    rev_lead_ticks: int = 0  # [0, 64]
+    rev_leak_shift: int = 12  # [2, 24]
+    rev_limit_n: float = 2.0  # [0, 8] N
 
     def to_c(self) -> CorrConfig:
         return CorrConfig(
@@ -712,6 +732,12 @@ class CorrectorParams:
             tare_max_n_q8=_fixed("corr.tare_max_n", self.tare_max_n, 8),
             slide_gate=_whole("corr.slide_gate", self.slide_gate, -(2**31), 2**31 - 1, "0 or 1"),
             offset_term=_whole("corr.offset_term", self.offset_term, -(2**31), 2**31 - 1, "0 or 1"),
+            rev_enable=_whole("corr.rev_enable", self.rev_enable, -(2**31), 2**31 - 1, "0 or 1"),
+            rev_ki_shift=_whole("corr.rev_ki_shift", self.rev_ki_shift, -(2**31), 2**31 - 1, "a shift"),
+            rev_bin_shift=_whole("corr.rev_bin_shift", self.rev_bin_shift, -(2**31), 2**31 - 1, "a shift"),
+            rev_lead_ticks=_whole("corr.rev_lead_ticks", self.rev_lead_ticks, -(2**31), 2**31 - 1, "ticks"),
+            rev_leak_shift=_whole("corr.rev_leak_shift", self.rev_leak_shift, -(2**31), 2**31 - 1, "a shift"),
+            rev_limit_n_q8=_fixed("corr.rev_limit_n", self.rev_limit_n, 8),
         )
 
 
@@ -728,6 +754,12 @@ def corrector_from(params) -> CorrectorParams:
         tare_max_n=float(getattr(params, "corr_tare_max_n", d.tare_max_n)),
         slide_gate=int(getattr(params, "corr_slide_gate", d.slide_gate)),
         offset_term=int(getattr(params, "corr_offset_term", d.offset_term)),
+        rev_enable=int(getattr(params, "corr_rev_enable", d.rev_enable)),
+        rev_ki_shift=int(getattr(params, "corr_rev_ki_shift", d.rev_ki_shift)),
+        rev_bin_shift=int(getattr(params, "corr_rev_bin_shift", d.rev_bin_shift)),
+        rev_lead_ticks=int(getattr(params, "corr_rev_lead_ticks", d.rev_lead_ticks)),
+        rev_leak_shift=int(getattr(params, "corr_rev_leak_shift", d.rev_leak_shift)),
+        rev_limit_n=float(getattr(params, "corr_rev_limit_n", d.rev_limit_n)),
     )
 
 

@@ -236,6 +236,38 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
  * (w >> 14), (g_up - g_dn) w16 < 2^47 in int64 (floor); c = T_ref g rounded half up to Q7.8
  * (< 2^45). The double twin (fric_est_f64.h) holds g_b as numbers: every value is an integer
  * multiple of 2^-28 below 2^53 of them, so both are exact and agree bit for bit (unit test).
+ *
+ * Reversal table (rev_enable 1): what a correction held through a reversal cannot reach (a dead
+ * zone wider or more gradual than the model's, breakaway, slack, the drive's lag) is learnt as
+ * the shape of the reversal and added as feedforward from the first tick after the next one.
+ * Per branch b a table of FC_REV_BINS output corrections r_b[k] (Q7.24 N), indexed by the ticks
+ * n since the reversal into b began (the tick the blend w left the other branch's end: the
+ * compensator's branch change, preview_ticks ahead of T_ref's), a bin 2^rev_bin_shift ticks
+ * wide, linear between the nodes and 0 from node FC_REV_BINS on (the table ends without a step):
+ *   r(n) = r_b[k] + (r_b[k+1] - r_b[k]) f 2^-s,  k = n >> s, f = n & (2^s - 1), r_b[BINS] = 0,
+ *   c = g T_ref + o + r(n).
+ * Ticks, not the reference's travel: near a reversal a smooth T_ref barely moves (its travel
+ * grows with the square of the time), so a travel index crowds the ticks where the error is
+ * largest into its first bin, while the compensator's blend and the drive's lag run in ticks.
+ * Learning, per tick under the integrators' conditions (tared, no fault, the anti-windup of
+ * FC_LIM_*, a fresh far-end code: learning on a held one, as a dead zone holds it, let a cell
+ * stuck inside the STUCK band teach the table a 1.8 N error before STUCK latched): the error e
+ * of tick n is credited to the correction applied rev_lead_ticks earlier (the tension loop's and
+ * the cell's lag), m = n - lead, spread over the two nodes of m as they weigh it:
+ *   d = e 2^-rev_ki_shift (Q7.24),  r_b[k] += d (2^s - f) 2^-s,  r_b[k+1] += d f 2^-s (floor),
+ * each node updated then leaks, r <- r - sign(r) ceil(|r| 2^-rev_leak_shift), and is clamped to
+ * +-rev_limit. Two loops in one: within a pass the node being updated is the one applied (lead
+ * 0), so the table is also a local integrator of rate 2^-rev_ki_shift (times the hat weights,
+ * 1/2 .. 1) per tick, whose crossover w_c = (G_plant / G_model) f_tick 2^-rev_ki_shift (1/2 .. 1)
+ * with the loop's lag tau_d (10 ms, firmware/README.md) leaves the phase margin 90 deg - w_c
+ * tau_d and the gain margin (pi / (2 tau_d)) / w_c: rev_ki_shift 4 at a friction ratio up to 1.4,
+ * w_c <= 88 rad/s, 40 deg and 1.8 (rev_ki_shift 3: 175 rad/s, no margin left); across passes
+ * it carries what it learnt to the same ticks of the next reversal (iterative learning), the
+ * leak forgetting 2^(s - rev_leak_shift) per reversal. A fault bleeds the tables as g_b: the
+ * feedforward alone remains.
+ * Formats: r_b in Q7.24 N (|r| <= rev_limit <= 8 N = 2^27); d = e << (16 - rev_ki_shift) in
+ * int64; the spread products < 2^50; r(n) floor in Q7.24, added to the Q.36 sum << 12. The twin
+ * holds r_b as multiples of 2^-24 N below 2^53 of them: exact, bit for bit.
  */
 #define FC_STUCK_TICKS 100            /* ticks of an unchanged far-end code before STUCK can latch */
 #define FC_STUCK_T_MIN_Q8 (Q7_8_ONE / 2) /* ... while T_in, above 0.5 N, left the band */
@@ -249,6 +281,14 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
 #define FC_TARE_T_MAX_Q8 (8 * Q7_8_ONE) /* tare_max in [0, 8] N */
 #define FC_GATE_TICKS 32              /* the slide gate's window, ticks */
 #define FC_GATE_MIN_Q8 16             /* ... over which T_ref moves at least 1/16 N (2 N/s) */
+#define FC_REV_BINS 16                /* reversal table: nodes per branch */
+#define FC_REV_KI_MIN 2               /* rev_ki_shift in [2, 16] */
+#define FC_REV_KI_MAX 16
+#define FC_REV_BIN_MAX 6              /* rev_bin_shift in [0, 6]: bins of 1 .. 64 ticks */
+#define FC_REV_LEAD_MAX 64            /* rev_lead_ticks in [0, 64] */
+#define FC_REV_LEAK_MIN 2             /* rev_leak_shift in [2, 24] */
+#define FC_REV_LEAK_MAX 24
+#define FC_REV_LIMIT_MAX_Q8 (8 * Q7_8_ONE) /* rev_limit in [0, 8] N */
 
 /* Limits the caller reports (fric_corr_step's lim): the command cannot go higher / lower. */
 #define FC_LIM_HI 0x1u
@@ -269,6 +309,8 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
 #define FC_ERR_TARE_MAX 85 /* tare_max outside [0, 8] N */
 #define FC_ERR_GATE 86     /* slide_gate not 0 or 1 */
 #define FC_ERR_OFFSET 87   /* offset_term not 0 or 1 */
+#define FC_ERR_REV 88      /* rev_enable not 0 or 1, or a rev_* shift or lead outside its range */
+#define FC_ERR_REV_LIMIT 89 /* rev_limit outside [0, 8] N */
 
 /* Configuration (a part of fw_config_t; parameters corr.*). */
 typedef struct {
@@ -280,6 +322,12 @@ typedef struct {
     q7_8w_t tare_max_n_q8;   /* largest T_in during the tare, Q7.8 N, [0, 8] */
     int32_t slide_gate;      /* [0, 1]: 1 integrates only while T_out slides with T_ref */
     int32_t offset_term;     /* [0, 1]: 1 adds an offset per branch, c = g T_ref + o_b */
+    int32_t rev_enable;      /* [0, 1]: 1 learns and applies the reversal table */
+    int32_t rev_ki_shift;    /* reversal table's rate 2^-rev_ki_shift per tick, [2, 16] */
+    int32_t rev_bin_shift;   /* a bin of the reversal table is 2^s ticks, [0, 6] */
+    int32_t rev_lead_ticks;  /* the error is credited this many ticks back, [0, 64] */
+    int32_t rev_leak_shift;  /* leak 2^-rev_leak_shift per update of a node, [2, 24] */
+    q7_8w_t rev_limit_n_q8;  /* |r_b[k]| bound, Q7.8 N, [0, 8] */
 } fric_corr_config_t;
 
 typedef struct {
@@ -303,10 +351,16 @@ typedef struct {
     int16_t gate_out[FC_GATE_TICKS];
     uint32_t gate_pos;       /* ring slot of the oldest (the next to overwrite) */
     uint32_t gate_filled;    /* ticks in the ring (saturates at FC_GATE_TICKS) */
+    int32_t rev_q24[2][FC_REV_BINS]; /* reversal tables r_up, r_dn, Q7.24 N */
+    int32_t rev_branch;      /* the branch the last reversal went into (0, 1), -1 none yet */
+    int32_t rev_ticks;       /* ticks since that reversal began (saturating) */
+    int32_t w_prev;          /* the blend of the last tick, Q1.30 (-1 before the first) */
+    int32_t rev_out_q24;     /* r(n) of the last tick, Q7.24 N */
 } fric_corr_t;
 
 /* Defaults: off; ki_shift 6, hold_ticks 30, limit 0.5 and the slide gate off, chosen on the
- * random-plant tuning set (firmware/README.md); tare 64 ticks below 0.5 N. */
+ * random-plant tuning set (firmware/README.md); tare 64 ticks below 0.5 N; the reversal table
+ * off, its rates (firmware/README.md) chosen on the same set. */
 void fric_corr_config_default(fric_corr_config_t *cfg);
 /* FE_OK or the FC_ERR_* of the first bad field (FE_ERR_NULL for a null pointer). */
 int32_t fric_corr_config_check(const fric_corr_config_t *cfg);
@@ -327,6 +381,14 @@ int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_
  * returns 1 when branch b (0 loading, 1 unloading) slides over the window (always 1 with
  * slide_gate 0; 0 until the window is full or for b < 0). */
 int32_t fric_corr_gate(fric_corr_t *c, int32_t t_ref_q8, int32_t t_out_q8, int32_t b);
+/* The reversal table's bookkeeping shared with the double twin: from the blend w (Q1.30,
+ * clamped) finds a reversal's start (w moving the other way than the last reversal's branch)
+ * and counts the ticks since; returns the branch of the reversal in progress, -1 before the
+ * first. */
+int32_t fric_corr_rev_track(fric_corr_t *c, int32_t w_q30);
+/* The reversal table's learning condition of a tick besides the fault, tare and anti-windup:
+ * the far-end code fresh (changed within FC_FRESH_TICKS ticks). */
+int32_t fric_corr_rev_may_learn(const fric_corr_t *c);
 /* The checks of a tick shared with the double twin: adds FC_FAULT_* of the inputs to *faults
  * (ADC flags, range, STUCK run of *c). */
 void fric_corr_check_inputs(fric_corr_t *c, int32_t t_in_q8, int32_t t_out_q8, int32_t code,

@@ -39,14 +39,17 @@ double fric_est_f64_step(fric_est_f64_t *e, int32_t t_in_q8, int32_t t_out_q8, i
 /*
  * The double twin of the far-end output correction (fric_est.h): the same input checks and tare
  * on the same words (the integer part's watch, base), the integrators g_up, g_dn, the blend, the
- * bleed and the correction in double. Every value is a multiple of 2^-28 below 2^53 of them (g)
- * or of 2^-36 N (T_ref g), so it is exact and equals the integer correction's bit for bit (unit
- * test).
+ * bleed, the reversal tables and the correction in double. Every value is a multiple of 2^-28
+ * below 2^53 of them (g), of 2^-24 N (o, r) or of 2^-36 N (T_ref g), so it is exact and equals
+ * the integer correction's bit for bit (unit test). The reversal's bookkeeping (the branch and
+ * the ticks since) is the integer part's, on the same words.
  */
 typedef struct {
     fric_corr_t base;  /* configuration, tare, STUCK run and faults (its integrators unused) */
     double g[2];       /* g_up, g_dn */
     double o[2];       /* o_up, o_dn (offset_term), N */
+    double rev[2][FC_REV_BINS]; /* reversal tables r_up, r_dn, N */
+    double rev_out;    /* r(n) of the last tick, N */
     double out;        /* the correction, N, rounded to 1/256 N */
 } fric_corr_f64_t;
 

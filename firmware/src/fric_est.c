@@ -353,6 +353,12 @@ void fric_corr_config_default(fric_corr_config_t *cfg)
     cfg->tare_max_n_q8 = Q7_8_ONE / 2;
     cfg->slide_gate = 0;
     cfg->offset_term = 0;
+    cfg->rev_enable = 0;
+    cfg->rev_ki_shift = 4;     /* 2^-4 per tick: the margins of fric_est.h */
+    cfg->rev_bin_shift = 6;    /* 16 bins of 64 ticks: 1.02 s after the reversal */
+    cfg->rev_lead_ticks = 0;
+    cfg->rev_leak_shift = 12;  /* 64 updates per reversal: 1/64 of a node per reversal */
+    cfg->rev_limit_n_q8 = 2 * Q7_8_ONE;
 }
 
 int32_t fric_corr_config_check(const fric_corr_config_t *cfg)
@@ -384,6 +390,16 @@ int32_t fric_corr_config_check(const fric_corr_config_t *cfg)
     if (cfg->offset_term != 0 && cfg->offset_term != 1) {
         return FC_ERR_OFFSET;
     }
+    if ((cfg->rev_enable != 0 && cfg->rev_enable != 1) || cfg->rev_ki_shift < FC_REV_KI_MIN ||
+        cfg->rev_ki_shift > FC_REV_KI_MAX || cfg->rev_bin_shift < 0 ||
+        cfg->rev_bin_shift > FC_REV_BIN_MAX || cfg->rev_lead_ticks < 0 ||
+        cfg->rev_lead_ticks > FC_REV_LEAD_MAX || cfg->rev_leak_shift < FC_REV_LEAK_MIN ||
+        cfg->rev_leak_shift > FC_REV_LEAK_MAX) {
+        return FC_ERR_REV;
+    }
+    if (cfg->rev_limit_n_q8 < 0 || cfg->rev_limit_n_q8 > FC_REV_LIMIT_MAX_Q8) {
+        return FC_ERR_REV_LIMIT;
+    }
     return FE_OK;
 }
 
@@ -411,6 +427,15 @@ void fric_corr_reset(fric_corr_t *c)
     }
     c->gate_pos = 0U;
     c->gate_filled = 0U;
+    for (int32_t b = 0; b < 2; ++b) {
+        for (int32_t k = 0; k < FC_REV_BINS; ++k) {
+            c->rev_q24[b][k] = 0;
+        }
+    }
+    c->rev_branch = -1;
+    c->rev_ticks = 0;
+    c->w_prev = -1;
+    c->rev_out_q24 = 0;
 }
 
 void fric_corr_configure(fric_corr_t *c, const fric_corr_config_t *cfg, q3_28_t x0_q28)
@@ -486,11 +511,65 @@ int32_t fric_corr_gate(fric_corr_t *c, int32_t t_ref_q8, int32_t t_out_q8, int32
     return (dref >= FC_GATE_MIN_Q8 && 2 * dout >= dref) ? 1 : 0;
 }
 
-/* v - sign(v) ceil(|v| 2^-s): the bleed, reaching 0 (|v| < 2^31). */
+/* v - sign(v) ceil(|v| 2^-s): the bleed, reaching 0 (|v| < 2^31 - 2^s, s <= 24). */
 static inline int32_t bleed(int32_t v, int32_t s)
 {
     const int32_t r = (INT32_C(1) << s) - 1;
     return (v >= 0) ? v - ((v + r) >> s) : v + ((-v + r) >> s);
+}
+
+int32_t fric_corr_rev_track(fric_corr_t *c, int32_t w_q30)
+{
+    const int32_t b = (w_q30 > c->w_prev) ? 0 : 1; /* the way w moves: 0 loading */
+    if (c->w_prev >= 0 && w_q30 != c->w_prev && b != c->rev_branch) {
+        c->rev_branch = b;
+        c->rev_ticks = 0;
+    } else if (c->rev_branch >= 0 && c->rev_ticks < (INT32_C(1) << 24)) {
+        ++c->rev_ticks;
+    }
+    c->w_prev = w_q30;
+    return c->rev_branch;
+}
+
+int32_t fric_corr_rev_may_learn(const fric_corr_t *c)
+{
+    return (c->same_ticks < (uint32_t)FC_FRESH_TICKS) ? 1 : 0;
+}
+
+/* The reversal table of branch b at tick n (linear between the nodes, 0 from node FC_REV_BINS
+ * on), Q7.24 N: r_k 2^s + (r_k1 - r_k) f < 2^35 in int64, floor. */
+static int32_t rev_value(const fric_corr_t *c, int32_t b, int32_t n)
+{
+    const int32_t s = c->cfg.rev_bin_shift;
+    if (b < 0 || n < 0 || n >= (FC_REV_BINS << s)) {
+        return 0;
+    }
+    const int32_t k = n >> s;
+    const int32_t f = n & ((INT32_C(1) << s) - 1);
+    const int64_t r0 = c->rev_q24[b][k];
+    const int64_t r1 = (k + 1 < FC_REV_BINS) ? c->rev_q24[b][k + 1] : 0;
+    return (int32_t)((r0 * (INT64_C(1) << s) + (r1 - r0) * f) >> s);
+}
+
+/* One learning step of branch b's table at tick m since the reversal for the error e (Q7.8):
+ * d = e << (16 - ki) (|d| < 2^31), its two shares floor(d (2^s - f) 2^-s), floor(d f 2^-s),
+ * then the leak and the clamp to +-rev_limit (Q7.24 = limit_q8 << 16 <= 2^27). */
+static void rev_learn(fric_corr_t *c, int32_t b, int32_t m, int32_t e_q8)
+{
+    const int32_t s = c->cfg.rev_bin_shift;
+    if (m < 0 || m >= (FC_REV_BINS << s)) {
+        return;
+    }
+    const int32_t k = m >> s;
+    const int64_t f = m & ((INT32_C(1) << s) - 1);
+    const int64_t d = (int64_t)e_q8 * (INT64_C(1) << (16 - c->cfg.rev_ki_shift));
+    const int64_t lim = (int64_t)c->cfg.rev_limit_n_q8 * (INT64_C(1) << 16);
+    const int64_t share[2] = {(d * ((INT64_C(1) << s) - f)) >> s, (d * f) >> s};
+    for (int32_t j = 0; j < 2 && k + j < FC_REV_BINS; ++j) {
+        int64_t v = (int64_t)bleed(c->rev_q24[b][k + j], c->cfg.rev_leak_shift) + share[j];
+        v = (v > lim) ? lim : (v < -lim) ? -lim : v;
+        c->rev_q24[b][k + j] = (int32_t)v;
+    }
 }
 
 int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_t t_out_q8,
@@ -527,13 +606,24 @@ int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_
         }
     }
     const int32_t slides = fric_corr_gate(c, t_ref_q8, t_out_q8, full);
+    const int32_t rb = fric_corr_rev_track(c, w_q30);
     if (c->faults != 0U) {
         for (int32_t b = 0; b < 2; ++b) {
             c->g_q28[b] = bleed(c->g_q28[b], FC_BLEED_SHIFT);
             c->o_q24[b] = bleed(c->o_q24[b], FC_BLEED_SHIFT);
+            for (int32_t k = 0; k < FC_REV_BINS; ++k) {
+                c->rev_q24[b][k] = bleed(c->rev_q24[b][k], FC_BLEED_SHIFT);
+            }
         }
-    } else if (c->tared != 0 && full >= 0 && c->held[full] >= c->cfg.hold_ticks && slides != 0 &&
-               c->same_ticks < (uint32_t)FC_FRESH_TICKS) {
+    } else if (c->cfg.rev_enable != 0 && c->tared != 0 && rb >= 0 &&
+               fric_corr_rev_may_learn(c) != 0) {
+        const int32_t e = t_ref_q8 - (t_out_q8 - c->tare_q8); /* |e| < 2^17 */
+        if ((e > 0 && (lim & FC_LIM_HI) == 0U) || (e < 0 && (lim & FC_LIM_LO) == 0U)) {
+            rev_learn(c, rb, c->rev_ticks - c->cfg.rev_lead_ticks, e);
+        }
+    }
+    if (c->faults == 0U && c->tared != 0 && full >= 0 && c->held[full] >= c->cfg.hold_ticks &&
+        slides != 0 && c->same_ticks < (uint32_t)FC_FRESH_TICKS) {
         const int32_t e = t_ref_q8 - (t_out_q8 - c->tare_q8); /* |e| < 2^17 */
         if ((e > 0 && (lim & FC_LIM_HI) == 0U) || (e < 0 && (lim & FC_LIM_LO) == 0U)) {
             const int64_t g_max = c->cfg.limit_q28; /* <= 2^28 */
@@ -564,7 +654,8 @@ int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_
     const int64_t od = (int64_t)c->o_q24[0] - (int64_t)c->o_q24[1]; /* |od| <= 2^29 */
     const int64_t o = (((int64_t)c->o_q24[1] * (INT64_C(1) << 16)) + od * w16) >> 16;
     /* Q7.8 * Q3.28 = Q.36 N (|.| < 2^45), + o in Q.36 (|.| < 2^41). */
-    const int64_t cq = (int64_t)t_ref_q8 * g + o * (INT64_C(1) << 12);
+    c->rev_out_q24 = (c->cfg.rev_enable != 0) ? rev_value(c, rb, c->rev_ticks) : 0;
+    const int64_t cq = (int64_t)t_ref_q8 * g + (o + c->rev_out_q24) * (INT64_C(1) << 12);
     c->out_q8 = (int32_t)((cq + (INT64_C(1) << 27)) >> 28);
     return c->out_q8;
 }

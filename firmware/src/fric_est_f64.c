@@ -108,7 +108,55 @@ void fric_corr_f64_reset(fric_corr_f64_t *c)
     c->g[1] = 0.0;
     c->o[0] = 0.0;
     c->o[1] = 0.0;
+    for (int32_t b = 0; b < 2; ++b) {
+        for (int32_t k = 0; k < FC_REV_BINS; ++k) {
+            c->rev[b][k] = 0.0;
+        }
+    }
+    c->rev_out = 0.0;
     c->out = 0.0;
+}
+
+/* v - sign(v) ceil(|v| 2^-s) in units of 1/q: the integer part's bleed. */
+static double bleed_f64(double v, double q, int32_t s)
+{
+    const double m = ceil(fabs(v) * q * ldexp(1.0, -s)) / q;
+    return (v >= 0.0) ? v - m : v + m;
+}
+
+/* The reversal table of branch b at tick n, N: linear between the nodes, floor to 2^-24 N. */
+static double rev_value_f64(const fric_corr_f64_t *c, int32_t b, int32_t n)
+{
+    const int32_t s = c->base.cfg.rev_bin_shift;
+    if (b < 0 || n < 0 || n >= (FC_REV_BINS << s)) {
+        return 0.0;
+    }
+    const int32_t k = n >> s;
+    const double f = (double)(n & ((1 << s) - 1));
+    const double r0 = c->rev[b][k];
+    const double r1 = (k + 1 < FC_REV_BINS) ? c->rev[b][k + 1] : 0.0;
+    return floor((r0 + (r1 - r0) * f * ldexp(1.0, -s)) * 16777216.0) / 16777216.0;
+}
+
+/* One learning step of branch b's table at tick m for the error e_n (N). */
+static void rev_learn_f64(fric_corr_f64_t *c, int32_t b, int32_t m, double e_n)
+{
+    const fric_corr_config_t *cfg = &c->base.cfg;
+    const int32_t s = cfg->rev_bin_shift;
+    const double q24 = 16777216.0;
+    if (m < 0 || m >= (FC_REV_BINS << s)) {
+        return;
+    }
+    const int32_t k = m >> s;
+    const double f = (double)(m & ((1 << s) - 1));
+    const double d = ldexp(e_n, -cfg->rev_ki_shift);
+    const double lim = (double)cfg->rev_limit_n_q8 / 256.0;
+    const double w = ldexp(1.0, s);
+    const double share[2] = {floor(d * (w - f) / w * q24) / q24, floor(d * f / w * q24) / q24};
+    for (int32_t j = 0; j < 2 && k + j < FC_REV_BINS; ++j) {
+        const double v = bleed_f64(c->rev[b][k + j], q24, cfg->rev_leak_shift) + share[j];
+        c->rev[b][k + j] = fmin(lim, fmax(-lim, v));
+    }
 }
 
 void fric_corr_f64_configure(fric_corr_f64_t *c, const fric_corr_config_t *cfg, q3_28_t x0_q28)
@@ -148,6 +196,7 @@ double fric_corr_f64_step(fric_corr_f64_t *c, int32_t t_ref_q8, int32_t t_in_q8,
         }
     }
     const int32_t slides = fric_corr_gate(b, t_ref_q8, t_out_q8, full);
+    const int32_t rb = fric_corr_rev_track(b, (int32_t)(w * 1073741824.0));
     if (b->faults != 0U) {
         const double f = ldexp(1.0, -FC_BLEED_SHIFT);
         for (int32_t k = 0; k < 2; ++k) {
@@ -156,9 +205,19 @@ double fric_corr_f64_step(fric_corr_f64_t *c, int32_t t_ref_q8, int32_t t_in_q8,
             c->g[k] = (c->g[k] >= 0.0) ? c->g[k] - m : c->g[k] + m;
             const double mo = ceil(fabs(c->o[k]) * q24 * f) / q24;
             c->o[k] = (c->o[k] >= 0.0) ? c->o[k] - mo : c->o[k] + mo;
+            for (int32_t j = 0; j < FC_REV_BINS; ++j) {
+                c->rev[k][j] = bleed_f64(c->rev[k][j], q24, FC_BLEED_SHIFT);
+            }
         }
-    } else if (b->tared != 0 && full >= 0 && b->held[full] >= cfg->hold_ticks && slides != 0 &&
-               b->same_ticks < (uint32_t)FC_FRESH_TICKS) {
+    } else if (cfg->rev_enable != 0 && b->tared != 0 && rb >= 0 &&
+               fric_corr_rev_may_learn(b) != 0) {
+        const double e_n = ((double)t_ref_q8 - ((double)t_out_q8 - (double)b->tare_q8)) / 256.0;
+        if ((e_n > 0.0 && (lim & FC_LIM_HI) == 0U) || (e_n < 0.0 && (lim & FC_LIM_LO) == 0U)) {
+            rev_learn_f64(c, rb, b->rev_ticks - cfg->rev_lead_ticks, e_n);
+        }
+    }
+    if (b->faults == 0U && b->tared != 0 && full >= 0 && b->held[full] >= cfg->hold_ticks &&
+        slides != 0 && b->same_ticks < (uint32_t)FC_FRESH_TICKS) {
         /* e in N, T_ref in N: the step ki e T_ref / (16 N)^2, rounded half up to 2^-28. */
         const double e_n = ((double)t_ref_q8 - ((double)t_out_q8 - (double)b->tare_q8)) / 256.0;
         if ((e_n > 0.0 && (lim & FC_LIM_HI) == 0U) || (e_n < 0.0 && (lim & FC_LIM_LO) == 0U)) {
@@ -177,6 +236,7 @@ double fric_corr_f64_step(fric_corr_f64_t *c, int32_t t_ref_q8, int32_t t_in_q8,
     const double w16 = floor(w * 65536.0) / 65536.0;
     const double g = floor((c->g[1] + (c->g[0] - c->g[1]) * w16) * q28) / q28;
     const double o = floor((c->o[1] + (c->o[0] - c->o[1]) * w16) * q24) / q24;
-    c->out = floor(((double)t_ref_q8 / 256.0 * g + o) * 256.0 + 0.5) / 256.0;
+    c->rev_out = (cfg->rev_enable != 0) ? rev_value_f64(c, rb, b->rev_ticks) : 0.0;
+    c->out = floor(((double)t_ref_q8 / 256.0 * g + o + c->rev_out) * 256.0 + 0.5) / 256.0;
     return c->out;
 }

@@ -54,4 +54,10 @@ const proto_param_t params_table[PROTO_N_PARAMS] = {
     {0x94A54B75UL, (uint16_t)offsetof(settings_t, fw.corr.tare_max_n_q8), PROTO_PARAM_I32, 0u}, /* 47: corr.tare_max_n */
     {0x748AF127UL, (uint16_t)offsetof(settings_t, fw.corr.slide_gate), PROTO_PARAM_I32, 0u}, /* 48: corr.slide_gate */
     {0x546CBBF4UL, (uint16_t)offsetof(settings_t, fw.corr.offset_term), PROTO_PARAM_I32, 0u}, /* 49: corr.offset_term */
+    {0xB88C0C37UL, (uint16_t)offsetof(settings_t, fw.corr.rev_enable), PROTO_PARAM_I32, 0u}, /* 50: corr.rev_enable */
+    {0x13F2AC55UL, (uint16_t)offsetof(settings_t, fw.corr.rev_ki_shift), PROTO_PARAM_I32, 0u}, /* 51: corr.rev_ki_shift */
+    {0xD9E30F04UL, (uint16_t)offsetof(settings_t, fw.corr.rev_bin_shift), PROTO_PARAM_I32, 0u}, /* 52: corr.rev_bin_shift */
+    {0x96D37FEFUL, (uint16_t)offsetof(settings_t, fw.corr.rev_lead_ticks), PROTO_PARAM_I32, 0u}, /* 53: corr.rev_lead_ticks */
+    {0xD3E0A4F9UL, (uint16_t)offsetof(settings_t, fw.corr.rev_leak_shift), PROTO_PARAM_I32, 0u}, /* 54: corr.rev_leak_shift */
+    {0xD89D0E10UL, (uint16_t)offsetof(settings_t, fw.corr.rev_limit_n_q8), PROTO_PARAM_I32, 0u}, /* 55: corr.rev_limit_n */
 };
