@@ -733,10 +733,18 @@ class CorrectorParams:
             slide_gate=_whole("corr.slide_gate", self.slide_gate, -(2**31), 2**31 - 1, "0 or 1"),
             offset_term=_whole("corr.offset_term", self.offset_term, -(2**31), 2**31 - 1, "0 or 1"),
             rev_enable=_whole("corr.rev_enable", self.rev_enable, -(2**31), 2**31 - 1, "0 or 1"),
-            rev_ki_shift=_whole("corr.rev_ki_shift", self.rev_ki_shift, -(2**31), 2**31 - 1, "a shift"),
-            rev_bin_shift=_whole("corr.rev_bin_shift", self.rev_bin_shift, -(2**31), 2**31 - 1, "a shift"),
-            rev_lead_ticks=_whole("corr.rev_lead_ticks", self.rev_lead_ticks, -(2**31), 2**31 - 1, "ticks"),
-            rev_leak_shift=_whole("corr.rev_leak_shift", self.rev_leak_shift, -(2**31), 2**31 - 1, "a shift"),
+            rev_ki_shift=_whole(
+                "corr.rev_ki_shift", self.rev_ki_shift, -(2**31), 2**31 - 1, "a shift"
+            ),
+            rev_bin_shift=_whole(
+                "corr.rev_bin_shift", self.rev_bin_shift, -(2**31), 2**31 - 1, "a shift"
+            ),
+            rev_lead_ticks=_whole(
+                "corr.rev_lead_ticks", self.rev_lead_ticks, -(2**31), 2**31 - 1, "ticks"
+            ),
+            rev_leak_shift=_whole(
+                "corr.rev_leak_shift", self.rev_leak_shift, -(2**31), 2**31 - 1, "a shift"
+            ),
             rev_limit_n_q8=_fixed("corr.rev_limit_n", self.rev_limit_n, 8),
         )
 
