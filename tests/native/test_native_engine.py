@@ -116,10 +116,14 @@ def test_native_matches_cocotb_with_the_online_friction_estimate(builds, failure
 def test_native_matches_cocotb_with_the_far_end_correction(builds, failure):
     """The firmware's far-end output correction (fric_est.h) fed from the far-end cell through
     the board's ADC, on a plant whose mu is 20 % above the calibration, healthy and with the
-    far-end cell stuck then absent: the same correction and record in both engines; it acts, and
-    after the failure it bleeds away."""
+    far-end cell stuck then absent, with its reversal table on: the same correction and record
+    in both engines; it acts, and after the failure it bleeds away."""
     cfg = SimConfig.from_dict(
-        {"compensator": {"corr_enable": 1}, "plant": {"mu": 0.09}, "board": failure}
+        {
+            "compensator": {"corr_enable": 1, "corr_rev_enable": 1},
+            "plant": {"mu": 0.09},
+            "board": failure,
+        }
     )
     fixed, _ = _both("fig14", "preview", "board", FIG14_S, cfg=cfg)
     corr, t = np.abs(fixed["corr_n"]), fixed["t_s"]
