@@ -37,12 +37,12 @@ import json
 import sys
 import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
 from cosim.project.paths import PACKAGE_DIR
+from cosim.studies.workers import process_pool
 
 SPEC = PACKAGE_DIR / "studies" / "sweep" / "examples" / "robustness_estimator.yaml"
 COMP_KEYS = ("compensator.mu", "compensator.offset_n", "compensator.mu_slope_per_n")
@@ -124,6 +124,9 @@ def _stats(values) -> tuple[float, float]:
     return float(np.median(a)), float(a.max())
 
 
+PROG = "calibrated_robustness"
+
+
 def main(argv: list[str] | None = None) -> int:
     from cosim.studies.sweep.spec import SpecError, load_spec  # noqa: PLC0415
 
@@ -164,7 +167,7 @@ def main(argv: list[str] | None = None) -> int:
         members.setdefault(key, []).append(p.values)
     keys = list(plants)[: args.limit]
     t0 = time.perf_counter()
-    with ProcessPoolExecutor(args.workers) as pool:
+    with process_pool(args.workers) as pool:
         jobs = [
             pool.submit(
                 calibrate_plant,
@@ -238,5 +241,13 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def _main_or_interrupted() -> int:
+    try:
+        return main()
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted; its workers are stopped", file=sys.stderr)
+        return 130
+
+
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(_main_or_interrupted())

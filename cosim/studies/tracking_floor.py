@@ -51,12 +51,12 @@ import math
 import sys
 import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
 from cosim.parts.interface import ESCON_DUTY_MAX, ESCON_DUTY_MIN, ESCON_DUTY_RESOLUTION
+from cosim.studies.workers import process_pool
 
 # Horizons of the oracle's prediction (s): the set value is held over the horizon, and T_out at
 # its end is brought to T_ref there. 1 ms excites the cable's mode (about 28 Hz, fmu/README.md A5)
@@ -285,6 +285,9 @@ def summary(points: list[dict], floors: list[dict], modes: dict[str, dict]) -> l
     return lines
 
 
+PROG = "tracking_floor"
+
+
 def main(argv: list[str] | None = None) -> int:
     from cosim.studies.sweep.spec import SpecError, load_spec  # noqa: PLC0415
 
@@ -345,7 +348,7 @@ def main(argv: list[str] | None = None) -> int:
     folder = Path(args.out or tempfile.mkdtemp(prefix="bowden-tracking-floor-"))
     folder.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    with ProcessPoolExecutor(args.workers) as pool:
+    with process_pool(args.workers) as pool:
         floors = list(
             pool.map(floor_point, [str(args.spec)] * len(points), points, [horizons] * len(points))
         )
@@ -366,5 +369,13 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def _main_or_interrupted() -> int:
+    try:
+        return main()
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted; its workers are stopped", file=sys.stderr)
+        return 130
+
+
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(_main_or_interrupted())

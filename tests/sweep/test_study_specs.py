@@ -3,9 +3,16 @@ cosim.studies.tracking_floor) read its plants from the spec's axes, whatever the
 a mode's results by plant and position."""
 
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
 
 import numpy as np
+import pytest
 
+from cosim.project.paths import REPO_ROOT
 from cosim.studies import calibrated_robustness as cr
 from cosim.studies import tracking_floor as tf
 from cosim.studies.sweep.spec import parse_spec
@@ -84,3 +91,29 @@ def test_the_oracles_set_values_are_the_escons_duty_levels():
     levels = tf._levels(4.0)
     assert len(levels) == 801 and levels[0] == -4.0 and levels[-1] == 4.0
     assert np.allclose(np.diff(levels), 0.01)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("study", ["tracking_floor", "calibrated_robustness"])
+def test_ctrl_c_in_a_study_is_one_line_and_leaves_no_worker(tmp_path, study):
+    """Ctrl-C at the terminal (SIGINT to the whole process group) while the workers run: one
+    line, exit 130, and no worker left behind (they would run on for half a minute each)."""
+    spec = REPO_ROOT / "cosim" / "studies" / "sweep" / "examples" / "random_plants_report.yaml"
+    args = ["--spec", str(spec), "--out", str(tmp_path / "out"), "--workers", "1"]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", f"cosim.studies.{study}", *args],
+        cwd=tmp_path,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    time.sleep(6)  # the worker has started its first plant
+    assert proc.poll() is None
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=20)
+    assert proc.returncode == 130, err
+    assert err.strip() == f"{study}: interrupted; its workers are stopped", err
+    time.sleep(0.5)
+    with pytest.raises(ProcessLookupError):
+        os.killpg(proc.pid, 0)  # nobody is left in the group
