@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from cosim.project.paths import PACKAGE_DIR
-from cosim.studies.workers import process_pool
+from cosim.studies.workers import process_pool, run_interruptible
 
 SPEC = PACKAGE_DIR / "studies" / "sweep" / "examples" / "robustness_estimator.yaml"
 COMP_KEYS = ("compensator.mu", "compensator.offset_n", "compensator.mu_slope_per_n")
@@ -241,13 +241,5 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _main_or_interrupted() -> int:
-    try:
-        return main()
-    except KeyboardInterrupt:
-        print(f"{PROG}: interrupted; its workers are stopped", file=sys.stderr)
-        return 130
-
-
 if __name__ == "__main__":
-    raise SystemExit(_main_or_interrupted())
+    raise SystemExit(run_interruptible(main, PROG))

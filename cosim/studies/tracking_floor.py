@@ -56,7 +56,7 @@ from pathlib import Path
 import numpy as np
 
 from cosim.parts.interface import ESCON_DUTY_MAX, ESCON_DUTY_MIN, ESCON_DUTY_RESOLUTION
-from cosim.studies.workers import process_pool
+from cosim.studies.workers import process_pool, run_interruptible
 
 # Horizons of the oracle's prediction (s): the set value is held over the horizon, and T_out at
 # its end is brought to T_ref there. 1 ms excites the cable's mode (about 28 Hz, fmu/README.md A5)
@@ -369,13 +369,5 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _main_or_interrupted() -> int:
-    try:
-        return main()
-    except KeyboardInterrupt:
-        print(f"{PROG}: interrupted; its workers are stopped", file=sys.stderr)
-        return 130
-
-
 if __name__ == "__main__":
-    raise SystemExit(_main_or_interrupted())
+    raise SystemExit(run_interruptible(main, PROG))

@@ -12,7 +12,8 @@ from __future__ import annotations
 import contextlib
 import multiprocessing
 import signal
-from collections.abc import Iterator
+import sys
+from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 
 from cosim import _signals
@@ -35,3 +36,12 @@ def process_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
             child.join(5)
         raise
     pool.shutdown(wait=True)
+
+
+def run_interruptible(main: Callable[[], int], prog: str) -> int:
+    """`main()`, or after Ctrl-C one line and 130 (the shell's code for SIGINT)."""
+    try:
+        return main()
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted; its workers are stopped", file=sys.stderr)
+        return 130
