@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 
 from cosim.audit.params import FIG14_DEFAULT_DURATION_S
-from cosim.project.cliargs import output_dir
+from cosim.project.cliargs import output_dir, unwritable
 
 from . import output_reader_gone
 
@@ -96,6 +96,14 @@ def main(args: argparse.Namespace) -> int:
         )
         return 2
     out_dir = Path(args.out) if args.out else data_path.with_name(data_path.stem + "_audit")
+    emit = Path(args.emit_params) if args.emit_params else None
+    # A path that cannot be written is said before the audit runs, not after a minute of fits.
+    out_name = "--out" if args.out else "the output folder"
+    for option, path, folder in ((out_name, out_dir, True), ("--emit-params", emit, False)):
+        problem = path is not None and unwritable(path, folder)
+        if problem:
+            print(f"bowden audit: {option} cannot be written: {problem}", file=sys.stderr)
+            return 2
     try:
         tr = trace.read_trace(data_path, mode="measured", resample=args.resample)
         data = core.prepare(tr, str(data_path))
@@ -103,7 +111,6 @@ def main(args: argparse.Namespace) -> int:
         print(f"bowden audit: {exc}", file=sys.stderr)
         return 2
     bar = _Bar(not args.quiet)
-    emit = Path(args.emit_params) if args.emit_params else None
     try:
         result = core.run(data, progress=bar)
         emitted = None

@@ -48,6 +48,24 @@ def output_dir(text: str) -> Path:
     return Path(text)
 
 
+def unwritable(path: Path, folder: bool) -> str | None:
+    """Why `path` (a folder to create or fill when `folder`, else a file to create or replace)
+    cannot be written, or None: a part of the way that is a file, or the target itself of the
+    wrong kind. Checked before a long computation, so that its result is not lost to a path
+    that was wrong from the start (permissions are left to the write itself)."""
+    if path.exists():
+        if folder and not path.is_dir():
+            return f"{shown(path)} is a file, not a folder"
+        if not folder and path.is_dir():
+            return f"{shown(path)} is a folder, not a file"
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                return f"{shown(parent)} is a file, not a folder"
+            break
+    return None
+
+
 def subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
     """The subcommand parsers of `parser` by name (empty when it has none)."""
     out: dict[str, argparse.ArgumentParser] = {}

@@ -181,13 +181,29 @@ def test_cli_bad_input_is_one_clear_line(tmp_path, args, code, message):
     assert message in lines[0], lines[0]
 
 
-def test_emit_params_into_a_file_where_a_folder_is_needed_is_one_clear_line(tmp_path):
-    fmu_record(tmp_path, {}, 602, 12.0)
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        (["--emit-params", "blocker/p.json"], "--emit-params"),
+        (["--emit-params", "."], "--emit-params"),
+        (["--out", "blocker"], "--out"),
+        (["--out", "blocker/deeper/report"], "--out"),
+    ],
+)
+def test_an_output_that_cannot_be_written_is_one_clear_line_before_the_audit(tmp_path, args, named):
+    """A file where a folder is needed (or the reverse) is said at once, exit 2, before the
+    minute of fits whose result it would lose; nothing is written. The record here has no T_out
+    column: the output's error comes first, so the record was not even read."""
+    (tmp_path / "rig.csv").write_text("t_s,T_in_N\n0,1\n0.001,1\n")
     (tmp_path / "blocker").write_text("a file")
-    out = _bowden("audit", "rig.csv", "--emit-params", "blocker/p.json", "--quiet", cwd=tmp_path)
-    assert out.returncode == 1
+    before = sorted(tmp_path.rglob("*"))
+    out = _bowden("audit", "rig.csv", *args, "--quiet", cwd=tmp_path)
+    assert out.returncode == 2, out.stderr
     assert "Traceback" not in out.stderr
-    assert out.stderr.strip().startswith("bowden audit:") and "blocker" in out.stderr
+    line = out.stderr.strip()
+    assert "\n" not in line and line.startswith(f"bowden audit: {named} cannot be written:"), line
+    assert "blocker" in line or "'.'" in line or " . " in line, line
+    assert sorted(tmp_path.rglob("*")) == before
 
 
 @pytest.mark.parametrize(
