@@ -80,7 +80,7 @@ class AuditData:
     source: str
     t_s: np.ndarray  # uniform sample times
     t_in_meas_n: np.ndarray  # input tension as measured
-    t_out_n: np.ndarray  # output tension as measured: what the model must predict
+    t_out_n: np.ndarray  # output tension as measured (less its lines): what the model predicts
     inputs: twin.PlantInputs  # what drives the twin and the FMU (smoothed T_in, phi, z)
     positions_m: np.ndarray | None
     roles: np.ndarray  # FIT, SELECT, REPORT or WARMUP per sample
@@ -97,6 +97,16 @@ class AuditData:
     block_note: str = ""  # why the block length is not the default (a periodic input)
     mu_from_compensator: bool = False  # the sidecar's mu was the compensator's: not used
     sampling_error_n: float = 0.0  # the nominal model's uncertainty from the sampling (run)
+    # narrow lines the input does not explain (cosim.audit.lines), found in the nominal model's
+    # residual and taken out of t_out_n before any candidate is fitted or judged (run); their
+    # sum, so that the output as measured is t_out_n + lines_n
+    lines: tuple = ()
+    lines_n: np.ndarray | None = None
+
+    @property
+    def t_out_meas_n(self) -> np.ndarray:
+        """The output tension as measured, lines and all (t_out_n is without the lines)."""
+        return self.t_out_n if self.lines_n is None else self.t_out_n + self.lines_n
 
     @property
     def has_positions(self) -> bool:

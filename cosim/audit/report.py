@@ -163,7 +163,16 @@ def to_dict(result: AuditResult) -> dict:
             "gain_pct": _num(result.gain_pct, 4),
             "holdout": "the report blocks (split.report_blocks_s): no fit and no decision saw them",
             "noise_floor_n": _num(d.noise_floor_n),
+            "output": "T_out less lines_removed_before_fits" if d.lines else "T_out as measured",
         },
+        "lines_removed_before_fits": [
+            {
+                "freq_hz": _num(ln.freq_hz),
+                "amplitude_n": _num(ln.amplitude_n),
+                "mains_hz": ln.mains_hz,
+            }
+            for ln in d.lines
+        ],
         "unexplained": unexpl,
         "warnings": list(result.warnings),
         "wall_s": _num(result.wall_s, 4),
@@ -231,11 +240,19 @@ def summary(result: AuditResult) -> str:
         f"{result.holdout_rms_after_n:.4f} N (twin within {result.twin_fmu_max_diff_n:.1e} N)",
         f"  gain     held-out (report blocks) {result.holdout_rms_before_n:.4f} -> "
         f"{result.holdout_rms_after_n:.4f} N: {result.gain_pct:.1f} % of the residual variance; "
-        f"noise floor {d.noise_floor_n:.4f} N",
+        f"noise floor {d.noise_floor_n:.4f} N" + _less_lines(d),
         "  left     " + unexplained_text(result.unexplained),
     ]
     lines += [f"  warning  {w}" for w in result.warnings]
     return "\n".join(lines)
+
+
+def _less_lines(d) -> str:
+    """The note that the fits and their figures saw the output less its lines."""
+    if not d.lines:
+        return ""
+    freqs = ", ".join(f"{ln.freq_hz:.2f}" for ln in d.lines)
+    return f" (T_out less its line{'s' if len(d.lines) > 1 else ''} at {freqs} Hz)"
 
 
 def unexplained_text(u: dict) -> str:
@@ -245,7 +262,28 @@ def unexplained_text(u: dict) -> str:
         f"{'white' if u['white'] else 'not white'} (largest autocorrelation "
         f"{u['max_autocorrelation']:.2f}), spectral peak at {u['peak_hz']:.2f} Hz "
         f"({u['peak_to_median_psd']:.0f}x the median), follows {follows or 'no signal'}; "
-        f"sits {'; '.join(u.get('where') or []) or 'nowhere in particular'}"
+        f"sits {'; '.join(u.get('where') or []) or 'nowhere in particular'}; "
+        + lines_text(u.get("lines", []))
+    )
+
+
+def lines_text(lines: list[dict]) -> str:
+    """The residual's lines (cosim.audit.lines) in words."""
+    if not lines:
+        return "no line the input does not explain"
+    parts = []
+    for ln in lines:
+        mains = " or ".join(f"{m:g}" for m in ln["mains_hz"])
+        parts.append(
+            f"{ln['freq_hz']:.2f} Hz of {ln['amplitude_n']:.4f} N amplitude "
+            f"({ln['share_pct']:.0f} % of its variance"
+            + (f", a multiple of the {mains} Hz mains" if mains else "")
+            + (", taken out of the output before the fits" if ln["removed_before_fits"] else "")
+            + ")"
+        )
+    return (
+        f"{'a line' if len(lines) == 1 else f'{len(lines)} lines'} the input does not explain, "
+        "which no cause of the vocabulary makes: " + "; ".join(parts)
     )
 
 
@@ -269,14 +307,15 @@ def plots(out_dir: Path, result: AuditResult) -> list[str]:
     """Write the PNGs; return their file names."""
     d = result.data
     t = d.t_s
-    base_r = d.t_out_n - result.fmu_baseline
-    ext_r = d.t_out_n - result.fmu_extended
+    # as measured, lines and all: the spectrum shows what was taken out (unexplained["lines"])
+    base_r = d.t_out_meas_n - result.fmu_baseline
+    ext_r = d.t_out_meas_n - result.fmu_extended
     held = (d.roles == SELECT) | (d.roles == REPORT)
     names = []
 
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True, height_ratios=[2, 1.3])
     ax1.plot(t, d.t_in_meas_n, color="tab:blue", lw=0.6, label="T_in measured")
-    ax1.plot(t, d.t_out_n, color="k", lw=0.6, label="T_out measured")
+    ax1.plot(t, d.t_out_meas_n, color="k", lw=0.6, label="T_out measured")
     ax1.plot(t, result.fmu_baseline, color="tab:orange", lw=0.7, label="T_out nominal model")
     if result.findings:
         ax1.plot(t, result.fmu_extended, color="tab:red", lw=0.7, ls="--", label="T_out extended")
@@ -369,7 +408,7 @@ def plots(out_dir: Path, result: AuditResult) -> list[str]:
 
     idx = _pick(len(t), scored)
     fig, ax = plt.subplots(figsize=(6, 5))
-    ax.scatter(d.t_in_meas_n[idx], d.t_out_n[idx], s=2, color="k", label="measured")
+    ax.scatter(d.t_in_meas_n[idx], d.t_out_meas_n[idx], s=2, color="k", label="measured")
     ax.scatter(
         d.t_in_meas_n[idx],
         result.fmu_baseline[idx],
@@ -492,7 +531,7 @@ def markdown(result: AuditResult, data: dict, plot_names: list[str]) -> str:
         "",
         f"On the report blocks: {g['holdout_rms_before_n']:.4f} N -> "
         f"{g['holdout_rms_after_n']:.4f} N RMS, {g['gain_pct']:.1f} % of the residual variance "
-        f"removed; noise floor {g['noise_floor_n']:.4f} N.",
+        f"removed; noise floor {g['noise_floor_n']:.4f} N{_less_lines(d)}.",
         "",
         "## What is left",
         "",

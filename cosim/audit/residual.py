@@ -12,6 +12,7 @@ from scipy.signal import fftconvolve, welch
 
 from cosim.results import trace as trace_mod
 
+from . import lines
 from .data import REPORT, SELECT, WARMUP, AuditData
 
 # The unexplained residual is "white" when no autocorrelation at lags up to WHITE_LAGS_S exceeds
@@ -36,9 +37,10 @@ def _acf(x: np.ndarray) -> np.ndarray:
     return full[: max(1, len(xc) // 4)]
 
 
-def describe_residual(data: AuditData, resid: np.ndarray) -> dict:
+def describe_residual(data: AuditData, resid: np.ndarray, min_line_rms_n: float) -> dict:
     """Size, whiteness, dominant frequency and correlated signals of a residual, on the
-    held-out (selection and report) blocks; the spectrum over the scored record."""
+    held-out (selection and report) blocks; the spectrum and its lines (cosim.audit.lines: those
+    of at least min_line_rms_n RMS) over the scored record."""
     held = (data.roles == SELECT) | (data.roles == REPORT)
     r = resid[held]
     rms = float(np.sqrt(np.mean(r * r)))
@@ -82,6 +84,18 @@ def describe_residual(data: AuditData, resid: np.ndarray) -> dict:
         key=lambda n: -abs(corr[n]),
     )
     where, parts, outliers = locate(data, resid, held)
+    # the lines of what is left, each with its share of the scored residual's variance and
+    # whether it was taken out before the fits (core.run: data.lines)
+    var = float(np.var(scored))
+    found = [
+        {
+            **line.describe(var),
+            "removed_before_fits": any(
+                abs(line.freq_hz - taken.freq_hz) <= line.bin_hz for taken in data.lines
+            ),
+        }
+        for line in lines.find(data, resid, min_line_rms_n)
+    ]
     return {
         "rms_n": rms,
         "where": where,
@@ -92,6 +106,7 @@ def describe_residual(data: AuditData, resid: np.ndarray) -> dict:
         "max_autocorrelation": max_acf,
         "peak_hz": float(f[k]),
         "peak_to_median_psd": peak_ratio,
+        "lines": found,
         "correlates": correlates,
         "correlations": {n: round(c, 4) for n, c in corr.items()},
         "correlation_se": {n: round(v, 4) for n, v in se.items()},
