@@ -12,7 +12,9 @@ saw. See cosim/audit/core.py for the method and docs/design.md ("Model audit") f
 
 Modules: `effects` (the vocabulary), `twin` (the FMU's physics for fitting, and the FMU run),
 `data` (the record made ready, its blocks), `fit` (the models), `decision` (the rule over the
-selection blocks as folds), `residual` (what is left), `plausible` (refusals and warnings),
+selection blocks as folds), `lines` (narrow lines the input does not explain, such as mains
+pickup: taken out before the fits, described with what is left), `residual` (what is left),
+`plausible` (refusals and warnings),
 `core` (the steps in order, the result), `report` (audit.json, report.md, plots), `params`
 (`--emit-params` and the fig14 comparison); the command line is cosim/cli/audit.py.
 """

@@ -16,7 +16,10 @@ The steps (modules: data, fit, decision, residual):
    blocks, which nothing else saw.
 2. **Baseline.** The FMU's nominal physics (capstan friction with the dead zone, phi from the
    geometry) fitted with mu (the product mu*phi when there are no positions) and the spread of
-   the friction thresholds that makes the dead zone's turn gradual (dead_zone_spread).
+   the friction thresholds that makes the dead zone's turn gradual (dead_zone_spread). Narrow
+   lines in its residual that the input does not explain (mains pickup, a motor's cogging:
+   cosim.audit.lines) are taken out of the output, fitted on the fit blocks, and the baseline
+   is fitted again: no cause makes such a line, so none may be judged on one.
 3. **Candidates.** Each cause of the vocabulary is added in turn to the current model and all
    parameters are refitted together on the fit blocks; its score is the share of the selection
    blocks' residual mean square it removes.
@@ -29,8 +32,9 @@ The steps (modules: data, fit, decision, residual):
    ambiguous, naming the alternative.
 5. **Report.** The baseline and the extended model are run through the FMU itself (drive mode 1,
    the measured input tension and positions, one internal step per sample: twin.fmu_step_for);
-   their residuals on the report blocks are the gain. What is left is described: size,
-   whiteness, dominant frequency, the signals it follows.
+   their residuals on the report blocks are the gain (of the output less its lines). What is
+   left (of the output as measured) is described: size, whiteness, dominant frequency, its
+   lines, the signals it follows.
 """
 
 from __future__ import annotations

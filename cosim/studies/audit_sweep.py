@@ -4,7 +4,9 @@ For every cause of the vocabulary, two random causes at once, no effect and a 50
 N seeds each (argument, default 3), FMU data of 30 s are made with the effects at random
 magnitudes (the ranges of test_audit_causes.py), audited, and the outcome printed: the causes
 named with their explains_pct, their values against the hidden ones, held-out RMS before/after
-and the noise floor. Exits non-zero when a cause is missed or a wrong one is named.
+and the noise floor, and the lines left (cosim.audit.lines). Exits non-zero when a cause is missed
+or a wrong one is named, when the pickup is not left as one line at the mains, or when a case
+without it reports a line.
 """
 
 from __future__ import annotations
@@ -56,8 +58,12 @@ def main() -> int:
             wall = time.perf_counter() - t0
         found = sorted(f.effect.cause for f in res.findings)
         ok = found == expected and not any(f.ambiguous_with for f in res.findings)
-        if cause == "hum":
+        left = res.unexplained["lines"]
+        if cause == "hum":  # left as one line at the mains (cosim.audit.lines)
             ok = ok and abs(res.unexplained["peak_hz"] - 50.0) < 0.5
+            ok = ok and len(left) == 1 and left[0]["mains_hz"] == [50.0]
+        else:
+            ok = ok and not left
         bad += not ok
         hidden = ", ".join(f"{k}={v:.4g}" for k, v in effect.items()) or "none"
         shown = (
@@ -71,6 +77,7 @@ def main() -> int:
         if cause == "hum":
             hidden = f"{hum[0]:.3f} N at 50 Hz"
             shown += f"; left peaks at {res.unexplained['peak_hz']:.2f} Hz"
+        shown += "".join(f"; line {ln['freq_hz']:.2f} Hz {ln['amplitude_n']:.3f} N" for ln in left)
         print(
             f"{cause or 'none':<28}{seed:>6}  {hidden:<30}{shown:<44}"
             f"{res.holdout_rms_before_n:>8.4f}{res.holdout_rms_after_n:>8.4f}"

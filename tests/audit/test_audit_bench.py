@@ -74,6 +74,9 @@ def test_emulator_recording_without_effects_gives_no_finding(audits):
     assert found == []
     assert res.holdout_rms_before_n <= RESIDUAL_BUDGET_N
     assert res.unexplained["rms_n"] <= RESIDUAL_BUDGET_N
+    # the sine's harmonics in the residual are the input's, and under one LSB: no line
+    # (cosim.audit.lines)
+    assert res.data.lines == () and res.unexplained["lines"] == []
     # the compensator's drops at the reversals were kept as recorded, not smoothed over
     d = res.data
     assert np.max(np.abs(np.diff(d.t_in_meas_n))) > 1.0

@@ -6,7 +6,8 @@ switched on at a random magnitude (drawn here from the case's seed; the audit re
 and a sidecar without mu). Required per named case: the cause right and not ambiguous, its value
 close, the held-out residual brought close to the noise floor. Also: two effects at once (both
 named), none (no finding), and a disturbance outside the vocabulary (50 Hz mains pickup on the
-output sensor) that must stay unexplained with its frequency. The many-seed sweep of every cause
+output sensor) that must stay unexplained, described as a line (tests/audit/test_audit_lines.py
+has more); no case without one reports a line. The many-seed sweep of every cause
 is `make audit-sweep` (cosim/studies/audit_sweep.py).
 """
 
@@ -103,6 +104,8 @@ def test_audit_names_the_hidden_effect(tmp_path, cause, test_cache_dir):
     assert f.explains_pct > 0 and res.gain_pct > 0
     # the reported figure comes from the FMU, and the fitting twin agrees with it
     assert res.twin_fmu_max_diff_n < 1e-4
+    # what the cause leaves in the nominal model's residual is no line (cosim.audit.lines)
+    assert res.data.lines == () and res.unexplained["lines"] == [], res.unexplained["lines"]
 
 
 def test_audit_names_two_effects_at_once(tmp_path, test_cache_dir):
@@ -115,6 +118,7 @@ def test_audit_names_two_effects_at_once(tmp_path, test_cache_dir):
     assert named["bending_angle_error"] == pytest.approx(-0.6, rel=0.15)
     assert all(f.ambiguous_with is None for f in res.findings)
     assert res.holdout_rms_after_n <= FLOOR_FACTOR * res.data.noise_floor_n
+    assert res.unexplained["lines"] == []
     # ordered by importance
     assert [f.explains_pct for f in res.findings] == sorted(
         (f.explains_pct for f in res.findings), reverse=True
@@ -142,6 +146,7 @@ def test_audit_claims_no_gain_without_an_effect(tmp_path, test_cache_dir):
     assert res.holdout_rms_after_n == res.holdout_rms_before_n
     assert res.gain_pct == 0.0
     assert res.unexplained["white"] is True
+    assert res.unexplained["lines"] == [] and res.data.lines == ()
     assert res.holdout_rms_before_n <= FLOOR_FACTOR * res.data.noise_floor_n
     # every candidate was tried and fell short of the rule on the selection blocks
     assert {c.effect.cause for c in res.rounds[0].candidates} == set(SEEDS)
@@ -158,3 +163,9 @@ def test_mains_pickup_stays_unexplained_with_its_frequency(tmp_path, test_cache_
     assert u["peak_to_median_psd"] > 100
     # 0.06 N amplitude: 0.042 N RMS of hum on 0.03 N of noise
     assert u["rms_n"] == pytest.approx(np.hypot(0.03, 0.06 / np.sqrt(2)), rel=0.1)
+    # described as a line, a multiple of the 50 Hz mains, and taken out before the fits
+    (line,) = u["lines"]
+    assert line["freq_hz"] == pytest.approx(50.0, abs=0.5)
+    assert line["amplitude_n"] == pytest.approx(0.06, rel=0.2)
+    assert line["mains_hz"] == [50.0] and line["removed_before_fits"] is True
+    assert line["share_pct"] == pytest.approx(100 * 0.0018 / (0.0018 + 0.0009), abs=10.0)

@@ -149,6 +149,8 @@ def test_cli_reads_a_bowden_sim_trace(tmp_path):
     # cause explains, 0.1 % of the 15 N reference (0.0002 N with the ideal interface).
     assert data["gain"]["holdout_rms_before_n"] < 0.05
     assert data["unexplained"]["rms_n"] < 0.05
+    # fig14's 0.5 Hz sine leaves no line (cosim.audit.lines): its harmonics are the input's
+    assert data["lines_removed_before_fits"] == [] and data["unexplained"]["lines"] == []
 
 
 @pytest.mark.parametrize(

@@ -81,3 +81,4 @@ def test_audit_finds_the_rollers_offset_on_a_rig_it_did_not_model(tmp_path, test
     assert res.data.noise_floor_n == pytest.approx(NOISE_N, rel=0.1)
     assert res.holdout_rms_after_n <= 1.15 * res.data.noise_floor_n
     assert res.gain_pct > 90.0
+    assert res.unexplained["lines"] == []  # the ramps' residual holds no line

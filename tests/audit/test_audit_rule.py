@@ -35,10 +35,15 @@ CLEAN = {
     ),
 }
 DISTURBED = {
-    "50 Hz pickup 0.05 N": (dict(seed=23, mu=0.09, spread=0.35, periodic=(0.05, 50.0)), 50.0),
+    "50 Hz pickup 0.05 N": (
+        dict(seed=23, mu=0.09, spread=0.35, periodic=(0.05, 50.0)),
+        50.0,
+        [50.0],  # a multiple of the mains (cosim.audit.lines)
+    ),
     "13.7 Hz pump 0.08 N": (
         dict(seed=24, mu=0.075, spread=0.25, drive="ramp", periodic=(0.08, 13.7)),
         13.7,
+        [],
     ),
 }
 NAMED = {
@@ -76,19 +81,25 @@ def test_a_clean_rig_names_nothing_and_leaves_noise(tmp_path, case, test_cache_d
     assert 0.5 * CLEAN[case]["spread"] < spread < 2.0 * CLEAN[case]["spread"], spread
     assert res.holdout_rms_before_n <= FLOOR_FACTOR * res.data.noise_floor_n
     assert res.holdout_rms_after_n == res.holdout_rms_before_n
+    assert res.unexplained["lines"] == []
 
 
 @pytest.mark.parametrize("case", list(DISTURBED))
 def test_a_disturbance_outside_the_vocabulary_is_unexplained_and_located(
     tmp_path, case, test_cache_dir
 ):
-    kw, freq = DISTURBED[case]
+    kw, freq, mains = DISTURBED[case]
     res = _audit(tmp_path, kw, test_cache_dir)
     assert res.findings == [], _named(res)
     u = res.unexplained
     assert u["white"] is False
     assert u["peak_hz"] == pytest.approx(freq, abs=0.5)
     assert u["peak_to_median_psd"] > 20
+    # a line, taken out of the output before the fits and described with what is left
+    (line,) = u["lines"]
+    assert line["freq_hz"] == pytest.approx(freq, abs=0.5)
+    assert line["amplitude_n"] == pytest.approx(kw["periodic"][0], rel=0.2)
+    assert line["mains_hz"] == mains and line["removed_before_fits"] is True
 
 
 @pytest.mark.parametrize("case", list(NAMED))
@@ -105,6 +116,7 @@ def test_a_hidden_cause_on_the_rig_is_named_alone_and_brought_to_the_floor(
     assert res.holdout_rms_after_n <= FLOOR_FACTOR * res.data.noise_floor_n
     _honest(res)
     assert np.isfinite(res.twin_fmu_max_diff_n) and res.twin_fmu_max_diff_n < 1e-4
+    assert res.unexplained["lines"] == []
 
 
 # Where what is left sits (cosim.audit.residual.locate; its thresholds written once, not tuned
@@ -123,6 +135,8 @@ def test_what_is_left_is_located(tmp_path, case, test_cache_dir):
     res = _audit(tmp_path, LOCATED[case], test_cache_dir)
     assert res.findings == [], _named(res)
     u = res.unexplained
+    # neither spikes nor a ringing that decays within 80 ms is a line (cosim.audit.lines)
+    assert u["lines"] == [], u["lines"]
     if "spikes" in LOCATED[case]:
         # the held-out blocks hold about half the record's 40 spikes
         assert 10 <= u["outliers"]["count"] <= 30, u["outliers"]
