@@ -11,12 +11,16 @@ from pathlib import Path
 
 import cocotb
 import pythondata_cpu_picorv32
-from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
+from cocotb.clock import Clock
+from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge, Timer
 
 from cosim.bench.link import protocol
 from cosim.project.paths import BUILD_DIR, HDL_DIR
 
 CLK_HZ = 24_000_000
+# The simulated clock's period (start_clock). Every count is in clocks, so the period only
+# places the edges in simulated time, where `clocks` finds them.
+CLK_PERIOD_NS = 40
 BAUD = 921_600
 BIT_CLKS = (CLK_HZ + BAUD // 2) // BAUD  # 26
 FW_HEX = BUILD_DIR / "firmware" / "soc" / "bowden_fw.hex"
@@ -41,6 +45,24 @@ def soc_sources(tb: bool = True):
     return [picorv32_source(), *rtl, *soc, *(sim if tb else [])]
 
 
+def start_clock(dut) -> None:
+    """The SoC's clock on dut.clk, edges at whole multiples of CLK_PERIOD_NS / 2."""
+    cocotb.start_soon(Clock(dut.clk, CLK_PERIOD_NS, unit="ns").start())
+
+
+async def clocks(dut, n: int) -> None:
+    """Wait until the n-th rising edge of dut.clk from now: ClockCycles(dut.clk, n) with one timer
+    and one edge instead of a Python wake-up at each of the n edges (which took most of a long
+    simulation's time). From an edge, the timer ends half a period before the n-th edge, so it
+    is that edge whichever order the simulator runs the two events of one time step in. (From
+    between edges, more than half a period after the last, it is the edge after.)"""
+    if n < 3:
+        await ClockCycles(dut.clk, n)
+        return
+    await Timer((n - 1) * CLK_PERIOD_NS + CLK_PERIOD_NS // 2, unit="ns")
+    await RisingEdge(dut.clk)
+
+
 class Uart:
     """Both directions of the SoC's UART at bit level: `send` drives uart_rx, a background
     receiver collects every byte on uart_tx (`rx`), with framing errors counted."""
@@ -56,14 +78,14 @@ class Uart:
         d = self.dut
         while True:
             await FallingEdge(d.uart_tx)
-            await ClockCycles(d.clk, BIT_CLKS // 2)
+            await clocks(d, BIT_CLKS // 2)
             if int(d.uart_tx.value):
                 continue  # glitch
             byte = 0
             for i in range(8):
-                await ClockCycles(d.clk, BIT_CLKS)
+                await clocks(d, BIT_CLKS)
                 byte |= int(d.uart_tx.value) << i
-            await ClockCycles(d.clk, BIT_CLKS)
+            await clocks(d, BIT_CLKS)
             if not int(d.uart_tx.value):
                 self.frame_errors += 1
             self.rx.append(byte)
@@ -73,7 +95,7 @@ class Uart:
         for b in data:
             for bit in [0, *((b >> i) & 1 for i in range(8)), 1]:
                 d.uart_rx.value = bit
-                await ClockCycles(d.clk, BIT_CLKS)
+                await clocks(d, BIT_CLKS)
 
 
 class Bench:
@@ -110,7 +132,7 @@ class Bench:
                 if f.seq == self.seq and f.msg != msg and not f.name.startswith("TELEM"):
                     self.frames.remove(f)
                     return f
-            await ClockCycles(self.dut.clk, 2000)
+            await clocks(self.dut, 2000)
             waited += 2000
         return None
 
@@ -123,7 +145,7 @@ async def wait_mark(dut, value: int, max_clks: int) -> int:
     """Clocks until the firmware writes `value` to its phase word (AssertionError past max)."""
     n = 0
     while mark(dut) != value:
-        await ClockCycles(dut.clk, 1000)
+        await clocks(dut, 1000)
         n += 1000
         assert not int(dut.cpu_trap.value), "the CPU trapped"
         assert n <= max_clks, f"phase {value} not reached in {max_clks} clocks (at {mark(dut)})"
@@ -132,6 +154,6 @@ async def wait_mark(dut, value: int, max_clks: int) -> int:
 
 async def reset(dut, clks: int = 20):
     dut.rst.value = 1
-    await ClockCycles(dut.clk, clks)
+    await clocks(dut, clks)
     dut.rst.value = 0
     await RisingEdge(dut.clk)

