@@ -3,7 +3,10 @@
 import contextlib
 import threading
 
+import audit_cache
 import pytest
+
+from cosim.audit import core
 
 
 @contextlib.contextmanager
@@ -29,3 +32,10 @@ def _kept_alive(client, period_s: float = 0.05):
 def kept_alive():
     """`with kept_alive(client): ...` feeds the device's host watchdog from client meanwhile."""
     return _kept_alive
+
+
+@pytest.fixture(autouse=True)
+def _audits_reused(monkeypatch, test_cache_dir):
+    """The audits a bench procedure runs in this process (calibrate's, of the recording it made)
+    reused by input hash, as the audit tests' own (tests/audit/audit_cache.py)."""
+    monkeypatch.setattr(core, "run", audit_cache.run_cached(test_cache_dir))
