@@ -10,6 +10,7 @@ findings on a plant that had none (cosim.audit.core.smooth_input)."""
 
 from __future__ import annotations
 
+import audit_cache
 import numpy as np
 import pytest
 from scipy.signal import savgol_filter
@@ -19,7 +20,6 @@ from cosim.bench.emulate.emulator import SteppedLink
 from cosim.bench.emulate.host_device import ChainConfig
 from cosim.bench.link.client import BenchClient
 from cosim.bench.link.recorder import record_run
-from cosim.results import trace
 
 # The audit needs 10 s (1 s of warm-up: the loop starts from rest). With 12 s the default
 # blocks (0.5 s) would lock to the 0.5 Hz sine (a 2 s fit/selection/fit/report cycle): the
@@ -58,13 +58,12 @@ def _record(folder, plant: dict | None):
 
 
 @pytest.fixture(scope="module")
-def audits(tmp_path_factory):
+def audits(tmp_path_factory, test_cache_dir):
     out = {}
     cases = (("none", None), ("offset", {"sensor_offset": OFFSET_N}), ("mu", {"mu": PLANT_MU}))
     for name, plant in cases:
         path = _record(tmp_path_factory.mktemp(name), plant)
-        tr = trace.read_trace(path, "measured")
-        out[name] = core.run(core.prepare(tr, str(path)))
+        out[name] = audit_cache.audit(path, test_cache_dir)
     return out
 
 
