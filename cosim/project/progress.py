@@ -10,7 +10,10 @@ from typing import TextIO
 class Progress:
     """Redraws one stderr line at most every `interval_s` of wall time.
 
-    `update(k)` is cheap enough to call every few hundred samples from a simulation loop.
+    `update(k)` is cheap enough to call every few hundred samples from a simulation loop. On a
+    stream that is not a terminal (a log file, a pipe) nothing is redrawn: the bar is written
+    once, as its last state, when it closes, so that a log holds one line per run instead of
+    every redraw run together.
     """
 
     def __init__(
@@ -32,9 +35,11 @@ class Progress:
         self.width = width
         self.start = time.perf_counter()
         self._last = -1e9
+        isatty = getattr(self.stream, "isatty", None)
+        self.live = bool(isatty and isatty())
 
     def update(self, done: int, force: bool = False) -> None:
-        if not self.enabled:
+        if not self.enabled or not (self.live or force):
             return
         now = time.perf_counter()
         if not force and now - self._last < self.interval_s:
@@ -46,8 +51,9 @@ class Progress:
         sim = done / self.sample_rate_hz
         speed = sim / wall if wall > 0 else 0.0
         bar = "#" * filled + "-" * (self.width - filled)
+        lead = "\r" if self.live else ""  # redrawn over itself on a terminal only
         self.stream.write(
-            f"\r{self.label:<24} [{bar}] {100 * frac:5.1f} %  {sim:6.2f}/"
+            f"{lead}{self.label:<24} [{bar}] {100 * frac:5.1f} %  {sim:6.2f}/"
             f"{self.total / self.sample_rate_hz:.2f} s sim  {wall:6.1f} s wall  "
             f"x{speed:.2f} real time"
         )
