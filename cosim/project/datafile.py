@@ -1,5 +1,6 @@
-"""Strict reading of the JSON files a user hands the project (a params file, a backup, a device
-parameter file): one reader, so every command refuses the same things with the same words.
+"""Strict reading of the files a user hands the project (a params file, a backup, a device
+parameter file, a sweep specification): one reader, so every command refuses the same things
+with the same words (read_text for any text file, read_json for the JSON ones).
 
 Refused, each as one line naming the file: a path that is not a regular file (a FIFO or a device
 would block the open or the read), a file larger than any such file can be, text that is not
@@ -59,17 +60,19 @@ class DataFileError(ValueError):
     """A file that cannot be used: one line naming the file and the problem."""
 
 
-def read_json(
+def read_text(
     path: str | Path,
     what: str = "a file",
-    not_json: str = "JSON",
+    not_kind: str = "text",
     *,
     name: str | None = None,
     error: type[ValueError] = DataFileError,
-) -> object:
-    """The JSON document in `path`, read strictly (see the module). `what` names the file
-    expected ("a backup file"), `not_json` what it is not when it does not parse ("a JSON
-    backup"), `name` how the file is shown (default: the path as given); errors are `error`."""
+) -> str:
+    """The UTF-8 text of `path`, read strictly: a regular file (not a FIFO or a device, which
+    could block or never end), at most MAX_FILE_BYTES, not empty; a byte-order mark dropped.
+    `what` names the file expected ("a backup file"), `not_kind` what it is not when it is not
+    UTF-8 ("a JSON backup"), `name` how the file is shown (default: the path as given); errors
+    are `error`, one line each."""
     if not str(path).strip():
         raise error(f"an empty file name: expected {what}")
     path = Path(path)
@@ -92,11 +95,28 @@ def read_json(
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise error(
-            f"{name} is not {not_json} (not UTF-8 text: byte 0x{raw[exc.start]:02x} at offset "
+            f"{name} is not {not_kind} (not UTF-8 text: byte 0x{raw[exc.start]:02x} at offset "
             f"{exc.start})"
         ) from None
     if not text.strip():
         raise error(f"{name} is empty: expected {what}")
+    return text
+
+
+def read_json(
+    path: str | Path,
+    what: str = "a file",
+    not_json: str = "JSON",
+    *,
+    name: str | None = None,
+    error: type[ValueError] = DataFileError,
+) -> object:
+    """The JSON document in `path`, read strictly (see the module and read_text). `what` names
+    the file expected ("a backup file"), `not_json` what it is not when it does not parse ("a
+    JSON backup"), `name` how the file is shown (default: the path as given); errors are
+    `error`."""
+    name = str(path) if name is None else name
+    text = read_text(path, what, not_json, name=name, error=error)
     try:
         return json.loads(text, object_pairs_hook=unique_keys, parse_int=parse_int)
     except DuplicateKeyError as exc:

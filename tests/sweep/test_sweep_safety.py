@@ -6,6 +6,7 @@ one line. Hypothesis keeps the spec's refusals one line for any such input."""
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -465,3 +466,31 @@ def test_workers_with_a_scheduler_is_a_usage_error(tmp_path, capsys):
     assert rc == 2, err
     assert err.count("\n") == 1 and "--workers" in err and "--scheduler" in err, err
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    "kind, words",
+    [
+        ("missing", "does not exist"),
+        ("folder", "is a folder"),
+        ("fifo", "is not a regular file"),
+        ("binary", "not UTF-8"),
+        ("empty", "is empty"),
+    ],
+)
+def test_a_spec_that_is_no_text_file_is_one_line_without_blocking(tmp_path, kind, words):
+    """The reader every command shares (cosim.project.datafile.read_text): a FIFO would block the
+    read forever, so it is refused before it is opened."""
+    path = tmp_path / "spec.yaml"
+    if kind == "folder":
+        path.mkdir()
+    elif kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "binary":
+        path.write_bytes(b"axes:\n  mu: [\xff]\n")
+    elif kind == "empty":
+        path.write_text("  \n")
+    with pytest.raises(SpecError) as exc:
+        load_spec(path)
+    message = str(exc.value)
+    assert "\n" not in message and words in message and str(path) in message, message

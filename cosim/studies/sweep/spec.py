@@ -41,7 +41,7 @@ from cosim.config.run import COMPENSATORS, SimConfig
 from cosim.config.scenarios import SCENARIO_NAMES
 from cosim.parts.interface import INTERFACES
 from cosim.project.cliargs import shown
-from cosim.project.datafile import INT_DIGITS, HugeInt
+from cosim.project.datafile import INT_DIGITS, HugeInt, read_text
 
 TOP_KEYS = ("scenario", "duration_s", "interface", "sampling", "samples", "seed", "config", "axes")
 PLAIN_AXES = ("scenario", "interface", "compensator", "loop_routing", "position_m")
@@ -213,14 +213,8 @@ def load_spec(path: str | Path) -> SweepSpec:
 
     p = Path(path)
     name = shown(p)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise SpecError(f"{name}: file does not exist") from None
-    except UnicodeDecodeError:
-        raise SpecError(f"{name}: not UTF-8 text; expected a YAML sweep specification") from None
-    except OSError as exc:
-        raise SpecError(f"{name}: cannot read ({exc.strerror or exc})") from None
+    text = read_text(p, "a YAML sweep specification", "a YAML sweep specification", name=name,
+                     error=SpecError)  # fmt: skip
     try:
         data = yaml.load(text, Loader=unique_key_loader())  # noqa: S506 (a SafeLoader)
     except DuplicateKeyError as exc:
