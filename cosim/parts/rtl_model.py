@@ -177,8 +177,14 @@ class TensionLoopModel:
 
     # --- the sample ----------------------------------------------------------------------------
 
-    def tick(self) -> LoopOutput:
-        """One sample tick; returns the state the RTL shows at out_valid."""
+    def tick(self, group_stop: bool = False) -> LoopOutput:
+        """One sample tick; returns the state the RTL shows at out_valid.
+
+        `group_stop` is tension_loop_mc's safety group: another channel of this one's group had
+        a latched fault at the tick, and this channel, unless its own faults say otherwise, runs
+        the sample as under a watchdog-only fault (u one ramp step towards zero, integrator 0).
+        tension_loop.v has no group: False.
+        """
         r = self.regs
         self.sample_count = (self.sample_count + 1) & 0xFFFFFFFF
 
@@ -201,8 +207,10 @@ class TensionLoopModel:
                 detect |= regmap.FAULT_OVERCURRENT
         self.faults = (0 if fclr else self.faults) | detect
         self.stale_cnt, self.wdt_cnt, self.oc_cnt = stale_now, wdt_now, oc_base
-        run = self.enable and self.faults == 0
-        ramp = self.enable and self.faults == regmap.FAULT_WATCHDOG
+        run = self.enable and self.faults == 0 and not group_stop
+        ramp = self.enable and (
+            self.faults == regmap.FAULT_WATCHDOG or (self.faults == 0 and group_stop)
+        )
         integ_prev = 0 if self.integ_reset_pending else self.integ
         self.fresh = self.tc_written = False
         self.integ_reset_pending = self.fault_clear_pending = False
@@ -261,6 +269,42 @@ class TensionLoopModel:
             tc_eff=self.tc_eff,
             sample_count=self.sample_count,
         )
+
+
+class TensionLoopMcModel:
+    """Bit-exact model of tension_loop_mc.v: N TensionLoopModel channels and their safety groups.
+
+    `groups[k]` is channel k's group id (the RTL's GROUP parameter). At each tick a channel whose
+    group holds another channel with a latched fault (as latched before the tick) runs with
+    `group_stop`; every other channel is exactly a TensionLoopModel. Drive `channels[k]` with
+    `write` and `adc_sample` as a single loop; `tick()` returns the N LoopOutputs the RTL shows
+    at out_valid.
+    """
+
+    def __init__(self, groups: list[int], wdt_ramp_step: int = WDT_RAMP_STEP) -> None:
+        if not groups:
+            raise ValueError("groups=[] : expected one group id per channel, at least one channel")
+        self.groups = list(groups)
+        self.channels = [TensionLoopModel(wdt_ramp_step=wdt_ramp_step) for _ in self.groups]
+        self.group_stop = [False] * len(self.groups)
+
+    def reset(self) -> None:
+        """State after `rst`."""
+        for ch in self.channels:
+            ch.reset()
+        self.group_stop = [False] * len(self.groups)
+
+    def tick(self) -> list[LoopOutput]:
+        """One period: every channel's sample, with the group stops of the faults at the tick."""
+        n = len(self.channels)
+        self.group_stop = [
+            any(
+                j != k and self.groups[j] == self.groups[k] and self.channels[j].faults
+                for j in range(n)
+            )
+            for k in range(n)
+        ]
+        return [ch.tick(stop) for ch, stop in zip(self.channels, self.group_stop, strict=True)]
 
 
 @dataclass
