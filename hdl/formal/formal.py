@@ -52,16 +52,18 @@ ASSERT_STMT = re.compile(r"(?:(\w+)\s*:\s*)?(assert\s*\(|`TL_ENV\s*\()")
 @dataclass(frozen=True)
 class Property:
     name: str
-    module: str  # file under hdl/rtl/
+    module: str  # file under hdl/rtl/ (or hdl/formal/, a proof's top)
     meaning: str
     asserts: int  # labelled assertions under the tag
 
 
-def properties(rtl_dir: Path = RTL_DIR) -> tuple[list[Property], list[str]]:
-    """Every named property of the RTL's FORMAL blocks, and the rule breaks found on the way."""
+def properties(*dirs: Path) -> tuple[list[Property], list[str]]:
+    """Every named property of the FORMAL blocks in `dirs` (default: the RTL's, and the proof
+    tops of hdl/formal/ such as the isolation miter), and the rule breaks found on the way."""
     props: list[Property] = []
     errors: list[str] = []
-    for path in sorted(rtl_dir.glob("*.v")):
+    paths = [p for d in (dirs or (RTL_DIR, FORMAL_DIR)) for p in sorted(d.glob("*.v"))]
+    for path in paths:
         text = path.read_text()
         start = text.find("`ifdef FORMAL")
         if start < 0:
@@ -135,6 +137,14 @@ TASKS = [
     "pwm_escon:prove_1mhz",
     "pwm_escon:cover",
     "ads131m02_reader:prove",
+    "tension_loop_mc:prove_n4",
+    "tension_loop_mc:cover",
+    "tension_loop_mc:prove",
+    "tension_loop_mc_iso:pair_j0",
+    "tension_loop_mc_iso:pair_j1",
+    "tension_loop_mc_iso:apart_j0",
+    "tension_loop_mc_iso:apart_j1",
+    "tension_loop_mc_iso:cover",
 ]
 
 
@@ -151,6 +161,63 @@ class Mutant:
 
 
 MUTANTS = [
+    Mutant(
+        "group_stop_ignored",
+        "mc_stop_ramp",
+        "tension_loop_mc.v",
+        "        run_next = en_cfg && (faults_now == 4'd0) && !grp_c;",
+        "        run_next = en_cfg && (faults_now == 4'd0);",
+        "tension_loop_mc:bmc",
+    ),
+    Mutant(
+        "group_stop_drive_left_on",
+        "mc_stop_ramp",
+        "tension_loop_mc.v",
+        "            out_en_next[ch_reg] = ramp_reg && ramp_nz_reg;",
+        "            out_en_next[ch_reg] = ramp_reg;",
+        "tension_loop_mc:bmc",
+    ),
+    Mutant(
+        "group_stop_taken_mid_period",
+        "mc_group_stop_set",
+        "tension_loop_mc.v",
+        "    grp_t_next = tick ? grp_now : grp_t_reg;",
+        "    grp_t_next = grp_now;",
+        "tension_loop_mc:bmc",
+    ),
+    Mutant(
+        "u_low_clamp_one_past",
+        "mc_ramp_bound",
+        "tension_loop_mc.v",
+        "        nlim_next = -{1'b0, lim_cfg};",
+        "        nlim_next = ~{1'b0, lim_cfg};",
+        "tension_loop_mc:bmc",
+    ),
+    Mutant(
+        "group_membership_ignored",
+        "mc_isolation",
+        "tension_loop_mc.v",
+        "            if (gj != gk && GROUP[gj*GROUP_W +: GROUP_W] == "
+        "GROUP[gk*GROUP_W +: GROUP_W]) begin : g_same",
+        "            if (gj != gk) begin : g_same",
+        "tension_loop_mc_iso:bmc_apart",
+    ),
+    Mutant(
+        "windup_reads_any_channel",
+        "mc_isolation",
+        "tension_loop_mc.v",
+        "wire        sat_hi_c = sat_hi_reg[ch_reg];",
+        "wire        sat_hi_c = |sat_hi_reg;",
+        "tension_loop_mc_iso:bmc_pair",
+    ),
+    Mutant(
+        "integ_reset_keeps_last_slot",
+        "mc_isolation",
+        "tension_loop_mc.v",
+        "        iprev_next = irst_c ? 32'd0 : integ_c;",
+        "        iprev_next = irst_c ? iprev_reg : integ_c;",
+        "tension_loop_mc_iso:bmc_apart",
+    ),
     Mutant(
         "drdy_timeout_stopped",
         "ads_drdy_lost",

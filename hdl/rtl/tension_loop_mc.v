@@ -96,6 +96,18 @@ module tension_loop_mc #(
     output wire [N*32-1:0] integ,        // Q3.28 A
     output wire [N*16-1:0] tc_eff,       // Q7.8 N
     output wire [31:0]     sample_count
+`ifdef FORMAL
+    ,
+    /*
+     * Formal only: the state between samples, for the isolation proof's two copies
+     * (hdl/formal/tension_loop_mc_iso.v), which compares them; channel k in [k*W +: W]
+     */
+    output wire [N*168-1:0] f_chan_state,  // kept from sample to sample
+    output wire [N*28-1:0]  f_chan_tick,   // the events taken at the tick (read in the period)
+    output wire [56:0]      f_ctl_state,   // the schedule and the sample count
+    output wire [13*128-1:0] f_pipe_state  // the slot's pipeline, each register from the clock
+                                           // after its slot writes it (0 before)
+`endif
 );
 
 localparam LATENCY_CH = 15;             // clocks of one channel's slot (tension_loop's LATENCY)
@@ -643,6 +655,217 @@ assign t_in = t_in_reg;
 assign integ = integ_reg;
 assign tc_eff = tc_eff_reg;
 assign sample_count = sample_cnt_reg;
+
+`ifdef FORMAL
+// --- formal properties (hdl/formal/tension_loop_mc.sby; hdl/README.md says what is proven) -
+//
+// The safety groups' properties mc_* against shadows of the period and of the faults at the
+// tick (f_* registers). The environment (reset at start, ticks at least LATENCY clocks apart) is
+// assumed when this module is the top of a proof. The arithmetic of each channel is
+// tension_loop's, simulated bit-exact against the model; its single-loop properties are
+// tension_loop.sby's.
+`ifdef FORMAL_TENSION_LOOP_MC_TOP
+`define TL_ENV assume
+`else
+`define TL_ENV assert
+`endif
+
+localparam [3:0] F_LC_LAST = LATENCY_CH - 1;  // the slot's last clock (tension_loop's 14)
+localparam integer F_UMAX = 32767;            // the largest |u| (I_LIMIT is 15 bits)
+localparam integer F_STEP = WDT_RAMP_STEP;
+localparam integer F_RAMP_N = (F_UMAX + F_STEP - 1) / F_STEP;  // ramp samples from any u to 0
+localparam F_AGE_W = $clog2(F_RAMP_N + 1);
+localparam [F_AGE_W-1:0] F_AGE_MAX = F_RAMP_N;
+
+reg f_past_valid = 1'b0;
+always @(posedge clk) f_past_valid <= 1'b1;
+
+always @* if (!f_past_valid) assume(rst);
+
+// Shadow of the period: running, the channel in its slot, the clock within the slot.
+reg            f_run = 1'b0;
+reg [CH_W-1:0] f_ch = {CH_W{1'b0}};
+reg [3:0]      f_lc = 4'd0;
+always @(posedge clk) begin
+    if (rst) begin
+        f_run <= 1'b0;
+        f_ch <= {CH_W{1'b0}};
+        f_lc <= 4'd0;
+    end else if (tick) begin
+        f_run <= 1'b1;
+        f_ch <= {CH_W{1'b0}};
+        f_lc <= 4'd0;
+    end else if (f_run) begin
+        if (f_lc == F_LC_LAST) begin
+            f_lc <= 4'd0;
+            if (f_ch == CH_LAST) f_run <= 1'b0;
+            else f_ch <= f_ch + 1'b1;
+        end else begin
+            f_lc <= f_lc + 4'd1;
+        end
+    end
+end
+
+// property mc_tick_spacing: a tick comes only when no period is running, at least LATENCY clocks after the last (assumed when tension_loop_mc is the top)
+always @* if (f_past_valid && !rst && tick) mc_tick_spacing: `TL_ENV(!f_run);
+
+wire [LATENCY_CH-2:0] f_seq_exp = (f_run && f_lc != 4'd0) ?
+                                  {{(LATENCY_CH-2){1'b0}}, 1'b1} << (f_lc - 4'd1) :
+                                  {(LATENCY_CH-1){1'b0}};
+always @* if (f_past_valid && !rst) begin
+    // property mc_schedule: the sequencer is the shadow's position in the period: one slot at a time, in channel order (induction helper)
+    mc_schedule: assert(start_reg == (f_run && f_lc == 4'd0));
+    mc_schedule_2: assert(seq_reg == f_seq_exp);
+    mc_schedule_3: assert(ch_reg == (f_run ? f_ch : {CH_W{1'b0}}));
+    mc_schedule_4: assert(busy_reg == (f_run && !(f_ch == CH_LAST && f_lc == F_LC_LAST)));
+    mc_schedule_5: assert(f_ch <= CH_LAST && f_lc <= F_LC_LAST);
+end
+
+// The group stop each channel should see: another channel of its group has a latched fault.
+reg [N-1:0] f_partner_fault;
+reg [N-1:0] f_pf;  // at the last tick
+integer fi, fj;
+always @* begin
+    for (fi = 0; fi < N; fi = fi + 1) begin
+        f_partner_fault[fi] = 1'b0;
+        for (fj = 0; fj < N; fj = fj + 1)
+            if (fj != fi && GROUP[fj*GROUP_W +: GROUP_W] == GROUP[fi*GROUP_W +: GROUP_W] &&
+                faults[fj*4 +: 4] != 4'd0)
+                f_partner_fault[fi] = 1'b1;
+    end
+end
+always @(posedge clk) begin
+    if (rst) f_pf <= {N{1'b0}};
+    else if (tick) f_pf <= f_partner_fault;
+end
+// property mc_group_stop_set: a channel's group stop for a period is set exactly when, at its tick, another channel of its group had a latched fault
+always @* if (f_past_valid && !rst) mc_group_stop_set: assert(grp_t_reg == f_pf);
+
+// The watchdog ramp of a command: towards zero by WDT_RAMP_STEP, never past it.
+function [15:0] f_ramp;
+    input [15:0] x;
+    begin
+        if ($signed(x) > $signed(WDT_RAMP_STEP)) f_ramp = x - WDT_RAMP_STEP;
+        else if ($signed(x) < -$signed(WDT_RAMP_STEP)) f_ramp = x + WDT_RAMP_STEP;
+        else f_ramp = 16'd0;
+    end
+endfunction
+
+// The ramp bound: |u| after `age` stopped samples in a row (F_UMAX - age * WDT_RAMP_STEP, 0 from
+// F_RAMP_N on).
+function signed [31:0] f_bound;
+    input [F_AGE_W-1:0] age;
+    begin
+        if (age >= F_AGE_MAX) f_bound = 32'sd0;
+        else f_bound = F_UMAX - $signed({{(32-F_AGE_W){1'b0}}, age}) * F_STEP;
+    end
+endfunction
+
+// The slot's last clock, and whether its channel is stopped this sample: the group stop of the
+// period or a fault of its own.
+wire f_end = f_run && f_lc == F_LC_LAST;
+wire f_stop = grp_c || fault_c != 4'd0;
+reg            f_end_d = 1'b0;  // the clock after a slot's last: its channel's outputs are new
+reg [CH_W-1:0] f_ch_d;
+reg            f_stop_d;
+reg            f_grp_only_d;    // stopped by the group alone (no fault of its own)
+reg [15:0]     f_uprev_d;       // u before the sample
+reg [N*F_AGE_W-1:0] f_age = {(N*F_AGE_W){1'b0}};  // per channel: stopped samples in a row
+integer fa;
+always @(posedge clk) begin
+    f_end_d <= f_end && !rst;
+    f_ch_d <= f_ch;
+    f_stop_d <= f_stop;
+    f_grp_only_d <= grp_c && fault_c == 4'd0;
+    f_uprev_d <= u_c;
+    for (fa = 0; fa < N; fa = fa + 1)
+        if (rst) f_age[fa*F_AGE_W +: F_AGE_W] <= {F_AGE_W{1'b0}};
+        else if (f_end && f_ch == fa)
+            f_age[fa*F_AGE_W +: F_AGE_W] <= !f_stop ? {F_AGE_W{1'b0}} :
+                (f_age[fa*F_AGE_W +: F_AGE_W] == F_AGE_MAX) ? F_AGE_MAX :
+                f_age[fa*F_AGE_W +: F_AGE_W] + 1'b1;
+end
+
+wire [15:0] f_u_d = u_reg[f_ch_d*16 +: 16];  // the finished channel's new u
+// property mc_stop_ramp: a stopped sample (group stop or own fault) moves u one WDT_RAMP_STEP towards zero or to zero, the drive on only while u is not 0, the integrator 0
+always @* if (f_past_valid && !rst && f_end_d && f_stop_d) begin
+    mc_stop_ramp: assert(f_u_d == f_ramp(f_uprev_d) || f_u_d == 16'd0);
+    mc_stop_ramp_2: assert(out_en_reg[f_ch_d] == (f_u_d != 16'd0));
+    mc_stop_ramp_3: assert(integ_reg[f_ch_d*32 +: 32] == 32'd0 && !sat_hi_reg[f_ch_d] && !sat_lo_reg[f_ch_d]);
+end
+
+// Every channel against its ramp bound.
+reg [N-1:0] f_in_bound, f_en_follows, f_zero;
+integer fb;
+always @* begin
+    for (fb = 0; fb < N; fb = fb + 1) begin
+        f_in_bound[fb] = $signed(u_reg[fb*16 +: 16]) <= f_bound(f_age[fb*F_AGE_W +: F_AGE_W]) &&
+                         -$signed(u_reg[fb*16 +: 16]) <= f_bound(f_age[fb*F_AGE_W +: F_AGE_W]);
+        f_en_follows[fb] = f_age[fb*F_AGE_W +: F_AGE_W] == {F_AGE_W{1'b0}} ||
+                           out_en_reg[fb] == (u_reg[fb*16 +: 16] != 16'd0);
+        f_zero[fb] = f_age[fb*F_AGE_W +: F_AGE_W] != F_AGE_MAX ||
+                     (u_reg[fb*16 +: 16] == 16'd0 && !out_en_reg[fb]);
+    end
+end
+always @* if (f_past_valid && !rst) begin
+    // property mc_ramp_bound: every channel, after `age` stopped samples in a row: abs(u) <= 32767 - age * WDT_RAMP_STEP (never -32768), the drive on only while u is not 0
+    mc_ramp_bound: assert(&f_in_bound);
+    mc_ramp_bound_2: assert(&f_en_follows);
+    // property mc_group_zero: a fault latched on a channel of a group (its own or another's) brings every channel of the group to u = 0, drive off, within ceil(32767 / WDT_RAMP_STEP) stopped samples, and keeps it there while the fault stays latched
+    mc_group_zero: assert(&f_zero);
+end
+
+// Covers: a partner ramps under a group stop, and reaches zero.
+always @* if (f_past_valid && !rst && f_end_d && f_grp_only_d) begin
+    cover(f_u_d != 16'd0 && f_u_d == f_ramp(f_uprev_d) && f_u_d != f_uprev_d);
+    cover(f_u_d == 16'd0 && f_uprev_d != 16'd0);
+end
+
+// The state between samples, for the isolation proof (tension_loop_mc_iso.v).
+genvar fk;
+generate
+    for (fk = 0; fk < N; fk = fk + 1) begin : g_f_state
+        assign f_chan_tick[fk*28 +: 28] = {raw_t_reg[fk*24 +: 24], fresh_t_reg[fk], tcw_t_reg[fk],
+                                           irst_t_reg[fk], fclr_t_reg[fk]};
+        assign f_chan_state[fk*168 +: 168] = {
+            raw_reg[fk*24 +: 24], fresh_reg[fk], tcw_pend_reg[fk], irst_pend_reg[fk],
+            fclr_pend_reg[fk], grp_t_reg[fk], stale_cnt_reg[fk*17 +: 17],
+            wdt_cnt_reg[fk*17 +: 17], oc_cnt_reg[fk*17 +: 17], fault_reg[fk*4 +: 4],
+            t_in_reg[fk*16 +: 16], u_reg[fk*16 +: 16], out_en_reg[fk], sat_hi_reg[fk],
+            sat_lo_reg[fk], ramp_st_reg[fk], integ_reg[fk*32 +: 32], tc_eff_reg[fk*16 +: 16]};
+    end
+endgenerate
+// The slot's pipeline registers, grouped by the slot clock that writes them, each group shown
+// from the clock after that one to the slot's end (0 before: it still holds the last slot's);
+// the products on the clocks the slot reads them.
+function [127:0] f_after;
+    input [3:0] w;
+    input [127:0] x;
+    begin
+        f_after = (f_run && f_lc > w) ? x : 128'd0;
+    end
+endfunction
+wire f_m1_read = f_run && (f_lc == 4'd3 || f_lc == 4'd4 || f_lc == 4'd9);
+wire f_m2_read = f_run && (f_lc == 4'd6 || f_lc == 4'd9);
+assign f_pipe_state = {
+    f_after(4'd0, {raw_s_reg, fbase_s_reg, diff_reg, hi_s_reg, lo_s_reg, iprev_reg}),
+    f_after(4'd1, {lo_bad_reg, hi_bad_reg, cmp_hi_reg, cmp_lo_reg, nlim_reg}),
+    f_after(4'd2, {det_reg, iphi_reg, iplo_reg, tce_s_reg}),
+    f_after(4'd3, {run_reg, ramp_reg, cal_acc_reg, ihold_reg}),
+    f_after(4'd4, {cal_sum_reg}),
+    f_after(4'd6, {e_reg, ff_reg}),
+    f_after(4'd9, {fp_reg, isum_reg, pi_pos_reg, pi_neg_reg}),
+    f_after(4'd10, {ihi_reg, ilo_reg}),
+    f_after(4'd11, {inew_reg}),
+    f_after(4'd12, {r_reg, ugt_reg, ult_reg, u_dn_reg, u_up_reg}),
+    f_after(4'd13, {rhi_reg, rlo_reg, u_ramp_reg, ramp_nz_reg}),
+    {96'd0, f_m1_read ? m1_p : 32'd0},
+    {96'd0, f_m2_read ? m2_p : 32'd0}};
+assign f_ctl_state = {{(8-CH_W){1'b0}}, ch_reg, start_reg, seq_reg, busy_reg, out_valid_reg,
+                      sample_cnt_reg};
+
+`undef TL_ENV
+`endif
 
 endmodule
 
