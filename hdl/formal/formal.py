@@ -195,12 +195,12 @@ MUTANTS = [
     ),
     Mutant(
         "group_membership_ignored",
-        "mc_isolation",
+        "mc_group_stop_set",
         "tension_loop_mc.v",
         "            if (gj != gk && GROUP[gj*GROUP_W +: GROUP_W] == "
         "GROUP[gk*GROUP_W +: GROUP_W]) begin : g_same",
         "            if (gj != gk) begin : g_same",
-        "tension_loop_mc_iso:bmc_apart",
+        "tension_loop_mc:bmc_apart",
     ),
     Mutant(
         "windup_reads_any_channel",
@@ -217,6 +217,14 @@ MUTANTS = [
         "        iprev_next = irst_c ? 32'd0 : integ_c;",
         "        iprev_next = irst_c ? iprev_reg : integ_c;",
         "tension_loop_mc_iso:bmc_apart",
+    ),
+    Mutant(
+        "slot_keeps_last_raw",
+        "mc_isolation",
+        "tension_loop_mc.v",
+        "        raw_s_next = raw_c;",
+        "        raw_s_next = raw_s_reg;",
+        "tension_loop_mc_iso:bmc_pair",
     ),
     Mutant(
         "drdy_timeout_stopped",
