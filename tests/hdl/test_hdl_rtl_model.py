@@ -6,10 +6,13 @@ import random
 
 import pytest
 
+from cosim.parts import regmap
 from cosim.parts.rtl_model import (
     DEFAULT_ADC_GAIN,
     DEFAULT_ADC_OFFSET,
+    WDT_RAMP_STEP,
     FloatTensionLoop,
+    TensionLoopMcModel,
     TensionLoopModel,
     adc_code_from_tension,
     calibrate,
@@ -111,3 +114,41 @@ def test_slew_limit_moves_tc_by_at_most_slew_per_sample():
     model.write("TC", -32768)  # full-scale step down, still limited
     model.adc_sample(0)
     assert model.tick().tc_eff == 900
+
+
+def test_mc_model_group_stop_follows_the_faults_at_the_tick():
+    """TensionLoopMcModel: a fault latched on channel 0 stops its partner (channel 1) from the
+    next tick, one ramp step a sample down to 0, and leaves the other group (channels 2, 3) equal
+    to plain single-loop models; clearing the fault restarts the partner a tick later."""
+    mc = TensionLoopMcModel([0, 0, 1, 1])
+    plain = [TensionLoopModel() for _ in range(4)]
+    code = adc_code_from_tension(0.0)
+    for m in [*mc.channels, *plain]:
+        for name, value in (("WDT_TIMEOUT", 0), ("OC_TIMEOUT", 0), ("TC", 10 * 256)):
+            m.write(name, value)
+        m.write("CTRL", regmap.CTRL_ENABLE)
+
+    def tick(codes):
+        for k, c in enumerate(codes):
+            mc.channels[k].adc_sample(c)
+            plain[k].adc_sample(c)
+        return mc.tick(), [p.tick() for p in plain]
+
+    for _ in range(5):
+        out, ref = tick([code] * 4)
+    assert out == ref and not any(mc.group_stop)
+    out, ref = tick([-(1 << 23)] + [code] * 3)  # below ADC_MIN's reset value: a range fault
+    assert out[0].faults == regmap.FAULT_ADC_RANGE and out[0].u == 0
+    assert out[1] == ref[1] and not mc.group_stop[1]  # the stop comes with the next tick
+    u1 = out[1].u
+    out, ref = tick([code] * 4)
+    assert mc.group_stop == [False, True, False, False]
+    assert out[1].u == u1 - WDT_RAMP_STEP and out[1].wdt_ramp and out[1].integ == 0
+    assert out[2:] == ref[2:], "the other group did not run on as single loops"
+    mc.channels[0].write("CTRL", regmap.CTRL_ENABLE | regmap.CTRL_FAULT_CLEAR)
+    out, _ = tick([code] * 4)
+    assert out[0].faults == 0 and mc.group_stop[1]  # cleared in this sample, seen at the next
+    out, _ = tick([code] * 4)
+    assert not mc.group_stop[1] and out[1].out_en and not out[1].wdt_ramp
+    with pytest.raises(ValueError, match="groups"):
+        TensionLoopMcModel([])
