@@ -12,6 +12,9 @@ the audit's sources and the numerical libraries' versions). A test that asks for
 keeps its outcome in build/test-cache/ under a digest of those inputs and reuses it while they are
 unchanged; any change to them runs it again. BOWDEN_TEST_CACHE=0 runs everything afresh;
 `make clean` removes the cache.
+
+Nothing outside the checkout: the bench tools' runtime folder ($XDG_RUNTIME_DIR: port locks,
+emulator registrations) is build/test-runtime for the whole run and its subprocesses.
 """
 
 import os
@@ -24,6 +27,12 @@ from cosim.project.paths import BUILD_DIR
 from cosim.project.toolchain import setup_env
 
 setup_env()
+
+# The bench tools' port locks and registrations go to $XDG_RUNTIME_DIR (else the temporary
+# folder): a test run keeps them inside the checkout, as it keeps everything it writes.
+_RUNTIME_DIR = BUILD_DIR / "test-runtime"
+_RUNTIME_DIR.mkdir(mode=0o700, parents=True, exist_ok=True)
+os.environ["XDG_RUNTIME_DIR"] = str(_RUNTIME_DIR)
 
 settings.register_profile(
     "ci",

@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import hashlib
 import os
@@ -100,7 +101,12 @@ class PortLock:
     the holder's pid and command line. The OS drops the lock when its process dies, so a killed
     client never leaves the port locked. (Serial devices are also opened with pyserial's
     `exclusive=True`; a pty or a socket:// URL has only this lock. A CAN node on this machine's
-    bus is locked by its INTERFACE:CHANNEL and node number: `option` names it in the refusal.)"""
+    bus is locked by its INTERFACE:CHANNEL and node number: `option` names it in the refusal.)
+
+    The holder removes the file when it lets go (`close`), so locks do not pile up in the
+    runtime folder, one per port ever opened. Removing a lock file is safe only with the check
+    that follows every flock: a client that waited on the old file finds, once it holds the
+    lock, that the name no longer leads to its file, and starts again on the new one."""
 
     def __init__(self, url: str, option: str = "--port", key: str | None = None) -> None:
         if key is None:
@@ -108,30 +114,48 @@ class PortLock:
         folder = runtime_dir()
         digest = hashlib.sha256(key.encode()).hexdigest()[:16]
         self.path = os.path.join(folder, f"bowden-bench-{digest}.lock")
-        try:
-            self._fd: int | None = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        except OSError as exc:  # every port alike: not a port's problem, the folder's
-            raise LockFolderError(
-                f"cannot make a port lock in {folder} ({exc.strerror}): $XDG_RUNTIME_DIR, or "
-                "the temporary folder without it, must be a folder this user can write"
-            ) from None
-        try:
-            fcntl.flock(self._fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            holder = os.read(self._fd, 512).decode(errors="replace").strip() or "another process"
-            self.close()
-            raise PortBusyError(
-                f"{option} {url}: in use by another client ({holder}): one client at a time "
-                "(a second one would stop the first one's run)",
-                holder,
-            ) from None
+        self._fd: int | None = None
+        while self._fd is None:
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            except OSError as exc:  # every port alike: not a port's problem, the folder's
+                raise LockFolderError(
+                    f"cannot make a port lock in {folder} ({exc.strerror}): $XDG_RUNTIME_DIR, "
+                    "or the temporary folder without it, must be a folder this user can write"
+                ) from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.read(fd, 512).decode(errors="replace").strip() or "another process"
+                os.close(fd)
+                raise PortBusyError(
+                    f"{option} {url}: in use by another client ({holder}): one client at a "
+                    "time (a second one would stop the first one's run)",
+                    holder,
+                ) from None
+            if _same_file(fd, self.path):
+                self._fd = fd
+            else:  # its holder removed it between our open and our flock: take the new one
+                os.close(fd)
         os.ftruncate(self._fd, 0)
         os.pwrite(self._fd, f"pid {os.getpid()}: {' '.join(sys.argv)[:300]}\n".encode(), 0)
 
     def close(self) -> None:
         if self._fd is not None:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(self.path)  # while still held: nobody can hold the name meanwhile
             os.close(self._fd)  # releases the flock
             self._fd = None
+
+
+def _same_file(fd: int, path: str) -> bool:
+    """Whether `path` still names the open file `fd` (not removed, not replaced)."""
+    try:
+        named = os.stat(path)
+    except FileNotFoundError:
+        return False
+    held = os.fstat(fd)
+    return (named.st_dev, named.st_ino) == (held.st_dev, held.st_ino)
 
 
 class SerialLink:
