@@ -93,12 +93,14 @@ def run_cached(cache_dir: Path | None):
     """core.run with its result kept in `cache_dir/audit/` under a digest of the prepared data
     (every array and setting of it but the source's name, which names a test's own folder) and
     the code: for a procedure that audits data it prepared itself (the bench's calibrate, on
-    the stepped emulator's recording, tare taken off), which `audit` cannot key by a file's
-    bytes. With a rule of its own or a progress callback, or cache_dir None, it always runs."""
+    the stepped emulator's recording, tare taken off; `bowden audit` run in the test's process),
+    which `audit` cannot key by a file's bytes. A progress callback sees every step of a fresh
+    audit and, for a reused one, a single last step. With a rule of its own, or cache_dir None,
+    it always runs."""
     original = core.run
 
     def run(data, rule=core.RULE, progress=None):
-        if cache_dir is None or rule is not core.RULE or progress is not None:
+        if cache_dir is None or rule is not core.RULE:
             return original(data, rule, progress)
         h = hashlib.sha256(code_digest())
         h.update(pickle.dumps(dataclasses.replace(data, source=""), protocol=4))
@@ -107,13 +109,15 @@ def run_cached(cache_dir: Path | None):
             with entry.open("rb") as f:
                 res = pickle.load(f)
         except (OSError, EOFError, pickle.UnpicklingError, AttributeError, ImportError):
-            res = original(data)
+            res = original(data, progress=progress)
             entry.parent.mkdir(parents=True, exist_ok=True)
             tmp = entry.with_suffix(f".{os.getpid()}.tmp")
             with tmp.open("wb") as f:
                 pickle.dump(res, f, protocol=pickle.HIGHEST_PROTOCOL)
             tmp.replace(entry)
             return res
+        if progress is not None:
+            progress("reused from the test cache", 1.0)
         return dataclasses.replace(res, data=dataclasses.replace(res.data, source=data.source))
 
     return run

@@ -1,10 +1,16 @@
-"""`bowden audit` from the command line: audit.json in the issue's shape (strict JSON, no NaN),
-report.md and its plots, the summary, --emit-params accepted by `bowden sim --params` with the
-fig14 comparison, a `bowden sim` trace read the same way, and one clear error line per bad input.
-Also the twin against the FMU for every effect parameter."""
+"""`bowden audit` from the command line: audit.json in the documented shape (strict JSON, no
+NaN), report.md and its plots, the summary, --emit-params accepted by `bowden sim --params` with
+the fig14 comparison, a `bowden sim` trace read the same way, and one clear error line per bad
+input. Also the twin against the FMU for every effect parameter.
+
+The bad inputs run `python -m cosim` as a user does (exit codes, the early signal handler); the
+two whole audits run the same `main` in the test's process, so that their fits are reused by
+input hash on a later run (tests/audit/audit_cache.py) as every other audit of the suite is."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import math
 import os
@@ -12,9 +18,11 @@ import subprocess
 import sys
 from pathlib import Path
 
+import audit_cache
 import numpy as np
 import pytest
 
+from cosim import cli
 from cosim.audit import core, twin
 from cosim.audit.synthetic import fmu_record
 from cosim.config.run import load_params
@@ -37,6 +45,19 @@ def _bowden(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
     )
 
 
+def _bowden_here(cache_dir, *args: str, cwd: Path) -> subprocess.CompletedProcess:
+    """`bowden ARGS` run by its `main` in this process, from `cwd`, its audit reused by input
+    hash (`cache_dir` None: run afresh); the outcome in subprocess's shape."""
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(core, "run", audit_cache.run_cached(cache_dir))
+        patch.chdir(cwd)
+        with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+            code = cli.main(list(args))
+    out, err = stdout.getvalue(), stderr.getvalue()
+    return subprocess.CompletedProcess(["bowden", *args], code, out, err)
+
+
 def _no_nan(obj) -> None:
     if isinstance(obj, float):
         assert math.isfinite(obj)
@@ -49,7 +70,7 @@ def _no_nan(obj) -> None:
 
 
 @pytest.fixture(scope="module")
-def offset_run(tmp_path_factory):
+def offset_run(tmp_path_factory, test_cache_dir):
     """One audit, run from another folder with relative paths, of FMU data with a 0.4 N offset
     of the output sensor, with --emit-params."""
     root = tmp_path_factory.mktemp("cli")
@@ -58,7 +79,8 @@ def offset_run(tmp_path_factory):
     fmu_record(data_dir, {"sensor_offset": 0.4}, 601, 20.0, noise_std_n=0.03, mu=0.08)
     work = root / "work"
     work.mkdir()
-    out = _bowden(
+    out = _bowden_here(
+        test_cache_dir,
         "audit",
         "../data/rig.csv",
         "--out",
@@ -123,7 +145,7 @@ def test_cli_emits_params_that_bowden_sim_accepts(offset_run):
     assert "fig14 tracking error" in out.stdout
 
 
-def test_cli_reads_a_bowden_sim_trace(tmp_path):
+def test_cli_reads_a_bowden_sim_trace(tmp_path, test_cache_dir):
     from cosim.config.run import SimConfig
     from cosim.config.scenarios import get_scenario
     from cosim.engines.reference import resolve_phi, run_reference
@@ -139,7 +161,7 @@ def test_cli_reads_a_bowden_sim_trace(tmp_path):
         "scenario": "fig14",
     }
     path = trace.write_trace(tmp_path / "trace.csv", sim.trace_columns(rec), meta)
-    out = _bowden("audit", str(path), "--quiet")
+    out = _bowden_here(test_cache_dir, "audit", str(path), "--quiet", cwd=tmp_path)
     assert out.returncode == 0, out.stderr[-2000:]
     data = json.loads((tmp_path / "trace_audit" / "audit.json").read_text())
     assert data["decimation"] == 5 and data["data"]["mu_given"] == 0.075
