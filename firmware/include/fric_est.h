@@ -156,6 +156,12 @@ q3_28_t fric_est_step(fric_est_t *e, int32_t t_in_q8, int32_t t_out_q8, int32_t 
 
 /* The window's parts of fric_est_step, shared with the double twin (fric_est_f64.c). */
 
+/* The faults a tick's inputs raise, checked even when the estimate is frozen so that every fault
+ * is reported: FE_FAULT_ADC for non-zero front-end flags, FE_FAULT_RANGE for a code outside
+ * [code_min, code_max] or a tension outside Q7.8. */
+uint32_t fric_est_input_faults(int32_t t_in_q8, int32_t t_out_q8, int32_t code, int32_t code_min,
+                               int32_t code_max, uint32_t adc_flags);
+
 /* Empty window: no ticks, no code seen. */
 void fric_est_window_reset(fric_est_window_t *w);
 

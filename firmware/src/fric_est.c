@@ -99,6 +99,20 @@ void fric_est_configure(fric_est_t *e, const fric_est_config_t *cfg, q3_28_t x0_
     fric_est_reset(e, x0_q28);
 }
 
+uint32_t fric_est_input_faults(int32_t t_in_q8, int32_t t_out_q8, int32_t code, int32_t code_min,
+                               int32_t code_max, uint32_t adc_flags)
+{
+    uint32_t faults = 0U;
+    if (adc_flags != 0U) {
+        faults |= FE_FAULT_ADC;
+    }
+    if (code < code_min || code > code_max || t_out_q8 < Q7_8_MIN || t_out_q8 > Q7_8_MAX ||
+        t_in_q8 < Q7_8_MIN || t_in_q8 > Q7_8_MAX) {
+        faults |= FE_FAULT_RANGE;
+    }
+    return faults;
+}
+
 void fric_est_window_reset(fric_est_window_t *w)
 {
     for (int32_t i = 0; i < FE_WINDOW_TICKS; ++i) {
@@ -203,14 +217,7 @@ q3_28_t fric_est_step(fric_est_t *e, int32_t t_in_q8, int32_t t_out_q8, int32_t 
                       int32_t code_min, int32_t code_max, uint32_t adc_flags)
 {
     e->accepted = 0;
-    /* ADC flags and range are checked even when frozen, so that every fault is reported. */
-    if (adc_flags != 0U) {
-        e->faults |= FE_FAULT_ADC;
-    }
-    if (code < code_min || code > code_max || t_out_q8 < Q7_8_MIN || t_out_q8 > Q7_8_MAX ||
-        t_in_q8 < Q7_8_MIN || t_in_q8 > Q7_8_MAX) {
-        e->faults |= FE_FAULT_RANGE;
-    }
+    e->faults |= fric_est_input_faults(t_in_q8, t_out_q8, code, code_min, code_max, adc_flags);
     if (e->faults != 0U) {
         return e->x; /* frozen until the next reset */
     }

@@ -33,14 +33,7 @@ double fric_est_f64_step(fric_est_f64_t *e, int32_t t_in_q8, int32_t t_out_q8, i
 {
     const double q28 = 268435456.0;
     e->accepted = 0;
-    /* ADC flags and range are checked even when frozen, so that every fault is reported. */
-    if (adc_flags != 0U) {
-        e->faults |= FE_FAULT_ADC;
-    }
-    if (code < code_min || code > code_max || t_out_q8 < INT16_MIN || t_out_q8 > INT16_MAX ||
-        t_in_q8 < INT16_MIN || t_in_q8 > INT16_MAX) {
-        e->faults |= FE_FAULT_RANGE;
-    }
+    e->faults |= fric_est_input_faults(t_in_q8, t_out_q8, code, code_min, code_max, adc_flags);
     if (e->faults != 0U) {
         return e->x; /* frozen until the next reset */
     }
