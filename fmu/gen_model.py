@@ -144,6 +144,9 @@ VARIABLES: list[Var] = [
         "Bending angle added per metre of x displacement: phi + phi_offset_per_x*x"),
     Var("phi_offset_per_y", "Real", PARAM, 0.0, "rad/m", -100.0, 100.0,
         "Bending angle added per metre of y displacement: phi + phi_offset_per_y*y"),
+    Var("end_displacement", "Real", INPUT, 0.0, "m", -1.0, 1.0,
+        "Displacement of the load cell's base away from the sheath outlet (0: fixed, the"
+        " isometric output; a joint's pulley sets it)"),
 ]
 # fmt: on
 

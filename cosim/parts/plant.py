@@ -238,7 +238,7 @@ class Plant:
         var = self.variables.get(name)
         if var is None:
             raise KeyError(f"BowdenPlant has no variable {name!r}")
-        if var.causality == "input":
+        if var.causality == "input" and name in INPUT_NAMES:
             self.u[INPUT_NAMES.index(name)] = float(value)
         if var.type == "Real":
             fn, conv = self._fmu.setReal, float
@@ -283,6 +283,25 @@ class Plant:
         self.time_s += dt_s
         self._get_real(c, self._out_vr, self._n_out, self.y)
         return self.y
+
+    def input_setter(self, name: str):
+        """A setter of one Real input that `u` does not carry (e.g. `end_displacement`, which a
+        joint sets when the FMU is composed with one): `setter(value)` calls fmi2SetReal on that
+        value reference alone, for a per-sample loop; the value holds over the following
+        steps. An out-of-range value raises PlantError with the FMU's message."""
+        var = self.variables.get(name)
+        if var is None or var.causality != "input" or var.type != "Real":
+            raise KeyError(f"BowdenPlant has no Real input {name!r}")
+        vr = (c_uint * 1)(var.valueReference)
+        buf = (c_double * 1)()
+        one, cp, set_real = c_size_t(1), self._cp, self._set_real
+
+        def setter(value: float) -> None:
+            buf[0] = value
+            if set_real(cp, vr, one, buf):
+                self._check(2, f"fmi2SetReal({name} = {value})")
+
+        return setter
 
     def step_current(self, current_a: float, dt_s: float) -> ctypes.Array:
         """Drive mode 0 shortcut: set current_cmd, step, return the outputs array."""

@@ -447,7 +447,8 @@ static void prescribed_tension_substep(BowdenModel *m, const Friction *f, double
     double t_in = m->u.T_in_cmd > 0.0 ? m->u.T_in_cmd : 0.0; /* a cable cannot push */
     double stretch = profile(f, m->tension_n, t_in, ds, trial, dtrial);
     double disp = inlet_displacement(m, stretch, trial[BOWDEN_N_SEG]);
-    double angle = angle_from_take_up(m, t_in * m->p.free_length / m->p.cable_EA + disp);
+    double angle = angle_from_take_up(
+        m, t_in * m->p.free_length / m->p.cable_EA + disp - m->u.end_displacement);
     memcpy(m->tension_n, trial, sizeof(m->tension_n));
     m->motor_speed_rad_s = h > 0.0 ? (angle - m->motor_angle_rad) / h : 0.0;
     m->motor_angle_rad = angle;
@@ -477,7 +478,9 @@ static void current_command_substep(BowdenModel *m, const Friction *f, double h)
                  (p->motor_inertia * m->motor_speed_rad_s / h + p->torque_constant * m->current_a) /
                      stiff;
     angle_per_n = load_gain / stiff;
-    t_in = solve_tension(m, f, lever * angle_free, lever * angle_per_n);
+    /* the far end's base moving away by end_displacement stretches the cable as much as the
+       spool taking up as much would (README, "Cable compatibility") */
+    t_in = solve_tension(m, f, lever * angle_free + m->u.end_displacement, lever * angle_per_n);
     angle = angle_free - angle_per_n * t_in;
     m->motor_speed_rad_s = (angle - m->motor_angle_rad) / h;
     m->motor_angle_rad = angle;
@@ -498,7 +501,8 @@ static void substep(BowdenModel *m, double h)
     for (k = 1; k <= BOWDEN_N_SEG; k++) {
         stretch += 0.5 * (m->tension_n[k - 1] + m->tension_n[k]);
     }
-    m->inlet_disp_m = inlet_displacement(m, stretch * ds, m->tension_n[BOWDEN_N_SEG]);
+    m->inlet_disp_m =
+        inlet_displacement(m, stretch * ds, m->tension_n[BOWDEN_N_SEG]) - m->u.end_displacement;
     strands_update(m, &f, m->tension_n[0]);
     m->time_s = t0 + h;
     t_out = output_tension(m);
@@ -572,7 +576,8 @@ int bowden_model_init(BowdenModel *m, double start_time_s, char *msg, size_t msg
         stretch += 0.5 * (m->tension_n[k - 1] + m->tension_n[k]);
     }
     m->inlet_disp_m =
-        inlet_displacement(m, stretch * m->p.sheath_length / BOWDEN_N_SEG, m->tension_n[BOWDEN_N_SEG]);
+        inlet_displacement(m, stretch * m->p.sheath_length / BOWDEN_N_SEG, m->tension_n[BOWDEN_N_SEG]) -
+        m->u.end_displacement;
     m->creep_lp_n = output_tension(m); /* the initial load has settled on the load cell */
     m->sensor_lag_n = output_tension(m);
     m->sensor_lag2a_n = m->sensor_lag_n;
