@@ -1,14 +1,18 @@
 """`bowden sim SCENARIO`: one closed-loop co-simulation run and its float reference.
 
-The command line only: it parses the arguments and calls cosim.engines.experiment.
+The command line only: it parses the arguments and calls cosim.engines.experiment (or, for the
+antagonistic joint `antagonist`, cosim.engines.antagonist).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import sys
 from pathlib import Path
 
+from cosim.config.antagonist import ANTAGONIST
 from cosim.config.run import COMPENSATORS, load_params
 from cosim.config.scenarios import SCENARIO_NAMES, get_scenario
 from cosim.engines.experiment import (
@@ -32,7 +36,11 @@ def add_parser(subparsers) -> None:
         help="closed-loop co-simulation of RTL + firmware + plant FMU (a paper experiment)",
         description=__doc__.split("\n\n")[0],
     )
-    p.add_argument("scenario", choices=SCENARIO_NAMES, help="the experiment to run")
+    p.add_argument(
+        "scenario",
+        choices=(*SCENARIO_NAMES, ANTAGONIST),
+        help="the experiment to run (antagonist: two cables on one joint, every compensator)",
+    )
     p.add_argument(
         "--compensator",
         choices=COMPENSATORS,
@@ -63,8 +71,9 @@ def add_parser(subparsers) -> None:
     p.add_argument(
         "--engine",
         choices=ENGINES,
-        default="cocotb",
-        help="cocotb harness (default) or the compiled loop (same results, 20x+ real time)",
+        default=None,
+        help="cocotb harness (default) or the compiled loop (same results, 20x+ real time); "
+        "antagonist runs on the fixed-point model chain and takes neither",
     )
     p.add_argument("--params", default=None, help="JSON file of parameter overrides")
     p.add_argument("--duration", type=float, default=None, help="simulated seconds (default: all)")
@@ -75,6 +84,9 @@ def add_parser(subparsers) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
+    if args.scenario == ANTAGONIST:
+        return _antagonist(args)
+    args.engine = args.engine or "cocotb"
     try:
         cfg = load_params(args.params)
         check_duration(args.duration, cfg)
@@ -103,5 +115,55 @@ def main(args: argparse.Namespace) -> int:
         print(f"bowden sim: {exc}", file=sys.stderr)
         return 1
     print(summary_table([result]))
+    print(f"wrote {Path(args.out) / 'result.json'}")
+    return 0
+
+
+def _antagonist(args: argparse.Namespace) -> int:
+    """`bowden sim antagonist`: the pair on the fixed-point model chain (firmware + the RTL's
+    bit-exact model per cable), every compensator row or the one --compensator names."""
+    from cosim.config.antagonist import get_antagonist  # noqa: PLC0415
+    from cosim.engines import antagonist as pair  # noqa: PLC0415
+
+    try:
+        if args.engine is not None:
+            raise ValueError(
+                "antagonist runs on the fixed-point model chain (the RTL's bit-exact model per "
+                "cable); --engine is for the single-cable scenarios"
+            )
+        if args.compensator == "none":
+            raise ValueError("antagonist: --compensator must be paper, smooth or preview")
+        if not args.loop_routing:
+            raise ValueError("antagonist: each cable's routing is the scenario's")
+        cfg = load_params(args.params)
+        check_duration(args.duration, cfg)
+        scen = get_antagonist()
+        for i in range(2):
+            check_reach(scen.cable_scenario(i), scen.cable_config(cfg, i), args.duration)
+        require_project()
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"bowden sim: {exc}", file=sys.stderr)
+        return 2
+    if args.compensator is None:
+        rows = pair.ROWS
+    else:
+        rows = ((args.compensator, bool(cfg.compensator.est_enable)),)
+    try:
+        result = {
+            "scenario": ANTAGONIST,
+            "engine": "model",
+            "rows": pair.run_rows(
+                scen, cfg, rows, args.duration, args.interface, progress=not args.quiet
+            ),
+        }
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        tmp = out / f".result.json.{os.getpid()}"
+        tmp.write_text(json.dumps(result, indent=2, allow_nan=False) + "\n")
+        os.replace(tmp, out / "result.json")
+    except (RuntimeError, ValueError, OSError) as exc:
+        print(f"bowden sim: {exc}", file=sys.stderr)
+        return 1
+    print(pair.table(result["rows"]))
     print(f"wrote {Path(args.out) / 'result.json'}")
     return 0
