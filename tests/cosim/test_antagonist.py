@@ -1,0 +1,172 @@
+"""The antagonistic joint (cosim/config/antagonist.py, cosim/parts/joint.py,
+cosim/engines/antagonist.py): the split's floor and ceiling, the joint's exact step, each
+channel equal to the single-cable model chain while the joint is held, and the pair in closed
+loop: neither cable slack, the torque tracked, the floor held when tau_ref saturates."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from cosim.config.antagonist import get_antagonist, saturating, split_tensions
+from cosim.config.run import SimConfig
+from cosim.engines.antagonist import evaluate, run_pair
+from cosim.engines.reference import resolve_phi, run_model_chain
+from cosim.parts.joint import Joint, JointParams
+
+R_M, T_PRE_N, T_MAX_N = 0.02, 2.0, 24.0
+
+
+def test_split_holds_the_floor_and_the_torque_to_full_scale():
+    """T_1 - T_2 = tau / r while neither saturates, the idle cable at exactly T_pre, both
+    within [T_pre, T_max], out to torques far past the ceiling (+-1e3 N m) and at zero."""
+    tau = np.concatenate([np.linspace(-1.0, 1.0, 2001), [-1e3, 1e3, 0.0, -0.0]])
+    t_1, t_2 = split_tensions(tau, R_M, T_PRE_N, T_MAX_N)
+    assert np.all(np.minimum(t_1, t_2) == T_PRE_N)
+    assert np.all((t_1 <= T_MAX_N) & (t_2 <= T_MAX_N))
+    free = np.abs(tau) / R_M <= T_MAX_N - T_PRE_N
+    np.testing.assert_allclose((t_1 - t_2)[free] * R_M, tau[free], rtol=0, atol=1e-15)
+    assert t_1[-4] == T_PRE_N and t_2[-4] == T_MAX_N  # saturated, both ways
+    assert t_1[-3] == T_MAX_N and t_2[-3] == T_PRE_N
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"radius_m": 0.0}, {"radius_m": math.nan}, {"pretension_n": 30.0}, {"pretension_n": -1.0}],
+)
+def test_split_refuses_bad_parameters(kwargs):
+    args = {"radius_m": R_M, "pretension_n": T_PRE_N, "tension_max_n": T_MAX_N, **kwargs}
+    with pytest.raises(ValueError):
+        split_tensions(np.zeros(3), **args)
+
+
+def test_joint_step_is_exact_for_held_tensions():
+    """The joint's step against the ODE integrated to 1e-12 (solve_ivp): a torque step of the
+    cables and a load, 0.5 s of 100 us steps; and at rest the cables' far ends move by -+r*theta."""
+    p = JointParams()
+    joint = Joint(p)
+    joint.t_1_n, joint.t_2_n, joint.tau_load_n_m = 12.0, 2.0, 0.05
+    for _ in range(5000):
+        joint.step(1e-4)
+    tau = p.pulley_radius_m * 10.0 - 0.05
+
+    def f(_t, x):
+        return [
+            x[1],
+            (tau - p.damping_n_m_s_per_rad * x[1] - p.stiffness_n_m_per_rad * x[0])
+            / p.inertia_kg_m2,
+        ]
+
+    sol = solve_ivp(f, (0.0, 0.5), [0.0, 0.0], method="DOP853", rtol=1e-12, atol=1e-14)
+    assert joint.theta_rad == pytest.approx(sol.y[0, -1], rel=1e-8)
+    assert joint.omega_rad_s == pytest.approx(sol.y[1, -1], rel=1e-6, abs=1e-9)
+    d_1, d_2 = joint.end_displacements_m
+    assert d_1 == -d_2 == pytest.approx(-p.pulley_radius_m * joint.theta_rad)
+
+
+def test_joint_refuses_bad_parameters():
+    with pytest.raises(ValueError, match="inertia"):
+        JointParams(inertia_kg_m2=0.0)
+    with pytest.raises(ValueError, match="damping"):
+        JointParams(damping_n_m_s_per_rad=-1.0)
+
+
+def test_each_channel_equals_the_single_cable_chain_while_the_joint_is_held():
+    """With both far ends fixed the pair is two single-cable runs: every recorded array of each
+    channel equals run_model_chain's on that cable's scenario and FMU parameters, bit for bit
+    (the composition adds the joint and nothing else)."""
+    scen, cfg = get_antagonist(), SimConfig()
+    run = run_pair(scen, cfg, "preview", duration_s=0.3, hold_joint=True)
+    for i in range(2):
+        s, c = scen.cable_scenario(i), scen.cable_config(cfg, i)
+        ref = run_model_chain(s, c, "preview", True, resolve_phi(s, c, True), duration_s=0.3)
+        for name, values in ref.items():
+            assert np.array_equal(values, run.cables[i][name]), (i, name)
+
+
+# Budgets from the 3 s runs below (board's chain; measured preview + estimate: torque RMS
+# 11.3 mN m, least T_out 1.46 / 1.47 N; preview alone: cable 2 RMS 0.80 N, with the estimate
+# 0.34 N), with a margin of about 15 %. The least tension may dip below the floor T_pre at the
+# corners of the split's references (the loop's undershoot): the margin allowed is 0.75 N.
+FLOOR_MARGIN_N = 0.75
+TORQUE_RMS_BUDGET_N_M = 0.013
+
+
+@pytest.fixture(scope="module")
+def pair_runs():
+    scen = get_antagonist()
+    est = SimConfig.from_dict({"compensator": {"est_enable": 1}})
+    return scen, {
+        "preview": evaluate(scen, run_pair(scen, SimConfig(), "preview", duration_s=3.0)),
+        "estimate": evaluate(scen, run_pair(scen, est, "preview", duration_s=3.0)),
+    }
+
+
+@pytest.mark.slow
+def test_pair_neither_cable_goes_slack_and_the_torque_is_tracked(pair_runs):
+    scen, rows = pair_runs
+    for name, row in rows.items():
+        for c in row["cables"]:
+            assert c["min_t_out_n"] >= scen.pretension_n - FLOOR_MARGIN_N, (name, c)
+            assert c["min_t_in_n"] > 0.5, (name, c)  # never slack at the motor either
+    assert rows["estimate"]["torque_rms_error_n_m"] <= TORQUE_RMS_BUDGET_N_M
+    # the joint moved as the torque asks (k = 1 N m/rad: theta ~ tau_ref / k, +-0.26 rad)
+    assert rows["estimate"]["theta_max_rad"] > 0.2 and rows["estimate"]["theta_min_rad"] < -0.2
+
+
+@pytest.mark.slow
+def test_pair_the_estimate_corrects_the_rougher_cable(pair_runs):
+    """Cable 2's liner is 20 % rougher than both compensators were calibrated for: the online
+    estimate more than halves its tension error and the torque error."""
+    _, rows = pair_runs
+    c2 = [row["cables"][1]["rms_error_n"] for row in (rows["preview"], rows["estimate"])]
+    assert c2[1] < 0.5 * c2[0]
+    assert rows["estimate"]["torque_rms_error_n_m"] < 0.7 * rows["preview"]["torque_rms_error_n_m"]
+
+
+def test_split_floor_holds_when_tau_ref_saturates():
+    """tau_ref three times over the split's ceiling: the pulling cable's reference is cut flat
+    at T_max, the idle one's stays at exactly T_pre."""
+    scen = saturating(get_antagonist())
+    t = np.arange(10_000, 60_000) / 1e4
+    t_1, t_2 = scen.split(scen.tau_ref(t))
+    assert np.max(t_1) == T_MAX_N and np.max(t_2) == T_MAX_N
+    assert np.all(np.minimum(t_1, t_2) == T_PRE_N)
+
+
+@pytest.mark.slow
+def test_pair_not_slack_when_tau_ref_saturates_twice_over():
+    """tau_ref twice the scenario's (the split's ceiling cuts its peaks): the joint swings
+    faster (omega 2.2 rad/s), each cable's far end runs towards its sheath at r * omega, and the
+    idle cable's loop lags it; measured least T_out 0.71 / 0.98 N and T_in 0.51 / 0.56 N (2.5 s,
+    preview): below the floor by more than FLOOR_MARGIN_N, but never slack (budget 0.4 N)."""
+    scen = saturating(get_antagonist(), 2.0)
+    row = evaluate(scen, run_pair(scen, SimConfig(), "preview", duration_s=2.5))
+    for c in row["cables"]:
+        assert c["min_t_in_n"] >= 0.4 and c["min_t_out_n"] >= 0.4, c
+    assert row["theta_max_rad"] > 0.4  # the saturated torque moved the joint
+
+
+@pytest.mark.slow
+@pytest.mark.long
+@pytest.mark.xfail(strict=True, reason="known miss: the idle cable goes slack at 3x")
+def test_pair_floor_holds_when_tau_ref_saturates_three_times_over():
+    """The known miss: at three times the scenario's torque the joint swings at up to 3.4 rad/s
+    and the idle cable's tension loop cannot reel its far end's r * omega in (the compensators
+    know T_ref, not the joint's motion): both cables go slack (T_out 0 N) at the swings."""
+    scen = saturating(get_antagonist(), 3.0)
+    row = evaluate(scen, run_pair(scen, SimConfig(), "preview", duration_s=2.5))
+    for c in row["cables"]:
+        assert c["min_t_out_n"] >= scen.pretension_n - FLOOR_MARGIN_N, c
+
+
+def test_saturating_keeps_the_rest_of_the_scenario():
+    base = get_antagonist()
+    sat = saturating(base, 2.0)
+    t = np.linspace(0.0, 2.0, 7)
+    np.testing.assert_array_equal(sat.tau_ref(t), 2.0 * base.tau_ref(t))
+    assert replace(sat, name=base.name, tau_ref=base.tau_ref) == base
