@@ -31,7 +31,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import expm
 
 
 @dataclass(frozen=True)
@@ -69,6 +68,8 @@ class Joint:
         self._phi = self._gam = None
 
     def _constants(self, dt_s: float) -> None:
+        from scipy.linalg import expm  # noqa: PLC0415 (the command line starts without scipy)
+
         p = self.p
         a = np.array(
             [
