@@ -48,7 +48,7 @@ RANKS: dict[str, float] = {
     "cosim.engines.reference": 5.2,
     "cosim.engines.cocotb": 5.3,
     "cosim.engines.native": 5.3,
-    "cosim.engines.antagonist": 5.3,
+    "cosim.engines.antagonist": 5.35,
     "cosim.engines.experiment": 5.4,
     # the emulated controller: the loop's model, the plant, the simulated board (built with the
     # native engine's Verilator build)

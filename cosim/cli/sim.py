@@ -73,7 +73,7 @@ def add_parser(subparsers) -> None:
         choices=ENGINES,
         default=None,
         help="cocotb harness (default) or the compiled loop (same results, 20x+ real time); "
-        "antagonist runs on the fixed-point model chain and takes neither",
+        "antagonist runs on the native engine only",
     )
     p.add_argument("--params", default=None, help="JSON file of parameter overrides")
     p.add_argument("--duration", type=float, default=None, help="simulated seconds (default: all)")
@@ -120,17 +120,14 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _antagonist(args: argparse.Namespace) -> int:
-    """`bowden sim antagonist`: the pair on the fixed-point model chain (firmware + the RTL's
-    bit-exact model per cable), every compensator row or the one --compensator names."""
+    """`bowden sim antagonist`: the pair on the native engine (two Verilated loops with their
+    firmware, FMUs and the joint), every compensator row or the one --compensator names."""
     from cosim.config.antagonist import get_antagonist  # noqa: PLC0415
     from cosim.engines import antagonist as pair  # noqa: PLC0415
 
     try:
-        if args.engine is not None:
-            raise ValueError(
-                "antagonist runs on the fixed-point model chain (the RTL's bit-exact model per "
-                "cable); --engine is for the single-cable scenarios"
-            )
+        if args.engine not in (None, "native"):
+            raise ValueError("antagonist runs on the native engine only (two Verilated loops)")
         if args.compensator == "none":
             raise ValueError("antagonist: --compensator must be paper, smooth or preview")
         if not args.loop_routing:
@@ -151,7 +148,7 @@ def _antagonist(args: argparse.Namespace) -> int:
     try:
         result = {
             "scenario": ANTAGONIST,
-            "engine": "model",
+            "engine": "native",
             "rows": pair.run_rows(
                 scen, cfg, rows, args.duration, args.interface, progress=not args.quiet
             ),

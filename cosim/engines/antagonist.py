@@ -2,19 +2,22 @@
 
 Each cable is one channel of today's single-cable chain: its own firmware (host build, its own
 compensator and, with compensator.est_enable, its own online friction estimate fed by its own
-far-end load cell), its own tension loop (the RTL's bit-exact model,
-cosim.parts.rtl_model.TensionLoopModel, which tests/cosim holds to the RTL at every sample), its
-own interface stage (ADC, PWM -> ESCON) and its own instance of the BowdenPlant FMU with its own
-parameters and sheath path. The joint (cosim.parts.joint.Joint) takes the two cables' true
-output tensions and sets their far ends (FMU input end_displacement).
+far-end load cell), its own tension loop, its own interface stage (ADC, PWM -> ESCON) and its
+own instance of the BowdenPlant FMU with its own parameters and sheath path. The joint
+(cosim.parts.joint.Joint) takes the two cables' true output tensions and sets their far ends
+(FMU input end_displacement).
+
+Two engines run it: `native` (the default) steps two Verilated RTL loops of the native engine
+side by side with the joint between them (bn_run_pair, cosim/engines/native/closed_loop.cpp);
+`model` runs each loop as the RTL's bit-exact Python model (as reference.run_model_chain).
+They give the same record, sample for sample (tests/cosim/test_antagonist.py).
 
 Coupling (a Jacobi master, as an FMI 2.0 co-simulation master steps FMUs side by side): at each
 communication step [t_k, t_k+1) (one FPGA sample, 100 us) every subsystem steps with the
 others' outputs at t_k held: each cable FMU with its far end at d_i(theta(t_k)), the joint with
-T_out_i(t_k).
-The timing within a channel (T_c latency, ADC, PWM, firmware ticks) is run_model_chain's
-(cosim/engines/reference.py), so with the joint held still (d = 0) each channel's record equals
-that function's for the same scenario, sample for sample (tests/cosim/test_antagonist.py).
+T_out_i(t_k). The timing within a channel (T_c latency, ADC, PWM, firmware ticks) is the single
+loop's, so with the far ends held (d = 0) each channel's record equals run_model_chain's for
+the same scenario, sample for sample.
 """
 
 from __future__ import annotations
@@ -141,6 +144,9 @@ class PairRecord:
     omega_rad_s: np.ndarray
 
 
+ENGINES = ("native", "model")
+
+
 def run_pair(
     scen: Antagonist,
     cfg: SimConfig,
@@ -149,10 +155,18 @@ def run_pair(
     interface: str = "board",
     hold_joint: bool = False,
     progress: bool = False,
+    engine: str = "native",
 ) -> PairRecord:
     """Run the pair closed loop (module docstring) with `compensator` on both channels.
-    hold_joint: the joint does not move (both far ends fixed, d = 0): each channel is then a
-    single-cable run, the check that the composition adds nothing but the joint."""
+    hold_joint: both far ends held at d = 0 (the joint still turns): each channel is then a
+    single-cable run, the check that the composition adds nothing but the joint.
+    engine: `native` (two Verilated RTL loops, cosim/engines/native bn_run_pair) or `model`
+    (the RTL's bit-exact model in Python); tests/cosim/test_antagonist.py holds the two to the
+    same record."""
+    if engine == "native":
+        return _run_pair_native(scen, cfg, compensator, duration_s, interface, hold_joint)
+    if engine != "model":
+        raise ValueError(f"engine must be one of {', '.join(ENGINES)}; got {engine!r}")
     from cosim.parts.joint import Joint  # noqa: PLC0415
 
     chans = [
@@ -195,6 +209,60 @@ def run_pair(
     finally:
         recs = tuple(c.finish() for c in chans)
         bar.close(n)
+    return PairRecord(
+        cables=recs,
+        t_s=t_s,
+        tau_ref_n_m=np.asarray(scen.tau_ref(t_s), dtype=np.float64),
+        theta_rad=theta,
+        omega_rad_s=omega,
+    )
+
+
+def _run_pair_native(scen, cfg, compensator, duration_s, interface, hold_joint) -> PairRecord:
+    """run_pair on the native engine: each cable a bn_spec_t as `bowden sim --engine native`
+    sets one up, the joint's exact step handed over as its matrices (bn_joint_t)."""
+    import ctypes  # noqa: PLC0415
+
+    from cosim.parts.joint import Joint  # noqa: PLC0415
+
+    from .native import engine as native  # noqa: PLC0415
+
+    lib = native.load_library()
+    runs = []
+    try:
+        for i in range(2):
+            s, c = scen.cable_scenario(i), scen.cable_config(cfg, i)
+            routing = scen.cables[i].loop_routing
+            spec = {
+                "duration_s": duration_s,
+                "loop_routing": routing,
+                "compensator": compensator,
+                "phi_rad": resolve_phi(s, c, routing),
+                "interface": interface,
+            }
+            runs.append(native._Run(s, c, spec))
+        n = runs[0].n
+        t_s = runs[0].inp.t_s
+        joint = Joint(scen.joint)
+        joint._constants(1.0 / cfg.sample_rate_hz)
+        tau_load = np.ascontiguousarray(scen.tau_load(t_s), dtype=np.float64)
+        theta, omega = np.zeros(n), np.zeros(n)
+        j = native.JointSpec()
+        j.radius_m = scen.joint.pulley_radius_m
+        j.phi[:] = joint._phi
+        j.gam[:] = joint._gam
+        j.tau_load_n_m = tau_load.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        j.hold = 1 if hold_joint else 0
+        j.theta_rad = theta.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        j.omega_rad_s = omega.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        a, b = runs
+        status = lib.bn_run_pair(ctypes.byref(a.s), ctypes.byref(b.s), ctypes.byref(j))
+    finally:
+        for run in runs:
+            run.plant.close()
+    if status != 0:
+        raise RuntimeError(f"native pair: {a.s.error.decode(errors='replace')}")
+    recs = tuple(run.collect(0)[0] for run in runs)
     return PairRecord(
         cables=recs,
         t_s=t_s,
@@ -253,6 +321,7 @@ def run_rows(
     duration_s: float | None = None,
     interface: str = "board",
     progress: bool = False,
+    engine: str = "native",
 ) -> list[dict]:
     """Run each (compensator, estimate) row on the pair; each row's figures (evaluate) with
     its compensator, estimate, interface, duration and CPU seconds."""
@@ -260,8 +329,9 @@ def run_rows(
     for comp, est in rows:
         c = replace(cfg, compensator=replace(cfg.compensator, est_enable=1 if est else 0))
         t0 = time.process_time()
-        run = run_pair(scen, c, comp, duration_s, interface, progress=progress)
+        run = run_pair(scen, c, comp, duration_s, interface, progress=progress, engine=engine)
         row = {"compensator": comp, "estimate": bool(est), "interface": interface}
+        row["engine"] = engine
         row.update(evaluate(scen, run))
         row["sim_seconds"] = float(len(run.t_s) / cfg.sample_rate_hz)
         row["cpu_seconds"] = time.process_time() - t0

@@ -16,7 +16,7 @@
 extern "C" {
 #endif
 
-#define BN_API_VERSION 5
+#define BN_API_VERSION 6
 
 /* Interface stages (cosim/parts/interface.py). */
 #define BN_IFACE_IDEAL 0
@@ -25,6 +25,7 @@ extern "C" {
 
 #define BN_N_IN 5   /* cosim.parts.plant.INPUT_NAMES */
 #define BN_N_OUT 8  /* cosim.parts.plant.OUTPUT_NAMES */
+#define BN_OUT_T_OUT 1
 #define BN_OUT_T_IN_MEAS 2
 #define BN_OUT_T_OUT_MEAS 3
 
@@ -83,7 +84,19 @@ typedef struct {
     volatile int64_t progress;
     volatile int32_t stop;
     char error[256];
+    /* the FMU input end_displacement's value reference (bn_run_pair sets it per sample) */
+    uint32_t end_vr;
 } bn_spec_t;
+
+/* The joint of bn_run_pair (cosim.parts.joint.Joint): its exact step for held inputs, computed
+ * by the caller, and the joint's record. */
+typedef struct {
+    double radius_m;            /* r */
+    double phi[4], gam[2];      /* [theta, omega]' = Phi [theta, omega] + Gamma tau (row major) */
+    const double *tau_load_n_m; /* n: the load torque at each sample */
+    int32_t hold;               /* 1: both far ends held at 0 (the joint still moves) */
+    double *theta_rad, *omega_rad_s; /* n: the joint at t_k */
+} bn_joint_t;
 
 /* BN_API_VERSION, and sizeof(bn_spec_t) so the ctypes mirror can check itself. */
 int32_t bn_api_version(void);
@@ -95,6 +108,10 @@ int32_t bn_clks_per_sample(void);
 double bn_fsum(const double *x, int32_t n, int32_t *decided);
 /* Run; 0 on success, else non-zero with spec->error set (one line). */
 int32_t bn_run(bn_spec_t *spec);
+/* Two loops side by side on one joint (cosim/engines/antagonist.py): loop a's far end at
+ * -r*theta, b's at +r*theta, the joint driven by their true T_out; 0 on success, else
+ * non-zero with a->error set. */
+int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j);
 
 #ifdef __cplusplus
 }

@@ -298,12 +298,31 @@ class Harness {
     ~Harness() { top_->final(); }
 
     void run();
+    // run() in three parts, for a caller that steps several loops side by side (bn_run_pair):
+    // the start-up, one FPGA sample, the end.
+    void start();
+    void sample(int64_t k);
+    void finish();
+    // The plant's far end (FMU input end_displacement, value reference s.end_vr), held from
+    // the next plant step on.
+    void set_end(double d_m) {
+        if (set_real_(s_.fmu_component, &s_.end_vr, 1, &d_m) != fmi2OK)
+            fail("plant: fmi2SetReal(end_displacement) failed at t = %lld us",
+                 (long long)(plant_t_ * 1e6));
+    }
+    // The plant's true T_out as its last step left it.
+    double t_out() const { return y_[BN_OUT_T_OUT]; }
 
   private:
     // Tags of bus results.
     enum { T_NONE, T_ID, T_SHADOW, T_TC_EFF, T_FAULT, T_STATUS, C_WRITES_DONE, C_TASK_DONE };
 
     bn_spec_t &s_;
+    // the sample loop's state between sample() calls
+    double tc_set_ = 0.0, tc_ = 0.0;
+    uint32_t toggle_ = 0;
+    Clock::duration rtl_{}, fmu_{};
+    Clock::time_point t_start_{};
     std::unique_ptr<VerilatedContext> ctx_;
     std::unique_ptr<Vcosim_top> top_;
     fw_host_t *fw_;
@@ -681,6 +700,12 @@ void Harness::firmware_wake(int64_t k) {
 }
 
 void Harness::run() {
+    start();
+    for (int64_t k = 0; k < n_; ++k) sample(k);
+    finish();
+}
+
+void Harness::start() {
     auto &io = *top_;
     n_ = s_.n;
     const int cps = s_.clks_per_sample;
@@ -729,16 +754,21 @@ void Harness::run() {
         if (bstate_ == IDLE && ops_.empty()) break;
         keep();
     }
-    uint32_t toggle = level & (1u << 24);
+    toggle_ = level & (1u << 24);
+    t_start_ = Clock::now();
+}
 
-    // --- the sample loop --------------------------------------------------------------------
+// --- the sample loop: sample k ----------------------------------------------------------------
+void Harness::sample(int64_t k) {
+    auto &io = *top_;
+    const int cps = s_.clks_per_sample;
     const int dec = s_.decimation;
     const int lat = s_.tc_latency_samples;
-    double tc_set = 0.0, tc = 0.0;
+    double &tc_set = tc_set_, &tc = tc_;
     double *rows = s_.out_rows;
-    Clock::duration rtl{}, fmu{};
-    auto t_start = Clock::now();
-    for (int64_t k = 0; k < n_; ++k) {
+    uint32_t &toggle = toggle_;
+    Clock::duration &rtl = rtl_, &fmu = fmu_;
+    {
         if (k) {
             auto t0 = Clock::now();
             for (int c = 0; c < cps; ++c) clock();
@@ -785,6 +815,10 @@ void Harness::run() {
             if (s_.stop) fail("stopped at sample %lld", k);
         }
     }
+}
+
+void Harness::finish() {
+    const int cps = s_.clks_per_sample;
     auto t_end = Clock::now();
     s_.progress = n_;
     // Latched faults at the end: the firmware task's last transactions first.
@@ -793,10 +827,10 @@ void Harness::run() {
     s_.fault_word = read_now(BOWDEN_REG_FAULT);
     s_.status_word = read_now(BOWDEN_REG_STATUS);
 
-    s_.total_s = seconds(t_end - t_start);
-    s_.fmu_s = seconds(fmu);
+    s_.total_s = seconds(t_end - t_start_);
+    s_.fmu_s = seconds(fmu_);
     s_.firmware_s = seconds(fw_time_);
-    s_.rtl_s = seconds(rtl);  // the clocks and the bus master driven inside them
+    s_.rtl_s = seconds(rtl_);  // the clocks and the bus master driven inside them
 }
 
 }  // namespace
@@ -828,6 +862,52 @@ int32_t bn_run(bn_spec_t *spec) {
         h.run();
     } catch (const RunError &e) {
         std::snprintf(spec->error, sizeof spec->error, "%s", e.msg);
+        return 1;
+    }
+    return 0;
+}
+
+int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j) {
+    bn_spec_t *specs[2] = {a, b};
+    for (bn_spec_t *spec : specs) {
+        spec->error[0] = '\0';
+        spec->late_writes = spec->tc_mismatch = spec->tc_checks = spec->firmware_ticks = 0;
+    }
+    try {
+        for (bn_spec_t *spec : specs) {
+            if (spec->clks_per_sample != BN_CLKS_PER_SAMPLE)
+                fail("clks_per_sample %lld differs from the build's %lld", spec->clks_per_sample,
+                     BN_CLKS_PER_SAMPLE);
+            if (spec->n != a->n || spec->n < 1 || spec->decimation < 1)
+                fail("bad run length or decimation");
+        }
+        Harness h1(*a), h2(*b);
+        h1.start();
+        h2.start();
+        // cosim.engines.antagonist.run_pair: a Jacobi step of the cables and the joint per
+        // sample; the joint's exact step (cosim.parts.joint.Joint.step) in the same order of
+        // operations, so the two give the same doubles (-ffp-contract=off).
+        double th = 0.0, om = 0.0;
+        double t1 = h1.t_out(), t2 = h2.t_out();
+        for (int64_t k = 0; k < a->n; ++k) {
+            j->theta_rad[k] = th;
+            j->omega_rad_s[k] = om;
+            double s = j->radius_m * th;
+            h1.set_end(j->hold ? 0.0 : -s);
+            h2.set_end(j->hold ? 0.0 : s);
+            h1.sample(k);
+            h2.sample(k);
+            double tau = j->radius_m * (t1 - t2) - j->tau_load_n_m[k];
+            double th_next = j->phi[0] * th + j->phi[1] * om + j->gam[0] * tau;
+            om = j->phi[2] * th + j->phi[3] * om + j->gam[1] * tau;
+            th = th_next;
+            t1 = h1.t_out();
+            t2 = h2.t_out();
+        }
+        h1.finish();
+        h2.finish();
+    } catch (const RunError &e) {
+        std::snprintf(a->error, sizeof a->error, "%s", e.msg);
         return 1;
     }
     return 0;

@@ -35,7 +35,7 @@ from cosim.parts.interface import make_chain
 from cosim.parts.plant import FMU_LINK_FIELDS
 from cosim.project.progress import Progress
 
-API_VERSION = 5
+API_VERSION = 6
 IFACE_CODES = {"ideal": 0, "adc": 1, "board": 2}
 # As the cocotb harness (tb_closed_loop.SHADOW_REFRESH_TICKS).
 SHADOW_REFRESH_TICKS = 10
@@ -101,6 +101,21 @@ class Spec(ctypes.Structure):
         ("progress", c_int64),
         ("stop", c_int32),
         ("error", c_char * 256),
+        ("end_vr", c_uint32),
+    ]
+
+
+class JointSpec(ctypes.Structure):
+    """Mirror of bn_joint_t (cosim/engines/native/bn_api.h): the joint of bn_run_pair."""
+
+    _fields_ = [
+        ("radius_m", c_double),
+        ("phi", c_double * 4),
+        ("gam", c_double * 2),
+        ("tau_load_n_m", _D),
+        ("hold", c_int32),
+        ("theta_rad", _D),
+        ("omega_rad_s", _D),
     ]
 
 
@@ -117,6 +132,8 @@ def load_library() -> ctypes.CDLL:
         lib = ctypes.CDLL(str(path))
         lib.bn_run.argtypes = [POINTER(Spec)]
         lib.bn_run.restype = c_int32
+        lib.bn_run_pair.argtypes = [POINTER(Spec), POINTER(Spec), POINTER(JointSpec)]
+        lib.bn_run_pair.restype = c_int32
         lib.bn_spec_size.restype = c_uint32
         lib.bn_fsum.argtypes = [_D, c_int32, POINTER(c_int32)]
         lib.bn_fsum.restype = c_double
@@ -154,20 +171,39 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
     cosim.engines.cocotb.runner.run_closed_loop does for the same run_spec."""
     lib = load_library()
     cfg = SimConfig.from_dict(run_spec["config"], source="spec")
-    scen = scenario_of(run_spec)
-    inp = sample_inputs(scen, cfg, run_spec["duration_s"])
-    n = len(inp.t_s)
-    dec = cfg.decimation
-    interface = run_spec.get("interface", "board")
-    rec = Record.allocate(n).arrays
-
-    plant = open_plant(
-        cfg,
-        run_spec["loop_routing"],
-        (inp.x_m[0], inp.y_m[0], inp.z_m[0]),
-        fmu_path=run_spec.get("fmu_path"),  # a variant build (cosim/convergence)
-    )
+    run = _Run(scenario_of(run_spec), cfg, run_spec)
     try:
+        status = _call(lib, run.s, run.n, cfg.sample_rate_hz, progress)
+    finally:
+        run.plant.close()
+    return run.collect(status)
+
+
+class _Run:
+    """One loop's bn_spec_t set up as the cocotb harness sets its run up, the arrays it points
+    into and its plant instance (open until the caller closes it); collect() turns what the
+    loop wrote into the record and the cost split."""
+
+    def __init__(self, scen, cfg: SimConfig, run_spec: dict) -> None:
+        self.inp = inp = sample_inputs(scen, cfg, run_spec["duration_s"])
+        self.n = len(inp.t_s)
+        self.plant = open_plant(
+            cfg,
+            run_spec["loop_routing"],
+            (inp.x_m[0], inp.y_m[0], inp.z_m[0]),
+            fmu_path=run_spec.get("fmu_path"),  # a variant build (cosim/convergence)
+        )
+        try:
+            self._setup(scen, cfg, run_spec)
+        except BaseException:
+            self.plant.close()
+            raise
+
+    def _setup(self, scen, cfg: SimConfig, run_spec: dict) -> None:
+        inp, n, plant = self.inp, self.n, self.plant
+        dec = cfg.decimation
+        interface = run_spec.get("interface", "board")
+        self.rec = rec = Record.allocate(n).arrays
         fw = FirmwareBridge(cfg, run_spec["compensator"], run_spec["phi_rad"])
         chain = make_chain(cfg, interface, True, fw.adc_offset, fw.adc_gain)
         words = loop_words(cfg.controller, cfg.sample_rate_hz)
@@ -236,10 +272,18 @@ def run_closed_loop(run_spec: dict, progress: bool = True) -> tuple[dict, dict]:
         s.out_est_q28 = _ptr(out_est, c_int32) if est_on else None
         s.out_corr_q8 = _ptr(out_corr, c_int32) if est_on else None
         s.out_rows = _ptr(rows, c_double)
+        s.end_vr = plant.vr("end_displacement")
+        # alive as long as the spec that points into them
+        self.s, self.fw, self.keep = s, fw, keep
+        self.arrays = (t_ref_word, xs, ys, zs, out_u_word, rows, out_est, out_corr)
 
-        status = _call(lib, s, n, cfg.sample_rate_hz, progress)
-    finally:
-        plant.close()
+    def collect(self, status: int) -> tuple[dict, dict]:
+        s, n, inp, rec = self.s, self.n, self.inp, self.rec
+        _, _, _, _, out_u_word, rows, out_est, out_corr = self.arrays
+        return _collect(s, n, inp, rec, out_u_word, rows, out_est, out_corr, status)
+
+
+def _collect(s, n, inp, rec, out_u_word, rows, out_est, out_corr, status):
     if status != 0:
         raise RuntimeError(f"native closed loop: {s.error.decode(errors='replace')}")
 
