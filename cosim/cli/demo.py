@@ -1,6 +1,6 @@
 """`bowden demo` (what `make demo` runs): the paper's Fig. 14 experiment in closed-loop
 co-simulation, four ways, on the board's chain and on the ideal interface, next to the paper's
-figures; then the held-out scenarios that the tuning never saw.
+figures; then the held-out scenarios that the tuning never saw, and the antagonistic joint.
 
 The command line only: it parses the arguments and calls cosim.studies.demo.
 """
@@ -54,6 +54,11 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument(
         "--no-held-out", action="store_true", help="only the fig14 runs (skip the held-out table)"
+    )
+    p.add_argument(
+        "--no-antagonist",
+        action="store_true",
+        help="skip the antagonistic joint's table (bowden sim antagonist: about 4 s of CPU)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=main)
@@ -109,4 +114,24 @@ def main(args: argparse.Namespace) -> int:
         print()
         print(held_out_table(rows, args.interface))
         print(f"results: {out / 'held_out.json'}")
+    if not args.no_antagonist:
+        from cosim.config.antagonist import get_antagonist  # noqa: PLC0415
+        from cosim.engines import antagonist as pair  # noqa: PLC0415
+
+        print("== antagonist: two cables on one joint, every compensator", file=sys.stderr)
+        try:
+            rows = pair.run_rows(get_antagonist(), SimConfig(), interface=args.interface)
+        except (RuntimeError, ValueError, OSError) as exc:
+            print(f"bowden demo: antagonist: {exc}", file=sys.stderr)
+            return 1
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "antagonist.json").write_text(json.dumps(rows, indent=1) + "\n")
+        print()
+        print(
+            "Antagonistic joint (bowden sim antagonist, native engine, "
+            f"{args.interface}): torque error tau_ref - r (T_out,1 - T_out,2) in % of max "
+            "|tau_ref|; least true tensions, floor T_pre = 2 N"
+        )
+        print(pair.table(rows))
+        print(f"results: {out / 'antagonist.json'}")
     return 0
