@@ -21,17 +21,41 @@ from cosim.parts.joint import Joint, JointParams
 R_M, T_PRE_N, T_MAX_N = 0.02, 2.0, 24.0
 
 
-def test_split_holds_the_floor_and_the_torque_to_full_scale():
-    """T_1 - T_2 = tau / r while neither saturates, the idle cable at exactly T_pre, both
-    within [T_pre, T_max], out to torques far past the ceiling (+-1e3 N m) and at zero."""
+def test_max_split_holds_the_floor_and_the_torque_to_full_scale():
+    """eps = 0: T_1 - T_2 = tau / r while neither saturates, the idle cable at exactly T_pre,
+    both within [T_pre, T_max], out to torques far past the ceiling (+-1e3 N m) and at zero."""
     tau = np.concatenate([np.linspace(-1.0, 1.0, 2001), [-1e3, 1e3, 0.0, -0.0]])
-    t_1, t_2 = split_tensions(tau, R_M, T_PRE_N, T_MAX_N)
+    t_1, t_2 = split_tensions(tau, R_M, T_PRE_N, T_MAX_N, 0.0)
     assert np.all(np.minimum(t_1, t_2) == T_PRE_N)
     assert np.all((t_1 <= T_MAX_N) & (t_2 <= T_MAX_N))
     free = np.abs(tau) / R_M <= T_MAX_N - T_PRE_N
     np.testing.assert_allclose((t_1 - t_2)[free] * R_M, tau[free], rtol=0, atol=1e-15)
     assert t_1[-4] == T_PRE_N and t_2[-4] == T_MAX_N  # saturated, both ways
     assert t_1[-3] == T_MAX_N and t_2[-3] == T_PRE_N
+
+
+def test_smooth_split_keeps_the_torque_and_stays_above_the_floor():
+    """The scenario's split (eps = T_pre): T_1 - T_2 = tau / r to rounding while neither
+    saturates, both above T_pre and the idle one within eps/2 of it, T_pre + eps/2 each at zero
+    torque, the ceiling T_max exact at full scale, and no corner: the slope of T_1 is
+    continuous through tau = 0 (1/2 per N of tau/r there)."""
+    eps = T_PRE_N
+    tau = np.concatenate([np.linspace(-1.0, 1.0, 2001), [-1e3, 1e3]])
+    t_1, t_2 = split_tensions(tau, R_M, T_PRE_N, T_MAX_N, eps)
+    assert np.all(np.minimum(t_1, t_2) > T_PRE_N)
+    assert np.all(np.minimum(t_1, t_2) <= T_PRE_N + eps / 2)
+    assert np.all((t_1 <= T_MAX_N) & (t_2 <= T_MAX_N))
+    free = np.maximum(t_1, t_2) < T_MAX_N
+    np.testing.assert_allclose((t_1 - t_2)[free] * R_M, tau[free], rtol=0, atol=1e-14)
+    assert t_1[1000] == t_2[1000] == T_PRE_N + eps / 2  # tau = 0
+    assert t_1[-1] == T_MAX_N and t_2[-2] == T_MAX_N
+    inner = np.abs(tau[:2001]) <= 0.3  # below the ceiling (tau/r <= 15 N)
+    slope = np.diff(t_1[:2001][inner]) / np.diff(tau[:2001][inner] / R_M)
+    # the curvature 1/(2 eps) per N over steps of 0.05 N: 0.0125 at most, no jump of slope
+    assert np.max(np.abs(np.diff(slope))) < 0.02
+    t_max_split = split_tensions(tau[:2001][inner], R_M, T_PRE_N, T_MAX_N, 0.0)[0]
+    corner = np.diff(np.diff(t_max_split) / np.diff(tau[:2001][inner] / R_M))
+    assert np.max(np.abs(corner)) > 0.9  # (the max split's corner, which the check would see)
 
 
 @pytest.mark.parametrize(
@@ -111,12 +135,13 @@ def test_run_pair_refuses_an_unknown_engine():
         run_pair(get_antagonist(), SimConfig(), "preview", duration_s=0.01, engine="cocotb")
 
 
-# Budgets from the 3 s runs below (board's chain; measured preview + estimate: torque RMS
-# 11.3 mN m, least T_out 1.46 / 1.47 N; preview alone: cable 2 RMS 0.80 N, with the estimate
-# 0.34 N), with a margin of about 15 %. The least tension may dip below the floor T_pre at the
-# corners of the split's references (the loop's undershoot): the margin allowed is 0.75 N.
-FLOOR_MARGIN_N = 0.75
-TORQUE_RMS_BUDGET_N_M = 0.013
+# Budgets from the 3 s runs below (board's chain, the smooth split; measured preview +
+# estimate: torque RMS 7.3 mN m, least T_out 1.57 / 1.55 N; preview alone: cable 2 RMS 0.81 N,
+# with the estimate 0.24 N), with a margin of about 15 %. The least tension dips below the
+# floor T_pre where the joint pulls a cable's end towards its sheath faster than its loop reels
+# it in (0.45 N at most here): the margin allowed is 0.6 N.
+FLOOR_MARGIN_N = 0.6
+TORQUE_RMS_BUDGET_N_M = 0.0085
 
 
 @pytest.fixture(scope="module")
@@ -153,24 +178,26 @@ def test_pair_the_estimate_corrects_the_rougher_cable(pair_runs):
 
 def test_split_floor_holds_when_tau_ref_saturates():
     """tau_ref three times over the split's ceiling: the pulling cable's reference is cut flat
-    at T_max, the idle one's stays at exactly T_pre."""
+    at T_max, the idle one's stays within 0.1 N above T_pre while the other is at T_max."""
     scen = saturating(get_antagonist())
     t = np.arange(10_000, 60_000) / 1e4
     t_1, t_2 = scen.split(scen.tau_ref(t))
     assert np.max(t_1) == T_MAX_N and np.max(t_2) == T_MAX_N
-    assert np.all(np.minimum(t_1, t_2) == T_PRE_N)
+    low = np.minimum(t_1, t_2)
+    assert np.all(low > T_PRE_N)
+    assert np.all(low[np.maximum(t_1, t_2) == T_MAX_N] < T_PRE_N + 0.1)
 
 
 @pytest.mark.slow
 def test_pair_not_slack_when_tau_ref_saturates_twice_over():
     """tau_ref twice the scenario's (the split's ceiling cuts its peaks): the joint swings
-    faster (omega 2.2 rad/s), each cable's far end runs towards its sheath at r * omega, and the
-    idle cable's loop lags it; measured least T_out 0.71 / 0.98 N and T_in 0.51 / 0.56 N (2.5 s,
-    preview): below the floor by more than FLOOR_MARGIN_N, but never slack (budget 0.4 N)."""
+    faster (omega 2.1 rad/s), each cable's far end runs towards its sheath at r * omega, and the
+    idle cable's loop lags it; measured least T_out 1.03 / 1.05 N and T_in 0.65 / 0.59 N (2.5 s,
+    preview): below the floor by more than FLOOR_MARGIN_N, but never slack (budget 0.5 N)."""
     scen = saturating(get_antagonist(), 2.0)
     row = evaluate(scen, run_pair(scen, SimConfig(), "preview", duration_s=2.5))
     for c in row["cables"]:
-        assert c["min_t_in_n"] >= 0.4 and c["min_t_out_n"] >= 0.4, c
+        assert c["min_t_in_n"] >= 0.5 and c["min_t_out_n"] >= 0.5, c
     assert row["theta_max_rad"] > 0.4  # the saturated torque moved the joint
 
 
@@ -178,7 +205,7 @@ def test_pair_not_slack_when_tau_ref_saturates_twice_over():
 @pytest.mark.long
 @pytest.mark.xfail(strict=True, reason="known miss: the idle cable goes slack at 3x")
 def test_pair_floor_holds_when_tau_ref_saturates_three_times_over():
-    """The known miss: at three times the scenario's torque the joint swings at up to 3.4 rad/s
+    """The known miss: at three times the scenario's torque the joint swings at up to 3.2 rad/s
     and the idle cable's tension loop cannot reel its far end's r * omega in (the compensators
     know T_ref, not the joint's motion): both cables go slack (T_out 0 N) at the swings."""
     scen = saturating(get_antagonist(), 3.0)
