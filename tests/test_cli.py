@@ -201,3 +201,25 @@ def test_an_interrupt_inside_an_extension_import_is_still_an_interrupt():
     # `from None` hides the cause from tracebacks but keeps the context: still found
     assert isinstance(cli._interruption(wrapped), KeyboardInterrupt)
     assert cli._interruption(ImportError("no module named x")) is None
+
+
+@pytest.mark.parametrize("scenario", ["fig14", "antagonist"])
+def test_sim_refuses_an_out_under_a_file_before_it_runs(scenario, tmp_path, capsys, monkeypatch):
+    """`bowden sim --out` under a file: one line, exit 2, before the run (the run's result was
+    lost after the run when the write failed), and the file is left as it was."""
+    from cosim import cli
+    from cosim.cli import sim
+    from cosim.engines import antagonist
+
+    def must_not_run(*args, **kwargs):
+        raise AssertionError("the run started")
+
+    monkeypatch.setattr(sim, "run", must_not_run)
+    monkeypatch.setattr(antagonist, "run_rows", must_not_run)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "afile").write_text("kept\n")
+    rc = cli.main(["sim", scenario, "--engine", "native", "--out", "afile/sub", "--quiet"])
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert err == "bowden sim: --out: afile is a file, not a folder\n"
+    assert (tmp_path / "afile").read_text() == "kept\n"

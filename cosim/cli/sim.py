@@ -26,7 +26,7 @@ from cosim.engines.experiment import (
     summary_table,
 )
 from cosim.parts.interface import INTERFACES
-from cosim.project.cliargs import output_dir
+from cosim.project.cliargs import output_dir, unwritable
 from cosim.project.paths import require_project
 
 
@@ -83,6 +83,13 @@ def add_parser(subparsers) -> None:
     p.set_defaults(func=main)
 
 
+def check_out(out: Path) -> None:
+    """An --out that cannot be a folder is said before the run, not after it."""
+    problem = unwritable(Path(out), folder=True)
+    if problem:
+        raise ValueError(f"--out: {problem}")
+
+
 def main(args: argparse.Namespace) -> int:
     if args.scenario == ANTAGONIST:
         return _antagonist(args)
@@ -92,6 +99,7 @@ def main(args: argparse.Namespace) -> int:
         check_duration(args.duration, cfg)
         check_reach(get_scenario(args.scenario), cfg, args.duration)
         check_engine(args.engine, args.simulator)
+        check_out(args.out)
         require_project()
     except (ValueError, FileNotFoundError) as exc:
         print(f"bowden sim: {exc}", file=sys.stderr)
@@ -137,6 +145,7 @@ def _antagonist(args: argparse.Namespace) -> int:
         scen = get_antagonist()
         for i in range(2):
             check_reach(scen.cable_scenario(i), scen.cable_config(cfg, i), args.duration)
+        check_out(args.out)
         require_project()
     except (ValueError, FileNotFoundError) as exc:
         print(f"bowden sim: {exc}", file=sys.stderr)
