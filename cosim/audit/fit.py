@@ -43,8 +43,11 @@ MAX_FIT_RESIDUALS = 20_000
 MAX_FIT_FRICTION_SAMPLES = 100_000
 # Friction outputs kept per fit (least recently used dropped): the Jacobian's columns for the
 # sensor's parameters (offset, gain, lag, delay, full scale, creep) reuse the friction of the
-# point they are taken at.
+# point they are taken at; those for mu, the spread and static friction's excess come from the
+# slopes the point's friction run computed beside it (twin.friction_derivatives), where it can.
 FRICTION_CACHE = 4
+# least_squares' relative step for the columns taken by differences (_least_squares)
+DIFF_STEP = 1e-4
 
 
 @dataclass
@@ -290,11 +293,18 @@ class _Evaluator:
             stride = max(1, math.ceil(len(indices) / MAX_FIT_RESIDUALS))
         return indices[::stride]
 
-    def _entry(self, params: dict[str, float]) -> list:
+    def _entry(self, params: dict[str, float], slopes: bool = False) -> list:
+        """[friction on the grid, at every sample (friction_full), its slopes on the grid in
+        the parameters twin.friction_derivatives gives (with `slopes`, where supported)]."""
         key = tuple(params.get(k, 0.0) for k in twin.FRICTION_PARAMS)
         entry = self._cache.pop(key, None)
-        if entry is None:
-            entry = [twin.friction_output(self.inputs, params, smooth=True), None]
+        if slopes and (entry is None or entry[2] is None) and twin.derivatives_supported(params):
+            # the same friction (twin.friction_derivatives), with its slopes beside it
+            y, slope = twin.friction_derivatives(self.inputs, params, smooth=True)
+            entry = [y, None if entry is None else entry[1], slope]
+            self.friction_runs += 1
+        elif entry is None:
+            entry = [twin.friction_output(self.inputs, params, smooth=True), None, None]
             self.friction_runs += 1
             while len(self._cache) >= FRICTION_CACHE:
                 del self._cache[next(iter(self._cache))]
@@ -311,10 +321,15 @@ class _Evaluator:
             entry[1] = np.interp(np.arange(self.n, dtype=np.float64), grid, entry[0])
         return entry[1]
 
-    def reading(self, params: dict[str, float], idx: np.ndarray) -> np.ndarray:
+    def reading(
+        self, params: dict[str, float], idx: np.ndarray, slopes: bool = False
+    ) -> np.ndarray:
         """The twin's T_out_meas at idx (on the grid when q > 1). With q > 1, a creep or a lag
         (no delay) is filtered on the grid itself: each first-order stage as the full rate's
-        filter of an input linear between the grid's samples (_grid_lag)."""
+        filter of an input linear between the grid's samples (_grid_lag). `slopes`: keep the
+        friction's slopes with it where they can be had (slope)."""
+        if slopes:
+            self._entry(params, slopes=True)
         dt = self.data.inputs.dt_s
         if self.q > 1 and float(params.get("sensor_delay", 0.0)) == 0.0:
             y = self._entry(params)[0]
@@ -330,6 +345,55 @@ class _Evaluator:
             static = {k: v for k, v in params.items() if k not in twin.SENSOR_DYNAMIC_PARAMS}
             return twin.sensor_output_at(y, static, dt, idx // self.q)
         return twin.sensor_output_at(self.friction_full(params), params, dt, idx)
+
+    def _linear(self, y: np.ndarray, params: dict[str, float], idx: np.ndarray) -> np.ndarray:
+        """The sensor's linear part (creep, lags, delay, gain) of friction `y` (on the grid
+        when q > 1, as reading takes it) at idx: reading is saturate(this + offset)."""
+        dt = self.data.inputs.dt_s
+        p = twin._full(params)
+        gain = float(p["sensor_gain"])
+        if self.q > 1 and float(p["sensor_delay"]) == 0.0:
+            creep = float(p["sensor_creep"])
+            if creep != 0.0:
+                y = y - creep * (y - _grid_lag(y, float(p["sensor_creep_tau"]), dt, self.q))
+            tau2 = float(p["sensor_tau2"])
+            if tau2 > 0.0:
+                y = _grid_lag(_grid_lag(y, tau2, dt, self.q), tau2, dt, self.q)
+            tau = float(p["sensor_tau"])
+            if tau > 0.0:
+                y = _grid_lag(y, tau, dt, self.q)
+            return gain * y[idx // self.q]
+        if self.q > 1:
+            grid = np.arange(0, self.n, self.q, dtype=np.float64)
+            y = np.interp(np.arange(self.n, dtype=np.float64), grid, y)
+        y = twin._creep_and_lag(y, p, dt)
+        m = twin.delay_samples(float(p["sensor_delay"]), dt)
+        return gain * (y[np.maximum(idx - m, 0)] if m > 0 else y[idx])
+
+    def slope(
+        self, params: dict[str, float], idx: np.ndarray, names: list[str]
+    ) -> dict[str, np.ndarray] | None:
+        """The reading's derivatives at idx in those of `names` the friction's slopes kept by
+        reading(params, idx, slopes=True) cover (twin.DERIVATIVE_PARAMS; the sensor's part is
+        linear up to its full scale, differentiated as saturate's slope); None where they were
+        not kept."""
+        entry = self._entry(params)
+        if entry[2] is None:
+            return None
+        p = twin._full(params)
+        scale = 1.0
+        full_scale = float(p["sensor_full_scale"])
+        if full_scale > 0.0:
+            r = self._linear(entry[0], params, idx) + float(p["sensor_offset"])
+            knee = float(p["sensor_saturation_knee"])
+            if knee <= 0.0:
+                scale = (r < full_scale).astype(np.float64)
+            else:
+                scale = 0.5 * (1.0 - (r - full_scale) / np.sqrt((r - full_scale) ** 2 + knee**2))
+        # at no excess the breakaway has no first-order slope (_breakaway_starts): its column
+        # by differences, as before
+        names = [n for n in names if n in entry[2] and (n != "mu_static_excess" or p[n] > 0.0)]
+        return {n: scale * self._linear(entry[2][n], params, idx) for n in names}
 
 
 def _grid_lag(u: np.ndarray, tau_s: float, dt_s: float, q: int) -> np.ndarray:
@@ -369,17 +433,49 @@ def _least_squares(ev: _Evaluator, params, names, idx):
     x0 = np.clip(np.array([params[n] for n in names]), lo, hi) / scale
     y = ev.data.t_out_n[idx]
 
-    def fun(x):
+    slopes = any(n in twin.DERIVATIVE_PARAMS for n in names)
+
+    def point(x):
         p = dict(params)
         p.update(zip(names, x * scale, strict=True))
-        return ev.reading(p, idx) - y
+        return p
+
+    def fun(x):
+        return ev.reading(point(x), idx, slopes) - y
+
+    def jac(x):
+        """mu's and the spread's columns from the friction's slopes (_Evaluator.slope), the
+        others (and those, where the slopes are not had) by forward differences as
+        least_squares takes them (diff_step relative, turned back at a bound)."""
+        p = point(x)
+        exact = ev.slope(p, idx, names) if slopes else None
+        exact = exact or {}
+        f0 = None
+        out = np.empty((len(y), len(names)))
+        for i, name in enumerate(names):
+            if name in exact:
+                out[:, i] = exact[name] * scale[i]
+                continue
+            if f0 is None:
+                f0 = ev.reading(p, idx) - y
+            h = DIFF_STEP * (1.0 if x[i] >= 0 else -1.0) * max(1.0, abs(x[i]))
+            xi = x[i] + h
+            if (xi < lo[i] / scale[i] or xi > hi[i] / scale[i]) and abs(h) <= max(
+                lo[i] / scale[i] - x[i], hi[i] / scale[i] - x[i]
+            ):
+                xi = x[i] - h
+            xh = x.copy()
+            xh[i] = xi
+            out[:, i] = (ev.reading(point(xh), idx) - y - f0) / (xi - x[i])
+        return out
 
     res = least_squares(
         fun,
         x0,
+        jac=jac if slopes else "2-point",
         bounds=(lo / scale, hi / scale),
         x_scale=1.0,
-        diff_step=1e-4,
+        diff_step=DIFF_STEP,
         max_nfev=20 * (len(names) + 1),
         xtol=1e-5,
         ftol=1e-6,

@@ -35,6 +35,11 @@ What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effe
   step on a test input; the audit runs one internal step per sample, where they agree, and never
   fits both lags).
 
+For the fits, `friction_derivatives` runs the same friction with its derivatives in mu, the
+spread and static friction's excess beside it (forward mode, each clamp and breakaway on the side
+it takes; the output the same numbers), where no friction term follows the cable's motion or the
+tension: the Jacobian's columns for those parameters in one run instead of one run each.
+
 Assumptions of the twin that the FMU does not make: the friction of a step uses the time at its
 start for mu_drift, mu_warmup and mu_step (the FMU moves it on by each internal step of max_step
 within a sample: a change of at most mu_drift * 1 ms, and a step seen up to one sample earlier;
@@ -375,6 +380,309 @@ def friction_output(
         bool(smooth and float(p["mu_static_excess"]) > 0.0),
         np.ascontiguousarray(STRAND_Q if strand_q is None else strand_q, dtype=np.float64),
     )
+
+
+@njit(cache=True)
+def _friction_d(
+    t_in,
+    dphi_geom,
+    z,
+    phi_off,
+    mu,
+    drift,
+    warm,
+    warm_tau,
+    step,
+    step_t,
+    spread,
+    static,
+    slack,
+    t0,
+    dt,
+    n_seg,
+    smooth,
+    strand_q,
+):
+    """_friction's output and its derivatives in mu, dead_zone_spread and mu_static_excess, in
+    one pass, where no friction term depends on the cable's motion or the tension (mu_viscous,
+    mu_viscous_tension_rate and mu_tension_slope at 0) and spread > 0: the same operations as
+    _friction for the output (the same numbers: a test compares them), and beside each state
+    its derivative (forward mode), each clamp and each breakaway (its `smooth` share included)
+    differentiated on the side it takes. The cable speed and the tension rate are left out:
+    they enter nothing here."""
+    n = t_in.shape[0]
+    n_str = strand_q.shape[0]
+    out = np.empty(n)
+    d_mu = np.empty(n)
+    d_sp = np.empty(n)
+    d_st = np.empty(n)
+    tens = np.zeros(n_seg + 1)
+    dtens = np.zeros(n_seg + 1)  # d/d mu (the segments depend on neither of the others)
+    strands = np.zeros(n_str + 1)
+    direction = np.zeros(n_str + 1)
+    s_mu = np.zeros(n_str + 1)  # the strands' derivatives
+    s_sp = np.zeros(n_str + 1)
+    s_st = np.zeros(n_str + 1)
+    strand_sc = np.empty(n_str + 1)
+    dsc = np.empty(n_str + 1)  # d strand_sc / d spread
+    for j in range(n_str + 1):
+        strand_sc[j] = math.exp(spread * (strand_q[j] if j < n_str else 0.0))
+        dsc[j] = strand_sc[j] * (strand_q[j] if j < n_str else 0.0)
+    strand_e = np.empty(n_str + 1)
+    strand_es = np.empty(n_str + 1)
+    strand_ie = np.empty(n_str + 1)
+    strand_ies = np.empty(n_str + 1)
+    # d(arg)/d(param) of exp(w sc_j) and exp(ws sc_j), whose derivatives are the factor times it
+    ga_mu = np.zeros(n_str + 1)
+    ga_sp = np.zeros(n_str + 1)
+    gs_mu = np.zeros(n_str + 1)
+    gs_sp = np.zeros(n_str + 1)
+    gs_st = np.zeros(n_str + 1)
+    brk_lo = np.zeros(n_str + 1)
+    brk_hi = np.zeros(n_str + 1)
+    bl_mu = np.zeros(n_str + 1)
+    bl_sp = np.zeros(n_str + 1)
+    bl_st = np.zeros(n_str + 1)
+    bh_mu = np.zeros(n_str + 1)
+    bh_sp = np.zeros(n_str + 1)
+    bh_st = np.zeros(n_str + 1)
+    w_prev = -1.0
+    ws_prev = -1.0
+    since_exact = 0
+    sc_max = strand_sc[n_str - 1] if n_str > 0 else 1.0
+    seg_arg_prev = -1.0
+    ep = 1.0
+    em = 1.0
+    may_stop = drift == 0.0 and warm == 0.0 and step == 0.0
+    dphi_prev = -1.0
+    for k in range(n):
+        t = t0 + (k - 1) * dt if k > 0 else t0
+        mu_base = mu + drift * t
+        if warm != 0.0:
+            mu_base += warm * (1.0 - math.exp(-(t - t0) / warm_tau))
+        if step != 0.0 and t >= step_t:
+            mu_base += step
+        mu_c = mu_base if mu_base > 0.0 else 0.0
+        dmc = 1.0 if mu_base > 0.0 else 0.0  # d mu_c / d mu
+        phi = dphi_geom[k] + phi_off * z[k]
+        phi_pos = phi if phi > 0.0 else 0.0
+        dphi = phi_pos / n_seg
+        if mu_c * dphi != seg_arg_prev:
+            seg_arg_prev = mu_c * dphi
+            ep = math.exp(mu_c * dphi)
+            em = 1.0 / ep
+        dep = ep * dphi * dmc
+        dem = -em * dphi * dmc
+        tin = t_in[k] if t_in[k] > 0.0 else 0.0
+        tens[0] = tin
+        stop = may_stop and k > 0 and dphi == dphi_prev
+        dphi_prev = dphi
+        for j in range(1, n_seg + 1):
+            lo = tens[j - 1] * em
+            hi = tens[j - 1] * ep
+            if tens[j] < lo:
+                tens[j] = lo
+                dtens[j] = dtens[j - 1] * em + tens[j - 1] * dem
+            elif tens[j] > hi:
+                tens[j] = hi
+                dtens[j] = dtens[j - 1] * ep + tens[j - 1] * dep
+            elif stop:
+                break
+        out[k] = tens[n_seg]
+        d_mu[k] = dtens[n_seg]
+        d_sp[k] = 0.0
+        d_st[k] = 0.0
+        w = mu_c * phi_pos
+        ws = (mu_c + static) * phi_pos
+        dw = w - w_prev
+        updated = False
+        if (
+            static == 0.0
+            and w_prev >= 0.0
+            and dw != 0.0
+            and abs(dw) * sc_max <= STRAND_STEP_MAX
+            and since_exact < STRAND_EXACT_EVERY
+        ):
+            since_exact += 1
+            w_prev = w
+            ws_prev = ws
+            updated = True
+            for j in range(n_str + 1):
+                x = dw * strand_sc[j]
+                x2 = x * x
+                even = 1.0 + x2 * (0.5 + x2 * (1.0 / 24.0 + x2 * (1.0 / 720.0)))
+                odd = x * (1.0 + x2 * (1.0 / 6.0 + x2 * (1.0 / 120.0)))
+                strand_e[j] *= even + odd
+                strand_ie[j] *= even - odd
+        elif w != w_prev or ws != ws_prev:
+            since_exact = 0
+            w_prev = w
+            ws_prev = ws
+            updated = True
+            if static == 0.0:
+                for j in range(n_str + 1):
+                    strand_e[j] = math.exp(w * strand_sc[j])
+                    strand_ie[j] = 1.0 / strand_e[j]
+            else:
+                for j in range(n_str + 1):
+                    strand_e[j] = math.exp(w * strand_sc[j])
+                    strand_ie[j] = 1.0 / strand_e[j]
+                    if j < n_str:
+                        strand_es[j] = math.exp(ws * strand_sc[j])
+                    else:
+                        strand_es[j] = strand_e[j]
+                    strand_ies[j] = 1.0 / strand_es[j]
+        if updated:  # the factors are exp(+-w sc_j), exp(+-ws sc_j) (to round-off)
+            for j in range(n_str + 1):
+                ga_mu[j] = strand_sc[j] * phi_pos * dmc
+                ga_sp[j] = w * dsc[j]
+                if j < n_str:
+                    gs_mu[j] = ga_mu[j]
+                    gs_sp[j] = ws * dsc[j]
+                    gs_st[j] = strand_sc[j] * phi_pos
+                else:  # the reference strand's breakaway factor is its kinetic one
+                    gs_mu[j] = ga_mu[j]
+                    gs_sp[j] = ga_sp[j]
+                    gs_st[j] = 0.0
+        total = 0.0
+        t_mu = 0.0
+        t_sp = 0.0
+        t_st = 0.0
+        if static == 0.0:
+            for j in range(n_str + 1):
+                lo = tin * strand_ie[j]
+                hi = tin * strand_e[j]
+                if strands[j] < lo:  # min(max(s, lo), hi) with lo <= hi, on its side
+                    strands[j] = lo
+                    s_mu[j] = -lo * ga_mu[j]
+                    s_sp[j] = -lo * ga_sp[j]
+                elif strands[j] > hi:
+                    strands[j] = hi
+                    s_mu[j] = hi * ga_mu[j]
+                    s_sp[j] = hi * ga_sp[j]
+            for j in range(n_str):
+                total += strands[j]
+                t_mu += s_mu[j]
+                t_sp += s_sp[j]
+        else:
+            for j in range(n_str + 1):
+                e = strand_e[j]
+                es = strand_es[j]
+                if direction[j] > 0.0:
+                    lo = tin * strand_ie[j]
+                    lo_mu, lo_sp, lo_st = -lo * ga_mu[j], -lo * ga_sp[j], 0.0
+                else:
+                    lo = tin * strand_ies[j]
+                    lo_mu, lo_sp, lo_st = -lo * gs_mu[j], -lo * gs_sp[j], -lo * gs_st[j]
+                if direction[j] < 0.0:
+                    hi = tin * e
+                    hi_mu, hi_sp, hi_st = hi * ga_mu[j], hi * ga_sp[j], 0.0
+                else:
+                    hi = tin * es
+                    hi_mu, hi_sp, hi_st = hi * gs_mu[j], hi * gs_sp[j], hi * gs_st[j]
+                held = strands[j]
+                h_mu, h_sp, h_st = s_mu[j], s_sp[j], s_st[j]
+                share = 1.0
+                c_mu, c_sp, c_st = 0.0, 0.0, 0.0  # the share's derivatives
+                if held < lo:
+                    if smooth and direction[j] <= 0.0 and k > 0 and lo - brk_lo[j] > 0.0:
+                        num = lo - held
+                        den = lo - brk_lo[j]
+                        share = min(1.0, num / den)
+                        if num / den < 1.0:
+                            c_mu = ((lo_mu - h_mu) * den - num * (lo_mu - bl_mu[j])) / (den * den)
+                            c_sp = ((lo_sp - h_sp) * den - num * (lo_sp - bl_sp[j])) / (den * den)
+                            c_st = ((lo_st - h_st) * den - num * (lo_st - bl_st[j])) / (den * den)
+                    strands[j] = tin * strand_ie[j]
+                    s_mu[j] = -strands[j] * ga_mu[j]
+                    s_sp[j] = -strands[j] * ga_sp[j]
+                    s_st[j] = 0.0
+                    direction[j] = 1.0
+                elif held > hi:
+                    if smooth and direction[j] >= 0.0 and k > 0 and brk_hi[j] - hi > 0.0:
+                        num = held - hi
+                        den = brk_hi[j] - hi
+                        share = min(1.0, num / den)
+                        if num / den < 1.0:
+                            c_mu = ((h_mu - hi_mu) * den - num * (bh_mu[j] - hi_mu)) / (den * den)
+                            c_sp = ((h_sp - hi_sp) * den - num * (bh_sp[j] - hi_sp)) / (den * den)
+                            c_st = ((h_st - hi_st) * den - num * (bh_st[j] - hi_st)) / (den * den)
+                    strands[j] = tin * e
+                    s_mu[j] = strands[j] * ga_mu[j]
+                    s_sp[j] = strands[j] * ga_sp[j]
+                    s_st[j] = 0.0
+                    direction[j] = -1.0
+                if smooth:
+                    brk_lo[j] = tin * strand_ies[j]
+                    bl_mu[j] = -brk_lo[j] * gs_mu[j]
+                    bl_sp[j] = -brk_lo[j] * gs_sp[j]
+                    bl_st[j] = -brk_lo[j] * gs_st[j]
+                    brk_hi[j] = tin * es
+                    bh_mu[j] = brk_hi[j] * gs_mu[j]
+                    bh_sp[j] = brk_hi[j] * gs_sp[j]
+                    bh_st[j] = brk_hi[j] * gs_st[j]
+                if j < n_str:
+                    jump = strands[j] - held
+                    total += held + share * jump
+                    t_mu += h_mu + c_mu * jump + share * (s_mu[j] - h_mu)
+                    t_sp += h_sp + c_sp * jump + share * (s_sp[j] - h_sp)
+                    t_st += h_st + c_st * jump + share * (s_st[j] - h_st)
+        ref = strands[n_str]
+        if ref > 0.0:
+            a = tens[n_seg]
+            b = total / n_str
+            out[k] = a * b / ref
+            d_mu[k] = (dtens[n_seg] * b + a * t_mu / n_str) / ref - out[k] * s_mu[n_str] / ref
+            d_sp[k] = a * t_sp / n_str / ref - out[k] * s_sp[n_str] / ref
+            d_st[k] = a * t_st / n_str / ref - out[k] * s_st[n_str] / ref
+        if slack > 0.0 and tin < slack:
+            f = tin / slack
+            out[k] *= f
+            d_mu[k] *= f
+            d_sp[k] *= f
+            d_st[k] *= f
+    return out, d_mu, d_sp, d_st
+
+
+# the parameters friction_derivatives gives the output's slope in
+DERIVATIVE_PARAMS = ("mu", "dead_zone_spread", "mu_static_excess")
+
+
+def derivatives_supported(params: Mapping[str, float]) -> bool:
+    """Whether friction_derivatives gives the slopes at these parameters (_friction_d)."""
+    p = _full(params)
+    return float(p["dead_zone_spread"]) > 0.0 and all(
+        float(p[k]) == 0.0 for k in ("mu_viscous", "mu_viscous_tension_rate", "mu_tension_slope")
+    )
+
+
+def friction_derivatives(
+    inputs: PlantInputs, params: Mapping[str, float], smooth: bool = False
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """friction_output(inputs, params, smooth) (the same numbers) and its derivatives in mu,
+    dead_zone_spread and mu_static_excess, where derivatives_supported (_friction_d)."""
+    p = _full(params)
+    out, d_mu, d_sp, d_st = _friction_d(
+        np.ascontiguousarray(inputs.t_in_n, dtype=np.float64),
+        np.ascontiguousarray(_phi_xy(inputs, p), dtype=np.float64),
+        np.ascontiguousarray(inputs.z_m, dtype=np.float64),
+        float(p["phi_offset_per_z"]),
+        float(p["mu"]),
+        float(p["mu_drift"]),
+        float(p["mu_warmup"]),
+        float(p["mu_warmup_tau"]),
+        float(p["mu_step"]),
+        float(p["mu_step_time"]),
+        float(p["dead_zone_spread"]),
+        float(p["mu_static_excess"]),
+        float(p["slack_tension"]),
+        float(inputs.t0_s),
+        float(inputs.dt_s),
+        N_SEG,
+        bool(smooth and float(p["mu_static_excess"]) > 0.0),
+        np.ascontiguousarray(STRAND_Q, dtype=np.float64),
+    )
+    return out, {"mu": d_mu, "dead_zone_spread": d_sp, "mu_static_excess": d_st}
 
 
 def _creep_and_lag(y: np.ndarray, p: Mapping[str, float], dt_s: float) -> np.ndarray:

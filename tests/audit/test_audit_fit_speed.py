@@ -198,3 +198,57 @@ def test_small_width_changes_keep_the_strands_on_the_fmus_numbers(effect):
     a = twin.simulate(inputs, params)
     b = twin.run_fmu(inputs, params, max_step_s=twin.fmu_step_for(dt))
     assert np.max(np.abs(a - b)) < 1e-9
+
+
+@pytest.mark.parametrize(
+    "effect",
+    [
+        {},
+        {"mu_drift": 1e-3, "phi_offset_per_z": 0.5},
+        {"mu_warmup": 0.01, "mu_warmup_tau": 3.0, "slack_tension": 6.0},
+        {"mu_static_excess": 0.03},
+        {"mu_static_excess": 0.01, "mu_step": 0.01, "mu_step_time": 7.0},
+    ],
+)
+def test_the_fits_slopes_come_with_the_same_friction(effect):
+    # twin.friction_derivatives runs the friction once with its derivatives in mu, the spread
+    # and static friction's excess beside it (the fits' Jacobian columns for them): its output
+    # is friction_output's to the bit, and each derivative is the central difference's except
+    # on the few samples where a step of the parameter moves a clamp or a jump by a sample
+    n, dt = 12000, 1e-3
+    t = np.arange(n) * dt
+    rng = np.random.default_rng(1)
+    t_in = 10 + 6 * np.sin(2 * np.pi * 0.9 * t) + 2 * np.sin(2 * np.pi * 2.7 * t + 1)
+    t_in = t_in + 0.01 * rng.standard_normal(n)
+    phi = 4.0 + np.repeat(rng.uniform(-1, 1, n // 2000), 2000) + 0.1 * np.sin(t)
+    inputs = twin.PlantInputs(t_in, phi, 0.3 * np.sin(0.5 * t), None, 0.0, dt, 1.0, True)
+    p = {"mu": 0.08, "dead_zone_spread": 0.3, **effect}
+    assert twin.derivatives_supported(p)
+    for smooth in (False, True):
+        value, slopes = twin.friction_derivatives(inputs, p, smooth=smooth)
+        assert np.array_equal(value, twin.friction_output(inputs, p, smooth=smooth))
+    h = 1e-10  # (a clamp that a step of 1e-8 in mu moves by a sample: 9 samples of this input)
+    for name in twin.DERIVATIVE_PARAMS:
+        if p.get(name, 0.0) == 0.0:
+            continue  # (no slope at static friction's "off": the fits difference it)
+        up = twin.friction_output(inputs, {**p, name: p[name] + h}, smooth=True)
+        down = twin.friction_output(inputs, {**p, name: p[name] - h}, smooth=True)
+        central = (up - down) / (2 * h)
+        off = np.abs(central - slopes[name]) > 1e-3 * np.max(np.abs(central))
+        assert np.count_nonzero(off) <= 4, (name, np.flatnonzero(off))
+    # not supported where a friction term follows the cable's motion or the tension
+    assert not twin.derivatives_supported({**p, "mu_viscous": 1.0})
+    assert not twin.derivatives_supported({**p, "mu_tension_slope": 1e-3})
+
+
+def test_a_fit_with_the_slopes_ends_where_the_differences_end(record, monkeypatch):
+    # the Jacobian's columns for mu and the spread from the slopes (fit._least_squares) and by
+    # forward differences (as before) lead to the same fitted parameters
+    data = record
+    effects = (BY_CAUSE["sensor_offset"],)
+    exact = fit.fit_model(data, effects)
+    monkeypatch.setattr(twin, "derivatives_supported", lambda params: False)
+    differences = fit.fit_model(data, effects)
+    for name in ("mu", "dead_zone_spread", "sensor_offset"):
+        assert exact.params[name] == pytest.approx(differences.params[name], rel=1e-3), name
+    assert exact.friction_runs < differences.friction_runs
