@@ -8,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
+from scipy.optimize._numdiff import approx_derivative
 from scipy.signal import fftconvolve, lfilter
 
 from . import twin
@@ -46,7 +47,7 @@ MAX_FIT_FRICTION_SAMPLES = 100_000
 # point they are taken at; those for mu, the spread and static friction's excess come from the
 # slopes the point's friction run computed beside it (twin.friction_derivatives), where it can.
 FRICTION_CACHE = 4
-# least_squares' relative step for the columns taken by differences (_least_squares)
+# least_squares' relative step (diff_step) for the columns taken by differences (_least_squares)
 DIFF_STEP = 1e-4
 
 
@@ -444,29 +445,32 @@ def _least_squares(ev: _Evaluator, params, names, idx):
         return ev.reading(point(x), idx, slopes) - y
 
     def jac(x):
-        """mu's and the spread's columns from the friction's slopes (_Evaluator.slope), the
-        others (and those, where the slopes are not had) by forward differences as
-        least_squares takes them (diff_step relative, turned back at a bound)."""
+        """mu's, the spread's and the excess's columns from the friction's slopes
+        (_Evaluator.slope), the others (and those, where the slopes are not had) by forward
+        differences as least_squares takes them (its own approx_derivative, diff_step)."""
         p = point(x)
         exact = ev.slope(p, idx, names) if slopes else None
         exact = exact or {}
-        f0 = None
         out = np.empty((len(y), len(names)))
+        rest = [i for i, name in enumerate(names) if name not in exact]
         for i, name in enumerate(names):
             if name in exact:
                 out[:, i] = exact[name] * scale[i]
-                continue
-            if f0 is None:
-                f0 = ev.reading(p, idx) - y
-            h = DIFF_STEP * (1.0 if x[i] >= 0 else -1.0) * max(1.0, abs(x[i]))
-            xi = x[i] + h
-            if (xi < lo[i] / scale[i] or xi > hi[i] / scale[i]) and abs(h) <= max(
-                lo[i] / scale[i] - x[i], hi[i] / scale[i] - x[i]
-            ):
-                xi = x[i] - h
-            xh = x.copy()
-            xh[i] = xi
-            out[:, i] = (ev.reading(point(xh), idx) - y - f0) / (xi - x[i])
+        if rest:
+
+            def fun_rest(xr):
+                xf = x.copy()
+                xf[rest] = xr
+                return ev.reading(point(xf), idx) - y  # (no slopes at the steps)
+
+            out[:, rest] = approx_derivative(
+                fun_rest,
+                x[rest],
+                method="2-point",
+                rel_step=DIFF_STEP,
+                f0=ev.reading(p, idx) - y,
+                bounds=(lo[rest] / scale[rest], hi[rest] / scale[rest]),
+            )
         return out
 
     res = least_squares(
