@@ -75,6 +75,7 @@ class CompConfig(ctypes.Structure):
         ("preview_ticks", ctypes.c_int32),
         ("lead_ticks", ctypes.c_int32),
         ("ramp_ticks", ctypes.c_int32),
+        ("dead_zone_spread_q28", ctypes.c_int32),
     ]
 
 
@@ -93,6 +94,7 @@ class CompF64Config(ctypes.Structure):
         ("preview_ticks", ctypes.c_int32),
         ("lead_ticks", ctypes.c_int32),
         ("ramp_ticks", ctypes.c_int32),
+        ("dead_zone_spread", ctypes.c_double),
     ]
 
 
@@ -397,6 +399,9 @@ class CompensatorParams:
     preview_ticks: int = _c_default("preview_ticks")
     lead_ticks: int = _c_default("lead_ticks")
     ramp_ticks: int = _c_default("ramp_ticks")
+    # Gradual dead zone's spread (comp.h: the inverse of the strands' PI model), log std of the
+    # friction thresholds, [0, 1]; 0 is the sharp capstan inverse (audit: dead_zone_spread).
+    dead_zone_spread: float = _c_default("dead_zone_spread")
     # Online friction estimate from the far-end load cell (firmware/include/fric_est.h; a part
     # of fw_config_t, not of comp_config_t), off by default: EstimatorParams's fields with est_.
     est_enable: int = 0
@@ -443,6 +448,7 @@ class CompensatorParams:
             band_n_q8=_fixed("comp.band_n", self.band_n, 8),
             tc_min_n_q8=_fixed("comp.tc_min_n", self.tc_min_n, 8),
             **self._ticks(),
+            dead_zone_spread_q28=_fixed("comp.dead_zone_spread", self.dead_zone_spread, 28),
         )
 
     def quantized(self) -> CompensatorParams:
@@ -460,6 +466,7 @@ class CompensatorParams:
             preview_ticks=c.preview_ticks,
             lead_ticks=c.lead_ticks,
             ramp_ticks=c.ramp_ticks,
+            dead_zone_spread=c.dead_zone_spread_q28 / 2**28,
         )
 
     def to_c_f64(self) -> CompF64Config:
@@ -472,6 +479,7 @@ class CompensatorParams:
             "hysteresis_n",
             "band_n",
             "tc_min_n",
+            "dead_zone_spread",
         ):
             value = self.phi_c_rad if name == "phi_rad" else getattr(self, name)
             values[name] = _real(f"comp.{name}", value)

@@ -51,12 +51,46 @@
  *    with s = 0 these are exp(+-mu*phi). They are tabulated at configuration at 65 nodes every 2 N
  *    of |T_eff| (clamped to 127.996 N) and linearly interpolated per step. The law holds up to
  *    COMP_MU_SLOPE_RANGE_N (48 N, a node); above it the gains stay those at 48 N.
+ *  - dead_zone_spread = sigma: the gradual dead zone of the plant FMU (fmu/README.md "Gradual dead
+ *    zone"): the cable's friction thresholds spread log-normally around mu*phi, so after a
+ *    reversal the output turns gradually. In the log domain the lumped capstan is a play
+ *    (backlash) operator, ln T_out = play_w(ln T_in) (Eq. 1-3 with T_out held inside
+ *    [T_in e^-w, T_in e^+w]), and strands of widths w_j make ln T_out close to a
+ *    Prandtl-Ishlinskii sum of plays (1/M) sum_j play_{w_j}(ln T_in): exact for the strands'
+ *    geometric mean, where the FMU takes their arithmetic mean (see below). The compensator uses
+ *    M = COMP_DZ_PLAYS strands at the log-normal's quantiles, w_j = W e^(sigma q_j) with
+ *    q_j = Phi^-1((j + 1/2) / M) (COMP_DZ_QUANTILES_Q28) and W = mu*phi, then scales them by
+ *    h / mean_j(w_j) and multiplies the output by e^c, with
+ *      a_up = -ln mean_j e^(-w_j),  a_dn = ln mean_j e^(+w_j),  h = (a_up + a_dn)/2,
+ *      c = (a_dn - a_up)/2,
+ *    so that both saturated branches are those of the arithmetic mean exactly (loading
+ *    T_out = T_in e^-a_up, unloading T_in e^+a_dn). Plays compose, play_a o play_b = play_(a+b),
+ *    so the model is play_(w_1) followed by a PI model with thresholds r_j = w_j - w_1 (r_1 = 0,
+ *    the linear part) and weights 1/M, whose inverse is again a PI model (P. Krejci, K. Kuhnen,
+ *    "Inverse control of systems with hysteresis and creep", IEE Proc. Control Theory Appl.
+ *    148(3), 2001):
+ *      thresholds r'_i = (1/M) sum_(j<=i) (r_i - r_j),
+ *      weights p'_1 = M, p'_i = -M / (i (i - 1)) for i >= 2 (they sum to 1),
+ *    and the first play inverts as the branch's jump, with exponent w_1 instead of mu*phi (the
+ *    gain tables are built with mu*phi -> w_1 and mu_slope -> mu_slope * w_1 / W). In the
+ *    multiplicative form a step with y = ln(max(T_eff, 1 LSB)) updates the plays
+ *    u_i = clamp(u_i, y - r'_i, y + r'_i) (i = 2..M; at the first step u_i = y -+ r'_i on the
+ *    detector's branch) and multiplies the gain by
+ *      F = exp(clamp(sum_(i>=2) p'_i (u_i - y) - c, -4, 4)).
+ *    With sigma = 0 all widths are W, r'_i = 0, c = 0: F = 1 and the law is the one above,
+ *    bit for bit (the step skips the plays). PREVIEW keeps its time blend for the first play's
+ *    jump and its lead: the plays follow the reference the gain is applied to.
+ *    The FMU's arithmetic mean against the geometric one of the plays: at spread 0.6 and
+ *    mu*phi = 0.47 the geometric sum puts the saturated branches at e^-+mean(w) = e^-+0.564, the
+ *    arithmetic at e^-0.500 (loading) and e^+0.632 (unloading); the scaling and c above remove
+ *    that on the branches, and inside the turn after a reversal the difference is what the
+ *    offline test (tests/firmware/test_fw_dead_zone.py) measures.
  * Full law of a step, with T_eff = T_ref - offset_n (mode NONE: T_c = T_ref):
  *   G_up, G_dn as above (exp(+-mu*phi) without a slope),
  *   w = s / B in [0, 1] (PAPER: w = 1 loading, 0 unloading; SMOOTH: s moves by |dT_ref| per step
  *   towards B when loading and towards 0 when unloading; PREVIEW: s moves by one per
  *   step, and w = x^2 (3 - 2x) with x = s / D),
- *   T_c = max(tc_min, sat_Q7.8( T_eff * (G_dn + w*(G_up - G_dn)) )),
+ *   T_c = max(tc_min, sat_Q7.8( T_eff * (G_dn + w*(G_up - G_dn)) * F )), F = 1 without a spread,
  * with T_eff = T_ref(t + L) - offset_n in PREVIEW mode (w from the input T_ref(t + P)).
  *
  * Smoothness bound (SMOOTH mode): between two consecutive steps whose references differ by d,
@@ -103,6 +137,17 @@
 #define COMP_TC_MIN_MAX_Q8 ((q7_8w_t)(64 * Q7_8_ONE)) /* floor in [0, 64] N */
 #define COMP_PREVIEW_MAX_TICKS 128                     /* P in [0, 128] ticks */
 #define COMP_RAMP_MAX_TICKS 256                        /* D in [1, 256] ticks */
+#define COMP_DZ_SPREAD_MAX_Q28 ((q3_28_t)Q3_28_ONE) /* dead_zone_spread in [0, 1] */
+
+/* The dead-zone inverse's strands: M plays at the standard normal's quantiles
+ * q_j = Phi^-1((j + 1/2) / M), Q3.28, rounded. 8: the FMU's 32 strands turn the output in 32
+ * kinks; 8 plays follow that turn to a few per cent of the dead zone (the offline test) at one
+ * clamp and multiply each per step. */
+#define COMP_DZ_PLAYS 8
+#define COMP_DZ_QUANTILES_MAX_Q28 411812348L /* the largest, q_M */
+#define COMP_DZ_QUANTILES_Q28                                                                  \
+    {-411812348L, -238141591L, -131204919L, -42227765L, 42227765L, 131204919L, 238141591L,   \
+     411812348L}
 
 /* Preview defaults (ticks of the processor, 1 ms at 1 kHz), from `bowden tune`. */
 #define COMP_DEFAULT_PREVIEW_TICKS 60
@@ -133,6 +178,8 @@
 #define COMP_ERR_PREVIEW 11   /* P outside [0, COMP_PREVIEW_MAX_TICKS] ticks */
 #define COMP_ERR_LEAD 12      /* L outside [0, P] ticks */
 #define COMP_ERR_RAMP 13      /* D outside [1, COMP_RAMP_MAX_TICKS] ticks */
+#define COMP_ERR_DEAD_ZONE 14 /* dead_zone_spread outside [0, 1], or the widest strand
+                               * mu*phi*e^(spread*q_M) above 4 */
 
 /* Configuration, built from comp_config_default() then changed field by field. */
 typedef struct {
@@ -147,6 +194,7 @@ typedef struct {
     int32_t preview_ticks;         /* PREVIEW: P, how far ahead the input is, [0, 128] ticks */
     int32_t lead_ticks;            /* PREVIEW: L, the gain's reference, [0, 128] and at most P */
     int32_t ramp_ticks;            /* PREVIEW: D, ticks of a change of branch, [1, 256] */
+    q3_28_t dead_zone_spread_q28;  /* log std of the friction thresholds, Q3.28, [0, 1] */
 } comp_config_t;
 
 /* The compensator: configuration in force, gain tables and the state of the last step. */
@@ -172,6 +220,13 @@ typedef struct {
     int32_t corr_q8;               /* the far-end output correction added to T_eff, Q7.8 N, [-16,
                                       16] (comp_set_correction_q8; 0 after comp_reset) */
     int32_t applied_q8;            /* the reference the last step applied, T_ref(t + L), Q7.8 */
+    int32_t dz_on;                 /* 1 when the dead-zone inverse is in force (spread > 0) */
+    int32_t dz_fresh;              /* 1 until the plays are set at the next step */
+    q3_28_t dz_r_q28[COMP_DZ_PLAYS];  /* thresholds r'_i of the inverse PI model, Q3.28 (i >= 1) */
+    q3_28_t dz_p_q28[COMP_DZ_PLAYS];  /* weights p'_i of the inverse PI model, Q3.28 (i >= 1) */
+    q3_28_t dz_u_q28[COMP_DZ_PLAYS];  /* play states u_i, ln N in Q3.28 (i >= 1) */
+    q3_28_t dz_c_q28;              /* c: the arithmetic mean's shift, Q3.28 */
+    q3_28_t dz_x1_q28;             /* w_1: the first play's exponent, Q3.28 */
 } comp_t;
 
 /* Defaults: PAPER mode, mu = 0.075 (paper Fig. 11), phi = 2*pi (loop routing), no slope, no offset,

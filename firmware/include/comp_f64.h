@@ -28,6 +28,7 @@ typedef struct {
     int32_t preview_ticks;     /* PREVIEW: P, [0, COMP_PREVIEW_MAX_TICKS] ticks */
     int32_t lead_ticks;        /* PREVIEW: L, [0, P] ticks */
     int32_t ramp_ticks;        /* PREVIEW: D, [1, COMP_RAMP_MAX_TICKS] ticks */
+    double dead_zone_spread;   /* log std of the friction thresholds, [0, 1] */
 } comp_f64_config_t;
 
 typedef struct {
@@ -40,6 +41,13 @@ typedef struct {
     double line[COMP_PREVIEW_MAX_TICKS + 1]; /* PREVIEW: the last P + 1 inputs */
     int32_t line_pos;
     double corr_n; /* the far-end output correction added to T_eff, N (0 after a reset) */
+    int32_t dz_on;    /* the dead-zone inverse in force (comp.h) */
+    int32_t dz_fresh; /* 1 until the plays are set at the next step */
+    double dz_r[COMP_DZ_PLAYS]; /* thresholds r'_i of the inverse PI model (i >= 1) */
+    double dz_p[COMP_DZ_PLAYS]; /* weights p'_i (i >= 1) */
+    double dz_u[COMP_DZ_PLAYS]; /* play states u_i, ln N (i >= 1) */
+    double dz_c;                /* the arithmetic mean's shift c */
+    double dz_x1;               /* the first play's exponent w_1 */
 } comp_f64_t;
 
 /* Same defaults as comp_config_default. */

@@ -19,6 +19,7 @@ void comp_config_default(comp_config_t *cfg)
     cfg->preview_ticks = COMP_DEFAULT_PREVIEW_TICKS;
     cfg->lead_ticks = COMP_DEFAULT_LEAD_TICKS;
     cfg->ramp_ticks = COMP_DEFAULT_RAMP_TICKS;
+    cfg->dead_zone_spread_q28 = 0;
 }
 
 /* mu * phi in Q3.28, in 64 bits for the range check. Scaling and overflow: Q3.28 * Q7.24 =
@@ -41,11 +42,76 @@ int64_t comp_config_exponent_q28(const comp_config_t *cfg)
     return exponent_q28(cfg);
 }
 
+/* The dead-zone inverse's first play w_1 = W e^(sigma q_1) * h / mean_j(w_j) (comp.h), and the
+ * rest of its constants when c is given. Scaling and overflow: sigma*q_j in Q3.28 (|.| <= 1.54,
+ * the product < 2^58 in int64); e^(sigma q_j) in UQ8.24 (<= 4.7); w_j = W e^(...) in Q3.28 (W <= 4
+ * and the widest strand checked <= 4: < 2^30); e^-+w_j in UQ8.24 (< 2^30), their sum over 8 < 2^33;
+ * the means' logarithms a_up, a_dn in [0, 4] Q3.28; h / mean(w) by fxp_div_uq8_24 (< 1.5: the
+ * arithmetic mean's branches lie within the strands' widths); the thresholds r'_i < 4 in Q3.28.
+ * Configuration time only (17 exponentials, two logarithms, one division). */
+static q3_28_t dz_constants(const comp_config_t *cfg, comp_t *c)
+{
+    static const int64_t q_q28[COMP_DZ_PLAYS] = COMP_DZ_QUANTILES_Q28;
+    const int64_t x = exponent_q28(cfg);
+    int64_t w[COMP_DZ_PLAYS];
+    int64_t sum_w = 0;
+    uint64_t sum_up = 0;
+    uint64_t sum_dn = 0;
+    for (int32_t j = 0; j < COMP_DZ_PLAYS; ++j) {
+        int64_t sq = ((int64_t)cfg->dead_zone_spread_q28 * q_q28[j] + (INT64_C(1) << 27)) >> 28;
+        w[j] = (x * (int64_t)fxp_exp_uq8_24((q3_28_t)sq) + (INT64_C(1) << 23)) >> 24;
+        sum_w += w[j];
+        sum_up += fxp_exp_uq8_24((q3_28_t)-w[j]);
+        sum_dn += fxp_exp_uq8_24((q3_28_t)w[j]);
+    }
+    /* mean = sum / 8 in UQ8.24 is the sum in UQ.27: ln(sum / 2^27). */
+    int64_t a_up = -(int64_t)fxp_ln_q3_28((uint32_t)sum_up, 27U); /* sum_up <= 2^27 */
+    int64_t a_dn = fxp_ln_q3_28((uint32_t)(sum_dn >> 3), 24U);
+    int64_t h2 = a_up + a_dn; /* 2h */
+    /* k = h / mean(w) = 2h * 8 / (2 * sum_w) = 4 * 2h / sum_w, UQ8.24. */
+    uq8_24_t k = fxp_div_uq8_24((uint64_t)h2 * 4U, (uint64_t)sum_w);
+    for (int32_t j = 0; j < COMP_DZ_PLAYS; ++j) {
+        w[j] = (w[j] * (int64_t)k + (INT64_C(1) << 23)) >> 24;
+    }
+    if (c != 0) {
+        int64_t rsum = 0;
+        c->dz_c_q28 = (q3_28_t)((a_dn - a_up) / 2);
+        c->dz_r_q28[0] = 0;
+        c->dz_p_q28[0] = (q3_28_t)(COMP_DZ_PLAYS * Q3_28_ONE);
+        for (int32_t i = 1; i < COMP_DZ_PLAYS; ++i) {
+            int64_t r = w[i] - w[0];
+            rsum += r;
+            /* r'_i = ((i + 1) r_i - sum_(j<=i) r_j) / M, M = 8: a shift. */
+            c->dz_r_q28[i] = (q3_28_t)(((int64_t)(i + 1) * r - rsum + 4) >> 3);
+            /* p'_i = -M / ((i + 1) i), rounded to Q3.28 (-4 .. -1/7). */
+            int64_t den = (int64_t)(i + 1) * i;
+            c->dz_p_q28[i] =
+                (q3_28_t)(-(((int64_t)COMP_DZ_PLAYS * Q3_28_ONE + den / 2) / den));
+        }
+    }
+    return (q3_28_t)w[0];
+}
+
+/* The first play's exponent: mu*phi without a spread, w_1 with one. */
+static q3_28_t first_exponent_q28(const comp_config_t *cfg)
+{
+    if (cfg->dead_zone_spread_q28 == 0 || exponent_q28(cfg) == 0) {
+        return (q3_28_t)exponent_q28(cfg);
+    }
+    return dz_constants(cfg, 0);
+}
+
 static int32_t build_tables(const comp_config_t *cfg, uq8_24_t *up, uq8_24_t *dn)
 {
-    q3_28_t x = (q3_28_t)exponent_q28(cfg); /* checked <= 4 */
+    q3_28_t x = first_exponent_q28(cfg); /* checked <= 4 */
     uq8_24_t e = fxp_exp_uq8_24(x);
-    if (cfg->mu_slope_per_n_q28 == 0) {
+    q3_28_t slope = cfg->mu_slope_per_n_q28;
+    if (slope != 0 && x != (q3_28_t)exponent_q28(cfg)) {
+        /* mu_slope * w_1 / W: the first play carries its share of the slope (comp.h). */
+        uq8_24_t ratio = fxp_div_uq8_24((uint64_t)x, (uint64_t)exponent_q28(cfg));
+        slope = (q3_28_t)(((int64_t)slope * (int64_t)ratio) / (INT64_C(1) << 24));
+    }
+    if (slope == 0) {
         uq8_24_t einv = fxp_exp_uq8_24(-x);
         for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
             up[i] = e;
@@ -55,7 +121,7 @@ static int32_t build_tables(const comp_config_t *cfg, uq8_24_t *up, uq8_24_t *dn
     }
     /* phi (Q7.24) * (E-1)/x (UQ6.26) = Q.50 -> Q.24. */
     int64_t q24 = ((int64_t)cfg->phi_rad_q24 * fxp_expm1_x_uq6_26(x) + (INT64_C(1) << 25)) >> 26;
-    int64_t k52 = (int64_t)cfg->mu_slope_per_n_q28 * q24;
+    int64_t k52 = (int64_t)slope * q24;
     int64_t e52 = (int64_t)e * (INT64_C(1) << 28);
     const int64_t one52 = INT64_C(1) << 52;
     for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
@@ -114,6 +180,19 @@ static int32_t check_fields(const comp_config_t *cfg)
     }
     if (exponent_q28(cfg) > COMP_EXPONENT_MAX_Q28) {
         return COMP_ERR_EXPONENT;
+    }
+    if (cfg->dead_zone_spread_q28 < 0 || cfg->dead_zone_spread_q28 > COMP_DZ_SPREAD_MAX_Q28) {
+        return COMP_ERR_DEAD_ZONE;
+    }
+    if (cfg->dead_zone_spread_q28 != 0) {
+        /* The widest strand W e^(sigma q_M) <= 4: UQ8.24 * Q3.28 products < 2^61. */
+        int64_t sq = ((int64_t)cfg->dead_zone_spread_q28 * COMP_DZ_QUANTILES_MAX_Q28 +
+                      (INT64_C(1) << 27)) >> 28;
+        int64_t wmax = (exponent_q28(cfg) * (int64_t)fxp_exp_uq8_24((q3_28_t)sq) +
+                        (INT64_C(1) << 23)) >> 24;
+        if (wmax > COMP_EXPONENT_MAX_Q28) {
+            return COMP_ERR_DEAD_ZONE;
+        }
     }
     if (cfg->offset_n_q8 < -COMP_OFFSET_MAX_Q8 || cfg->offset_n_q8 > COMP_OFFSET_MAX_Q8) {
         return COMP_ERR_OFFSET;
@@ -179,6 +258,7 @@ void comp_reset(comp_t *c)
     c->line_pos = 0;
     c->corr_q8 = 0;
     c->applied_q8 = 0;
+    c->dz_fresh = 1;
     blend_to_branch(c);
 }
 
@@ -196,7 +276,8 @@ int32_t comp_configure(comp_t *c, const comp_config_t *cfg)
      * no exponential and no division; the same words either way). */
     int32_t same_tables = c->tables_of_cfg != 0 && c->cfg.mu_q28 == cfg->mu_q28 &&
                           c->cfg.phi_rad_q24 == cfg->phi_rad_q24 &&
-                          c->cfg.mu_slope_per_n_q28 == cfg->mu_slope_per_n_q28;
+                          c->cfg.mu_slope_per_n_q28 == cfg->mu_slope_per_n_q28 &&
+                          c->cfg.dead_zone_spread_q28 == cfg->dead_zone_spread_q28;
     if (same_tables == 0 && cfg->mu_slope_per_n_q28 == 0) {
         (void)build_tables(cfg, c->g_up, c->g_dn); /* constant gains: cannot fail, in place */
         c->tables_of_cfg = 1;
@@ -215,6 +296,12 @@ int32_t comp_configure(comp_t *c, const comp_config_t *cfg)
     }
     int32_t new_line = (c->cfg.preview_ticks != cfg->preview_ticks);
     c->cfg = *cfg;
+    c->dz_on = (cfg->dead_zone_spread_q28 != 0 && exponent_q28(cfg) != 0);
+    c->dz_fresh = 1;
+    c->dz_c_q28 = 0;
+    if (c->dz_on != 0) {
+        c->dz_x1_q28 = dz_constants(cfg, c);
+    }
     int32_t top = (cfg->mode == COMP_MODE_PREVIEW) ? cfg->ramp_ticks : cfg->band_n_q8;
     if (c->inv_band == 0U || top != c->blend_top) { /* 0: not yet set (comp_init) */
         c->blend_top = top;
@@ -364,7 +451,35 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
     }
 
     /* T_c = T_eff * G: Q7.8 (32-bit) * UQ8.24 = Q15.32 in int64 (< 2^47); round to Q7.8. */
-    int64_t tc = ((int64_t)t_eff * (int64_t)g + (INT64_C(1) << 23)) >> 24;
+    int64_t tc;
+    if (c->dz_on == 0) {
+        tc = ((int64_t)t_eff * (int64_t)g + (INT64_C(1) << 23)) >> 24;
+    } else {
+        /* The dead-zone inverse (comp.h): y = ln T_eff in Q3.28 (T_eff >= 1 LSB: |y| < 5.6);
+         * u_i - y in [-r'_i, r'_i] (< 4), p'_i (u_i - y) < 2^60 in int64, each >> 28; the sum
+         * of 7 terms and c clamped to [-4, 4]; F = e^L in UQ8.24 (< 2^30); G * F in UQ.48
+         * (< 2^60) -> UQ.24 (< 2^36); T_eff * G F < 2^53 in int64. */
+        q3_28_t y = fxp_ln_q3_28((uint32_t)((t_eff > 1) ? t_eff : 1), 8U);
+        int64_t l = -(int64_t)c->dz_c_q28;
+        for (int32_t i = 1; i < COMP_DZ_PLAYS; ++i) {
+            int32_t r = c->dz_r_q28[i];
+            if (c->dz_fresh != 0) {
+                c->dz_u_q28[i] = (c->dir > 0) ? y - r : y + r;
+            }
+            int32_t u = c->dz_u_q28[i];
+            u = (u < y - r) ? y - r : (u > y + r) ? y + r : u;
+            c->dz_u_q28[i] = u;
+            l += ((int64_t)c->dz_p_q28[i] * (int64_t)(u - y)) >> 28;
+        }
+        c->dz_fresh = 0;
+        if (l > COMP_EXPONENT_MAX_Q28) {
+            l = COMP_EXPONENT_MAX_Q28;
+        } else if (l < -COMP_EXPONENT_MAX_Q28) {
+            l = -COMP_EXPONENT_MAX_Q28;
+        }
+        uint64_t gf = ((uint64_t)g * fxp_exp_uq8_24((q3_28_t)l) + (UINT64_C(1) << 23)) >> 24;
+        tc = ((int64_t)t_eff * (int64_t)gf + (INT64_C(1) << 23)) >> 24;
+    }
     if (tc > Q7_8_MAX) {
         tc = Q7_8_MAX;
     } else if (tc < cfg->tc_min_n_q8) {

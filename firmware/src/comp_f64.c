@@ -25,6 +25,7 @@ void comp_f64_config_default(comp_f64_config_t *cfg)
     cfg->preview_ticks = COMP_DEFAULT_PREVIEW_TICKS;
     cfg->lead_ticks = COMP_DEFAULT_LEAD_TICKS;
     cfg->ramp_ticks = COMP_DEFAULT_RAMP_TICKS;
+    cfg->dead_zone_spread = 0.0;
 }
 
 /* s at the loading branch: B, or D ticks in PREVIEW (comp.h). */
@@ -33,16 +34,69 @@ static double blend_top(const comp_f64_config_t *cfg)
     return (cfg->mode == COMP_MODE_PREVIEW) ? (double)cfg->ramp_ticks : cfg->band_n;
 }
 
-/* G_up and G_dn at |T| = a (comp.h: the capstan relation with mu(T) = mu + s*T integrated). */
-static void gains(const comp_f64_config_t *cfg, double a, double *gu, double *gd)
+/* G_up and G_dn at |T| = a (comp.h: the capstan relation with mu(T) = mu + s*T integrated), for
+ * the exponent x (mu*phi, or the first play's w_1 with a dead-zone spread) and slope s*x/(mu*phi). */
+static void gains_x(const comp_f64_config_t *cfg, double x, double a, double *gu, double *gd)
 {
-    double x = cfg->mu * cfg->phi_rad;
+    double x0 = cfg->mu * cfg->phi_rad;
+    double slope = (x0 > 0.0) ? cfg->mu_slope_per_n * (x / x0) : cfg->mu_slope_per_n;
     double e = exp(x);
     double q = (x > 0.0) ? cfg->phi_rad * expm1(x) / x : cfg->phi_rad;
     /* The slope's law holds up to COMP_MU_SLOPE_RANGE_N; the gains stay there above it (comp.c). */
-    double c = cfg->mu_slope_per_n * q * fmin(a, (double)COMP_MU_SLOPE_RANGE_N);
+    double c = slope * q * fmin(a, (double)COMP_MU_SLOPE_RANGE_N);
     *gu = e / (1.0 - c);
     *gd = 1.0 / (e + c);
+}
+
+static void gains(const comp_f64_config_t *cfg, double a, double *gu, double *gd)
+{
+    gains_x(cfg, cfg->mu * cfg->phi_rad, a, gu, gd);
+}
+
+static const long DZ_Q_Q28[COMP_DZ_PLAYS] = COMP_DZ_QUANTILES_Q28;
+
+/* The dead-zone inverse's constants (comp.h): w_1, the thresholds and weights of the inverse PI
+ * model and the shift c, for the strands' widths of the configuration. */
+static void dz_setup(comp_f64_t *c)
+{
+    const comp_f64_config_t *cfg = &c->cfg;
+    double x = cfg->mu * cfg->phi_rad;
+    c->dz_on = (cfg->dead_zone_spread > 0.0 && x > 0.0);
+    c->dz_fresh = 1;
+    if (c->dz_on == 0) {
+        c->dz_x1 = x;
+        c->dz_c = 0.0;
+        return;
+    }
+    const int m = COMP_DZ_PLAYS;
+    double w[COMP_DZ_PLAYS];
+    double mean_w = 0.0;
+    double mean_dn = 0.0;
+    double mean_up = 0.0;
+    for (int j = 0; j < m; ++j) {
+        w[j] = x * exp(cfg->dead_zone_spread * (double)DZ_Q_Q28[j] / 268435456.0);
+        mean_w += w[j] / m;
+        mean_up += exp(-w[j]) / m;
+        mean_dn += exp(w[j]) / m;
+    }
+    double a_up = -log(mean_up);
+    double a_dn = log(mean_dn);
+    double h = 0.5 * (a_up + a_dn);
+    c->dz_c = 0.5 * (a_dn - a_up);
+    double k = h / mean_w;
+    double rsum = 0.0;
+    for (int j = 0; j < m; ++j) {
+        w[j] *= k;
+    }
+    c->dz_x1 = w[0];
+    c->dz_r[0] = 0.0;
+    c->dz_p[0] = (double)m;
+    for (int i = 1; i < m; ++i) {
+        double r = w[i] - w[0];
+        rsum += r;
+        c->dz_r[i] = ((double)(i + 1) * r - rsum) / m;
+        c->dz_p[i] = -(double)m / ((double)(i + 1) * (double)i);
+    }
 }
 
 /* !(lo <= v && v <= hi) is also true for NaN. */
@@ -72,6 +126,12 @@ int32_t comp_f64_config_check(const comp_f64_config_t *cfg)
     }
     if (cfg->mu * cfg->phi_rad > 4.0) {
         return COMP_ERR_EXPONENT;
+    }
+    if (out_of(cfg->dead_zone_spread, 0.0, 1.0) ||
+        cfg->mu * cfg->phi_rad *
+                exp(cfg->dead_zone_spread * (double)COMP_DZ_QUANTILES_MAX_Q28 / 268435456.0) >
+            4.0) {
+        return COMP_ERR_DEAD_ZONE;
     }
     if (cfg->mu_slope_per_n != 0.0) {
         /* Both gains are monotonic in |T|: check the end of the table (and its denominators). */
@@ -111,6 +171,7 @@ void comp_f64_reset(comp_f64_t *c)
     c->started = 0;
     c->line_pos = 0;
     c->corr_n = 0.0;
+    c->dz_fresh = 1;
     c->blend = blend_top(&c->cfg);
 }
 
@@ -133,6 +194,7 @@ int32_t comp_f64_configure(comp_f64_t *c, const comp_f64_config_t *cfg)
     }
     c->cfg = *cfg;
     c->blend = (c->dir > 0) ? blend_top(cfg) : 0.0;
+    dz_setup(c);
     return COMP_OK;
 }
 
@@ -208,12 +270,27 @@ double comp_step_f64(comp_f64_t *c, double t_ref_n)
     double a = fmin(fabs(t_eff), Q7_8_MAX_N); /* the fixed-point table ends there too */
     double gu;
     double gd;
-    gains(cfg, a, &gu, &gd);
+    gains_x(cfg, c->dz_x1, a, &gu, &gd);
+    double f = 1.0;
+    if (c->dz_on != 0) {
+        /* The inverse PI model of the strands (comp.h): plays on y = ln T_eff. */
+        double y = log(fmax(t_eff, 1.0 / 256.0));
+        double l = -c->dz_c;
+        for (int i = 1; i < COMP_DZ_PLAYS; ++i) {
+            if (c->dz_fresh != 0) {
+                c->dz_u[i] = (c->dir > 0) ? y - c->dz_r[i] : y + c->dz_r[i];
+            }
+            c->dz_u[i] = fmin(y + c->dz_r[i], fmax(y - c->dz_r[i], c->dz_u[i]));
+            l += c->dz_p[i] * (c->dz_u[i] - y);
+        }
+        c->dz_fresh = 0;
+        f = exp(fmin(4.0, fmax(-4.0, l)));
+    }
     double w = s / top;
     if (cfg->mode == COMP_MODE_PREVIEW) {
         w = w * w * (3.0 - 2.0 * w); /* smoothstep: no corner at either end of the ramp */
     }
     double g = gd + (gu - gd) * w;
-    double tc = t_eff * g;
+    double tc = t_eff * g * f;
     return fmin(Q7_8_MAX_N, fmax(cfg->tc_min_n, fmax(Q7_8_MIN_N, tc)));
 }

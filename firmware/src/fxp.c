@@ -63,6 +63,36 @@ uq8_24_t fxp_exp_uq8_24(q3_28_t x)
     return g > UINT32_MAX ? UINT32_MAX : (uq8_24_t)g;
 }
 
+/* ln(1 + t) = t * (C1 + t * (C2 + ... + t * C9)) on t in [sqrt(1/2) - 1, sqrt(2) - 1], Q1.30:
+ * a degree-9 Chebyshev fit converted to powers of t (constant term 2.6e-10, dropped). */
+static const int32_t LN1P_Q30[9] = {1073741723,  -536870942, 357928950,  -268448916, 214155345,
+                                    -177980543, 161667066,  -153510388, 90018401};
+#define SQRT2_Q30 INT64_C(1518500250) /* sqrt(2) in Q1.30, rounded */
+#define LN2_Q30 INT64_C(744261118)    /* ln 2 in Q1.30, rounded */
+
+q3_28_t fxp_ln_q3_28(uint32_t x, uint32_t frac)
+{
+    if (x == 0U) {
+        x = 1U;
+    }
+    int32_t k = 31;
+    while ((x >> (uint32_t)k) == 0U) {
+        --k;
+    }
+    int64_t m = (int64_t)(((uint64_t)x << 30) >> (uint32_t)k); /* [1, 2) in Q1.30 */
+    if (m >= SQRT2_Q30) {
+        ++k;
+        m >>= 1;
+    }
+    int64_t t = m - (INT64_C(1) << 30);
+    int64_t p = LN1P_Q30[8];
+    for (int32_t i = 7; i >= 0; --i) {
+        p = LN1P_Q30[i] + ((p * t) >> 30);
+    }
+    int64_t ln30 = ((p * t) >> 30) + (int64_t)(k - (int32_t)frac) * LN2_Q30;
+    return (q3_28_t)shr_round_i64(ln30, 2U);
+}
+
 uint32_t fxp_expm1_x_uq6_26(q3_28_t x)
 {
     if (x < 0) {

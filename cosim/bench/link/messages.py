@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PROTOCOL_VERSION = 2
-TABLE_HASH = 0xB06BC157
+TABLE_HASH = 0xEAAF841E
 MAX_PAYLOAD = 48
 CAN_NODE_BITS = 6
 CAN_MESSAGE_BITS = 5
@@ -1451,6 +1451,23 @@ PARAMS: tuple[Param, ...] = (
         2048,
         False,
     ),
+    Param(
+        56,
+        "comp.dead_zone_spread",
+        "fw.comp.dead_zone_spread_q28",
+        False,
+        28,
+        "",
+        None,
+        False,
+        -2147483648,
+        2147483647,
+        0xB12D36C8,
+        "log std of the friction thresholds, Q3.28, [0, 1]",
+        0,
+        268435456,
+        False,
+    ),
 )
 PARAM_BY_NAME: dict[str, Param] = {p.name: p for p in PARAMS}
 
@@ -1498,4 +1515,5 @@ SIM_TO_DEVICE: dict[str, str] = {
     "compensator.corr_rev_lead_ticks": "corr.rev_lead_ticks",
     "compensator.corr_rev_leak_shift": "corr.rev_leak_shift",
     "compensator.corr_rev_limit_n": "corr.rev_limit_n",
+    "compensator.dead_zone_spread": "comp.dead_zone_spread",
 }
