@@ -46,6 +46,8 @@ FULL_SCALE_N = 128.0
 # comp.h COMP_MU_SLOPE_RANGE_N: the tension up to which the friction slope's law holds (mu + s*T
 # >= 0 is checked there) and above which the gain tables stay constant.
 MU_SLOPE_RANGE_N = 48.0
+# comp.h COMP_DZ_PLAYS: the strands of the compensator's dead-zone inverse.
+COMP_DZ_PLAYS = 8
 
 
 class FirmwareConfigError(ValueError):

@@ -9,7 +9,7 @@ a grid's plant axes are crossed, a random spec draws one plant per point):
 1. `calibrate` (cosim.bench.rig.calibrate, without --apply: its proposal) on the emulated
    controller (the stepped emulator, at the home position) with that plant: the tare of the
    far-end load cell, the identification, the audit, and the compensator values it proposes
-   (comp.mu, comp.offset_n, comp.mu_slope_per_n), clipped to the compensator's limits where
+   (comp.mu, comp.offset_n, comp.mu_slope_per_n, comp.dead_zone_spread), clipped to the compensator's limits where
    they lie beyond (without calibrate's prediction runs, which only print what it expects);
 2. the spec's runs of that plant (cosim.studies.sweep.run: fig14 6 s, board interface, the
    native engine; the point's own position and compensator) with the compensator set to them
@@ -24,7 +24,7 @@ compensator aims the cable's tension at T_ref, not the cell's reading. The JSON
 (`--mode sensorless=FILE`).
 
     python -m cosim.studies.calibrated_robustness [--spec SPEC.yaml] [--workers 2] [--out DIR]
-        [--limit N] [--no-tare] [--reuse]
+        [--limit N] [--no-tare] [--reuse] [--leave KEY ...]
 
 Without --spec: cosim/studies/sweep/examples/robustness_estimator.yaml (the robustness grid:
 plant mu, cable_EA and current_bandwidth at -20 % / nominal / +20 %, 27 plants, five positions).
@@ -45,7 +45,12 @@ from cosim.project.paths import PACKAGE_DIR
 from cosim.studies.workers import process_pool, run_interruptible
 
 SPEC = PACKAGE_DIR / "studies" / "sweep" / "examples" / "robustness_estimator.yaml"
-COMP_KEYS = ("compensator.mu", "compensator.offset_n", "compensator.mu_slope_per_n")
+COMP_KEYS = (
+    "compensator.mu",
+    "compensator.offset_n",
+    "compensator.mu_slope_per_n",
+    "compensator.dead_zone_spread",
+)
 
 
 def plant_of(spec, values: dict) -> dict:
@@ -145,6 +150,15 @@ def main(argv: list[str] | None = None) -> int:
         help="calibrate without the tare (the far-end cell's offset counts as the tension's)",
     )
     ap.add_argument(
+        "--leave",
+        action="append",
+        default=[],
+        choices=COMP_KEYS,
+        metavar="KEY",
+        help="run with the device's value of this compensator key, not calibrate's proposal "
+        "(what one of its proposals is worth; repeatable)",
+    )
+    ap.add_argument(
         "--reuse",
         action="store_true",
         help="take each plant's calibration from --out where a run before left it (a resume)",
@@ -186,11 +200,12 @@ def main(argv: list[str] | None = None) -> int:
             print(
                 f"  plant {plant or 'nominal'}: tare {comp['tare_n']:+.3f} N; proposes mu "
                 f"{comp['compensator.mu']:.5f}, offset {comp['compensator.offset_n']:.3g} N, "
-                f"slope {comp['compensator.mu_slope_per_n']:.3g} /N ({comp['decisions']})"
+                f"slope {comp['compensator.mu_slope_per_n']:.3g} /N, dead-zone spread "
+                f"{comp['compensator.dead_zone_spread']:.3g} ({comp['decisions']})"
             )
             for name, why in comp["reasons"].items():
                 print(f"    {name}: {why}")
-            fixed = {n: comp[n] for n in COMP_KEYS}
+            fixed = {n: comp[n] for n in COMP_KEYS if n not in args.leave}
             for values in members[k]:
                 v = {**values, "compensator.est_enable": 0, **fixed}
                 tag = json.dumps(v, sort_keys=True)

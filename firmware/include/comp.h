@@ -224,7 +224,8 @@ typedef struct {
     int32_t dz_fresh;              /* 1 until the plays are set at the next step */
     q3_28_t dz_r_q28[COMP_DZ_PLAYS];  /* thresholds r'_i of the inverse PI model, Q3.28 (i >= 1) */
     q3_28_t dz_p_q28[COMP_DZ_PLAYS];  /* weights p'_i of the inverse PI model, Q3.28 (i >= 1) */
-    q3_28_t dz_u_q28[COMP_DZ_PLAYS];  /* play states u_i, ln N in Q3.28 (i >= 1) */
+    q3_28_t dz_d_q28[COMP_DZ_PLAYS];  /* plays u_i - y of the last step, Q3.28 (i >= 1) */
+    q3_28_t dz_y_q28;              /* y = ln T_eff of the last step, Q3.28 (ln N) */
     q3_28_t dz_c_q28;              /* c: the arithmetic mean's shift, Q3.28 */
     q3_28_t dz_x1_q28;             /* w_1: the first play's exponent, Q3.28 */
 } comp_t;

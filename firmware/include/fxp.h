@@ -44,9 +44,10 @@ uint32_t fxp_expm1_x_uq6_26(q3_28_t x);
  * ln(x / 2^frac) in Q3.28, for x > 0 (x = 0 is taken as 1) and a result inside (-8, 8) (the
  * caller's range: Q7.8 tensions of 1 LSB and up, UQ8.24 values in [e^-4, e^4]).
  * Scaling and overflow: x = m * 2^k with m in [sqrt(1/2), sqrt(2)) in Q1.30 (the normalisation
- * drops at most one bit of a 32-bit x); ln m by a degree-9 polynomial in t = m - 1 (|t| < 0.42,
- * Chebyshev fit, error < 1.5e-8), Horner in Q1.30 (each product < 2^61 in int64); the sum
- * (k - frac) * ln2 + ln m in Q.30 (|.| < 2^36), rounded to Q3.28. Error < 2 LSB of Q3.28 (7e-9).
+ * drops at most one bit of a 32-bit x); ln m by a degree-10 polynomial in t = m - 1 (|t| < 0.42,
+ * Chebyshev fit, error < 3e-9), Horner in Q1.30 (each product < 2^61 in int64); the sum
+ * (k - frac) * ln2 + ln m in Q.30 (|.| < 2^36), rounded to Q3.28. Error < 2 LSB of Q3.28 (7e-9),
+ * held by the unit tests.
  * About 40 instructions: the compensator's dead-zone inverse takes one per step.
  */
 q3_28_t fxp_ln_q3_28(uint32_t x, uint32_t frac);

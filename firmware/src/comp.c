@@ -456,21 +456,22 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
         tc = ((int64_t)t_eff * (int64_t)g + (INT64_C(1) << 23)) >> 24;
     } else {
         /* The dead-zone inverse (comp.h): y = ln T_eff in Q3.28 (T_eff >= 1 LSB: |y| < 5.6);
-         * u_i - y in [-r'_i, r'_i] (< 4), p'_i (u_i - y) < 2^60 in int64, each >> 28; the sum
+         * d_i = u_i - y in [-r'_i, r'_i] (< 4), p'_i d_i < 2^60 in int64, each >> 28; the sum
          * of 7 terms and c clamped to [-4, 4]; F = e^L in UQ8.24 (< 2^30); G * F in UQ.48
          * (< 2^60) -> UQ.24 (< 2^36); T_eff * G F < 2^53 in int64. */
         q3_28_t y = fxp_ln_q3_28((uint32_t)((t_eff > 1) ? t_eff : 1), 8U);
         int64_t l = -(int64_t)c->dz_c_q28;
+        /* The plays are held as d_i = u_i - y (in [-r'_i, r'_i], Q3.28), since u_i itself can
+         * leave Q3.28's range (|y| + r'_i < 9.6); the step d_i + y_prev - y is exact in int64. */
+        int64_t dy = (int64_t)c->dz_y_q28 - y;
         for (int32_t i = 1; i < COMP_DZ_PLAYS; ++i) {
-            int32_t r = c->dz_r_q28[i];
-            if (c->dz_fresh != 0) {
-                c->dz_u_q28[i] = (c->dir > 0) ? y - r : y + r;
-            }
-            int32_t u = c->dz_u_q28[i];
-            u = (u < y - r) ? y - r : (u > y + r) ? y + r : u;
-            c->dz_u_q28[i] = u;
-            l += ((int64_t)c->dz_p_q28[i] * (int64_t)(u - y)) >> 28;
+            int64_t r = c->dz_r_q28[i];
+            int64_t d = (c->dz_fresh != 0) ? ((c->dir > 0) ? -r : r) : c->dz_d_q28[i] + dy;
+            d = (d < -r) ? -r : (d > r) ? r : d;
+            c->dz_d_q28[i] = (q3_28_t)d;
+            l += ((int64_t)c->dz_p_q28[i] * d) >> 28;
         }
+        c->dz_y_q28 = y;
         c->dz_fresh = 0;
         if (l > COMP_EXPONENT_MAX_Q28) {
             l = COMP_EXPONENT_MAX_Q28;

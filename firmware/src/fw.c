@@ -377,6 +377,9 @@ const char *fw_strerror(int32_t code)
         return "comp.lead_ticks: outside [0, comp.preview_ticks] ticks";
     case COMP_ERR_RAMP:
         return "comp.ramp_ticks: outside [1, 256] ticks";
+    case COMP_ERR_DEAD_ZONE:
+        return "comp.dead_zone_spread: outside [0, 1], or the widest strand mu * phi * "
+               "exp(1.534 * spread) exceeds 4";
     case WAVE_ERR_KIND:
         return "wave.kind: must be 0 (constant), 1 (sine), 2 (triangle), 3 (ramp) or 4 (step)";
     case WAVE_ERR_RATE:

@@ -63,10 +63,11 @@ uq8_24_t fxp_exp_uq8_24(q3_28_t x)
     return g > UINT32_MAX ? UINT32_MAX : (uq8_24_t)g;
 }
 
-/* ln(1 + t) = t * (C1 + t * (C2 + ... + t * C9)) on t in [sqrt(1/2) - 1, sqrt(2) - 1], Q1.30:
- * a degree-9 Chebyshev fit converted to powers of t (constant term 2.6e-10, dropped). */
-static const int32_t LN1P_Q30[9] = {1073741723,  -536870942, 357928950,  -268448916, 214155345,
-                                    -177980543, 161667066,  -153510388, 90018401};
+/* ln(1 + t) = t * (C1 + t * (C2 + ... + t * C10)) on t in [sqrt(1/2) - 1, sqrt(2) - 1], Q1.30:
+ * a degree-10 Chebyshev fit converted to powers of t (error 2.4e-9; constant term -4.7e-10,
+ * dropped). */
+static const int32_t LN1P_Q30[10] = {1073741820, -536870633, 357914375,  -268460081, 214752853,
+                                     -178202340, 152477104,  -143250512, 137705849,  -78616020};
 #define SQRT2_Q30 INT64_C(1518500250) /* sqrt(2) in Q1.30, rounded */
 #define LN2_Q30 INT64_C(744261118)    /* ln 2 in Q1.30, rounded */
 
@@ -85,8 +86,8 @@ q3_28_t fxp_ln_q3_28(uint32_t x, uint32_t frac)
         m >>= 1;
     }
     int64_t t = m - (INT64_C(1) << 30);
-    int64_t p = LN1P_Q30[8];
-    for (int32_t i = 7; i >= 0; --i) {
+    int64_t p = LN1P_Q30[9];
+    for (int32_t i = 8; i >= 0; --i) {
         p = LN1P_Q30[i] + ((p * t) >> 30);
     }
     int64_t ln30 = ((p * t) >> 30) + (int64_t)(k - (int32_t)frac) * LN2_Q30;

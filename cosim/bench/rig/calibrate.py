@@ -12,7 +12,7 @@ The steps (cosim/bench/README.md, "Calibration", says why each piece is there):
 2. **Audit.** `bowden audit` on the recording (cosim.audit.core): mu (the product mu*phi: the
    bench does not measure the position), the dead zone, and the effects of its vocabulary.
 3. **Proposal** (`propose`). For each compensator parameter the audit can set (comp.mu,
-   comp.offset_n, comp.mu_slope_per_n: cosim.audit.params) the device's value is put into the
+   comp.offset_n, comp.mu_slope_per_n, comp.dead_zone_spread: cosim.audit.params) the device's value is put into the
    audit's extended model in place of the fitted one; the change is proposed only when the
    fitted value beats the device's by the audit's own decision rule (cosim.audit.decision: on
    the selection blocks, the same thresholds as a finding), and only when the compensator takes
@@ -97,6 +97,8 @@ AUDITED = {
     "comp.mu": ("mu", True),
     "comp.offset_n": ("sensor_offset", False),
     "comp.mu_slope_per_n": ("mu_tension_slope", True),
+    # the thresholds' log spread is a ratio of widths: the same at any phi
+    "comp.dead_zone_spread": ("dead_zone_spread", False),
 }
 # What a run changes on the device (record_run) and calibrate puts back.
 RUN_PARAMS = ("source", "wave.kind", "wave.mean_n", "wave.amplitude_n", "wave.freq_hz")
@@ -239,7 +241,8 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
     for name, (aparam, by_phi) in AUDITED.items():
         p = param(name)
         k = scale if by_phi else 1.0
-        off = 0.0 if aparam == "mu" else BY_PARAM[aparam].off
+        # mu and the dead zone's spread belong to the nominal model (cosim.audit.params), off at 0
+        off = BY_PARAM[aparam].off if aparam in BY_PARAM else 0.0
         a_val = float(ext.params.get(aparam, off))
         cur = float(device[name])
         if not math.isfinite(k) and not (a_val == off and cur == off):
