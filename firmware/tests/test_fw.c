@@ -339,6 +339,8 @@ static void test_fw_bad_config(void)
     BAD(sample_rate_hz, 0U, FW_ERR_SAMPLE_RATE);
     BAD(comp.mu_q28, -1, COMP_ERR_MU);
     BAD(comp.band_n_q8, 0, COMP_ERR_BAND);
+    BAD(comp.dead_zone_spread_q28, Q3_28_ONE + 1, COMP_ERR_DEAD_ZONE);
+    BAD(comp.dead_zone_spread_q28, -1, COMP_ERR_DEAD_ZONE);
     BAD(wave.kind, 9, WAVE_ERR_KIND);
     BAD(loop.kff, 32768, FW_ERR_KFF);
     BAD(loop.kp, -32769, FW_ERR_KP);
@@ -369,7 +371,7 @@ static void test_fw_bad_config(void)
     CHECK(fw_configure(0, &good) == FW_ERR_NULL && fw_configure(&fw, 0) == FW_ERR_NULL, "null");
     for (int32_t code = 1; code <= 56; ++code) {
         const char *m = fw_strerror(code);
-        int known = (code <= 13) || (code >= 20 && code <= 25) || (code >= 40);
+        int known = (code <= 14) || (code >= 20 && code <= 25) || (code >= 40);
         CHECK(known == (strcmp(m, "unknown status code") != 0), "code %ld: %s", (long)code, m);
     }
 }
