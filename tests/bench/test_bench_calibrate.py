@@ -7,6 +7,7 @@ slow; the runs over real links are in tests/bench/test_bench_calibrate_links.py.
 
 import argparse
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -185,6 +186,31 @@ def test_values_that_hold_alone_but_not_together_keep_the_most_that_does():
     assert slope.proposed == pytest.approx(-0.05 / 48, rel=1e-5)
     together = {**dev, "comp.mu": 0.05, slope.name: slope.proposed}
     assert cal._comp_refuses(together, str(dev["comp.mode"])) is None
+
+
+def test_a_dead_zone_spread_beyond_the_limits_is_clipped_and_mu_still_applies():
+    """The audit's spread 1.3 is beyond the compensator's [0, 1]: clipped to 1 with the reason,
+    mu's change applied beside it."""
+    dev = _device()
+    changes = [_change("comp.mu", 0.075, 0.09), _change("comp.dead_zone_spread", 0.0, 1.3)]
+    cal._check_limits(changes, dev, dev["comp.phi_rad"])
+    mu, spread = changes
+    assert mu.status == "change" and mu.proposed == 0.09
+    assert spread.status == "clipped" and "clipped from 1.3" in spread.reason
+    assert spread.proposed == pytest.approx(1.0, abs=1e-6) and spread.proposed <= 1.0
+
+
+def test_a_spread_that_holds_alone_but_not_with_mu_keeps_the_widest_strand_at_4():
+    """mu 0.16 on loop routing (mu*phi 1.005) with spread 0.95: the widest strand
+    1.005 e^(1.534 * 0.95) = 4.3 > 4, so the spread is clipped to about ln(4 / 1.005) / 1.534
+    = 0.90 with mu's change applied."""
+    dev = _device()
+    changes = [_change("comp.mu", 0.075, 0.16), _change("comp.dead_zone_spread", 0.0, 0.95)]
+    cal._check_limits(changes, dev, dev["comp.phi_rad"])
+    mu, spread = changes
+    assert mu.status == "change" and mu.proposed == 0.16
+    assert spread.status == "clipped" and "to hold with comp.mu" in spread.reason
+    assert spread.proposed == pytest.approx(math.log(4 / (0.16 * 2 * math.pi)) / 1.5341, abs=2e-3)
 
 
 @pytest.mark.slow
