@@ -71,8 +71,10 @@
  *    148(3), 2001):
  *      thresholds r'_i = (1/M) sum_(j<=i) (r_i - r_j),
  *      weights p'_1 = M, p'_i = -M / (i (i - 1)) for i >= 2 (they sum to 1),
- *    and the first play inverts as the branch's jump, with exponent w_1 instead of mu*phi (the
- *    gain tables are built with mu*phi -> w_1 and mu_slope -> mu_slope * w_1 / W). In the
+ *    and the first play inverts as the branch's jump, with exponent w_1 instead of mu*phi: the
+ *    gain tables become G_up e^(w_1 - W) and G_dn e^(W - w_1), so that a friction slope keeps
+ *    its whole factor (the strands' widths all follow mu(T); with the slope's factor on the
+ *    first play alone, a slope and a spread together tracked worse than the slope alone). In the
  *    multiplicative form a step with y = ln(max(T_eff, 1 LSB)) updates the plays
  *    u_i = clamp(u_i, y - r'_i, y + r'_i) (i = 2..M; at the first step u_i = y -+ r'_i on the
  *    detector's branch) and multiplies the gain by

@@ -103,25 +103,22 @@ static q3_28_t first_exponent_q28(const comp_config_t *cfg)
 
 static int32_t build_tables(const comp_config_t *cfg, uq8_24_t *up, uq8_24_t *dn)
 {
-    q3_28_t x = first_exponent_q28(cfg); /* checked <= 4 */
-    uq8_24_t e = fxp_exp_uq8_24(x);
-    q3_28_t slope = cfg->mu_slope_per_n_q28;
-    if (slope != 0 && x != (q3_28_t)exponent_q28(cfg)) {
-        /* mu_slope * w_1 / W: the first play carries its share of the slope (comp.h). */
-        uq8_24_t ratio = fxp_div_uq8_24((uint64_t)x, (uint64_t)exponent_q28(cfg));
-        slope = (q3_28_t)(((int64_t)slope * (int64_t)ratio) / (INT64_C(1) << 24));
-    }
-    if (slope == 0) {
-        uq8_24_t einv = fxp_exp_uq8_24(-x);
+    q3_28_t x0 = (q3_28_t)exponent_q28(cfg); /* checked <= 4 */
+    q3_28_t x1 = first_exponent_q28(cfg);    /* w_1 <= mu*phi */
+    if (cfg->mu_slope_per_n_q28 == 0) {
+        uq8_24_t e1 = fxp_exp_uq8_24(x1);
+        uq8_24_t einv = fxp_exp_uq8_24(-x1);
         for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
-            up[i] = e;
+            up[i] = e1;
             dn[i] = einv;
         }
         return COMP_OK;
     }
+    const q3_28_t x = x0;
+    uq8_24_t e = fxp_exp_uq8_24(x);
     /* phi (Q7.24) * (E-1)/x (UQ6.26) = Q.50 -> Q.24. */
     int64_t q24 = ((int64_t)cfg->phi_rad_q24 * fxp_expm1_x_uq6_26(x) + (INT64_C(1) << 25)) >> 26;
-    int64_t k52 = (int64_t)slope * q24;
+    int64_t k52 = (int64_t)cfg->mu_slope_per_n_q28 * q24;
     int64_t e52 = (int64_t)e * (INT64_C(1) << 28);
     const int64_t one52 = INT64_C(1) << 52;
     for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
@@ -138,6 +135,17 @@ static int32_t build_tables(const comp_config_t *cfg, uq8_24_t *up, uq8_24_t *dn
         dn[i] = fxp_div_uq8_24((uint64_t)one52, (uint64_t)d_dn);
         if (up[i] > COMP_GAIN_MAX || dn[i] < COMP_GAIN_MIN) {
             return COMP_ERR_MU_SLOPE;
+        }
+    }
+    if (x1 != x0) {
+        /* With a dead-zone spread the first play's jump is w_1, not mu*phi, and it carries the
+         * whole slope factor of the sharp law (comp.h): G_up e^(w_1 - W), G_dn e^(W - w_1).
+         * UQ8.24 * UQ8.24 < 2^60; G_up only shrinks and G_dn grows, both stay in [e^-4, e^4]. */
+        uint64_t f_up = fxp_exp_uq8_24(x1 - x0);
+        uint64_t f_dn = fxp_exp_uq8_24(x0 - x1);
+        for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
+            up[i] = (uq8_24_t)(((uint64_t)up[i] * f_up + (UINT64_C(1) << 23)) >> 24);
+            dn[i] = (uq8_24_t)(((uint64_t)dn[i] * f_dn + (UINT64_C(1) << 23)) >> 24);
         }
     }
     return COMP_OK;

@@ -34,24 +34,33 @@ static double blend_top(const comp_f64_config_t *cfg)
     return (cfg->mode == COMP_MODE_PREVIEW) ? (double)cfg->ramp_ticks : cfg->band_n;
 }
 
-/* G_up and G_dn at |T| = a (comp.h: the capstan relation with mu(T) = mu + s*T integrated), for
- * the exponent x (mu*phi, or the first play's w_1 with a dead-zone spread) and slope s*x/(mu*phi). */
-static void gains_x(const comp_f64_config_t *cfg, double x, double a, double *gu, double *gd)
+/* G_up and G_dn at |T| = a (comp.h: the capstan relation with mu(T) = mu + s*T integrated). */
+static void gains(const comp_f64_config_t *cfg, double a, double *gu, double *gd)
 {
-    double x0 = cfg->mu * cfg->phi_rad;
-    double slope = (x0 > 0.0) ? cfg->mu_slope_per_n * (x / x0) : cfg->mu_slope_per_n;
+    double x = cfg->mu * cfg->phi_rad;
     double e = exp(x);
     double q = (x > 0.0) ? cfg->phi_rad * expm1(x) / x : cfg->phi_rad;
     /* The slope's law holds up to COMP_MU_SLOPE_RANGE_N; the gains stay there above it (comp.c). */
-    double c = slope * q * fmin(a, (double)COMP_MU_SLOPE_RANGE_N);
+    double c = cfg->mu_slope_per_n * q * fmin(a, (double)COMP_MU_SLOPE_RANGE_N);
     *gu = e / (1.0 - c);
     *gd = 1.0 / (e + c);
 }
 
-static void gains(const comp_f64_config_t *cfg, double a, double *gu, double *gd)
+/* The first play's gains: those above with the exponent w_1 in place of mu*phi, the slope's
+ * factor kept whole (comp.h). */
+static void gains_x(const comp_f64_config_t *cfg, double x1, double a, double *gu, double *gd)
 {
-    gains_x(cfg, cfg->mu * cfg->phi_rad, a, gu, gd);
+    double x0 = cfg->mu * cfg->phi_rad;
+    if (cfg->mu_slope_per_n == 0.0) {
+        *gu = exp(x1);
+        *gd = exp(-x1);
+        return;
+    }
+    gains(cfg, a, gu, gd);
+    *gu *= exp(x1 - x0);
+    *gd *= exp(x0 - x1);
 }
+
 
 static const long DZ_Q_Q28[COMP_DZ_PLAYS] = COMP_DZ_QUANTILES_Q28;
 
