@@ -24,7 +24,7 @@ static int16_t ref[MAX_STEPS];
 int main(int argc, char **argv)
 {
     if (argc != 3) {
-        fprintf(stderr, "usage: %s paper|smooth|smooth-blend STEPS\n", argv[0]);
+        fprintf(stderr, "usage: %s paper|smooth|smooth-blend|preview-spread STEPS\n", argv[0]);
         return 2;
     }
     long steps = strtol(argv[2], NULL, 10);
@@ -43,8 +43,11 @@ int main(int argc, char **argv)
         cfg.band_n_q8 = COMP_BAND_MAX_Q8;
         cfg.offset_n_q8 = Q7_8_ONE / 2;
         cfg.mu_slope_per_n_q28 = (q3_28_t)(Q3_28_ONE / 2000);
+    } else if (strcmp(argv[1], "preview-spread") == 0) {
+        cfg.mode = COMP_MODE_PREVIEW;
+        cfg.dead_zone_spread_q28 = (q3_28_t)(Q3_28_ONE / 2); /* the dead-zone inverse */
     } else {
-        fprintf(stderr, "SCENARIO: one of paper, smooth, smooth-blend; got %s\n", argv[1]);
+        fprintf(stderr, "SCENARIO: one of paper, smooth, smooth-blend, preview-spread; got %s\n", argv[1]);
         return 2;
     }
     comp_t c;
