@@ -104,6 +104,25 @@ def test_calibrate_finds_a_mu_the_compensator_does_not_know_and_applies_it(off_p
     assert "restore it with:" in lines[0] and "before.json" in lines[1]
 
 
+@pytest.mark.slow
+def test_calibrate_takes_the_dead_zone_spread_to_the_compensator(tmp_path):
+    """A plant with a gradual dead zone (spread 0.4, the nominal mu): the audit's spread is
+    proposed without the finding rule (UNGATED), applied, and the verification's error drops."""
+    with Bench(emulate=True, plant={"dead_zone_spread": 0.4}) as bench:
+        outcome, lines = _calibrate(bench, bench.connect_info, tmp_path / "c", apply=True)
+        after = _words(bench.client)
+    assert outcome.exit_code == 0, lines
+    spread = next(c for c in outcome.report["changes"] if c["name"] == "comp.dead_zone_spread")
+    assert spread["status"] == "change", spread
+    assert spread["proposed"] == pytest.approx(0.4, abs=0.1)
+    word = value_from_word(
+        msgs.PARAM_BY_NAME["comp.dead_zone_spread"], after["comp.dead_zone_spread"]
+    )
+    assert word == pytest.approx(spread["proposed"], abs=1e-6)
+    m = outcome.report["measured"]
+    assert m["after"]["rms_error_n"] < 0.7 * m["before"]["rms_error_n"], m
+
+
 def test_nominal_plant_gives_nothing_to_change(tmp_path):
     with Bench(emulate=True) as bench:
         outcome, lines = _calibrate(bench, bench.connect_info, tmp_path / "c", apply=True)
