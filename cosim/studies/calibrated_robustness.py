@@ -10,7 +10,8 @@ a grid's plant axes are crossed, a random spec draws one plant per point):
    controller (the stepped emulator, at the home position) with that plant: the tare of the
    far-end load cell, the identification, the audit, and the compensator values it proposes
    (comp.mu, comp.offset_n, comp.mu_slope_per_n, comp.dead_zone_spread), clipped to the
-   compensator's limits where they lie beyond (without calibrate's prediction runs, which only print what it expects);
+   compensator's limits where they lie beyond (without calibrate's prediction runs, which only
+   print what it expects);
 2. the spec's runs of that plant (cosim.studies.sweep.run: fig14 6 s, board interface, the
    native engine; the point's own position and compensator) with the compensator set to them
    and compensator.est_enable 0.
