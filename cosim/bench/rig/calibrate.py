@@ -12,16 +12,15 @@ The steps (cosim/bench/README.md, "Calibration", says why each piece is there):
 2. **Audit.** `bowden audit` on the recording (cosim.audit.core): mu (the product mu*phi: the
    bench does not measure the position), the dead zone, and the effects of its vocabulary.
 3. **Proposal** (`propose`). For each compensator parameter the audit can set (comp.mu,
-   comp.offset_n, comp.mu_slope_per_n, comp.dead_zone_spread: cosim.audit.params) the device's
-   value is put into the audit's extended model in place of the fitted one; the change is
-   proposed only when the fitted value beats the device's by the audit's own decision rule
-   (cosim.audit.decision: on the selection blocks, the same thresholds as a finding; the dead
-   zone's spread, a parameter of the audit's nominal model, without that rule: UNGATED), and
-   only when the compensator takes it (the firmware's configuration check through
-   cosim.parts.firmware). A value the compensator does not take is clipped to the nearest one it takes on the way from the
-   device's value (status "clipped", the limit named), and a set that does not hold together
-   keeps the most of it that does: one value never blocks the others. Loop gains are never
-   among them.
+   comp.offset_n, comp.mu_slope_per_n, comp.dead_zone_spread: cosim.audit.params) the device's value
+   is put into the audit's extended model in place of the fitted one; the change is proposed only
+   when the fitted value beats the device's by the audit's own decision rule (cosim.audit.decision:
+   on the selection blocks, the same thresholds as a finding; the dead zone's spread, a parameter of
+   the audit's nominal model, without that rule: UNGATED), and only when the compensator takes it
+   (the firmware's configuration check through cosim.parts.firmware). A value the compensator does
+   not take is clipped to the nearest one it takes on the way from the device's value (status
+   "clipped", the limit named), and a set that does not hold together keeps the most of it that
+   does: one value never blocks the others. Loop gains are never among them.
 4. **Prediction** (`predict`). The emulated controller (the device's firmware, the FPGA loop's
    model) with the audited plant and the device's compensator and loop settings runs the
    verification waveform with the device's values and with the proposed ones.
