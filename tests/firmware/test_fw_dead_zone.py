@@ -43,7 +43,7 @@ CONFIGS = {
 @pytest.mark.parametrize("name", list(CONFIGS))
 def test_dead_zone_inverse_fixed_matches_double_twin(name):
     """A random walk over the whole Q7.8 range and the reversals: |T_c fixed - T_c twin| within
-    the compensator's documented bound (measured: 0.5 LSB without a slope, 0.6 with one)."""
+    the compensator's documented bound (measured: 0.50 LSB without a slope, 0.69 with one)."""
     params = CONFIGS[name]
     bound = params.error_bound_n()
     rng = np.random.default_rng(38)
