@@ -227,6 +227,7 @@ typedef struct {
                                       16] (comp_set_correction_q8; 0 after comp_reset) */
     int32_t applied_q8;            /* the reference the last step applied, T_ref(t + L), Q7.8 */
     int32_t dz_on;                 /* 1 when the dead-zone inverse is in force (spread > 0) */
+    int32_t kind;                  /* what a step runs after the detector (comp.c COMP_KIND_*) */
     int32_t dz_fresh;              /* 1 until the plays are set at the next step */
     q3_28_t dz_r_q28[COMP_DZ_PLAYS];  /* thresholds r'_i of the inverse PI model, Q3.28 (i >= 1) */
     q3_28_t dz_p_q28[COMP_DZ_PLAYS];  /* weights p'_i of the inverse PI model, Q3.28 (i >= 1) */

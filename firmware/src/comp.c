@@ -3,6 +3,11 @@
 
 #include "fxp.h"
 
+/* comp_t.kind: what a step runs after the detector. */
+#define COMP_KIND_SHARP 0 /* PAPER, SMOOTH, PREVIEW without a dead-zone spread */
+#define COMP_KIND_NONE 1  /* mode NONE */
+#define COMP_KIND_DZ 2    /* PAPER, SMOOTH, PREVIEW with the dead-zone inverse */
+
 void comp_config_default(comp_config_t *cfg)
 {
     if (cfg == 0) {
@@ -305,6 +310,9 @@ int32_t comp_configure(comp_t *c, const comp_config_t *cfg)
     int32_t new_line = (c->cfg.preview_ticks != cfg->preview_ticks);
     c->cfg = *cfg;
     c->dz_on = (cfg->dead_zone_spread_q28 != 0 && exponent_q28(cfg) != 0);
+    c->kind = (cfg->mode == COMP_MODE_NONE) ? COMP_KIND_NONE
+              : (c->dz_on != 0)            ? COMP_KIND_DZ
+                                           : COMP_KIND_SHARP;
     c->dz_fresh = 1;
     c->dz_c_q28 = 0;
     if (c->dz_on != 0) {
@@ -349,46 +357,44 @@ static inline uq8_24_t tab_interp(const uq8_24_t *tab, uint32_t a)
     return (uq8_24_t)(lo + (((int64_t)tab[i + 1U] - lo) * frac >> COMP_TAB_SHIFT));
 }
 
-q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
+/* The dead-zone inverse's part of a step (comp.h): T_c for T_eff and the first play's gain g. */
+static int64_t dz_step(comp_t *c, int32_t t_eff, uq8_24_t g)
 {
-    const int32_t ref = t_ref;
+    /* The dead-zone inverse (comp.h): y = ln T_eff in Q3.28 (T_eff >= 1 LSB: |y| < 5.6);
+     * d_i = u_i - y in [-r'_i, r'_i] (< 4), p'_i d_i < 2^60 in int64, each >> 28; the sum
+     * of 7 terms and c clamped to [-4, 4]; F = e^L in UQ8.24 (< 2^30); G * F in UQ.48
+     * (< 2^60) -> UQ.24 (< 2^36); T_eff * G F < 2^53 in int64. */
+    q3_28_t y = fxp_ln_q3_28((uint32_t)((t_eff > 1) ? t_eff : 1), 8U);
+    int64_t l = -(int64_t)c->dz_c_q28;
+    /* The plays are held as d_i = u_i - y (in [-r'_i, r'_i], Q3.28), since u_i itself can
+     * leave Q3.28's range (|y| + r'_i < 9.6); the step d_i + y_prev - y is exact in int64. */
+    int64_t dy = (int64_t)c->dz_y_q28 - y;
+    for (int32_t i = 1; i < COMP_DZ_PLAYS; ++i) {
+        int64_t r = c->dz_r_q28[i];
+        int64_t d = (c->dz_fresh != 0) ? ((c->dir > 0) ? -r : r) : c->dz_d_q28[i] + dy;
+        d = (d < -r) ? -r : (d > r) ? r : d;
+        c->dz_d_q28[i] = (q3_28_t)d;
+        l += ((int64_t)c->dz_p_q28[i] * d) >> 28;
+    }
+    c->dz_y_q28 = y;
+    c->dz_fresh = 0;
+    if (l > COMP_EXPONENT_MAX_Q28) {
+        l = COMP_EXPONENT_MAX_Q28;
+    } else if (l < -COMP_EXPONENT_MAX_Q28) {
+        l = -COMP_EXPONENT_MAX_Q28;
+    }
+    uint64_t gf = ((uint64_t)g * fxp_exp_uq8_24((q3_28_t)l) + (UINT64_C(1) << 23)) >> 24;
+    return ((int64_t)t_eff * (int64_t)gf + (INT64_C(1) << 23)) >> 24;
+}
+
+/* The step after the detector (PAPER, SMOOTH, PREVIEW), specialised by the compiler for dz = 0
+ * (the sharp law, its instructions as before the dead-zone inverse) and dz = 1; always inlined
+ * (a GCC attribute, as every toolchain of the firmware is GCC), since a call costs the sharp law
+ * 8 instructions a step and the callgrind budget is 100. */
+static inline __attribute__((always_inline)) q7_8_t step_modes(comp_t *c, int32_t ref,
+                                                                int32_t diff, const int32_t dz)
+{
     const comp_config_t *cfg = &c->cfg;
-    if (c->started == 0) {
-        c->started = 1;
-        c->prev_ref = ref;
-        c->extreme = ref;
-        /* The delay line reads as a reference at rest (this first input) where this start has
-         * not written it yet; no fill of its 129 slots here, so a run's first tick costs no more
-         * than the others (the soft CPU's worst tick). */
-        c->line_first = ref;
-        c->line_writes = 0;
-        c->line_pos = 0;
-    }
-    int32_t diff = ref - c->prev_ref; /* |diff| <= 65535 */
-    c->prev_ref = ref;
-
-    /* Direction detector with hysteresis H (Eq. 16; exact for H = 1 LSB). */
-    if (c->dir > 0) {
-        if (ref > c->extreme) {
-            c->extreme = ref;
-        } else if (c->extreme - ref >= cfg->hysteresis_n_q8) {
-            c->dir = -1;
-            c->extreme = ref;
-        }
-    } else {
-        if (ref < c->extreme) {
-            c->extreme = ref;
-        } else if (ref - c->extreme >= cfg->hysteresis_n_q8) {
-            c->dir = 1;
-            c->extreme = ref;
-        }
-    }
-
-    if (cfg->mode == COMP_MODE_NONE) {
-        c->applied_q8 = ref;
-        return (ref < cfg->tc_min_n_q8) ? (q7_8_t)cfg->tc_min_n_q8 : t_ref;
-    }
-
     /* PREVIEW: the input is T_ref(t + P); the gain applies to T_ref(t + L), P - L inputs ago. */
     int32_t applied = ref;
     if (cfg->mode == COMP_MODE_PREVIEW) {
@@ -459,42 +465,61 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
     }
 
     /* T_c = T_eff * G: Q7.8 (32-bit) * UQ8.24 = Q15.32 in int64 (< 2^47); round to Q7.8. */
-    int64_t tc;
-    if (c->dz_on == 0) {
-        tc = ((int64_t)t_eff * (int64_t)g + (INT64_C(1) << 23)) >> 24;
-    } else {
-        /* The dead-zone inverse (comp.h): y = ln T_eff in Q3.28 (T_eff >= 1 LSB: |y| < 5.6);
-         * d_i = u_i - y in [-r'_i, r'_i] (< 4), p'_i d_i < 2^60 in int64, each >> 28; the sum
-         * of 7 terms and c clamped to [-4, 4]; F = e^L in UQ8.24 (< 2^30); G * F in UQ.48
-         * (< 2^60) -> UQ.24 (< 2^36); T_eff * G F < 2^53 in int64. */
-        q3_28_t y = fxp_ln_q3_28((uint32_t)((t_eff > 1) ? t_eff : 1), 8U);
-        int64_t l = -(int64_t)c->dz_c_q28;
-        /* The plays are held as d_i = u_i - y (in [-r'_i, r'_i], Q3.28), since u_i itself can
-         * leave Q3.28's range (|y| + r'_i < 9.6); the step d_i + y_prev - y is exact in int64. */
-        int64_t dy = (int64_t)c->dz_y_q28 - y;
-        for (int32_t i = 1; i < COMP_DZ_PLAYS; ++i) {
-            int64_t r = c->dz_r_q28[i];
-            int64_t d = (c->dz_fresh != 0) ? ((c->dir > 0) ? -r : r) : c->dz_d_q28[i] + dy;
-            d = (d < -r) ? -r : (d > r) ? r : d;
-            c->dz_d_q28[i] = (q3_28_t)d;
-            l += ((int64_t)c->dz_p_q28[i] * d) >> 28;
-        }
-        c->dz_y_q28 = y;
-        c->dz_fresh = 0;
-        if (l > COMP_EXPONENT_MAX_Q28) {
-            l = COMP_EXPONENT_MAX_Q28;
-        } else if (l < -COMP_EXPONENT_MAX_Q28) {
-            l = -COMP_EXPONENT_MAX_Q28;
-        }
-        uint64_t gf = ((uint64_t)g * fxp_exp_uq8_24((q3_28_t)l) + (UINT64_C(1) << 23)) >> 24;
-        tc = ((int64_t)t_eff * (int64_t)gf + (INT64_C(1) << 23)) >> 24;
-    }
+    int64_t tc = (dz != 0) ? dz_step(c, t_eff, g)
+                           : ((int64_t)t_eff * (int64_t)g + (INT64_C(1) << 23)) >> 24;
     if (tc > Q7_8_MAX) {
         tc = Q7_8_MAX;
     } else if (tc < cfg->tc_min_n_q8) {
         tc = cfg->tc_min_n_q8; /* the floor, >= 0 > Q7_8_MIN: also the low saturation */
     }
     return (q7_8_t)tc;
+}
+
+q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
+{
+    const int32_t ref = t_ref;
+    const comp_config_t *cfg = &c->cfg;
+    if (c->started == 0) {
+        c->started = 1;
+        c->prev_ref = ref;
+        c->extreme = ref;
+        /* The delay line reads as a reference at rest (this first input) where this start has
+         * not written it yet; no fill of its 129 slots here, so a run's first tick costs no more
+         * than the others (the soft CPU's worst tick). */
+        c->line_first = ref;
+        c->line_writes = 0;
+        c->line_pos = 0;
+    }
+    int32_t diff = ref - c->prev_ref; /* |diff| <= 65535 */
+    c->prev_ref = ref;
+
+    /* Direction detector with hysteresis H (Eq. 16; exact for H = 1 LSB). */
+    if (c->dir > 0) {
+        if (ref > c->extreme) {
+            c->extreme = ref;
+        } else if (c->extreme - ref >= cfg->hysteresis_n_q8) {
+            c->dir = -1;
+            c->extreme = ref;
+        }
+    } else {
+        if (ref < c->extreme) {
+            c->extreme = ref;
+        } else if (ref - c->extreme >= cfg->hysteresis_n_q8) {
+            c->dir = 1;
+            c->extreme = ref;
+        }
+    }
+
+    /* One test for both rarer paths (mode NONE, the dead-zone inverse), so that the sharp law
+     * costs what it did (the callgrind budget). */
+    if (c->kind != COMP_KIND_SHARP) {
+        if (c->kind == COMP_KIND_NONE) {
+            c->applied_q8 = ref;
+            return (ref < cfg->tc_min_n_q8) ? (q7_8_t)cfg->tc_min_n_q8 : t_ref;
+        }
+        return step_modes(c, ref, diff, 1);
+    }
+    return step_modes(c, ref, diff, 0);
 }
 
 int32_t comp_set_exponent_q28(comp_t *c, q3_28_t x_q28)
