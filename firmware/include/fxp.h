@@ -41,16 +41,13 @@ uq8_24_t fxp_exp_uq8_24(q3_28_t x);
 uint32_t fxp_expm1_x_uq6_26(q3_28_t x);
 
 /*
- * ln(x / 2^frac) in Q3.28, for x > 0 (x = 0 is taken as 1) and a result inside (-8, 8) (the
- * caller's range: Q7.8 tensions of 1 LSB and up, UQ8.24 values in [e^-4, e^4]).
- * Scaling and overflow: x = m * 2^k with m in [sqrt(1/2), sqrt(2)) in Q1.30 (the normalisation
- * drops at most one bit of a 32-bit x); ln m by a degree-10 polynomial in t = m - 1 (|t| < 0.42,
- * Chebyshev fit, error < 3e-9), Horner in Q1.30 (each product < 2^61 in int64); the sum
- * (k - frac) * ln2 + ln m in Q.30 (|.| < 2^36), rounded to Q3.28. Error < 2 LSB of Q3.28 (7e-9),
- * held by the unit tests.
- * About 40 instructions: the compensator's dead-zone inverse takes one per step.
+ * ln(v) for v in UQ8.24 (v > 0), in Q3.28, clamped to [-8, 8 - 2^-28] (0 gives -8).
+ * v = m 2^k with m in [2^-1/2, 2^1/2); ln m = 2 atanh(z), z = (m - 1)/(m + 1), |z| <= 0.1716, by
+ * its odd series to z^9 (truncation < 7e-10); z in Q1.30 by the long division; k ln 2 from ln 2
+ * in Q.40. |error| <= 4 LSB of Q3.28 (unit test against libm over the whole range). Used by the
+ * online estimate (fric_est_ln_q28) and, once a step, by the compensator's dead-zone inverse.
  */
-q3_28_t fxp_ln_q3_28(uint32_t x, uint32_t frac);
+q3_28_t fxp_ln_q28(uq8_24_t v);
 
 /*
  * round(num / den) in UQ8.24, for 64-bit num and den with den in (0, 2^62): bit-serial long

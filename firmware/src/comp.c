@@ -69,9 +69,9 @@ static q3_28_t dz_constants(const comp_config_t *cfg, comp_t *c)
         sum_up += fxp_exp_uq8_24((q3_28_t)-w[j]);
         sum_dn += fxp_exp_uq8_24((q3_28_t)w[j]);
     }
-    /* mean = sum / 8 in UQ8.24 is the sum in UQ.27: ln(sum / 2^27). */
-    int64_t a_up = -(int64_t)fxp_ln_q3_28((uint32_t)sum_up, 27U); /* sum_up <= 2^27 */
-    int64_t a_dn = fxp_ln_q3_28((uint32_t)(sum_dn >> 3), 24U);
+    /* The means sum / 8 in UQ8.24: e^-w_j <= 1 and e^w_j <= e^4 (< 2^30). */
+    int64_t a_up = -(int64_t)fxp_ln_q28((uq8_24_t)(sum_up >> 3));
+    int64_t a_dn = fxp_ln_q28((uq8_24_t)(sum_dn >> 3));
     int64_t h2 = a_up + a_dn; /* 2h */
     /* k = h / mean(w) = 2h * 8 / (2 * sum_w) = 4 * 2h / sum_w, UQ8.24. */
     uq8_24_t k = fxp_div_uq8_24((uint64_t)h2 * 4U, (uint64_t)sum_w);
@@ -82,7 +82,7 @@ static q3_28_t dz_constants(const comp_config_t *cfg, comp_t *c)
         int64_t rsum = 0;
         c->dz_c_q28 = (q3_28_t)((a_dn - a_up) / 2);
         c->dz_r_q28[0] = 0;
-        c->dz_p_q28[0] = (q3_28_t)(COMP_DZ_PLAYS * Q3_28_ONE);
+        c->dz_p_q28[0] = 0; /* p'_1 = M, the linear part: implicit, as the weights sum to 1 */
         for (int32_t i = 1; i < COMP_DZ_PLAYS; ++i) {
             int64_t r = w[i] - w[0];
             rsum += r;
@@ -364,7 +364,7 @@ static int64_t dz_step(comp_t *c, int32_t t_eff, uq8_24_t g)
      * d_i = u_i - y in [-r'_i, r'_i] (< 4), p'_i d_i < 2^60 in int64, each >> 28; the sum
      * of 7 terms and c clamped to [-4, 4]; F = e^L in UQ8.24 (< 2^30); G * F in UQ.48
      * (< 2^60) -> UQ.24 (< 2^36); T_eff * G F < 2^53 in int64. */
-    q3_28_t y = fxp_ln_q3_28((uint32_t)((t_eff > 1) ? t_eff : 1), 8U);
+    q3_28_t y = fxp_ln_q28((uq8_24_t)((t_eff > 1) ? t_eff : 1) << 16); /* Q7.8 -> UQ8.24 */
     int64_t l = -(int64_t)c->dz_c_q28;
     /* The plays are held as d_i = u_i - y (in [-r'_i, r'_i], Q3.28), since u_i itself can
      * leave Q3.28's range (|y| + r'_i < 9.6); the step d_i + y_prev - y is exact in int64. */

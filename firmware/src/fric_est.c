@@ -295,54 +295,9 @@ q3_28_t fric_est_step(fric_est_t *e, int32_t t_in_q8, int32_t t_out_q8, int32_t 
     return e->x;
 }
 
-/* Q1.30 constants of the atanh series: 1/3, 1/5, 1/7, 1/9 (rounded). */
-#define LN_C3 357913941LL
-#define LN_C5 214748365LL
-#define LN_C7 153391689LL
-#define LN_C9 119304647LL
-#define LN2_Q40 762123384786LL /* round(ln 2 * 2^40) */
-#define SQRT2_Q30 1518500250U  /* round(sqrt(2) * 2^30) */
-
 q3_28_t fric_est_ln_q28(uq8_24_t v)
 {
-    if (v == 0U) {
-        return (q3_28_t)(-8L * Q3_28_ONE);
-    }
-    int32_t msb = 31;
-    while ((v >> msb) == 0U) {
-        --msb;
-    }
-    /* m in [1, 2) as mant / 2^30 (the bit below 2^-30 is dropped when msb = 31). */
-    uint32_t mant = (msb <= 30) ? (v << (30 - msb)) : (v >> 1);
-    int32_t k = msb - 24;
-    /* m > sqrt 2: use m/2, z = (m - 2)/(m + 2); else z = (m - 1)/(m + 1). Exact integers. */
-    int64_t c = INT64_C(1) << 30;
-    if (mant > SQRT2_Q30) {
-        c <<= 1;
-        k += 1;
-    }
-    int64_t num = (int64_t)mant - c; /* |num| < 2^30 */
-    int64_t den = (int64_t)mant + c; /* < 2^32 */
-    int64_t az = (int64_t)fxp_div_uq8_24((uint64_t)((num < 0) ? -num : num) << 6,
-                                         (uint64_t)den); /* |z| in Q1.30, <= 0.1716 */
-    int64_t z2 = (az * az + (INT64_C(1) << 29)) >> 30;
-    int64_t p = LN_C9;
-    p = LN_C7 + ((z2 * p + (INT64_C(1) << 29)) >> 30);
-    p = LN_C5 + ((z2 * p + (INT64_C(1) << 29)) >> 30);
-    p = LN_C3 + ((z2 * p + (INT64_C(1) << 29)) >> 30);
-    p = (INT64_C(1) << 30) + ((z2 * p + (INT64_C(1) << 29)) >> 30);
-    /* ln m = 2 z p: Q1.30 * Q1.30 = Q2.60 (< 2^59), * 2 / 2^32 -> Q3.28. */
-    int64_t lnm = (az * p + (INT64_C(1) << 30)) >> 31;
-    if (num < 0) {
-        lnm = -lnm;
-    }
-    int64_t r = (((int64_t)k * LN2_Q40 + (INT64_C(1) << 11)) >> 12) + lnm;
-    if (r < -8LL * Q3_28_ONE) {
-        r = -8LL * Q3_28_ONE;
-    } else if (r > (int64_t)INT32_MAX) {
-        r = INT32_MAX;
-    }
-    return (q3_28_t)r;
+    return fxp_ln_q28(v); /* shared with the compensator's dead-zone inverse (fxp.h) */
 }
 
 /* ---- The far-end output correction (fric_est.h, "The far-end output correction") ---------- */

@@ -63,35 +63,54 @@ uq8_24_t fxp_exp_uq8_24(q3_28_t x)
     return g > UINT32_MAX ? UINT32_MAX : (uq8_24_t)g;
 }
 
-/* ln(1 + t) = t * (C1 + t * (C2 + ... + t * C10)) on t in [sqrt(1/2) - 1, sqrt(2) - 1], Q1.30:
- * a degree-10 Chebyshev fit converted to powers of t (error 2.4e-9; constant term -4.7e-10,
- * dropped). */
-static const int32_t LN1P_Q30[10] = {1073741820, -536870633, 357914375,  -268460081, 214752853,
-                                     -178202340, 152477104,  -143250512, 137705849,  -78616020};
-#define SQRT2_Q30 INT64_C(1518500250) /* sqrt(2) in Q1.30, rounded */
-#define LN2_Q30 INT64_C(744261118)    /* ln 2 in Q1.30, rounded */
+/* Q1.30 constants of the atanh series: 1/3, 1/5, 1/7, 1/9 (rounded). */
+#define LN_C3 357913941LL
+#define LN_C5 214748365LL
+#define LN_C7 153391689LL
+#define LN_C9 119304647LL
+#define LN2_Q40 762123384786LL /* round(ln 2 * 2^40) */
+#define SQRT2_Q30 1518500250U  /* round(sqrt(2) * 2^30) */
 
-q3_28_t fxp_ln_q3_28(uint32_t x, uint32_t frac)
+q3_28_t fxp_ln_q28(uq8_24_t v)
 {
-    if (x == 0U) {
-        x = 1U;
+    if (v == 0U) {
+        return (q3_28_t)(-8L * Q3_28_ONE);
     }
-    int32_t k = 31;
-    while ((x >> (uint32_t)k) == 0U) {
-        --k;
+    int32_t msb = 31;
+    while ((v >> msb) == 0U) {
+        --msb;
     }
-    int64_t m = (int64_t)(((uint64_t)x << 30) >> (uint32_t)k); /* [1, 2) in Q1.30 */
-    if (m >= SQRT2_Q30) {
-        ++k;
-        m >>= 1;
+    /* m in [1, 2) as mant / 2^30 (the bit below 2^-30 is dropped when msb = 31). */
+    uint32_t mant = (msb <= 30) ? (v << (30 - msb)) : (v >> 1);
+    int32_t k = msb - 24;
+    /* m > sqrt 2: use m/2, z = (m - 2)/(m + 2); else z = (m - 1)/(m + 1). Exact integers. */
+    int64_t c = INT64_C(1) << 30;
+    if (mant > SQRT2_Q30) {
+        c <<= 1;
+        k += 1;
     }
-    int64_t t = m - (INT64_C(1) << 30);
-    int64_t p = LN1P_Q30[9];
-    for (int32_t i = 8; i >= 0; --i) {
-        p = LN1P_Q30[i] + ((p * t) >> 30);
+    int64_t num = (int64_t)mant - c; /* |num| < 2^30 */
+    int64_t den = (int64_t)mant + c; /* < 2^32 */
+    int64_t az = (int64_t)fxp_div_uq8_24((uint64_t)((num < 0) ? -num : num) << 6,
+                                         (uint64_t)den); /* |z| in Q1.30, <= 0.1716 */
+    int64_t z2 = (az * az + (INT64_C(1) << 29)) >> 30;
+    int64_t p = LN_C9;
+    p = LN_C7 + ((z2 * p + (INT64_C(1) << 29)) >> 30);
+    p = LN_C5 + ((z2 * p + (INT64_C(1) << 29)) >> 30);
+    p = LN_C3 + ((z2 * p + (INT64_C(1) << 29)) >> 30);
+    p = (INT64_C(1) << 30) + ((z2 * p + (INT64_C(1) << 29)) >> 30);
+    /* ln m = 2 z p: Q1.30 * Q1.30 = Q2.60 (< 2^59), * 2 / 2^32 -> Q3.28. */
+    int64_t lnm = (az * p + (INT64_C(1) << 30)) >> 31;
+    if (num < 0) {
+        lnm = -lnm;
     }
-    int64_t ln30 = ((p * t) >> 30) + (int64_t)(k - (int32_t)frac) * LN2_Q30;
-    return (q3_28_t)shr_round_i64(ln30, 2U);
+    int64_t r = (((int64_t)k * LN2_Q40 + (INT64_C(1) << 11)) >> 12) + lnm;
+    if (r < -8LL * Q3_28_ONE) {
+        r = -8LL * Q3_28_ONE;
+    } else if (r > (int64_t)INT32_MAX) {
+        r = INT32_MAX;
+    }
+    return (q3_28_t)r;
 }
 
 uint32_t fxp_expm1_x_uq6_26(q3_28_t x)
