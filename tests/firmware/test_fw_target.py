@@ -57,7 +57,10 @@ def test_fw_target_size_report_printed_and_written(target_build):
     assert "total" in target_build and "comp_t" in target_build  # printed by make
     total = next(line for line in text.splitlines() if line.startswith("total"))
     text_bytes = int(total.split()[1])
-    assert 1000 < text_bytes < 16384, total
+    # A guard against code growing unnoticed, not a part's limit (the Cortex-M4 parts this targets
+    # have 128 KiB of flash or more): 16.4 KiB measured with the dead-zone inverse, whose step is
+    # compiled apart from the sharp law's so that the usual step keeps its instruction budget.
+    assert 1000 < text_bytes < 18432, total
 
 
 def test_fw_float_probe_is_caught(tmp_path, target_build):
