@@ -2,6 +2,7 @@
 cosim.studies.tracking_floor) read its plants from the spec's axes, whatever they are, and join
 a mode's results by plant and position."""
 
+import contextlib
 import json
 import os
 import signal
@@ -98,6 +99,10 @@ def test_the_oracles_set_values_are_the_escons_duty_levels():
 def test_ctrl_c_in_a_study_is_one_line_and_leaves_no_worker(tmp_path, study):
     """Ctrl-C at the terminal (SIGINT to the whole process group) while the workers run: one
     line, exit 130, and no worker left behind (they would run on for half a minute each)."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        # A command started in the background of a non-interactive shell (`make test &`) has
+        # SIGINT ignored, and so has every process it starts: there is no Ctrl-C to deliver.
+        pytest.skip("SIGINT is ignored in this test run (started in the background)")
     spec = REPO_ROOT / "cosim" / "studies" / "sweep" / "examples" / "random_plants_report.yaml"
     args = ["--spec", str(spec), "--out", str(tmp_path / "out"), "--workers", "1"]
     proc = subprocess.Popen(
@@ -108,12 +113,17 @@ def test_ctrl_c_in_a_study_is_one_line_and_leaves_no_worker(tmp_path, study):
         text=True,
         start_new_session=True,
     )
-    time.sleep(6)  # the worker has started its first plant
-    assert proc.poll() is None
-    os.killpg(proc.pid, signal.SIGINT)
-    _, err = proc.communicate(timeout=20)
-    assert proc.returncode == 130, err
-    assert err.strip() == f"{study}: interrupted; its workers are stopped", err
-    time.sleep(0.5)
-    with pytest.raises(ProcessLookupError):
-        os.killpg(proc.pid, 0)  # nobody is left in the group
+    try:
+        time.sleep(6)  # the worker has started its first plant
+        assert proc.poll() is None
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=20)
+        assert proc.returncode == 130, err
+        assert err.strip() == f"{study}: interrupted; its workers are stopped", err
+        time.sleep(0.5)
+        with pytest.raises(ProcessLookupError):
+            os.killpg(proc.pid, 0)  # nobody is left in the group
+    finally:  # a failure above must not leave the study running on for minutes
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.communicate()
