@@ -99,7 +99,7 @@ def test_the_oracles_set_values_are_the_escons_duty_levels():
 def test_ctrl_c_in_a_study_is_one_line_and_leaves_no_worker(tmp_path, study):
     """Ctrl-C at the terminal (SIGINT to the whole process group) while the workers run: one
     line, exit 130, and no worker left behind (they would run on for half a minute each)."""
-    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
         # A command started in the background of a non-interactive shell (`make test &`) has
         # SIGINT ignored, and so has every process it starts: there is no Ctrl-C to deliver.
         pytest.skip("SIGINT is ignored in this test run (started in the background)")
