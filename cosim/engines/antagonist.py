@@ -209,13 +209,7 @@ def run_pair(
     finally:
         recs = tuple(c.finish() for c in chans)
         bar.close(n)
-    return PairRecord(
-        cables=recs,
-        t_s=t_s,
-        tau_ref_n_m=np.asarray(scen.tau_ref(t_s), dtype=np.float64),
-        theta_rad=theta,
-        omega_rad_s=omega,
-    )
+    return _pair_record(scen, recs, t_s, theta, omega)
 
 
 def _run_pair_native(scen, cfg, compensator, duration_s, interface, hold_joint) -> PairRecord:
@@ -263,6 +257,11 @@ def _run_pair_native(scen, cfg, compensator, duration_s, interface, hold_joint) 
     if status != 0:
         raise RuntimeError(f"native pair: {a.s.error.decode(errors='replace')}")
     recs = tuple(run.collect(0)[0] for run in runs)
+    return _pair_record(scen, recs, t_s, theta, omega)
+
+
+def _pair_record(scen, recs, t_s, theta, omega) -> PairRecord:
+    """Both engines' record of a pair run: the cables' records, the joint's path and tau_ref."""
     return PairRecord(
         cables=recs,
         t_s=t_s,
