@@ -147,35 +147,44 @@ class Plant:
         path = Path(fmu_path) if fmu_path is not None else FMU_PATH
         if not path.exists():
             raise FileNotFoundError(f"{path} does not exist: run `make fmu` first")
+        # The unpacked copy lives only until the FMU's library is loaded and instantiated: the
+        # FMU reads no file after that (it ignores fmuResourceLocation), and on POSIX a loaded
+        # library stays mapped after its file is removed. So a process that ends without
+        # closing its Plant (a pool worker's os._exit, a signal) leaves nothing in the temp
+        # folder; where the removal fails (a DLL in use on Windows) close() removes it.
+        self._fmu = None
         self._unzip_dir = extract(str(path), tempfile.mkdtemp(prefix="bowden_fmu_"))
-        self.model_description = read_model_description(self._unzip_dir)
-        self.variables = {v.name: v for v in self.model_description.modelVariables}
-        self.messages: list[str] = []
+        try:
+            self.model_description = read_model_description(self._unzip_dir)
+            self.variables = {v.name: v for v in self.model_description.modelVariables}
+            self.messages: list[str] = []
 
-        def _log(_env, _name, _status, _category, fmt, arg):
-            # The FMU always logs format "%s" with one preformatted string (fmi2_plumbing.c).
-            text = arg if fmt == b"%s" and arg is not None else fmt
-            self.messages.append(text.decode("utf-8", "replace"))
+            def _log(_env, _name, _status, _category, fmt, arg):
+                # The FMU always logs format "%s" with one preformatted string (fmi2_plumbing.c).
+                text = arg if fmt == b"%s" and arg is not None else fmt
+                self.messages.append(text.decode("utf-8", "replace"))
 
-        # fmpy's native logger proxy keeps one global Python logger, which a closed Plant would
-        # leave dangling; this logger reads the one variadic argument itself instead.
-        logger_type = ctypes.CFUNCTYPE(
-            None, c_void_p, c_char_p, c_int, c_char_p, c_char_p, c_char_p
-        )
-        self._logger = logger_type(_log)
-        self._callbacks = fmi2CallbackFunctions()
-        self._callbacks.logger = ctypes.cast(self._logger, fmi2CallbackLoggerTYPE)
-        libc = ctypes.CDLL(None)
-        self._callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(libc.calloc)
-        self._callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(libc.free)
+            # fmpy's native logger proxy keeps one global Python logger, which a closed Plant would
+            # leave dangling; this logger reads the one variadic argument itself instead.
+            logger_type = ctypes.CFUNCTYPE(
+                None, c_void_p, c_char_p, c_int, c_char_p, c_char_p, c_char_p
+            )
+            self._logger = logger_type(_log)
+            self._callbacks = fmi2CallbackFunctions()
+            self._callbacks.logger = ctypes.cast(self._logger, fmi2CallbackLoggerTYPE)
+            libc = ctypes.CDLL(None)
+            self._callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(libc.calloc)
+            self._callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(libc.free)
 
-        self._fmu = FMU2Slave(
-            guid=self.model_description.guid,
-            unzipDirectory=self._unzip_dir,
-            modelIdentifier=self.model_description.coSimulation.modelIdentifier,
-            instanceName=instance_name,
-        )
-        self._fmu.instantiate(callbacks=self._callbacks)
+            self._fmu = FMU2Slave(
+                guid=self.model_description.guid,
+                unzipDirectory=self._unzip_dir,
+                modelIdentifier=self.model_description.coSimulation.modelIdentifier,
+                instanceName=instance_name,
+            )
+            self._fmu.instantiate(callbacks=self._callbacks)
+        finally:
+            shutil.rmtree(self._unzip_dir, ignore_errors=True)
         self._c = self._fmu.component
         # Fresh function pointers (dll[name]) without argtypes: the arguments are passed as
         # prepared ctypes objects, which skips ctypes' per-call conversion (about 1.5 us a step).

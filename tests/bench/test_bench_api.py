@@ -4,9 +4,12 @@ stopped however a session ends; the README's worked example run as written; the 
 by pdoc without a warning."""
 
 import re
+import shutil
 import subprocess
 import sys
+import tempfile
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -63,14 +66,18 @@ def test_run_returns_arrays_and_the_trace_file(tmp_path):
         ref = 5.0 + 2.0 * np.sin(np.arange(800) / 100.0)
         seen = []
         run = b.run(ref, 0.8, on_telemetry=lambda t: seen.append(t["sample"]))
-        assert run.trace.exists() and run.complete
+        # without `out` the trace goes to a folder of its own in the temp folder
+        folder = run.trace.parent
+        assert folder.parent == Path(tempfile.gettempdir()) and run.trace.exists()
+        assert run.complete
         np.testing.assert_allclose(run["T_ref_N"], np.round(ref * 256) / 256, atol=0)
         assert seen == list(range(800))
+        shutil.rmtree(folder)
         with pytest.raises(ProtocolError, match="waveform 'square'"):
             b.run("square", 1.0)
 
 
-def test_the_device_is_stopped_however_the_session_ends(emulator):
+def test_the_device_is_stopped_however_the_session_ends(emulator, tmp_path):
     url = emulator.urls["socket"]
     with pytest.raises(RuntimeError, match="script failed"):
         with Bench(url) as b:
@@ -88,7 +95,7 @@ def test_the_device_is_stopped_however_the_session_ends(emulator):
 
     with Bench(url) as b:
         with pytest.raises(KeyboardInterrupt):
-            b.run("sine", 30.0, on_telemetry=interrupt)
+            b.run("sine", 30.0, out=tmp_path / "stopped.csv", on_telemetry=interrupt)
         # the session's own link (the port is locked to it): stopped at once, not after 30 s
         assert not b.info().running
 
@@ -303,13 +310,13 @@ def test_plant_and_chain_together_are_refused():
     assert "of a 0.3 m sheath" in msg
 
 
-def test_an_emulated_bench_with_the_boards_interface_runs_on_the_python_engine():
+def test_an_emulated_bench_with_the_boards_interface_runs_on_the_python_engine(tmp_path):
     """ChainConfig(interface="adc") was refused by the stepped link's C chain (ideal only)."""
     from cosim.bench.emulate.host_device import ChainConfig
 
     with Bench(emulate=True, chain=ChainConfig(interface="adc")) as b:
         assert b.link.chain.engine == "python"
-        run = b.run("sine", 0.2)
+        run = b.run("sine", 0.2, out=tmp_path / "adc.csv")
         assert run.complete and run["T_out_N"].max() > 5.0
 
 

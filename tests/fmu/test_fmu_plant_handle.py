@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import pytest
 
 from cosim.parts.plant import INPUT_NAMES, OUTPUT_NAMES, Plant
@@ -45,3 +49,22 @@ def test_unknown_names_are_refused(make_plant, fmu_path):
 def test_missing_fmu_file_is_named(tmp_path):
     with pytest.raises(FileNotFoundError, match="run `make fmu` first"):
         Plant(fmu_path=tmp_path / "missing.fmu")
+
+
+def test_no_unpacked_fmu_is_left_in_the_temp_folder(fmu_path, tmp_path):
+    """A process that ends without closing its plants (a pool worker's os._exit), or whose
+    plant was refused a parameter, leaves nothing behind in the temp folder."""
+    script = (
+        "import os\n"
+        "from cosim.parts.plant import Plant\n"
+        f"plants = [Plant(fmu_path={str(fmu_path)!r}) for _ in range(2)]\n"
+        "plants[0].step(1e-4)\n"
+        "try:\n"
+        f"    Plant({{'nope': 1}}, fmu_path={str(fmu_path)!r})\n"
+        "except KeyError:\n"
+        "    pass\n"
+        "os._exit(0)\n"
+    )
+    env = {**os.environ, "TMPDIR": str(tmp_path)}
+    subprocess.run([sys.executable, "-c", script], env=env, check=True, timeout=60)
+    assert list(tmp_path.iterdir()) == []
