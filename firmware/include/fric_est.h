@@ -178,6 +178,14 @@ int32_t fric_est_window_push(fric_est_window_t *w, int32_t t_in_q8, int32_t t_ou
 int32_t fric_est_window_branch(const fric_est_window_t *w, int32_t t_min_q8, int32_t *d_in_q8,
                                int32_t *d_out_q8);
 
+/* A tick's pass through the window after its code and plausibility are known: a code unchanged
+ * for FE_STUCK_TICKS while the tensions were implausible latches FE_FAULT_STUCK in *faults (-1,
+ * nothing pushed); else the tick is pushed and, over a full window, the branch and increments of
+ * fric_est_window_branch are returned (-1 while the window fills or no branch). */
+int32_t fric_est_window_tick(fric_est_window_t *w, int32_t implausible, int32_t t_min_q8,
+                             int32_t t_in_q8, int32_t t_out_q8, uint32_t *faults,
+                             int32_t *d_in_q8, int32_t *d_out_q8);
+
 /*
  * ln(v) for v in UQ8.24 (v > 0), in Q3.28, clamped to [-8, 8 - 2^-28] (0 gives -8).
  * v = m 2^k with m in [2^-1/2, 2^1/2); ln m = 2 atanh(z), z = (m - 1)/(m + 1), |z| <= 0.1716, by

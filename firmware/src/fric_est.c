@@ -206,6 +206,20 @@ int32_t fric_est_window_branch(const fric_est_window_t *w, int32_t t_min_q8, int
     return b;
 }
 
+int32_t fric_est_window_tick(fric_est_window_t *w, int32_t implausible, int32_t t_min_q8,
+                             int32_t t_in_q8, int32_t t_out_q8, uint32_t *faults,
+                             int32_t *d_in_q8, int32_t *d_out_q8)
+{
+    if (w->same_ticks >= (uint32_t)FE_STUCK_TICKS && implausible != 0) {
+        *faults |= FE_FAULT_STUCK;
+        return -1;
+    }
+    if (fric_est_window_push(w, t_in_q8, t_out_q8) == 0) {
+        return -1;
+    }
+    return fric_est_window_branch(w, t_min_q8, d_in_q8, d_out_q8);
+}
+
 /* acc <- acc + (v 2^FE_ACC_FRAC - acc) / 2^s, rounded (v in [0, 2^30), acc in [0, 2^58)). */
 static inline int64_t forget(int64_t acc, int64_t v, int32_t s)
 {
@@ -236,17 +250,10 @@ q3_28_t fric_est_step(fric_est_t *e, int32_t t_in_q8, int32_t t_out_q8, int32_t 
             e->implausible = 1;
         }
     }
-    if (e->win.same_ticks >= (uint32_t)FE_STUCK_TICKS && e->implausible != 0) {
-        e->faults |= FE_FAULT_STUCK;
-        return e->x;
-    }
-
-    if (fric_est_window_push(&e->win, t_in_q8, t_out_q8) == 0) {
-        return e->x;
-    }
     int32_t d_in_q8 = 0;
     int32_t d_out_q8 = 0;
-    const int32_t b = fric_est_window_branch(&e->win, e->cfg.t_min_n_q8, &d_in_q8, &d_out_q8);
+    const int32_t b = fric_est_window_tick(&e->win, e->implausible, e->cfg.t_min_n_q8, t_in_q8,
+                                           t_out_q8, &e->faults, &d_in_q8, &d_out_q8);
     if (b < 0) {
         return e->x;
     }

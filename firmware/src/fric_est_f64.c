@@ -47,16 +47,10 @@ double fric_est_f64_step(fric_est_f64_t *e, int32_t t_in_q8, int32_t t_out_q8, i
             e->implausible = 1;
         }
     }
-    if (e->win.same_ticks >= (uint32_t)FE_STUCK_TICKS && e->implausible != 0) {
-        e->faults |= FE_FAULT_STUCK;
-        return e->x;
-    }
-    if (fric_est_window_push(&e->win, t_in_q8, t_out_q8) == 0) {
-        return e->x;
-    }
     int32_t d_in_q8 = 0;
     int32_t d_out_q8 = 0;
-    const int32_t b = fric_est_window_branch(&e->win, e->cfg.t_min_n_q8, &d_in_q8, &d_out_q8);
+    const int32_t b = fric_est_window_tick(&e->win, e->implausible, e->cfg.t_min_n_q8, t_in_q8,
+                                           t_out_q8, &e->faults, &d_in_q8, &d_out_q8);
     if (b < 0) {
         return e->x;
     }
