@@ -16,6 +16,14 @@ a grid's plant axes are crossed, a random spec draws one plant per point):
    native engine; the point's own position and compensator) with the compensator set to them
    and compensator.est_enable 0.
 
+With `--params FILE` (a `bowden sim --params` file holding `compensator` and `controller`
+only) and `--set KEY=VALUE` (a compensator.* or controller.* field of that file, repeatable,
+after the file), those settings are laid over the runs' configuration last, over calibrate's
+proposals and the estimate's 0: e.g. the far-end mode after calibrate, `--set
+compensator.corr_enable=1 --set compensator.corr_rev_enable=1 --set
+controller.kv_a_s_per_n=0.001` (docs/results.md, "The far-end mode after calibrate"). They are
+checked as a params file is, before anything runs: a bad key or value is one line, exit 2.
+
 Prints each plant's proposal and decisions, and the table: RMS and peak error in % of the 15 N
 maximum, median and worst over the runs, scored as the sweep scores a run (T_ref - T_out as the
 far-end load cell reads it) and on the true output tension (T_out without the cell's offset,
@@ -25,7 +33,8 @@ compensator aims the cable's tension at T_ref, not the cell's reading. The JSON
 (`--mode sensorless=FILE`).
 
     python -m cosim.studies.calibrated_robustness [--spec SPEC.yaml] [--workers 2] [--out DIR]
-        [--limit N] [--no-tare] [--reuse] [--leave KEY ...]
+        [--limit N] [--no-tare] [--reuse] [--calibrations DIR] [--leave KEY ...]
+        [--params FILE] [--set KEY=VALUE ...]
 
 Without --spec: cosim/studies/sweep/examples/robustness_estimator.yaml (the robustness grid:
 plant mu, cable_EA and current_bandwidth at -20 % / nominal / +20 %, 27 plants, five positions).
@@ -52,6 +61,66 @@ COMP_KEYS = (
     "compensator.mu_slope_per_n",
     "compensator.dead_zone_spread",
 )
+
+
+# What --params and --set may lay over the runs: the spec owns the plant, the board and the
+# rates (its points and base config), calibrate the plant's own values.
+OVERLAY_GROUPS = ("compensator", "controller")
+
+
+def overlay_of(sets: list[str], params: str | None = None) -> dict:
+    """The settings laid over every run, as sweep keys (`compensator.corr_enable`: 1, ...): the
+    `compensator` and `controller` of the params file `params`, then each `KEY=VALUE` of `sets`.
+    ValueError, one line naming the file or the item and what was expected, when one is not a
+    field of those two groups or lies outside its range (cosim.config.run's checks)."""
+    from cosim.config.run import SimConfig  # noqa: PLC0415
+    from cosim.project.cliargs import shown  # noqa: PLC0415
+    from cosim.project.datafile import DataFileError, read_json  # noqa: PLC0415
+
+    nested: dict[str, dict] = {}
+    source = []
+    if params is not None:
+        name = shown(params)
+        try:
+            data = read_json(params, "a params file (a JSON object)", "valid JSON", name=name)
+        except DataFileError as exc:
+            raise ValueError(f"--params: {exc}") from None
+        if not isinstance(data, dict):
+            raise ValueError(f"--params: {name}: expected a JSON object at the top level")
+        for key, value in data.items():
+            if key not in OVERLAY_GROUPS:
+                raise ValueError(
+                    f"--params: {name}: {key!r} is not this study's to set (the spec gives the "
+                    f"plant, the board and the rates); only {' and '.join(OVERLAY_GROUPS)}"
+                )
+            if not isinstance(value, dict):
+                raise ValueError(f"--params: {name}: {key} must be a JSON object")
+            nested[key] = dict(value)
+        source.append(f"--params {name}")
+    for item in sets:
+        key, sep, text = item.partition("=")
+        group, dot, field = key.partition(".")
+        if not sep or not dot or group not in OVERLAY_GROUPS or not field:
+            raise ValueError(
+                f"--set: expected compensator.FIELD=VALUE or controller.FIELD=VALUE; got "
+                f"{shown(item)}"
+            )
+        try:
+            value = json.loads(text)
+        except json.JSONDecodeError:
+            value = text  # from_dict names the field and its range
+        nested.setdefault(group, {})[field] = value
+        source.append("--set")
+    if nested:
+        SimConfig.from_dict(nested, source=" / ".join(dict.fromkeys(source)))
+    return {f"{g}.{k}": v for g, fields in nested.items() for k, v in fields.items()}
+
+
+def run_values(values: dict, comp: dict, leave=(), overlay: dict | None = None) -> dict:
+    """A run's sweep values: the spec point's, the estimate off, calibrate's proposals `comp`
+    (but the keys in `leave`), then the overlay (overlay_of), which wins over both."""
+    fixed = {n: comp[n] for n in COMP_KEYS if n not in leave}
+    return {**values, "compensator.est_enable": 0, **fixed, **(overlay or {})}
 
 
 def plant_of(spec, values: dict) -> dict:
@@ -162,16 +231,40 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--reuse",
         action="store_true",
-        help="take each plant's calibration from --out where a run before left it (a resume)",
+        help="take each plant's calibration from --out (or --calibrations) where a run before "
+        "left it (a resume, or another configuration on the same calibrations)",
+    )
+    ap.add_argument(
+        "--calibrations",
+        metavar="DIR",
+        help="keep the calibrations (cal_NNN) here rather than in --out: with --reuse, the runs "
+        "of another study on the same plants",
+    )
+    ap.add_argument(
+        "--params",
+        metavar="FILE",
+        help="a params file (compensator and controller only) laid over every run, after "
+        "calibrate's proposals",
+    )
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        dest="sets",
+        metavar="KEY=VALUE",
+        help="a compensator.* or controller.* field laid over every run, after --params "
+        "(repeatable), e.g. compensator.corr_enable=1",
     )
     args = ap.parse_args(argv)
     try:
+        overlay = overlay_of(args.sets, args.params)
         spec = load_spec(args.spec)
-    except SpecError as exc:
+    except (SpecError, ValueError) as exc:
         print(f"calibrated_robustness: {exc}", file=sys.stderr)
         return 2
     folder = Path(args.out or tempfile.mkdtemp(prefix="bowden-calibrated-robustness-"))
     folder.mkdir(parents=True, exist_ok=True)
+    cal_folder = Path(args.calibrations) if args.calibrations else folder
     # One calibration per plant; the plant's points are the spec's points that carry it.
     plants: dict[str, dict] = {}
     members: dict[str, list[dict]] = {}
@@ -187,7 +280,7 @@ def main(argv: list[str] | None = None) -> int:
             pool.submit(
                 calibrate_plant,
                 plants[k],
-                str(folder / f"cal_{i:03d}"),
+                str(cal_folder / f"cal_{i:03d}"),
                 not args.no_tare,
                 args.reuse,
             )
@@ -206,15 +299,16 @@ def main(argv: list[str] | None = None) -> int:
             )
             for name, why in comp["reasons"].items():
                 print(f"    {name}: {why}")
-            fixed = {n: comp[n] for n in COMP_KEYS if n not in args.leave}
             for values in members[k]:
-                v = {**values, "compensator.est_enable": 0, **fixed}
+                v = run_values(values, comp, args.leave, overlay)
                 tag = json.dumps(v, sort_keys=True)
                 if tag not in seen:  # a grid's est_enable axis collapses to one run
                     seen.add(tag)
                     points.append(v)
         rows = list(pool.map(run_point, [args.spec] * len(points), points))
-    table = {"runs": len(rows), "plants": len(keys), "spec": str(args.spec)}
+    table = {"runs": len(rows), "plants": len(keys), "spec": str(args.spec), "overlay": overlay}
+    if overlay:
+        print("laid over every run: " + ", ".join(f"{k} {v}" for k, v in overlay.items()))
     for prefix, label in (("", "far-end reading"), ("true_", "true output tension")):
         rm, rw = _stats([r[f"{prefix}rms_error_pct"] for r in rows])
         pm, pw = _stats([r[f"{prefix}peak_error_pct"] for r in rows])

@@ -127,3 +127,54 @@ def test_ctrl_c_in_a_study_is_one_line_and_leaves_no_worker(tmp_path, study):
         with contextlib.suppress(ProcessLookupError):
             os.killpg(proc.pid, signal.SIGKILL)
         proc.communicate()
+
+
+def test_the_overlay_lies_over_calibrates_proposals_and_the_estimates_0(tmp_path):
+    """--params and --set (the far-end mode after calibrate): the file's compensator and
+    controller, then each --set, laid over the spec point, the estimate's 0 and calibrate's
+    proposals; a --leave'd proposal keeps the device's value."""
+    params = tmp_path / "far.json"
+    params.write_text(
+        json.dumps(
+            {"compensator": {"corr_enable": 1, "est_enable": 1}, "controller": {"kv_a_s_per_n": 0}}
+        )
+    )
+    overlay = cr.overlay_of(
+        ["controller.kv_a_s_per_n=1e-3", "compensator.corr_rev_enable=1"], str(params)
+    )
+    assert overlay == {
+        "compensator.corr_enable": 1,
+        "compensator.est_enable": 1,
+        "controller.kv_a_s_per_n": 0.001,  # --set after the file
+        "compensator.corr_rev_enable": 1,
+    }
+    point = {"plant.mu": 0.09, "compensator.est_enable": 1, "compensator.mu": 0.075}
+    comp = {k: 0.5 for k in cr.COMP_KEYS} | {"compensator.mu": 0.09}
+    plain = cr.run_values(point, comp, leave=["compensator.dead_zone_spread"])
+    assert plain["compensator.est_enable"] == 0 and plain["compensator.mu"] == 0.09
+    assert "compensator.dead_zone_spread" not in plain and "compensator.corr_enable" not in plain
+    laid = cr.run_values(point, comp, overlay=overlay | {"compensator.mu": 0.08})
+    assert laid["compensator.est_enable"] == 1 and laid["compensator.corr_enable"] == 1
+    assert laid["compensator.mu"] == 0.08 and laid["compensator.dead_zone_spread"] == 0.5
+    assert laid["plant.mu"] == 0.09 and laid["controller.kv_a_s_per_n"] == 0.001
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["--set", "compensator.corr_enabl=1"], "compensator: unknown key 'corr_enabl'"),
+        (["--set", "compensator.corr_rev_ki_shift=1"], "corr_rev_ki_shift must be in [2, 16]"),
+        (["--set", "plant.mu=0.1"], "expected compensator.FIELD=VALUE or controller.FIELD"),
+        (["--set", "controller.kv_a_s_per_n"], "expected compensator.FIELD=VALUE"),
+        (["--params", "{dir}/plant.json"], "'plant' is not this study's to set"),
+        (["--params", "{dir}/missing.json"], "missing.json does not exist"),
+    ],
+)
+def test_a_bad_overlay_is_one_line_and_runs_nothing(tmp_path, capsys, args, says):
+    (tmp_path / "plant.json").write_text('{"plant": {"mu": 0.1}}')
+    out = tmp_path / "out"
+    argv = [a.format(dir=tmp_path) for a in args] + ["--out", str(out)]
+    assert cr.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("calibrated_robustness: ") and says in err, err
+    assert not out.exists()
