@@ -55,8 +55,14 @@ class FirmwareConfigError(ValueError):
 
     def __init__(self, code: int, message: str):
         self.code = code
+        self.message = message
         self.field = message.split(":", 1)[0]
         super().__init__(f"{message} (firmware status {code})")
+
+    def __reduce__(self):
+        # A study's worker process sends it back pickled; the default would call __init__ with
+        # the formatted text alone and break the worker pool instead of raising it.
+        return type(self), (self.code, self.message)
 
 
 # --- mirrors of the C structures (all fields 32 bits; sizes checked against the library) ----

@@ -203,6 +203,7 @@ PROG = "calibrated_robustness"
 
 
 def main(argv: list[str] | None = None) -> int:
+    from cosim.parts.firmware import FirmwareConfigError  # noqa: PLC0415
     from cosim.studies.sweep.spec import SpecError, load_spec  # noqa: PLC0415
 
     ap = argparse.ArgumentParser(
@@ -305,7 +306,11 @@ def main(argv: list[str] | None = None) -> int:
                 if tag not in seen:  # a grid's est_enable axis collapses to one run
                     seen.add(tag)
                     points.append(v)
-        rows = list(pool.map(run_point, [args.spec] * len(points), points))
+        try:
+            rows = list(pool.map(run_point, [args.spec] * len(points), points))
+        except FirmwareConfigError as exc:  # e.g. the online estimate with a friction slope
+            print(f"calibrated_robustness: the firmware refused a run: {exc}", file=sys.stderr)
+            return 2
     table = {"runs": len(rows), "plants": len(keys), "spec": str(args.spec), "overlay": overlay}
     if overlay:
         print("laid over every run: " + ", ".join(f"{k} {v}" for k, v in overlay.items()))

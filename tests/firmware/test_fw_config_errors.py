@@ -5,6 +5,7 @@ fractions (nothing is truncated), and the previous configuration stays in force.
 from __future__ import annotations
 
 import math
+import pickle
 
 import pytest
 
@@ -70,3 +71,13 @@ def test_fw_whole_numbers_given_as_floats_are_taken_exactly():
     assert fw.config.tick_rate_hz == 1000.0
     comp = Compensator(CompensatorParams(mode="paper", mu=0.075))
     assert comp.step(10.0) > 10.0
+
+
+def test_fw_config_error_crosses_a_process_boundary_whole():
+    """A study's worker returns it pickled: it arrives as itself, field and code kept (unpickled
+    with the formatted text alone it broke the worker pool instead)."""
+    with pytest.raises(FirmwareConfigError) as info:
+        Compensator(mu=2.0)
+    back = pickle.loads(pickle.dumps(info.value))
+    assert type(back) is FirmwareConfigError and str(back) == str(info.value)
+    assert (back.code, back.field) == (info.value.code, "comp.mu") and back.code != 0

@@ -178,3 +178,44 @@ def test_a_bad_overlay_is_one_line_and_runs_nothing(tmp_path, capsys, args, says
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("calibrated_robustness: ") and says in err, err
     assert not out.exists()
+
+
+@pytest.mark.slow  # a worker process starts the firmware: 2-10 s on the shared machine
+def test_a_run_the_firmware_refuses_is_one_line(tmp_path, capsys):
+    """The overlay is checked key by key before anything runs; a combination only the firmware
+    refuses (the online estimate with calibrate's friction slope) is one line once the runs
+    start, not a broken worker pool."""
+    spec = tmp_path / "one.yaml"
+    spec.write_text(
+        json.dumps(
+            {
+                "scenario": "fig14",
+                "duration_s": 0.2,
+                "sampling": "random",
+                "samples": 1,
+                "seed": 1,
+                "axes": {
+                    "compensator": ["preview"],
+                    "plant.mu": {"min": 0.08, "max": 0.09, "n": 2},
+                },
+            }
+        )
+    )
+    change = {"status": "change", "reason": "", "current": 0.0}
+    report = {
+        "changes": [
+            {"name": "comp.mu", "proposed": 0.085} | change,
+            {"name": "comp.offset_n", "proposed": 0.0} | change,
+            {"name": "comp.mu_slope_per_n", "proposed": 5e-4} | change,
+            {"name": "comp.dead_zone_spread", "proposed": 0.0} | change,
+        ],
+        "tare": {"offset_n": 0.0},
+    }
+    (tmp_path / "cal" / "cal_000").mkdir(parents=True)
+    (tmp_path / "cal" / "cal_000" / "calibration.json").write_text(json.dumps(report))
+    argv = ["--spec", str(spec), "--calibrations", str(tmp_path / "cal"), "--reuse"]
+    argv += ["--out", str(tmp_path / "out"), "--workers", "1"]
+    assert cr.main([*argv, "--set", "compensator.est_enable=1"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the firmware refused a run: est.enable" in err, err
+    assert "comp.mu_slope_per_n = 0" in err
