@@ -34,7 +34,7 @@ compensator aims the cable's tension at T_ref, not the cell's reading. The JSON
 
     python -m cosim.studies.calibrated_robustness [--spec SPEC.yaml] [--workers 2] [--out DIR]
         [--limit N] [--no-tare] [--reuse] [--calibrations DIR] [--leave KEY ...]
-        [--params FILE] [--set KEY=VALUE ...]
+        [--params FILE] [--set KEY=VALUE ...] [--score-from-s S]
 
 Without --spec: cosim/studies/sweep/examples/robustness_estimator.yaml (the robustness grid:
 plant mu, cable_EA and current_bandwidth at -20 % / nominal / +20 %, 27 plants, five positions).
@@ -162,9 +162,10 @@ def calibrate_plant(plant: dict, folder: str, tare: bool = True, reuse: bool = F
     return out
 
 
-def run_point(spec_path: str, values: dict) -> dict:
+def run_point(spec_path: str, values: dict, score_from_s: float | None = None) -> dict:
     """One run of the sweep (cosim.studies.sweep.run's), scored on the far-end reading as the
-    sweep does and on the true output tension."""
+    sweep does and on the true output tension; from `score_from_s` rather than the scenario's
+    settling time when given (e.g. once every reversal has been met before)."""
     from cosim.config.run import SimConfig  # noqa: PLC0415
     from cosim.config.scenarios import get_scenario  # noqa: PLC0415
     from cosim.engines import experiment as sim  # noqa: PLC0415
@@ -188,6 +189,10 @@ def run_point(spec_path: str, values: dict) -> dict:
     result = sim.evaluate(scen, cfg, run_spec, fixed, None, cost["total_s"], cost)
     row = {k: result[k] for k in FIGURES}
     settle = scen.settle_s if fixed["t_s"][-1] > scen.settle_s else 0.0
+    if score_from_s is not None:
+        settle = score_from_s
+        far = metrics.tracking_error(fixed["t_s"], fixed["T_ref_N"], fixed["T_out_N"], settle)
+        row.update({k: far[k] for k in FIGURES if k in far})
     true = metrics.tracking_error(fixed["t_s"], fixed["T_ref_N"], fixed["T_out_true_N"], settle)
     row["true_rms_error_pct"] = true["rms_error_pct"]
     row["true_peak_error_pct"] = true["peak_error_pct"]
@@ -242,6 +247,13 @@ def main(argv: list[str] | None = None) -> int:
         "of another study on the same plants",
     )
     ap.add_argument(
+        "--score-from-s",
+        type=float,
+        metavar="S",
+        help="score each run from S seconds (default: the scenario's settling time, 1 s on "
+        "fig14), e.g. 2.5 to leave out fig14's first top and bottom reversals",
+    )
+    ap.add_argument(
         "--params",
         metavar="FILE",
         help="a params file (compensator and controller only) laid over every run, after "
@@ -262,6 +274,14 @@ def main(argv: list[str] | None = None) -> int:
         spec = load_spec(args.spec)
     except (SpecError, ValueError) as exc:
         print(f"calibrated_robustness: {exc}", file=sys.stderr)
+        return 2
+    start = args.score_from_s
+    if start is not None and not 0.0 <= start < (spec.duration_s or np.inf):
+        print(
+            f"calibrated_robustness: --score-from-s must be in [0, the runs' {spec.duration_s} s); "
+            f"got {start}",
+            file=sys.stderr,
+        )
         return 2
     folder = Path(args.out or tempfile.mkdtemp(prefix="bowden-calibrated-robustness-"))
     folder.mkdir(parents=True, exist_ok=True)
@@ -307,11 +327,14 @@ def main(argv: list[str] | None = None) -> int:
                     seen.add(tag)
                     points.append(v)
         try:
-            rows = list(pool.map(run_point, [args.spec] * len(points), points))
+            rows = list(
+                pool.map(run_point, [args.spec] * len(points), points, [start] * len(points))
+            )
         except FirmwareConfigError as exc:  # e.g. the online estimate with a friction slope
             print(f"calibrated_robustness: the firmware refused a run: {exc}", file=sys.stderr)
             return 2
     table = {"runs": len(rows), "plants": len(keys), "spec": str(args.spec), "overlay": overlay}
+    table["score_from_s"] = start
     if overlay:
         print("laid over every run: " + ", ".join(f"{k} {v}" for k, v in overlay.items()))
     for prefix, label in (("", "far-end reading"), ("true_", "true output tension")):

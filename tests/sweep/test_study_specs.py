@@ -168,9 +168,10 @@ def test_the_overlay_lies_over_calibrates_proposals_and_the_estimates_0(tmp_path
         (["--set", "controller.kv_a_s_per_n"], "expected compensator.FIELD=VALUE"),
         (["--params", "{dir}/plant.json"], "'plant' is not this study's to set"),
         (["--params", "{dir}/missing.json"], "missing.json does not exist"),
+        (["--score-from-s", "-1"], "--score-from-s must be in [0, the runs' 6.0 s); got -1.0"),
     ],
 )
-def test_a_bad_overlay_is_one_line_and_runs_nothing(tmp_path, capsys, args, says):
+def test_a_bad_overlay_or_score_start_is_one_line_and_runs_nothing(tmp_path, capsys, args, says):
     (tmp_path / "plant.json").write_text('{"plant": {"mu": 0.1}}')
     out = tmp_path / "out"
     argv = [a.format(dir=tmp_path) for a in args] + ["--out", str(out)]
