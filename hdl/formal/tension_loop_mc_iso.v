@@ -49,7 +49,7 @@ wire [N-1:0]    a_grp_stop, b_grp_stop;
 wire [N*168-1:0] a_chan, b_chan;
 wire [N*28-1:0]  a_tick, b_tick;
 wire [56:0]      a_ctl, b_ctl;
-wire [13*128-1:0] a_pipe, b_pipe;
+wire [13*128+431:0] a_pipe, b_pipe;
 wire a_busy, b_busy, a_valid, b_valid;
 wire [31:0] a_count, b_count;
 

@@ -17,8 +17,9 @@
  * The exact bit-level definition is the Python model cosim/parts/rtl_model.py; hdl/README.md
  * has the formats and why this anti-windup scheme.
  *
- * Two registered multipliers (mul_s16) compute the five products in a fixed schedule; the
- * results appear LATENCY (15) clocks after the tick, marked by `out_valid`. Ticks must be at least
+ * The sample is tension_loop_dp (PRELOAD 0), the datapath tension_loop_mc shares among its
+ * channels: two registered multipliers (mul_s16) compute the five products in a fixed schedule;
+ * the results appear LATENCY (15) clocks after the tick, marked by `out_valid`. Ticks must be at least
  * LATENCY clocks apart. All configuration is taken at the tick edge: a register updated on an
  * edge before it is used by that sample, one updated on the tick edge or later by the next
  * (write pulses such as the TC strobe follow the same rule). An ADC sample whose valid clock is
@@ -97,121 +98,14 @@ module tension_loop #(
 
 localparam LATENCY = 15;  // clocks from tick to out_valid; documented minimum tick spacing
 
-localparam [3:0] F_WDT = 4'b0100;  // fault bits: {overcurrent, watchdog, adc_range, adc_stale}
-
-// Schedule: seq_reg[k] is high in clock k+1 after the tick (clock 0). Every stage has at most
-// one carry chain between registers, so that the iCE40 UP5K meets 48 MHz.
-reg  [LATENCY-2:0] seq_reg, seq_next;
-
 // Events between ticks, consumed at the tick.
 reg  [23:0] raw_reg, raw_next;
 reg         fresh_reg, fresh_next;
 reg         tcw_pend_reg, tcw_pend_next;
 reg         irst_pend_reg, irst_pend_next;
 reg         fclr_pend_reg, fclr_pend_next;
-
-// Counters and latched faults.
-reg  [16:0] stale_cnt_reg, stale_cnt_next;
-reg  [16:0] wdt_cnt_reg, wdt_cnt_next;
-reg  [16:0] oc_cnt_reg, oc_cnt_next;
-reg  [3:0]  fault_reg, fault_next;
 reg  [31:0] sample_cnt_reg, sample_cnt_next;
-
-// Snapshot at the tick: everything the later clocks of the sample use.
-reg         en_s_reg, en_s_next;
-reg         slew_en_s_reg, slew_en_s_next;
-reg  [15:0] tc_s_reg, tc_s_next;
-reg  [15:0] tcmin_s_reg, tcmin_s_next;
-reg  [15:0] kff_s_reg, kff_s_next;
-reg  [15:0] uff_s_reg, uff_s_next;
-reg  [15:0] kp_s_reg, kp_s_next;
-reg  [15:0] ki_s_reg, ki_s_next;
-reg  [15:0] gain_s_reg, gain_s_next;
-reg  [14:0] lim_s_reg, lim_s_next;
-reg  [15:0] nlim_reg, nlim_next;  // -I_LIMIT, computed once per sample off the critical paths
-reg  [15:0] stale_to_s_reg, stale_to_s_next;
-reg  [15:0] wdt_to_s_reg, wdt_to_s_next;
-reg  [15:0] oc_to_s_reg, oc_to_s_next;
-reg  [23:0] raw_s_reg, raw_s_next;
-reg  [23:0] min_s_reg, min_s_next;
-reg  [23:0] max_s_reg, max_s_next;
-reg         lo_bad_reg, lo_bad_next;
-reg         hi_bad_reg, hi_bad_next;
-reg  [3:0]  fbase_s_reg, fbase_s_next;
-reg  [24:0] diff_reg, diff_next;
-reg  [16:0] hi_s_reg, hi_s_next;
-reg  [16:0] lo_s_reg, lo_s_next;
-reg  [31:0] iprev_reg, iprev_next;
-reg         iphi_reg, iphi_next;  // I entering the sample > +I_LIMIT (I_LIMIT lowered)
-reg         iplo_reg, iplo_next;  // I entering the sample < -I_LIMIT
-reg  [31:0] ihold_reg, ihold_next;  // clamp(I, +-I_LIMIT): the integrator when it holds
-
-// The configuration the sample uses: the snapshot (SNAPSHOT 1), or the live registers, which
-// cfg_busy keeps stable from the tick to the last clock that reads them (SNAPSHOT 0; the
-// snapshot registers then have no load and synthesis removes them).
-wire        en_cfg = (SNAPSHOT != 0) ? en_s_reg : enable;
-wire        slew_en_cfg = (SNAPSHOT != 0) ? slew_en_s_reg : slew_en;
-wire [15:0] tc_cfg = (SNAPSHOT != 0) ? tc_s_reg : tc;              // Q7.8 N
-wire [15:0] tcmin_cfg = (SNAPSHOT != 0) ? tcmin_s_reg : tc_min;    // Q7.8 N
-wire [15:0] kff_cfg = (SNAPSHOT != 0) ? kff_s_reg : kff;           // Q2.13 A/N
-wire [15:0] uff_cfg = (SNAPSHOT != 0) ? uff_s_reg : uff;           // Q3.12 A
-wire [15:0] kp_cfg = (SNAPSHOT != 0) ? kp_s_reg : kp;              // Q2.13 A/N
-wire [15:0] ki_cfg = (SNAPSHOT != 0) ? ki_s_reg : ki_ts;           // 2^-20 A/N per sample
-wire [15:0] gain_cfg = (SNAPSHOT != 0) ? gain_s_reg : adc_gain;    // 2^-20 Q7.8-LSB per code
-wire [14:0] lim_cfg = (SNAPSHOT != 0) ? lim_s_reg : i_limit;       // UQ3.12 A
-wire [15:0] stale_to_cfg = (SNAPSHOT != 0) ? stale_to_s_reg : adc_stale;
-wire [15:0] wdt_to_cfg = (SNAPSHOT != 0) ? wdt_to_s_reg : wdt_timeout;
-wire [15:0] oc_to_cfg = (SNAPSHOT != 0) ? oc_to_s_reg : oc_timeout;
-wire [23:0] min_cfg = (SNAPSHOT != 0) ? min_s_reg : adc_min;       // Q23.0 code
-wire [23:0] max_cfg = (SNAPSHOT != 0) ? max_s_reg : adc_max;       // Q23.0 code
-
-// Pipeline.
-reg  [3:0]  det_reg, det_next;
-reg         cmp_hi_reg, cmp_hi_next;
-reg         cmp_lo_reg, cmp_lo_next;
-reg         run_reg, run_next;
-reg         ramp_reg, ramp_next;
-reg  [15:0] tce_s_reg, tce_s_next;   // T_c after the slew limit (clock 2), then the floor (3)
-reg  [40:0] cal_acc_reg, cal_acc_next;
-reg  [40:0] cal_sum_reg, cal_sum_next;
-reg  [33:0] ff_reg, ff_next;
-reg  [15:0] e_reg, e_next;
-reg  [33:0] fp_reg, fp_next;
-reg  [32:0] isum_reg, isum_next;
-reg         pi_pos_reg, pi_pos_next;
-reg         pi_neg_reg, pi_neg_next;
-reg         ihi_reg, ihi_next;
-reg         ilo_reg, ilo_next;
-reg  [31:0] inew_reg, inew_next;
-reg  [24:0] r_reg, r_next;
-reg         rhi_reg, rhi_next;
-reg         rlo_reg, rlo_next;
-reg  [15:0] u_ramp_reg, u_ramp_next;
-reg         ramp_nz_reg, ramp_nz_next;
-reg         ugt_reg, ugt_next;
-reg         ult_reg, ult_next;
-reg  [15:0] u_dn_reg, u_dn_next;
-reg  [15:0] u_up_reg, u_up_next;
-
-// Results.
-reg  [15:0] t_in_reg, t_in_next;
-reg  [15:0] u_reg, u_next;
-reg         out_en_reg, out_en_next;
-reg         sat_hi_reg, sat_hi_next;
-reg         sat_lo_reg, sat_lo_next;
-reg         ramp_st_reg, ramp_st_next;
-reg  [31:0] integ_reg, integ_next;
-reg  [15:0] tc_eff_reg, tc_eff_next;
 reg         out_valid_reg, out_valid_next;
-
-// Multiplier operands.
-reg  [15:0] m1_a, m1_b, m2_a, m2_b;
-wire signed [31:0] m1_p, m2_p;
-
-mul_s16 mul1 (.clk(clk), .a(m1_a), .b(m1_b), .p(m1_p));
-mul_s16 mul2 (.clk(clk), .a(m2_a), .b(m2_b), .p(m2_p));
-
-// --- clock 0 (tick) -------------------------------------------------------------------------
 
 // Sample at or before the tick edge; events of the tick clock itself count.
 wire [23:0] raw_now = adc_valid ? adc_data : raw_reg;
@@ -220,420 +114,94 @@ wire        fclr_now = fclr_pend_reg | fault_clear;
 wire        tcw_now = tcw_pend_reg | tc_wr;
 wire        irst_now = irst_pend_reg | integ_reset;
 
-// Counters stop at 2^16 so a long fault never wraps to "fine"; every threshold is below 2^16,
-// so for the checks (count >= threshold) this equals the model's saturation at 2^16 - 1.
-// A fault clear restarts a counter from zero: the increment is computed in parallel and the
-// clear chooses 1 after it, which keeps the clear off the carry chain.
-wire [16:0] stale_inc = stale_cnt_reg + {16'd0, !stale_cnt_reg[16]};
-wire [16:0] wdt_inc = wdt_cnt_reg + {16'd0, !wdt_cnt_reg[16]};
-wire [16:0] stale_now = fresh_now ? 17'd0 : fclr_now ? 17'd1 : stale_inc;
-wire [16:0] wdt_now = (!enable || tcw_now) ? 17'd0 : fclr_now ? 17'd1 : wdt_inc;
+// The sample itself: tension_loop_dp, started by the tick, on this loop's state.
+wire [13:0]  seq_reg;
+wire [138:0] state;
+wire [138:0] state_res;
 
-// --- later clocks ---------------------------------------------------------------------------
+// The state word's fields (tension_loop_dp's layout; the counters, below 51, for the proofs).
+wire [3:0]  fault_reg = state[54:51];
+wire [15:0] t_in_reg = state[70:55];      // Q7.8 N
+wire [15:0] u_reg = state[86:71];         // Q3.12 A
+wire        out_en_reg = state[87];
+wire        sat_hi_reg = state[88];
+wire        sat_lo_reg = state[89];
+wire        ramp_st_reg = state[90];
+wire [31:0] integ_reg = state[122:91];    // Q3.28 A
+wire [15:0] tc_eff_reg = state[138:123];  // Q7.8 N
 
-// Clock 1: range check of the sample. Clock 2: fault detection on the snapshot (thresholds
-// of 0 switch a check off).
-wire [24:0] below_min = {raw_s_reg[23], raw_s_reg} - {min_cfg[23], min_cfg};
-wire [24:0] above_max = {max_cfg[23], max_cfg} - {raw_s_reg[23], raw_s_reg};
-wire [3:0] detect = {(oc_to_cfg != 16'd0) && (oc_cnt_reg >= {1'b0, oc_to_cfg}),
-                     (wdt_to_cfg != 16'd0) && (wdt_cnt_reg >= {1'b0, wdt_to_cfg}),
-                     lo_bad_reg || hi_bad_reg,
-                     (stale_to_cfg != 16'd0) && (stale_cnt_reg >= {1'b0, stale_to_cfg})};
-wire [3:0] faults_now = fbase_s_reg | det_reg;
+`ifdef FORMAL
+localparam [3:0] F_WDT = 4'b0100;  // fault bits: {overcurrent, watchdog, adc_range, adc_stale}
+wire [16:0]  stale_cnt_reg = state[16:0];
+wire [16:0]  wdt_cnt_reg = state[33:17];
+wire [16:0]  oc_cnt_reg = state[50:34];
+wire [31:0]  f_dp_cfg;
+wire [31:0]  iprev_reg;
+wire [3:0]   fbase_s_reg;
+wire [15:0]  nlim_reg;
+wire [1:0]   f_pi_sign;
+wire [63:0]  f_prod;
+wire [3:0]   f_mode;
+wire [11*128-1:0] f_pipe;
+wire [431:0] f_load;
+wire         en_cfg = f_dp_cfg[31];
+wire [14:0]  lim_cfg = f_dp_cfg[30:16];       // UQ3.12 A
+wire [15:0]  tc_cfg = f_dp_cfg[15:0];         // Q7.8 N
+wire         pi_pos_reg = f_pi_sign[1];
+wire         pi_neg_reg = f_pi_sign[0];
+wire signed [31:0] m2_p = f_prod[31:0];
+wire         run_reg = f_mode[3];
+wire         rhi_reg = f_mode[2];
+wire         rlo_reg = f_mode[1];
+`endif
 
-// Clock 2: slew limit, T_c' = clamp(T_c, T_c'[n-1] - SLEW, T_c'[n-1] + SLEW); the result lies
-// between T_c'[n-1] and T_c, both Q7.8, so its low 16 bits are exact.
-wire [17:0] tc_above = {hi_s_reg[16], hi_s_reg} - {{2{tc_cfg[15]}}, tc_cfg};
-wire [17:0] tc_below = {{2{tc_cfg[15]}}, tc_cfg} - {lo_s_reg[16], lo_s_reg};
-wire [16:0] tce_slew = cmp_hi_reg ? hi_s_reg : cmp_lo_reg ? lo_s_reg : {tc_cfg[15], tc_cfg};
-// Clock 3: the floor, T_c' = max(slew result, TC_MIN), on registered values: one carry chain
-// (the sign of T_s - TC_MIN, both Q7.8) and a select, a stage of its own (the feedforward
-// product starts a clock later for it, in clock 4).
-wire [16:0] tce_flr = {tce_s_reg[15], tce_s_reg} - {tcmin_cfg[15], tcmin_cfg};
+tension_loop_dp #(.WDT_RAMP_STEP(WDT_RAMP_STEP), .SNAPSHOT(SNAPSHOT), .PRELOAD(0)) dp (
+    .clk(clk), .rst(rst),
+    .start(tick), .ld(1'b0), .seq(seq_reg),
+    .ev_raw(raw_now), .ev_fresh(fresh_now), .ev_tcw(tcw_now), .ev_irst(irst_now),
+    .ev_fclr(fclr_now), .ev_grp(1'b0),
+    .enable(enable), .slew_en(slew_en), .tc(tc), .tc_min(tc_min), .kff(kff), .uff(uff),
+    .kp(kp), .ki_ts(ki_ts), .i_limit(i_limit), .slew(slew), .wdt_timeout(wdt_timeout),
+    .adc_offset(adc_offset), .adc_gain(adc_gain), .adc_min(adc_min), .adc_max(adc_max),
+    .adc_stale(adc_stale), .oc_timeout(oc_timeout),
+    .ld_state(139'd0), .state(state), .state_res(state_res)
+`ifdef FORMAL
+    ,
+    .f_cfg(f_dp_cfg), .f_iprev(iprev_reg), .f_fbase(fbase_s_reg), .f_nlim(nlim_reg),
+    .f_pi_sign(f_pi_sign), .f_prod(f_prod), .f_mode(f_mode), .f_pipe(f_pipe),
+    .f_load(f_load)
+`endif
+);
 
-// Clock 5: round(x / 2^20) fits Q7.8 unless bits 40..35 differ: saturate to the Q7.8 range.
-wire cal_ovf = !((&cal_sum_reg[40:35]) || !(|cal_sum_reg[40:35]));
-wire [15:0] t_in_now = cal_ovf ? {cal_sum_reg[40], {15{~cal_sum_reg[40]}}} : cal_sum_reg[35:20];
-
-// Clock 6: error in 17 bits, saturated to Q7.8 (beyond +-128 N only the integration rate is
-// limited).
-wire signed [16:0] e_full = $signed({tce_s_reg[15], tce_s_reg}) -
-                            $signed({t_in_reg[15], t_in_reg});
-wire e_ovf = e_full[16] != e_full[15];
-wire [15:0] e_now = e_ovf ? {e_full[16], {15{~e_full[16]}}} : e_full[15:0];
-
-// Clocks 10-11: integrator, clamped to +-I_LIMIT in Q3.28 (33-bit compare, exact), held while
-// the previous output was saturated in the direction KI_TS*e pushes (conditional integration).
-wire signed [32:0] lim28 = $signed({2'b00, lim_cfg, 16'd0});
-wire signed [32:0] nlim28 = $signed({nlim_reg[15], nlim_reg, 16'd0});
-wire [33:0] i_above = {lim28[32], lim28} - {isum_reg[32], isum_reg};
-wire [33:0] i_below = {isum_reg[32], isum_reg} - {nlim28[32], nlim28};
-wire [32:0] i_clamped = ihi_reg ? lim28 : ilo_reg ? nlim28 : isum_reg;
-wire windup = (sat_hi_reg && pi_pos_reg) || (sat_lo_reg && pi_neg_reg);
-// A held integrator is clamped too: I_LIMIT may have been lowered since I was stored (found by
-// the formal proof of hdl/formal/tension_loop.sby), so I' = clamp(I + (windup ? 0 : KI_TS*e)).
-wire [33:0] ip_above = {lim28[32], lim28} - {{2{iprev_reg[31]}}, iprev_reg};
-wire [33:0] ip_below = {{2{iprev_reg[31]}}, iprev_reg} - {nlim28[32], nlim28};
-
-// Clock 12: rounded sum, Q3.12 in 25 bits: |fp| < 2^32 + 2^25, |I >> 7| < 2^24, so 34 bits hold
-// it (the +2^8 in ff_reg turns the arithmetic shift's floor into rounding).
-wire signed [33:0] v_sum = $signed(fp_reg) + $signed({{9{inew_reg[31]}}, inew_reg[31:7]});
-
-// Clocks 13-14: output saturation at +-I_LIMIT.
-wire signed [24:0] lim12 = $signed({10'd0, lim_cfg});
-wire signed [24:0] nlim12 = $signed({{9{nlim_reg[15]}}, nlim_reg});
-// Comparisons as subtractions, whose sign bit comes out of one carry chain (yosys otherwise
-// builds some of them from LUT trees on the iCE40): r > lim <=> lim - r < 0.
-wire [25:0] r_above = {lim12[24], lim12} - {r_reg[24], r_reg};
-wire [25:0] r_below = {r_reg[24], r_reg} - {nlim12[24], nlim12};
-wire [15:0] u_sat = rhi_reg ? {1'b0, lim_cfg} : rlo_reg ? nlim_reg : r_reg[15:0];
-
-// Watchdog ramp of the previous command towards zero: comparisons and both steps in clock 12,
-// the choice in clock 13 (u_ramp is nonzero exactly when |u| > step).
-wire signed [15:0] step = $signed(WDT_RAMP_STEP);
-wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : 16'd0;
-
-// Bits dropped on purpose: the fraction below the rounding point, and the sign bit of values
-// proven in range (slew result between two Q7.8 values, clamped integrator within +-2^31).
-wire unused_bits = &{1'b0, tce_slew[16], below_min[23:0], above_max[23:0], cal_sum_reg[19:0], i_clamped[32], v_sum[8:0],
-                     r_above[24:0], r_below[24:0], i_above[32:0], i_below[32:0],
-                     ip_above[32:0], ip_below[32:0],
-                     tc_above[16:0], tc_below[16:0], tce_flr[15:0]};
+// The state a sample leaves is the state (no load here); the counters are the proofs'.
+wire unused_state = &{1'b0, state_res, state[50:0]};
 
 always @* begin
-    seq_next = {seq_reg[LATENCY-3:0], tick};
-
     raw_next = raw_now;
     fresh_next = tick ? 1'b0 : fresh_now;
     tcw_pend_next = tick ? 1'b0 : tcw_now;
     irst_pend_next = tick ? 1'b0 : irst_now;
     fclr_pend_next = tick ? 1'b0 : fclr_now;
-
-    stale_cnt_next = stale_cnt_reg;
-    wdt_cnt_next = wdt_cnt_reg;
-    oc_cnt_next = oc_cnt_reg;
-    fault_next = fault_reg;
-    sample_cnt_next = sample_cnt_reg;
-
-    en_s_next = en_s_reg;
-    slew_en_s_next = slew_en_s_reg;
-    tc_s_next = tc_s_reg;
-    tcmin_s_next = tcmin_s_reg;
-    kff_s_next = kff_s_reg;
-    uff_s_next = uff_s_reg;
-    kp_s_next = kp_s_reg;
-    ki_s_next = ki_s_reg;
-    gain_s_next = gain_s_reg;
-    lim_s_next = lim_s_reg;
-    nlim_next = nlim_reg;
-    stale_to_s_next = stale_to_s_reg;
-    wdt_to_s_next = wdt_to_s_reg;
-    oc_to_s_next = oc_to_s_reg;
-    raw_s_next = raw_s_reg;
-    min_s_next = min_s_reg;
-    max_s_next = max_s_reg;
-    lo_bad_next = lo_bad_reg;
-    hi_bad_next = hi_bad_reg;
-    fbase_s_next = fbase_s_reg;
-    diff_next = diff_reg;
-    hi_s_next = hi_s_reg;
-    lo_s_next = lo_s_reg;
-    iprev_next = iprev_reg;
-    iphi_next = iphi_reg;
-    iplo_next = iplo_reg;
-    ihold_next = ihold_reg;
-
-    det_next = det_reg;
-    cmp_hi_next = cmp_hi_reg;
-    cmp_lo_next = cmp_lo_reg;
-    run_next = run_reg;
-    ramp_next = ramp_reg;
-    tce_s_next = tce_s_reg;
-    cal_acc_next = cal_acc_reg;
-    cal_sum_next = cal_sum_reg;
-    ff_next = ff_reg;
-    e_next = e_reg;
-    fp_next = fp_reg;
-    isum_next = isum_reg;
-    pi_pos_next = pi_pos_reg;
-    pi_neg_next = pi_neg_reg;
-    ihi_next = ihi_reg;
-    ilo_next = ilo_reg;
-    inew_next = inew_reg;
-    r_next = r_reg;
-    rhi_next = rhi_reg;
-    rlo_next = rlo_reg;
-    u_ramp_next = u_ramp_reg;
-    ramp_nz_next = ramp_nz_reg;
-    ugt_next = ugt_reg;
-    ult_next = ult_reg;
-    u_dn_next = u_dn_reg;
-    u_up_next = u_up_reg;
-
-    t_in_next = t_in_reg;
-    u_next = u_reg;
-    out_en_next = out_en_reg;
-    sat_hi_next = sat_hi_reg;
-    sat_lo_next = sat_lo_reg;
-    ramp_st_next = ramp_st_reg;
-    integ_next = integ_reg;
-    tc_eff_next = tc_eff_reg;
-    out_valid_next = 1'b0;
-
-    m1_a = 16'd0;
-    m1_b = 16'd0;
-    m2_a = 16'd0;
-    m2_b = 16'd0;
-
-    // Clock 0: the tick. Counters, snapshot, raw - offset (25 bits: exact for 24-bit codes).
-    if (tick) begin
-        sample_cnt_next = sample_cnt_reg + 32'd1;
-        stale_cnt_next = stale_now;
-        wdt_cnt_next = wdt_now;
-        oc_cnt_next = fclr_now ? 17'd0 : oc_cnt_reg;
-        en_s_next = enable;
-        slew_en_s_next = slew_en;
-        tc_s_next = tc;
-        tcmin_s_next = tc_min;
-        kff_s_next = kff;
-        uff_s_next = uff;
-        kp_s_next = kp;
-        ki_s_next = ki_ts;
-        gain_s_next = adc_gain;
-        lim_s_next = i_limit;
-        stale_to_s_next = adc_stale;
-        wdt_to_s_next = wdt_timeout;
-        oc_to_s_next = oc_timeout;
-        raw_s_next = raw_now;
-        min_s_next = adc_min;
-        max_s_next = adc_max;
-        fbase_s_next = fclr_now ? 4'd0 : fault_reg;
-        diff_next = $signed({raw_now[23], raw_now}) - $signed({adc_offset[23], adc_offset});
-        hi_s_next = $signed({tc_eff_reg[15], tc_eff_reg}) + $signed({2'b00, slew});
-        lo_s_next = $signed({tc_eff_reg[15], tc_eff_reg}) - $signed({2'b00, slew});
-        iprev_next = irst_now ? 32'd0 : integ_reg;
-    end
-
-    // Clock 1: range, slew comparisons, high part of the difference times the gain.
-    if (seq_reg[0]) begin
-        lo_bad_next = below_min[24];  // raw < ADC_MIN
-        hi_bad_next = above_max[24];  // raw > ADC_MAX
-        cmp_hi_next = tc_above[17];
-        cmp_lo_next = tc_below[17];
-        m1_a = diff_reg[24:9];
-        m1_b = gain_cfg;
-        nlim_next = -{1'b0, lim_cfg};
-    end
-
-    // Clock 2: detection, T_c' before the floor (slew limit), the held integrator's clamp comparisons; low 9 bits of the difference (non-negative) times the gain.
-    if (seq_reg[1]) begin
-        det_next = en_cfg ? detect : 4'd0;
-        iphi_next = ip_above[33];  // I > +I_LIMIT
-        iplo_next = ip_below[33];  // I < -I_LIMIT
-        tce_s_next = slew_en_cfg ? tce_slew[15:0] : tc_cfg;
-        m1_a = {7'd0, diff_reg[8:0]};
-        m1_b = gain_cfg;
-    end
-
-    // Clock 3: faults latch and the mode; the floor on T_c'; high partial product arrives
-    // (+ 2^19: round at >> 20); the held integrator, clamped.
-    if (seq_reg[2]) begin
-        fault_next = faults_now;
-        run_next = en_cfg && (faults_now == 4'd0);
-        ramp_next = en_cfg && (faults_now == F_WDT);
-        tce_s_next = tce_flr[16] ? tcmin_cfg : tce_s_reg;  // T_s < TC_MIN: the floor
-        cal_acc_next = {m1_p, 9'd0} + 41'd524288;
-        ihold_next = iphi_reg ? lim28[31:0] : iplo_reg ? nlim28[31:0] : iprev_reg;
-    end
-
-    // Clock 4: calibration sum, (hi*g << 9) + lo*g + 2^19, 41 bits exact (|diff*g| < 2^40);
-    // feedforward product of the floored T_c'.
-    if (seq_reg[3]) begin
-        cal_sum_next = cal_acc_reg + {{9{m1_p[31]}}, m1_p};
-        m2_a = tce_s_reg;
-        m2_b = kff_cfg;
-    end
-
-    // Clock 5: T_in.
-    if (seq_reg[4]) begin
-        t_in_next = t_in_now;
-    end
-
-    // Clock 6: error; feedforward plus UFF << 9 (Q3.12 -> Q.21) and the rounding half of the
-    // final >> 9, one addend {UFF, 9'h100} (exact: 256 < 2^9): |ff| < 2^31 + 2^24 + 2^8.
-    if (seq_reg[5]) begin
-        e_next = e_now;
-        ff_next = {{2{m2_p[31]}}, m2_p} + {{9{uff_cfg[15]}}, uff_cfg, 9'h100};
-    end
-
-    // Clock 7: P and I products.
-    if (seq_reg[6]) begin
-        m1_a = e_reg;
-        m1_b = kp_cfg;
-        m2_a = e_reg;
-        m2_b = ki_cfg;
-    end
-
-    // Clock 9: feedforward + proportional (34 bits), integrator sum (33 bits), both exact.
-    if (seq_reg[8]) begin
-        fp_next = ff_reg + {{2{m1_p[31]}}, m1_p};
-        isum_next = {iprev_reg[31], iprev_reg} + {m2_p[31], m2_p};
-        pi_pos_next = !m2_p[31] && (m2_p != 32'd0);
-        pi_neg_next = m2_p[31];
-    end
-
-    // Clock 10: integrator clamp comparisons.
-    if (seq_reg[9]) begin
-        ihi_next = i_above[33];
-        ilo_next = i_below[33];
-    end
-
-    // Clock 11: new integrator.
-    if (seq_reg[10]) begin
-        inew_next = windup ? ihold_reg : i_clamped[31:0];
-    end
-
-    // Clock 12: rounded output before saturation.
-    if (seq_reg[11]) begin
-        r_next = v_sum[33:9];
-        ugt_next = $signed(u_reg) > step;
-        ult_next = $signed(u_reg) < -step;
-        u_dn_next = u_reg - step;
-        u_up_next = u_reg + step;
-    end
-
-    // Clock 13: saturation comparisons.
-    if (seq_reg[12]) begin
-        rhi_next = r_above[25];
-        rlo_next = r_below[25];
-        u_ramp_next = u_ramp;
-        ramp_nz_next = ugt_reg || ult_reg;
-    end
-
-    // Clock 14: saturate, apply the mode.
-    if (seq_reg[13]) begin
-        out_valid_next = 1'b1;
-        if (run_reg) begin
-            u_next = u_sat;
-            integ_next = inew_reg;
-            sat_hi_next = rhi_reg;
-            sat_lo_next = rlo_reg;
-            out_en_next = 1'b1;
-            ramp_st_next = 1'b0;
-            tc_eff_next = tce_s_reg;
-            // Consecutive saturated samples, stopping at 2^16.
-            oc_cnt_next = !(rhi_reg || rlo_reg) ? 17'd0 :
-                          oc_cnt_reg + {16'd0, !oc_cnt_reg[16]};
-        end else begin
-            u_next = ramp_reg ? u_ramp_reg : 16'd0;
-            out_en_next = ramp_reg && ramp_nz_reg;
-            ramp_st_next = ramp_reg && ramp_nz_reg;
-            integ_next = 32'd0;
-            sat_hi_next = 1'b0;
-            sat_lo_next = 1'b0;
-            tc_eff_next = 16'd0;
-            oc_cnt_next = 17'd0;
-        end
-    end
+    sample_cnt_next = tick ? sample_cnt_reg + 32'd1 : sample_cnt_reg;
+    out_valid_next = seq_reg[LATENCY-2];
 end
 
 always @(posedge clk) begin
-    seq_reg <= seq_next;
     raw_reg <= raw_next;
     fresh_reg <= fresh_next;
     tcw_pend_reg <= tcw_pend_next;
     irst_pend_reg <= irst_pend_next;
     fclr_pend_reg <= fclr_pend_next;
-    stale_cnt_reg <= stale_cnt_next;
-    wdt_cnt_reg <= wdt_cnt_next;
-    oc_cnt_reg <= oc_cnt_next;
-    fault_reg <= fault_next;
     sample_cnt_reg <= sample_cnt_next;
-    en_s_reg <= en_s_next;
-    slew_en_s_reg <= slew_en_s_next;
-    tc_s_reg <= tc_s_next;
-    tcmin_s_reg <= tcmin_s_next;
-    kff_s_reg <= kff_s_next;
-    uff_s_reg <= uff_s_next;
-    kp_s_reg <= kp_s_next;
-    ki_s_reg <= ki_s_next;
-    gain_s_reg <= gain_s_next;
-    lim_s_reg <= lim_s_next;
-    nlim_reg <= nlim_next;
-    stale_to_s_reg <= stale_to_s_next;
-    wdt_to_s_reg <= wdt_to_s_next;
-    oc_to_s_reg <= oc_to_s_next;
-    raw_s_reg <= raw_s_next;
-    min_s_reg <= min_s_next;
-    max_s_reg <= max_s_next;
-    lo_bad_reg <= lo_bad_next;
-    hi_bad_reg <= hi_bad_next;
-    fbase_s_reg <= fbase_s_next;
-    diff_reg <= diff_next;
-    hi_s_reg <= hi_s_next;
-    lo_s_reg <= lo_s_next;
-    iprev_reg <= iprev_next;
-    iphi_reg <= iphi_next;
-    iplo_reg <= iplo_next;
-    ihold_reg <= ihold_next;
-    det_reg <= det_next;
-    cmp_hi_reg <= cmp_hi_next;
-    cmp_lo_reg <= cmp_lo_next;
-    run_reg <= run_next;
-    ramp_reg <= ramp_next;
-    tce_s_reg <= tce_s_next;
-    cal_acc_reg <= cal_acc_next;
-    cal_sum_reg <= cal_sum_next;
-    ff_reg <= ff_next;
-    e_reg <= e_next;
-    fp_reg <= fp_next;
-    isum_reg <= isum_next;
-    pi_pos_reg <= pi_pos_next;
-    pi_neg_reg <= pi_neg_next;
-    ihi_reg <= ihi_next;
-    ilo_reg <= ilo_next;
-    inew_reg <= inew_next;
-    r_reg <= r_next;
-    rhi_reg <= rhi_next;
-    rlo_reg <= rlo_next;
-    u_ramp_reg <= u_ramp_next;
-    ramp_nz_reg <= ramp_nz_next;
-    ugt_reg <= ugt_next;
-    ult_reg <= ult_next;
-    u_dn_reg <= u_dn_next;
-    u_up_reg <= u_up_next;
-    t_in_reg <= t_in_next;
-    u_reg <= u_next;
-    out_en_reg <= out_en_next;
-    sat_hi_reg <= sat_hi_next;
-    sat_lo_reg <= sat_lo_next;
-    ramp_st_reg <= ramp_st_next;
-    integ_reg <= integ_next;
-    tc_eff_reg <= tc_eff_next;
     out_valid_reg <= out_valid_next;
 
     if (rst) begin
-        seq_reg <= {(LATENCY-1){1'b0}};
         raw_reg <= 24'd0;
         fresh_reg <= 1'b0;
         tcw_pend_reg <= 1'b0;
         irst_pend_reg <= 1'b0;
         fclr_pend_reg <= 1'b0;
-        stale_cnt_reg <= 17'd0;
-        wdt_cnt_reg <= 17'd0;
-        oc_cnt_reg <= 17'd0;
-        fault_reg <= 4'd0;
         sample_cnt_reg <= 32'd0;
-        run_reg <= 1'b0;
-        ramp_reg <= 1'b0;
-        t_in_reg <= 16'd0;
-        u_reg <= 16'd0;
-        out_en_reg <= 1'b0;
-        sat_hi_reg <= 1'b0;
-        sat_lo_reg <= 1'b0;
-        ramp_st_reg <= 1'b0;
-        integ_reg <= 32'd0;
-        tc_eff_reg <= 16'd0;
         out_valid_reg <= 1'b0;
     end
 end
