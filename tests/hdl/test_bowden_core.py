@@ -273,7 +273,9 @@ async def readback_and_watchdog_over_axi(dut):
 @pytest.mark.parametrize("simulator", SIMULATORS)
 def test_bowden_core(simulator, config):
     """Build bowden_core at 15 clocks per sample in `config` and run the coroutines above."""
-    sources = rtl("bowden_core", "axil_regbus", "bowden_regs", "tension_loop", "tension_loop_dp", "mul_s16")
+    sources = rtl(
+        "bowden_core", "axil_regbus", "bowden_regs", "tension_loop", "tension_loop_dp", "mul_s16"
+    )
     sources += rtl("pwm_escon")
     params = {"CLKS_PER_SAMPLE": CLKS_PER_SAMPLE, "CLK_HZ": 1_000_000, "PWM_HZ": 5000}
     run_cocotb(

@@ -351,7 +351,9 @@ def test_bowden_system(simulator, adc):
     """Build bowden_system with short clocks per sample and ADC waits, with each front-end; run
     the coroutines above."""
     sources = rtl("bowden_system", "spi_axil_bridge", "ads1220_reader", "ads131m02_reader")
-    sources += rtl("bowden_core", "axil_regbus", "bowden_regs", "tension_loop", "tension_loop_dp", "mul_s16")
+    sources += rtl(
+        "bowden_core", "axil_regbus", "bowden_regs", "tension_loop", "tension_loop_dp", "mul_s16"
+    )
     sources += rtl("pwm_escon")
     params = {
         "CLK_HZ": CLK_HZ,

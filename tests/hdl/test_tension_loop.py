@@ -484,4 +484,9 @@ async def each_fault_forces_zero(dut):
 @pytest.mark.parametrize("simulator", SIMULATORS)
 def test_tension_loop(simulator):
     """Build tension_loop and run every coroutine above against the model."""
-    run_cocotb("tension_loop", "test_tension_loop", rtl("tension_loop", "tension_loop_dp", "mul_s16"), simulator)
+    run_cocotb(
+        "tension_loop",
+        "test_tension_loop",
+        rtl("tension_loop", "tension_loop_dp", "mul_s16"),
+        simulator,
+    )
