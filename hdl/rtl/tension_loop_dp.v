@@ -21,8 +21,8 @@
  * PRELOAD 1 (tension_loop_mc): everything a sample reads, its events, configuration and state
  * (`ld_state`), is taken into this module's registers at `ld`, the clock before `start`, so no
  * multiplexer in front of the datapath sits before a carry chain; the sample reads nothing else.
- * `state_res` is the state the sample leaves (in its last clock, the channel's new state), and
- * `ld` in that same clock loads the next channel over it.
+ * `state_res` is the state the sample leaves (valid in its last clock: the channel's new state),
+ * and `ld` in that same clock loads the next channel in its place.
  *
  * The state word (state, state_res, ld_state), from bit 0: stale counter [16:0], watchdog
  * counter [33:17], over-current counter [50:34], FAULT [54:51], T_in [70:55] (Q7.8 N), u [86:71]
@@ -81,7 +81,7 @@ module tension_loop_dp #(
      */
     input  wire [138:0] ld_state,     // PRELOAD 1: the next channel's state, loaded at ld
     output wire [138:0] state,        // the state now
-    output wire [138:0] state_res     // the state at the next edge, before a load
+    output wire [138:0] state_res     // the state the sample leaves (valid in its last clock)
 `ifdef FORMAL
     ,
     /*
@@ -96,8 +96,10 @@ module tension_loop_dp #(
     output wire [63:0]  f_prod,       // {mul1's, mul2's product}
     output wire [3:0]   f_mode,       // {run, clipped high, clipped low, group stop}
     output wire [11*128-1:0] f_pipe,  // the pipeline by the clock that writes it (0 1 2 3 4 6
-                                      // 9 10 11 12 13), group 0 in the top bits
-    output wire [431:0] f_load        // what ld loads: events, configuration, state
+                                      // 9 10 11 12 13), group 0 in the top bits (T_in,
+                                      // written in clock 5, with clock 6's)
+    output wire [431:0] f_load        // what ld loads: events, configuration, state (T_in, the
+                                      // drive enable and the ramp flag are not loaded: 0)
 `endif
 );
 
@@ -199,7 +201,8 @@ reg         cmp_hi_reg, cmp_hi_next;
 reg         cmp_lo_reg, cmp_lo_next;
 reg         run_reg, run_next;
 reg         ramp_reg, ramp_next;
-reg  [15:0] tce_s_reg, tce_s_next;   // T_c after the slew limit (clock 2), then the floor (3)
+reg  [15:0] tce_s_reg, tce_s_next;   // T_c after the slew limit (clock 2)
+reg  [15:0] tcf_reg, tcf_next;       // T_c' = max(that, TC_MIN), the floor (clock 3)
 reg  [40:0] cal_acc_reg, cal_acc_next;
 reg  [40:0] cal_sum_reg, cal_sum_next;
 reg  [33:0] ff_reg, ff_next;
@@ -258,7 +261,8 @@ wire [17:0] tc_below = {{2{tc_cfg[15]}}, tc_cfg} - {lo_s_reg[16], lo_s_reg};
 wire [16:0] tce_slew = cmp_hi_reg ? hi_s_reg : cmp_lo_reg ? lo_s_reg : {tc_cfg[15], tc_cfg};
 // Clock 3: the floor, T_c' = max(slew result, TC_MIN), on registered values: one carry chain
 // (the sign of T_s - TC_MIN, both Q7.8) and a select, a stage of its own (the feedforward
-// product starts a clock later for it, in clock 4).
+// product starts a clock later for it, in clock 4), into a register of its own, so that the sign
+// picks a value instead of driving the clock enable of T_s's register.
 wire [16:0] tce_flr = {tce_s_reg[15], tce_s_reg} - {tcmin_cfg[15], tcmin_cfg};
 
 // Clock 5: round(x / 2^20) fits Q7.8 unless bits 40..35 differ: saturate to the Q7.8 range.
@@ -267,7 +271,7 @@ wire [15:0] t_in_now = cal_ovf ? {cal_sum_reg[40], {15{~cal_sum_reg[40]}}} : cal
 
 // Clock 6: error in 17 bits, saturated to Q7.8 (beyond +-128 N only the integration rate is
 // limited).
-wire signed [16:0] e_full = $signed({tce_s_reg[15], tce_s_reg}) -
+wire signed [16:0] e_full = $signed({tcf_reg[15], tcf_reg}) -
                             $signed({t_in_reg[15], t_in_reg});
 wire e_ovf = e_full[16] != e_full[15];
 wire [15:0] e_now = e_ovf ? {e_full[16], {15{~e_full[16]}}} : e_full[15:0];
@@ -310,11 +314,20 @@ wire unused_bits = &{1'b0, tce_slew[16], below_min[23:0], above_max[23:0], cal_s
                      ip_above[32:0], ip_below[32:0],
                      tc_above[16:0], tc_below[16:0], tce_flr[15:0]};
 
+wire [138:0] state_next = {tc_eff_next, integ_next, ramp_st_next, sat_lo_next, sat_hi_next,
+                          out_en_next, u_next, t_in_next, fault_next, oc_cnt_next, wdt_cnt_next,
+                          stale_cnt_next};
+// The state the sample leaves, for its last clock: the fields that clock writes, and the
+// registers of the ones written earlier (so no earlier clock's logic reaches the caller's).
 assign state_res = {tc_eff_next, integ_next, ramp_st_next, sat_lo_next, sat_hi_next,
-                    out_en_next, u_next, t_in_next, fault_next, oc_cnt_next, wdt_cnt_next,
-                    stale_cnt_next};
-// The state at the next edge: the sample's, or the next channel's at a load (PRELOAD 1).
-wire [138:0] state_d = (PRELOAD != 0 && ld) ? ld_state : state_res;
+                    out_en_next, u_next, t_in_reg, fault_reg, oc_cnt_next, wdt_cnt_reg,
+                    stale_cnt_reg};
+// The state at the next edge: the sample's, or the next channel's at a load (PRELOAD 1). T_in,
+// the drive enable and the ramp flag are not loaded: every sample writes them before it reads
+// them (clocks 5 and 14), so they keep the load's multiplexer off T_in's saturation path.
+localparam [138:0] LD_MASK = ~{48'd0, 1'b1, 2'd0, 1'b1, 16'd0, 16'hFFFF, 55'd0};
+wire [138:0] state_d = (PRELOAD != 0 && ld) ? ((ld_state & LD_MASK) | (state_next & ~LD_MASK)) :
+                                              state_next;
 
 always @* begin
     seq_next = {seq_reg[LATENCY-3:0], start};
@@ -374,6 +387,7 @@ always @* begin
     run_next = run_reg;
     ramp_next = ramp_reg;
     tce_s_next = tce_s_reg;
+    tcf_next = tcf_reg;
     cal_acc_next = cal_acc_reg;
     cal_sum_next = cal_sum_reg;
     ff_next = ff_reg;
@@ -442,7 +456,7 @@ always @* begin
         fault_next = faults_now;
         run_next = en_cfg && (faults_now == 4'd0) && !grp_c;
         ramp_next = en_cfg && ((faults_now == F_WDT) || (faults_now == 4'd0 && grp_c));
-        tce_s_next = tce_flr[16] ? tcmin_cfg : tce_s_reg;  // T_s < TC_MIN: the floor
+        tcf_next = tce_flr[16] ? tcmin_cfg : tce_s_reg;  // T_s < TC_MIN: the floor
         cal_acc_next = {m1_p, 9'd0} + 41'd524288;
         ihold_next = iphi_reg ? lim28[31:0] : iplo_reg ? nlim28[31:0] : iprev_reg;
     end
@@ -451,7 +465,7 @@ always @* begin
     // feedforward product of the floored T_c'.
     if (seq_reg[3]) begin
         cal_sum_next = cal_acc_reg + {{9{m1_p[31]}}, m1_p};
-        m2_a = tce_s_reg;
+        m2_a = tcf_reg;
         m2_b = kff_cfg;
     end
 
@@ -520,7 +534,7 @@ always @* begin
             sat_lo_next = rlo_reg;
             out_en_next = 1'b1;
             ramp_st_next = 1'b0;
-            tc_eff_next = tce_s_reg;
+            tc_eff_next = tcf_reg;
             // Consecutive saturated samples, stopping at 2^16.
             oc_cnt_next = !(rhi_reg || rlo_reg) ? 17'd0 :
                           oc_cnt_reg + {16'd0, !oc_cnt_reg[16]};
@@ -582,6 +596,7 @@ always @(posedge clk) begin
     run_reg <= run_next;
     ramp_reg <= ramp_next;
     tce_s_reg <= tce_s_next;
+    tcf_reg <= tcf_next;
     cal_acc_reg <= cal_acc_next;
     cal_sum_reg <= cal_sum_next;
     ff_reg <= ff_next;
@@ -605,6 +620,13 @@ always @(posedge clk) begin
 
     if (rst) begin
         seq_reg <= {(LATENCY-1){1'b0}};
+        grp_l_reg <= 1'b0;
+        run_reg <= 1'b0;
+        ramp_reg <= 1'b0;
+    end
+    // The state is the loop's (PRELOAD 0), or loaded before any sample reads it (PRELOAD 1: the
+    // caller's registers are reset, these need not be, which keeps their logic shallow).
+    if (rst && PRELOAD == 0) begin
         stale_cnt_reg <= 17'd0;
         wdt_cnt_reg <= 17'd0;
         oc_cnt_reg <= 17'd0;
@@ -617,9 +639,6 @@ always @(posedge clk) begin
         ramp_st_reg <= 1'b0;
         integ_reg <= 32'd0;
         tc_eff_reg <= 16'd0;
-        grp_l_reg <= 1'b0;
-        run_reg <= 1'b0;
-        ramp_reg <= 1'b0;
     end
 end
 
@@ -639,9 +658,9 @@ assign f_pipe = {
     {9'd0, raw_s_reg, fbase_s_reg, diff_reg, hi_s_reg, lo_s_reg, iprev_reg},
     {108'd0, lo_bad_reg, hi_bad_reg, cmp_hi_reg, cmp_lo_reg, nlim_reg},
     {106'd0, det_reg, iphi_reg, iplo_reg, tce_s_reg},
-    {53'd0, run_reg, ramp_reg, cal_acc_reg, ihold_reg},
+    {37'd0, run_reg, ramp_reg, cal_acc_reg, ihold_reg, tcf_reg},
     {87'd0, cal_sum_reg},
-    {78'd0, e_reg, ff_reg},
+    {62'd0, t_in_reg, e_reg, ff_reg},
     {59'd0, fp_reg, isum_reg, pi_pos_reg, pi_neg_reg},
     {126'd0, ihi_reg, ilo_reg},
     {96'd0, inew_reg},
@@ -650,7 +669,7 @@ assign f_pipe = {
 assign f_load = {raw_l_reg, fresh_l_reg, tcw_l_reg, irst_l_reg, fclr_l_reg, grp_l_reg,
                  en_s_reg, slew_en_s_reg, tc_s_reg, tcmin_s_reg, kff_s_reg, uff_s_reg, kp_s_reg,
                  ki_s_reg, lim_s_reg, slew_s_reg, wdt_to_s_reg, offset_s_reg, gain_s_reg,
-                 min_s_reg, max_s_reg, stale_to_s_reg, oc_to_s_reg, state};
+                 min_s_reg, max_s_reg, stale_to_s_reg, oc_to_s_reg, state & LD_MASK};
 `endif
 
 endmodule
