@@ -366,9 +366,8 @@ MUTANTS = [
         "regs_ro_write_lands",
         "regs_value_kp_value",
         "bowden_regs.v",
-        "            A_STATUS: begin\n                wr_hit = 1'b1;\n            end",
-        "            A_STATUS: begin\n                wr_hit = 1'b1;\n"
-        "                kp_next = kp_wval;\n            end",
+        "        case (wr_word)\n",
+        "        case (wr_word)\n            A_STATUS: kp_next = kp_wval;\n",
         "bowden_core:bmc",
     ),
     Mutant(

@@ -177,6 +177,16 @@ def gen_verilog(spec: dict) -> str:
     for reg in spec["registers"]:
         w(f"localparam [ADDR_W-3:0] A_{reg['name']} = {aw - 2}'d{reg['addr'] >> 2};")
     w("")
+    w("// The mapped words, a bit per word address: an unmapped address is a lookup of the address")
+    w("// (a function of its bits, a few LUTs deep), not the OR of a comparison per register.")
+    w("localparam integer WORDS = 1 << (ADDR_W - 2);")
+    w("localparam [WORDS-1:0] WORD_ONE = 1;")
+    w("localparam [WORDS-1:0] WORD_MAPPED =")
+    for i, reg in enumerate(spec["registers"]):
+        end = ";" if i == len(spec["registers"]) - 1 else ""
+        lead = "    " if i == 0 else "    | "
+        w(f"{lead}(WORD_ONE << A_{reg['name']}){end}")
+    w("")
     w("wire [ADDR_W-3:0] wr_word = reg_wr_addr[ADDR_W-1:2];")
     w("wire [ADDR_W-3:0] rd_word = reg_rd_addr[ADDR_W-1:2];")
     w("wire [31:0]       rd_data;  // the read path's result (generate blocks below)")
@@ -207,7 +217,6 @@ def gen_verilog(spec: dict) -> str:
                 )
         if reg.get("wr_pulse"):
             w(f"reg  {reg['name'].lower()}_wr_reg, {reg['name'].lower()}_wr_next;")
-    w("reg         wr_hit;")
     w("")
     w("// Read value of every register.")
     for reg in spec["registers"]:
@@ -246,7 +255,6 @@ def gen_verilog(spec: dict) -> str:
                 w(f"    {name}_next = 1'b0;  // pulse lasts one clock")
         if reg.get("wr_pulse"):
             w(f"    {reg['name'].lower()}_wr_next = 1'b0;")
-    w("    wr_hit = 1'b0;")
     w("    if (reg_wr_en) begin")
     w("        case (wr_word)")
     for reg in spec["registers"]:
@@ -261,12 +269,13 @@ def gen_verilog(spec: dict) -> str:
                 )
         if reg.get("wr_pulse"):
             body.append(f"{reg['name'].lower()}_wr_next = 1'b1;")
+        if not body:
+            continue  # read-only: a write to it changes nothing (and is no error)
         w(f"            A_{reg['name']}: begin")
-        w("                wr_hit = 1'b1;")
         for line in body:
             w(f"                {line}")
         w("            end")
-    w("            default: wr_hit = 1'b0;")
+    w("            default: ;")
     w("        endcase")
     w("    end")
     w("end")
@@ -297,7 +306,7 @@ def gen_verilog(spec: dict) -> str:
         if reg.get("wr_pulse"):
             n = reg["name"].lower()
             w(f"assign {n}_wr = {n}_wr_reg;")
-    w("assign reg_wr_err = reg_wr_en & ~wr_hit;")
+    w("assign reg_wr_err = reg_wr_en & ~WORD_MAPPED[wr_word];")
     out.extend(gen_read_path(spec))
     w("assign reg_rd_data = rd_data;")
     w("assign reg_rd_err = rd_err;")
@@ -334,10 +343,6 @@ def gen_read_path(spec: dict) -> list[str]:
         out.extend(cont + t for t in terms[1:])
         out[-1] += ";"
 
-    miss = [
-        f"            (rd_word == A_{reg['name']}){' ||' if i < n - 1 else ');'}"
-        for i, reg in enumerate(regs)
-    ]
     w("// Read path, RD_STAGES clocks; the data and the error flag hold until the next read.")
     w("generate")
     w("    if (RD_STAGES != 1 && RD_STAGES != 3) begin : g_check")
@@ -367,11 +372,10 @@ def gen_read_path(spec: dict) -> list[str]:
     w("        assign rd_last = reg_rd_en;")
     w("    end else begin : g_rd3")
     w(f"        reg  [{n - 1}:0] rd_sel;   // one-hot register select of the read in flight")
-    w("        reg         rd_miss;  // the read address is unmapped")
     w("        reg         rd_pend;  // a read is in its second cycle")
     for g in range(ngrp):
         w(f"        reg  [31:0] rd_grp{g};  // OR of registers {4 * g}..{min(4 * g + 3, n - 1)}")
-    w("        reg         rd_miss2;")
+    w("        reg         rd_miss2;  // the read address is unmapped (no select bit set)")
     w("        reg         rd_pend2;  // a read is in its third cycle")
     w("        reg         rd_valid_reg;")
     w("        reg  [31:0] rd_data_reg, rd_data_next;")
@@ -390,7 +394,7 @@ def gen_read_path(spec: dict) -> list[str]:
     w("            rd_pend <= reg_rd_en;")
     w("            rd_pend2 <= rd_pend;")
     w("            rd_valid_reg <= rd_pend2;")
-    w("            rd_miss2 <= rd_miss;")
+    w(f"            rd_miss2 <= rd_sel == {n}'d0;")
     w("            // Second read cycle: AND-OR of the one-hot select within groups of four.")
     for g in range(0, n, 4):
         or_of_selected(
@@ -402,8 +406,6 @@ def gen_read_path(spec: dict) -> list[str]:
     w("            if (reg_rd_en) begin")
     for i, reg in enumerate(regs):
         w(f"                rd_sel[{i}] <= (rd_word == A_{reg['name']});")
-    w("                rd_miss <= !(")
-    out.extend("        " + m for m in miss)
     w("            end")
     w("            rd_err_reg <= rd_err_next;")
     w("            if (rst) begin")

@@ -106,6 +106,38 @@ localparam [ADDR_W-3:0] A_UFF = 6'd34;
 localparam [ADDR_W-3:0] A_T_OUT = 6'd32;
 localparam [ADDR_W-3:0] A_ADC_FLAGS = 6'd33;
 
+// The mapped words, a bit per word address: an unmapped address is a lookup of the address
+// (a function of its bits, a few LUTs deep), not the OR of a comparison per register.
+localparam integer WORDS = 1 << (ADDR_W - 2);
+localparam [WORDS-1:0] WORD_ONE = 1;
+localparam [WORDS-1:0] WORD_MAPPED =
+    (WORD_ONE << A_ID)
+    | (WORD_ONE << A_CTRL)
+    | (WORD_ONE << A_STATUS)
+    | (WORD_ONE << A_FAULT)
+    | (WORD_ONE << A_TC)
+    | (WORD_ONE << A_KFF)
+    | (WORD_ONE << A_KP)
+    | (WORD_ONE << A_KI_TS)
+    | (WORD_ONE << A_I_LIMIT)
+    | (WORD_ONE << A_SLEW)
+    | (WORD_ONE << A_WDT_TIMEOUT)
+    | (WORD_ONE << A_ADC_OFFSET)
+    | (WORD_ONE << A_ADC_GAIN)
+    | (WORD_ONE << A_ADC_MIN)
+    | (WORD_ONE << A_ADC_MAX)
+    | (WORD_ONE << A_ADC_STALE)
+    | (WORD_ONE << A_OC_TIMEOUT)
+    | (WORD_ONE << A_SAMPLE_COUNT)
+    | (WORD_ONE << A_T_IN)
+    | (WORD_ONE << A_U)
+    | (WORD_ONE << A_INTEG)
+    | (WORD_ONE << A_TC_EFF)
+    | (WORD_ONE << A_TC_MIN)
+    | (WORD_ONE << A_UFF)
+    | (WORD_ONE << A_T_OUT)
+    | (WORD_ONE << A_ADC_FLAGS);
+
 wire [ADDR_W-3:0] wr_word = reg_wr_addr[ADDR_W-1:2];
 wire [ADDR_W-3:0] rd_word = reg_rd_addr[ADDR_W-1:2];
 wire [31:0]       rd_data;  // the read path's result (generate blocks below)
@@ -155,7 +187,6 @@ reg  [15:0] tc_min_reg, tc_min_next;
 wire [15:0] tc_min_wval = (reg_wr_data[15:0] & wr_mask[15:0]) | (tc_min_reg & ~wr_mask[15:0]);
 reg  [15:0] uff_reg, uff_next;
 wire [15:0] uff_wval = (reg_wr_data[15:0] & wr_mask[15:0]) | (uff_reg & ~wr_mask[15:0]);
-reg         wr_hit;
 
 // Read value of every register.
 wire [31:0] rword_id = {32'h424F0100};
@@ -206,108 +237,61 @@ always @* begin
     oc_timeout_next = oc_timeout_reg;
     tc_min_next = tc_min_reg;
     uff_next = uff_reg;
-    wr_hit = 1'b0;
     if (reg_wr_en) begin
         case (wr_word)
-            A_ID: begin
-                wr_hit = 1'b1;
-            end
             A_CTRL: begin
-                wr_hit = 1'b1;
                 ctrl_enable_next = ctrl_enable_wval;
                 ctrl_integ_reset_next = reg_wr_data[1] & reg_wr_strb[0];
                 ctrl_fault_clear_next = reg_wr_data[2] & reg_wr_strb[0];
                 ctrl_slew_en_next = ctrl_slew_en_wval;
             end
-            A_STATUS: begin
-                wr_hit = 1'b1;
-            end
-            A_FAULT: begin
-                wr_hit = 1'b1;
-            end
             A_TC: begin
-                wr_hit = 1'b1;
                 tc_next = tc_wval;
                 tc_wr_next = 1'b1;
             end
             A_KFF: begin
-                wr_hit = 1'b1;
                 kff_next = kff_wval;
             end
             A_KP: begin
-                wr_hit = 1'b1;
                 kp_next = kp_wval;
             end
             A_KI_TS: begin
-                wr_hit = 1'b1;
                 ki_ts_next = ki_ts_wval;
             end
             A_I_LIMIT: begin
-                wr_hit = 1'b1;
                 i_limit_next = i_limit_wval;
             end
             A_SLEW: begin
-                wr_hit = 1'b1;
                 slew_next = slew_wval;
             end
             A_WDT_TIMEOUT: begin
-                wr_hit = 1'b1;
                 wdt_timeout_next = wdt_timeout_wval;
             end
             A_ADC_OFFSET: begin
-                wr_hit = 1'b1;
                 adc_offset_next = adc_offset_wval;
             end
             A_ADC_GAIN: begin
-                wr_hit = 1'b1;
                 adc_gain_next = adc_gain_wval;
             end
             A_ADC_MIN: begin
-                wr_hit = 1'b1;
                 adc_min_next = adc_min_wval;
             end
             A_ADC_MAX: begin
-                wr_hit = 1'b1;
                 adc_max_next = adc_max_wval;
             end
             A_ADC_STALE: begin
-                wr_hit = 1'b1;
                 adc_stale_next = adc_stale_wval;
             end
             A_OC_TIMEOUT: begin
-                wr_hit = 1'b1;
                 oc_timeout_next = oc_timeout_wval;
             end
-            A_SAMPLE_COUNT: begin
-                wr_hit = 1'b1;
-            end
-            A_T_IN: begin
-                wr_hit = 1'b1;
-            end
-            A_U: begin
-                wr_hit = 1'b1;
-            end
-            A_INTEG: begin
-                wr_hit = 1'b1;
-            end
-            A_TC_EFF: begin
-                wr_hit = 1'b1;
-            end
             A_TC_MIN: begin
-                wr_hit = 1'b1;
                 tc_min_next = tc_min_wval;
             end
             A_UFF: begin
-                wr_hit = 1'b1;
                 uff_next = uff_wval;
             end
-            A_T_OUT: begin
-                wr_hit = 1'b1;
-            end
-            A_ADC_FLAGS: begin
-                wr_hit = 1'b1;
-            end
-            default: wr_hit = 1'b0;
+            default: ;
         endcase
     end
 end
@@ -377,7 +361,7 @@ assign adc_stale = adc_stale_reg;
 assign oc_timeout = oc_timeout_reg;
 assign tc_min = tc_min_reg;
 assign uff = uff_reg;
-assign reg_wr_err = reg_wr_en & ~wr_hit;
+assign reg_wr_err = reg_wr_en & ~WORD_MAPPED[wr_word];
 // Read path, RD_STAGES clocks; the data and the error flag hold until the next read.
 generate
     if (RD_STAGES != 1 && RD_STAGES != 3) begin : g_check
@@ -456,7 +440,6 @@ generate
         assign rd_last = reg_rd_en;
     end else begin : g_rd3
         reg  [25:0] rd_sel;   // one-hot register select of the read in flight
-        reg         rd_miss;  // the read address is unmapped
         reg         rd_pend;  // a read is in its second cycle
         reg  [31:0] rd_grp0;  // OR of registers 0..3
         reg  [31:0] rd_grp1;  // OR of registers 4..7
@@ -465,7 +448,7 @@ generate
         reg  [31:0] rd_grp4;  // OR of registers 16..19
         reg  [31:0] rd_grp5;  // OR of registers 20..23
         reg  [31:0] rd_grp6;  // OR of registers 24..25
-        reg         rd_miss2;
+        reg         rd_miss2;  // the read address is unmapped (no select bit set)
         reg         rd_pend2;  // a read is in its third cycle
         reg         rd_valid_reg;
         reg  [31:0] rd_data_reg, rd_data_next;
@@ -484,7 +467,7 @@ generate
             rd_pend <= reg_rd_en;
             rd_pend2 <= rd_pend;
             rd_valid_reg <= rd_pend2;
-            rd_miss2 <= rd_miss;
+            rd_miss2 <= rd_sel == 26'd0;
             // Second read cycle: AND-OR of the one-hot select within groups of four.
             rd_grp0 <= ({32{rd_sel[0]}} & rword_id)
                 | ({32{rd_sel[1]}} & rword_ctrl)
@@ -539,33 +522,6 @@ generate
                 rd_sel[23] <= (rd_word == A_UFF);
                 rd_sel[24] <= (rd_word == A_T_OUT);
                 rd_sel[25] <= (rd_word == A_ADC_FLAGS);
-                rd_miss <= !(
-                    (rd_word == A_ID) ||
-                    (rd_word == A_CTRL) ||
-                    (rd_word == A_STATUS) ||
-                    (rd_word == A_FAULT) ||
-                    (rd_word == A_TC) ||
-                    (rd_word == A_KFF) ||
-                    (rd_word == A_KP) ||
-                    (rd_word == A_KI_TS) ||
-                    (rd_word == A_I_LIMIT) ||
-                    (rd_word == A_SLEW) ||
-                    (rd_word == A_WDT_TIMEOUT) ||
-                    (rd_word == A_ADC_OFFSET) ||
-                    (rd_word == A_ADC_GAIN) ||
-                    (rd_word == A_ADC_MIN) ||
-                    (rd_word == A_ADC_MAX) ||
-                    (rd_word == A_ADC_STALE) ||
-                    (rd_word == A_OC_TIMEOUT) ||
-                    (rd_word == A_SAMPLE_COUNT) ||
-                    (rd_word == A_T_IN) ||
-                    (rd_word == A_U) ||
-                    (rd_word == A_INTEG) ||
-                    (rd_word == A_TC_EFF) ||
-                    (rd_word == A_TC_MIN) ||
-                    (rd_word == A_UFF) ||
-                    (rd_word == A_T_OUT) ||
-                    (rd_word == A_ADC_FLAGS));
             end
             rd_err_reg <= rd_err_next;
             if (rst) begin
