@@ -398,8 +398,8 @@ MUTANTS = [
         "bridge_partial_frame",
         "spi_access_point",
         "spi_axil_bridge.v",
-        "    wr_pt_reg <= cs_active && armed_reg && bit_cnt_reg == 6'd39 && cmd_reg[7];",
-        "    wr_pt_reg <= cs_active && armed_reg && bit_cnt_reg == 6'd38 && cmd_reg[7];",
+        "wire       wr_pt_now = cs_active && armed_reg && bit_cnt_reg == 6'd39 && cmd_reg[7];",
+        "wire       wr_pt_now = cs_active && armed_reg && bit_cnt_reg == 6'd38 && cmd_reg[7];",
         "spi_axil_bridge:bmc",
     ),
     Mutant(

@@ -105,9 +105,10 @@ reg  [1:0]  resp_st_reg, resp_st_next;     // status: RESP
 // frame's count.
 reg        in_cmd_reg;    // bit_cnt < 8
 reg        rd_pt_reg;     // bit_cnt == 7 of a read: this rising edge is its access point
-reg        rd_ok_reg;     // and its word address fits the bus
-reg        wr_pt_reg;     // bit_cnt == 39 of a write: this rising edge is its access point
-reg        wr_ok_reg;     // and its word address fits the bus
+reg        pt_reg;        // this rising edge is an access point: bit_cnt == 7 of a read, 39 of a write
+reg        go_reg;        // an access point whose word address fits the bus: an access is issued
+                          // at this rising edge unless one is outstanding
+reg        bad_reg;       // an access point whose word address is beyond the bus
 reg        full_reg;      // bit_cnt == 56: the longest frame is complete
 reg        data_out_reg;  // read data or status bits go out on MISO
 reg        stat_ld_reg;   // this falling edge sends the status byte's first bit
@@ -123,6 +124,15 @@ wire [8:0] wr_addr = {cmd_reg[6:0], 2'b00};
 wire [8:0] rd_addr_known = {cmd_reg[5:0], 3'b000};
 wire       rd_in_range = (rd_addr_known >> ADDR_W) == 9'd0;
 wire       wr_in_range = (wr_addr >> ADDR_W) == 9'd0;
+wire       rd_pt_now = cs_active && armed_reg && bit_cnt_reg == 6'd7 && !cmd_reg[6];
+wire       wr_pt_now = cs_active && armed_reg && bit_cnt_reg == 6'd39 && cmd_reg[7];
+
+// The access point and the access itself, flat ANDs of registered flags and the pins' edge:
+// the enables of the address, the valids and the status, through the frame's branches below,
+// were the iCE40's longest paths. The flags imply the rest of the branches' conditions: they
+// are registered from a count of 7 or 39 (so not full) with armed_reg set, which stays set.
+wire       at_pt = sck_rise && cs_active && pt_reg;
+wire       issue = sck_rise && cs_active && go_reg && !busy_reg;
 
 wire       resp_now = m_axil_bvalid || m_axil_rvalid;
 wire [1:0] resp_code = m_axil_rvalid ? m_axil_rresp : m_axil_bresp;
@@ -182,35 +192,6 @@ always @* begin
             end else begin
                 shift_in_next = {shift_in_reg[30:0], mosi};
             end
-            // The access point of a frame: the 8th bit of a read, the 40th of a write.
-            if (rd_pt_reg || wr_pt_reg) begin
-                done_st_next = 1'b0;
-                busy_st_next = 1'b0;
-                resp_st_next = RESP_OKAY;
-                if (busy_reg) begin
-                    done_st_next = 1'b1;  // refused: the last access is still outstanding
-                    busy_st_next = 1'b1;
-                end else if (rd_pt_reg ? !rd_ok_reg : !wr_ok_reg) begin
-                    done_st_next = 1'b1;  // refused: beyond the bus
-                    resp_st_next = RESP_DECERR;
-                end else if (rd_pt_reg) begin
-                    arvalid_next = 1'b1;  // read: fetch during the dummy byte
-                    addr_next = rd_addr;
-                    busy_next = 1'b1;
-                    wait_next = 1'b1;
-                end else begin
-                    awvalid_next = 1'b1;
-                    wvalid_next = 1'b1;
-                    addr_next = wr_addr;
-                    busy_next = 1'b1;
-                    wait_next = 1'b1;
-                end
-            end
-        end
-        // The write data's load, the write branch above as one flat AND: nested in the priority
-        // chain, the enable of its 32 flops was the iCE40's longest path (6 LUT levels).
-        if (sck_rise && !full_reg && wr_pt_reg && !busy_reg && wr_ok_reg) begin
-            wdata_next = {shift_in_reg[30:0], mosi};
         end
         // Mode 0: MISO changes on the falling edge before the bit is sampled.
         if (sck_fall) begin
@@ -223,6 +204,28 @@ always @* begin
             end
         end
     end
+
+    // The access point of a frame (the 8th bit of a read, the 40th of a write): the status
+    // starts again, and the access is refused while the last one is outstanding (BUSY) or when
+    // its word is beyond the bus (DECERR); else issued (a read fetches during the dummy byte).
+    if (at_pt) begin
+        done_st_next = busy_reg || bad_reg;
+        busy_st_next = busy_reg;
+        resp_st_next = (!busy_reg && bad_reg) ? RESP_DECERR : RESP_OKAY;
+    end
+    if (issue) begin
+        busy_next = 1'b1;
+        wait_next = 1'b1;
+        if (rd_pt_reg) begin
+            arvalid_next = 1'b1;
+            addr_next = rd_addr;
+        end else begin
+            awvalid_next = 1'b1;
+            wvalid_next = 1'b1;
+            addr_next = wr_addr;
+            wdata_next = {shift_in_reg[30:0], mosi};
+        end
+    end
 end
 
 always @(posedge clk) begin
@@ -232,10 +235,10 @@ always @(posedge clk) begin
     bit_cnt_reg <= bit_cnt_next;
     armed_reg <= armed_next;
     in_cmd_reg <= !cs_active || bit_cnt_reg < 6'd8;
-    rd_pt_reg <= cs_active && armed_reg && bit_cnt_reg == 6'd7 && !cmd_reg[6];
-    rd_ok_reg <= rd_in_range;
-    wr_pt_reg <= cs_active && armed_reg && bit_cnt_reg == 6'd39 && cmd_reg[7];
-    wr_ok_reg <= wr_in_range;
+    rd_pt_reg <= rd_pt_now;
+    pt_reg <= rd_pt_now || wr_pt_now;
+    go_reg <= (rd_pt_now && rd_in_range) || (wr_pt_now && wr_in_range);
+    bad_reg <= (rd_pt_now && !rd_in_range) || (wr_pt_now && !wr_in_range);
     full_reg <= cs_active && bit_cnt_reg == 6'd56;
     data_out_reg <= cs_active && armed_reg &&
                     (cmd_reg[7] ? bit_cnt_reg > 6'd40 : bit_cnt_reg >= 6'd16);
@@ -262,7 +265,9 @@ always @(posedge clk) begin
         armed_reg <= 1'b0;
         in_cmd_reg <= 1'b1;
         rd_pt_reg <= 1'b0;
-        wr_pt_reg <= 1'b0;
+        pt_reg <= 1'b0;
+        go_reg <= 1'b0;
+        bad_reg <= 1'b0;
         full_reg <= 1'b0;
         data_out_reg <= 1'b0;
         stat_ld_reg <= 1'b0;
@@ -438,7 +443,7 @@ always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
     cover(f_issue_w);
     cover(f_issue_r && $past(m_axil_rvalid, 3));          // a read right after another
     cover(m_axil_bvalid && m_axil_bresp == 2'b10 && cmd_reg[7] && done_st_next);
-    cover($past(wr_pt_reg && sck_rise) && resp_st_reg == RESP_DECERR);
+    cover($past(pt_reg && !rd_pt_reg && sck_rise) && resp_st_reg == RESP_DECERR);
     cover($past(rd_pt_reg && sck_rise && busy_reg) && busy_st_reg);
     cover(f_rst_mid && f_issue_w);
 end
