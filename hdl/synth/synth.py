@@ -32,7 +32,7 @@ ROOT = Path(__file__).resolve().parents[2]
 HDL = ROOT / "hdl"
 BUILD = ROOT / "build" / "synth"
 # nextpnr placement seeds, tried in this order until one meets the target: fixed so that the
-# figures are reproducible. On the UP5K at 48 MHz the margin is about 2 %, within the spread of
+# figures are reproducible. On the UP5K at 48 MHz the margin is 3-5 %, near the spread of
 # placements (hdl/README.md, Measured). The seed that met the target at the last change of the
 # RTL comes first (4: seeds 1-3 placed the loop with the UFF register at 43.7-46.7 MHz), so a
 # clean build places each board once; the others stay as the sweep's fall-back. A board whose
@@ -61,9 +61,9 @@ class Board:
 BUDGET = {
     "ice40-up5k": dict(
         max_lut_fraction=0.60,
-        # 11 first: bowden_core's RD_STAGES / SNAPSHOT parameters left this board's logic as it
-        # was (1921 LUTs, 1839 FFs) but renamed and re-mapped its cells, which moved the
-        # placements: seeds 1-10 gave 42.9-47.7 MHz, seed 11 49.11 MHz (hdl/README.md, Measured).
+        # 11 first, then SEEDS: with the register file's short address decode and the SPI
+        # bridge's flat access point, each of these places the board at 49.3-50.2 MHz, its
+        # critical path the loop's own carry chains (hdl/README.md, Measured).
         seeds=(11, 4, 1, 2, 3),
     ),
     "ecp5-25f": dict(max_lut_fraction=1.0),
