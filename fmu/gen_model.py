@@ -36,6 +36,8 @@ class Var:
 
 
 PARAM, INPUT, OUTPUT = "parameter", "input", "output"
+# Knots of the friction drift's table (mu_drift_table_0 ..): BOWDEN_DRIFT_KNOTS of the C header.
+DRIFT_TABLE_KNOTS = 16
 # fmt: off
 VARIABLES: list[Var] = [
     # --- parameters, named as the firmware and the co-simulation name them -----------------
@@ -147,6 +149,18 @@ VARIABLES: list[Var] = [
     Var("end_displacement", "Real", INPUT, 0.0, "m", -1.0, 1.0,
         "Displacement of the load cell's base away from the sheath outlet (0: fixed, the"
         " isometric output; a joint's pulley sets it)"),
+    # the friction drift's free form: a table of mu's change on DRIFT_TABLE_KNOTS evenly spaced
+    # knots from mu_drift_table_t0 (FMU time), mu_drift_table_dt apart; linear between them,
+    # held flat outside (fmu/README.md "Friction drift")
+    Var("mu_drift_table_t0", "Real", PARAM, 0.0, "s", -1e9, 1e9,
+        "Time of the drift table's first knot"),
+    Var("mu_drift_table_dt", "Real", PARAM, 1.0, "s", 1e-3, 1e9,
+        "Time between the drift table's knots"),
+    *(
+        Var(f"mu_drift_table_{i}", "Real", PARAM, 0.0, "1", -1.0, 1.0,
+            f"Friction coefficient change at the drift table's knot {i} (all 0 = off)")
+        for i in range(DRIFT_TABLE_KNOTS)
+    ),
 ]
 # fmt: on
 
@@ -271,11 +285,15 @@ def c_header() -> str:
         f'#define BOWDEN_MODEL_IDENTIFIER "{MODEL_IDENTIFIER}"',
         f'#define BOWDEN_GUID "{guid()}"',
         f"#define BOWDEN_N_VARS {len(VARIABLES)}",
+        f"#define BOWDEN_DRIFT_KNOTS {DRIFT_TABLE_KNOTS}",
         "",
     ]
     for v in VARIABLES:
         out.append(f"#define BOWDEN_VR_{v.name} {value_reference(v)}")
     out.append("")
+    out.append("/* The drift table's knots of P (BowdenParams), an array's initialiser */")
+    knots = ", ".join(f"(P).mu_drift_table_{i}" for i in range(DRIFT_TABLE_KNOTS))
+    out += [f"#define BOWDEN_DRIFT_TABLE(P) {{{knots}}}", ""]
     for causality, struct in (
         (PARAM, "BowdenParams"),
         (INPUT, "BowdenInputs"),

@@ -14,6 +14,7 @@ What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effe
   + phi_offset_per_y y + phi_offset_per_z z)/32;
 - mu_eff = mu + mu_viscous |v_c| + mu_viscous_tension_rate |r_in| + mu_drift t
   + mu_warmup (1 - exp(-(t - t0) / mu_warmup_tau)) + mu_step [t >= mu_step_time]
+  + d(t) (the drift table mu_drift_table_0 .. on its knots: drift_table_value)
   (+ mu_tension_slope T_{k-1} per segment), with v_c the rate of the cable's inlet displacement
   (stretch in the sheath / EA + T_out / k_lc) and r_in the rate of the inlet tension, each
   low-pass filtered with 10 ms, as the FMU computes them after each step and uses in the next;
@@ -41,11 +42,11 @@ it takes; the output the same numbers), where no friction term follows the cable
 tension: the Jacobian's columns for those parameters in one run instead of one run each.
 
 Assumptions of the twin that the FMU does not make: the friction of a step uses the time at its
-start for mu_drift, mu_warmup and mu_step (the FMU moves it on by each internal step of max_step
-within a sample: a change of at most mu_drift * 1 ms, and a step seen up to one sample earlier;
-with one internal step per sample, as the audit runs it, the two agree), and the cable's axial
-rigidity and the load cell's stiffness
-are the FMU's defaults (they enter only through v_c, so only mu_viscous depends on them).
+start for mu_drift, mu_warmup, mu_step and the drift table (the FMU moves it on by each internal
+step of max_step within a sample: a change of at most mu_drift * 1 ms, and a step seen up to one
+sample earlier; with one internal step per sample, as the audit runs it, the two agree), and the
+cable's axial rigidity and the load cell's stiffness are the FMU's defaults (they enter only
+through v_c, so only mu_viscous depends on them).
 """
 
 from __future__ import annotations
@@ -135,6 +136,7 @@ def _friction(
     warm_tau,
     step,
     step_t,
+    table,
     spread,
     static,
     slack,
@@ -194,7 +196,15 @@ def _friction(
     # (each was inside its bounds from its unchanged neighbour after the last sample), so the
     # sweep stops there: the same numbers. (The stretch, summed only up to there, feeds only the
     # cable speed, which then enters nothing.)
-    may_stop = mu_visc == 0.0 and mu_rate == 0.0 and drift == 0.0 and warm == 0.0 and step == 0.0
+    use_table = table.shape[0] == n  # else empty: no drift table
+    may_stop = (
+        mu_visc == 0.0
+        and mu_rate == 0.0
+        and drift == 0.0
+        and warm == 0.0
+        and step == 0.0
+        and not use_table
+    )
     dphi_prev = -1.0
     for k in range(n):
         # friction_now(): mu from the cable speed of the last step and the time at the step start
@@ -204,6 +214,8 @@ def _friction(
             mu_base += warm * (1.0 - math.exp(-(t - t0) / warm_tau))
         if step != 0.0 and t >= step_t:
             mu_base += step
+        if use_table and table[k] != 0.0:
+            mu_base += table[k]
         mu_c = mu_base if mu_base > 0.0 else 0.0
         phi = dphi_geom[k] + phi_off * z[k]
         dphi = (phi if phi > 0.0 else 0.0) / n_seg
@@ -368,6 +380,7 @@ def friction_output(
         float(p["mu_warmup_tau"]),
         float(p["mu_step"]),
         float(p["mu_step_time"]),
+        drift_table_at(inputs, p),
         float(p["dead_zone_spread"]),
         float(p["mu_static_excess"]),
         float(p["slack_tension"]),
@@ -394,6 +407,7 @@ def _friction_d(
     warm_tau,
     step,
     step_t,
+    table,
     spread,
     static,
     slack,
@@ -453,7 +467,8 @@ def _friction_d(
     seg_arg_prev = -1.0
     ep = 1.0
     em = 1.0
-    may_stop = drift == 0.0 and warm == 0.0 and step == 0.0
+    use_table = table.shape[0] == n  # else empty: no drift table
+    may_stop = drift == 0.0 and warm == 0.0 and step == 0.0 and not use_table
     dphi_prev = -1.0
     for k in range(n):
         t = t0 + (k - 1) * dt if k > 0 else t0
@@ -462,6 +477,8 @@ def _friction_d(
             mu_base += warm * (1.0 - math.exp(-(t - t0) / warm_tau))
         if step != 0.0 and t >= step_t:
             mu_base += step
+        if use_table and table[k] != 0.0:
+            mu_base += table[k]
         mu_c = mu_base if mu_base > 0.0 else 0.0
         dmc = 1.0 if mu_base > 0.0 else 0.0  # d mu_c / d mu
         phi = dphi_geom[k] + phi_off * z[k]
@@ -675,6 +692,7 @@ def friction_derivatives(
         float(p["mu_warmup_tau"]),
         float(p["mu_step"]),
         float(p["mu_step_time"]),
+        drift_table_at(inputs, p),
         float(p["dead_zone_spread"]),
         float(p["mu_static_excess"]),
         float(p["slack_tension"]),
@@ -771,6 +789,42 @@ def simulate(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndarray:
     return sensor_output(friction_output(inputs, params), params, inputs.dt_s)
 
 
+# The friction drift's free form (fmu/README.md "Friction drift"): mu's change on
+# DRIFT_TABLE_KNOTS evenly spaced knots (fmu/gen_model.py, BOWDEN_DRIFT_KNOTS of the FMU).
+DRIFT_TABLE_KNOTS = 16
+DRIFT_TABLE_KNOT_PARAMS = tuple(f"mu_drift_table_{i}" for i in range(DRIFT_TABLE_KNOTS))
+DRIFT_TABLE_PARAMS = ("mu_drift_table_t0", "mu_drift_table_dt", *DRIFT_TABLE_KNOT_PARAMS)
+
+
+def drift_table_knots(params: Mapping[str, float]) -> np.ndarray:
+    """The drift table's knot values of these parameters (missing ones 0)."""
+    return np.array([float(params.get(k, 0.0)) for k in DRIFT_TABLE_KNOT_PARAMS])
+
+
+def drift_table_value(params: Mapping[str, float], t_s: np.ndarray) -> np.ndarray:
+    """mu's change the drift table gives at FMU times t_s: drift_table() of bowden_physics.c, the
+    same operations (linear between the knots, held flat outside)."""
+    knots = drift_table_knots(params)
+    t0 = float(params.get("mu_drift_table_t0", OFF["mu_drift_table_t0"]))
+    step = float(params.get("mu_drift_table_dt", OFF["mu_drift_table_dt"]))
+    s = (np.asarray(t_s, dtype=np.float64) - t0) / step
+    last = DRIFT_TABLE_KNOTS - 1
+    i = np.minimum(np.where(s > 0.0, s, 0.0), last - 1).astype(np.int64)
+    inner = knots[i] + (s - i) * (knots[i + 1] - knots[i])
+    return np.where(~(s > 0.0), knots[0], np.where(s >= last, knots[last], inner))
+
+
+def drift_table_at(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndarray:
+    """The drift table's change of mu at each sample, at the time the friction of its step uses
+    (_friction: the step's start); empty when every knot is 0 (the kernels then skip it)."""
+    if not np.any(drift_table_knots(params)):
+        return np.empty(0)
+    n = len(inputs.t_in_n)
+    k = np.arange(n, dtype=np.float64)
+    t = np.where(k > 0, inputs.t0_s + (k - 1.0) * inputs.dt_s, inputs.t0_s)
+    return np.ascontiguousarray(drift_table_value(params, t), dtype=np.float64)
+
+
 # The parameters of the friction part (the rest only change the sensor's reading).
 FRICTION_PARAMS = (
     "mu",
@@ -788,6 +842,7 @@ FRICTION_PARAMS = (
     "dead_zone_spread",
     "mu_static_excess",
     "slack_tension",
+    *DRIFT_TABLE_PARAMS,
 )
 
 # Every parameter the twin knows, with its value when the effect is off.
@@ -816,6 +871,9 @@ OFF = {
     "sensor_tau2": 0.0,
     "phi_offset_per_x": 0.0,
     "phi_offset_per_y": 0.0,
+    **{k: 0.0 for k in DRIFT_TABLE_KNOT_PARAMS},
+    "mu_drift_table_t0": 0.0,
+    "mu_drift_table_dt": 1.0,
 }
 
 

@@ -119,8 +119,26 @@ typedef struct {
     double e_minus;     /* exp(-mu dphi) */
 } Friction;
 
+/* The drift's free form (README, "Friction drift"): mu's change read from the table of
+   BOWDEN_DRIFT_KNOTS knots, linear between them and held flat outside; 0 with every knot 0. */
+static double drift_table(const BowdenModel *m)
+{
+    const double knots[BOWDEN_DRIFT_KNOTS] = BOWDEN_DRIFT_TABLE(m->p);
+    double s = (m->time_s - m->p.mu_drift_table_t0) / m->p.mu_drift_table_dt;
+    int i;
+    if (!(s > 0.0)) {
+        return knots[0];
+    }
+    if (s >= (double)(BOWDEN_DRIFT_KNOTS - 1)) {
+        return knots[BOWDEN_DRIFT_KNOTS - 1];
+    }
+    i = (int)s; /* 0 <= s < BOWDEN_DRIFT_KNOTS - 1: in range */
+    return knots[i] + (s - (double)i) * (knots[i + 1] - knots[i]);
+}
+
 static Friction friction_now(BowdenModel *m)
 {
+    double table;
     Friction f;
     double mu = m->p.mu + m->p.mu_viscous * fabs(m->cable_speed_m_s) +
                 m->p.mu_viscous_tension_rate * fabs(m->tension_rate_n_s) +
@@ -131,6 +149,10 @@ static Friction friction_now(BowdenModel *m)
     }
     if (m->p.mu_step != 0.0 && m->time_s >= m->p.mu_step_time) {
         mu += m->p.mu_step;
+    }
+    table = drift_table(m);
+    if (table != 0.0) { /* an empty table leaves mu as it was, bit for bit */
+        mu += table;
     }
     f.dphi = effective_phi(m) / BOWDEN_N_SEG;
     f.mu_base = mu;

@@ -101,6 +101,33 @@ def test_friction_drift_warms_up_from_the_start_or_steps_at_an_instant(make_plan
     assert loading_mu(out, n - 1) == pytest.approx(MU - 0.01, rel=1e-9)
 
 
+def test_friction_drift_table_is_linear_between_its_knots_and_flat_outside(make_plant):
+    """The drift's free form (fmu/README.md "Friction drift"): mu + d(t), d linear between the
+    16 knots mu_drift_table_0 .. 15 at mu_drift_table_t0 + i * mu_drift_table_dt, held at the
+    end knots outside them; read on a slow falling-mu loading line, as the warm-up above (every
+    knot below the last, so the loading cable follows it at once)."""
+    n, dt = 20000, 1e-4  # 2 s of loading, 0 -> 20 N
+    knots = [-0.001 * i for i in range(16)]
+    table = {f"mu_drift_table_{i}": v for i, v in enumerate(knots)}
+    t0, step = 0.5, 0.05  # the knots from 0.5 s to 1.25 s
+    plant = make_plant(
+        {"drive_mode": 1, "mu_drift_table_t0": t0, "mu_drift_table_dt": step, **table}
+    )
+    out = ramp(plant, np.linspace(0, 20, n), dt)
+    for k in (2000, 6001, 7251, 9000, n - 1):  # the friction of a step uses the time at its start
+        t = k * dt
+        s = min(max((t - t0) / step, 0.0), 15.0)
+        i = min(int(s), 14)
+        expected = MU + knots[i] + (s - i) * (knots[i + 1] - knots[i])
+        assert loading_mu(out, k) == pytest.approx(expected, rel=1e-6), k
+    # a table of zeros is off: every output bit for bit the default's, wherever its knots sit
+    runs = []
+    for params in ({}, {"mu_drift_table_t0": 0.3, "mu_drift_table_dt": 0.01}):
+        plant = make_plant({"drive_mode": 1, "dead_zone_spread": 0.3, **params})
+        runs.append(ramp(plant, 10 + 5 * np.sin(np.linspace(0, 12, 4000)), 1e-3))
+    assert np.array_equal(runs[0], runs[1])
+
+
 def test_sensor_tau2_reads_a_step_through_two_equal_stages(make_plant):
     """The second-order form of the sensor's lag (fmu/README.md "Sensor dynamics"): a step of
     the true output is read as 1 - (1 + t/tau) exp(-t/tau) of it (critically damped), at any
