@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import lines, plausible, twin
+from . import drift_table, lines, plausible, twin
 from .data import (  # noqa: F401 (the audit's names, one import away)
     BLOCK_TARGET_COUNT,
     COVER_MIN,
@@ -103,6 +103,8 @@ class AuditResult:
     wall_s: float = 0.0
     warnings: list[str] = field(default_factory=list)  # plausible: one line per reason
     extras: dict = field(default_factory=dict)
+    # the friction drift's free form when it was tried (cosim.audit.drift_table), taken or not
+    free_form: drift_table.FreeForm | None = None
 
     def rms_report(self, prediction: np.ndarray) -> float:
         r = (self.data.t_out_n - prediction)[self.data.roles == REPORT]
@@ -142,7 +144,7 @@ def run(
         for e in VOCABULARY
         if e.cause not in {u.cause for u in usable}
     }
-    total = 2 + len(usable) * 2 + 4
+    total = 2 + len(usable) * 2 + 5
     done = 0
 
     def tick(msg: str) -> None:
@@ -192,6 +194,13 @@ def run(
         current = steps[-1]
         rounds = [r for r in rounds if r.chosen is None or r.chosen.effect in found]
     findings = _findings(data, rounds, steps, withouts, rule)
+    # a drift finding whose fixed forms leave the residual above the noise: its free form, the
+    # drift table (cosim.audit.drift_table), in its place when it fits the selection blocks better
+    free = drift_table.fit_free_form(data, found, current, rule) if findings else None
+    if free is not None:
+        tick("fitting the friction drift's free form (a table over the record)")
+        if free.accepted:
+            current = free.model
 
     tick("running the nominal model through the FMU")
     step = twin.fmu_step_for(data.inputs.dt_s)
@@ -215,6 +224,7 @@ def run(
         twin_fmu_max_diff_n=diff,
         unexplained=unexplained,
         rule=rule,
+        free_form=free,
     )
     for f in findings:
         f.evidence = _evidence(result, f)

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 from cosim.config.run import CompensatorParams, SimConfig
 
 from .effects import BY_PARAM
+from .twin import DRIFT_TABLE_PARAMS
 
 if TYPE_CHECKING:  # core pulls in scipy and numba: `bowden --help` must not wait for them
     from .core import AuditResult
@@ -53,8 +54,20 @@ def emitted_params(result: AuditResult) -> tuple[dict, list[str]]:
             "the data have no positions: mu is the value for the FMU's phi at x = 0, y = L/2, "
             "z = 0 (only mu*phi was observable)"
         )
+    free = result.free_form if result.free_form and result.free_form.accepted else None
     for f in result.findings:
         e = f.effect
+        if free is not None and e is free.fixed:
+            # the drift's free form in place of its fixed form: the FMU's drift table
+            for name in DRIFT_TABLE_PARAMS:
+                plant[name] = round(float(p[name]), 9)
+            notes.append(
+                f"{e.cause} as its free form, the drift table ({len(free.table)} knots from "
+                f"{free.knots_t_s[0]:g} s, {free.knots_t_s[1] - free.knots_t_s[0]:.4g} s apart, "
+                "in the data's time), has no compensator parameter: the plant carries it, the "
+                "compensator does not correct it"
+            )
+            continue
         for name in e.fmu_params:
             plant[name] = round(float(p[name]), 9)
         if e.compensator_key is None:

@@ -147,6 +147,7 @@ def to_dict(result: AuditResult) -> dict:
             "source": "plant FMU, drive mode 1, driven by the measured T_in and positions",
         },
         "findings": findings,
+        "free_form": result.free_form.to_dict() if result.free_form is not None else None,
         "rounds": rounds,
         "not_tried": result.rounds[0].skipped if result.rounds else {},
         "extended": {
@@ -227,6 +228,7 @@ def summary(result: AuditResult) -> str:
             lines.append(f"      why: {f.evidence}")
     else:
         lines.append("  findings none: no cause of the vocabulary passes the rule")
+    lines += free_form_lines(result)
     # what the last round (against the model with the findings) would have named but for a
     # shape at a bound (decision.Candidate.at_bound): a hint at what is left, not a finding
     for c in result.rounds[-1].candidates if result.rounds else ():
@@ -245,6 +247,20 @@ def summary(result: AuditResult) -> str:
     ]
     lines += [f"  warning  {w}" for w in result.warnings]
     return "\n".join(lines)
+
+
+def free_form_lines(result: AuditResult) -> list[str]:
+    """The drift's free form when it was tried (cosim.audit.drift_table): the verdict with its
+    figures, then the learned table beside the fixed form's change of mu, knot by knot."""
+    free = result.free_form
+    if free is None:
+        return []
+    head = f"  free form of {free.fixed.cause}: {free.why}"
+    tail = (
+        f"      report blocks (twin): form {free.fixed.form} {free.report_rms_fixed_n:.4f} N, "
+        f"free form {free.report_rms_free_n:.4f} N (measured only, never decided on)"
+    )
+    return [head, *(f"      {row}" for row in free.table_text()), tail]
 
 
 def _less_lines(d) -> str:
@@ -506,6 +522,21 @@ def markdown(result: AuditResult, data: dict, plot_names: list[str]) -> str:
             )
     else:
         lines.append("No cause of the vocabulary passes the rule: the nominal model stands.")
+    free = result.free_form
+    if free is not None:
+        lines += [
+            "",
+            f"Free form of {free.fixed.cause} (the FMU's drift table, fmu/README.md \"Friction "
+            f'drift"): {free.why}. The report blocks, measured only: form {free.fixed.form} '
+            f"{free.report_rms_fixed_n:.4f} N, free form {free.report_rms_free_n:.4f} N (twin).",
+            "",
+            f"| t (s) | free form | {free.fixed.form} |",
+            "| --- | --- | --- |",
+            *(
+                f"| {t:.2f} | {d:+.5f} | {f:+.5f} |"
+                for t, d, f in zip(free.knots_t_s, free.table, free.fixed_at_knots, strict=True)
+            ),
+        ]
     lines += [
         "",
         "Candidates per round (share of the selection blocks' residual removed, block t):",

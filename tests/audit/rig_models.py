@@ -198,7 +198,13 @@ def rig_record(
     - `drift` = (form, size, time): every strand's mu changes over the record, "linear" by size
       per second from the start (time unused), "warm-up" by size * (1 - exp(-t / time)) (the
       lubricant settling from the start), "step" by size from the instant time on (a new
-      stretch of liner reached, a lubricant lost);
+      stretch of liner reached, a lubricant lost); two shapes none of the FMU's fixed forms has:
+      "overshoot" by size * (1 - exp(-t / time)) - 0.6 size (1 - exp(-t / (3 time))), a warm-up
+      that rises to about 0.58 size near 2.4 time and falls back to 0.4 size (a liner that
+      heats past its running temperature before the cooling catches up, a lubricant first
+      spread, then partly wiped off), and "two-stage" by half of size as a warm-up of time from
+      the start and the other half as one of time from 5 time on (two contacts warming one after
+      the other);
     - `lag2_s`: the output sensor as a critically damped second-order system of two equal time
       constants (a load cell's mass on its spring, or an amplifier's two-pole filter), by the
       bilinear transform (after the first-order `lag_s` when both are set);
@@ -241,6 +247,11 @@ def rig_record(
             change = size * t
         elif form == "warm-up":
             change = size * (1.0 - np.exp(-t / when))
+        elif form == "overshoot":
+            change = size * (1.0 - np.exp(-t / when)) - 0.6 * size * (1.0 - np.exp(-t / (3 * when)))
+        elif form == "two-stage":
+            late = np.maximum(t - 5.0 * when, 0.0)
+            change = 0.5 * size * (2.0 - np.exp(-t / when) - np.exp(-late / when))
         else:
             change = np.where(t >= when, size, 0.0)
         extra_mu = change if extra_mu is None else extra_mu + change

@@ -1,0 +1,246 @@
+"""The friction drift's free form (cosim.audit.core, after the decision): mu_eff(t) = mu + d(t),
+d a smooth function of time, for a drift whose fixed forms (effects.FORMS: linear, warm-up, step)
+fall short of the data.
+
+When friction_drift is a finding and the extended model still leaves the selection blocks'
+residual above FLOOR_FACTOR times the noise floor, the drift's form is fitted again as the FMU's
+drift table (fmu/README.md "Friction drift"): d(t) linear between KNOTS evenly spaced knots over
+the record, held flat outside, in place of the fixed form's own parameter (set to "off"). The
+table is fitted on the fit blocks by penalised least squares, its second differences weighed by
+a penalty chosen on the selection blocks:
+
+1. Start: the knots at the fixed form's d(t), so that the first model is the fixed form's.
+2. Gauss-Newton on the knots (mu, the spread and the other findings held): the output's slope
+   in a knot is taken as its slope in mu at that sample times the knot's hat function there,
+   J(t) h_i(t) (a slow change of mu acts where the cable slides, as a change of mu does; the
+   drift's scan makes the same approximation, cosim.audit.fit._scan_start). Each step solves
+   (A'A + lam s D'D) c = A'r + A'A c0 on the fit blocks (D the second differences, s the mean
+   of A'A's diagonal, so that lam has no unit), for each lam of PENALTY_GRID; the lam whose
+   linearised prediction fits the selection blocks best is taken, and the step is kept only if
+   the fit blocks' sum of squares (the exact twin) falls.
+3. mu, the spread and the other findings refitted with the table held (cosim.audit.fit).
+
+The free form replaces the fixed one only if it fits the selection blocks better by a plain
+block t of the rule's separation (the same test as one fixed form replacing another) and removes
+from the fixed form's residual there at least the RMS a finding must remove (the rule's
+min_rms_n): its penalty was chosen on those blocks, and a table that follows the noise can gain a
+little there by that choice alone. The report blocks, where the gain is then measured through the
+FMU, take no part. The cause stays
+friction_drift: the free form is the same physics in another shape.
+
+KNOTS = 16 (the FMU's BOWDEN_DRIFT_KNOTS): a knot every 4 s over a minute (every 80 s over 20
+minutes), so a change over tens of seconds has several, while each knot's span still holds a fit
+block on a one-minute record (blocks of about 1.2 s, two in four fitted); finer knots add
+parameters that only the penalty then ties together, coarser ones miss a turn of a few seconds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import twin
+from .data import FIT, REPORT, SELECT, AuditData
+from .decision import RULE, DecisionRule, block_stats
+from .effects import Effect
+from .fit import Model, _Evaluator, fit_model
+
+KNOTS = twin.DRIFT_TABLE_KNOTS
+# Tried when the model with a drift finding leaves the selection blocks' RMS above this many
+# times the noise floor: a fixed form that fits leaves the noise and no more.
+FLOOR_FACTOR = 1.5
+# The penalty's weights tried (relative to the mean diagonal of A'A: module docstring), from a
+# table that follows every knot to one close to a straight line. Chosen with the tuning case of
+# tests/audit/test_audit_drift_table.py (an overshooting warm-up): its choice sat inside the grid.
+PENALTY_GRID = tuple(float(x) for x in np.geomspace(1e-4, 1e3, 15))
+GN_STEPS = 4
+D_MU = 1e-3  # mu's change for the output's slope in mu (as fit.SCAN_D_MU)
+# the knots' range: mu's change the table may make (inside the FMU's [-1, 1])
+KNOT_BOUNDS = (-0.5, 0.5)
+
+
+@dataclass
+class FreeForm:
+    """The free form tried for a drift finding, what it gave, and whether it was taken."""
+
+    fixed: Effect  # the drift's fixed form it was weighed against
+    accepted: bool
+    why: str  # one line: taken or not, with the figures
+    penalty: float  # lam, chosen on the selection blocks
+    knots_t_s: np.ndarray  # the knots' times (FMU time)
+    table: np.ndarray  # mu's change at the knots (the free form)
+    fixed_at_knots: np.ndarray  # the fixed form's change of mu there
+    selection_rms_fixed_n: float
+    selection_rms_free_n: float
+    t: float  # plain block t of free against fixed on the selection blocks
+    report_rms_fixed_n: float  # the twin's, on the report blocks (measured, never decided on)
+    report_rms_free_n: float
+    model: Model | None = None  # the model with the table (kept when accepted)
+
+    def table_text(self) -> list[str]:
+        """The learned table beside the fixed form's change of mu, one knot a line."""
+        rows = [f"{'t (s)':>9}{'free form':>12}{self.fixed.form:>12}"]
+        for t, d, f in zip(self.knots_t_s, self.table, self.fixed_at_knots, strict=True):
+            rows.append(f"{t:>9.2f}{d:>+12.5f}{f:>+12.5f}")
+        return rows
+
+    def to_dict(self) -> dict:
+        return {
+            "fixed_form": self.fixed.form,
+            "accepted": self.accepted,
+            "why": self.why,
+            "penalty": self.penalty,
+            "knots_t_s": [round(float(x), 6) for x in self.knots_t_s],
+            "table": [round(float(x), 8) for x in self.table],
+            "fixed_at_knots": [round(float(x), 8) for x in self.fixed_at_knots],
+            "selection_rms_fixed_n": round(self.selection_rms_fixed_n, 6),
+            "selection_rms_free_n": round(self.selection_rms_free_n, 6),
+            "block_t": round(self.t, 4) if math.isfinite(self.t) else None,
+            "report_rms_fixed_n": round(self.report_rms_fixed_n, 6),
+            "report_rms_free_n": round(self.report_rms_free_n, 6),
+        }
+
+
+def fixed_change(params: dict[str, float], t_s: np.ndarray, start_s: float) -> np.ndarray:
+    """mu's change of the drift's fixed forms at times t_s (the FMU's laws: fmu/README.md
+    "Friction drift"; start_s the FMU's start, from which the warm-up counts)."""
+    p = twin._full(params)
+    t = np.asarray(t_s, dtype=np.float64)
+    d = p["mu_drift"] * t
+    if p["mu_warmup"] != 0.0:
+        d = d + p["mu_warmup"] * (1.0 - np.exp(-(t - start_s) / p["mu_warmup_tau"]))
+    if p["mu_step"] != 0.0:
+        d = d + np.where(t >= p["mu_step_time"], p["mu_step"], 0.0)
+    return d
+
+
+def _hats(t_s: np.ndarray, t0_s: float, step_s: float) -> np.ndarray:
+    """The knots' hat functions at t_s (n x KNOTS): the table's d(t) is hats @ knots."""
+    s = np.clip((t_s - t0_s) / step_s, 0.0, KNOTS - 1.0)
+    i = np.minimum(s.astype(np.int64), KNOTS - 2)
+    f = s - i
+    out = np.zeros((len(t_s), KNOTS))
+    rows = np.arange(len(t_s))
+    out[rows, i] = 1.0 - f
+    out[rows, i + 1] += f
+    return out
+
+
+def _table_params(t0_s: float, step_s: float, knots: np.ndarray) -> dict[str, float]:
+    out = {"mu_drift_table_t0": float(t0_s), "mu_drift_table_dt": float(step_s)}
+    out.update({k: float(v) for k, v in zip(twin.DRIFT_TABLE_KNOT_PARAMS, knots, strict=True)})
+    return out
+
+
+def needed(data: AuditData, found: list[Effect], current: Model) -> Effect | None:
+    """The drift finding whose free form is to be tried, or None: friction_drift is among the
+    findings and the model leaves the selection blocks above FLOOR_FACTOR x the noise floor."""
+    drift = next((e for e in found if e.cause == "friction_drift"), None)
+    if drift is None or current.prediction is None:
+        return None
+    if current.rms(data, SELECT) <= FLOOR_FACTOR * data.noise_floor_n:
+        return None
+    return drift
+
+
+def fit_free_form(
+    data: AuditData, found: list[Effect], current: Model, rule: DecisionRule = RULE
+) -> FreeForm | None:
+    """The drift's free form for the model `current` with the findings `found` (module
+    docstring), or None when it is not needed (needed)."""
+    drift = needed(data, found, current)
+    if drift is None:
+        return None
+    inp = data.inputs
+    n = len(inp.t_in_n)
+    t0 = float(inp.t0_s)
+    step = max((n - 1) * inp.dt_s, inp.dt_s) / (KNOTS - 1)
+    knots_t = t0 + step * np.arange(KNOTS)
+    fixed_knots = fixed_change(current.params, knots_t, t0)
+    params = dict(current.params)
+    params[drift.fmu_param] = drift.off
+    params.update(_table_params(t0, step, fixed_knots))
+
+    ev = _Evaluator(data)
+    fit_idx = np.flatnonzero(data.roles == FIT)
+    sel_idx = np.flatnonzero(data.roles == SELECT)
+    stride = max(1, math.ceil(len(fit_idx) / 20_000))
+    fi = ev.on_grid(fit_idx, stride)
+    si = ev.on_grid(sel_idx, stride)
+    idx = np.concatenate([fi, si])
+    nf = len(fi)
+    # the time the friction of a sample's step uses (twin._friction: the step's start)
+    t_idx = np.where(idx > 0, t0 + (idx - 1.0) * inp.dt_s, t0)
+    hats = _hats(t_idx, t0, step)
+    d2 = np.diff(np.eye(KNOTS), 2, axis=0)
+    pen = d2.T @ d2
+    y = data.t_out_n[idx]
+    knots = fixed_knots.copy()
+    pred = ev.reading(params, idx)
+    sse_fit = float(np.sum((y[:nf] - pred[:nf]) ** 2))
+    lam_used = PENALTY_GRID[0]
+    for _ in range(GN_STEPS):
+        slope = (ev.reading({**params, "mu": params["mu"] + D_MU}, idx) - pred) / D_MU
+        a = slope[:, None] * hats
+        r = y - pred
+        af, rf, as_, rs = a[:nf], r[:nf], a[nf:], r[nf:]
+        g = af.T @ af
+        scale = float(np.trace(g)) / KNOTS
+        if not scale > 0.0:
+            break
+        rhs = af.T @ rf + g @ knots
+        best = None
+        for lam in PENALTY_GRID:
+            c = np.linalg.solve(g + lam * scale * pen, rhs)
+            c = np.clip(c, *KNOT_BOUNDS)
+            e = rs - as_ @ (c - knots)
+            sse = float(e @ e)
+            if best is None or sse < best[0]:
+                best = (sse, lam, c)
+        _, lam, c = best
+        trial = {**params, **_table_params(t0, step, c)}
+        pred_t = ev.reading(trial, idx)
+        sse_t = float(np.sum((y[:nf] - pred_t[:nf]) ** 2))
+        if sse_t >= sse_fit:
+            break
+        improvement = (sse_fit - sse_t) / sse_fit
+        params, pred, sse_fit, knots, lam_used = trial, pred_t, sse_t, c, lam
+        if improvement < 1e-4:
+            break
+    others = tuple(e for e in current.effects if e.cause != "friction_drift")
+    model = fit_model(data, others, params)
+    table = twin.drift_table_knots(model.params)
+    r_fixed = current.residual(data)
+    r_free = model.residual(data)
+    stats = block_stats(data, r_fixed, r_free, (SELECT,), weighted=False)
+    sel_fixed = current.rms(data, SELECT)
+    sel_free = model.rms(data, SELECT)
+    floor = rule.min_rms_n(data.noise_floor_n, data.input_noise_n, data.sampling_error_n)
+    accepted = (
+        stats.t >= rule.separation_t and sel_free < sel_fixed and stats.removed_rms_n >= floor
+    )
+    verdict = "taken" if accepted else "not taken"
+    why = (
+        f"the drift as a table of {KNOTS} knots ({step:.3g} s apart, penalty {lam_used:.2g} chosen "
+        f"on the selection blocks) against its form {drift.form}: selection blocks "
+        f"{sel_fixed:.4f} -> {sel_free:.4f} N RMS ({stats.removed_rms_n * 1000:.1f} mN removed, "
+        f"at least {floor * 1000:.1f}), block t {stats.t:.1f} (at least {rule.separation_t:g}): "
+        f"{verdict}"
+    )
+    return FreeForm(
+        fixed=drift,
+        accepted=accepted,
+        why=why,
+        penalty=float(lam_used),
+        knots_t_s=knots_t,
+        table=table,
+        fixed_at_knots=fixed_knots,
+        selection_rms_fixed_n=sel_fixed,
+        selection_rms_free_n=sel_free,
+        t=float(stats.t),
+        report_rms_fixed_n=current.rms(data, REPORT),
+        report_rms_free_n=model.rms(data, REPORT),
+        model=model if accepted else None,
+    )
