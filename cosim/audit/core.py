@@ -371,10 +371,17 @@ def phi_text(data: AuditData, mu: float) -> tuple[float | None, str]:
     return phi, f"no positions: phi fitted as a constant with the sidecar's mu = {data.mu_given:g}"
 
 
+def finding_params(result: AuditResult, f: Finding) -> dict[str, float]:
+    """The extended model's parameters with the finding's own value: where the drift's free
+    form took the place of its fixed form (cosim.audit.drift_table), the fixed form's parameter
+    is off in the extended model, and the finding shows what that form fitted."""
+    return {**result.extended.params, f.effect.fmu_param: f.value}
+
+
 def _evidence(result: AuditResult, f: Finding) -> str:
     """One sentence: why this cause, in numbers."""
     text = (
-        f"{f.effect.describe_all(result.extended.params)} removes {f.selection_pct:.0f} % of "
+        f"{f.effect.describe_all(finding_params(result, f))} removes {f.selection_pct:.0f} % of "
         f"the residual on the selection blocks (block t = {f.t:.1f}, better in "
         f"{100 * f.improved_share:.0f} % of them)"
     )

@@ -516,7 +516,7 @@ def markdown(result: AuditResult, data: dict, plot_names: list[str]) -> str:
         for f in result.findings:
             lines.append(
                 f"| {f.effect.label}{' (or ' + f.ambiguous_with + ')' if f.ambiguous_with else ''} "
-                f"| {f.effect.describe_all(result.extended.params)} "
+                f"| {f.effect.describe_all(core.finding_params(result, f))} "
                 f"| {f.explains_pct:.1f} % | {f.t:.1f} "
                 f"| {f.evidence} |"
             )
