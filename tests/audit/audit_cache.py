@@ -27,7 +27,8 @@ from cosim.results import trace
 
 # What the audit's result can depend on, beyond the record: cosim's packages ranked at or below
 # cosim.audit (tests/test_layers.py RANKS; cosim.bench's link and emulators are below it too, but
-# the audit imports neither), and the C sources of the compensator and the plant.
+# the audit imports neither), and the C sources of the compensator and the plant (with the
+# generator of the plant's parameters, whose defaults it writes into the model).
 SOURCES = (
     "cosim/__init__.py",
     "cosim/_early.py",
@@ -41,6 +42,7 @@ SOURCES = (
     "firmware/src",
     "firmware/include",
     "fmu/src",
+    "fmu/gen_model.py",
 )
 LIBRARIES = ("numpy", "scipy", "numba", "llvmlite")
 
