@@ -38,7 +38,7 @@ from cosim.bench.link.client import (
     fault_names,
     status_names,
 )
-from cosim.bench.link.paramfiles import ParamFileError, restore_plan
+from cosim.bench.link.paramfiles import ParamFileError
 from cosim.bench.link.paramset import backup_doc, write_all, write_atomic
 from cosim.bench.link.protocol import ProtocolError, format_value, param, word_from_value
 from cosim.bench.link.recorder import WAVE_KINDS, check_geometry
@@ -128,7 +128,10 @@ def _add_bench(subparsers) -> None:
     b = sub.add_parser("backup", help="save every parameter to a JSON file, stamped")
     b.add_argument("file")
     b.add_argument("--force", action="store_true", help="overwrite an existing backup file")
-    r = sub.add_parser("restore", help="write the parameters of a backup file")
+    r = sub.add_parser(
+        "restore",
+        help="write the parameters of a backup file, or those a params file sets",
+    )
     r.add_argument("file")
     f = sub.add_parser("faults", help="the FPGA's and the device's faults, by name")
     f.add_argument("--clear", action="store_true", help="clear them afterwards")
@@ -333,7 +336,7 @@ def _cmd_restore(client: BenchClient, args, info) -> int:
     plan = getattr(args, "restore_plan", None)
     if plan is None:
         try:
-            plan = restore_plan(path)
+            plan = bench_tools.restore_plan(path)
         except ParamFileError as exc:  # the file, not the device: a usage error (exit 2)
             raise BenchUsageError(f"restore: {exc}") from None
     todo, note = plan

@@ -170,9 +170,9 @@ def precheck(args) -> int | None:
         return 2
     if args.bench_command == "calibrate":
         return _precheck_calibrate(args)
-    if args.bench_command == "restore":  # the backup read and checked as diff reads it
+    if args.bench_command == "restore":  # the file read and checked as diff reads it
         try:
-            args.restore_plan = paramfiles.restore_plan(args.file)
+            args.restore_plan = restore_plan(args.file)
         except paramfiles.ParamFileError as exc:
             print(f"bowden bench: restore: {exc}", file=sys.stderr)
             return 2  # a missing, unreadable or bad backup is a usage error, as for diff
@@ -221,6 +221,36 @@ def _precheck_calibrate(args) -> int | None:
         print(f"bowden bench {exc}", file=sys.stderr)
         return 2
     return None
+
+
+def restore_plan(path: str | Path) -> tuple[list[tuple[msgs.Param, int]], str]:
+    """What `restore` writes from `path`: a backup's every writable parameter
+    (paramfiles.restore_plan), or the parameters a params file sets (a co-simulation params
+    file's controller and compensator, or device parameters by name, read as `diff` reads them),
+    the device keeping its other values. ParamFileError, one line, for a file that is neither or
+    names a parameter this device does not know."""
+    if not str(path).strip():
+        raise paramfiles.ParamFileError("an empty file name: expected a backup or params file")
+    path = Path(path)
+    doc = paramfiles.read_json(path, "a backup or params file", "a JSON backup or params file")
+    if not isinstance(doc, dict) or paramfiles.is_backup(doc):
+        return paramfiles.restore_plan(path)
+    ref = diff.read_params_file(path, doc)
+    if ref is None:
+        raise paramfiles.ParamFileError(
+            f"{path} is neither a bowden bench backup, nor a params file of device parameters "
+            '(e.g. {"loop.kp": 0.1}), nor a co-simulation params file (controller, compensator)'
+        )
+    if ref.unknown:
+        raise paramfiles.ParamFileError(
+            f"{path} has parameters this device does not know: {', '.join(ref.unknown)}"
+        )
+    todo = [(param(n), w) for n, w in ref.words.items() if not param(n).read_only]
+    if not todo:
+        raise paramfiles.ParamFileError(f"{path} sets no parameter the device has")
+    left = [*ref.skipped, *ref.not_compared]
+    note = f"a params file: the {len(todo)} parameters it sets, the others as the device has them"
+    return todo, note + (f"; not device parameters: {', '.join(left)}" if left else "")
 
 
 def restore_command(args) -> str | None:

@@ -11,6 +11,7 @@ import pytest
 from cosim.bench.__main__ import main as bench_cli
 from cosim.bench.emulate.emulator import Emulator
 from cosim.bench.link import messages as msgs
+from cosim.project.paths import PACKAGE_DIR
 
 OLD = msgs.PROTOCOL_VERSION - 1  # a backup made by the previous protocol
 
@@ -474,6 +475,46 @@ def test_out_of_range_duplicate_huge_and_deep_files_are_one_line(content, words,
 def test_restore_refuses_what_diff_refuses_before_the_link(content, words, tmp_path, capsys):
     f = tmp_path / "b.json"
     f.write_text(content if isinstance(content, str) else json.dumps(content))
+    rc, out, err = _run(capsys, "--port", str(tmp_path / "no-port"), "restore", str(f))
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and words in err, err
+    assert err.startswith("bowden bench: restore: ") and out == ""
+
+
+# --- restore writes what a params file sets -----------------------------------------------------
+
+
+def test_restore_of_a_params_file_writes_what_it_sets_and_keeps_the_rest(url, tmp_path, capsys):
+    """The recommended params files (cosim/config/params/) go onto a device as they go into
+    `bowden sim --params`: restore writes the parameters the file sets and nothing else; diff
+    against the same file then finds nothing to report."""
+    assert _run(capsys, "--port", url, "defaults")[0] == 0
+    assert _run(capsys, "--port", url, "set", "loop.kp=0.07")[0] == 0
+    far = PACKAGE_DIR / "config" / "params" / "far_end_after_calibrate.json"
+    rc, out, err = _run(capsys, "--port", url, "restore", str(far))
+    assert rc == 0, err
+    assert "a params file: the 12 parameters it sets" in out and "restored 12 parameters" in out
+    rc, out, _ = _run(capsys, "--port", url, "diff", str(far))
+    assert rc == 0 and out.strip().endswith("no differences in 12 parameters"), out
+    rc, out, _ = _run(capsys, "--port", url, "get", "loop.kp", "loop.kv", "corr.rev_enable")
+    rows = _rows("\n" + out)
+    assert rows["loop.kp"][1] == "0.0699463" and rows["corr.rev_enable"][1] == "1", out
+    assert float(rows["loop.kv"][1]) == pytest.approx(0.001, abs=2e-8), out  # one word of it
+
+
+@pytest.mark.parametrize(
+    ("content", "words"),
+    [
+        ({"plant": {"mu": 0.1}}, "sets no parameter the device has"),
+        ({"loop.kp": 0.1, "loop.nope": 1}, "parameters this device does not know: loop.nope"),
+        ({"controller": {"kv_a_s_per_n": -1}}, "kv_a_s_per_n"),
+        ({"hello": 1}, "is neither a bowden bench backup, nor a params file"),
+    ],
+)
+def test_restore_refuses_a_params_file_it_cannot_write_before_the_link(
+    content, words, tmp_path, capsys
+):
+    f = tmp_path / "p.json"
+    f.write_text(json.dumps(content))
     rc, out, err = _run(capsys, "--port", str(tmp_path / "no-port"), "restore", str(f))
     assert rc == 2 and len(err.strip().splitlines()) == 1 and words in err, err
     assert err.startswith("bowden bench: restore: ") and out == ""

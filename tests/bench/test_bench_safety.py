@@ -318,7 +318,7 @@ def test_restore_exits_2_for_its_file_and_1_for_what_the_device_refuses(tmp_path
     bad.write_text("{not json")
     for path, words in (
         (tmp_path / "missing.json", "does not exist"),
-        (tmp_path, "is a folder, not a backup file"),
+        (tmp_path, "is a folder, not a backup or params file"),
         (bad / "x.json", "cannot read it (Not a directory)"),
         (bad, "is not a JSON backup"),
     ):

@@ -38,3 +38,15 @@ def test_the_far_end_mode_is_the_measured_configuration():
         nominal.mu_slope_per_n,
         nominal.dead_zone_spread,
     )
+
+
+def test_the_sensorless_mode_is_the_measured_configuration():
+    """docs/results.md, "With the dead-zone inverse": the preview compensator (`--compensator
+    preview`) with calibrate's proposals, no far-end loop (neither the online estimate nor the
+    correction) and kv 1e-3 A s/N; the plant's own values come from calibrate."""
+    cfg = load_params(PARAMS / "sensorless_after_calibrate.json")
+    c = cfg.compensator
+    assert (c.est_enable, c.corr_enable, c.corr_rev_enable) == (0, 0, 0)
+    assert cfg.controller.kv_a_s_per_n == 0.001
+    nominal = load_params(None)
+    assert c == nominal.compensator  # the sensorless mode differs from nominal in kv alone

@@ -121,17 +121,27 @@ def load_file(path: str | Path) -> Reference:
             raise ParamFileError(f"{path} is an empty object: nothing to compare")
         if is_backup(doc):
             return _backup(path, doc)
-        if SIM_ONLY_KEYS & doc.keys():
-            return _sim_params(path, doc)
-        if any(k in msgs.PARAM_BY_NAME for k in doc):
-            words, unknown = bench_params(path, doc)
-            return Reference(label=path.name, words=words, unknown=unknown)
+        ref = read_params_file(path, doc)
+        if ref is not None:
+            return ref
     except ParamFileError as exc:
         raise DiffFileError(f"diff: {exc}") from None
     raise DiffFileError(
         f"diff: {path} is neither a bowden bench backup, nor a params file of device parameters "
         '(e.g. {"loop.kp": 0.1}), nor a co-simulation params file (controller, compensator)'
     )
+
+
+def read_params_file(path: Path, doc: dict) -> Reference | None:
+    """The words of a params file read into `doc`: a co-simulation params file (its controller
+    and compensator, through SIM_TO_DEVICE) or one of device parameters by name; None when
+    `doc` is neither (ParamFileError names a bad entry)."""
+    if SIM_ONLY_KEYS & doc.keys():
+        return _sim_params(path, doc)
+    if any(k in msgs.PARAM_BY_NAME for k in doc):
+        words, unknown = bench_params(path, doc)
+        return Reference(label=path.name, words=words, unknown=unknown)
+    return None
 
 
 def _backup(path: Path, doc: dict) -> Reference:
