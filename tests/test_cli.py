@@ -209,6 +209,37 @@ def test_an_interrupt_inside_an_extension_import_is_still_an_interrupt():
     assert cli._interruption(ImportError("no module named x")) is None
 
 
+def test_an_interrupt_as_a_compiled_function_returns_is_still_an_interrupt(
+    tmp_path, capsys, monkeypatch
+):
+    """A SIGTERM whose handler raises while numba's dispatcher hands back a result surfaces as a
+    SystemError caused by the interrupt (seen in an audit under `make test`): one line and 143,
+    not a traceback; a SystemError of its own goes through."""
+    from cosim import cli
+    from cosim.cli import sim
+    from cosim.project.interrupt import Interrupted
+
+    def compiled(*args, **kwargs):
+        try:
+            raise Interrupted(int(signal.SIGTERM))
+        except Interrupted as exc:
+            raise SystemError("CPUDispatcher(f) returned a result with an exception set") from exc
+
+    monkeypatch.setattr(sim, "run", compiled)
+    monkeypatch.chdir(tmp_path)
+    rc = cli.main(["sim", "fig14", "--engine", "native", "--out", "o", "--quiet"])
+    err = capsys.readouterr().err
+    assert rc == 128 + signal.SIGTERM and err.startswith("bowden sim: interrupted by SIGTERM"), err
+    assert len(err.splitlines()) == 1, err
+
+    def broken(*args, **kwargs):
+        raise SystemError("a defect of its own")
+
+    monkeypatch.setattr(sim, "run", broken)
+    with pytest.raises(SystemError, match="a defect of its own"):
+        cli.main(["sim", "fig14", "--engine", "native", "--out", "o", "--quiet"])
+
+
 @pytest.mark.parametrize("scenario", ["fig14", "antagonist"])
 def test_sim_refuses_an_out_under_a_file_before_it_runs(scenario, tmp_path, capsys, monkeypatch):
     """`bowden sim --out` under a file: one line, exit 2, before the run (the run's result was

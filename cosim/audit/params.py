@@ -25,7 +25,6 @@ from typing import TYPE_CHECKING
 from cosim.config.run import CompensatorParams, SimConfig
 
 from .effects import BY_PARAM
-from .twin import DRIFT_TABLE_PARAMS
 
 if TYPE_CHECKING:  # core pulls in scipy and numba: `bowden --help` must not wait for them
     from .core import AuditResult
@@ -54,6 +53,8 @@ def emitted_params(result: AuditResult) -> tuple[dict, list[str]]:
             "the data have no positions: mu is the value for the FMU's phi at x = 0, y = L/2, "
             "z = 0 (only mu*phi was observable)"
         )
+    from .twin import DRIFT_TABLE_PARAMS  # noqa: PLC0415 (the twin pulls in numba: see above)
+
     free = result.free_form if result.free_form and result.free_form.accepted else None
     for f in result.findings:
         e = f.effect

@@ -119,7 +119,9 @@ def _main(argv: list[str] | None) -> int:
             code = int(args.func(args) or 0)
             check_interrupted()  # a signal whose exception was lost on the way
             return code
-    except (Interrupted, KeyboardInterrupt, ImportError) as exc:
+    except (Interrupted, KeyboardInterrupt, ImportError, SystemError) as exc:
+        # SystemError: a handler's Interrupted raised as a compiled function (numba's dispatcher)
+        # returns reaches us as "returned a result with an exception set", caused by it.
         interrupt = _interruption(exc)
         if interrupt is None and _pending is None:
             raise
