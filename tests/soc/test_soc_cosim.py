@@ -469,7 +469,7 @@ def test_t_c_words_equal_the_host_librarys_over_two_periods(soc_lib):
 TICK_BUDGET_CLKS = soc_build.CLK_HZ // 1000
 
 
-def test_parameter_sets_before_a_run_leave_the_ticks_on_time(soc_lib):
+def test_parameter_sets_before_a_run_leave_the_ticks_on_time(soc_lib, tmp_path):
     """Parameters set and a run started straight after, as `bench run` does (source, wave.*,
     then START): the run ends without OVERRUN, no two ticks are two budgets apart, and no
     request's handling measured on the board (the firmware's receive phase, its reply
@@ -485,7 +485,7 @@ def test_parameter_sets_before_a_run_leave_the_ticks_on_time(soc_lib):
         with Bench(board.pty_name) as bench:
             board.clear_stats()
             bench.set(**{"loop.kp": 0.08, "comp.band_n": 0.75, "comp.mode": "smooth"})
-            run = bench.run("sine", seconds=0.03, freq_hz=5.0)
+            run = bench.run("sine", seconds=0.03, out=tmp_path / "run.csv", freq_hz=5.0)
             stats = board.stats()
     finally:
         board.stop()
