@@ -21,8 +21,10 @@ from __future__ import annotations
 import ctypes
 import functools
 import math
+import os
 import shutil
 import tempfile
+import time
 from collections.abc import Mapping
 from ctypes import c_char_p, c_double, c_int, c_size_t, c_uint, c_void_p
 from dataclasses import dataclass
@@ -31,6 +33,13 @@ from pathlib import Path
 from cosim.project.paths import BUILD_DIR
 
 FMU_PATH = BUILD_DIR / "fmu" / "BowdenPlant.fmu"
+
+# Unpacked copies are named UNPACK_PREFIX + "<pid>_" + a random part, so that one left by a
+# process killed between unpacking and loading (SIGKILL, os._exit in that window) can be told
+# from one in use; ORPHAN_AGE_S is far beyond the unpack-and-load time (well under a second).
+UNPACK_PREFIX = "bowden_fmu_"
+ORPHAN_AGE_S = 60.0
+_orphans_swept = False
 
 # Order of Plant.u and of the array Plant.step returns (names from the contract).
 INPUT_NAMES = ("current_cmd", "T_in_cmd", "x", "y", "z")
@@ -60,6 +69,29 @@ FMU_LINK_FIELDS = [
     ("y0", c_double * len(OUTPUT_NAMES)),
     ("time0_s", c_double),
 ]
+
+
+def remove_orphaned_unpacks(folder: str | Path | None = None) -> list[Path]:
+    """Remove the unpacked FMUs in folder (the temp folder by default) that a process left
+    when it was killed while unpacking or loading: older than ORPHAN_AGE_S and named after a
+    process that no longer runs. Others' folders (another user's, a live process's, a recent
+    one) are kept. Returns the folders removed."""
+    removed = []
+    for d in Path(folder or tempfile.gettempdir()).glob(UNPACK_PREFIX + "*"):
+        pid_text = d.name[len(UNPACK_PREFIX) :].split("_", 1)[0]
+        if not pid_text.isdigit():
+            continue
+        try:
+            if time.time() - d.stat().st_mtime < ORPHAN_AGE_S:
+                continue
+            os.kill(int(pid_text), 0)
+        except ProcessLookupError:
+            shutil.rmtree(d, ignore_errors=True)
+            if not d.exists():
+                removed.append(d)
+        except (OSError, OverflowError):  # gone already, a live process of another user, no pid
+            continue
+    return removed
 
 
 class PlantError(RuntimeError):
@@ -153,7 +185,13 @@ class Plant:
         # closing its Plant (a pool worker's os._exit, a signal) leaves nothing in the temp
         # folder; where the removal fails (a DLL in use on Windows) close() removes it.
         self._fmu = None
-        self._unzip_dir = extract(str(path), tempfile.mkdtemp(prefix="bowden_fmu_"))
+        global _orphans_swept
+        if not _orphans_swept:
+            _orphans_swept = True
+            remove_orphaned_unpacks()
+        self._unzip_dir = extract(
+            str(path), tempfile.mkdtemp(prefix=f"{UNPACK_PREFIX}{os.getpid()}_")
+        )
         try:
             self.model_description = read_model_description(self._unzip_dir)
             self.variables = {v.name: v for v in self.model_description.modelVariables}

@@ -5,9 +5,11 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import time
 
 import pytest
 
+import cosim.parts.plant as plant_mod
 from cosim.parts.plant import INPUT_NAMES, OUTPUT_NAMES, Plant
 
 
@@ -68,3 +70,39 @@ def test_no_unpacked_fmu_is_left_in_the_temp_folder(fmu_path, tmp_path):
     env = {**os.environ, "TMPDIR": str(tmp_path)}
     subprocess.run([sys.executable, "-c", script], env=env, check=True, timeout=60)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_unpacked_fmu_of_a_killed_process_is_removed_by_the_next(fmu_path, tmp_path):
+    """A process killed between unpacking and loading (SIGKILL in that window) leaves its copy;
+    the next process that opens a plant removes it, and only it: not a copy of a live process,
+    not a recent one, not a folder of another name."""
+    dead = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        text=True,
+        capture_output=True,
+        check=True,
+    ).stdout.strip()
+    old = time.time() - 2 * plant_mod.ORPHAN_AGE_S
+    folders = {
+        "orphan": tmp_path / f"{plant_mod.UNPACK_PREFIX}{dead}_abc",
+        "recent": tmp_path / f"{plant_mod.UNPACK_PREFIX}{dead}_def",
+        "live": tmp_path / f"{plant_mod.UNPACK_PREFIX}{os.getpid()}_ghi",
+        "no pid": tmp_path / f"{plant_mod.UNPACK_PREFIX}xyz",
+        "other": tmp_path / "other_1_abc",
+    }
+    for name, d in folders.items():
+        (d / "binaries").mkdir(parents=True)
+        if name != "recent":
+            os.utime(d, (old, old))
+    assert plant_mod.remove_orphaned_unpacks(tmp_path) == [folders["orphan"]]
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        d.name for k, d in folders.items() if k != "orphan"
+    )
+    # A new process sweeps once, before it unpacks its own copy (which it removes itself).
+    again = tmp_path / f"{plant_mod.UNPACK_PREFIX}{dead}_jkl"
+    again.mkdir()
+    os.utime(again, (old, old))
+    script = f"from cosim.parts.plant import Plant\nPlant(fmu_path={str(fmu_path)!r}).close()\n"
+    env = {**os.environ, "TMPDIR": str(tmp_path)}
+    subprocess.run([sys.executable, "-c", script], env=env, check=True, timeout=60)
+    assert not again.exists() and folders["recent"].exists() and folders["live"].exists()
