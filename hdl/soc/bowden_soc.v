@@ -292,8 +292,9 @@ ads131m02_reader #(
 ) adc (
     .clk(clk), .rst(rst),
     .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
-    .adc_drdy_n(adc_drdy_n), .adc_valid(rdr_valid), .adc_data(rdr_data),
-    .adc_aux_data(adc_aux_data), .adc_status(adc_status), .crc_error(adc_crc_err),
+    .adc_drdy_n(adc_drdy_n), .adc_valid(rdr_valid),
+    .adc_ch_data({adc_aux_data, rdr_data}),  // CH1 (T_out), CH0 (T_in)
+    .adc_status(adc_status), .crc_error(adc_crc_err),
     .drdy_lost(adc_drdy_lost)
 );
 

@@ -11,7 +11,7 @@ built with tracing), whose path the test prints.
 
 Also what more than one testbench uses: `SpiMaster` (an MCU on the SPI bridge, with the
 bridge's status byte), `reset_after_sck_falls` (a reset in mid-frame), `Ads1220` and
-`Ads131m02` (the load-cell ADCs behind ads1220_reader and ads131m02_reader) and
+`Ads131m0x` (the load-cell ADCs behind ads1220_reader and ads131m02_reader) and
 `replay_write` (a register write seen on the bus, into the bit-exact model
 cosim.parts.rtl_model.TensionLoopModel).
 """
@@ -274,20 +274,24 @@ def word_bits(value: int, bits: int = 24) -> list[int]:
     return [(value >> (bits - 1 - i)) & 1 for i in range(bits)]
 
 
-class Ads131m02:
-    """Behavioural TI ADS131M02 (SBAS853A) with 24-bit words, SPI mode 1 slave on `dut.adc_*`.
+class Ads131m0x:
+    """Behavioural TI ADS131M0x (ADS131M02: SBAS853A; the 4- and 8-channel parts send the same
+    frames with one word per channel) with 24-bit words, SPI mode 1 slave on `dut.adc_*`.
 
     Frames are delimited by CS (8.5.1.7): the device drives DOUT's next bit on each SCLK rising
-    edge and samples DIN on the falling edge. The bits received in a frame are kept as 24-bit
-    words (`frames`). `convert(ch0, ch1)` makes a conversion ready: DRDY falls (8.5.1.5) and
-    the next frame sends STATUS (`status`), CH0, CH1 and the CRC word (8.5.1.8, 8.5.1.11);
-    DRDY returns high on the frame's first SCLK falling edge (unless `drdy_stuck_low`).
-    `corrupt` flips one bit of the next frame after its CRC is computed (a line error).
+    edge and samples DIN on the falling edge. A frame is `channels` + 2 words. The bits received
+    in a frame are kept as 24-bit words (`frames`). `convert(*codes)` makes a conversion of
+    every channel ready: DRDY falls (8.5.1.5) and the next frame sends STATUS (`status`), CH0 ..
+    CH[channels-1] and the CRC word (8.5.1.8, 8.5.1.11); DRDY returns high on the frame's first
+    SCLK falling edge (unless `drdy_stuck_low`). `corrupt` flips one bit of the next frame after
+    its CRC is computed (a line error).
     """
 
-    def __init__(self, dut, status: int = 0x0503):
+    def __init__(self, dut, status: int = 0x0503, channels: int = 2):
         self.dut = dut
         self.status = status
+        self.channels = channels
+        self.frame_len = 24 * (channels + 2)
         self.frames: list[list[int]] = []
         self.out_bits: list[int] = []
         self.corrupt: int | None = None
@@ -295,17 +299,22 @@ class Ads131m02:
         dut.adc_dout.value = 0
         dut.adc_drdy_n.value = 1
 
-    def frame_bits(self, ch0: int, ch1: int) -> list[int]:
-        bits = word_bits(self.status << 8) + word_bits(ch0) + word_bits(ch1)
+    def frame_bits(self, *codes: int) -> list[int]:
+        if len(codes) != self.channels:
+            raise ValueError(f"{len(codes)} codes for an ADC of {self.channels} channels")
+        bits = word_bits(self.status << 8)
+        for code in codes:
+            bits += word_bits(code)
         return bits + word_bits(crc16_ccitt(bits) << 8)
 
     async def run(self) -> None:
         d = self.dut
+        n = self.frame_len
         while True:
             await FallingEdge(d.adc_cs_n)
             sent, self.out_bits = self.out_bits, []
             bits: list[int] = []
-            for i in range(96):
+            for i in range(n):
                 await RisingEdge(d.adc_sclk)
                 d.adc_dout.value = sent[i] if i < len(sent) else 0
                 await FallingEdge(d.adc_sclk)
@@ -313,13 +322,13 @@ class Ads131m02:
                     d.adc_drdy_n.value = 1
                 bits.append(int(d.adc_din.value))
             self.frames.append(
-                [int("".join(map(str, bits[i : i + 24])), 2) for i in range(0, 96, 24)]
+                [int("".join(map(str, bits[i : i + 24])), 2) for i in range(0, n, 24)]
             )
             await RisingEdge(d.adc_cs_n)
 
-    def convert(self, ch0: int, ch1: int) -> None:
-        """A conversion of both channels (signed 24-bit codes) becomes ready."""
-        bits = self.frame_bits(ch0, ch1)
+    def convert(self, *codes: int) -> None:
+        """A conversion of every channel (signed 24-bit codes, CH0 first) becomes ready."""
+        bits = self.frame_bits(*codes)
         if self.corrupt is not None:
             bits[self.corrupt] ^= 1
             self.corrupt = None

@@ -1,4 +1,6 @@
-"""Testbench of hdl/rtl/ads131m02_reader.v against a behavioural ADS131M02 (TI SBAS853A)."""
+"""Testbench of hdl/rtl/ads131m02_reader.v against a behavioural ADS131M0x: the ADS131M02 (TI
+SBAS853A) and, with the reader's NCH, the 4- and 8-channel parts (one word per channel in the same
+frame format)."""
 
 from __future__ import annotations
 
@@ -6,24 +8,58 @@ import cocotb
 import pytest
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
-from hdl_sim import SIMULATORS, Ads131m02, crc16_ccitt, rtl, run_cocotb, signed, word_bits
+from hdl_sim import SIMULATORS, Ads131m0x, crc16_ccitt, rtl, run_cocotb, signed, word_bits
 
 from cosim.parts.interface import reader_latency_clks
 
 SCLK_HALF_CLKS = 4
-# Longer than a frame (about 770 clocks at SCLK_HALF_CLKS = 4), as the default is.
-DRDY_TIMEOUT_CLKS = 1500
+
+
+def drdy_timeout_clks(nch: int) -> int:
+    """Longer than a frame (about 770 clocks for 2 channels at SCLK_HALF_CLKS = 4, 1920 for 8),
+    as the default is."""
+    return max(1500, 2 * 2 * SCLK_HALF_CLKS * 24 * (nch + 2))
+
+
 # Full scale both ways, a sign change between the channels, zero.
 CODES = [(0x123456, -0x345678), (-1, 1), (-(1 << 23), (1 << 23) - 1), ((1 << 23) - 1, -(1 << 23))]
 CODES += [(0, 0)]
 # WREG from CLOCK (0x03), two registers; CLOCK = 0x0302 (CH0, CH1, OSR 128, high resolution),
-# GAIN1 = 0x0077 (PGA 128 on both channels): SBAS853A 8.5.1.10, 8.6.
-CONFIG_FRAME = [0x618100, 0x030200, 0x007700, 0x000000]
+# GAIN1 = 0x0077 (PGA 128 on both channels): SBAS853A 8.5.1.10, 8.6. The 4-channel part: CLOCK's
+# CH0_EN..CH3_EN (0x0F02), GAIN1 for CH0..CH3 (0x7777); the 8-channel part: WREG of three
+# registers (0x6182), CLOCK 0xFF02, GAIN1 and GAIN2 (CH4..CH7) 0x7777. The frame is NCH + 2 words.
+CONFIG_WORDS = {
+    2: [0x618100, 0x030200, 0x007700],
+    4: [0x618100, 0x0F0200, 0x777700],
+    8: [0x618200, 0xFF0200, 0x777700, 0x777700],
+}
+CHANNELS = tuple(CONFIG_WORDS)
 
 
-async def start(dut) -> Ads131m02:
+def config_frame(nch: int) -> list[int]:
+    words = CONFIG_WORDS[nch]
+    return words + [0] * (nch + 2 - len(words))
+
+
+def codes_for(nch: int, ch0: int, ch1: int) -> tuple[int, ...]:
+    """Every channel a different code: CH0 and CH1 as given, the others their mirror images
+    and shifts (full scale included when CH0/CH1 are)."""
+    more = [(-ch0 - 1) if k % 2 == 0 else (ch1 >> k) for k in range(2, nch)]
+    return (ch0, ch1, *more)
+
+
+def channels(dut) -> int:
+    return len(dut.adc_ch_data) // 24
+
+
+def samples(dut) -> tuple[int, ...]:
+    word = int(dut.adc_ch_data.value)
+    return tuple(signed((word >> (24 * k)) & 0xFFFFFF, 24) for k in range(channels(dut)))
+
+
+async def start(dut) -> Ads131m0x:
     cocotb.start_soon(Clock(dut.clk, 10, unit="ns").start())
-    adc = Ads131m02(dut)
+    adc = Ads131m0x(dut, channels=channels(dut))
     dut.rst.value = 1
     await ClockCycles(dut.clk, 3)
     dut.rst.value = 0
@@ -32,18 +68,18 @@ async def start(dut) -> Ads131m02:
         await RisingEdge(dut.clk)
         if adc.frames:
             break
-    assert adc.frames == [CONFIG_FRAME], [[hex(w) for w in f] for f in adc.frames]
+    assert adc.frames == [config_frame(adc.channels)], [[hex(w) for w in f] for f in adc.frames]
     await ClockCycles(dut.clk, 50)
     return adc
 
 
-async def convert_and_wait(dut, adc: Ads131m02, ch0: int, ch1: int):
-    """DRDY falls between two clock edges; over the frame and a few clocks more: the clocks to
-    adc_valid (None if none came) and crc_error at the end."""
+async def convert_and_wait(dut, adc: Ads131m0x, ch0: int, ch1: int):
+    """DRDY falls between two clock edges (every channel converted: codes_for); over the frame
+    and a few clocks more: the clocks to adc_valid (None if none came) and crc_error at the end."""
     await FallingEdge(dut.clk)
-    adc.convert(ch0, ch1)
+    adc.convert(*codes_for(adc.channels, ch0, ch1))
     at = None
-    for clks in range(1, reader_latency_clks(96, SCLK_HALF_CLKS) + 10):
+    for clks in range(1, reader_latency_clks(adc.frame_len, SCLK_HALF_CLKS) + 10):
         await RisingEdge(dut.clk)
         if int(dut.adc_valid.value):
             assert at is None, "two samples from one frame"
@@ -53,20 +89,21 @@ async def convert_and_wait(dut, adc: Ads131m02, ch0: int, ch1: int):
 
 @cocotb.test()
 async def configures_and_streams(dut):
-    """One WREG frame of CLOCK and GAIN1; then every DRDY gives one frame: both channels, the
-    STATUS word, at the latency the co-simulation's ADC model assumes."""
+    """One WREG frame of CLOCK and GAIN1 (and GAIN2 with 8 channels); then every DRDY gives one
+    frame: every channel, the STATUS word, at the latency the co-simulation's ADC model assumes."""
     adc = await start(dut)
     for ch0, ch1 in CODES:
         adc.frames.clear()
         clks, crc_err = await convert_and_wait(dut, adc, ch0, ch1)
         assert clks is not None and not crc_err, f"no sample for {ch0}, {ch1}"
         # cosim.parts.interface hands each result to the core this many clocks after DRDY.
-        assert clks == reader_latency_clks(96, SCLK_HALF_CLKS), clks
-        got = (signed(int(dut.adc_data.value), 24), signed(int(dut.adc_aux_data.value), 24))
-        assert got == (ch0, ch1), f"samples {got}, ADC sent {(ch0, ch1)}"
+        assert clks == reader_latency_clks(adc.frame_len, SCLK_HALF_CLKS), clks
+        sent = codes_for(adc.channels, ch0, ch1)
+        assert samples(dut) == sent, f"samples {samples(dut)}, ADC sent {sent}"
         assert int(dut.adc_status.value) == adc.status, hex(int(dut.adc_status.value))
         await ClockCycles(dut.clk, 20)
-        assert adc.frames == [[0, 0, 0, 0]], "a read frame must send NULL commands only"
+        null = [0] * (adc.channels + 2)
+        assert adc.frames == [null], "a read frame must send NULL commands only"
 
 
 @cocotb.test()
@@ -76,17 +113,18 @@ async def drops_a_frame_with_a_bad_crc(dut):
     adc = await start(dut)
     clks, _ = await convert_and_wait(dut, adc, 1000, -1000)
     assert clks is not None
-    for bit in (0, 30, 71, 72, 87):
+    last = adc.frame_len - 1  # the CRC word's last bit is padding: the CRC's own last bit
+    for bit in (0, 30, 71, 72, last - 32, last - 8):
         adc.corrupt = bit
         clks, crc_err = await convert_and_wait(dut, adc, 5000, -5000)
         assert clks is None and crc_err, f"flipped bit {bit}: sample taken"
-        got = (signed(int(dut.adc_data.value), 24), signed(int(dut.adc_aux_data.value), 24))
-        assert got == (1000, -1000), f"flipped bit {bit}: last good sample replaced by {got}"
+        good = codes_for(adc.channels, 1000, -1000)
+        assert samples(dut) == good, f"flipped bit {bit}: last good sample replaced"
         await ClockCycles(dut.clk, 200)
     assert int(dut.crc_error.value), "crc_error holds until a good frame"
     clks, crc_err = await convert_and_wait(dut, adc, 7, -7)
     assert clks is not None and not crc_err, "a good frame is taken and clears crc_error"
-    assert signed(int(dut.adc_data.value), 24) == 7
+    assert samples(dut)[0] == 7
 
 
 @cocotb.test()
@@ -94,19 +132,20 @@ async def flags_a_lost_drdy(dut):
     """DRDY absent (stuck high) or stuck low for DRDY_TIMEOUT_CLKS raises drdy_lost with no
     sample; the next DRDY edge clears it."""
     adc = await start(dut)
+    timeout_clks = drdy_timeout_clks(adc.channels)
     clks, _ = await convert_and_wait(dut, adc, 1, 2)
     assert clks is not None
     assert not int(dut.drdy_lost.value)
-    await ClockCycles(dut.clk, DRDY_TIMEOUT_CLKS + 10)
+    await ClockCycles(dut.clk, timeout_clks + 10)
     assert int(dut.drdy_lost.value), "no DRDY for the timeout: drdy_lost must be set"
     clks, _ = await convert_and_wait(dut, adc, 3, 4)
     assert clks is not None and not int(dut.drdy_lost.value), "a DRDY edge clears drdy_lost"
     # Stuck low: one falling edge, then DRDY never returns high.
     await FallingEdge(dut.clk)
     adc.drdy_stuck_low = True
-    adc.convert(5, 6)
+    adc.convert(*codes_for(adc.channels, 5, 6))
     valid = 0
-    for _ in range(DRDY_TIMEOUT_CLKS + 10):
+    for _ in range(timeout_clks + 10):
         await RisingEdge(dut.clk)
         valid += int(dut.adc_valid.value)
     assert int(dut.drdy_lost.value), "DRDY stuck low: drdy_lost must be set"
@@ -123,14 +162,24 @@ def test_crc_matches_datasheet_check_value():
     assert crc16_ccitt(frame + word_bits(crc16_ccitt(frame) << 8)) == 0
 
 
-@pytest.mark.parametrize("simulator", SIMULATORS)
-def test_ads131m02_reader(simulator):
-    """Build ads131m02_reader with short waits and run the coroutines above."""
+@pytest.mark.parametrize(
+    ("simulator", "nch"),
+    [(sim, 2) for sim in SIMULATORS] + [(SIMULATORS[0], n) for n in CHANNELS if n != 2],
+)
+def test_ads131m02_reader(simulator, nch):
+    """Build ads131m02_reader with short waits (the ADS131M02, and with NCH the 4- and 8-channel
+    parts on one simulator) and run the coroutines above."""
     params = {
+        "NCH": nch,
         "SCLK_HALF_CLKS": SCLK_HALF_CLKS,
         "WAIT_CLKS": 64,
-        "DRDY_TIMEOUT_CLKS": DRDY_TIMEOUT_CLKS,
+        "DRDY_TIMEOUT_CLKS": drdy_timeout_clks(nch),
     }
     run_cocotb(
-        "ads131m02_reader", "test_ads131m02_reader", rtl("ads131m02_reader"), simulator, params
+        "ads131m02_reader",
+        "test_ads131m02_reader",
+        rtl("ads131m02_reader"),
+        simulator,
+        params,
+        tag="" if nch == 2 else f"nch{nch}",
     )

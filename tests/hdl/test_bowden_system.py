@@ -2,7 +2,7 @@
 
 An MCU (the shared SpiMaster) writes the loop registers over the SPI bridge and reads them
 back; a behavioural ADC streams load-cell codes into the front-end: the ADS131M02 (the shared
-Ads131m02, T_in on CH0 and T_out on CH1, read back in T_OUT) into ads131m02_reader, the board's
+Ads131m0x, T_in on CH0 and T_out on CH1, read back in T_OUT) into ads131m02_reader, the board's
 default, or, with ADC_ADS131M02 = 0, the ADS1220 (the shared Ads1220) into ads1220_reader;
 the drive pins are checked against the bit-exact model (cosim.parts.rtl_model.TensionLoopModel) and
 the ESCON PWM formula (hdl/README.md). A monitor replays into the model, every clock, the ADC
@@ -34,7 +34,7 @@ from hdl_sim import (
     STATUS_TAG,
     STATUS_WRITE,
     WRITE_OKAY,
-    Ads131m02,
+    Ads131m0x,
     Ads1220,
     SpiMaster,
     replay_write,
@@ -86,7 +86,7 @@ class SystemTb:
         self.compared = 0
         self.samples_seen = 0
         self.mcu = SpiMaster(dut, "mcu", half_sck_clks=8)
-        self.adc = Ads131m02(dut) if ADC == "ads131m02" else Ads1220(dut)
+        self.adc = Ads131m0x(dut) if ADC == "ads131m02" else Ads1220(dut)
         self.adc_on = False
         self.tension_n = 0.0
         self.pwm_periods = 0

@@ -22,7 +22,7 @@ import statistics
 
 import cocotb
 from cocotb.triggers import Edge
-from hdl_sim import Ads131m02
+from hdl_sim import Ads131m0x
 from soc_sim import (
     CLK_HZ,
     MARK_IDLE,
@@ -41,7 +41,7 @@ TICK_BUDGET = CLK_HZ // 1000
 ADC_PERIOD_CLKS = 750  # 32 kSPS at 24 MHz
 
 
-async def adc_source(adc: Ads131m02, dut, code: int):
+async def adc_source(adc: Ads131m0x, dut, code: int):
     while True:
         await clocks(dut, ADC_PERIOD_CLKS)
         adc.convert(code, code)
@@ -162,7 +162,7 @@ class Recording:
 async def booted(dut) -> Bench:
     """The board clocked, the ADC converting, reset released and the firmware at its idle loop."""
     start_clock(dut)
-    adc = Ads131m02(dut)
+    adc = Ads131m0x(dut)
     cocotb.start_soon(adc.run())
     cocotb.start_soon(adc_source(adc, dut, 1 << 18))
     bench = Bench(dut)

