@@ -21,6 +21,7 @@ from scipy.signal import welch  # noqa: E402
 
 from . import core  # noqa: E402
 from .core import FIT, REPORT, SELECT, WARMUP, AuditResult  # noqa: E402
+from .drift_table import FreeForm  # noqa: E402
 
 # Scatter plots show at most this many points.
 MAX_SCATTER = 4000
@@ -451,7 +452,47 @@ def plots(out_dir: Path, result: AuditResult) -> list[str]:
     fig.savefig(out_dir / "capstan.png", dpi=100)
     plt.close(fig)
     names.append("capstan.png")
+    if result.free_form is not None:
+        names.append(free_form_plot(out_dir, result.free_form))
     return names
+
+
+def free_form_plot(out_dir: Path, free: FreeForm) -> str:
+    """The drift's free form (the FMU's table: linear between its knots, flat outside) against
+    its best fixed form at the same knots; returns the file name."""
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    verdict = "taken" if free.accepted else "not taken"
+    ax.plot(
+        free.knots_t_s,
+        free.table,
+        "o-",
+        color="tab:red",
+        lw=1.0,
+        ms=4,
+        label=f"free form (table), {verdict}",
+    )
+    ax.plot(
+        free.knots_t_s,
+        free.fixed_at_knots,
+        "s--",
+        color="tab:orange",
+        lw=1.0,
+        ms=4,
+        label=f"fixed form: {free.fixed.form}",
+    )
+    ax.axhline(0.0, color="k", lw=0.6)
+    ax.set_xlabel("time [s] (FMU time)")
+    ax.set_ylabel("change of mu [-]")
+    ax.set_title(f"{free.fixed.cause}: the learned shape against the fixed form")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out_dir / FREE_FORM_PNG, dpi=100)
+    plt.close(fig)
+    return FREE_FORM_PNG
+
+
+FREE_FORM_PNG = "free_form.png"
 
 
 PLOT_CAPTIONS = {
@@ -466,6 +507,8 @@ PLOT_CAPTIONS = {
     "residual_spectrum.png": "spectrum of the residuals, with the level of white noise at the "
     "noise floor",
     "capstan.png": "T_out against T_in: the capstan loops of the data and the models",
+    FREE_FORM_PNG: "the drift's free form (the FMU's table) against its best fixed form, at the "
+    "table's knots",
 }
 
 

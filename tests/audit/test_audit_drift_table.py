@@ -42,6 +42,30 @@ def test_the_fits_hats_are_the_fmus_table():
     assert want[0] == knots[0] and want[-1] == knots[-1]
 
 
+def test_the_report_plots_the_learned_shape_against_the_fixed_form(tmp_path):
+    """free_form.png: the table through its knots and the fixed form at the same knots, linked
+    from the report with its caption."""
+    knots_t = 2.0 + 3.5 * np.arange(drift_table.KNOTS)
+    free = drift_table.FreeForm(
+        fixed=next(f for f in FORMS["friction_drift"] if f.form == "warm-up"),
+        accepted=True,
+        why="taken",
+        penalty=0.3,
+        knots_t_s=knots_t,
+        table=0.01 * np.sin(knots_t / 10.0),
+        fixed_at_knots=0.01 * (1.0 - np.exp(-knots_t / 8.0)),
+        selection_rms_fixed_n=0.05,
+        selection_rms_free_n=0.03,
+        t=4.0,
+        report_rms_fixed_n=0.05,
+        report_rms_free_n=0.03,
+    )
+    name = report.free_form_plot(tmp_path, free)
+    png = tmp_path / name
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+    assert name in report.PLOT_CAPTIONS
+
+
 @pytest.mark.slow
 def test_the_free_form_is_not_taken_where_a_fixed_form_is_right(tmp_path, monkeypatch):
     """On the FMU's own warm-up (the fixed form exactly right; 20 s, no positions), the free form
@@ -127,6 +151,7 @@ def test_a_warm_up_of_another_shape_takes_the_free_form(tmp_path, case, test_cac
     text = report.summary(res)
     assert "free form of friction_drift" in text and free.fixed.form in text
     assert all(row in text for row in free.table_text()), text
+    assert report.FREE_FORM_PNG in report.plots(tmp_path, res)
     plant = emitted_params(res)[0]["plant"]
     assert all(k in plant for k in twin.DRIFT_TABLE_PARAMS), plant
     assert free.fixed.fmu_param not in plant
