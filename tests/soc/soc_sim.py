@@ -25,10 +25,8 @@ BAUD = 921_600
 BIT_CLKS = (CLK_HZ + BAUD // 2) // BAUD  # 26
 FW_HEX = BUILD_DIR / "firmware" / "soc" / "bowden_fw.hex"
 
-# One C++ file: the wheel's verilated.mk has no precompiled-header flag (CFG_CXXFLAGS_PCH_I is
-# empty), so a model large enough to be split into several files (the CPU makes it so) would not
-# compile; -O3 for the model's speed.
-VERILATOR_ARGS = ["--output-split", "0", "-O3"]
+# -O3 for the model's speed (hdl_sim.run_cocotb keeps a Verilator model in one C++ file).
+VERILATOR_ARGS = ["-O3"]
 
 # firmware/soc/soc.h SOC_MARK_*
 MARK_BOOT, MARK_IDLE, MARK_TICK, MARK_RX = 1, 2, 3, 4
