@@ -17,6 +17,9 @@ from dataclasses import dataclass
 ID_MAGIC = 0x424F
 ID_VERSION_MAJOR = 1
 ID_VERSION_MINOR = 0
+# bowden_core_mc: channel k's register bank starts at k * BANK_STRIDE (bank 0 is
+# bowden_core's map)
+BANK_STRIDE = 0x100
 
 ID = 0x00
 CTRL = 0x04
@@ -44,6 +47,12 @@ TC_MIN = 0x58
 UFF = 0x88
 T_OUT = 0x80
 ADC_FLAGS = 0x84
+
+
+def bank_addr(channel: int, addr: int) -> int:
+    """Byte address of register `addr` (e.g. TC) in channel `channel`'s bank."""
+    return channel * BANK_STRIDE + addr
+
 
 CTRL_ENABLE = 0x1
 CTRL_INTEG_RESET = 0x2

@@ -10,6 +10,10 @@
 #define BOWDEN_ID_MAGIC 0x424Fu
 #define BOWDEN_ID_VERSION_MAJOR 1u
 #define BOWDEN_ID_VERSION_MINOR 0u
+/* bowden_core_mc: channel k's register R at BOWDEN_REG_AT(k, BOWDEN_REG_R) (bank 0 is
+ * bowden_core's map) */
+#define BOWDEN_BANK_STRIDE 0x100u
+#define BOWDEN_REG_AT(ch, reg) ((ch) * BOWDEN_BANK_STRIDE + (reg))
 
 /* ID: Magic 0x424F ('BO') in [31:16], version major in [15:8], minor in [7:0]. */
 #define BOWDEN_REG_ID 0x00u

@@ -575,6 +575,10 @@ def gen_c(spec: dict) -> str:
     w(f"#define BOWDEN_ID_MAGIC 0x{_int(spec['magic']):04X}u")
     w(f"#define BOWDEN_ID_VERSION_MAJOR {spec['version_major']}u")
     w(f"#define BOWDEN_ID_VERSION_MINOR {spec['version_minor']}u")
+    w("/* bowden_core_mc: channel k's register R at BOWDEN_REG_AT(k, BOWDEN_REG_R) (bank 0 is")
+    w(" * bowden_core's map) */")
+    w(f"#define BOWDEN_BANK_STRIDE 0x{1 << spec['addr_width']:X}u")
+    w("#define BOWDEN_REG_AT(ch, reg) ((ch) * BOWDEN_BANK_STRIDE + (reg))")
     w("")
     for reg in spec["registers"]:
         n = reg["name"]
@@ -626,9 +630,18 @@ def gen_python(spec: dict) -> str:
     w(f"ID_MAGIC = 0x{_int(spec['magic']):04X}")
     w(f"ID_VERSION_MAJOR = {spec['version_major']}")
     w(f"ID_VERSION_MINOR = {spec['version_minor']}")
+    w("# bowden_core_mc: channel k's register bank starts at k * BANK_STRIDE (bank 0 is")
+    w("# bowden_core's map)")
+    w(f"BANK_STRIDE = 0x{1 << spec['addr_width']:X}")
     w("")
     for reg in spec["registers"]:
         w(f"{reg['name']} = 0x{reg['addr']:02X}")
+    w("")
+    w("")
+    w("def bank_addr(channel: int, addr: int) -> int:")
+    w('    """Byte address of register `addr` (e.g. TC) in channel `channel`\'s bank."""')
+    w("    return channel * BANK_STRIDE + addr")
+    w("")
     w("")
     for reg in spec["registers"]:
         for f in reg["fields"]:
