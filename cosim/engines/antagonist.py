@@ -9,8 +9,18 @@ own instance of the BowdenPlant FMU with its own parameters and sheath path. The
 
 Two engines run it: `native` (the default) steps two Verilated RTL loops of the native engine
 side by side with the joint between them (bn_run_pair, cosim/engines/native/closed_loop.cpp);
-`model` runs each loop as the RTL's bit-exact Python model (as reference.run_model_chain).
-They give the same record, sample for sample (tests/cosim/test_antagonist.py).
+`model` runs the pair's loops as one two-channel tension_loop_mc in one safety group, on its
+bit-exact model (rtl_model.TensionLoopMcModel, groups [0, 0]). PairSim is that run's world
+around any two-channel loop, so the cocotb test bench of the pair
+(cosim/engines/cocotb/tb_pair.py) runs the same world around the RTL tension_loop_mc. With no
+fault the group never stops a channel, each channel is exactly a single loop, and the engines
+give the same record, sample for sample (tests/cosim/test_antagonist.py).
+
+A CableFault breaks one cable's load cell mid-run (`stale`: its ADC samples stop; `open`: the
+code sits at the converter's limit, 2^23 - 1, past ADC_MAX, as an open bridge reads): the
+faulted channel latches ADC_STALE or ADC_RANGE and zeroes its drive, and its group stop ramps
+the other cable's drive to zero by WDT_RAMP_STEP a sample. Faults run on the loop's model (and
+under cocotb): the native engine's two loops have no group.
 
 Coupling (a Jacobi master, as an FMI 2.0 co-simulation master steps FMUs side by side): at each
 communication step [t_k, t_k+1) (one FPGA sample, 100 us) every subsystem steps with the
@@ -43,17 +53,33 @@ _T_OUT_MASK = (1 << 24) - 1
 
 
 class _Channel:
-    """One cable's chain: firmware, the loop's bit-exact model, interface stage, plant FMU."""
+    """One cable's chain around its channel of the loop: firmware, interface stage, plant FMU.
 
-    def __init__(self, scen, cfg: SimConfig, compensator: str, loop_routing, duration_s, interface):
+    `loop` is the channel's side of the loop: write(name, value) and adc_sample(code), as
+    rtl_model.TensionLoopModel takes them; its ticks are the pair's (PairSim). `fault`: this
+    cable's load-cell fault, or None."""
+
+    def __init__(
+        self,
+        scen,
+        cfg: SimConfig,
+        compensator: str,
+        loop_routing,
+        duration_s,
+        interface,
+        loop,
+        fault=None,
+    ):
         self.cfg = cfg
+        self.fault = fault
+        self.fault_k = None if fault is None else fault.sample(cfg.sample_rate_hz)
         self.inp = sample_inputs(scen, cfg, duration_s)
         inp = self.inp
         phi = resolve_phi(scen, cfg, loop_routing)
         self.plant = open_plant(cfg, loop_routing, (inp.x_m[0], inp.y_m[0], inp.z_m[0]))
         self.set_end = self.plant.input_setter("end_displacement")
         self.fw = FirmwareBridge(cfg, compensator, phi)
-        self.model = rtl_model.TensionLoopModel()
+        self.model = loop
         self.names = {reg.addr: name for name, reg in regmap.REGISTERS.items()}
         self.fw_ref = firmware_t_ref(scen, cfg, compensator, inp)
         self.chain = make_chain(cfg, interface, True, self.fw.adc_offset, self.fw.adc_gain)
@@ -69,9 +95,6 @@ class _Channel:
             self.chain_out = make_chain(cfg, interface, True, self.fw.adc_offset, self.fw.adc_gain)
             self.code_out = self.chain_out.start(y[self.plant.T_OUT_MEAS])
         self._apply(self.fw.start())
-        for _ in range(2):  # the start-up's CTRL pulses take effect at a tick
-            self.model.adc_sample(self.code)
-            self.model.tick()
         self.pending: list = []
         n = len(inp.t_s)
         self.rec = Record.allocate(n).arrays
@@ -85,15 +108,18 @@ class _Channel:
                 value = regmap.decode(name, value)
             self.model.write(name, value)
 
-    def sample(self, k: int, end_m: float, dec: int) -> None:
-        """FPGA sample k: the loop's tick, the plant over [t_k, t_k+1) with its far end at
-        end_m, the ADC samples of tick k+1, and the firmware's tick when k is one."""
+    def feed(self, k: int, dec: int) -> None:
+        """Before the loop's tick k: the firmware's writes due at it and the ADC sample of the
+        last step (k < 0: a start-up tick, the plant at rest)."""
         if k >= TC_LATENCY_SAMPLES and (k - TC_LATENCY_SAMPLES) % dec == 0:
             self._apply(self.pending)
             self.pending = []
         if self.code is not None:
             self.model.adc_sample(self.code)
-        out = self.model.tick()
+
+    def sample(self, k: int, out, end_m: float, dec: int) -> None:
+        """After the loop's tick k (its output `out`): the plant over [t_k, t_k+1) with its far
+        end at end_m, the ADC samples of tick k+1, and the firmware's tick when k is one."""
         self.words[k] = out.u
         self.rec["T_c_N"][k] = out.tc_eff / 256.0
         self.rec["current_A"][k] = out.u / 4096.0
@@ -106,6 +132,9 @@ class _Channel:
             plant.u[0] = current_a
             y = plant.step(dt_seg)
         self.code = self.chain.sense(k, y[plant.T_IN_MEAS])
+        if self.fault is not None and k + 1 >= self.fault_k:
+            # the load cell breaks from the sample delivered at t_k+1 on
+            self.code = None if self.fault.kind == "stale" else rtl_model.ADC_CODE_MAX
         if self.code is not None:
             self.code_in = self.code
         if self.far_end:
@@ -132,19 +161,151 @@ class _Channel:
         return rec
 
 
+FAULT_KINDS = ("stale", "open")
+
+
+@dataclass(frozen=True)
+class CableFault:
+    """A load-cell fault on one cable from time t_s on: `stale` (the ADC's samples stop) or
+    `open` (an open bridge: every code at the converter's limit, 2^23 - 1). `cable` is 0 or 1."""
+
+    cable: int
+    kind: str
+    t_s: float
+
+    def __post_init__(self) -> None:
+        if self.cable not in (0, 1):
+            raise ValueError(f"fault cable={self.cable!r}: expected 0 or 1")
+        if self.kind not in FAULT_KINDS:
+            raise ValueError(f"fault kind={self.kind!r}: expected one of {', '.join(FAULT_KINDS)}")
+        if not (self.t_s >= 0.0 and np.isfinite(self.t_s)):
+            raise ValueError(f"fault t_s={self.t_s!r}: expected a finite time >= 0 s")
+
+    def sample(self, sample_rate_hz: float) -> int:
+        """The first FPGA sample whose ADC delivery is faulted (its tick k = this)."""
+        return int(np.ceil(self.t_s * sample_rate_hz - 1e-9))
+
+
 @dataclass
 class PairRecord:
     """A pair run: each cable's record (the arrays of cosim.engines.harness.Record, plus
-    `u_word`) and the joint's per sample (at t_k, before the sample's step)."""
+    `u_word`) and the joint's per sample (at t_k, before the sample's step). On the loop's
+    model and under cocotb also each channel's status per sample (columns = channels):
+    `faults` (the FAULT word), `out_en` (the drive enable) and `grp_stop` (the group stop);
+    None on the native engine."""
 
     cables: tuple[dict[str, np.ndarray], dict[str, np.ndarray]]
     t_s: np.ndarray
     tau_ref_n_m: np.ndarray
     theta_rad: np.ndarray
     omega_rad_s: np.ndarray
+    faults: np.ndarray | None = None
+    out_en: np.ndarray | None = None
+    grp_stop: np.ndarray | None = None
 
 
 ENGINES = ("native", "model")
+#: The pair's safety groups in tension_loop_mc: both cables in group 0.
+PAIR_GROUPS = (0, 0)
+
+
+class PairSim:
+    """The pair's world around one two-channel loop: both cables' chains (firmware, interface
+    stage, plant FMU), the joint and the Jacobi coupling, stepped one FPGA sample at a time.
+
+    `loop` is the two-channel loop: `channels[i]` takes channel i's write(name, value) and
+    adc_sample(code) between ticks; its tick, which the caller runs (the Python model's
+    `tick()`, or the RTL's under cocotb), gives the two LoopOutputs. Drive it as run_pair does:
+
+        for k in sim.ticks():        # two start-up ticks (k < 0), then k = 0 .. n - 1
+            sim.feed(k)
+            outs = <the loop's tick>
+            sim.step(k, outs)
+        record = sim.finish()
+    """
+
+    def __init__(
+        self,
+        scen: Antagonist,
+        cfg: SimConfig,
+        compensator: str,
+        loop,
+        duration_s: float | None = None,
+        interface: str = "board",
+        hold_joint: bool = False,
+        fault: CableFault | None = None,
+    ) -> None:
+        from cosim.parts.joint import Joint  # noqa: PLC0415
+
+        self.scen, self.hold_joint = scen, hold_joint
+        self.label = f"{scen.name} {compensator}"
+        self.rate_hz = cfg.sample_rate_hz
+        self.chans: list[_Channel] = []
+        try:
+            for i in range(2):
+                self.chans.append(
+                    _Channel(
+                        scen.cable_scenario(i),
+                        scen.cable_config(cfg, i),
+                        compensator,
+                        scen.cables[i].loop_routing,
+                        duration_s,
+                        interface,
+                        loop.channels[i],
+                        fault if fault is not None and fault.cable == i else None,
+                    )
+                )
+        except BaseException:
+            for c in self.chans:
+                c.plant.close()
+            raise
+        self.t_s = self.chans[0].inp.t_s
+        self.n = n = len(self.t_s)
+        self.dt_s = 1.0 / cfg.sample_rate_hz
+        self.dec = cfg.decimation
+        self.joint = Joint(scen.joint)
+        self.tau_load = np.asarray(scen.tau_load(self.t_s), dtype=np.float64).tolist()
+        self.theta, self.omega = np.zeros(n), np.zeros(n)
+        self.faults = np.zeros((n, 2), dtype=np.int64)
+        self.out_en = np.zeros((n, 2), dtype=bool)
+        self.grp_stop = np.zeros((n, 2), dtype=bool)
+        c1, c2 = self.chans
+        self.t_out = [c1.plant.y[c1.plant.T_OUT], c2.plant.y[c2.plant.T_OUT]]  # at t_0, at rest
+
+    def ticks(self) -> range:
+        """The loop's ticks: two of the start-up (k = -2, -1: the start-up's CTRL pulses take
+        effect at a tick), then one per sample."""
+        return range(-2, self.n)
+
+    def feed(self, k: int) -> None:
+        """Before tick k: each channel's due firmware writes and its ADC sample."""
+        for c in self.chans:
+            c.feed(k, self.dec)
+
+    def step(self, k: int, outs, grp_stop=(False, False)) -> None:
+        """After tick k with the loop's outputs `outs` (and its group stops): record them, step
+        both cables over [t_k, t_k+1) with their far ends at the joint's angle and the joint with
+        the cables' tensions at t_k (Jacobi)."""
+        if k < 0:
+            return
+        joint = self.joint
+        self.theta[k], self.omega[k] = joint.theta_rad, joint.omega_rad_s
+        d = (0.0, 0.0) if self.hold_joint else joint.end_displacements_m
+        for i, c in enumerate(self.chans):
+            self.faults[k, i], self.out_en[k, i] = outs[i].faults, outs[i].out_en
+            self.grp_stop[k, i] = grp_stop[i]
+            c.sample(k, outs[i], d[i], self.dec)
+        joint.t_1_n, joint.t_2_n = self.t_out
+        joint.tau_load_n_m = self.tau_load[k]
+        joint.step(self.dt_s)
+        self.t_out = [c.plant.y[c.plant.T_OUT] for c in self.chans]
+
+    def finish(self) -> PairRecord:
+        """Close the plants; the run's record."""
+        recs = tuple(c.finish() for c in self.chans)
+        rec = _pair_record(self.scen, recs, self.t_s, self.theta, self.omega)
+        rec.faults, rec.out_en, rec.grp_stop = self.faults, self.out_en, self.grp_stop
+        return rec
 
 
 def run_pair(
@@ -156,60 +317,44 @@ def run_pair(
     hold_joint: bool = False,
     progress: bool = False,
     engine: str = "native",
+    fault: CableFault | None = None,
 ) -> PairRecord:
     """Run the pair closed loop (module docstring) with `compensator` on both channels.
     hold_joint: both far ends held at d = 0 (the joint still turns): each channel is then a
     single-cable run, the check that the composition adds nothing but the joint.
     engine: `native` (two Verilated RTL loops, cosim/engines/native bn_run_pair) or `model`
-    (the RTL's bit-exact model in Python); tests/cosim/test_antagonist.py holds the two to the
-    same record."""
+    (the pair's tension_loop_mc, one group, on its bit-exact model in Python);
+    tests/cosim/test_antagonist.py holds the two to the same record.
+    fault: a load-cell fault on one cable (CableFault), on the `model` engine only."""
     if engine == "native":
+        if fault is not None:
+            raise ValueError(
+                "a cable fault runs on engine 'model': the native engine's two loops have no "
+                "safety group"
+            )
         return _run_pair_native(scen, cfg, compensator, duration_s, interface, hold_joint)
     if engine != "model":
         raise ValueError(f"engine must be one of {', '.join(ENGINES)}; got {engine!r}")
-    from cosim.parts.joint import Joint  # noqa: PLC0415
+    loop = rtl_model.TensionLoopMcModel(list(PAIR_GROUPS))
+    sim = PairSim(scen, cfg, compensator, loop, duration_s, interface, hold_joint, fault)
+    return run_model_loop(sim, loop, progress)
 
-    chans = [
-        _Channel(
-            scen.cable_scenario(i),
-            scen.cable_config(cfg, i),
-            compensator,
-            scen.cables[i].loop_routing,
-            duration_s,
-            interface,
-        )
-        for i in range(2)
-    ]
-    t_s = chans[0].inp.t_s
-    n = len(t_s)
-    dt_s = 1.0 / cfg.sample_rate_hz
-    dec = cfg.decimation
-    joint = Joint(scen.joint)
-    tau_load = np.asarray(scen.tau_load(t_s), dtype=np.float64).tolist()
-    theta = np.zeros(n)
-    omega = np.zeros(n)
-    c1, c2 = chans
-    t_out_1 = c1.plant.y[c1.plant.T_OUT]  # true T_out at t_0 (the plants at rest)
-    t_out_2 = c2.plant.y[c2.plant.T_OUT]
-    bar = Progress(n, f"{scen.name} {compensator}", cfg.sample_rate_hz, enabled=progress)
+
+def run_model_loop(sim: PairSim, loop: rtl_model.TensionLoopMcModel, progress: bool = False):
+    """Step `sim` to its end around `loop`, a TensionLoopMcModel (its groups as given: the
+    pair's one group, or a study's other grouping); the run's PairRecord."""
+    bar = Progress(sim.n, sim.label, sim.rate_hz, enabled=progress)
     try:
-        for k in range(n):
-            theta[k] = joint.theta_rad
-            omega[k] = joint.omega_rad_s
-            d_1, d_2 = (0.0, 0.0) if hold_joint else joint.end_displacements_m
-            c1.sample(k, d_1, dec)
-            c2.sample(k, d_2, dec)
-            # the joint over [t_k, t_k+1) with the cables' tensions at t_k (Jacobi)
-            joint.t_1_n, joint.t_2_n, joint.tau_load_n_m = t_out_1, t_out_2, tau_load[k]
-            joint.step(dt_s)
-            t_out_1 = c1.plant.y[c1.plant.T_OUT]
-            t_out_2 = c2.plant.y[c2.plant.T_OUT]
+        for k in sim.ticks():
+            sim.feed(k)
+            outs = loop.tick()
+            sim.step(k, outs, loop.group_stop)
             if (k & 1023) == 0:
                 bar.update(k)
     finally:
-        recs = tuple(c.finish() for c in chans)
-        bar.close(n)
-    return _pair_record(scen, recs, t_s, theta, omega)
+        rec = sim.finish()
+        bar.close(sim.n)
+    return rec
 
 
 def _run_pair_native(scen, cfg, compensator, duration_s, interface, hold_joint) -> PairRecord:

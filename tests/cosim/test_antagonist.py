@@ -1,7 +1,8 @@
 """The antagonistic joint (cosim/config/antagonist.py, cosim/parts/joint.py,
 cosim/engines/antagonist.py): the split's floor and ceiling, the joint's exact step, each
 channel equal to the single-cable model chain while the joint is held, and the pair in closed
-loop: neither cable slack, the torque tracked, the floor held when tau_ref saturates."""
+loop: neither cable slack, the torque tracked, the floor held when tau_ref saturates; a load-cell
+fault on one cable bringing both drives to zero within the group's ramp."""
 
 from __future__ import annotations
 
@@ -14,9 +15,11 @@ from scipy.integrate import solve_ivp
 
 from cosim.config.antagonist import get_antagonist, saturating, split_tensions
 from cosim.config.run import SimConfig
-from cosim.engines.antagonist import evaluate, run_pair
+from cosim.engines.antagonist import CableFault, evaluate, run_pair
 from cosim.engines.reference import resolve_phi, run_model_chain
+from cosim.parts import regmap
 from cosim.parts.joint import Joint, JointParams
+from cosim.parts.rtl_model import WDT_RAMP_STEP
 
 R_M, T_PRE_N, T_MAX_N = 0.02, 2.0, 24.0
 
@@ -128,11 +131,80 @@ def test_native_pair_equals_the_model_pair(est):
     assert np.array_equal(nat.theta_rad, mod.theta_rad)
     assert np.array_equal(nat.omega_rad_s, mod.omega_rad_s)
     assert np.any(nat.theta_rad)
+    # the model's pair is one tension_loop_mc group: with no fault it never stops a channel
+    assert not mod.grp_stop.any() and not mod.faults.any() and mod.out_en.all()
 
 
 def test_run_pair_refuses_an_unknown_engine():
     with pytest.raises(ValueError, match="engine must be one of"):
         run_pair(get_antagonist(), SimConfig(), "preview", duration_s=0.01, engine="cocotb")
+
+
+def test_run_pair_refuses_a_fault_on_the_native_engine_and_a_bad_fault():
+    with pytest.raises(ValueError, match="engine 'model'"):
+        run_pair(get_antagonist(), SimConfig(), "preview", 0.01, fault=CableFault(0, "open", 0.0))
+    with pytest.raises(ValueError, match="kind"):
+        CableFault(0, "short", 0.1)
+    with pytest.raises(ValueError, match="cable"):
+        CableFault(2, "open", 0.1)
+
+
+# The two faults on cable 1 (index 0), each at its own phase of tau_ref's 2 s period (set before
+# any run): stale at 1.2 s (cable 2 pulling: u 1.56 A against cable 1's 0.01 A), open wire at
+# 1.7 s (cable 2 idle near its floor, the joint deflected -0.24 rad); each run 0.3 s past it.
+FAULTS = {"stale": 1.2, "open": 1.7}
+# Measured (preview): the joint's peak speed after the latch is 62 % (stale) and 49 % (open) of
+# its free release's (both cables cut at the latch: 2.69 and 4.97 rad/s); cable 2's tensions rise
+# at most 0.09 N above their pre-fault maxima (T_in at the stale fault, as the joint turns
+# towards it). Budgets: 70 % and 0.15 N.
+FREE_RELEASE_RATIO = 0.7
+TENSION_RISE_N = 0.15
+
+
+@pytest.mark.parametrize("kind", sorted(FAULTS))
+def test_a_fault_on_one_cable_brings_the_pair_to_zero_within_the_ramp(kind):
+    """A load cell fails on cable 1 mid-run (stale: its samples stop; open: the code at the
+    converter's limit). Cable 1's loop latches ADC_STALE after ADC_STALE missing samples, or
+    ADC_RANGE at the first bad code, and zeroes its drive at once; cable 2 (same group) reports
+    no fault, is group-stopped from the next tick, and its |u| falls by exactly WDT_RAMP_STEP a
+    sample to 0, both drives off for good within 1 + ceil(I_LIMIT / WDT_RAMP_STEP) periods of
+    the latch. The joint does not slam: its speed stays below the free release's, and neither
+    cable's tension rises above its pre-fault maximum (module budgets)."""
+    scen, cfg = get_antagonist(), SimConfig()
+    t_f = FAULTS[kind]
+    run = run_pair(scen, cfg, "preview", t_f + 0.3, engine="model", fault=CableFault(0, kind, t_f))
+    k_f = round(t_f * cfg.sample_rate_hz)  # the first sample whose ADC delivery is faulted
+    stale_samples = regmap.REGISTERS["ADC_STALE"].fields[0].reset  # the firmware's setting
+    bit = regmap.FAULT_ADC_STALE if kind == "stale" else regmap.FAULT_ADC_RANGE
+    latch = k_f + stale_samples - 1 if kind == "stale" else k_f
+    f1, f2 = run.faults[:, 0], run.faults[:, 1]
+    assert not f1[:latch].any() and np.all(f1[latch:] == bit), (kind, np.nonzero(f1)[0][:3])
+    assert not f2.any() and not run.grp_stop[:, 0].any()
+    assert not run.grp_stop[: latch + 1, 1].any() and run.grp_stop[latch + 1 :, 1].all()
+    u1, u2 = (c["u_word"].astype(np.int64) for c in run.cables)
+    assert np.all(u1[latch:] == 0) and not run.out_en[latch:, 0].any()
+    # cable 2 ramps: one step of WDT_RAMP_STEP towards zero per stopped sample, or to zero
+    ramp = np.abs(u2[latch:])
+    assert ramp[0] > 10 * WDT_RAMP_STEP, ramp[0]  # it was driving when the fault came
+    want = np.maximum(ramp[0] - WDT_RAMP_STEP * np.arange(len(ramp)), 0)
+    np.testing.assert_array_equal(ramp, want)
+    i_limit = round(cfg.controller.i_limit_a * 4096)  # I_LIMIT, UQ3.12 A
+    bound = 1 + math.ceil(i_limit / WDT_RAMP_STEP)  # 401 periods at 4 A
+    off = latch + bound
+    assert np.all(u2[off:] == 0) and not run.out_en[off:].any()
+    # the joint released no faster than with both cables cut at the latch
+    free = Joint(scen.joint)
+    free.theta_rad, free.omega_rad_s = run.theta_rad[latch], run.omega_rad_s[latch]
+    free_peak = 0.0
+    for _ in range(len(run.t_s) - latch):
+        free.step(1.0 / cfg.sample_rate_hz)
+        free_peak = max(free_peak, abs(free.omega_rad_s))
+    peak = float(np.max(np.abs(run.omega_rad_s[latch:])))
+    assert peak <= FREE_RELEASE_RATIO * free_peak, (peak, free_peak)
+    for i, c in enumerate(run.cables):
+        for name in ("T_out_true_N", "T_in_true_N"):
+            rise = float(np.max(c[name][latch:]) - np.max(c[name][:latch]))
+            assert rise <= TENSION_RISE_N, (i, name, rise)
 
 
 # Budgets from the 3 s runs below (board's chain, the smooth split; measured preview +
