@@ -186,6 +186,13 @@ class CableFault:
         return int(np.ceil(self.t_s * sample_rate_hz - 1e-9))
 
 
+def pair_fault(spec: dict | None) -> CableFault | None:
+    """A CableFault from its JSON form ({"cable", "kind", "t_s"}), None for None."""
+    if spec is None:
+        return None
+    return CableFault(int(spec["cable"]), spec["kind"], float(spec["t_s"]))
+
+
 @dataclass
 class PairRecord:
     """A pair run: each cable's record (the arrays of cosim.engines.harness.Record, plus

@@ -6,6 +6,7 @@ fault on one cable bringing both drives to zero within the group's ramp."""
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import replace
 
@@ -292,3 +293,49 @@ def test_saturating_keeps_the_rest_of_the_scenario():
     t = np.linspace(0.0, 2.0, 7)
     np.testing.assert_array_equal(sat.tau_ref(t), 2.0 * base.tau_ref(t))
     assert replace(sat, name=base.name, tau_ref=base.tau_ref) == base
+
+
+# The cocotb run of the pair (cosim/engines/cocotb/tb_pair.py): 0.15 s, an open wire on cable 1
+# at 0.1 s (as the ease-in drives both cables), so that the run has the two loops in closed loop
+# and then the fault, the latch and the partner's group ramp.
+COCOTB_PAIR = {"duration_s": 0.15, "fault": {"cable": 0, "kind": "open", "t_s": 0.1}}
+
+
+@pytest.mark.slow
+def test_cocotb_pair_on_the_rtl_equals_the_model_and_native_engines(tmp_path):
+    """The pair's world around the Verilog tension_loop_mc (N = 2, one group, Verilator under
+    cocotb) gives the model engine's record sample for sample, every array of both cables, the
+    joint, and each channel's FAULT, enable and group stop; before the fault also the native
+    engine's (two Verilated single loops), bit for bit."""
+    from hdl_sim import rtl, run_cocotb  # noqa: PLC0415 (tests/hdl, on the test path)
+
+    spec = {**COCOTB_PAIR, "compensator": "preview", "est_enable": 0}
+    spec["out"] = str(tmp_path / "pair.npz")
+    (tmp_path / "spec.json").write_text(json.dumps(spec))
+    run_cocotb(
+        "tension_loop_mc",
+        "cosim.engines.cocotb.tb_pair",
+        rtl("tension_loop_mc", "tension_loop_dp", "mul_s16"),
+        "verilator",
+        parameters={"N": 2, "GROUP": "8'h0"},
+        tag="pair",
+        extra_env={"BOWDEN_PAIR_SPEC": str(tmp_path / "spec.json")},
+    )
+    got = np.load(spec["out"])
+    scen, cfg = get_antagonist(), SimConfig()
+    fault = CableFault(0, "open", spec["fault"]["t_s"])
+    mod = run_pair(scen, cfg, "preview", spec["duration_s"], engine="model", fault=fault)
+    for i in range(2):
+        for name, values in mod.cables[i].items():
+            assert np.array_equal(values, got[f"c{i}_{name}"]), (i, name)
+    for name in ("theta_rad", "omega_rad_s", "faults", "out_en", "grp_stop"):
+        assert np.array_equal(getattr(mod, name), got[name]), name
+    assert got["faults"][-1, 0] == regmap.FAULT_ADC_RANGE and got["grp_stop"][-1, 1]
+    nat = run_pair(scen, cfg, "preview", spec["duration_s"], engine="native")
+    k_f = round(spec["fault"]["t_s"] * cfg.sample_rate_hz)
+    for i in range(2):
+        for name, values in nat.cables[i].items():
+            # the native loops see no fault: equal up to the fault's first sample (its ADC
+            # delivery for tick k_f enters the plant record from sample k_f + 1 on)
+            assert np.array_equal(values[:k_f], got[f"c{i}_{name}"][:k_f]), (i, name)
+    assert np.array_equal(nat.theta_rad[:k_f], got["theta_rad"][:k_f])
