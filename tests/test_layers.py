@@ -49,6 +49,8 @@ RANKS: dict[str, float] = {
     "cosim.engines.cocotb": 5.3,
     "cosim.engines.native": 5.3,
     "cosim.engines.antagonist": 5.35,
+    # the pair's cocotb bench: the pair's world (antagonist.PairSim) around the RTL
+    "cosim.engines.cocotb.tb_pair": 5.36,
     "cosim.engines.experiment": 5.4,
     # the emulated controller: the loop's model, the plant, the simulated board (built with the
     # native engine's Verilator build)

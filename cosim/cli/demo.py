@@ -58,7 +58,7 @@ def add_parser(subparsers) -> None:
     p.add_argument(
         "--no-antagonist",
         action="store_true",
-        help="skip the antagonistic joint's table (bowden sim antagonist: about 4 s of CPU)",
+        help="skip the antagonistic joint's tables (bowden sim antagonist: about 8 s of CPU)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=main)
@@ -121,11 +121,13 @@ def main(args: argparse.Namespace) -> int:
         print("== antagonist: two cables on one joint, every compensator", file=sys.stderr)
         try:
             rows = pair.run_rows(get_antagonist(), SimConfig(), interface=args.interface)
+            faults = pair.run_fault_rows(get_antagonist(), SimConfig(), interface=args.interface)
         except (RuntimeError, ValueError, OSError) as exc:
             print(f"bowden demo: antagonist: {exc}", file=sys.stderr)
             return 1
         out.mkdir(parents=True, exist_ok=True)
         (out / "antagonist.json").write_text(json.dumps(rows, indent=1) + "\n")
+        (out / "antagonist_faults.json").write_text(json.dumps(faults, indent=1) + "\n")
         print()
         print(
             "Antagonistic joint (bowden sim antagonist, native engine, "
@@ -133,5 +135,8 @@ def main(args: argparse.Namespace) -> int:
             "|tau_ref|; least true tensions, floor T_pre = 2 N"
         )
         print(pair.table(rows))
-        print(f"results: {out / 'antagonist.json'}")
+        print()
+        print(pair.FAULT_CAPTION)
+        print(pair.fault_table(faults))
+        print(f"results: {out / 'antagonist.json'}, {out / 'antagonist_faults.json'}")
     return 0

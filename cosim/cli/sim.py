@@ -129,7 +129,9 @@ def main(args: argparse.Namespace) -> int:
 
 def _antagonist(args: argparse.Namespace) -> int:
     """`bowden sim antagonist`: the pair on the native engine (two Verilated loops with their
-    firmware, FMUs and the joint), every compensator row or the one --compensator names."""
+    firmware, FMUs and the joint), every compensator row or the one --compensator names; with
+    every row also the load-cell faults on cable 1 (pair.FAULT_ROWS, on the loop's model: one
+    tension_loop_mc group)."""
     from cosim.config.antagonist import get_antagonist  # noqa: PLC0415
     from cosim.engines import antagonist as pair  # noqa: PLC0415
 
@@ -162,6 +164,8 @@ def _antagonist(args: argparse.Namespace) -> int:
                 scen, cfg, rows, args.duration, args.interface, progress=not args.quiet
             ),
         }
+        if args.compensator is None:  # the whole table: also a load-cell fault on cable 1
+            result["faults"] = pair.run_fault_rows(scen, cfg, interface=args.interface)
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         tmp = out / f".result.json.{os.getpid()}"
@@ -171,5 +175,9 @@ def _antagonist(args: argparse.Namespace) -> int:
         print(f"bowden sim: {exc}", file=sys.stderr)
         return 1
     print(pair.table(result["rows"]))
+    if "faults" in result:
+        print()
+        print(pair.FAULT_CAPTION)
+        print(pair.fault_table(result["faults"], cfg.sample_rate_hz))
     print(f"wrote {Path(args.out) / 'result.json'}")
     return 0

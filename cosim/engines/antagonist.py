@@ -44,7 +44,7 @@ from cosim.parts import regmap, rtl_model
 from cosim.parts.interface import make_chain
 from cosim.project.progress import Progress
 
-from .fwbridge import FirmwareBridge
+from .fwbridge import FirmwareBridge, loop_words
 from .harness import TC_LATENCY_SAMPLES, Record, open_plant, plant_rows, store_plant_rows
 from .reference import resolve_phi
 
@@ -508,5 +508,131 @@ def table(rows: list[dict]) -> str:
             f"{c1['peak_error_n']:.3f} | {c2['rms_error_n']:.3f} / {c2['peak_error_n']:.3f} | "
             f"{c1['min_t_out_n']:.2f} / {c2['min_t_out_n']:.2f} | "
             f"{c1['min_t_in_n']:.2f} / {c2['min_t_in_n']:.2f} |"
+        )
+    return "\n".join(lines)
+
+
+# The faults `bowden sim antagonist` reports (and tests/cosim/test_antagonist.py checks), on
+# cable 1 with the preview compensator, each at its own phase of tau_ref's 2 s period (set before
+# any run): stale at 1.2 s (cable 2 pulling), open wire at 1.7 s (cable 2 near its floor, the
+# joint deflected); each run ends FAULT_TAIL_S after the fault.
+FAULT_ROWS = (CableFault(0, "stale", 1.2), CableFault(0, "open", 1.7))
+FAULT_TAIL_S = 0.3
+FAULT_CAPTION = (
+    "A load-cell fault on cable 1 (preview, engine model: the pair as one tension_loop_mc "
+    "group): periods from the latch until both drives are off for good, against 1 + "
+    "ceil(I_LIMIT / WDT_RAMP_STEP); the joint's peak speed after the latch against its free "
+    "release (both cables cut at the latch); the largest rise of a cable's T_out or T_in above "
+    "its pre-fault maximum"
+)
+
+
+def free_release_peak(scen: Antagonist, run: PairRecord, k: int) -> float:
+    """The joint's peak |omega| (rad/s) from sample k to the run's end were both cables cut at
+    k: its own spring and damping from (theta_k, omega_k), no load. What a group stop that
+    zeroed both drives at once, with cables that let go at once, would give."""
+    from cosim.parts.joint import Joint  # noqa: PLC0415
+
+    joint = Joint(scen.joint)
+    joint.theta_rad, joint.omega_rad_s = run.theta_rad[k], run.omega_rad_s[k]
+    dt_s = float(run.t_s[1] - run.t_s[0])
+    peak = abs(joint.omega_rad_s)
+    for _ in range(len(run.t_s) - 1 - k):
+        joint.step(dt_s)
+        peak = max(peak, abs(joint.omega_rad_s))
+    return peak
+
+
+def evaluate_fault(scen: Antagonist, cfg: SimConfig, run: PairRecord, fault: CableFault) -> dict:
+    """A faulted run's figures: the sample the faulted channel latched at and its FAULT word,
+    the partner's (0 if it reported none), the periods from the latch until both drives are off
+    for good (u = 0, enable low) against the group's bound 1 + ceil(I_LIMIT / WDT_RAMP_STEP),
+    the joint's peak speed after the latch against the free release's (free_release_peak), and
+    each cable's largest rise of T_out and T_in above its maximum before the latch (N)."""
+    if run.faults is None:
+        raise ValueError("evaluate_fault needs a run with the loop's status (engine 'model')")
+    i = fault.cable
+    latched = np.nonzero(run.faults[:, i])[0]
+    if len(latched) == 0:
+        raise ValueError(f"cable {i + 1}'s loop latched no fault")
+    k = int(latched[0])
+    u = np.stack([c["u_word"] for c in run.cables], axis=1)
+    on = np.nonzero(np.any(u != 0, axis=1) | np.any(run.out_en, axis=1))[0]
+    off = int(on[-1]) + 1 if len(on) else 0
+    i_limit = loop_words(cfg.controller, cfg.sample_rate_hz)["i_limit"]  # UQ3.12 A
+    step = rtl_model.WDT_RAMP_STEP
+    rise = [
+        max(float(np.max(c[n][k:]) - np.max(c[n][:k])) for n in ("T_out_true_N", "T_in_true_N"))
+        for c in run.cables
+    ]
+    return {
+        "cable": scen.cables[i].name,
+        "kind": fault.kind,
+        "t_s": fault.t_s,
+        "latch_sample": k,
+        "latch_s": float(run.t_s[k]),
+        "fault_word": int(run.faults[k, i]),
+        "partner_fault_word": int(np.bitwise_or.reduce(run.faults[:, 1 - i])),
+        "off_periods": off - k if off < len(run.t_s) else None,
+        "bound_periods": 1 + -(-i_limit // step),
+        "omega_peak_rad_s": float(np.max(np.abs(run.omega_rad_s[k:]))),
+        "omega_free_rad_s": free_release_peak(scen, run, k),
+        "tension_rise_n": rise,
+    }
+
+
+def run_fault_rows(
+    scen: Antagonist,
+    cfg: SimConfig,
+    faults=FAULT_ROWS,
+    compensator: str = "preview",
+    interface: str = "board",
+) -> list[dict]:
+    """Each fault of `faults` on the pair (engine 'model', the run ending FAULT_TAIL_S after
+    it): evaluate_fault's figures with the CPU seconds."""
+    out = []
+    for fault in faults:
+        t0 = time.process_time()
+        run = run_pair(
+            scen,
+            cfg,
+            compensator,
+            fault.t_s + FAULT_TAIL_S,
+            interface,
+            engine="model",
+            fault=fault,
+        )
+        row = {"compensator": compensator, "engine": "model", "interface": interface}
+        row.update(evaluate_fault(scen, cfg, run, fault))
+        row["cpu_seconds"] = time.process_time() - t0
+        out.append(row)
+    return out
+
+
+def fault_table(rows: list[dict], sample_rate_hz: float = 1e4) -> str:
+    """The faulted runs as a Markdown table: the fault, its latch, the periods until both drives
+    are off (and the bound), the joint's peak speed against the free release's, the largest
+    tension rise above its pre-fault maximum."""
+    names = {
+        regmap.FAULT_ADC_STALE: "ADC_STALE",
+        regmap.FAULT_ADC_RANGE: "ADC_RANGE",
+        regmap.FAULT_WATCHDOG: "WATCHDOG",
+        regmap.FAULT_OVERCURRENT: "OVERCURRENT",
+    }
+    lines = [
+        "| fault on cable | latched | partner's FAULT | both drives off after | joint peak / "
+        "free release | largest tension rise |\n| --- | --- | --- | --- | --- | --- |"
+    ]
+    for r in rows:
+        word = " ".join(v for b, v in names.items() if r["fault_word"] & b)
+        ms = 1e3 / sample_rate_hz
+        off = r["off_periods"]
+        off = "not in the run" if off is None else f"{off} periods = {off * ms:.1f} ms"
+        lines.append(
+            f"| {r['cable']}: {r['kind']} at {r['t_s']:g} s | {word} at {r['latch_s']:.4f} s | "
+            f"{r['partner_fault_word']} | {off} (bound "
+            f"{r['bound_periods']} = {r['bound_periods'] * ms:.1f} ms) | "
+            f"{r['omega_peak_rad_s']:.2f} / {r['omega_free_rad_s']:.2f} rad/s | "
+            f"{max(r['tension_rise_n']):.2f} N |"
         )
     return "\n".join(lines)
