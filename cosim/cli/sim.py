@@ -128,16 +128,15 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _antagonist(args: argparse.Namespace) -> int:
-    """`bowden sim antagonist`: the pair on the native engine (two Verilated loops with their
-    firmware, FMUs and the joint), every compensator row or the one --compensator names; with
-    every row also the load-cell faults on cable 1 (pair.FAULT_ROWS, on the loop's model: one
-    tension_loop_mc group)."""
+    """`bowden sim antagonist`: the pair on the native engine (its Verilated two-channel
+    tension_loop_mc, both cables' firmware and FMUs, the joint), every compensator row or the one
+    --compensator names; with every row also the load-cell faults on cable 1 (pair.FAULT_ROWS)."""
     from cosim.config.antagonist import get_antagonist  # noqa: PLC0415
     from cosim.engines import antagonist as pair  # noqa: PLC0415
 
     try:
         if args.engine not in (None, "native"):
-            raise ValueError("antagonist runs on the native engine only (two Verilated loops)")
+            raise ValueError("antagonist runs on the native engine only")
         if args.compensator == "none":
             raise ValueError("antagonist: --compensator must be paper, smooth or preview")
         if not args.loop_routing:

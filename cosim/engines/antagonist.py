@@ -7,20 +7,21 @@ own instance of the BowdenPlant FMU with its own parameters and sheath path. The
 (cosim.parts.joint.Joint) takes the two cables' true output tensions and sets their far ends
 (FMU input end_displacement).
 
-Two engines run it: `native` (the default) steps two Verilated RTL loops of the native engine
-side by side with the joint between them (bn_run_pair, cosim/engines/native/closed_loop.cpp);
-`model` runs the pair's loops as one two-channel tension_loop_mc in one safety group, on its
-bit-exact model (rtl_model.TensionLoopMcModel, groups [0, 0]). PairSim is that run's world
-around any two-channel loop, so the cocotb test bench of the pair
-(cosim/engines/cocotb/tb_pair.py) runs the same world around the RTL tension_loop_mc. With no
-fault the group never stops a channel, each channel is exactly a single loop, and the engines
-give the same record, sample for sample (tests/cosim/test_antagonist.py).
+The pair's two loops are one two-channel tension_loop_mc with both channels in one safety
+group. Two engines run it: `native` (the default: bn_run_pair in
+cosim/engines/native/closed_loop.cpp steps a Verilated tension_loop_mc with the joint between
+its samples; each cable's firmware still talks to its own cosim_top over AXI4-Lite, as in the
+single-cable engine, and the pair's loop takes the firmware's writes as the model does) and
+`model` (its bit-exact model, rtl_model.TensionLoopMcModel with groups [0, 0]). PairSim is the
+pair's world around any two-channel loop, so the cocotb bench of the pair
+(cosim/engines/cocotb/tb_pair.py) runs the same world around the Verilog module. With no fault
+the group never stops a channel, each channel is exactly a single loop, and all three give the
+same record, sample for sample, with a fault too (tests/cosim/test_antagonist.py).
 
 A CableFault breaks one cable's load cell mid-run (`stale`: its ADC samples stop; `open`: the
 code sits at the converter's limit, 2^23 - 1, past ADC_MAX, as an open bridge reads): the
 faulted channel latches ADC_STALE or ADC_RANGE and zeroes its drive, and its group stop ramps
-the other cable's drive to zero by WDT_RAMP_STEP a sample. Faults run on the loop's model (and
-under cocotb): the native engine's two loops have no group.
+the other cable's drive to zero by WDT_RAMP_STEP a sample.
 
 Coupling (a Jacobi master, as an FMI 2.0 co-simulation master steps FMUs side by side): at each
 communication step [t_k, t_k+1) (one FPGA sample, 100 us) every subsystem steps with the
@@ -196,10 +197,9 @@ def pair_fault(spec: dict | None) -> CableFault | None:
 @dataclass
 class PairRecord:
     """A pair run: each cable's record (the arrays of cosim.engines.harness.Record, plus
-    `u_word`) and the joint's per sample (at t_k, before the sample's step). On the loop's
-    model and under cocotb also each channel's status per sample (columns = channels):
-    `faults` (the FAULT word), `out_en` (the drive enable) and `grp_stop` (the group stop);
-    None on the native engine."""
+    `u_word`) and the joint's per sample (at t_k, before the sample's step); each channel's
+    status per sample (columns = channels):
+    `faults` (the FAULT word), `out_en` (the drive enable) and `grp_stop` (the group stop)."""
 
     cables: tuple[dict[str, np.ndarray], dict[str, np.ndarray]]
     t_s: np.ndarray
@@ -329,17 +329,11 @@ def run_pair(
     """Run the pair closed loop (module docstring) with `compensator` on both channels.
     hold_joint: both far ends held at d = 0 (the joint still turns): each channel is then a
     single-cable run, the check that the composition adds nothing but the joint.
-    engine: `native` (two Verilated RTL loops, cosim/engines/native bn_run_pair) or `model`
-    (the pair's tension_loop_mc, one group, on its bit-exact model in Python);
-    tests/cosim/test_antagonist.py holds the two to the same record.
-    fault: a load-cell fault on one cable (CableFault), on the `model` engine only."""
+    engine: `native` (the pair's tension_loop_mc Verilated, cosim/engines/native bn_run_pair)
+    or `model` (its bit-exact model in Python); tests/cosim/test_antagonist.py holds the two to
+    the same record. fault: a load-cell fault on one cable (CableFault), or None."""
     if engine == "native":
-        if fault is not None:
-            raise ValueError(
-                "a cable fault runs on engine 'model': the native engine's two loops have no "
-                "safety group"
-            )
-        return _run_pair_native(scen, cfg, compensator, duration_s, interface, hold_joint)
+        return _run_pair_native(scen, cfg, compensator, duration_s, interface, hold_joint, fault)
     if engine != "model":
         raise ValueError(f"engine must be one of {', '.join(ENGINES)}; got {engine!r}")
     loop = rtl_model.TensionLoopMcModel(list(PAIR_GROUPS))
@@ -364,9 +358,13 @@ def run_model_loop(sim: PairSim, loop: rtl_model.TensionLoopMcModel, progress: b
     return rec
 
 
-def _run_pair_native(scen, cfg, compensator, duration_s, interface, hold_joint) -> PairRecord:
+def _run_pair_native(
+    scen, cfg, compensator, duration_s, interface, hold_joint, fault=None
+) -> PairRecord:
     """run_pair on the native engine: each cable a bn_spec_t as `bowden sim --engine native`
-    sets one up, the joint's exact step handed over as its matrices (bn_joint_t)."""
+    sets one up (its firmware on its own cosim_top's bus), the joint's exact step handed over
+    as its matrices (bn_joint_t), both cables driven by the pair's Verilated tension_loop_mc
+    (bn_pair_loop_t: the fault, each channel's status per sample)."""
     import ctypes  # noqa: PLC0415
 
     from cosim.parts.joint import Joint  # noqa: PLC0415
@@ -401,15 +399,29 @@ def _run_pair_native(scen, cfg, compensator, duration_s, interface, hold_joint) 
         j.hold = 1 if hold_joint else 0
         j.theta_rad = theta.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
         j.omega_rad_s = omega.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        m = native.PairLoopSpec()
+        faults = np.zeros((n, 2), dtype=np.int32)
+        out_en = np.zeros((n, 2), dtype=np.uint8)
+        grp_stop = np.zeros((n, 2), dtype=np.uint8)
+        if fault is not None:
+            m.fault_kind[fault.cable] = 1 + FAULT_KINDS.index(fault.kind)
+            m.fault_k[fault.cable] = fault.sample(cfg.sample_rate_hz)
+        m.out_faults = faults.ctypes.data_as(ctypes.POINTER(ctypes.c_int32))
+        m.out_en = out_en.ctypes.data_as(ctypes.POINTER(ctypes.c_uint8))
+        m.out_grp_stop = grp_stop.ctypes.data_as(ctypes.POINTER(ctypes.c_uint8))
         a, b = runs
-        status = lib.bn_run_pair(ctypes.byref(a.s), ctypes.byref(b.s), ctypes.byref(j))
+        status = lib.bn_run_pair(
+            ctypes.byref(a.s), ctypes.byref(b.s), ctypes.byref(j), ctypes.byref(m)
+        )
     finally:
         for run in runs:
             run.plant.close()
     if status != 0:
         raise RuntimeError(f"native pair: {a.s.error.decode(errors='replace')}")
-    recs = tuple(run.collect(0)[0] for run in runs)
-    return _pair_record(scen, recs, t_s, theta, omega)
+    recs = tuple(run.collect(0, check_tc=fault is None)[0] for run in runs)
+    rec = _pair_record(scen, recs, t_s, theta, omega)
+    rec.faults, rec.out_en, rec.grp_stop = faults.astype(np.int64), out_en != 0, grp_stop != 0
+    return rec
 
 
 def _pair_record(scen, recs, t_s, theta, omega) -> PairRecord:
@@ -519,7 +531,7 @@ def table(rows: list[dict]) -> str:
 FAULT_ROWS = (CableFault(0, "stale", 1.2), CableFault(0, "open", 1.7))
 FAULT_TAIL_S = 0.3
 FAULT_CAPTION = (
-    "A load-cell fault on cable 1 (preview, engine model: the pair as one tension_loop_mc "
+    "A load-cell fault on cable 1 (preview, native engine: the pair as one tension_loop_mc "
     "group): periods from the latch until both drives are off for good, against 1 + "
     "ceil(I_LIMIT / WDT_RAMP_STEP); the joint's peak speed after the latch against its free "
     "release (both cables cut at the latch); the largest rise of a cable's T_out or T_in above "
@@ -550,7 +562,7 @@ def evaluate_fault(scen: Antagonist, cfg: SimConfig, run: PairRecord, fault: Cab
     the joint's peak speed after the latch against the free release's (free_release_peak), and
     each cable's largest rise of T_out and T_in above its maximum before the latch (N)."""
     if run.faults is None:
-        raise ValueError("evaluate_fault needs a run with the loop's status (engine 'model')")
+        raise ValueError("evaluate_fault needs a run with the loop's status (PairRecord.faults)")
     i = fault.cable
     latched = np.nonzero(run.faults[:, i])[0]
     if len(latched) == 0:
@@ -587,9 +599,10 @@ def run_fault_rows(
     faults=FAULT_ROWS,
     compensator: str = "preview",
     interface: str = "board",
+    engine: str = "native",
 ) -> list[dict]:
-    """Each fault of `faults` on the pair (engine 'model', the run ending FAULT_TAIL_S after
-    it): evaluate_fault's figures with the CPU seconds."""
+    """Each fault of `faults` on the pair (the run ending FAULT_TAIL_S after it): evaluate_fault's
+    figures with the engine and the CPU seconds."""
     out = []
     for fault in faults:
         t0 = time.process_time()
@@ -599,10 +612,10 @@ def run_fault_rows(
             compensator,
             fault.t_s + FAULT_TAIL_S,
             interface,
-            engine="model",
+            engine=engine,
             fault=fault,
         )
-        row = {"compensator": compensator, "engine": "model", "interface": interface}
+        row = {"compensator": compensator, "engine": engine, "interface": interface}
         row.update(evaluate_fault(scen, cfg, run, fault))
         row["cpu_seconds"] = time.process_time() - t0
         out.append(row)

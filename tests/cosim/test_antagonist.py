@@ -16,7 +16,15 @@ from scipy.integrate import solve_ivp
 
 from cosim.config.antagonist import get_antagonist, saturating, split_tensions
 from cosim.config.run import SimConfig
-from cosim.engines.antagonist import CableFault, evaluate, run_pair
+from cosim.engines.antagonist import (
+    FAULT_ROWS,
+    FAULT_TAIL_S,
+    CableFault,
+    evaluate,
+    evaluate_fault,
+    free_release_peak,
+    run_pair,
+)
 from cosim.engines.reference import resolve_phi, run_model_chain
 from cosim.parts import regmap
 from cosim.parts.joint import Joint, JointParams
@@ -118,10 +126,10 @@ def test_each_channel_equals_the_single_cable_chain_while_the_joint_is_held():
 
 @pytest.mark.parametrize("est", [0, 1])
 def test_native_pair_equals_the_model_pair(est):
-    """The native engine's pair (two Verilated loops, bn_run_pair) and the Python model's give
-    the same record: every array of both channels (command words, T_c, every plant output) and
-    the joint's angle and speed, bit for bit, with the joint moving and with the online
-    estimate fed from each cable's far end."""
+    """The native engine's pair (one Verilated tension_loop_mc, bn_run_pair) and the Python
+    model's give the same record: every array of both channels (command words, T_c, every plant
+    output), each channel's status and the joint's angle and speed, bit for bit, with the joint
+    moving and with the online estimate fed from each cable's far end."""
     scen = get_antagonist()
     cfg = SimConfig.from_dict({"compensator": {"est_enable": est}})
     nat = run_pair(scen, cfg, "preview", duration_s=0.4, engine="native")
@@ -132,7 +140,9 @@ def test_native_pair_equals_the_model_pair(est):
     assert np.array_equal(nat.theta_rad, mod.theta_rad)
     assert np.array_equal(nat.omega_rad_s, mod.omega_rad_s)
     assert np.any(nat.theta_rad)
-    # the model's pair is one tension_loop_mc group: with no fault it never stops a channel
+    for name in ("faults", "out_en", "grp_stop"):
+        assert np.array_equal(getattr(mod, name), getattr(nat, name)), name
+    # the pair is one tension_loop_mc group: with no fault it never stops a channel
     assert not mod.grp_stop.any() and not mod.faults.any() and mod.out_en.all()
 
 
@@ -141,29 +151,41 @@ def test_run_pair_refuses_an_unknown_engine():
         run_pair(get_antagonist(), SimConfig(), "preview", duration_s=0.01, engine="cocotb")
 
 
-def test_run_pair_refuses_a_fault_on_the_native_engine_and_a_bad_fault():
-    with pytest.raises(ValueError, match="engine 'model'"):
-        run_pair(get_antagonist(), SimConfig(), "preview", 0.01, fault=CableFault(0, "open", 0.0))
+@pytest.mark.parametrize("fault", [CableFault(0, "stale", 0.1), CableFault(1, "open", 0.12)])
+def test_native_pair_equals_the_model_pair_under_a_fault(fault):
+    """A load-cell fault on one cable: the native engine's pair (both cables driven by its
+    Verilated tension_loop_mc) and the model's give the same record, bit for bit, and the same
+    FAULT, enable and group stop of each channel at every sample; the fault latched on the
+    faulted channel and the other group-stopped by the end."""
+    scen, cfg = get_antagonist(), SimConfig()
+    nat = run_pair(scen, cfg, "preview", 0.2, engine="native", fault=fault)
+    mod = run_pair(scen, cfg, "preview", 0.2, engine="model", fault=fault)
+    for i in range(2):
+        for name, values in mod.cables[i].items():
+            assert np.array_equal(values, nat.cables[i][name]), (i, name)
+    for name in ("theta_rad", "omega_rad_s", "faults", "out_en", "grp_stop"):
+        assert np.array_equal(getattr(mod, name), getattr(nat, name)), name
+    i = fault.cable
+    assert nat.faults[-1, i] and not nat.faults[:, 1 - i].any() and nat.grp_stop[-1, 1 - i]
+
+
+def test_a_bad_fault_is_refused():
     with pytest.raises(ValueError, match="kind"):
         CableFault(0, "short", 0.1)
     with pytest.raises(ValueError, match="cable"):
         CableFault(2, "open", 0.1)
 
 
-# The two faults on cable 1 (index 0), each at its own phase of tau_ref's 2 s period (set before
-# any run): stale at 1.2 s (cable 2 pulling: u 1.56 A against cable 1's 0.01 A), open wire at
-# 1.7 s (cable 2 idle near its floor, the joint deflected -0.24 rad); each run 0.3 s past it.
-FAULTS = {"stale": 1.2, "open": 1.7}
-# Measured (preview): the joint's peak speed after the latch is 62 % (stale) and 49 % (open) of
-# its free release's (both cables cut at the latch: 2.69 and 4.97 rad/s); cable 2's tensions rise
-# at most 0.09 N above their pre-fault maxima (T_in at the stale fault, as the joint turns
-# towards it). Budgets: 70 % and 0.15 N.
+# Measured (preview, the faults of FAULT_ROWS): the joint's peak speed after the latch is 62 %
+# (stale) and 49 % (open) of its free release's (both cables cut at the latch: 2.69 and 4.97
+# rad/s); cable 2's tensions rise at most 0.09 N above their pre-fault maxima (T_in at the stale
+# fault, as the joint turns towards it). Budgets: 70 % and 0.15 N.
 FREE_RELEASE_RATIO = 0.7
 TENSION_RISE_N = 0.15
 
 
-@pytest.mark.parametrize("kind", sorted(FAULTS))
-def test_a_fault_on_one_cable_brings_the_pair_to_zero_within_the_ramp(kind):
+@pytest.mark.parametrize("fault", FAULT_ROWS, ids=[f.kind for f in FAULT_ROWS])
+def test_a_fault_on_one_cable_brings_the_pair_to_zero_within_the_ramp(fault):
     """A load cell fails on cable 1 mid-run (stale: its samples stop; open: the code at the
     converter's limit). Cable 1's loop latches ADC_STALE after ADC_STALE missing samples, or
     ADC_RANGE at the first bad code, and zeroes its drive at once; cable 2 (same group) reports
@@ -172,8 +194,9 @@ def test_a_fault_on_one_cable_brings_the_pair_to_zero_within_the_ramp(kind):
     the latch. The joint does not slam: its speed stays below the free release's, and neither
     cable's tension rises above its pre-fault maximum (module budgets)."""
     scen, cfg = get_antagonist(), SimConfig()
-    t_f = FAULTS[kind]
-    run = run_pair(scen, cfg, "preview", t_f + 0.3, engine="model", fault=CableFault(0, kind, t_f))
+    t_f, kind = fault.t_s, fault.kind
+    assert fault.cable == 0
+    run = run_pair(scen, cfg, "preview", t_f + FAULT_TAIL_S, fault=fault)  # native
     k_f = round(t_f * cfg.sample_rate_hz)  # the first sample whose ADC delivery is faulted
     stale_samples = regmap.REGISTERS["ADC_STALE"].fields[0].reset  # the firmware's setting
     bit = regmap.FAULT_ADC_STALE if kind == "stale" else regmap.FAULT_ADC_RANGE
@@ -194,18 +217,18 @@ def test_a_fault_on_one_cable_brings_the_pair_to_zero_within_the_ramp(kind):
     off = latch + bound
     assert np.all(u2[off:] == 0) and not run.out_en[off:].any()
     # the joint released no faster than with both cables cut at the latch
-    free = Joint(scen.joint)
-    free.theta_rad, free.omega_rad_s = run.theta_rad[latch], run.omega_rad_s[latch]
-    free_peak = 0.0
-    for _ in range(len(run.t_s) - latch):
-        free.step(1.0 / cfg.sample_rate_hz)
-        free_peak = max(free_peak, abs(free.omega_rad_s))
+    free_peak = free_release_peak(scen, run, latch)
     peak = float(np.max(np.abs(run.omega_rad_s[latch:])))
     assert peak <= FREE_RELEASE_RATIO * free_peak, (peak, free_peak)
     for i, c in enumerate(run.cables):
         for name in ("T_out_true_N", "T_in_true_N"):
             rise = float(np.max(c[name][latch:]) - np.max(c[name][:latch]))
             assert rise <= TENSION_RISE_N, (i, name, rise)
+    # the scenario's table (bowden sim antagonist) reports the same run
+    row = evaluate_fault(scen, cfg, run, fault)
+    assert row["latch_sample"] == latch and row["fault_word"] == bit
+    assert row["partner_fault_word"] == 0 and row["bound_periods"] == bound
+    assert 0 < row["off_periods"] <= bound and row["omega_free_rad_s"] == free_peak
 
 
 # Budgets from the 3 s runs below (board's chain, the smooth split; measured preview +
@@ -304,9 +327,9 @@ COCOTB_PAIR = {"duration_s": 0.15, "fault": {"cable": 0, "kind": "open", "t_s": 
 @pytest.mark.slow
 def test_cocotb_pair_on_the_rtl_equals_the_model_and_native_engines(tmp_path):
     """The pair's world around the Verilog tension_loop_mc (N = 2, one group, Verilator under
-    cocotb) gives the model engine's record sample for sample, every array of both cables, the
-    joint, and each channel's FAULT, enable and group stop; before the fault also the native
-    engine's (two Verilated single loops), bit for bit."""
+    cocotb) gives the model engine's and the native engine's record sample for sample, every
+    array of both cables, the joint, and each channel's FAULT, enable and group stop, bit for
+    bit, before and after the fault."""
     from hdl_sim import rtl, run_cocotb  # noqa: PLC0415 (tests/hdl, on the test path)
 
     spec = {**COCOTB_PAIR, "compensator": "preview", "est_enable": 0}
@@ -331,11 +354,9 @@ def test_cocotb_pair_on_the_rtl_equals_the_model_and_native_engines(tmp_path):
     for name in ("theta_rad", "omega_rad_s", "faults", "out_en", "grp_stop"):
         assert np.array_equal(getattr(mod, name), got[name]), name
     assert got["faults"][-1, 0] == regmap.FAULT_ADC_RANGE and got["grp_stop"][-1, 1]
-    nat = run_pair(scen, cfg, "preview", spec["duration_s"], engine="native")
-    k_f = round(spec["fault"]["t_s"] * cfg.sample_rate_hz)
+    nat = run_pair(scen, cfg, "preview", spec["duration_s"], engine="native", fault=fault)
     for i in range(2):
         for name, values in nat.cables[i].items():
-            # the native loops see no fault: equal up to the fault's first sample (its ADC
-            # delivery for tick k_f enters the plant record from sample k_f + 1 on)
-            assert np.array_equal(values[:k_f], got[f"c{i}_{name}"][:k_f]), (i, name)
-    assert np.array_equal(nat.theta_rad[:k_f], got["theta_rad"][:k_f])
+            assert np.array_equal(values, got[f"c{i}_{name}"]), (i, name)
+    for name in ("theta_rad", "omega_rad_s", "faults", "out_en", "grp_stop"):
+        assert np.array_equal(getattr(nat, name), got[name]), name

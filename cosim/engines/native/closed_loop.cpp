@@ -27,6 +27,8 @@
 
 #include "Vcosim_top.h"
 #include "Vcosim_top___024root.h"
+#include "Vpair_loop.h"
+#include "Vpair_loop___024root.h"
 #include "fmi2FunctionTypes.h"
 #include "verilated.h"
 
@@ -312,6 +314,22 @@ class Harness {
     }
     // The plant's true T_out as its last step left it.
     double t_out() const { return y_[BN_OUT_T_OUT]; }
+
+    // Driven by the pair's loop (bn_run_pair with a bn_pair_loop_t): sample() takes the
+    // command u_word and the T_c tc_n the pair's loop gave at the tick (not cosim_top's), and
+    // leaves what that loop takes at the next tick: the firmware's writes of its last tick
+    // (fw_writes, replaced at each firmware tick; the start-up's after start()) and the ADC
+    // sample of the step (code, when has_code), with the load-cell fault applied.
+    struct External {
+        int32_t u_word = 0;
+        double tc_n = 0.0;
+        std::vector<std::pair<uint32_t, uint32_t>> fw_writes;
+        bool has_code = false;
+        int32_t code = 0;
+        int32_t fault_kind = 0;  // bn_pair_loop_t.fault_kind
+        int64_t fault_k = 0;
+    };
+    External *ext = nullptr;
 
   private:
     // Tags of bus results.
@@ -692,6 +710,7 @@ void Harness::firmware_wake(int64_t k) {
     auto writes = drain_writes();
     fw_time_ += Clock::now() - t0;
     tc_new_ = double(tc_word) / 256.0;
+    if (ext) ext->fw_writes = writes;
     for (auto &w : writes) queue({BusOp::WRITE, w.first, w.second, 0, T_NONE});
     if (writes.empty())
         op_done({BusOp::CALL, 0, 0, 0, C_WRITES_DONE}, 0);  // at the wake-up, as cocotb
@@ -743,7 +762,13 @@ void Harness::start() {
     };
     keep();
     fw_host_start(fw_);
-    for (auto &w : drain_writes()) queue({BusOp::WRITE, w.first, w.second, 0, T_NONE});
+    auto start_writes = drain_writes();
+    if (ext) {
+        ext->fw_writes = start_writes;
+        ext->has_code = true;
+        ext->code = code0;
+    }
+    for (auto &w : start_writes) queue({BusOp::WRITE, w.first, w.second, 0, T_NONE});
     for (uint32_t a : shadow_addrs_) queue({BusOp::READ, a, 0, 0, T_SHADOW});
     // The keeper writes a new sample half a clock after each command edge while the start-up
     // traffic runs; the loop starts half a clock after the first command edge once it is done.
@@ -781,9 +806,9 @@ void Harness::sample(int64_t k) {
         else
             tc = tc_set;
         tc = pymax(tc, s_.floor_n);  // the floor after the slew limit (TC_MIN)
-        int32_t word = int16_t(io.cmd_current);
+        int32_t word = ext ? ext->u_word : int16_t(io.cmd_current);
         s_.out_u_word[k] = word;
-        s_.out_tc_n[k] = tc;
+        s_.out_tc_n[k] = ext ? ext->tc_n : tc;
         s_.out_current_a[k] = double(word) / 4096.0;
         std::memcpy(rows + k * BN_N_OUT, y_, sizeof y_);
         u_[2] = s_.x_m[k];
@@ -802,8 +827,25 @@ void Harness::sample(int64_t k) {
             plant_step(s_.dt_s);
         }
         fmu += Clock::now() - t1;
-        int32_t code;
-        if (chain_sense(k, y_[BN_OUT_T_IN_MEAS], &code)) {
+        int32_t code = 0;
+        int32_t code_in = code_in_;
+        bool fresh = chain_sense(k, y_[BN_OUT_T_IN_MEAS], &code);
+        if (ext && ext->fault_kind && k + 1 >= ext->fault_k) {
+            // the load cell broken from the delivery for tick k + 1 on (PairSim's _Channel)
+            if (ext->fault_kind == 1) {
+                fresh = false;
+                code_in_ = code_in;
+            } else {
+                fresh = true;
+                code = int32_t(ADC_CODE_MAX);
+                code_in_ = code;
+            }
+        }
+        if (ext) {
+            ext->has_code = fresh;
+            if (fresh) ext->code = code;
+        }
+        if (fresh) {
             toggle ^= 1u << 24;
             io.adc_word = toggle | (uint32_t(code) & 0xFFFFFF);
         }
@@ -832,6 +874,150 @@ void Harness::finish() {
     s_.firmware_s = seconds(fw_time_);
     s_.rtl_s = seconds(rtl_);  // the clocks and the bus master driven inside them
 }
+
+// --- the pair's loop: one tension_loop_mc (N = 2, one group) ---------------------------------
+// Each channel's configuration is held as its register file holds it (field bits at bit 0 of
+// the word, as the firmware writes them), and the events between ticks (TC written, the CTRL
+// pulses, a new ADC sample) wait for the tick, as rtl_model.TensionLoopModel takes them; at
+// each tick the ports carry them and the module runs one period (its header: LATENCY = 1 + 15 N
+// clocks to out_valid), then one idle clock.
+class PairLoop {
+  public:
+    static constexpr int N = 2;
+    static constexpr int LATENCY = 1 + 15 * N;
+
+    struct Channel {
+        uint32_t tc = BOWDEN_TC_RESET, tc_min = BOWDEN_TC_MIN_RESET, kff = BOWDEN_KFF_RESET,
+                 uff = BOWDEN_UFF_RESET, kp = BOWDEN_KP_RESET, ki_ts = BOWDEN_KI_TS_RESET,
+                 i_limit = BOWDEN_I_LIMIT_RESET, slew = BOWDEN_SLEW_RESET,
+                 wdt_timeout = BOWDEN_WDT_TIMEOUT_RESET, adc_offset = BOWDEN_ADC_OFFSET_RESET,
+                 adc_gain = BOWDEN_ADC_GAIN_RESET, adc_min = uint32_t(BOWDEN_ADC_MIN_RESET),
+                 adc_max = BOWDEN_ADC_MAX_RESET, adc_stale = BOWDEN_ADC_STALE_RESET,
+                 oc_timeout = BOWDEN_OC_TIMEOUT_RESET, ctrl = 0;
+        bool tc_wr = false, integ_reset = false, fault_clear = false, has_code = false;
+        int32_t code = 0;
+
+        void write(uint32_t addr, uint32_t v) {
+            switch (addr) {
+            case BOWDEN_REG_CTRL:
+                ctrl = v;
+                integ_reset |= (v & BOWDEN_CTRL_INTEG_RESET_MASK) != 0;
+                fault_clear |= (v & BOWDEN_CTRL_FAULT_CLEAR_MASK) != 0;
+                break;
+            case BOWDEN_REG_TC: tc = v; tc_wr = true; break;
+            case BOWDEN_REG_TC_MIN: tc_min = v; break;
+            case BOWDEN_REG_KFF: kff = v; break;
+            case BOWDEN_REG_UFF: uff = v; break;
+            case BOWDEN_REG_KP: kp = v; break;
+            case BOWDEN_REG_KI_TS: ki_ts = v; break;
+            case BOWDEN_REG_I_LIMIT: i_limit = v; break;
+            case BOWDEN_REG_SLEW: slew = v; break;
+            case BOWDEN_REG_WDT_TIMEOUT: wdt_timeout = v; break;
+            case BOWDEN_REG_ADC_OFFSET: adc_offset = v; break;
+            case BOWDEN_REG_ADC_GAIN: adc_gain = v; break;
+            case BOWDEN_REG_ADC_MIN: adc_min = v; break;
+            case BOWDEN_REG_ADC_MAX: adc_max = v; break;
+            case BOWDEN_REG_ADC_STALE: adc_stale = v; break;
+            case BOWDEN_REG_OC_TIMEOUT: oc_timeout = v; break;
+            default: break;  // no loop input behind it (read-only, the ID, unmapped)
+            }
+        }
+    };
+    Channel ch[N];
+
+    PairLoop() {
+        ctx_ = std::make_unique<VerilatedContext>();
+        ctx_->traceEverOn(false);
+        top_ = std::make_unique<Vpair_loop>(ctx_.get(), "pair_loop");
+        auto &d = *top_;
+        d.clk = 0;
+        d.tick = 0;
+        d.adc_valid = 0;
+        d.integ_reset = d.fault_clear = d.tc_wr = 0;
+        drive();
+        d.rst = 1;
+        d.eval();
+        for (int i = 0; i < 3; ++i) clock();
+        d.rst = 0;
+        clock();
+    }
+    ~PairLoop() { top_->final(); }
+
+    // One period with the events since the last tick; the outputs at out_valid.
+    void tick() {
+        auto &d = *top_;
+        drive();
+        d.tc_wr = d.integ_reset = d.fault_clear = d.adc_valid = 0;
+        uint64_t adc = 0;
+        for (int k = 0; k < N; ++k) {
+            Channel &c = ch[k];
+            d.tc_wr |= uint8_t(c.tc_wr) << k;
+            d.integ_reset |= uint8_t(c.integ_reset) << k;
+            d.fault_clear |= uint8_t(c.fault_clear) << k;
+            d.adc_valid |= uint8_t(c.has_code) << k;
+            if (c.has_code) adc |= uint64_t(uint32_t(c.code) & 0xFFFFFF) << (24 * k);
+            c.tc_wr = c.integ_reset = c.fault_clear = c.has_code = false;
+        }
+        d.adc_data = adc;
+        d.tick = 1;
+        clock();
+        d.tick = 0;
+        d.tc_wr = d.integ_reset = d.fault_clear = d.adc_valid = 0;
+        for (int i = 1; i < LATENCY; ++i) clock();
+        if (!d.out_valid) fail("pair loop: out_valid not %lld clocks after the tick", LATENCY);
+        clock();  // the idle clock before the next tick
+    }
+    int32_t u(int k) const { return int16_t(uint16_t(top_->u >> (16 * k))); }
+    int32_t tc_eff(int k) const { return int16_t(uint16_t(top_->tc_eff >> (16 * k))); }
+    int32_t faults(int k) const { return (top_->faults >> (4 * k)) & 0xF; }
+    bool out_en(int k) const { return (top_->out_en >> k) & 1; }
+    bool grp_stop(int k) const { return (top_->grp_stop >> k) & 1; }
+
+  private:
+    std::unique_ptr<VerilatedContext> ctx_;
+    std::unique_ptr<Vpair_loop> top_;
+
+    // One clock: the rising edge's evaluation only, with Verilator told that clk was low (its
+    // edge detector's last value), as Harness::clock does without bus traffic: every flop is on
+    // posedge and nothing samples the outputs between the edges.
+    void clock() {
+        top_->clk = 1;
+        top_->eval();
+        top_->clk = 0;
+        top_->rootp->__Vtrigprevexpr___TOP__clk__0 = 0;
+    }
+    // The configuration ports from the channels' registers (channel k in bits [k*W +: W]).
+    void drive() {
+        auto &d = *top_;
+        auto pack = [&](uint32_t Channel::*f, int w) {
+            uint64_t v = 0;
+            for (int k = 0; k < N; ++k) v |= uint64_t(ch[k].*f & ((uint64_t(1) << w) - 1)) << (w * k);
+            return v;
+        };
+        d.tc = uint32_t(pack(&Channel::tc, 16));
+        d.tc_min = uint32_t(pack(&Channel::tc_min, 16));
+        d.kff = uint32_t(pack(&Channel::kff, 16));
+        d.uff = uint32_t(pack(&Channel::uff, 16));
+        d.kp = uint32_t(pack(&Channel::kp, 16));
+        d.ki_ts = uint32_t(pack(&Channel::ki_ts, 16));
+        d.i_limit = uint32_t(pack(&Channel::i_limit, 15));
+        d.slew = uint32_t(pack(&Channel::slew, 15));
+        d.wdt_timeout = uint32_t(pack(&Channel::wdt_timeout, 16));
+        d.adc_offset = pack(&Channel::adc_offset, 24);
+        d.adc_gain = uint32_t(pack(&Channel::adc_gain, 16));
+        d.adc_min = pack(&Channel::adc_min, 24);
+        d.adc_max = pack(&Channel::adc_max, 24);
+        d.adc_stale = uint32_t(pack(&Channel::adc_stale, 16));
+        d.oc_timeout = uint32_t(pack(&Channel::oc_timeout, 16));
+        uint8_t en = 0, slew_en = 0;
+        for (int k = 0; k < N; ++k) {
+            en |= uint8_t((ch[k].ctrl & BOWDEN_CTRL_ENABLE_MASK) != 0) << k;
+            slew_en |= uint8_t((ch[k].ctrl & BOWDEN_CTRL_SLEW_EN_MASK) != 0) << k;
+        }
+        d.enable = en;
+        d.slew_en = slew_en;
+    }
+};
 
 }  // namespace
 
@@ -867,7 +1053,7 @@ int32_t bn_run(bn_spec_t *spec) {
     return 0;
 }
 
-int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j) {
+int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j, bn_pair_loop_t *m) {
     bn_spec_t *specs[2] = {a, b};
     for (bn_spec_t *spec : specs) {
         spec->error[0] = '\0';
@@ -882,9 +1068,43 @@ int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j) {
                 fail("bad run length or decimation");
         }
         Harness h1(*a), h2(*b);
+        Harness *hs[2] = {&h1, &h2};
+        std::unique_ptr<PairLoop> loop;
+        Harness::External ext[2];
+        if (m) {
+            loop = std::make_unique<PairLoop>();
+            for (int i = 0; i < 2; ++i) {
+                ext[i].fault_kind = m->fault_kind[i];
+                ext[i].fault_k = m->fault_k[i];
+                hs[i]->ext = &ext[i];
+            }
+        }
         h1.start();
         h2.start();
-        // cosim.engines.antagonist.run_pair: a Jacobi step of the cables and the joint per
+        // The pair's loop as PairSim steps the loop's model: the start-up's writes and two
+        // ticks; then before tick k the writes of the firmware tick k - TC_LATENCY (when k is
+        // one of its ticks plus TC_LATENCY) and the step's ADC sample.
+        const int lat = a->tc_latency_samples, dec = a->decimation;
+        auto feed = [&](int64_t k) {
+            for (int i = 0; i < 2; ++i) {
+                PairLoop::Channel &c = loop->ch[i];
+                if (k < 0 || (k >= lat && (k - lat) % dec == 0)) {
+                    for (auto &w : ext[i].fw_writes) c.write(w.first, w.second);
+                    ext[i].fw_writes.clear();
+                }
+                if (ext[i].has_code) {
+                    c.has_code = true;
+                    c.code = ext[i].code;
+                }
+            }
+        };
+        if (loop) {
+            for (int64_t k = -2; k < 0; ++k) {
+                feed(k);
+                loop->tick();
+            }
+        }
+        // cosim.engines.antagonist.PairSim: a Jacobi step of the cables and the joint per
         // sample; the joint's exact step (cosim.parts.joint.Joint.step) in the same order of
         // operations, so the two give the same doubles (-ffp-contract=off).
         double th = 0.0, om = 0.0;
@@ -892,6 +1112,17 @@ int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j) {
         for (int64_t k = 0; k < a->n; ++k) {
             j->theta_rad[k] = th;
             j->omega_rad_s[k] = om;
+            if (loop) {
+                feed(k);
+                loop->tick();
+                for (int i = 0; i < 2; ++i) {
+                    ext[i].u_word = loop->u(i);
+                    ext[i].tc_n = double(loop->tc_eff(i)) / 256.0;
+                    m->out_faults[2 * k + i] = loop->faults(i);
+                    m->out_en[2 * k + i] = loop->out_en(i);
+                    m->out_grp_stop[2 * k + i] = loop->grp_stop(i);
+                }
+            }
             double s = j->radius_m * th;
             h1.set_end(j->hold ? 0.0 : -s);
             h2.set_end(j->hold ? 0.0 : s);
