@@ -58,7 +58,7 @@ def add_parser(subparsers) -> None:
     p.add_argument(
         "--no-antagonist",
         action="store_true",
-        help="skip the antagonistic joint's tables (bowden sim antagonist: about 8 s of CPU)",
+        help="skip the antagonistic joint's tables (bowden sim antagonist: about 6 s of CPU)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=main)
