@@ -2,10 +2,10 @@
 
 Each cable is one channel of today's single-cable chain: its own firmware (host build, its own
 compensator and, with compensator.est_enable, its own online friction estimate fed by its own
-far-end load cell), its own tension loop, its own interface stage (ADC, PWM -> ESCON) and its
-own instance of the BowdenPlant FMU with its own parameters and sheath path. The joint
-(cosim.parts.joint.Joint) takes the two cables' true output tensions and sets their far ends
-(FMU input end_displacement).
+far-end load cell), its own channel of the pair's tension loop, its own interface stage (ADC,
+PWM -> ESCON) and its own instance of the BowdenPlant FMU with its own parameters and sheath
+path. The joint (cosim.parts.joint.Joint) takes the two cables' true output tensions and sets
+their far ends (FMU input end_displacement).
 
 The pair's two loops are one two-channel tension_loop_mc with both channels in one safety
 group. Two engines run it: `native` (the default: bn_run_pair in
