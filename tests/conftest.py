@@ -17,6 +17,7 @@ Nothing outside the checkout: the bench tools' runtime folder ($XDG_RUNTIME_DIR:
 emulator registrations) is build/test-runtime for the whole run and its subprocesses.
 """
 
+import json
 import os
 from pathlib import Path
 
@@ -58,3 +59,76 @@ def test_cache_dir() -> Path | None:
     if os.environ.get("BOWDEN_TEST_CACHE", "1") == "0":
         return None
     return BUILD_DIR / "test-cache"
+
+
+# --- how `make test` hands the tests to its workers ---------------------------------------------
+# The unit is a file (--dist loadfile: a module's fixtures build once, in one worker), except the
+# tests named in ONE_BY_ONE, each a unit of its own (a formal task is one SymbiYosys run that
+# shares nothing with the next). xdist sends the units with the most tests first, so a file of
+# one long test (a SoC boot) went out last and kept one worker busy while the other idled; here
+# the units go out longest first, by the seconds of tests/durations.json (a cold run's, written
+# by `pytest --store-durations` with BOWDEN_TEST_CACHE=0, which updates the units it ran; a
+# unit the file does not name goes first, as a new file might be long), so the two workers end
+# together.
+ONE_BY_ONE = ("tests/hdl/test_hdl_formal.py::test_formal_task[",)
+DURATIONS_JSON = Path(__file__).with_name("durations.json")
+
+
+def _unit(nodeid: str) -> str:
+    return nodeid if nodeid.startswith(ONE_BY_ONE) else nodeid.split("::", 1)[0]
+
+
+def pytest_addoption(parser):
+    parser.addoption(
+        "--store-durations",
+        action="store_true",
+        help=f"write each unit's seconds of this run to {DURATIONS_JSON.name} (a cold, whole run)",
+    )
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """Longest first, a formal task per unit; only for --dist loadfile (else xdist's own)."""
+    if config.getvalue("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling  # noqa: PLC0415 (only under xdist)
+
+    try:
+        seconds = json.loads(DURATIONS_JSON.read_text())
+    except (OSError, ValueError):
+        seconds = {}
+
+    class LongestFirst(LoadFileScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return _unit(nodeid)
+
+        def _assign_work_unit(self, node) -> None:
+            if not getattr(self, "_ordered", False):  # the queue as built, once, longest first
+                order = sorted(self.workqueue.items(), key=lambda u: -seconds.get(u[0], 1e9))
+                self.workqueue.clear()
+                self.workqueue.update(order)
+                self._ordered = True
+            super()._assign_work_unit(node)
+
+    return LongestFirst(config, log)
+
+
+_seconds_of_run: dict[str, float] = {}
+
+
+def pytest_runtest_logreport(report):
+    _seconds_of_run[_unit(report.nodeid)] = (
+        _seconds_of_run.get(_unit(report.nodeid), 0.0) + report.duration
+    )
+
+
+def pytest_sessionfinish(session, exitstatus):
+    if not session.config.getoption("--store-durations") or hasattr(session.config, "workerinput"):
+        return
+    try:
+        kept = json.loads(DURATIONS_JSON.read_text())
+    except (OSError, ValueError):
+        kept = {}
+    kept.update({u: round(s, 1) for u, s in _seconds_of_run.items()})  # the units this run ran
+    kept = dict(sorted(kept.items(), key=lambda u: -u[1]))
+    DURATIONS_JSON.write_text(json.dumps(kept, indent=0) + "\n")
