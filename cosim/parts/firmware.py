@@ -84,6 +84,7 @@ class CompConfig(ctypes.Structure):
         ("lead_ticks", ctypes.c_int32),
         ("ramp_ticks", ctypes.c_int32),
         ("dead_zone_spread_q28", ctypes.c_int32),
+        ("breakaway_q28", ctypes.c_int32),
     ]
 
 
@@ -103,6 +104,7 @@ class CompF64Config(ctypes.Structure):
         ("lead_ticks", ctypes.c_int32),
         ("ramp_ticks", ctypes.c_int32),
         ("dead_zone_spread", ctypes.c_double),
+        ("breakaway", ctypes.c_double),
     ]
 
 
@@ -410,6 +412,9 @@ class CompensatorParams:
     # Gradual dead zone's spread (comp.h: the inverse of the strands' PI model), log std of the
     # friction thresholds, [0, 1]; 0 is the sharp capstan inverse (audit: dead_zone_spread).
     dead_zone_spread: float = _c_default("dead_zone_spread")
+    # Breakaway (comp.h: static friction's excess over mu after a reversal, placed so that the
+    # cable's jump falls halfway), [0, 0.25]; 0 is off (audit: mu_static_excess).
+    breakaway: float = _c_default("breakaway")
     # Online friction estimate from the far-end load cell (firmware/include/fric_est.h; a part
     # of fw_config_t, not of comp_config_t), off by default: EstimatorParams's fields with est_.
     est_enable: int = 0
@@ -457,6 +462,7 @@ class CompensatorParams:
             tc_min_n_q8=_fixed("comp.tc_min_n", self.tc_min_n, 8),
             **self._ticks(),
             dead_zone_spread_q28=_fixed("comp.dead_zone_spread", self.dead_zone_spread, 28),
+            breakaway_q28=_fixed("comp.breakaway", self.breakaway, 28),
         )
 
     def quantized(self) -> CompensatorParams:
@@ -475,6 +481,7 @@ class CompensatorParams:
             lead_ticks=c.lead_ticks,
             ramp_ticks=c.ramp_ticks,
             dead_zone_spread=c.dead_zone_spread_q28 / 2**28,
+            breakaway=c.breakaway_q28 / 2**28,
         )
 
     def to_c_f64(self) -> CompF64Config:
@@ -488,6 +495,7 @@ class CompensatorParams:
             "band_n",
             "tc_min_n",
             "dead_zone_spread",
+            "breakaway",
         ):
             value = self.phi_c_rad if name == "phi_rad" else getattr(self, name)
             values[name] = _real(f"comp.{name}", value)
@@ -527,9 +535,15 @@ class CompensatorParams:
 
     def error_bound_n(self) -> float:
         """Documented bound of |T_c fixed - T_c twin| in N (comp.h): 1 LSB, plus the linear
-        interpolation of the gain table when the friction slope is not zero."""
+        interpolation of the gain table when the friction slope is not zero; with a breakaway,
+        that bound times e^(2 mu phi + 9b/8) (the hold's factor on the extreme Y of the T_c put
+        out, the largest factor it applies to a T_c) plus 1 LSB (its two roundings)."""
         d2 = self._gain_stats()[3]
-        return ERR_BOUND_LSB * Q7_8_LSB_N + FULL_SCALE_N * TABLE_STEP_N**2 / 8.0 * d2
+        bound = ERR_BOUND_LSB * Q7_8_LSB_N + FULL_SCALE_N * TABLE_STEP_N**2 / 8.0 * d2
+        if self.breakaway > 0:
+            x = (2.0 * self.mu + 1.125 * self.breakaway) * self.phi_c_rad
+            bound = bound * math.exp(x) + Q7_8_LSB_N
+        return bound
 
     def step_bound_n(self, dref_n, tmax_n):
         """Documented bound of |T_c[k] - T_c[k-1]| in N in smooth mode (comp.h), for a reference

@@ -91,12 +91,33 @@
  *    made the open-loop test below worse (1.67 % RMS against 1.23 % at spread 0.6), as did 16
  *    plays (1.35 %; better at 0.3): inside the turn after a reversal the difference of the means
  *    matters more than on the branches. The open-loop test: tests/firmware/test_fw_dead_zone.py.
+ *  - breakaway = m_s: static friction above the sliding one after a reversal (the plant FMU's
+ *    `mu_static_excess`, fmu/README.md "Static friction"; Armstrong-Helouvry et al. 1994,
+ *    "stick-slip"). After a reversal the cable holds until T_in has moved past the breakaway
+ *    width (mu + m_s)*phi and then slides to the kinetic branch at once: the output cannot follow
+ *    T_ref through that jump, it holds and then falls (unloading) or rises (loading) by the factor
+ *    e^(-+b), b = m_s*phi. The compensator cannot remove the jump, only place it. On the branch
+ *    entered at the last reversal, with T_c0 the step's T_c without the term and Y the extreme of
+ *    the T_c put out since the detector turned (the largest on an unloading branch),
+ *      unloading: T_c = clamp(Y e^-(2 w_1 + 9b/8), T_c0 e^(-b/2), T_c0)
+ *      loading:   T_c = clamp(Y e^+(2 w_1 + 9b/8), T_c0, T_c0 e^(+b/2))
+ *    (w_1 = mu*phi, or the dead-zone inverse's first play): T_in first runs ahead by half the
+ *    jump, so that the cable breaks loose when T_ref has moved by b/2 (an error of at most
+ *    T (1 - e^(-b/2)) before and after, where the plain inverse leaves T (1 - e^-b) before it),
+ *    then holds b/8 past the breakaway level Y e^-+(2 w_1 + b) that the stuck output Y e^-+w_1
+ *    implies (held at that level exactly, the FMU's cable stayed stuck) while T_ref comes to the
+ *    output, then follows the plain law. Indexed by the travel since the reversal, not by ticks.
+ *    The excess enters with the change of branch: T_c0 + (T_b - T_c0) * (1 - w) unloading, * w
+ *    loading (w the blend weight below); the first loading from rest carries none. Assumed, as
+ *    the FMU does: one breakaway for every strand, no growth with the time at rest. With m_s = 0
+ *    the step does not run this part: the law is the one above bit for bit.
  * Full law of a step, with T_eff = T_ref - offset_n (mode NONE: T_c = T_ref):
  *   G_up, G_dn as above (exp(+-mu*phi) without a slope),
  *   w = s / B in [0, 1] (PAPER: w = 1 loading, 0 unloading; SMOOTH: s moves by |dT_ref| per step
  *   towards B when loading and towards 0 when unloading; PREVIEW: s moves by one per
  *   step, and w = x^2 (3 - 2x) with x = s / D),
- *   T_c = max(tc_min, sat_Q7.8( T_eff * (G_dn + w*(G_up - G_dn)) * F )), F = 1 without a spread,
+ *   T_c = max(tc_min, sat_Q7.8( T_eff * (G_dn + w*(G_up - G_dn)) * F )), F = 1 without a spread
+ *   (the breakaway term, when m_s > 0, on the product before the saturation),
  * with T_eff = T_ref(t + L) - offset_n in PREVIEW mode (w from the input T_ref(t + P)).
  *
  * Smoothness bound (SMOOTH mode): between two consecutive steps whose references differ by d,
@@ -144,6 +165,7 @@
 #define COMP_PREVIEW_MAX_TICKS 128                     /* P in [0, 128] ticks */
 #define COMP_RAMP_MAX_TICKS 256                        /* D in [1, 256] ticks */
 #define COMP_DZ_SPREAD_MAX_Q28 ((q3_28_t)Q3_28_ONE) /* dead_zone_spread in [0, 1] */
+#define COMP_BRK_MAX_Q28 ((q3_28_t)(Q3_28_ONE / 4)) /* breakaway in [0, 0.25], (2 mu + m_s)*phi <= 4 */
 
 /* The dead-zone inverse's strands: M plays at the standard normal's quantiles
  * q_j = Phi^-1((j + 1/2) / M), Q3.28, rounded. 8: the FMU's 32 strands turn the output in 32
@@ -186,6 +208,7 @@
 #define COMP_ERR_RAMP 13      /* D outside [1, COMP_RAMP_MAX_TICKS] ticks */
 #define COMP_ERR_DEAD_ZONE 14 /* dead_zone_spread outside [0, 1], or the widest strand
                                * mu*phi*e^(spread*q_M) above 4 */
+#define COMP_ERR_BREAKAWAY 15 /* breakaway outside [0, 0.25], or (2 mu + breakaway)*phi above 4 */
 
 /* Configuration, built from comp_config_default() then changed field by field. */
 typedef struct {
@@ -201,6 +224,8 @@ typedef struct {
     int32_t lead_ticks;            /* PREVIEW: L, the gain's reference, [0, 128] and at most P */
     int32_t ramp_ticks;            /* PREVIEW: D, ticks of a change of branch, [1, 256] */
     q3_28_t dead_zone_spread_q28;  /* log std of the friction thresholds, Q3.28, [0, 1] */
+    q3_28_t breakaway_q28;         /* static friction's excess over mu after a reversal, Q3.28,
+                                      [0, 0.25] */
 } comp_config_t;
 
 /* The compensator: configuration in force, gain tables and the state of the last step. */
@@ -235,6 +260,14 @@ typedef struct {
     q3_28_t dz_y_q28;              /* y = ln T_eff of the last step, Q3.28 (ln N) */
     q3_28_t dz_c_q28;              /* c: the arithmetic mean's shift, Q3.28 */
     q3_28_t dz_x1_q28;             /* w_1: the first play's exponent, Q3.28 */
+    int32_t brk_on;                /* 1 when the breakaway term is in force (breakaway > 0) */
+    int32_t brk_dir;               /* the detector's direction the extreme below belongs to */
+    int32_t brk_y_q8;              /* Y: the extreme of T_c on that branch, Q7.8 */
+    int32_t brk_last_q8;           /* the last T_c put out, Q7.8 */
+    uq8_24_t brk_full;             /* e^-(2 w_1 + b), UQ8.24 (b = m_s*phi) */
+    uq8_24_t brk_full_up;          /* e^+(2 w_1 + b), UQ8.24 (2 w_1 + b <= 4) */
+    uq8_24_t brk_half;             /* e^(-b/2), UQ8.24 */
+    uq8_24_t brk_half_up;          /* e^(+b/2), UQ8.24 */
 } comp_t;
 
 /* Defaults: PAPER mode, mu = 0.075 (paper Fig. 11), phi = 2*pi (loop routing), no slope, no offset,

@@ -29,6 +29,7 @@ typedef struct {
     int32_t lead_ticks;        /* PREVIEW: L, [0, P] ticks */
     int32_t ramp_ticks;        /* PREVIEW: D, [1, COMP_RAMP_MAX_TICKS] ticks */
     double dead_zone_spread;   /* log std of the friction thresholds, [0, 1] */
+    double breakaway;          /* static friction's excess over mu after a reversal, [0, 0.25] */
 } comp_f64_config_t;
 
 typedef struct {
@@ -48,6 +49,9 @@ typedef struct {
     double dz_u[COMP_DZ_PLAYS]; /* play states u_i, ln N (i >= 1) */
     double dz_c;                /* the arithmetic mean's shift c */
     double dz_x1;               /* the first play's exponent w_1 */
+    int32_t brk_dir;            /* the branch the breakaway's extreme belongs to (0: none yet) */
+    double brk_y;               /* Y: the extreme of T_c on that branch, N */
+    double brk_last;            /* the last T_c put out, N */
 } comp_f64_t;
 
 /* Same defaults as comp_config_default. */

@@ -7,6 +7,7 @@
 #define COMP_KIND_SHARP 0 /* PAPER, SMOOTH, PREVIEW without a dead-zone spread */
 #define COMP_KIND_NONE 1  /* mode NONE */
 #define COMP_KIND_DZ 2    /* PAPER, SMOOTH, PREVIEW with the dead-zone inverse */
+#define COMP_KIND_BRK 3   /* PAPER, SMOOTH, PREVIEW with the breakaway term (and any spread) */
 
 void comp_config_default(comp_config_t *cfg)
 {
@@ -25,6 +26,7 @@ void comp_config_default(comp_config_t *cfg)
     cfg->lead_ticks = COMP_DEFAULT_LEAD_TICKS;
     cfg->ramp_ticks = COMP_DEFAULT_RAMP_TICKS;
     cfg->dead_zone_spread_q28 = 0;
+    cfg->breakaway_q28 = 0;
 }
 
 /* mu * phi in Q3.28, in 64 bits for the range check. Scaling and overflow: Q3.28 * Q7.24 =
@@ -207,6 +209,19 @@ static int32_t check_fields(const comp_config_t *cfg)
             return COMP_ERR_DEAD_ZONE;
         }
     }
+    if (cfg->breakaway_q28 < 0 || cfg->breakaway_q28 > COMP_BRK_MAX_Q28) {
+        return COMP_ERR_BREAKAWAY;
+    }
+    if (cfg->breakaway_q28 != 0) {
+        /* (2 mu + 9/8 m_s)*phi <= 4 (the hold's exponent): Q3.28 sum < 2^31, times Q7.24 < 2^28
+         * in int64. */
+        int64_t xs = ((2 * (int64_t)cfg->mu_q28 + cfg->breakaway_q28 + cfg->breakaway_q28 / 8) *
+                          cfg->phi_rad_q24 +
+                      (INT64_C(1) << 23)) >> 24;
+        if (xs > COMP_EXPONENT_MAX_Q28) {
+            return COMP_ERR_BREAKAWAY;
+        }
+    }
     if (cfg->offset_n_q8 < -COMP_OFFSET_MAX_Q8 || cfg->offset_n_q8 > COMP_OFFSET_MAX_Q8) {
         return COMP_ERR_OFFSET;
     }
@@ -272,6 +287,9 @@ void comp_reset(comp_t *c)
     c->corr_q8 = 0;
     c->applied_q8 = 0;
     c->dz_fresh = 1;
+    c->brk_dir = 0; /* no reversal yet: the first branch carries no breakaway */
+    c->brk_y_q8 = 0;
+    c->brk_last_q8 = 0;
     blend_to_branch(c);
 }
 
@@ -310,13 +328,27 @@ int32_t comp_configure(comp_t *c, const comp_config_t *cfg)
     int32_t new_line = (c->cfg.preview_ticks != cfg->preview_ticks);
     c->cfg = *cfg;
     c->dz_on = (cfg->dead_zone_spread_q28 != 0 && exponent_q28(cfg) != 0);
+    c->brk_on = (cfg->breakaway_q28 != 0);
     c->kind = (cfg->mode == COMP_MODE_NONE) ? COMP_KIND_NONE
+              : (c->brk_on != 0)           ? COMP_KIND_BRK
               : (c->dz_on != 0)            ? COMP_KIND_DZ
                                            : COMP_KIND_SHARP;
     c->dz_fresh = 1;
     c->dz_c_q28 = 0;
     if (c->dz_on != 0) {
         c->dz_x1_q28 = dz_constants(cfg, c);
+    }
+    if (c->brk_on != 0) {
+        /* b = m_s*phi in Q3.28; 2*w_1 + b <= 2*mu*phi + b <= 4 (checked); the four factors in
+         * UQ8.24 (< 2^30). */
+        q3_28_t b = (q3_28_t)(((int64_t)cfg->breakaway_q28 * cfg->phi_rad_q24 +
+                               (INT64_C(1) << 23)) >> 24);
+        q3_28_t x1 = (c->dz_on != 0) ? c->dz_x1_q28 : (q3_28_t)exponent_q28(cfg);
+        q3_28_t hold = 2 * x1 + b + b / 8; /* COMP_BRK_HOLD_MARGIN: b/8 past the threshold */
+        c->brk_full = fxp_exp_uq8_24(-hold);
+        c->brk_full_up = fxp_exp_uq8_24(hold);
+        c->brk_half = fxp_exp_uq8_24(-(b / 2));
+        c->brk_half_up = fxp_exp_uq8_24(b / 2);
     }
     int32_t top = (cfg->mode == COMP_MODE_PREVIEW) ? cfg->ramp_ticks : cfg->band_n_q8;
     if (c->inv_band == 0U || top != c->blend_top) { /* 0: not yet set (comp_init) */
@@ -387,12 +419,89 @@ static int64_t dz_step(comp_t *c, int32_t t_eff, uq8_24_t g)
     return ((int64_t)t_eff * (int64_t)gf + (INT64_C(1) << 23)) >> 24;
 }
 
+/* The blend weight of s: 1 at the loading branch, 0 at the unloading one, s/B between (the
+ * smoothstep of s/D in PREVIEW), Q1.30 in [0, 2^30]; the same words as the gain's blend. */
+static inline uint64_t blend_weight(const comp_t *c, int32_t s)
+{
+    if (s >= c->blend_top) {
+        return (uint64_t)Q1_30_ONE;
+    }
+    if (s <= 0) {
+        return 0U;
+    }
+    uint64_t w = ((uint64_t)(uint32_t)s * c->inv_band) >> c->band_shift;
+    if (c->cfg.mode == COMP_MODE_PREVIEW) {
+        uint64_t w2 = (w * w) >> 30;
+        uint64_t w3 = (w2 * w) >> 30;
+        w = 3U * w2 - 2U * w3;
+    }
+    return w;
+}
+
+/* The breakaway term (comp.h): the tension the gain applies to on the branch entered at the
+ * last reversal. Scaling and overflow: T_eff and X in Q7.8 (|.| < 2^16); times a factor in
+ * UQ8.24 (< 2^30) < 2^46 in int64, rounded back to Q7.8; the excess T_b - T_eff (|.| < 2^22)
+ * times the weight (<= 2^30) < 2^52, rounded to Q7.8 and saturated to 255.996 N (2^16 - 1
+ * LSB), the largest T_eff the steps after it take (dz_step's ln input is T_eff << 16 in 32
+ * bits). */
+/* The breakaway term (comp.h) on T_c0, the step's T_c without it (Q7.8 in int64, |.| < 2^48):
+ * the T_c the step puts out on the branch entered at the last reversal. Y (brk_y_q8) is the
+ * extreme of the T_c put out since the detector turned, so Y times brk_full is the inlet
+ * tension at which the cable, stuck at the output Y gave on the other branch, breaks loose.
+ * Scaling and overflow: T_c0 is clamped to [0, 2^17) first (the step saturates to Q7.8 after
+ * this, so a larger value gives the same word); times a factor in UQ8.24 (<= e^4 < 2^30) < 2^47;
+ * Y (a Q7.8 word, < 2^15) times a factor < 2^45; each rounded back to Q7.8; the excess
+ * (|.| < 2^20) times the weight (<= 2^30) < 2^50, rounded. */
+#define BRK_TC_CAP_Q8 (INT64_C(1) << 17) /* 512 N: above Q7.8's full scale, below overflow */
+
+static int64_t brk_apply(comp_t *c, int64_t tc0, int32_t s)
+{
+    const int32_t dir = c->dir;
+    if (dir != c->brk_dir) {
+        /* A new branch: before the first reversal (brk_dir 0) no branch was left, and Y = 0
+         * keeps the first loading from rest free of any excess. */
+        c->brk_y_q8 = (c->brk_dir == 0) ? 0 : c->brk_last_q8;
+        c->brk_dir = dir;
+    }
+    if (tc0 <= 0) {
+        return tc0; /* a cable cannot push: nothing sticks below zero */
+    }
+    const int64_t r = INT64_C(1) << 23;
+    int64_t t = (tc0 < BRK_TC_CAP_Q8) ? tc0 : BRK_TC_CAP_Q8;
+    int64_t y = c->brk_y_q8;
+    int64_t tb;
+    int64_t weight;
+    uint64_t w = blend_weight(c, s);
+    if (dir < 0) {
+        int64_t lo = (t * (int64_t)c->brk_half + r) >> 24;
+        int64_t yb = (y * (int64_t)c->brk_full + r) >> 24;
+        tb = (yb < lo) ? lo : (yb > t) ? t : yb;
+        weight = (int64_t)Q1_30_ONE - (int64_t)w;
+    } else {
+        int64_t hi = (t * (int64_t)c->brk_half_up + r) >> 24;
+        int64_t yb = (y * (int64_t)c->brk_full_up + r) >> 24;
+        tb = (yb < t) ? t : (yb > hi) ? hi : yb;
+        weight = (int64_t)w;
+    }
+    return t + (((tb - t) * weight + (INT64_C(1) << 29)) >> 30);
+}
+
+/* Y follows the T_c put out: the largest on an unloading branch, the smallest on a loading one. */
+static inline void brk_track(comp_t *c, int32_t tc)
+{
+    c->brk_last_q8 = tc;
+    if (c->brk_dir != 0 && ((c->brk_dir < 0) ? (tc > c->brk_y_q8) : (tc < c->brk_y_q8))) {
+        c->brk_y_q8 = tc;
+    }
+}
+
 /* The step after the detector (PAPER, SMOOTH, PREVIEW), specialised by the compiler for dz = 0
  * (the sharp law, its instructions as before the dead-zone inverse) and dz = 1; always inlined
  * (a GCC attribute, as every toolchain of the firmware is GCC), since a call costs the sharp law
  * 8 instructions a step and the callgrind budget is 100. */
 static inline __attribute__((always_inline)) q7_8_t step_modes(comp_t *c, int32_t ref,
-                                                                int32_t diff, const int32_t dz)
+                                                                int32_t diff, const int32_t dz,
+                                                                const int32_t brk)
 {
     const comp_config_t *cfg = &c->cfg;
     /* PREVIEW: the input is T_ref(t + P); the gain applies to T_ref(t + L), P - L inputs ago. */
@@ -467,10 +576,16 @@ static inline __attribute__((always_inline)) q7_8_t step_modes(comp_t *c, int32_
     /* T_c = T_eff * G: Q7.8 (32-bit) * UQ8.24 = Q15.32 in int64 (< 2^47); round to Q7.8. */
     int64_t tc = (dz != 0) ? dz_step(c, t_eff, g)
                            : ((int64_t)t_eff * (int64_t)g + (INT64_C(1) << 23)) >> 24;
+    if (brk != 0) {
+        tc = brk_apply(c, tc, s);
+    }
     if (tc > Q7_8_MAX) {
         tc = Q7_8_MAX;
     } else if (tc < cfg->tc_min_n_q8) {
         tc = cfg->tc_min_n_q8; /* the floor, >= 0 > Q7_8_MIN: also the low saturation */
+    }
+    if (brk != 0) {
+        brk_track(c, (int32_t)tc);
     }
     return (q7_8_t)tc;
 }
@@ -517,9 +632,12 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
             c->applied_q8 = ref;
             return (ref < cfg->tc_min_n_q8) ? (q7_8_t)cfg->tc_min_n_q8 : t_ref;
         }
-        return step_modes(c, ref, diff, 1);
+        if (c->kind == COMP_KIND_BRK) {
+            return (c->dz_on != 0) ? step_modes(c, ref, diff, 1, 1) : step_modes(c, ref, diff, 0, 1);
+        }
+        return step_modes(c, ref, diff, 1, 0);
     }
-    return step_modes(c, ref, diff, 0);
+    return step_modes(c, ref, diff, 0, 0);
 }
 
 int32_t comp_set_exponent_q28(comp_t *c, q3_28_t x_q28)

@@ -26,6 +26,7 @@ void comp_f64_config_default(comp_f64_config_t *cfg)
     cfg->lead_ticks = COMP_DEFAULT_LEAD_TICKS;
     cfg->ramp_ticks = COMP_DEFAULT_RAMP_TICKS;
     cfg->dead_zone_spread = 0.0;
+    cfg->breakaway = 0.0;
 }
 
 /* s at the loading branch: B, or D ticks in PREVIEW (comp.h). */
@@ -142,6 +143,10 @@ int32_t comp_f64_config_check(const comp_f64_config_t *cfg)
             4.0) {
         return COMP_ERR_DEAD_ZONE;
     }
+    if (out_of(cfg->breakaway, 0.0, 0.25) ||
+        (cfg->breakaway > 0.0 && (2.0 * cfg->mu + 1.125 * cfg->breakaway) * cfg->phi_rad > 4.0)) {
+        return COMP_ERR_BREAKAWAY;
+    }
     if (cfg->mu_slope_per_n != 0.0) {
         /* Both gains are monotonic in |T|: check the end of the table (and its denominators). */
         double x = cfg->mu * cfg->phi_rad;
@@ -181,6 +186,9 @@ void comp_f64_reset(comp_f64_t *c)
     c->line_pos = 0;
     c->corr_n = 0.0;
     c->dz_fresh = 1;
+    c->brk_dir = 0;
+    c->brk_y = 0.0;
+    c->brk_last = 0.0;
     c->blend = blend_top(&c->cfg);
 }
 
@@ -276,6 +284,10 @@ double comp_step_f64(comp_f64_t *c, double t_ref_n)
     c->blend = s;
 
     double t_eff = applied - cfg->offset_n + c->corr_n;
+    double w = s / top;
+    if (cfg->mode == COMP_MODE_PREVIEW) {
+        w = w * w * (3.0 - 2.0 * w); /* smoothstep: no corner at either end of the ramp */
+    }
     double a = fmin(fabs(t_eff), Q7_8_MAX_N); /* the fixed-point table ends there too */
     double gu;
     double gd;
@@ -295,11 +307,34 @@ double comp_step_f64(comp_f64_t *c, double t_ref_n)
         c->dz_fresh = 0;
         f = exp(fmin(4.0, fmax(-4.0, l)));
     }
-    double w = s / top;
-    if (cfg->mode == COMP_MODE_PREVIEW) {
-        w = w * w * (3.0 - 2.0 * w); /* smoothstep: no corner at either end of the ramp */
-    }
     double g = gd + (gu - gd) * w;
     double tc = t_eff * g * f;
-    return fmin(Q7_8_MAX_N, fmax(cfg->tc_min_n, fmax(Q7_8_MIN_N, tc)));
+    if (cfg->breakaway > 0.0) {
+        /* The breakaway term (comp.h): Y the extreme of T_c since the detector turned. */
+        if (c->dir != c->brk_dir) {
+            c->brk_y = (c->brk_dir == 0) ? 0.0 : c->brk_last;
+            c->brk_dir = c->dir;
+        }
+        if (tc > 0.0) {
+            double b = cfg->breakaway * cfg->phi_rad;
+            double full = 2.0 * c->dz_x1 + 1.125 * b; /* the hold: b/8 past the threshold */
+            double t = fmin(tc, 512.0);
+            double tb;
+            if (c->dir < 0) {
+                tb = fmin(t, fmax(t * exp(-0.5 * b), c->brk_y * exp(-full)));
+                tc = t + (tb - t) * (1.0 - w);
+            } else {
+                tb = fmin(t * exp(0.5 * b), fmax(t, c->brk_y * exp(full)));
+                tc = t + (tb - t) * w;
+            }
+        }
+    }
+    tc = fmin(Q7_8_MAX_N, fmax(cfg->tc_min_n, fmax(Q7_8_MIN_N, tc)));
+    if (cfg->breakaway > 0.0) {
+        c->brk_last = tc;
+        if (c->brk_dir != 0 && ((c->brk_dir < 0) ? (tc > c->brk_y) : (tc < c->brk_y))) {
+            c->brk_y = tc;
+        }
+    }
+    return tc;
 }

@@ -23,6 +23,7 @@ static cfg_pair_t make_cfg(int32_t mode, double mu, double phi, double slope, do
                            double hyst_n, double band_n)
 {
     cfg_pair_t p;
+    memset(&p, 0, sizeof p); /* every field a test does not set is off (0) */
     p.q.mode = mode;
     p.q.mu_q28 = (q3_28_t)llround(mu * 268435456.0);
     p.q.phi_rad_q24 = (q7_24_t)llround(phi * 16777216.0);

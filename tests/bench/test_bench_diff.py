@@ -318,6 +318,7 @@ def test_sim_words_are_the_words_the_cosimulation_gives_the_firmware():
             "corr_rev_leak_shift": 10,
             "corr_rev_limit_n": 1.5,
             "dead_zone_spread": 0.35,
+            "breakaway": 0.02,
         },
     }
     mapped = {k for k in diff.SIM_TO_DEVICE if "." in k} | {"sample_rate_hz", "firmware_rate_hz"}

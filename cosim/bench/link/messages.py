@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PROTOCOL_VERSION = 2
-TABLE_HASH = 0xEAAF841E
+TABLE_HASH = 0x8AE4DB9B
 MAX_PAYLOAD = 48
 CAN_NODE_BITS = 6
 CAN_MESSAGE_BITS = 5
@@ -1468,6 +1468,23 @@ PARAMS: tuple[Param, ...] = (
         268435456,
         False,
     ),
+    Param(
+        57,
+        "comp.breakaway",
+        "fw.comp.breakaway_q28",
+        False,
+        28,
+        "",
+        None,
+        False,
+        -2147483648,
+        2147483647,
+        0xA88BFFD6,
+        "static friction's excess over mu after a reversal, Q3.28, [0, 0.25]",
+        0,
+        67108864,
+        False,
+    ),
 )
 PARAM_BY_NAME: dict[str, Param] = {p.name: p for p in PARAMS}
 
@@ -1516,4 +1533,5 @@ SIM_TO_DEVICE: dict[str, str] = {
     "compensator.corr_rev_leak_shift": "corr.rev_leak_shift",
     "compensator.corr_rev_limit_n": "corr.rev_limit_n",
     "compensator.dead_zone_spread": "comp.dead_zone_spread",
+    "compensator.breakaway": "comp.breakaway",
 }

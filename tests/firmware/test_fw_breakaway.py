@@ -1,0 +1,171 @@
+"""The compensator's breakaway term (comp.h, breakaway): the fixed point against its double twin,
+off by default bit for bit, the law's three pieces after a reversal, its limits and saturation at
+full scale, and the plant FMU's static friction driven open loop with the preview law's T_in."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from cosim.parts import firmware as fw
+from cosim.parts.plant import Plant
+
+LSB = 1.0 / 256.0
+MU = 0.075
+PHI = 2.0 * math.pi  # loop routing in the loop's plane (x = 0, the FMU's y = 0.5 m below)
+FULL_SCALE_N = 15.0  # the figures' error in % of the 15 N maximum, as the sweeps score
+
+
+def _reference(n: int = 4000) -> np.ndarray:
+    """Reversals of several sizes between 2 and 14 N at 1 kHz (the shape of fig14, not its
+    waveform)."""
+    t = np.arange(n) / 1000.0
+    return 8.0 + 5.0 * np.sin(2 * np.pi * 0.5 * t) + 1.0 * np.sin(2 * np.pi * 1.3 * t)
+
+
+CONFIGS = {
+    "paper": fw.CompensatorParams(mode="paper", breakaway=0.034),
+    "smooth": fw.CompensatorParams(mode="smooth", mu=0.09, phi_rad=7.0, breakaway=0.05),
+    "preview": fw.CompensatorParams(mode="preview", breakaway=0.021),
+    "preview-spread": fw.CompensatorParams(mode="preview", breakaway=0.034, dead_zone_spread=0.4),
+    "preview-slope": fw.CompensatorParams(
+        mode="preview", mu=0.0525, mu_slope_per_n=-0.001, offset_n=0.4, breakaway=0.25
+    ),
+}
+
+
+@pytest.mark.parametrize("name", list(CONFIGS))
+def test_breakaway_fixed_matches_double_twin(name):
+    """A random walk over the whole Q7.8 range and the reversals: |T_c fixed - T_c twin| within
+    the compensator's documented bound (CompensatorParams.error_bound_n)."""
+    params = CONFIGS[name]
+    bound = params.error_bound_n()
+    rng = np.random.default_rng(38)
+    walk = np.clip(np.cumsum(rng.integers(-60, 61, 20000)), -32768, 32767).astype(np.int16)
+    for label, words in (
+        ("random walk", walk),
+        ("reversals", np.round(_reference() * 256).astype(np.int16)),
+    ):
+        fixed = fw.Compensator(params).run_words(words) * LSB
+        twin = fw.CompensatorF64(params.quantized()).run(words * LSB)
+        worst = float(np.max(np.abs(fixed - twin)))
+        assert worst <= bound, f"{name}, {label}: {worst:.5f} N > bound {bound:.5f} N"
+
+
+@pytest.mark.parametrize("mode", ["paper", "smooth", "preview"])
+def test_without_a_breakaway_the_law_is_todays_bit_for_bit(mode):
+    """breakaway 0 (the default) gives the same words as a compensator never given the field,
+    and a breakaway changes them (the extension is not a no-op)."""
+    words = np.round(_reference() * 256).astype(np.int16)
+    base = fw.Compensator(fw.CompensatorParams(mode=mode)).run_words(words)
+    zero = fw.Compensator(fw.CompensatorParams(mode=mode, breakaway=0.0)).run_words(words)
+    brk = fw.Compensator(fw.CompensatorParams(mode=mode, breakaway=0.03)).run_words(words)
+    assert np.array_equal(base, zero)
+    assert np.max(np.abs(brk.astype(int) - base.astype(int))) > 64
+
+
+def test_the_three_pieces_after_a_reversal():
+    """PAPER mode, H = 1 LSB, a ramp up to 12 N and down: the first loading carries no excess;
+    after the top reversal T_c is T_ref e^(-W) e^(-b/2) (the jump's first half), then holds at
+    Y e^(-(2W + 9b/8)) (Y the top's T_c: b/8 past the modelled breakaway), then follows T_ref
+    e^(-W) again; the same in both twins."""
+    params = fw.CompensatorParams(mode="paper", breakaway=0.03, hysteresis_n=LSB)
+    q = params.quantized()
+    w_n, b = q.mu * q.phi_rad, q.breakaway * q.phi_rad
+    up = np.arange(2.0, 12.005, 0.01)
+    down = np.arange(12.0 - 0.01, 4.0, -0.01)
+    ref = np.round(np.concatenate([up, down]) * 256) * LSB
+    twin = fw.CompensatorF64(q).run(ref)
+    fixed = fw.Compensator(params).run_words(np.round(ref * 256).astype(np.int16)) * LSB
+    assert np.max(np.abs(fixed - twin)) <= params.error_bound_n()
+    n = len(up)
+    assert twin[:n] == pytest.approx(ref[:n] * math.exp(w_n), rel=1e-9)
+    after = ref[n:]
+    hold = twin[n - 1] * math.exp(-(2 * w_n + 9 * b / 8))
+    free = after * math.exp(-w_n)
+    expected = np.clip(hold, free * math.exp(-b / 2), free)
+    assert twin[n:] == pytest.approx(expected, rel=1e-9)
+    # each piece is visited: the half jump, the hold, the free branch
+    assert np.sum(expected == free * math.exp(-b / 2)) > 20
+    assert np.sum(expected == hold) > 20
+    assert np.sum(expected == free) > 20
+
+
+def test_breakaway_saturates_at_full_scale():
+    """The largest breakaway with mu: the most positive word saturates to 127.996 N on either
+    branch (the loading branch's excess after a reversal at full scale too), the most negative
+    one gives the floor, in both twins."""
+    params = fw.CompensatorParams(mode="paper", mu=0.1, phi_rad=PHI, breakaway=0.25)
+    comp = fw.Compensator(params)
+    twin = fw.CompensatorF64(params.quantized())
+    for word in (32767, -32768, 32767, -32768, 32767, 32767, -32768):
+        want = 32767 if word > 0 else 0
+        assert comp.step_word(word) == want
+        assert twin.step(word * LSB) == want * LSB
+    floored = fw.Compensator(fw.CompensatorParams(mode="paper", breakaway=0.25, tc_min_n=64.0))
+    assert floored.step_word(-32768) == 64 * 256
+    assert floored.step_word(32767) == 32767
+
+
+@pytest.mark.parametrize(
+    "fields",
+    [
+        {"breakaway": 0.2501},
+        {"breakaway": -0.001},
+        # (2 mu + 9/8 m_s) phi = (0.6 + 0.28) * 4.6 > 4: the hold's factor beyond e^4
+        {"mu": 0.3, "phi_rad": 4.6, "breakaway": 0.25},
+    ],
+)
+def test_a_breakaway_outside_the_limits_is_refused_by_both(fields):
+    """COMP_ERR_BREAKAWAY from the fixed point and the twin alike."""
+    params = fw.CompensatorParams(mode="paper", **fields)
+    with pytest.raises(fw.FirmwareConfigError) as fixed:
+        fw.Compensator(params)
+    with pytest.raises(fw.FirmwareConfigError) as twin:
+        fw.CompensatorF64(params)
+    assert fixed.value.code == twin.value.code == 15
+
+
+def _open_loop(plant: dict, t_in: np.ndarray) -> np.ndarray:
+    out = np.empty(len(t_in))
+    inputs = {"T_in_cmd": float(t_in[0]), "x": 0.0, "y": 0.5, "z": 0.0}
+    with Plant({"drive_mode": 1, "mu": MU, **plant}, inputs=inputs) as p:
+        out[0] = p.y[p.T_OUT]
+        for k in range(1, len(t_in)):
+            p.u[1] = float(t_in[k])
+            out[k] = p.step(1e-3)[p.T_OUT]
+    return out
+
+
+# (RMS, peak) of the output error in % of 15 N after the first second, fig14's shape (2 to 15 N
+# at 0.5 Hz), the FMU's static friction alone (mu_static_excess 0.034, the report set's largest
+# draws): measured today 3.79 / 19.12, with the term 2.31 / 10.08; budgets about 15 % above.
+BUDGET = (2.7, 11.6)
+
+
+def test_the_term_halves_the_fmus_stick_slip_open_loop():
+    """The FMU's static friction alone (mu nominal, every other effect off, the inlet tension
+    prescribed: drive mode 1), driven with the preview law's T_in with and without the plant's
+    breakaway: the term splits the jump, about half the peak and less RMS."""
+    t = np.arange(6000) / 1000.0
+    ref = 8.5 - 6.5 * np.cos(2 * np.pi * 0.5 * t)
+    preview = fw.c_defaults()["preview_ticks"]
+    ahead = np.concatenate([ref[preview:], np.full(preview, ref[-1])])
+    plant = {"mu_static_excess": 0.034}
+
+    def score(m_s: float) -> tuple[float, float]:
+        comp = fw.CompensatorF64(
+            fw.CompensatorParams(mode="preview", mu=MU, phi_rad=PHI, breakaway=m_s)
+        )
+        e = (_open_loop(plant, comp.run(ahead)) - ref)[1000:]
+        return (
+            100 * math.sqrt(float(np.mean(e**2))) / FULL_SCALE_N,
+            100 * float(np.max(np.abs(e))) / FULL_SCALE_N,
+        )
+
+    rms, peak = score(0.034)
+    rms_today, peak_today = score(0.0)
+    assert rms <= BUDGET[0] and peak <= BUDGET[1], (rms, peak)
+    assert rms < 0.7 * rms_today and peak < 0.6 * peak_today, (rms, rms_today, peak, peak_today)
