@@ -280,6 +280,7 @@ VOCABULARY: tuple[Effect, ...] = (
         "ws_j = (mu_eff + mu_static_excess) * phi_eff * exp(dead_zone_spread * q_j): a strand "
         "that must reverse holds to its breakaway width, then jumps to the kinetic bound",
         scan="breakaway",
+        compensator_key="breakaway",
     ),
 )
 

@@ -114,7 +114,11 @@ def _compensator_refuses(comp: dict[str, float], result: AuditResult) -> str | N
 
 
 def _compensator_range(key: str) -> tuple[float, float]:
-    return {"offset_n": (-64.0, 64.0), "mu_slope_per_n": (-1 / 128, 1 / 128)}[key]
+    return {
+        "offset_n": (-64.0, 64.0),
+        "mu_slope_per_n": (-1 / 128, 1 / 128),
+        "breakaway": (0.0, 0.25),
+    }[key]
 
 
 def check_params(path: Path, params: dict) -> None:

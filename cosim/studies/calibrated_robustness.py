@@ -9,8 +9,8 @@ a grid's plant axes are crossed, a random spec draws one plant per point):
 1. `calibrate` (cosim.bench.rig.calibrate, without --apply: its proposal) on the emulated
    controller (the stepped emulator, at the home position) with that plant: the tare of the
    far-end load cell, the identification, the audit, and the compensator values it proposes
-   (comp.mu, comp.offset_n, comp.mu_slope_per_n, comp.dead_zone_spread), clipped to the
-   compensator's limits where they lie beyond (without calibrate's prediction runs, which only
+   (comp.mu, comp.offset_n, comp.mu_slope_per_n, comp.dead_zone_spread, comp.breakaway),
+   clipped to the compensator's limits where they lie beyond (without calibrate's prediction runs, which only
    print what it expects);
 2. the spec's runs of that plant (cosim.studies.sweep.run: fig14 6 s, board interface, the
    native engine; the point's own position and compensator) with the compensator set to them
@@ -34,7 +34,7 @@ compensator aims the cable's tension at T_ref, not the cell's reading. The JSON
 
     python -m cosim.studies.calibrated_robustness [--spec SPEC.yaml] [--workers 2] [--out DIR]
         [--limit N] [--no-tare] [--reuse] [--calibrations DIR] [--leave KEY ...]
-        [--params FILE] [--set KEY=VALUE ...] [--score-from-s S]
+        [--params FILE] [--set KEY=VALUE ...] [--score-from-s S] [--breakaway-share K]
 
 Without --spec: cosim/studies/sweep/examples/robustness_estimator.yaml (the robustness grid:
 plant mu, cable_EA and current_bandwidth at -20 % / nominal / +20 %, 27 plants, five positions).
@@ -60,6 +60,7 @@ COMP_KEYS = (
     "compensator.offset_n",
     "compensator.mu_slope_per_n",
     "compensator.dead_zone_spread",
+    "compensator.breakaway",
 )
 
 
@@ -131,10 +132,19 @@ def plant_of(spec, values: dict) -> dict:
     return plant
 
 
-def calibrate_plant(plant: dict, folder: str, tare: bool = True, reuse: bool = False) -> dict:
+def calibrate_plant(
+    plant: dict,
+    folder: str,
+    tare: bool = True,
+    reuse: bool = False,
+    breakaway_share: float | None = None,
+) -> dict:
     """The compensator values `calibrate` proposes for an emulated plant (FMU parameters), as
     the sweep's config keys (compensator.mu, ...), the decision and reason of each, and the
-    tare's reading. reuse: take the calibration.json a run before left in `folder`."""
+    tare's reading. reuse: take the calibration.json a run before left in `folder`; when it
+    holds no breakaway proposal (a calibration made before calibrate proposed one), or
+    `breakaway_share` asks for another share than calibrate's, the breakaway is proposed from
+    its findings as calibrate does (cosim.bench.rig.calibrate.breakaway_of_report)."""
     from cosim.bench.link.api import Bench  # noqa: PLC0415
     from cosim.bench.rig import calibrate as cal  # noqa: PLC0415
 
@@ -148,6 +158,20 @@ def calibrate_plant(plant: dict, folder: str, tare: bool = True, reuse: bool = F
             report = cal.run_calibration(
                 bench.client, bench.info(), opts, say=lambda _: None
             ).report
+    names = {c["name"] for c in report["changes"]}
+    if "comp.breakaway" not in names or breakaway_share is not None:
+        share = cal.BREAKAWAY_SHARE if breakaway_share is None else breakaway_share
+        b = cal.breakaway_of_report(report, _device_before(Path(folder)), share)
+        report["changes"] = [c for c in report["changes"] if c["name"] != b.name]
+        report["changes"].append(
+            {
+                "name": b.name,
+                "status": b.status,
+                "proposed": b.proposed,
+                "current": b.current,
+                "reason": b.reason,
+            }
+        )
     out = {}
     for c in report["changes"]:
         key = "compensator." + c["name"].split(".", 1)[1]
@@ -160,6 +184,19 @@ def calibrate_plant(plant: dict, folder: str, tare: bool = True, reuse: bool = F
     out["tare_n"] = report["tare"]["offset_n"]
     out["wall_s"] = time.perf_counter() - t0
     return out
+
+
+def _device_before(folder: Path) -> dict:
+    """The device's values a calibration started from (its before.json), by name."""
+    from cosim.bench.link.messages import PARAM_BY_NAME  # noqa: PLC0415
+    from cosim.bench.link.protocol import value_from_word  # noqa: PLC0415
+
+    words = json.loads((folder / "before.json").read_text())["params"]
+    return {
+        n: value_from_word(PARAM_BY_NAME[n], v["word"])
+        for n, v in words.items()
+        if n in PARAM_BY_NAME
+    }
 
 
 def run_point(spec_path: str, values: dict, score_from_s: float | None = None) -> dict:
@@ -254,6 +291,13 @@ def main(argv: list[str] | None = None) -> int:
         "fig14), e.g. 2.5 to leave out fig14's first top and bottom reversals",
     )
     ap.add_argument(
+        "--breakaway-share",
+        type=float,
+        metavar="K",
+        help="propose comp.breakaway as K times the audit's static friction rather than "
+        "calibrate's share (what the share is worth; calibrate.BREAKAWAY_SHARE)",
+    )
+    ap.add_argument(
         "--params",
         metavar="FILE",
         help="a params file (compensator and controller only) laid over every run, after "
@@ -304,6 +348,7 @@ def main(argv: list[str] | None = None) -> int:
                 str(cal_folder / f"cal_{i:03d}"),
                 not args.no_tare,
                 args.reuse,
+                args.breakaway_share,
             )
             for i, k in enumerate(keys)
         ]
@@ -315,7 +360,8 @@ def main(argv: list[str] | None = None) -> int:
             print(
                 f"  plant {plant or 'nominal'}: tare {comp['tare_n']:+.3f} N; proposes mu "
                 f"{comp['compensator.mu']:.5f}, offset {comp['compensator.offset_n']:.3g} N, "
-                f"slope {comp['compensator.mu_slope_per_n']:.3g} /N, dead-zone spread "
+                f"slope {comp['compensator.mu_slope_per_n']:.3g} /N, breakaway "
+                f"{comp['compensator.breakaway']:.3g}, dead-zone spread "
                 f"{comp['compensator.dead_zone_spread']:.3g} ({comp['decisions']})"
             )
             for name, why in comp["reasons"].items():

@@ -388,7 +388,7 @@ const char *fw_strerror(int32_t code)
         return "comp.dead_zone_spread: outside [0, 1], or the widest strand mu * phi * "
                "exp(1.534 * spread) exceeds 4";
     case COMP_ERR_BREAKAWAY:
-        return "comp.breakaway: outside [0, 0.25], or (2 * mu + breakaway) * phi exceeds 4";
+        return "comp.breakaway: outside [0, 0.25], or (2 * mu + 9/8 * breakaway) * phi exceeds 4";
     case WAVE_ERR_KIND:
         return "wave.kind: must be 0 (constant), 1 (sine), 2 (triangle), 3 (ramp) or 4 (step)";
     case WAVE_ERR_RATE:

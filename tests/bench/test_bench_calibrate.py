@@ -232,6 +232,46 @@ def test_a_spread_that_holds_alone_but_not_with_mu_keeps_the_widest_strand_at_4(
     assert spread.proposed == pytest.approx(math.log(4 / (0.16 * 2 * math.pi)) / 1.5341, abs=2e-3)
 
 
+def test_the_breakaway_is_the_audits_static_friction_scaled_by_the_bending_angles():
+    """A static friction finding of 0.02 at the audit's phi 2 pi on a device at phi 5.0: the
+    compensator's m_s is 0.02 * 2 pi / 5 (only m_s*phi is observed), times calibrate's share;
+    without a finding nothing changes, and a breakaway the device has goes off."""
+    dev = _device()
+    c = cal.breakaway_change(0.02, 2 * math.pi, dev, 5.0)
+    assert c.status == "change" and c.proposed == pytest.approx(
+        cal.BREAKAWAY_SHARE * 0.02 * 2 * math.pi / 5.0
+    )
+    assert "static friction finding" in c.reason
+    none = cal.breakaway_change(None, 2 * math.pi, dev, 5.0)
+    assert none.status == "unchanged" and not none.applies
+    off = cal.breakaway_change(None, 2 * math.pi, {**dev, "comp.breakaway": 0.03}, 5.0)
+    assert off.status == "change" and off.proposed == 0.0
+
+
+def test_a_breakaway_beyond_the_limits_is_clipped_and_mu_still_applies():
+    """A finding of 0.3 is beyond the compensator's [0, 0.25]: clipped to 0.25 with the reason;
+    with mu 0.25 on loop routing the hold's exponent (2 mu + 9/8 m_s) phi <= 4 leaves m_s about
+    (4 / 2 pi - 0.5) / 1.125 = 0.1214 beside mu's change, from a report written before calibrate
+    proposed a breakaway (its findings and its applied changes)."""
+    dev = _device()
+    b = cal.breakaway_change(0.3, dev["comp.phi_rad"], dev, dev["comp.phi_rad"], share=1.0)
+    cal._check_limits([b], dev, dev["comp.phi_rad"])
+    assert b.status == "clipped" and "clipped from 0.3" in b.reason
+    assert b.proposed == pytest.approx(0.25, abs=1e-6) and b.proposed <= 0.25
+    report = {
+        "audit": {
+            "phi_rad": dev["comp.phi_rad"],
+            "findings": [{"cause": "static_friction", "param": "mu_static_excess", "value": 0.2}],
+        },
+        "device_phi_rad": dev["comp.phi_rad"],
+        "changes": [{"name": "comp.mu", "status": "change", "proposed": 0.25}],
+    }
+    b = cal.breakaway_of_report(report, dev, share=1.0)
+    assert b.status == "clipped" and "clipped from 0.2" in b.reason
+    assert b.proposed == pytest.approx((4 / dev["comp.phi_rad"] - 0.5) / 1.125, abs=1e-4)
+    assert cal._comp_refuses({**dev, "comp.mu": 0.25, b.name: b.proposed}, "paper") is None
+
+
 @pytest.mark.slow
 def test_a_device_phi_of_zero_refuses_mu(tmp_path):
     """comp.phi_rad 0: no comp.mu gives the plant's mu*phi; refused with the reason."""

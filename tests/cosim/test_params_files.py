@@ -23,7 +23,8 @@ def test_a_params_file_loads_as_bowden_sim_reads_it(path):
 def test_the_far_end_mode_is_the_measured_configuration():
     """docs/results.md, "The far-end mode after calibrate": the correction and the reversal table
     at the rates chosen on the tuning set, the online estimate off, kv 1e-3 A s/N; the plant's
-    own values (mu, offset, slope, spread) come from `bowden bench calibrate`, not from here."""
+    own values (mu, offset, slope, spread, breakaway) come from `bowden bench calibrate`, not
+    from here."""
     cfg = load_params(PARAMS / "far_end_after_calibrate.json")
     c = cfg.compensator
     assert (c.est_enable, c.corr_enable, c.corr_rev_enable) == (0, 1, 1)
@@ -32,11 +33,12 @@ def test_the_far_end_mode_is_the_measured_configuration():
     assert (c.corr_rev_leak_shift, c.corr_rev_limit_n) == (12, 2.0)
     assert cfg.controller.kv_a_s_per_n == 0.001
     nominal = load_params(None).compensator
-    assert (c.mu, c.offset_n, c.mu_slope_per_n, c.dead_zone_spread) == (
+    assert (c.mu, c.offset_n, c.mu_slope_per_n, c.dead_zone_spread, c.breakaway) == (
         nominal.mu,
         nominal.offset_n,
         nominal.mu_slope_per_n,
         nominal.dead_zone_spread,
+        nominal.breakaway,
     )
 
 

@@ -159,6 +159,55 @@ def test_the_overlay_lies_over_calibrates_proposals_and_the_estimates_0(tmp_path
     assert laid["plant.mu"] == 0.09 and laid["controller.kv_a_s_per_n"] == 0.001
 
 
+def test_a_calibration_made_before_the_breakaway_gets_it_from_its_findings(tmp_path):
+    """A kept calibration (calibration.json and before.json) whose report has no breakaway
+    proposal: reused, the study proposes it from the audit's static friction finding as
+    calibrate does (scaled by the bending angles, judged with the other applied changes); a share
+    of 0 leaves it at the device's 0, and a report without the finding proposes nothing."""
+    from cosim.bench.link.messages import PARAM_BY_NAME  # noqa: PLC0415
+    from cosim.bench.link.protocol import word_from_value  # noqa: PLC0415
+
+    phi = 2 * np.pi
+    words = {"comp.mode": 3, "comp.mu": word_from_value(PARAM_BY_NAME["comp.mu"], 0.075)}
+    words["comp.phi_rad"] = word_from_value(PARAM_BY_NAME["comp.phi_rad"], phi)
+
+    def kept(folder, findings):
+        folder.mkdir()
+        (folder / "before.json").write_text(
+            json.dumps({"params": {n: {"word": w} for n, w in words.items()}})
+        )
+        changes = [
+            {
+                "name": "comp.mu",
+                "status": "change",
+                "proposed": 0.09,
+                "current": 0.075,
+                "reason": "",
+            }
+        ]
+        report = {
+            "audit": {"phi_rad": 0.9 * phi, "findings": findings},
+            "device_phi_rad": phi,
+            "changes": changes,
+            "tare": {"offset_n": 0.0},
+        }
+        (folder / "calibration.json").write_text(json.dumps(report))
+        return str(folder)
+
+    stick = [{"cause": "static_friction", "param": "mu_static_excess", "value": 0.03}]
+    with_it = kept(tmp_path / "a", stick)
+    out = cr.calibrate_plant({}, with_it, reuse=True)
+    assert out["compensator.breakaway"] == pytest.approx(0.03 * 0.9, rel=1e-9)
+    assert out["decisions"]["comp.breakaway"] == "change" and out["compensator.mu"] == 0.09
+    assert (
+        cr.calibrate_plant({}, with_it, reuse=True, breakaway_share=0.0)["compensator.breakaway"]
+        == 0.0
+    )
+    none = cr.calibrate_plant({}, kept(tmp_path / "b", []), reuse=True)
+    assert none["compensator.breakaway"] == 0.0
+    assert none["decisions"]["comp.breakaway"] == "unchanged"
+
+
 @pytest.mark.parametrize(
     ("args", "says"),
     [

@@ -16,7 +16,9 @@ The steps (cosim/bench/README.md, "Calibration", says why each piece is there):
    is put into the audit's extended model in place of the fitted one; the change is proposed only
    when the fitted value beats the device's by the audit's own decision rule (cosim.audit.decision:
    on the selection blocks, the same thresholds as a finding; the dead zone's spread, a parameter of
-   the audit's nominal model, without that rule: UNGATED), and only when the compensator takes it
+   the audit's nominal model, without that rule: UNGATED; the breakaway, comp.breakaway, from the
+   audit's static friction finding, which passed that rule as a finding), and only when the
+   compensator takes it
    (the firmware's configuration check through cosim.parts.firmware). A value the compensator does
    not take is clipped to the nearest one it takes on the way from the device's value (status
    "clipped", the limit named), and a set that does not hold together keeps the most of it that
@@ -111,6 +113,14 @@ UNGATED = frozenset({"comp.dead_zone_spread"})
 # 7 % of mu*phi (e^(-1.534 * 0.05)), and the audit fits spreads of 0.01-0.02 to plants that have
 # none, which tracked no differently on the tuning plants.
 UNGATED_MIN_STEP = {"comp.dead_zone_spread": 0.05}
+# The breakaway (comp.breakaway, comp.h: static friction's excess after a reversal) is proposed
+# from the audit's static_friction finding, which has passed the audit's rule as a finding (so
+# the proposal is a function of the report's findings alone, and a stored calibration's report
+# gives it again), scaled like mu by the ratio of the bending angles (only m_s*phi is observed)
+# and by BREAKAWAY_SHARE, chosen on the tuning set of random plants (docs/results.md, "The
+# breakaway term").
+BREAKAWAY_AUDIT_PARAM = "mu_static_excess"
+BREAKAWAY_SHARE = 1.0
 # What a run changes on the device (record_run) and calibrate puts back.
 RUN_PARAMS = ("source", "wave.kind", "wave.mean_n", "wave.amplitude_n", "wave.freq_hz")
 # What the prediction's emulated controller takes from the device: what shapes tracking
@@ -310,8 +320,66 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
                 f"{c.reason.split(' ', 1)[1]}"
             )
         changes.append(c)
+    findings = {f.effect.fmu_param: float(f.value) for f in result.findings}
+    changes.append(
+        breakaway_change(findings.get(BREAKAWAY_AUDIT_PARAM), phi_a, device, phi_device_rad)
+    )
     _check_limits(changes, device, phi_device_rad)
     return changes
+
+
+def breakaway_change(
+    audit_value: float | None,
+    phi_audit_rad: float,
+    device: dict[str, float],
+    phi_device_rad: float,
+    share: float = BREAKAWAY_SHARE,
+) -> Change:
+    """comp.breakaway from the audit's static friction finding (`audit_value`, None without
+    one), before the compensator's limits (_check_limits)."""
+    name = "comp.breakaway"
+    cur = float(device.get(name, 0.0))
+    if audit_value is None:
+        c = Change(name, BREAKAWAY_AUDIT_PARAM, cur, None, 0.0, None, "unchanged", "")
+        c.reason = "the audit names no static friction"
+        if cur != 0.0:
+            c.status, c.proposed = "change", 0.0
+            c.reason = "the audit names no static friction: the breakaway term goes off"
+        return c
+    scale = phi_audit_rad / phi_device_rad if phi_device_rad > 0 else math.nan
+    if not math.isfinite(scale):
+        c = Change(name, BREAKAWAY_AUDIT_PARAM, cur, None, audit_value, None, "refused", "")
+        c.reason = (
+            f"comp.phi_rad is {phi_device_rad:g}: the device's m_s*phi cannot be set through "
+            "the breakaway (set comp.phi_rad first)"
+        )
+        return c
+    target = share * audit_value * scale
+    c = Change(name, BREAKAWAY_AUDIT_PARAM, cur, None, audit_value, cur / scale, "unchanged", "")
+    if _same_word(param(name), target, cur):
+        c.reason = "the audit's value is the device's (to its resolution)"
+        return c
+    c.proposed, c.status = target, "change"
+    c.reason = f"is its static friction finding ({BREAKAWAY_AUDIT_PARAM} {_fmt(audit_value)})" + (
+        f" times the share {share:g}" if share != 1.0 else ""
+    )
+    return c
+
+
+def breakaway_of_report(report: dict, device: dict, share: float = BREAKAWAY_SHARE) -> Change:
+    """calibrate's comp.breakaway for a calibration report written before it proposed one (its
+    findings, bending angles and the other applied proposals), judged on the compensator's
+    limits with those proposals: what `propose` gives for the same audit."""
+    a = report["audit"]
+    value = next((f["value"] for f in a["findings"] if f["param"] == BREAKAWAY_AUDIT_PARAM), None)
+    c = breakaway_change(value, a["phi_rad"], device, report["device_phi_rad"], share)
+    applied = {
+        x["name"]: x["proposed"]
+        for x in report["changes"]
+        if x["status"] in ("change", "clipped") and x["name"] != c.name
+    }
+    _check_limits([c], {**device, **applied}, report["device_phi_rad"])
+    return c
 
 
 def _fmt(v: float) -> str:
