@@ -10,8 +10,8 @@ a grid's plant axes are crossed, a random spec draws one plant per point):
    controller (the stepped emulator, at the home position) with that plant: the tare of the
    far-end load cell, the identification, the audit, and the compensator values it proposes
    (comp.mu, comp.offset_n, comp.mu_slope_per_n, comp.dead_zone_spread, comp.breakaway),
-   clipped to the compensator's limits where they lie beyond (without calibrate's prediction runs, which only
-   print what it expects);
+   clipped to the compensator's limits where they lie beyond (without calibrate's prediction
+   runs, which only print what it expects);
 2. the spec's runs of that plant (cosim.studies.sweep.run: fig14 6 s, board interface, the
    native engine; the point's own position and compensator) with the compensator set to them
    and compensator.est_enable 0.
@@ -187,16 +187,27 @@ def calibrate_plant(
 
 
 def _device_before(folder: Path) -> dict:
-    """The device's values a calibration started from (its before.json), by name."""
+    """The device's values a calibration started from, by name: its before.json (written by
+    calibrate with --apply), else the emulated controller's defaults, which every calibration of
+    this study starts from (a fresh emulator per plant)."""
     from cosim.bench.link.messages import PARAM_BY_NAME  # noqa: PLC0415
     from cosim.bench.link.protocol import value_from_word  # noqa: PLC0415
 
-    words = json.loads((folder / "before.json").read_text())["params"]
-    return {
-        n: value_from_word(PARAM_BY_NAME[n], v["word"])
-        for n, v in words.items()
-        if n in PARAM_BY_NAME
-    }
+    before = folder / "before.json"
+    if before.is_file():
+        words = {n: e["word"] for n, e in json.loads(before.read_text())["params"].items()}
+    else:
+        from cosim.bench.emulate.emulator import SteppedLink  # noqa: PLC0415
+        from cosim.bench.emulate.host_device import ChainConfig  # noqa: PLC0415
+        from cosim.bench.link.client import BenchClient  # noqa: PLC0415
+
+        client = BenchClient(SteppedLink(ChainConfig()))
+        client.connect()
+        try:
+            words = client.params()
+        finally:
+            client.link.close()
+    return {n: value_from_word(PARAM_BY_NAME[n], w) for n, w in words.items() if n in PARAM_BY_NAME}
 
 
 def run_point(spec_path: str, values: dict, score_from_s: float | None = None) -> dict:

@@ -163,7 +163,8 @@ def test_a_calibration_made_before_the_breakaway_gets_it_from_its_findings(tmp_p
     """A kept calibration (calibration.json and before.json) whose report has no breakaway
     proposal: reused, the study proposes it from the audit's static friction finding as
     calibrate does (scaled by the bending angles, judged with the other applied changes); a share
-    of 0 leaves it at the device's 0, and a report without the finding proposes nothing."""
+    of 0 leaves it at the device's 0, and a report without the finding proposes nothing. Without
+    a before.json the device is the emulated controller's defaults (where the study starts)."""
     from cosim.bench.link.messages import PARAM_BY_NAME  # noqa: PLC0415
     from cosim.bench.link.protocol import word_from_value  # noqa: PLC0415
 
@@ -171,11 +172,12 @@ def test_a_calibration_made_before_the_breakaway_gets_it_from_its_findings(tmp_p
     words = {"comp.mode": 3, "comp.mu": word_from_value(PARAM_BY_NAME["comp.mu"], 0.075)}
     words["comp.phi_rad"] = word_from_value(PARAM_BY_NAME["comp.phi_rad"], phi)
 
-    def kept(folder, findings):
+    def kept(folder, findings, before=True):
         folder.mkdir()
-        (folder / "before.json").write_text(
-            json.dumps({"params": {n: {"word": w} for n, w in words.items()}})
-        )
+        if before:
+            (folder / "before.json").write_text(
+                json.dumps({"params": {n: {"word": w} for n, w in words.items()}})
+            )
         changes = [
             {
                 "name": "comp.mu",
@@ -203,6 +205,8 @@ def test_a_calibration_made_before_the_breakaway_gets_it_from_its_findings(tmp_p
         cr.calibrate_plant({}, with_it, reuse=True, breakaway_share=0.0)["compensator.breakaway"]
         == 0.0
     )
+    emulated = cr.calibrate_plant({}, kept(tmp_path / "c", stick, before=False), reuse=True)
+    assert emulated["compensator.breakaway"] == out["compensator.breakaway"]
     none = cr.calibrate_plant({}, kept(tmp_path / "b", []), reuse=True)
     assert none["compensator.breakaway"] == 0.0
     assert none["decisions"]["comp.breakaway"] == "unchanged"
