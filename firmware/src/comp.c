@@ -633,7 +633,9 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
             return (ref < cfg->tc_min_n_q8) ? (q7_8_t)cfg->tc_min_n_q8 : t_ref;
         }
         if (c->kind == COMP_KIND_BRK) {
-            return (c->dz_on != 0) ? step_modes(c, ref, diff, 1, 1) : step_modes(c, ref, diff, 0, 1);
+            /* One copy for the breakaway with or without a spread (the dead-zone test at run
+             * time): the target's code size, at a test per step on this rarer path. */
+            return step_modes(c, ref, diff, c->dz_on, 1);
         }
         return step_modes(c, ref, diff, 1, 0);
     }
