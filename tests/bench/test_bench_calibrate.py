@@ -123,7 +123,10 @@ def test_calibrate_takes_the_dead_zone_spread_to_the_compensator(tmp_path):
     assert m["after"]["rms_error_n"] < 0.7 * m["before"]["rms_error_n"], m
 
 
+# A whole calibration with --apply (17 s of CPU): in `make test-long`, its steps (the proposal,
+# its limits, a kept report) covered by the shorter tests above.
 @pytest.mark.slow
+@pytest.mark.long
 def test_calibrate_takes_the_breakaway_to_the_compensator(tmp_path):
     """A plant with static friction (mu_static_excess 0.03, the nominal mu) and a device in
     preview mode: the audit names it, calibrate proposes it as comp.breakaway (the device's phi
