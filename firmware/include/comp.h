@@ -264,8 +264,8 @@ typedef struct {
     int32_t brk_dir;               /* the detector's direction the extreme below belongs to */
     int32_t brk_y_q8;              /* Y: the extreme of T_c on that branch, Q7.8 */
     int32_t brk_last_q8;           /* the last T_c put out, Q7.8 */
-    uq8_24_t brk_full;             /* e^-(2 w_1 + b), UQ8.24 (b = m_s*phi) */
-    uq8_24_t brk_full_up;          /* e^+(2 w_1 + b), UQ8.24 (2 w_1 + b <= 4) */
+    uq8_24_t brk_full;             /* the hold's e^-(2 w_1 + 9b/8), UQ8.24 (b = m_s*phi) */
+    uq8_24_t brk_full_up;          /* e^+(2 w_1 + 9b/8), UQ8.24 (the exponent <= 4, checked) */
     uq8_24_t brk_half;             /* e^(-b/2), UQ8.24 */
     uq8_24_t brk_half_up;          /* e^(+b/2), UQ8.24 */
 } comp_t;

@@ -339,12 +339,12 @@ int32_t comp_configure(comp_t *c, const comp_config_t *cfg)
         c->dz_x1_q28 = dz_constants(cfg, c);
     }
     if (c->brk_on != 0) {
-        /* b = m_s*phi in Q3.28; 2*w_1 + b <= 2*mu*phi + b <= 4 (checked); the four factors in
-         * UQ8.24 (< 2^30). */
+        /* b = m_s*phi in Q3.28; 2 w_1 + 9b/8 <= (2 mu + 9/8 m_s) phi <= 4 (checked); the four
+         * factors in UQ8.24 (< 2^30). */
         q3_28_t b = (q3_28_t)(((int64_t)cfg->breakaway_q28 * cfg->phi_rad_q24 +
                                (INT64_C(1) << 23)) >> 24);
         q3_28_t x1 = (c->dz_on != 0) ? c->dz_x1_q28 : (q3_28_t)exponent_q28(cfg);
-        q3_28_t hold = 2 * x1 + b + b / 8; /* COMP_BRK_HOLD_MARGIN: b/8 past the threshold */
+        q3_28_t hold = 2 * x1 + b + b / 8; /* b/8 past the breakaway level (comp.h) */
         c->brk_full = fxp_exp_uq8_24(-hold);
         c->brk_full_up = fxp_exp_uq8_24(hold);
         c->brk_half = fxp_exp_uq8_24(-(b / 2));
@@ -438,12 +438,6 @@ static inline uint64_t blend_weight(const comp_t *c, int32_t s)
     return w;
 }
 
-/* The breakaway term (comp.h): the tension the gain applies to on the branch entered at the
- * last reversal. Scaling and overflow: T_eff and X in Q7.8 (|.| < 2^16); times a factor in
- * UQ8.24 (< 2^30) < 2^46 in int64, rounded back to Q7.8; the excess T_b - T_eff (|.| < 2^22)
- * times the weight (<= 2^30) < 2^52, rounded to Q7.8 and saturated to 255.996 N (2^16 - 1
- * LSB), the largest T_eff the steps after it take (dz_step's ln input is T_eff << 16 in 32
- * bits). */
 /* The breakaway term (comp.h) on T_c0, the step's T_c without it (Q7.8 in int64, |.| < 2^48):
  * the T_c the step puts out on the branch entered at the last reversal. Y (brk_y_q8) is the
  * extreme of the T_c put out since the detector turned, so Y times brk_full is the inlet
