@@ -262,6 +262,7 @@ def test_a_run_the_firmware_refuses_is_one_line(tmp_path, capsys):
             {"name": "comp.offset_n", "proposed": 0.0} | change,
             {"name": "comp.mu_slope_per_n", "proposed": 5e-4} | change,
             {"name": "comp.dead_zone_spread", "proposed": 0.0} | change,
+            {"name": "comp.breakaway", "proposed": 0.0} | change,
         ],
         "tare": {"offset_n": 0.0},
     }
