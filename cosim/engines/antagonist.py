@@ -57,8 +57,9 @@ class _Channel:
     """One cable's chain around its channel of the loop: firmware, interface stage, plant FMU.
 
     `loop` is the channel's side of the loop: write(name, value) and adc_sample(code), as
-    rtl_model.TensionLoopModel takes them; its ticks are the pair's (PairSim). `fault`: this
-    cable's load-cell fault, or None."""
+    rtl_model.TensionLoopModel takes them, or, for a channel behind a register bus (the cocotb
+    bench's bank of bowden_core_mc), write_word(addr, word) with the firmware's bus words; its
+    ticks are the pair's (PairSim). `fault`: this cable's load-cell fault, or None."""
 
     def __init__(
         self,
@@ -103,7 +104,11 @@ class _Channel:
         self.rows, self.y_row = plant_rows(self.plant, n)
 
     def _apply(self, writes) -> None:
+        bus = getattr(self.model, "write_word", None)
         for addr, value in writes:
+            if bus is not None:  # a channel behind a register bus takes the words as written
+                bus(addr, value)
+                continue
             name = self.names[addr]
             if name != "CTRL":
                 value = regmap.decode(name, value)

@@ -325,26 +325,32 @@ COCOTB_PAIR = {"duration_s": 0.15, "fault": {"cable": 0, "kind": "open", "t_s": 
 
 
 @pytest.mark.slow
-def test_cocotb_pair_on_the_rtl_equals_the_model_and_native_engines(tmp_path):
-    """The pair's world around the Verilog tension_loop_mc (N = 2, one group, Verilator under
-    cocotb) gives the model engine's and the native engine's record sample for sample, every
-    array of both cables, the joint, and each channel's FAULT, enable and group stop, bit for
-    bit, before and after the fault."""
+def test_cocotb_pair_on_the_core_equals_the_model_and_native_engines(tmp_path):
+    """The pair's world around the Verilog bowden_core_mc (N = 2, one group, Verilator under
+    cocotb), each firmware writing its own bank over the core's bus and the bench reading each
+    bank's TC_EFF and FAULT back, gives the model engine's and the native engine's record sample
+    for sample, every array of both cables, the joint, and each channel's FAULT, enable and group
+    stop, bit for bit, before and after the fault; every write landed before its tick."""
     from hdl_sim import rtl, run_cocotb  # noqa: PLC0415 (tests/hdl, on the test path)
+
+    from cosim.engines.cocotb.tb_pair import CLKS_PER_SAMPLE  # noqa: PLC0415
+    from cosim.engines.harness import ENGINES_DIR  # noqa: PLC0415
 
     spec = {**COCOTB_PAIR, "compensator": "preview", "est_enable": 0}
     spec["out"] = str(tmp_path / "pair.npz")
     (tmp_path / "spec.json").write_text(json.dumps(spec))
+    core = ("bowden_core_mc", "axil_regbus", "bowden_regs", "tension_loop_mc", "tension_loop_dp")
     run_cocotb(
-        "tension_loop_mc",
+        "cosim_pair_top",
         "cosim.engines.cocotb.tb_pair",
-        rtl("tension_loop_mc", "tension_loop_dp", "mul_s16"),
+        [*rtl(*core, "mul_s16", "pwm_escon"), ENGINES_DIR / "cosim_pair_top.v"],
         "verilator",
-        parameters={"N": 2, "GROUP": "8'h0"},
+        parameters={"CLKS_PER_SAMPLE": CLKS_PER_SAMPLE},
         tag="pair",
         extra_env={"BOWDEN_PAIR_SPEC": str(tmp_path / "spec.json")},
     )
     got = np.load(spec["out"])
+    assert got["least_slack_clks"] > 0
     scen, cfg = get_antagonist(), SimConfig()
     fault = CableFault(0, "open", spec["fault"]["t_s"])
     mod = run_pair(scen, cfg, "preview", spec["duration_s"], engine="model", fault=fault)

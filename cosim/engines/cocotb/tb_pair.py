@@ -1,19 +1,27 @@
-"""The antagonistic pair in closed loop on the RTL tension_loop_mc (cocotb 2.x): the pair's world
-(cosim.engines.antagonist.PairSim: both cables' firmware, interface stages and plant FMUs, and
-the joint) around the Verilog two-channel loop, both channels in one safety group.
+"""The antagonistic pair in closed loop on the RTL core for N cables (cocotb 2.x): the pair's
+world (cosim.engines.antagonist.PairSim: both cables' firmware, interface stages and plant FMUs,
+and the joint) around cosim_pair_top.v, bowden_core_mc with two cables in one safety group, as a
+board would run it: each cable's firmware writes its own bank of the register file over the
+core's AXI4-Lite bus, and the loops read the banks at the core's own sample tick.
 
 Started inside the simulator by the pytest of tests/cosim/test_antagonist.py, on a build of
-tension_loop_mc with N = 2 and GROUP 0 for both channels. The run's specification is the JSON
-file named by BOWDEN_PAIR_SPEC: duration_s, compensator, est_enable, fault (null or
-{"cable", "kind", "t_s"}) and out, the .npz the record is written to (the pytest compares it
-with the engines' records).
+cosim_pair_top (its CLKS_PER_SAMPLE, below). The run's specification is the JSON file named by
+BOWDEN_PAIR_SPEC: duration_s, compensator, est_enable, fault (null or {"cable", "kind", "t_s"})
+and out, the .npz the record is written to (the pytest compares it with the engines' records).
 
-Per tick: the writes the firmware made since the last tick, as a register file would hold them,
-are on the configuration ports (TC's write, CTRL's INTEG_RESET and FAULT_CLEAR as one-clock
-pulses) and each channel's ADC sample on adc_valid / adc_data, all in the tick's clock (what
-tension_loop_mc takes at the tick: its header); the outputs are read at out_valid, 1 + 15 N
-clocks later, and handed to PairSim. Ticks are 1 + 15 N + 1 clocks apart (the loop's minimum
-plus one idle clock); the plant's time does not depend on the clock, as in the other engines.
+Per sample, in the period before the core's tick k: the words each firmware wrote since the
+last tick, to its bank (regmap.bank_addr), then both cables' ADC codes of the step as one
+conversion (the ADC strobe of cosim_pair_top); both must be done before the tick (the bench
+checks the ticks' spacing), so the loops take them at tick k as the model takes them. At
+cmd_valid (LATENCY = 1 + 15 N clocks after the tick) the bench takes the commands and enables
+from the ports and reads back each bank's TC_EFF (the T_c the loop used) and FAULT over the
+bus; the group stops, which no register shows, come from the top's hierarchical tap.
+
+Clocks per sample: 128. The period holds the loops' 31 clocks, the four read-backs (about six
+clocks each: three read stages) and the firmware's TC writes (one per cable every firmware tick,
+about four clocks each); the longest is the start-up's, every register of both banks (17 words
+each) in the period before the first tick. The bench records the least slack it saw (clocks
+left before a tick once its writes and ADC strobe are done) and fails at a late tick.
 """
 
 from __future__ import annotations
@@ -24,37 +32,23 @@ import os
 import cocotb
 import numpy as np
 from cocotb.clock import Clock
-from cocotb.triggers import ClockCycles, FallingEdge
+from cocotb.simtime import get_sim_time
+from cocotb.triggers import FallingEdge, RisingEdge
 
 from cosim.config.antagonist import get_antagonist
 from cosim.config.run import SimConfig
 from cosim.engines.antagonist import PairSim, pair_fault
 from cosim.parts import regmap
-from cosim.parts.rtl_model import LATENCY_CLKS, LoopOutput
+from cosim.parts.rtl_model import LoopOutput
 
-# Register -> configuration port of tension_loop_mc (channel k in bits [k*width +: width]).
-PORTS = {
-    "TC": "tc",
-    "TC_MIN": "tc_min",
-    "KFF": "kff",
-    "UFF": "uff",
-    "KP": "kp",
-    "KI_TS": "ki_ts",
-    "I_LIMIT": "i_limit",
-    "SLEW": "slew",
-    "WDT_TIMEOUT": "wdt_timeout",
-    "ADC_OFFSET": "adc_offset",
-    "ADC_GAIN": "adc_gain",
-    "ADC_MIN": "adc_min",
-    "ADC_MAX": "adc_max",
-    "ADC_STALE": "adc_stale",
-    "OC_TIMEOUT": "oc_timeout",
-}
+from . import fastio
+from .axil import LeanAxiLiteMaster
+
 N = 2
-
-
-def _pack(values, bits: int) -> int:
-    return sum((int(v) & ((1 << bits) - 1)) << (k * bits) for k, v in enumerate(values))
+#: cosim_pair_top's CLKS_PER_SAMPLE (the pytest builds it with this; module docstring).
+CLKS_PER_SAMPLE = 128
+CLK_NS = 10
+_CODE_MASK = (1 << 24) - 1
 
 
 def _field(word: int, k: int, bits: int, is_signed: bool = False) -> int:
@@ -62,116 +56,106 @@ def _field(word: int, k: int, bits: int, is_signed: bool = False) -> int:
     return v - (1 << bits) if is_signed and v >> (bits - 1) else v
 
 
-class RegisterBank:
-    """One channel's register file as the loop sees it: write(name, value) as
-    rtl_model.TensionLoopModel takes it (field values, CTRL's bit mask), adc_sample(code); the
-    events (TC written, the CTRL pulses, a new sample) wait for the next tick."""
+class BankChannel:
+    """One cable's side of the core as PairSim's channel: the firmware's bus words
+    (write_word(addr, word), for this cable's bank) and the step's ADC code (adc_sample), both
+    held until the bench's next tick."""
 
     def __init__(self) -> None:
-        self.regs = {name: regmap.REGISTERS[name].fields[0].reset for name in PORTS}
-        self.ctrl = 0
-        self.clear_events()
-
-    def clear_events(self) -> None:
-        self.tc_wr = self.integ_reset = self.fault_clear = False
+        self.writes: list[tuple[int, int]] = []
         self.code: int | None = None
 
-    def write(self, name: str, value: int) -> None:
-        if name == "CTRL":
-            self.ctrl = value
-            self.integ_reset |= bool(value & regmap.CTRL_INTEG_RESET)
-            self.fault_clear |= bool(value & regmap.CTRL_FAULT_CLEAR)
-            return
-        if name not in self.regs:
-            raise ValueError(f"{name} is not a configuration register of tension_loop_mc")
-        regmap.encode(name, value)  # range check with a clear message
-        self.regs[name] = value
-        self.tc_wr |= name == "TC"
+    def write_word(self, addr: int, word: int) -> None:
+        self.writes.append((addr, word))
 
     def adc_sample(self, code: int) -> None:
         self.code = code
 
 
-class McLoop:
-    """tension_loop_mc (N = 2) behind two register banks: `channels[i]` takes channel i's writes
-    and samples, `await tick()` runs one period and returns the two LoopOutputs and group stops."""
+class CorePair:
+    """cosim_pair_top behind its bus: `channels[i]` takes cable i's words and samples, `await
+    tick()` lands them before the core's next tick and returns the two LoopOutputs and group
+    stops of that tick."""
 
     def __init__(self, dut) -> None:
         self.dut = dut
-        self.channels = [RegisterBank() for _ in range(N)]
-        self.latency = 1 + LATENCY_CLKS * N
+        self.channels = [BankChannel() for _ in range(N)]
+        self.toggle = 0
+        self.last_tick_ns: int | None = None
+        self.least_slack_clks = CLKS_PER_SAMPLE
+        self.cmd_current = fastio.unsigned_reader(dut.cmd_current)
+        self.cmd_enable = fastio.unsigned_reader(dut.cmd_enable)
+        self.grp_stop = fastio.unsigned_reader(dut.grp_stop)
+        self.bus: LeanAxiLiteMaster | None = None
 
     async def start(self) -> None:
         d = self.dut
-        cocotb.start_soon(Clock(d.clk, 10, unit="ns").start())
-        for sig in (d.tick, d.adc_valid, d.adc_data, d.enable, d.slew_en):
-            sig.value = 0
-        for sig in (d.integ_reset, d.fault_clear, d.tc_wr):
-            sig.value = 0
-        self._drive()
+        cocotb.start_soon(Clock(d.clk, CLK_NS, unit="ns").start())
+        d.adc_word.value = 0
+        self.bus = LeanAxiLiteMaster(d, "s_axil", d.clk)
         d.rst.value = 1
         for _ in range(3):
             await FallingEdge(d.clk)
         d.rst.value = 0
-        await FallingEdge(d.clk)
-
-    def _drive(self) -> None:
-        d, chans = self.dut, self.channels
-        for name, port in PORTS.items():
-            width = regmap.REGISTERS[name].fields[0].width
-            getattr(d, port).value = _pack([c.regs[name] for c in chans], width)
-        d.enable.value = _pack([c.ctrl & regmap.CTRL_ENABLE for c in chans], 1)
-        d.slew_en.value = _pack([bool(c.ctrl & regmap.CTRL_SLEW_EN) for c in chans], 1)
 
     async def tick(self) -> tuple[list[LoopOutput], list[bool]]:
-        d, chans = self.dut, self.channels
-        self._drive()
-        d.tc_wr.value = _pack([c.tc_wr for c in chans], 1)
-        d.integ_reset.value = _pack([c.integ_reset for c in chans], 1)
-        d.fault_clear.value = _pack([c.fault_clear for c in chans], 1)
-        d.adc_valid.value = _pack([c.code is not None for c in chans], 1)
-        d.adc_data.value = _pack([c.code or 0 for c in chans], 24)
-        for c in chans:
-            c.clear_events()
-        d.tick.value = 1
-        await FallingEdge(d.clk)
-        d.tick.value = 0
-        d.adc_valid.value = d.tc_wr.value = d.integ_reset.value = d.fault_clear.value = 0
-        await ClockCycles(d.clk, self.latency - 1, rising=False)
-        if not d.out_valid.value:
-            raise AssertionError(f"out_valid not {self.latency} clocks after the tick")
-        words = {
-            p: int(getattr(d, p).value)
-            for p in ("u", "out_en", "saturated", "wdt_ramp", "faults", "t_in", "integ")
-            + ("tc_eff", "grp_stop")
-        }
-        count = int(d.sample_count.value)
-        outs = [
-            LoopOutput(
-                u=_field(words["u"], k, 16, True),
-                out_en=bool(_field(words["out_en"], k, 1)),
-                saturated=bool(_field(words["saturated"], k, 1)),
-                wdt_ramp=bool(_field(words["wdt_ramp"], k, 1)),
-                faults=_field(words["faults"], k, 4),
-                t_in=_field(words["t_in"], k, 16, True),
-                integ=_field(words["integ"], k, 32, True),
-                tc_eff=_field(words["tc_eff"], k, 16, True),
-                sample_count=count,
+        d, bus = self.dut, self.bus
+        for i, c in enumerate(self.channels):
+            for addr, word in c.writes:
+                await bus.write_dword(regmap.bank_addr(i, addr), word)
+            c.writes = []
+        codes = [c.code for c in self.channels]
+        if any(code is not None for code in codes):
+            if any(code is None for code in codes):
+                # one conversion gives every channel: one cable's samples cannot stop alone
+                raise NotImplementedError("a stale ADC on one cable of a shared converter")
+            self.toggle ^= 1 << 48
+            # 49 bits: past the fast writer's 32, cocotb's `.value` (once a sample)
+            word = self.toggle | (codes[1] & _CODE_MASK) << 24 | (codes[0] & _CODE_MASK)
+            d.adc_word.value = word
+        for c in self.channels:
+            c.code = None
+        done_ns = get_sim_time("ns")
+        await RisingEdge(d.sample_tick)
+        now_ns = get_sim_time("ns")
+        period_ns = CLKS_PER_SAMPLE * CLK_NS
+        if self.last_tick_ns is not None and now_ns - self.last_tick_ns != period_ns:
+            raise AssertionError(
+                f"the writes and the ADC strobe missed a tick ({now_ns - self.last_tick_ns} ns "
+                f"after the last, period {period_ns} ns)"
             )
-            for k in range(N)
-        ]
-        await FallingEdge(d.clk)  # one idle clock before the next tick
-        return outs, [bool(_field(words["grp_stop"], k, 1)) for k in range(N)]
+        self.last_tick_ns = now_ns
+        self.least_slack_clks = min(self.least_slack_clks, (now_ns - done_ns) // CLK_NS)
+        await RisingEdge(d.cmd_valid)
+        u, en, stop = self.cmd_current(), self.cmd_enable(), self.grp_stop()
+        outs = []
+        for k in range(N):
+            tc_eff = await bus.read_dword(regmap.bank_addr(k, regmap.TC_EFF))
+            faults = await bus.read_dword(regmap.bank_addr(k, regmap.FAULT))
+            outs.append(
+                LoopOutput(
+                    u=_field(u, k, 16, True),
+                    out_en=bool(_field(en, k, 1)),
+                    saturated=False,  # (not recorded by PairSim)
+                    wdt_ramp=False,
+                    faults=faults & 0xF,
+                    t_in=0,
+                    integ=0,
+                    tc_eff=_field(tc_eff, 0, 16, True),
+                    sample_count=0,
+                )
+            )
+        return outs, [bool(_field(stop, k, 1)) for k in range(N)]
 
 
 @cocotb.test()
 async def pair_closed_loop(dut):
-    """The pair's closed loop on the RTL for the specification's duration (and fault); the
-    record goes to the specification's .npz."""
+    """The pair's closed loop on bowden_core_mc for the specification's duration (and fault);
+    the record goes to the specification's .npz."""
     with open(os.environ["BOWDEN_PAIR_SPEC"]) as f:
         spec = json.load(f)
     cfg = SimConfig.from_dict({"compensator": {"est_enable": spec["est_enable"]}})
-    loop = McLoop(dut)
+    loop = CorePair(dut)
     await loop.start()
     sim = PairSim(
         get_antagonist(),
@@ -196,5 +180,6 @@ async def pair_closed_loop(dut):
         faults=rec.faults,
         out_en=rec.out_en,
         grp_stop=rec.grp_stop,
+        least_slack_clks=loop.least_slack_clks,
         **arrays,
     )
