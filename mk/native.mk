@@ -6,7 +6,7 @@
 #   (make perf-cosim prints its speed beside the cocotb harness's)
 
 NATIVE_LIB := $(BUILD)/native/libbowden_native.so
-NATIVE_SRC := $(sort $(wildcard hdl/rtl/*.v)) cosim/engines/cosim_top.v \
+NATIVE_SRC := $(sort $(wildcard hdl/rtl/*.v)) cosim/engines/cosim_top.v cosim/engines/cosim_pair_top.v \
   $(wildcard cosim/engines/native/*.cpp cosim/engines/native/*.h) cosim/engines/native/build.py
 
 .PHONY: native

@@ -408,6 +408,10 @@ def _run_pair_native(
         faults = np.zeros((n, 2), dtype=np.int32)
         out_en = np.zeros((n, 2), dtype=np.uint8)
         grp_stop = np.zeros((n, 2), dtype=np.uint8)
+        # One conversion gives both cables' samples: the core cannot stop one cable's alone
+        # (a stale ADC on one cable), which runs on the bare loop, fed as the model is.
+        stale = fault is not None and fault.kind == "stale"
+        m.loop_only = 1 if stale else 0
         if fault is not None:
             m.fault_kind[fault.cable] = 1 + FAULT_KINDS.index(fault.kind)
             m.fault_k[fault.cable] = fault.sample(cfg.sample_rate_hz)
@@ -423,7 +427,7 @@ def _run_pair_native(
             run.plant.close()
     if status != 0:
         raise RuntimeError(f"native pair: {a.s.error.decode(errors='replace')}")
-    recs = tuple(run.collect(0, check_tc=fault is None)[0] for run in runs)
+    recs = tuple(run.collect(0, check_tc=not stale)[0] for run in runs)
     rec = _pair_record(scen, recs, t_s, theta, omega)
     rec.faults, rec.out_en, rec.grp_stop = faults.astype(np.int64), out_en != 0, grp_stop != 0
     return rec

@@ -24,6 +24,11 @@ ENGINES_DIR = Path(__file__).resolve().parent
 # with no extra sample of delay (see cocotb/tb_closed_loop.py). cocotb costs about 1 us per
 # clock, so this is kept at that minimum.
 CLKS_PER_SAMPLE = rtl_model.LATENCY_CLKS + 1
+# Clocks per sample of the pair's core (cosim_pair_top.v, bowden_core_mc with N = 2): its loops'
+# 1 + 15 N = 31 clocks, then each bank's TC_EFF and FAULT read back (about 5 clocks each) and the
+# firmware's words; the start-up's 17 words a cable (3 clocks each) before the first tick take
+# the most, 102 of 128 clocks (the engines check that every write lands before its tick).
+PAIR_CLKS_PER_SAMPLE = 128
 
 # Samples between a firmware tick and the first FPGA sample that uses its T_c: the tick runs
 # right after sample k's command is out, half a clock before tick k+1; its AXI write lands a few

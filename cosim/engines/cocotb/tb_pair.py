@@ -17,11 +17,11 @@ cmd_valid (LATENCY = 1 + 15 N clocks after the tick) the bench takes the command
 from the ports and reads back each bank's TC_EFF (the T_c the loop used) and FAULT over the
 bus; the group stops, which no register shows, come from the top's hierarchical tap.
 
-Clocks per sample: 128. The period holds the loops' 31 clocks, the four read-backs (about six
-clocks each: three read stages) and the firmware's TC writes (one per cable every firmware tick,
-about four clocks each); the longest is the start-up's, every register of both banks (17 words
-each) in the period before the first tick. The bench records the least slack it saw (clocks
-left before a tick once its writes and ADC strobe are done) and fails at a late tick.
+Clocks per sample: harness.PAIR_CLKS_PER_SAMPLE (128; the pytest builds the top with it). The
+period holds the loops' 31 clocks, the four read-backs and the firmware's TC writes (one per
+cable every firmware tick); the longest is the start-up's, every register of both banks (17
+words each) in the period before the first tick. The bench records the least slack it saw
+(clocks left before a tick once its writes and ADC strobe are done) and fails at a late tick.
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ from cocotb.triggers import FallingEdge, RisingEdge
 from cosim.config.antagonist import get_antagonist
 from cosim.config.run import SimConfig
 from cosim.engines.antagonist import PairSim, pair_fault
+from cosim.engines.harness import PAIR_CLKS_PER_SAMPLE as CLKS_PER_SAMPLE
 from cosim.parts import regmap
 from cosim.parts.rtl_model import LoopOutput
 
@@ -45,8 +46,6 @@ from . import fastio
 from .axil import LeanAxiLiteMaster
 
 N = 2
-#: cosim_pair_top's CLKS_PER_SAMPLE (the pytest builds it with this; module docstring).
-CLKS_PER_SAMPLE = 128
 CLK_NS = 10
 _CODE_MASK = (1 << 24) - 1
 

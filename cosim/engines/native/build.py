@@ -1,5 +1,6 @@
 """Build build/native/libbowden_native.so: the Verilated cosim_top and, for the antagonistic
-pair, tension_loop_mc with N = 2 (verilator --cc, compiled into static libraries with -fPIC) and
+pair, cosim_pair_top (bowden_core_mc with N = 2) and tension_loop_mc with N = 2 (verilator --cc,
+compiled into static libraries with -fPIC) and
 the C++ closed loop (closed_loop.cpp), linked with the
 firmware's libbowden_fw.so; the FMI 2.0 types come from fmpy's bundled headers.
 
@@ -19,7 +20,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from cosim.engines.harness import CLKS_PER_SAMPLE, rtl_sources
+from cosim.engines.harness import CLKS_PER_SAMPLE, ENGINES_DIR, PAIR_CLKS_PER_SAMPLE, rtl_sources
 from cosim.parts.firmware import LIB_PATH as FW_LIB
 from cosim.project import procs
 from cosim.project.paths import BUILD_DIR, FIRMWARE_DIR, HDL_DIR
@@ -30,7 +31,9 @@ OUT_DIR = BUILD_DIR / "native"
 LIB_PATH = OUT_DIR / "libbowden_native.so"
 CXX_SOURCES = (NATIVE_DIR / "closed_loop.cpp",)
 HEADERS = (NATIVE_DIR / "bn_api.h",)
-# The antagonistic pair's loop, Verilated beside cosim_top (bn_run_pair).
+# The antagonistic pair's core, Verilated beside cosim_top (bn_run_pair).
+PAIR_TOP = ENGINES_DIR / "cosim_pair_top.v"
+# The pair's bare loop (bn_run_pair's loop_only: a stale ADC on one cable).
 PAIR_LOOP_MODULES = ("tension_loop_mc", "tension_loop_dp", "mul_s16")
 # Verilator's options of the cocotb build (cosim/engines/cocotb/runner.py), minus VPI: no tracing,
 # X's resolved at compile time, the model optimised for speed.
@@ -77,7 +80,7 @@ def _inputs() -> list[Path]:
     fw_headers = sorted((FIRMWARE_DIR / "include").glob("*.h")) + sorted(
         (FIRMWARE_DIR / "host").glob("*.h")
     )
-    return [*rtl_sources(), *CXX_SOURCES, *HEADERS, *fw_headers, FW_LIB]
+    return [*rtl_sources(), PAIR_TOP, *CXX_SOURCES, *HEADERS, *fw_headers, FW_LIB]
 
 
 def fingerprint() -> str:
@@ -87,7 +90,8 @@ def fingerprint() -> str:
     for path in _inputs():
         h.update(path.name.encode())
         h.update(path.read_bytes())
-    h.update(repr((VERILATOR_ARGS, CXXFLAGS, MAKEFLAGS, CLKS_PER_SAMPLE, version)).encode())
+    params = (CLKS_PER_SAMPLE, PAIR_CLKS_PER_SAMPLE)
+    h.update(repr((VERILATOR_ARGS, CXXFLAGS, MAKEFLAGS, params, version)).encode())
     return h.hexdigest()
 
 
@@ -181,7 +185,38 @@ def _build_locked(force: bool) -> Path:
         ],
         log,
     )
-    # The antagonistic pair's loop (bn_run_pair): tension_loop_mc with N = 2, its channels in
+    # The antagonistic pair's core (bn_run_pair): cosim_pair_top, a third model under its own
+    # prefix.
+    obj_core = OUT_DIR / "obj_pair_top"
+    shutil.rmtree(obj_core, ignore_errors=True)
+    obj_core.mkdir(parents=True)
+    core_rtl = [p for p in rtl_sources() if p.parent == HDL_DIR / "rtl"]
+    run_logged(
+        [
+            exe,
+            "--cc",
+            "--build",
+            "-j",
+            "2",
+            *VERILATOR_ARGS,
+            "--top-module",
+            "cosim_pair_top",
+            "--prefix",
+            "Vpair_top",
+            f"-GCLKS_PER_SAMPLE={PAIR_CLKS_PER_SAMPLE}",
+            f"-I{HDL_DIR / 'rtl'}",
+            "--Mdir",
+            str(obj_core),
+            "-CFLAGS",
+            cflags,
+            "-MAKEFLAGS",
+            MAKEFLAGS,
+            *[str(p) for p in core_rtl],
+            str(PAIR_TOP),
+        ],
+        log,
+    )
+    # The antagonistic pair's bare loop (bn_run_pair): tension_loop_mc with N = 2, its channels in
     # the default group 0, a second model in the same library under its own prefix.
     obj_pair = OUT_DIR / "obj_pair"
     shutil.rmtree(obj_pair, ignore_errors=True)
@@ -220,9 +255,11 @@ def _build_locked(force: bool) -> Path:
             "-Wall",
             "-Wextra",
             f"-DBN_CLKS_PER_SAMPLE={CLKS_PER_SAMPLE}",
+            f"-DBN_PAIR_CLKS_PER_SAMPLE={PAIR_CLKS_PER_SAMPLE}",
             f"-DBN_INPUT_PORTS(X)={inputs}",
             f"-I{obj}",
             f"-I{obj_pair}",
+            f"-I{obj_core}",
             "-isystem",
             str(root / "include"),
             "-isystem",
@@ -234,6 +271,7 @@ def _build_locked(force: bool) -> Path:
             *[str(p) for p in CXX_SOURCES],
             str(obj / "Vcosim_top__ALL.a"),
             str(obj_pair / "Vpair_loop__ALL.a"),
+            str(obj_core / "Vpair_top__ALL.a"),
             str(obj / "libverilated.a"),
             f"-L{FW_LIB.parent}",
             "-lbowden_fw",

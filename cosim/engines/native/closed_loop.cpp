@@ -29,6 +29,8 @@
 #include "Vcosim_top___024root.h"
 #include "Vpair_loop.h"
 #include "Vpair_loop___024root.h"
+#include "Vpair_top.h"
+#include "Vpair_top___024root.h"
 #include "fmi2FunctionTypes.h"
 #include "verilated.h"
 
@@ -328,6 +330,13 @@ class Harness {
         int32_t code = 0;
         int32_t fault_kind = 0;  // bn_pair_loop_t.fault_kind
         int64_t fault_k = 0;
+        // The pair's bowden_core_mc takes the firmware's writes on its own bus (bn_run_pair's
+        // CorePair): this harness's cosim_top is not run, and the T_c read back from the
+        // cable's bank (tc_n) is checked sample by sample against the T_c this harness computes
+        // from the firmware's TC (CommandTension's twin) while the channel runs (`running`: no
+        // fault latched, no group stop), against 0 while it does not (the loop's TC_EFF).
+        bool core = false;
+        bool running = true;
     };
     External *ext = nullptr;
 
@@ -687,9 +696,10 @@ void Harness::op_done(const BusOp &op, uint32_t data) {
 }
 
 void Harness::firmware_wake(int64_t k) {
+    const bool core = ext && ext->core;
     if (task_busy_) fail("firmware tick at sample %lld: the previous tick's bus traffic is still "
                          "running", k);
-    task_busy_ = true;
+    task_busy_ = !core;
     task_k_ = k;
     task_wake_half_ = now_half() + 1;
     auto t0 = Clock::now();
@@ -711,6 +721,10 @@ void Harness::firmware_wake(int64_t k) {
     fw_time_ += Clock::now() - t0;
     tc_new_ = double(tc_word) / 256.0;
     if (ext) ext->fw_writes = writes;
+    if (core) {  // the pair's core lands them on its bus (CorePair::tick)
+        ++s_.firmware_ticks;
+        return;
+    }
     for (auto &w : writes) queue({BusOp::WRITE, w.first, w.second, 0, T_NONE});
     if (writes.empty())
         op_done({BusOp::CALL, 0, 0, 0, C_WRITES_DONE}, 0);  // at the wake-up, as cocotb
@@ -728,6 +742,22 @@ void Harness::start() {
     auto &io = *top_;
     n_ = s_.n;
     const int cps = s_.clks_per_sample;
+    if (ext && ext->core) {
+        // The firmware's start-up writes go to the pair's core; the plant at rest gives the
+        // first ADC sample (as PairSim's channel).
+        int32_t code0 = chain_start(y_[BN_OUT_T_IN_MEAS]);
+        code_in_ = code0;
+        if (s_.est_feed) {
+            if (adc_out_) adc_out_->record(y_[BN_OUT_T_OUT_MEAS]);
+            code_out_ = adc_code(y_[BN_OUT_T_OUT_MEAS], s_.adc_offset, s_.adc_gain);
+        }
+        fw_host_start(fw_);
+        ext->fw_writes = drain_writes();
+        ext->has_code = true;
+        ext->code = code0;
+        t_start_ = Clock::now();
+        return;
+    }
     shadow_addrs_ = {BOWDEN_REG_STATUS, BOWDEN_REG_FAULT, BOWDEN_REG_T_IN, BOWDEN_REG_U,
                      BOWDEN_REG_SAMPLE_COUNT};
 
@@ -794,7 +824,8 @@ void Harness::sample(int64_t k) {
     uint32_t &toggle = toggle_;
     Clock::duration &rtl = rtl_, &fmu = fmu_;
     {
-        if (k) {
+        const bool core = ext && ext->core;
+        if (k && !core) {
             auto t0 = Clock::now();
             for (int c = 0; c < cps; ++c) clock();
             rtl += Clock::now() - t0;
@@ -809,6 +840,10 @@ void Harness::sample(int64_t k) {
         int32_t word = ext ? ext->u_word : int16_t(io.cmd_current);
         s_.out_u_word[k] = word;
         s_.out_tc_n[k] = ext ? ext->tc_n : tc;
+        if (core) {  // the TC_EFF read back from the cable's bank against the firmware's T_c
+            if (ext->tc_n != (ext->running ? tc : 0.0)) ++s_.tc_mismatch;
+            ++s_.tc_checks;
+        }
         s_.out_current_a[k] = double(word) / 4096.0;
         std::memcpy(rows + k * BN_N_OUT, y_, sizeof y_);
         u_[2] = s_.x_m[k];
@@ -845,7 +880,7 @@ void Harness::sample(int64_t k) {
             ext->has_code = fresh;
             if (fresh) ext->code = code;
         }
-        if (fresh) {
+        if (fresh && !core) {
             toggle ^= 1u << 24;
             io.adc_word = toggle | (uint32_t(code) & 0xFFFFFF);
         }
@@ -863,6 +898,12 @@ void Harness::finish() {
     const int cps = s_.clks_per_sample;
     auto t_end = Clock::now();
     s_.progress = n_;
+    if (ext && ext->core) {  // FAULT and STATUS: the pair's core reads them from the bank
+        s_.total_s = seconds(t_end - t_start_);
+        s_.fmu_s = seconds(fmu_);
+        s_.firmware_s = seconds(fw_time_);
+        return;
+    }
     // Latched faults at the end: the firmware task's last transactions first.
     for (int i = 0; i < 4 * cps; ++i) clock();
     drain_bus(1000 * int64_t(cps));
@@ -1019,6 +1060,152 @@ class PairLoop {
     }
 };
 
+
+// --- the pair's core: one bowden_core_mc (N = 2, one group) on its bus ------------------------
+// cosim_pair_top (Verilated under the prefix Vpair_top, PAIR_CLKS_PER_SAMPLE clocks per
+// sample), driven as cosim/engines/cocotb/tb_pair.py drives it: before each of the core's ticks
+// the firmware's words of each cable to its bank (BOWDEN_REG_AT) and both cables' ADC codes as
+// one conversion; at cmd_valid the commands and enables from the ports, each bank's TC_EFF and
+// FAULT read back over the bus, the group stops from the top's tap.
+class CorePair {
+  public:
+    static constexpr int N = 2;
+
+    struct Channel {
+        std::vector<std::pair<uint32_t, uint32_t>> writes;  // (address in the bank, word)
+        bool has_code = false;
+        int32_t code = 0;
+    };
+    Channel ch[N];
+    int64_t least_slack_clks = BN_PAIR_CLKS_PER_SAMPLE;
+
+    CorePair() {
+        ctx_ = std::make_unique<VerilatedContext>();
+        ctx_->traceEverOn(false);
+        top_ = std::make_unique<Vpair_top>(ctx_.get(), "pair_top");
+        auto &d = *top_;
+        d.clk = 0;
+        d.adc_word = 0;
+        d.s_axil_awaddr = d.s_axil_awprot = d.s_axil_awvalid = d.s_axil_wdata = 0;
+        d.s_axil_wstrb = d.s_axil_wvalid = d.s_axil_bready = 0;
+        d.s_axil_araddr = d.s_axil_arprot = d.s_axil_arvalid = d.s_axil_rready = 0;
+        d.rst = 1;
+        d.eval();
+        for (int i = 0; i < 3; ++i) edge();
+        d.rst = 0;
+    }
+    ~CorePair() { top_->final(); }
+
+    // The events since the last tick landed before the core's next tick; that tick's outputs.
+    void tick() {
+        auto &d = *top_;
+        const int64_t ticks0 = ticks_;
+        for (int k = 0; k < N; ++k) {
+            for (auto &w : ch[k].writes) write(BOWDEN_REG_AT(uint32_t(k), w.first), w.second);
+            ch[k].writes.clear();
+        }
+        if (ch[0].has_code != ch[1].has_code)
+            fail("one cable's ADC samples stopped alone: one conversion gives both (%lld, %lld)",
+                 ch[0].has_code, ch[1].has_code);
+        if (ch[0].has_code) {
+            toggle_ ^= uint64_t(1) << 48;
+            d.adc_word = toggle_ | (uint64_t(uint32_t(ch[1].code) & 0xFFFFFF) << 24) |
+                         (uint32_t(ch[0].code) & 0xFFFFFF);
+        }
+        ch[0].has_code = ch[1].has_code = false;
+        if (ticks_ != ticks0) fail("the writes of tick %lld missed it", ticks0);
+        const int64_t done = edges_;
+        while (ticks_ == ticks0) edge();
+        if (ticks0 > 0 && edges_ - last_tick_edge_ != BN_PAIR_CLKS_PER_SAMPLE)
+            fail("ticks %lld clocks apart", edges_ - last_tick_edge_);
+        if (edges_ - done - 1 < least_slack_clks) least_slack_clks = edges_ - done - 1;
+        last_tick_edge_ = edges_;
+        for (int guard = 0; !d.cmd_valid; ++guard) {
+            if (guard > 2 * BN_PAIR_CLKS_PER_SAMPLE) fail("no cmd_valid after the tick");
+            edge();
+        }
+        cmd_ = d.cmd_current;
+        en_ = d.cmd_enable;
+        stop_ = d.grp_stop;
+        for (int k = 0; k < N; ++k) {
+            tc_eff_[k] = int16_t(read(BOWDEN_REG_AT(uint32_t(k), BOWDEN_REG_TC_EFF)) & 0xFFFF);
+            faults_[k] = int32_t(read(BOWDEN_REG_AT(uint32_t(k), BOWDEN_REG_FAULT)) & 0xF);
+        }
+    }
+    int32_t u(int k) const { return int16_t(uint16_t(cmd_ >> (16 * k))); }
+    int32_t tc_eff(int k) const { return tc_eff_[k]; }
+    int32_t faults(int k) const { return faults_[k]; }
+    bool out_en(int k) const { return (en_ >> k) & 1; }
+    bool grp_stop(int k) const { return (stop_ >> k) & 1; }
+    uint32_t status(int k) { return read(BOWDEN_REG_AT(uint32_t(k), BOWDEN_REG_STATUS)); }
+
+  private:
+    std::unique_ptr<VerilatedContext> ctx_;
+    std::unique_ptr<Vpair_top> top_;
+    int64_t edges_ = 0, ticks_ = 0, last_tick_edge_ = 0;
+    uint64_t toggle_ = 0;
+    uint32_t cmd_ = 0;
+    uint8_t en_ = 0, stop_ = 0;
+    int32_t tc_eff_[N] = {}, faults_[N] = {};
+
+    // One rising edge (the falling one's evaluation skipped, as PairLoop::clock: every flop is
+    // on posedge, and the bus master settles the inputs it changed before it samples: settle).
+    void edge() {
+        top_->clk = 1;
+        top_->eval();
+        top_->clk = 0;
+        top_->rootp->__Vtrigprevexpr___TOP__clk__0 = 0;
+        ++edges_;
+        if (top_->sample_tick) ++ticks_;
+    }
+    // The combinational outputs for the inputs just driven, before the next edge.
+    void settle() { top_->eval(); }
+
+    // AXI4-Lite, one transaction at a time: a handshake happens at the edge before which
+    // VALID and READY were both high (READY sampled after settle()).
+    void write(uint32_t addr, uint32_t value) {
+        auto &d = *top_;
+        d.s_axil_awaddr = addr;
+        d.s_axil_wdata = value;
+        d.s_axil_wstrb = 0xF;
+        d.s_axil_awvalid = d.s_axil_wvalid = d.s_axil_bready = 1;
+        bool aw = true, w = true;
+        for (int guard = 0;; ++guard) {
+            if (guard > 64) fail("AXI4-Lite write at 0x%03llx did not complete", addr);
+            settle();
+            bool awready = d.s_axil_awready, wready = d.s_axil_wready, bvalid = d.s_axil_bvalid;
+            uint32_t bresp = d.s_axil_bresp;
+            edge();
+            if (aw && awready) aw = false, d.s_axil_awvalid = 0;
+            if (w && wready) w = false, d.s_axil_wvalid = 0;
+            if (bvalid) {
+                d.s_axil_bready = 0;
+                if (bresp) fail("AXI4-Lite write at 0x%03llx: response %lld", addr, bresp);
+                return;
+            }
+        }
+    }
+    uint32_t read(uint32_t addr) {
+        auto &d = *top_;
+        d.s_axil_araddr = addr;
+        d.s_axil_arvalid = d.s_axil_rready = 1;
+        bool ar = true;
+        for (int guard = 0;; ++guard) {
+            if (guard > 64) fail("AXI4-Lite read at 0x%03llx did not complete", addr);
+            settle();
+            bool arready = d.s_axil_arready, rvalid = d.s_axil_rvalid;
+            uint32_t data = d.s_axil_rdata, rresp = d.s_axil_rresp;
+            edge();
+            if (ar && arready) ar = false, d.s_axil_arvalid = 0;
+            if (rvalid) {
+                d.s_axil_rready = 0;
+                if (rresp) fail("AXI4-Lite read at 0x%03llx: response %lld", addr, rresp);
+                return data;
+            }
+        }
+    }
+};
+
 }  // namespace
 
 extern "C" {
@@ -1070,12 +1257,17 @@ int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j, bn_pair_loop_t *m
         Harness h1(*a), h2(*b);
         Harness *hs[2] = {&h1, &h2};
         std::unique_ptr<PairLoop> loop;
+        std::unique_ptr<CorePair> core;
         Harness::External ext[2];
         if (m) {
-            loop = std::make_unique<PairLoop>();
+            if (m->loop_only)
+                loop = std::make_unique<PairLoop>();
+            else
+                core = std::make_unique<CorePair>();
             for (int i = 0; i < 2; ++i) {
                 ext[i].fault_kind = m->fault_kind[i];
                 ext[i].fault_k = m->fault_k[i];
+                ext[i].core = bool(core);
                 hs[i]->ext = &ext[i];
             }
         }
@@ -1085,10 +1277,22 @@ int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j, bn_pair_loop_t *m
         // ticks; then before tick k the writes of the firmware tick k - TC_LATENCY (when k is
         // one of its ticks plus TC_LATENCY) and the step's ADC sample.
         const int lat = a->tc_latency_samples, dec = a->decimation;
+        auto due = [&](int64_t k) { return k < 0 || (k >= lat && (k - lat) % dec == 0); };
         auto feed = [&](int64_t k) {
             for (int i = 0; i < 2; ++i) {
+                if (core) {
+                    CorePair::Channel &c = core->ch[i];
+                    if (due(k)) {
+                        c.writes.insert(c.writes.end(), ext[i].fw_writes.begin(),
+                                        ext[i].fw_writes.end());
+                        ext[i].fw_writes.clear();
+                    }
+                    c.has_code = ext[i].has_code;
+                    if (ext[i].has_code) c.code = ext[i].code;
+                    continue;
+                }
                 PairLoop::Channel &c = loop->ch[i];
-                if (k < 0 || (k >= lat && (k - lat) % dec == 0)) {
+                if (due(k)) {
                     for (auto &w : ext[i].fw_writes) c.write(w.first, w.second);
                     ext[i].fw_writes.clear();
                 }
@@ -1098,10 +1302,16 @@ int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j, bn_pair_loop_t *m
                 }
             }
         };
-        if (loop) {
+        Clock::duration rtl{};
+        if (m) {
             for (int64_t k = -2; k < 0; ++k) {
                 feed(k);
-                loop->tick();
+                auto t0 = Clock::now();
+                if (core)
+                    core->tick();
+                else
+                    loop->tick();
+                rtl += Clock::now() - t0;
             }
         }
         // cosim.engines.antagonist.PairSim: a Jacobi step of the cables and the joint per
@@ -1112,15 +1322,22 @@ int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j, bn_pair_loop_t *m
         for (int64_t k = 0; k < a->n; ++k) {
             j->theta_rad[k] = th;
             j->omega_rad_s[k] = om;
-            if (loop) {
+            if (m) {
                 feed(k);
-                loop->tick();
+                auto t0 = Clock::now();
+                if (core)
+                    core->tick();
+                else
+                    loop->tick();
+                rtl += Clock::now() - t0;
                 for (int i = 0; i < 2; ++i) {
-                    ext[i].u_word = loop->u(i);
-                    ext[i].tc_n = double(loop->tc_eff(i)) / 256.0;
-                    m->out_faults[2 * k + i] = loop->faults(i);
-                    m->out_en[2 * k + i] = loop->out_en(i);
-                    m->out_grp_stop[2 * k + i] = loop->grp_stop(i);
+                    ext[i].u_word = core ? core->u(i) : loop->u(i);
+                    int32_t tc_eff = core ? core->tc_eff(i) : loop->tc_eff(i);
+                    ext[i].tc_n = double(tc_eff) / 256.0;
+                    ext[i].running = core && core->faults(i) == 0 && !core->grp_stop(i);
+                    m->out_faults[2 * k + i] = core ? core->faults(i) : loop->faults(i);
+                    m->out_en[2 * k + i] = core ? core->out_en(i) : loop->out_en(i);
+                    m->out_grp_stop[2 * k + i] = core ? core->grp_stop(i) : loop->grp_stop(i);
                 }
             }
             double s = j->radius_m * th;
@@ -1134,6 +1351,16 @@ int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j, bn_pair_loop_t *m
             th = th_next;
             t1 = h1.t_out();
             t2 = h2.t_out();
+        }
+        if (m) {
+            m->rtl_s = seconds(rtl);
+            m->least_slack_clks = core ? core->least_slack_clks : -1;
+        }
+        if (core) {
+            a->fault_word = uint32_t(core->faults(0));
+            b->fault_word = uint32_t(core->faults(1));
+            a->status_word = core->status(0);
+            b->status_word = core->status(1);
         }
         h1.finish();
         h2.finish();

@@ -35,7 +35,7 @@ from cosim.parts.interface import make_chain
 from cosim.parts.plant import FMU_LINK_FIELDS
 from cosim.project.progress import Progress
 
-API_VERSION = 7
+API_VERSION = 8
 IFACE_CODES = {"ideal": 0, "adc": 1, "board": 2}
 # As the cocotb harness (tb_closed_loop.SHADOW_REFRESH_TICKS).
 SHADOW_REFRESH_TICKS = 10
@@ -120,15 +120,19 @@ class JointSpec(ctypes.Structure):
 
 
 class PairLoopSpec(ctypes.Structure):
-    """Mirror of bn_pair_loop_t (cosim/engines/native/bn_api.h): the pair's tension_loop_mc in
-    bn_run_pair, a load-cell fault per cable and each channel's status per sample."""
+    """Mirror of bn_pair_loop_t (cosim/engines/native/bn_api.h): the pair's bowden_core_mc (or,
+    loop_only, its bare tension_loop_mc) in bn_run_pair, a load-cell fault per cable, each
+    channel's status per sample, the RTL's time and the bus's least slack before a tick."""
 
     _fields_ = [
+        ("loop_only", c_int32),
         ("fault_kind", c_int32 * 2),
         ("fault_k", ctypes.c_int64 * 2),
         ("out_faults", POINTER(c_int32)),
         ("out_en", POINTER(ctypes.c_uint8)),
         ("out_grp_stop", POINTER(ctypes.c_uint8)),
+        ("rtl_s", c_double),
+        ("least_slack_clks", ctypes.c_int64),
     ]
 
 
@@ -297,8 +301,8 @@ class _Run:
 
     def collect(self, status: int, check_tc: bool = True) -> tuple[dict, dict]:
         """The record and the cost split; check_tc False: a TC_EFF that differs from the T_c
-        recorded is not an error (the pair's loop under a fault drives the cable, while the
-        bus reads cosim_top's loop)."""
+        recorded is not an error (the pair's bare loop under a stale fault drives the cable,
+        while the bus reads cosim_top's loop)."""
         s, n, inp, rec = self.s, self.n, self.inp, self.rec
         _, _, _, _, out_u_word, rows, out_est, out_corr = self.arrays
         return _collect(s, n, inp, rec, out_u_word, rows, out_est, out_corr, status, check_tc)
