@@ -9,14 +9,16 @@ their far ends (FMU input end_displacement).
 
 The pair's two loops are one two-channel tension_loop_mc with both channels in one safety
 group. Two engines run it: `native` (the default: bn_run_pair in
-cosim/engines/native/closed_loop.cpp steps a Verilated tension_loop_mc with the joint between
-its samples; each cable's firmware still talks to its own cosim_top over AXI4-Lite, as in the
-single-cable engine, and the pair's loop takes the firmware's writes as the model does) and
-`model` (its bit-exact model, rtl_model.TensionLoopMcModel with groups [0, 0]). PairSim is the
-pair's world around any two-channel loop, so the cocotb bench of the pair
-(cosim/engines/cocotb/tb_pair.py) runs the same world around the Verilog module. With no fault
-the group never stops a channel, each channel is exactly a single loop, and all three give the
-same record, sample for sample, with a fault too (tests/cosim/test_antagonist.py).
+cosim/engines/native/closed_loop.cpp steps a Verilated bowden_core_mc, N = 2, with the joint
+between its samples: each cable's firmware writes its own register bank over the core's
+AXI4-Lite bus and the T_c each bank reads back is checked against the firmware's; a stale ADC on
+one cable, which the core's one conversion for both cables cannot give, runs on the bare
+tension_loop_mc fed as the model is) and `model` (its bit-exact model,
+rtl_model.TensionLoopMcModel with groups [0, 0]). PairSim is the pair's world around any
+two-channel loop, so the cocotb bench of the pair (cosim/engines/cocotb/tb_pair.py) runs the same
+world around the Verilog core, its firmware on the core's bus. With no fault the group never
+stops a channel, each channel is exactly a single loop, and all three give the same record,
+sample for sample, with a fault too (tests/cosim/test_antagonist.py).
 
 A CableFault breaks one cable's load cell mid-run (`stale`: its ADC samples stop; `open`: the
 code sits at the converter's limit, 2^23 - 1, past ADC_MAX, as an open bridge reads): the
@@ -334,7 +336,7 @@ def run_pair(
     """Run the pair closed loop (module docstring) with `compensator` on both channels.
     hold_joint: both far ends held at d = 0 (the joint still turns): each channel is then a
     single-cable run, the check that the composition adds nothing but the joint.
-    engine: `native` (the pair's tension_loop_mc Verilated, cosim/engines/native bn_run_pair)
+    engine: `native` (the pair's bowden_core_mc Verilated, cosim/engines/native bn_run_pair)
     or `model` (its bit-exact model in Python); tests/cosim/test_antagonist.py holds the two to
     the same record. fault: a load-cell fault on one cable (CableFault), or None."""
     if engine == "native":
@@ -367,9 +369,10 @@ def _run_pair_native(
     scen, cfg, compensator, duration_s, interface, hold_joint, fault=None
 ) -> PairRecord:
     """run_pair on the native engine: each cable a bn_spec_t as `bowden sim --engine native`
-    sets one up (its firmware on its own cosim_top's bus), the joint's exact step handed over
-    as its matrices (bn_joint_t), both cables driven by the pair's Verilated tension_loop_mc
-    (bn_pair_loop_t: the fault, each channel's status per sample)."""
+    sets one up (its firmware, FMU and interface stage), the joint's exact step handed over as
+    its matrices (bn_joint_t), both cables driven by the pair's Verilated bowden_core_mc, each
+    firmware on its own bank (bn_pair_loop_t: the fault, each channel's status per sample); a
+    stale fault on the bare tension_loop_mc (loop_only), whose TC_EFF is not read back."""
     import ctypes  # noqa: PLC0415
 
     from cosim.parts.joint import Joint  # noqa: PLC0415
@@ -540,8 +543,8 @@ def table(rows: list[dict]) -> str:
 FAULT_ROWS = (CableFault(0, "stale", 1.2), CableFault(0, "open", 1.7))
 FAULT_TAIL_S = 0.3
 FAULT_CAPTION = (
-    "A load-cell fault on cable 1 (preview, native engine: the pair as one tension_loop_mc "
-    "group): periods from the latch until both drives are off for good, against 1 + "
+    "A load-cell fault on cable 1 (preview, native engine: the pair as one bowden_core_mc "
+    "group, the stale fault on its bare tension_loop_mc): periods from the latch until both drives are off for good, against 1 + "
     "ceil(I_LIMIT / WDT_RAMP_STEP); the joint's peak speed after the latch against its free "
     "release (both cables cut at the latch); the largest rise of a cable's T_out or T_in above "
     "its pre-fault maximum"

@@ -126,7 +126,8 @@ def test_each_channel_equals_the_single_cable_chain_while_the_joint_is_held():
 
 @pytest.mark.parametrize("est", [0, 1])
 def test_native_pair_equals_the_model_pair(est):
-    """The native engine's pair (one Verilated tension_loop_mc, bn_run_pair) and the Python
+    """The native engine's pair (one Verilated bowden_core_mc, each firmware on its bank over
+    the core's bus, its TC_EFF read-back checked every sample; bn_run_pair) and the Python
     model's give the same record: every array of both channels (command words, T_c, every plant
     output), each channel's status and the joint's angle and speed, bit for bit, with the joint
     moving and with the online estimate fed from each cable's far end."""
@@ -154,7 +155,9 @@ def test_run_pair_refuses_an_unknown_engine():
 @pytest.mark.parametrize("fault", [CableFault(0, "stale", 0.1), CableFault(1, "open", 0.12)])
 def test_native_pair_equals_the_model_pair_under_a_fault(fault):
     """A load-cell fault on one cable: the native engine's pair (both cables driven by its
-    Verilated tension_loop_mc) and the model's give the same record, bit for bit, and the same
+    Verilated bowden_core_mc, TC_EFF read back and checked; a stale ADC on one cable, which the
+    core's shared conversion cannot give, on the bare tension_loop_mc) and the model's give
+    the same record, bit for bit, and the same
     FAULT, enable and group stop of each channel at every sample; the fault latched on the
     faulted channel and the other group-stopped by the end."""
     scen, cfg = get_antagonist(), SimConfig()
