@@ -26,8 +26,9 @@ ENGINES_DIR = Path(__file__).resolve().parent
 CLKS_PER_SAMPLE = rtl_model.LATENCY_CLKS + 1
 # Clocks per sample of the pair's core (cosim_pair_top.v, bowden_core_mc with N = 2): its loops'
 # 1 + 15 N = 31 clocks, then each bank's TC_EFF and FAULT read back (about 5 clocks each) and the
-# firmware's words; the start-up's 17 words a cable (3 clocks each) before the first tick take
-# the most, 102 of 128 clocks (the engines check that every write lands before its tick).
+# firmware's words; the start-up's 17 words a cable before the first tick take the most, 68
+# clocks with the native engine's bus master and 102 with cocotb's (3 clocks a write), of 128
+# (the engines check that every write lands before its tick).
 PAIR_CLKS_PER_SAMPLE = 128
 
 # Samples between a firmware tick and the first FPGA sample that uses its T_c: the tick runs
