@@ -15,7 +15,8 @@
  * code.
  *
  * The ADC front-end gives every channel of one conversion together (ads131m02_reader with NCH
- * = 2N, an ADS131M04 for 2 cables, an ADS131M08 for 4): cable k's T_in is ADC channel 2k and
+ * = 2N, an ADS131M04 for 2 cables, an ADS131M08 for 4; adc_valid has a bit per cable, so a
+ * converter per cable works too): cable k's T_in is ADC channel 2k and
  * its T_out channel 2k + 1.
  *
  * Timing: a sample tick every CLKS_PER_SAMPLE clocks (>= tension_loop_mc's LATENCY, 1 + 15 N)
@@ -69,7 +70,9 @@ module bowden_core_mc #(
      * Raw load-cell ADC samples: one conversion of every ADC channel, cable k's T_in in ADC
      * channel 2k and its T_out in 2k + 1 (ADC channel j in bits [j*24 +: 24], signed codes)
      */
-    input  wire              adc_valid,
+    input  wire [N-1:0]      adc_valid,       // cable k's channels (2k, 2k + 1) are new: all
+                                              // together from one converter, each on its own
+                                              // from a converter per cable
     input  wire [2*N*24-1:0] adc_ch_data,
     input  wire              adc_drdy_lost,   // front-end flags, read back in ADC_FLAGS
     input  wire              adc_crc_err,
@@ -216,7 +219,7 @@ endgenerate
 tension_loop_mc #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP), .WDT_RAMP_STEP(WDT_RAMP_STEP)) loop (
     .clk(clk), .rst(rst),
     .tick(tick_reg),
-    .adc_valid({N{adc_valid}}), .adc_data(t_in_codes),
+    .adc_valid(adc_valid), .adc_data(t_in_codes),
     .enable(ctrl_enable), .slew_en(ctrl_slew_en), .integ_reset(ctrl_integ_reset),
     .fault_clear(ctrl_fault_clear), .tc_wr(tc_wr),
     .tc(tc), .tc_min(tc_min), .kff(kff), .uff(uff), .kp(kp), .ki_ts(ki_ts), .i_limit(i_limit),
