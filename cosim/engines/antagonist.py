@@ -11,14 +11,13 @@ The pair's two loops are one two-channel tension_loop_mc with both channels in o
 group. Two engines run it: `native` (the default: bn_run_pair in
 cosim/engines/native/closed_loop.cpp steps a Verilated bowden_core_mc, N = 2, with the joint
 between its samples: each cable's firmware writes its own register bank over the core's
-AXI4-Lite bus and the T_c each bank reads back is checked against the firmware's; a stale ADC on
-one cable, which the core's one conversion for both cables cannot give, runs on the bare
-tension_loop_mc fed as the model is) and `model` (its bit-exact model,
-rtl_model.TensionLoopMcModel with groups [0, 0]). PairSim is the pair's world around any
-two-channel loop, so the cocotb bench of the pair (cosim/engines/cocotb/tb_pair.py) runs the same
-world around the Verilog core, its firmware on the core's bus. With no fault the group never
-stops a channel, each channel is exactly a single loop, and all three give the same record,
-sample for sample, with a fault too (tests/cosim/test_antagonist.py).
+AXI4-Lite bus and the T_c each bank reads back is checked against the firmware's) and `model`
+(its bit-exact model, rtl_model.TensionLoopMcModel with groups [0, 0]). PairSim is the pair's
+world around any two-channel loop, so the cocotb bench of the pair
+(cosim/engines/cocotb/tb_pair.py) runs the same world around the Verilog core, its firmware on
+the core's bus. With no fault the group never stops a channel, each channel is exactly a single
+loop, and all three give the same record, sample for sample, with a fault too
+(tests/cosim/test_antagonist.py).
 
 A CableFault breaks one cable's load cell mid-run (`stale`: its ADC samples stop; `open`: the
 code sits at the converter's limit, 2^23 - 1, past ADC_MAX, as an open bridge reads): the
@@ -371,8 +370,7 @@ def _run_pair_native(
     """run_pair on the native engine: each cable a bn_spec_t as `bowden sim --engine native`
     sets one up (its firmware, FMU and interface stage), the joint's exact step handed over as
     its matrices (bn_joint_t), both cables driven by the pair's Verilated bowden_core_mc, each
-    firmware on its own bank (bn_pair_loop_t: the fault, each channel's status per sample); a
-    stale fault on the bare tension_loop_mc (loop_only), whose TC_EFF is not read back."""
+    firmware on its own bank (bn_pair_loop_t: the fault, each channel's status per sample)."""
     import ctypes  # noqa: PLC0415
 
     from cosim.parts.joint import Joint  # noqa: PLC0415
@@ -411,10 +409,6 @@ def _run_pair_native(
         faults = np.zeros((n, 2), dtype=np.int32)
         out_en = np.zeros((n, 2), dtype=np.uint8)
         grp_stop = np.zeros((n, 2), dtype=np.uint8)
-        # One conversion gives both cables' samples: the core cannot stop one cable's alone
-        # (a stale ADC on one cable), which runs on the bare loop, fed as the model is.
-        stale = fault is not None and fault.kind == "stale"
-        m.loop_only = 1 if stale else 0
         if fault is not None:
             m.fault_kind[fault.cable] = 1 + FAULT_KINDS.index(fault.kind)
             m.fault_k[fault.cable] = fault.sample(cfg.sample_rate_hz)
@@ -430,7 +424,7 @@ def _run_pair_native(
             run.plant.close()
     if status != 0:
         raise RuntimeError(f"native pair: {a.s.error.decode(errors='replace')}")
-    recs = tuple(run.collect(0, check_tc=not stale)[0] for run in runs)
+    recs = tuple(run.collect(0)[0] for run in runs)
     rec = _pair_record(scen, recs, t_s, theta, omega)
     rec.faults, rec.out_en, rec.grp_stop = faults.astype(np.int64), out_en != 0, grp_stop != 0
     return rec
@@ -544,7 +538,7 @@ FAULT_ROWS = (CableFault(0, "stale", 1.2), CableFault(0, "open", 1.7))
 FAULT_TAIL_S = 0.3
 FAULT_CAPTION = (
     "A load-cell fault on cable 1 (preview, native engine: the pair as one bowden_core_mc "
-    "group, the stale fault on its bare tension_loop_mc): periods from the latch until both drives are off for good, against 1 + "
+    "group): periods from the latch until both drives are off for good, against 1 + "
     "ceil(I_LIMIT / WDT_RAMP_STEP); the joint's peak speed after the latch against its free "
     "release (both cables cut at the latch); the largest rise of a cable's T_out or T_in above "
     "its pre-fault maximum"

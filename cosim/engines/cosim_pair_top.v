@@ -4,14 +4,14 @@
 
 /*
  * Co-simulation top of the antagonistic pair: bowden_core_mc with two cables in one safety
- * group, as a board with one ADS131M04 would use it, plus the one-clock ADC strobe of
- * cosim_top.v (a toggle bit), so that the harness hands over one conversion of both cables
- * with a single signal write.
+ * group, plus the one-clock ADC strobes of cosim_top.v (a toggle bit per cable), so that the
+ * harness hands over a conversion with a single signal write. Both toggles flip together for
+ * one conversion of both cables (one ADS131M04, the board's part); one alone when only that
+ * cable's samples are new (its samples stopped on the other: a stale fault on one cable).
  *
  * The harness's bus master reaches cable k's registers at bank k (byte address k * 0x100 +
  * the single core's address, regmap.bank_addr / BOWDEN_REG_AT). The ADC word carries both
- * cables' T_in codes of one conversion (the converter's frame gives every channel together);
- * the far-end channels (T_OUT) are not driven: the harness hands the far-end codes to the
+ * cables' T_in codes; the far-end channels (T_OUT) are not driven: the harness hands the far-end codes to the
  * firmware directly, as the single-cable engines do.
  * The PWM outputs are left unobserved; grp_stop is the loop's group stop, which no register
  * shows, taken out for the record (a hierarchical reference: simulation only).
@@ -48,7 +48,8 @@ module cosim_pair_top #(
     /*
      * ADC conversions from the harness
      */
-    input  wire [48:0] adc_word,     // {toggle (flips once per conversion), cable 1's T_in code,
+    input  wire [49:0] adc_word,     // {cable 1's toggle, cable 0's toggle (each flips once per
+                                     //  new sample of that cable), cable 1's T_in code,
                                      //  cable 0's T_in code}, signed 24-bit codes
 
     /*
@@ -64,16 +65,16 @@ module cosim_pair_top #(
 
 localparam N = 2;
 
-reg adc_toggle_reg;
+reg [N-1:0] adc_toggle_reg;
 
 always @(posedge clk) begin
-    adc_toggle_reg <= adc_word[48];
+    adc_toggle_reg <= adc_word[49:48];
     if (rst) begin
-        adc_toggle_reg <= 1'b0;
+        adc_toggle_reg <= {N{1'b0}};
     end
 end
 
-wire adc_valid = adc_word[48] ^ adc_toggle_reg;
+wire [N-1:0] adc_valid = adc_word[49:48] ^ adc_toggle_reg;
 // ADC channel 2k is cable k's T_in, 2k + 1 its T_out (not driven here).
 wire [2*N*24-1:0] adc_ch_data = {24'd0, adc_word[47:24], 24'd0, adc_word[23:0]};
 wire [N-1:0] pwm_unused;

@@ -155,9 +155,8 @@ def test_run_pair_refuses_an_unknown_engine():
 @pytest.mark.parametrize("fault", [CableFault(0, "stale", 0.1), CableFault(1, "open", 0.12)])
 def test_native_pair_equals_the_model_pair_under_a_fault(fault):
     """A load-cell fault on one cable: the native engine's pair (both cables driven by its
-    Verilated bowden_core_mc, TC_EFF read back and checked; a stale ADC on one cable, which the
-    core's shared conversion cannot give, on the bare tension_loop_mc) and the model's give
-    the same record, bit for bit, and the same
+    Verilated bowden_core_mc, TC_EFF read back and checked; a stale ADC strobes only the other
+    cable) and the model's give the same record, bit for bit, and the same
     FAULT, enable and group stop of each channel at every sample; the fault latched on the
     faulted channel and the other group-stopped by the end."""
     scen, cfg = get_antagonist(), SimConfig()

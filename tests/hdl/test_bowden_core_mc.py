@@ -117,7 +117,7 @@ class McCoreTb:
                 t_out = (0x100000 * (k + 1) + i) & 0xFFFFFF
                 word |= t_in << (48 * k) | t_out << (48 * k + 24)
             d.adc_ch_data.value = word
-            d.adc_valid.value = 1
+            d.adc_valid.value = (1 << N) - 1  # one conversion: every cable's channels
             await RisingEdge(d.clk)
             d.adc_valid.value = 0
             i += 1

@@ -79,7 +79,7 @@ class CorePair:
     def __init__(self, dut) -> None:
         self.dut = dut
         self.channels = [BankChannel() for _ in range(N)]
-        self.toggle = 0
+        self.toggle = self.codes = 0
         self.last_tick_ns: int | None = None
         self.least_slack_clks = CLKS_PER_SAMPLE
         self.cmd_current = fastio.unsigned_reader(dut.cmd_current)
@@ -103,17 +103,16 @@ class CorePair:
             for addr, word in c.writes:
                 await bus.write_dword(regmap.bank_addr(i, addr), word)
             c.writes = []
-        codes = [c.code for c in self.channels]
-        if any(code is not None for code in codes):
-            if any(code is None for code in codes):
-                # one conversion gives every channel: one cable's samples cannot stop alone
-                raise NotImplementedError("a stale ADC on one cable of a shared converter")
-            self.toggle ^= 1 << 48
-            # 49 bits: past the fast writer's 32, cocotb's `.value` (once a sample)
-            word = self.toggle | (codes[1] & _CODE_MASK) << 24 | (codes[0] & _CODE_MASK)
-            d.adc_word.value = word
-        for c in self.channels:
-            c.code = None
+        if any(c.code is not None for c in self.channels):
+            # a cable's toggle flips when its sample is new (both: one conversion)
+            for k, c in enumerate(self.channels):
+                if c.code is not None:
+                    self.toggle ^= 1 << (48 + k)
+                    self.codes &= ~(_CODE_MASK << (24 * k))
+                    self.codes |= (c.code & _CODE_MASK) << (24 * k)
+                    c.code = None
+            # 50 bits: past the fast writer's 32, cocotb's `.value` (once a sample)
+            d.adc_word.value = self.toggle | self.codes
         done_ns = get_sim_time("ns")
         await RisingEdge(d.sample_tick)
         now_ns = get_sim_time("ns")

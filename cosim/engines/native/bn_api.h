@@ -16,7 +16,7 @@
 extern "C" {
 #endif
 
-#define BN_API_VERSION 8
+#define BN_API_VERSION 9
 
 /* Interface stages (cosim/parts/interface.py). */
 #define BN_IFACE_IDEAL 0
@@ -101,11 +101,9 @@ typedef struct {
 /* The pair's loop in bn_run_pair: both cables' drive from one Verilated bowden_core_mc (N = 2,
  * one safety group; cosim_pair_top), each firmware's writes landed in its cable's register bank
  * over the core's AXI4-Lite bus before the tick PairSim gives them to the loop's model, both
- * ADC samples as one conversion, each bank's TC_EFF and FAULT read back; a load-cell fault per
- * cable. loop_only = 1: the bare tension_loop_mc, its ports fed as the model is (a stale ADC
- * on one cable, which the core's one conversion for both cables cannot give). */
+ * ADC samples as one conversion (one cable's alone when the other's stopped), each bank's
+ * TC_EFF and FAULT read back; a load-cell fault per cable. */
 typedef struct {
-    int32_t loop_only;
     int32_t fault_kind[2];   /* 0: none, 1: stale (no more samples), 2: open (code 2^23 - 1) */
     int64_t fault_k[2];      /* the fault holds for the ADC delivery of ticks k >= fault_k */
     int32_t *out_faults;     /* n x 2 (row major): each channel's FAULT after tick k */
@@ -113,7 +111,7 @@ typedef struct {
     uint8_t *out_grp_stop;   /* n x 2: its group stop */
     double rtl_s;            /* out: the pair's RTL (clocks and bus) */
     int64_t least_slack_clks; /* out: the fewest clocks between a tick's last write or ADC
-                                 strobe and the tick (-1: loop_only) */
+                                 strobe and the tick */
 } bn_pair_loop_t;
 
 /* BN_API_VERSION, and sizeof(bn_spec_t) so the ctypes mirror can check itself. */
@@ -129,8 +127,7 @@ int32_t bn_run(bn_spec_t *spec);
 /* Two cables side by side on one joint (cosim/engines/antagonist.py): cable a's far end at
  * -r*theta, b's at +r*theta, the joint driven by their true T_out. With m == NULL each cable's
  * firmware talks to its own cosim_top over AXI4-Lite as in bn_run, whose loop drives it; else
- * the pair's core (or loop) of bn_pair_loop_t drives both and no cosim_top runs (loop_only:
- * each cosim_top still takes its firmware's bus). 0 on success, else non-zero
+ * the pair's core of bn_pair_loop_t drives both and no cosim_top runs. 0 on success, else non-zero
  * with a->error set. */
 int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j, bn_pair_loop_t *m);
 

@@ -1,6 +1,6 @@
 """Build build/native/libbowden_native.so: the Verilated cosim_top and, for the antagonistic
-pair, cosim_pair_top (bowden_core_mc with N = 2) and tension_loop_mc with N = 2 (verilator --cc,
-compiled into static libraries with -fPIC) and
+pair, cosim_pair_top (bowden_core_mc with N = 2) (verilator --cc, compiled into static
+libraries with -fPIC) and
 the C++ closed loop (closed_loop.cpp), linked with the
 firmware's libbowden_fw.so; the FMI 2.0 types come from fmpy's bundled headers.
 
@@ -33,8 +33,6 @@ CXX_SOURCES = (NATIVE_DIR / "closed_loop.cpp",)
 HEADERS = (NATIVE_DIR / "bn_api.h",)
 # The antagonistic pair's core, Verilated beside cosim_top (bn_run_pair).
 PAIR_TOP = ENGINES_DIR / "cosim_pair_top.v"
-# The pair's bare loop (bn_run_pair's loop_only: a stale ADC on one cable).
-PAIR_LOOP_MODULES = ("tension_loop_mc", "tension_loop_dp", "mul_s16")
 # Verilator's options of the cocotb build (cosim/engines/cocotb/runner.py), minus VPI: no tracing,
 # X's resolved at compile time, the model optimised for speed.
 VERILATOR_ARGS = ("-O3", "--x-assign", "fast", "--x-initial", "fast", "-Wno-fatal")
@@ -216,34 +214,6 @@ def _build_locked(force: bool) -> Path:
         ],
         log,
     )
-    # The antagonistic pair's bare loop (bn_run_pair): tension_loop_mc with N = 2, its channels in
-    # the default group 0, a second model in the same library under its own prefix.
-    obj_pair = OUT_DIR / "obj_pair"
-    shutil.rmtree(obj_pair, ignore_errors=True)
-    obj_pair.mkdir(parents=True)
-    run_logged(
-        [
-            exe,
-            "--cc",
-            "--build",
-            "-j",
-            "2",
-            *VERILATOR_ARGS,
-            "--top-module",
-            "tension_loop_mc",
-            "--prefix",
-            "Vpair_loop",
-            "-GN=2",
-            "--Mdir",
-            str(obj_pair),
-            "-CFLAGS",
-            cflags,
-            "-MAKEFLAGS",
-            MAKEFLAGS,
-            *[str(HDL_DIR / "rtl" / f"{m}.v") for m in PAIR_LOOP_MODULES],
-        ],
-        log,
-    )
     inputs = " ".join(f"X({p})" for p in model_inputs(obj))
     cxx = os.environ.get("CXX", "g++")
     tmp = LIB_PATH.with_name(f"{LIB_PATH.name}.{os.getpid()}")
@@ -258,7 +228,6 @@ def _build_locked(force: bool) -> Path:
             f"-DBN_PAIR_CLKS_PER_SAMPLE={PAIR_CLKS_PER_SAMPLE}",
             f"-DBN_INPUT_PORTS(X)={inputs}",
             f"-I{obj}",
-            f"-I{obj_pair}",
             f"-I{obj_core}",
             "-isystem",
             str(root / "include"),
@@ -270,7 +239,6 @@ def _build_locked(force: bool) -> Path:
             f"-I{NATIVE_DIR}",
             *[str(p) for p in CXX_SOURCES],
             str(obj / "Vcosim_top__ALL.a"),
-            str(obj_pair / "Vpair_loop__ALL.a"),
             str(obj_core / "Vpair_top__ALL.a"),
             str(obj / "libverilated.a"),
             f"-L{FW_LIB.parent}",

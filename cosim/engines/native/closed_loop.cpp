@@ -27,8 +27,6 @@
 
 #include "Vcosim_top.h"
 #include "Vcosim_top___024root.h"
-#include "Vpair_loop.h"
-#include "Vpair_loop___024root.h"
 #include "Vpair_top.h"
 #include "Vpair_top___024root.h"
 #include "fmi2FunctionTypes.h"
@@ -916,151 +914,6 @@ void Harness::finish() {
     s_.rtl_s = seconds(rtl_);  // the clocks and the bus master driven inside them
 }
 
-// --- the pair's loop: one tension_loop_mc (N = 2, one group) ---------------------------------
-// Each channel's configuration is held as its register file holds it (field bits at bit 0 of
-// the word, as the firmware writes them), and the events between ticks (TC written, the CTRL
-// pulses, a new ADC sample) wait for the tick, as rtl_model.TensionLoopModel takes them; at
-// each tick the ports carry them and the module runs one period (its header: LATENCY = 1 + 15 N
-// clocks to out_valid), then one idle clock.
-class PairLoop {
-  public:
-    static constexpr int N = 2;
-    static constexpr int LATENCY = 1 + 15 * N;
-
-    struct Channel {
-        uint32_t tc = BOWDEN_TC_RESET, tc_min = BOWDEN_TC_MIN_RESET, kff = BOWDEN_KFF_RESET,
-                 uff = BOWDEN_UFF_RESET, kp = BOWDEN_KP_RESET, ki_ts = BOWDEN_KI_TS_RESET,
-                 i_limit = BOWDEN_I_LIMIT_RESET, slew = BOWDEN_SLEW_RESET,
-                 wdt_timeout = BOWDEN_WDT_TIMEOUT_RESET, adc_offset = BOWDEN_ADC_OFFSET_RESET,
-                 adc_gain = BOWDEN_ADC_GAIN_RESET, adc_min = uint32_t(BOWDEN_ADC_MIN_RESET),
-                 adc_max = BOWDEN_ADC_MAX_RESET, adc_stale = BOWDEN_ADC_STALE_RESET,
-                 oc_timeout = BOWDEN_OC_TIMEOUT_RESET, ctrl = 0;
-        bool tc_wr = false, integ_reset = false, fault_clear = false, has_code = false;
-        int32_t code = 0;
-
-        void write(uint32_t addr, uint32_t v) {
-            switch (addr) {
-            case BOWDEN_REG_CTRL:
-                ctrl = v;
-                integ_reset |= (v & BOWDEN_CTRL_INTEG_RESET_MASK) != 0;
-                fault_clear |= (v & BOWDEN_CTRL_FAULT_CLEAR_MASK) != 0;
-                break;
-            case BOWDEN_REG_TC: tc = v; tc_wr = true; break;
-            case BOWDEN_REG_TC_MIN: tc_min = v; break;
-            case BOWDEN_REG_KFF: kff = v; break;
-            case BOWDEN_REG_UFF: uff = v; break;
-            case BOWDEN_REG_KP: kp = v; break;
-            case BOWDEN_REG_KI_TS: ki_ts = v; break;
-            case BOWDEN_REG_I_LIMIT: i_limit = v; break;
-            case BOWDEN_REG_SLEW: slew = v; break;
-            case BOWDEN_REG_WDT_TIMEOUT: wdt_timeout = v; break;
-            case BOWDEN_REG_ADC_OFFSET: adc_offset = v; break;
-            case BOWDEN_REG_ADC_GAIN: adc_gain = v; break;
-            case BOWDEN_REG_ADC_MIN: adc_min = v; break;
-            case BOWDEN_REG_ADC_MAX: adc_max = v; break;
-            case BOWDEN_REG_ADC_STALE: adc_stale = v; break;
-            case BOWDEN_REG_OC_TIMEOUT: oc_timeout = v; break;
-            default: break;  // no loop input behind it (read-only, the ID, unmapped)
-            }
-        }
-    };
-    Channel ch[N];
-
-    PairLoop() {
-        ctx_ = std::make_unique<VerilatedContext>();
-        ctx_->traceEverOn(false);
-        top_ = std::make_unique<Vpair_loop>(ctx_.get(), "pair_loop");
-        auto &d = *top_;
-        d.clk = 0;
-        d.tick = 0;
-        d.adc_valid = 0;
-        d.integ_reset = d.fault_clear = d.tc_wr = 0;
-        drive();
-        d.rst = 1;
-        d.eval();
-        for (int i = 0; i < 3; ++i) clock();
-        d.rst = 0;
-        clock();
-    }
-    ~PairLoop() { top_->final(); }
-
-    // One period with the events since the last tick; the outputs at out_valid.
-    void tick() {
-        auto &d = *top_;
-        drive();
-        d.tc_wr = d.integ_reset = d.fault_clear = d.adc_valid = 0;
-        uint64_t adc = 0;
-        for (int k = 0; k < N; ++k) {
-            Channel &c = ch[k];
-            d.tc_wr |= uint8_t(c.tc_wr) << k;
-            d.integ_reset |= uint8_t(c.integ_reset) << k;
-            d.fault_clear |= uint8_t(c.fault_clear) << k;
-            d.adc_valid |= uint8_t(c.has_code) << k;
-            if (c.has_code) adc |= uint64_t(uint32_t(c.code) & 0xFFFFFF) << (24 * k);
-            c.tc_wr = c.integ_reset = c.fault_clear = c.has_code = false;
-        }
-        d.adc_data = adc;
-        d.tick = 1;
-        clock();
-        d.tick = 0;
-        d.tc_wr = d.integ_reset = d.fault_clear = d.adc_valid = 0;
-        for (int i = 1; i < LATENCY; ++i) clock();
-        if (!d.out_valid) fail("pair loop: out_valid not %lld clocks after the tick", LATENCY);
-        clock();  // the idle clock before the next tick
-    }
-    int32_t u(int k) const { return int16_t(uint16_t(top_->u >> (16 * k))); }
-    int32_t tc_eff(int k) const { return int16_t(uint16_t(top_->tc_eff >> (16 * k))); }
-    int32_t faults(int k) const { return (top_->faults >> (4 * k)) & 0xF; }
-    bool out_en(int k) const { return (top_->out_en >> k) & 1; }
-    bool grp_stop(int k) const { return (top_->grp_stop >> k) & 1; }
-
-  private:
-    std::unique_ptr<VerilatedContext> ctx_;
-    std::unique_ptr<Vpair_loop> top_;
-
-    // One clock: the rising edge's evaluation only, with Verilator told that clk was low (its
-    // edge detector's last value), as Harness::clock does without bus traffic: every flop is on
-    // posedge and nothing samples the outputs between the edges.
-    void clock() {
-        top_->clk = 1;
-        top_->eval();
-        top_->clk = 0;
-        top_->rootp->__Vtrigprevexpr___TOP__clk__0 = 0;
-    }
-    // The configuration ports from the channels' registers (channel k in bits [k*W +: W]).
-    void drive() {
-        auto &d = *top_;
-        auto pack = [&](uint32_t Channel::*f, int w) {
-            uint64_t v = 0;
-            for (int k = 0; k < N; ++k) v |= uint64_t(ch[k].*f & ((uint64_t(1) << w) - 1)) << (w * k);
-            return v;
-        };
-        d.tc = uint32_t(pack(&Channel::tc, 16));
-        d.tc_min = uint32_t(pack(&Channel::tc_min, 16));
-        d.kff = uint32_t(pack(&Channel::kff, 16));
-        d.uff = uint32_t(pack(&Channel::uff, 16));
-        d.kp = uint32_t(pack(&Channel::kp, 16));
-        d.ki_ts = uint32_t(pack(&Channel::ki_ts, 16));
-        d.i_limit = uint32_t(pack(&Channel::i_limit, 15));
-        d.slew = uint32_t(pack(&Channel::slew, 15));
-        d.wdt_timeout = uint32_t(pack(&Channel::wdt_timeout, 16));
-        d.adc_offset = pack(&Channel::adc_offset, 24);
-        d.adc_gain = uint32_t(pack(&Channel::adc_gain, 16));
-        d.adc_min = pack(&Channel::adc_min, 24);
-        d.adc_max = pack(&Channel::adc_max, 24);
-        d.adc_stale = uint32_t(pack(&Channel::adc_stale, 16));
-        d.oc_timeout = uint32_t(pack(&Channel::oc_timeout, 16));
-        uint8_t en = 0, slew_en = 0;
-        for (int k = 0; k < N; ++k) {
-            en |= uint8_t((ch[k].ctrl & BOWDEN_CTRL_ENABLE_MASK) != 0) << k;
-            slew_en |= uint8_t((ch[k].ctrl & BOWDEN_CTRL_SLEW_EN_MASK) != 0) << k;
-        }
-        d.enable = en;
-        d.slew_en = slew_en;
-    }
-};
-
-
 // --- the pair's core: one bowden_core_mc (N = 2, one group) on its bus ------------------------
 // cosim_pair_top (Verilated under the prefix Vpair_top, PAIR_CLKS_PER_SAMPLE clocks per
 // sample), driven as cosim/engines/cocotb/tb_pair.py drives it: before each of the core's ticks
@@ -1104,13 +957,15 @@ class CorePair {
             for (auto &w : ch[k].writes) write(BOWDEN_REG_AT(uint32_t(k), w.first), w.second);
             ch[k].writes.clear();
         }
-        if (ch[0].has_code != ch[1].has_code)
-            fail("one cable's ADC samples stopped alone: one conversion gives both (%lld, %lld)",
-                 ch[0].has_code, ch[1].has_code);
-        if (ch[0].has_code) {
-            toggle_ ^= uint64_t(1) << 48;
-            d.adc_word = toggle_ | (uint64_t(uint32_t(ch[1].code) & 0xFFFFFF) << 24) |
-                         (uint32_t(ch[0].code) & 0xFFFFFF);
+        if (ch[0].has_code || ch[1].has_code) {
+            // a cable's toggle flips when its sample is new (both: one conversion)
+            for (int k = 0; k < N; ++k) {
+                if (!ch[k].has_code) continue;
+                toggle_ ^= uint64_t(1) << (48 + k);
+                codes_ &= ~(uint64_t(0xFFFFFF) << (24 * k));
+                codes_ |= uint64_t(uint32_t(ch[k].code) & 0xFFFFFF) << (24 * k);
+            }
+            d.adc_word = toggle_ | codes_;
         }
         ch[0].has_code = ch[1].has_code = false;
         if (ticks_ != ticks0) fail("the writes of tick %lld missed it", ticks0);
@@ -1143,13 +998,14 @@ class CorePair {
     std::unique_ptr<VerilatedContext> ctx_;
     std::unique_ptr<Vpair_top> top_;
     int64_t edges_ = 0, ticks_ = 0, last_tick_edge_ = 0;
-    uint64_t toggle_ = 0;
+    uint64_t toggle_ = 0, codes_ = 0;
     uint32_t cmd_ = 0;
     uint8_t en_ = 0, stop_ = 0;
     int32_t tc_eff_[N] = {}, faults_[N] = {};
 
-    // One rising edge (the falling one's evaluation skipped, as PairLoop::clock: every flop is
-    // on posedge, and the bus master settles the inputs it changed before it samples: settle).
+    // One rising edge, the falling one's evaluation skipped, with Verilator told that clk was
+    // low (its edge detector's last value): every flop is on posedge, and the bus master
+    // settles the inputs it changed before it samples them (settle).
     void edge() {
         top_->clk = 1;
         top_->eval();
@@ -1256,18 +1112,14 @@ int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j, bn_pair_loop_t *m
         }
         Harness h1(*a), h2(*b);
         Harness *hs[2] = {&h1, &h2};
-        std::unique_ptr<PairLoop> loop;
         std::unique_ptr<CorePair> core;
         Harness::External ext[2];
         if (m) {
-            if (m->loop_only)
-                loop = std::make_unique<PairLoop>();
-            else
-                core = std::make_unique<CorePair>();
+            core = std::make_unique<CorePair>();
             for (int i = 0; i < 2; ++i) {
                 ext[i].fault_kind = m->fault_kind[i];
                 ext[i].fault_k = m->fault_k[i];
-                ext[i].core = bool(core);
+                ext[i].core = true;
                 hs[i]->ext = &ext[i];
             }
         }
@@ -1280,26 +1132,14 @@ int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j, bn_pair_loop_t *m
         auto due = [&](int64_t k) { return k < 0 || (k >= lat && (k - lat) % dec == 0); };
         auto feed = [&](int64_t k) {
             for (int i = 0; i < 2; ++i) {
-                if (core) {
-                    CorePair::Channel &c = core->ch[i];
-                    if (due(k)) {
-                        c.writes.insert(c.writes.end(), ext[i].fw_writes.begin(),
-                                        ext[i].fw_writes.end());
-                        ext[i].fw_writes.clear();
-                    }
-                    c.has_code = ext[i].has_code;
-                    if (ext[i].has_code) c.code = ext[i].code;
-                    continue;
-                }
-                PairLoop::Channel &c = loop->ch[i];
+                CorePair::Channel &c = core->ch[i];
                 if (due(k)) {
-                    for (auto &w : ext[i].fw_writes) c.write(w.first, w.second);
+                    c.writes.insert(c.writes.end(), ext[i].fw_writes.begin(),
+                                    ext[i].fw_writes.end());
                     ext[i].fw_writes.clear();
                 }
-                if (ext[i].has_code) {
-                    c.has_code = true;
-                    c.code = ext[i].code;
-                }
+                c.has_code = ext[i].has_code;
+                if (ext[i].has_code) c.code = ext[i].code;
             }
         };
         Clock::duration rtl{};
@@ -1307,10 +1147,7 @@ int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j, bn_pair_loop_t *m
             for (int64_t k = -2; k < 0; ++k) {
                 feed(k);
                 auto t0 = Clock::now();
-                if (core)
-                    core->tick();
-                else
-                    loop->tick();
+                core->tick();
                 rtl += Clock::now() - t0;
             }
         }
@@ -1325,19 +1162,15 @@ int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j, bn_pair_loop_t *m
             if (m) {
                 feed(k);
                 auto t0 = Clock::now();
-                if (core)
-                    core->tick();
-                else
-                    loop->tick();
+                core->tick();
                 rtl += Clock::now() - t0;
                 for (int i = 0; i < 2; ++i) {
-                    ext[i].u_word = core ? core->u(i) : loop->u(i);
-                    int32_t tc_eff = core ? core->tc_eff(i) : loop->tc_eff(i);
-                    ext[i].tc_n = double(tc_eff) / 256.0;
-                    ext[i].running = core && core->faults(i) == 0 && !core->grp_stop(i);
-                    m->out_faults[2 * k + i] = core ? core->faults(i) : loop->faults(i);
-                    m->out_en[2 * k + i] = core ? core->out_en(i) : loop->out_en(i);
-                    m->out_grp_stop[2 * k + i] = core ? core->grp_stop(i) : loop->grp_stop(i);
+                    ext[i].u_word = core->u(i);
+                    ext[i].tc_n = double(core->tc_eff(i)) / 256.0;
+                    ext[i].running = core->faults(i) == 0 && !core->grp_stop(i);
+                    m->out_faults[2 * k + i] = core->faults(i);
+                    m->out_en[2 * k + i] = core->out_en(i);
+                    m->out_grp_stop[2 * k + i] = core->grp_stop(i);
                 }
             }
             double s = j->radius_m * th;
@@ -1354,7 +1187,7 @@ int32_t bn_run_pair(bn_spec_t *a, bn_spec_t *b, bn_joint_t *j, bn_pair_loop_t *m
         }
         if (m) {
             m->rtl_s = seconds(rtl);
-            m->least_slack_clks = core ? core->least_slack_clks : -1;
+            m->least_slack_clks = core->least_slack_clks;
         }
         if (core) {
             a->fault_word = uint32_t(core->faults(0));

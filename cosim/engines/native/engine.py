@@ -35,7 +35,7 @@ from cosim.parts.interface import make_chain
 from cosim.parts.plant import FMU_LINK_FIELDS
 from cosim.project.progress import Progress
 
-API_VERSION = 8
+API_VERSION = 9
 IFACE_CODES = {"ideal": 0, "adc": 1, "board": 2}
 # As the cocotb harness (tb_closed_loop.SHADOW_REFRESH_TICKS).
 SHADOW_REFRESH_TICKS = 10
@@ -120,12 +120,11 @@ class JointSpec(ctypes.Structure):
 
 
 class PairLoopSpec(ctypes.Structure):
-    """Mirror of bn_pair_loop_t (cosim/engines/native/bn_api.h): the pair's bowden_core_mc (or,
-    loop_only, its bare tension_loop_mc) in bn_run_pair, a load-cell fault per cable, each
-    channel's status per sample, the RTL's time and the bus's least slack before a tick."""
+    """Mirror of bn_pair_loop_t (cosim/engines/native/bn_api.h): the pair's bowden_core_mc in
+    bn_run_pair, a load-cell fault per cable, each channel's status per sample, the RTL's time
+    and the bus's least slack before a tick."""
 
     _fields_ = [
-        ("loop_only", c_int32),
         ("fault_kind", c_int32 * 2),
         ("fault_k", ctypes.c_int64 * 2),
         ("out_faults", POINTER(c_int32)),
@@ -299,16 +298,14 @@ class _Run:
         self.s, self.fw, self.keep = s, fw, keep
         self.arrays = (t_ref_word, xs, ys, zs, out_u_word, rows, out_est, out_corr)
 
-    def collect(self, status: int, check_tc: bool = True) -> tuple[dict, dict]:
-        """The record and the cost split; check_tc False: a TC_EFF that differs from the T_c
-        recorded is not an error (the pair's bare loop under a stale fault drives the cable,
-        while the bus reads cosim_top's loop)."""
+    def collect(self, status: int) -> tuple[dict, dict]:
+        """The record and the cost split."""
         s, n, inp, rec = self.s, self.n, self.inp, self.rec
         _, _, _, _, out_u_word, rows, out_est, out_corr = self.arrays
-        return _collect(s, n, inp, rec, out_u_word, rows, out_est, out_corr, status, check_tc)
+        return _collect(s, n, inp, rec, out_u_word, rows, out_est, out_corr, status)
 
 
-def _collect(s, n, inp, rec, out_u_word, rows, out_est, out_corr, status, check_tc=True):
+def _collect(s, n, inp, rec, out_u_word, rows, out_est, out_corr, status):
     if status != 0:
         raise RuntimeError(f"native closed loop: {s.error.decode(errors='replace')}")
 
@@ -344,7 +341,7 @@ def _collect(s, n, inp, rec, out_u_word, rows, out_est, out_corr, status, check_
         raise RuntimeError(
             f"{s.late_writes} firmware TC writes missed sample tick k+{TC_LATENCY_SAMPLES}"
         )
-    if s.tc_mismatch and check_tc:
+    if s.tc_mismatch:
         raise RuntimeError(
             f"{s.tc_mismatch} firmware ticks: TC_EFF read back differs from the T_c written"
         )
