@@ -16,8 +16,7 @@
  *
  * The ADC front-end gives every channel of one conversion together (ads131m02_reader with NCH
  * = 2N, an ADS131M04 for 2 cables, an ADS131M08 for 4; adc_valid has a bit per cable, so a
- * converter per cable works too): cable k's T_in is ADC channel 2k and
- * its T_out channel 2k + 1.
+ * converter per cable works too): cable k's T_in is ADC channel 2k and its T_out channel 2k + 1.
  *
  * Timing: a sample tick every CLKS_PER_SAMPLE clocks (>= tension_loop_mc's LATENCY, 1 + 15 N)
  * starts one period of every channel; cmd_valid pulses when every channel's command is new.
