@@ -145,7 +145,14 @@ wire drdy_fall = drdy_sync_reg[2] && !drdy_sync_reg[1];
 wire rx_bit = dout_sync_reg[1];
 wire crc_fb = crc_reg[15] ^ rx_bit;
 
-integer k;
+// The channel words of the frame received (CH0 first on the line), channel k in [k*24 +: 24].
+wire [NCH*24-1:0] rx_channels;
+genvar g;
+generate
+    for (g = 0; g < NCH; g = g + 1) begin : g_rx_channel
+        assign rx_channels[g*24 +: 24] = rx_reg[(NCH-1-g)*24 +: 24];
+    end
+endgenerate
 
 always @* begin
     state_next = state_reg;
@@ -210,9 +217,7 @@ always @* begin
                                 valid_next = 1'b1;
                                 crc_err_next = 1'b0;
                                 status_next = rx_reg[RX_BITS-1 -: 16];
-                                for (k = 0; k < NCH; k = k + 1) begin
-                                    ch_next[k*24 +: 24] = rx_reg[(NCH-1-k)*24 +: 24];
-                                end
+                                ch_next = rx_channels;
                             end else begin
                                 crc_err_next = 1'b1;
                             end
