@@ -42,6 +42,15 @@ MAX_FIT_RESIDUALS = 20_000
 # report use those predictions only. The friction loop is most of an audit's time: without
 # this, 20 minutes of 1 kHz data cost about 1500 runs of 1.2 million samples.
 MAX_FIT_FRICTION_SAMPLES = 100_000
+# ... and on every record the fits' friction grid is at least this coarse (q = 2 at 1 kHz): the
+# input that drives the friction is smoothed (data.SMOOTH_S, a 41 ms Savitzky-Golay window of
+# order 5, flat to about 70 Hz), the sensor's lags and creep are filtered on the grid exactly
+# for an input linear between its samples (_grid_lag), and the delay is read at the full rate
+# from the interpolated friction; a 2 ms grid moves a reversal's extreme by T'' (2 ms)^2 / 8
+# (3e-5 N at 60 N/s^2), a thousandth of the noise floor. It halves the friction runs and the
+# Jacobian of every fit; the models are still simulated at the full rate for the decision and
+# the report.
+FIT_FRICTION_STEP_S = 2e-3
 # Friction outputs kept per fit (least recently used dropped): the Jacobian's columns for the
 # sensor's parameters (offset, gain, lag, delay, full scale, creep) reuse the friction of the
 # point they are taken at; those for mu, the spread and static friction's excess come from the
@@ -267,7 +276,11 @@ class _Evaluator:
         self.data = data
         inp = data.inputs
         self.n = len(inp.t_in_n)
-        self.q = max(1, math.ceil(self.n / MAX_FIT_FRICTION_SAMPLES))
+        self.q = max(
+            1,
+            math.ceil(self.n / MAX_FIT_FRICTION_SAMPLES),
+            int(FIT_FRICTION_STEP_S / inp.dt_s + 1e-9),
+        )
         if self.q == 1:
             self.inputs = inp
         else:

@@ -4,8 +4,8 @@ FRICTION_CACHE; cosim/audit/twin.py, sensor_output_at) gives the numbers it stan
 - the sensor read at chosen samples is the sensor read everywhere, then indexed (exactly);
 - the friction loop with its exponentials computed once per change is the FMU's (held by the
   twin-FMU test) and is not run again for the sensor's parameters;
-- on a record longer than MAX_FIT_FRICTION_SAMPLES the fits run the friction on every q-th
-  sample: the reading stays within a small fraction of the noise floor of the full-rate one, and
+- on a record longer than MAX_FIT_FRICTION_SAMPLES (and on every record, at least on a grid of
+  FIT_FRICTION_STEP_S) the fits run the friction on every q-th sample: the reading stays within a small fraction of the noise floor of the full-rate one, and
   the fitted parameters stay those of the full-rate fit.
 """
 
@@ -77,6 +77,10 @@ def test_a_long_record_is_fitted_on_a_coarser_friction_grid_with_the_same_result
 ):
     data = record
     effects = (BY_CAUSE["sensor_offset"], BY_CAUSE["tension_dependent_friction"])
+    # every record at 1 kHz is fitted on a 2 ms grid (FIT_FRICTION_STEP_S); the reference here
+    # is the fit at the full rate
+    assert fit._Evaluator(data).q == 2
+    monkeypatch.setattr(fit, "FIT_FRICTION_STEP_S", 0.0)
     full = fit.fit_model(data, effects)
     ev_full = fit._Evaluator(data)
     assert ev_full.q == 1
