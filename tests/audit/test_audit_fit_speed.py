@@ -5,8 +5,10 @@ FRICTION_CACHE; cosim/audit/twin.py, sensor_output_at) gives the numbers it stan
 - the friction loop with its exponentials computed once per change is the FMU's (held by the
   twin-FMU test) and is not run again for the sensor's parameters;
 - on a record longer than MAX_FIT_FRICTION_SAMPLES (and on every record, at least on a grid of
-  FIT_FRICTION_STEP_S) the fits run the friction on every q-th sample: the reading stays within a small fraction of the noise floor of the full-rate one, and
-  the fitted parameters stay those of the full-rate fit.
+  FIT_FRICTION_STEP_S) the fits run the friction on every q-th sample: the reading stays within
+  a small fraction of the noise floor of the full-rate one, and the fitted parameters stay those
+  of the full-rate fit;
+- the fits' linear algebra runs OpenBLAS on one thread (cosim/audit/blas.py).
 """
 
 from __future__ import annotations
@@ -256,3 +258,18 @@ def test_a_fit_with_the_slopes_ends_where_the_differences_end(record, monkeypatc
     for name in ("mu", "dead_zone_spread", "sensor_offset"):
         assert exact.params[name] == pytest.approx(differences.params[name], rel=1e-3), name
     assert exact.friction_runs < differences.friction_runs
+
+
+def test_the_audit_runs_openblas_on_one_thread_and_gives_the_count_back():
+    # numpy's and scipy's OpenBLAS (separate copies): one thread inside, the count before after
+    from cosim.audit import blas  # noqa: PLC0415
+
+    libs = blas._loaded_openblas()
+    assert len(libs) >= 2, "numpy's and scipy's OpenBLAS not found"
+    for setter, _ in libs:
+        setter(2)
+    with blas.one_thread():
+        assert [get() for _, get in libs] == [1] * len(libs)
+        for setter, _ in libs:
+            setter(3)  # changed inside: still given back as it was before
+    assert [get() for _, get in libs] == [2] * len(libs)
