@@ -4,6 +4,22 @@ with no effect, one effect and two effects, and a recording of the bench emulato
 0.5 Hz sine of `bowden bench run sine`); then 20 minutes of 1 kHz data with two effects (target:
 at most 2 min and 2 GB of memory, the audit's peak resident set). Prints the machine's load: the
 figures move with it. `python -m cosim.perf.audit long` runs the long case only.
+
+Measured on this machine (2 cores shared by four people; CPU seconds are the figure to compare,
+wall times follow the load), on a fresh clone (numba's cache empty: the first case also compiles
+the twin), before and after the fits' friction on a 2 ms grid (cosim/audit/fit.py,
+FIT_FRICTION_STEP_S) and OpenBLAS on one thread (cosim/audit/blas.py):
+
+| case | CPU s before | CPU s after | wall s after (load) |
+| --- | --- | --- | --- |
+| no effect | 23.6 | 17.9 | 85.5 (9.6) |
+| lag 10 ms | 33.9 | 16.5 | 101.8 (8.4) |
+| offset 0.5 N + tension slope 1.2e-3/N | 51.2 | 19.6 | 121.1 (9.8); 26.8 (2.2), run alone |
+| bench emulator | 21.9 | 11.5 | 64.7 (8.3) |
+| 20 min, offset + slope | 121.2 | 98.2 | 141.3 (6.5), peak 1217 MB |
+
+The same findings in every case. The 20-minute record was already fitted on a 12 ms grid
+(MAX_FIT_FRICTION_SAMPLES): its gain is the single BLAS thread's.
 """
 
 from __future__ import annotations
