@@ -49,8 +49,12 @@ MAX_FIT_FRICTION_SAMPLES = 100_000
 # from the interpolated friction; a 2 ms grid moves a reversal's extreme by T'' (2 ms)^2 / 8
 # (3e-5 N at 60 N/s^2), a thousandth of the noise floor. It halves the friction runs and the
 # Jacobian of every fit; the models are still simulated at the full rate for the decision and
-# the report.
+# the report. Not for a model with viscous friction (RATE_PARAMS): it follows the cable speed
+# and the tension rate, derivatives filtered with 10 ms, whose noise a coarser step changes (a
+# case of the rig's tension-rate friction kept its last round's creep at its bound only at the
+# full rate); those fits run at the full rate below MAX_FIT_FRICTION_SAMPLES.
 FIT_FRICTION_STEP_S = 2e-3
+RATE_PARAMS = ("mu_viscous", "mu_viscous_tension_rate")
 # Friction outputs kept per fit (least recently used dropped): the Jacobian's columns for the
 # sensor's parameters (offset, gain, lag, delay, full scale, creep) reuse the friction of the
 # point they are taken at; those for mu, the spread and static friction's excess come from the
@@ -105,7 +109,8 @@ def fit_model(
     names: list[str] = ([] if data.mu_fixed else ["mu"]) + [SPREAD]
     names += [n for e in free if not e.discrete for n in e.fmu_params if n not in _SCANNED]
     delay = next((e for e in free if e.discrete), None)
-    ev = _Evaluator(data)
+    rates = any(p in RATE_PARAMS for e in effects for p in e.fmu_params)
+    ev = _Evaluator(data, coarse=not rates)
     fit_idx = np.flatnonzero(data.roles == FIT)
     stride = max(1, math.ceil(len(fit_idx) / MAX_FIT_RESIDUALS))
     idx = ev.on_grid(fit_idx, stride)
@@ -272,14 +277,16 @@ class _Evaluator:
     the friction on every q-th sample on long records; FRICTION_CACHE: friction outputs reused
     while only the sensor's parameters change)."""
 
-    def __init__(self, data: AuditData):
+    def __init__(self, data: AuditData, coarse: bool = True):
+        """coarse: the grid at least FIT_FRICTION_STEP_S; else only as MAX_FIT_FRICTION_SAMPLES
+        needs."""
         self.data = data
         inp = data.inputs
         self.n = len(inp.t_in_n)
         self.q = max(
             1,
             math.ceil(self.n / MAX_FIT_FRICTION_SAMPLES),
-            int(FIT_FRICTION_STEP_S / inp.dt_s + 1e-9),
+            int(FIT_FRICTION_STEP_S / inp.dt_s + 1e-9) if coarse else 1,
         )
         if self.q == 1:
             self.inputs = inp
