@@ -19,7 +19,9 @@ FIT_FRICTION_STEP_S) and OpenBLAS on one thread (cosim/audit/blas.py):
 | 20 min, offset + slope | 121.2 | 98.2 | 141.3 (6.5), peak 1217 MB |
 
 The same findings in every case. The 20-minute record was already fitted on a 12 ms grid
-(MAX_FIT_FRICTION_SAMPLES): its gain is the single BLAS thread's.
+(MAX_FIT_FRICTION_SAMPLES): its gain is the single BLAS thread's. Measured before the fits with
+viscous friction went back to the full rate (RATE_PARAMS); after it, the offset + slope case
+alone took 18.7 s of CPU (61 s wall at load 4.6).
 """
 
 from __future__ import annotations
