@@ -262,14 +262,21 @@ def test_a_fit_with_the_slopes_ends_where_the_differences_end(record, monkeypatc
 
 def test_the_audit_runs_openblas_on_one_thread_and_gives_the_count_back():
     # numpy's and scipy's OpenBLAS (separate copies): one thread inside, the count before after
+    from threadpoolctl import ThreadpoolController  # noqa: PLC0415
+
     from cosim.audit import blas  # noqa: PLC0415
 
-    libs = blas._loaded_openblas()
-    assert len(libs) >= 2, "numpy's and scipy's OpenBLAS not found"
-    for setter, _ in libs:
-        setter(2)
-    with blas.one_thread():
-        assert [get() for _, get in libs] == [1] * len(libs)
-        for setter, _ in libs:
-            setter(3)  # changed inside: still given back as it was before
-    assert [get() for _, get in libs] == [2] * len(libs)
+    controller = ThreadpoolController()
+    libs = controller.select(internal_api="openblas")
+    assert len(libs.lib_controllers) >= 2, "numpy's and scipy's OpenBLAS not found"
+
+    def counts() -> list[int]:
+        return [
+            lib.num_threads
+            for lib in ThreadpoolController().select(internal_api="openblas").lib_controllers
+        ]
+
+    with controller.limit(limits=2, user_api="blas"):
+        with blas.one_thread():
+            assert counts() == [1] * len(libs.lib_controllers)
+        assert counts() == [2] * len(libs.lib_controllers)
