@@ -8,22 +8,9 @@ import math
 
 import numpy as np
 import pytest
+from open_loop import FULL_SCALE_N, LSB, MU, PHI, open_loop_t_out, reference
 
 from cosim.parts import firmware as fw
-from cosim.parts.plant import Plant
-
-LSB = 1.0 / 256.0
-MU = 0.075
-PHI = 2.0 * math.pi  # loop routing in the loop's plane (x = 0, the FMU's y = 0.5 m below)
-FULL_SCALE_N = 15.0  # the figures' error in % of the 15 N maximum, as the sweeps score
-
-
-def _reference(n: int = 4000) -> np.ndarray:
-    """Reversals of several sizes between 2 and 14 N at 1 kHz (the shape of fig14, not its
-    waveform)."""
-    t = np.arange(n) / 1000.0
-    return 8.0 + 5.0 * np.sin(2 * np.pi * 0.5 * t) + 1.0 * np.sin(2 * np.pi * 1.3 * t)
-
 
 CONFIGS = {
     "paper": fw.CompensatorParams(mode="paper", breakaway=0.034),
@@ -46,7 +33,7 @@ def test_breakaway_fixed_matches_double_twin(name):
     walk = np.clip(np.cumsum(rng.integers(-60, 61, 20000)), -32768, 32767).astype(np.int16)
     for label, words in (
         ("random walk", walk),
-        ("reversals", np.round(_reference() * 256).astype(np.int16)),
+        ("reversals", np.round(reference() * 256).astype(np.int16)),
     ):
         fixed = fw.Compensator(params).run_words(words) * LSB
         twin = fw.CompensatorF64(params.quantized()).run(words * LSB)
@@ -58,7 +45,7 @@ def test_breakaway_fixed_matches_double_twin(name):
 def test_without_a_breakaway_the_law_is_todays_bit_for_bit(mode):
     """breakaway 0 (the default) gives the same words as a compensator never given the field,
     and a breakaway changes them (the extension is not a no-op)."""
-    words = np.round(_reference() * 256).astype(np.int16)
+    words = np.round(reference() * 256).astype(np.int16)
     base = fw.Compensator(fw.CompensatorParams(mode=mode)).run_words(words)
     zero = fw.Compensator(fw.CompensatorParams(mode=mode, breakaway=0.0)).run_words(words)
     brk = fw.Compensator(fw.CompensatorParams(mode=mode, breakaway=0.03)).run_words(words)
@@ -128,17 +115,6 @@ def test_a_breakaway_outside_the_limits_is_refused_by_both(fields):
     assert fixed.value.code == twin.value.code == 15
 
 
-def _open_loop(plant: dict, t_in: np.ndarray) -> np.ndarray:
-    out = np.empty(len(t_in))
-    inputs = {"T_in_cmd": float(t_in[0]), "x": 0.0, "y": 0.5, "z": 0.0}
-    with Plant({"drive_mode": 1, "mu": MU, **plant}, inputs=inputs) as p:
-        out[0] = p.y[p.T_OUT]
-        for k in range(1, len(t_in)):
-            p.u[1] = float(t_in[k])
-            out[k] = p.step(1e-3)[p.T_OUT]
-    return out
-
-
 # (RMS, peak) of the output error in % of 15 N after the first second, fig14's shape (2 to 15 N
 # at 0.5 Hz), the FMU's static friction alone (mu_static_excess 0.034, the report set's largest
 # draws): measured today 3.79 / 19.12, with the term 2.31 / 10.08; budgets about 15 % above.
@@ -159,7 +135,7 @@ def test_the_term_halves_the_fmus_stick_slip_open_loop():
         comp = fw.CompensatorF64(
             fw.CompensatorParams(mode="preview", mu=MU, phi_rad=PHI, breakaway=m_s)
         )
-        e = (_open_loop(plant, comp.run(ahead)) - ref)[1000:]
+        e = (open_loop_t_out(plant, comp.run(ahead)) - ref)[1000:]
         return (
             100 * math.sqrt(float(np.mean(e**2))) / FULL_SCALE_N,
             100 * float(np.max(np.abs(e))) / FULL_SCALE_N,

@@ -10,23 +10,10 @@ import math
 
 import numpy as np
 import pytest
+from open_loop import FULL_SCALE_N, LSB, MU, PHI, open_loop_t_out, reference
 from scipy.stats import norm
 
 from cosim.parts import firmware as fw
-from cosim.parts.plant import Plant
-
-LSB = 1.0 / 256.0
-MU = 0.075
-PHI = 2.0 * math.pi  # loop routing in the loop's plane (x = 0, the FMU's y = 0.5 m below)
-FULL_SCALE_N = 15.0  # the figures' error in % of the 15 N maximum, as the sweeps score
-
-
-def _reference(n: int = 4000) -> np.ndarray:
-    """Reversals of several sizes between 2 and 14 N at 1 kHz (the shape of fig14, not its
-    waveform)."""
-    t = np.arange(n) / 1000.0
-    return 8.0 + 5.0 * np.sin(2 * np.pi * 0.5 * t) + 1.0 * np.sin(2 * np.pi * 1.3 * t)
-
 
 CONFIGS = {
     "paper-0.6": fw.CompensatorParams(mode="paper", dead_zone_spread=0.6),
@@ -50,7 +37,7 @@ def test_dead_zone_inverse_fixed_matches_double_twin(name):
     walk = np.clip(np.cumsum(rng.integers(-60, 61, 20000)), -32768, 32767).astype(np.int16)
     for label, words in (
         ("random walk", walk),
-        ("reversals", np.round(_reference() * 256).astype(np.int16)),
+        ("reversals", np.round(reference() * 256).astype(np.int16)),
     ):
         fixed = fw.Compensator(params).run_words(words) * LSB
         twin = fw.CompensatorF64(params.quantized()).run(words * LSB)
@@ -61,7 +48,7 @@ def test_dead_zone_inverse_fixed_matches_double_twin(name):
 def test_without_a_spread_the_law_is_the_sharp_inverse_bit_for_bit():
     """spread 0 (the default) is today's law: the same words as a compensator never given the
     field, and a spread changes them (the extension is not a no-op)."""
-    words = np.round(_reference() * 256).astype(np.int16)
+    words = np.round(reference() * 256).astype(np.int16)
     base = fw.Compensator(fw.CompensatorParams(mode="preview")).run_words(words)
     zero = fw.Compensator(fw.CompensatorParams(mode="preview", dead_zone_spread=0.0)).run_words(
         words
@@ -145,15 +132,7 @@ def test_fxp_ln_is_within_its_bound_where_the_inverse_takes_it():
 
 
 def _open_loop(spread_plant: float, t_in: np.ndarray) -> np.ndarray:
-    params = {"drive_mode": 1, "mu": MU, "dead_zone_spread": spread_plant}
-    out = np.empty(len(t_in))
-    inputs = {"T_in_cmd": float(t_in[0]), "x": 0.0, "y": 0.5, "z": 0.0}
-    with Plant(params, inputs=inputs) as p:
-        out[0] = p.y[p.T_OUT]
-        for k in range(1, len(t_in)):
-            p.u[1] = float(t_in[k])
-            out[k] = p.step(1e-3)[p.T_OUT]
-    return out
+    return open_loop_t_out({"dead_zone_spread": spread_plant}, t_in)
 
 
 def _preview_t_in(spread: float, ref: np.ndarray, preview: int) -> np.ndarray:
@@ -178,7 +157,7 @@ def test_the_inverse_tracks_the_fmus_gradual_dead_zone_open_loop(spread):
     prescribed: drive mode 1) driven with the preview law's T_in: with the plant's spread the
     output tracks T_ref far better than today's sharp inverse, and at spread 0 the two are the
     same law."""
-    ref = _reference(5000)
+    ref = reference(5000)
     preview = fw.c_defaults()["preview_ticks"]
     today = _open_loop(spread, _preview_t_in(0.0, ref, preview))
     new = _open_loop(spread, _preview_t_in(spread, ref, preview))
