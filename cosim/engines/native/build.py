@@ -155,64 +155,49 @@ def _build_locked(force: bool) -> Path:
     if not force and LIB_PATH.is_file() and stamp.is_file() and stamp.read_text() == fp:
         return LIB_PATH
     exe, root = verilator()
-    obj = OUT_DIR / "obj"
-    shutil.rmtree(obj, ignore_errors=True)
-    obj.mkdir(parents=True)
     log = OUT_DIR / "build.log"
     log.write_text("")
-    cflags = " ".join(CXXFLAGS)
-    run_logged(
-        [
-            exe,
-            "--cc",
-            "--build",
-            "-j",
-            "2",
-            *VERILATOR_ARGS,
-            "--top-module",
-            "cosim_top",
-            f"-GCLKS_PER_SAMPLE={CLKS_PER_SAMPLE}",
-            f"-I{HDL_DIR / 'rtl'}",
-            "--Mdir",
-            str(obj),
-            "-CFLAGS",
-            cflags,
-            "-MAKEFLAGS",
-            MAKEFLAGS,
-            *[str(p) for p in rtl_sources()],
-        ],
-        log,
-    )
-    # The antagonistic pair's core (bn_run_pair): cosim_pair_top, a third model under its own
+
+    def verilate(obj: Path, top: str, clks_per_sample: int, sources: list[Path], prefix=()):
+        """One Verilated model of `top` into a fresh `obj`, its C++ built there."""
+        shutil.rmtree(obj, ignore_errors=True)
+        obj.mkdir(parents=True)
+        run_logged(
+            [
+                exe,
+                "--cc",
+                "--build",
+                "-j",
+                "2",
+                *VERILATOR_ARGS,
+                "--top-module",
+                top,
+                *prefix,
+                f"-GCLKS_PER_SAMPLE={clks_per_sample}",
+                f"-I{HDL_DIR / 'rtl'}",
+                "--Mdir",
+                str(obj),
+                "-CFLAGS",
+                " ".join(CXXFLAGS),
+                "-MAKEFLAGS",
+                MAKEFLAGS,
+                *[str(p) for p in sources],
+            ],
+            log,
+        )
+
+    obj = OUT_DIR / "obj"
+    verilate(obj, "cosim_top", CLKS_PER_SAMPLE, rtl_sources())
+    # The antagonistic pair's core (bn_run_pair): cosim_pair_top, a second model under its own
     # prefix.
     obj_core = OUT_DIR / "obj_pair_top"
-    shutil.rmtree(obj_core, ignore_errors=True)
-    obj_core.mkdir(parents=True)
     core_rtl = [p for p in rtl_sources() if p.parent == HDL_DIR / "rtl"]
-    run_logged(
-        [
-            exe,
-            "--cc",
-            "--build",
-            "-j",
-            "2",
-            *VERILATOR_ARGS,
-            "--top-module",
-            "cosim_pair_top",
-            "--prefix",
-            "Vpair_top",
-            f"-GCLKS_PER_SAMPLE={PAIR_CLKS_PER_SAMPLE}",
-            f"-I{HDL_DIR / 'rtl'}",
-            "--Mdir",
-            str(obj_core),
-            "-CFLAGS",
-            cflags,
-            "-MAKEFLAGS",
-            MAKEFLAGS,
-            *[str(p) for p in core_rtl],
-            str(PAIR_TOP),
-        ],
-        log,
+    verilate(
+        obj_core,
+        "cosim_pair_top",
+        PAIR_CLKS_PER_SAMPLE,
+        [*core_rtl, PAIR_TOP],
+        prefix=("--prefix", "Vpair_top"),
     )
     inputs = " ".join(f"X({p})" for p in model_inputs(obj))
     cxx = os.environ.get("CXX", "g++")
