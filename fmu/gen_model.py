@@ -38,6 +38,8 @@ class Var:
 PARAM, INPUT, OUTPUT = "parameter", "input", "output"
 # Knots of the friction drift's table (mu_drift_table_0 ..): BOWDEN_DRIFT_KNOTS of the C header.
 DRIFT_TABLE_KNOTS = 16
+# Knots of the slack table (slack_table_0 ..): BOWDEN_SLACK_KNOTS of the C header.
+SLACK_TABLE_KNOTS = 8
 # fmt: off
 VARIABLES: list[Var] = [
     # --- parameters, named as the firmware and the co-simulation name them -----------------
@@ -161,6 +163,24 @@ VARIABLES: list[Var] = [
             f"Friction coefficient change at the drift table's knot {i} (all 0 = off)")
         for i in range(DRIFT_TABLE_KNOTS)
     ),
+    # the bending error's free form: a quadratic surface of the position added to phi
+    # (fmu/README.md "Bending angle error"), with phi_offset_per_x, _y and _z as its linear part
+    *(
+        Var(f"phi_offset_per_{ab}", "Real", PARAM, 0.0, "rad/m2", -100.0, 100.0,
+            f"Bending angle added per square metre of {ab[0]}*{ab[1]}:"
+            f" phi + phi_offset_per_{ab}*{ab[0]}*{ab[1]}")
+        for ab in ("xx", "yy", "zz", "xy", "xz", "yz")
+    ),
+    # the slack's free form: the share of the output lost at low input tension as a table on
+    # SLACK_TABLE_KNOTS knots at T_in = i * slack_table_dt, falling linearly to none at
+    # T_in = SLACK_TABLE_KNOTS * slack_table_dt, none above (fmu/README.md "Slack")
+    Var("slack_table_dt", "Real", PARAM, 1.0, "N", 1e-3, 1e3,
+        "Input tension between the slack table's knots"),
+    *(
+        Var(f"slack_table_{i}", "Real", PARAM, 0.0, "1", 0.0, 1.0,
+            f"Share of the output lost at T_in = {i}*slack_table_dt (all 0 = off)")
+        for i in range(SLACK_TABLE_KNOTS)
+    ),
 ]
 # fmt: on
 
@@ -174,6 +194,7 @@ UNITS: dict[str, dict[str, int]] = {
     "rad": {"rad": 1},
     "rad/s": {"rad": 1, "s": -1},
     "rad/m": {"rad": 1, "m": -1},
+    "rad/m2": {"rad": 1, "m": -2},
     "s/m": {"s": 1, "m": -1},
     "s/N": {"kg": -1, "m": -1, "s": 3},
     "1/N": {"kg": -1, "m": -1, "s": 2},
@@ -286,6 +307,7 @@ def c_header() -> str:
         f'#define BOWDEN_GUID "{guid()}"',
         f"#define BOWDEN_N_VARS {len(VARIABLES)}",
         f"#define BOWDEN_DRIFT_KNOTS {DRIFT_TABLE_KNOTS}",
+        f"#define BOWDEN_SLACK_KNOTS {SLACK_TABLE_KNOTS}",
         "",
     ]
     for v in VARIABLES:
@@ -294,6 +316,9 @@ def c_header() -> str:
     out.append("/* The drift table's knots of P (BowdenParams), an array's initialiser */")
     knots = ", ".join(f"(P).mu_drift_table_{i}" for i in range(DRIFT_TABLE_KNOTS))
     out += [f"#define BOWDEN_DRIFT_TABLE(P) {{{knots}}}", ""]
+    out.append("/* The slack table's knots of P (BowdenParams), an array's initialiser */")
+    knots = ", ".join(f"(P).slack_table_{i}" for i in range(SLACK_TABLE_KNOTS))
+    out += [f"#define BOWDEN_SLACK_TABLE(P) {{{knots}}}", ""]
     for causality, struct in (
         (PARAM, "BowdenParams"),
         (INPUT, "BowdenInputs"),

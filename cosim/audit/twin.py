@@ -11,7 +11,8 @@ What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effe
 - the sheath as BOWDEN_N_SEG = 32 segments; each node keeps its tension unless the capstan bound
   to its neighbour, T_{k-1} exp(-mu dphi) <= T_k <= T_{k-1} exp(+mu dphi), pushes it (Eq. 1-3,
   the dead zone at reversals included), with dphi = max(0, phi(x, y, z) + phi_offset_per_x x
-  + phi_offset_per_y y + phi_offset_per_z z)/32;
+  + phi_offset_per_y y + phi_offset_per_z z + the quadratic surface phi_offset_per_xx x^2 + ...
+  + phi_offset_per_yz y z)/32;
 - mu_eff = mu + mu_viscous |v_c| + mu_viscous_tension_rate |r_in| + mu_drift t
   + mu_warmup (1 - exp(-(t - t0) / mu_warmup_tau)) + mu_step [t >= mu_step_time]
   + d(t) (the drift table mu_drift_table_0 .. on its knots: drift_table_value)
@@ -24,7 +25,8 @@ What the twin reproduces, step for step (fmu/README.md, "Sheath friction", "Effe
   STRAND_STEP_MAX: the FMU's numbers to round-off);
 - static friction (fmu/README.md, "Static friction"): the strands remember the way they last
   slid, and one that must reverse is held by the breakaway width (mu + mu_static_excess) phi
-  before it jumps to the kinetic bound; slack: T_out * min(1, T_in / slack_tension);
+  before it jumps to the kinetic bound; slack: T_out * min(1, T_in / slack_tension), times
+  1 - L(T_in) (the slack table slack_table_0 .. on its knots: slack_table_value);
 - the output sensor: the load cell's creep (sensor_creep, sensor_creep_tau), the second-order
   lag sensor_tau2 (two equal first-order stages, exact for a value held over the sample),
   first-order lag sensor_tau (exact for a step held over the sample), pure delay sensor_delay (a
@@ -96,13 +98,44 @@ class PlantInputs:
 
 
 def _phi_xy(inputs: PlantInputs, p: Mapping[str, float]) -> np.ndarray:
-    """The geometry's phi plus the bending error along x and y (z's is added in the kernel)."""
+    """The geometry's phi plus the bending error along x and y and its quadratic surface (z's
+    linear part is added in the kernel)."""
     phi = np.asarray(inputs.phi_rad, dtype=np.float64)
     for coord, key in ((inputs.x_m, "phi_offset_per_x"), (inputs.y_m, "phi_offset_per_y")):
         k = float(p[key])
         if k != 0.0 and coord is not None:
             phi = phi + k * np.asarray(coord, dtype=np.float64)
+    if any(float(p[k]) != 0.0 for k in BEND_SURFACE_PARAMS):
+        phi = phi + bend_surface_value(p, *_coords(inputs))
     return phi
+
+
+def _coords(inputs: PlantInputs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """x, y and z of every sample (a missing coordinate 0)."""
+    z = np.asarray(inputs.z_m, dtype=np.float64)
+    x = np.zeros_like(z) if inputs.x_m is None else np.asarray(inputs.x_m, dtype=np.float64)
+    y = np.zeros_like(z) if inputs.y_m is None else np.asarray(inputs.y_m, dtype=np.float64)
+    return x, y, z
+
+
+# The bending error's free form (fmu/README.md "Bending angle error"): a quadratic surface of
+# the position, phi_offset_per_ab * a * b for each pair of coordinates (rad/m^2).
+BEND_SURFACE_TERMS = ("xx", "yy", "zz", "xy", "xz", "yz")
+BEND_SURFACE_PARAMS = tuple(f"phi_offset_per_{ab}" for ab in BEND_SURFACE_TERMS)
+
+
+def bend_surface_value(
+    params: Mapping[str, float], x: np.ndarray, y: np.ndarray, z: np.ndarray
+) -> np.ndarray:
+    """The quadratic surface's bending (rad) at positions x, y, z: effective_phi() of
+    bowden_physics.c, its quadratic part."""
+    c = {"x": x, "y": y, "z": z}
+    out = np.zeros(np.shape(x))
+    for ab, key in zip(BEND_SURFACE_TERMS, BEND_SURFACE_PARAMS, strict=True):
+        k = float(params.get(key, 0.0))
+        if k != 0.0:
+            out = out + k * c[ab[0]] * c[ab[1]]
+    return out
 
 
 @njit(cache=True)
@@ -366,7 +399,7 @@ def friction_output(
     breakaway jumps spread over their sample, for the fits; _friction). `strand_q`: other
     quantiles for the strands than the FMU's STRAND_Q (cosim.studies.strands compares counts)."""
     p = _full(params)
-    return _friction(
+    out = _friction(
         np.ascontiguousarray(inputs.t_in_n, dtype=np.float64),
         np.ascontiguousarray(_phi_xy(inputs, p), dtype=np.float64),
         np.ascontiguousarray(inputs.z_m, dtype=np.float64),
@@ -393,6 +426,16 @@ def friction_output(
         bool(smooth and float(p["mu_static_excess"]) > 0.0),
         np.ascontiguousarray(STRAND_Q if strand_q is None else strand_q, dtype=np.float64),
     )
+    return _slack_table_applied(out, inputs, p)
+
+
+def _slack_table_applied(out: np.ndarray, inputs: PlantInputs, p: Mapping[str, float]):
+    """The output times (1 - the slack table's share lost), in place; untouched when the table
+    is empty (every knot 0)."""
+    knots = slack_table_knots(p)
+    if np.any(knots):
+        out *= 1.0 - slack_table_value(p, inputs.t_in_n)
+    return out
 
 
 @njit(cache=True)
@@ -702,6 +745,9 @@ def friction_derivatives(
         bool(smooth and float(p["mu_static_excess"]) > 0.0),
         np.ascontiguousarray(STRAND_Q, dtype=np.float64),
     )
+    if np.any(slack_table_knots(p)):  # the slack table's factor scales the slopes as the output
+        kept = 1.0 - slack_table_value(p, inputs.t_in_n)
+        out, d_mu, d_sp, d_st = out * kept, d_mu * kept, d_sp * kept, d_st * kept
     return out, {"mu": d_mu, "dead_zone_spread": d_sp, "mu_static_excess": d_st}
 
 
@@ -825,6 +871,32 @@ def drift_table_at(inputs: PlantInputs, params: Mapping[str, float]) -> np.ndarr
     return np.ascontiguousarray(drift_table_value(params, t), dtype=np.float64)
 
 
+# The slack's free form (fmu/README.md "Slack"): the share of the output lost at low input
+# tension on SLACK_TABLE_KNOTS knots at T_in = i * slack_table_dt (fmu/gen_model.py,
+# BOWDEN_SLACK_KNOTS of the FMU).
+SLACK_TABLE_KNOTS = 8
+SLACK_TABLE_KNOT_PARAMS = tuple(f"slack_table_{i}" for i in range(SLACK_TABLE_KNOTS))
+SLACK_TABLE_PARAMS = ("slack_table_dt", *SLACK_TABLE_KNOT_PARAMS)
+
+
+def slack_table_knots(params: Mapping[str, float]) -> np.ndarray:
+    """The slack table's knot values of these parameters (missing ones 0)."""
+    return np.array([float(params.get(k, 0.0)) for k in SLACK_TABLE_KNOT_PARAMS])
+
+
+def slack_table_value(params: Mapping[str, float], t_in_n: np.ndarray) -> np.ndarray:
+    """The share of the output the slack table loses at input tensions t_in_n: slack_table() of
+    bowden_physics.c (linear between the knots, to 0 at SLACK_TABLE_KNOTS * slack_table_dt, 0
+    above, the first knot's below 0)."""
+    knots = np.append(slack_table_knots(params), 0.0)
+    step = float(params.get("slack_table_dt", OFF["slack_table_dt"]))
+    s = np.asarray(t_in_n, dtype=np.float64) / step
+    last = SLACK_TABLE_KNOTS
+    i = np.minimum(np.where(s > 0.0, s, 0.0), last - 1).astype(np.int64)
+    inner = knots[i] + (s - i) * (knots[i + 1] - knots[i])
+    return np.where(~(s > 0.0), knots[0], np.where(s >= last, 0.0, inner))
+
+
 # The parameters of the friction part (the rest only change the sensor's reading).
 FRICTION_PARAMS = (
     "mu",
@@ -843,6 +915,8 @@ FRICTION_PARAMS = (
     "mu_static_excess",
     "slack_tension",
     *DRIFT_TABLE_PARAMS,
+    *BEND_SURFACE_PARAMS,
+    *SLACK_TABLE_PARAMS,
 )
 
 # Every parameter the twin knows, with its value when the effect is off.
@@ -874,6 +948,9 @@ OFF = {
     **{k: 0.0 for k in DRIFT_TABLE_KNOT_PARAMS},
     "mu_drift_table_t0": 0.0,
     "mu_drift_table_dt": 1.0,
+    **{k: 0.0 for k in BEND_SURFACE_PARAMS},
+    **{k: 0.0 for k in SLACK_TABLE_KNOT_PARAMS},
+    "slack_table_dt": 1.0,
 }
 
 

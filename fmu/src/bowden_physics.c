@@ -99,12 +99,21 @@ static int update_geometry(BowdenModel *m, char *msg, size_t msg_len)
     return 0;
 }
 
-/* Bending angle seen by the friction: geometry plus the bending error along x, y and z
-   (README, "Bending angle error"). */
+/* Bending angle seen by the friction: geometry plus the bending error along x, y and z and its
+   quadratic surface (README, "Bending angle error"). */
 static double effective_phi(const BowdenModel *m)
 {
-    double phi = m->phi_geom_rad + m->p.phi_offset_per_x * m->u.x + m->p.phi_offset_per_y * m->u.y
-                 + m->p.phi_offset_per_z * m->u.z;
+    const double x = m->u.x, y = m->u.y, z = m->u.z;
+    double phi = m->phi_geom_rad + m->p.phi_offset_per_x * x + m->p.phi_offset_per_y * y
+                 + m->p.phi_offset_per_z * z;
+    if (m->p.phi_offset_per_xx != 0.0 || m->p.phi_offset_per_yy != 0.0
+        || m->p.phi_offset_per_zz != 0.0 || m->p.phi_offset_per_xy != 0.0
+        || m->p.phi_offset_per_xz != 0.0 || m->p.phi_offset_per_yz != 0.0) {
+        /* only when set: without the surface phi is bit for bit what it was */
+        phi += m->p.phi_offset_per_xx * x * x + m->p.phi_offset_per_yy * y * y
+               + m->p.phi_offset_per_zz * z * z + m->p.phi_offset_per_xy * x * y
+               + m->p.phi_offset_per_xz * x * z + m->p.phi_offset_per_yz * y * z;
+    }
     return phi > 0.0 ? phi : 0.0;
 }
 
@@ -266,6 +275,27 @@ static void strands_update(BowdenModel *m, const Friction *f, double t_in_n)
     }
 }
 
+/* The slack's free form (README, "Slack"): the share of the output lost at the input tension
+   T_in, read from the table of BOWDEN_SLACK_KNOTS knots at T_in = i * slack_table_dt, linear
+   between them and to 0 at T_in = BOWDEN_SLACK_KNOTS * slack_table_dt, 0 above and the first
+   knot's below 0; 0 with every knot 0 (then 1 - 0 leaves the output bit for bit). */
+static double slack_table(const BowdenModel *m)
+{
+    const double knots[BOWDEN_SLACK_KNOTS] = BOWDEN_SLACK_TABLE(m->p);
+    double s = m->tension_n[0] / m->p.slack_table_dt;
+    double next;
+    int i;
+    if (!(s > 0.0)) {
+        return knots[0];
+    }
+    if (s >= (double)BOWDEN_SLACK_KNOTS) {
+        return 0.0;
+    }
+    i = (int)s; /* 0 <= s < BOWDEN_SLACK_KNOTS: in range */
+    next = i + 1 < BOWDEN_SLACK_KNOTS ? knots[i + 1] : 0.0;
+    return knots[i] + (s - (double)i) * (next - knots[i]);
+}
+
 /* The output tension: the sheath's outlet node, times the strands' mean over the reference
  * strand (1 without spread and breakaway): the strands shape the transition through the dead
  * zone and keep the sheath's profile, which sets the stretch (README, assumption A16); below
@@ -283,7 +313,7 @@ static double output_tension(const BowdenModel *m)
     if (m->p.slack_tension > 0.0 && m->tension_n[0] < m->p.slack_tension) {
         out *= m->tension_n[0] / m->p.slack_tension;
     }
-    return out;
+    return out * (1.0 - slack_table(m));
 }
 
 /* The load cell's reading of a true output tension after its creep (README, "Load-cell

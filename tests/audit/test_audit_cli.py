@@ -282,6 +282,19 @@ def test_an_output_that_cannot_be_written_is_one_clear_line_before_the_audit(tmp
             "mu_static_excess": 0.02,
             **{f"mu_drift_table_{i}": -0.001 * i for i in range(16)},
         },
+        # the bending error's free form: a quadratic surface with a linear part
+        {"phi_offset_per_x": 1.0, "phi_offset_per_xz": 6.0, "phi_offset_per_yy": -3.0},
+        {"phi_offset_per_xx": 20.0, "phi_offset_per_zz": 4.0, "phi_offset_per_yz": -5.0},
+        # the slack's free form: a soft knee over the knots, ending below the input's top (none
+        # lost above it), with the fixed law and a lag beside it
+        {"slack_table_dt": 1.5, **{f"slack_table_{i}": 0.9 * (1 - i / 8) ** 2 for i in range(8)}},
+        {
+            "slack_table_dt": 0.9,
+            "slack_tension": 3.0,
+            "sensor_tau": 0.005,
+            "dead_zone_spread": 0.3,
+            **{f"slack_table_{i}": 0.05 * (8 - i) for i in range(8)},
+        },
     ],
 )
 def test_twin_agrees_with_the_fmu(effect):

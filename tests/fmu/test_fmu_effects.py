@@ -181,6 +181,41 @@ def test_phi_offset_per_x_and_y_change_the_bending_angle_with_x_and_y(make_plant
         )
 
 
+def test_the_bending_surface_adds_its_quadratic_terms_to_phi(make_plant):
+    """The bending error's free form (fmu/README.md "Bending angle error"): each quadratic term
+    adds its coefficient times its pair of coordinates to phi, beside the linear terms."""
+    where = {"x": 0.2, "y": 0.5, "z": -0.3}
+    base = make_plant({"drive_mode": 1}, where)
+    terms = {"xx": 0.04, "yy": 0.25, "zz": 0.09, "xy": 0.1, "xz": -0.06, "yz": -0.15}
+    for ab, product in terms.items():
+        bent = make_plant({"drive_mode": 1, f"phi_offset_per_{ab}": 2.0}, where)
+        assert bent.y[Plant.PHI] == pytest.approx(base.y[Plant.PHI] + 2.0 * product, abs=1e-12)
+    surface = {"phi_offset_per_x": 1.5, "phi_offset_per_xz": -4.0, "phi_offset_per_yy": 3.0}
+    bent = make_plant({"drive_mode": 1, **surface}, where)
+    assert bent.y[Plant.PHI] == pytest.approx(base.y[Plant.PHI] + 0.3 + 0.24 + 0.75, abs=1e-12)
+    out = ramp(bent, np.linspace(0, 20, 200))
+    assert out[-1, Plant.T_OUT] / out[-1, Plant.T_IN] == pytest.approx(
+        math.exp(-MU * bent.y[Plant.PHI]), rel=1e-9
+    )
+
+
+def test_the_slack_table_takes_its_share_off_the_output(make_plant):
+    """The slack's free form (fmu/README.md "Slack"): on a loading ramp the output is the
+    table-less output times 1 - L(T_in), L linear between the knots at i * slack_table_dt and
+    falling to 0 at 8 * slack_table_dt, 0 above; a table of zeros leaves every output bit for
+    bit."""
+    knots = [0.9, 0.8, 0.6, 0.5, 0.35, 0.2, 0.1, 0.05]
+    table = {"slack_table_dt": 1.5, **{f"slack_table_{i}": v for i, v in enumerate(knots)}}
+    t_in = np.linspace(0.1, 20, 2000)
+    base = ramp(make_plant({"drive_mode": 1}), t_in)
+    out = ramp(make_plant({"drive_mode": 1, **table}), t_in)
+    lost = np.interp(out[:, Plant.T_IN], 1.5 * np.arange(9), [*knots, 0.0], right=0.0)
+    assert np.allclose(out[:, Plant.T_OUT], base[:, Plant.T_OUT] * (1.0 - lost), rtol=1e-12)
+    assert np.array_equal(out[-100:, Plant.T_OUT], base[-100:, Plant.T_OUT])  # above 12 N
+    zeros = ramp(make_plant({"drive_mode": 1, "slack_table_dt": 0.7}), t_in)
+    assert np.array_equal(zeros, base)
+
+
 def test_sensor_tau_lags_the_output_sensor(make_plant):
     tau = 0.01
     plant = make_plant({"drive_mode": 1, "sensor_tau": tau})
