@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import blas, drift_table, lines, plausible, twin
+from . import blas, drift_table, free_forms, lines, plausible, twin
 from .data import (  # noqa: F401 (the audit's names, one import away)
     BLOCK_TARGET_COUNT,
     COVER_MIN,
@@ -82,6 +82,7 @@ from .decision import (  # noqa: F401
 )
 from .effects import FORMS, VOCABULARY, Effect
 from .fit import Model, fit_model
+from .free_forms import FreeForm
 from .residual import describe_residual
 
 
@@ -103,8 +104,15 @@ class AuditResult:
     wall_s: float = 0.0
     warnings: list[str] = field(default_factory=list)  # plausible: one line per reason
     extras: dict = field(default_factory=dict)
-    # the friction drift's free form when it was tried (cosim.audit.drift_table), taken or not
-    free_form: drift_table.FreeForm | None = None
+    # the free forms tried, taken or not, in the order tried: the drift's table
+    # (cosim.audit.drift_table), the bending error's surface and the slack's table
+    # (cosim.audit.free_forms)
+    free_forms: list[FreeForm] = field(default_factory=list)
+
+    @property
+    def free_form(self) -> FreeForm | None:
+        """The first free form tried, or None."""
+        return self.free_forms[0] if self.free_forms else None
 
     def rms_report(self, prediction: np.ndarray) -> float:
         r = (self.data.t_out_n - prediction)[self.data.roles == REPORT]
@@ -202,11 +210,21 @@ def _run(data: AuditData, rule: DecisionRule, progress: Progress | None) -> Audi
     findings = _findings(data, rounds, steps, withouts, rule)
     # a drift finding whose fixed forms leave the residual above the noise: its free form, the
     # drift table (cosim.audit.drift_table), in its place when it fits the selection blocks better
-    free = drift_table.fit_free_form(data, found, current, rule) if findings else None
-    if free is not None:
-        tick("fitting the friction drift's free form (a table over the record)")
-        if free.accepted:
-            current = free.model
+    tried = []
+    for fit_free in (drift_table.fit_free_form, *free_forms.FITS) if findings else ():
+        # the bending error's surface and the slack's table (cosim.audit.free_forms) likewise,
+        # each against the model with the free forms taken before it
+        free = fit_free(data, found, current, rule)
+        if free is not None:
+            tried.append(free)
+            if free.accepted:
+                current = free.model
+    if tried:
+        tick("fitted the free forms of " + ", ".join(f.fixed.cause for f in tried))
+    stand_ins: list[str] = []
+    if any(f.accepted for f in tried) and len(findings) > 1:
+        found, current, stand_ins = _stand_ins_dropped(data, found, current, tried, rule)
+        findings = [f for f in findings if f.effect in found]
 
     tick("running the nominal model through the FMU")
     step = twin.fmu_step_for(data.inputs.dt_s)
@@ -230,13 +248,15 @@ def _run(data: AuditData, rule: DecisionRule, progress: Progress | None) -> Audi
         twin_fmu_max_diff_n=diff,
         unexplained=unexplained,
         rule=rule,
-        free_form=free,
+        free_forms=tried,
     )
     for f in findings:
         f.evidence = _evidence(result, f)
     result.warnings = plausibility_warnings(data, result)
     if dropped:
         result.extras["dropped_by_backward_check"] = dropped
+    if stand_ins:
+        result.extras["dropped_after_free_form"] = stand_ins
     result.wall_s = time.perf_counter() - t_start
     return result
 
@@ -377,10 +397,37 @@ def phi_text(data: AuditData, mu: float) -> tuple[float | None, str]:
     return phi, f"no positions: phi fitted as a constant with the sidecar's mu = {data.mu_given:g}"
 
 
+def _stand_ins_dropped(
+    data: AuditData, found: list[Effect], current: Model, tried: list[FreeForm], rule
+) -> tuple[list[Effect], Model, list[str]]:
+    """The backward check (decision._backward) again once a free form is taken: a finding of
+    another cause that the rule no longer needs beside it (it stood in for what the fixed form's
+    shape missed) is dropped, the model refitted without it with the free form held; repeated
+    until none drops."""
+    free_causes = {f.fixed.cause for f in tried if f.accepted}
+    found = list(found)
+    dropped: list[str] = []
+    while True:
+        for e in found:
+            if e.cause in free_causes:
+                continue
+            rest = tuple(f for f in current.effects if f is not e)
+            start = {k: v for k, v in current.params.items() if k not in e.fmu_params}
+            without = fit_model(data, rest, start)
+            if not judge(data, without, current, rule)[1]:
+                found.remove(e)
+                dropped.append(e.cause)
+                current = without
+                break
+        else:
+            return found, current, dropped
+
+
 def finding_params(result: AuditResult, f: Finding) -> dict[str, float]:
-    """The extended model's parameters with the finding's own value: where the drift's free
-    form took the place of its fixed form (cosim.audit.drift_table), the fixed form's parameter
-    is off in the extended model, and the finding shows what that form fitted."""
+    """The extended model's parameters with the finding's own value: where a free form took the
+    place of its fixed form (cosim.audit.drift_table, cosim.audit.free_forms), the fixed form's
+    parameter is off in the extended model (or one of the free form's coefficients), and the
+    finding shows what that form fitted."""
     return {**result.extended.params, f.effect.fmu_param: f.value}
 
 

@@ -37,7 +37,6 @@ parameters that only the penalty then ties together, coarser ones miss a turn of
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -46,6 +45,7 @@ from .data import FIT, REPORT, SELECT, AuditData
 from .decision import RULE, DecisionRule, block_stats
 from .effects import Effect
 from .fit import Model, _Evaluator, fit_model
+from .free_forms import FreeForm
 
 KNOTS = twin.DRIFT_TABLE_KNOTS
 # Tried when the model with a drift finding leaves the selection blocks' RMS above this many
@@ -59,48 +59,6 @@ GN_STEPS = 4
 D_MU = 1e-3  # mu's change for the output's slope in mu (as fit.SCAN_D_MU)
 # the knots' range: mu's change the table may make (inside the FMU's [-1, 1])
 KNOT_BOUNDS = (-0.5, 0.5)
-
-
-@dataclass
-class FreeForm:
-    """The free form tried for a drift finding, what it gave, and whether it was taken."""
-
-    fixed: Effect  # the drift's fixed form it was weighed against
-    accepted: bool
-    why: str  # one line: taken or not, with the figures
-    penalty: float  # lam, chosen on the selection blocks
-    knots_t_s: np.ndarray  # the knots' times (FMU time)
-    table: np.ndarray  # mu's change at the knots (the free form)
-    fixed_at_knots: np.ndarray  # the fixed form's change of mu there
-    selection_rms_fixed_n: float
-    selection_rms_free_n: float
-    t: float  # plain block t of free against fixed on the selection blocks
-    report_rms_fixed_n: float  # the twin's, on the report blocks (measured, never decided on)
-    report_rms_free_n: float
-    model: Model | None = None  # the model with the table (kept when accepted)
-
-    def table_text(self) -> list[str]:
-        """The learned table beside the fixed form's change of mu, one knot a line."""
-        rows = [f"{'t (s)':>9}{'free form':>12}{self.fixed.form:>12}"]
-        for t, d, f in zip(self.knots_t_s, self.table, self.fixed_at_knots, strict=True):
-            rows.append(f"{t:>9.2f}{d:>+12.5f}{f:>+12.5f}")
-        return rows
-
-    def to_dict(self) -> dict:
-        return {
-            "fixed_form": self.fixed.form,
-            "accepted": self.accepted,
-            "why": self.why,
-            "penalty": self.penalty,
-            "knots_t_s": [round(float(x), 6) for x in self.knots_t_s],
-            "table": [round(float(x), 8) for x in self.table],
-            "fixed_at_knots": [round(float(x), 8) for x in self.fixed_at_knots],
-            "selection_rms_fixed_n": round(self.selection_rms_fixed_n, 6),
-            "selection_rms_free_n": round(self.selection_rms_free_n, 6),
-            "block_t": round(self.t, 4) if math.isfinite(self.t) else None,
-            "report_rms_fixed_n": round(self.report_rms_fixed_n, 6),
-            "report_rms_free_n": round(self.report_rms_free_n, 6),
-        }
 
 
 def fixed_change(params: dict[str, float], t_s: np.ndarray, start_s: float) -> np.ndarray:
@@ -234,9 +192,13 @@ def fit_free_form(
         accepted=accepted,
         why=why,
         penalty=float(lam_used),
-        knots_t_s=knots_t,
+        name="the drift table",
+        axis="t (s)",
+        quantity="change of mu [-]",
+        knots_at=knots_t,
         table=table,
         fixed_at_knots=fixed_knots,
+        fmu_params=twin.DRIFT_TABLE_PARAMS,
         selection_rms_fixed_n=sel_fixed,
         selection_rms_free_n=sel_free,
         t=float(stats.t),

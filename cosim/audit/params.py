@@ -53,20 +53,25 @@ def emitted_params(result: AuditResult) -> tuple[dict, list[str]]:
             "the data have no positions: mu is the value for the FMU's phi at x = 0, y = L/2, "
             "z = 0 (only mu*phi was observable)"
         )
-    from .twin import DRIFT_TABLE_PARAMS  # noqa: PLC0415 (the twin pulls in numba: see above)
-
-    free = result.free_form if result.free_form and result.free_form.accepted else None
+    taken = {f.fixed.cause: f for f in result.free_forms if f.accepted}
     for f in result.findings:
         e = f.effect
-        if free is not None and e is free.fixed:
-            # the drift's free form in place of its fixed form: the FMU's drift table
-            for name in DRIFT_TABLE_PARAMS:
-                plant[name] = round(float(p[name]), 9)
+        free = taken.get(e.cause)
+        if free is not None:
+            # the free form in place of its fixed form: the FMU's table or surface
+            for name in free.fmu_params:
+                plant[name] = round(float(p.get(name, 0.0)), 9)
+            if isinstance(free.knots_at[0], str):
+                where = f"terms {', '.join(free.knots_at)}"
+            else:
+                step = free.knots_at[1] - free.knots_at[0]
+                where = (
+                    f"{len(free.table)} knots of {free.axis} from {free.knots_at[0]:g}, "
+                    f"{step:.4g} apart"
+                )
             notes.append(
-                f"{e.cause} as its free form, the drift table ({len(free.table)} knots from "
-                f"{free.knots_t_s[0]:g} s, {free.knots_t_s[1] - free.knots_t_s[0]:.4g} s apart, "
-                "in the data's time), has no compensator parameter: the plant carries it, the "
-                "compensator does not correct it"
+                f"{e.cause} as its free form, {free.name} ({where}), has no compensator "
+                "parameter: the plant carries it, the compensator does not correct it"
             )
             continue
         for name in e.fmu_params:

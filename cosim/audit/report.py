@@ -21,7 +21,7 @@ from scipy.signal import welch  # noqa: E402
 
 from . import core  # noqa: E402
 from .core import FIT, REPORT, SELECT, WARMUP, AuditResult  # noqa: E402
-from .drift_table import FreeForm  # noqa: E402
+from .free_forms import FreeForm  # noqa: E402
 
 # Scatter plots show at most this many points.
 MAX_SCATTER = 4000
@@ -148,7 +148,7 @@ def to_dict(result: AuditResult) -> dict:
             "source": "plant FMU, drive mode 1, driven by the measured T_in and positions",
         },
         "findings": findings,
-        "free_form": result.free_form.to_dict() if result.free_form is not None else None,
+        "free_forms": [f.to_dict() for f in result.free_forms],
         "rounds": rounds,
         "not_tried": result.rounds[0].skipped if result.rounds else {},
         "extended": {
@@ -251,17 +251,19 @@ def summary(result: AuditResult) -> str:
 
 
 def free_form_lines(result: AuditResult) -> list[str]:
-    """The drift's free form when it was tried (cosim.audit.drift_table): the verdict with its
-    figures, then the learned table beside the fixed form's change of mu, knot by knot."""
-    free = result.free_form
-    if free is None:
-        return []
-    head = f"  free form of {free.fixed.cause}: {free.why}"
-    tail = (
-        f"      report blocks (twin): form {free.fixed.form} {free.report_rms_fixed_n:.4f} N, "
-        f"free form {free.report_rms_free_n:.4f} N (measured only, never decided on)"
-    )
-    return [head, *(f"      {row}" for row in free.table_text()), tail]
+    """Each free form tried (cosim.audit.drift_table, cosim.audit.free_forms): the verdict with
+    its figures, then the learned table beside the fixed form's, knot by knot (or term by
+    term)."""
+    lines = []
+    for free in result.free_forms:
+        head = f"  free form of {free.fixed.cause}: {free.why}"
+        tail = (
+            f"      report blocks (twin): form {free.fixed.form or free.fixed.fmu_param} "
+            f"{free.report_rms_fixed_n:.4f} N, free form {free.report_rms_free_n:.4f} N "
+            "(measured only, never decided on)"
+        )
+        lines += [head, f"      {free.quantity}:", *(f"      {r}" for r in free.table_text()), tail]
+    return lines
 
 
 def _less_lines(d) -> str:
@@ -452,40 +454,51 @@ def plots(out_dir: Path, result: AuditResult) -> list[str]:
     fig.savefig(out_dir / "capstan.png", dpi=100)
     plt.close(fig)
     names.append("capstan.png")
-    if result.free_form is not None:
-        names.append(free_form_plot(out_dir, result.free_form))
+    if result.free_forms:
+        names.append(free_form_plot(out_dir, result.free_forms))
     return names
 
 
-def free_form_plot(out_dir: Path, free: FreeForm) -> str:
-    """The drift's free form (the FMU's table: linear between its knots, flat outside) against
-    its best fixed form at the same knots; returns the file name."""
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    verdict = "taken" if free.accepted else "not taken"
-    ax.plot(
-        free.knots_t_s,
-        free.table,
-        "o-",
-        color="tab:red",
-        lw=1.0,
-        ms=4,
-        label=f"free form (table), {verdict}",
-    )
-    ax.plot(
-        free.knots_t_s,
-        free.fixed_at_knots,
-        "s--",
-        color="tab:orange",
-        lw=1.0,
-        ms=4,
-        label=f"fixed form: {free.fixed.form}",
-    )
-    ax.axhline(0.0, color="k", lw=0.6)
-    ax.set_xlabel("time [s] (FMU time)")
-    ax.set_ylabel("change of mu [-]")
-    ax.set_title(f"{free.fixed.cause}: the learned shape against the fixed form")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+def free_form_plot(out_dir: Path, tried: list[FreeForm] | FreeForm) -> str:
+    """Each free form tried against its best fixed form, a panel each: a table (the drift's over
+    time, the slack's over the input tension: the FMU's, linear between its knots) through its
+    knots, a surface's coefficients as bars beside the fixed form's; returns the file name."""
+    tried = [tried] if isinstance(tried, FreeForm) else list(tried)
+    fig, axes = plt.subplots(len(tried), 1, figsize=(7, 4.5 * len(tried)), squeeze=False)
+    for ax, free in zip(axes[:, 0], tried, strict=True):
+        verdict = "taken" if free.accepted else "not taken"
+        fixed = f"fixed form: {free.fixed.form or free.fixed.fmu_param}"
+        if isinstance(free.knots_at[0], str):
+            at = np.arange(len(free.knots_at))
+            ax.bar(at - 0.2, free.table, 0.4, color="tab:red", label=f"free form, {verdict}")
+            ax.bar(at + 0.2, free.fixed_at_knots, 0.4, color="tab:orange", label=fixed)
+            ax.set_xticks(at, [f"phi_offset_per_{a}" for a in free.knots_at], rotation=30)
+            ax.set_xlabel("term of the surface (linear rad/m, quadratic rad/m^2)")
+        else:
+            ax.plot(
+                free.knots_at,
+                free.table,
+                "o-",
+                color="tab:red",
+                lw=1.0,
+                ms=4,
+                label=f"free form ({free.name}), {verdict}",
+            )
+            ax.plot(
+                free.knots_at,
+                free.fixed_at_knots,
+                "s--",
+                color="tab:orange",
+                lw=1.0,
+                ms=4,
+                label=fixed,
+            )
+            ax.set_xlabel(free.axis.replace(" (", " [").replace(")", "]"))
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_ylabel(free.quantity)
+        ax.set_title(f"{free.fixed.cause}: the learned shape against the fixed form")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(out_dir / FREE_FORM_PNG, dpi=100)
     plt.close(fig)
@@ -507,8 +520,8 @@ PLOT_CAPTIONS = {
     "residual_spectrum.png": "spectrum of the residuals, with the level of white noise at the "
     "noise floor",
     "capstan.png": "T_out against T_in: the capstan loops of the data and the models",
-    FREE_FORM_PNG: "the drift's free form (the FMU's table) against its best fixed form, at the "
-    "table's knots",
+    FREE_FORM_PNG: "each free form tried (the FMU's drift or slack table, the bending error's "
+    "surface) against its best fixed form, at the table's knots or term by term",
 }
 
 
@@ -565,19 +578,19 @@ def markdown(result: AuditResult, data: dict, plot_names: list[str]) -> str:
             )
     else:
         lines.append("No cause of the vocabulary passes the rule: the nominal model stands.")
-    free = result.free_form
-    if free is not None:
+    for free in result.free_forms:
+        form = free.fixed.form or free.fixed.fmu_param
         lines += [
             "",
-            f"Free form of {free.fixed.cause} (the FMU's drift table, fmu/README.md \"Friction "
-            f'drift"): {free.why}. The report blocks, measured only: form {free.fixed.form} '
+            f"Free form of {free.fixed.cause} ({free.name} of the FMU, fmu/README.md): "
+            f"{free.why}. The report blocks, measured only: form {form} "
             f"{free.report_rms_fixed_n:.4f} N, free form {free.report_rms_free_n:.4f} N (twin).",
             "",
-            f"| t (s) | free form | {free.fixed.form} |",
+            f"| {free.axis} | free form | {form} |",
             "| --- | --- | --- |",
             *(
-                f"| {t:.2f} | {d:+.5f} | {f:+.5f} |"
-                for t, d, f in zip(free.knots_t_s, free.table, free.fixed_at_knots, strict=True)
+                f"| {a if isinstance(a, str) else f'{a:.2f}'} | {d:+.5f} | {f:+.5f} |"
+                for a, d, f in zip(free.knots_at, free.table, free.fixed_at_knots, strict=True)
             ),
         ]
     lines += [

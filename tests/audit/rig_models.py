@@ -164,6 +164,7 @@ def rig_record(
     periodic: tuple[float, float] | None = None,
     static_ratio: float = 1.0,
     slack_n: float = 0.0,
+    slack_knee: float = 0.0,
     full_scale_n: float = 0.0,
     creep: float = 0.0,
     creep_tau_s: float = 1.0,
@@ -173,7 +174,7 @@ def rig_record(
     viscous_speed_s_m: float = 0.0,
     drift: tuple[str, float, float] | None = None,
     lag2_s: float = 0.0,
-    bend: tuple[int, float] | None = None,
+    bend: tuple | None = None,
     name: str = "rig.csv",
 ) -> Path:
     """Write a rig record (CSV and a sidecar without mu). `periodic` = (amplitude N, frequency
@@ -184,7 +185,10 @@ def rig_record(
       every segment, overcome along a strand's whole length before it moves (braid_output);
     - `slack_n`: the cable's pretension is taken up by a linear spring at the end-effector that
       the cable stretches fully only above this input tension; below it the end-effector sees
-      the share t_in / slack_n of the braid's tension;
+      the share t_in / slack_n of the braid's tension; with `slack_knee` k > 0 the spring
+      stiffens gradually instead (a share none of the FMU's fixed laws has): the share is the
+      hyperbolic turn (x + 1 - sqrt((x - 1)^2 + k^2)) / 2 + (sqrt(1 + k^2) - 1) / 2 of
+      x = t_in / slack_n, clipped to [0, 1] (0 at no input, full from about (1 + k) slack_n);
     - `full_scale_n`: the output amplifier's rail: its reading is clipped there (before the
       noise of the acquisition);
     - `viscous_rate_s_n`: a lubricant's shear that follows how fast the tension changes: every
@@ -212,7 +216,10 @@ def rig_record(
       end-effector moves along one coordinate (0 x, 1 y, 2 z; needs `positions`), as at a
       clamp it wraps around further: the braid's phi rises by size * coordinate (at least 0),
       seen through the rig's own friction (its strands' spread of mu, four segments, the
-      linearised capstan law);
+      linearised capstan law); `axis` may also be a direction (three numbers, normalised here),
+      and a third element `power` 2 makes the rise size * (the position along it)^2 (rad/m^2):
+      a bend that follows a combination of the coordinates, or grows the further the
+      end-effector moves that way, which no fixed form along one coordinate has;
     - `creep`, `creep_tau_s`: the load cell's spring and a viscoelastic element in parallel (a
       standard linear solid): a share `creep` of a change in tension is read only as the element
       relaxes with creep_tau_s (integrated by backward Euler at the sample rate).
@@ -235,8 +242,13 @@ def rig_record(
         pos = None
         phi = np.full(n, 2.0 * math.pi)  # loop routing in the loop's plane (paper Sec. III-A)
     if bend is not None:
-        axis, size = bend
-        phi = np.maximum(0.0, phi + size * pos[:, axis])
+        axis, size, *power = bend
+        if isinstance(axis, int):
+            along = pos[:, axis]
+        else:
+            w = np.asarray(axis, dtype=float)
+            along = pos @ (w / np.linalg.norm(w))
+        phi = np.maximum(0.0, phi + size * along ** (power[0] if power else 1))
     extra_mu = None
     mus = strand_mus(mu, spread, rng)
     if viscous_rate_s_n != 0.0:
@@ -260,7 +272,11 @@ def rig_record(
         speed = RIG_LENGTH_M / RIG_EA_N * np.gradient(along) * RATE_HZ
         extra_mu = (0.0 if extra_mu is None else extra_mu) + viscous_speed_s_m * np.abs(speed)
     out = braid_output(t_in, phi, mus, extra_mu=extra_mu, static_ratio=static_ratio)
-    if slack_n > 0.0:
+    if slack_n > 0.0 and slack_knee > 0.0:
+        x = t_in / slack_n
+        soft = 0.5 * (x + 1.0 - np.sqrt((x - 1.0) ** 2 + slack_knee**2))
+        out = out * np.clip(soft + 0.5 * (math.sqrt(1.0 + slack_knee**2) - 1.0), 0.0, 1.0)
+    elif slack_n > 0.0:
         out = out * np.clip(t_in / slack_n, 0.0, 1.0)
     if creep != 0.0:
         relaxed = np.empty(n)
