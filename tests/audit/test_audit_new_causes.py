@@ -35,6 +35,14 @@ strands is 72 mN RMS from the FMU's 32 after the fit, one of 128 strands 28 mN, 
 friction fixes the staircase at 32 steps (fmu/README.md "Strands of the gradual dead zone"); a
 rig's other count is structure the vocabulary lacks, and that a gain is named for it instead of
 nothing is the miss.
+
+With the free forms (cosim/audit/drift_table.py, cosim/audit/free_forms.py): unchanged, and
+strict still. A free form is tried only for a finding of its cause (friction drift, bending
+error, slack), and only a free form taken can drop another finding; here sensor_gain is named,
+so none is tried and the audit takes the path above (the same code, number for number, on a
+model with no free form's parameter). The shape this case lacks is static friction's count of
+jumps; its free form would be the strands' breakaway widths as a table (the FMU fixes them at
+the log-normal quantiles), which is not built.
 """
 
 from __future__ import annotations
