@@ -60,12 +60,13 @@ def _value_ok(cause: str, found: float, true: float) -> bool:
 # blocks 0.6-2.4 % each; the truth's creep, mu refitted, also improves 8 of 12. The nominal
 # model already leaves 1.03x the floor on the report blocks. 60 s of the same session: still
 # 8 of 12, block t 1.6: a cause this small in this record, not a form or the data's length.
-# With the free forms: unchanged, and strict still. the free forms (cosim/audit/drift_table.py, cosim/audit/free_forms.py) are tried only
-# for a finding of their cause (friction drift, bending error, slack), and only a free form
-# taken can drop another finding (the backward check after it); here nothing is named,
-# so none is tried and the audit takes the path above (the code it runs is the same, number for
-# number, on a model with no free form's parameter). The shape is the FMU's own; what misses is
-# the creep's size in this record, which no free form changes.
+# With the free forms: unchanged, and strict still. The free forms (cosim/audit/drift_table.py,
+# cosim/audit/free_forms.py) are tried only for a finding of their cause (friction drift,
+# bending error, slack), and only a free form taken can drop another finding (the backward
+# check after it); here nothing is named, so none is tried and the audit takes the path above
+# (the code it runs is the same, number for number, on a model with no free form's parameter).
+# The shape is the FMU's own; what misses is the creep's size in this record, which no free
+# form changes.
 MISSED = {"load_cell_creep"}
 
 

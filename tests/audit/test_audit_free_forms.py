@@ -156,15 +156,35 @@ CASES = {
         "bending_angle_error",
     ),
 }
-# Each case is a whole audit of 40-60 s at 1 kHz, 12-30 s of one core (its result kept in the
-# test cache): run in make test-long. As they came out (the FMU's figures on the report blocks,
-# x the noise floor; the twin's within 2e-14 N):
-RESULTS = """
-"""
-# the cases the free form does not bring within 1.5x the floor, or whose cause is not named
+# Each case is a whole audit of 40-60 s at 1 kHz, 10-30 s of one core (its result kept in the
+# test cache): run in make test-long. As they came out (the report blocks, x the noise floor:
+# the fixed form's through the twin, the extended model's through the FMU, the twin within
+# 1e-14 N of it):
+# - tuning, the soft knee: slack named alone (7.43 N, 90 % of the selection blocks'
+#   residual), 5.63x; the table taken (selection blocks 0.256 -> 0.038 N, block t 5.2), 1.10x.
+# - tuning, x + z: bending_angle_error named in the form z (1.08 rad/m, 69 %), 2.33x; the
+#   surface taken (0.076 -> 0.036 N, block t 2.9), 1.21x.
+# - report, the softer knee (seed 63): run once before the other findings' parameters were
+#   columns of the Gauss-Newton and before the backward check after a free form: slack and
+#   sensor_offset named (a wrong cause: the offset stood in for the fixed law's corner), the
+#   table taken, 2.32x. Those two changes were made for it (the exception), and it is no
+#   longer a report case of them: now slack alone (the offset dropped after the table), 5.67x
+#   -> 1.28x. The next case was set and run once after them.
+# - report, the sharper knee (seed 67): slack alone (5.16 N, 93 %), 6.23x; the table taken
+#   (0.201 -> 0.029 N, block t 4.5), 1.13x.
+# - report, y + z (seed 66): bending_angle_error in the form z (-1.43 rad/m, 85 %), 1.90x;
+#   the surface taken (0.070 -> 0.039 N, block t 3.7), 1.08x.
+# - report, the square along z - x (seed 65): nothing named (NOT_NAMED), 1.38x left by the
+#   nominal model.
+# the cases the free form does not bring within 1.5x the floor
 REPORT_MISSES: dict[str, str] = {}
-# the cases whose cause is not named at all (the free form is then not tried)
-NOT_NAMED: dict[str, str] = {}
+# the cases whose cause is not named at all (no free form is tried without a finding)
+NOT_NAMED = {
+    # the form along z removes 14 % of the selection blocks' residual with block t 3.9, but
+    # better in only 8 of 12 of them (the rule asks 75 %); the others less. The bending reaches
+    # at most 0.54 rad (at the far ends of z - x), and the nominal model leaves 1.38x the floor.
+    "report: a bending that grows as the square along z - x": "not named: z in 8 of 12 blocks",
+}
 
 
 def _audit(tmp_path, case, cache):
