@@ -353,3 +353,24 @@ def test_the_report_says_by_how_much_the_twin_and_the_fmu_differ():
     assert core.twin_fmu_warning(2e-15, 0.03) is None
     assert core.twin_fmu_warning(0.002, 0.03) is None
     assert core.twin_fmu_warning(float("nan"), 0.03) is not None
+
+
+def test_the_time_plot_keeps_every_buckets_extremes():
+    """A long record's time plot draws each bucket's lowest and highest sample (report._envelope):
+    at most 2 MAX_LINE_BUCKETS points, every spike kept at its value, every sample inside the
+    band drawn around it; a short record is drawn as it is."""
+    from cosim.audit import report  # noqa: PLC0415
+
+    rng = np.random.default_rng(11)
+    n = 100_000
+    t = np.arange(n) * 1e-3
+    y = np.sin(t / 7.0) + 0.03 * rng.standard_normal(n)
+    y[[5, 65_432, n - 1]] += [2.0, -3.0, 1.5]  # one-sample spikes
+    edges = report._envelope(n)
+    tt, yy = report._envelope_of(edges, t, y)
+    assert len(yy) <= 2 * report.MAX_LINE_BUCKETS and np.all(np.diff(tt) >= 0)
+    assert yy.max() == y.max() and yy.min() == y.min()
+    assert np.any(yy == y[5]) and np.any(yy == y[65_432]) and np.any(yy == y[n - 1])
+    short = np.arange(100.0)
+    assert report._envelope(len(short)) is None
+    assert report._envelope_of(None, short, short)[1] is short
