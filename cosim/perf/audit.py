@@ -22,6 +22,14 @@ The same findings in every case. The 20-minute record was already fitted on a 12
 (MAX_FIT_FRICTION_SAMPLES): its gain is the single BLAS thread's. Measured before the fits with
 viscous friction went back to the full rate (RATE_PARAMS); after it, the offset + slope case
 alone took 18.7 s of CPU (61 s wall at load 4.6).
+
+The 20-minute case again after the time plot drew a long record by buckets (cosim/audit/report.py,
+MAX_LINE_BUCKETS) and the free forms of the bending error and the slack (which it does not
+reach): 91.5 s of CPU, 450 s wall at load 9.6, peak 1217 MB. Where its CPU goes (a profile of
+the same record, numbers of one run without the profiler): reading the CSV 11.8 s, the six plots
+3.3 s (6.7 s before the buckets), the two FMU runs about 10 s, the rest the fits (the twin's
+friction on the 12 ms grid, 1130 runs; the static friction's breakaway starts the largest single
+part of them). The wall target holds only on a machine that gives the audit a core.
 """
 
 from __future__ import annotations
