@@ -34,6 +34,9 @@ BENCH_WARN := -std=c11 -Wall -Wextra -Wpedantic -Werror
 BENCH_LINT_EXTRA := -Wshadow -Wstrict-prototypes -Wmissing-prototypes -Wcast-qual -Wundef
 BENCH_SAN := -fsanitize=undefined,address -fno-sanitize-recover=all
 BENCH_DEFS := -DBOWDEN_BUILD_ID=$(BENCH_BUILD_ID)UL
+# The host device (emulator, tests) holds up to 4 channels; a board build sets its own maximum
+# (settings.h: 1 unless the build says otherwise).
+BENCH_HOST_DEFS := $(BENCH_DEFS) -DBOWDEN_CHANNELS_MAX=4U
 
 BENCH_SO := $(BENCH_HOST)/libbowden_bench.so
 BENCH_UNIT := $(BENCH_HOST)/bench_unit_tests
@@ -61,23 +64,23 @@ bench-build: $(BENCH_SO) $(BENCH_UNIT) $(BENCH_UNIT_SAN) $(BENCH_FUZZ)
 
 $(BENCH_SO): $(BENCH_TARGET_SRC) $(BENCH_HOST_SRC) $(BENCH_HDR)
 	@mkdir -p $(dir $@)
-	$(BENCH_CC) $(BENCH_WARN) -O2 -fPIC -shared $(BENCH_DEFS) $(BENCH_INC) $(BENCH_TARGET_SRC) \
+	$(BENCH_CC) $(BENCH_WARN) -O2 -fPIC -shared $(BENCH_HOST_DEFS) $(BENCH_INC) $(BENCH_TARGET_SRC) \
 	  $(BENCH_HOST_SRC) -lm -o $@
 
 $(BENCH_UNIT): $(BENCH_TARGET_SRC) $(BENCH_HOST_SRC) $(BENCH_TEST_SRC) $(BENCH_HDR)
 	@mkdir -p $(dir $@)
-	$(BENCH_CC) $(BENCH_WARN) -O2 $(BENCH_DEFS) $(BENCH_INC) $(BENCH_TARGET_SRC) $(BENCH_HOST_SRC) \
+	$(BENCH_CC) $(BENCH_WARN) -O2 $(BENCH_HOST_DEFS) $(BENCH_INC) $(BENCH_TARGET_SRC) $(BENCH_HOST_SRC) \
 	  $(BENCH_TEST_SRC) -lm -o $@
 
 $(BENCH_UNIT_SAN): $(BENCH_TARGET_SRC) $(BENCH_HOST_SRC) $(BENCH_TEST_SRC) $(BENCH_HDR)
 	@mkdir -p $(dir $@)
-	$(BENCH_CC) $(BENCH_WARN) -O1 -g $(BENCH_SAN) $(BENCH_DEFS) $(BENCH_INC) $(BENCH_TARGET_SRC) \
+	$(BENCH_CC) $(BENCH_WARN) -O1 -g $(BENCH_SAN) $(BENCH_HOST_DEFS) $(BENCH_INC) $(BENCH_TARGET_SRC) \
 	  $(BENCH_HOST_SRC) $(BENCH_TEST_SRC) -lm -o $@
 
 $(BENCH_FUZZ): firmware/tests/bench/fuzz_proto.c firmware/tests/bench/fuzz_main.c \
   $(BENCH_TARGET_SRC) $(BENCH_HOST_SRC) $(BENCH_HDR)
 	@mkdir -p $(dir $@)
-	$(BENCH_CC) $(BENCH_WARN) -O1 -g $(BENCH_SAN) $(BENCH_DEFS) $(BENCH_INC) $(BENCH_TARGET_SRC) \
+	$(BENCH_CC) $(BENCH_WARN) -O1 -g $(BENCH_SAN) $(BENCH_HOST_DEFS) $(BENCH_INC) $(BENCH_TARGET_SRC) \
 	  firmware/host/flash_ram.c firmware/host/dev_host.c firmware/tests/bench/fuzz_proto.c \
 	  firmware/tests/bench/fuzz_main.c -o $@
 

@@ -12,7 +12,8 @@
 
 #include "flash.h"
 
-#define FLASH_RAM_SLOT_WORDS 256U
+/* A 4-KiB sector, as the SoC's SPI flash: room for a record of 4 channels (about 460 words). */
+#define FLASH_RAM_SLOT_WORDS 1024U
 
 typedef struct {
     uint32_t words[FLASH_SLOTS][FLASH_RAM_SLOT_WORDS];

@@ -78,9 +78,11 @@ typedef struct {
 } dev_port_t;
 
 typedef struct {
-    fw_t *fw;
+    fw_t *fw;               /* the channels' firmware, fw[0 .. channels): fw[k] on bank k */
+    uint32_t channels;      /* channels this device drives, [1, BOWDEN_CHANNELS_MAX] */
+    uint32_t run_mask;      /* bit k: channel k runs in the active run */
     const flash_hal_t *flash;
-    settings_t settings;
+    settings_t settings[BOWDEN_CHANNELS_MAX]; /* per channel; dev.* alike in every copy */
     dev_identity_t id;
     uint32_t config_source; /* PROTO_CONFIG_SOURCE_* */
     uint32_t dirty;         /* parameters changed since the last persist or load */
@@ -93,16 +95,21 @@ typedef struct {
     uint32_t time_us;
     uint32_t host_seen_us;  /* time of the last valid frame from the run's port (host watchdog) */
     uint32_t host_timeouts; /* runs stopped because that port fell silent, since boot */
-    int16_t stream[DEV_STREAM_LEN];
-    uint32_t stream_head;
-    uint32_t stream_len;
-    int16_t stream_last;    /* held when the stream runs dry */
+    int16_t stream[BOWDEN_CHANNELS_MAX][DEV_STREAM_LEN]; /* per channel */
+    uint32_t stream_head[BOWDEN_CHANNELS_MAX];
+    uint32_t stream_len[BOWDEN_CHANNELS_MAX];
+    int16_t stream_last[BOWDEN_CHANNELS_MAX]; /* held when the stream runs dry */
     dev_port_t ports[DEV_PORTS];
 } dev_t;
 
 /* Bind to a firmware (fw_init done) and a flash; load the saved settings (or the defaults when
- * there are none or they are rejected) and configure the firmware. Every port starts serial. */
+ * there are none or they are rejected) and configure the firmware. Every port starts serial.
+ * One channel: dev_init_channels(d, fw, 1, flash). */
 void dev_init(dev_t *d, fw_t *fw, const flash_hal_t *flash);
+/* The same for n channels (fw[0 .. n), each fw_init'ed on its channel's register bank: a HAL
+ * whose addresses start at BOWDEN_REG_AT(k, 0)); n outside [1, BOWDEN_CHANNELS_MAX] is taken as
+ * the nearest bound. The count is the board's (its build, or what it read from the FPGA). */
+void dev_init_channels(dev_t *d, fw_t *fw, uint32_t n, const flash_hal_t *flash);
 /* Make a port serial or CAN (clears its buffers). */
 void dev_port_kind(dev_t *d, uint32_t port, uint32_t kind);
 
@@ -116,6 +123,10 @@ uint32_t dev_tx_can(dev_t *d, uint32_t port, proto_can_frame_t *out, uint32_t ma
  * stream, fw_tick, and a telemetry frame every dev.telemetry_div ticks. t_out_q8 is the output
  * load cell (Q7.8 N) as the board reads it. */
 void dev_tick(dev_t *d, uint32_t time_us, int32_t t_out_q8);
+/* The tick of several channels: every channel of the run steps in channel order (its compensator,
+ * its estimate, its register writes) and sends its own telemetry frame; t_out_q8[k] is channel
+ * k's output load cell. dev_tick is this with one channel's reading. */
+void dev_tick_channels(dev_t *d, uint32_t time_us, const int32_t *t_out_q8);
 /* The board's timer code reports a tick that came late (sets fault OVERRUN). */
 void dev_overrun(dev_t *d);
 

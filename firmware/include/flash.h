@@ -11,6 +11,12 @@
  * keeps every saved value whose name it still knows (unknown keys are skipped, new parameters
  * keep their defaults), and the loaded settings are checked as a whole before they are used.
  *
+ * A device of several channels writes channel 0's pairs (and the device's own settings, dev.*)
+ * as one channel does, then each further channel's own parameters under its channel key
+ * (params_channel_key): a one-channel record is the record of before, a firmware of fewer
+ * channels skips the keys of the channels it lacks, and one of more keeps the defaults on the
+ * channels the record lacks.
+ *
  * Store: erase and write the slot that does not hold the newest valid record, with sequence
  * number newest + 1, then read it back. Load: the valid record with the highest sequence number
  * (serial-number arithmetic) whose settings pass the check, else the other one.
@@ -50,5 +56,11 @@ int32_t flash_store(const flash_hal_t *f, const settings_t *settings, uint32_t *
  * the record keep them) if the result passes settings_check; FLASH_OK and *seq, or
  * FLASH_ERR_EMPTY / FLASH_ERR_INVALID with *settings unchanged. */
 int32_t flash_load(const flash_hal_t *f, settings_t *settings, uint32_t *seq);
+
+/* flash_store and flash_load for n channels (settings[0 .. n), 1 <= n <= BOWDEN_CHANNELS_MAX;
+ * every channel checked, none changed on an error). A bad n is FLASH_ERR_SIZE. */
+int32_t flash_store_channels(const flash_hal_t *f, const settings_t *settings, uint32_t n,
+                             uint32_t *seq);
+int32_t flash_load_channels(const flash_hal_t *f, settings_t *settings, uint32_t n, uint32_t *seq);
 
 #endif /* BOWDEN_FLASH_H */

@@ -12,8 +12,8 @@
 
 #include <stdint.h>
 
-#define PROTO_VERSION 2u
-#define PROTO_TABLE_HASH 0x8AE4DB9Bu
+#define PROTO_VERSION 3u
+#define PROTO_TABLE_HASH 0x442981DBu
 #define PROTO_MAX_PAYLOAD 48u
 #define PROTO_N_PARAMS 58u
 #define PROTO_CAN_NODE_BITS 6u
@@ -46,16 +46,19 @@
 #define PROTO_MSG_TELEM_B 23u
 #define PROTO_MSG_TEXT_GET 24u
 #define PROTO_MSG_TEXT 25u
+#define PROTO_MSG_STREAM_CH 26u
 #define PROTO_HELLO_MIN_LEN 0u
 #define PROTO_HELLO_MAX_LEN 0u
-#define PROTO_HELLO_ACK_MIN_LEN 17u
-#define PROTO_HELLO_ACK_MAX_LEN 17u
+#define PROTO_HELLO_ACK_MIN_LEN 18u
+#define PROTO_HELLO_ACK_MAX_LEN 18u
 #define PROTO_PARAM_GET_MIN_LEN 2u
-#define PROTO_PARAM_GET_MAX_LEN 2u
+#define PROTO_PARAM_GET_MAX_LEN 3u
+#define PROTO_PARAM_GET_CHANNEL_MAX 1u
 #define PROTO_PARAM_SET_MIN_LEN 6u
-#define PROTO_PARAM_SET_MAX_LEN 6u
-#define PROTO_PARAM_VALUE_MIN_LEN 6u
-#define PROTO_PARAM_VALUE_MAX_LEN 6u
+#define PROTO_PARAM_SET_MAX_LEN 7u
+#define PROTO_PARAM_SET_CHANNEL_MAX 1u
+#define PROTO_PARAM_VALUE_MIN_LEN 7u
+#define PROTO_PARAM_VALUE_MAX_LEN 7u
 #define PROTO_PARAM_INFO_MIN_LEN 2u
 #define PROTO_PARAM_INFO_MAX_LEN 2u
 #define PROTO_PARAM_INFO_ACK_MIN_LEN 11u
@@ -67,16 +70,18 @@
 #define PROTO_DEFAULTS_MIN_LEN 0u
 #define PROTO_DEFAULTS_MAX_LEN 0u
 #define PROTO_START_MIN_LEN 4u
-#define PROTO_START_MAX_LEN 4u
+#define PROTO_START_MAX_LEN 5u
+#define PROTO_START_CHANNEL_MASK_MAX 1u
 #define PROTO_STOP_MIN_LEN 0u
 #define PROTO_STOP_MAX_LEN 0u
 #define PROTO_STREAM_MIN_LEN 2u
 #define PROTO_STREAM_MAX_LEN 48u
 #define PROTO_STREAM_SAMPLES_MAX 24u
 #define PROTO_FAULTS_GET_MIN_LEN 0u
-#define PROTO_FAULTS_GET_MAX_LEN 0u
-#define PROTO_FAULTS_MIN_LEN 16u
-#define PROTO_FAULTS_MAX_LEN 16u
+#define PROTO_FAULTS_GET_MAX_LEN 1u
+#define PROTO_FAULTS_GET_CHANNEL_MAX 1u
+#define PROTO_FAULTS_MIN_LEN 17u
+#define PROTO_FAULTS_MAX_LEN 17u
 #define PROTO_FAULT_CLEAR_MIN_LEN 0u
 #define PROTO_FAULT_CLEAR_MAX_LEN 0u
 #define PROTO_STATS_GET_MIN_LEN 0u
@@ -88,10 +93,10 @@
 #define PROTO_ERROR_MIN_LEN 6u
 #define PROTO_ERROR_MAX_LEN 46u
 #define PROTO_ERROR_TEXT_MAX 40u
-#define PROTO_TELEMETRY_MIN_LEN 27u
-#define PROTO_TELEMETRY_MAX_LEN 27u
-#define PROTO_TELEM_A_MIN_LEN 8u
-#define PROTO_TELEM_A_MAX_LEN 8u
+#define PROTO_TELEMETRY_MIN_LEN 28u
+#define PROTO_TELEMETRY_MAX_LEN 28u
+#define PROTO_TELEM_A_MIN_LEN 7u
+#define PROTO_TELEM_A_MAX_LEN 7u
 #define PROTO_TELEM_B_MIN_LEN 8u
 #define PROTO_TELEM_B_MAX_LEN 8u
 #define PROTO_TEXT_GET_MIN_LEN 6u
@@ -99,6 +104,9 @@
 #define PROTO_TEXT_MIN_LEN 4u
 #define PROTO_TEXT_MAX_LEN 44u
 #define PROTO_TEXT_TEXT_MAX 40u
+#define PROTO_STREAM_CH_MIN_LEN 3u
+#define PROTO_STREAM_CH_MAX_LEN 47u
+#define PROTO_STREAM_CH_SAMPLES_MAX 23u
 
 /* errors */
 #define PROTO_ERR_UNKNOWN_MESSAGE 1u /* message id not a request this device knows */
@@ -158,6 +166,7 @@ typedef struct {
     uint8_t running; /* 1 while a run is active (telemetry streaming) */
     uint8_t config_source; /* where the configuration in force came from */
     uint8_t dirty; /* 1 when parameters changed since the last persist or load */
+    uint8_t n_channels; /* cables this device drives (channels 0 .. n_channels-1; protocol 3) */
 } proto_hello_ack_t;
 uint32_t proto_hello_ack_pack(const proto_hello_ack_t *m, uint8_t *buf);
 int proto_hello_ack_unpack(proto_hello_ack_t *m, const uint8_t *buf, uint32_t len);
@@ -165,6 +174,8 @@ int proto_hello_ack_unpack(proto_hello_ack_t *m, const uint8_t *buf, uint32_t le
 /* PARAM_GET: Read one parameter. */
 typedef struct {
     uint16_t param; /* parameter id */
+    uint8_t channel_count; /* elements in channel */
+    uint8_t channel[1]; /* channel the parameter belongs to, < n_channels; a device-wide parameter (dev.*) has one value for every channel; absent: channel 0 (a one-channel host's frame is protocol 2's) */
 } proto_param_get_t;
 uint32_t proto_param_get_pack(const proto_param_get_t *m, uint8_t *buf);
 int proto_param_get_unpack(proto_param_get_t *m, const uint8_t *buf, uint32_t len);
@@ -173,6 +184,8 @@ int proto_param_get_unpack(proto_param_get_t *m, const uint8_t *buf, uint32_t le
 typedef struct {
     uint16_t param; /* parameter id */
     int32_t value; /* the parameter's 32-bit word */
+    uint8_t channel_count; /* elements in channel */
+    uint8_t channel[1]; /* channel the parameter belongs to, < n_channels; a device-wide parameter (dev.*) has one value for every channel; absent: channel 0 (a one-channel host's frame is protocol 2's) */
 } proto_param_set_t;
 uint32_t proto_param_set_pack(const proto_param_set_t *m, uint8_t *buf);
 int proto_param_set_unpack(proto_param_set_t *m, const uint8_t *buf, uint32_t len);
@@ -181,6 +194,7 @@ int proto_param_set_unpack(proto_param_set_t *m, const uint8_t *buf, uint32_t le
 typedef struct {
     uint16_t param; /* parameter id */
     int32_t value; /* the parameter's 32-bit word */
+    uint8_t channel; /* channel the parameter belongs to, < n_channels; a device-wide parameter (dev.*) has one value for every channel */
 } proto_param_value_t;
 uint32_t proto_param_value_pack(const proto_param_value_t *m, uint8_t *buf);
 int proto_param_value_unpack(proto_param_value_t *m, const uint8_t *buf, uint32_t len);
@@ -202,14 +216,16 @@ typedef struct {
 uint32_t proto_param_info_ack_pack(const proto_param_info_ack_t *m, uint8_t *buf);
 int proto_param_info_ack_unpack(proto_param_info_ack_t *m, const uint8_t *buf, uint32_t len);
 
-/* START: Start a run: program the FPGA loop (fw_start) and stream telemetry to the port that sent START. T_ref comes from the waveform generator (fw.source = wave) or from STREAM samples (fw.source = host). The device stops by itself after duration_ticks ticks; it runs until STOP only when duration_ticks is START_DURATION.CONTINUOUS, and refuses 0 (INVALID_VALUE): a duration that rounded to nothing never means endless (protocol 2; in protocol 1, 0 meant until STOP). ACK value: the tick rate in Hz. While a run is active, the host keeps its link alive: a run whose port sends no valid frame for HOST_WATCHDOG.TIMEOUT_MS is stopped like STOP (TC = 0, loop disabled) and counted in STATS.host_timeouts (a host that crashed or a cable pulled never leaves the motor driven). */
+/* START: Start a run of the channels in channel_mask, in one tick: program each one's FPGA loop (fw_start) and stream telemetry to the port that sent START. T_ref comes from the waveform generator (fw.source = wave) or from STREAM samples (fw.source = host). The device stops by itself after duration_ticks ticks; it runs until STOP only when duration_ticks is START_DURATION.CONTINUOUS, and refuses 0 (INVALID_VALUE): a duration that rounded to nothing never means endless (protocol 2; in protocol 1, 0 meant until STOP). ACK value: the tick rate in Hz. While a run is active, the host keeps its link alive: a run whose port sends no valid frame for HOST_WATCHDOG.TIMEOUT_MS is stopped like STOP (TC = 0, loop disabled) and counted in STATS.host_timeouts (a host that crashed or a cable pulled never leaves the motor driven). */
 typedef struct {
     uint32_t duration_ticks; /* ticks to run, >= 1; START_DURATION.CONTINUOUS = until STOP; 0 is refused */
+    uint8_t channel_mask_count; /* elements in channel_mask */
+    uint8_t channel_mask[1]; /* bit k: channel k runs (its loop programmed and enabled, its telemetry sent); channels outside the mask stay stopped; 0 or a bit at or above n_channels is refused; absent: every channel */
 } proto_start_t;
 uint32_t proto_start_pack(const proto_start_t *m, uint8_t *buf);
 int proto_start_unpack(proto_start_t *m, const uint8_t *buf, uint32_t len);
 
-/* STREAM: Append T_ref samples (Q7.8 N, one per tick) to the device's stream buffer (fw.source = host). ACK value: free slots left; ERROR STREAM_FULL takes none of them. */
+/* STREAM: Append T_ref samples (Q7.8 N, one per tick) to channel 0's stream buffer (fw.source = host). ACK value: free slots left; ERROR STREAM_FULL takes none of them. */
 typedef struct {
     uint8_t samples_count; /* elements in samples */
     int16_t samples[24]; /* T_ref samples, Q7.8 N (N) */
@@ -217,12 +233,21 @@ typedef struct {
 uint32_t proto_stream_pack(const proto_stream_t *m, uint8_t *buf);
 int proto_stream_unpack(proto_stream_t *m, const uint8_t *buf, uint32_t len);
 
+/* FAULTS_GET: Read the fault state. */
+typedef struct {
+    uint8_t channel_count; /* elements in channel */
+    uint8_t channel[1]; /* channel whose FPGA registers and fault ticks to read; absent: channel 0 (a one-channel host's frame is protocol 2's) */
+} proto_faults_get_t;
+uint32_t proto_faults_get_pack(const proto_faults_get_t *m, uint8_t *buf);
+int proto_faults_get_unpack(proto_faults_get_t *m, const uint8_t *buf, uint32_t len);
+
 /* FAULTS: The FPGA's latched FAULT and live STATUS registers, the device's latched faults, and the ticks of the last run that saw a fault. */
 typedef struct {
     uint32_t fpga_fault; /* FAULT register (bowden_regs.json) */
     uint32_t fpga_status; /* STATUS register */
     uint32_t device_faults; /* device fault bits (faults table, bits 4..7) */
     uint32_t fault_ticks; /* ticks that saw a latched FPGA fault */
+    uint8_t channel; /* channel the FPGA words and fault ticks belong to (device_faults are the device's) */
 } proto_faults_t;
 uint32_t proto_faults_pack(const proto_faults_t *m, uint8_t *buf);
 int proto_faults_unpack(proto_faults_t *m, const uint8_t *buf, uint32_t len);
@@ -262,7 +287,7 @@ typedef struct {
 uint32_t proto_error_pack(const proto_error_t *m, uint8_t *buf);
 int proto_error_unpack(proto_error_t *m, const uint8_t *buf, uint32_t len);
 
-/* TELEMETRY: One sample per tick (every dev.telemetry_div ticks) while running. sample counts ticks since START: a gap is a lost frame; overflow counts the frames the device could not send. */
+/* TELEMETRY: One sample per tick (every dev.telemetry_div ticks) while running. sample counts ticks since START: a gap is a lost frame; overflow counts the frames the device could not send. With several channels, each running channel sends one frame per sample, in channel order, carrying its channel: a frame stays within one CAN pair and one MTU-sized serial frame whatever the channel count, a lost frame loses one channel's sample only, and a one-channel host sees the frames it always saw. */
 typedef struct {
     uint32_t time_us; /* device time, microseconds since boot (wraps after 71.6 min) (us) */
     uint32_t sample; /* tick index since START */
@@ -276,13 +301,15 @@ typedef struct {
     uint8_t status; /* status bits */
     uint16_t mu_phi; /* the friction exponent mu*phi the compensator applies, UQ2.14 (saturated at 4 - 2^-14): the online estimate while comp.est_enable is on, else the configured one */
     uint8_t est_faults; /* the online estimate's latched faults (fric_est.h): bit 0 ADC flags, 1 far-end code out of range, 2 far-end code stuck, 3 estimate out of bounds; 0 while the estimate is off */
+    uint8_t channel; /* channel of this sample: each running channel sends its own frame per sample */
 } proto_telemetry_t;
 uint32_t proto_telemetry_pack(const proto_telemetry_t *m, uint8_t *buf);
 int proto_telemetry_unpack(proto_telemetry_t *m, const uint8_t *buf, uint32_t len);
 
 /* TELEM_A: CAN telemetry, first frame of a sample (no seq byte). */
 typedef struct {
-    uint32_t sample; /* tick index since START */
+    uint16_t sample_lo16; /* low 16 bits of the tick index since START (the host extends it per channel: a forward step under 32768 samples continues the count, a longer one starts a new run) */
+    uint8_t channel; /* channel of this sample */
     int16_t t_ref; /* T_ref, Q7.8 N (N) */
     int16_t t_c; /* T_c, Q7.8 N (N) */
 } proto_telem_a_t;
@@ -317,6 +344,15 @@ typedef struct {
 } proto_text_t;
 uint32_t proto_text_pack(const proto_text_t *m, uint8_t *buf);
 int proto_text_unpack(proto_text_t *m, const uint8_t *buf, uint32_t len);
+
+/* STREAM_CH: Append T_ref samples (Q7.8 N, one per tick) to the stream buffer of any channel (fw.source = host). ACK value: free slots left; ERROR STREAM_FULL takes none of them. STREAM is this message for channel 0. */
+typedef struct {
+    uint8_t channel; /* channel whose stream buffer takes the samples */
+    uint8_t samples_count; /* elements in samples */
+    int16_t samples[23]; /* T_ref samples, Q7.8 N (N) */
+} proto_stream_ch_t;
+uint32_t proto_stream_ch_pack(const proto_stream_ch_t *m, uint8_t *buf);
+int proto_stream_ch_unpack(proto_stream_ch_t *m, const uint8_t *buf, uint32_t len);
 
 /* Payload length limits of a message id (0, 0 for an id not in the table). */
 uint32_t proto_msg_min_len(uint32_t msg);

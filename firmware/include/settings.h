@@ -16,6 +16,15 @@
 
 #include "fw.h"
 
+/* The most channels (cables) a build holds: one settings_t, one fw_t and one register bank
+ * (bowden_regs.h, BOWDEN_REG_AT) per channel. 1 unless the build sets it: every channel costs RAM
+ * (its settings, its firmware state, its stream buffer in dev.h), so a board builds what it
+ * drives; the host's device (the emulator, the tests) builds 4. The channels a device runs, at
+ * most this, are given at dev_init_channels. */
+#ifndef BOWDEN_CHANNELS_MAX
+#define BOWDEN_CHANNELS_MAX 1U
+#endif
+
 /* Status codes of settings_check, after the firmware's (fw.h: up to 56). */
 #define SETTINGS_ERR_TELEMETRY_DIV 60
 #define SETTINGS_ERR_CAN_NODE 61
@@ -26,7 +35,9 @@ typedef struct {
     uint32_t can_node;      /* CAN node id, [0, 63]; default 1 */
 } dev_config_t;
 
-/* Everything a parameter can address (the parameter table is generated from this structure). */
+/* Everything a parameter can address on one channel (the parameter table is generated from this
+ * structure): the channel's firmware configuration, and the device's own settings (dev.*), which
+ * a device of several channels holds once, in channel 0's settings_t (params_is_device). */
 typedef struct {
     fw_config_t fw;
     dev_config_t dev;

@@ -21,7 +21,7 @@ static void make_frame(uint32_t i, proto_frame_t *f)
 {
     proto_telemetry_t t = {i * 1000U, i, 0U, (int16_t)(i * 37U), (int16_t)(i * 41U),
                            (int16_t)(i * 43U), (int16_t)(i * 47U), (int16_t)(i * 3U), 0U, 0x23U,
-                           (uint16_t)(i * 5U), 0U};
+                           (uint16_t)(i * 5U), 0U, 0U};
     f->version = (uint8_t)PROTO_VERSION;
     f->msg = PROTO_MSG_TELEMETRY;
     f->seq = 0U;

@@ -656,10 +656,10 @@ def gen_c(spec: Spec) -> str:
         w("{")
         if m.tail:
             t = m.tail
-            w(
-                f"    if (len < {m.min_len}u || len > {m.max_len}u || "
-                f"(len - {m.fixed_len}u) % {t.size}u != 0u) {{"
-            )
+            # An optional tail (count from 0) has no lower bound to test: len < 0 is never true.
+            low = f"len < {m.min_len}u || " if m.min_len > 0 else ""
+            whole = f" || (len - {m.fixed_len}u) % {t.size}u != 0u" if t.size > 1 else ""
+            w(f"    if ({low}len > {m.max_len}u{whole}) {{")
         else:
             w(f"    if (len != {m.fixed_len}u) {{")
         w("        return 0;")
@@ -920,6 +920,37 @@ def _bits_per_can_frame(data_bytes: int) -> int:
     return 44 + 8 * data_bytes + (stuffable - 1) // 4 + 3
 
 
+def telemetry_budget(spec: Spec, link_bit_s: int = 1_000_000) -> dict:
+    """The telemetry's cost per channel and per sample on a 1 Mbit/s UART (8N1) and a 1 Mbit/s
+    CAN bus, from the frame sizes: how many channels stream at 1 kHz, and each channel's rate
+    when 4 stream. PROTOCOL.md prints these; a test recomputes them from the generated sizes."""
+    tel = next(m for m in spec.messages if m.name == "TELEMETRY")
+    raw_len = SERIAL_OVERHEAD + tel.max_len
+    wire = raw_len + 1 + 2  # COBS code byte (< 254 bytes) and two delimiters
+    serial_bits = 10 * wire  # 8N1: a start and a stop bit per byte
+    a = next(m for m in spec.messages if m.name == "TELEM_A").max_len
+    b = next(m for m in spec.messages if m.name == "TELEM_B").max_len
+    can_bits = _bits_per_can_frame(a) + _bits_per_can_frame(b)
+    serial_ch = link_bit_s // (serial_bits * 1000)
+    can_ch = link_bit_s // (can_bits * 1000)
+    return {
+        "serial_raw_bytes": raw_len,
+        "serial_wire_bytes": wire,
+        "serial_bits": serial_bits,
+        "serial_channels_1khz": serial_ch,
+        "serial_load_1khz": serial_ch * serial_bits * 1000 / link_bit_s,
+        "serial_hz_4ch": link_bit_s // (serial_bits * 4),
+        "can_a_bytes": a,
+        "can_b_bytes": b,
+        "can_bits": can_bits,
+        "can_channels_1khz": can_ch,
+        "can_load_1khz": can_ch * can_bits * 1000 / link_bit_s,
+        "can_hz_4ch": link_bit_s // (can_bits * 4),
+        "serial_div_4ch": -(-4 // serial_ch),
+        "can_div_4ch": -(-4 // can_ch),
+    }
+
+
 def gen_md(spec: Spec) -> str:
     out: list[str] = []
     w = out.append
@@ -939,15 +970,14 @@ def gen_md(spec: Spec) -> str:
     w("")
     w(spec.raw["serial"]["doc"])
     w("")
-    tel = next(m for m in spec.messages if m.name == "TELEMETRY")
-    raw_len = SERIAL_OVERHEAD + tel.max_len
-    wire = raw_len + 1 + 2  # COBS code byte (< 254 bytes) and two delimiters
+    b = telemetry_budget(spec)
     w(
-        f"A telemetry frame is {raw_len} bytes unencoded and {wire} bytes on the wire; at 1 kHz "
-        f"that is {wire * 1000} bytes/s, {wire * 10000} baud with 8N1 framing: use "
-        "921600 baud or more (a USB CDC device has no baud rate). USB-serial adapters hold "
-        "received bytes up to 16 ms before sending them to the host unless their latency timer is "
-        "set to 1 ms (FTDI: `/sys/bus/usb-serial/devices/ttyUSB0/latency_timer`, or "
+        f"A telemetry frame is {b['serial_raw_bytes']} bytes unencoded and "
+        f"{b['serial_wire_bytes']} bytes on the wire; at 1 kHz that is "
+        f"{b['serial_wire_bytes'] * 1000} bytes/s, {b['serial_wire_bytes'] * 10000} baud with 8N1 "
+        "framing: use 921600 baud or more (a USB CDC device has no baud rate). USB-serial adapters "
+        "hold received bytes up to 16 ms before sending them to the host unless their latency timer "
+        "is set to 1 ms (FTDI: `/sys/bus/usb-serial/devices/ttyUSB0/latency_timer`, or "
         "`setserial /dev/ttyUSB0 low_latency`): without it, telemetry arrives in bursts, with no "
         "loss."
     )
@@ -956,13 +986,40 @@ def gen_md(spec: Spec) -> str:
     w("")
     w(spec.raw["can"]["doc"])
     w("")
-    bits = 2 * _bits_per_can_frame(8)
     w(
-        f"Telemetry bandwidth: two 8-byte frames per sample, at most {_bits_per_can_frame(8)} "
-        f"bits each with worst-case bit stuffing, {bits * 1000 / 1e3:.0f} kbit/s at 1 kHz: "
-        f"{bits * 1000 / 1e6:.0%} of 1 Mbit/s and {bits * 1000 / 5e5:.0%} of 500 kbit/s. The DBC "
-        f"file `bowden_bench.dbc` (node {spec.raw['can']['default_node']}) describes the frames "
-        "for CAN tools; segmented messages appear there as their raw segments."
+        f"Telemetry bandwidth: two frames per sample (TELEM_A {b['can_a_bytes']} and TELEM_B "
+        f"{b['can_b_bytes']} data bytes), at most {b['can_bits']} bits together with worst-case "
+        f"bit stuffing, {b['can_bits']} kbit/s at 1 kHz: {b['can_bits'] / 1e3:.0%} of 1 Mbit/s and "
+        f"{b['can_bits'] / 5e2:.0%} of 500 kbit/s. The DBC file `bowden_bench.dbc` (node "
+        f"{spec.raw['can']['default_node']}) describes the frames for CAN tools; segmented "
+        "messages appear there as their raw segments."
+    )
+    w("")
+    w("## Telemetry budget per channel")
+    w("")
+    w(
+        "Each running channel sends its own frame per sample (TELEMETRY carries its channel; on "
+        "CAN, TELEM_A does), so the link's load grows with the channels that run: per channel and "
+        "per sample, the link's bits are"
+    )
+    w("")
+    w("| link | bits per channel-sample | channels at 1 kHz | rate per channel with 4 channels |")
+    w("| --- | --- | --- | --- |")
+    w(
+        f"| UART, 1 Mbit/s, 8N1 | {b['serial_bits']} | {b['serial_channels_1khz']} "
+        f"({b['serial_load_1khz']:.0%} of the link) | {b['serial_hz_4ch']} Hz |"
+    )
+    w(
+        f"| CAN 2.0A, 1 Mbit/s | {b['can_bits']} | {b['can_channels_1khz']} "
+        f"({b['can_load_1khz']:.0%} of the bus) | {b['can_hz_4ch']} Hz |"
+    )
+    w("")
+    w(
+        "Above that, `dev.telemetry_div` thins the telemetry (every channel's alike; the loops "
+        f"still run every tick): with 4 channels at 1 kHz, {b['serial_div_4ch']} on the UART and "
+        f"{b['can_div_4ch']} on CAN. The serial "
+        "figures count the COBS overhead of a frame under 254 bytes and its delimiter; the CAN "
+        "figures the worst-case bit stuffing and the interframe space."
     )
     w("")
     w("## Messages")
@@ -1168,7 +1225,9 @@ def vectors(spec: Spec) -> list[dict]:
     tel = next(m for m in spec.messages if m.name == "TELEMETRY")
     for variant in (0, 2):
         vals = _example_values(tel, variant)
-        a = struct.pack("<Ihh", vals["sample"], vals["t_ref"], vals["t_c"])
+        a = struct.pack(
+            "<HBhh", vals["sample"] & 0xFFFF, vals["channel"], vals["t_ref"], vals["t_c"]
+        )
         b = struct.pack(
             "<BhhhB",
             vals["sample"] & 0xFF,

@@ -61,7 +61,7 @@ static uint32_t g_tick_us_rem;
 /* Program the timer for the configured tick rate (checked by dev_settings_check: 1..65535 Hz). */
 static void timer_follow_rate(void)
 {
-    uint32_t rate = g_dev.settings.fw.tick_rate_hz;
+    uint32_t rate = g_dev.settings[0].fw.tick_rate_hz;
     if (rate != g_timer_rate_hz && rate != 0U) {
         g_timer_rate_hz = rate;
         g_tick_us = 1000000U / rate;
@@ -209,7 +209,7 @@ int main(void)
             ++time_us;
         }
         soc_io_write(SOC_SYS_MARK, SOC_MARK_TICK);
-        dev_tick(&g_dev, time_us, t_out_q8(&g_dev.settings.fw.loop));
+        dev_tick(&g_dev, time_us, t_out_q8(&g_dev.settings[0].fw.loop));
         timer_follow_rate();
         g_frame_owed = 1U;
     }

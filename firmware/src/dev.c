@@ -26,13 +26,39 @@ void dev_port_kind(dev_t *d, uint32_t port, uint32_t kind)
 
 static void stream_clear(dev_t *d)
 {
-    d->stream_head = d->stream_len = 0U;
-    d->stream_last = 0;
+    for (uint32_t c = 0; c < BOWDEN_CHANNELS_MAX; ++c) {
+        d->stream_head[c] = d->stream_len[c] = 0U;
+        d->stream_last[c] = 0;
+    }
+}
+
+/* Every channel's settings to the factory defaults. */
+static void settings_default_all(dev_t *d)
+{
+    for (uint32_t c = 0; c < d->channels; ++c) {
+        settings_default(&d->settings[c]);
+    }
+}
+
+/* Every channel's firmware to its settings (checked by the caller: params_set, flash_load, or
+ * the defaults). */
+static void configure_all(dev_t *d)
+{
+    for (uint32_t c = 0; c < d->channels; ++c) {
+        fw_configure_checked(&d->fw[c], &d->settings[c].fw);
+    }
 }
 
 void dev_init(dev_t *d, fw_t *fw, const flash_hal_t *flash)
 {
+    dev_init_channels(d, fw, 1U, flash);
+}
+
+void dev_init_channels(dev_t *d, fw_t *fw, uint32_t n, const flash_hal_t *flash)
+{
     d->fw = fw;
+    d->channels = (n < 1U) ? 1U : (n > BOWDEN_CHANNELS_MAX) ? BOWDEN_CHANNELS_MAX : n;
+    d->run_mask = 0U;
     d->flash = flash;
     d->id.proto_version = (uint8_t)PROTO_VERSION;
     d->id.fw_major = (uint8_t)DEV_FW_VERSION_MAJOR;
@@ -46,11 +72,11 @@ void dev_init(dev_t *d, fw_t *fw, const flash_hal_t *flash)
     d->host_seen_us = d->host_timeouts = 0U;
     d->running = d->run_ticks = d->run_limit = d->owner = 0U;
     d->dirty = 0U;
-    settings_default(&d->settings);
+    settings_default_all(d);
     d->config_source = PROTO_CONFIG_SOURCE_DEFAULTS;
     if (flash != 0) {
         uint32_t seq;
-        int32_t err = flash_load(flash, &d->settings, &seq);
+        int32_t err = flash_load_channels(flash, d->settings, d->channels, &seq);
         if (err == FLASH_OK) {
             d->config_source = PROTO_CONFIG_SOURCE_FLASH;
         } else if (err == FLASH_ERR_INVALID) {
@@ -58,7 +84,7 @@ void dev_init(dev_t *d, fw_t *fw, const flash_hal_t *flash)
             d->faults |= PROTO_FAULT_CONFIG;
         }
     }
-    (void)fw_configure(fw, &d->settings.fw); /* checked by flash_load or the defaults */
+    configure_all(d); /* checked by flash_load or the defaults */
     stream_clear(d);
     for (uint32_t i = 0; i < DEV_PORTS; ++i) {
         dev_port_kind(d, i, DEV_PORT_SERIAL);
@@ -113,7 +139,7 @@ static int send_frame(dev_t *d, uint32_t port, const proto_frame_t *f, int telem
     int ok;
     if (p->kind == DEV_PORT_CAN) {
         proto_can_frame_t cf[PROTO_CAN_MAX_FRAMES];
-        uint32_t n = proto_can_encode(d->settings.dev.can_node, f, cf, PROTO_CAN_MAX_FRAMES);
+        uint32_t n = proto_can_encode(d->settings[0].dev.can_node, f, cf, PROTO_CAN_MAX_FRAMES);
         ok = n != 0U && can_push(p, cf, n, telemetry ? RESERVE_CAN : 0U);
     } else {
         /* Encoded in place in the ring when it does not wrap there (a copy less on every frame:
@@ -205,11 +231,13 @@ static void reply_error(dev_t *d, uint32_t port, const proto_frame_t *req, uint3
     (void)send_frame(d, port, &f, 0);
 }
 
-static void reply_param(dev_t *d, uint32_t port, const proto_frame_t *req, uint32_t id)
+static void reply_param(dev_t *d, uint32_t port, const proto_frame_t *req, uint32_t ch,
+                        uint32_t id)
 {
     proto_param_value_t m;
+    m.channel = (uint8_t)ch;
     m.param = (uint16_t)id;
-    (void)params_get(&d->settings, id, &m.value);
+    (void)params_get(&d->settings[ch], id, &m.value);
     proto_frame_t f;
     frame_init(&f, PROTO_MSG_PARAM_VALUE, req->seq);
     f.len = (uint8_t)proto_param_value_pack(&m, f.payload);
@@ -223,10 +251,30 @@ static void reply_busy(dev_t *d, uint32_t port, const proto_frame_t *req)
 
 /* --- requests ------------------------------------------------------------------------------ */
 
+/* The channel an optional trailing channel field names (absent: channel 0). */
+static uint32_t opt_channel(uint32_t count, const uint8_t *channel)
+{
+    return (count != 0U) ? channel[0] : 0U;
+}
+
+/* 1 when ch is a channel of this device; else an ERROR naming the range. */
+static int channel_ok(dev_t *d, uint32_t port, const proto_frame_t *req, uint32_t ch)
+{
+    if (ch < d->channels) {
+        return 1;
+    }
+    reply_error(d, port, req, PROTO_ERR_INVALID_VALUE, (int32_t)d->channels,
+                "channel >= n_channels (HELLO)");
+    return 0;
+}
+
 static void stop_run(dev_t *d)
 {
-    fw_stop(d->fw);
+    for (uint32_t c = 0; c < d->channels; ++c) {
+        fw_stop(&d->fw[c]); /* every channel, run or not: TC = 0 and disabled is always safe */
+    }
     d->running = 0U;
+    d->run_mask = 0U;
     stream_clear(d);
 }
 
@@ -243,6 +291,7 @@ static void on_hello(dev_t *d, uint32_t port, const proto_frame_t *req)
     m.running = (uint8_t)d->running;
     m.config_source = (uint8_t)d->config_source;
     m.dirty = (uint8_t)d->dirty;
+    m.n_channels = (uint8_t)d->channels;
     proto_frame_t f;
     frame_init(&f, PROTO_MSG_HELLO_ACK, req->seq);
     f.version = d->id.proto_version;
@@ -258,8 +307,14 @@ static void on_param_set(dev_t *d, uint32_t port, const proto_frame_t *req)
         reply_busy(d, port, req);
         return;
     }
+    const uint32_t ch = opt_channel(m.channel_count, m.channel);
+    if (!channel_ok(d, port, req, ch)) {
+        return;
+    }
+    /* A device-wide parameter (dev.*) is written in every channel's copy, checked in the
+     * addressed one (the copies are alike, so one check speaks for all). */
     int32_t status;
-    int32_t err = params_set(&d->settings, m.param, m.value, &status);
+    int32_t err = params_set(&d->settings[ch], m.param, m.value, &status);
     if (err == (int32_t)PROTO_ERR_INVALID_VALUE) {
         reply_error(d, port, req, (uint32_t)err, status, settings_strerror(status));
     } else if (err == (int32_t)PROTO_ERR_READ_ONLY) {
@@ -267,9 +322,14 @@ static void on_param_set(dev_t *d, uint32_t port, const proto_frame_t *req)
     } else if (err != 0) {
         reply_error(d, port, req, (uint32_t)err, (int32_t)PROTO_N_PARAMS, "unknown parameter id");
     } else {
-        fw_configure_checked(d->fw, &d->settings.fw); /* checked by params_set */
+        if (params_is_device(m.param)) {
+            for (uint32_t c = 0; c < d->channels; ++c) {
+                d->settings[c].dev = d->settings[ch].dev;
+            }
+        }
+        fw_configure_checked(&d->fw[ch], &d->settings[ch].fw); /* checked by params_set */
         d->dirty = 1U;
-        reply_param(d, port, req, m.param);
+        reply_param(d, port, req, ch, m.param);
     }
 }
 
@@ -298,7 +358,8 @@ static void on_param_info(dev_t *d, uint32_t port, const proto_frame_t *req)
 static void on_persist(dev_t *d, uint32_t port, const proto_frame_t *req)
 {
     uint32_t seq = 0U;
-    int32_t err = (d->flash != 0) ? flash_store(d->flash, &d->settings, &seq) : FLASH_ERR_WRITE;
+    int32_t err = (d->flash != 0) ? flash_store_channels(d->flash, d->settings, d->channels, &seq)
+                                  : FLASH_ERR_WRITE;
     if (err != FLASH_OK) {
         d->faults |= PROTO_FAULT_CONFIG;
         reply_error(d, port, req, PROTO_ERR_FLASH, err, "flash write failed");
@@ -312,18 +373,25 @@ static void on_persist(dev_t *d, uint32_t port, const proto_frame_t *req)
 
 static void on_load(dev_t *d, uint32_t port, const proto_frame_t *req)
 {
-    settings_t s;
-    settings_default(&s);
+    /* Onto the defaults, into the device only when the whole record passes (flash_load leaves
+     * its argument as it was on an error). */
+    settings_t s[BOWDEN_CHANNELS_MAX];
+    for (uint32_t c = 0; c < d->channels; ++c) {
+        settings_default(&s[c]);
+    }
     uint32_t seq = 0U;
-    int32_t err = (d->flash != 0) ? flash_load(d->flash, &s, &seq) : FLASH_ERR_EMPTY;
+    int32_t err = (d->flash != 0) ? flash_load_channels(d->flash, s, d->channels, &seq)
+                                  : FLASH_ERR_EMPTY;
     if (err != FLASH_OK) {
         reply_error(d, port, req, PROTO_ERR_FLASH, err,
                     err == FLASH_ERR_EMPTY ? "no saved configuration"
                                            : "saved configuration rejected by the check");
         return;
     }
-    d->settings = s;
-    fw_configure_checked(d->fw, &d->settings.fw); /* checked by flash_load */
+    for (uint32_t c = 0; c < d->channels; ++c) {
+        d->settings[c] = s[c];
+    }
+    configure_all(d); /* checked by flash_load */
     d->dirty = 0U;
     d->config_source = PROTO_CONFIG_SOURCE_FLASH;
     reply_ack(d, port, req, seq);
@@ -344,47 +412,82 @@ static void on_start(dev_t *d, uint32_t port, const proto_frame_t *req)
                     "duration 0: >= 1 tick or CONTINUOUS");
         return;
     }
-    fw_start(d->fw);
+    /* Absent: every channel. */
+    const uint32_t mask = (m.channel_mask_count != 0U) ? m.channel_mask[0]
+                                                       : (1U << d->channels) - 1U;
+    if (mask == 0U || (mask >> d->channels) != 0U) {
+        reply_error(d, port, req, PROTO_ERR_INVALID_VALUE, (int32_t)d->channels,
+                    "channel_mask: none, or a channel >= n_channels");
+        return;
+    }
+    for (uint32_t c = 0; c < d->channels; ++c) {
+        if (((mask >> c) & 1U) != 0U) {
+            fw_start(&d->fw[c]);
+        }
+    }
+    d->run_mask = mask;
     d->running = 1U;
     d->owner = port;
     d->host_seen_us = d->time_us;
     d->run_ticks = 0U;
     d->run_limit = (m.duration_ticks == PROTO_START_DURATION_CONTINUOUS) ? 0U : m.duration_ticks;
     d->faults &= ~(uint32_t)RUN_FAULTS;
-    reply_ack(d, port, req, d->settings.fw.tick_rate_hz);
+    reply_ack(d, port, req, d->settings[0].fw.tick_rate_hz);
 }
 
-static void on_stream(dev_t *d, uint32_t port, const proto_frame_t *req)
+/* Samples into channel c's stream buffer (STREAM: channel 0, STREAM_CH: any). */
+static void stream_put(dev_t *d, uint32_t port, const proto_frame_t *req, uint32_t c,
+                       const int16_t *samples, uint32_t count)
 {
-    proto_stream_t m;
-    (void)proto_stream_unpack(&m, req->payload, req->len);
-    uint32_t free_slots = DEV_STREAM_LEN - d->stream_len;
-    if (m.samples_count > free_slots) {
+    uint32_t free_slots = DEV_STREAM_LEN - d->stream_len[c];
+    if (count > free_slots) {
         reply_error(d, port, req, PROTO_ERR_STREAM_FULL, (int32_t)free_slots,
                     "stream buffer full");
         return;
     }
     /* Into the ring in at most two contiguous pieces (the end of the array, then its start). */
-    const uint32_t tail = (d->stream_head + d->stream_len) % DEV_STREAM_LEN;
-    const uint32_t first = (m.samples_count < DEV_STREAM_LEN - tail) ? m.samples_count
-                                                                     : DEV_STREAM_LEN - tail;
+    const uint32_t tail = (d->stream_head[c] + d->stream_len[c]) % DEV_STREAM_LEN;
+    const uint32_t first = (count < DEV_STREAM_LEN - tail) ? count : DEV_STREAM_LEN - tail;
     for (uint32_t i = 0; i < first; ++i) {
-        d->stream[tail + i] = m.samples[i];
+        d->stream[c][tail + i] = samples[i];
     }
-    for (uint32_t i = first; i < m.samples_count; ++i) {
-        d->stream[i - first] = m.samples[i];
+    for (uint32_t i = first; i < count; ++i) {
+        d->stream[c][i - first] = samples[i];
     }
-    d->stream_len += m.samples_count;
-    reply_ack(d, port, req, DEV_STREAM_LEN - d->stream_len);
+    d->stream_len[c] += count;
+    reply_ack(d, port, req, DEV_STREAM_LEN - d->stream_len[c]);
+}
+
+static void on_stream(dev_t *d, uint32_t port, const proto_frame_t *req)
+{
+    if (req->msg == PROTO_MSG_STREAM) {
+        proto_stream_t m;
+        (void)proto_stream_unpack(&m, req->payload, req->len);
+        stream_put(d, port, req, 0U, m.samples, m.samples_count);
+        return;
+    }
+    proto_stream_ch_t m;
+    (void)proto_stream_ch_unpack(&m, req->payload, req->len);
+    if (channel_ok(d, port, req, m.channel)) {
+        stream_put(d, port, req, m.channel, m.samples, m.samples_count);
+    }
 }
 
 static void on_faults(dev_t *d, uint32_t port, const proto_frame_t *req)
 {
+    proto_faults_get_t q;
+    (void)proto_faults_get_unpack(&q, req->payload, req->len);
+    const uint32_t ch = opt_channel(q.channel_count, q.channel);
+    if (!channel_ok(d, port, req, ch)) {
+        return;
+    }
+    const fw_t *fw = &d->fw[ch];
     proto_faults_t m;
-    m.fpga_fault = hal_read(d->fw->hal, BOWDEN_REG_FAULT);
-    m.fpga_status = hal_read(d->fw->hal, BOWDEN_REG_STATUS);
+    m.channel = (uint8_t)ch;
+    m.fpga_fault = hal_read(fw->hal, BOWDEN_REG_FAULT);
+    m.fpga_status = hal_read(fw->hal, BOWDEN_REG_STATUS);
     m.device_faults = d->faults;
-    m.fault_ticks = d->fw->tel.fault_ticks;
+    m.fault_ticks = fw->tel.fault_ticks;
     proto_frame_t f;
     frame_init(&f, PROTO_MSG_FAULTS, req->seq);
     f.len = (uint8_t)proto_faults_pack(&m, f.payload);
@@ -393,11 +496,13 @@ static void on_faults(dev_t *d, uint32_t port, const proto_frame_t *req)
 
 static void on_fault_clear(dev_t *d, uint32_t port, const proto_frame_t *req)
 {
-    if (d->running != 0U) {
-        fw_fault_clear(d->fw);
-    } else {
-        /* fw_fault_clear keeps ENABLE set; stopped, only the clear pulse is written. */
-        hal_write(d->fw->hal, BOWDEN_REG_CTRL, BOWDEN_CTRL_FAULT_CLEAR_MASK);
+    for (uint32_t c = 0; c < d->channels; ++c) {
+        if (d->running != 0U && ((d->run_mask >> c) & 1U) != 0U) {
+            fw_fault_clear(&d->fw[c]);
+        } else {
+            /* fw_fault_clear keeps ENABLE set; stopped, only the clear pulse is written. */
+            hal_write(d->fw[c].hal, BOWDEN_REG_CTRL, BOWDEN_CTRL_FAULT_CLEAR_MASK);
+        }
     }
     d->faults = 0U;
     reply_ack(d, port, req, 0U);
@@ -460,6 +565,7 @@ static int is_request(uint32_t msg)
     case PROTO_MSG_START:
     case PROTO_MSG_STOP:
     case PROTO_MSG_STREAM:
+    case PROTO_MSG_STREAM_CH:
     case PROTO_MSG_FAULTS_GET:
     case PROTO_MSG_FAULT_CLEAR:
     case PROTO_MSG_STATS_GET:
@@ -493,9 +599,10 @@ static void dispatch(dev_t *d, uint32_t port, const proto_frame_t *req)
     }
     uint32_t min = proto_msg_min_len(req->msg);
     uint32_t max = proto_msg_max_len(req->msg);
-    /* STREAM carries whole samples: an odd length is wrong too. */
+    /* STREAM carries whole samples: an odd length is wrong too (STREAM_CH: after its channel). */
     if (req->len < min || req->len > max ||
-        (req->msg == PROTO_MSG_STREAM && (req->len & 1U) != 0U)) {
+        (req->msg == PROTO_MSG_STREAM && (req->len & 1U) != 0U) ||
+        (req->msg == PROTO_MSG_STREAM_CH && (req->len & 1U) == 0U)) {
         ++p->bad_messages;
         reply_error(d, port, req, PROTO_ERR_BAD_LENGTH, req->len, "wrong payload length");
         return;
@@ -507,8 +614,8 @@ static void dispatch(dev_t *d, uint32_t port, const proto_frame_t *req)
         if (m.param >= PROTO_N_PARAMS) {
             reply_error(d, port, req, PROTO_ERR_UNKNOWN_PARAM, (int32_t)PROTO_N_PARAMS,
                         "unknown parameter id");
-        } else {
-            reply_param(d, port, req, m.param);
+        } else if (channel_ok(d, port, req, opt_channel(m.channel_count, m.channel))) {
+            reply_param(d, port, req, opt_channel(m.channel_count, m.channel), m.param);
         }
         break;
     }
@@ -528,8 +635,8 @@ static void dispatch(dev_t *d, uint32_t port, const proto_frame_t *req)
         } else if (req->msg == PROTO_MSG_LOAD) {
             on_load(d, port, req);
         } else {
-            settings_default(&d->settings);
-            (void)fw_configure(d->fw, &d->settings.fw);
+            settings_default_all(d);
+            configure_all(d); /* the defaults are valid */
             d->dirty = 1U;
             reply_ack(d, port, req, 0U);
         }
@@ -544,6 +651,7 @@ static void dispatch(dev_t *d, uint32_t port, const proto_frame_t *req)
         break;
     }
     case PROTO_MSG_STREAM:
+    case PROTO_MSG_STREAM_CH:
         on_stream(d, port, req);
         break;
     case PROTO_MSG_FAULTS_GET:
@@ -583,7 +691,7 @@ void dev_rx_can(dev_t *d, uint32_t port, const proto_can_frame_t *cf)
         return;
     }
     proto_frame_t f;
-    if (proto_can_rx(&d->ports[port].can_rx, d->settings.dev.can_node, cf, &f)) {
+    if (proto_can_rx(&d->ports[port].can_rx, d->settings[0].dev.can_node, cf, &f)) {
         dispatch(d, port, &f);
     }
 }
@@ -597,6 +705,61 @@ static int16_t sat_q7_8(int32_t v)
 
 void dev_tick(dev_t *d, uint32_t time_us, int32_t t_out_q8)
 {
+    dev_tick_channels(d, time_us, &t_out_q8);
+}
+
+/* Channel c's T_ref of this tick: from the waveform (fw_tick's own) or the channel's stream. */
+static q7_8_t stream_take(dev_t *d, uint32_t c)
+{
+    if (d->settings[c].fw.source != FW_SOURCE_HOST) {
+        return 0;
+    }
+    if (d->stream_len[c] == 0U) {
+        d->faults |= PROTO_FAULT_STREAM_UNDERRUN; /* hold the last sample and say so */
+        return d->stream_last[c];
+    }
+    const q7_8_t t_ref = d->stream[c][d->stream_head[c]];
+    d->stream_head[c] = (d->stream_head[c] + 1U) % DEV_STREAM_LEN;
+    --d->stream_len[c];
+    d->stream_last[c] = t_ref;
+    return t_ref;
+}
+
+/* Channel c's telemetry frame of this tick, to the run's port. */
+static void send_telemetry(dev_t *d, uint32_t c, uint32_t time_us, int32_t t_out_q8)
+{
+    const fw_telemetry_t *t = &d->fw[c].tel;
+    proto_telemetry_t m;
+    m.channel = (uint8_t)c;
+    m.time_us = time_us;
+    m.sample = t->ticks - 1U; /* fw_start zeroes ticks, fw_tick counts this one */
+    m.overflow = d->overflow;
+    m.t_ref = sat_q7_8(t->t_ref);
+    m.t_c = sat_q7_8(t->t_c);
+    m.t_in = sat_q7_8(t->t_in);
+    m.t_out = sat_q7_8(t_out_q8);
+    m.current = (int16_t)t->u; /* U is a 16-bit register word */
+    m.faults = (uint8_t)(((t->fault << PROTO_FAULT_FPGA_SHIFT) & PROTO_FAULT_FPGA_MASK) |
+                         d->faults);
+    m.status = (uint8_t)(PROTO_STATUS_RUNNING |
+                         ((t->status << PROTO_STATUS_FPGA_SHIFT) & PROTO_STATUS_FPGA_MASK) |
+                         ((t->direction > 0) ? PROTO_STATUS_LOADING : 0U));
+    /* mu*phi from Q3.28 (>= 0: the estimate's bounds and the exponent's check keep it so) to
+     * UQ2.14, truncated, saturated at the field's top. */
+    int32_t mu_phi_q14 = t->est_mu_phi_q28 >> 14;
+    m.mu_phi = (uint16_t)((mu_phi_q14 < 0) ? 0 : (mu_phi_q14 > 0xFFFF) ? 0xFFFF : mu_phi_q14);
+    m.est_faults = (uint8_t)t->est_faults;
+    proto_frame_t f;
+    frame_init(&f, PROTO_MSG_TELEMETRY, 0U);
+    f.len = (uint8_t)proto_telemetry_pack(&m, f.payload);
+    if (!send_frame(d, d->owner, &f, 1)) {
+        ++d->overflow;
+        d->faults |= PROTO_FAULT_TX_OVERFLOW;
+    }
+}
+
+void dev_tick_channels(dev_t *d, uint32_t time_us, const int32_t *t_out_q8)
+{
     d->time_us = time_us;
     if (d->running == 0U) {
         return;
@@ -607,49 +770,22 @@ void dev_tick(dev_t *d, uint32_t time_us, int32_t t_out_q8)
         ++d->host_timeouts;
         return;
     }
-    q7_8_t t_ref = 0;
-    if (d->settings.fw.source == FW_SOURCE_HOST) {
-        if (d->stream_len > 0U) {
-            t_ref = d->stream[d->stream_head];
-            d->stream_head = (d->stream_head + 1U) % DEV_STREAM_LEN;
-            --d->stream_len;
-            d->stream_last = t_ref;
-        } else {
-            t_ref = d->stream_last; /* hold the last sample and say so */
-            d->faults |= PROTO_FAULT_STREAM_UNDERRUN;
+    /* Every channel's loop first, then the telemetry: the register writes of one tick land
+     * together, whatever the link costs. */
+    for (uint32_t c = 0; c < d->channels; ++c) {
+        if (((d->run_mask >> c) & 1U) != 0U) {
+            (void)fw_tick(&d->fw[c], stream_take(d, c));
         }
     }
-    (void)fw_tick(d->fw, t_ref);
     ++d->run_ticks;
-    const fw_telemetry_t *t = &d->fw->tel;
-    uint32_t sample = t->ticks - 1U; /* fw_start zeroes ticks, fw_tick counts this one */
-    const uint32_t div = d->settings.dev.telemetry_div;
-    if (div == 1U || sample % div == 0U) { /* the soft CPU has no divider: skip it at 1 */
-        proto_telemetry_t m;
-        m.time_us = time_us;
-        m.sample = sample;
-        m.overflow = d->overflow;
-        m.t_ref = sat_q7_8(t->t_ref);
-        m.t_c = sat_q7_8(t->t_c);
-        m.t_in = sat_q7_8(t->t_in);
-        m.t_out = sat_q7_8(t_out_q8);
-        m.current = (int16_t)t->u; /* U is a 16-bit register word */
-        m.faults = (uint8_t)(((t->fault << PROTO_FAULT_FPGA_SHIFT) & PROTO_FAULT_FPGA_MASK) |
-                             d->faults);
-        m.status = (uint8_t)(PROTO_STATUS_RUNNING |
-                             ((t->status << PROTO_STATUS_FPGA_SHIFT) & PROTO_STATUS_FPGA_MASK) |
-                             ((t->direction > 0) ? PROTO_STATUS_LOADING : 0U));
-        /* mu*phi from Q3.28 (>= 0: the estimate's bounds and the exponent's check keep it so) to
-         * UQ2.14, truncated, saturated at the field's top. */
-        int32_t mu_phi_q14 = t->est_mu_phi_q28 >> 14;
-        m.mu_phi = (uint16_t)((mu_phi_q14 < 0) ? 0 : (mu_phi_q14 > 0xFFFF) ? 0xFFFF : mu_phi_q14);
-        m.est_faults = (uint8_t)t->est_faults;
-        proto_frame_t f;
-        frame_init(&f, PROTO_MSG_TELEMETRY, 0U);
-        f.len = (uint8_t)proto_telemetry_pack(&m, f.payload);
-        if (!send_frame(d, d->owner, &f, 1)) {
-            ++d->overflow;
-            d->faults |= PROTO_FAULT_TX_OVERFLOW;
+    const uint32_t div = d->settings[0].dev.telemetry_div;
+    for (uint32_t c = 0; c < d->channels; ++c) {
+        if (((d->run_mask >> c) & 1U) == 0U) {
+            continue;
+        }
+        const uint32_t sample = d->fw[c].tel.ticks - 1U;
+        if (div == 1U || sample % div == 0U) { /* the soft CPU has no divider: skip it at 1 */
+            send_telemetry(d, c, time_us, t_out_q8[c]);
         }
     }
     if (d->run_limit != 0U && d->run_ticks >= d->run_limit) {

@@ -4,8 +4,16 @@
 #include "crc32c.h"
 #include "params.h"
 
-/* Words of a record holding every parameter. */
-#define RECORD_WORDS (FLASH_HEADER_WORDS + 2U * PROTO_N_PARAMS + 1U)
+/* Pairs of a record of n channels: every parameter of channel 0, the channel's own ones of the
+ * others (the device's settings, dev.*, are saved once). */
+static uint32_t record_pairs(uint32_t n)
+{
+    uint32_t device = 0U;
+    for (uint32_t i = 0; i < PROTO_N_PARAMS; ++i) {
+        device += (uint32_t)params_is_device(i);
+    }
+    return PROTO_N_PARAMS + (n - 1U) * (PROTO_N_PARAMS - device);
+}
 
 static uint32_t crc_words(const uint32_t *w, uint32_t n)
 {
@@ -26,7 +34,7 @@ static int read_record(const flash_hal_t *f, uint32_t slot, uint32_t *rec, uint3
     }
     uint32_t pairs = rec[2];
     /* A pair count from a torn write can be anything: bound it before using it. */
-    if (pairs > PROTO_N_PARAMS + 32U || FLASH_HEADER_WORDS + 2U * pairs + 1U > f->slot_words) {
+    if (pairs > PROTO_N_PARAMS * BOWDEN_CHANNELS_MAX + 32U || FLASH_HEADER_WORDS + 2U * pairs + 1U > f->slot_words) {
         return 0;
     }
     uint32_t n = FLASH_HEADER_WORDS + 2U * pairs;
@@ -47,11 +55,22 @@ static int seq_after(uint32_t a, uint32_t b)
 }
 
 /* The record buffer holds the largest record load accepts (32 unknown keys beyond the table). */
-#define RECORD_MAX_WORDS (FLASH_HEADER_WORDS + 2U * (PROTO_N_PARAMS + 32U) + 1U)
+#define RECORD_MAX_WORDS (FLASH_HEADER_WORDS + 2U * (PROTO_N_PARAMS * BOWDEN_CHANNELS_MAX + 32U) + 1U)
 
 int32_t flash_store(const flash_hal_t *f, const settings_t *settings, uint32_t *seq)
 {
-    if (RECORD_WORDS > f->slot_words) {
+    return flash_store_channels(f, settings, 1U, seq);
+}
+
+int32_t flash_store_channels(const flash_hal_t *f, const settings_t *settings, uint32_t n_ch,
+                             uint32_t *seq)
+{
+    if (n_ch < 1U || n_ch > BOWDEN_CHANNELS_MAX) {
+        return FLASH_ERR_SIZE;
+    }
+    const uint32_t pairs = record_pairs(n_ch);
+    const uint32_t record_words = FLASH_HEADER_WORDS + 2U * pairs + 1U;
+    if (record_words > f->slot_words) {
         return FLASH_ERR_SIZE;
     }
     /* The slot to write: the one that does not hold the newest valid record. */
@@ -74,44 +93,88 @@ int32_t flash_store(const flash_hal_t *f, const settings_t *settings, uint32_t *
     }
     rec[0] = FLASH_MAGIC;
     rec[1] = next;
-    rec[2] = PROTO_N_PARAMS;
-    for (uint32_t i = 0; i < PROTO_N_PARAMS; ++i) {
-        int32_t word;
-        (void)params_get(settings, i, &word);
-        rec[FLASH_HEADER_WORDS + 2U * i] = params_table[i].key;
-        rec[FLASH_HEADER_WORDS + 2U * i + 1U] = (uint32_t)word;
+    rec[2] = pairs;
+    uint32_t at = FLASH_HEADER_WORDS;
+    for (uint32_t ch = 0; ch < n_ch; ++ch) {
+        for (uint32_t i = 0; i < PROTO_N_PARAMS; ++i) {
+            if (ch != 0U && params_is_device(i)) {
+                continue; /* once, with channel 0 */
+            }
+            int32_t word;
+            (void)params_get(&settings[ch], i, &word);
+            rec[at++] = params_channel_key(i, ch);
+            rec[at++] = (uint32_t)word;
+        }
     }
-    rec[RECORD_WORDS - 1U] = crc_words(rec, RECORD_WORDS - 1U);
-    if (f->erase(f->ctx, target) != 0 || f->program(f->ctx, target, 0U, rec, RECORD_WORDS) != 0) {
+    rec[record_words - 1U] = crc_words(rec, record_words - 1U);
+    if (f->erase(f->ctx, target) != 0 || f->program(f->ctx, target, 0U, rec, record_words) != 0) {
         return FLASH_ERR_WRITE;
     }
     uint32_t back[RECORD_MAX_WORDS];
-    if (!read_record(f, target, back, &n) || n != RECORD_WORDS || back[1] != next) {
+    if (!read_record(f, target, back, &n) || n != record_words || back[1] != next) {
         return FLASH_ERR_WRITE;
     }
     *seq = next;
     return FLASH_OK;
 }
 
-/* Apply a record's pairs onto a copy of *base; 1 when the result passes the check. Pairs are
- * copied without a check of their own (ADC_MIN and ADC_MAX, say, are only valid together); the
- * whole is checked once. */
-static int apply_record(const uint32_t *rec, settings_t *out, const settings_t *base)
+/* The parameter id and channel (< n) of a record's key: 1 when this firmware knows it. */
+static int find_channel_key(uint32_t key, uint32_t n, uint32_t *id, uint32_t *ch)
 {
-    *out = *base;
+    for (uint32_t c = 0; c < n; ++c) {
+        /* Undo channel c's tag and look the name's key up; the tag must be the one it has. */
+        const uint32_t name_key = (c == 0U) ? key : key ^ (uint32_t)(c * 0x9E3779B9UL);
+        const int32_t i = params_find(name_key);
+        if (i >= 0 && params_channel_key((uint32_t)i, c) == key) {
+            *id = (uint32_t)i;
+            *ch = c;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* Apply a record's pairs onto a copy of base[0 .. n); 1 when every channel passes the check.
+ * Pairs are copied without a check of their own (ADC_MIN and ADC_MAX, say, are only valid
+ * together); the whole is checked once. The device's settings go to every channel's copy. */
+static int apply_record(const uint32_t *rec, settings_t *out, const settings_t *base, uint32_t n)
+{
+    for (uint32_t c = 0; c < n; ++c) {
+        out[c] = base[c];
+    }
     uint32_t pairs = rec[2];
     for (uint32_t i = 0; i < pairs; ++i) {
-        int32_t id = params_find(rec[FLASH_HEADER_WORDS + 2U * i]);
-        if (id < 0 || (params_table[id].flags & PROTO_PARAM_READ_ONLY) != 0U) {
-            continue; /* a parameter this firmware no longer has, or one fixed by the hardware */
+        uint32_t id;
+        uint32_t ch;
+        if (!find_channel_key(rec[FLASH_HEADER_WORDS + 2U * i], n, &id, &ch) ||
+            (params_table[id].flags & PROTO_PARAM_READ_ONLY) != 0U) {
+            continue; /* a parameter (or channel) this firmware lacks, or one fixed by hardware */
         }
-        params_word_write(out, params_table[id].offset, (int32_t)rec[FLASH_HEADER_WORDS + 2U * i + 1U]);
+        const int32_t word = (int32_t)rec[FLASH_HEADER_WORDS + 2U * i + 1U];
+        for (uint32_t c = 0; c < n; ++c) {
+            if (c == ch || params_is_device(id)) {
+                params_word_write(&out[c], params_table[id].offset, word);
+            }
+        }
     }
-    return settings_check(out) == 0;
+    for (uint32_t c = 0; c < n; ++c) {
+        if (settings_check(&out[c]) != 0) {
+            return 0;
+        }
+    }
+    return 1;
 }
 
 int32_t flash_load(const flash_hal_t *f, settings_t *settings, uint32_t *seq)
 {
+    return flash_load_channels(f, settings, 1U, seq);
+}
+
+int32_t flash_load_channels(const flash_hal_t *f, settings_t *settings, uint32_t n_ch, uint32_t *seq)
+{
+    if (n_ch < 1U || n_ch > BOWDEN_CHANNELS_MAX) {
+        return FLASH_ERR_SIZE;
+    }
     uint32_t rec[FLASH_SLOTS][RECORD_MAX_WORDS];
     uint32_t n;
     int valid[FLASH_SLOTS];
@@ -127,11 +190,13 @@ int32_t flash_load(const flash_hal_t *f, settings_t *settings, uint32_t *seq)
         order[0] = 1U;
         order[1] = 0U;
     }
-    settings_t trial;
+    settings_t trial[BOWDEN_CHANNELS_MAX];
     for (uint32_t k = 0; k < FLASH_SLOTS; ++k) {
         uint32_t slot = order[k];
-        if (valid[slot] && apply_record(rec[slot], &trial, settings)) {
-            *settings = trial;
+        if (valid[slot] && apply_record(rec[slot], trial, settings, n_ch)) {
+            for (uint32_t c = 0; c < n_ch; ++c) {
+                settings[c] = trial[c];
+            }
             *seq = rec[slot][1];
             return FLASH_OK;
         }

@@ -1,6 +1,8 @@
 /* params.c - parameter access of params.h. */
 #include "params.h"
 
+#include <stddef.h>
+
 /* The word lives at a generated offset in settings_t. Every parameter is an int32_t or
  * uint32_t member (the generator refuses any other type), so the address is aligned and an
  * int32_t lvalue may access it (C11 6.5p7: the signed or unsigned type of the effective type). */
@@ -55,4 +57,19 @@ int32_t params_find(uint32_t key)
         }
     }
     return -1;
+}
+
+int params_is_device(uint32_t id)
+{
+    if (id >= PROTO_N_PARAMS) {
+        return 0;
+    }
+    const uint32_t at = params_table[id].offset;
+    return at >= offsetof(settings_t, dev) && at < offsetof(settings_t, dev) + sizeof(dev_config_t);
+}
+
+uint32_t params_channel_key(uint32_t id, uint32_t ch)
+{
+    const uint32_t key = params_table[id].key;
+    return (ch == 0U || params_is_device(id)) ? key : key ^ (uint32_t)(ch * 0x9E3779B9UL);
 }

@@ -97,7 +97,7 @@ static uint32_t encode_telemetry(uint32_t node, const proto_frame_t *f, proto_ca
     if (cap < 2U || !proto_telemetry_unpack(&t, f->payload, f->len)) {
         return 0U;
     }
-    proto_telem_a_t a = {t.sample, t.t_ref, t.t_c};
+    proto_telem_a_t a = {(uint16_t)t.sample, t.channel, t.t_ref, t.t_c};
     proto_telem_b_t b = {(uint8_t)t.sample, t.t_in, t.t_out, t.current, t.faults};
     out[0].id = can_id(node, PROTO_MSG_TELEM_A);
     out[0].len = (uint8_t)proto_telem_a_pack(&a, out[0].data);

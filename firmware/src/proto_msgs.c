@@ -25,12 +25,13 @@ uint32_t proto_hello_ack_pack(const proto_hello_ack_t *m, uint8_t *buf)
     buf[n++] = (uint8_t)m->running;
     buf[n++] = (uint8_t)m->config_source;
     buf[n++] = (uint8_t)m->dirty;
+    buf[n++] = (uint8_t)m->n_channels;
     return n;
 }
 
 int proto_hello_ack_unpack(proto_hello_ack_t *m, const uint8_t *buf, uint32_t len)
 {
-    if (len != 17u) {
+    if (len != 18u) {
         return 0;
     }
     uint32_t n = 0;
@@ -51,6 +52,7 @@ int proto_hello_ack_unpack(proto_hello_ack_t *m, const uint8_t *buf, uint32_t le
     m->running = buf[n++];
     m->config_source = buf[n++];
     m->dirty = buf[n++];
+    m->n_channels = buf[n++];
     return 1;
 }
 
@@ -61,12 +63,19 @@ uint32_t proto_param_get_pack(const proto_param_get_t *m, uint8_t *buf)
     u = (uint16_t)m->param;
     buf[n++] = (uint8_t)(u);
     buf[n++] = (uint8_t)(u >> 8);
+    uint32_t count = m->channel_count;
+    if (count > 1u) {
+        count = 1u;
+    }
+    for (uint32_t i = 0; i < count; ++i) {
+        buf[n++] = (uint8_t)m->channel[i];
+    }
     return n;
 }
 
 int proto_param_get_unpack(proto_param_get_t *m, const uint8_t *buf, uint32_t len)
 {
-    if (len != 2u) {
+    if (len < 2u || len > 3u) {
         return 0;
     }
     uint32_t n = 0;
@@ -74,6 +83,10 @@ int proto_param_get_unpack(proto_param_get_t *m, const uint8_t *buf, uint32_t le
     u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8);
     n += 2;
     m->param = (uint16_t)u;
+    m->channel_count = (uint8_t)((len - 2u) / 1u);
+    for (uint32_t i = 0; i < m->channel_count; ++i) {
+        m->channel[i] = buf[n++];
+    }
     return 1;
 }
 
@@ -89,12 +102,19 @@ uint32_t proto_param_set_pack(const proto_param_set_t *m, uint8_t *buf)
     buf[n++] = (uint8_t)(u >> 8);
     buf[n++] = (uint8_t)(u >> 16);
     buf[n++] = (uint8_t)(u >> 24);
+    uint32_t count = m->channel_count;
+    if (count > 1u) {
+        count = 1u;
+    }
+    for (uint32_t i = 0; i < count; ++i) {
+        buf[n++] = (uint8_t)m->channel[i];
+    }
     return n;
 }
 
 int proto_param_set_unpack(proto_param_set_t *m, const uint8_t *buf, uint32_t len)
 {
-    if (len != 6u) {
+    if (len < 6u || len > 7u) {
         return 0;
     }
     uint32_t n = 0;
@@ -105,6 +125,10 @@ int proto_param_set_unpack(proto_param_set_t *m, const uint8_t *buf, uint32_t le
     u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8) | ((uint32_t)buf[n + 2] << 16) | ((uint32_t)buf[n + 3] << 24);
     n += 4;
     m->value = (u & 0x80000000UL) ? (int32_t)(u - 0x80000000UL) - (int32_t)0x40000000L - (int32_t)0x40000000L : (int32_t)u;
+    m->channel_count = (uint8_t)((len - 6u) / 1u);
+    for (uint32_t i = 0; i < m->channel_count; ++i) {
+        m->channel[i] = buf[n++];
+    }
     return 1;
 }
 
@@ -120,12 +144,13 @@ uint32_t proto_param_value_pack(const proto_param_value_t *m, uint8_t *buf)
     buf[n++] = (uint8_t)(u >> 8);
     buf[n++] = (uint8_t)(u >> 16);
     buf[n++] = (uint8_t)(u >> 24);
+    buf[n++] = (uint8_t)m->channel;
     return n;
 }
 
 int proto_param_value_unpack(proto_param_value_t *m, const uint8_t *buf, uint32_t len)
 {
-    if (len != 6u) {
+    if (len != 7u) {
         return 0;
     }
     uint32_t n = 0;
@@ -136,6 +161,7 @@ int proto_param_value_unpack(proto_param_value_t *m, const uint8_t *buf, uint32_
     u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8) | ((uint32_t)buf[n + 2] << 16) | ((uint32_t)buf[n + 3] << 24);
     n += 4;
     m->value = (u & 0x80000000UL) ? (int32_t)(u - 0x80000000UL) - (int32_t)0x40000000L - (int32_t)0x40000000L : (int32_t)u;
+    m->channel = buf[n++];
     return 1;
 }
 
@@ -212,12 +238,19 @@ uint32_t proto_start_pack(const proto_start_t *m, uint8_t *buf)
     buf[n++] = (uint8_t)(u >> 8);
     buf[n++] = (uint8_t)(u >> 16);
     buf[n++] = (uint8_t)(u >> 24);
+    uint32_t count = m->channel_mask_count;
+    if (count > 1u) {
+        count = 1u;
+    }
+    for (uint32_t i = 0; i < count; ++i) {
+        buf[n++] = (uint8_t)m->channel_mask[i];
+    }
     return n;
 }
 
 int proto_start_unpack(proto_start_t *m, const uint8_t *buf, uint32_t len)
 {
-    if (len != 4u) {
+    if (len < 4u || len > 5u) {
         return 0;
     }
     uint32_t n = 0;
@@ -225,6 +258,10 @@ int proto_start_unpack(proto_start_t *m, const uint8_t *buf, uint32_t len)
     u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8) | ((uint32_t)buf[n + 2] << 16) | ((uint32_t)buf[n + 3] << 24);
     n += 4;
     m->duration_ticks = (uint32_t)u;
+    m->channel_mask_count = (uint8_t)((len - 4u) / 1u);
+    for (uint32_t i = 0; i < m->channel_mask_count; ++i) {
+        m->channel_mask[i] = buf[n++];
+    }
     return 1;
 }
 
@@ -260,6 +297,32 @@ int proto_stream_unpack(proto_stream_t *m, const uint8_t *buf, uint32_t len)
     return 1;
 }
 
+uint32_t proto_faults_get_pack(const proto_faults_get_t *m, uint8_t *buf)
+{
+    uint32_t n = 0;
+    uint32_t count = m->channel_count;
+    if (count > 1u) {
+        count = 1u;
+    }
+    for (uint32_t i = 0; i < count; ++i) {
+        buf[n++] = (uint8_t)m->channel[i];
+    }
+    return n;
+}
+
+int proto_faults_get_unpack(proto_faults_get_t *m, const uint8_t *buf, uint32_t len)
+{
+    if (len > 1u) {
+        return 0;
+    }
+    uint32_t n = 0;
+    m->channel_count = (uint8_t)((len - 0u) / 1u);
+    for (uint32_t i = 0; i < m->channel_count; ++i) {
+        m->channel[i] = buf[n++];
+    }
+    return 1;
+}
+
 uint32_t proto_faults_pack(const proto_faults_t *m, uint8_t *buf)
 {
     uint32_t n = 0;
@@ -284,12 +347,13 @@ uint32_t proto_faults_pack(const proto_faults_t *m, uint8_t *buf)
     buf[n++] = (uint8_t)(u >> 8);
     buf[n++] = (uint8_t)(u >> 16);
     buf[n++] = (uint8_t)(u >> 24);
+    buf[n++] = (uint8_t)m->channel;
     return n;
 }
 
 int proto_faults_unpack(proto_faults_t *m, const uint8_t *buf, uint32_t len)
 {
-    if (len != 16u) {
+    if (len != 17u) {
         return 0;
     }
     uint32_t n = 0;
@@ -306,6 +370,7 @@ int proto_faults_unpack(proto_faults_t *m, const uint8_t *buf, uint32_t len)
     u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8) | ((uint32_t)buf[n + 2] << 16) | ((uint32_t)buf[n + 3] << 24);
     n += 4;
     m->fault_ticks = (uint32_t)u;
+    m->channel = buf[n++];
     return 1;
 }
 
@@ -456,7 +521,7 @@ uint32_t proto_error_pack(const proto_error_t *m, uint8_t *buf)
 
 int proto_error_unpack(proto_error_t *m, const uint8_t *buf, uint32_t len)
 {
-    if (len < 6u || len > 46u || (len - 6u) % 1u != 0u) {
+    if (len < 6u || len > 46u) {
         return 0;
     }
     uint32_t n = 0;
@@ -513,12 +578,13 @@ uint32_t proto_telemetry_pack(const proto_telemetry_t *m, uint8_t *buf)
     buf[n++] = (uint8_t)(u);
     buf[n++] = (uint8_t)(u >> 8);
     buf[n++] = (uint8_t)m->est_faults;
+    buf[n++] = (uint8_t)m->channel;
     return n;
 }
 
 int proto_telemetry_unpack(proto_telemetry_t *m, const uint8_t *buf, uint32_t len)
 {
-    if (len != 27u) {
+    if (len != 28u) {
         return 0;
     }
     uint32_t n = 0;
@@ -553,6 +619,7 @@ int proto_telemetry_unpack(proto_telemetry_t *m, const uint8_t *buf, uint32_t le
     n += 2;
     m->mu_phi = (uint16_t)u;
     m->est_faults = buf[n++];
+    m->channel = buf[n++];
     return 1;
 }
 
@@ -560,11 +627,10 @@ uint32_t proto_telem_a_pack(const proto_telem_a_t *m, uint8_t *buf)
 {
     uint32_t n = 0;
     uint32_t u;
-    u = (uint32_t)m->sample;
+    u = (uint16_t)m->sample_lo16;
     buf[n++] = (uint8_t)(u);
     buf[n++] = (uint8_t)(u >> 8);
-    buf[n++] = (uint8_t)(u >> 16);
-    buf[n++] = (uint8_t)(u >> 24);
+    buf[n++] = (uint8_t)m->channel;
     u = (uint16_t)m->t_ref;
     buf[n++] = (uint8_t)(u);
     buf[n++] = (uint8_t)(u >> 8);
@@ -576,14 +642,15 @@ uint32_t proto_telem_a_pack(const proto_telem_a_t *m, uint8_t *buf)
 
 int proto_telem_a_unpack(proto_telem_a_t *m, const uint8_t *buf, uint32_t len)
 {
-    if (len != 8u) {
+    if (len != 7u) {
         return 0;
     }
     uint32_t n = 0;
     uint32_t u;
-    u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8) | ((uint32_t)buf[n + 2] << 16) | ((uint32_t)buf[n + 3] << 24);
-    n += 4;
-    m->sample = (uint32_t)u;
+    u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8);
+    n += 2;
+    m->sample_lo16 = (uint16_t)u;
+    m->channel = buf[n++];
     u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8);
     n += 2;
     m->t_ref = (int16_t)((int32_t)u - ((u >> 15) << 16));
@@ -685,7 +752,7 @@ uint32_t proto_text_pack(const proto_text_t *m, uint8_t *buf)
 
 int proto_text_unpack(proto_text_t *m, const uint8_t *buf, uint32_t len)
 {
-    if (len < 4u || len > 44u || (len - 4u) % 1u != 0u) {
+    if (len < 4u || len > 44u) {
         return 0;
     }
     uint32_t n = 0;
@@ -703,19 +770,53 @@ int proto_text_unpack(proto_text_t *m, const uint8_t *buf, uint32_t len)
     return 1;
 }
 
+uint32_t proto_stream_ch_pack(const proto_stream_ch_t *m, uint8_t *buf)
+{
+    uint32_t n = 0;
+    uint32_t u;
+    buf[n++] = (uint8_t)m->channel;
+    uint32_t count = m->samples_count;
+    if (count > 23u) {
+        count = 23u;
+    }
+    for (uint32_t i = 0; i < count; ++i) {
+        u = (uint16_t)m->samples[i];
+        buf[n++] = (uint8_t)(u);
+        buf[n++] = (uint8_t)(u >> 8);
+    }
+    return n;
+}
+
+int proto_stream_ch_unpack(proto_stream_ch_t *m, const uint8_t *buf, uint32_t len)
+{
+    if (len < 3u || len > 47u || (len - 1u) % 2u != 0u) {
+        return 0;
+    }
+    uint32_t n = 0;
+    uint32_t u;
+    m->channel = buf[n++];
+    m->samples_count = (uint8_t)((len - 1u) / 2u);
+    for (uint32_t i = 0; i < m->samples_count; ++i) {
+        u = ((uint32_t)buf[n + 0]) | ((uint32_t)buf[n + 1] << 8);
+        n += 2;
+        m->samples[i] = (int16_t)((int32_t)u - ((u >> 15) << 16));
+    }
+    return 1;
+}
+
 uint32_t proto_msg_min_len(uint32_t msg)
 {
     switch (msg) {
     case PROTO_MSG_HELLO:
         return 0u;
     case PROTO_MSG_HELLO_ACK:
-        return 17u;
+        return 18u;
     case PROTO_MSG_PARAM_GET:
         return 2u;
     case PROTO_MSG_PARAM_SET:
         return 6u;
     case PROTO_MSG_PARAM_VALUE:
-        return 6u;
+        return 7u;
     case PROTO_MSG_PARAM_INFO:
         return 2u;
     case PROTO_MSG_PARAM_INFO_ACK:
@@ -735,7 +836,7 @@ uint32_t proto_msg_min_len(uint32_t msg)
     case PROTO_MSG_FAULTS_GET:
         return 0u;
     case PROTO_MSG_FAULTS:
-        return 16u;
+        return 17u;
     case PROTO_MSG_FAULT_CLEAR:
         return 0u;
     case PROTO_MSG_STATS_GET:
@@ -747,15 +848,17 @@ uint32_t proto_msg_min_len(uint32_t msg)
     case PROTO_MSG_ERROR:
         return 6u;
     case PROTO_MSG_TELEMETRY:
-        return 27u;
+        return 28u;
     case PROTO_MSG_TELEM_A:
-        return 8u;
+        return 7u;
     case PROTO_MSG_TELEM_B:
         return 8u;
     case PROTO_MSG_TEXT_GET:
         return 6u;
     case PROTO_MSG_TEXT:
         return 4u;
+    case PROTO_MSG_STREAM_CH:
+        return 3u;
     default:
         return 0u;
     }
@@ -767,13 +870,13 @@ uint32_t proto_msg_max_len(uint32_t msg)
     case PROTO_MSG_HELLO:
         return 0u;
     case PROTO_MSG_HELLO_ACK:
-        return 17u;
+        return 18u;
     case PROTO_MSG_PARAM_GET:
-        return 2u;
+        return 3u;
     case PROTO_MSG_PARAM_SET:
-        return 6u;
+        return 7u;
     case PROTO_MSG_PARAM_VALUE:
-        return 6u;
+        return 7u;
     case PROTO_MSG_PARAM_INFO:
         return 2u;
     case PROTO_MSG_PARAM_INFO_ACK:
@@ -785,15 +888,15 @@ uint32_t proto_msg_max_len(uint32_t msg)
     case PROTO_MSG_DEFAULTS:
         return 0u;
     case PROTO_MSG_START:
-        return 4u;
+        return 5u;
     case PROTO_MSG_STOP:
         return 0u;
     case PROTO_MSG_STREAM:
         return 48u;
     case PROTO_MSG_FAULTS_GET:
-        return 0u;
+        return 1u;
     case PROTO_MSG_FAULTS:
-        return 16u;
+        return 17u;
     case PROTO_MSG_FAULT_CLEAR:
         return 0u;
     case PROTO_MSG_STATS_GET:
@@ -805,15 +908,17 @@ uint32_t proto_msg_max_len(uint32_t msg)
     case PROTO_MSG_ERROR:
         return 46u;
     case PROTO_MSG_TELEMETRY:
-        return 27u;
+        return 28u;
     case PROTO_MSG_TELEM_A:
-        return 8u;
+        return 7u;
     case PROTO_MSG_TELEM_B:
         return 8u;
     case PROTO_MSG_TEXT_GET:
         return 6u;
     case PROTO_MSG_TEXT:
         return 44u;
+    case PROTO_MSG_STREAM_CH:
+        return 47u;
     default:
         return 0u;
     }
@@ -830,6 +935,7 @@ int proto_msg_can_segmented(uint32_t msg)
     case PROTO_MSG_ERROR:
     case PROTO_MSG_TELEMETRY:
     case PROTO_MSG_TEXT:
+    case PROTO_MSG_STREAM_CH:
         return 1;
     default:
         return 0;

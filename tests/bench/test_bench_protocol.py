@@ -49,7 +49,9 @@ def test_can_telemetry_vectors():
         r = proto.CanReassembler(node=1)
         (t,) = [f for i, d in vec["can"] for f in r.feed(i, bytes.fromhex(d))]
         got = proto.unpack("TELEMETRY", t.payload)
-        for k in ("sample", "t_ref", "t_c", "t_in", "t_out", "current", "faults"):
+        # CAN carries the sample's low 16 bits: a reassembler's first sample is those bits.
+        assert got["sample"] == vec["values"]["sample"] & 0xFFFF
+        for k in ("channel", "t_ref", "t_c", "t_in", "t_out", "current", "faults"):
             assert got[k] == vec["values"][k]
 
 
@@ -172,7 +174,7 @@ def test_parameter_words():
 
 
 def test_unpack_rejects_wrong_lengths():
-    with pytest.raises(proto.ProtocolError, match="PARAM_VALUE: payload of 5 bytes, expected 6..6"):
+    with pytest.raises(proto.ProtocolError, match="PARAM_VALUE: payload of 5 bytes, expected 7..7"):
         proto.unpack("PARAM_VALUE", b"12345")
     with pytest.raises(proto.ProtocolError, match="STREAM: payload of 3 bytes"):
         proto.unpack("STREAM", b"123")

@@ -92,14 +92,16 @@ def test_dbc_describes_the_can_frames():
     assert a.frame_id == node << 5 | msgs.MESSAGES["TELEM_A"].id
     vec = next(v for v in json.loads(VECTORS.read_text())["vectors"] if v.get("can_telemetry"))
     decoded = a.decode(bytes.fromhex(vec["can"][0][1]))
-    assert decoded["sample"] == vec["values"]["sample"]
+    assert decoded["sample_lo16"] == vec["values"]["sample"] & 0xFFFF
+    assert decoded["channel"] == vec["values"]["channel"]
     assert decoded["t_ref"] == pytest.approx(vec["values"]["t_ref"] / 256.0)
     b = db.get_message_by_name("TELEM_B").decode(bytes.fromhex(vec["can"][1][1]))
     assert b["current"] == pytest.approx(vec["values"]["current"] / 4096.0)
     ps = db.get_message_by_name("PARAM_SET")
-    assert ps.encode({"seq": 3, "param": 4, "value": -5}) == bytes([3, 4, 0]) + (-5).to_bytes(
-        4, "little", signed=True
-    )
+    # the optional channel, a repeated field of at most one, is the DBC's channel_0
+    assert ps.encode({"seq": 3, "param": 4, "value": -5, "channel_0": 2}) == bytes(
+        [3, 4, 0]
+    ) + (-5).to_bytes(4, "little", signed=True) + bytes([2])
     # Bandwidth stated in the document: 2 frames per sample fit 500 kbit/s.
     doc = (REPO_ROOT / "firmware" / "proto" / "PROTOCOL.md").read_text()
     assert "of 500 kbit/s" in doc and "latency timer" in doc

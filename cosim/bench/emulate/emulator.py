@@ -129,10 +129,11 @@ class Emulator:
         identity: tuple[int, int] | None = None,
         max_lag_s: float = 0.05,
         findable: bool = False,
+        channels: int = 1,
     ) -> None:
         self.findable = findable
         self._registration = None  # the registry file while it is findable
-        self.device = Device()
+        self.device = Device(channels)
         self.flash_path = Path(flash_path) if flash_path else None
         if self.flash_path is not None and self.flash_path.exists():
             self.device.load_flash_image(self.flash_path.read_bytes())
@@ -413,11 +414,15 @@ class SteppedLink:
     in a fraction of real time (tests, reproducible examples)."""
 
     def __init__(
-        self, chain: ChainConfig | None = None, engine: str = "native", ticks_per_read: int = 50
+        self,
+        chain: ChainConfig | None = None,
+        engine: str = "native",
+        ticks_per_read: int = 50,
+        channels: int = 1,
     ) -> None:
         from cosim.bench.link.protocol import FrameDecoder  # noqa: PLC0415
 
-        self.device = Device()
+        self.device = Device(channels)
         self.chain = LoopChain(self.device, chain or ChainConfig(), engine=engine)
         self.ticks_per_read = ticks_per_read
         self.decoder = FrameDecoder()

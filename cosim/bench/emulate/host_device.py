@@ -128,10 +128,13 @@ def load_library(path: Path | None = None) -> ctypes.CDLL:
     sigs = {
         "dev_host_sizeof": (u32, []),
         "dev_host_init": (None, [vp]),
+        "dev_host_init_channels": (None, [vp, u32]),
+        "dev_host_channels_max": (u32, []),
         "dev_host_boot": (None, [vp]),
         "dev_host_set_identity": (None, [vp, u32, u32]),
         "dev_host_dev": (vp, [vp]),
         "dev_host_shadow": (vp, [vp]),
+        "dev_host_shadow_channel": (vp, [vp, u32]),
         "dev_host_flash": (vp, [vp]),
         "dev_host_flash_words": (vp, [vp]),
         "dev_host_flash_n_words": (u32, []),
@@ -141,11 +144,13 @@ def load_library(path: Path | None = None) -> ctypes.CDLL:
         "dev_tx_bytes": (u32, [vp, u32, vp, u32]),
         "dev_tx_can": (u32, [vp, u32, ctypes.POINTER(CanFrame), u32]),
         "dev_tick": (None, [vp, u32, i32]),
+        "dev_tick_channels": (None, [vp, u32, ctypes.POINTER(i32)]),
         "dev_overrun": (None, [vp]),
         "hal_shadow_set": (None, [vp, u32, u32]),
         "hal_shadow_drain": (u32, [vp, ctypes.POINTER(HalWrite), u32]),
         "emu_init": (None, [ctypes.POINTER(Emu)]),
         "emu_step": (ctypes.c_int, [ctypes.POINTER(Emu), vp, u32]),
+        "emu_step_channels": (ctypes.c_int, [ctypes.POINTER(Emu), u32, vp, u32]),
         "emu_adc_code": (i32, [ctypes.c_double, i32, i32]),
         "emu_loop_reset": (None, [ctypes.POINTER(EmuLoop)]),
         "emu_loop_write": (None, [ctypes.POINTER(EmuLoop), u32, u32]),
@@ -166,20 +171,31 @@ class Device:
     """One bench device on the host (firmware + protocol + emulated flash), by port.
 
     Ports 0..2; each is serial (default) or CAN (`set_port_kind`). Telemetry flows while a run is
-    active and `tick` is called at the tick rate (the emulator does both).
+    active and `tick` is called at the tick rate (the emulator does both). `channels` cables
+    (1 .. `channels_max()`), each with its own firmware and register shadow.
     """
 
     N_PORTS = 3
 
-    def __init__(self) -> None:
+    def __init__(self, channels: int = 1) -> None:
         self._lib = load_library()
+        top = self._lib.dev_host_channels_max()
+        if not 1 <= channels <= top:
+            raise ValueError(f"channels must be in 1..{top}; got {channels}")
+        self.channels = channels
         self._buf = ctypes.create_string_buffer(self._lib.dev_host_sizeof())
         self.ptr = ctypes.cast(self._buf, ctypes.c_void_p)
-        self._lib.dev_host_init(self.ptr)
+        self._lib.dev_host_init_channels(self.ptr, channels)
         self.dev = self._lib.dev_host_dev(self.ptr)
         self.shadow = self._lib.dev_host_shadow(self.ptr)
+        self.shadows = [self._lib.dev_host_shadow_channel(self.ptr, c) for c in range(channels)]
         self._out = ctypes.create_string_buffer(4096)
         self._can = (CanFrame * 64)()
+
+    @staticmethod
+    def channels_max() -> int:
+        """The most channels the host library holds (its BOWDEN_CHANNELS_MAX)."""
+        return load_library().dev_host_channels_max()
 
     def set_port_kind(self, port: int, kind: int) -> None:
         self._lib.dev_port_kind(self.dev, port, kind)
@@ -283,7 +299,10 @@ class LoopChain:
 
     engine "native": emu_step in C; "python": the same steps with rtl_model.TensionLoopModel and
     cosim.parts.plant.Plant (the definition the native engine is held to). `record=n` keeps the
-    command word and T_c of the first n samples (tests).
+    command word and T_c of the first n samples (tests). A device of several channels gets a loop
+    and a plant per channel (the same plant parameters, each its own FMU instance), all stepped in
+    one emu_step_channels per tick; native engine only (the python engine is the one-channel
+    definition). `plant` is channel 0's; `plants` every channel's.
     """
 
     ENGINES = ("native", "python")
@@ -298,12 +317,18 @@ class LoopChain:
                 f"interface {cfg.interface!r} runs on the python engine (the C chain has the "
                 "ideal interface only)"
             )
+        if engine != "native" and device.channels > 1:
+            raise ValueError(
+                f"{device.channels} channels run on the native engine (the python engine is the "
+                "one-channel definition)"
+            )
         self.device = device
         self.cfg = cfg
         self.engine = engine
         self.decimation = cfg.decimation
         self.dt_s = 1.0 / cfg.sample_rate_hz
-        self.plant = _open_plant(cfg)
+        self.plants = [_open_plant(cfg) for _ in range(device.channels)]
+        self.plant = self.plants[0]
         self.adc_offset = rtl_model.DEFAULT_ADC_OFFSET  # the physical ADC: default calibration
         self.adc_gain = rtl_model.DEFAULT_ADC_GAIN
         self.ticks = 0
@@ -318,29 +343,30 @@ class LoopChain:
 
     def _init_native(self, record: int) -> None:
         lib = load_library()
-        p = self.plant
-        e = Emu()
-        e.set_real = ctypes.cast(p._set_real, ctypes.c_void_p).value  # noqa: SLF001
-        e.do_step = ctypes.cast(p._do_step, ctypes.c_void_p).value  # noqa: SLF001
-        e.get_real = ctypes.cast(p._get_real, ctypes.c_void_p).value  # noqa: SLF001
-        e.component = p._c  # noqa: SLF001
-        e.in_vr[:] = list(p._in_vr)  # noqa: SLF001
-        e.out_vr[:] = list(p._out_vr)  # noqa: SLF001
-        e.u[:] = list(p.u)
-        e.y[:] = list(p.y)
-        e.time_s = p.time_s
-        e.dt_s = self.dt_s
-        e.decimation = self.decimation
-        e.adc_offset = self.adc_offset
-        e.adc_gain = self.adc_gain
-        if record:
-            e.rec_u = self._rec_u.ctypes.data_as(ctypes.POINTER(ctypes.c_int16))
-            e.rec_tc = self._rec_tc.ctypes.data_as(ctypes.POINTER(ctypes.c_int16))
-            e.rec_cap = record
-        self._emu = e
-        self._emu_p = ctypes.pointer(e)
+        emus = (Emu * len(self.plants))()
+        for c, (p, e) in enumerate(zip(self.plants, emus, strict=True)):
+            e.set_real = ctypes.cast(p._set_real, ctypes.c_void_p).value  # noqa: SLF001
+            e.do_step = ctypes.cast(p._do_step, ctypes.c_void_p).value  # noqa: SLF001
+            e.get_real = ctypes.cast(p._get_real, ctypes.c_void_p).value  # noqa: SLF001
+            e.component = p._c  # noqa: SLF001
+            e.in_vr[:] = list(p._in_vr)  # noqa: SLF001
+            e.out_vr[:] = list(p._out_vr)  # noqa: SLF001
+            e.u[:] = list(p.u)
+            e.y[:] = list(p.y)
+            e.time_s = p.time_s
+            e.dt_s = self.dt_s
+            e.decimation = self.decimation
+            e.adc_offset = self.adc_offset
+            e.adc_gain = self.adc_gain
+            if record and c == 0:  # channel 0's samples (tests)
+                e.rec_u = self._rec_u.ctypes.data_as(ctypes.POINTER(ctypes.c_int16))
+                e.rec_tc = self._rec_tc.ctypes.data_as(ctypes.POINTER(ctypes.c_int16))
+                e.rec_cap = record
+            lib.emu_init(ctypes.byref(e))
+        self._emus = emus
+        self._emu = emus[0]
+        self._emu_p = ctypes.cast(emus, ctypes.POINTER(Emu))
         self._lib = lib
-        lib.emu_init(self._emu_p)
 
     # --- python ------------------------------------------------------------------------------
 
@@ -420,7 +446,9 @@ class LoopChain:
         """One tick period: D FPGA samples and the device's tick."""
         time_us = round(self.ticks * 1e6 / self.cfg.tick_rate_hz) & 0xFFFFFFFF
         if self.engine == "native":
-            st = self._lib.emu_step(self._emu_p, self.device.ptr, time_us)
+            st = self._lib.emu_step_channels(
+                self._emu_p, len(self._emus), self.device.ptr, time_us
+            )
             if st:
                 detail = self.plant.messages[-1] if self.plant.messages else f"status {st}"
                 raise RuntimeError(
@@ -441,4 +469,5 @@ class LoopChain:
         return self._emu.time_s if self.engine == "native" else self.plant.time_s
 
     def close(self) -> None:
-        self.plant.close()
+        for p in self.plants:
+            p.close()

@@ -302,6 +302,7 @@ class DeviceInfo:
     running: bool
     config_source: str
     dirty: bool
+    n_channels: int = 1  # cables the device drives (protocol 3)
 
     @classmethod
     def from_hello(cls, v: dict) -> DeviceInfo:
@@ -316,6 +317,7 @@ class DeviceInfo:
             running=bool(v["running"]),
             config_source=sources.get(v["config_source"], str(v["config_source"])),
             dirty=bool(v["dirty"]),
+            n_channels=v.get("n_channels", 1),
         )
 
 
@@ -453,28 +455,36 @@ class BenchClient:
 
     # --- parameters ----------------------------------------------------------------------------
 
-    def get_word(self, name: str) -> int:
-        _, v = self.request("PARAM_GET", param=param(name).id)
+    def get_word(self, name: str, channel: int = 0) -> int:
+        _, v = self.request("PARAM_GET", param=param(name).id, channel=_channel_field(channel))
         return v["value"]
 
-    def get(self, name: str) -> float | str:
-        return value_from_word(param(name), self.get_word(name))
+    def get(self, name: str, channel: int = 0) -> float | str:
+        return value_from_word(param(name), self.get_word(name, channel))
 
-    def set(self, name: str, value) -> int:
-        """Write a parameter (SI value or enum name); returns the word now in force."""
+    def set(self, name: str, value, channel: int = 0) -> int:
+        """Write a parameter (SI value or enum name) of one channel (a device-wide one, dev.*,
+        of every channel); returns the word now in force."""
         p = param(name)
         if p.read_only:
             raise ProtocolError(f"{name} is read-only")
-        _, v = self.request("PARAM_SET", param=p.id, value=word_from_value(p, value))
+        _, v = self.request(
+            "PARAM_SET",
+            param=p.id,
+            value=word_from_value(p, value),
+            channel=_channel_field(channel),
+        )
         return v["value"]
 
-    def set_word(self, name: str, word: int) -> int:
-        _, v = self.request("PARAM_SET", param=param(name).id, value=word)
+    def set_word(self, name: str, word: int, channel: int = 0) -> int:
+        _, v = self.request(
+            "PARAM_SET", param=param(name).id, value=word, channel=_channel_field(channel)
+        )
         return v["value"]
 
-    def params(self) -> dict[str, int]:
-        """Every parameter's word, by name."""
-        return {p.name: self.get_word(p.name) for p in msgs.PARAMS}
+    def params(self, channel: int = 0) -> dict[str, int]:
+        """Every parameter's word of one channel, by name."""
+        return {p.name: self.get_word(p.name, channel) for p in msgs.PARAMS}
 
     def describe(self, words: dict[str, int]) -> list[tuple[str, str]]:
         return [(name, format_value(param(name), w)) for name, w in words.items()]
@@ -504,17 +514,33 @@ class BenchClient:
         self._last_send = now
         return True
 
-    def faults(self) -> dict:
-        _, v = self.request("FAULTS_GET")
+    def faults(self, channel: int = 0) -> dict:
+        _, v = self.request("FAULTS_GET", channel=_channel_field(channel))
         return v
 
     def stats(self) -> dict:
         _, v = self.request("STATS_GET")
         return v
 
-    def stream(self, samples: Iterable[int]) -> int:
-        """Append T_ref words (Q7.8) to the device's stream buffer; returns its free slots."""
-        return self.simple("STREAM", samples=list(samples))
+    def stream(self, samples: Iterable[int], channel: int = 0) -> int:
+        """Append T_ref words (Q7.8) to a channel's stream buffer; returns its free slots."""
+        if channel == 0:
+            return self.simple("STREAM", samples=list(samples))
+        return self.simple("STREAM_CH", channel=channel, samples=list(samples))
+
+
+def _channel_field(channel: int) -> list[int]:
+    """A request's optional channel field: absent for channel 0, so that a one-channel session
+    sends the frames it always sent."""
+    return [channel] if channel else []
+
+
+def channel_mask(channels: Iterable[int]) -> list[int]:
+    """START's optional channel_mask field for these channels (bit k: channel k)."""
+    mask = 0
+    for c in channels:
+        mask |= 1 << c
+    return [mask]
 
 
 def fault_names(bits: int) -> list[str]:

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-PROTOCOL_VERSION = 2
-TABLE_HASH = 0x8AE4DB9B
+PROTOCOL_VERSION = 3
+TABLE_HASH = 0x442981DB
 MAX_PAYLOAD = 48
 CAN_NODE_BITS = 6
 CAN_MESSAGE_BITS = 5
@@ -103,9 +103,10 @@ MESSAGES: dict[str, Message] = {
             Field("running", "B", 1),
             Field("config_source", "B", 1, None, None, "", "config_source"),
             Field("dirty", "B", 1),
+            Field("n_channels", "B", 1),
         ),
-        17,
-        17,
+        18,
+        18,
         True,
     ),
     "PARAM_GET": Message(
@@ -114,9 +115,12 @@ MESSAGES: dict[str, Message] = {
         "host",
         "PARAM_VALUE",
         "both",
-        (Field("param", "H", 2),),
+        (
+            Field("param", "H", 2),
+            Field("channel", "B", 1, (0, 1)),
+        ),
         2,
-        2,
+        3,
         False,
     ),
     "PARAM_SET": Message(
@@ -128,9 +132,10 @@ MESSAGES: dict[str, Message] = {
         (
             Field("param", "H", 2),
             Field("value", "i", 4),
+            Field("channel", "B", 1, (0, 1)),
         ),
         6,
-        6,
+        7,
         False,
     ),
     "PARAM_VALUE": Message(
@@ -142,9 +147,10 @@ MESSAGES: dict[str, Message] = {
         (
             Field("param", "H", 2),
             Field("value", "i", 4),
+            Field("channel", "B", 1),
         ),
-        6,
-        6,
+        7,
+        7,
         False,
     ),
     "PARAM_INFO": Message(
@@ -213,9 +219,12 @@ MESSAGES: dict[str, Message] = {
         "host",
         "ACK",
         "both",
-        (Field("duration_ticks", "I", 4),),
+        (
+            Field("duration_ticks", "I", 4),
+            Field("channel_mask", "B", 1, (0, 1)),
+        ),
         4,
-        4,
+        5,
         False,
     ),
     "STOP": Message(
@@ -246,9 +255,9 @@ MESSAGES: dict[str, Message] = {
         "host",
         "FAULTS",
         "both",
-        (),
+        (Field("channel", "B", 1, (0, 1)),),
         0,
-        0,
+        1,
         False,
     ),
     "FAULTS": Message(
@@ -262,9 +271,10 @@ MESSAGES: dict[str, Message] = {
             Field("fpga_status", "I", 4),
             Field("device_faults", "I", 4),
             Field("fault_ticks", "I", 4),
+            Field("channel", "B", 1),
         ),
-        16,
-        16,
+        17,
+        17,
         True,
     ),
     "FAULT_CLEAR": Message(
@@ -360,9 +370,10 @@ MESSAGES: dict[str, Message] = {
             Field("status", "B", 1, None, None, "", "status"),
             Field("mu_phi", "H", 2, None, 6.103515625e-05),
             Field("est_faults", "B", 1),
+            Field("channel", "B", 1),
         ),
-        27,
-        27,
+        28,
+        28,
         True,
     ),
     "TELEM_A": Message(
@@ -372,12 +383,13 @@ MESSAGES: dict[str, Message] = {
         None,
         "can",
         (
-            Field("sample", "I", 4),
+            Field("sample_lo16", "H", 2),
+            Field("channel", "B", 1),
             Field("t_ref", "h", 2, None, 0.00390625, "N"),
             Field("t_c", "h", 2, None, 0.00390625, "N"),
         ),
-        8,
-        8,
+        7,
+        7,
         False,
     ),
     "TELEM_B": Message(
@@ -424,6 +436,20 @@ MESSAGES: dict[str, Message] = {
         ),
         4,
         44,
+        True,
+    ),
+    "STREAM_CH": Message(
+        "STREAM_CH",
+        26,
+        "host",
+        "ACK",
+        "both",
+        (
+            Field("channel", "B", 1),
+            Field("samples", "h", 2, (1, 23), 0.00390625, "N"),
+        ),
+        3,
+        47,
         True,
     ),
 }

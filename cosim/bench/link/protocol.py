@@ -216,7 +216,13 @@ def can_encode(node: int, frame: Frame) -> list[tuple[int, bytes]]:
     """The CAN frames (id, data) of a message: one frame, segments, or TELEM_A + TELEM_B."""
     if frame.msg == msgs.MESSAGES["TELEMETRY"].id:
         t = unpack("TELEMETRY", frame.payload)
-        a = pack("TELEM_A", sample=t["sample"], t_ref=t["t_ref"], t_c=t["t_c"])
+        a = pack(
+            "TELEM_A",
+            sample_lo16=t["sample"] & 0xFFFF,
+            channel=t["channel"],
+            t_ref=t["t_ref"],
+            t_c=t["t_c"],
+        )
         b = pack(
             "TELEM_B",
             sample_lo=t["sample"] & 0xFF,
@@ -247,14 +253,16 @@ class CanReassembler:
     """Messages from CAN frames of one node: single frames, segments, and telemetry pairs.
 
     `feed(can_id, data)` returns a list of Frames (TELEMETRY rebuilt from TELEM_A + TELEM_B, with
-    the time and overflow fields 0: CAN telemetry does not carry them). Frames of other nodes are
-    ignored; out-of-order segments and unpaired telemetry halves are counted in `stats`.
+    the time and overflow fields 0: CAN telemetry does not carry them; the sample index extended
+    per channel from TELEM_A's low 16 bits). Frames of other nodes are ignored; out-of-order
+    segments and unpaired telemetry halves are counted in `stats`.
     """
 
     node: int
     stats: DecoderStats = field(default_factory=DecoderStats)
     _seg: dict | None = None
     _telem_a: dict | None = None
+    _sample: dict = field(default_factory=dict)  # channel -> the last sample index rebuilt
 
     def feed(self, cid: int, data: bytes) -> list[Frame]:
         if cid >> msgs.CAN_MESSAGE_BITS != self.node or len(data) > 8:
@@ -312,14 +320,20 @@ class CanReassembler:
             self._telem_a = values
             return []
         a, self._telem_a = self._telem_a, None
-        if a is None or (a["sample"] & 0xFF) != values["sample_lo"]:
+        if a is None or (a["sample_lo16"] & 0xFF) != values["sample_lo"]:
             self.stats.framing_errors += 1
             return []
         self.stats.frames += 1
+        # The sample index from its low 16 bits: the channel's last one plus the forward distance
+        # when that is short (telemetry_div <= 1000); a long one is a new run, which starts at 0.
+        last = self._sample.get(a["channel"])
+        step = (a["sample_lo16"] - (last or 0)) & 0xFFFF
+        sample = last + step if last is not None and step < 0x8000 else a["sample_lo16"]
+        self._sample[a["channel"]] = sample
         payload = pack(
             "TELEMETRY",
             time_us=0,
-            sample=a["sample"],
+            sample=sample & 0xFFFFFFFF,
             overflow=0,
             t_ref=a["t_ref"],
             t_c=a["t_c"],
@@ -331,6 +345,7 @@ class CanReassembler:
             # Not carried over CAN (TELEM_A and TELEM_B are full): the recorder leaves them out.
             mu_phi=0,
             est_faults=0,
+            channel=a["channel"],
         )
         return [Frame(msg=msgs.MESSAGES["TELEMETRY"].id, seq=0, payload=payload)]
 

@@ -14,7 +14,8 @@ with --position (held constant) and motor_angle_rad is 0; the sidecar says so
 (`columns_not_measured`, `position_source`).
 
 `record_run` starts a run on a connected BenchClient and records it (sample gaps are drops: they
-are counted and reported, never filled in).
+are counted and reported, never filled in). A run of several channels records each channel to its
+own CSV (`channel_path`: NAME.chK.csv), the channel in its sidecar.
 """
 
 from __future__ import annotations
@@ -32,7 +33,14 @@ from cosim.parts.geometry import in_workspace
 from cosim.results import trace as trace_mod
 
 from . import messages as msgs
-from .client import BenchClient, BenchError, BenchUsageError, CanLink, fault_names
+from .client import (
+    BenchClient,
+    BenchError,
+    BenchUsageError,
+    CanLink,
+    channel_mask,
+    fault_names,
+)
 
 Q7_8_LSB_N = 1.0 / 256.0
 Q3_12_LSB_A = 1.0 / 4096.0
@@ -170,6 +178,15 @@ def check_geometry(position_m, sheath_length_m: float, plant: dict | None = None
         )
 
 
+def channel_path(out_csv: str | Path, channel: int, channels: tuple[int, ...]) -> Path:
+    """Where channel `channel`'s rows go when `channels` run: the CSV given for a run of one
+    channel, NAME.chK.csv beside it for a run of several."""
+    out = Path(out_csv)
+    if len(channels) == 1:
+        return out
+    return out.with_name(f"{out.stem}.ch{channel}{out.suffix}")
+
+
 def record_run(
     client: BenchClient,
     out_csv: str | Path,
@@ -186,93 +203,114 @@ def record_run(
     progress: Callable[[str], None] | None = None,
     on_sample: Callable[[int], None] | None = None,
     tap: Callable[[dict], None] | None = None,
+    channels: tuple[int, ...] = (0,),
 ) -> RunResult:
-    """Configure the waveform (or the stream), start a run of `seconds` and record it.
+    """Configure the waveform (or the stream) of each channel in `channels`, start a run of
+    `seconds` of those channels and record it (one CSV per channel: channel_path).
 
-    waveform: one of WAVE_KINDS, or "stream" with `stream_words` (Q7.8 T_ref words, one per tick).
+    waveform: one of WAVE_KINDS, or "stream" with `stream_words` (Q7.8 T_ref words, one per tick,
+    the same for every channel).
     tap: called with every telemetry frame after it is recorded (a live view; must not block).
     """
+    channels = tuple(channels)
     ticks = run_ticks(seconds, float(client.get("tick_rate_hz")))  # before anything is set
-    if waveform == "stream":
-        client.set("source", "host")
-    else:
-        client.set("wave.kind", waveform)
-        client.set("wave.mean_n", mean_n)
-        client.set("wave.amplitude_n", amplitude_n)
-        client.set("wave.freq_hz", freq_hz)
-        client.set("source", "wave")
+    for c in channels:
+        if waveform == "stream":
+            client.set("source", "host", channel=c)
+        else:
+            client.set("wave.kind", waveform, channel=c)
+            client.set("wave.mean_n", mean_n, channel=c)
+            client.set("wave.amplitude_n", amplitude_n, channel=c)
+            client.set("wave.freq_hz", freq_hz, channel=c)
+            client.set("source", "wave", channel=c)
     tick_hz = float(client.get("tick_rate_hz"))
     div = int(client.get("dev.telemetry_div"))
     rate_hz = tick_hz / div
-    meta = {
-        "sample_rate_hz": rate_hz,
-        "sheath_length_m": float(sheath_length_m),
-        "loop_routing": bool(loop_routing),
-        # The compensator's mu (the full trace format requires a mu): what the controller
-        # assumes, not a measurement of the plant, so the audit fits its own (mu_source).
-        "mu": float(client.get("comp.mu")),
-        "mu_source": "compensator",
-        "source": "bowden bench",
-        "device": client.link.url,
-        "waveform": waveform,
-        "compensator": client.get("comp.mode"),
-        "phi_rad": float(client.get("comp.phi_rad")),
-        "position_m": list(position_m),
-        "position_source": "--position (held constant; not measured)",
-        "columns_not_measured": ["x_m", "y_m", "z_m", "motor_angle_rad"],
-    }
-    if waveform != "stream":
-        meta.update({"mean_n": mean_n, "amplitude_n": amplitude_n, "freq_hz": freq_hz})
-    result = RunResult(expected=(ticks + div - 1) // div)
-    # The estimate's columns travel over a serial link only (CAN's telemetry frames are full).
-    rec = TraceRecorder(out_csv, meta, position_m, estimate=not isinstance(client.link, CanLink))
-    next_sample = 0
+    recs: dict[int, TraceRecorder] = {}
+    for c in channels:
+        meta = {
+            "sample_rate_hz": rate_hz,
+            "sheath_length_m": float(sheath_length_m),
+            "loop_routing": bool(loop_routing),
+            # The compensator's mu (the full trace format requires a mu): what the controller
+            # assumes, not a measurement of the plant, so the audit fits its own (mu_source).
+            "mu": float(client.get("comp.mu", channel=c)),
+            "mu_source": "compensator",
+            "source": "bowden bench",
+            "device": client.link.url,
+            "waveform": waveform,
+            "compensator": client.get("comp.mode", channel=c),
+            "phi_rad": float(client.get("comp.phi_rad", channel=c)),
+            "position_m": list(position_m),
+            "position_source": "--position (held constant; not measured)",
+            "columns_not_measured": ["x_m", "y_m", "z_m", "motor_angle_rad"],
+        }
+        if len(channels) > 1 or c != 0:
+            meta["channel"] = c
+        if waveform != "stream":
+            meta.update({"mean_n": mean_n, "amplitude_n": amplitude_n, "freq_hz": freq_hz})
+        # The estimate's columns travel over a serial link only (CAN's telemetry frames are
+        # full).
+        recs[c] = TraceRecorder(
+            channel_path(out_csv, c, channels),
+            meta,
+            position_m,
+            estimate=not isinstance(client.link, CanLink),
+        )
+    result = RunResult(expected=len(channels) * ((ticks + div - 1) // div))
+    next_by_channel = dict.fromkeys(channels, 0)
     last_report = 0.0
     t0 = time.monotonic()
 
     def on_telemetry(t: dict) -> None:
-        nonlocal next_sample
+        c = t.get("channel", 0)
+        if c not in recs:
+            return  # a channel this run did not start
+        next_sample = next_by_channel[c]
         if t["sample"] > next_sample:  # frames lost on the way: say which
             missing = (t["sample"] - next_sample) // div
             result.drops += missing
             result.gaps.append((next_sample, missing))
-        next_sample = t["sample"] + div
+        next_by_channel[c] = t["sample"] + div
         result.samples += 1
         result.overflow = t["overflow"]
         result.faults |= t["faults"]
-        rec.add(t)
+        recs[c].add(t)
         if tap is not None:
             tap(t)
         if on_sample is not None:
             on_sample(result.samples)
 
     stream = list(stream_words or [])
+    # Samples per request: STREAM takes 24 (channel 0), STREAM_CH 23 (its channel byte first).
+    per = 24 if channels == (0,) else 23
     sent = 0
     try:
         if waveform == "stream":
             free = 0
             while sent < len(stream):  # prefill: the device holds DEV_STREAM_LEN samples
-                chunk = stream[sent : sent + 24]
+                chunk = stream[sent : sent + per]
                 try:
-                    free = client.stream(chunk)
+                    free = min(client.stream(chunk, c) for c in channels)
                 except BenchError as exc:
                     if "STREAM_FULL" not in str(exc):
                         raise
                     break
                 sent += len(chunk)
-                if free < 24:
+                if free < per:
                     break
         client.on_telemetry = on_telemetry
-        client.simple("START", duration_ticks=ticks)
+        # Always with the mask: a channel this run does not record never drives its motor.
+        client.simple("START", duration_ticks=ticks, channel_mask=channel_mask(channels))
         last_rx = time.monotonic()
         while result.samples < result.expected:
             n_before = result.samples
-            # Top the device's buffer up: chunks of 24 while the ACKs say there is room.
-            free = 24
-            while waveform == "stream" and sent < len(stream) and free >= 24:
+            # Top the device's buffer up: chunks of `per` while the ACKs say there is room.
+            free = per
+            while waveform == "stream" and sent < len(stream) and free >= per:
                 try:
-                    free = client.stream(stream[sent : sent + 24])
-                    sent += min(24, len(stream) - sent)
+                    free = min(client.stream(stream[sent : sent + per], c) for c in channels)
+                    sent += min(per, len(stream) - sent)
                 except BenchError as exc:
                     if "STREAM_FULL" not in str(exc):
                         raise
@@ -285,7 +323,7 @@ def record_run(
             elif now - last_rx > 2.0:
                 result.stopped_early = True
                 break  # the device stopped sending: report what came
-            if next_sample >= ticks:
+            if min(next_by_channel.values()) >= ticks:
                 break
             if progress is not None and now - last_report >= 0.25:
                 last_report = now
@@ -298,7 +336,8 @@ def record_run(
                 )
     finally:
         client.on_telemetry = None
-        rec.close()
+        for rec in recs.values():
+            rec.close()
         result.wall_s = time.monotonic() - t0
         result.link_rejected = client.link.stats.rejected
     if math.isfinite(result.wall_s) and progress is not None:

@@ -212,11 +212,11 @@ static void feed_device(const uint8_t *data, size_t n)
     }
     while (dev_tx_can(&dev.dev, 2U, cout, 64U) > 0U) {
     }
-    if (dev.dev.ports[0].tx_len > DEV_TX_BYTES || dev.dev.stream_len > DEV_STREAM_LEN ||
-        dev.shadow.log_len > HAL_LOG_CAPACITY) {
+    if (dev.dev.ports[0].tx_len > DEV_TX_BYTES || dev.dev.stream_len[0] > DEV_STREAM_LEN ||
+        dev.shadow[0].log_len > HAL_LOG_CAPACITY) {
         fail("device buffer bookkeeping");
     }
-    dev.shadow.log_len = 0U; /* the FPGA side would drain the register writes */
+    dev.shadow[0].log_len = 0U; /* the FPGA side would drain the register writes */
 }
 
 #ifdef FUZZ_LIBFUZZER

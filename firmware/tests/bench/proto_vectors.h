@@ -17,82 +17,87 @@ typedef struct {
     const char *can_hex[9];
 } proto_vector_t;
 
-#define PROTO_N_VECTORS 53
+#define PROTO_N_VECTORS 58
 static const proto_vector_t proto_vectors[PROTO_N_VECTORS] = {
-    {PROTO_MSG_HELLO, 37u, 0u, "", "0008020125c2f3e52900", 1u, {33u}, {"25"}},
-    {PROTO_MSG_HELLO_ACK, 2u, 17u, "1326394c5f214045728ee61f85fb98abbe", "00190202021326394c5f214045728ee61f85fb98abbe369cc3de00", 3u, {34u, 34u, 34u}, {"0200111326394c5f", "0201214045728ee6", "02021f85fb98abbe"}},
-    {PROTO_MSG_HELLO_ACK, 3u, 17u, "0000000000000000000000000000000000", "00040202030101010101010101010101010101010105065063b400", 3u, {34u, 34u, 34u}, {"0300110000000000", "0301000000000000", "0302000000000000"}},
-    {PROTO_MSG_HELLO_ACK, 4u, 17u, "ffffffffffffffffffffffffffffffffff", "0019020204ffffffffffffffffffffffffffffffffff1d1520ad00", 3u, {34u, 34u, 34u}, {"040011ffffffffff", "0401ffffffffffff", "0402ffffffffffff"}},
-    {PROTO_MSG_PARAM_GET, 111u, 2u, "136d", "000a02036f136d9c873ee800", 1u, {35u}, {"6f136d"}},
-    {PROTO_MSG_PARAM_GET, 212u, 2u, "0000", "00040203d401055e0e4cf500", 1u, {35u}, {"d40000"}},
-    {PROTO_MSG_PARAM_GET, 57u, 2u, "ffff", "000a020339ffffa37d1a5500", 1u, {35u}, {"39ffff"}},
-    {PROTO_MSG_PARAM_SET, 148u, 6u, "136d26da4cb5", "000e020494136d26da4cb5281d158d00", 1u, {36u}, {"94136d26da4cb5"}},
-    {PROTO_MSG_PARAM_SET, 249u, 6u, "000000000000", "00040204f9010101010105a1919e7f00", 1u, {36u}, {"f9000000000000"}},
-    {PROTO_MSG_PARAM_SET, 94u, 6u, "ffff00000080", "000602045effff0101068086d76b3900", 1u, {36u}, {"5effff00000080"}},
-    {PROTO_MSG_PARAM_VALUE, 5u, 6u, "136d26da4cb5", "000e020505136d26da4cb595b81fc500", 1u, {37u}, {"05136d26da4cb5"}},
-    {PROTO_MSG_PARAM_VALUE, 6u, 6u, "000000000000", "0004020506010101010105c9d1b34b00", 1u, {37u}, {"06000000000000"}},
-    {PROTO_MSG_PARAM_VALUE, 7u, 6u, "ffff00000080", "0006020507ffff01010680e68695b000", 1u, {37u}, {"07ffff00000080"}},
-    {PROTO_MSG_PARAM_INFO, 222u, 2u, "136d", "000a0206de136d747fd9f100", 1u, {38u}, {"de136d"}},
-    {PROTO_MSG_PARAM_INFO, 67u, 2u, "0000", "00040206430105b5fb5edc00", 1u, {38u}, {"430000"}},
-    {PROTO_MSG_PARAM_INFO, 168u, 2u, "ffff", "000a0206a8ffff5f7eb9ad00", 1u, {38u}, {"a8ffff"}},
-    {PROTO_MSG_PARAM_INFO_ACK, 7u, 11u, "136d26da4cb53947f38f4c", "0013020707136d26da4cb53947f38f4c98e2e97c00", 2u, {39u, 39u}, {"07000b136d26da4c", "0701b53947f38f4c"}},
-    {PROTO_MSG_PARAM_INFO_ACK, 8u, 11u, "0000000000000000000000", "0004020708010101010101010101010537e339c200", 2u, {39u, 39u}, {"08000b0000000000", "0801000000000000"}},
-    {PROTO_MSG_PARAM_INFO_ACK, 9u, 11u, "ffffffffffff00000080ff", "000a020709ffffffffffff01010780ffdbc4723c00", 2u, {39u, 39u}, {"09000bffffffffff", "0901ff00000080ff"}},
-    {PROTO_MSG_PERSIST, 40u, 0u, "", "0008020828dee47b1800", 1u, {40u}, {"28"}},
-    {PROTO_MSG_LOAD, 77u, 0u, "", "000802094dd7fbee5f00", 1u, {41u}, {"4d"}},
-    {PROTO_MSG_DEFAULTS, 114u, 0u, "", "0008020a72db26f90500", 1u, {42u}, {"72"}},
-    {PROTO_MSG_START, 151u, 4u, "136da6da", "000c020b97136da6dac1906b8d00", 1u, {43u}, {"97136da6da"}},
-    {PROTO_MSG_START, 252u, 4u, "00000000", "0004020bfc010101056f3ed9d700", 1u, {43u}, {"fc00000000"}},
-    {PROTO_MSG_START, 97u, 4u, "ffffffff", "000c020b61ffffffff55e4f29c00", 1u, {43u}, {"61ffffffff"}},
-    {PROTO_MSG_STOP, 188u, 0u, "", "0008020cbc0aeec30300", 1u, {44u}, {"bc"}},
-    {PROTO_MSG_STREAM, 225u, 48u, "136dc4e6756026dad75388cd3947eac09b3a4cb4fd2daea75f21109bc114728e2308d48185fb3675e7ee986849e2fa5b", "0038020de1136dc4e6756026dad75388cd3947eac09b3a4cb4fd2daea75f21109bc114728e2308d48185fb3675e7ee986849e2fa5b3fd12ecf00", 9u, {45u, 45u, 45u, 45u, 45u, 45u, 45u, 45u, 45u}, {"e10030136dc4e675", "e1016026dad75388", "e102cd3947eac09b", "e1033a4cb4fd2dae", "e104a75f21109bc1", "e10514728e2308d4", "e1068185fb3675e7", "e107ee986849e2fa", "e1085b"}},
-    {PROTO_MSG_STREAM, 70u, 2u, "0000", "0004020d4601050e27a77300", 1u, {45u}, {"4600020000"}},
-    {PROTO_MSG_STREAM, 171u, 48u, "008000800080008000800080008000800080008000800080008000800080008000800080008000800080008000800080", "0004020dab028002800280028002800280028002800280028002800280028002800280028002800280028002800280028002800680106e449800", 9u, {45u, 45u, 45u, 45u, 45u, 45u, 45u, 45u, 45u}, {"ab00300080008000", "ab01800080008000", "ab02800080008000", "ab03800080008000", "ab04800080008000", "ab05800080008000", "ab06800080008000", "ab07800080008000", "ab0880"}},
-    {PROTO_MSG_FAULTS_GET, 6u, 0u, "", "0008020e06158471fd00", 1u, {46u}, {"06"}},
-    {PROTO_MSG_FAULTS, 15u, 16u, "136da6da26da4cb53947f38f4cb4996a", "0018020f0f136da6da26da4cb53947f38f4cb4996ad94c5caf00", 3u, {47u, 47u, 47u}, {"0f0010136da6da26", "0f01da4cb53947f3", "0f028f4cb4996a"}},
-    {PROTO_MSG_FAULTS, 16u, 16u, "00000000000000000000000000000000", "0004020f10010101010101010101010101010101052ef74e7900", 3u, {47u, 47u, 47u}, {"1000100000000000", "1001000000000000", "10020000000000"}},
-    {PROTO_MSG_FAULTS, 17u, 16u, "ffffffffffffffffffffffffffffffff", "0018020f11ffffffffffffffffffffffffffffffff8bfdf58b00", 3u, {47u, 47u, 47u}, {"110010ffffffffff", "1101ffffffffffff", "1102ffffffffff"}},
-    {PROTO_MSG_FAULT_CLEAR, 80u, 0u, "", "000802105025daeb4100", 1u, {48u}, {"50"}},
-    {PROTO_MSG_STATS_GET, 117u, 0u, "", "000802117590d8054700", 1u, {49u}, {"75"}},
-    {PROTO_MSG_STATS, 18u, 40u, "136da6da26da4cb53947f38f4cb4996a5f214045728ee61f85fb8cfa986833d5abd5d9afbe42808a", "0030021212136da6da26da4cb53947f38f4cb4996a5f214045728ee61f85fb8cfa986833d5abd5d9afbe42808a4e92393600", 7u, {50u, 50u, 50u, 50u, 50u, 50u, 50u}, {"120028136da6da26", "1201da4cb53947f3", "12028f4cb4996a5f", "1203214045728ee6", "12041f85fb8cfa98", "12056833d5abd5d9", "1206afbe42808a"}},
-    {PROTO_MSG_STATS, 19u, 40u, "00000000000000000000000000000000000000000000000000000000000000000000000000000000", "0004021213010101010101010101010101010101010101010101010101010101010101010101010101010101057d09042900", 7u, {50u, 50u, 50u, 50u, 50u, 50u, 50u}, {"1300280000000000", "1301000000000000", "1302000000000000", "1303000000000000", "1304000000000000", "1305000000000000", "13060000000000"}},
-    {PROTO_MSG_STATS, 20u, 40u, "ffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffff", "0030021214ffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffff5827ed4100", 7u, {50u, 50u, 50u, 50u, 50u, 50u, 50u}, {"140028ffffffffff", "1401ffffffffffff", "1402ffffffffffff", "1403ffffffffffff", "1404ffffffffffff", "1405ffffffffffff", "1406ffffffffff"}},
-    {PROTO_MSG_ACK, 19u, 5u, "1326da4cb5", "000d0213131326da4cb56d0f7cfa00", 1u, {51u}, {"131326da4cb5"}},
-    {PROTO_MSG_ACK, 20u, 5u, "0000000000", "0004021314010101010573c0f74800", 1u, {51u}, {"140000000000"}},
-    {PROTO_MSG_ACK, 21u, 5u, "ffffffffff", "000d021315fffffffffff17137b000", 1u, {51u}, {"15ffffffffff"}},
-    {PROTO_MSG_ERROR, 20u, 46u, "13263947f38f6c3036597c4046692d5056793d60242a4d70343a5d21444a6d31545a7d4164282e5174383e612548", "003602141413263947f38f6c3036597c4046692d5056793d60242a4d70343a5d21444a6d31545a7d4164282e5174383e612548bcd4c3c600", 8u, {52u, 52u, 52u, 52u, 52u, 52u, 52u, 52u}, {"14002e13263947f3", "14018f6c3036597c", "14024046692d5056", "1403793d60242a4d", "140470343a5d2144", "14054a6d31545a7d", "14064164282e5174", "1407383e612548"}},
-    {PROTO_MSG_ERROR, 21u, 6u, "000000000000", "0004021415010101010105a42aa7a200", 2u, {52u, 52u}, {"1500060000000000", "150100"}},
-    {PROTO_MSG_ERROR, 22u, 46u, "ffff0000008061616161616161616161616161616161616161616161616161616161616161616161616161616161", "0006021416ffff01012e8061616161616161616161616161616161616161616161616161616161616161616161616161616161f1d7bb2400", 8u, {52u, 52u, 52u, 52u, 52u, 52u, 52u, 52u}, {"16002effff000000", "1601806161616161", "1602616161616161", "1603616161616161", "1604616161616161", "1605616161616161", "1606616161616161", "16076161616161"}},
-    {PROTO_MSG_TELEMETRY, 21u, 27u, "136da6da26da4cb53947f38f4cb45f21728e85fb9868abbed1afe4", "0023021515136da6da26da4cb53947f38f4cb45f21728e85fb9868abbed1afe452ff803800", 0u, {0u}, {0}},
-    {PROTO_MSG_TELEMETRY, 22u, 27u, "000000000000000000000000000000000000000000000000000000", "0004021516010101010101010101010101010101010101010101010101010105c34f0a6900", 0u, {0u}, {0}},
-    {PROTO_MSG_TELEMETRY, 23u, 27u, "ffffffffffffffffffffffff00800080008000800080ffffffffff", "0010021517ffffffffffffffffffffffff02800280028002800b80ffffffffff1844e33600", 0u, {0u}, {0}},
-    {PROTO_MSG_TEXT_GET, 120u, 6u, "136da6da26da", "000e021878136da6da26dab390b26400", 1u, {56u}, {"78136da6da26da"}},
-    {PROTO_MSG_TEXT_GET, 221u, 6u, "000000000000", "00040218dd010101010104ce58750100", 1u, {56u}, {"dd000000000000"}},
-    {PROTO_MSG_TEXT_GET, 66u, 6u, "00000080ffff", "000402184201010880ffffd7e131bf00", 1u, {56u}, {"4200000080ffff"}},
-    {PROTO_MSG_TEXT, 25u, 44u, "136d26da596c203346596c203346592a3d5063762a3d5063762a3d502134475a6d2134475a6d2134475a2b3e", "0034021919136d26da596c203346596c203346592a3d5063762a3d5063762a3d502134475a6d2134475a6d2134475a2b3e2c13c03d00", 8u, {57u, 57u, 57u, 57u, 57u, 57u, 57u, 57u}, {"19002c136d26da59", "19016c203346596c", "1902203346592a3d", "19035063762a3d50", "190463762a3d5021", "190534475a6d2134", "1906475a6d213447", "19075a2b3e"}},
-    {PROTO_MSG_TEXT, 26u, 4u, "00000000", "000402191a01010105dfc5651e00", 1u, {57u}, {"1a000400000000"}},
-    {PROTO_MSG_TEXT, 27u, 44u, "ffffffff61616161616161616161616161616161616161616161616161616161616161616161616161616161", "003402191bffffffff6161616161616161616161616161616161616161616161616161616161616161616161616161616182ad761200", 8u, {57u, 57u, 57u, 57u, 57u, 57u, 57u, 57u}, {"1b002cffffffff61", "1b01616161616161", "1b02616161616161", "1b03616161616161", "1b04616161616161", "1b05616161616161", "1b06616161616161", "1b07616161"}},
+    {PROTO_MSG_HELLO, 37u, 0u, "", "0008030125bc61a48c00", 1u, {33u}, {"25"}},
+    {PROTO_MSG_HELLO_ACK, 2u, 18u, "1326394c5f214045728ee61f85fb98abbed1", "001a0302021326394c5f214045728ee61f85fb98abbed1d121536800", 4u, {34u, 34u, 34u, 34u}, {"0200121326394c5f", "0201214045728ee6", "02021f85fb98abbe", "0203d1"}},
+    {PROTO_MSG_HELLO_ACK, 3u, 18u, "000000000000000000000000000000000000", "000403020301010101010101010101010101010101010504aa627900", 4u, {34u, 34u, 34u, 34u}, {"0300120000000000", "0301000000000000", "0302000000000000", "030300"}},
+    {PROTO_MSG_HELLO_ACK, 4u, 18u, "ffffffffffffffffffffffffffffffffffff", "001a030204ffffffffffffffffffffffffffffffffffff44d6d15d00", 4u, {34u, 34u, 34u, 34u}, {"040012ffffffffff", "0401ffffffffffff", "0402ffffffffffff", "0403ff"}},
+    {PROTO_MSG_PARAM_GET, 111u, 3u, "136d26", "000b03036f136d263e5c526400", 1u, {35u}, {"6f136d26"}},
+    {PROTO_MSG_PARAM_GET, 212u, 2u, "0000", "00040303d40105f2615dcd00", 1u, {35u}, {"d40000"}},
+    {PROTO_MSG_PARAM_GET, 57u, 3u, "ffffff", "000b030339ffffff36377ea100", 1u, {35u}, {"39ffffff"}},
+    {PROTO_MSG_PARAM_SET, 148u, 7u, "136d26da4cb539", "000f030494136d26da4cb5398579937b00", 1u, {36u}, {"94136d26da4cb539"}},
+    {PROTO_MSG_PARAM_SET, 249u, 6u, "000000000000", "00040304f9010101010105e947a08b00", 1u, {36u}, {"f9000000000000"}},
+    {PROTO_MSG_PARAM_SET, 94u, 7u, "ffff00000080ff", "000603045effff01010780ffe2cc389000", 1u, {36u}, {"5effff00000080ff"}},
+    {PROTO_MSG_PARAM_VALUE, 5u, 7u, "136d26da4cb539", "000f030505136d26da4cb5393a4de67600", 1u, {37u}, {"05136d26da4cb539"}},
+    {PROTO_MSG_PARAM_VALUE, 6u, 7u, "00000000000000", "0004030506010101010101052d665f2200", 1u, {37u}, {"0600000000000000"}},
+    {PROTO_MSG_PARAM_VALUE, 7u, 7u, "ffff00000080ff", "0006030507ffff01010780ffd1a177f100", 1u, {37u}, {"07ffff00000080ff"}},
+    {PROTO_MSG_PARAM_INFO, 222u, 2u, "136d", "000a0306de136dd810c8c900", 1u, {38u}, {"de136d"}},
+    {PROTO_MSG_PARAM_INFO, 67u, 2u, "0000", "0004030643010519944fe400", 1u, {38u}, {"430000"}},
+    {PROTO_MSG_PARAM_INFO, 168u, 2u, "ffff", "000a0306a8fffff311a89500", 1u, {38u}, {"a8ffff"}},
+    {PROTO_MSG_PARAM_INFO_ACK, 7u, 11u, "136d26da4cb53947f38f4c", "0013030707136d26da4cb53947f38f4cdeb7ee2800", 2u, {39u, 39u}, {"07000b136d26da4c", "0701b53947f38f4c"}},
+    {PROTO_MSG_PARAM_INFO_ACK, 8u, 11u, "0000000000000000000000", "0004030708010101010101010101010571b63e9600", 2u, {39u, 39u}, {"08000b0000000000", "0801000000000000"}},
+    {PROTO_MSG_PARAM_INFO_ACK, 9u, 11u, "ffffffffffff00000080ff", "000a030709ffffffffffff01010780ff9d91756800", 2u, {39u, 39u}, {"09000bffffffffff", "0901ff00000080ff"}},
+    {PROTO_MSG_PERSIST, 40u, 0u, "", "0008030828a0763abd00", 1u, {40u}, {"28"}},
+    {PROTO_MSG_LOAD, 77u, 0u, "", "000803094da969affa00", 1u, {41u}, {"4d"}},
+    {PROTO_MSG_DEFAULTS, 114u, 0u, "", "0008030a72a5b4b8a000", 1u, {42u}, {"72"}},
+    {PROTO_MSG_START, 151u, 5u, "136da6da26", "000d030b97136da6da261789362c00", 1u, {43u}, {"97136da6da26"}},
+    {PROTO_MSG_START, 252u, 4u, "00000000", "0004030bfc01010105a712dabf00", 1u, {43u}, {"fc00000000"}},
+    {PROTO_MSG_START, 97u, 5u, "ffffffffff", "000d030b61ffffffffff0c4174d200", 1u, {43u}, {"61ffffffffff"}},
+    {PROTO_MSG_STOP, 188u, 0u, "", "0008030cbc747c82a600", 1u, {44u}, {"bc"}},
+    {PROTO_MSG_STREAM, 225u, 48u, "136dc4e6756026dad75388cd3947eac09b3a4cb4fd2daea75f21109bc114728e2308d48185fb3675e7ee986849e2fa5b", "0038030de1136dc4e6756026dad75388cd3947eac09b3a4cb4fd2daea75f21109bc114728e2308d48185fb3675e7ee986849e2fa5bb9eb06f600", 9u, {45u, 45u, 45u, 45u, 45u, 45u, 45u, 45u, 45u}, {"e10030136dc4e675", "e1016026dad75388", "e102cd3947eac09b", "e1033a4cb4fd2dae", "e104a75f21109bc1", "e10514728e2308d4", "e1068185fb3675e7", "e107ee986849e2fa", "e1085b"}},
+    {PROTO_MSG_STREAM, 70u, 2u, "0000", "0004030d460105a248b64b00", 1u, {45u}, {"4600020000"}},
+    {PROTO_MSG_STREAM, 171u, 48u, "008000800080008000800080008000800080008000800080008000800080008000800080008000800080008000800080", "0004030dab02800280028002800280028002800280028002800280028002800280028002800280028002800280028002800280068096546ca100", 9u, {45u, 45u, 45u, 45u, 45u, 45u, 45u, 45u, 45u}, {"ab00300080008000", "ab01800080008000", "ab02800080008000", "ab03800080008000", "ab04800080008000", "ab05800080008000", "ab06800080008000", "ab07800080008000", "ab0880"}},
+    {PROTO_MSG_FAULTS_GET, 6u, 1u, "13", "0009030e0613856f64a900", 1u, {46u}, {"0613"}},
+    {PROTO_MSG_FAULTS_GET, 107u, 0u, "", "0008030e6bdac9de8600", 1u, {46u}, {"6b"}},
+    {PROTO_MSG_FAULTS_GET, 208u, 1u, "ff", "0009030ed0ff0194c95500", 1u, {46u}, {"d0ff"}},
+    {PROTO_MSG_FAULTS, 15u, 17u, "136da6da26da4cb53947f38f4cb4996a5f", "0019030f0f136da6da26da4cb53947f38f4cb4996a5f3024c6c100", 3u, {47u, 47u, 47u}, {"0f0011136da6da26", "0f01da4cb53947f3", "0f028f4cb4996a5f"}},
+    {PROTO_MSG_FAULTS, 16u, 17u, "0000000000000000000000000000000000", "0004030f100101010101010101010101010101010105e2db82e900", 3u, {47u, 47u, 47u}, {"1000110000000000", "1001000000000000", "1002000000000000"}},
+    {PROTO_MSG_FAULTS, 17u, 17u, "ffffffffffffffffffffffffffffffffff", "0019030f11ffffffffffffffffffffffffffffffffff0392b7d300", 3u, {47u, 47u, 47u}, {"110011ffffffffff", "1101ffffffffffff", "1102ffffffffffff"}},
+    {PROTO_MSG_FAULT_CLEAR, 80u, 0u, "", "00080310505b48aae400", 1u, {48u}, {"50"}},
+    {PROTO_MSG_STATS_GET, 117u, 0u, "", "0008031175ee4a44e200", 1u, {49u}, {"75"}},
+    {PROTO_MSG_STATS, 18u, 40u, "136da6da26da4cb53947f38f4cb4996a5f214045728ee61f85fb8cfa986833d5abd5d9afbe42808a", "0030031212136da6da26da4cb53947f38f4cb4996a5f214045728ee61f85fb8cfa986833d5abd5d9afbe42808adfb962a400", 7u, {50u, 50u, 50u, 50u, 50u, 50u, 50u}, {"120028136da6da26", "1201da4cb53947f3", "12028f4cb4996a5f", "1203214045728ee6", "12041f85fb8cfa98", "12056833d5abd5d9", "1206afbe42808a"}},
+    {PROTO_MSG_STATS, 19u, 40u, "00000000000000000000000000000000000000000000000000000000000000000000000000000000", "000403121301010101010101010101010101010101010101010101010101010101010101010101010101010105ec225fbb00", 7u, {50u, 50u, 50u, 50u, 50u, 50u, 50u}, {"1300280000000000", "1301000000000000", "1302000000000000", "1303000000000000", "1304000000000000", "1305000000000000", "13060000000000"}},
+    {PROTO_MSG_STATS, 20u, 40u, "ffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffff", "0030031214ffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffffc90cb6d300", 7u, {50u, 50u, 50u, 50u, 50u, 50u, 50u}, {"140028ffffffffff", "1401ffffffffffff", "1402ffffffffffff", "1403ffffffffffff", "1404ffffffffffff", "1405ffffffffffff", "1406ffffffffff"}},
+    {PROTO_MSG_ACK, 19u, 5u, "1326da4cb5", "000d0313131326da4cb54a7240b300", 1u, {51u}, {"131326da4cb5"}},
+    {PROTO_MSG_ACK, 20u, 5u, "0000000000", "0004031314010101010554bdcb0100", 1u, {51u}, {"140000000000"}},
+    {PROTO_MSG_ACK, 21u, 5u, "ffffffffff", "000d031315ffffffffffd60c0bf900", 1u, {51u}, {"15ffffffffff"}},
+    {PROTO_MSG_ERROR, 20u, 46u, "13263947f38f6c3036597c4046692d5056793d60242a4d70343a5d21444a6d31545a7d4164282e5174383e612548", "003603141413263947f38f6c3036597c4046692d5056793d60242a4d70343a5d21444a6d31545a7d4164282e5174383e612548be6a450100", 8u, {52u, 52u, 52u, 52u, 52u, 52u, 52u, 52u}, {"14002e13263947f3", "14018f6c3036597c", "14024046692d5056", "1403793d60242a4d", "140470343a5d2144", "14054a6d31545a7d", "14064164282e5174", "1407383e612548"}},
+    {PROTO_MSG_ERROR, 21u, 6u, "000000000000", "0004031415010101010105ecfc995600", 2u, {52u, 52u}, {"1500060000000000", "150100"}},
+    {PROTO_MSG_ERROR, 22u, 46u, "ffff0000008061616161616161616161616161616161616161616161616161616161616161616161616161616161", "0006031416ffff01012e8061616161616161616161616161616161616161616161616161616161616161616161616161616161f3693de300", 8u, {52u, 52u, 52u, 52u, 52u, 52u, 52u, 52u}, {"16002effff000000", "1601806161616161", "1602616161616161", "1603616161616161", "1604616161616161", "1605616161616161", "1606616161616161", "16076161616161"}},
+    {PROTO_MSG_TELEMETRY, 21u, 28u, "136da6da26da4cb53947f38f4cb45f21728e85fb9868abbed1afe4f7", "0024031515136da6da26da4cb53947f38f4cb45f21728e85fb9868abbed1afe4f7991258bd00", 0u, {0u}, {0}},
+    {PROTO_MSG_TELEMETRY, 22u, 28u, "00000000000000000000000000000000000000000000000000000000", "000403151601010101010101010101010101010101010101010101010101010105a3ec6efa00", 0u, {0u}, {0}},
+    {PROTO_MSG_TELEMETRY, 23u, 28u, "ffffffffffffffffffffffff00800080008000800080ffffffffffff", "0010031517ffffffffffffffffffffffff02800280028002800c80ffffffffffff691c161d00", 0u, {0u}, {0}},
+    {PROTO_MSG_TEXT_GET, 120u, 6u, "136da6da26da", "000e031878136da6da26dafb468c9000", 1u, {56u}, {"78136da6da26da"}},
+    {PROTO_MSG_TEXT_GET, 221u, 6u, "000000000000", "00040318dd010101010105868e4bf400", 1u, {56u}, {"dd000000000000"}},
+    {PROTO_MSG_TEXT_GET, 66u, 6u, "00000080ffff", "000403184201010880ffff9f370f4b00", 1u, {56u}, {"4200000080ffff"}},
+    {PROTO_MSG_TEXT, 25u, 44u, "136d26da596c203346596c203346592a3d5063762a3d5063762a3d502134475a6d2134475a6d2134475a2b3e", "0034031919136d26da596c203346596c203346592a3d5063762a3d5063762a3d502134475a6d2134475a6d2134475a2b3e7014c87200", 8u, {57u, 57u, 57u, 57u, 57u, 57u, 57u, 57u}, {"19002c136d26da59", "19016c203346596c", "1902203346592a3d", "19035063762a3d50", "190463762a3d5021", "190534475a6d2134", "1906475a6d213447", "19075a2b3e"}},
+    {PROTO_MSG_TEXT, 26u, 4u, "00000000", "000403191a0101010517e9667600", 1u, {57u}, {"1a000400000000"}},
+    {PROTO_MSG_TEXT, 27u, 44u, "ffffffff61616161616161616161616161616161616161616161616161616161616161616161616161616161", "003403191bffffffff61616161616161616161616161616161616161616161616161616161616161616161616161616161deaa7e5d00", 8u, {57u, 57u, 57u, 57u, 57u, 57u, 57u, 57u}, {"1b002cffffffff61", "1b01616161616161", "1b02616161616161", "1b03616161616161", "1b04616161616161", "1b05616161616161", "1b06616161616161", "1b07616161"}},
+    {PROTO_MSG_STREAM_CH, 194u, 47u, "1326da88cdeac04cb4aea7109b728ed48136759868fa5b5c4fbe4220368229e41c4610a8030af76ceacedd30d192c4", "0037031ac21326da88cdeac04cb4aea7109b728ed48136759868fa5b5c4fbe4220368229e41c4610a8030af76ceacedd30d192c45023e27000", 8u, {58u, 58u, 58u, 58u, 58u, 58u, 58u, 58u}, {"c2002f1326da88cd", "c201eac04cb4aea7", "c202109b728ed481", "c20336759868fa5b", "c2045c4fbe422036", "c2058229e41c4610", "c206a8030af76cea", "c207cedd30d192c4"}},
+    {PROTO_MSG_STREAM_CH, 39u, 3u, "000000", "0004031a270101050baed49700", 1u, {58u}, {"270003000000"}},
+    {PROTO_MSG_STREAM_CH, 140u, 47u, "ff00800080008000800080008000800080008000800080008000800080008000800080008000800080008000800080", "0005031a8cff02800280028002800280028002800280028002800280028002800280028002800280028002800280028002800680cf7ed06500", 8u, {58u, 58u, 58u, 58u, 58u, 58u, 58u, 58u}, {"8c002fff00800080", "8c01008000800080", "8c02008000800080", "8c03008000800080", "8c04008000800080", "8c05008000800080", "8c06008000800080", "8c07008000800080"}},
 };
 
 static const proto_hello_ack_t proto_vectors_hello_ack[3] = {
-    {19, 38, 57, 76, 1161830751UL, 535203442UL, 64389, 152, 171, 190},
-    {0, 0, 0, 0, 0UL, 0UL, 0, 0, 0, 0},
-    {255, 255, 255, 255, 4294967295UL, 4294967295UL, 65535, 255, 255, 255},
+    {19, 38, 57, 76, 1161830751UL, 535203442UL, 64389, 152, 171, 190, 209},
+    {0, 0, 0, 0, 0UL, 0UL, 0, 0, 0, 0, 0},
+    {255, 255, 255, 255, 4294967295UL, 4294967295UL, 65535, 255, 255, 255, 255},
 };
 static const proto_param_get_t proto_vectors_param_get[3] = {
-    {27923},
-    {0},
-    {65535},
+    {27923, 1u, {38}},
+    {0, 0u, {0}},
+    {65535, 1u, {255}},
 };
 static const proto_param_set_t proto_vectors_param_set[3] = {
-    {27923, -1253254618L},
-    {0, 0L},
-    {65535, (-2147483647 - 1)},
+    {27923, -1253254618L, 1u, {57}},
+    {0, 0L, 0u, {0}},
+    {65535, (-2147483647 - 1), 1u, {255}},
 };
 static const proto_param_value_t proto_vectors_param_value[3] = {
-    {27923, -1253254618L},
-    {0, 0L},
-    {65535, (-2147483647 - 1)},
+    {27923, -1253254618L, 57},
+    {0, 0L, 0},
+    {65535, (-2147483647 - 1), 255},
 };
 static const proto_param_info_t proto_vectors_param_info[3] = {
     {27923},
@@ -105,19 +110,24 @@ static const proto_param_info_ack_t proto_vectors_param_info_ack[3] = {
     {65535, 4294967295UL, (-2147483647 - 1), 255},
 };
 static const proto_start_t proto_vectors_start[3] = {
-    {3668339987UL},
-    {0UL},
-    {4294967295UL},
+    {3668339987UL, 1u, {38}},
+    {0UL, 0u, {0}},
+    {4294967295UL, 1u, {255}},
 };
 static const proto_stream_t proto_vectors_stream[3] = {
     {24u, {27923, -6460, 24693, -9690, 21463, -12920, 18233, -16150, 15003, -19380, 11773, -22610, 8543, -25840, 5313, -29070, 2083, -32300, -1147, 30006, -4377, 26776, -7607, 23546}},
     {1u, {0}},
     {24u, {-32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768}},
 };
+static const proto_faults_get_t proto_vectors_faults_get[3] = {
+    {1u, {19}},
+    {0u, {0}},
+    {1u, {255}},
+};
 static const proto_faults_t proto_vectors_faults[3] = {
-    {3668339987UL, 3041712678UL, 2415085369UL, 1788458060UL},
-    {0UL, 0UL, 0UL, 0UL},
-    {4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL},
+    {3668339987UL, 3041712678UL, 2415085369UL, 1788458060UL, 95},
+    {0UL, 0UL, 0UL, 0UL, 0},
+    {4294967295UL, 4294967295UL, 4294967295UL, 4294967295UL, 255},
 };
 static const proto_stats_t proto_vectors_stats[3] = {
     {3668339987UL, 3041712678UL, 2415085369UL, 1788458060UL, 1161830751UL, 535203442UL, 4203543429UL, 3576916120UL, 2950288811UL, 2323661502UL},
@@ -135,9 +145,9 @@ static const proto_error_t proto_vectors_error[3] = {
     {255, 255, (-2147483647 - 1), 40u, {97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97}},
 };
 static const proto_telemetry_t proto_vectors_telemetry[3] = {
-    {3668339987UL, 3041712678UL, 2415085369UL, -19380, 8543, -29070, -1147, 26776, 171, 190, 45009, 228},
-    {0UL, 0UL, 0UL, 0, 0, 0, 0, 0, 0, 0, 0, 0},
-    {4294967295UL, 4294967295UL, 4294967295UL, -32768, -32768, -32768, -32768, -32768, 255, 255, 65535, 255},
+    {3668339987UL, 3041712678UL, 2415085369UL, -19380, 8543, -29070, -1147, 26776, 171, 190, 45009, 228, 247},
+    {0UL, 0UL, 0UL, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0},
+    {4294967295UL, 4294967295UL, 4294967295UL, -32768, -32768, -32768, -32768, -32768, 255, 255, 65535, 255, 255},
 };
 static const proto_text_get_t proto_vectors_text_get[3] = {
     {-626627309L, 55846},
@@ -149,26 +159,47 @@ static const proto_text_t proto_vectors_text[3] = {
     {0, 0, 0u, {0}},
     {65535, 65535, 40u, {97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97, 97}},
 };
+static const proto_stream_ch_t proto_vectors_stream_ch[3] = {
+    {19, 23u, {-9690, -12920, -16150, -19380, -22610, -25840, -29070, -32300, 30006, 26776, 23546, 20316, 17086, 13856, 10626, 7396, 4166, 936, -2294, -5524, -8754, -11984, -15214}},
+    {0, 1u, {0}},
+    {255, 23u, {-32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768, -32768}},
+};
 
 /* Field-by-field equality of two decoded messages (1 when equal). */
 static inline int proto_equal_hello_ack(const proto_hello_ack_t *a, const proto_hello_ack_t *b)
 {
-    return a->proto_version == b->proto_version && a->fw_major == b->fw_major && a->fw_minor == b->fw_minor && a->fw_patch == b->fw_patch && a->build_id == b->build_id && a->table_hash == b->table_hash && a->n_params == b->n_params && a->running == b->running && a->config_source == b->config_source && a->dirty == b->dirty;
+    return a->proto_version == b->proto_version && a->fw_major == b->fw_major && a->fw_minor == b->fw_minor && a->fw_patch == b->fw_patch && a->build_id == b->build_id && a->table_hash == b->table_hash && a->n_params == b->n_params && a->running == b->running && a->config_source == b->config_source && a->dirty == b->dirty && a->n_channels == b->n_channels;
 }
 
 static inline int proto_equal_param_get(const proto_param_get_t *a, const proto_param_get_t *b)
 {
+    if (a->channel_count != b->channel_count) {
+        return 0;
+    }
+    for (uint32_t i = 0; i < a->channel_count; ++i) {
+        if (a->channel[i] != b->channel[i]) {
+            return 0;
+        }
+    }
     return a->param == b->param;
 }
 
 static inline int proto_equal_param_set(const proto_param_set_t *a, const proto_param_set_t *b)
 {
+    if (a->channel_count != b->channel_count) {
+        return 0;
+    }
+    for (uint32_t i = 0; i < a->channel_count; ++i) {
+        if (a->channel[i] != b->channel[i]) {
+            return 0;
+        }
+    }
     return a->param == b->param && a->value == b->value;
 }
 
 static inline int proto_equal_param_value(const proto_param_value_t *a, const proto_param_value_t *b)
 {
-    return a->param == b->param && a->value == b->value;
+    return a->param == b->param && a->value == b->value && a->channel == b->channel;
 }
 
 static inline int proto_equal_param_info(const proto_param_info_t *a, const proto_param_info_t *b)
@@ -183,6 +214,14 @@ static inline int proto_equal_param_info_ack(const proto_param_info_ack_t *a, co
 
 static inline int proto_equal_start(const proto_start_t *a, const proto_start_t *b)
 {
+    if (a->channel_mask_count != b->channel_mask_count) {
+        return 0;
+    }
+    for (uint32_t i = 0; i < a->channel_mask_count; ++i) {
+        if (a->channel_mask[i] != b->channel_mask[i]) {
+            return 0;
+        }
+    }
     return a->duration_ticks == b->duration_ticks;
 }
 
@@ -199,9 +238,22 @@ static inline int proto_equal_stream(const proto_stream_t *a, const proto_stream
     return 1;
 }
 
+static inline int proto_equal_faults_get(const proto_faults_get_t *a, const proto_faults_get_t *b)
+{
+    if (a->channel_count != b->channel_count) {
+        return 0;
+    }
+    for (uint32_t i = 0; i < a->channel_count; ++i) {
+        if (a->channel[i] != b->channel[i]) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
 static inline int proto_equal_faults(const proto_faults_t *a, const proto_faults_t *b)
 {
-    return a->fpga_fault == b->fpga_fault && a->fpga_status == b->fpga_status && a->device_faults == b->device_faults && a->fault_ticks == b->fault_ticks;
+    return a->fpga_fault == b->fpga_fault && a->fpga_status == b->fpga_status && a->device_faults == b->device_faults && a->fault_ticks == b->fault_ticks && a->channel == b->channel;
 }
 
 static inline int proto_equal_stats(const proto_stats_t *a, const proto_stats_t *b)
@@ -229,12 +281,12 @@ static inline int proto_equal_error(const proto_error_t *a, const proto_error_t 
 
 static inline int proto_equal_telemetry(const proto_telemetry_t *a, const proto_telemetry_t *b)
 {
-    return a->time_us == b->time_us && a->sample == b->sample && a->overflow == b->overflow && a->t_ref == b->t_ref && a->t_c == b->t_c && a->t_in == b->t_in && a->t_out == b->t_out && a->current == b->current && a->faults == b->faults && a->status == b->status && a->mu_phi == b->mu_phi && a->est_faults == b->est_faults;
+    return a->time_us == b->time_us && a->sample == b->sample && a->overflow == b->overflow && a->t_ref == b->t_ref && a->t_c == b->t_c && a->t_in == b->t_in && a->t_out == b->t_out && a->current == b->current && a->faults == b->faults && a->status == b->status && a->mu_phi == b->mu_phi && a->est_faults == b->est_faults && a->channel == b->channel;
 }
 
 static inline int proto_equal_telem_a(const proto_telem_a_t *a, const proto_telem_a_t *b)
 {
-    return a->sample == b->sample && a->t_ref == b->t_ref && a->t_c == b->t_c;
+    return a->sample_lo16 == b->sample_lo16 && a->channel == b->channel && a->t_ref == b->t_ref && a->t_c == b->t_c;
 }
 
 static inline int proto_equal_telem_b(const proto_telem_b_t *a, const proto_telem_b_t *b)
@@ -258,6 +310,19 @@ static inline int proto_equal_text(const proto_text_t *a, const proto_text_t *b)
         }
     }
     return a->offset == b->offset && a->total == b->total;
+}
+
+static inline int proto_equal_stream_ch(const proto_stream_ch_t *a, const proto_stream_ch_t *b)
+{
+    if (a->samples_count != b->samples_count) {
+        return 0;
+    }
+    for (uint32_t i = 0; i < a->samples_count; ++i) {
+        if (a->samples[i] != b->samples[i]) {
+            return 0;
+        }
+    }
+    return a->channel == b->channel;
 }
 
 #endif /* BOWDEN_PROTO_VECTORS_H */

@@ -39,7 +39,7 @@ static proto_frame_t request(uint32_t port, uint8_t msg, uint8_t seq, const uint
 
 static proto_frame_t set_param(uint32_t id, int32_t value, uint8_t seq)
 {
-    proto_param_set_t m = {(uint16_t)id, value};
+    proto_param_set_t m = {(uint16_t)id, value, 0U, {0U}};
     uint8_t p[8];
     uint32_t n = proto_param_set_pack(&m, p);
     return request(0U, PROTO_MSG_PARAM_SET, seq, p, n);
@@ -67,14 +67,14 @@ static void test_dev_hello_and_params(void)
     CHECK(g.msg == PROTO_MSG_PARAM_VALUE && proto_param_value_unpack(&v, g.payload, g.len) &&
               v.param == PROTO_PID_COMP_MODE && v.value == COMP_MODE_SMOOTH,
           "set mode");
-    CHECK(host.fw.comp.cfg.mode == COMP_MODE_SMOOTH, "reached the compensator");
+    CHECK(host.fw[0].comp.cfg.mode == COMP_MODE_SMOOTH, "reached the compensator");
     g = set_param(PROTO_PID_COMP_MODE, 7, 3U);
     proto_error_t e;
     CHECK(proto_error_unpack(&e, g.payload, g.len) && e.code == PROTO_ERR_INVALID_VALUE &&
               e.detail == COMP_ERR_MODE && e.request == PROTO_MSG_PARAM_SET,
           "bad mode");
     CHECK(e.text_count > 10U && memcmp(e.text, "comp.mode:", 10) == 0, "text names the field");
-    CHECK(host.fw.comp.cfg.mode == COMP_MODE_SMOOTH, "unchanged");
+    CHECK(host.fw[0].comp.cfg.mode == COMP_MODE_SMOOTH, "unchanged");
     CHECK(error_code(&(proto_frame_t){0}) == 0xFFU, "helper");
     g = set_param(PROTO_PID_SAMPLE_RATE_HZ, 5000, 4U);
     CHECK(error_code(&g) == PROTO_ERR_READ_ONLY, "read-only");
@@ -101,19 +101,19 @@ static void test_dev_persist_survives_power_cycle(void)
           "persist seq 1");
     (void)set_param(PROTO_PID_LOOP_KP, 701, 3U);
     dev_host_boot(&host); /* power cycle */
-    CHECK(host.dev.settings.fw.loop.kp == 700 && host.fw.cfg.loop.kp == 700, "saved value back");
+    CHECK(host.dev.settings[0].fw.loop.kp == 700 && host.fw[0].cfg.loop.kp == 700, "saved value back");
     CHECK(host.dev.config_source == PROTO_CONFIG_SOURCE_FLASH && host.dev.dirty == 0U, "source");
     g = request(0U, PROTO_MSG_DEFAULTS, 4U, NULL, 0U);
-    CHECK(g.msg == PROTO_MSG_ACK && host.dev.settings.fw.loop.kp == BOWDEN_KP_RESET, "defaults");
+    CHECK(g.msg == PROTO_MSG_ACK && host.dev.settings[0].fw.loop.kp == BOWDEN_KP_RESET, "defaults");
     g = request(0U, PROTO_MSG_LOAD, 5U, NULL, 0U);
-    CHECK(g.msg == PROTO_MSG_ACK && host.dev.settings.fw.loop.kp == 700, "load");
+    CHECK(g.msg == PROTO_MSG_ACK && host.dev.settings[0].fw.loop.kp == 700, "load");
     /* a power cut during PERSIST: the device boots with the previous record */
     (void)set_param(PROTO_PID_LOOP_KP, 900, 6U);
     flash_ram_cut_after(&host.flash, 300);
     g = request(0U, PROTO_MSG_PERSIST, 7U, NULL, 0U);
     CHECK(error_code(&g) == PROTO_ERR_FLASH, "persist fails");
     dev_host_boot(&host);
-    CHECK(host.dev.settings.fw.loop.kp == 700, "previous record after the cut");
+    CHECK(host.dev.settings[0].fw.loop.kp == 700, "previous record after the cut");
 }
 
 static uint32_t drain_telemetry(uint32_t port, proto_telemetry_t *last, uint32_t *gaps)
@@ -159,16 +159,16 @@ static void test_dev_run_telemetry_and_overflow(void)
     uint32_t gaps = 0, n = 0;
     (void)drain_telemetry(0U, NULL, NULL);
     for (uint32_t i = 0; i < 100U; ++i) {
-        hal_shadow_set(&host.shadow, BOWDEN_REG_T_IN, 0xFFFFFF00UL); /* -1 N */
+        hal_shadow_set(&host.shadow[0], BOWDEN_REG_T_IN, 0xFFFFFF00UL); /* -1 N */
         dev_tick(&host.dev, i * 1000U, 1234);
         n += drain_telemetry(0U, &t, &gaps);
     }
     CHECK(n == 100U && gaps == 0U, "%u frames, %u gaps", n, gaps);
     CHECK(t.sample == 99U && t.time_us == 99000U && t.t_out == 1234 && t.t_in == -256,
           "last frame");
-    CHECK(t.t_ref == host.fw.tel.t_ref && (t.status & PROTO_STATUS_RUNNING) != 0U, "fields");
+    CHECK(t.t_ref == host.fw[0].tel.t_ref && (t.status & PROTO_STATUS_RUNNING) != 0U, "fields");
     /* mu*phi in force (the configured one: the estimate is off by default), Q3.28 -> UQ2.14 */
-    CHECK(t.mu_phi == (uint16_t)(comp_config_exponent_q28(&host.dev.settings.fw.comp) >> 14) &&
+    CHECK(t.mu_phi == (uint16_t)(comp_config_exponent_q28(&host.dev.settings[0].fw.comp) >> 14) &&
               t.mu_phi > 0U && t.est_faults == 0U,
           "mu_phi %u", t.mu_phi);
     CHECK(host.dev.running == 0U, "stopped after its duration");
@@ -233,7 +233,7 @@ static void test_dev_stream_and_faults(void)
     (void)drain_telemetry(0U, &t, &gaps);
     CHECK((t.faults & PROTO_FAULT_STREAM_UNDERRUN) != 0U && t.t_ref == s.samples[23], "held");
     /* an FPGA fault shows in telemetry and in FAULTS; FAULT_CLEAR while stopped never enables */
-    hal_shadow_set(&host.shadow, BOWDEN_REG_FAULT, BOWDEN_FAULT_WATCHDOG_MASK);
+    hal_shadow_set(&host.shadow[0], BOWDEN_REG_FAULT, BOWDEN_FAULT_WATCHDOG_MASK);
     dev_tick(&host.dev, 0U, 0);
     (void)drain_telemetry(0U, &t, &gaps);
     CHECK((t.faults & PROTO_FAULT_WATCHDOG) != 0U, "watchdog in telemetry");
@@ -244,11 +244,11 @@ static void test_dev_stream_and_faults(void)
               (f.device_faults & PROTO_FAULT_STREAM_UNDERRUN) != 0U && f.fault_ticks >= 1U,
           "faults");
     (void)dev_host_shadow(&host)->log_len;
-    host.shadow.log_len = 0U;
+    host.shadow[0].log_len = 0U;
     g = request(0U, PROTO_MSG_FAULT_CLEAR, 8U, NULL, 0U);
     CHECK(g.msg == PROTO_MSG_ACK && host.dev.faults == 0U, "cleared");
-    CHECK(host.shadow.log_len == 1U && host.shadow.log[0].addr == BOWDEN_REG_CTRL &&
-              host.shadow.log[0].value == BOWDEN_CTRL_FAULT_CLEAR_MASK,
+    CHECK(host.shadow[0].log_len == 1U && host.shadow[0].log[0].addr == BOWDEN_REG_CTRL &&
+              host.shadow[0].log[0].value == BOWDEN_CTRL_FAULT_CLEAR_MASK,
           "only the clear pulse, no ENABLE");
 }
 
@@ -259,7 +259,7 @@ static void test_dev_bad_frames_and_versions(void)
     CHECK(error_code(&g) == PROTO_ERR_UNKNOWN_MESSAGE, "a device message sent to the device");
     g = request(0U, 31U, 2U, NULL, 0U);
     CHECK(error_code(&g) == PROTO_ERR_UNKNOWN_MESSAGE, "unknown id");
-    g = request(0U, PROTO_MSG_PARAM_GET, 3U, (const uint8_t[3]){1, 2, 3}, 3U);
+    g = request(0U, PROTO_MSG_PARAM_GET, 3U, (const uint8_t[4]){1, 2, 3, 4}, 4U);
     CHECK(error_code(&g) == PROTO_ERR_BAD_LENGTH, "bad length");
     /* another protocol version: HELLO is answered, the rest refused */
     proto_frame_t f = {PROTO_VERSION + 1U, PROTO_MSG_PARAM_GET, 4U, 2U, {0, 0}};

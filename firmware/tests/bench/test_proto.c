@@ -182,6 +182,8 @@ static void test_shared_vectors(void)
             TYPED(PARAM_INFO_ACK, param_info_ack)
             TYPED(START, start)
             TYPED(STREAM, stream)
+            TYPED(STREAM_CH, stream_ch)
+            TYPED(FAULTS_GET, faults_get)
             TYPED(FAULTS, faults)
             TYPED(STATS, stats)
             TYPED(ACK, ack)
@@ -333,13 +335,13 @@ static void test_can_rx_errors(void)
     CHECK(proto_can_rx(&rx, 1U, &empty, &g) == 0 && rx.stats.short_frames == 1U, "empty");
     /* telemetry: two frames, A then B, with the sample's low byte pairing them */
     proto_telemetry_t t = {1000U, 0x12345678UL, 3U, 100, -200, 300,
-                           -400, 500, 0x11U, 0x21U, 0x8000U, 0x5U};
+                           -400, 500, 0x11U, 0x21U, 0x8000U, 0x5U, 2U};
     f.msg = PROTO_MSG_TELEMETRY;
     f.len = (uint8_t)proto_telemetry_pack(&t, f.payload);
     CHECK(proto_can_encode(1U, &f, cf, 2U) == 2U, "telemetry frames");
     proto_telem_a_t a;
     proto_telem_b_t b;
-    CHECK(proto_telem_a_unpack(&a, cf[0].data, cf[0].len) && a.sample == t.sample &&
+    CHECK(proto_telem_a_unpack(&a, cf[0].data, cf[0].len) && a.sample_lo16 == (uint16_t)t.sample && a.channel == 2U &&
               a.t_ref == 100 && a.t_c == -200,
           "TELEM_A");
     CHECK(proto_telem_b_unpack(&b, cf[1].data, cf[1].len) && b.sample_lo == 0x78U &&

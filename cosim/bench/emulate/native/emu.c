@@ -292,33 +292,50 @@ static int run_sample(emu_t *e)
 
 int emu_step(emu_t *e, dev_host_t *h, uint32_t time_us)
 {
-    /* T_out as the output load cell reads it at sample k0 (the plant output that also gave the
-     * ADC code of sample k0). */
-    int32_t t_out = tension_word(e->y[EMU_OUT_T_OUT_MEAS]);
-    /* ... and as the front-end's second channel codes it (the far-end load cell, ADS131M02 CH1,
-     * on the same calibration as CH0): the register the online friction estimate reads. */
-    int32_t code_out = emu_adc_code(e->y[EMU_OUT_T_OUT_MEAS], e->adc_offset, e->adc_gain);
-    int st = run_sample(e);
-    if (st != 0) {
-        return st;
+    return emu_step_channels(e, 1U, h, time_us);
+}
+
+int emu_step_channels(emu_t *e, uint32_t n, dev_host_t *h, uint32_t time_us)
+{
+    int32_t t_out[BOWDEN_CHANNELS_MAX] = {0};
+    if (n < 1U || n > h->channels) {
+        return -1;
     }
-    /* The firmware's tick reads the loop's registers after sample k0 (fw_tick: STATUS, FAULT,
-     * T_IN, U, SAMPLE_COUNT, and T_OUT and ADC_FLAGS with the estimate on), then writes TC. */
-    hal_shadow_set(&h->shadow, BOWDEN_REG_STATUS, emu_loop_status(&e->loop));
-    hal_shadow_set(&h->shadow, BOWDEN_REG_FAULT, e->loop.faults);
-    hal_shadow_set(&h->shadow, BOWDEN_REG_T_IN, (uint32_t)e->loop.t_in);
-    hal_shadow_set(&h->shadow, BOWDEN_REG_U, (uint32_t)e->loop.u);
-    hal_shadow_set(&h->shadow, BOWDEN_REG_SAMPLE_COUNT, e->loop.sample_count);
-    hal_shadow_set(&h->shadow, BOWDEN_REG_T_OUT, (uint32_t)code_out & BOWDEN_T_OUT_MASK);
-    hal_shadow_set(&h->shadow, BOWDEN_REG_ADC_FLAGS, 0U);
-    dev_tick(&h->dev, time_us, t_out);
-    e->n_pending = hal_shadow_drain(&h->shadow, e->pending, HAL_LOG_CAPACITY);
-    e->log_dropped = h->shadow.log_dropped;
-    e->pending_wait = 1U; /* land before sample k0 + 2 */
-    for (uint32_t j = 1; j < e->decimation; ++j) {
-        st = run_sample(e);
+    for (uint32_t c = 0; c < n; ++c) {
+        /* T_out as the output load cell reads it at sample k0 (the plant output that also gave
+         * the ADC code of sample k0). */
+        t_out[c] = tension_word(e[c].y[EMU_OUT_T_OUT_MEAS]);
+        /* ... and as the front-end's second channel codes it (the far-end load cell, ADS131M02
+         * CH1, on the same calibration as CH0): the register the online friction estimate
+         * reads. */
+        int32_t code_out = emu_adc_code(e[c].y[EMU_OUT_T_OUT_MEAS], e[c].adc_offset,
+                                        e[c].adc_gain);
+        int st = run_sample(&e[c]);
         if (st != 0) {
             return st;
+        }
+        /* The firmware's tick reads the loop's registers after sample k0 (fw_tick: STATUS,
+         * FAULT, T_IN, U, SAMPLE_COUNT, and T_OUT and ADC_FLAGS with the estimate on), then
+         * writes TC: each channel's in its own bank. */
+        hal_shadow_t *sh = &h->shadow[c];
+        hal_shadow_set(sh, BOWDEN_REG_STATUS, emu_loop_status(&e[c].loop));
+        hal_shadow_set(sh, BOWDEN_REG_FAULT, e[c].loop.faults);
+        hal_shadow_set(sh, BOWDEN_REG_T_IN, (uint32_t)e[c].loop.t_in);
+        hal_shadow_set(sh, BOWDEN_REG_U, (uint32_t)e[c].loop.u);
+        hal_shadow_set(sh, BOWDEN_REG_SAMPLE_COUNT, e[c].loop.sample_count);
+        hal_shadow_set(sh, BOWDEN_REG_T_OUT, (uint32_t)code_out & BOWDEN_T_OUT_MASK);
+        hal_shadow_set(sh, BOWDEN_REG_ADC_FLAGS, 0U);
+    }
+    dev_tick_channels(&h->dev, time_us, t_out);
+    for (uint32_t c = 0; c < n; ++c) {
+        e[c].n_pending = hal_shadow_drain(&h->shadow[c], e[c].pending, HAL_LOG_CAPACITY);
+        e[c].log_dropped = h->shadow[c].log_dropped;
+        e[c].pending_wait = 1U; /* land before sample k0 + 2 */
+        for (uint32_t j = 1; j < e[c].decimation; ++j) {
+            int st = run_sample(&e[c]);
+            if (st != 0) {
+                return st;
+            }
         }
     }
     return 0;

@@ -95,5 +95,9 @@ void emu_init(emu_t *e);
  * the firmware's register writes landing before sample k0+2 (TC_LATENCY_SAMPLES). Returns 0, or
  * the FMI status of a failing call (then e->fmi_error holds it). */
 int emu_step(emu_t *e, dev_host_t *h, uint32_t time_us);
+/* emu_step for the device's first n channels, e[0 .. n) (n <= the device's channels, else -1):
+ * each channel's loop and plant take their sample, then one tick of every channel
+ * (dev_tick_channels), then each channel's writes and the rest of its samples. emu_step is n = 1. */
+int emu_step_channels(emu_t *e, uint32_t n, dev_host_t *h, uint32_t time_us);
 
 #endif /* BOWDEN_EMU_H */
