@@ -71,6 +71,45 @@ def _positive(kind):
     return conv
 
 
+def _channel(text: str) -> int | str:
+    """--channel: a channel number (0, 1, ...: the protocol's, the register banks' and the
+    telemetry's numbering) or `all`; the device's count is checked once it says it."""
+    if text.strip().lower() == "all":
+        return "all"
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a channel number (0, 1, ...) or all; got {text!r}"
+        ) from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(
+            f"expected a channel number (0, 1, ...) or all; got {text!r}"
+        )
+    return v
+
+
+def _channel_count(text: str) -> int:
+    """--channels of `bowden emulate`: how many cables the emulated device drives."""
+    from cosim.bench.emulate.host_device import Device  # noqa: PLC0415
+
+    top = Device.channels_max()
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a whole number 1..{top}; got {text!r}"
+        ) from None
+    if not 1 <= v <= top:
+        raise argparse.ArgumentTypeError(f"expected a whole number 1..{top}; got {text!r}")
+    return v
+
+
+# The commands `--channel all` takes (each channel in turn, or a run of them all); the others
+# (backup, restore, diff, calibrate, watch) work on one channel's words or run at a time.
+_ALL_CHANNELS_COMMANDS = ("info", "get", "set", "faults", "run")
+
+
 def add_parser(subparsers) -> None:
     _add_bench(subparsers)
     _add_emulate(subparsers)
@@ -115,6 +154,22 @@ def _add_bench(subparsers) -> None:
         default=[],
         metavar="NAME=VALUE[,...]",
         help="with --emulate: FMU parameters of the emulated plant (as `bowden emulate --plant`)",
+    )
+    p.add_argument(
+        "--channel",
+        type=_channel,
+        default=0,
+        metavar="K|all",
+        help="the cable a command addresses, 0 .. n-1 (default 0; `info` and `list` say n), or "
+        "all: info, get, set, faults and run on every channel (run: one CSV per channel, "
+        "NAME.chK.csv)",
+    )
+    p.add_argument(
+        "--channels",
+        type=_channel_count,
+        default=1,
+        metavar="N",
+        help="with --emulate: the emulated device's channels (default 1)",
     )
     sub = p.add_subparsers(dest="bench_command", metavar="COMMAND")
     sub.add_parser("info", help="firmware, protocol, configuration state, faults")
@@ -171,6 +226,20 @@ def bench_main(args: argparse.Namespace) -> int:
         return 2
     if args.plant and not args.emulate:
         print("bowden bench: --plant sets the emulated plant: it needs --emulate", file=sys.stderr)
+        return 2
+    if args.channels != 1 and not args.emulate:
+        print(
+            "bowden bench: --channels sets the emulated device's channels: it needs --emulate "
+            "(a device says its own)",
+            file=sys.stderr,
+        )
+        return 2
+    if args.channel == "all" and args.bench_command not in (None, "list", *_ALL_CHANNELS_COMMANDS):
+        print(
+            f"bowden bench: --channel all works with {', '.join(_ALL_CHANNELS_COMMANDS)}; "
+            f"{args.bench_command} takes one channel (--channel K)",
+            file=sys.stderr,
+        )
         return 2
     if args.bench_command is None:
         print(
@@ -244,7 +313,10 @@ def _bench_session(args: argparse.Namespace, plant: dict) -> int:
             timeout_s=args.timeout,
             emulate=args.emulate,
             chain=chain if args.emulate else None,  # a real device has no emulated bench
+            channels=args.channels,
         )
+        args.channel_list = _channels_of(args.channel, session.connect_info.n_channels)
+        session.client.channel = args.channel_list[0]
         return _COMMANDS[args.bench_command](session.client, args, session.connect_info)
     finally:
         if session is not None:
@@ -252,17 +324,44 @@ def _bench_session(args: argparse.Namespace, plant: dict) -> int:
                 session.close()
 
 
+def _channels_of(choice: int | str, n_channels: int) -> tuple[int, ...]:
+    """The channels --channel names on a device of n_channels; BenchUsageError (exit 2) for one
+    the device does not have."""
+    if choice == "all":
+        return tuple(range(n_channels))
+    if not 0 <= choice < n_channels:
+        have = "channel 0" if n_channels == 1 else f"channels 0..{n_channels - 1}"
+        raise BenchUsageError(
+            f"--channel {choice}: the device has {n_channels} channel"
+            f"{'' if n_channels == 1 else 's'} ({have})"
+        )
+    return (choice,)
+
+
+def _chans(args, client: BenchClient) -> tuple[int, ...]:
+    """The channels a command works on: those --channel named, or the client's one."""
+    return tuple(getattr(args, "channel_list", None) or (client.channel,))
+
+
+def _channel_tag(chans: tuple[int, ...], c: int) -> str:
+    """A line's channel prefix when several channels are shown, else nothing."""
+    return f"[ch {c}] " if len(chans) > 1 else ""
+
+
 def _cmd_info(client: BenchClient, args, info) -> int:
     print(f"device        {client.link.url}")
     print(f"firmware      {info.firmware} (build {info.build_id:08x})")
     print(f"protocol      {info.proto_version}, table {info.table_hash:08x} (host: same)")
+    print(f"channels      {info.n_channels}")
     print(f"parameters    {info.n_params}")
     dirty = "yes: `bowden bench ... persist` keeps them" if info.dirty else "no"
     print(f"configuration {info.config_source}; unsaved changes: {dirty}")
-    f = client.faults()
-    fpga = fault_names(f["fpga_fault"] & 0x0F) or ["none"]
-    dev = ", ".join(fault_names(f["device_faults"])) or "none"
-    print(f"faults        FPGA {', '.join(fpga)}; device {dev}")
+    for c in _chans(args, client):
+        f = client.faults(c)
+        fpga = fault_names(f["fpga_fault"] & 0x0F) or ["none"]
+        dev = ", ".join(fault_names(f["device_faults"])) or "none"
+        where = f"channel {c}: " if info.n_channels > 1 else ""
+        print(f"faults        {where}FPGA {', '.join(fpga)}; device {dev}")
     if client.stale_telemetry:
         print(f"note          the device was streaming: stopped ({client.stale_telemetry} frames)")
     return 0
@@ -273,6 +372,15 @@ def _cmd_get(client: BenchClient, args, info) -> int:
     for name in names:
         param(name)  # unknown names fail before anything is read
     width = max(len(n) for n in names)
+    chans = _chans(args, client)
+    if len(chans) > 1:  # a column per channel
+        cells = {c: [format_value(param(n), client.get_word(n, c)) for n in names] for c in chans}
+        widths = {c: max(len(f"ch {c}"), *(len(v) for v in cells[c])) for c in chans}
+        print(f"{'':<{width}}  " + "  ".join(f"{f'ch {c}':<{widths[c]}}" for c in chans).rstrip())
+        for i, name in enumerate(names):
+            row = "  ".join(f"{cells[c][i]:<{widths[c]}}" for c in chans).rstrip()
+            print(f"{name:<{width}}  {row}")
+        return 0
     for name in names:
         p = param(name)
         print(f"{name:<{width}}  {format_value(p, client.get_word(name))}")
@@ -289,8 +397,11 @@ def _cmd_set(client: BenchClient, args, info) -> int:
         if p.read_only:
             raise ProtocolError(f"{p.name} is read-only")
         todo.append((p, word_from_value(p, value.strip())))  # all checked before any is sent
-    for p, word in write_all(client, todo, "set"):
-        print(f"{p.name} = {format_value(p, word)}")
+    chans = _chans(args, client)
+    for c in chans:
+        client.channel = c
+        for p, word in write_all(client, todo, "set"):
+            print(f"{_channel_tag(chans, c)}{p.name} = {format_value(p, word)}")
     print("(in RAM: `persist` saves them)")
     return 0
 
@@ -351,16 +462,20 @@ def _cmd_restore(client: BenchClient, args, info) -> int:
 
 
 def _cmd_faults(client: BenchClient, args, info) -> int:
-    f = client.faults()
-    fpga = fault_names(f["fpga_fault"] & 0x0F)
-    print(f"FPGA faults    {', '.join(fpga) or 'none'}")
-    print(f"FPGA status    {', '.join(n for n in status_names(f['fpga_status'] << 1)) or 'idle'}")
-    print(f"device faults  {', '.join(fault_names(f['device_faults'])) or 'none'}")
-    print(f"fault ticks    {f['fault_ticks']}")
-    for name in fault_names(f["fpga_fault"] & 0x0F) + fault_names(f["device_faults"]):
-        doc = _FAULT_DOCS.get(name)
-        if doc:
-            print(f"  {name}: {doc}")
+    chans = _chans(args, client)
+    for c in chans:
+        tag = _channel_tag(chans, c)
+        f = client.faults(c)
+        fpga = fault_names(f["fpga_fault"] & 0x0F)
+        status = ", ".join(n for n in status_names(f["fpga_status"] << 1)) or "idle"
+        print(f"{tag}FPGA faults    {', '.join(fpga) or 'none'}")
+        print(f"{tag}FPGA status    {status}")
+        print(f"{tag}device faults  {', '.join(fault_names(f['device_faults'])) or 'none'}")
+        print(f"{tag}fault ticks    {f['fault_ticks']}")
+        for name in fault_names(f["fpga_fault"] & 0x0F) + fault_names(f["device_faults"]):
+            doc = _FAULT_DOCS.get(name)
+            if doc:
+                print(f"  {name}: {doc}")
     if args.clear:
         client.simple("FAULT_CLEAR")
         print("cleared")
@@ -473,6 +588,14 @@ def _add_emulate(subparsers) -> None:
         help="loop model in C (default) or Python (the definition; slower)",
     )
     p.add_argument("--seconds", type=_positive(float), default=None, help="stop after S seconds")
+    p.add_argument(
+        "--channels",
+        type=_channel_count,
+        default=None,
+        metavar="N",
+        help="cables the emulated device drives, each with its own loop and plant (default 1; "
+        "the native engine)",
+    )
     p.add_argument(
         "--table-hash",
         default=None,

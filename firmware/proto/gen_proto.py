@@ -975,9 +975,10 @@ def gen_md(spec: Spec) -> str:
         f"A telemetry frame is {b['serial_raw_bytes']} bytes unencoded and "
         f"{b['serial_wire_bytes']} bytes on the wire; at 1 kHz that is "
         f"{b['serial_wire_bytes'] * 1000} bytes/s, {b['serial_wire_bytes'] * 10000} baud with 8N1 "
-        "framing: use 921600 baud or more (a USB CDC device has no baud rate). USB-serial adapters "
-        "hold received bytes up to 16 ms before sending them to the host unless their latency timer "
-        "is set to 1 ms (FTDI: `/sys/bus/usb-serial/devices/ttyUSB0/latency_timer`, or "
+        "framing: use 921600 baud or more (a USB CDC device has no baud rate). USB-serial "
+        "adapters hold received bytes up to 16 ms before sending them to the host unless their "
+        "latency timer is set to 1 ms (FTDI: "
+        "`/sys/bus/usb-serial/devices/ttyUSB0/latency_timer`, or "
         "`setserial /dev/ttyUSB0 low_latency`): without it, telemetry arrives in bursts, with no "
         "loss."
     )

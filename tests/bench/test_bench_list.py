@@ -54,7 +54,16 @@ def test_list_prints_every_controller_and_skips_the_rest(
     _ports(monkeypatch, [a.urls["pty"], silent_pty, str(tmp_path / "gone"), b.urls["socket"]])
     assert bench_cli(["bench", "list"]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert out[0].split() == ["port", "node", "firmware", "(build)", "protocol", "table", "state"]
+    assert out[0].split() == [
+        "port",
+        "node",
+        "firmware",
+        "(build)",
+        "protocol",
+        "table",
+        "channels",
+        "state",
+    ]
     rows = {line.split()[0]: line for line in out[1:3]}
     assert set(rows) == {a.urls["pty"], b.urls["socket"]}
     mine = rows[a.urls["pty"]].split()
@@ -62,6 +71,7 @@ def test_list_prints_every_controller_and_skips_the_rest(
         mine[1] == "-"
         and mine[4] == str(msgs.PROTOCOL_VERSION)
         and mine[5] == f"{msgs.TABLE_HASH:08x}"
+        and mine[6] == "1"
     )
     assert "idle, configuration defaults" in rows[a.urls["pty"]]
     assert "deadbeef" in rows[b.urls["socket"]] and "(host: other)" in rows[b.urls["socket"]]
@@ -146,7 +156,7 @@ def test_list_names_a_busy_port_and_its_holder(two_emulators, monkeypatch, capsy
         _ports(monkeypatch, [a.urls["pty"]])
         assert bench_cli(["bench", "list"]) == 0
         out = capsys.readouterr().out.splitlines()
-        assert len(out) == 2 and out[1].split()[:5] == [a.urls["pty"], "-", "-", "-", "-"]
+        assert len(out) == 2 and out[1].split()[:6] == [a.urls["pty"], "-", "-", "-", "-", "-"]
         assert f"busy: in use by another client (pid {os.getpid()}:" in out[1]
         # --port auto: the only controller is busy: the holder's refusal, as a session meets it.
         assert bench_cli(["bench", "--port", "auto", "info"]) == 1

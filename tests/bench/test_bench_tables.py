@@ -99,9 +99,9 @@ def test_dbc_describes_the_can_frames():
     assert b["current"] == pytest.approx(vec["values"]["current"] / 4096.0)
     ps = db.get_message_by_name("PARAM_SET")
     # the optional channel, a repeated field of at most one, is the DBC's channel_0
-    assert ps.encode({"seq": 3, "param": 4, "value": -5, "channel_0": 2}) == bytes(
-        [3, 4, 0]
-    ) + (-5).to_bytes(4, "little", signed=True) + bytes([2])
+    assert ps.encode({"seq": 3, "param": 4, "value": -5, "channel_0": 2}) == bytes([3, 4, 0]) + (
+        -5
+    ).to_bytes(4, "little", signed=True) + bytes([2])
     # Bandwidth stated in the document: 2 frames per sample fit 500 kbit/s.
     doc = (REPO_ROOT / "firmware" / "proto" / "PROTOCOL.md").read_text()
     assert "of 500 kbit/s" in doc and "latency timer" in doc

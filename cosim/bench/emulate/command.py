@@ -101,7 +101,13 @@ def _start_problem(exc: Exception, args: argparse.Namespace) -> str:
 
 
 # The host emulator's values of the options --target soc refuses (default None in the parser).
-HOST_EMULATOR_DEFAULTS = {"baud": 921_600, "tcp_port": 0, "interface": "ideal", "engine": "native"}
+HOST_EMULATOR_DEFAULTS = {
+    "baud": 921_600,
+    "tcp_port": 0,
+    "interface": "ideal",
+    "engine": "native",
+    "channels": 1,
+}
 
 
 def emulate_main(args: argparse.Namespace) -> int:
@@ -159,6 +165,13 @@ def emulate_main(args: argparse.Namespace) -> int:
 
         return emulate_soc(args, plant)
     engine = args.engine
+    if args.channels > 1 and (engine == "python" or args.interface != "ideal"):
+        print(
+            f"bowden emulate: --channels {args.channels} runs on the native engine with the ideal "
+            "interface (the Python engine is the one-channel definition)",
+            file=sys.stderr,
+        )
+        return 2
     if args.interface != "ideal" and engine == "native":
         engine = "python"
         print(
@@ -182,6 +195,7 @@ def emulate_main(args: argparse.Namespace) -> int:
             flash_path=args.flash,
             identity=identity,
             findable=True,  # `bowden bench list` and --port auto find its pty
+            channels=args.channels,
         )
     except Exception as exc:  # noqa: BLE001 (the FMU's, the OS's, python-can's: named below)
         print(f"bowden emulate: {_start_problem(exc, args)}", file=sys.stderr)

@@ -446,9 +446,7 @@ class LoopChain:
         """One tick period: D FPGA samples and the device's tick."""
         time_us = round(self.ticks * 1e6 / self.cfg.tick_rate_hz) & 0xFFFFFFFF
         if self.engine == "native":
-            st = self._lib.emu_step_channels(
-                self._emu_p, len(self._emus), self.device.ptr, time_us
-            )
+            st = self._lib.emu_step_channels(self._emu_p, len(self._emus), self.device.ptr, time_us)
             if st:
                 detail = self.plant.messages[-1] if self.plant.messages else f"status {st}"
                 raise RuntimeError(

@@ -258,6 +258,7 @@ class Bench:
         emulate: bool = False,
         plant: dict | None = None,
         chain=None,
+        channels: int = 1,
     ) -> None:
         self._closed = False
         self._emulator = None
@@ -280,14 +281,16 @@ class Bench:
         if port is not None and (_is_bool(baud) or not isinstance(baud, int) or baud <= 0):
             raise BenchUsageError(f"baud={_show(baud)}: expected a whole number > 0")
         timeout_s = _number(timeout_s, "timeout_s", positive=True)
+        if channels != 1 and not emulate:
+            raise BenchUsageError("channels sets the emulated device's: give emulate=True")
         if emulate:
             chain = self._chain = _emulated_chain(plant, chain)
         try:
             if emulate and can is None:
-                self.link = _emulated(chain, None)
+                self.link = _emulated(chain, None, channels)
             elif can is not None:
                 if emulate:
-                    self._emulator = _emulated(chain, can)
+                    self._emulator = _emulated(chain, can, channels)
                 self.link = CanLink(can, node=node)
             elif port is not None:
                 if port == "auto":
@@ -587,7 +590,7 @@ def _sheath_m(chain) -> float:
     return float(length if length is not None else fmu_variables()["sheath_length"].start)
 
 
-def _emulated(chain, can: str | None):
+def _emulated(chain, can: str | None, channels: int = 1):
     """The stepped link (alone) or the real-time emulator on `can`, started; what fails while
     the plant FMU and the device are built is one BenchError. The C chain has the ideal
     interface only: another (`chain.interface`) runs on the Python engine."""
@@ -596,10 +599,12 @@ def _emulated(chain, can: str | None):
         if can is None:
             from cosim.bench.emulate.emulator import SteppedLink  # noqa: PLC0415
 
-            return SteppedLink(chain, engine=engine)
+            return SteppedLink(chain, engine=engine, channels=channels)
         from cosim.bench.emulate.emulator import Emulator  # noqa: PLC0415
 
-        return Emulator(pty=False, tcp_port=None, can=can, chain=chain, engine=engine).start()
+        return Emulator(
+            pty=False, tcp_port=None, can=can, chain=chain, engine=engine, channels=channels
+        ).start()
     except BenchError:
         raise
     except Exception as exc:  # noqa: BLE001 (the FMU's, ctypes', python-can's: named below)

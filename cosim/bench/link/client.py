@@ -330,11 +330,17 @@ class BenchClient:
     telemetry: list[dict] = field(default_factory=list)
     on_telemetry: Callable[[dict], None] | None = None
     stale_telemetry: int = 0  # frames of a stream that was running when we connected
+    # The channel a request addresses when it names none (`bowden bench --channel K`): the
+    # parameters, faults, stream and run of that channel.
+    channel: int = 0
     _seq: int = 0
     _last_send: float = 0.0  # time.monotonic() of the last request sent (keep_alive)
     _backlog: list = field(default_factory=list)  # frames received after a reply, not yet handled
 
     # --- requests ----------------------------------------------------------------------------
+
+    def _ch(self, channel: int | None) -> int:
+        return self.channel if channel is None else channel
 
     def _next_seq(self) -> int:
         self._seq = self._seq % 255 + 1  # 1..255: 0 is the device's own frames
@@ -455,14 +461,16 @@ class BenchClient:
 
     # --- parameters ----------------------------------------------------------------------------
 
-    def get_word(self, name: str, channel: int = 0) -> int:
-        _, v = self.request("PARAM_GET", param=param(name).id, channel=_channel_field(channel))
+    def get_word(self, name: str, channel: int | None = None) -> int:
+        _, v = self.request(
+            "PARAM_GET", param=param(name).id, channel=_channel_field(self._ch(channel))
+        )
         return v["value"]
 
-    def get(self, name: str, channel: int = 0) -> float | str:
-        return value_from_word(param(name), self.get_word(name, channel))
+    def get(self, name: str, channel: int | None = None) -> float | str:
+        return value_from_word(param(name), self.get_word(name, self._ch(channel)))
 
-    def set(self, name: str, value, channel: int = 0) -> int:
+    def set(self, name: str, value, channel: int | None = None) -> int:
         """Write a parameter (SI value or enum name) of one channel (a device-wide one, dev.*,
         of every channel); returns the word now in force."""
         p = param(name)
@@ -472,19 +480,19 @@ class BenchClient:
             "PARAM_SET",
             param=p.id,
             value=word_from_value(p, value),
-            channel=_channel_field(channel),
+            channel=_channel_field(self._ch(channel)),
         )
         return v["value"]
 
-    def set_word(self, name: str, word: int, channel: int = 0) -> int:
+    def set_word(self, name: str, word: int, channel: int | None = None) -> int:
         _, v = self.request(
-            "PARAM_SET", param=param(name).id, value=word, channel=_channel_field(channel)
+            "PARAM_SET", param=param(name).id, value=word, channel=_channel_field(self._ch(channel))
         )
         return v["value"]
 
-    def params(self, channel: int = 0) -> dict[str, int]:
+    def params(self, channel: int | None = None) -> dict[str, int]:
         """Every parameter's word of one channel, by name."""
-        return {p.name: self.get_word(p.name, channel) for p in msgs.PARAMS}
+        return {p.name: self.get_word(p.name, self._ch(channel)) for p in msgs.PARAMS}
 
     def describe(self, words: dict[str, int]) -> list[tuple[str, str]]:
         return [(name, format_value(param(name), w)) for name, w in words.items()]
@@ -514,16 +522,17 @@ class BenchClient:
         self._last_send = now
         return True
 
-    def faults(self, channel: int = 0) -> dict:
-        _, v = self.request("FAULTS_GET", channel=_channel_field(channel))
+    def faults(self, channel: int | None = None) -> dict:
+        _, v = self.request("FAULTS_GET", channel=_channel_field(self._ch(channel)))
         return v
 
     def stats(self) -> dict:
         _, v = self.request("STATS_GET")
         return v
 
-    def stream(self, samples: Iterable[int], channel: int = 0) -> int:
+    def stream(self, samples: Iterable[int], channel: int | None = None) -> int:
         """Append T_ref words (Q7.8) to a channel's stream buffer; returns its free slots."""
+        channel = self._ch(channel)
         if channel == 0:
             return self.simple("STREAM", samples=list(samples))
         return self.simple("STREAM_CH", channel=channel, samples=list(samples))

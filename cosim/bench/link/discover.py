@@ -104,6 +104,7 @@ class Found:
                 "-",
                 "-",
                 "-",
+                "-",
                 self.state,
             ]
         proto = f"{i.proto_version}" + ("" if self.compatible else " (host: other)")
@@ -113,11 +114,12 @@ class Found:
             f"{i.firmware} ({i.build_id:08x})",
             proto,
             f"{i.table_hash:08x}",
+            str(i.n_channels),
             self.state,
         ]
 
 
-HEADER = ["port", "node", "firmware (build)", "protocol", "table", "state"]
+HEADER = ["port", "node", "firmware (build)", "protocol", "table", "channels", "state"]
 
 
 def table(found: list[Found]) -> str:

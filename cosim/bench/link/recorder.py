@@ -203,16 +203,16 @@ def record_run(
     progress: Callable[[str], None] | None = None,
     on_sample: Callable[[int], None] | None = None,
     tap: Callable[[dict], None] | None = None,
-    channels: tuple[int, ...] = (0,),
+    channels: tuple[int, ...] | None = None,
 ) -> RunResult:
     """Configure the waveform (or the stream) of each channel in `channels`, start a run of
     `seconds` of those channels and record it (one CSV per channel: channel_path).
 
     waveform: one of WAVE_KINDS, or "stream" with `stream_words` (Q7.8 T_ref words, one per tick,
-    the same for every channel).
+    the same for every channel). channels: the client's channel when none are given.
     tap: called with every telemetry frame after it is recorded (a live view; must not block).
     """
-    channels = tuple(channels)
+    channels = (client.channel,) if channels is None else tuple(channels)
     ticks = run_ticks(seconds, float(client.get("tick_rate_hz")))  # before anything is set
     for c in channels:
         if waveform == "stream":

@@ -20,6 +20,7 @@ from cosim.bench.link.client import BenchClient, BenchError, BenchUsageError
 from cosim.bench.link.protocol import ProtocolError
 from cosim.bench.link.recorder import (
     RunResult,
+    channel_path,
     keep_recording,
     record_run,
     run_ticks,
@@ -161,6 +162,9 @@ def cmd_run(client: BenchClient, args, info) -> int:
     # The run's rows go to NAME.partial.csv, moved onto --out when the run ends (a failed run
     # never wipes an earlier recording; a run killed with SIGKILL leaves the partial file).
     partial = out.with_name(f"{out.stem}.partial{out.suffix}")
+    # The channels --channel names (one CSV each when several: NAME.chK.csv).
+    channels = tuple(getattr(args, "channel_list", None) or (client.channel,))
+    outs = [channel_path(out, c, channels) for c in channels]
     result = None
     try:
         result = record_with_view(
@@ -178,6 +182,7 @@ def cmd_run(client: BenchClient, args, info) -> int:
             loop_routing=args.loop_routing,
             sheath_length_m=args.sheath_length,
             progress=None if args.quiet else stderr_progress,
+            channels=channels,
         )
     finally:
         # Every way out of a run (the end, a signal, a link error, an exception, a full disk)
@@ -190,12 +195,17 @@ def cmd_run(client: BenchClient, args, info) -> int:
                 else f"the device did NOT confirm that it stopped ({why_not}): it ends the run "
                 "by itself after --seconds; switch the drive off"
             )
-            kept = keep_recording(partial, out)
-            if result is None and kept:
-                args.stop_report = f"{out} holds the samples up to now; {args.stop_report}"
+            kept = [
+                keep_recording(channel_path(partial, c, channels), o)
+                for c, o in zip(channels, outs, strict=True)
+            ]
+            if result is None and any(kept):
+                held = ", ".join(str(o) for o, k in zip(outs, kept, strict=True) if k)
+                args.stop_report = f"{held} hold the samples up to now; {args.stop_report}"
+    named = ", ".join(str(o) for o in outs)
     if why_not is not None:
-        raise BenchError(f"{out}: {result.summary()}")
-    print(f"{out}: {result.summary()} ({result.wall_s:.1f} s)")
+        raise BenchError(f"{named}: {result.summary()}")
+    print(f"{named}: {result.summary()} ({result.wall_s:.1f} s)")
     for first, count in result.gaps[:5]:
         print(f"  gap: {count} sample(s) missing from sample {first}")
     if result.drops or result.stopped_early:
@@ -249,9 +259,16 @@ def record_with_view(client, args, out, label: str, **kw) -> RunResult:
     view = open_view(args, label, rate_hz)
     if view.kind == "term":
         kw["progress"] = None
+    # The view draws one channel: the first one the run records.
+    shown = (kw.get("channels") or (client.channel,))[0]
+
+    def tap(t: dict) -> None:
+        if t.get("channel", 0) == shown:
+            view.buffer.add(t)
+
     result = None
     try:
-        result = record_run(client, out, tap=view.buffer.add, **kw)
+        result = record_run(client, out, tap=tap, **kw)
     finally:
         try:
             if result is None:  # interrupted or failed: the device before the view

@@ -32,6 +32,7 @@ HOST_ONLY_GIVEN = {
     "tcp_port": "--tcp-port",
     "interface": "--interface",
     "engine": "--engine",
+    "channels": "--channels",  # the SoC's firmware and core are one channel's
 }
 
 
