@@ -205,7 +205,10 @@ def emulate_main(args: argparse.Namespace) -> int:
     # and the stop, never cut short, removes the registry file that makes it findable.
     with StopSignals() as signals:
         try:
-            print("bowden emulate: controller running (firmware + FPGA loop model + plant FMU)")
+            each = f", {args.channels} channels, each" if args.channels > 1 else ""
+            print(
+                f"bowden emulate: controller running{each} (firmware + FPGA loop model + plant FMU)"
+            )
             for kind, url in emu.urls.items():
                 print(
                     f"  {kind:<7} bowden bench {'--can' if kind == 'can' else '--port'} {url} info"
