@@ -93,7 +93,7 @@ bench-lint: proto-check
 	@mkdir -p $(BENCH_M4)/lint
 	@set -e; for f in $(BENCH_OWN_SRC) $(BENCH_HOST_SRC) $(BENCH_TEST_SRC) \
 	  firmware/tests/bench/fuzz_proto.c firmware/tests/bench/fuzz_main.c firmware/perf/perf_proto.c; do \
-	  $(BENCH_CC) $(BENCH_WARN) $(BENCH_LINT_EXTRA) $(BENCH_INC) -fsyntax-only $$f; \
+	  $(BENCH_CC) $(BENCH_WARN) $(BENCH_LINT_EXTRA) $(BENCH_HOST_DEFS) $(BENCH_INC) -fsyntax-only $$f; \
 	done; \
 	for f in $(BENCH_OWN_SRC) firmware/tools/bench_sizes.c; do \
 	  $(PY) -m ziglang cc $(FW_M4_FLAGS) $(BENCH_WARN) $(BENCH_LINT_EXTRA) -Ifirmware/include -c $$f \
