@@ -125,7 +125,7 @@ uint32_t dev_tx_can(dev_t *d, uint32_t port, proto_can_frame_t *out, uint32_t ma
 void dev_tick(dev_t *d, uint32_t time_us, int32_t t_out_q8);
 /* The tick of several channels: every channel of the run steps in channel order (its compensator,
  * its estimate, its register writes) and sends its own telemetry frame; t_out_q8[k] is channel
- * k's output load cell. dev_tick is this with one channel's reading. */
+ * k's output load cell. dev_tick is this with channel 0's reading (the others' 0). */
 void dev_tick_channels(dev_t *d, uint32_t time_us, const int32_t *t_out_q8);
 /* The board's timer code reports a tick that came late (sets fault OVERRUN). */
 void dev_overrun(dev_t *d);

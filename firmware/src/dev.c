@@ -705,7 +705,11 @@ static int16_t sat_q7_8(int32_t v)
 
 void dev_tick(dev_t *d, uint32_t time_us, int32_t t_out_q8)
 {
-    dev_tick_channels(d, time_us, &t_out_q8);
+    /* Channel 0's reading; any other channel's is 0 (a board of several calls
+     * dev_tick_channels), never read past the caller's one word. */
+    int32_t t_out[BOWDEN_CHANNELS_MAX] = {0};
+    t_out[0] = t_out_q8;
+    dev_tick_channels(d, time_us, t_out);
 }
 
 /* Channel c's T_ref of this tick: from the waveform (fw_tick's own) or the channel's stream. */
