@@ -108,10 +108,11 @@ def field_ranges(sample_rate_hz: float) -> dict[str, tuple[float, float]]:
         "compensator.corr_offset_term": (0, 1),
         "compensator.corr_rev_enable": (0, 1),
         "compensator.corr_rev_ki_shift": (2, 16),
-        "compensator.corr_rev_bin_shift": (0, 6),
+        "compensator.corr_rev_bin_shift": (0, 7),  # [0, 6] by ticks (the firmware's check)
         "compensator.corr_rev_lead_ticks": (0, 64),
         "compensator.corr_rev_leak_shift": (2, 24),
         "compensator.corr_rev_limit_n": (0.0, 8.0),
+        "compensator.corr_rev_index": (0, 1),
         # The board's chain (cosim.parts.interface): conversion timing, reader and PWM clocks,
         # ESCON.
         "board.adc_period_s": (1e-6, 0.1),
@@ -157,6 +158,7 @@ WHOLE_FIELDS = {
     "compensator.corr_rev_bin_shift",
     "compensator.corr_rev_lead_ticks",
     "compensator.corr_rev_leak_shift",
+    "compensator.corr_rev_index",
 }
 
 

@@ -176,6 +176,7 @@ class CorrConfig(ctypes.Structure):
         ("rev_lead_ticks", ctypes.c_int32),
         ("rev_leak_shift", ctypes.c_int32),
         ("rev_limit_n_q8", ctypes.c_int32),
+        ("rev_index", ctypes.c_int32),
     ]
 
 
@@ -439,6 +440,7 @@ class CompensatorParams:
     corr_rev_lead_ticks: int = 0
     corr_rev_leak_shift: int = 12
     corr_rev_limit_n: float = 2.0
+    corr_rev_index: int = 0
 
     @property
     def phi_c_rad(self) -> float:
@@ -735,7 +737,8 @@ class CorrectorParams:
     each branch's relative gain correction, the far-end tare's ticks and the largest T_in during
     it, its two options (slide gate, offset term) and the reversal table (rate 2^-rev_ki_shift
     per tick, bins of 2^rev_bin_shift ticks, the error credited rev_lead_ticks back, the leak
-    2^-rev_leak_shift per update, the bound of an entry in N)."""
+    2^-rev_leak_shift per update, the bound of an entry in N, and its index: 0 the ticks since
+    the reversal, 1 the inlet tension's travel since it, bins of 2^rev_bin_shift / 256 N)."""
 
     enable: int = 0  # 0 off, 1 on
     ki_shift: int = 6  # rate 2^-ki_shift per tick, [4, 16]
@@ -751,6 +754,7 @@ class CorrectorParams:
     rev_lead_ticks: int = 0  # [0, 64]
     rev_leak_shift: int = 12  # [2, 24]
     rev_limit_n: float = 2.0  # [0, 8] N
+    rev_index: int = 0  # 0 by ticks, 1 by the inlet tension's log travel (rev_bin_shift <= 7)
 
     def to_c(self) -> CorrConfig:
         return CorrConfig(
@@ -776,6 +780,7 @@ class CorrectorParams:
                 "corr.rev_leak_shift", self.rev_leak_shift, -(2**31), 2**31 - 1, "a shift"
             ),
             rev_limit_n_q8=_fixed("corr.rev_limit_n", self.rev_limit_n, 8),
+            rev_index=_whole("corr.rev_index", self.rev_index, -(2**31), 2**31 - 1, "0 or 1"),
         )
 
 
@@ -798,6 +803,7 @@ def corrector_from(params) -> CorrectorParams:
         rev_lead_ticks=int(getattr(params, "corr_rev_lead_ticks", d.rev_lead_ticks)),
         rev_leak_shift=int(getattr(params, "corr_rev_leak_shift", d.rev_leak_shift)),
         rev_limit_n=float(getattr(params, "corr_rev_limit_n", d.rev_limit_n)),
+        rev_index=int(getattr(params, "corr_rev_index", d.rev_index)),
     )
 
 

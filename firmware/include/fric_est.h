@@ -279,9 +279,32 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
  * it carries what it learnt to the same ticks of the next reversal (iterative learning), the
  * leak forgetting 2^(s - rev_leak_shift) per reversal. A fault bleeds the tables as g_b: the
  * feedforward alone remains.
+ * Indexed by the inlet's travel (rev_index 1; 0, ticks, stays the default: on the random-plant
+ * tuning set ticks did better, firmware/README.md): n is the log travel of T_in since the
+ * reversal began, from its extreme the branch's way back since then (unloading
+ * ln(max T_in / T_in), loading ln(T_in / min T_in), T_in taken as FC_REV_T_FLOOR_Q8 at least), in
+ * 2^-8 of ln, bins of 2^rev_bin_shift of them (rev_bin_shift <= 7: bins up to 1/2, 16 of them
+ * cover T_in's whole branch): the stretch of the inlet's cable, the motor's position change
+ * through the stuck cable on a stiff drive, in the units of the capstan law (the cable slips
+ * where ln T_in has moved by 2 mu phi plus the breakaway, paper Eq. 1-3). A breakaway lets go at
+ * a travel of the inlet, not at a tick: a correction the table learnt by ticks moves the tick of
+ * the break and can land, on the next pass, on the other side of it (alternation over the
+ * reversal); by travel it lands at the same point of the slip. The error is credited to the
+ * travel of the tick itself (rev_lead_ticks must be 0); one fxp_ln_q28 per tick. The index now
+ * depends on the correction (r moves T_c, T_in follows, the travel moves): a loop whose gain is
+ * the table's slope the branch's way, s_b dr/dn (s_b = +1 loading, -1 unloading), over T_in, times
+ * the tension loop's |T_in / T_c|. Every update keeps s_b (r_b[k+1] - r_b[k]) <= h = 1/2 N per unit
+ * of ln (2^(rev_bin_shift + 15) in Q7.24 a bin) on both neighbours of the node updated (r_b[BINS]
+ * = 0 included), so that loop's gain is at most (1/2 N) / (1 N) = 1/2 times |T_in / T_c|, below 1
+ * for a tension loop peaking less than 6 dB: a correction never runs away along the travel (no
+ * fold, no jump of T_c). The slope the other way (which slows the travel) is not bounded. A
+ * fault's bleed rounds each node on its own (the bound may then be off by an LSB; nothing is
+ * learnt until fric_corr_reset).
  * Formats: r_b in Q7.24 N (|r| <= rev_limit <= 8 N = 2^27); d = e << (16 - rev_ki_shift) in
- * int64; the spread products < 2^50; r(n) floor in Q7.24, added to the Q.36 sum << 12. The twin
- * holds r_b as multiples of 2^-24 N below 2^53 of them: exact, bit for bit.
+ * int64; the spread products < 2^50; r(n) floor in Q7.24, added to the Q.36 sum << 12; ln T_in
+ * Q3.28 of T_in in UQ8.24 (Q7.8 << 16), the log travel in [0, 2^11) (T_in in [1, 128) N). The twin
+ * holds r_b as multiples of 2^-24 N below 2^53 of them: exact, bit for bit; the travel is the
+ * integer part's (fric_corr_rev_track, the same words).
  */
 #define FC_STUCK_TICKS 100            /* ticks of an unchanged far-end code before STUCK can latch */
 #define FC_STUCK_T_MIN_Q8 (Q7_8_ONE / 2) /* ... while T_in, above 0.5 N, left the band */
@@ -299,6 +322,8 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
 #define FC_REV_KI_MIN 2               /* rev_ki_shift in [2, 16] */
 #define FC_REV_KI_MAX 16
 #define FC_REV_BIN_MAX 6              /* rev_bin_shift in [0, 6]: bins of 1 .. 64 ticks */
+#define FC_REV_BIN_TRAVEL_MAX 7       /* ... in [0, 7] by travel: bins of 2^-8 .. 1/2 in ln T_in */
+#define FC_REV_T_FLOOR_Q8 Q7_8_ONE    /* by travel, T_in taken as 1 N at least (the slope bound) */
 #define FC_REV_LEAD_MAX 64            /* rev_lead_ticks in [0, 64] */
 #define FC_REV_LEAK_MIN 2             /* rev_leak_shift in [2, 24] */
 #define FC_REV_LEAK_MAX 24
@@ -323,7 +348,8 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
 #define FC_ERR_TARE_MAX 85 /* tare_max outside [0, 8] N */
 #define FC_ERR_GATE 86     /* slide_gate not 0 or 1 */
 #define FC_ERR_OFFSET 87   /* offset_term not 0 or 1 */
-#define FC_ERR_REV 88      /* rev_enable not 0 or 1, or a rev_* shift or lead outside its range */
+#define FC_ERR_REV 88      /* rev_enable or rev_index not 0 or 1, a rev_* shift or lead outside
+                            * its range, or a lead with rev_index 1 */
 #define FC_ERR_REV_LIMIT 89 /* rev_limit outside [0, 8] N */
 
 /* Configuration (a part of fw_config_t; parameters corr.*). */
@@ -342,6 +368,7 @@ typedef struct {
     int32_t rev_lead_ticks;  /* the error is credited this many ticks back, [0, 64] */
     int32_t rev_leak_shift;  /* leak 2^-rev_leak_shift per update of a node, [2, 24] */
     q7_8w_t rev_limit_n_q8;  /* |r_b[k]| bound, Q7.8 N, [0, 8] */
+    int32_t rev_index;       /* [0, 1]: 0 the table by ticks (default), 1 by the inlet's travel */
 } fric_corr_config_t;
 
 typedef struct {
@@ -370,6 +397,9 @@ typedef struct {
     int32_t rev_ticks;       /* ticks since that reversal began (saturating) */
     int32_t w_prev;          /* the blend of the last tick, Q1.30 (-1 before the first) */
     int32_t rev_out_q24;     /* r(n) of the last tick, Q7.24 N */
+    int32_t rev_ext_q8;      /* rev_index 1: T_in's extreme since the reversal began, Q7.8 N */
+    q3_28_t rev_ln_ext_q28;  /* rev_index 1: its ln, Q3.28 */
+    int32_t rev_travel;      /* rev_index 1: T_in's log travel from it, 2^-8 of ln, [0, 2^11) */
 } fric_corr_t;
 
 /* Defaults: off; ki_shift 6, hold_ticks 30, limit 0.5 and the slide gate off, chosen on the
@@ -397,9 +427,12 @@ int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_
 int32_t fric_corr_gate(fric_corr_t *c, int32_t t_ref_q8, int32_t t_out_q8, int32_t b);
 /* The reversal table's bookkeeping shared with the double twin: from the blend w (Q1.30,
  * clamped) finds a reversal's start (w moving the other way than the last reversal's branch)
- * and counts the ticks since; returns the branch of the reversal in progress, -1 before the
- * first. */
-int32_t fric_corr_rev_track(fric_corr_t *c, int32_t w_q30);
+ * and counts the ticks since, and from T_in (Q7.8, clamped to it) its travel since then
+ * (rev_index 1); returns the branch of the reversal in progress, -1 before the first. */
+int32_t fric_corr_rev_track(fric_corr_t *c, int32_t w_q30, int32_t t_in_q8);
+/* The reversal table's index of the tick after fric_corr_rev_track: the ticks since the
+ * reversal (rev_index 0) or T_in's log travel since it in 2^-8 of ln (rev_index 1). */
+int32_t fric_corr_rev_index(const fric_corr_t *c);
 /* The reversal table's learning condition of a tick besides the fault, tare and anti-windup:
  * the far-end code fresh (changed within FC_FRESH_TICKS ticks). */
 int32_t fric_corr_rev_may_learn(const fric_corr_t *c);

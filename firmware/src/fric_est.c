@@ -328,6 +328,7 @@ void fric_corr_config_default(fric_corr_config_t *cfg)
     cfg->rev_lead_ticks = 0;
     cfg->rev_leak_shift = 12;  /* 64 updates per reversal: 1/64 of a node per reversal */
     cfg->rev_limit_n_q8 = 2 * Q7_8_ONE;
+    cfg->rev_index = 0;        /* by ticks: the travel index is an option (fric_est.h) */
 }
 
 int32_t fric_corr_config_check(const fric_corr_config_t *cfg)
@@ -364,6 +365,14 @@ int32_t fric_corr_config_check(const fric_corr_config_t *cfg)
         cfg->rev_bin_shift > FC_REV_BIN_MAX || cfg->rev_lead_ticks < 0 ||
         cfg->rev_lead_ticks > FC_REV_LEAD_MAX || cfg->rev_leak_shift < FC_REV_LEAK_MIN ||
         cfg->rev_leak_shift > FC_REV_LEAK_MAX) {
+        /* By travel the bins may be wider (up to FC_REV_BIN_TRAVEL_MAX) and need no lead. */
+        if (cfg->rev_index != 1 || cfg->rev_bin_shift <= FC_REV_BIN_MAX ||
+            cfg->rev_bin_shift > FC_REV_BIN_TRAVEL_MAX) {
+            return FC_ERR_REV;
+        }
+    }
+    if ((cfg->rev_index != 0 && cfg->rev_index != 1) ||
+        (cfg->rev_index == 1 && cfg->rev_lead_ticks != 0)) {
         return FC_ERR_REV;
     }
     if (cfg->rev_limit_n_q8 < 0 || cfg->rev_limit_n_q8 > FC_REV_LIMIT_MAX_Q8) {
@@ -405,6 +414,9 @@ void fric_corr_reset(fric_corr_t *c)
     c->rev_ticks = 0;
     c->w_prev = -1;
     c->rev_out_q24 = 0;
+    c->rev_ext_q8 = 0;
+    c->rev_ln_ext_q28 = 0;
+    c->rev_travel = 0;
 }
 
 void fric_corr_configure(fric_corr_t *c, const fric_corr_config_t *cfg, q3_28_t x0_q28)
@@ -487,17 +499,39 @@ static inline int32_t bleed(int32_t v, int32_t s)
     return (v >= 0) ? v - ((v + r) >> s) : v + ((-v + r) >> s);
 }
 
-int32_t fric_corr_rev_track(fric_corr_t *c, int32_t w_q30)
+int32_t fric_corr_rev_track(fric_corr_t *c, int32_t w_q30, int32_t t_in_q8)
 {
     const int32_t b = (w_q30 > c->w_prev) ? 0 : 1; /* the way w moves: 0 loading */
-    if (c->w_prev >= 0 && w_q30 != c->w_prev && b != c->rev_branch) {
+    const int32_t started = (c->w_prev >= 0 && w_q30 != c->w_prev && b != c->rev_branch);
+    if (started) {
         c->rev_branch = b;
         c->rev_ticks = 0;
     } else if (c->rev_branch >= 0 && c->rev_ticks < (INT32_C(1) << 24)) {
         ++c->rev_ticks;
     }
     c->w_prev = w_q30;
+    if (c->cfg.rev_index == 0 || c->rev_branch < 0) {
+        return c->rev_branch;
+    }
+    /* By travel: T_in at least FC_REV_T_FLOOR_Q8, its ln (UQ8.24 = Q7.8 << 16 < 2^31), the
+     * extreme the branch's way back since the reversal began (the highest unloading, the lowest
+     * loading) and the log travel from it in 2^-8 of ln, >= 0 and < 2^11 (T in [1, 128) N). */
+    int32_t t = clamp16(t_in_q8);
+    t = (t < FC_REV_T_FLOOR_Q8) ? FC_REV_T_FLOOR_Q8 : t;
+    const q3_28_t lt = fxp_ln_q28((uq8_24_t)t << 16);
+    if (started || (c->rev_branch == 1 && t > c->rev_ext_q8) ||
+        (c->rev_branch == 0 && t < c->rev_ext_q8)) {
+        c->rev_ext_q8 = t;
+        c->rev_ln_ext_q28 = lt;
+    }
+    const int32_t u = (c->rev_branch == 1) ? c->rev_ln_ext_q28 - lt : lt - c->rev_ln_ext_q28;
+    c->rev_travel = (u > 0) ? (u >> 20) : 0;
     return c->rev_branch;
+}
+
+int32_t fric_corr_rev_index(const fric_corr_t *c)
+{
+    return (c->cfg.rev_index != 0) ? c->rev_travel : c->rev_ticks;
 }
 
 int32_t fric_corr_rev_may_learn(const fric_corr_t *c)
@@ -534,10 +568,27 @@ static void rev_learn(fric_corr_t *c, int32_t b, int32_t m, int32_t e_q8)
     const int64_t d = (int64_t)e_q8 * (INT64_C(1) << (16 - c->cfg.rev_ki_shift));
     const int64_t lim = (int64_t)c->cfg.rev_limit_n_q8 * (INT64_C(1) << 16);
     const int64_t share[2] = {(d * ((INT64_C(1) << s) - f)) >> s, (d * f) >> s};
+    /* By travel: s_b (r[i+1] - r[i]) <= h on both sides of the node (fric_est.h), in the
+     * branch's sign (sb v, the node seen the branch's way: |sb v| <= 2^27); h = 1/2 N per unit
+     * of ln, 2^s / 512 N a bin, Q7.24. */
+    const int64_t h = INT64_C(1) << (s + 15);
+    const int64_t sb = (b == 0) ? 1 : -1;
     for (int32_t j = 0; j < 2 && k + j < FC_REV_BINS; ++j) {
-        int64_t v = (int64_t)bleed(c->rev_q24[b][k + j], c->cfg.rev_leak_shift) + share[j];
+        const int32_t i = k + j;
+        int64_t v = (int64_t)bleed(c->rev_q24[b][i], c->cfg.rev_leak_shift) + share[j];
         v = (v > lim) ? lim : (v < -lim) ? -lim : v;
-        c->rev_q24[b][k + j] = (int32_t)v;
+        if (c->cfg.rev_index != 0) {
+            const int64_t next = (i + 1 < FC_REV_BINS) ? c->rev_q24[b][i + 1] : 0;
+            const int64_t lo = sb * next - h; /* sb r[i] >= sb r[i+1] - h */
+            int64_t u = sb * v;
+            u = (u < lo) ? lo : u;
+            if (i > 0) {
+                const int64_t hi = sb * (int64_t)c->rev_q24[b][i - 1] + h; /* sb r[i] <= .. */
+                u = (u > hi) ? hi : u;
+            }
+            v = sb * u;
+        }
+        c->rev_q24[b][i] = (int32_t)v;
     }
 }
 
@@ -575,7 +626,8 @@ int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_
         }
     }
     const int32_t slides = fric_corr_gate(c, t_ref_q8, t_out_q8, full);
-    const int32_t rb = fric_corr_rev_track(c, w_q30);
+    const int32_t rb = fric_corr_rev_track(c, w_q30, t_in_q8);
+    const int32_t rn = fric_corr_rev_index(c);
     if (c->faults != 0U) {
         for (int32_t b = 0; b < 2; ++b) {
             c->g_q28[b] = bleed(c->g_q28[b], FC_BLEED_SHIFT);
@@ -588,7 +640,7 @@ int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_
                fric_corr_rev_may_learn(c) != 0) {
         const int32_t e = t_ref_q8 - (t_out_q8 - c->tare_q8); /* |e| < 2^17 */
         if ((e > 0 && (lim & FC_LIM_HI) == 0U) || (e < 0 && (lim & FC_LIM_LO) == 0U)) {
-            rev_learn(c, rb, c->rev_ticks - c->cfg.rev_lead_ticks, e);
+            rev_learn(c, rb, rn - c->cfg.rev_lead_ticks, e);
         }
     }
     if (c->faults == 0U && c->tared != 0 && full >= 0 && c->held[full] >= c->cfg.hold_ticks &&
@@ -623,7 +675,7 @@ int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_
     const int64_t od = (int64_t)c->o_q24[0] - (int64_t)c->o_q24[1]; /* |od| <= 2^29 */
     const int64_t o = (((int64_t)c->o_q24[1] * (INT64_C(1) << 16)) + od * w16) >> 16;
     /* Q7.8 * Q3.28 = Q.36 N (|.| < 2^45), + o in Q.36 (|.| < 2^41). */
-    c->rev_out_q24 = (c->cfg.rev_enable != 0) ? rev_value(c, rb, c->rev_ticks) : 0;
+    c->rev_out_q24 = (c->cfg.rev_enable != 0) ? rev_value(c, rb, rn) : 0;
     const int64_t cq = (int64_t)t_ref_q8 * g + (o + c->rev_out_q24) * (INT64_C(1) << 12);
     c->out_q8 = (int32_t)((cq + (INT64_C(1) << 27)) >> 28);
     return c->out_q8;

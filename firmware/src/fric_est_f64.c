@@ -140,9 +140,22 @@ static void rev_learn_f64(fric_corr_f64_t *c, int32_t b, int32_t m, double e_n)
     const double lim = (double)cfg->rev_limit_n_q8 / 256.0;
     const double w = ldexp(1.0, s);
     const double share[2] = {floor(d * (w - f) / w * q24) / q24, floor(d * f / w * q24) / q24};
+    /* By travel: s_b (r[i+1] - r[i]) <= h, half a bin in N, on both sides of the node. */
+    const double h = ldexp(1.0, s) / 512.0;
+    const double sb = (b == 0) ? 1.0 : -1.0;
     for (int32_t j = 0; j < 2 && k + j < FC_REV_BINS; ++j) {
-        const double v = bleed_f64(c->rev[b][k + j], q24, cfg->rev_leak_shift) + share[j];
-        c->rev[b][k + j] = fmin(lim, fmax(-lim, v));
+        const int32_t i = k + j;
+        double v = bleed_f64(c->rev[b][i], q24, cfg->rev_leak_shift) + share[j];
+        v = fmin(lim, fmax(-lim, v));
+        if (cfg->rev_index != 0) {
+            const double next = (i + 1 < FC_REV_BINS) ? c->rev[b][i + 1] : 0.0;
+            double u = fmax(sb * v, sb * next - h);
+            if (i > 0) {
+                u = fmin(u, sb * c->rev[b][i - 1] + h);
+            }
+            v = sb * u;
+        }
+        c->rev[b][i] = v;
     }
 }
 
@@ -183,7 +196,8 @@ double fric_corr_f64_step(fric_corr_f64_t *c, int32_t t_ref_q8, int32_t t_in_q8,
         }
     }
     const int32_t slides = fric_corr_gate(b, t_ref_q8, t_out_q8, full);
-    const int32_t rb = fric_corr_rev_track(b, (int32_t)(w * 1073741824.0));
+    const int32_t rb = fric_corr_rev_track(b, (int32_t)(w * 1073741824.0), t_in_q8);
+    const int32_t rn = fric_corr_rev_index(b);
     if (b->faults != 0U) {
         const double f = ldexp(1.0, -FC_BLEED_SHIFT);
         for (int32_t k = 0; k < 2; ++k) {
@@ -200,7 +214,7 @@ double fric_corr_f64_step(fric_corr_f64_t *c, int32_t t_ref_q8, int32_t t_in_q8,
                fric_corr_rev_may_learn(b) != 0) {
         const double e_n = ((double)t_ref_q8 - ((double)t_out_q8 - (double)b->tare_q8)) / 256.0;
         if ((e_n > 0.0 && (lim & FC_LIM_HI) == 0U) || (e_n < 0.0 && (lim & FC_LIM_LO) == 0U)) {
-            rev_learn_f64(c, rb, b->rev_ticks - cfg->rev_lead_ticks, e_n);
+            rev_learn_f64(c, rb, rn - cfg->rev_lead_ticks, e_n);
         }
     }
     if (b->faults == 0U && b->tared != 0 && full >= 0 && b->held[full] >= cfg->hold_ticks &&
@@ -223,7 +237,7 @@ double fric_corr_f64_step(fric_corr_f64_t *c, int32_t t_ref_q8, int32_t t_in_q8,
     const double w16 = floor(w * 65536.0) / 65536.0;
     const double g = floor((c->g[1] + (c->g[0] - c->g[1]) * w16) * q28) / q28;
     const double o = floor((c->o[1] + (c->o[0] - c->o[1]) * w16) * q24) / q24;
-    c->rev_out = (cfg->rev_enable != 0) ? rev_value_f64(c, rb, b->rev_ticks) : 0.0;
+    c->rev_out = (cfg->rev_enable != 0) ? rev_value_f64(c, rb, rn) : 0.0;
     c->out = floor(((double)t_ref_q8 / 256.0 * g + o + c->rev_out) * 256.0 + 0.5) / 256.0;
     return c->out;
 }

@@ -467,8 +467,9 @@ const char *fw_strerror(int32_t code)
     case FC_ERR_OFFSET:
         return "corr.offset_term: must be 0 (off) or 1 (on)";
     case FC_ERR_REV:
-        return "corr.rev_*: rev_enable 0 or 1, rev_ki_shift in [2, 16], rev_bin_shift in [0, 6], "
-               "rev_lead_ticks in [0, 64], rev_leak_shift in [2, 24]";
+        return "corr.rev_*: rev_enable and rev_index 0 or 1, rev_ki_shift in [2, 16], rev_bin_shift "
+               "in [0, 6] ([0, 7] with rev_index 1), rev_lead_ticks in [0, 64] (0 with rev_index "
+               "1), rev_leak_shift in [2, 24]";
     case FC_ERR_REV_LIMIT:
         return "corr.rev_limit: outside [0, 8] N";
     default:

@@ -43,13 +43,17 @@ static double fig14_n(int32_t k)
 }
 
 /* The closed loop of the test: the compensator (paper mode, mu*phi = x0), a tension loop of the
- * first order at 20 Hz (slower than the FPGA's), a capstan plant of exponent x with its dead zone,
+ * first order at 20 Hz (slower than the FPGA's), a capstan plant of exponent x with its dead zone
+ * and, with plant_brk > 0, static friction after a reversal (the FMU's stick-slip: the output
+ * holds until T_in leaves the band e^+-(x + brk) around it, then jumps to the sliding branch),
  * and the far-end cell with an offset. */
 typedef struct {
     comp_t comp;
     double t_in;   /* N */
     double t_out;  /* N, true */
     double x;      /* the plant's mu*phi */
+    double brk;    /* the plant's breakaway exponent m_s phi (0: none) */
+    int32_t stuck; /* 1 while the output holds inside the band */
     double offset; /* far-end sensor offset, N */
     double a;      /* the tension loop's factor per tick */
     int32_t k;     /* ticks so far */
@@ -57,6 +61,10 @@ typedef struct {
 
 /* The tick from which the far-end offset reads (0: from the start, before the tare). */
 static int32_t offset_from_tick = 0;
+/* The breakaway exponent of the plants loop_init makes (0: the plain capstan). */
+static double plant_brk = 0.0;
+/* Ticks of run_loop where a reversal table by travel broke its slope bound (fric_est.h). */
+static int32_t slope_bad = 0;
 
 static void loop_init(loop_t *l, double x, double offset)
 {
@@ -64,6 +72,8 @@ static void loop_init(loop_t *l, double x, double offset)
     l->t_in = 0.0;
     l->t_out = 0.0;
     l->x = x;
+    l->brk = plant_brk;
+    l->stuck = 0;
     l->offset = offset;
     l->a = 1.0 - exp(-2.0 * PI_D * 20.0 / 1000.0);
     l->k = 0;
@@ -74,9 +84,18 @@ static int32_t loop_tick(loop_t *l, int32_t tref, int32_t *tc_out)
 {
     int32_t tc = comp_step_q7_8(&l->comp, (q7_8_t)tref);
     l->t_in += l->a * ((double)tc / 256.0 - l->t_in);
-    double lo = l->t_in * exp(-l->x);
-    double hi = l->t_in * exp(l->x);
-    l->t_out = (l->t_out < lo) ? lo : (l->t_out > hi) ? hi : l->t_out;
+    double w = l->x + ((l->stuck != 0) ? l->brk : 0.0);
+    double lo = l->t_in * exp(-w);
+    double hi = l->t_in * exp(w);
+    if (l->t_out < lo) {
+        l->t_out = l->t_in * exp(-l->x); /* slides (after a breakaway: jumps) on loading */
+        l->stuck = 0;
+    } else if (l->t_out > hi) {
+        l->t_out = l->t_in * exp(l->x);
+        l->stuck = 0;
+    } else if (l->t_out > lo && l->t_out < hi) {
+        l->stuck = 1;
+    }
     *tc_out = tc;
     return q8(l->t_out + ((l->k++ >= offset_from_tick) ? l->offset : 0.0));
 }
@@ -93,6 +112,23 @@ static fric_corr_config_t on_config(void)
     fric_corr_config_default(&c);
     c.enable = 1;
     return c;
+}
+
+/* Nodes of the reversal tables by travel whose step the branch's way exceeds the bound
+ * (s_b (r[k+1] - r[k]) <= h = 2^(rev_bin_shift + 15) in Q7.24, 1/2 N per unit of ln, r[BINS] = 0:
+ * fric_est.h). */
+static int32_t rev_slope_bad(const fric_corr_t *c)
+{
+    const int64_t h = INT64_C(1) << (c->cfg.rev_bin_shift + 15);
+    int32_t bad = 0;
+    for (int32_t b = 0; b < 2; ++b) {
+        const int64_t sb = (b == 0) ? 1 : -1;
+        for (int32_t k = 0; k < FC_REV_BINS; ++k) {
+            const int64_t next = (k + 1 < FC_REV_BINS) ? c->rev_q24[b][k + 1] : 0;
+            bad += (sb * (next - (int64_t)c->rev_q24[b][k]) > h) ? 1 : 0;
+        }
+    }
+    return bad;
 }
 
 /* Runs fig14 through the loop with the correction (integer) driving the compensator and its twin
@@ -141,6 +177,7 @@ static double run_loop(const fric_corr_config_t *cfg, double x_plant, double off
                     bad += ((double)c.rev_q24[b][j] != f.rev[b][j] * 16777216.0) ? 1 : 0;
                 }
             }
+            slope_bad += (cfg->rev_index != 0 && c.faults == 0U) ? rev_slope_bad(&c) : 0;
             comp_set_correction_q8(&l.comp, v);
         }
         tout = loop_tick(&l, tref, &tc);
@@ -505,6 +542,208 @@ static void test_corr_rev_fault_bleeds(void)
     }
 }
 
+#define PASS_SECONDS 20 /* fig14 for 20 s: ten passes over each reversal */
+
+/* fig14 for PASS_SECONDS s through the loop with the correction on (cfg) or off, on the loop's
+ * plant of exponent x_plant with the breakaway plant_brk; the largest |T_out - T_ref| of each
+ * second (each holds one reversal: the bottoms at even seconds, the tops at odd ones) in
+ * peak_n[], N; the correction's state at the end in *out_state. Returns the RMS of T_out - T_ref
+ * over the last 4 s, N. */
+static double run_passes(const fric_corr_config_t *cfg, double x_plant, int32_t on,
+                         double peak_n[PASS_SECONDS], fric_corr_t *out_state)
+{
+    loop_t l;
+    loop_init(&l, x_plant, 0.0);
+    fric_corr_t c;
+    fric_corr_configure(&c, cfg, (q3_28_t)comp_config_exponent_q28(&l.comp.cfg));
+    int32_t tc = 0;
+    int32_t tout = 0;
+    double sum2 = 0.0;
+    int32_t n = 0;
+    for (int32_t i = 0; i < PASS_SECONDS; ++i) {
+        peak_n[i] = 0.0;
+    }
+    for (int32_t k = 0; k < PASS_SECONDS * 1000; ++k) {
+        const int32_t tref = q8(fig14_n(k));
+        if (on != 0) {
+            const uint32_t lim = (tc <= 0) ? FC_LIM_LO : 0U;
+            const int32_t v = fric_corr_step(&c, comp_applied_ref_q8(&l.comp), q8(l.t_in), tout,
+                                             code_of(tout), CODE_MIN, CODE_MAX, 0U,
+                                             comp_blend_q1_30(&l.comp), lim);
+            comp_set_correction_q8(&l.comp, v);
+            slope_bad += (cfg->rev_index != 0) ? rev_slope_bad(&c) : 0;
+        }
+        tout = loop_tick(&l, tref, &tc);
+        const double e = l.t_out - (double)tref / 256.0;
+        const int32_t i = k / 1000;
+        peak_n[i] = (fabs(e) > peak_n[i]) ? fabs(e) : peak_n[i];
+        if (k >= PASS_SECONDS * 1000 - 4000) {
+            sum2 += e * e;
+            ++n;
+        }
+    }
+    if (out_state != 0) {
+        *out_state = c;
+    }
+    return sqrt(sum2 / (double)n);
+}
+
+/* The reversal table by travel equals its twin bit for bit (both tables, r(n), c, g, faults) at
+ * every tick with each of its parameters at the ends of its range, plants on both sides and one
+ * with a breakaway, a fault from 6 s; and no table breaks its slope bound before the fault. */
+static void test_corr_rev_travel_twin_bit_exact(void)
+{
+    const int32_t kis[] = {FC_REV_KI_MIN, 4, FC_REV_KI_MAX};
+    const int32_t bins[] = {0, 5, FC_REV_BIN_TRAVEL_MAX};
+    const int32_t leaks[] = {FC_REV_LEAK_MIN, 12, FC_REV_LEAK_MAX};
+    const int32_t limits[] = {0, 2 * Q7_8_ONE, FC_REV_LIMIT_MAX_Q8};
+    const double x0 = 0.075 * 2.0 * PI_D;
+    for (int32_t i = 0; i < 3; ++i) {
+        for (int32_t j = 0; j < 3; ++j) {
+            for (int32_t s = -1; s <= 1; ++s) {
+                fric_corr_config_t cfg = rev_config();
+                cfg.rev_index = 1;
+                cfg.rev_ki_shift = kis[i];
+                cfg.rev_bin_shift = bins[j];
+                cfg.rev_leak_shift = leaks[(i + 2 * j) % 3];
+                cfg.rev_limit_n_q8 = limits[(2 * i + j + 1) % 3];
+                plant_brk = (s == 0) ? 0.034 * 2.0 * PI_D : 0.0;
+                int32_t bad = 0;
+                slope_bad = 0;
+                (void)run_loop(&cfg, x0 * (1.0 + 0.3 * s), 0.2 * s, 1, 6000, &bad, 0, 0);
+                CHECK(bad == 0, "travel ki %d bin %d: %d values differ from the twin", kis[i],
+                      bins[j], bad);
+                CHECK(slope_bad == 0, "travel ki %d bin %d: slope bound broken %d times",
+                      kis[i], bins[j], slope_bad);
+            }
+        }
+    }
+    plant_brk = 0.0;
+}
+
+/* The table by travel on plants with a breakaway (the loop's stick-slip, m_s 0.02 and 0.034 of
+ * phi 2 pi, friction 30 % off either way or right), over ten passes of each reversal: it neither
+ * rings nor winds up. Over the last six passes of each reversal the peak error moves one way
+ * (no two successive changes of opposite signs both above 0.02 N; the largest such pair measured
+ * is +-0.016 N: a correction that moved the break from pass to pass would alternate); the last top's peak (the breakaway's, 1.75-2.96 N) is
+ * no larger than the table by ticks' on the same plant (0.02-0.34 N lower; budget +0.01 N), the
+ * last bottom's within 0.02 N of it (budget 0.03 N); the RMS of the last 4 s is below the
+ * feedforward's alone (0.28-0.55 N against 0.32-1.40 N); no node is at its bound and the slope
+ * bound holds at every tick. Bins of 1/4 in ln (rev_bin_shift 6). */
+static void test_corr_rev_travel_settles_on_breakaway(void)
+{
+    const double x0 = 0.075 * 2.0 * PI_D;
+    const double brks[] = {0.02 * 2.0 * PI_D, 0.034 * 2.0 * PI_D};
+    for (int32_t ib = 0; ib < 2; ++ib) {
+        for (int32_t s = -1; s <= 1; ++s) {
+            plant_brk = brks[ib];
+            fric_corr_config_t cfg = rev_config();
+            cfg.rev_index = 1;
+            cfg.rev_bin_shift = 6;
+            double pk[PASS_SECONDS];
+            double pk_ff[PASS_SECONDS];
+            double pk_ticks[PASS_SECONDS];
+            fric_corr_t st;
+            slope_bad = 0;
+            const double rms = run_passes(&cfg, x0 * (1.0 + 0.3 * s), 1, pk, &st);
+            const int32_t slope_travel = slope_bad;
+            const double rms_ff = run_passes(&cfg, x0 * (1.0 + 0.3 * s), 0, pk_ff, 0);
+            fric_corr_config_t ticks = rev_config();
+            (void)run_passes(&ticks, x0 * (1.0 + 0.3 * s), 1, pk_ticks, 0);
+            for (int32_t r = 0; r < 2; ++r) { /* r 0: the bottoms, 1: the tops */
+                int32_t flips = 0;
+                double d_prev = 0.0;
+                for (int32_t i = PASS_SECONDS - 12 + r + 2; i < PASS_SECONDS; i += 2) {
+                    const double d = pk[i] - pk[i - 2];
+                    flips += (fabs(d) > 0.02 && fabs(d_prev) > 0.02 && d * d_prev < 0.0) ? 1 : 0;
+                    d_prev = d;
+                }
+                const double last = pk[PASS_SECONDS - 2 + r];
+                const double last_ticks = pk_ticks[PASS_SECONDS - 2 + r];
+                CHECK(flips == 0, "brk %.3f plant %+.0f %% reversal %d: the peak alternates "
+                      "across passes (%d flips)", brks[ib], 30.0 * s, r, flips);
+                CHECK(last <= last_ticks + ((r == 1) ? 0.01 : 0.03), "brk %.3f plant %+.0f %% "
+                      "reversal %d: last peak %.3f N, by ticks %.3f N", brks[ib], 30.0 * s, r,
+                      last, last_ticks);
+            }
+            CHECK(rms < rms_ff, "brk %.3f plant %+.0f %%: RMS %.3f N, feedforward %.3f N",
+                  brks[ib], 30.0 * s, rms, rms_ff);
+            CHECK(rev_inside(&st), "brk %.3f plant %+.0f %%: a node at its bound (wound up)",
+                  brks[ib], 30.0 * s);
+            CHECK(slope_travel == 0, "brk %.3f plant %+.0f %%: slope bound broken %d times",
+                  brks[ib], 30.0 * s, slope_travel);
+        }
+    }
+    plant_brk = 0.0;
+}
+
+/* The table by travel at full scale: T_in swinging between the most negative and the most
+ * positive word (a travel of 2^16 - 1 LSB, past the widest table's end), reversals every 100
+ * ticks, full-scale errors of both signs, the fastest rate, the widest and the narrowest bins and
+ * the largest bound: bit for bit with the twin, every node within its bound and the slope bound;
+ * against a command limit (FC_LIM_HI with an error that asks for more, FC_LIM_LO with one that
+ * asks for less) no node moves at all (no wind-up at saturation). */
+static void test_corr_rev_travel_full_scale(void)
+{
+    const int32_t refs[] = {Q7_8_MAX, Q7_8_MIN};
+    const int32_t outs[] = {Q7_8_MIN, Q7_8_MAX};
+    const uint32_t lims[] = {FC_LIM_HI, FC_LIM_LO};
+    const int32_t bins[] = {0, FC_REV_BIN_TRAVEL_MAX};
+    const int32_t one = (int32_t)Q1_30_ONE;
+    for (int32_t i = 0; i < 2; ++i) {
+        for (int32_t j = 0; j < 2; ++j) {
+            for (int32_t limited = 0; limited <= 1; ++limited) {
+                fric_corr_config_t cfg = rev_config();
+                cfg.tare_ticks = 1;
+                cfg.rev_index = 1;
+                cfg.rev_ki_shift = FC_REV_KI_MIN;
+                cfg.rev_bin_shift = bins[j];
+                cfg.rev_limit_n_q8 = FC_REV_LIMIT_MAX_Q8;
+                fric_corr_t c;
+                fric_corr_f64_t f;
+                fric_corr_configure(&c, &cfg, (q3_28_t)(0.47 * Q28));
+                fric_corr_f64_configure(&f, &cfg, (q3_28_t)(0.47 * Q28));
+                tare_at_zero(&c);
+                (void)fric_corr_f64_step(&f, 0, 0, 0, 0, CODE_MIN, CODE_MAX, 0U, 0, 0U);
+                int32_t bad = 0;
+                int32_t moved = 0;
+                int32_t outside = 0;
+                const int32_t lim_q24 = FC_REV_LIMIT_MAX_Q8 * 65536;
+                for (int32_t k = 0; k < 1000; ++k) {
+                    const int32_t up = ((k / 100) & 1) == 0;
+                    const int32_t ph = k % 100;
+                    const int32_t w = up ? (ph * (one / 100)) : one - ph * (one / 100);
+                    const int32_t span = Q7_8_MAX - Q7_8_MIN;
+                    const int32_t tin = up ? Q7_8_MIN + span / 99 * ph : Q7_8_MAX - span / 99 * ph;
+                    const uint32_t lim = (limited != 0) ? lims[i] : 0U;
+                    const int32_t code = k & 1; /* a live cell */
+                    const int32_t v = fric_corr_step(&c, refs[i], tin, outs[i], code, CODE_MIN,
+                                                     CODE_MAX, 0U, w, lim);
+                    const double vf = fric_corr_f64_step(&f, refs[i], tin, outs[i], code,
+                                                         CODE_MIN, CODE_MAX, 0U, w, lim);
+                    bad += ((double)v != vf * 256.0 ||
+                            (double)c.rev_out_q24 != f.rev_out * 16777216.0) ? 1 : 0;
+                    for (int32_t b = 0; b < 2; ++b) {
+                        for (int32_t n = 0; n < FC_REV_BINS; ++n) {
+                            bad += ((double)c.rev_q24[b][n] != f.rev[b][n] * 16777216.0) ? 1 : 0;
+                            moved += (c.rev_q24[b][n] != 0) ? 1 : 0;
+                            outside += (c.rev_q24[b][n] > lim_q24 || c.rev_q24[b][n] < -lim_q24)
+                                           ? 1 : 0;
+                        }
+                    }
+                    bad += rev_slope_bad(&c);
+                }
+                CHECK(bad == 0 && outside == 0, "full scale %d bin %d lim %d: %d differences "
+                      "or slope breaks, %d nodes out of bounds", i, bins[j], limited, bad,
+                      outside);
+                CHECK((limited != 0) ? (moved == 0) : (moved > 0), "full scale %d bin %d lim %d: "
+                      "%d node-ticks moved", i, bins[j], limited, moved);
+                CHECK(c.faults == 0U, "full scale %d: faults 0x%x", i, c.faults);
+            }
+        }
+    }
+}
+
 /* RANGE, STUCK and TARE faults, and no STUCK in a dead zone (T_out held, T_in within the band). */
 static void test_corr_fault_kinds(void)
 {
@@ -565,14 +804,15 @@ static void test_corr_config_check(void)
         {10, FC_REV_BIN_MAX + 1, FC_ERR_REV}, {11, -1, FC_ERR_REV},
         {11, FC_REV_LEAD_MAX + 1, FC_ERR_REV}, {12, FC_REV_LEAK_MIN - 1, FC_ERR_REV},
         {12, FC_REV_LEAK_MAX + 1, FC_ERR_REV}, {13, -1, FC_ERR_REV_LIMIT},
-        {13, FC_REV_LIMIT_MAX_Q8 + 1, FC_ERR_REV_LIMIT},
+        {13, FC_REV_LIMIT_MAX_Q8 + 1, FC_ERR_REV_LIMIT}, {14, 2, FC_ERR_REV},
+        {14, -1, FC_ERR_REV},
     };
     for (uint32_t i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
         fric_corr_config_t c = d;
         int32_t *f[] = {&c.enable,     &c.ki_shift,      &c.hold_ticks, &c.limit_q28,
                         &c.tare_ticks, &c.tare_max_n_q8, &c.slide_gate, &c.offset_term,
                         &c.rev_enable, &c.rev_ki_shift, &c.rev_bin_shift, &c.rev_lead_ticks,
-                        &c.rev_leak_shift, &c.rev_limit_n_q8};
+                        &c.rev_leak_shift, &c.rev_limit_n_q8, &c.rev_index};
         *f[cases[i].field] = cases[i].value;
         CHECK(fric_corr_config_check(&c) == cases[i].code, "case %u: %d", i,
               fric_corr_config_check(&c));
@@ -603,6 +843,20 @@ static void test_corr_config_check(void)
     c.rev_leak_shift = FC_REV_LEAK_MIN;
     c.rev_limit_n_q8 = 0;
     CHECK(fric_corr_config_check(&c) == FE_OK, "lower ends refused");
+    /* By travel: bins up to FC_REV_BIN_TRAVEL_MAX, no lead. */
+    c.rev_index = 1;
+    c.rev_bin_shift = FC_REV_BIN_TRAVEL_MAX;
+    CHECK(fric_corr_config_check(&c) == FE_OK, "travel: widest bins refused");
+    c.rev_bin_shift = FC_REV_BIN_TRAVEL_MAX + 1;
+    CHECK(fric_corr_config_check(&c) == FC_ERR_REV, "travel: bins too wide accepted");
+    c.rev_bin_shift = -1;
+    CHECK(fric_corr_config_check(&c) == FC_ERR_REV, "travel: negative bins accepted");
+    c.rev_bin_shift = 0;
+    c.rev_lead_ticks = 1;
+    CHECK(fric_corr_config_check(&c) == FC_ERR_REV, "travel: a lead accepted");
+    c.rev_index = 0;
+    c.rev_bin_shift = FC_REV_BIN_MAX + 1;
+    CHECK(fric_corr_config_check(&c) == FC_ERR_REV, "ticks: travel's bins accepted");
     fw_config_t fc;
     fw_config_default(&fc);
     fc.corr.ki_shift = 3;
@@ -674,6 +928,9 @@ const unit_test_t fric_corr_tests[] = {
     {"fric_corr_rev_learns_across_reversals", test_corr_rev_learns_across_reversals},
     {"fric_corr_rev_bounded_on_the_integrators", test_corr_rev_bounded_on_the_integrators},
     {"fric_corr_rev_fault_bleeds", test_corr_rev_fault_bleeds},
+    {"fric_corr_rev_travel_twin_bit_exact", test_corr_rev_travel_twin_bit_exact},
+    {"fric_corr_rev_travel_settles_on_breakaway", test_corr_rev_travel_settles_on_breakaway},
+    {"fric_corr_rev_travel_full_scale", test_corr_rev_travel_full_scale},
     {"fric_corr_config_check", test_corr_config_check},
     {"fric_corr_fw_tick", test_corr_fw_tick},
 };

@@ -314,9 +314,10 @@ def test_sim_words_are_the_words_the_cosimulation_gives_the_firmware():
             "corr_rev_enable": 1,
             "corr_rev_ki_shift": 5,
             "corr_rev_bin_shift": 4,
-            "corr_rev_lead_ticks": 3,
+            "corr_rev_lead_ticks": 0,  # by travel (corr_rev_index 1) the lead must be 0
             "corr_rev_leak_shift": 10,
             "corr_rev_limit_n": 1.5,
+            "corr_rev_index": 1,
             "dead_zone_spread": 0.35,
             "breakaway": 0.02,
         },
