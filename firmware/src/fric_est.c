@@ -360,19 +360,14 @@ int32_t fric_corr_config_check(const fric_corr_config_t *cfg)
     if (cfg->offset_term != 0 && cfg->offset_term != 1) {
         return FC_ERR_OFFSET;
     }
-    if ((cfg->rev_enable != 0 && cfg->rev_enable != 1) || cfg->rev_ki_shift < FC_REV_KI_MIN ||
+    /* By travel the bins may be wider (up to FC_REV_BIN_TRAVEL_MAX) and take no lead. */
+    const int32_t bin_max = (cfg->rev_index == 1) ? FC_REV_BIN_TRAVEL_MAX : FC_REV_BIN_MAX;
+    const int32_t lead_max = (cfg->rev_index == 1) ? 0 : FC_REV_LEAD_MAX;
+    if ((cfg->rev_enable != 0 && cfg->rev_enable != 1) ||
+        (cfg->rev_index != 0 && cfg->rev_index != 1) || cfg->rev_ki_shift < FC_REV_KI_MIN ||
         cfg->rev_ki_shift > FC_REV_KI_MAX || cfg->rev_bin_shift < 0 ||
-        cfg->rev_bin_shift > FC_REV_BIN_MAX || cfg->rev_lead_ticks < 0 ||
-        cfg->rev_lead_ticks > FC_REV_LEAD_MAX || cfg->rev_leak_shift < FC_REV_LEAK_MIN ||
-        cfg->rev_leak_shift > FC_REV_LEAK_MAX) {
-        /* By travel the bins may be wider (up to FC_REV_BIN_TRAVEL_MAX) and need no lead. */
-        if (cfg->rev_index != 1 || cfg->rev_bin_shift <= FC_REV_BIN_MAX ||
-            cfg->rev_bin_shift > FC_REV_BIN_TRAVEL_MAX) {
-            return FC_ERR_REV;
-        }
-    }
-    if ((cfg->rev_index != 0 && cfg->rev_index != 1) ||
-        (cfg->rev_index == 1 && cfg->rev_lead_ticks != 0)) {
+        cfg->rev_bin_shift > bin_max || cfg->rev_lead_ticks < 0 || cfg->rev_lead_ticks > lead_max ||
+        cfg->rev_leak_shift < FC_REV_LEAK_MIN || cfg->rev_leak_shift > FC_REV_LEAK_MAX) {
         return FC_ERR_REV;
     }
     if (cfg->rev_limit_n_q8 < 0 || cfg->rev_limit_n_q8 > FC_REV_LIMIT_MAX_Q8) {

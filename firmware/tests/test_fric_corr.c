@@ -854,6 +854,11 @@ static void test_corr_config_check(void)
     c.rev_bin_shift = 0;
     c.rev_lead_ticks = 1;
     CHECK(fric_corr_config_check(&c) == FC_ERR_REV, "travel: a lead accepted");
+    c.rev_lead_ticks = 0;
+    c.rev_bin_shift = FC_REV_BIN_TRAVEL_MAX;
+    c.rev_ki_shift = FC_REV_KI_MAX + 1;
+    CHECK(fric_corr_config_check(&c) == FC_ERR_REV, "travel: a bad rate with wide bins accepted");
+    c.rev_ki_shift = FC_REV_KI_MIN;
     c.rev_index = 0;
     c.rev_bin_shift = FC_REV_BIN_MAX + 1;
     CHECK(fric_corr_config_check(&c) == FC_ERR_REV, "ticks: travel's bins accepted");
