@@ -62,4 +62,5 @@ const proto_param_t params_table[PROTO_N_PARAMS] = {
     {0xD89D0E10UL, (uint16_t)offsetof(settings_t, fw.corr.rev_limit_n_q8), PROTO_PARAM_I32, 0u}, /* 55: corr.rev_limit_n */
     {0xB12D36C8UL, (uint16_t)offsetof(settings_t, fw.comp.dead_zone_spread_q28), PROTO_PARAM_I32, 0u}, /* 56: comp.dead_zone_spread */
     {0xA88BFFD6UL, (uint16_t)offsetof(settings_t, fw.comp.breakaway_q28), PROTO_PARAM_I32, 0u}, /* 57: comp.breakaway */
+    {0x586CA78CUL, (uint16_t)offsetof(settings_t, fw.corr.rev_index), PROTO_PARAM_I32, 0u}, /* 58: corr.rev_index */
 };

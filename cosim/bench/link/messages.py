@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PROTOCOL_VERSION = 3
-TABLE_HASH = 0x442981DB
+TABLE_HASH = 0xD32902CF
 MAX_PAYLOAD = 48
 CAN_NODE_BITS = 6
 CAN_MESSAGE_BITS = 5
@@ -1511,6 +1511,23 @@ PARAMS: tuple[Param, ...] = (
         67108864,
         False,
     ),
+    Param(
+        58,
+        "corr.rev_index",
+        "fw.corr.rev_index",
+        False,
+        0,
+        "",
+        None,
+        False,
+        -2147483648,
+        2147483647,
+        0x586CA78C,
+        "[0, 1]: 0 the table by ticks (default), 1 by the inlet's travel",
+        0,
+        1,
+        False,
+    ),
 )
 PARAM_BY_NAME: dict[str, Param] = {p.name: p for p in PARAMS}
 
@@ -1558,6 +1575,7 @@ SIM_TO_DEVICE: dict[str, str] = {
     "compensator.corr_rev_lead_ticks": "corr.rev_lead_ticks",
     "compensator.corr_rev_leak_shift": "corr.rev_leak_shift",
     "compensator.corr_rev_limit_n": "corr.rev_limit_n",
+    "compensator.corr_rev_index": "corr.rev_index",
     "compensator.dead_zone_spread": "comp.dead_zone_spread",
     "compensator.breakaway": "comp.breakaway",
 }
