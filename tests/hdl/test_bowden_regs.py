@@ -117,4 +117,5 @@ def test_bowden_regs(simulator, stages):
         parameters={"RD_STAGES": stages},
         tag=f"rd{stages}",
         extra_env={"BOWDEN_RD_STAGES": str(stages)},
+        optimize=False,
     )

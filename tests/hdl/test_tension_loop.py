@@ -489,4 +489,5 @@ def test_tension_loop(simulator):
         "test_tension_loop",
         rtl("tension_loop", "tension_loop_dp", "mul_s16"),
         simulator,
+        optimize=False,
     )

@@ -385,4 +385,5 @@ def test_tension_loop_mc(simulator, config):
         parameters={"N": len(groups), "GROUP": f"{len(groups) * GROUP_W}'h{group:x}"},
         tag=config,
         extra_env={"TENSION_LOOP_MC_CONFIG": config},
+        optimize=False,
     )
