@@ -36,6 +36,7 @@
 /* System. */
 #define SOC_SYS_CLK_HZ 0x30U /* the SoC's clock in Hz (RO) */
 #define SOC_SYS_MARK 0x34U   /* WO: [7:0] the firmware's phase (the simulation probes it) */
+#define SOC_SYS_CHANNELS 0x38U /* the cables the SoC drives (RO): register banks 0 .. n - 1 */
 /* CRC-32C unit (soc_crc32c.v; crc32c.h's CRC32C_UNIT_ADDR, which the build sets to
  * SOC_IO_BASE + SOC_CRC_STATE): a byte written to DATA is taken in the next 8 clocks, and an
  * access meanwhile waits for it. */

@@ -1,10 +1,10 @@
 """The boards: one table of their facts that every flow reads.
 
 Each board's FPGA (family, nextpnr's device option, package, speed grade, LUT4s) and, for each of
-its two designs, the top module, the pin file and the target clock: `rtl` is the tension loop's
-top for an external MCU (`make synth`, hdl/synth/synth.py), `soc` the top with the RISC-V
-firmware inside (`make bitstream`, hdl/soc/bitstream.py). bowden.core (FuseSoC) writes the same
-facts in its own form; tests/test_packaging.py fails when the two differ.
+its two designs, the top module, the pin file, the target clock and the cables it drives: `rtl`
+is the tension loop's top for an external MCU (`make synth`, hdl/synth/synth.py), `soc` the top
+with the RISC-V firmware inside (`make bitstream`, hdl/soc/bitstream.py). bowden.core (FuseSoC)
+writes the same facts in its own form; tests/test_packaging.py fails when the two differ.
 """
 
 from __future__ import annotations
@@ -34,12 +34,13 @@ class Device:
 
 @dataclass(frozen=True)
 class Design:
-    """One top of a board: its module, pin file and target clock."""
+    """One top of a board: its module, pin file, target clock and the cables it drives."""
 
     top: str
     constraints: Path
     target_mhz: float
     nextpnr_options: tuple[str, ...] = ()  # beyond the device's (flow choices of this top)
+    channels: int = 1  # cables: the top's CHANNELS parameter, with pins for each in `constraints`
 
 
 @dataclass(frozen=True)
@@ -64,13 +65,21 @@ BOARDS = {
         # Without --opt-timing: on this 93 % full device it cost routability, seed 4 measured
         # 238 s of routing at 25.13 MHz with it and 142 s at 26.30 MHz without (hdl/README.md
         # "Bitstreams").
-        soc=Design("ice40_up5k_soc_top", HDL / "soc" / "boards" / "ice40_up5k_soc.pcf", 24.0),
+        # One cable: the pins and the RTL hold two (an antagonistic pair on one ADS131M04,
+        # hdl/README.md "Sensing"), but two cables take 6830 logic cells of the 5280
+        # (hdl/README.md "Bitstreams").
+        soc=Design(
+            "ice40_up5k_soc_top", HDL / "soc" / "boards" / "ice40_up5k_soc.pcf", 24.0, channels=1
+        ),
     ),
     "ecp5-25f": Board(
         name="ecp5-25f",
         kit="ULX3S",
         fpga=ECP5_25F,
         rtl=Design("ecp5_25f_top", HDL / "boards" / "ecp5_25f.lpf", 100.0),
-        soc=Design("ecp5_25f_soc_top", HDL / "soc" / "boards" / "ecp5_25f_soc.lpf", 25.0),
+        # Four cables, two antagonistic pairs on one ADS131M08 (hdl/README.md "Sensing").
+        soc=Design(
+            "ecp5_25f_soc_top", HDL / "soc" / "boards" / "ecp5_25f_soc.lpf", 25.0, channels=4
+        ),
     ),
 }

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Bitstreams of bowden_soc for both boards (make bitstream): yosys, nextpnr, icepack / ecppack.
 
-    python -m hdl.soc.bitstream [--all | BOARD ...] [--force] [--bench] [--fit]
+    python -m hdl.soc.bitstream [--all | BOARD ...] [--force] [--bench] [--fit [--channels N]]
 
 Writes build/bitstream/<board>/: the bitstream (ice40-up5k: bowden.bin; ecp5-25f: bowden.bit,
 the firmware image inside it), summary.json (LUTs, flip-flops, DSPs, block and single-port RAMs,
@@ -12,12 +12,14 @@ hdl/synth/synth.py in order and stops at the first that meets the target, as `ma
 does. A board whose inputs (sources, constraints, this script, for the ECP5 the image) are
 unchanged since its last run is not built again. --bench prints the figures beside the
 previous run's. --fit stops after nextpnr's packer: the logic cells against the device's, in
-seconds (make test checks the UP5K so; its place and route take minutes).
+seconds (make test checks the UP5K so; its place and route take minutes); with --channels, for
+that many cables rather than the board table's count.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import hashlib
 import json
 import shutil
@@ -51,6 +53,7 @@ class Board:
     target_mhz: float
     lut_capacity: int
     image_in_bitstream: bool
+    channels: int  # cables (the top's CHANNELS, set by synthesize())
 
 
 # Where each board's firmware image lives: in the ECP5's bitstream (block RAM it initialises), or
@@ -69,6 +72,7 @@ def board_of(b: table.Board) -> Board:
         target_mhz=b.soc.target_mhz,
         lut_capacity=b.fpga.luts,
         image_in_bitstream=IMAGE_IN_BITSTREAM[b.name],
+        channels=b.soc.channels,
     )
 
 
@@ -116,6 +120,7 @@ def input_hash(board: Board) -> str:
     for path in [*sources(board), board.constraints, Path(__file__), Path(table.__file__), *extra]:
         h.update(path.name.encode())
         h.update(path.read_bytes())
+    h.update(f"CHANNELS={board.channels}".encode())  # --channels changes the design, not a file
     return h.hexdigest()[:16]
 
 
@@ -123,13 +128,14 @@ def synthesize(board: Board, out: Path) -> float:
     """yosys alone for `board` into out/: netlist.json (for nextpnr) and, for the iCE40,
     netlist.v (the gate-level simulation's). Returns the seconds yosys took."""
     out.mkdir(parents=True, exist_ok=True)
-    before = after = ""
+    before = f"chparam -set CHANNELS {board.channels} {board.top}; "
+    after = ""
     if board.image_in_bitstream:
         shutil.copyfile(FW / "bowden_fw.hex", out / "bowden_fw.hex")
-        before = f'chparam -set ROM_INIT "bowden_fw.hex" {board.top}; '
+        before += f'chparam -set ROM_INIT "bowden_fw.hex" {board.top}; '
     else:  # the boot loader, in a block RAM the bitstream initialises
         shutil.copyfile(FW / "boot.hex", out / "boot.hex")
-        before = f'chparam -set BOOT_INIT "boot.hex" {board.top}; '
+        before += f'chparam -set BOOT_INIT "boot.hex" {board.top}; '
     if board.family == "ice40":
         after = "write_verilog -noattr netlist.v; "  # the gate-level simulation's netlist
     return yosys(out, sources(board), board.top, board.family, "netlist.json", before, after)
@@ -207,6 +213,7 @@ def build(board: Board) -> dict:
     summary = {
         "board": board.name,
         "top": board.top,
+        "channels": board.channels,
         "cpu": CPU,
         "luts": luts,
         "lut_capacity": board.lut_capacity,
@@ -237,20 +244,28 @@ def build(board: Board) -> dict:
     return summary
 
 
-def check_fit(names: list[str]) -> int:
-    """--fit: each board's logic cells against its device; 1 when one does not fit."""
+def check_fit(names: list[str], channels: int | None = None) -> int:
+    """--fit: each board's logic cells against its device; 1 when one does not fit. `channels`
+    (--channels) sizes the design for that many cables instead of the board table's count."""
     status = 0
     for name in names:
+        board = BOARDS[name]
         out = BUILD / name / "fit"
+        if channels is not None and channels != board.channels:
+            board = dataclasses.replace(board, channels=channels)
+            out = BUILD / name / f"fit-{channels}ch"
         out.mkdir(parents=True, exist_ok=True)
         try:
-            used, avail = fit(BOARDS[name], out)
+            used, avail = fit(board, out)
         except SystemExit as exc:
             print(f"bitstream: FAILED: {name}: {str(exc).splitlines()[0]}", file=sys.stderr)
             status = 1
             continue
         verdict = "fits" if used <= avail else "does not fit"
-        print(f"{name}: {verdict}: {used} of {avail} logic cells ({100 * used / avail:.1f} %)")
+        print(
+            f"{name}: {verdict}: {used} of {avail} logic cells ({100 * used / avail:.1f} %), "
+            f"{board.channels} cable{'s' if board.channels > 1 else ''}"
+        )
         status |= used > avail
     return status
 
@@ -267,7 +282,16 @@ def main(argv: list[str] | None = None) -> int:
         help="synthesis and nextpnr's packer only (build/bitstream/<board>/fit/): the logic cells "
         "used, whether the board fits; no bitstream",
     )
+    ap.add_argument(
+        "--channels",
+        type=int,
+        choices=(1, 2, 4),
+        help="with --fit: the cables to size the design for, instead of the board table's "
+        "(build/bitstream/<board>/fit-<n>ch/; at most the pins the board's top has)",
+    )
     args = ap.parse_args(argv)
+    if args.channels is not None and not args.fit:
+        ap.error("--channels goes with --fit (a bitstream is built for the board table's count)")
     names = list(BOARDS) if args.all or not args.boards else args.boards
     for name in names:
         if name not in BOARDS:
@@ -279,7 +303,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         return 2
     if args.fit:
-        return check_fit(names)
+        return check_fit(names, args.channels)
     failed = []
     for name in names:
         board = BOARDS[name]

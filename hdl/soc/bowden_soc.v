@@ -10,10 +10,19 @@
  *
  *   picorv32 --+-- 0x0000_0000 ROM: the image ($readmemh of ROM_INIT, or written by the boot loader)
  *              +-- 0x1000_0000 RAM: data and stack
- *              +-- 0x2000_0000 bowden_core's register map (AXI4-Lite via picorv32_axi_adapter)
+ *              +-- 0x2000_0000 the core's register map, a bank a cable (AXI4-Lite via
+ *                              picorv32_axi_adapter)
  *              +-- 0x3000_0000 UART (bench protocol), timer (the 1 kHz tick's count), SPI flash
  *                              master (settings), system words, CRC-32C unit (firmware/soc/soc.h)
- *   bowden_core <- ads131m02_reader <- ADS131M02;  bowden_core -> ESCON (PWM set value, enable)
+ *   bowden_core(_mc) <- ads131m02_reader <- ADS131M0x;  bowden_core(_mc) -> ESCON per cable (PWM
+ *                                                       set value, enable)
+ *
+ * CHANNELS cables (1, 2 or 4): one ADS131M0x with two channels a cable (the ADS131M02 for one,
+ * the M04 for two, the M08 for four; cable k's T_in on ADC channel 2k, its T_out on 2k + 1),
+ * channel k's register bank at 0x2000_0000 + k * 0x100 (bank 0 is the one-cable map, which the
+ * firmware drives), one PWM and one enable output a cable. Channels 2j and 2j + 1 are one safety
+ * group (an antagonistic pair: a fault on one ramps both to zero). One cable is bowden_core,
+ * more are bowden_core_mc. The firmware reads the count from SOC_SYS_CHANNELS.
  *
  * Every rate is an exact number of clocks at CLK_HZ (checked at elaboration): the loop's sample
  * (CLK_HZ / SAMPLE_HZ), the PWM period (CLK_HZ / PWM_HZ) and the firmware's tick (the timer's
@@ -24,6 +33,7 @@
  * a clock); hdl/README.md, "bowden_soc", compares the two.
  */
 module bowden_soc #(
+    parameter CHANNELS = 1,           // cables: 1, 2 or 4 (one ADS131M0x, two ADC channels a cable)
     parameter CLK_HZ = 24000000,      // system clock, Hz
     parameter SAMPLE_HZ = 10000,      // loop rate, Hz (CLK_HZ a multiple of it)
     parameter PWM_HZ = 5000,          // ESCON PWM frequency, Hz (CLK_HZ a multiple of it)
@@ -64,12 +74,12 @@ module bowden_soc #(
     input  wire adc_dout,
     input  wire adc_drdy_n,
 
-    // ESCON drive
-    output wire drive_pwm,
-    output wire drive_enable,
+    // ESCON drives, cable k in bit k
+    output wire [CHANNELS-1:0] drive_pwm,
+    output wire [CHANNELS-1:0] drive_enable,
 
     // status
-    output wire fault,       // a loop fault is latched
+    output wire fault,       // a loop fault is latched on some cable
     output wire cpu_trap,    // the CPU stopped on an illegal instruction or misaligned access
     output wire boot_done,   // the image is in place and the CPU runs
     output wire sample_tick  // one clock at the start of each loop sample
@@ -80,6 +90,10 @@ module bowden_soc #(
 generate
     if (CLK_HZ % SAMPLE_HZ != 0) begin : g_check_sample
         bowden_soc_CLK_HZ_must_be_a_multiple_of_SAMPLE_HZ error_SAMPLE_HZ ();
+    end
+    if (CHANNELS != 1 && CHANNELS != 2 && CHANNELS != 4) begin : g_check_channels
+        // two ADC channels a cable on one ADS131M0x, whose largest part has eight
+        bowden_soc_CHANNELS_must_be_1_2_or_4 error_CHANNELS ();
     end
     if (CLK_HZ % PWM_HZ != 0) begin : g_check_pwm
         bowden_soc_CLK_HZ_must_be_a_multiple_of_PWM_HZ error_PWM_HZ ();
@@ -245,9 +259,11 @@ generate
     end
 endgenerate
 
-// --- register map: bowden_core over AXI4-Lite ------------------------------------------------
+// --- register map: the core over AXI4-Lite ---------------------------------------------------
 
-localparam ADDR_W = 8;
+localparam ADDR_W = 8;                                     // a bank's byte address width
+localparam CH_W = (CHANNELS > 1) ? $clog2(CHANNELS) : 0;   // bank select bits
+localparam BUS_W = ADDR_W + CH_W;                          // the banks' byte address width
 
 wire        axi_awvalid, axi_awready, axi_wvalid, axi_wready, axi_bvalid, axi_bready;
 wire        axi_arvalid, axi_arready, axi_rvalid, axi_rready;
@@ -272,28 +288,41 @@ picorv32_axi_adapter axi_adapter (
 
 // An SLVERR (unmapped register word) reads 0, as on the SPI bridge; the response codes are for
 // the bus, the firmware knows its map.
-wire unused_axi = &{1'b0, axi_awaddr[31:ADDR_W], axi_araddr[31:ADDR_W], axi_bresp, axi_rresp};
+wire unused_axi = &{1'b0, axi_awaddr[31:BUS_W], axi_araddr[31:BUS_W], axi_bresp, axi_rresp};
 
 // --- load-cell ADC (as bowden_system wires it) -----------------------------------------------
 
-localparam integer DRDY_TIMEOUT_PERIODS = CLK_HZ / 8000;
-localparam integer DRDY_TIMEOUT_FRAMES = 4 * 2 * 96 * ADC_SCLK_HALF_CLKS;
+// One cable: the ADS131M02 at OSR 128 (32 kSPS), its 96-bit frame in 24 us of the 31.25 us
+// period at SCLK clk / 6. More cables: the 4- and 8-channel parts' frames (144 and 240 bits,
+// 36 and 58 us at 24 and 25 MHz) do not fit that period, so OSR 256 (16 kSPS, 62.5 us: a fresh
+// conversion at every 10 kHz sample still; CLOCK's OSR field bits 4:2 = 001, the ADS131M04 and
+// ADS131M08 datasheets, "Register Map").
+localparam ADC_NCH = 2 * CHANNELS;
+localparam integer ADC_CLOCK_INT = (CHANNELS == 1) ? 32'h0302 :
+                                   ((((1 << ADC_NCH) - 1) << 8) | 32'h06);  // CHn_EN, OSR, PWR
+localparam [15:0] ADC_CLOCK_REG = ADC_CLOCK_INT[15:0];
+localparam integer ADC_PERIOD_DIV = (CHANNELS == 1) ? 32000 : 16000;  // conversions a second
+localparam integer ADC_FRAME_BITS = 24 * (ADC_NCH + 2);
+// drdy_lost after four conversion periods without DRDY, or four frames' time if longer.
+localparam integer DRDY_TIMEOUT_PERIODS = (4 * CLK_HZ) / ADC_PERIOD_DIV;
+localparam integer DRDY_TIMEOUT_FRAMES = 4 * 2 * ADC_FRAME_BITS * ADC_SCLK_HALF_CLKS;
 localparam integer ADC_DRDY_TIMEOUT_CLKS = (DRDY_TIMEOUT_PERIODS > DRDY_TIMEOUT_FRAMES) ?
                                            DRDY_TIMEOUT_PERIODS : DRDY_TIMEOUT_FRAMES;
 
-wire        rdr_valid;
-wire [23:0] rdr_data, adc_aux_data;
-wire        adc_drdy_lost, adc_crc_err;
-wire [15:0] adc_status;
+wire                  rdr_valid;
+wire [ADC_NCH*24-1:0] rdr_ch_data;
+wire                  adc_drdy_lost, adc_crc_err;
+wire [15:0]           adc_status;
 
 ads131m02_reader #(
+    .NCH(ADC_NCH), .CLOCK_REG(ADC_CLOCK_REG),
     .SCLK_HALF_CLKS(ADC_SCLK_HALF_CLKS), .WAIT_CLKS(ADC_WAIT_CLKS),
     .DRDY_TIMEOUT_CLKS(ADC_DRDY_TIMEOUT_CLKS)
 ) adc (
     .clk(clk), .rst(rst),
     .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
     .adc_drdy_n(adc_drdy_n), .adc_valid(rdr_valid),
-    .adc_ch_data({adc_aux_data, rdr_data}),  // CH1 (T_out), CH0 (T_in)
+    .adc_ch_data(rdr_ch_data),  // cable k: CH 2k (T_in), CH 2k + 1 (T_out)
     .adc_status(adc_status), .crc_error(adc_crc_err),
     .drdy_lost(adc_drdy_lost)
 );
@@ -312,31 +341,77 @@ always @(posedge clk) begin
     end
 end
 
-wire [15:0] cmd_current;
-wire        cmd_valid;
+// Channels 2j and 2j + 1 in group j (an antagonistic pair; one cable alone in group 0).
+localparam GROUP_W = 4;
+
+function [CHANNELS*GROUP_W-1:0] pair_groups;
+    input integer n;
+    integer c;
+    begin
+        pair_groups = {CHANNELS*GROUP_W{1'b0}};
+        for (c = 0; c < n; c = c + 1) begin
+            pair_groups[c*GROUP_W +: GROUP_W] = c[GROUP_W:1];
+        end
+    end
+endfunction
+
+wire [CHANNELS*16-1:0] cmd_current;
+wire                   cmd_valid;
+wire [CHANNELS-1:0]    ch_fault;
 wire unused_cmd = &{1'b0, cmd_current, cmd_valid};
 
-// The UP5K has no room for the 48 MHz boards' read pipeline and configuration snapshot (355
-// flip-flops, most of them a logic cell each): at 24/25 MHz a one-clock read-back meets timing, and the loop
-// reads the live registers while a store to them waits out the 14 clocks of a sample that read
-// them (hdl/README.md, "Bitstreams").
-bowden_core #(
-    .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .PWM_HZ(PWM_HZ), .ADDR_W(ADDR_W),
-    .RD_STAGES(1), .SNAPSHOT(0)
-) core (
-    .clk(clk), .rst(rst),
-    .s_axil_awaddr(axi_awaddr[ADDR_W-1:0]), .s_axil_awprot(axi_awprot),
-    .s_axil_awvalid(axi_awvalid), .s_axil_awready(axi_awready), .s_axil_wdata(axi_wdata),
-    .s_axil_wstrb(axi_wstrb), .s_axil_wvalid(axi_wvalid), .s_axil_wready(axi_wready),
-    .s_axil_bresp(axi_bresp), .s_axil_bvalid(axi_bvalid), .s_axil_bready(axi_bready),
-    .s_axil_araddr(axi_araddr[ADDR_W-1:0]), .s_axil_arprot(axi_arprot),
-    .s_axil_arvalid(axi_arvalid), .s_axil_arready(axi_arready), .s_axil_rdata(axi_rdata),
-    .s_axil_rresp(axi_rresp), .s_axil_rvalid(axi_rvalid), .s_axil_rready(axi_rready),
-    .adc_valid(adc_valid_pipe_reg[1]), .adc_data(rdr_data),
-    .adc_aux_data(adc_aux_data), .adc_drdy_lost(adc_drdy_lost), .adc_crc_err(adc_crc_err),
-    .cmd_current(cmd_current), .cmd_enable(drive_enable), .cmd_valid(cmd_valid),
-    .fault(fault), .pwm(drive_pwm), .sample_tick(sample_tick)
-);
+// One cable: bowden_core (the one-cable SoC bit for bit). Its loop reads
+// the live registers (SNAPSHOT 0) and the read-back takes one clock (RD_STAGES 1): the 48 MHz
+// boards' read pipeline and configuration snapshot (355 flip-flops, most of them a logic cell
+// each) do not fit the UP5K and 24/25 MHz does not need them (hdl/README.md, "Bitstreams").
+// bowden_core_mc with N = 1 computes the same samples but loads each channel's configuration and
+// state into the datapath the clock before its slot: 643 logic cells more on the UP5K (5647, over
+// its 5280), which only pays for itself from two channels on.
+// More cables: bowden_core_mc, a bank and a PWM a cable, the loops on one time-multiplexed
+// datapath, with the one-clock read-back.
+generate
+    if (CHANNELS == 1) begin : g_core
+        bowden_core #(
+            .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .PWM_HZ(PWM_HZ), .ADDR_W(ADDR_W),
+            .RD_STAGES(1), .SNAPSHOT(0)
+        ) core (
+            .clk(clk), .rst(rst),
+            .s_axil_awaddr(axi_awaddr[BUS_W-1:0]), .s_axil_awprot(axi_awprot),
+            .s_axil_awvalid(axi_awvalid), .s_axil_awready(axi_awready), .s_axil_wdata(axi_wdata),
+            .s_axil_wstrb(axi_wstrb), .s_axil_wvalid(axi_wvalid), .s_axil_wready(axi_wready),
+            .s_axil_bresp(axi_bresp), .s_axil_bvalid(axi_bvalid), .s_axil_bready(axi_bready),
+            .s_axil_araddr(axi_araddr[BUS_W-1:0]), .s_axil_arprot(axi_arprot),
+            .s_axil_arvalid(axi_arvalid), .s_axil_arready(axi_arready), .s_axil_rdata(axi_rdata),
+            .s_axil_rresp(axi_rresp), .s_axil_rvalid(axi_rvalid), .s_axil_rready(axi_rready),
+            .adc_valid(adc_valid_pipe_reg[1]), .adc_data(rdr_ch_data[23:0]),
+            .adc_aux_data(rdr_ch_data[47:24]), .adc_drdy_lost(adc_drdy_lost),
+            .adc_crc_err(adc_crc_err),
+            .cmd_current(cmd_current), .cmd_enable(drive_enable), .cmd_valid(cmd_valid),
+            .fault(ch_fault), .pwm(drive_pwm), .sample_tick(sample_tick)
+        );
+    end else begin : g_core_mc
+        bowden_core_mc #(
+            .N(CHANNELS), .GROUP_W(GROUP_W), .GROUP(pair_groups(CHANNELS)),
+            .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .PWM_HZ(PWM_HZ), .ADDR_W(ADDR_W),
+            .RD_STAGES(1)
+        ) core (
+            .clk(clk), .rst(rst),
+            .s_axil_awaddr(axi_awaddr[BUS_W-1:0]), .s_axil_awprot(axi_awprot),
+            .s_axil_awvalid(axi_awvalid), .s_axil_awready(axi_awready), .s_axil_wdata(axi_wdata),
+            .s_axil_wstrb(axi_wstrb), .s_axil_wvalid(axi_wvalid), .s_axil_wready(axi_wready),
+            .s_axil_bresp(axi_bresp), .s_axil_bvalid(axi_bvalid), .s_axil_bready(axi_bready),
+            .s_axil_araddr(axi_araddr[BUS_W-1:0]), .s_axil_arprot(axi_arprot),
+            .s_axil_arvalid(axi_arvalid), .s_axil_arready(axi_arready), .s_axil_rdata(axi_rdata),
+            .s_axil_rresp(axi_rresp), .s_axil_rvalid(axi_rvalid), .s_axil_rready(axi_rready),
+            .adc_valid({CHANNELS{adc_valid_pipe_reg[1]}}), .adc_ch_data(rdr_ch_data),
+            .adc_drdy_lost(adc_drdy_lost), .adc_crc_err(adc_crc_err),
+            .cmd_current(cmd_current), .cmd_enable(drive_enable), .cmd_valid(cmd_valid),
+            .fault(ch_fault), .pwm(drive_pwm), .sample_tick(sample_tick)
+        );
+    end
+endgenerate
+
+assign fault = |ch_fault;
 
 // --- I/O: UART, timer, SPI flash, system -----------------------------------------------------
 
@@ -344,6 +419,7 @@ bowden_core #(
 localparam [5:0] IO_UART_DATA = 6'h00, IO_UART_STATUS = 6'h01, IO_TIMER_COUNT = 6'h04,
                  IO_TIMER_PERIOD = 6'h05, IO_TIMER_TICKS = 6'h06, IO_SPI_CS = 6'h08,
                  IO_SPI_DATA = 6'h09, IO_SYS_CLK_HZ = 6'h0C, IO_SYS_MARK = 6'h0D,
+                 IO_SYS_CHANNELS = 6'h0E,
                  IO_CRC_STATE = 6'h10, IO_CRC_DATA = 6'h11;
 
 wire [5:0] io_word = mem_addr[7:2];
@@ -431,6 +507,7 @@ always @(posedge clk) begin
             IO_TIMER_TICKS: io_rdata_reg <= {16'd0, timer_ticks_reg};
             IO_SPI_DATA: io_rdata_reg <= {23'd0, spi_busy, spi_dout};
             IO_SYS_CLK_HZ: io_rdata_reg <= CLK_HZ;
+            IO_SYS_CHANNELS: io_rdata_reg <= CHANNELS;
             IO_CRC_STATE: io_rdata_reg <= crc_state;
             default: io_rdata_reg <= 32'd0;
         endcase

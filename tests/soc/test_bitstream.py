@@ -1,15 +1,19 @@
 """hdl/soc/bitstream.py: its reading of nextpnr's report (the logic cells used and available, and
 the one line a board that does not fit gets), from logs written here in nextpnr's format; the
 flash image staged beside the UP5K's bitstream; and, on the real design, the ECP5's bitstream
-built with the firmware inside (about a minute) and the UP5K's synthesis packed to check it still
-fits. The UP5K's place and route (some three minutes of routing a 93 % full device) is left to
-make bitstream, part of make perf."""
+built with the firmware inside (about a minute) for four cables and the UP5K's synthesis packed
+to check it still fits. The UP5K's place and route (some three minutes of routing a 93 % full
+device) is left to make bitstream, part of make perf."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
+import pytest
+
 from cosim.project.paths import BUILD_DIR
+from hdl.boards import table
 from hdl.soc import bitstream
 
 ICE40_LOG = """Info: Device utilisation:
@@ -66,11 +70,31 @@ def test_the_flash_image_follows_the_firmware_when_the_bitstream_is_up_to_date(t
     assert bitstream.stage_flash_image(ecp5, tmp_path, old, fw=fw) is old
 
 
+def test_the_channel_count_is_the_board_tables_and_part_of_the_inputs():
+    """The tops are built for the board table's cables (the ECP5 four, on an ADS131M08); a
+    different count (--channels) is a different design, so it must not reuse a cached
+    netlist."""
+    for name, board in bitstream.BOARDS.items():
+        assert board.channels == table.BOARDS[name].soc.channels
+    assert bitstream.BOARDS["ecp5-25f"].channels == 4
+    up5k = bitstream.BOARDS["ice40-up5k"]
+    two = dataclasses.replace(up5k, channels=2)
+    assert bitstream.input_hash(two) != bitstream.input_hash(up5k)
+
+
+def test_channels_without_fit_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as exc:
+        bitstream.main(["ice40-up5k", "--channels", "2"])
+    assert exc.value.code == 2
+    assert "--channels goes with --fit" in capsys.readouterr().err
+
+
 def test_the_ecp5_bitstream_is_built_with_the_firmware_and_meets_timing():
     assert bitstream.main(["ecp5-25f"]) == 0  # 1 when timing is missed or a tool fails
     out = bitstream.BUILD / "ecp5-25f"
     summary = json.loads((out / "summary.json").read_text())
     assert summary["timing_met"] and summary["fmax_mhz"] >= summary["target_mhz"] == 25.0
+    assert summary["channels"] == 4
     assert summary["image_in_bitstream"]
     fw = BUILD_DIR / "firmware" / "soc"
     assert summary["image_bytes"] == (fw / "bowden_fw.bin").stat().st_size
@@ -88,3 +112,4 @@ def test_the_up5k_soc_fits_its_device(capsys):
     used, avail = bitstream.cell_use(bitstream.BUILD / "ice40-up5k" / "fit" / "pack-only.log")
     assert avail == 5280 and used <= avail, line
     assert line.startswith(f"ice40-up5k: fits: {used} of 5280 logic cells")
+    assert line.rstrip().endswith(f"{bitstream.BOARDS['ice40-up5k'].channels} cable")

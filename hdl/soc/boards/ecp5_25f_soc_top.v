@@ -8,9 +8,12 @@
  * 921600 baud is 27 clocks a bit (0.5 % off). The image is in block RAM ($readmemh at synthesis);
  * the settings live in the configuration flash at 0x100000, whose clock pin is reached through
  * USRMCLK (it is the configuration clock). UART on the FT231X (FPGA TX to its RXD on L4, RX from
- * its TXD on M1); ADS131M02 and ESCON on the GPIO header as ecp5_25f_top.
+ * its TXD on M1); the ADS131M0x (an ADS131M08 for four cables) and the ESCONs on the GPIO header
+ * J1: the converter and cable 0 as ecp5_25f_top, cables 1 to 3 on GP6/GN6 to GP8/GN8.
  */
 module ecp5_25f_soc_top #(
+    parameter DRIVES = 4,             // the cables ecp5_25f_soc.lpf has pins for (do not set)
+    parameter CHANNELS = 4,           // cables driven (the board table's), 1 .. DRIVES
     parameter ROM_INIT = "bowden_fw.hex"
 ) (
     input  wire clk_25mhz,
@@ -26,8 +29,8 @@ module ecp5_25f_soc_top #(
     output wire adc_din,
     input  wire adc_dout,
     input  wire adc_drdy_n,
-    output wire drive_pwm,
-    output wire drive_enable,
+    output wire [DRIVES-1:0] drive_pwm,     // cable k's ESCON in bit k
+    output wire [DRIVES-1:0] drive_enable,
     output wire led_fault,
     output wire led_run
 );
@@ -48,6 +51,20 @@ always @(posedge clk) begin
 end
 
 wire flash_sck, fault, cpu_trap, boot_done, sample_tick;
+wire [CHANNELS-1:0] pwm, enable;
+
+// The board's pins for cables beyond CHANNELS stay low: PWM low and the ESCON disabled.
+generate
+    if (CHANNELS > DRIVES) begin : g_check_channels
+        soc_top_CHANNELS_must_not_exceed_DRIVES error_CHANNELS ();
+    end else if (CHANNELS == DRIVES) begin : g_all
+        assign drive_pwm = pwm;
+        assign drive_enable = enable;
+    end else begin : g_some
+        assign drive_pwm = {{(DRIVES - CHANNELS){1'b0}}, pwm};
+        assign drive_enable = {{(DRIVES - CHANNELS){1'b0}}, enable};
+    end
+endgenerate
 
 USRMCLK usrmclk (.USRMCLKI(flash_sck), .USRMCLKTS(1'b0));
 
@@ -55,7 +72,7 @@ assign flash_holdn = 1'b1;
 assign flash_wpn = 1'b1;
 
 bowden_soc #(
-    .CLK_HZ(CLK_HZ), .ROM_WORDS(16384), .RAM_WORDS(4096), .ROM_INIT(ROM_INIT), .CPU_FAST(1),
+    .CHANNELS(CHANNELS), .CLK_HZ(CLK_HZ), .ROM_WORDS(16384), .RAM_WORDS(4096), .ROM_INIT(ROM_INIT), .CPU_FAST(1),
     .CPU_MUL(2),
     .FLASH_HALF_CLKS(1), .ADC_SCLK_HALF_CLKS(3), .ADC_WAIT_CLKS(8192)
 ) soc (
@@ -63,12 +80,12 @@ bowden_soc #(
     .flash_sck(flash_sck), .flash_cs_n(flash_csn), .flash_mosi(flash_mosi),
     .flash_miso(flash_miso),
     .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
-    .adc_drdy_n(adc_drdy_n), .drive_pwm(drive_pwm), .drive_enable(drive_enable),
+    .adc_drdy_n(adc_drdy_n), .drive_pwm(pwm), .drive_enable(enable),
     .fault(fault), .cpu_trap(cpu_trap), .boot_done(boot_done), .sample_tick(sample_tick)
 );
 
 assign led_fault = fault || cpu_trap;  // ULX3S LEDs are active high
-assign led_run = drive_enable;
+assign led_run = |enable;
 
 wire unused = &{1'b0, boot_done, sample_tick};
 

@@ -9,9 +9,13 @@
  * and the loop's sample period and Ki*Ts would be off by as much). The image is booted from
  * the SPI flash at 0x080000 into the SPRAM (firmware/soc/boot.S, in a block RAM the bitstream
  * initialises); the settings live at 0x100000.
- * UART on the FTDI's second channel (RX pin 6, TX pin 9), ADS131M02 on PMOD1B, ESCON on PMOD2.
+ * UART on the FTDI's second channel (RX pin 6, TX pin 9), the ADS131M0x on PMOD1B (an ADS131M04
+ * for the two cables of an antagonistic pair), the ESCONs on PMOD2 (cable 0 on its pins 1-2,
+ * cable 1 on 3-4).
  */
 module ice40_up5k_soc_top #(
+    parameter DRIVES = 2,             // the cables ice40_up5k_soc.pcf has pins for (do not set)
+    parameter CHANNELS = 1,           // cables driven (the board table's), 1 .. DRIVES
     parameter BOOT_INIT = "boot.hex"  // the boot loader (make bitstream copies it beside the netlist)
 ) (
     input  wire clk_12mhz,
@@ -26,11 +30,11 @@ module ice40_up5k_soc_top #(
     output wire adc_din,
     input  wire adc_dout,
     input  wire adc_drdy_n,
-    output wire drive_pwm,
-    output wire drive_enable,
+    output wire [DRIVES-1:0] drive_pwm,     // cable k's ESCON in bit k
+    output wire [DRIVES-1:0] drive_enable,
     output wire led_fault,   // red LED, active low: a loop fault is latched, the CPU stopped, or
                              // no image booted (yet)
-    output wire led_run      // green LED, active low: the drive is enabled
+    output wire led_run      // green LED, active low: a drive is enabled
 );
 
 localparam CLK_HZ = 24000000;
@@ -60,24 +64,38 @@ always @(posedge clk) begin
 end
 
 wire fault, cpu_trap, boot_done, sample_tick;
+wire [CHANNELS-1:0] pwm, enable;
+
+// The board's pins for cables beyond CHANNELS stay low: PWM low and the ESCON disabled.
+generate
+    if (CHANNELS > DRIVES) begin : g_check_channels
+        soc_top_CHANNELS_must_not_exceed_DRIVES error_CHANNELS ();
+    end else if (CHANNELS == DRIVES) begin : g_all
+        assign drive_pwm = pwm;
+        assign drive_enable = enable;
+    end else begin : g_some
+        assign drive_pwm = {{(DRIVES - CHANNELS){1'b0}}, pwm};
+        assign drive_enable = {{(DRIVES - CHANNELS){1'b0}}, enable};
+    end
+endgenerate
 
 bowden_soc #(
-    .CLK_HZ(CLK_HZ), .ROM_WORDS(16384), .RAM_WORDS(16384), .MEM_SPRAM(1), .BOOT_FLASH(1),
-    .BOOT_INIT(BOOT_INIT), .CPU_FAST(0), .CPU_MUL(1), .FLASH_HALF_CLKS(1), .ADC_SCLK_HALF_CLKS(3),
+    .CHANNELS(CHANNELS), .CLK_HZ(CLK_HZ), .ROM_WORDS(16384), .RAM_WORDS(16384), .MEM_SPRAM(1),
+    .BOOT_FLASH(1), .BOOT_INIT(BOOT_INIT), .CPU_FAST(0), .CPU_MUL(1), .FLASH_HALF_CLKS(1), .ADC_SCLK_HALF_CLKS(3),
     .ADC_WAIT_CLKS(8192)
 ) soc (
     .clk(clk), .rst(rst_reg), .uart_rx(uart_rx), .uart_tx(uart_tx),
     .flash_sck(flash_sck), .flash_cs_n(flash_cs_n), .flash_mosi(flash_mosi),
     .flash_miso(flash_miso),
     .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
-    .adc_drdy_n(adc_drdy_n), .drive_pwm(drive_pwm), .drive_enable(drive_enable),
+    .adc_drdy_n(adc_drdy_n), .drive_pwm(pwm), .drive_enable(enable),
     .fault(fault), .cpu_trap(cpu_trap), .boot_done(boot_done), .sample_tick(sample_tick)
 );
 
 // Red also while the image is copied from the flash (some 30 ms), and for good when the flash
 // holds no image (firmware/soc/boot.S).
 assign led_fault = !(fault || cpu_trap || !boot_done);
-assign led_run = !drive_enable;
+assign led_run = !(|enable);
 
 wire unused = &{1'b0, sample_tick, pll_core};
 

@@ -6,6 +6,7 @@
  * pins, the drive and a reset are the testbench's. Not part of the RTL.
  */
 module soc_tb #(
+    parameter CHANNELS = 1,
     parameter CLK_HZ = 24000000,
     parameter ROM_INIT = "",
     parameter FLASH_INIT = "",
@@ -37,9 +38,13 @@ module soc_tb #(
 );
 
 wire flash_sck, flash_mosi, flash_miso;
+// The testbench observes cable 0's drive (bank 0, the one the firmware drives).
+wire [CHANNELS-1:0] pwm_all, enable_all;
+assign drive_pwm = pwm_all[0];
+assign drive_enable = enable_all[0];
 
 bowden_soc #(
-    .CLK_HZ(CLK_HZ), .ROM_INIT(ROM_INIT), .CPU_FAST(CPU_FAST), .CPU_MUL(CPU_MUL), .ADC_WAIT_CLKS(ADC_WAIT_CLKS),
+    .CHANNELS(CHANNELS), .CLK_HZ(CLK_HZ), .ROM_INIT(ROM_INIT), .CPU_FAST(CPU_FAST), .CPU_MUL(CPU_MUL), .ADC_WAIT_CLKS(ADC_WAIT_CLKS),
     .MEM_SPRAM(MEM_SPRAM), .BOOT_FLASH(BOOT_FLASH), .ROM_WORDS(ROM_WORDS), .RAM_WORDS(RAM_WORDS),
     .BOOT_INIT(BOOT_INIT)
 ) soc (
@@ -47,7 +52,7 @@ bowden_soc #(
     .flash_sck(flash_sck), .flash_cs_n(flash_cs_n), .flash_mosi(flash_mosi),
     .flash_miso(flash_miso),
     .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
-    .adc_drdy_n(adc_drdy_n), .drive_pwm(drive_pwm), .drive_enable(drive_enable),
+    .adc_drdy_n(adc_drdy_n), .drive_pwm(pwm_all), .drive_enable(enable_all),
     .fault(fault), .cpu_trap(cpu_trap), .boot_done(boot_done),
     .sample_tick(sample_tick)
 );
