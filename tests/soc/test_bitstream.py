@@ -1,9 +1,9 @@
 """hdl/soc/bitstream.py: its reading of nextpnr's report (the logic cells used and available, and
 the one line a board that does not fit gets), from logs written here in nextpnr's format; the
 flash image staged beside the UP5K's bitstream; and, on the real design, the ECP5's bitstream
-built with the firmware inside (about a minute) for four cables and the UP5K's synthesis packed
-to check it still fits. The UP5K's place and route (some three minutes of routing a 93 % full
-device) is left to make bitstream, part of make perf."""
+built with the firmware inside for four cables (231 s of CPU: make test-long) and the UP5K's
+synthesis packed to check it still fits (make test). The UP5K's place and route (some three
+minutes of routing a 93 % full device) is left to make bitstream, part of make perf."""
 
 from __future__ import annotations
 
@@ -89,6 +89,7 @@ def test_channels_without_fit_is_a_usage_error(capsys):
     assert "--channels goes with --fit" in capsys.readouterr().err
 
 
+@pytest.mark.long  # four cables' place and route: 231 s of CPU, beyond make test's budget
 def test_the_ecp5_bitstream_is_built_with_the_firmware_and_meets_timing():
     assert bitstream.main(["ecp5-25f"]) == 0  # 1 when timing is missed or a tool fails
     out = bitstream.BUILD / "ecp5-25f"
