@@ -4,8 +4,10 @@ overrides them, validated with one line naming the file, the key and its range."
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
+import re
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 
@@ -301,6 +303,31 @@ def _number(value, name: str, lo: float, hi: float, whole: bool = False) -> floa
     return v
 
 
+def _name_list(names: list[str]) -> str:
+    """Names for an error line, a numbered family in one entry (slack_table_0..7)."""
+    out: list[str] = []
+    families: dict[str, list[int]] = {}
+    for name in names:
+        m = re.fullmatch(r"(.*_)(\d+)", name)
+        if m is None:
+            out.append(name)
+        elif m.group(1) not in families:
+            families[m.group(1)] = [int(m.group(2))]
+            out.append(m.group(1))  # replaced below, in the family's first place
+        else:
+            families[m.group(1)].append(int(m.group(2)))
+    return ", ".join(
+        (
+            f"{n}{min(families[n])}..{max(families[n])}"
+            if len(families[n]) > 1
+            else f"{n}{families[n][0]}"
+        )
+        if n in families
+        else n
+        for n in out
+    )
+
+
 def plant_overrides(plant, source: str) -> dict[str, float | int]:
     """FMU parameter overrides checked against the FMU's own modelDescription.xml: parameters
     only, not those the command line or the closed loop own (PLANT_OWNED), each of its type and
@@ -326,7 +353,9 @@ def plant_overrides(plant, source: str) -> dict[str, float | int]:
                 if var is not None
                 else "is not a parameter of the FMU"
             )
-            raise ValueError(f"{source}: {key!r} {what}; parameters: {', '.join(settable)}")
+            near = difflib.get_close_matches(str(key), settable, n=1)
+            hint = f" (did you mean {near[0]!r}?)" if near else ""
+            raise ValueError(f"{source}: {key!r} {what}{hint}; parameters: {_name_list(settable)}")
         if var.type == "Boolean":
             if not isinstance(value, bool):
                 raise ValueError(f"{source}.{key} must be true or false; got {_show(value)}")

@@ -117,6 +117,9 @@ def test_an_empty_out_folder_is_refused(capsys, tmp_path):
     [
         # item 2: an unknown FMU variable was a KeyError traceback
         ({"plant": {"no_such_param": 1.0}}, "'no_such_param' is not a parameter of the FMU"),
+        # a near miss is named; a table's numbered entries are listed as one
+        ({"plant": {"slack_tabel_1": 0.1}}, "FMU (did you mean 'slack_table_1'?); parameters:"),
+        ({"plant": {"slack_tabel_1": 0.1}}, ", slack_table_0..7"),
         # item 3: the command line owns loop routing, the closed loop owns the drive mode
         ({"plant": {"loop_routing": 0}}, "plant.loop_routing is set on the command line"),
         ({"plant": {"loop_routing": False}}, "plant.loop_routing is set on the command line"),
