@@ -34,6 +34,10 @@ def process_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
             child.terminate()
         for child in multiprocessing.active_children():
             child.join(5)
+        # The executor's manager thread, finding its workers gone, closes its wake-up pipe; left
+        # running, it raced the interpreter's exit hook, which writes to that pipe ("Exception
+        # ignored ... Bad file descriptor" after the one line). Its end is waited for here.
+        pool.shutdown(wait=True)
         raise
     pool.shutdown(wait=True)
 
