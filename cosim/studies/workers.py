@@ -13,8 +13,9 @@ import contextlib
 import multiprocessing
 import signal
 import sys
+import threading
 from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import InvalidStateError, ProcessPoolExecutor
 
 from cosim import _signals
 
@@ -24,20 +25,40 @@ def _leave_sigint_to_the_parent() -> None:
 
 
 @contextlib.contextmanager
+def _manager_thread_errors_ignored() -> Iterator[None]:
+    """While a broken pool is taken down: Python 3.11's manager thread fails every future left
+    with BrokenProcessPool, and one that `Executor.map` cancelled on the interrupt raises
+    InvalidStateError in that thread (a traceback after the one line); that error alone is
+    dropped, any other goes to the usual hook."""
+    previous = threading.excepthook
+
+    def hook(args: threading.ExceptHookArgs) -> None:
+        if args.exc_type is not None and issubclass(args.exc_type, InvalidStateError):
+            return
+        previous(args)
+
+    threading.excepthook = hook
+    try:
+        yield
+    finally:
+        threading.excepthook = previous
+
+
+@contextlib.contextmanager
 def process_pool(workers: int) -> Iterator[ProcessPoolExecutor]:
     pool = ProcessPoolExecutor(workers, initializer=_leave_sigint_to_the_parent)
     try:
         yield pool
     except BaseException:
-        pool.shutdown(wait=False, cancel_futures=True)
-        for child in multiprocessing.active_children():
-            child.terminate()
-        for child in multiprocessing.active_children():
-            child.join(5)
-        # The executor's manager thread, finding its workers gone, closes its wake-up pipe; left
-        # running, it raced the interpreter's exit hook, which writes to that pipe ("Exception
-        # ignored ... Bad file descriptor" after the one line). Its end is waited for here.
-        pool.shutdown(wait=True)
+        with _manager_thread_errors_ignored():
+            for child in multiprocessing.active_children():
+                child.terminate()
+            for child in multiprocessing.active_children():
+                child.join(5)
+            # Its workers gone, the executor's manager thread finds the pool broken and ends;
+            # it is waited for here: left running, it raced the interpreter's exit hook for its
+            # wake-up pipe ("Exception ignored ... Bad file descriptor" after the one line).
+            pool.shutdown(wait=True)
         raise
     pool.shutdown(wait=True)
 
