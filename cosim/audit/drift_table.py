@@ -2,12 +2,12 @@
 d a smooth function of time, for a drift whose fixed forms (effects.FORMS: linear, warm-up, step)
 fall short of the data.
 
-When friction_drift is a finding and the extended model still leaves the selection blocks'
-residual above FLOOR_FACTOR times the noise floor, the drift's form is fitted again as the FMU's
-drift table (fmu/README.md "Friction drift"): d(t) linear between KNOTS evenly spaced knots over
-the record, held flat outside, in place of the fixed form's own parameter (set to "off"). The
-table is fitted on the fit blocks by penalised least squares, its second differences weighed by
-a penalty chosen on the selection blocks:
+When friction_drift is a finding and the extended model still leaves the selection blocks' residual
+above free_forms.FLOOR_FACTOR times the noise floor (free_forms.needed), the drift's form is fitted
+again as the FMU's drift table (fmu/README.md "Friction drift"): d(t) linear between KNOTS evenly
+spaced knots over the record, held flat outside, in place of the fixed form's own parameter (set to
+"off"). The table is fitted on the fit blocks by penalised least squares, its second differences
+weighed by a penalty chosen on the selection blocks:
 
 1. Start: the knots at the fixed form's d(t), so that the first model is the fixed form's.
 2. Gauss-Newton on the knots (mu, the spread and the other findings held): the output's slope
@@ -40,17 +40,14 @@ import math
 
 import numpy as np
 
-from . import twin
+from . import free_forms, twin
 from .data import FIT, REPORT, SELECT, AuditData
-from .decision import RULE, DecisionRule, block_stats
+from .decision import RULE, DecisionRule
 from .effects import Effect
 from .fit import Model, _Evaluator, fit_model
 from .free_forms import FreeForm
 
 KNOTS = twin.DRIFT_TABLE_KNOTS
-# Tried when the model with a drift finding leaves the selection blocks' RMS above this many
-# times the noise floor: a fixed form that fits leaves the noise and no more.
-FLOOR_FACTOR = 1.5
 # The penalty's weights tried (relative to the mean diagonal of A'A: module docstring), from a
 # table that follows every knot to one close to a straight line. Chosen with the tuning case of
 # tests/audit/test_audit_drift_table.py (an overshooting warm-up): its choice sat inside the grid.
@@ -92,23 +89,12 @@ def _table_params(t0_s: float, step_s: float, knots: np.ndarray) -> dict[str, fl
     return out
 
 
-def needed(data: AuditData, found: list[Effect], current: Model) -> Effect | None:
-    """The drift finding whose free form is to be tried, or None: friction_drift is among the
-    findings and the model leaves the selection blocks above FLOOR_FACTOR x the noise floor."""
-    drift = next((e for e in found if e.cause == "friction_drift"), None)
-    if drift is None or current.prediction is None:
-        return None
-    if current.rms(data, SELECT) <= FLOOR_FACTOR * data.noise_floor_n:
-        return None
-    return drift
-
-
 def fit_free_form(
     data: AuditData, found: list[Effect], current: Model, rule: DecisionRule = RULE
 ) -> FreeForm | None:
     """The drift's free form for the model `current` with the findings `found` (module
-    docstring), or None when it is not needed (needed)."""
-    drift = needed(data, found, current)
+    docstring), or None when it is not needed (free_forms.needed)."""
+    drift = free_forms.needed(data, found, current, "friction_drift")
     if drift is None:
         return None
     inp = data.inputs
@@ -170,22 +156,10 @@ def fit_free_form(
     others = tuple(e for e in current.effects if e.cause != "friction_drift")
     model = fit_model(data, others, params)
     table = twin.drift_table_knots(model.params)
-    r_fixed = current.residual(data)
-    r_free = model.residual(data)
-    stats = block_stats(data, r_fixed, r_free, (SELECT,), weighted=False)
-    sel_fixed = current.rms(data, SELECT)
-    sel_free = model.rms(data, SELECT)
-    floor = rule.min_rms_n(data.noise_floor_n, data.input_noise_n, data.sampling_error_n)
-    accepted = (
-        stats.t >= rule.separation_t and sel_free < sel_fixed and stats.removed_rms_n >= floor
-    )
-    verdict = "taken" if accepted else "not taken"
+    accepted, verdict, figures = free_forms.judge(data, current, model, rule)
     why = (
         f"the drift as a table of {KNOTS} knots ({step:.3g} s apart, penalty {lam_used:.2g} chosen "
-        f"on the selection blocks) against its form {drift.form}: selection blocks "
-        f"{sel_fixed:.4f} -> {sel_free:.4f} N RMS ({stats.removed_rms_n * 1000:.1f} mN removed, "
-        f"at least {floor * 1000:.1f}), block t {stats.t:.1f} (at least {rule.separation_t:g}): "
-        f"{verdict}"
+        f"on the selection blocks) against its form {drift.form}: {verdict}"
     )
     return FreeForm(
         fixed=drift,
@@ -199,9 +173,9 @@ def fit_free_form(
         table=table,
         fixed_at_knots=fixed_knots,
         fmu_params=twin.DRIFT_TABLE_PARAMS,
-        selection_rms_fixed_n=sel_fixed,
-        selection_rms_free_n=sel_free,
-        t=float(stats.t),
+        selection_rms_fixed_n=figures["sel_fixed"],
+        selection_rms_free_n=figures["sel_free"],
+        t=figures["t"],
         report_rms_fixed_n=current.rms(data, REPORT),
         report_rms_free_n=model.rms(data, REPORT),
         model=model if accepted else None,

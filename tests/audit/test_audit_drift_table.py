@@ -20,12 +20,12 @@ import numpy as np
 import pytest
 from rig_models import rig_record
 
-from cosim.audit import core, drift_table, report, twin
+from cosim.audit import core, drift_table, free_forms, report, twin
 from cosim.audit.effects import FORMS
 from cosim.audit.params import emitted_params
 from cosim.audit.synthetic import fmu_record
 
-FLOOR = drift_table.FLOOR_FACTOR
+FLOOR = free_forms.FLOOR_FACTOR
 
 
 def test_the_fits_hats_are_the_fmus_table():
@@ -89,8 +89,9 @@ def test_the_free_form_is_not_taken_where_a_fixed_form_is_right(tmp_path, monkey
     data = core.prepare(trace.read_trace(path, mode="measured"), str(path))
     warm = next(f for f in FORMS["friction_drift"] if f.form == "warm-up")
     fixed = core.fit_model(data, (warm,))
-    assert drift_table.needed(data, [warm], fixed) is None  # within 1.5x: not tried at all
-    monkeypatch.setattr(drift_table, "FLOOR_FACTOR", 0.0)
+    # within 1.5x: not tried at all
+    assert free_forms.needed(data, [warm], fixed, "friction_drift") is None
+    monkeypatch.setattr(free_forms, "FLOOR_FACTOR", 0.0)
     free = drift_table.fit_free_form(data, [warm], fixed)
     assert free is not None and free.fixed is warm
     assert not free.accepted or free.report_rms_free_n <= free.report_rms_fixed_n, free.why
