@@ -30,6 +30,11 @@ the same record, numbers of one run without the profiler): reading the CSV 11.8 
 3.3 s (6.7 s before the buckets), the two FMU runs about 10 s, the rest the fits (the twin's
 friction on the 12 ms grid, 1130 runs; the static friction's breakaway starts the largest single
 part of them). The wall target holds only on a machine that gives the audit a core.
+
+Every case again on a quiet machine (load 0.6-0.9, this round's code with the free forms; the
+numba cache warm), `python -m cosim.perf.audit`: no effect 10.9 s wall (10.0 s of CPU), lag
+15.5 s (15.7), offset + slope 20.1 s (20.2), the bench emulator 10.2 s (10.4); the 20-minute
+record 88.5 s wall (88.5 s of CPU), peak 1215 MB: every target met, the same findings.
 """
 
 from __future__ import annotations
