@@ -691,3 +691,47 @@ def test_an_interrupted_run_stops_the_device_before_the_view_ends(tmp_path, caps
     assert bench_cli([*argv, "--live", "web"]) == 130
     assert seen["running"] is False
     assert "device stopped, output disabled (confirmed by the device)" in capsys.readouterr().err
+
+
+def test_a_trace_a_channel_each_from_its_own_recording(tmp_path):
+    """Two channels with different settings recorded together: the view's snapshot carries a
+    trace a channel (`T_out[0]`, `T_out[1]`), each the words of its own channel's CSV, and the
+    faults named with their channel; the terminal frame draws both."""
+    from cosim.bench.link.recorder import channel_path, record_run
+
+    buf = live.LiveBuffer(rate_hz=1000.0, channels=(0, 1))
+    buf.start("sine", 1000.0)
+    signals = ["T_ref", "T_out", "current", "faults"]
+    snaps = []
+
+    def tap(t):
+        buf.add(t)
+        if t["sample"] == 400 and t["channel"] == 1:  # both channels' frames of 400 are in
+            snaps.append(live.snapshot(buf, signals, 5.0, 10_000))
+
+    with Bench(emulate=True, channels=2) as bench:
+        bench.client.set("loop.kp", 0.3, channel=1)
+        bench.client.set("comp.mode", "smooth", channel=1)
+        run = {"seconds": 0.5, "waveform": "sine", "mean_n": 8.5, "amplitude_n": 6.5}
+        run["freq_hz"] = 2.0
+        record_run(bench.client, tmp_path / "two.csv", channels=(0, 1), tap=tap, **run)
+    (snap,) = snaps
+    assert snap["channels"] == [0, 1] and snap["samples"] == 401
+    assert {"T_out[0]", "T_out[1]", "current[1]", "faults[0]"} <= set(snap["signals"])
+    assert snap["units"]["T_out[1]"] == "N" and snap["units"]["current[0]"] == "A"
+    for c in (0, 1):
+        tr = _by_sample(channel_path(tmp_path / "two.csv", c, (0, 1)))
+        for name, col, lsb in WORDS:
+            got = np.round(np.array(snap["series"][f"{name}[{c}]"]) * lsb)
+            want = np.round(np.array([tr[col][k] for k in range(401)]) * lsb)
+            np.testing.assert_array_equal(got, want, err_msg=f"{name}[{c}]")
+            assert round(snap["latest"]["values"][f"{name}[{c}]"] * lsb) == want[-1]
+    assert snap["series"]["T_out[0]"] != snap["series"]["T_out[1]"]  # the channels differ
+    # a frame of a channel the view does not show is not kept; faults carry their channel
+    buf.add({**_telemetry(500, faults=1), "channel": 3})
+    assert buf.count_of(0) == buf.count_of(1) == 500
+    buf.add({**_telemetry(500, faults=1), "channel": 1})
+    snap = live.snapshot(buf, signals, 5.0, 100)
+    assert snap["faults_in_window"] == ["1:" + n for n in live.fault_names(1)]
+    frame = live.render_text(snap, 100, 30)
+    assert "T_out[0]" in frame and "T_out[1]" in frame

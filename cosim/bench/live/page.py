@@ -30,6 +30,15 @@ const COLORS = {T_ref: "#000000", T_c: "#e69f00", T_in: "#0072b2", T_out: "#d55e
 const hidden = new Set();
 let frames = 0, started = performance.now(), built = false;
 
+// A trace's signal and channel: "T_out[1]" is T_out of channel 1 (several channels shown);
+// a channel's traces share the signal's colour, each further channel dashed.
+function base(s) { return s.split("[")[0]; }
+let d0 = null;
+function dash(s) {
+  const m = s.match(/\\[(\\d+)\\]$/);
+  return m && d0 !== null && Number(m[1]) !== d0 ? [6, 3] : [];
+}
+
 function setMessage(text) { document.getElementById("message").textContent = text; }
 
 function buildControls(d) {
@@ -38,14 +47,14 @@ function buildControls(d) {
   const box = document.getElementById("controls");
   const table = document.getElementById("latest");
   for (const s of d.signals) {
-    if (s === "faults") continue;
+    if (s.startsWith("faults")) continue;
     const label = document.createElement("label");
     const check = document.createElement("input");
     check.type = "checkbox"; check.checked = true; check.id = "show-" + s;
     check.onchange = () => { if (check.checked) hidden.delete(s); else hidden.add(s); };
     label.appendChild(check);
     label.appendChild(document.createTextNode(" " + s + " (" + d.units[s] + ")"));
-    label.style.color = COLORS[s];
+    label.style.color = COLORS[base(s)];
     box.appendChild(label);
     const row = table.insertRow();
     row.innerHTML = "<th>" + s + " (" + d.units[s] + ")</th><td id='v-" + s + "'>-</td>";
@@ -75,14 +84,16 @@ function panel(canvas, d, names, unit) {
   }
   g.fillText(unit, L + 4, T + 14);
   for (const s of shown) {
-    g.strokeStyle = COLORS[s]; g.lineWidth = 1.5; g.beginPath();
+    g.strokeStyle = COLORS[base(s)]; g.lineWidth = 1.5; g.setLineDash(dash(s)); g.beginPath();
     d.series[s].forEach((v, i) => { const x = X(d.t_s[i]), y = Y(v);
       if (i) g.lineTo(x, y); else g.moveTo(x, y); });
     g.stroke();
   }
+  g.setLineDash([]);
 }
 
 function draw(d) {
+  d0 = d.channels ? d.channels[0] : null;
   buildControls(d);
   document.getElementById("title").textContent =
     "bowden bench live: " + (d.label || "no run") + " (last " + d.window_s + " s)";
@@ -90,12 +101,12 @@ function draw(d) {
   if (!d.samples) return;
   const tensions = d.signals.filter(s => d.units[s] === "N");
   panel(document.getElementById("tension"), d, tensions, "N");
-  panel(document.getElementById("current"), d, d.signals.filter(s => s === "current"), "A");
+  panel(document.getElementById("current"), d, d.signals.filter(s => d.units[s] === "A"), "A");
   document.getElementById("sample").textContent = d.latest.sample;
   document.getElementById("latest").dataset.sample = d.latest.sample;
   for (const s of d.signals) {
     const cell = document.getElementById("v-" + s);
-    if (cell) cell.textContent = d.latest.values[s].toFixed(6);
+    if (cell && s in d.latest.values) cell.textContent = d.latest.values[s].toFixed(6);
   }
   document.getElementById("faults").textContent = "faults now: " +
     (d.latest.faults.join(", ") || "none") + "; in the window: " +

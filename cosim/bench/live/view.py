@@ -83,10 +83,26 @@ def parse_signals(text: str) -> list[str]:
     return names
 
 
+def channel_list(text: str) -> tuple[int, ...]:
+    """`--channels 0,1` of the view process: the channels' numbers, each once, in order."""
+    chans = tuple(dict.fromkeys(int(c) for c in text.split(",") if c.strip()))
+    if not chans or min(chans) < 0:
+        raise ValueError(f"--channels {text!r}: expected channel numbers from 0, e.g. 0,1")
+    return chans
+
+
+def series_name(signal: str, channel: int, channels: tuple[int, ...]) -> str:
+    """A trace's name: the signal's alone for one channel (as it always was), `T_out[1]` for
+    channel 1 of several."""
+    return signal if len(channels) == 1 else f"{signal}[{channel}]"
+
+
 class LiveBuffer:
     """The last `capacity_s` seconds of telemetry, written by one thread (the recorder), read by
     any number of views without locks (see the module docstring). With `path` the ring is a
-    memory-mapped file that a view process maps too (`attach`); row 0 holds the row count."""
+    memory-mapped file that a view process maps too (`attach`). One ring a channel shown
+    (`channels`, the device's channel numbers; frames of another channel are not kept); row 0
+    of each holds its row count."""
 
     def __init__(
         self,
@@ -94,31 +110,38 @@ class LiveBuffer:
         capacity_s: float = 2 * WINDOW_RANGE_S[1],
         path: str | None = None,
         attach: bool = False,
+        channels: tuple[int, ...] = (0,),
     ):
         self.rate_hz = float(rate_hz)
         self.capacity = int(capacity_s * rate_hz) + 1
-        shape = (self.capacity + 1, len(_FIELDS))
+        self.channels = tuple(channels)
+        self._ring = {c: k for k, c in enumerate(self.channels)}
+        shape = (len(self.channels), self.capacity + 1, len(_FIELDS))
         if path is None:
             self._mem = np.zeros(shape, dtype=np.int64)
         else:
             self._mem = np.memmap(path, dtype=np.int64, mode="r" if attach else "w+", shape=shape)
         self.path = path
-        self._n = 0  # the writer's own count
+        self._n = [0] * len(self.channels)  # the writer's own counts
         self.active = False
         self.label = ""  # what is running (waveform, file)
         self.message = NO_RUN_MESSAGE  # what a view says when no run is active
 
     @property
     def count(self) -> int:
-        """Rows ever written (only `add` moves it)."""
-        return int(self._mem[0, 0])
+        """Rows ever written to the first channel's ring (only `add` moves it)."""
+        return self.count_of(self.channels[0])
+
+    def count_of(self, channel: int) -> int:
+        """Rows ever written to `channel`'s ring."""
+        return int(self._mem[self._ring[channel], 0, 0])
 
     def start(self, label: str, rate_hz: float) -> None:
         """A run begins: `label` says what it is."""
         self.rate_hz = float(rate_hz)
         self.label = label
-        self._n = 0
-        self._mem[0, 0] = 0
+        self._n = [0] * len(self.channels)
+        self._mem[:, 0, 0] = 0
         self.active = True
 
     def stop(self, message: str) -> None:
@@ -127,21 +150,26 @@ class LiveBuffer:
         self.active = False
 
     def add(self, t: dict) -> None:
-        """One telemetry frame (the recorder's thread): one row, then the count."""
-        n = self._n
-        row = self._mem[1 + n % self.capacity]
+        """One telemetry frame (the recorder's thread): one row of its channel's ring, then the
+        count. A frame of a channel not shown is dropped here."""
+        k = self._ring.get(t.get("channel", 0))
+        if k is None:
+            return
+        n = self._n[k]
+        row = self._mem[k, 1 + n % self.capacity]
         for i, name in enumerate(_FIELDS):
             row[i] = t[name]
-        self._n = n + 1
-        self._mem[0, 0] = n + 1
+        self._n[k] = n + 1
+        self._mem[k, 0, 0] = n + 1
 
-    def window(self, seconds: float) -> dict[str, np.ndarray]:
-        """The last `seconds` of samples: `t_s` (from the sample index) and every signal in SI
-        units (faults as the bit mask), oldest first."""
-        n = self.count
+    def window(self, seconds: float, channel: int | None = None) -> dict[str, np.ndarray]:
+        """The last `seconds` of samples of `channel` (the first shown by default): `t_s` (from
+        the sample index) and every signal in SI units (faults as the bit mask), oldest first."""
+        k = self._ring[self.channels[0] if channel is None else channel]
+        n = int(self._mem[k, 0, 0])
         want = min(n, int(seconds * self.rate_hz), self.capacity // 2)
         idx = 1 + np.arange(n - want, n) % self.capacity
-        rows = np.array(self._mem[idx])
+        rows = np.array(self._mem[k, idx])
         out = {"sample": rows[:, 0], "t_s": rows[:, 0] / self.rate_hz}
         for i, (name, (_, scale, _)) in enumerate(SIGNALS.items(), start=1):
             out[name] = rows[:, i] if name == "faults" else rows[:, i] * scale
@@ -155,8 +183,15 @@ def _decimate(n: int, points: int) -> slice:
 def snapshot(buffer: LiveBuffer, signals: list[str], window_s: float, points: int) -> dict:
     """What a view draws: the last `window_s` of `signals` decimated to about `points` samples
     (`t_s`, `series`), the latest sample at full precision (`latest`), the faults now and in the
-    window, and the run's state (`active`, `label`, `message`). Plain data (JSON, pickle)."""
+    window, and the run's state (`active`, `label`, `message`). Plain data (JSON, pickle).
+
+    With several channels every signal is a trace a channel (`series_name`: `T_out[1]`), on the
+    first channel's time axis: each channel's samples are placed by their sample index
+    (interpolated where a frame of one channel was lost and not of another), and a fault is
+    named with its channel (`1:STALE_ADC`)."""
     b = buffer
+    chans = b.channels
+    names = [series_name(s, c, chans) for c in chans for s in signals]
     w = b.window(window_s)
     n = len(w["t_s"])
     doc = {
@@ -165,23 +200,40 @@ def snapshot(buffer: LiveBuffer, signals: list[str], window_s: float, points: in
         "message": "" if b.active else b.message,
         "window_s": window_s,
         "rate_hz": b.rate_hz,
-        "signals": list(signals),
-        "units": {s: SIGNALS[s][2] for s in signals},
+        "channels": list(chans),
+        "signals": names,
+        "units": {series_name(s, c, chans): SIGNALS[s][2] for c in chans for s in signals},
         "samples": n,
     }
     if not n:
         return doc
     cut = _decimate(n, points)
     doc["t_s"] = np.round(w["t_s"][cut], 6).tolist()
-    doc["series"] = {s: np.round(w[s][cut], 6).tolist() for s in signals if s != "faults"}
-    seen = int(np.bitwise_or.reduce(w["faults"].astype(np.int64)))
+    doc["series"], values, now, seen = {}, {}, [], []
+    for c in chans:
+        wc = w if c == chans[0] else b.window(window_s, c)
+        tag = "" if len(chans) == 1 else f"{c}:"
+        if not len(wc["t_s"]):
+            continue  # no frame of this channel yet
+        for s in signals:
+            if s == "faults":
+                continue
+            on_axis = wc[s][cut] if wc is w else np.interp(w["sample"][cut], wc["sample"], wc[s])
+            doc["series"][series_name(s, c, chans)] = np.round(on_axis, 6).tolist()
+        for s in SIGNALS:
+            if s != "faults":
+                values[series_name(s, c, chans)] = float(wc[s][-1])
+        now += [tag + f for f in fault_names(int(wc["faults"][-1]))]
+        seen += [
+            tag + f for f in fault_names(int(np.bitwise_or.reduce(wc["faults"].astype(np.int64))))
+        ]
     doc["latest"] = {
         "sample": int(w["sample"][-1]),
         "t_s": float(w["t_s"][-1]),
-        "values": {s: float(w[s][-1]) for s in SIGNALS if s != "faults"},
-        "faults": fault_names(int(w["faults"][-1])),
+        "values": values,
+        "faults": now,
     }
-    doc["faults_in_window"] = fault_names(seen)
+    doc["faults_in_window"] = seen
     return doc
 
 
@@ -195,7 +247,8 @@ def render_text(snap: dict, cols: int, rows: int, fps: float = 0.0) -> str:
 
     signals = snap["signals"]
     tensions = [s for s in signals if snap["units"][s] == "N"]
-    panels = [p for p in (tensions, ["current"] if "current" in signals else []) if p]
+    currents = [s for s in signals if snap["units"][s] == "A"]
+    panels = [p for p in (tensions, currents) if p]
     plt.main()  # back to the whole figure: clear_figure clears only the active subplot
     plt.clear_figure()
     plt.theme("clear")
@@ -207,7 +260,7 @@ def render_text(snap: dict, cols: int, rows: int, fps: float = 0.0) -> str:
         for k, names in enumerate(panels, start=1):
             plt.subplot(k, 1)
             for name in names:
-                if snap["samples"]:
+                if name in snap.get("series", {}):
                     plt.plot(snap["t_s"], snap["series"][name], label=name, marker="braille")
             plt.xlim(t_end - snap["window_s"], t_end)
             plt.ylabel(snap["units"][names[0]])
@@ -227,7 +280,7 @@ def status_text(snap: dict, fps: float = 0.0) -> str:
     last = snap["latest"]
     parts = [f"t {last['t_s']:8.3f} s", f"sample {last['sample']}"]
     for name in snap["signals"]:
-        if name != "faults":
+        if not name.startswith("faults") and name in last["values"]:
             parts.append(f"{name} {last['values'][name]:7.3f} {snap['units'][name]}")
     now = ",".join(last["faults"]) or "none"
     seen = ",".join(snap["faults_in_window"]) or "none"
@@ -542,6 +595,7 @@ class ViewProcess:
         argv += ["--ring", b.path, "--rate", repr(b.rate_hz), "--capacity", str(b.capacity)]
         argv += ["--signals", ",".join(self.signals), "--window", repr(self.window_s)]
         argv += ["--http-port", str(self.http_port), "--sink", self.sink or "-"]
+        argv += ["--channels", ",".join(str(c) for c in b.channels)]
         if self.size:
             argv += ["--size", f"{self.size[0]}x{self.size[1]}"]
         self._proc = subprocess.Popen(argv, stdin=subprocess.PIPE, pass_fds=(w,), text=True)
@@ -697,6 +751,7 @@ def view_main(argv: list[str]) -> int:
     for name in ("--kind", "--ring", "--signals", "--sink"):
         p.add_argument(name, required=True)
     p.add_argument("--size", default=None)
+    p.add_argument("--channels", type=channel_list, default=(0,))
     a = p.parse_args(argv)
     # Ctrl-C reaches the whole process group: the recording process stops the run and then
     # this view (which shows how the run ended), not the other way round.
@@ -715,7 +770,13 @@ def _view_run(a) -> int:
     # The recording comes first: on a busy machine the view draws less often, the recording
     # process (and an emulated device beside it) keeps its share of the CPU.
     os.nice(10)
-    buf = LiveBuffer(a.rate, capacity_s=(a.capacity - 1) / a.rate, path=a.ring, attach=True)
+    buf = LiveBuffer(
+        a.rate,
+        capacity_s=(a.capacity - 1) / a.rate,
+        path=a.ring,
+        attach=True,
+        channels=a.channels,
+    )
     signals = a.signals.split(",")
     ready = os.fdopen(a.fd, "w", buffering=1)
     term = web = None

@@ -232,9 +232,12 @@ def _run_target(text: str) -> Path:
 # --- live view -----------------------------------------------------------------------------------
 
 
-def open_view(args, label: str, rate_hz: float) -> live.ViewProcess:
-    """Start the view `args.live` asks for in its own process (a page's address on stderr)."""
-    buffer = live.LiveBuffer(rate_hz, path=live.ring_file())
+def open_view(
+    args, label: str, rate_hz: float, channels: tuple[int, ...] = (0,)
+) -> live.ViewProcess:
+    """Start the view `args.live` asks for in its own process (a page's address on stderr),
+    with a trace a channel of `channels`."""
+    buffer = live.LiveBuffer(rate_hz, path=live.ring_file(), channels=channels)
     buffer.start(label, rate_hz)
     try:
         view = live.ViewProcess(
@@ -256,19 +259,13 @@ def record_with_view(client, args, out, label: str, **kw) -> RunResult:
     tick_hz = float(client.get("tick_rate_hz"))
     run_ticks(kw["seconds"], tick_hz)  # a duration refused before the view clears the screen
     rate_hz = tick_hz / int(client.get("dev.telemetry_div"))
-    view = open_view(args, label, rate_hz)
+    # A trace a channel the run records (the ring drops frames of any other).
+    view = open_view(args, label, rate_hz, tuple(kw.get("channels") or (client.channel,)))
     if view.kind == "term":
         kw["progress"] = None
-    # The view draws one channel: the first one the run records.
-    shown = (kw.get("channels") or (client.channel,))[0]
-
-    def tap(t: dict) -> None:
-        if t.get("channel", 0) == shown:
-            view.buffer.add(t)
-
     result = None
     try:
-        result = record_run(client, out, tap=tap, **kw)
+        result = record_run(client, out, tap=view.buffer.add, **kw)
     finally:
         try:
             if result is None:  # interrupted or failed: the device before the view
