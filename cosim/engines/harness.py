@@ -120,6 +120,40 @@ def store_plant_rows(rec: dict[str, np.ndarray], rows: np.ndarray) -> None:
         rec[field][:] = rows[:, OUTPUT_NAMES.index(name)]
 
 
+def store_run(rec: dict[str, np.ndarray], rows: np.ndarray, inp) -> None:
+    """The end of every engine's run: the plant's recorded rows (store_plant_rows) and the
+    run's inputs (time, T_ref, the end-effector's position) into the record."""
+    store_plant_rows(rec, rows)
+    rec["t_s"][:] = inp.t_s
+    rec["T_ref_N"][:] = inp.t_ref_n
+    rec["x_m"][:], rec["y_m"][:], rec["z_m"][:] = inp.x_m, inp.y_m, inp.z_m
+
+
+class PlantFeed:
+    """The plant's side of one sample, as every engine that runs its loop in Python does it
+    (`sample`): the plant's outputs recorded (the row in force while the loop computed sample
+    k), the end-effector's position of sample k set, and the drive's current segments stepped
+    (`drive`: the interface chain's, `(k, command) -> [(dt_s, current_a), ...]`). `rows` holds
+    the recorded outputs for `store_run`."""
+
+    def __init__(self, plant, inp, drive, n: int) -> None:
+        self.rows, self._y_row = plant_rows(plant, n)
+        self._xyz = list(zip(inp.x_m.tolist(), inp.y_m.tolist(), inp.z_m.tolist(), strict=True))
+        self._u, self._step, self._drive = plant.u, plant.step, drive
+        self.y = plant.y  # refilled in place by every step
+
+    def sample(self, k: int, command):
+        """Record sample k's outputs, set its position, drive the plant through the sample
+        with `command` (the chain's input: a current word or amperes); the outputs after it."""
+        self.rows[k] = self._y_row
+        u = self._u
+        u[2], u[3], u[4] = self._xyz[k]
+        for dt_seg, current_a in self._drive(k, command):
+            u[0] = current_a
+            self._step(dt_seg)
+        return self.y
+
+
 @dataclass
 class Record:
     """Pre-allocated buffers of one run, filled sample by sample."""

@@ -36,14 +36,7 @@ from cosim.parts.rtl_model import FloatTensionLoop
 from cosim.project.progress import Progress
 
 from .fwbridge import KV_FRAC, loop_words
-from .harness import (
-    TC_LATENCY_SAMPLES,
-    CommandTension,
-    Record,
-    open_plant,
-    plant_rows,
-    store_plant_rows,
-)
+from .harness import TC_LATENCY_SAMPLES, CommandTension, PlantFeed, Record, open_plant, store_run
 
 
 def make_float_loop(cfg: SimConfig) -> FloatTensionLoop:
@@ -106,12 +99,8 @@ def run_reference(
     # words, so that both see a reversal at the same tick (comp.h: the twin is the oracle "fed
     # the same Q7.8 references").
     t_ref = firmware_t_ref(scen, cfg, compensator, inp).tolist()  # ahead in preview mode
-    xs, ys, zs = inp.x_m.tolist(), inp.y_m.tolist(), inp.z_m.tolist()
     out_tc, out_u = rec["T_c_N"], rec["current_A"]
-    rows, y_row = plant_rows(plant, n)
     T_IN_MEAS = plant.T_IN_MEAS
-    pu = plant.u
-    step = plant.step
 
     tc_new = 0.0  # T_c computed at the last firmware tick, in force from the next sample
     tc = 0.0
@@ -126,7 +115,8 @@ def run_reference(
     uff_lim = words["uff_limit"] / (1 << rtl_model.CURRENT_FRAC)
     tc_prev = None  # T_c of the previous firmware tick (None before the first)
     uff_new = 0.0
-    drive, sense = chain.drive, chain.sense
+    feed = PlantFeed(plant, inp, chain.drive, n)
+    sense = chain.sense
     for k in range(n):
         if k >= TC_LATENCY_SAMPLES and (k - TC_LATENCY_SAMPLES) % dec == 0:
             tc = tc_new
@@ -143,25 +133,14 @@ def run_reference(
         # Record sample k: the sensors as the loop saw them and the command it gave.
         out_tc[k] = tc_eff
         out_u[k] = u
-        rows[k] = y_row
-        pu[2] = xs[k]
-        pu[3] = ys[k]
-        pu[4] = zs[k]
-        for dt_seg, current_a in drive(k, u):
-            pu[0] = current_a
-            y = step(dt_seg)
+        y = feed.sample(k, u)
         sample = sense(k, y[T_IN_MEAS])
         if sample is not None:
             t_in_meas = sample
         if (k & 1023) == 0:
             bar.update(k)
     bar.close(n)
-    store_plant_rows(rec, rows)
-    rec["t_s"][:] = inp.t_s
-    rec["T_ref_N"][:] = inp.t_ref_n
-    rec["x_m"][:] = inp.x_m
-    rec["y_m"][:] = inp.y_m
-    rec["z_m"][:] = inp.z_m
+    store_run(rec, feed.rows, inp)
     plant.close()
     if not math.isfinite(float(np.sum(out_u))):
         raise RuntimeError("float reference: the current command is not finite")
@@ -210,7 +189,7 @@ def run_model_chain(
     code = code0
     y = plant.y
     words = np.zeros(n)
-    rows, y_row = plant_rows(plant, n)
+    feed = PlantFeed(plant, inp, chain.drive, n)
     for k in range(n):
         if k >= TC_LATENCY_SAMPLES and (k - TC_LATENCY_SAMPLES) % dec == 0:
             apply(pending)
@@ -222,18 +201,11 @@ def run_model_chain(
         u = out.u / 4096.0
         rec["T_c_N"][k] = out.tc_eff / 256.0
         rec["current_A"][k] = u
-        rows[k] = y_row
-        plant.u[2], plant.u[3], plant.u[4] = inp.x_m[k], inp.y_m[k], inp.z_m[k]
-        for dt_seg, current_a in chain.drive(k, out.u):
-            plant.u[0] = current_a
-            y = plant.step(dt_seg)
+        y = feed.sample(k, out.u)
         code = chain.sense(k, y[plant.T_IN_MEAS])
         if k % dec == 0:
             _, pending = fw.tick(float(fw_ref[k]))
     plant.close()
-    store_plant_rows(rec, rows)
-    rec["t_s"][:] = inp.t_s
-    rec["T_ref_N"][:] = inp.t_ref_n
-    rec["x_m"][:], rec["y_m"][:], rec["z_m"][:] = inp.x_m, inp.y_m, inp.z_m
+    store_run(rec, feed.rows, inp)
     rec["u_word"] = words
     return rec

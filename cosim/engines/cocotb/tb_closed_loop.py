@@ -52,10 +52,10 @@ from cosim.engines.fwbridge import FirmwareBridge, loop_words
 from cosim.engines.harness import (
     TC_LATENCY_SAMPLES,
     CommandTension,
+    PlantFeed,
     Record,
     open_plant,
-    plant_rows,
-    store_plant_rows,
+    store_run,
 )
 from cosim.parts import regmap, rtl_model
 from cosim.parts.interface import make_chain
@@ -219,16 +219,13 @@ async def closed_loop(dut):
     read_u = fastio.signed_reader(dut.cmd_current)
     fastio.check_port(dut.cmd_current, read_u, signed=True)
     write_adc = fastio.writer(dut.adc_word)
-    step = plant.step
-    pu, py = plant.u, plant.y
+    py = plant.y
     T_IN_MEAS, T_OUT_MEAS = plant.T_IN_MEAS, plant.T_OUT_MEAS
     far_sense = far.sense
     dt_s = 1.0 / cfg.sample_rate_hz
-    xs, ys, zs = inp.x_m.tolist(), inp.y_m.tolist(), inp.z_m.tolist()
     out_tc, out_u = rec["T_c_N"], rec["current_A"]
-    rows, y_row = plant_rows(plant, n)
     u_words = np.zeros(n, dtype=np.int32)
-    drive, sense = chain.drive, chain.sense
+    feed, sense = PlantFeed(plant, inp, chain.drive, n), chain.sense
     timer = Timer(sample_ns, unit="ns")
     perf = time.perf_counter
     fmu_s = 0.0
@@ -253,15 +250,9 @@ async def closed_loop(dut):
         u_a = word / 4096.0
         out_tc[k] = tc
         out_u[k] = u_a
-        rows[k] = y_row
-        pu[2] = xs[k]
-        pu[3] = ys[k]
-        pu[4] = zs[k]
-        for dt_seg, current_a in drive(k, word):
-            pu[0] = current_a
-            t_c = perf()
-            step(dt_seg)
-            fmu_s += perf() - t_c
+        t_c = perf()
+        feed.sample(k, word)  # (the drive chain's few operations counted with the FMU's)
+        fmu_s += perf() - t_c
         if est_on:
             c_out = far_sense(k, py[T_OUT_MEAS])
             t_s = (k + 1) * dt_s
@@ -298,12 +289,7 @@ async def closed_loop(dut):
     status_word = await axi.read_dword(regmap.STATUS)
 
     plant.close()
-    store_plant_rows(rec, rows)
-    rec["t_s"][:] = inp.t_s
-    rec["T_ref_N"][:] = inp.t_ref_n
-    rec["x_m"][:] = inp.x_m
-    rec["y_m"][:] = inp.y_m
-    rec["z_m"][:] = inp.z_m
+    store_run(rec, feed.rows, inp)
     rec["u_word"] = u_words.astype(np.float64)
     if est_on:  # the firmware's mu*phi in force at each sample (its last tick's)
         est = np.zeros(n, dtype=np.int64)

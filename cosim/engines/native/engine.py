@@ -28,7 +28,7 @@ from cosim.engines.harness import (
     Record,
     open_plant,
     plant_rows,
-    store_plant_rows,
+    store_run,
 )
 from cosim.parts.firmware import tension_words
 from cosim.parts.interface import make_chain
@@ -309,10 +309,7 @@ def _collect(s, n, inp, rec, out_u_word, rows, out_est, out_corr, status):
     if status != 0:
         raise RuntimeError(f"native closed loop: {s.error.decode(errors='replace')}")
 
-    store_plant_rows(rec, rows)
-    rec["t_s"][:] = inp.t_s
-    rec["T_ref_N"][:] = inp.t_ref_n
-    rec["x_m"][:], rec["y_m"][:], rec["z_m"][:] = inp.x_m, inp.y_m, inp.z_m
+    store_run(rec, rows, inp)
     rec["u_word"] = out_u_word.astype(np.float64)
     if s.est_feed:
         rec["mu_phi_est"] = out_est / 2.0**28  # the firmware's mu*phi in force
