@@ -116,20 +116,29 @@ typedef struct {
     uint32_t same_ticks;              /* ticks the code has not changed */
 } fric_est_window_t;
 
+/*
+ * The gate's bookkeeping around the window, one for the estimate and its double twin: both take
+ * a tick through the same fric_est_gate_* calls in the same order (input checks, the code's run,
+ * the window's sample, the samples per branch, the bounds), so only the arithmetic differs.
+ */
 typedef struct {
-    fric_est_config_t cfg;
-    int32_t tau_shift;                /* s with tau = 2^s */
-    int64_t p[2], q[2];               /* P_b, Q_b (b = 0 loading, 1 unloading), Q.(16+28) */
-    uint32_t n[2];                    /* accepted samples per branch (saturating) */
-    q3_28_t x_b[2];                   /* ln G_up, -ln G_dn of the last update of each branch */
-    q3_28_t x;                        /* the estimate mu*phi, Q3.28 */
-    q3_28_t x_meas;                   /* the last measurement, Q3.28 */
-    uq8_24_t band_hi;                 /* e^(5x/4), UQ8.24 (the STUCK band) */
     fric_est_window_t win;            /* the last W + 1 ticks, the far-end code's run */
+    uint32_t n[2];                    /* accepted samples per branch (saturating) */
     int32_t implausible;              /* T_in left the band while the code was unchanged */
     uint32_t faults;                  /* FE_FAULT_* (latched) */
     int32_t accepted;                 /* 1 if the last tick's sample was used */
     uint32_t out_of_bounds;           /* consecutive measurements outside the bounds */
+} fric_est_gate_t;
+
+typedef struct {
+    fric_est_config_t cfg;
+    int32_t tau_shift;                /* s with tau = 2^s */
+    int64_t p[2], q[2];               /* P_b, Q_b (b = 0 loading, 1 unloading), Q.(16+28) */
+    q3_28_t x_b[2];                   /* ln G_up, -ln G_dn of the last update of each branch */
+    q3_28_t x;                        /* the estimate mu*phi, Q3.28 */
+    q3_28_t x_meas;                   /* the last measurement, Q3.28 */
+    uq8_24_t band_hi;                 /* e^(5x/4), UQ8.24 (the STUCK band) */
+    fric_est_gate_t g;                /* window, samples per branch, faults, bounds run */
 } fric_est_t;
 
 /* Defaults: off; tau 128 samples; rate 0.002 per tick (2.0 per second at 1 kHz); bounds
@@ -178,13 +187,40 @@ int32_t fric_est_window_push(fric_est_window_t *w, int32_t t_in_q8, int32_t t_ou
 int32_t fric_est_window_branch(const fric_est_window_t *w, int32_t t_min_q8, int32_t *d_in_q8,
                                int32_t *d_out_q8);
 
-/* A tick's pass through the window after its code and plausibility are known: a code unchanged
- * for FE_STUCK_TICKS while the tensions were implausible latches FE_FAULT_STUCK in *faults (-1,
- * nothing pushed); else the tick is pushed and, over a full window, the branch and increments of
- * fric_est_window_branch are returned (-1 while the window fills or no branch). */
-int32_t fric_est_window_tick(fric_est_window_t *w, int32_t implausible, int32_t t_min_q8,
-                             int32_t t_in_q8, int32_t t_out_q8, uint32_t *faults,
-                             int32_t *d_in_q8, int32_t *d_out_q8);
+/* No samples, no faults, an empty window. */
+void fric_est_gate_reset(fric_est_gate_t *g);
+
+/* A tick's inputs, as fric_est_step takes them. */
+typedef struct {
+    int32_t t_in_q8, t_out_q8;        /* the two cells, Q7.8 */
+    int32_t code, code_min, code_max; /* the far-end ADC code and its valid range */
+    uint32_t adc_flags;               /* the front-end's flags (non-zero: FE_FAULT_ADC) */
+} fric_est_input_t;
+
+/* A tick's sample: the branch (0 loading, 1 unloading, -1 none) and, on a branch, the
+ * increments T(k) - T(k-W) of both cells (Q7.8). */
+typedef struct {
+    int32_t branch;
+    int32_t d_in_q8, d_out_q8;
+} fric_est_sample_t;
+
+/* A tick through the gate. The input faults are latched (fric_est_input_faults); once any fault
+ * is latched the estimate is frozen until the next reset (branch -1). Else the far-end code's
+ * run is counted: a new code clears `implausible`, and with the code unchanged and T_in >= t_min
+ * the caller's band test (`outside_band`: the tensions outside the band friction allows) sets
+ * it. A code unchanged for FE_STUCK_TICKS while implausible latches FE_FAULT_STUCK (-1, nothing
+ * pushed); else the tick is pushed and, over a full window, the branch and increments of
+ * fric_est_window_branch are returned and the sample counted on its branch (`n`, `accepted`);
+ * -1 while the window fills or on no branch. */
+fric_est_sample_t fric_est_gate_tick(fric_est_gate_t *g, const fric_est_config_t *cfg,
+                                     const fric_est_input_t *in, int32_t outside_band);
+
+/* 1 when branch b (or, b = -1, each branch) holds the FE_MIN_SAMPLES a measurement needs. */
+int32_t fric_est_gate_ready(const fric_est_gate_t *g, int32_t b);
+
+/* A measurement inside the bounds (in_bounds != 0) ends a run outside them; one outside counts
+ * the run and latches FE_FAULT_BOUND at FE_BOUND_SAMPLES. Returns in_bounds. */
+int32_t fric_est_gate_bounds(fric_est_gate_t *g, int32_t in_bounds);
 
 /*
  * ln(v) for v in UQ8.24 (v > 0), in Q3.28, clamped to [-8, 8 - 2^-28] (0 gives -8).

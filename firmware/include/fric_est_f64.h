@@ -1,7 +1,7 @@
 /*
  * fric_est_f64.h - the double twin of the friction estimate (host only: libm's log and exp), the
  * oracle fric_est.h is held against. The same method (fric_est.h), the same window and gate
- * (fric_est_window_*, fric_est.c) on the same Q7.8 words, and in double: the accumulators P_b,
+ * (fric_est_gate_*, fric_est.c) on the same Q7.8 words, and in double: the accumulators P_b,
  * Q_b (no rounding), the ratios, ln, the band e^x_max, the branch average and the rate bound.
  * Configured from the same fixed-point configuration (fric_est_config_t), so both hold the same
  * values.
@@ -17,16 +17,11 @@ typedef struct {
     fric_est_config_t cfg;
     double lambda_inv;                /* 1 / tau */
     double p[2], q[2];                /* means of dT_in dT_out and dT_out^2, (Q7.8 LSB)^2 */
-    uint32_t n[2];
     double x_b[2];
     double x;                         /* mu*phi */
     double x_meas;
     double band_hi;                   /* e^(5x/4) */
-    fric_est_window_t win;            /* the integer estimate's window (fric_est.h) */
-    int32_t implausible;
-    uint32_t faults;
-    int32_t accepted;
-    uint32_t out_of_bounds;
+    fric_est_gate_t g;                /* the integer estimate's gate and window (fric_est.h) */
 } fric_est_f64_t;
 
 /* Apply a configuration (checked by fric_est_config_check) and reset to x0 (in mu*phi). */

@@ -73,20 +73,10 @@ int32_t fric_est_config_check(const fric_est_config_t *cfg, q3_28_t x0_q28, q3_2
 
 void fric_est_reset(fric_est_t *e, q3_28_t x0_q28)
 {
-    for (int32_t b = 0; b < 2; ++b) {
-        e->p[b] = 0;
-        e->q[b] = 0;
-        e->n[b] = 0U;
-        e->x_b[b] = x0_q28;
-    }
-    e->x = x0_q28;
-    e->x_meas = x0_q28;
-    fric_est_window_reset(&e->win);
-    e->implausible = 0;
-    e->faults = 0U;
-    e->accepted = 0;
-    e->out_of_bounds = 0U;
-    e->band_hi = band_of(x0_q28);
+    /* The configuration kept; the accumulators zero; every measurement at the start value. */
+    *e = (fric_est_t){.cfg = e->cfg, .tau_shift = e->tau_shift, .x_b = {x0_q28, x0_q28},
+                      .x = x0_q28, .x_meas = x0_q28, .band_hi = band_of(x0_q28)};
+    fric_est_gate_reset(&e->g);
 }
 
 void fric_est_configure(fric_est_t *e, const fric_est_config_t *cfg, q3_28_t x0_q28)
@@ -206,18 +196,66 @@ int32_t fric_est_window_branch(const fric_est_window_t *w, int32_t t_min_q8, int
     return b;
 }
 
-int32_t fric_est_window_tick(fric_est_window_t *w, int32_t implausible, int32_t t_min_q8,
-                             int32_t t_in_q8, int32_t t_out_q8, uint32_t *faults,
-                             int32_t *d_in_q8, int32_t *d_out_q8)
+void fric_est_gate_reset(fric_est_gate_t *g)
 {
-    if (w->same_ticks >= (uint32_t)FE_STUCK_TICKS && implausible != 0) {
-        *faults |= FE_FAULT_STUCK;
-        return -1;
+    fric_est_window_reset(&g->win);
+    g->n[0] = 0U;
+    g->n[1] = 0U;
+    g->implausible = 0;
+    g->faults = 0U;
+    g->accepted = 0;
+    g->out_of_bounds = 0U;
+}
+
+fric_est_sample_t fric_est_gate_tick(fric_est_gate_t *g, const fric_est_config_t *cfg,
+                                     const fric_est_input_t *in, int32_t outside_band)
+{
+    fric_est_sample_t s = {-1, 0, 0};
+    fric_est_window_t *w = &g->win;
+    g->accepted = 0;
+    g->faults |= fric_est_input_faults(in->t_in_q8, in->t_out_q8, in->code, in->code_min,
+                                       in->code_max, in->adc_flags);
+    if (g->faults != 0U) {
+        return s;
     }
-    if (fric_est_window_push(w, t_in_q8, t_out_q8) == 0) {
-        return -1;
+    /* STUCK: an unchanged code while T_in leaves the band friction allows around it. */
+    if (fric_est_window_code(w, in->code) != 0) {
+        g->implausible = 0;
     }
-    return fric_est_window_branch(w, t_min_q8, d_in_q8, d_out_q8);
+    if (w->same_ticks > 0U && in->t_in_q8 >= cfg->t_min_n_q8 && outside_band != 0) {
+        g->implausible = 1;
+    }
+    if (w->same_ticks >= (uint32_t)FE_STUCK_TICKS && g->implausible != 0) {
+        g->faults |= FE_FAULT_STUCK;
+        return s;
+    }
+    if (fric_est_window_push(w, in->t_in_q8, in->t_out_q8) == 0) {
+        return s;
+    }
+    s.branch = fric_est_window_branch(w, cfg->t_min_n_q8, &s.d_in_q8, &s.d_out_q8);
+    if (s.branch >= 0) {
+        if (g->n[s.branch] < 0xFFFFFFFFU) {
+            ++g->n[s.branch];
+        }
+        g->accepted = 1;
+    }
+    return s;
+}
+
+int32_t fric_est_gate_ready(const fric_est_gate_t *g, int32_t b)
+{
+    const uint32_t need = (uint32_t)FE_MIN_SAMPLES;
+    return (b < 0) ? (g->n[0] >= need && g->n[1] >= need) : (g->n[b] >= need);
+}
+
+int32_t fric_est_gate_bounds(fric_est_gate_t *g, int32_t in_bounds)
+{
+    if (in_bounds != 0) {
+        g->out_of_bounds = 0U;
+    } else if (++g->out_of_bounds >= (uint32_t)FE_BOUND_SAMPLES) {
+        g->faults |= FE_FAULT_BOUND;
+    }
+    return in_bounds;
 }
 
 /* acc <- acc + (v 2^FE_ACC_FRAC - acc) / 2^s, rounded (v in [0, 2^30), acc in [0, 2^58)). */
@@ -230,44 +268,26 @@ static inline int64_t forget(int64_t acc, int64_t v, int32_t s)
 q3_28_t fric_est_step(fric_est_t *e, int32_t t_in_q8, int32_t t_out_q8, int32_t code,
                       int32_t code_min, int32_t code_max, uint32_t adc_flags)
 {
-    e->accepted = 0;
-    e->faults |= fric_est_input_faults(t_in_q8, t_out_q8, code, code_min, code_max, adc_flags);
-    if (e->faults != 0U) {
-        return e->x; /* frozen until the next reset */
-    }
-
-    /* STUCK: an unchanged code while T_in leaves the band friction allows around it. */
-    if (fric_est_window_code(&e->win, code) != 0) {
-        e->implausible = 0;
-    }
-    if (e->win.same_ticks > 0U && t_in_q8 >= e->cfg.t_min_n_q8) {
-        /* Q7.8 * UQ8.24 in int64: |T| < 2^15, band < 2^30 (e^4 < 55). */
-        int64_t in24 = (int64_t)t_in_q8 * (INT64_C(1) << 24);
-        int64_t hi = (int64_t)t_out_q8 * (int64_t)e->band_hi;
-        int64_t lo_scaled = (int64_t)t_in_q8 * (int64_t)e->band_hi; /* T_in e^x_max */
-        int64_t out24 = (int64_t)t_out_q8 * (INT64_C(1) << 24);
-        if (in24 > hi || lo_scaled < out24) {
-            e->implausible = 1;
-        }
-    }
-    int32_t d_in_q8 = 0;
-    int32_t d_out_q8 = 0;
-    const int32_t b = fric_est_window_tick(&e->win, e->implausible, e->cfg.t_min_n_q8, t_in_q8,
-                                           t_out_q8, &e->faults, &d_in_q8, &d_out_q8);
+    /* The STUCK band, T_out <= T_in <= T_out e^(5x/4): Q7.8 * UQ8.24 in int64 (|T| < 2^31 even
+     * for a word the gate refuses, band < 2^30 (e^4 < 55): products below 2^61). */
+    const int64_t in24 = (int64_t)t_in_q8 * (INT64_C(1) << 24);
+    const int64_t out24 = (int64_t)t_out_q8 * (INT64_C(1) << 24);
+    const int64_t out_hi = (int64_t)t_out_q8 * (int64_t)e->band_hi;
+    const int64_t in_hi = (int64_t)t_in_q8 * (int64_t)e->band_hi; /* T_in e^x_max */
+    const fric_est_input_t in = {t_in_q8, t_out_q8, code, code_min, code_max, adc_flags};
+    const int32_t outside = in24 > out_hi || in_hi < out24;
+    const fric_est_sample_t s = fric_est_gate_tick(&e->g, &e->cfg, &in, outside);
+    const int32_t b = s.branch;
     if (b < 0) {
-        return e->x;
+        return e->x; /* no sample this tick (frozen by a latched fault until the next reset) */
     }
 
     /* Increments |d| < 2^15 with the same sign: products in (0, 2^30). */
-    const int64_t d_in = d_in_q8;
-    const int64_t d_out = d_out_q8;
+    const int64_t d_in = s.d_in_q8;
+    const int64_t d_out = s.d_out_q8;
     e->p[b] = forget(e->p[b], d_in * d_out, e->tau_shift);
     e->q[b] = forget(e->q[b], d_out * d_out, e->tau_shift);
-    if (e->n[b] < 0xFFFFFFFFU) {
-        ++e->n[b];
-    }
-    e->accepted = 1;
-    if (e->n[b] < (uint32_t)FE_MIN_SAMPLES) {
+    if (fric_est_gate_ready(&e->g, b) == 0) {
         return e->x;
     }
     /* G_up = P/Q >= 1 and 1/G_dn = Q/P >= 1 for mu*phi >= 0: the larger over the smaller keeps
@@ -276,19 +296,16 @@ q3_28_t fric_est_step(fric_est_t *e, int32_t t_in_q8, int32_t t_out_q8, int32_t 
                               : fxp_div_uq8_24((uint64_t)e->q[1], (uint64_t)e->p[1]);
     e->x_b[b] = (ratio == 0U) ? (q3_28_t)(-8L * Q3_28_ONE) : fric_est_ln_q28(ratio);
     int64_t xm;
-    if (e->n[0] >= (uint32_t)FE_MIN_SAMPLES && e->n[1] >= (uint32_t)FE_MIN_SAMPLES) {
+    if (fric_est_gate_ready(&e->g, -1) != 0) {
         xm = ((int64_t)e->x_b[0] + (int64_t)e->x_b[1]) >> 1;
     } else {
         xm = e->x_b[b];
     }
     e->x_meas = (q3_28_t)xm;
-    if (xm < e->cfg.mu_phi_min_q28 || xm > e->cfg.mu_phi_max_q28) {
-        if (++e->out_of_bounds >= (uint32_t)FE_BOUND_SAMPLES) {
-            e->faults |= FE_FAULT_BOUND;
-        }
+    const int32_t in_bounds = xm >= e->cfg.mu_phi_min_q28 && xm <= e->cfg.mu_phi_max_q28;
+    if (fric_est_gate_bounds(&e->g, in_bounds) == 0) {
         return e->x;
     }
-    e->out_of_bounds = 0U;
     int64_t dx = xm - (int64_t)e->x;
     if (dx > e->cfg.rate_q28) {
         dx = e->cfg.rate_q28;

@@ -291,7 +291,7 @@ q7_8_t fw_tick(fw_t *fw, q7_8_t host_t_ref)
                 comp_set_exponent_q28(&fw->comp, x) == COMP_OK) { /* x within the bounds */
                 fw->est_applied_q28 = x;
             }
-            t->est_faults = fw->est.faults;
+            t->est_faults = fw->est.g.faults;
         }
         if (fw->cfg.corr.enable != 0) {
             /* The command limits of the last tick: T_c at its floor or at Q7.8's top, U at the

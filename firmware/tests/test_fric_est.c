@@ -96,7 +96,7 @@ static double run_open(const fric_est_config_t *cfg, plant_t *p, int32_t ticks, 
             worst = d;
         }
     }
-    *faults = e.faults | (f.faults << 8);
+    *faults = e.g.faults | (f.g.faults << 8);
     if (max_err_lsb != 0) {
         *max_err_lsb = worst;
     }
@@ -236,7 +236,7 @@ static void fault_case(int32_t kind, uint32_t want)
             }
         }
         q3_28_t x = fric_est_step(&e, tin, tout, code, CODE_MIN, CODE_MAX, flags);
-        if (k_flag < 0 && (e.faults & want) != 0U) {
+        if (k_flag < 0 && (e.g.faults & want) != 0U) {
             k_flag = k;
             x_at_fault = x;
         }
@@ -244,7 +244,7 @@ static void fault_case(int32_t kind, uint32_t want)
             moved_after = 1;
         }
     }
-    CHECK(e.faults == want, "kind %d: faults 0x%x, want 0x%x", kind, e.faults, want);
+    CHECK(e.g.faults == want, "kind %d: faults 0x%x, want 0x%x", kind, e.g.faults, want);
     CHECK(k_flag >= k_fault, "kind %d: flagged at %d before the fault at %d", kind, k_flag,
           k_fault);
     /* ADC flags and range are seen at once; a stuck code once T_in leaves the band (well within
@@ -285,16 +285,16 @@ static void test_no_update_in_dead_zone_or_slack(void)
         int32_t tin = q8(8.0 + 1.0 * sin(2.0 * PI_D * (double)k / 1000.0)); /* 7 .. 9 N */
         int32_t tout = q8(8.0);                                              /* held */
         (void)fric_est_step(&e, tin, tout, code_of(tout) + (k & 1), CODE_MIN, CODE_MAX, 0U);
-        accepted += e.accepted;
+        accepted += e.g.accepted;
     }
     CHECK(accepted == 0, "%d samples accepted inside the dead zone", accepted);
-    CHECK(e.x == (q3_28_t)(0.3 * Q28) && e.faults == 0U, "x %ld faults 0x%x", (long)e.x,
-          e.faults);
+    CHECK(e.x == (q3_28_t)(0.3 * Q28) && e.g.faults == 0U, "x %ld faults 0x%x", (long)e.x,
+          e.g.faults);
     fric_est_reset(&e, (q3_28_t)(0.3 * Q28));
     for (int32_t k = 0; k < 4000; ++k) {
         int32_t tin = q8(0.4 * (1.0 - cos(2.0 * PI_D * (double)k / 1000.0)) / 2.0); /* < t_min */
         (void)fric_est_step(&e, tin, tin / 2, code_of(tin / 2), CODE_MIN, CODE_MAX, 0U);
-        accepted += e.accepted;
+        accepted += e.g.accepted;
     }
     CHECK(accepted == 0, "%d samples accepted below t_min", accepted);
 }
@@ -329,7 +329,7 @@ static void test_full_scale_inputs(void)
     /* Out-of-Q7.8 tensions are a range fault, not a wrap. */
     fric_est_reset(&e, (q3_28_t)(1.0 * Q28));
     (void)fric_est_step(&e, 100, 40000, 0, CODE_MIN, CODE_MAX, 0U);
-    CHECK(e.faults == FE_FAULT_RANGE, "T_out 156 N: faults 0x%x", e.faults);
+    CHECK(e.g.faults == FE_FAULT_RANGE, "T_out 156 N: faults 0x%x", e.g.faults);
 }
 
 static void test_config_check(void)
@@ -422,7 +422,7 @@ static void test_combined_loop_stable(void)
                 }
             }
             double x = (double)e.x / Q28;
-            CHECK(e.faults == 0U, "tau %d: faults 0x%x", taus[i], e.faults);
+            CHECK(e.g.faults == 0U, "tau %d: faults 0x%x", taus[i], e.g.faults);
             double tol = (taus[i] < 64) ? 2.0 * CONV_TOL_REL : CONV_TOL_REL;
             double over_max = (taus[i] < 64) ? 0.10 : 0.05;
             CHECK(fabs(x - p.x) <= tol * p.x, "tau %d plant %.4f: estimate %.4f", taus[i], p.x, x);
