@@ -44,16 +44,11 @@ CPU = "picorv32 RV32I + Zmmul (DSP multiplier, no divider, no C, no interrupt, n
 
 
 @dataclass(frozen=True)
-class Board:
-    name: str
-    top: str
-    family: str
-    nextpnr_args: tuple[str, ...]
-    constraints: Path
-    target_mhz: float
-    lut_capacity: int
-    image_in_bitstream: bool
-    channels: int  # cables (the top's CHANNELS, set by synthesize())
+class Board(synth.Target):
+    """The SoC's top of a board: where its image lives and how many cables it drives."""
+
+    image_in_bitstream: bool = True
+    channels: int = 1  # cables (the top's CHANNELS, set by synthesize())
 
 
 # Where each board's firmware image lives: in the ECP5's bitstream (block RAM it initialises), or
@@ -64,13 +59,7 @@ IMAGE_IN_BITSTREAM = {"ecp5-25f": True, "ice40-up5k": False}
 def board_of(b: table.Board) -> Board:
     """The SoC's top of board `b` (its `soc` design)."""
     return Board(
-        name=b.name,
-        top=b.soc.top,
-        family=b.fpga.family,
-        nextpnr_args=(*b.fpga.nextpnr_args, *b.soc.nextpnr_options),
-        constraints=b.soc.constraints,
-        target_mhz=b.soc.target_mhz,
-        lut_capacity=b.fpga.luts,
+        **synth.Target.fields(b, b.soc),
         image_in_bitstream=IMAGE_IN_BITSTREAM[b.name],
         channels=b.soc.channels,
     )
@@ -171,12 +160,6 @@ def fit(board: Board, out: Path) -> tuple[int, int]:
     return use
 
 
-def write_summary(path: Path, summary: dict) -> None:
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(summary, indent=2) + "\n")
-    tmp.replace(path)
-
-
 def stage_flash_image(board: Board, out: Path, summary: dict, fw: Path = FW) -> dict:
     """For a board that boots its firmware from the flash: the image to program beside the
     bitstream, copied from the firmware build on every run (the bitstream does not depend on
@@ -188,7 +171,7 @@ def stage_flash_image(board: Board, out: Path, summary: dict, fw: Path = FW) -> 
     image = (fw / "bowden_fw.bin").stat().st_size
     if summary.get("image_bytes") != image:
         summary = {**summary, "image_bytes": image}
-        write_summary(out / "summary.json", summary)
+        synth.write_json(out / "summary.json", summary)
     return summary
 
 
@@ -208,39 +191,18 @@ def build(board: Board) -> dict:
         run([tool("yowasp-ecppack"), packed, "bowden.bit"], out / "pack.log")
         bitstream = out / "bowden.bit"
     use = synth.cell_use(out, board.family)
-    luts = use["luts"]
-    image = (FW / "bowden_fw.bin").stat().st_size
-    summary = {
-        "board": board.name,
-        "top": board.top,
-        "channels": board.channels,
-        "cpu": CPU,
-        "luts": luts,
-        "lut_capacity": board.lut_capacity,
-        "lut_fraction": round(luts / board.lut_capacity, 4),
-        "ffs": use["ffs"],
-        "logic_cells": logic_cells(out),
-        "dsps": use["dsps"],
-        "brams": use["brams"],
-        "sprams": use["cells"].get("SB_SPRAM256KA", 0),
-        "fmax_mhz": pnr["fmax_mhz"],
-        "target_mhz": board.target_mhz,
-        "timing_met": pnr["fmax_mhz"] >= board.target_mhz,
-        "clocks": pnr["clocks"],
-        "seed": pnr["seed"],
-        "fmax_by_seed_mhz": pnr["fmax_by_seed_mhz"],
-        "image_bytes": image,
-        "image_in_bitstream": board.image_in_bitstream,
-        "bitstream": bitstream.name,
-        "bitstream_bytes": bitstream.stat().st_size,
-        "yosys_s": round(yosys_s, 1),
-        "nextpnr_s": pnr["nextpnr_s"],
-        "input_hash": input_hash(board),
-    }
-    path = out / "summary.json"
-    if path.exists():
-        shutil.copyfile(path, out / "summary.prev.json")
-    write_summary(path, summary)
+    summary = synth.summary_of(board, use, pnr, yosys_s, input_hash(board))
+    summary.update(
+        channels=board.channels,
+        cpu=CPU,
+        logic_cells=logic_cells(out),
+        sprams=use["cells"].get("SB_SPRAM256KA", 0),
+        image_bytes=(FW / "bowden_fw.bin").stat().st_size,
+        image_in_bitstream=board.image_in_bitstream,
+        bitstream=bitstream.name,
+        bitstream_bytes=bitstream.stat().st_size,
+    )
+    synth.save_summary(out, summary)
     return summary
 
 

@@ -42,8 +42,9 @@ SEEDS = (4, 1, 2, 3)
 
 
 @dataclass(frozen=True)
-class Board:
-    """One target: top module, device, constraints and budget."""
+class Target:
+    """One design of a board as a build takes it (from the board table, hdl/boards/table.py):
+    top module, device family and nextpnr's options, constraints, target clock, LUT4s."""
 
     name: str
     top: str
@@ -52,7 +53,65 @@ class Board:
     constraints: Path
     target_mhz: float
     lut_capacity: int
-    max_lut_fraction: float
+
+    @staticmethod
+    def fields(b: table.Board, design: table.Design) -> dict:
+        """The fields of board `b`'s `design` (its `rtl` or its `soc`)."""
+        return dict(
+            name=b.name,
+            top=design.top,
+            family=b.fpga.family,
+            nextpnr_args=(*b.fpga.nextpnr_args, *design.nextpnr_options),
+            constraints=design.constraints,
+            target_mhz=design.target_mhz,
+            lut_capacity=b.fpga.luts,
+        )
+
+
+def summary_of(target: Target, use: dict, pnr: dict, yosys_s: float, input_hash: str) -> dict:
+    """What a build reports (its summary.json): the cells used against the device, the clock
+    against the target, the placement's seeds and the tools' times."""
+    return {
+        "board": target.name,
+        "top": target.top,
+        "luts": use["luts"],
+        "lut_capacity": target.lut_capacity,
+        "lut_fraction": round(use["luts"] / target.lut_capacity, 4),
+        "ffs": use["ffs"],
+        "dsps": use["dsps"],
+        "brams": use["brams"],
+        "fmax_mhz": pnr["fmax_mhz"],
+        "target_mhz": target.target_mhz,
+        "timing_met": pnr["fmax_mhz"] >= target.target_mhz,
+        "clocks": pnr["clocks"],
+        "seed": pnr["seed"],
+        "fmax_by_seed_mhz": pnr["fmax_by_seed_mhz"],
+        "yosys_s": round(yosys_s, 1),
+        "nextpnr_s": pnr["nextpnr_s"],
+        "input_hash": input_hash,
+    }
+
+
+def write_json(path: Path, doc: dict) -> None:
+    """`doc` as indented JSON at `path`, written whole or not at all (a temporary file renamed)."""
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(doc, indent=2) + "\n")
+    tmp.replace(path)
+
+
+def save_summary(out: Path, summary: dict) -> None:
+    """out/summary.json, the last one kept as summary.prev.json."""
+    path = out / "summary.json"
+    if path.exists():
+        shutil.copyfile(path, out / "summary.prev.json")
+    write_json(path, summary)
+
+
+@dataclass(frozen=True)
+class Board(Target):
+    """The loop's top of a board with its budget."""
+
+    max_lut_fraction: float = 1.0
     seeds: tuple[int, ...] = SEEDS  # placement seeds, in order
 
 
@@ -72,16 +131,7 @@ BUDGET = {
 
 def board_of(b: table.Board) -> Board:
     """The loop's top of board `b` (its `rtl` design), with its budget and seeds."""
-    return Board(
-        name=b.name,
-        top=b.rtl.top,
-        family=b.fpga.family,
-        nextpnr_args=(*b.fpga.nextpnr_args, *b.rtl.nextpnr_options),
-        constraints=b.rtl.constraints,
-        target_mhz=b.rtl.target_mhz,
-        lut_capacity=b.fpga.luts,
-        **BUDGET[b.name],
-    )
+    return Board(**Target.fields(b, b.rtl), **BUDGET[b.name])
 
 
 BOARDS = {name: board_of(b) for name, b in table.BOARDS.items()}
@@ -234,30 +284,8 @@ def synthesize(board: Board) -> dict:
     yosys_s = yosys(out, sources(board), board.top, board.family, netlist)
     pnr = place(out, board.family, board.nextpnr_args, netlist, board.constraints,
                 board.target_mhz, seeds=board.seeds)  # fmt: skip
-    use = cell_use(out, board.family)
-    summary = {
-        "board": board.name,
-        "top": board.top,
-        "luts": use["luts"],
-        "lut_capacity": board.lut_capacity,
-        "lut_fraction": round(use["luts"] / board.lut_capacity, 4),
-        "ffs": use["ffs"],
-        "dsps": use["dsps"],
-        "brams": use["brams"],
-        "fmax_mhz": pnr["fmax_mhz"],
-        "target_mhz": board.target_mhz,
-        "timing_met": pnr["fmax_mhz"] >= board.target_mhz,
-        "clocks": pnr["clocks"],
-        "seed": pnr["seed"],
-        "fmax_by_seed_mhz": pnr["fmax_by_seed_mhz"],
-        "yosys_s": round(yosys_s, 1),
-        "nextpnr_s": pnr["nextpnr_s"],
-        "input_hash": input_hash(board),
-    }
-    path = out / "summary.json"
-    if path.exists():
-        shutil.copyfile(path, out / "summary.prev.json")
-    path.write_text(json.dumps(summary, indent=2) + "\n")
+    summary = summary_of(board, cell_use(out, board.family), pnr, yosys_s, input_hash(board))
+    save_summary(out, summary)
     return summary
 
 
