@@ -15,9 +15,10 @@ weighed by a penalty chosen on the selection blocks:
    J(t) h_i(t) (a slow change of mu acts where the cable slides, as a change of mu does; the
    drift's scan makes the same approximation, cosim.audit.fit._scan_start). Each step solves
    (A'A + lam s D'D) c = A'r + A'A c0 on the fit blocks (D the second differences, s the mean
-   of A'A's diagonal, so that lam has no unit), for each lam of PENALTY_GRID; the lam whose
-   linearised prediction fits the selection blocks best is taken, and the step is kept only if
-   the fit blocks' sum of squares (the exact twin) falls.
+   of A'A's diagonal, so that lam has no unit), for each lam of free_forms.PENALTY_GRID; the
+   lam whose linearised prediction fits the selection blocks best is taken, and the step is kept
+   only if the fit blocks' sum of squares (the exact twin) falls (free_forms.penalised_steps,
+   the steps every free form takes).
 3. mu, the spread and the other findings refitted with the table held (cosim.audit.fit).
 
 The free form replaces the fixed one only if it fits the selection blocks better by a plain
@@ -36,23 +37,19 @@ parameters that only the penalty then ties together, coarser ones miss a turn of
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from . import free_forms, twin
-from .data import FIT, REPORT, SELECT, AuditData
+from .data import REPORT, AuditData
 from .decision import RULE, DecisionRule
 from .effects import Effect
 from .fit import Model, _Evaluator, fit_model
 from .free_forms import FreeForm
 
 KNOTS = twin.DRIFT_TABLE_KNOTS
-# The penalty's weights tried (relative to the mean diagonal of A'A: module docstring), from a
-# table that follows every knot to one close to a straight line. Chosen with the tuning case of
-# tests/audit/test_audit_drift_table.py (an overshooting warm-up): its choice sat inside the grid.
-PENALTY_GRID = tuple(float(x) for x in np.geomspace(1e-4, 1e3, 15))
-GN_STEPS = 4
+# The penalty's weights tried (free_forms.PENALTY_GRID, relative to the mean diagonal of A'A:
+# module docstring) were chosen with the tuning case of tests/audit/test_audit_drift_table.py (an
+# overshooting warm-up): its choice sat inside the grid.
 D_MU = 1e-3  # mu's change for the output's slope in mu (as fit.SCAN_D_MU)
 # the knots' range: mu's change the table may make (inside the FMU's [-1, 1])
 KNOT_BOUNDS = (-0.5, 0.5)
@@ -108,24 +105,16 @@ def fit_free_form(
     params.update(_table_params(t0, step, fixed_knots))
 
     ev = _Evaluator(data)
-    fit_idx = np.flatnonzero(data.roles == FIT)
-    sel_idx = np.flatnonzero(data.roles == SELECT)
-    stride = max(1, math.ceil(len(fit_idx) / 20_000))
-    fi = ev.on_grid(fit_idx, stride)
-    si = ev.on_grid(sel_idx, stride)
-    idx = np.concatenate([fi, si])
-    nf = len(fi)
+    idx, nf = free_forms.fit_points(data, ev)
     # the time the friction of a sample's step uses (twin._friction: the step's start)
     t_idx = np.where(idx > 0, t0 + (idx - 1.0) * inp.dt_s, t0)
     hats = _hats(t_idx, t0, step)
     d2 = np.diff(np.eye(KNOTS), 2, axis=0)
     pen = d2.T @ d2
     y = data.t_out_n[idx]
-    knots = fixed_knots.copy()
-    pred = ev.reading(params, idx)
-    sse_fit = float(np.sum((y[:nf] - pred[:nf]) ** 2))
-    lam_used = PENALTY_GRID[0]
-    for _ in range(GN_STEPS):
+
+    def linearise(params: dict[str, float], pred: np.ndarray):
+        knots = twin.drift_table_knots(params)
         slope = (ev.reading({**params, "mu": params["mu"] + D_MU}, idx) - pred) / D_MU
         a = slope[:, None] * hats
         r = y - pred
@@ -133,26 +122,16 @@ def fit_free_form(
         g = af.T @ af
         scale = float(np.trace(g)) / KNOTS
         if not scale > 0.0:
-            break
+            return None
         rhs = af.T @ rf + g @ knots
-        best = None
-        for lam in PENALTY_GRID:
-            c = np.linalg.solve(g + lam * scale * pen, rhs)
-            c = np.clip(c, *KNOT_BOUNDS)
-            e = rs - as_ @ (c - knots)
-            sse = float(e @ e)
-            if best is None or sse < best[0]:
-                best = (sse, lam, c)
-        _, lam, c = best
-        trial = {**params, **_table_params(t0, step, c)}
-        pred_t = ev.reading(trial, idx)
-        sse_t = float(np.sum((y[:nf] - pred_t[:nf]) ** 2))
-        if sse_t >= sse_fit:
-            break
-        improvement = (sse_fit - sse_t) / sse_fit
-        params, pred, sse_fit, knots, lam_used = trial, pred_t, sse_t, c, lam
-        if improvement < 1e-4:
-            break
+
+        def candidate(lam: float):
+            c = np.clip(np.linalg.solve(g + lam * scale * pen, rhs), *KNOT_BOUNDS)
+            return rs - as_ @ (c - knots), {**params, **_table_params(t0, step, c)}
+
+        return candidate
+
+    params, lam_used = free_forms.penalised_steps(ev, idx, nf, y, params, linearise)
     others = tuple(e for e in current.effects if e.cause != "friction_drift")
     model = fit_model(data, others, params)
     table = twin.drift_table_knots(model.params)

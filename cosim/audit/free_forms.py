@@ -44,7 +44,7 @@ from .fit import Model, _Evaluator, fit_model
 # Tried when the model with the finding leaves the selection blocks' RMS above this many times
 # the noise floor (the drift table's factor).
 FLOOR_FACTOR = 1.5
-# lam's grid (relative to the mean diagonal of A'A), the drift table's
+# lam's grid (relative to the mean diagonal of A'A) and the Gauss-Newton steps, every free form's
 PENALTY_GRID = tuple(float(x) for x in np.geomspace(1e-4, 1e3, 15))
 GN_STEPS = 4
 SLACK_KNOTS = twin.SLACK_TABLE_KNOTS
@@ -185,19 +185,11 @@ def _penalised_gauss_newton(
     hi = np.array([moved[n][2] for n in extra])
     names = (*names, *extra)
     ev = _Evaluator(data)
-    fit_idx = np.flatnonzero(data.roles == FIT)
-    sel_idx = np.flatnonzero(data.roles == SELECT)
-    stride = max(1, math.ceil(len(fit_idx) / 20_000))
-    fi = ev.on_grid(fit_idx, stride)
-    si = ev.on_grid(sel_idx, stride)
-    idx = np.concatenate([fi, si])
-    nf = len(fi)
+    idx, nf = fit_points(data, ev)
     y = data.t_out_n[idx]
-    coef = np.array([params[n] for n in names])
-    pred = ev.reading(params, idx)
-    sse_fit = float(np.sum((y[:nf] - pred[:nf]) ** 2))
-    lam_used = PENALTY_GRID[0]
-    for _ in range(GN_STEPS):
+
+    def linearise(params: dict[str, float], pred: np.ndarray):
+        coef = np.array([params[n] for n in names])
         cols = []
         for n in names:
             h = steps[n]
@@ -207,23 +199,65 @@ def _penalised_gauss_newton(
         af, bf, as_, bs = a[:nf], b[:nf], a[nf:], b[nf:]
         scale = float(np.trace(af[:, :k].T @ af[:, :k])) / k
         if not scale > 0.0:
+            return None
+
+        def candidate(lam: float):
+            c = solve(af, bf, lam, scale)
+            c[k:] = np.clip(c[k:], lo, hi)
+            return bs - as_ @ c, {**params, **{n: float(v) for n, v in zip(names, c, strict=True)}}
+
+        return candidate
+
+    return penalised_steps(ev, idx, nf, y, params, linearise)
+
+
+def fit_points(data: AuditData, ev: _Evaluator) -> tuple[np.ndarray, int]:
+    """The samples a free form is fitted on: the fit blocks' and then the selection blocks' on
+    the evaluator's grid (the fit blocks' thinned to at most about 20 000), and how many of them
+    are the fit blocks'."""
+    fit_idx = np.flatnonzero(data.roles == FIT)
+    stride = max(1, math.ceil(len(fit_idx) / 20_000))
+    fi = ev.on_grid(fit_idx, stride)
+    si = ev.on_grid(np.flatnonzero(data.roles == SELECT), stride)
+    return np.concatenate([fi, si]), len(fi)
+
+
+def penalised_steps(
+    ev: _Evaluator,
+    idx: np.ndarray,
+    nf: int,
+    y: np.ndarray,
+    params: dict[str, float],
+    linearise: Callable,
+) -> tuple[dict[str, float], float]:
+    """Gauss-Newton on a free form's parameters with the penalty's weight chosen on the selection
+    blocks (module docstring), the steps every free form takes alike. `idx` are the samples
+    (fit_points: the first `nf` the fit blocks'), `y` the output there. `linearise(params,
+    pred)` linearises the model at `params` (whose reading at `idx` is `pred`) and gives a
+    function of the penalty's weight lam that returns the linear step's residual on the
+    selection blocks and the parameters it leads to, or None when no step can be made. A step
+    is kept only if the fit blocks' sum of squares through the twin falls; the parameters and
+    the weight of the last step kept."""
+    pred = ev.reading(params, idx)
+    sse_fit = float(np.sum((y[:nf] - pred[:nf]) ** 2))
+    lam_used = PENALTY_GRID[0]
+    for _ in range(GN_STEPS):
+        candidate = linearise(params, pred)
+        if candidate is None:
             break
         best = None
         for lam in PENALTY_GRID:
-            c = solve(af, bf, lam, scale)
-            c[k:] = np.clip(c[k:], lo, hi)
-            e = bs - as_ @ c
+            e, trial = candidate(lam)
             sse = float(e @ e)
             if best is None or sse < best[0]:
-                best = (sse, lam, c)
-        _, lam, c = best
-        trial = {**params, **{n: float(v) for n, v in zip(names, c, strict=True)}}
+                best = (sse, lam, trial)
+        _, lam, trial = best
         pred_t = ev.reading(trial, idx)
         sse_t = float(np.sum((y[:nf] - pred_t[:nf]) ** 2))
         if sse_t >= sse_fit:
             break
         improvement = (sse_fit - sse_t) / sse_fit
-        params, pred, sse_fit, coef, lam_used = trial, pred_t, sse_t, c, lam
+        params, pred, sse_fit, lam_used = trial, pred_t, sse_t, lam
         if improvement < 1e-4:
             break
     return params, float(lam_used)
