@@ -8,7 +8,8 @@ integer bits, n fractional bits; UQm.n unsigned.
 
 Constants: <NAME> is the byte address of register NAME; <NAME>_<FIELD> the mask of a
 named field. REGISTERS maps each name to a Register with its fields (width, signedness,
-fractional bits, reset value) for conversions."""
+fractional bits, reset value) for conversions. The loop's parameters that are not
+registers (the table's "parameters": WDT_RAMP_STEP) are constants of their value."""
 
 from __future__ import annotations
 
@@ -20,6 +21,9 @@ ID_VERSION_MINOR = 0
 # bowden_core_mc: channel k's register bank starts at k * BANK_STRIDE (bank 0 is
 # bowden_core's map)
 BANK_STRIDE = 0x100
+#: The watchdog's ramp of the current command towards zero, per sample: a parameter of
+#: tension_loop (its default), not a register. (Q3.12 A)
+WDT_RAMP_STEP = 41
 
 ID = 0x00
 CTRL = 0x04

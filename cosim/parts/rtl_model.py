@@ -40,7 +40,7 @@ ADC_CODE_MAX = (1 << 23) - 1
 #: Clocks from the sample tick to `out_valid` in tension_loop.v; ticks must be this far apart.
 LATENCY_CLKS = 15
 #: Default watchdog ramp of u towards zero, Q3.12 A per sample (tension_loop WDT_RAMP_STEP).
-WDT_RAMP_STEP = 41
+WDT_RAMP_STEP = regmap.WDT_RAMP_STEP
 
 # Default calibration: reset values of the register map (+-2^23 codes = +-64 N).
 DEFAULT_ADC_OFFSET = regmap.REGISTERS["ADC_OFFSET"].fields[0].reset

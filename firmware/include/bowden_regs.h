@@ -15,6 +15,10 @@
 #define BOWDEN_BANK_STRIDE 0x100u
 #define BOWDEN_REG_AT(ch, reg) ((ch) * BOWDEN_BANK_STRIDE + (reg))
 
+/* WDT_RAMP_STEP (Q3.12 A): The watchdog's ramp of the current command towards zero, per sample:
+ * a parameter of tension_loop (its default), not a register. */
+#define BOWDEN_WDT_RAMP_STEP (41)
+
 /* ID: Magic 0x424F ('BO') in [31:16], version major in [15:8], minor in [7:0]. */
 #define BOWDEN_REG_ID 0x00u
 /* VALUE (const): Identification word */

@@ -580,6 +580,13 @@ def gen_c(spec: dict) -> str:
     w(f"#define BOWDEN_BANK_STRIDE 0x{1 << spec['addr_width']:X}u")
     w("#define BOWDEN_REG_AT(ch, reg) ((ch) * BOWDEN_BANK_STRIDE + (reg))")
     w("")
+    for par in spec.get("parameters", ()):
+        text = f"{par['name']} ({par['format']} {par['unit']}): {par['doc']}"
+        lines = textwrap.wrap(text, 94)
+        out.extend(["/* " + lines[0], *(" * " + ln for ln in lines[1:])])
+        out[-1] += " */"
+        w(f"#define BOWDEN_{par['name']} {c_int(par['value'])}")
+    w("")
     for reg in spec["registers"]:
         n = reg["name"]
         w(f"/* {n}: {reg['doc']} */")
@@ -621,7 +628,8 @@ def gen_python(spec: dict) -> str:
     w("")
     w("Constants: <NAME> is the byte address of register NAME; <NAME>_<FIELD> the mask of a")
     w("named field. REGISTERS maps each name to a Register with its fields (width, signedness,")
-    w('fractional bits, reset value) for conversions."""')
+    w("fractional bits, reset value) for conversions. The loop's parameters that are not")
+    w('registers (the table\'s "parameters": WDT_RAMP_STEP) are constants of their value."""')
     w("")
     w("from __future__ import annotations")
     w("")
@@ -633,6 +641,11 @@ def gen_python(spec: dict) -> str:
     w("# bowden_core_mc: channel k's register bank starts at k * BANK_STRIDE (bank 0 is")
     w("# bowden_core's map)")
     w(f"BANK_STRIDE = 0x{1 << spec['addr_width']:X}")
+    for par in spec.get("parameters", ()):
+        out.extend(
+            "#: " + ln for ln in textwrap.wrap(f"{par['doc']} ({par['format']} {par['unit']})", 94)
+        )
+        w(f"{par['name']} = {par['value']}")
     w("")
     for reg in spec["registers"]:
         w(f"{reg['name']} = 0x{reg['addr']:02X}")

@@ -71,3 +71,27 @@ def test_bit_field_registers_refuse_single_value_decoding():
             regmap.decode(name, 0xF)
         with pytest.raises(ValueError, match=f"{name} has bit fields"):
             regmap.encode(name, 1)
+
+
+def test_the_loops_parameters_default_to_the_tables_values():
+    """A parameter of the loop that is not a register (the table's "parameters") has one value:
+    every RTL module's default (tension_loop, its datapath, the cores) is the one the C header
+    and regmap carry."""
+    import re
+
+    from cosim.project.paths import REPO_ROOT
+
+    spec = gen_regmap.load()
+    assert spec["parameters"], "the table lists the loop's parameters"
+    header = (REPO_ROOT / "firmware" / "include" / "bowden_regs.h").read_text()
+    for par in spec["parameters"]:
+        name, value = par["name"], par["value"]
+        assert getattr(regmap, name) == value
+        assert re.search(rf"#define BOWDEN_{name} \(?{value}\)?\n", header), name
+        declared = {}
+        for rtl in sorted((REPO_ROOT / "hdl" / "rtl").glob("*.v")):
+            pattern = rf"parameter\s+(?:\[[^\]]*\]\s*)?{name}\s*=\s*(?:\d+'d)?(\d+)"
+            for v in re.findall(pattern, rtl.read_text()):
+                declared[rtl.name] = int(v)
+        assert {"tension_loop.v", "tension_loop_mc.v"} <= set(declared), (name, declared)
+        assert set(declared.values()) == {value}, (name, declared)

@@ -7,9 +7,6 @@
 
 /* --- the FPGA loop: cosim/parts/rtl_model.py TensionLoopModel, line by line ---------------------- */
 
-/* The watchdog's ramp is a parameter of the RTL (tension_loop's WDT_RAMP_STEP), not a register:
- * the register map does not generate it. */
-#define WDT_RAMP_STEP 41 /* rtl_model.WDT_RAMP_STEP */
 
 static int64_t clamp64(int64_t v, int64_t lo, int64_t hi)
 {
@@ -60,7 +57,7 @@ void emu_loop_reset(emu_loop_t *m)
     m->out_en = m->saturated = m->sat_hi = m->sat_lo = m->wdt_ramp = 0U;
     m->integ = 0;
     m->tc_eff = 0;
-    m->wdt_ramp_step = WDT_RAMP_STEP;
+    m->wdt_ramp_step = BOWDEN_WDT_RAMP_STEP; /* tension_loop's parameter (bowden_regs.h) */
 }
 
 void emu_loop_write(emu_loop_t *m, uint32_t addr, uint32_t w)
