@@ -85,7 +85,6 @@ class _Bar:
 
 
 def main(args: argparse.Namespace) -> int:
-    from cosim.audit import core, params, report  # noqa: PLC0415
     from cosim.results import trace  # noqa: PLC0415
 
     data_path = Path(args.data)
@@ -106,6 +105,14 @@ def main(args: argparse.Namespace) -> int:
             return 2
     try:
         tr = trace.read_trace(data_path, mode="measured", resample=args.resample)
+    except trace.TraceError as exc:
+        print(f"bowden audit: {exc}", file=sys.stderr)
+        return 2
+    # The fits' libraries (scipy, numba, matplotlib: 2 s of a command's 2.5) only once the
+    # arguments and the file are known good: a mistyped path or option is said at once.
+    from cosim.audit import core, params, report  # noqa: PLC0415
+
+    try:
         data = core.prepare(tr, str(data_path))
     except (trace.TraceError, core.AuditError) as exc:
         print(f"bowden audit: {exc}", file=sys.stderr)
