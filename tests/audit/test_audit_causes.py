@@ -132,10 +132,17 @@ def test_audit_names_two_effects_at_once(tmp_path, test_cache_dir):
     )
 
 
+# make perf-audit's case (60 s of data, the longest audit here: 16 s of CPU cold) runs in make
+# test-long: the rule it once failed is held in make test by
+# tests/audit/test_audit_rule.py::test_an_effect_whose_size_follows_the_block_is_consistent (the
+# block t per unit of the candidate's change, on this case's shape of drops), each of its two
+# causes is named alone above, and two causes at once by test_audit_names_two_effects_at_once.
+@pytest.mark.slow
+@pytest.mark.long
 def test_an_offset_with_a_tension_slope_names_both(tmp_path, test_cache_dir):
-    # make perf-audit's case (60 s, seed 902): the slope's size follows the tension, so the t of
-    # the plain per-block drops was 1.99 and only the offset was named; the block t per unit of
-    # the candidate's change names both (the rule has no threshold chosen on this case)
+    # the slope's size follows the tension, so the t of the plain per-block drops was 1.99 and
+    # only the offset was named; the block t per unit of the candidate's change names both (the
+    # rule has no threshold chosen on this case)
     effect = {"sensor_offset": 0.5, "mu_tension_slope": 0.0012}
     path = fmu_record(tmp_path, effect, seed=902, duration_s=60.0)
     res = _audit(path, test_cache_dir)
