@@ -4,7 +4,8 @@
 #                       .hex and the flash image for the UP5K's boot copier) from the same sources
 #                       as the host library plus start-up, linker script and drivers; size.txt with
 #                       the image size, the worst-case stack and the soft-float/libm check (fails
-#                       on any such symbol, as the Cortex-M4 build does)
+#                       on any such symbol, as the Cortex-M4 build does); and the images of
+#                       several cables, build/firmware/soc/ch2/ and ch4/ (below)
 
 SOC_FW_OUT := $(BUILD)/firmware/soc
 # The memory the RTL gives the firmware (hdl/soc/bowden_soc.v parameters ROM_WORDS, RAM_WORDS).
@@ -83,6 +84,46 @@ $(SOC_BOOT_HEX): $(SOC_FW_OUT)/boot.elf firmware/soc/tools/mkimage.py
 
 $(SOC_FW_SIZE): $(SOC_FW_ELF) firmware/soc/tools/rv32_report.py
 	$(PY) -m firmware.soc.tools.rv32_report $< --stack-max $(SOC_STACK_BYTES) --out $@
+
+# The images of several cables (firmware/soc/main.c runs the SoC's count, SOC_SYS_CHANNELS, up to
+# the image's BOWDEN_CHANNELS_MAX): build/firmware/soc/chN/, the same files as the one-cable
+# image's, from the same sources with BOWDEN_CHANNELS_MAX N. A cable costs 4.6 KB of RAM (its
+# firmware state, settings and stream buffer), so each count has its own image and the
+# one-cable image stays as it was; their RAM is the 32 KiB the ECP5's top gives the four-cable
+# SoC (RAM_WORDS 8192; the UP5K's SPRAM pair holds 64 KiB), the stack's room a settings table a
+# cable larger (flash_load_channels and LOAD copy every cable's). size.txt says what each uses.
+SOC_FW_MULTI := 2 4
+SOC_FW_MULTI_RAM_BYTES := 32768
+SOC_FW_MULTI_STACK_BYTES := 6144
+
+# soc_fw_image(N): the rules of the N-cable image.
+define soc_fw_image
+SOC_FW_OUT_$(1) := $(SOC_FW_OUT)/ch$(1)
+SOC_FW_OBJ_$(1) := $$(patsubst %.c,$(SOC_FW_OUT)/ch$(1)/obj/%.o,$$(notdir $$(SOC_FW_SRC))) \
+  $(SOC_FW_OUT)/obj/start.o
+firmware-soc: $(SOC_FW_OUT)/ch$(1)/size.txt $(SOC_FW_OUT)/ch$(1)/bowden_fw.hex
+
+$(SOC_FW_OUT)/ch$(1)/obj/%.o: %.c $$(SOC_FW_HDR) $$(VENV_STAMP) mk/soc.mk
+	@mkdir -p $$(dir $$@)
+	$$(FW_ZIG_CC) $$(SOC_FW_FLAGS) -DBOWDEN_CHANNELS_MAX=$(1)U $$(FW_WARN) $$(FW_LINT_EXTRA) $$(BENCH_DEFS) \
+	  -Ifirmware/include -Ifirmware/soc -c $$< -o $$@
+
+$(SOC_FW_OUT)/ch$(1)/bowden_fw.elf: $$(SOC_FW_OBJ_$(1)) firmware/soc/link.ld
+	$$(PY) -m ziglang ld.lld -T firmware/soc/link.ld --gc-sections --emit-relocs \
+	  --defsym=__rom_bytes=$$(SOC_ROM_BYTES) --defsym=__ram_bytes=$$(SOC_FW_MULTI_RAM_BYTES) \
+	  --defsym=__stack_min=$$(SOC_FW_MULTI_STACK_BYTES) $$(SOC_FW_OBJ_$(1)) -o $$@
+
+$(SOC_FW_OUT)/ch$(1)/bowden_fw.bin: $(SOC_FW_OUT)/ch$(1)/bowden_fw.elf
+	$$(PY) -m ziglang objcopy -O binary $$< $$@
+
+$(SOC_FW_OUT)/ch$(1)/bowden_fw.hex: $(SOC_FW_OUT)/ch$(1)/bowden_fw.bin firmware/soc/tools/mkimage.py
+	$$(PY) -m firmware.soc.tools.mkimage $$< --rom-bytes $$(SOC_ROM_BYTES) --hex $$@ \
+	  --flash $(SOC_FW_OUT)/ch$(1)/bowden_fw_flash.bin --flash-hex $(SOC_FW_OUT)/ch$(1)/bowden_fw_flash.hex
+
+$(SOC_FW_OUT)/ch$(1)/size.txt: $(SOC_FW_OUT)/ch$(1)/bowden_fw.elf firmware/soc/tools/rv32_report.py
+	$$(PY) -m firmware.soc.tools.rv32_report $$< --stack-max $$(SOC_FW_MULTI_STACK_BYTES) --out $$@
+endef
+$(foreach n,$(SOC_FW_MULTI),$(eval $(call soc_fw_image,$(n))))
 
 # --- RTL: lint (part of make lint) -------------------------------------------------------------
 #

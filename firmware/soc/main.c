@@ -3,6 +3,11 @@
  * MMIO back end), the protocol on the UART, the settings in the SPI flash, the tick from the
  * timer's tick count.
  *
+ * Cables: the SoC says how many it drives (SOC_SYS_CHANNELS, its CHANNELS parameter); the image
+ * holds at most BOWDEN_CHANNELS_MAX (set by the build: mk/soc.mk builds one image per count, as
+ * each cable costs RAM) and runs the smaller of the two, cable k's firmware on register bank k
+ * (SOC_REGS_BASE + BOWDEN_REG_AT(k, 0)). The one-cable image drives bank 0, as it always did.
+ *
  * The timer counts ticks in hardware; the main loop polls the count and runs them, so dev_tick
  * and the protocol's receiver never run at once and need no locking. A tick found with more than
  * one pending was late: the device's OVERRUN fault says so (dev_overrun) and the missed ticks are not
@@ -30,16 +35,18 @@
 
 _Static_assert(CRC32C_UNIT_ADDR == SOC_IO_BASE + SOC_CRC_STATE, "crc32c.h uses the SoC's CRC unit");
 
-static hal_t g_hal;
-static fw_t g_fw;
+static hal_t g_hal[BOWDEN_CHANNELS_MAX]; /* cable k's HAL on its register bank */
+static fw_t g_fw[BOWDEN_CHANNELS_MAX];
+static uint32_t g_channels; /* the cables this image runs: [1, BOWDEN_CHANNELS_MAX] */
 static flash_hal_t g_flash;
 static dev_t g_dev;
 
-/* T_out in Q7.8 N from the T_OUT register's raw code, with the loop's own calibration formula
- * (hdl/README.md, "The loop": sat16(((raw - ADC_OFFSET) * ADC_GAIN + 2^19) >> 20)). */
-static int32_t t_out_q8(const fw_loop_config_t *l)
+/* Cable k's T_out in Q7.8 N from its bank's T_OUT register's raw code, with the loop's own
+ * calibration formula (hdl/README.md, "The loop": sat16(((raw - ADC_OFFSET) * ADC_GAIN + 2^19) >>
+ * 20)) and the cable's own calibration. */
+static int32_t t_out_q8(const hal_t *h, const fw_loop_config_t *l)
 {
-    uint32_t word = hal_read(&g_hal, BOWDEN_REG_T_OUT) & BOWDEN_T_OUT_MASK;
+    uint32_t word = hal_read(h, BOWDEN_REG_T_OUT) & BOWDEN_T_OUT_MASK;
     int32_t raw = (int32_t)(word << 8) >> 8; /* sign-extend the 24-bit code */
     int64_t p = (int64_t)(raw - l->adc_offset) * (int64_t)l->adc_gain + (1LL << 19);
     int64_t q = p >> 20;
@@ -169,10 +176,16 @@ static void uart_poll(void)
 int main(void)
 {
     soc_io_write(SOC_SYS_MARK, SOC_MARK_BOOT);
-    hal_init_mmio(&g_hal, (volatile uint32_t *)SOC_REGS_BASE);
-    fw_init(&g_fw, &g_hal);
+    /* The SoC's cables, as many as this image holds (a SoC of more keeps the others' drives
+     * disabled: their banks are never written). */
+    uint32_t n = soc_io_read(SOC_SYS_CHANNELS);
+    g_channels = (n < 1U) ? 1U : (n > BOWDEN_CHANNELS_MAX) ? BOWDEN_CHANNELS_MAX : n;
+    for (uint32_t k = 0U; k < g_channels; ++k) {
+        hal_init_mmio(&g_hal[k], (volatile uint32_t *)(SOC_REGS_BASE + BOWDEN_REG_AT(k, 0U)));
+        fw_init(&g_fw[k], &g_hal[k]);
+    }
     spi_flash_init(&g_flash);
-    dev_init(&g_dev, &g_fw, &g_flash);
+    dev_init_channels(&g_dev, g_fw, g_channels, &g_flash);
     /* Bytes that arrived during start-up are dropped with their overrun flag: a request sent
      * while the board booted gets no answer, and the client retries (PROTOCOL.md). */
     while ((soc_io_read(SOC_UART_DATA) & 0x100U) != 0U) {
@@ -209,7 +222,11 @@ int main(void)
             ++time_us;
         }
         soc_io_write(SOC_SYS_MARK, SOC_MARK_TICK);
-        dev_tick(&g_dev, time_us, t_out_q8(&g_dev.settings[0].fw.loop));
+        int32_t t_out[BOWDEN_CHANNELS_MAX];
+        for (uint32_t k = 0U; k < g_channels; ++k) {
+            t_out[k] = t_out_q8(&g_hal[k], &g_dev.settings[k].fw.loop);
+        }
+        dev_tick_channels(&g_dev, time_us, t_out);
         timer_follow_rate();
         g_frame_owed = 1U;
     }

@@ -175,29 +175,47 @@ int32_t flash_load_channels(const flash_hal_t *f, settings_t *settings, uint32_t
     if (n_ch < 1U || n_ch > BOWDEN_CHANNELS_MAX) {
         return FLASH_ERR_SIZE;
     }
-    uint32_t rec[FLASH_SLOTS][RECORD_MAX_WORDS];
+    /* One record buffer, not one a slot: the slots are read once for their validity and
+     * sequence numbers, and the one to apply again unless the buffer still holds it (the buffer
+     * is the largest thing on the stack: 2.2 KB for four channels). */
+    uint32_t rec[RECORD_MAX_WORDS];
     uint32_t n;
     int valid[FLASH_SLOTS];
+    uint32_t seqs[FLASH_SLOTS] = {0U, 0U};
+    uint32_t held = FLASH_SLOTS; /* the slot whose record rec holds; none yet */
     for (uint32_t s = 0; s < FLASH_SLOTS; ++s) {
-        valid[s] = read_record(f, s, rec[s], &n);
+        valid[s] = read_record(f, s, rec, &n);
+        held = valid[s] ? s : FLASH_SLOTS; /* a failed read leaves rec part written */
+        if (valid[s]) {
+            seqs[s] = rec[1];
+        }
     }
     if (!valid[0] && !valid[1]) {
         return FLASH_ERR_EMPTY;
     }
     /* Newest first. */
     uint32_t order[FLASH_SLOTS] = {0U, 1U};
-    if (valid[1] && (!valid[0] || seq_after(rec[1][1], rec[0][1]))) {
+    if (valid[1] && (!valid[0] || seq_after(seqs[1], seqs[0]))) {
         order[0] = 1U;
         order[1] = 0U;
     }
     settings_t trial[BOWDEN_CHANNELS_MAX];
     for (uint32_t k = 0; k < FLASH_SLOTS; ++k) {
         uint32_t slot = order[k];
-        if (valid[slot] && apply_record(rec[slot], trial, settings, n_ch)) {
+        if (!valid[slot]) {
+            continue;
+        }
+        if (slot != held) {
+            held = read_record(f, slot, rec, &n) ? slot : FLASH_SLOTS;
+            if (held != slot) {
+                continue; /* changed since the first read: as an invalid record */
+            }
+        }
+        if (apply_record(rec, trial, settings, n_ch)) {
             for (uint32_t c = 0; c < n_ch; ++c) {
                 settings[c] = trial[c];
             }
-            *seq = rec[slot][1];
+            *seq = rec[1];
             return FLASH_OK;
         }
     }

@@ -63,6 +63,27 @@ def test_size_and_stack_reported(soc_build):
     assert "path: main -> " in text
 
 
+@pytest.mark.parametrize("channels", [2, 4])
+def test_images_of_several_cables(soc_build, channels):
+    """The images of two and four cables (build/firmware/soc/chN: BOWDEN_CHANNELS_MAX N): integer
+    only, and their data, bss and worst-case stack inside the 32 KiB of RAM they are linked for
+    (the ECP5's top gives the four-cable SoC RAM_WORDS 8192; the UP5K's SPRAM pair holds 64 KiB),
+    a cable's RAM (its firmware state, settings and stream buffer: 4.6 KB) above the one-cable
+    image's."""
+    text = (SOC / f"ch{channels}" / "size.txt").read_text()
+    assert "no soft-float helper and no libm symbol" in text
+    bss = int(text.split(".bss ")[1].split()[0])
+    stack = int(text.split("worst-case stack (static bound): ")[1].split()[0])
+    one = (SOC / "size.txt").read_text()
+    bss_one = int(one.split(".bss ")[1].split()[0])
+    per_cable = (bss - bss_one) / (channels - 1)
+    assert 4000 < per_cable < 5000, text
+    assert bss + stack <= 32768, text
+    image = (SOC / f"ch{channels}" / "bowden_fw.bin").read_bytes()
+    flash = (SOC / f"ch{channels}" / "bowden_fw_flash.bin").read_bytes()
+    assert flash[4 : 4 + len(image)] == image
+
+
 def test_objects_have_no_soft_float_or_libm(soc_build):
     run = subprocess.run(
         [*ELF_REPORT, str(SOC / "libbowden_fw_soc.a")],
