@@ -43,6 +43,12 @@ PICORV32 = Path(pythondata_cpu_picorv32.data_location) / "picorv32.v"
 CPU = "picorv32 RV32I + Zmmul (DSP multiplier, no divider, no C, no interrupt, no traps)"
 
 
+def image_dir(channels: int) -> Path:
+    """The firmware image of `channels` cables (mk/soc.mk: the one-cable image in FW, the others
+    in FW/chN, each holding as many cables as its RAM allows; firmware/soc/main.c)."""
+    return FW if channels == 1 else FW / f"ch{channels}"
+
+
 @dataclass(frozen=True)
 class Board(synth.Target):
     """The SoC's top of a board: where its image lives and how many cables it drives."""
@@ -105,7 +111,8 @@ def sources(board: Board) -> list[Path]:
 
 def input_hash(board: Board) -> str:
     h = hashlib.sha256()
-    extra = [FW / ("bowden_fw.hex" if board.image_in_bitstream else "boot.hex")]
+    extra = [image_dir(board.channels) / "bowden_fw.hex" if board.image_in_bitstream
+             else FW / "boot.hex"]  # fmt: skip
     for path in [*sources(board), board.constraints, Path(__file__), Path(table.__file__), *extra]:
         h.update(path.name.encode())
         h.update(path.read_bytes())
@@ -120,7 +127,7 @@ def synthesize(board: Board, out: Path) -> float:
     before = f"chparam -set CHANNELS {board.channels} {board.top}; "
     after = ""
     if board.image_in_bitstream:
-        shutil.copyfile(FW / "bowden_fw.hex", out / "bowden_fw.hex")
+        shutil.copyfile(image_dir(board.channels) / "bowden_fw.hex", out / "bowden_fw.hex")
         before += f'chparam -set ROM_INIT "bowden_fw.hex" {board.top}; '
     else:  # the boot loader, in a block RAM the bitstream initialises
         shutil.copyfile(FW / "boot.hex", out / "boot.hex")
@@ -160,13 +167,14 @@ def fit(board: Board, out: Path) -> tuple[int, int]:
     return use
 
 
-def stage_flash_image(board: Board, out: Path, summary: dict, fw: Path = FW) -> dict:
+def stage_flash_image(board: Board, out: Path, summary: dict, fw: Path | None = None) -> dict:
     """For a board that boots its firmware from the flash: the image to program beside the
     bitstream, copied from the firmware build on every run (the bitstream does not depend on
     the image, so it is not rebuilt when only the firmware changed), and its size in the
     summary. Returns the summary."""
     if board.image_in_bitstream:
         return summary
+    fw = image_dir(board.channels) if fw is None else fw
     shutil.copyfile(fw / "bowden_fw_flash.bin", out / "bowden_fw_flash.bin")
     image = (fw / "bowden_fw.bin").stat().st_size
     if summary.get("image_bytes") != image:
@@ -197,7 +205,7 @@ def build(board: Board) -> dict:
         cpu=CPU,
         logic_cells=logic_cells(out),
         sprams=use["cells"].get("SB_SPRAM256KA", 0),
-        image_bytes=(FW / "bowden_fw.bin").stat().st_size,
+        image_bytes=(image_dir(board.channels) / "bowden_fw.bin").stat().st_size,
         image_in_bitstream=board.image_in_bitstream,
         bitstream=bitstream.name,
         bitstream_bytes=bitstream.stat().st_size,
@@ -258,12 +266,14 @@ def main(argv: list[str] | None = None) -> int:
     for name in names:
         if name not in BOARDS:
             ap.error(f"board {name!r} unknown; allowed: {', '.join(BOARDS)}")
-    if not (FW / "bowden_fw.hex").exists():
-        print(
-            "bitstream: build/firmware/soc/bowden_fw.hex missing: make firmware-soc",
-            file=sys.stderr,
-        )
-        return 2
+    for name in names:
+        hexfile = image_dir(BOARDS[name].channels) / "bowden_fw.hex"
+        if not hexfile.exists():
+            print(
+                f"bitstream: {hexfile.relative_to(ROOT)} missing: make firmware-soc",
+                file=sys.stderr,
+            )
+            return 2
     if args.fit:
         return check_fit(names, args.channels)
     failed = []

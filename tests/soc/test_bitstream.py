@@ -82,6 +82,23 @@ def test_the_channel_count_is_the_board_tables_and_part_of_the_inputs():
     assert bitstream.input_hash(two) != bitstream.input_hash(up5k)
 
 
+def test_a_board_of_several_cables_takes_the_image_of_as_many(tmp_path, monkeypatch):
+    """The firmware image in a bitstream (or staged for the flash) is the one built for the
+    board's cable count (mk/soc.mk: build/firmware/soc/chN), and it is among the inputs."""
+    assert bitstream.image_dir(1) == bitstream.FW
+    assert bitstream.image_dir(4) == bitstream.FW / "ch4"
+    monkeypatch.setattr(bitstream, "FW", tmp_path)
+    ecp5 = bitstream.BOARDS["ecp5-25f"]
+    (tmp_path / f"ch{ecp5.channels}").mkdir()
+    hexfile = tmp_path / f"ch{ecp5.channels}" / "bowden_fw.hex"
+    hexfile.write_text("00000000\n")
+    before = bitstream.input_hash(ecp5)
+    (tmp_path / "bowden_fw.hex").write_text("00000002\n")  # the one-cable image: not its input
+    assert bitstream.input_hash(ecp5) == before
+    hexfile.write_text("00000001\n")
+    assert bitstream.input_hash(ecp5) != before
+
+
 def test_channels_without_fit_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as exc:
         bitstream.main(["ice40-up5k", "--channels", "2"])

@@ -36,6 +36,9 @@ module ecp5_25f_soc_top #(
 );
 
 localparam CLK_HZ = 25000000;
+// Data and stack in block RAM: 16 KiB for the one-cable image, 32 KiB for the images of two and
+// four cables (each cable's firmware state, settings and stream buffer: 4.6 KB; mk/soc.mk).
+localparam RAM_WORDS = (CHANNELS > 1) ? 8192 : 4096;
 
 wire clk = clk_25mhz;
 
@@ -72,7 +75,7 @@ assign flash_holdn = 1'b1;
 assign flash_wpn = 1'b1;
 
 bowden_soc #(
-    .CHANNELS(CHANNELS), .CLK_HZ(CLK_HZ), .ROM_WORDS(16384), .RAM_WORDS(4096), .ROM_INIT(ROM_INIT), .CPU_FAST(1),
+    .CHANNELS(CHANNELS), .CLK_HZ(CLK_HZ), .ROM_WORDS(16384), .RAM_WORDS(RAM_WORDS), .ROM_INIT(ROM_INIT), .CPU_FAST(1),
     .CPU_MUL(2),
     .FLASH_HALF_CLKS(1), .ADC_SCLK_HALF_CLKS(3), .ADC_WAIT_CLKS(8192)
 ) soc (

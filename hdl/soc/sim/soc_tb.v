@@ -30,6 +30,8 @@ module soc_tb #(
     input  wire adc_drdy_n,
     output wire drive_pwm,
     output wire drive_enable,
+    output wire [CHANNELS-1:0] drive_pwm_all,    // every cable's (the co-simulation's)
+    output wire [CHANNELS-1:0] drive_enable_all,
     output wire fault,
     output wire cpu_trap,
     output wire sample_tick,
@@ -38,10 +40,13 @@ module soc_tb #(
 );
 
 wire flash_sck, flash_mosi, flash_miso;
-// The testbench observes cable 0's drive (bank 0, the one the firmware drives).
+// Cable 0's drive (bank 0) on drive_pwm and drive_enable, as the one-cable tests observe it;
+// every cable's on the _all ports.
 wire [CHANNELS-1:0] pwm_all, enable_all;
 assign drive_pwm = pwm_all[0];
 assign drive_enable = enable_all[0];
+assign drive_pwm_all = pwm_all;
+assign drive_enable_all = enable_all;
 
 bowden_soc #(
     .CHANNELS(CHANNELS), .CLK_HZ(CLK_HZ), .ROM_INIT(ROM_INIT), .CPU_FAST(CPU_FAST), .CPU_MUL(CPU_MUL), .ADC_WAIT_CLKS(ADC_WAIT_CLKS),
