@@ -594,7 +594,8 @@ def _add_emulate(subparsers) -> None:
         default=None,
         metavar="N",
         help="cables the emulated device drives, each with its own loop and plant (default 1; "
-        "the native engine)",
+        "the native engine; with --target soc 1, 2 or 4, the SoC and its firmware built for as "
+        "many)",
     )
     p.add_argument(
         "--table-hash",

@@ -113,9 +113,9 @@ def test_emulate_channels_refused_where_it_cannot_run(capsys):
     rc = bench_cli(["emulate", "--channels", "2", "--engine", "python", "--seconds", "0.1"])
     err = capsys.readouterr().err
     assert rc == 2 and len(err.strip().splitlines()) == 1 and "native engine" in err
-    rc = bench_cli(["emulate", "--target", "soc", "--channels", "2"])
+    rc = bench_cli(["emulate", "--target", "soc", "--channels", "3"])
     err = capsys.readouterr().err
-    assert rc == 2 and "--channels is not available with --target soc" in err
+    assert rc == 2 and "--channels 3: the simulated SoC is built for 1, 2 or 4 cables" in err
 
 
 def test_a_protocol_2_device_is_refused_in_one_line(capsys):

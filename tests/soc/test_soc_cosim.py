@@ -127,6 +127,62 @@ def test_bench_info_get_set_persist_power_cycle_load_run(soc_lib, tmp_path):
     assert code == 130, err
 
 
+@pytest.mark.slow
+@pytest.mark.long
+def test_bench_talks_to_the_two_cable_soc(tmp_path):
+    """`bowden emulate --target soc --channels 2`: bowden_soc with two cables (bowden_core_mc, an
+    ADS131M04 at its pins, an ESCON and a plant FMU a cable) executing the two-cable image.
+    `bowden bench` over its UART: info says 2 channels, a set on channel 1 changes channel 1
+    only, and a run of both channels is recorded, a trace a channel, each cable's T_in following
+    its own T_c through its own plant. Long: the two-cable SoC's model is a build of its own
+    (some minutes), the run about a minute of wall time on an idle machine."""
+    assert soc_build.fw_hex(2).exists(), "make firmware-soc first"
+    soc_build.build(channels=2)
+    board = Emulated("--channels", "2")
+    try:
+        assert any("2 cables, a plant FMU each" in line for line in board.lines), board.lines
+        info = ok(board.bench("--channel", "all", "info"))
+        assert "channels      2" in info and "channel 1: FPGA none" in info, info
+        ok(board.bench("--channel", "1", "set", "loop.kp=0.08"))
+        head, row = ok(board.bench("--channel", "all", "get", "loop.kp")).splitlines()[:2]
+        assert head.split() == ["ch", "0", "ch", "1"], head
+        kp0, kp1 = (float(v) for v in re.findall(r"-?\d+\.\d+", row))  # each with its unit
+        assert abs(kp1 - 0.08) < 1e-3 and abs(kp0 - 0.08) > 1e-3, row
+        out = tmp_path / "x.csv"
+        run = board.bench(
+            "--channel", "all", "run", "sine", "--seconds", "0.3", "--out", str(out), "--quiet",
+            timeout_s=300.0,
+        )  # fmt: skip
+        ok(run)
+        for k in (0, 1):
+            with (tmp_path / f"x.ch{k}.csv").open() as f:
+                rows = list(csv.DictReader(f))
+            assert len(rows) == 300, (k, len(rows))
+            assert [int(r["sample"]) for r in rows] == list(range(300)), k
+            t_c = [float(r["T_c_N"]) for r in rows]
+            t_in = [float(r["T_in_N"]) for r in rows]
+            late = range(200, 300)
+            err = sum(abs(t_in[i] - t_c[i]) for i in late) / len(late)
+            assert err < 1.0, f"cable {k}: T_in misses T_c by {err:.2f} N over the last 100 ms"
+            assert max(t_in) - min(t_in) > 5.0, k
+    finally:
+        code, _, err = board.ctrl_c()
+    assert code == 130, err
+
+
+def test_a_cable_count_the_soc_is_not_built_for_is_one_line():
+    """--channels 3 with --target soc: one line naming it and the counts the SoC is built for,
+    exit 2, before anything is built or started."""
+    r = subprocess.run(
+        [*BOWDEN, "emulate", "--target", "soc", "--channels", "3", "--seconds", "1"],
+        capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r
+    assert r.stderr == (
+        "bowden emulate: --channels 3: the simulated SoC is built for 1, 2 or 4 cables\n"
+    ), r.stderr
+
+
 def test_bad_flash_file_is_one_line(soc_lib, tmp_path):
     """A flash file that is not a flash image: one line naming it, exit 2, the file untouched."""
     flash = tmp_path / "flash.bin"

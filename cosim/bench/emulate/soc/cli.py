@@ -5,7 +5,9 @@ Prints the pty as the host emulator does and is findable as it is (`bowden bench
 auto`: cosim.bench.link.discover's registry), runs until Ctrl-C, SIGTERM or --seconds of wall time
 (signals noted, as the host emulator's, by cosim.bench.emulate.emulator.StopSignals): the board's
 run ends, the flash file is written, the registry file removed; Ctrl-C's line is the only one
-printed (exit 130), SIGTERM and --seconds print the run's figures (exit 0).
+printed (exit 130), SIGTERM and --seconds print the run's figures (exit 0). --channels N runs
+the SoC built for N cables (1, 2 or 4: bowden_soc's CHANNELS, the firmware image of as many),
+each cable with its own plant FMU; a count it is not built for is refused in one line (exit 2).
 """
 
 from __future__ import annotations
@@ -32,7 +34,6 @@ HOST_ONLY_GIVEN = {
     "tcp_port": "--tcp-port",
     "interface": "--interface",
     "engine": "--engine",
-    "channels": "--channels",  # the SoC's firmware and core are one channel's
 }
 
 
@@ -59,7 +60,17 @@ def emulate_soc(args: argparse.Namespace, plant: dict) -> int:
     from cosim.bench.emulate.host_device import _open_plant as open_plant  # noqa: PLC0415
     from cosim.config.run import BoardParams  # noqa: PLC0415
 
+    from .build import CHANNELS  # noqa: PLC0415
     from .harness import SocBoard, check_flash_file  # noqa: PLC0415
+
+    channels = 1 if args.channels is None else args.channels
+    if channels not in CHANNELS:
+        print(
+            f"bowden emulate: --channels {channels}: the simulated SoC is built for "
+            f"{', '.join(map(str, CHANNELS[:-1]))} or {CHANNELS[-1]} cables",
+            file=sys.stderr,
+        )
+        return 2
 
     flash = Path(args.flash) if args.flash else None
     if flash is not None:
@@ -72,12 +83,13 @@ def emulate_soc(args: argparse.Namespace, plant: dict) -> int:
         position_m=args.position, loop_routing=args.loop_routing, plant=plant or None
     )
     try:
-        fmu = open_plant(chain)
+        fmus = [open_plant(chain) for _ in range(channels)]  # a plant of its own a cable
         board = SocBoard(
             flash_path=flash,
-            plant=fmu,
+            plant=fmus,
             escon_imax_a=BoardParams().escon_imax_a,
             findable=True,  # `bowden bench list` and --port auto find its pty
+            channels=channels,
         )
     except ValueError as exc:
         print(f"bowden emulate: {exc}", file=sys.stderr)
@@ -90,9 +102,13 @@ def emulate_soc(args: argparse.Namespace, plant: dict) -> int:
     # the removal of the registry file) short.
     with StopSignals() as signals:
         try:
+            adc = {1: "ADS131M02", 2: "ADS131M04", 4: "ADS131M08"}[channels]
+            cables = (
+                "; the plant FMU" if channels == 1 else f"; {channels} cables, a plant FMU each"
+            )
             print(
                 "bowden emulate: simulated board running (bowden_soc executing the RV32 firmware "
-                "in Verilator; ADS131M02, ESCON and SPI flash at pin level; the plant FMU)"
+                f"in Verilator; {adc}, ESCON and SPI flash at pin level{cables})"
             )
             print(f"  pty     bowden bench --port {board.pty_name} info")
             if flash is not None:

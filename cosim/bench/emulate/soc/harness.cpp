@@ -53,6 +53,10 @@ struct RunError {
 }
 
 constexpr int64_t CLK_HZ = SOC_CLK_HZ;
+// The SoC's cables (bowden_soc's CHANNELS, the build's -DSOC_CHANNELS), two ADC channels each.
+constexpr int CHANNELS = SOC_CHANNELS;
+static_assert(CHANNELS == 1 || CHANNELS == 2 || CHANNELS == 4, "bowden_soc's CHANNELS: 1, 2 or 4");
+constexpr int ADC_NCH = 2 * CHANNELS;
 constexpr int64_t BAUD = 921600;
 // soc_uart.v: the nearest whole number of clocks to CLK_HZ / BAUD.
 constexpr int64_t BIT_CLKS = (CLK_HZ + BAUD / 2) / BAUD;
@@ -60,8 +64,9 @@ constexpr int64_t BIT_CLKS = (CLK_HZ + BAUD / 2) / BAUD;
 constexpr int64_t SAMPLE_CLKS = CLK_HZ / 10000;
 constexpr int64_t PWM_CLKS = CLK_HZ / 5000;
 // ADS131M02 (TI SBAS853A): f_DATA = f_MOD / OSR, f_MOD = 4.096 MHz (8.192 MHz CLKIN,
-// high-resolution mode), OSR 128: 32 kSPS (cosim/parts/interface.py): 750 clocks at 24 MHz.
-constexpr int64_t ADC_PERIOD_CLKS = CLK_HZ / 32000;
+// high-resolution mode), OSR 128: 32 kSPS (cosim/parts/interface.py): 750 clocks at 24 MHz. From
+// two cables on, bowden_soc's reader sets OSR 256 (the longer frame does not fit 32 kSPS): 16 kSPS.
+constexpr int64_t ADC_PERIOD_CLKS = CLK_HZ / (CHANNELS == 1 ? 32000 : 16000);
 constexpr uint16_t ADC_STATUS = 0x0503;  // tests/hdl/hdl_sim.py Ads131m02's STATUS word
 // The flash model's array (spi_flash_model.v AW = 21).
 constexpr size_t FLASH_BYTES = size_t(1) << 21;
@@ -74,7 +79,7 @@ constexpr int64_t SERVICE_CLKS = 4 * 10 * BIT_CLKS;
 // store is one erase and a few page programs, written once.
 constexpr int64_t FLASH_QUIET_CLKS = CLK_HZ / 1000;
 
-// --- ADS131M02 at its pins (tests/hdl/hdl_sim.py, Ads131m02) -----------------------------------
+// --- ADS131M0x at its pins (tests/hdl/hdl_sim.py, Ads131m0x) -----------------------------------
 // CRC-16/CCITT, x^16 + x^12 + x^5 + 1, seed 0xFFFF, no final XOR, MSB first (TI SBAS853A,
 // 8.5.1.11, MODE.CRC_TYPE = 0), over the frame's first three words.
 uint16_t crc16_ccitt(const uint8_t *bits, int n) {
@@ -86,19 +91,21 @@ uint16_t crc16_ccitt(const uint8_t *bits, int n) {
     return crc;
 }
 
-class Ads131m02 {
+class Ads131m0x {
   public:
-    // Frames are delimited by CS (8.5.1.7): the device drives DOUT's next bit on each SCLK
-    // rising edge and samples DIN on the falling edge. A conversion makes DRDY fall (8.5.1.5);
-    // the next frame sends STATUS, CH0, CH1 and the CRC word (8.5.1.8, 8.5.1.11); DRDY returns
-    // high on the frame's first SCLK falling edge. A conversion that finds the last one unread
-    // raises DRDY for a clock first, so that the reader sees a new falling edge.
-    void convert(int32_t ch0, int32_t ch1) {
+    // The ADS131M02's frame with one word per channel (the ADS131M04 and M08 send the same
+    // frames, longer). Frames are delimited by CS (8.5.1.7): the device drives DOUT's next bit
+    // on each SCLK rising edge and samples DIN on the falling edge. A conversion makes DRDY fall
+    // (8.5.1.5); the next frame sends STATUS, CH0 .. CH[ADC_NCH - 1] and the CRC word (8.5.1.8,
+    // 8.5.1.11); DRDY returns high on the frame's first SCLK falling edge. A conversion that
+    // finds the last one unread raises DRDY for a clock first, so that the reader sees a new
+    // falling edge.
+    static constexpr int FRAME_BITS = 24 * (ADC_NCH + 2);
+    void convert(const int32_t *codes) {
         int n = 0;
         put(uint32_t(ADC_STATUS) << 8, &n);
-        put(uint32_t(ch0), &n);
-        put(uint32_t(ch1), &n);
-        put(uint32_t(crc16_ccitt(bits_, 72)) << 8, &n);
+        for (int k = 0; k < ADC_NCH; ++k) put(uint32_t(codes[k]), &n);
+        put(uint32_t(crc16_ccitt(bits_, n)) << 8, &n);
         if (corrupt_ >= 0) {
             bits_[corrupt_] ^= 1;
             corrupt_ = -1;
@@ -116,11 +123,11 @@ class Ads131m02 {
         }
         if (!cs_n) {
             if (sclk && !sclk_prev_) {  // rising: the next bit out
-                dout_ = (sending_ && bit_ < 96) ? bits_[bit_] : 0;
+                dout_ = (sending_ && bit_ < FRAME_BITS) ? bits_[bit_] : 0;
             } else if (!sclk && sclk_prev_) {  // falling: DIN in, DRDY released
                 drdy_n_ = 1;
-                if (bit_ < 96) din_[bit_] = din;
-                if (++bit_ == 96) ++frames;
+                if (bit_ < FRAME_BITS) din_[bit_] = din;
+                if (++bit_ == FRAME_BITS) ++frames;
             }
         }
         cs_prev_ = cs_n;
@@ -136,13 +143,13 @@ class Ads131m02 {
     void put(uint32_t word, int *n) {
         for (int i = 23; i >= 0; --i) bits_[(*n)++] = uint8_t((word >> i) & 1);
     }
-    uint8_t bits_[96] = {}, din_[96] = {};
+    uint8_t bits_[FRAME_BITS] = {}, din_[FRAME_BITS] = {};
     int bit_ = 0, corrupt_ = -1;
     bool ready_ = false, sending_ = false, pulse_ = false;
     uint8_t cs_prev_ = 1, sclk_prev_ = 0, dout_ = 0, drdy_n_ = 1;
 };
 
-// The ADS131M02's code of a tension as cosim/parts/rtl_model.adc_code_from_tension gives it:
+// The ADC's code of a tension as cosim/parts/rtl_model.adc_code_from_tension gives it:
 // round(offset + T * 2^8 * 2^20 / gain), clipped to 24 bits.
 int32_t adc_code(double t_n, int32_t offset, int32_t gain) {
     double v = double(offset) + t_n * 256.0 * 1048576.0 / double(gain);
@@ -266,13 +273,22 @@ class Board {
         ctx_ = std::make_unique<VerilatedContext>();
         ctx_->traceEverOn(false);
         top_ = std::make_unique<Vsoc_tb>(ctx_.get(), "soc_tb");
-        plant_ = s.fmu_component != nullptr;
-        set_real_ = reinterpret_cast<fmi2SetRealTYPE *>(s.fmu_set_real);
-        do_step_ = reinterpret_cast<fmi2DoStepTYPE *>(s.fmu_do_step);
-        get_real_ = reinterpret_cast<fmi2GetRealTYPE *>(s.fmu_get_real);
-        std::memcpy(u_, s.u0, sizeof u_);
-        std::memcpy(y_, s.y0, sizeof y_);
-        plant_t_ = s.time0_s;
+        if (s.channels != CHANNELS)
+            fail("%sthe simulated SoC has %lld cable(s), the spec asks for another count", "",
+                 (long long)CHANNELS);
+        plant_ = s.plant[0].fmu_component != nullptr;
+        for (int k = 0; k < CHANNELS; ++k) {
+            const soc_plant_t &p = s.plant[k];
+            if ((p.fmu_component != nullptr) != plant_)
+                fail("%scable %lld: a plant for every cable or for none", "", (long long)k);
+            set_real_[k] = reinterpret_cast<fmi2SetRealTYPE *>(p.fmu_set_real);
+            do_step_[k] = reinterpret_cast<fmi2DoStepTYPE *>(p.fmu_do_step);
+            get_real_[k] = reinterpret_cast<fmi2GetRealTYPE *>(p.fmu_get_real);
+            std::memcpy(u_[k], p.u0, sizeof u_[k]);
+            std::memcpy(y_[k], p.y0, sizeof y_[k]);
+            plant_t_[k] = p.time0_s;
+            pwm_rise_[k] = -1;
+        }
     }
     ~Board() { top_->final(); }
     void run();
@@ -282,22 +298,22 @@ class Board {
     std::unique_ptr<VerilatedContext> ctx_;
     std::unique_ptr<Vsoc_tb> top_;
     bool plant_;
-    fmi2SetRealTYPE *set_real_;
-    fmi2DoStepTYPE *do_step_;
-    fmi2GetRealTYPE *get_real_;
-    double u_[SOC_N_IN], y_[SOC_N_OUT];
-    double plant_t_;
+    fmi2SetRealTYPE *set_real_[CHANNELS];
+    fmi2DoStepTYPE *do_step_[CHANNELS];
+    fmi2GetRealTYPE *get_real_[CHANNELS];
+    double u_[CHANNELS][SOC_N_IN], y_[CHANNELS][SOC_N_OUT];
+    double plant_t_[CHANNELS];
 
-    Ads131m02 adc_;
+    Ads131m0x adc_;
     UartTx tx_;
     UartRx rx_;
     std::deque<uint8_t> to_soc_, from_soc_;
     int64_t clk_ = 0;
 
-    // PWM measurement (rising edge to rising edge) and the ESCON's set value.
-    uint8_t pwm_prev_ = 0;
-    int64_t pwm_rise_ = -1, pwm_high_ = 0;
-    double current_a_ = 0.0;
+    // Each cable's PWM measurement (rising edge to rising edge) and its ESCON's set value.
+    uint8_t pwm_prev_[CHANNELS] = {};
+    int64_t pwm_rise_[CHANNELS], pwm_high_[CHANNELS] = {};
+    double current_a_[CHANNELS] = {};
 
     // Phases of the firmware (the tick's clocks).
     uint8_t mark_prev_ = 0;
@@ -367,14 +383,19 @@ class Board {
             ++s_.uart_tx_bytes;
         }
         if (clk_ % ADC_PERIOD_CLKS == 0) {
-            double t_in = plant_ ? y_[SOC_OUT_T_IN_MEAS] : s_.const_t_in_n;
-            double t_out = plant_ ? y_[SOC_OUT_T_OUT_MEAS] : s_.const_t_out_n;
-            adc_.convert(adc_code(t_in, s_.adc_offset, s_.adc_gain),
-                         adc_code(t_out, s_.adc_offset, s_.adc_gain));
+            int32_t codes[ADC_NCH];
+            for (int k = 0; k < CHANNELS; ++k) {
+                double t_in = plant_ ? y_[k][SOC_OUT_T_IN_MEAS] : s_.const_t_in_n;
+                double t_out = plant_ ? y_[k][SOC_OUT_T_OUT_MEAS] : s_.const_t_out_n;
+                codes[2 * k] = adc_code(t_in, s_.adc_offset, s_.adc_gain);
+                codes[2 * k + 1] = adc_code(t_out, s_.adc_offset, s_.adc_gain);
+            }
+            adc_.convert(codes);
         }
         adc_.pins(io.adc_cs_n, io.adc_sclk, io.adc_din, &io.adc_dout, &io.adc_drdy_n);
-        pwm();
-        if (plant_ && clk_ % SAMPLE_CLKS == 0) plant_step();
+        for (int k = 0; k < CHANNELS; ++k) pwm(k);
+        if (plant_ && clk_ % SAMPLE_CLKS == 0)
+            for (int k = 0; k < CHANNELS; ++k) plant_step(k);
         uint8_t m = io.rootp->soc_tb__DOT__soc__DOT__mark_reg;
         if (m != mark_prev_) {
             if (mark_prev_ == MARK_TICK) tick_clks_.push_back(uint32_t(clk_ - mark_since_));
@@ -392,33 +413,38 @@ class Board {
         }
     }
 
-    // The ESCON reads each PWM period's duty (rising edge to rising edge: pwm_escon.v starts a
-    // period high) and sets its current (duty - 0.5) / 0.4 * I_max, duty limited to 10..90 %
-    // (cosim/parts/interface.py, PwmEscon), from the end of the period on; disabled: no current.
-    void pwm() {
-        uint8_t p = top_->drive_pwm;
-        if (p) ++pwm_high_;
-        if (p && !pwm_prev_) {
-            if (pwm_rise_ >= 0) {
-                double duty = double(pwm_high_ - 1) / double(clk_ - pwm_rise_);
+    // Cable k's ESCON reads each PWM period's duty (rising edge to rising edge: pwm_escon.v
+    // starts a period high) and sets its current (duty - 0.5) / 0.4 * I_max, duty limited to
+    // 10..90 % (cosim/parts/interface.py, PwmEscon), from the end of the period on; disabled: no
+    // current.
+    void pwm(int k) {
+        uint8_t p = (top_->drive_pwm_all >> k) & 1;
+        if (p) ++pwm_high_[k];
+        if (p && !pwm_prev_[k]) {
+            if (pwm_rise_[k] >= 0) {
+                double duty = double(pwm_high_[k] - 1) / double(clk_ - pwm_rise_[k]);
                 duty = std::min(std::max(duty, 0.10), 0.90);
-                current_a_ = (duty - 0.5) / 0.4 * s_.escon_imax_a;
+                current_a_[k] = (duty - 0.5) / 0.4 * s_.escon_imax_a;
             }
-            pwm_rise_ = clk_;
-            pwm_high_ = 1;
+            pwm_rise_[k] = clk_;
+            pwm_high_[k] = 1;
         }
-        pwm_prev_ = p;
+        pwm_prev_[k] = p;
     }
 
-    void plant_step() {
+    void plant_step(int k) {
         const double dt = double(SAMPLE_CLKS) / double(CLK_HZ);
-        u_[0] = top_->drive_enable ? current_a_ : 0.0;
+        u_[k][0] = ((top_->drive_enable_all >> k) & 1) ? current_a_[k] : 0.0;
         auto t0 = Clock::now();
-        fmi2Component c = s_.fmu_component;
-        if (set_real_(c, s_.in_vr, SOC_N_IN, u_) != fmi2OK) fail("plant: fmi2SetReal failed%s");
-        if (do_step_(c, plant_t_, dt, fmi2True) != fmi2OK) fail("plant: fmi2DoStep failed%s");
-        plant_t_ += dt;
-        if (get_real_(c, s_.out_vr, SOC_N_OUT, y_) != fmi2OK) fail("plant: fmi2GetReal failed%s");
+        const soc_plant_t &p = s_.plant[k];
+        fmi2Component c = p.fmu_component;
+        if (set_real_[k](c, p.in_vr, SOC_N_IN, u_[k]) != fmi2OK)
+            fail("plant: fmi2SetReal failed%s");
+        if (do_step_[k](c, plant_t_[k], dt, fmi2True) != fmi2OK)
+            fail("plant: fmi2DoStep failed%s");
+        plant_t_[k] += dt;
+        if (get_real_[k](c, p.out_vr, SOC_N_OUT, y_[k]) != fmi2OK)
+            fail("plant: fmi2GetReal failed%s");
         ++s_.plant_steps;
         s_.fmu_s += std::chrono::duration<double>(Clock::now() - t0).count();
     }
@@ -523,6 +549,7 @@ extern "C" {
 int32_t soc_api_version(void) { return SOC_API_VERSION; }
 uint32_t soc_spec_size(void) { return sizeof(soc_spec_t); }
 int32_t soc_clk_hz(void) { return int32_t(CLK_HZ); }
+int32_t soc_channels(void) { return CHANNELS; }
 uint16_t soc_adc_crc(const uint8_t *bits, int32_t n) { return crc16_ccitt(bits, n); }
 
 int32_t soc_run(soc_spec_t *spec) {

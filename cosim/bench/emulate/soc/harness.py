@@ -4,9 +4,11 @@ soc_api.h mirrored here) in a thread, with its UART on a pseudo-terminal.
 The pty is raw (tty.setraw: 0x0D, 0x03, 0x11, 0x13 pass unchanged, no echo) and its slave side
 stays open here, so a client that closes it leaves the master readable (no EIO). The flash's
 content lives in a file (2 MiB, the flash model's array; written temp + rename); a simulated
-power cycle is a new SocBoard on the same file. Without a plant the ADS131M02's two channels
-carry constant tensions; with one (`plant=` an opened cosim.parts.plant.Plant) the FMU is
-stepped every loop sample with the ESCON's current and its T_in and T_out go to CH0 and CH1.
+power cycle is a new SocBoard on the same file. Without a plant the ADC's channels carry
+constant tensions; with one (`plant=` an opened cosim.parts.plant.Plant, or one for each cable)
+the FMU is stepped every loop sample with its ESCON's current and its T_in and T_out go to the
+cable's two ADC channels (CH 2k and 2k + 1). `channels`: the SoC's cables (1, 2 or 4: its
+CHANNELS, each count a library of its own, build.py).
 `findable`: while it runs, `bowden bench list` and `--port auto` find its pty, as they find the
 host emulator's (cosim.bench.link.discover's registry; `bowden emulate --target soc` asks for it).
 """
@@ -38,8 +40,15 @@ from cosim.parts.plant import FMU_LINK_FIELDS
 
 from . import build as soc_build
 
-SOC_API_VERSION = 1
+SOC_API_VERSION = 2
+SOC_MAX_CHANNELS = 4
 FLASH_BYTES = 1 << 21
+
+
+class PlantLink(Structure):
+    """soc_plant_t: one cable's FMU (Plant.link fills it)."""
+
+    _fields_ = FMU_LINK_FIELDS
 
 
 class Spec(Structure):
@@ -50,11 +59,12 @@ class Spec(Structure):
         ("realtime", c_int32),
         ("stop", c_int32),
         ("clear_stats", c_int32),
+        ("channels", c_int32),
         ("adc_offset", c_int32),
         ("adc_gain", c_int32),
         ("const_t_in_n", c_double),
         ("const_t_out_n", c_double),
-        *FMU_LINK_FIELDS,
+        ("plant", PlantLink * SOC_MAX_CHANNELS),
         ("escon_imax_a", c_double),
         ("clocks", c_int64),
         ("boot_clks", c_int64),
@@ -76,24 +86,28 @@ class Spec(Structure):
     ]
 
 
-_lib = None
+_libs: dict[int, ctypes.CDLL] = {}
 
 
-def load_library() -> ctypes.CDLL:
-    """Build (or reuse) libbowden_soc_sim.so and load it once per process."""
-    global _lib
-    if _lib is None:
-        lib = ctypes.CDLL(str(soc_build.build()))
+def load_library(channels: int = 1) -> ctypes.CDLL:
+    """Build (or reuse) the library of a SoC of `channels` cables and load it once per
+    process."""
+    if channels not in _libs:
+        lib = ctypes.CDLL(str(soc_build.build(channels=channels)))
         lib.soc_run.argtypes = [POINTER(Spec)]
         lib.soc_run.restype = c_int32
         lib.soc_adc_crc.argtypes = [POINTER(c_uint8), c_int32]
         lib.soc_adc_crc.restype = c_uint16
-        if lib.soc_api_version() != SOC_API_VERSION or lib.soc_spec_size() != ctypes.sizeof(Spec):
+        if (
+            lib.soc_api_version() != SOC_API_VERSION
+            or lib.soc_spec_size() != ctypes.sizeof(Spec)
+            or lib.soc_channels() != channels
+        ):
             raise RuntimeError(
                 "libbowden_soc_sim.so does not match cosim/bench/emulate/soc/harness.py"
             )
-        _lib = lib
-    return _lib
+        _libs[channels] = lib
+    return _libs[channels]
 
 
 def adc_crc(bits: list[int]) -> int:
@@ -167,10 +181,20 @@ class SocBoard:
         escon_imax_a: float = 2.0,
         max_sim_s: float = 0.0,
         findable: bool = False,
+        channels: int = 1,
     ) -> None:
+        if channels not in soc_build.CHANNELS:
+            raise ValueError(
+                f"channels {channels}: the simulated SoC is built for "
+                f"{', '.join(map(str, soc_build.CHANNELS))} cables"
+            )
+        plants = list(plant) if isinstance(plant, (list, tuple)) else [plant] * channels
+        if plant is not None and (len(plants) != channels or len(set(map(id, plants))) != channels):
+            raise ValueError(f"{channels} cables need {channels} plants of their own")
+        self.channels = channels
         self.findable = findable
         self._registration = None  # the registry file while it is findable
-        self.lib = load_library()
+        self.lib = load_library(channels)
         self.flash_path = Path(flash_path) if flash_path is not None else None
         if self.flash_path is not None:
             check_flash_file(self.flash_path)
@@ -192,9 +216,11 @@ class SocBoard:
         s.adc_gain = rtl_model.DEFAULT_ADC_GAIN
         s.const_t_in_n, s.const_t_out_n = tensions_n
         s.escon_imax_a = escon_imax_a
+        s.channels = channels
         self.plant = plant
         if plant is not None:
-            plant.link(s)
+            for k, p in enumerate(plants):
+                p.link(s.plant[k])
         self._thread: threading.Thread | None = None
         self.status: int | None = None
 
