@@ -12,7 +12,6 @@ import json
 
 import pytest
 
-from cosim.project.paths import BUILD_DIR
 from hdl.boards import table
 from hdl.soc import bitstream
 
@@ -114,7 +113,7 @@ def test_the_ecp5_bitstream_is_built_with_the_firmware_and_meets_timing():
     assert summary["timing_met"] and summary["fmax_mhz"] >= summary["target_mhz"] == 25.0
     assert summary["channels"] == 4
     assert summary["image_in_bitstream"]
-    fw = BUILD_DIR / "firmware" / "soc"
+    fw = bitstream.image_dir(4)  # the four-cable image (mk/soc.mk)
     assert summary["image_bytes"] == (fw / "bowden_fw.bin").stat().st_size
     assert (out / "bowden_fw.hex").read_bytes() == (fw / "bowden_fw.hex").read_bytes()
     assert summary["logic_cells"] <= 24288
