@@ -74,8 +74,9 @@ int32_t fric_est_config_check(const fric_est_config_t *cfg, q3_28_t x0_q28, q3_2
 void fric_est_reset(fric_est_t *e, q3_28_t x0_q28)
 {
     /* The configuration kept; the accumulators zero; every measurement at the start value. */
-    *e = (fric_est_t){.cfg = e->cfg, .tau_shift = e->tau_shift, .x_b = {x0_q28, x0_q28},
-                      .x = x0_q28, .x_meas = x0_q28, .band_hi = band_of(x0_q28)};
+    e->p[0] = e->p[1] = e->q[0] = e->q[1] = 0;
+    e->x_b[0] = e->x_b[1] = e->x = e->x_meas = x0_q28;
+    e->band_hi = band_of(x0_q28);
     fric_est_gate_reset(&e->g);
 }
 

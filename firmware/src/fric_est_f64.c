@@ -5,8 +5,9 @@
 
 void fric_est_f64_reset(fric_est_f64_t *e, double x0)
 {
-    *e = (fric_est_f64_t){.cfg = e->cfg, .lambda_inv = e->lambda_inv, .x_b = {x0, x0}, .x = x0,
-                          .x_meas = x0, .band_hi = exp(1.25 * x0)};
+    e->p[0] = e->p[1] = e->q[0] = e->q[1] = 0.0;
+    e->x_b[0] = e->x_b[1] = e->x = e->x_meas = x0;
+    e->band_hi = exp(1.25 * x0);
     fric_est_gate_reset(&e->g);
 }
 
