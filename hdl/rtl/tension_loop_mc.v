@@ -496,6 +496,43 @@ always @* if (f_past_valid && !rst) begin
     mc_group_zero: assert(&f_zero);
 end
 
+// The slot's datapath against its channel's state word and its loaded configuration, each
+// register from the clock after the datapath writes it to the slot's end (induction helpers:
+// without them the induction needs a window of a whole slot, 16 clocks, to see the datapath's
+// registers recomputed from a load; with them the last clock of a slot follows from the two
+// before it). The layout of f_dp_pipe and f_dp_mode is tension_loop_dp's f_pipe and f_mode.
+wire [15:0] f_dp_u = dp_state[86:71];             // u entering the sample (written in clock 14)
+wire        f_dp_en = f_dp_cfg[31];               // ENABLE, loaded
+wire [14:0] f_dp_lim = f_dp_cfg[30:16];           // I_LIMIT, loaded
+wire        f_dp_run = f_dp_mode[3];              // clock 3: the sample runs the loop
+wire        f_dp_ramp = f_dp_pipe[7*128 + 89];    // clock 3: the sample ramps
+wire [15:0] f_dp_u_up = f_dp_pipe[1*128 +: 16];   // clock 12: u + step
+wire [15:0] f_dp_u_dn = f_dp_pipe[1*128 + 16 +: 16];  // clock 12: u - step
+wire        f_dp_ult = f_dp_pipe[1*128 + 32];     // clock 12: u < -step
+wire        f_dp_ugt = f_dp_pipe[1*128 + 33];     // clock 12: u > step
+wire [24:0] f_dp_r = f_dp_pipe[1*128 + 34 +: 25]; // clock 12: the rounded output
+wire        f_dp_ramp_nz = f_dp_pipe[0];          // clock 13: the ramp's u is not 0
+wire [15:0] f_dp_u_ramp = f_dp_pipe[1 +: 16];     // clock 13: the ramp's u
+wire        f_dp_rhi = f_dp_mode[2];              // clock 13: r > I_LIMIT
+wire        f_dp_rlo = f_dp_mode[1];              // clock 13: r < -I_LIMIT
+wire signed [15:0] f_step = WDT_RAMP_STEP;
+always @* if (f_past_valid && !rst && f_run) begin
+    // property mc_slot_pipeline: in a channel's slot the datapath holds that channel's u, and from the clock after it writes them, -I_LIMIT, the mode of the FAULT it latched, the ramp's steps and comparisons and the saturation flags of that u, the loaded configuration and the rounded output (induction helper)
+    mc_slot_pipeline: assert(f_dp_u == u_ch[f_ch*16 +: 16]);
+    if (f_lc >= 4'd2) mc_slot_pipeline_2: assert(f_dp_nlim == -{1'b0, f_dp_lim});
+    if (f_lc >= 4'd4) mc_slot_pipeline_3: assert(
+        f_dp_run == (f_dp_en && fault_c == 4'd0 && !grp_c) &&
+        f_dp_ramp == (f_dp_en && (fault_c == 4'b0100 || (fault_c == 4'd0 && grp_c))));
+    if (f_lc >= 4'd13) mc_slot_pipeline_4: assert(
+        f_dp_ugt == ($signed(f_dp_u) > f_step) && f_dp_ult == ($signed(f_dp_u) < -f_step) &&
+        f_dp_u_dn == f_dp_u - WDT_RAMP_STEP && f_dp_u_up == f_dp_u + WDT_RAMP_STEP);
+    if (f_lc == F_LC_LAST) mc_slot_pipeline_5: assert(
+        f_dp_u_ramp == (f_dp_ugt ? f_dp_u_dn : f_dp_ult ? f_dp_u_up : 16'd0) &&
+        f_dp_ramp_nz == (f_dp_ugt || f_dp_ult) &&
+        f_dp_rhi == ($signed(f_dp_r) > $signed({10'd0, f_dp_lim})) &&
+        f_dp_rlo == ($signed(f_dp_r) < $signed({{9{f_dp_nlim[15]}}, f_dp_nlim})));
+end
+
 // Covers: a partner ramps under a group stop, and reaches zero.
 always @* if (f_past_valid && !rst && f_end_d && f_grp_only_d) begin
     cover(f_u_d != 16'd0 && f_u_d == f_ramp(f_uprev_d) && f_u_d != f_uprev_d);
