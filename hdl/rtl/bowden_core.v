@@ -163,6 +163,10 @@ bowden_regs #(.ADDR_W(ADDR_W), .RD_STAGES(RD_STAGES)) regs (
 
 // --- loop and drive ------------------------------------------------------------------------
 
+`ifdef FORMAL
+wire [3:0] f_loop_clk;  // the loop's clock within its sample (its proofs' shadow)
+`endif
+
 tension_loop #(.WDT_RAMP_STEP(WDT_RAMP_STEP), .SNAPSHOT(SNAPSHOT)) loop (
     .clk(clk), .rst(rst),
     .tick(tick_reg),
@@ -176,6 +180,10 @@ tension_loop #(.WDT_RAMP_STEP(WDT_RAMP_STEP), .SNAPSHOT(SNAPSHOT)) loop (
     .u(u), .out_en(out_en), .out_valid(out_valid),
     .saturated(saturated), .wdt_ramp(wdt_ramp), .faults(faults),
     .t_in(t_in), .integ(integ), .tc_eff(tc_eff), .sample_count(sample_count)
+`ifdef FORMAL
+    ,
+    .f_clk_in_sample(f_loop_clk)
+`endif
 );
 
 wire [31:0] pwm_duty;
@@ -224,6 +232,13 @@ end
 always @(posedge clk) if (f_past_valid && !rst && !$past(rst))
     cover(sample_tick && $past(f_ticked));  // the second tick
 
+// The loop's clock within its sample is the tick counter's: LATENCY (idle) at a tick, before
+// the first and from LATENCY clocks after a tick on.
+wire [31:0] f_cnt = tick_cnt_reg;
+wire [3:0]  f_loop_clk_exp = (f_ticked && f_cnt != 32'd0 && f_cnt < 32'd15) ? f_cnt[3:0] : 4'd15;
+// property core_tick_phase: the loop's clock within its sample follows the tick counter (induction helper)
+always @* if (f_past_valid && !rst) core_tick_phase: assert(f_loop_clk == f_loop_clk_exp);
+
 // SNAPSHOT 0: a write waits at most 14 clocks (the loop's cfg_busy), so the CPU's store stalls
 // that long at worst. f_hold_run: consecutive clocks of hold before this one.
 reg [4:0] f_hold_run;
@@ -236,6 +251,9 @@ always @* if (f_past_valid && !rst) begin
     if (SNAPSHOT != 0) core_write_hold: assert(!cfg_busy);
     else core_write_hold_2: assert(!cfg_busy || f_hold_run < 5'd14);
 end
+// property core_hold_count: the count of held clocks is the loop's clock within its sample (SNAPSHOT 0; 0 with the snapshot; induction helper)
+always @* if (f_past_valid && !rst)
+    core_hold_count: assert(f_hold_run == ((SNAPSHOT == 0 && f_loop_clk != 4'd15) ? {1'b0, f_loop_clk} : 5'd0));
 
 generate
     if (SNAPSHOT == 0) begin : g_f_hold

@@ -94,6 +94,11 @@ module tension_loop #(
     output wire [31:0] integ,        // Q3.28 A
     output wire [15:0] tc_eff,       // Q7.8 N
     output wire [31:0] sample_count
+`ifdef FORMAL
+    ,
+    output wire [3:0]  f_clk_in_sample  // formal only: clocks since the last tick (LATENCY:
+                                        // idle), for bowden_core's induction helper
+`endif
 );
 
 localparam LATENCY = 15;  // clocks from tick to out_valid; documented minimum tick spacing
@@ -247,6 +252,7 @@ always @(posedge clk) begin
     else if (tick) f_since_tick <= 4'd1;
     else if (f_since_tick != F_LAT) f_since_tick <= f_since_tick + 4'd1;
 end
+assign f_clk_in_sample = f_since_tick;
 // property tl_tick_spacing: ticks come at least LATENCY clocks apart (assumed when tension_loop is the top, asserted inside bowden_core)
 always @* if (f_past_valid && !rst && tick) tl_tick_spacing: `TL_ENV(f_since_tick == F_LAT);
 
@@ -462,6 +468,75 @@ always @(posedge clk) if (f_past_valid && !$past(rst) && $past(f_run_done) && $p
     // property tl_anti_windup: after a command clipped high (low) and a positive (negative) KI_TS*e the integrator holds, only clamped
     tl_anti_windup: assert(integ_reg == $past(f_iprev_c[31:0]));
 
+// The sample's datapath registers as functions of its snapshot and shadows, each from the clock
+// after the datapath writes it to the sample's end (induction helpers: without them the
+// induction needs a window of a whole sample, 16 clocks, to see them recomputed from a tick).
+// The layout of f_pipe and f_mode is tension_loop_dp's.
+wire        f_dp_grp = f_mode[0];                 // the group stop (none here: ev_grp is 0)
+wire        f_dp_ramp = f_pipe[7*128 + 89];       // clock 3: the sample ramps
+wire [31:0] f_dp_ihold = f_pipe[7*128 + 16 +: 32];  // clock 3: the held integrator, clamped
+wire [15:0] f_dp_tcf = f_pipe[7*128 +: 16];       // clock 3: T_c' after the floor
+wire        f_dp_iphi = f_pipe[8*128 + 17];       // clock 2: I entering > +I_LIMIT
+wire        f_dp_iplo = f_pipe[8*128 + 16];       // clock 2: I entering < -I_LIMIT
+wire [32:0] f_dp_isum = f_pipe[4*128 + 2 +: 33];  // clock 9: I + KI_TS*e
+wire        f_dp_ihi = f_pipe[3*128 + 1];         // clock 10: that sum > +I_LIMIT
+wire        f_dp_ilo = f_pipe[3*128];             // clock 10: that sum < -I_LIMIT
+wire [31:0] f_dp_inew = f_pipe[2*128 +: 32];      // clock 11: the new integrator
+wire [15:0] f_dp_u_up = f_pipe[1*128 +: 16];      // clock 12: u + step
+wire [15:0] f_dp_u_dn = f_pipe[1*128 + 16 +: 16]; // clock 12: u - step
+wire        f_dp_ult = f_pipe[1*128 + 32];        // clock 12: u < -step
+wire        f_dp_ugt = f_pipe[1*128 + 33];        // clock 12: u > step
+wire [24:0] f_dp_r = f_pipe[1*128 + 34 +: 25];    // clock 12: the rounded output
+wire        f_dp_ramp_nz = f_pipe[0];             // clock 13: the ramp's u is not 0
+wire [15:0] f_dp_u_ramp = f_pipe[1 +: 16];        // clock 13: the ramp's u
+wire [23:0] f_dp_raw_s = f_pipe[10*128 + 95 +: 24];  // clock 0: the sample's ADC code
+wire        f_dp_lo_bad = f_pipe[9*128 + 19];     // clock 1: code < ADC_MIN
+wire        f_dp_hi_bad = f_pipe[9*128 + 18];     // clock 1: code > ADC_MAX
+wire [3:0]  f_dp_det = f_pipe[8*128 + 18 +: 4];   // clock 2: the faults detected
+// The configuration the later clocks read: the snapshot (SNAPSHOT 1) or the held ports.
+wire        f_snap = SNAPSHOT != 0;
+wire [23:0] f_min_cfg = f_snap ? f_load[218:195] : adc_min;
+wire [23:0] f_max_cfg = f_snap ? f_load[194:171] : adc_max;
+wire [15:0] f_stale_to_cfg = f_snap ? f_load[170:155] : adc_stale;
+wire [15:0] f_wdt_to_cfg = f_snap ? f_load[274:259] : wdt_timeout;
+wire [15:0] f_oc_to_cfg = f_snap ? f_load[154:139] : oc_timeout;
+wire [15:0] f_tcmin_cfg = f_snap ? f_load[384:369] : tc_min;
+wire signed [15:0] f_step = WDT_RAMP_STEP;
+wire signed [32:0] f_lim28 = $signed({2'b00, lim_cfg, 16'd0});
+wire signed [32:0] f_isum = $signed(f_dp_isum);
+wire [31:0] f_inew_exp = f_hold ? f_iprev_c[31:0] : f_dp_ihi ? f_lim28[31:0] :
+                         f_dp_ilo ? -f_lim28[31:0] : f_dp_isum[31:0];
+always @* if (f_past_valid && !rst && f_busy) begin
+    // property tl_sample_pipeline: while a sample is in flight its datapath registers are, from the clock after it writes each, the mode of the FAULT it latched, the integrator's sums, clamps and hold, the floor, the ramp's steps and the saturation flags, as functions of the snapshot and the shadows (induction helper)
+    tl_sample_pipeline: assert(!f_dp_grp);
+    if (f_since_tick >= 4'd3) tl_sample_pipeline_2: assert(
+        f_dp_iphi == ($signed(f_iprev) > f_lim28) && f_dp_iplo == ($signed(f_iprev) < -f_lim28));
+    if (f_since_tick >= 4'd4) tl_sample_pipeline_3: assert(
+        run_reg == (en_cfg && fault_reg == 4'd0) && f_dp_ramp == (en_cfg && fault_reg == F_WDT) &&
+        f_dp_ihold == f_iprev_c[31:0] && $signed(f_dp_tcf) >= $signed(f_tcmin_s));
+    if (f_since_tick >= 4'd10) tl_sample_pipeline_4: assert(
+        f_isum == $signed({f_iprev[31], f_iprev}) + $signed({f_pi[31], f_pi}));
+    if (f_since_tick >= 4'd11) tl_sample_pipeline_5: assert(
+        f_dp_ihi == (f_isum > f_lim28) && f_dp_ilo == (f_isum < -f_lim28));
+    if (f_since_tick >= 4'd12) tl_sample_pipeline_6: assert(f_dp_inew == f_inew_exp);
+    if (f_since_tick >= 4'd13) tl_sample_pipeline_7: assert(
+        f_dp_ugt == ($signed(u_reg) > f_step) && f_dp_ult == ($signed(u_reg) < -f_step) &&
+        f_dp_u_dn == u_reg - WDT_RAMP_STEP && f_dp_u_up == u_reg + WDT_RAMP_STEP);
+    if (f_since_tick == 4'd14) tl_sample_pipeline_8: assert(
+        f_dp_u_ramp == (f_dp_ugt ? f_dp_u_dn : f_dp_ult ? f_dp_u_up : 16'd0) &&
+        f_dp_ramp_nz == (f_dp_ugt || f_dp_ult) &&
+        rhi_reg == ($signed(f_dp_r) > $signed({10'd0, lim_cfg})) &&
+        rlo_reg == ($signed(f_dp_r) < $signed({{9{nlim_reg[15]}}, nlim_reg})));
+    tl_sample_pipeline_9: assert(f_min_cfg == f_min_s && f_max_cfg == f_max_s &&
+        f_stale_to_cfg == f_stale_to_s && f_wdt_to_cfg == f_wdt_to_s &&
+        f_oc_to_cfg == f_oc_to_s && f_tcmin_cfg == f_tcmin_s);
+    if (f_since_tick >= 4'd1) tl_sample_pipeline_10: assert(f_dp_raw_s == f_raw_s);
+    if (f_since_tick >= 4'd2) tl_sample_pipeline_11: assert(
+        f_dp_lo_bad == ($signed(f_raw_s) < $signed(f_min_s)) &&
+        f_dp_hi_bad == ($signed(f_raw_s) > $signed(f_max_s)));
+    if (f_since_tick >= 4'd3) tl_sample_pipeline_12: assert(f_dp_det == (f_en_s ? f_detect : 4'd0));
+end
+
 // --- faults (tl_fault_definition, tl_hard_fault_safe, tl_reset_safe) ----------------------
 
 // FAULT changes only on the third clock of a sample, to exactly the register map's definition:
@@ -483,6 +558,10 @@ end
 // property tl_hard_fault_safe: any fault but the watchdog alone gives u = 0 and the drive off within 11 clocks of latching, ramp or not
 always @* if (f_past_valid && !rst && f_hard_age >= F_SAFE_CLKS)
     tl_hard_fault_safe: assert(u_reg == 16'd0 && !out_en_reg && !ramp_st_reg);
+
+// property tl_hard_fault_age: a hard fault younger than 11 clocks was latched in the sample in flight, in its third clock (induction helper)
+always @* if (f_past_valid && !rst && (fault_reg & ~F_WDT) != 4'd0 && f_hard_age < F_SAFE_CLKS)
+    tl_hard_fault_age: assert(f_busy && f_since_tick >= 4'd4 && f_hard_age == f_since_tick - 4'd4);
 
 // Reset: outputs safe on the next clock.
 // property tl_reset_safe: the clock after reset: u = 0, drive off, no faults, integrator 0
