@@ -66,7 +66,11 @@ def _audit_stand_in(plant: dict, folder: Path):
     cands = [unnamed("slack_tension", 45.0), unnamed("mu_viscous", 55.0)]
     cands.append(unnamed("sensor_offset", cal.JOINT_MIN_PCT / 2))
     result = SimpleNamespace(
-        data=data, extended=nominal, findings=[], rounds=[Round(nominal, cands, None, {})], rule=RULE
+        data=data,
+        extended=nominal,
+        findings=[],
+        rounds=[Round(nominal, cands, None, {})],
+        rule=RULE,
     )
     return result, device
 

@@ -15,7 +15,9 @@ The steps (cosim/bench/README.md, "Calibration", says why each piece is there):
    comp.offset_n, comp.mu_slope_per_n, comp.dead_zone_spread: cosim.audit.params) the device's value
    is put into the audit's extended model in place of the fitted one; the change is proposed only
    when the fitted value beats the device's by the audit's own decision rule (cosim.audit.decision:
-   on the selection blocks, the same thresholds as a finding; the dead zone's spread, a parameter of
+   on the selection blocks, the same thresholds as a finding; a mu the rule refuses is fitted
+   again with the effects the audit saw but did not name and judged in that model: joint_mu;
+   the dead zone's spread, a parameter of
    the audit's nominal model, without that rule: UNGATED; the breakaway, comp.breakaway, from the
    audit's static friction finding, which passed that rule as a finding), and only when the
    compensator takes it
