@@ -99,3 +99,4 @@ def test_the_joint_fit_still_refuses_when_the_device_has_the_plants_mu(tmp_path)
     assert c.proposed is None
     assert c.stats["joint_with"] == ["slack_tension", "mu_viscous"]  # the joint fit was tried
     assert c.audit_value == pytest.approx(0.075, abs=MU_TOLERANCE)
+    assert c.reason.startswith("fitted with slack_tension, mu_viscous, which the audit saw")

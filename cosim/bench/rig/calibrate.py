@@ -352,6 +352,11 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
                 f"{100 * st.improved_share:.0f} % of the blocks better); the audit's rule: "
                 + result.rule.text().split(";")[0]
             )
+            if joint is not None:
+                c.reason = (
+                    f"fitted with {', '.join(joint[2])}, which the audit saw but did not name, "
+                    + c.reason
+                )
             changes.append(c)
             continue
         c.proposed = target
