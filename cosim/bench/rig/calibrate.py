@@ -323,27 +323,14 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
         trial = {**ext.params, aparam: dev_as_a}
         r_dev = data.t_out_n - twin.simulate(data.inputs, trial)
         st = block_stats(data, r_dev, r_ext)
-        c.stats = {
-            "explained_pct": st.explained_pct,
-            "removed_rms_n": st.removed_rms_n,
-            "block_t": st.t,
-            "improved_share": st.improved_share,
-            "blocks": st.blocks,
-        }
+        c.stats = _stats_record(st)
         joint = None
         if name == "comp.mu" and not result.rule.passes(st, data):
             joint = _joint_mu_decision(result, dev_as_a)
         if joint is not None:
             a_val, st, with_ = joint
             c.audit_value, target = a_val, a_val * k
-            c.stats = {
-                "explained_pct": st.explained_pct,
-                "removed_rms_n": st.removed_rms_n,
-                "block_t": st.t,
-                "improved_share": st.improved_share,
-                "blocks": st.blocks,
-                "joint_with": with_,
-            }
+            c.stats = {**_stats_record(st), "joint_with": with_}
         if name not in UNGATED and not result.rule.passes(st, data):
             c.status = "not significant"
             c.reason = (
@@ -382,6 +369,17 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
     )
     _check_limits(changes, device, phi_device_rad)
     return changes
+
+
+def _stats_record(st) -> dict:
+    """A decision's block statistics as the calibration's record keeps them."""
+    return {
+        "explained_pct": st.explained_pct,
+        "removed_rms_n": st.removed_rms_n,
+        "block_t": st.t,
+        "improved_share": st.improved_share,
+        "blocks": st.blocks,
+    }
 
 
 def _joint_mu_decision(result, device_mu: float):
