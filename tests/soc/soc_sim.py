@@ -24,6 +24,9 @@ CLK_PERIOD_NS = 40
 BAUD = 921_600
 BIT_CLKS = (CLK_HZ + BAUD // 2) // BAUD  # 26
 FW_HEX = BUILD_DIR / "firmware" / "soc" / "bowden_fw.hex"
+# 125 ms at 24 MHz from reset to the firmware's idle loop (the UP5K's copy from the flash
+# included): a boot that takes longer is a defect
+BOOT_MAX_CLKS = 3_000_000
 
 # -O3 for the model's speed (hdl_sim.run_cocotb keeps a Verilator model in one C++ file).
 VERILATOR_ARGS = ["-O3"]

@@ -14,6 +14,7 @@ import pytest
 from cocotb.triggers import RisingEdge
 from hdl_sim import run_cocotb
 from soc_sim import (
+    BOOT_MAX_CLKS,
     CLK_HZ,
     FW_HEX,
     MARK_BOOT,
@@ -27,8 +28,6 @@ from soc_sim import (
     start_clock,
     wait_mark,
 )
-
-BOOT_MAX_CLKS = 3_000_000  # 125 ms at 24 MHz: a boot that takes longer is a defect
 
 
 async def start(dut):

