@@ -132,7 +132,7 @@ def fit_free_form(
         return candidate
 
     params, lam_used = free_forms.penalised_steps(ev, idx, nf, y, params, linearise)
-    others = tuple(e for e in current.effects if e.cause != "friction_drift")
+    others = free_forms.other_findings(current, "friction_drift")
     model = fit_model(data, others, params)
     table = twin.drift_table_knots(model.params)
     accepted, verdict, figures = free_forms.judge(data, current, model, rule)

@@ -149,6 +149,11 @@ def judge(
     return accepted, text, figures
 
 
+def other_findings(current: Model, cause: str) -> tuple[Effect, ...]:
+    """The findings of `current` but the one of `cause`: held beside a free form of that cause."""
+    return tuple(e for e in current.effects if e.cause != cause)
+
+
 def _other_parameters(others: tuple[Effect, ...]) -> dict[str, tuple[float, float, float]]:
     """The other findings' parameters the least squares moves: name -> (difference's step,
     lower and upper bound)."""
@@ -274,7 +279,7 @@ def _result(
     **fields,
 ) -> FreeForm:
     table_of = fields.pop("table_of")
-    others = tuple(e for e in current.effects if e.cause != fixed.cause)
+    others = other_findings(current, fixed.cause)
     model = fit_model(data, others, params)
     accepted, verdict, fig = judge(data, current, model, rule)
     return FreeForm(
@@ -322,7 +327,7 @@ def fit_bend_surface(
         c[: len(lo)] = np.clip(c[: len(lo)], lo, hi)
         return c
 
-    others = tuple(e for e in current.effects if e.cause != fixed.cause)
+    others = other_findings(current, fixed.cause)
     params, lam = _penalised_gauss_newton(data, params, BEND_PARAMS, D_BEND, solve, others)
 
     def coefficients(p):
@@ -399,7 +404,7 @@ def fit_slack_table(
         x = lsq_linear(m, rhs, bounds=(lo, hi), method="bvls").x
         return np.r_[np.clip(u @ x[:SLACK_KNOTS], 0.0, 1.0), x[SLACK_KNOTS:]]
 
-    others = tuple(e for e in current.effects if e.cause != fixed.cause)
+    others = other_findings(current, fixed.cause)
     params, lam = _penalised_gauss_newton(
         data, params, twin.SLACK_TABLE_KNOT_PARAMS, D_SLACK, solve, others
     )
