@@ -6,12 +6,13 @@ Profiles (select with BOWDEN_HYPOTHESIS_PROFILE):
   is repeatable, no deadline (a loaded 2-core machine must not fail a test on time alone);
 - ``fuzz`` (`make fuzz`): many more examples, random, for a long search.
 
-Outcomes reused by input hash (`test_cache_dir`): a formal proof and an audit of a synthetic
-record are pure functions of their inputs (the RTL and the tools' versions; the record's bytes,
-the audit's sources and the numerical libraries' versions). A test that asks for `test_cache_dir`
-keeps its outcome in build/test-cache/ under a digest of those inputs and reuses it while they are
-unchanged; any change to them runs it again. BOWDEN_TEST_CACHE=0 runs everything afresh;
-`make clean` removes the cache.
+Outcomes reused by input hash (`test_cache_dir`): a formal proof, an audit of a synthetic record
+and a cocotb run of the RTL are pure functions of their inputs (the RTL and the tools' versions;
+the record's bytes, the audit's sources and the numerical libraries' versions; the HDL, the
+images, the Python the testbench imported: tests/hdl/sim_cache.py). A test that asks for
+`test_cache_dir`, and every `hdl_sim.run_cocotb`, keeps its outcome in build/test-cache/ under a
+digest of those inputs and reuses it while they are unchanged; any change to them runs it again.
+BOWDEN_TEST_CACHE=0 runs everything afresh; `make clean` removes the cache.
 
 Nothing outside the checkout: the bench tools' runtime folder ($XDG_RUNTIME_DIR: port locks,
 emulator registrations) is build/test-runtime for the whole run and its subprocesses.
@@ -22,6 +23,7 @@ import os
 from pathlib import Path
 
 import pytest
+import sim_cache  # tests/hdl: the test cache's folder, and the RTL runs' kept passes
 from hypothesis import HealthCheck, settings
 
 from cosim.project.paths import BUILD_DIR
@@ -56,9 +58,7 @@ settings.load_profile(os.environ.get("BOWDEN_HYPOTHESIS_PROFILE", "ci"))
 @pytest.fixture(scope="session")
 def test_cache_dir() -> Path | None:
     """build/test-cache, or None when BOWDEN_TEST_CACHE=0 asks for every outcome afresh."""
-    if os.environ.get("BOWDEN_TEST_CACHE", "1") == "0":
-        return None
-    return BUILD_DIR / "test-cache"
+    return sim_cache.cache_dir()
 
 
 # --- how `make test` hands the tests to its workers ---------------------------------------------

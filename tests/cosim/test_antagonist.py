@@ -350,6 +350,7 @@ def test_cocotb_pair_on_the_core_equals_the_model_and_native_engines(tmp_path):
         parameters={"CLKS_PER_SAMPLE": CLKS_PER_SAMPLE},
         tag="pair",
         extra_env={"BOWDEN_PAIR_SPEC": str(tmp_path / "spec.json")},
+        reuse=False,  # the run's record is read below
     )
     got = np.load(spec["out"])
     assert got["least_slack_clks"] > 0

@@ -22,6 +22,7 @@ import os
 import shutil
 from pathlib import Path
 
+import sim_cache
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
 from cocotb_tools.runner import get_results, get_runner
 
@@ -88,6 +89,7 @@ def run_cocotb(
     extra_env: dict[str, str] | None = None,
     build_args: list[str] | None = None,
     optimize: bool = True,
+    reuse: bool = True,
 ) -> int:
     """Build `toplevel` with `simulator` (reusing an earlier build) and run the cocotb tests.
 
@@ -95,6 +97,10 @@ def run_cocotb(
     wheel's -Os): for a unit testbench whose few thousand clocks cost less than the compile
     (measured cold, the loop's and the core's testbenches: 190 s of CPU at -Os, 156 s at -O0);
     a long run (a SoC's boot: twice the time at -O0) keeps the default.
+
+    A pass is reused by input hash from build/test-cache/sim/ (sim_cache.py) unless `reuse` is
+    False (a run whose outputs the test reads afterwards), WAVES=1 asks for a waveform, or
+    BOWDEN_TEST_CACHE=0 asks for every outcome afresh.
 
     Returns the number of cocotb tests that ran; raises AssertionError when one failed or none
     ran.
@@ -110,6 +116,21 @@ def run_cocotb(
         build_args = ["--output-split", "0", *build_args]
         if not optimize:
             build_args = ["-CFLAGS", "-O0", *build_args]
+    folder = sim_cache.cache_dir() if reuse and not waves else None
+    entry = None
+    if folder is not None:
+        call = {
+            "toplevel": toplevel, "test_module": test_module, "simulator": simulator,
+            "parameters": parameters or {}, "tag": tag, "extra_env": extra_env or {},
+            "build_args": build_args,
+        }  # fmt: skip
+        entry = sim_cache.Entry(folder, name, sim_cache.call_digest(call, sources))
+        kept = entry.reused()
+        if kept is not None:
+            print(
+                f"{toplevel} ({test_module}): {kept} cocotb tests passed, reused (inputs unchanged)"
+            )
+            return kept
     runner = get_runner(simulator)
     runner.build(
         sources=sources,
@@ -124,10 +145,14 @@ def run_cocotb(
     if simulator == "icarus":
         # Icarus schedules cocotb writes as inertial, which cocotb 2.x must be told to trust.
         env["COCOTB_TRUST_INERTIAL_WRITES"] = "1"
+    deps = build_dir / f"{test_module}.deps.txt"
+    if entry is not None:
+        env[sim_cache.DEPS_ENV] = str(deps)
+        deps.unlink(missing_ok=True)
     results = build_dir / f"{test_module}.results.xml"
     runner.test(
         hdl_toplevel=toplevel,
-        test_module=test_module,
+        test_module=test_module if entry is None else f"{test_module},{sim_cache.MODULE}",
         build_dir=build_dir,
         test_dir=build_dir,
         results_xml=str(results),
@@ -141,6 +166,8 @@ def run_cocotb(
     num_tests, num_failed = get_results(results)
     assert num_tests > 0, f"no cocotb test ran for {toplevel} on {simulator}"
     assert num_failed == 0, f"{num_failed} of {num_tests} cocotb tests failed ({results})"
+    if entry is not None:
+        entry.keep(num_tests, deps)
     return num_tests
 
 

@@ -1,11 +1,17 @@
-"""Testbench of hdl/rtl/mul_s16.v: exact signed products, two clocks after the operands."""
+"""Testbench of hdl/rtl/mul_s16.v: exact signed products, two clocks after the operands.
+
+Also here, on this smallest testbench's build: a run's pass kept and reused by input hash
+(sim_cache.py; its key's parts in test_sim_cache.py).
+"""
 
 from __future__ import annotations
 
+import json
 import random
 
 import cocotb
 import pytest
+import sim_cache
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge
 from hdl_sim import SIMULATORS, rtl, run_cocotb
@@ -39,3 +45,15 @@ async def products_are_exact(dut):
 def test_mul_s16(simulator):
     """Build mul_s16 and run the coroutine above."""
     run_cocotb("mul_s16", "test_mul_s16", rtl("mul_s16"), simulator)
+
+
+@pytest.mark.slow
+def test_a_run_lists_what_its_simulator_imported_and_is_reused(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(sim_cache, "cache_dir", lambda: tmp_path)
+    assert run_cocotb("mul_s16", "test_mul_s16", rtl("mul_s16"), "verilator") == 1
+    (kept,) = (tmp_path / "sim").glob("mul_s16-*.json")
+    deps = set(json.loads(kept.read_text())["deps"])
+    assert {"tests/hdl/test_mul_s16.py", "tests/hdl/hdl_sim.py", "cosim/parts/regmap.py"} <= deps
+    capsys.readouterr()
+    assert run_cocotb("mul_s16", "test_mul_s16", rtl("mul_s16"), "verilator") == 1
+    assert "reused" in capsys.readouterr().out

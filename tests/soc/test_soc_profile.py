@@ -78,7 +78,7 @@ def test_soc_profile(tmp_path):
     params = {"ROM_INIT": f'"{FW_HEX}"', "ADC_WAIT_CLKS": 256}
     run_cocotb(
         "soc_tb", "tb_soc_profile", soc_sources(), "verilator", params, tag="boot",
-        extra_env={"SOC_PROFILE_JSON": str(out)}, build_args=VERILATOR_ARGS,
+        extra_env={"SOC_PROFILE_JSON": str(out)}, build_args=VERILATOR_ARGS, reuse=False,
     )  # fmt: skip
     profile = json.loads(out.read_text())
     funcs = Functions.of_elf(ELF)
