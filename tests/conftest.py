@@ -9,9 +9,11 @@ Profiles (select with BOWDEN_HYPOTHESIS_PROFILE):
 Outcomes reused by input hash (`test_cache_dir`): a formal proof, an audit of a synthetic record
 and a cocotb run of the RTL are pure functions of their inputs (the RTL and the tools' versions;
 the record's bytes, the audit's sources and the numerical libraries' versions; the HDL, the
-images, the Python the testbench imported: tests/hdl/sim_cache.py). A test that asks for
-`test_cache_dir`, and every `hdl_sim.run_cocotb`, keeps its outcome in build/test-cache/ under a
-digest of those inputs and reuses it while they are unchanged; any change to them runs it again.
+images, the Python the testbench imported: tests/hdl/sim_cache.py); a closed-loop co-simulation's
+record is one of its spec and the co-simulation's code. A test that asks for `test_cache_dir`,
+every `hdl_sim.run_cocotb` and every closed loop on cocotb keep their outcome in
+build/test-cache/ under a digest of those inputs and reuse it while they are unchanged; any change
+to them runs it again.
 BOWDEN_TEST_CACHE=0 runs everything afresh; `make clean` removes the cache.
 
 Nothing outside the checkout: the bench tools' runtime folder ($XDG_RUNTIME_DIR: port locks,
@@ -59,6 +61,19 @@ settings.load_profile(os.environ.get("BOWDEN_HYPOTHESIS_PROFILE", "ci"))
 def test_cache_dir() -> Path | None:
     """build/test-cache, or None when BOWDEN_TEST_CACHE=0 asks for every outcome afresh."""
     return sim_cache.cache_dir()
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _closed_loops_reused(test_cache_dir):
+    """The closed-loop co-simulations on cocotb that tests run in their own process, kept as
+    their records by input hash (sim_cache.closed_loop_cached): a test's checks still run on
+    the record, every time."""
+    from cosim.engines.cocotb import runner  # noqa: PLC0415
+
+    original = runner.run_closed_loop
+    runner.run_closed_loop = sim_cache.closed_loop_cached(original, test_cache_dir)
+    yield
+    runner.run_closed_loop = original
 
 
 # --- how `make test` hands the tests to its workers ---------------------------------------------

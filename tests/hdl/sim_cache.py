@@ -22,6 +22,13 @@ checkout with its digest. A pass is reused only while the call's digest and ever
 are unchanged; any change runs the simulation again. Only passes are kept (a failure runs again
 and shows its log); a run with WAVES=1, or whose outputs a test reads afterwards (`reuse=False`),
 always runs. BOWDEN_TEST_CACHE=0 runs everything afresh; `make clean` removes the cache.
+
+A closed-loop co-simulation on cocotb (`cosim.engines.cocotb.runner.run_closed_loop`, the RTL,
+the firmware's library and the plant FMU) is kept the same way, but as its record rather than a
+pass (`closed_loop_cached`): the test's own checks run on the record every time. Its key is the
+run's spec and everything the co-simulation is made of (cosim/, hdl/, firmware/, fmu/, the built
+firmware and FMU, the tools' and numerical libraries' versions): any change to those runs it
+again.
 """
 
 from __future__ import annotations
@@ -96,6 +103,49 @@ def _trees_digest() -> bytes:
             _update_tree(h, root, lambda f: f.suffix != ".pyc")
     _update_tree(h, REPO_ROOT / "cosim", lambda f: f.suffix not in (".py", ".pyc"))
     return h.digest()
+
+
+@functools.cache
+def _closed_loop_digest() -> bytes:
+    """Everything a closed-loop co-simulation is made of (once per test process)."""
+    from cosim.project.paths import BUILD_DIR  # noqa: PLC0415
+
+    h = hashlib.sha256(_trees_digest())
+    for dist in ("numpy", "fmpy", "cocotbext-axi"):
+        h.update(f"{dist}={metadata.version(dist)}".encode())
+    for root in (REPO_ROOT / "cosim", REPO_ROOT / "fmu", BUILD_DIR / "fmu"):
+        _update_tree(h, root, lambda f: f.suffix != ".pyc")
+    return h.digest()
+
+
+def closed_loop_cached(original, folder: Path | None):
+    """`original` (run_closed_loop) with its record and cost kept in `folder`/closed_loop/ under
+    a digest of the run's spec and the co-simulation's code; with `folder` None, or a work folder
+    the caller reads afterwards, it always runs."""
+
+    def run(run_spec, simulator="verilator", work_dir=None, progress=True):
+        if folder is None or work_dir is not None:
+            return original(run_spec, simulator, work_dir, progress)
+        h = hashlib.sha256(_closed_loop_digest())
+        h.update(json.dumps([run_spec, simulator], sort_keys=True, default=str).encode())
+        entry = folder / "closed_loop" / f"{h.hexdigest()[:32]}.npz"
+        try:
+            import numpy as np  # noqa: PLC0415 (not in the simulator)
+
+            with np.load(entry) as kept:
+                arrays = {k: kept[k] for k in kept.files if k != "__cost__"}
+                cost = json.loads(str(kept["__cost__"]))
+            return arrays, cost
+        except (OSError, ValueError, KeyError):
+            pass
+        arrays, cost = original(run_spec, simulator, work_dir, progress)
+        entry.parent.mkdir(parents=True, exist_ok=True)
+        tmp = entry.with_suffix(f".{os.getpid()}.tmp.npz")
+        np.savez(tmp, __cost__=json.dumps(cost), **arrays)
+        tmp.replace(entry)  # whole or absent, whichever worker writes it
+        return arrays, cost
+
+    return run
 
 
 def _named_files(values) -> list[Path]:

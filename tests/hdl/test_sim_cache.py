@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import sim_cache
 
 CALL = {
@@ -66,3 +67,31 @@ def test_no_list_from_the_simulator_keeps_nothing(tmp_path):
     entry = sim_cache.Entry(tmp_path, "mul_s16", "1" * 32)
     entry.keep(1, tmp_path / "absent.txt")
     assert not entry.path.exists()
+
+
+def test_a_closed_loop_is_kept_as_its_record_by_its_spec_and_code(tmp_path, monkeypatch):
+    calls = []
+
+    def original(spec, simulator="verilator", work_dir=None, progress=True):
+        calls.append(spec["duration_s"])
+        return {"t_s": np.arange(3) * spec["duration_s"], "faults": np.zeros(3, np.uint16)}, {
+            "sim_s": 1.5
+        }
+
+    run = sim_cache.closed_loop_cached(original, tmp_path)
+    spec = {"duration_s": 2.0, "config": {"kp": 0.1}}
+    first = run(spec, progress=False)
+    again = run(dict(spec), progress=False)
+    assert calls == [2.0]  # the second is the kept record
+    assert again[1] == first[1] == {"sim_s": 1.5}
+    assert again[0].keys() == first[0].keys()
+    for k, v in first[0].items():
+        assert again[0][k].dtype == v.dtype and np.array_equal(again[0][k], v)
+    run({**spec, "config": {"kp": 0.2}}, progress=False)  # another spec
+    assert len(calls) == 2
+    monkeypatch.setattr(sim_cache, "_closed_loop_digest", lambda: b"other code")
+    run(spec, progress=False)  # the same spec, other code
+    assert len(calls) == 3
+    run(spec, work_dir=tmp_path / "w", progress=False)  # a work folder the caller reads
+    sim_cache.closed_loop_cached(original, None)(spec)  # BOWDEN_TEST_CACHE=0
+    assert len(calls) == 5
