@@ -328,9 +328,9 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
         if name == "comp.mu" and not result.rule.passes(st, data):
             joint = _joint_mu_decision(result, dev_as_a)
         if joint is not None:
-            a_val, st, with_ = joint
+            a_val, st, with_, fitted = joint
             c.audit_value, target = a_val, a_val * k
-            c.stats = {**_stats_record(st), "joint_with": with_}
+            c.stats = {**_stats_record(st), "joint_with": with_, "joint_params": fitted}
         if name not in UNGATED and not result.rule.passes(st, data):
             c.status = "not significant"
             c.reason = (
@@ -385,7 +385,8 @@ def _stats_record(st) -> dict:
 def _joint_mu_decision(result, device_mu: float):
     """mu refitted with the effects the audit saw but did not name (joint_mu), and the block
     statistics of that model against the same model with the device's mu (in the audit's
-    terms): (mu, stats, the effects' FMU parameters), or None when there is no such model."""
+    terms): (mu, stats, the effects' FMU parameters, those effects' parameters as fitted with mu),
+    or None when there is no such model."""
     from cosim.audit import twin  # noqa: PLC0415
     from cosim.audit.decision import block_stats  # noqa: PLC0415
 
@@ -396,7 +397,8 @@ def _joint_mu_decision(result, device_mu: float):
     data = result.data
     r_dev = data.t_out_n - twin.simulate(data.inputs, {**model.params, "mu": device_mu})
     st = block_stats(data, r_dev, model.residual(data))
-    return float(model.params["mu"]), st, [e.fmu_param for e in extra]
+    fitted = {p: float(model.params[p]) for e in extra for p in e.fmu_params}
+    return float(model.params["mu"]), st, [e.fmu_param for e in extra], fitted
 
 
 def breakaway_change(
