@@ -85,6 +85,7 @@ class CompConfig(ctypes.Structure):
         ("ramp_ticks", ctypes.c_int32),
         ("dead_zone_spread_q28", ctypes.c_int32),
         ("breakaway_q28", ctypes.c_int32),
+        ("slack_tension_n_q8", ctypes.c_int32),
     ]
 
 
@@ -105,6 +106,7 @@ class CompF64Config(ctypes.Structure):
         ("ramp_ticks", ctypes.c_int32),
         ("dead_zone_spread", ctypes.c_double),
         ("breakaway", ctypes.c_double),
+        ("slack_tension_n", ctypes.c_double),
     ]
 
 
@@ -416,6 +418,9 @@ class CompensatorParams:
     # Breakaway (comp.h: static friction's excess over mu after a reversal, placed so that the
     # cable's jump falls halfway), [0, 0.25]; 0 is off (audit: mu_static_excess).
     breakaway: float = _c_default("breakaway")
+    # Slack (comp.h: pretension lost below this input tension, T_c = sqrt(T_c1 * S) there),
+    # [0, 64] N; 0 is off (audit: slack_tension).
+    slack_tension_n: float = _c_default("slack_tension_n")
     # Online friction estimate from the far-end load cell (firmware/include/fric_est.h; a part
     # of fw_config_t, not of comp_config_t), off by default: EstimatorParams's fields with est_.
     est_enable: int = 0
@@ -465,6 +470,7 @@ class CompensatorParams:
             **self._ticks(),
             dead_zone_spread_q28=_fixed("comp.dead_zone_spread", self.dead_zone_spread, 28),
             breakaway_q28=_fixed("comp.breakaway", self.breakaway, 28),
+            slack_tension_n_q8=_fixed("comp.slack_tension_n", self.slack_tension_n, 8),
         )
 
     def quantized(self) -> CompensatorParams:
@@ -484,6 +490,7 @@ class CompensatorParams:
             ramp_ticks=c.ramp_ticks,
             dead_zone_spread=c.dead_zone_spread_q28 / 2**28,
             breakaway=c.breakaway_q28 / 2**28,
+            slack_tension_n=c.slack_tension_n_q8 / 256.0,
         )
 
     def to_c_f64(self) -> CompF64Config:
@@ -498,6 +505,7 @@ class CompensatorParams:
             "tc_min_n",
             "dead_zone_spread",
             "breakaway",
+            "slack_tension_n",
         ):
             value = self.phi_c_rad if name == "phi_rad" else getattr(self, name)
             values[name] = _real(f"comp.{name}", value)
@@ -535,16 +543,25 @@ class CompensatorParams:
         d2 = np.maximum(np.abs(2 * e * k * k / du**3), np.abs(2 * k * k / dd**3))
         return float(gu.max()), float((gu - gd).max()), float(d1.max()), float(d2.max())
 
-    def error_bound_n(self) -> float:
+    def error_bound_n(self, tc_min_n=None):
         """Documented bound of |T_c fixed - T_c twin| in N (comp.h): 1 LSB, plus the linear
         interpolation of the gain table when the friction slope is not zero; with a breakaway,
         that bound times e^(2 mu phi + 9b/8) (the hold's factor on the extreme Y of the T_c put
-        out, the largest factor it applies to a T_c) plus 1 LSB (its two roundings)."""
+        out, the largest factor it applies to a T_c) plus 1 LSB (its two roundings); with a
+        slack S, that bound times the root's slope sqrt(S / T_c1) / 2 where it exceeds 1, plus
+        1/2 LSB (its rounding), for T_c1 (the T_c without the root) no smaller than `tc_min_n`
+        (required with a slack: the slope grows without bound towards 0; a float or an array, one
+        bound per T_c1)."""
         d2 = self._gain_stats()[3]
         bound = ERR_BOUND_LSB * Q7_8_LSB_N + FULL_SCALE_N * TABLE_STEP_N**2 / 8.0 * d2
         if self.breakaway > 0:
             x = (2.0 * self.mu + 1.125 * self.breakaway) * self.phi_c_rad
             bound = bound * math.exp(x) + Q7_8_LSB_N
+        if self.slack_tension_n > 0:
+            if tc_min_n is None or not np.all(np.asarray(tc_min_n) > 0):
+                raise ValueError("error_bound_n: with a slack, tc_min_n > 0 is required")
+            slope = 0.5 * np.sqrt(self.slack_tension_n / np.asarray(tc_min_n, dtype=float))
+            bound = bound * np.maximum(1.0, slope) + 0.5 * Q7_8_LSB_N
         return bound
 
     def step_bound_n(self, dref_n, tmax_n):

@@ -111,13 +111,32 @@
  *    loading (w the blend weight below); the first loading from rest carries none. Assumed, as
  *    the FMU does: one breakaway for every strand, no growth with the time at rest. With m_s = 0
  *    the step does not run this part: the law is the one above bit for bit.
+ *  - slack_tension_n = S: pretension lost at low input tension (the plant FMU's `slack_tension`,
+ *    fmu/README.md "Slack": T_out = T_out * min(1, T_in / S)). Below S the output is the friction
+ *    law's times T_in / S; on a branch the friction law is a gain, T_out = T_in / G with G the
+ *    gain the step applies, so the T_in that gives T_ref is the root of T_in^2 / (G S) = T_ref:
+ *      T_c = sqrt(T_c1 * S)  where 0 < T_c1 < S,  T_c = T_c1 elsewhere,
+ *    with T_c1 the step's T_c without the term (the friction inverse: slope, dead-zone inverse,
+ *    breakaway, floor and saturation), continuous at T_c1 = S and never below T_c1. It is the
+ *    last part of the step: the sqrt applies to the inlet tension the friction inverse asks for,
+ *    since the FMU's loss is a factor of the inlet tension on the output the friction gives (and
+ *    the breakaway's extreme Y follows T_c1, the friction inverse's own T_c). In fixed point
+ *    T_c1 and S are Q7.8 words (S <= 64 N: 16384 LSB), their product < 2^28 in 32 bits is Q14.16,
+ *    and its integer square root rounded to the nearest is T_c in Q7.8 exactly: the word nearest
+ *    sqrt(T_c1 * S) for the Q7.8 word T_c1 (no ties: (r + 1/2)^2 is not an integer). Its result
+ *    lies in (T_c1, S): no saturation. Against the twin (comp_f64.h) the bound on T_c1 grows by
+ *    the root's slope, sqrt(S / T_c1) / 2, plus 1/2 LSB of its own rounding
+ *    (cosim.parts.firmware.CompensatorParams.error_bound_n). Assumed: the FMU's linear loss, one
+ *    S for the whole cable. With S = 0 the step does not run this part: the law is the one above
+ *    bit for bit.
  * Full law of a step, with T_eff = T_ref - offset_n (mode NONE: T_c = T_ref):
  *   G_up, G_dn as above (exp(+-mu*phi) without a slope),
  *   w = s / B in [0, 1] (PAPER: w = 1 loading, 0 unloading; SMOOTH: s moves by |dT_ref| per step
  *   towards B when loading and towards 0 when unloading; PREVIEW: s moves by one per
  *   step, and w = x^2 (3 - 2x) with x = s / D),
  *   T_c = max(tc_min, sat_Q7.8( T_eff * (G_dn + w*(G_up - G_dn)) * F )), F = 1 without a spread
- *   (the breakaway term, when m_s > 0, on the product before the saturation),
+ *   (the breakaway term, when m_s > 0, on the product before the saturation; the slack's root,
+ *   when S > 0, on the result),
  * with T_eff = T_ref(t + L) - offset_n in PREVIEW mode (w from the input T_ref(t + P)).
  *
  * Smoothness bound (SMOOTH mode): between two consecutive steps whose references differ by d,
@@ -166,6 +185,7 @@
 #define COMP_RAMP_MAX_TICKS 256                        /* D in [1, 256] ticks */
 #define COMP_DZ_SPREAD_MAX_Q28 ((q3_28_t)Q3_28_ONE) /* dead_zone_spread in [0, 1] */
 #define COMP_BRK_MAX_Q28 ((q3_28_t)(Q3_28_ONE / 4)) /* breakaway in [0, 0.25], (2 mu + m_s)*phi <= 4 */
+#define COMP_SLACK_MAX_Q8 ((q7_8w_t)(64 * Q7_8_ONE)) /* slack_tension in [0, 64] N */
 
 /* The dead-zone inverse's strands: M plays at the standard normal's quantiles
  * q_j = Phi^-1((j + 1/2) / M), Q3.28, rounded. 8: the FMU's 32 strands turn the output in 32
@@ -209,6 +229,7 @@
 #define COMP_ERR_DEAD_ZONE 14 /* dead_zone_spread outside [0, 1], or the widest strand
                                * mu*phi*e^(spread*q_M) above 4 */
 #define COMP_ERR_BREAKAWAY 15 /* breakaway outside [0, 0.25], or (2 mu + breakaway)*phi above 4 */
+#define COMP_ERR_SLACK 16     /* slack_tension outside [0, 64] N */
 
 /* Configuration, built from comp_config_default() then changed field by field. */
 typedef struct {
@@ -226,6 +247,8 @@ typedef struct {
     q3_28_t dead_zone_spread_q28;  /* log std of the friction thresholds, Q3.28, [0, 1] */
     q3_28_t breakaway_q28;         /* static friction's excess over mu after a reversal, Q3.28,
                                       [0, 0.25] */
+    q7_8w_t slack_tension_n_q8;    /* input tension below which the cable has lost part of its
+                                      pretension, Q7.8 N, [0, 64] */
 } comp_config_t;
 
 /* The compensator: configuration in force, gain tables and the state of the last step. */
@@ -268,6 +291,7 @@ typedef struct {
     uq8_24_t brk_full_up;          /* e^+(2 w_1 + 9b/8), UQ8.24 (the exponent <= 4, checked) */
     uq8_24_t brk_half;             /* e^(-b/2), UQ8.24 */
     uq8_24_t brk_half_up;          /* e^(+b/2), UQ8.24 */
+    int32_t slk_on;                /* 1 when the slack's root is in force (slack_tension > 0) */
 } comp_t;
 
 /* Defaults: PAPER mode, mu = 0.075 (paper Fig. 11), phi = 2*pi (loop routing), no slope, no offset,

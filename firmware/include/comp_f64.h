@@ -30,6 +30,7 @@ typedef struct {
     int32_t ramp_ticks;        /* PREVIEW: D, [1, COMP_RAMP_MAX_TICKS] ticks */
     double dead_zone_spread;   /* log std of the friction thresholds, [0, 1] */
     double breakaway;          /* static friction's excess over mu after a reversal, [0, 0.25] */
+    double slack_tension_n;    /* input tension below which pretension is lost, [0, 64] N */
 } comp_f64_config_t;
 
 typedef struct {

@@ -7,7 +7,8 @@
 #define COMP_KIND_SHARP 0 /* PAPER, SMOOTH, PREVIEW without a dead-zone spread */
 #define COMP_KIND_NONE 1  /* mode NONE */
 #define COMP_KIND_DZ 2    /* PAPER, SMOOTH, PREVIEW with the dead-zone inverse */
-#define COMP_KIND_BRK 3   /* PAPER, SMOOTH, PREVIEW with the breakaway term (and any spread) */
+#define COMP_KIND_BRK 3   /* PAPER, SMOOTH, PREVIEW with the breakaway term or the slack's root
+                           * (and any spread) */
 
 void comp_config_default(comp_config_t *cfg)
 {
@@ -27,6 +28,7 @@ void comp_config_default(comp_config_t *cfg)
     cfg->ramp_ticks = COMP_DEFAULT_RAMP_TICKS;
     cfg->dead_zone_spread_q28 = 0;
     cfg->breakaway_q28 = 0;
+    cfg->slack_tension_n_q8 = 0;
 }
 
 /* mu * phi in Q3.28, in 64 bits for the range check. Scaling and overflow: Q3.28 * Q7.24 =
@@ -222,6 +224,9 @@ static int32_t check_fields(const comp_config_t *cfg)
             return COMP_ERR_BREAKAWAY;
         }
     }
+    if (cfg->slack_tension_n_q8 < 0 || cfg->slack_tension_n_q8 > COMP_SLACK_MAX_Q8) {
+        return COMP_ERR_SLACK;
+    }
     if (cfg->offset_n_q8 < -COMP_OFFSET_MAX_Q8 || cfg->offset_n_q8 > COMP_OFFSET_MAX_Q8) {
         return COMP_ERR_OFFSET;
     }
@@ -329,8 +334,9 @@ int32_t comp_configure(comp_t *c, const comp_config_t *cfg)
     c->cfg = *cfg;
     c->dz_on = (cfg->dead_zone_spread_q28 != 0 && exponent_q28(cfg) != 0);
     c->brk_on = (cfg->breakaway_q28 != 0);
-    c->kind = (cfg->mode == COMP_MODE_NONE) ? COMP_KIND_NONE
-              : (c->brk_on != 0)           ? COMP_KIND_BRK
+    c->slk_on = (cfg->slack_tension_n_q8 != 0);
+    c->kind = (cfg->mode == COMP_MODE_NONE)          ? COMP_KIND_NONE
+              : (c->brk_on != 0 || c->slk_on != 0) ? COMP_KIND_BRK
               : (c->dz_on != 0)            ? COMP_KIND_DZ
                                            : COMP_KIND_SHARP;
     c->dz_fresh = 1;
@@ -489,13 +495,30 @@ static inline void brk_track(comp_t *c, int32_t tc)
     }
 }
 
+/* The slack's root (comp.h): the Q7.8 word nearest sqrt(x) for x = T_c1 * S, a Q14.16 product
+ * (T_c1 < S <= 2^14 LSB: x < 2^28). The bits of the root one at a time from 2^13 (r < 2^14), then
+ * rounded to the nearest: r + 1 when x - r^2 > r, as (r + 1/2)^2 = r^2 + r + 1/4 and x is an
+ * integer (no ties). Every intermediate below 2^29 in 32 bits. */
+static uint32_t slack_root_q8(uint32_t x)
+{
+    uint32_t r = 0;
+    for (uint32_t bit = UINT32_C(1) << 13; bit != 0U; bit >>= 1) {
+        uint32_t t = r | bit;
+        if (t * t <= x) {
+            r = t;
+        }
+    }
+    return (x - r * r > r) ? r + 1U : r;
+}
+
 /* The step after the detector (PAPER, SMOOTH, PREVIEW), specialised by the compiler for dz = 0
  * (the sharp law, its instructions as before the dead-zone inverse) and dz = 1; always inlined
  * (a GCC attribute, as every toolchain of the firmware is GCC), since a call costs the sharp law
  * 8 instructions a step and the callgrind budget is 100. */
 static inline __attribute__((always_inline)) q7_8_t step_modes(comp_t *c, int32_t ref,
                                                                 int32_t diff, const int32_t dz,
-                                                                const int32_t brk)
+                                                                const int32_t brk,
+                                                                const int32_t slk)
 {
     const comp_config_t *cfg = &c->cfg;
     /* PREVIEW: the input is T_ref(t + P); the gain applies to T_ref(t + L), P - L inputs ago. */
@@ -581,6 +604,10 @@ static inline __attribute__((always_inline)) q7_8_t step_modes(comp_t *c, int32_
     if (brk != 0) {
         brk_track(c, (int32_t)tc);
     }
+    if (slk != 0 && tc > 0 && tc < cfg->slack_tension_n_q8) {
+        /* After the floor and the saturation: the root lies in (T_c1, S), within both. */
+        tc = (int64_t)slack_root_q8((uint32_t)tc * (uint32_t)cfg->slack_tension_n_q8);
+    }
     return (q7_8_t)tc;
 }
 
@@ -627,13 +654,14 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
             return (ref < cfg->tc_min_n_q8) ? (q7_8_t)cfg->tc_min_n_q8 : t_ref;
         }
         if (c->kind == COMP_KIND_BRK) {
-            /* One copy for the breakaway with or without a spread (the dead-zone test at run
-             * time): the target's code size, at a test per step on this rarer path. */
-            return step_modes(c, ref, diff, c->dz_on, 1);
+            /* One copy for the breakaway and the slack's root with or without a spread (each
+             * tested at run time): the target's code size, at a few tests per step on this
+             * rarer path. */
+            return step_modes(c, ref, diff, c->dz_on, c->brk_on, c->slk_on);
         }
-        return step_modes(c, ref, diff, 1, 0);
+        return step_modes(c, ref, diff, 1, 0, 0);
     }
-    return step_modes(c, ref, diff, 0, 0);
+    return step_modes(c, ref, diff, 0, 0, 0);
 }
 
 int32_t comp_set_exponent_q28(comp_t *c, q3_28_t x_q28)

@@ -27,6 +27,7 @@ void comp_f64_config_default(comp_f64_config_t *cfg)
     cfg->ramp_ticks = COMP_DEFAULT_RAMP_TICKS;
     cfg->dead_zone_spread = 0.0;
     cfg->breakaway = 0.0;
+    cfg->slack_tension_n = 0.0;
 }
 
 /* s at the loading branch: B, or D ticks in PREVIEW (comp.h). */
@@ -146,6 +147,9 @@ int32_t comp_f64_config_check(const comp_f64_config_t *cfg)
     if (out_of(cfg->breakaway, 0.0, 0.25) ||
         (cfg->breakaway > 0.0 && (2.0 * cfg->mu + 1.125 * cfg->breakaway) * cfg->phi_rad > 4.0)) {
         return COMP_ERR_BREAKAWAY;
+    }
+    if (out_of(cfg->slack_tension_n, 0.0, 64.0)) {
+        return COMP_ERR_SLACK;
     }
     if (cfg->mu_slope_per_n != 0.0) {
         /* Both gains are monotonic in |T|: check the end of the table (and its denominators). */
@@ -335,6 +339,9 @@ double comp_step_f64(comp_f64_t *c, double t_ref_n)
         if (c->brk_dir != 0 && ((c->brk_dir < 0) ? (tc > c->brk_y) : (tc < c->brk_y))) {
             c->brk_y = tc;
         }
+    }
+    if (tc > 0.0 && tc < cfg->slack_tension_n) {
+        tc = sqrt(tc * cfg->slack_tension_n); /* the slack's root (comp.h), in (T_c1, S) */
     }
     return tc;
 }

@@ -389,6 +389,8 @@ const char *fw_strerror(int32_t code)
                "exp(1.534 * spread) exceeds 4";
     case COMP_ERR_BREAKAWAY:
         return "comp.breakaway: outside [0, 0.25], or (2 * mu + 9/8 * breakaway) * phi exceeds 4";
+    case COMP_ERR_SLACK:
+        return "comp.slack_tension_n: outside [0, 64] N";
     case WAVE_ERR_KIND:
         return "wave.kind: must be 0 (constant), 1 (sine), 2 (triangle), 3 (ramp) or 4 (step)";
     case WAVE_ERR_RATE:

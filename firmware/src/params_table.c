@@ -63,4 +63,5 @@ const proto_param_t params_table[PROTO_N_PARAMS] = {
     {0xB12D36C8UL, (uint16_t)offsetof(settings_t, fw.comp.dead_zone_spread_q28), PROTO_PARAM_I32, 0u}, /* 56: comp.dead_zone_spread */
     {0xA88BFFD6UL, (uint16_t)offsetof(settings_t, fw.comp.breakaway_q28), PROTO_PARAM_I32, 0u}, /* 57: comp.breakaway */
     {0x586CA78CUL, (uint16_t)offsetof(settings_t, fw.corr.rev_index), PROTO_PARAM_I32, 0u}, /* 58: corr.rev_index */
+    {0xBA4C4565UL, (uint16_t)offsetof(settings_t, fw.comp.slack_tension_n_q8), PROTO_PARAM_I32, 0u}, /* 59: comp.slack_tension_n */
 };

@@ -320,6 +320,7 @@ def test_sim_words_are_the_words_the_cosimulation_gives_the_firmware():
             "corr_rev_index": 1,
             "dead_zone_spread": 0.35,
             "breakaway": 0.02,
+            "slack_tension_n": 3.4,
         },
     }
     mapped = {k for k in diff.SIM_TO_DEVICE if "." in k} | {"sample_rate_hz", "firmware_rate_hz"}

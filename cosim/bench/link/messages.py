@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PROTOCOL_VERSION = 3
-TABLE_HASH = 0xD32902CF
+TABLE_HASH = 0x5C1CB81A
 MAX_PAYLOAD = 48
 CAN_NODE_BITS = 6
 CAN_MESSAGE_BITS = 5
@@ -1528,6 +1528,23 @@ PARAMS: tuple[Param, ...] = (
         1,
         False,
     ),
+    Param(
+        59,
+        "comp.slack_tension_n",
+        "fw.comp.slack_tension_n_q8",
+        False,
+        8,
+        "N",
+        None,
+        False,
+        -2147483648,
+        2147483647,
+        0xBA4C4565,
+        "input tension below which the cable has lost part of its pretension, Q7.8 N, [0, 64]",
+        0,
+        16384,
+        False,
+    ),
 )
 PARAM_BY_NAME: dict[str, Param] = {p.name: p for p in PARAMS}
 
@@ -1578,4 +1595,5 @@ SIM_TO_DEVICE: dict[str, str] = {
     "compensator.corr_rev_index": "corr.rev_index",
     "compensator.dead_zone_spread": "comp.dead_zone_spread",
     "compensator.breakaway": "comp.breakaway",
+    "compensator.slack_tension_n": "comp.slack_tension_n",
 }
