@@ -9,7 +9,8 @@ a grid's plant axes are crossed, a random spec draws one plant per point):
 1. `calibrate` (cosim.bench.rig.calibrate, without --apply: its proposal) on the emulated
    controller (the stepped emulator, at the home position) with that plant: the tare of the
    far-end load cell, the identification, the audit, and the compensator values it proposes
-   (comp.mu, comp.offset_n, comp.mu_slope_per_n, comp.dead_zone_spread, comp.breakaway),
+   (comp.mu, comp.offset_n, comp.mu_slope_per_n, comp.dead_zone_spread, comp.breakaway,
+   comp.slack_tension_n),
    clipped to the compensator's limits where they lie beyond (without calibrate's prediction
    runs, which only print what it expects);
 2. the spec's runs of that plant (cosim.studies.sweep.run: fig14 6 s, board interface, the
@@ -35,6 +36,7 @@ compensator aims the cable's tension at T_ref, not the cell's reading. The JSON
     python -m cosim.studies.calibrated_robustness [--spec SPEC.yaml] [--workers 2] [--out DIR]
         [--limit N] [--no-tare] [--reuse] [--calibrations DIR] [--leave KEY ...]
         [--params FILE] [--set KEY=VALUE ...] [--score-from-s S] [--breakaway-share K]
+        [--slack-sources S,...]
 
 Without --spec: cosim/studies/sweep/examples/robustness_estimator.yaml (the robustness grid:
 plant mu, cable_EA and current_bandwidth at -20 % / nominal / +20 %, 27 plants, five positions).
@@ -61,6 +63,7 @@ COMP_KEYS = (
     "compensator.mu_slope_per_n",
     "compensator.dead_zone_spread",
     "compensator.breakaway",
+    "compensator.slack_tension_n",
 )
 
 
@@ -138,13 +141,16 @@ def calibrate_plant(
     tare: bool = True,
     reuse: bool = False,
     breakaway_share: float | None = None,
+    slack_sources: tuple[str, ...] | None = None,
 ) -> dict:
     """The compensator values `calibrate` proposes for an emulated plant (FMU parameters), as
     the sweep's config keys (compensator.mu, ...), the decision and reason of each, and the
     tare's reading. reuse: take the calibration.json a run before left in `folder`; when it
     holds no breakaway proposal (a calibration made before calibrate proposed one), or
     `breakaway_share` asks for another share than calibrate's, the breakaway is proposed from
-    its findings as calibrate does (cosim.bench.rig.calibrate.breakaway_of_report)."""
+    its findings as calibrate does (cosim.bench.rig.calibrate.breakaway_of_report); the same for
+    the slack (slack_of_report, from the report and its audit's record), from `slack_sources`
+    rather than calibrate's SLACK_SOURCES when given."""
     from cosim.bench.link.api import Bench  # noqa: PLC0415
     from cosim.bench.rig import calibrate as cal  # noqa: PLC0415
 
@@ -170,6 +176,20 @@ def calibrate_plant(
                 "proposed": b.proposed,
                 "current": b.current,
                 "reason": b.reason,
+            }
+        )
+    if "comp.slack_tension_n" not in names or slack_sources is not None:
+        audit = json.loads((Path(folder) / "audit" / "audit.json").read_text())
+        sources = cal.SLACK_SOURCES if slack_sources is None else slack_sources
+        sl = cal.slack_of_report(report, audit, _device_before(Path(folder)), sources)
+        report["changes"] = [c for c in report["changes"] if c["name"] != sl.name]
+        report["changes"].append(
+            {
+                "name": sl.name,
+                "status": sl.status,
+                "proposed": sl.proposed,
+                "current": sl.current,
+                "reason": sl.reason,
             }
         )
     out = {}
@@ -309,6 +329,14 @@ def main(argv: list[str] | None = None) -> int:
         "calibrate's share (what the share is worth; calibrate.BREAKAWAY_SHARE)",
     )
     ap.add_argument(
+        "--slack-sources",
+        metavar="S,...",
+        help="propose comp.slack_tension_n from these of the audit's records, the first that "
+        "holds a slack (finding, joint, candidate, any_round; 'none' for no slack) rather than "
+        "calibrate's "
+        "(calibrate.SLACK_SOURCES: what each source is worth)",
+    )
+    ap.add_argument(
         "--params",
         metavar="FILE",
         help="a params file (compensator and controller only) laid over every run, after "
@@ -330,6 +358,17 @@ def main(argv: list[str] | None = None) -> int:
     except (SpecError, ValueError) as exc:
         print(f"calibrated_robustness: {exc}", file=sys.stderr)
         return 2
+    slack_sources = None
+    if args.slack_sources is not None:
+        slack_sources = tuple(s for s in args.slack_sources.split(",") if s and s != "none")
+        bad = [s for s in slack_sources if s not in ("finding", "joint", "candidate", "any_round")]
+        if bad:
+            print(
+                f"calibrated_robustness: --slack-sources: expected finding, joint, candidate, "
+                f"any_round or none, comma-separated; got {bad[0]!r}",
+                file=sys.stderr,
+            )
+            return 2
     start = args.score_from_s
     if start is not None and not 0.0 <= start < (spec.duration_s or np.inf):
         print(
@@ -360,6 +399,7 @@ def main(argv: list[str] | None = None) -> int:
                 not args.no_tare,
                 args.reuse,
                 args.breakaway_share,
+                slack_sources,
             )
             for i, k in enumerate(keys)
         ]
@@ -372,7 +412,8 @@ def main(argv: list[str] | None = None) -> int:
                 f"  plant {plant or 'nominal'}: tare {comp['tare_n']:+.3f} N; proposes mu "
                 f"{comp['compensator.mu']:.5f}, offset {comp['compensator.offset_n']:.3g} N, "
                 f"slope {comp['compensator.mu_slope_per_n']:.3g} /N, breakaway "
-                f"{comp['compensator.breakaway']:.3g}, dead-zone spread "
+                f"{comp['compensator.breakaway']:.3g}, slack "
+                f"{comp['compensator.slack_tension_n']:.3g} N, dead-zone spread "
                 f"{comp['compensator.dead_zone_spread']:.3g} ({comp['decisions']})"
             )
             for name, why in comp["reasons"].items():

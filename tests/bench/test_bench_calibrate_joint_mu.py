@@ -75,9 +75,17 @@ def _audit_stand_in(plant: dict, folder: Path):
     return result, device
 
 
-def _mu_change(result, device) -> cal.Change:
+def _change(result, device, name: str = "comp.mu") -> cal.Change:
     changes = cal.propose(result, device, device["comp.phi_rad"])
-    return next(c for c in changes if c.name == "comp.mu")
+    return next(c for c in changes if c.name == name)
+
+
+def _mu_change(result, device) -> cal.Change:
+    return _change(result, device)
+
+
+# The joint fit's slack on this record (measured: 3.33 N for the plant's 3.4).
+SLACK_TOLERANCE_N = 0.25
 
 
 def test_a_mu_the_nominal_fit_hides_behind_slack_is_proposed_from_the_joint_fit(tmp_path):
@@ -90,6 +98,11 @@ def test_a_mu_the_nominal_fit_hides_behind_slack_is_proposed_from_the_joint_fit(
     assert c.proposed == pytest.approx(0.068, abs=MU_TOLERANCE)
     assert c.stats["joint_with"] == ["slack_tension", "mu_viscous"]  # not the offset (below)
     assert "which the audit saw but did not name" in c.reason
+    # ...and the slack it found, which no finding names, becomes the compensator's slack term
+    s = _change(result, device, "comp.slack_tension_n")
+    assert s.status == "change", s.reason
+    assert s.proposed == pytest.approx(EFFECTS["slack_tension"], abs=SLACK_TOLERANCE_N)
+    assert s.proposed == c.stats["joint_params"]["slack_tension"]
 
 
 def test_the_joint_fit_still_refuses_when_the_device_has_the_plants_mu(tmp_path):

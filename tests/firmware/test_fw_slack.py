@@ -117,7 +117,9 @@ def test_slack_saturates_at_full_scale():
     assert comp.step_word(16383) == 16383  # sqrt(16383 * 16384) = 16383.49998
     assert twin.step(16383 * LSB) == pytest.approx(math.sqrt(16383 * 16384) * LSB, rel=1e-12)
     assert comp.step_word(1) == 128  # sqrt(16384) exactly: the root's largest factor, 128x
-    floored = fw.Compensator(fw.CompensatorParams(mode="paper", slack_tension_n=64.0, tc_min_n=64.0))
+    floored = fw.Compensator(
+        fw.CompensatorParams(mode="paper", slack_tension_n=64.0, tc_min_n=64.0)
+    )
     assert floored.step_word(-32768) == 64 * 256  # the floor at S: no root
 
 

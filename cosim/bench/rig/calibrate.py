@@ -132,6 +132,18 @@ BREAKAWAY_SHARE = 1.0
 # against that mu in that model by the same rule. The share (10, 20 or 35 %) was chosen on the
 # tuning set of random plants (docs/results.md, "mu fitted with what the audit did not name").
 JOINT_MIN_PCT = 35.0
+# The slack (comp.slack_tension_n, comp.h: the pretension lost below an input tension) is proposed
+# from the slack the audit saw, by the first of SLACK_SOURCES that holds one: "finding" (its slack
+# finding, which passed the audit's rule), "joint" (the slack the joint fit of mu refitted with
+# mu: the audit saw it and did not name it), "candidate" (its last round's slack candidate that
+# removed at least JOINT_MIN_PCT % of the selection blocks' residual, not at a bound, fitted with
+# the findings before it), "any_round" (the same in any round, the one that removed the most).
+# A function of the report and the audit's record alone, so that a stored calibration gives it
+# again (slack_of_report). The slack is a tension at the inlet: no scaling by phi. The sources
+# were chosen on the tuning set of random plants (docs/results.md, "The slack term": any round's
+# candidate caught slack the later rounds' findings had made look smaller, on two of 24 plants).
+SLACK_AUDIT_PARAM = "slack_tension"
+SLACK_SOURCES = ("finding", "joint", "any_round")
 # What a run changes on the device (record_run) and calibrate puts back.
 RUN_PARAMS = ("source", "wave.kind", "wave.mean_n", "wave.amplitude_n", "wave.freq_hz")
 # What the prediction's emulated controller takes from the device: what shapes tracking
@@ -367,6 +379,22 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
     changes.append(
         breakaway_change(findings.get(BREAKAWAY_AUDIT_PARAM), phi_a, device, phi_device_rad)
     )
+    rounds = [
+        [
+            {
+                "cause": c.effect.cause,
+                "params": {
+                    n: float(c.model.params[n]) for n in c.effect.fmu_params if n in c.model.params
+                },
+                "selection_explains_pct": c.explained_pct,
+                "at_bound": c.at_bound,
+            }
+            for c in rnd.candidates
+        ]
+        for rnd in result.rounds
+    ]
+    joint_params = next((c.stats.get("joint_params") for c in changes if c.name == "comp.mu"), None)
+    changes.append(slack_change(*slack_seen(findings, joint_params, rounds), device))
     _check_limits(changes, device, phi_device_rad)
     return changes
 
@@ -446,6 +474,90 @@ def breakaway_of_report(report: dict, device: dict, share: float = BREAKAWAY_SHA
     a = report["audit"]
     value = next((f["value"] for f in a["findings"] if f["param"] == BREAKAWAY_AUDIT_PARAM), None)
     c = breakaway_change(value, a["phi_rad"], device, report["device_phi_rad"], share)
+    applied = {
+        x["name"]: x["proposed"]
+        for x in report["changes"]
+        if x["status"] in ("change", "clipped") and x["name"] != c.name
+    }
+    _check_limits([c], {**device, **applied}, report["device_phi_rad"])
+    return c
+
+
+def _slack_candidate(candidates: list[dict]) -> dict | None:
+    """The slack candidate among a round's (as the audit's record keeps them: cause, params,
+    selection_explains_pct, at_bound) that removed at least JOINT_MIN_PCT % of the selection
+    blocks' residual, not at a bound of its form, or None."""
+    for c in candidates:
+        if (
+            SLACK_AUDIT_PARAM in c["params"]
+            and c["at_bound"] is None
+            and c["selection_explains_pct"] >= JOINT_MIN_PCT
+        ):
+            return c
+    return None
+
+
+def slack_seen(
+    findings: dict[str, float],
+    joint_params: dict | None,
+    rounds: list[list[dict]],
+    sources: tuple[str, ...] = SLACK_SOURCES,
+) -> tuple[float | None, str]:
+    """The slack tension (N) the audit saw and where it was seen, by the first of `sources` that
+    holds one (SLACK_SOURCES): the findings' values by FMU parameter, the joint fit's parameters
+    (None when it did not run), each round's candidates (_slack_candidate; "candidate": the last
+    round's, "any_round": the round's where it removed the most). (None, "") when none does."""
+    for source in sources:
+        if source == "finding" and SLACK_AUDIT_PARAM in findings:
+            return float(findings[SLACK_AUDIT_PARAM]), "its slack finding"
+        if source == "joint" and joint_params and SLACK_AUDIT_PARAM in joint_params:
+            return float(joint_params[SLACK_AUDIT_PARAM]), "the slack the joint fit of mu found"
+        if SLACK_AUDIT_PARAM in findings or source not in ("candidate", "any_round"):
+            continue
+        seen = [_slack_candidate(r) for r in (rounds[-1:] if source == "candidate" else rounds)]
+        seen = [c for c in seen if c is not None]
+        if seen:
+            c = max(seen, key=lambda c: c["selection_explains_pct"])
+            where = "last round's" if source == "candidate" else "rounds'"
+            return float(c["params"][SLACK_AUDIT_PARAM]), (
+                f"its {where} slack candidate ({c['selection_explains_pct']:.0f} % of the "
+                "selection residual)"
+            )
+    return None, ""
+
+
+def slack_change(audit_value: float | None, source: str, device: dict[str, float]) -> Change:
+    """comp.slack_tension_n from the slack the audit saw (`audit_value` N from `source`, None
+    without one), before the compensator's limits (_check_limits)."""
+    name = "comp.slack_tension_n"
+    cur = float(device.get(name, 0.0))
+    if audit_value is None:
+        c = Change(name, SLACK_AUDIT_PARAM, cur, None, 0.0, None, "unchanged", "")
+        c.reason = "the audit saw no slack"
+        if cur != 0.0:
+            c.status, c.proposed = "change", 0.0
+            c.reason = "the audit saw no slack: the slack's root goes off"
+        return c
+    c = Change(name, SLACK_AUDIT_PARAM, cur, None, audit_value, cur, "unchanged", "")
+    if _same_word(param(name), audit_value, cur):
+        c.reason = "the audit's value is the device's (to its resolution)"
+        return c
+    c.proposed, c.status = audit_value, "change"
+    c.reason = f"is {source} ({SLACK_AUDIT_PARAM} {_fmt(audit_value)} N)"
+    return c
+
+
+def slack_of_report(
+    report: dict, audit: dict, device: dict, sources: tuple[str, ...] = SLACK_SOURCES
+) -> Change:
+    """calibrate's comp.slack_tension_n for a calibration report (`report`, its calibration.json)
+    and its audit's record (`audit`, audit/audit.json), judged on the compensator's limits with
+    the report's other applied proposals: what `propose` gives for the same audit."""
+    findings = {f["param"]: f["value"] for f in report["audit"]["findings"]}
+    mu = next((c for c in report["changes"] if c["name"] == "comp.mu"), {})
+    joint_params = (mu.get("stats") or {}).get("joint_params")
+    rounds = [r["candidates"] for r in audit.get("rounds") or []]
+    c = slack_change(*slack_seen(findings, joint_params, rounds, sources), device)
     applied = {
         x["name"]: x["proposed"]
         for x in report["changes"]
