@@ -611,6 +611,14 @@ static inline __attribute__((always_inline)) q7_8_t step_modes(comp_t *c, int32_
     return (q7_8_t)tc;
 }
 
+/* The step with the breakaway term or the slack's root (each, and the spread, tested at run
+ * time): one copy for the target's code size, out of line so that its registers do not burden
+ * the sharp law's path (inlined, the extra flags cost the sharp law 7 instructions a step). */
+static __attribute__((noinline)) q7_8_t step_ext(comp_t *c, int32_t ref, int32_t diff)
+{
+    return step_modes(c, ref, diff, c->dz_on, c->brk_on, c->slk_on);
+}
+
 q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
 {
     const int32_t ref = t_ref;
@@ -657,7 +665,7 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
             /* One copy for the breakaway and the slack's root with or without a spread (each
              * tested at run time): the target's code size, at a few tests per step on this
              * rarer path. */
-            return step_modes(c, ref, diff, c->dz_on, c->brk_on, c->slk_on);
+            return step_ext(c, ref, diff);
         }
         return step_modes(c, ref, diff, 1, 0, 0);
     }
