@@ -124,8 +124,9 @@
  *    T_c1 and S are Q7.8 words (S <= 64 N: 16384 LSB), their product < 2^28 in 32 bits is Q14.16,
  *    and its integer square root rounded to the nearest is T_c in Q7.8 exactly: the word nearest
  *    sqrt(T_c1 * S) for the Q7.8 word T_c1 (no ties: (r + 1/2)^2 is not an integer). Its result
- *    lies in (T_c1, S): no saturation. Against the twin (comp_f64.h) the bound on T_c1 grows by
- *    the root's slope, sqrt(S / T_c1) / 2, plus 1/2 LSB of its own rounding
+ *    lies in [T_c1, S] (the root of (S - 1 LSB) S rounds to S - 1 LSB): no saturation. Against
+ *    the twin (comp_f64.h) the bound on T_c1 grows by the root's slope, sqrt(S / T_c1) / 2, plus
+ *    1/2 LSB of its own rounding
  *    (cosim.parts.firmware.CompensatorParams.error_bound_n). Assumed: the FMU's linear loss, one
  *    S for the whole cable. With S = 0 the step does not run this part: the law is the one above
  *    bit for bit.

@@ -605,7 +605,7 @@ static inline __attribute__((always_inline)) q7_8_t step_modes(comp_t *c, int32_
         brk_track(c, (int32_t)tc);
     }
     if (slk != 0 && tc > 0 && tc < cfg->slack_tension_n_q8) {
-        /* After the floor and the saturation: the root lies in (T_c1, S), within both. */
+        /* After the floor and the saturation: the root lies in [T_c1, S], within both. */
         tc = (int64_t)slack_root_q8((uint32_t)tc * (uint32_t)cfg->slack_tension_n_q8);
     }
     return (q7_8_t)tc;

@@ -341,7 +341,7 @@ double comp_step_f64(comp_f64_t *c, double t_ref_n)
         }
     }
     if (tc > 0.0 && tc < cfg->slack_tension_n) {
-        tc = sqrt(tc * cfg->slack_tension_n); /* the slack's root (comp.h), in (T_c1, S) */
+        tc = sqrt(tc * cfg->slack_tension_n); /* the slack's root (comp.h), in [T_c1, S] */
     }
     return tc;
 }
