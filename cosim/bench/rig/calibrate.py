@@ -19,7 +19,8 @@ The steps (cosim/bench/README.md, "Calibration", says why each piece is there):
    again with the effects the audit saw but did not name and judged in that model: joint_mu;
    the dead zone's spread, a parameter of
    the audit's nominal model, without that rule: UNGATED; the breakaway, comp.breakaway, from the
-   audit's static friction finding, which passed that rule as a finding), and only when the
+   audit's static friction finding, which passed that rule as a finding; the slack,
+   comp.slack_tension_n, from the slack the audit saw: SLACK_SOURCES), and only when the
    compensator takes it
    (the firmware's configuration check through cosim.parts.firmware). A value the compensator does
    not take is clipped to the nearest one it takes on the way from the device's value (status
