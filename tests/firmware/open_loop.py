@@ -1,5 +1,6 @@
 """What the compensator law tests share: the nominal sheath, a reference with reversals of
-several sizes, and the plant FMU driven open loop with a prescribed inlet tension."""
+several sizes, the input words a fixed-point law is held to its twin on, the plant FMU driven open
+loop with a prescribed inlet tension, and the error of such a run in % of full scale."""
 
 from __future__ import annotations
 
@@ -33,3 +34,39 @@ def open_loop_t_out(plant: dict, t_in: np.ndarray) -> np.ndarray:
             p.u[1] = float(t_in[k])
             out[k] = p.step(1e-3)[p.T_OUT]
     return out
+
+
+def twin_cases(n: int = 20000) -> list[tuple[str, np.ndarray]]:
+    """The Q7.8 words a fixed-point law is held to its double twin on: a random walk over the
+    whole range (fixed seed) and the reference's reversals."""
+    rng = np.random.default_rng(38)
+    walk = np.clip(np.cumsum(rng.integers(-60, 61, n)), -32768, 32767).astype(np.int16)
+    return [("random walk", walk), ("reversals", np.round(reference() * 256).astype(np.int16))]
+
+
+def error_pct(out: np.ndarray, ref: np.ndarray, settle: int = 1000) -> tuple[float, float]:
+    """RMS and peak of out - ref after the first `settle` samples, in % of FULL_SCALE_N."""
+    e = (out - ref)[settle:]
+    return (
+        100 * math.sqrt(float(np.mean(e**2))) / FULL_SCALE_N,
+        100 * float(np.max(np.abs(e))) / FULL_SCALE_N,
+    )
+
+
+def fig14_sine(n: int = 6000) -> np.ndarray:
+    """fig14's reference, 2 to 15 N at 0.5 Hz, at 1 kHz."""
+    t = np.arange(n) / 1000.0
+    return 8.5 - 6.5 * np.cos(2 * np.pi * 0.5 * t)
+
+
+def preview_open_loop_pct(plant: dict, **law) -> tuple[float, float]:
+    """RMS and peak error (% of full scale) of the FMU with `plant`'s effects driven open loop by
+    the preview law (nominal mu and phi, `law`'s other CompensatorParams) on fig14's sine, given
+    the reference its preview ahead."""
+    from cosim.parts import firmware as fw  # noqa: PLC0415 (the host library, built by make)
+
+    ref = fig14_sine()
+    preview = fw.c_defaults()["preview_ticks"]
+    ahead = np.concatenate([ref[preview:], np.full(preview, ref[-1])])
+    comp = fw.CompensatorF64(fw.CompensatorParams(mode="preview", mu=MU, phi_rad=PHI, **law))
+    return error_pct(open_loop_t_out(plant, comp.run(ahead)), ref)

@@ -8,7 +8,13 @@ import math
 
 import numpy as np
 import pytest
-from open_loop import FULL_SCALE_N, LSB, MU, PHI, open_loop_t_out, reference
+from open_loop import (
+    LSB,
+    PHI,
+    preview_open_loop_pct,
+    reference,
+    twin_cases,
+)
 
 from cosim.parts import firmware as fw
 
@@ -29,12 +35,7 @@ def test_breakaway_fixed_matches_double_twin(name):
     the compensator's documented bound (CompensatorParams.error_bound_n)."""
     params = CONFIGS[name]
     bound = params.error_bound_n()
-    rng = np.random.default_rng(38)
-    walk = np.clip(np.cumsum(rng.integers(-60, 61, 20000)), -32768, 32767).astype(np.int16)
-    for label, words in (
-        ("random walk", walk),
-        ("reversals", np.round(reference() * 256).astype(np.int16)),
-    ):
+    for label, words in twin_cases():
         fixed = fw.Compensator(params).run_words(words) * LSB
         twin = fw.CompensatorF64(params.quantized()).run(words * LSB)
         worst = float(np.max(np.abs(fixed - twin)))
@@ -125,23 +126,8 @@ def test_the_term_halves_the_fmus_stick_slip_open_loop():
     """The FMU's static friction alone (mu nominal, every other effect off, the inlet tension
     prescribed: drive mode 1), driven with the preview law's T_in with and without the plant's
     breakaway: the term splits the jump, about half the peak and less RMS."""
-    t = np.arange(6000) / 1000.0
-    ref = 8.5 - 6.5 * np.cos(2 * np.pi * 0.5 * t)
-    preview = fw.c_defaults()["preview_ticks"]
-    ahead = np.concatenate([ref[preview:], np.full(preview, ref[-1])])
     plant = {"mu_static_excess": 0.034}
-
-    def score(m_s: float) -> tuple[float, float]:
-        comp = fw.CompensatorF64(
-            fw.CompensatorParams(mode="preview", mu=MU, phi_rad=PHI, breakaway=m_s)
-        )
-        e = (open_loop_t_out(plant, comp.run(ahead)) - ref)[1000:]
-        return (
-            100 * math.sqrt(float(np.mean(e**2))) / FULL_SCALE_N,
-            100 * float(np.max(np.abs(e))) / FULL_SCALE_N,
-        )
-
-    rms, peak = score(0.034)
-    rms_today, peak_today = score(0.0)
+    rms, peak = preview_open_loop_pct(plant, breakaway=0.034)
+    rms_today, peak_today = preview_open_loop_pct(plant, breakaway=0.0)
     assert rms <= BUDGET[0] and peak <= BUDGET[1], (rms, peak)
     assert rms < 0.7 * rms_today and peak < 0.6 * peak_today, (rms, rms_today, peak, peak_today)

@@ -10,7 +10,15 @@ import math
 
 import numpy as np
 import pytest
-from open_loop import FULL_SCALE_N, LSB, MU, PHI, open_loop_t_out, reference
+from open_loop import (
+    LSB,
+    MU,
+    PHI,
+    error_pct,
+    open_loop_t_out,
+    reference,
+    twin_cases,
+)
 from scipy.stats import norm
 
 from cosim.parts import firmware as fw
@@ -33,12 +41,7 @@ def test_dead_zone_inverse_fixed_matches_double_twin(name):
     the compensator's documented bound (measured: 0.50 LSB without a slope, 0.69 with one)."""
     params = CONFIGS[name]
     bound = params.error_bound_n()
-    rng = np.random.default_rng(38)
-    walk = np.clip(np.cumsum(rng.integers(-60, 61, 20000)), -32768, 32767).astype(np.int16)
-    for label, words in (
-        ("random walk", walk),
-        ("reversals", np.round(reference() * 256).astype(np.int16)),
-    ):
+    for label, words in twin_cases():
         fixed = fw.Compensator(params).run_words(words) * LSB
         twin = fw.CompensatorF64(params.quantized()).run(words * LSB)
         worst = float(np.max(np.abs(fixed - twin)))
@@ -162,14 +165,8 @@ def test_the_inverse_tracks_the_fmus_gradual_dead_zone_open_loop(spread):
     today = _open_loop(spread, _preview_t_in(0.0, ref, preview))
     new = _open_loop(spread, _preview_t_in(spread, ref, preview))
 
-    def score(out):
-        e = (out - ref)[1000:]
-        return 100 * math.sqrt(float(np.mean(e**2))) / FULL_SCALE_N, 100 * float(
-            np.max(np.abs(e))
-        ) / FULL_SCALE_N
-
-    rms, peak = score(new)
-    rms_today, peak_today = score(today)
+    rms, peak = error_pct(new, ref)
+    rms_today, peak_today = error_pct(today, ref)
     assert rms <= BUDGETS[spread][0] and peak <= BUDGETS[spread][1], (rms, peak)
     if spread == 0.0:
         assert np.array_equal(today, new)

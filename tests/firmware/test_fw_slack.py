@@ -8,7 +8,13 @@ import math
 
 import numpy as np
 import pytest
-from open_loop import FULL_SCALE_N, LSB, MU, PHI, open_loop_t_out, reference
+from open_loop import (
+    LSB,
+    PHI,
+    preview_open_loop_pct,
+    reference,
+    twin_cases,
+)
 
 from cosim.parts import firmware as fw
 
@@ -65,12 +71,7 @@ def test_slack_fixed_matches_double_twin(name):
     root in force on part of the run."""
     params = CONFIGS[name]
     plain = fw.CompensatorParams(**{**params.__dict__, "slack_tension_n": 0.0})
-    rng = np.random.default_rng(38)
-    walk = np.clip(np.cumsum(rng.integers(-60, 61, 20000)), -32768, 32767).astype(np.int16)
-    for label, words in (
-        ("random walk", walk),
-        ("reversals", np.round(reference() * 256).astype(np.int16)),
-    ):
+    for label, words in twin_cases():
         fixed = fw.Compensator(params).run_words(words) * LSB
         twin = fw.CompensatorF64(params.quantized()).run(words * LSB)
         tc1 = fw.CompensatorF64(plain.quantized()).run(words * LSB)
@@ -146,23 +147,8 @@ def test_the_term_mends_the_fmus_slack_open_loop():
     drive mode 1), driven with the preview law's T_in with and without the plant's slack: the
     root brings the output at fig14's 2 N bottom up towards T_ref: less than 0.7x the RMS error
     and 0.8x the peak."""
-    t = np.arange(6000) / 1000.0
-    ref = 8.5 - 6.5 * np.cos(2 * np.pi * 0.5 * t)
-    preview = fw.c_defaults()["preview_ticks"]
-    ahead = np.concatenate([ref[preview:], np.full(preview, ref[-1])])
     plant = {"slack_tension": 3.9}
-
-    def score(slack_n: float) -> tuple[float, float]:
-        comp = fw.CompensatorF64(
-            fw.CompensatorParams(mode="preview", mu=MU, phi_rad=PHI, slack_tension_n=slack_n)
-        )
-        e = (open_loop_t_out(plant, comp.run(ahead)) - ref)[1000:]
-        return (
-            100 * math.sqrt(float(np.mean(e**2))) / FULL_SCALE_N,
-            100 * float(np.max(np.abs(e))) / FULL_SCALE_N,
-        )
-
-    rms, peak = score(3.9)
-    rms_today, peak_today = score(0.0)
+    rms, peak = preview_open_loop_pct(plant, slack_tension_n=3.9)
+    rms_today, peak_today = preview_open_loop_pct(plant, slack_tension_n=0.0)
     assert rms <= BUDGET[0] and peak <= BUDGET[1], (rms, peak, rms_today, peak_today)
     assert rms < 0.7 * rms_today and peak < 0.8 * peak_today, (rms, rms_today, peak, peak_today)

@@ -430,6 +430,15 @@ def _joint_mu_decision(result, device_mu: float):
     return float(model.params["mu"]), st, [e.fmu_param for e in extra], fitted
 
 
+def _term_off(name: str, audit_param: str, cur: float, unseen: str, term: str) -> Change:
+    """The decision for a term whose effect the audit did not see (`unseen` says so): nothing to
+    change while it is off, else off (`term` names it)."""
+    c = Change(name, audit_param, cur, None, 0.0, None, "unchanged", unseen)
+    if cur != 0.0:
+        c.status, c.proposed, c.reason = "change", 0.0, f"{unseen}: {term} goes off"
+    return c
+
+
 def breakaway_change(
     audit_value: float | None,
     phi_audit_rad: float,
@@ -442,12 +451,8 @@ def breakaway_change(
     name = "comp.breakaway"
     cur = float(device.get(name, 0.0))
     if audit_value is None:
-        c = Change(name, BREAKAWAY_AUDIT_PARAM, cur, None, 0.0, None, "unchanged", "")
-        c.reason = "the audit names no static friction"
-        if cur != 0.0:
-            c.status, c.proposed = "change", 0.0
-            c.reason = "the audit names no static friction: the breakaway term goes off"
-        return c
+        return _term_off(name, BREAKAWAY_AUDIT_PARAM, cur, "the audit names no static friction",
+                         "the breakaway term")  # fmt: skip
     scale = phi_audit_rad / phi_device_rad if phi_device_rad > 0 else math.nan
     if not math.isfinite(scale):
         c = Change(name, BREAKAWAY_AUDIT_PARAM, cur, None, audit_value, None, "refused", "")
@@ -533,12 +538,7 @@ def slack_change(audit_value: float | None, source: str, device: dict[str, float
     name = "comp.slack_tension_n"
     cur = float(device.get(name, 0.0))
     if audit_value is None:
-        c = Change(name, SLACK_AUDIT_PARAM, cur, None, 0.0, None, "unchanged", "")
-        c.reason = "the audit saw no slack"
-        if cur != 0.0:
-            c.status, c.proposed = "change", 0.0
-            c.reason = "the audit saw no slack: the slack's root goes off"
-        return c
+        return _term_off(name, SLACK_AUDIT_PARAM, cur, "the audit saw no slack", "the slack's root")
     c = Change(name, SLACK_AUDIT_PARAM, cur, None, audit_value, cur, "unchanged", "")
     if _same_word(param(name), audit_value, cur):
         c.reason = "the audit's value is the device's (to its resolution)"
