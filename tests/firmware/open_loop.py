@@ -1,6 +1,7 @@
 """What the compensator law tests share: the nominal sheath, a reference with reversals of
-several sizes, the input words a fixed-point law is held to its twin on, the plant FMU driven open
-loop with a prescribed inlet tension, and the error of such a run in % of full scale."""
+several sizes, the input words a fixed-point law is held to its twin on, a configuration's
+refusal by both twins, the plant FMU driven open loop with a prescribed inlet tension, and the
+error of such a run in % of full scale."""
 
 from __future__ import annotations
 
@@ -70,3 +71,17 @@ def preview_open_loop_pct(plant: dict, **law) -> tuple[float, float]:
     ahead = np.concatenate([ref[preview:], np.full(preview, ref[-1])])
     comp = fw.CompensatorF64(fw.CompensatorParams(mode="preview", mu=MU, phi_rad=PHI, **law))
     return error_pct(open_loop_t_out(plant, comp.run(ahead)), ref)
+
+
+def refusal_codes(params) -> tuple[int, int]:
+    """The error codes with which the fixed point and its double twin refuse `params` (each must
+    refuse: pytest.raises fails the test otherwise)."""
+    import pytest  # noqa: PLC0415
+
+    from cosim.parts import firmware as fw  # noqa: PLC0415
+
+    with pytest.raises(fw.FirmwareConfigError) as fixed:
+        fw.Compensator(params)
+    with pytest.raises(fw.FirmwareConfigError) as twin:
+        fw.CompensatorF64(params)
+    return fixed.value.code, twin.value.code

@@ -480,6 +480,11 @@ def breakaway_of_report(report: dict, device: dict, share: float = BREAKAWAY_SHA
     a = report["audit"]
     value = next((f["value"] for f in a["findings"] if f["param"] == BREAKAWAY_AUDIT_PARAM), None)
     c = breakaway_change(value, a["phi_rad"], device, report["device_phi_rad"], share)
+    return _judged_with_the_rest(c, report, device)
+
+
+def _judged_with_the_rest(c: Change, report: dict, device: dict[str, float]) -> Change:
+    """`c` judged on the compensator's limits with the stored report's other applied proposals."""
     applied = {
         x["name"]: x["proposed"]
         for x in report["changes"]
@@ -559,13 +564,7 @@ def slack_of_report(
     joint_params = (mu.get("stats") or {}).get("joint_params")
     rounds = [r["candidates"] for r in audit.get("rounds") or []]
     c = slack_change(*slack_seen(findings, joint_params, rounds, sources), device)
-    applied = {
-        x["name"]: x["proposed"]
-        for x in report["changes"]
-        if x["status"] in ("change", "clipped") and x["name"] != c.name
-    }
-    _check_limits([c], {**device, **applied}, report["device_phi_rad"])
-    return c
+    return _judged_with_the_rest(c, report, device)
 
 
 def _fmt(v: float) -> str:
