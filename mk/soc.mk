@@ -23,9 +23,10 @@ SOC_FW_HDR := $(sort $(wildcard firmware/include/*.h firmware/soc/*.h))
 # undefined symbol. Frames' CRCs run in the SoC's CRC unit (firmware/soc/soc.h, SOC_CRC_STATE).
 # No frame pointer: it cost a register and two instructions in every call (the tick 11 % slower,
 # the image 6 % larger; tests/soc/tb_soc_tick.py's figures); the stack bound needs none.
+# HAL_MMIO_ONLY: every cable's registers are memory-mapped, read and written inline (hal.h).
 SOC_FW_FLAGS := -target riscv32-freestanding-none -mcpu=generic_rv32+zmmul -ffreestanding -fno-builtin \
-  -DCRC32C_UNIT_ADDR=0x30000040UL -O2 -fomit-frame-pointer -ffunction-sections -fdata-sections -fno-unwind-tables \
-  -fno-asynchronous-unwind-tables
+  -DCRC32C_UNIT_ADDR=0x30000040UL -DHAL_MMIO_ONLY -O2 -fomit-frame-pointer -ffunction-sections \
+  -fdata-sections -fno-unwind-tables -fno-asynchronous-unwind-tables
 SOC_FW_OBJ := $(patsubst %.c,$(SOC_FW_OUT)/obj/%.o,$(notdir $(SOC_FW_SRC))) \
   $(SOC_FW_OUT)/obj/start.o
 SOC_FW_ELF := $(SOC_FW_OUT)/bowden_fw.elf

@@ -65,7 +65,9 @@ typedef struct {
     uint32_t kind; /* DEV_PORT_SERIAL or DEV_PORT_CAN */
     proto_rx_t rx;
     proto_can_rx_t can_rx;
-    uint8_t tx[DEV_TX_BYTES]; /* serial: byte ring */
+    /* serial: a byte ring of DEV_TX_BYTES, and room past its end for a frame that reaches it:
+     * encoded there in one piece, the part past the end then moved to the ring's start */
+    uint8_t tx[DEV_TX_BYTES + PROTO_MAX_WIRE];
     uint32_t tx_head;
     uint32_t tx_len;
     proto_can_frame_t can_tx[DEV_TX_CAN_FRAMES]; /* CAN: frame ring */
@@ -99,6 +101,11 @@ typedef struct {
     uint32_t stream_head[BOWDEN_CHANNELS_MAX];
     uint32_t stream_len[BOWDEN_CHANNELS_MAX];
     int16_t stream_last[BOWDEN_CHANNELS_MAX]; /* held when the stream runs dry */
+    /* Telemetry every dev.telemetry_div samples, counted down (dev.c telemetry_due): the divisor
+     * counted with, the channel's last sample, the ticks left to its next frame. */
+    uint32_t tel_div[BOWDEN_CHANNELS_MAX];
+    uint32_t tel_sample[BOWDEN_CHANNELS_MAX];
+    uint32_t tel_left[BOWDEN_CHANNELS_MAX];
     dev_port_t ports[DEV_PORTS];
 } dev_t;
 

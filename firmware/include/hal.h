@@ -60,6 +60,21 @@ void hal_shadow_set(hal_shadow_t *shadow, uint32_t addr, uint32_t value);
  * how many were copied. */
 uint32_t hal_shadow_drain(hal_shadow_t *shadow, hal_write_t *out, uint32_t max);
 
+#if defined(HAL_MMIO_ONLY)
+/* A build whose every HAL is memory-mapped (the soft CPU's: firmware/soc/main.c binds each cable
+ * with hal_init_mmio and nothing else): the access inline, the same load or store mmio_read and
+ * mmio_write make, without the indirect call (on the soft CPU some 30 clocks a register, and a
+ * cable's tick reads and writes some ten). */
+static inline uint32_t hal_read(const hal_t *h, uint32_t addr)
+{
+    return ((volatile uint32_t *)h->ctx)[addr / 4U];
+}
+
+static inline void hal_write(const hal_t *h, uint32_t addr, uint32_t value)
+{
+    ((volatile uint32_t *)h->ctx)[addr / 4U] = value;
+}
+#else
 static inline uint32_t hal_read(const hal_t *h, uint32_t addr)
 {
     return h->read(h->ctx, addr);
@@ -69,5 +84,6 @@ static inline void hal_write(const hal_t *h, uint32_t addr, uint32_t value)
 {
     h->write(h->ctx, addr, value);
 }
+#endif
 
 #endif /* BOWDEN_HAL_H */

@@ -46,6 +46,9 @@ void wave_config_default(wave_config_t *cfg);
 int32_t wave_config_check(const wave_config_t *cfg, uint32_t rate_hz);
 /* Apply a configuration for a tick rate; on error nothing changes. */
 int32_t wave_configure(wave_t *w, const wave_config_t *cfg, uint32_t rate_hz);
+/* Back to the configured phase0, the rest as configured: what wave_configure with the same
+ * configuration and rate would give, without its divisions (the soft CPU's are a routine). */
+void wave_restart(wave_t *w);
 /*
  * The value at the current phase, then advance the phase by one tick.
  * Scaling and overflow: amplitude (Q7.8, <= 2^15) * shape (Q1.30, |.| <= 2^30) < 2^45 in int64,

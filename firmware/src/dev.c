@@ -72,6 +72,9 @@ void dev_init_channels(dev_t *d, fw_t *fw, uint32_t n, const flash_hal_t *flash)
     d->host_seen_us = d->host_timeouts = 0U;
     d->running = d->run_ticks = d->run_limit = d->owner = 0U;
     d->dirty = 0U;
+    for (uint32_t c = 0; c < BOWDEN_CHANNELS_MAX; ++c) {
+        d->tel_div[c] = d->tel_sample[c] = d->tel_left[c] = 0U;
+    }
     settings_default_all(d);
     d->config_source = PROTO_CONFIG_SOURCE_DEFAULTS;
     if (flash != 0) {
@@ -102,24 +105,6 @@ static uint32_t tx_tail(const dev_port_t *p)
     return (p->tx_head + p->tx_len) % DEV_TX_BYTES;
 }
 
-static int tx_push(dev_port_t *p, const uint8_t *b, uint32_t n, uint32_t reserve)
-{
-    if (DEV_TX_BYTES - p->tx_len < n + reserve) {
-        return 0;
-    }
-    /* Up to the ring's end, then from its start. */
-    const uint32_t at = tx_tail(p);
-    const uint32_t first = (DEV_TX_BYTES - at < n) ? DEV_TX_BYTES - at : n;
-    for (uint32_t i = 0; i < first; ++i) {
-        p->tx[at + i] = b[i];
-    }
-    for (uint32_t i = first; i < n; ++i) {
-        p->tx[i - first] = b[i];
-    }
-    p->tx_len += n;
-    return 1;
-}
-
 static int can_push(dev_port_t *p, const proto_can_frame_t *f, uint32_t n, uint32_t reserve)
 {
     if (DEV_TX_CAN_FRAMES - p->can_len < n + reserve) {
@@ -142,18 +127,23 @@ static int send_frame(dev_t *d, uint32_t port, const proto_frame_t *f, int telem
         uint32_t n = proto_can_encode(d->settings[0].dev.can_node, f, cf, PROTO_CAN_MAX_FRAMES);
         ok = n != 0U && can_push(p, cf, n, telemetry ? RESERVE_CAN : 0U);
     } else {
-        /* Encoded in place in the ring when it does not wrap there (a copy less on every frame:
-         * on the soft CPU the telemetry frame is most of the tick), else through a buffer. */
+        /* Encoded in place in the ring (a copy less on every frame: on the soft CPU the
+         * telemetry frames are most of the tick); a frame that reaches the ring's end is encoded
+         * into the room past it, and only that part is moved to the ring's start (before, the
+         * whole frame went through a buffer: the worst tick was the one where a frame wrapped). */
         const uint32_t n = proto_wire_len(f);
         const uint32_t at = tx_tail(p);
         if (n == 0U || DEV_TX_BYTES - p->tx_len < n + (telemetry ? RESERVE_BYTES : 0U)) {
             ok = 0;
-        } else if (DEV_TX_BYTES - at >= n) {
-            ok = proto_encode(f, &p->tx[at], n) == n;
-            p->tx_len += ok ? n : 0U;
         } else {
-            uint8_t wire[PROTO_MAX_WIRE];
-            ok = proto_encode(f, wire, PROTO_MAX_WIRE) == n && tx_push(p, wire, n, 0U);
+            ok = proto_encode(f, &p->tx[at], n) == n;
+            if (ok && at + n > DEV_TX_BYTES) {
+                /* the ring's start is free: tx_len + n <= DEV_TX_BYTES */
+                for (uint32_t i = 0; i < at + n - DEV_TX_BYTES; ++i) {
+                    p->tx[i] = p->tx[DEV_TX_BYTES + i];
+                }
+            }
+            p->tx_len += ok ? n : 0U;
         }
     }
     if (ok) {
@@ -762,6 +752,27 @@ static void send_telemetry(dev_t *d, uint32_t c, uint32_t time_us, int32_t t_out
     }
 }
 
+/* Whether channel c's sample has a telemetry frame: sample % div == 0. The ticks left to the next
+ * such sample are counted down; the division is done only where counting would go wrong: a count
+ * that did not step by one from the channel's last (a new run), its wrap to 0 (2^32 need not be a
+ * multiple of div) and a changed div. The soft CPU has no divider: its division routine cost some
+ * 190 clocks a cable at every tick. */
+static int telemetry_due(dev_t *d, uint32_t c, uint32_t sample, uint32_t div)
+{
+    if (sample == 0U || sample != d->tel_sample[c] + 1U || div != d->tel_div[c]) {
+        const uint32_t r = (div == 1U) ? 0U : sample % div;
+        d->tel_div[c] = div;
+        d->tel_left[c] = (r == 0U) ? 0U : div - r;
+    }
+    d->tel_sample[c] = sample;
+    if (d->tel_left[c] != 0U) {
+        --d->tel_left[c];
+        return 0;
+    }
+    d->tel_left[c] = div - 1U;
+    return 1;
+}
+
 void dev_tick_channels(dev_t *d, uint32_t time_us, const int32_t *t_out_q8)
 {
     d->time_us = time_us;
@@ -787,8 +798,7 @@ void dev_tick_channels(dev_t *d, uint32_t time_us, const int32_t *t_out_q8)
         if (((d->run_mask >> c) & 1U) == 0U) {
             continue;
         }
-        const uint32_t sample = d->fw[c].tel.ticks - 1U;
-        if (div == 1U || sample % div == 0U) { /* the soft CPU has no divider: skip it at 1 */
+        if (telemetry_due(d, c, d->fw[c].tel.ticks - 1U, div)) {
             send_telemetry(d, c, time_us, t_out_q8[c]);
         }
     }

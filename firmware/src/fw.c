@@ -215,7 +215,9 @@ void fw_start(fw_t *fw)
         (void)comp_configure(&fw->comp, &fw->cfg.comp); /* the last run's estimate out */
     }
     est_restart(fw);
-    (void)wave_configure(&fw->wave, &fw->cfg.wave, fw->cfg.tick_rate_hz); /* phase to phase0 */
+    /* Phase to phase0: the generator was configured with fw->cfg's wave and rate by
+     * fw_configure_checked, the only place that sets them. */
+    wave_restart(&fw->wave);
     if (fw->cfg.source == FW_SOURCE_WAVE && fw->cfg.comp.mode == COMP_MODE_PREVIEW) {
         /* The generator runs P ticks ahead: its first P values fill the compensator's line. */
         for (int32_t i = 0; i < fw->cfg.comp.preview_ticks; ++i) {

@@ -157,10 +157,19 @@ uq8_24_t fxp_div_uq8_24(uint64_t num, uint64_t den)
 
 /* sin(a) for a in [0, pi/2] in Q1.30: a(1 - a^2/6(1 - a^2/20(1 - ... (1 - a^2/156)))).
  * a^2 <= (pi/2)^2 = 2.467 does not fit Q1.30, so it is kept in Q2.29; each a^2*p/den <= 0.42 is
- * formed in int64 (a^2 * p < 2^61) and divided by multiplying with 1/den in Q1.30. */
+ * formed in 64 bits (a^2 * p < 2^61) and divided by multiplying with 1/den in Q1.30. Every operand
+ * is >= 0 and below 2^32 (a <= pi/2 * 2^30, a^2 < 2^31, p <= 2^30, a^2*p >> 29 < 2.5 * 2^30,
+ * 1/den < 2^28), so each product is one unsigned 32 x 32 -> 64 bit multiply: on a 32-bit CPU a
+ * MUL and a MULHU, where a signed 64 x 64 one costs four multiplies and their sums (the generator
+ * runs this for every cable at every tick). The same values as in signed 64-bit arithmetic. */
+static uint32_t mul_shr_round_u32(uint32_t x, uint32_t y, unsigned s)
+{
+    return (uint32_t)(((uint64_t)x * y + (UINT64_C(1) << (s - 1U))) >> s);
+}
+
 static q1_30_t sin_quarter_q1_30(int32_t a)
 {
-    static const int64_t inv_den_q30[6] = {
+    static const uint32_t inv_den_q30[6] = {
         6882960, /* 2^30/156 */
         9761289, /* 2^30/110 */
         14913081, /* 2^30/72 */
@@ -168,13 +177,14 @@ static q1_30_t sin_quarter_q1_30(int32_t a)
         53687091, /* 2^30/20 */
         178956971, /* 2^30/6 */
     };
-    int64_t a2 = shr_round_i64((int64_t)a * a, 31U); /* Q2.29 */
-    int64_t p = Q1_30_ONE;
+    const uint32_t ua = (uint32_t)a;                    /* 0 <= a <= pi/2 * 2^30 */
+    const uint32_t a2 = mul_shr_round_u32(ua, ua, 31U); /* Q2.29 */
+    uint32_t p = Q1_30_ONE;
     for (unsigned i = 0; i < 6U; ++i) {
-        int64_t a2p = shr_round_i64(a2 * p, 29U); /* Q.30, < 2.5 * 2^30 */
-        p = Q1_30_ONE - shr_round_i64(a2p * inv_den_q30[i], 30U);
+        uint32_t a2p = mul_shr_round_u32(a2, p, 29U); /* Q.30, < 2.5 * 2^30 */
+        p = Q1_30_ONE - mul_shr_round_u32(a2p, inv_den_q30[i], 30U);
     }
-    return (q1_30_t)shr_round_i64((int64_t)a * p, 30U);
+    return (q1_30_t)mul_shr_round_u32(ua, p, 30U);
 }
 
 q1_30_t fxp_sin_q1_30(uint32_t phase)

@@ -58,6 +58,11 @@ int32_t wave_configure(wave_t *w, const wave_config_t *cfg, uint32_t rate_hz)
     return WAVE_OK;
 }
 
+void wave_restart(wave_t *w)
+{
+    w->phase = w->cfg.phase0;
+}
+
 q7_8_t wave_next_q7_8(wave_t *w)
 {
     q1_30_t shape = 0;

@@ -338,6 +338,60 @@ static void test_dev_can_port(void)
     CHECK(dev_tx_can(&host.dev, 2U, out, 64U) == 0U && host.dev.running == 1U, "other node");
 }
 
+/* Telemetry every dev.telemetry_div ticks: a frame exactly for the samples with sample % div == 0
+ * (the device counts on to the next one instead of dividing at every tick), across a run's start,
+ * a div changed between runs and within one, and the 32-bit sample count's wrap. */
+static void test_dev_telemetry_every_div_ticks(void)
+{
+    static const struct {
+        uint32_t div;
+        uint32_t ticks_at; /* the sample count to jump to after 5 ticks (0: none) */
+        uint32_t div_then; /* the divisor from tick 7 on, set within the run */
+    } cases[] = {
+        {3U, 0U, 3U}, {4U, 0U, 4U}, {7U, 0xFFFFFFF0UL, 7U}, {3U, 0xFFFFFFF8UL, 3U},
+        {5U, 0U, 2U}, {2U, 0xFFFFFFFAUL, 6U}, {1U, 0xFFFFFFFCUL, 1U}, {1000U, 0U, 1000U},
+    };
+    for (uint32_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
+        dev_host_init(&host);
+        (void)set_param(PROTO_PID_SOURCE, FW_SOURCE_WAVE, 1U);
+        proto_frame_t g = set_param(PROTO_PID_DEV_TELEMETRY_DIV, (int32_t)cases[k].div, 2U);
+        CHECK(g.msg != 0U && error_code(&g) == 0xFFU, "div %u accepted", cases[k].div);
+        (void)request(0U, PROTO_MSG_START, 3U, CONTINUOUS, 4U);
+        proto_rx_t rx;
+        proto_rx_init(&rx);
+        uint32_t sent = 0, wrong = 0;
+        for (uint32_t i = 0; i < 40U; ++i) {
+            if (i == 5U && cases[k].ticks_at != 0U) {
+                host.fw[0].tel.ticks = cases[k].ticks_at;
+            }
+            if (i == 7U) { /* PARAM_SET refuses during a run; a changed setting is still obeyed */
+                host.dev.settings[0].dev.telemetry_div = cases[k].div_then;
+            }
+            const uint32_t div = host.dev.settings[0].dev.telemetry_div;
+            dev_tick(&host.dev, 1000U * (i + 1U), 0);
+            const uint32_t sample = host.fw[0].tel.ticks - 1U;
+            uint32_t got = 0;
+            uint8_t out[256];
+            uint32_t n;
+            while ((n = dev_tx_bytes(&host.dev, 0U, out, sizeof out)) > 0U) {
+                for (uint32_t j = 0; j < n; ++j) {
+                    proto_frame_t h;
+                    proto_telemetry_t t;
+                    if (proto_rx_byte(&rx, out[j], &h) && h.msg == PROTO_MSG_TELEMETRY &&
+                        proto_telemetry_unpack(&t, h.payload, h.len)) {
+                        got += 1U;
+                        wrong += t.sample != sample;
+                    }
+                }
+            }
+            wrong += got != ((sample % div == 0U) ? 1U : 0U);
+            sent += got;
+        }
+        CHECK(wrong == 0U && sent > 0U, "div %u: %u frames, %u wrong", cases[k].div, sent, wrong);
+        (void)request(0U, PROTO_MSG_STOP, 4U, NULL, 0U);
+    }
+}
+
 /* The host watchdog: a run whose port sends no valid frame for PROTO_HOST_WATCHDOG_TIMEOUT_MS
  * stops (loop disabled) and is counted; a frame from the run's port feeds it, another port's
  * does not. */
@@ -380,5 +434,6 @@ const unit_test_t dev_tests[] = {
     {"bad_frames_and_versions", test_dev_bad_frames_and_versions},
     {"can_port", test_dev_can_port},
     {"host_watchdog", test_dev_host_watchdog},
+    {"telemetry_every_div_ticks", test_dev_telemetry_every_div_ticks},
 };
 const int dev_tests_count = (int)(sizeof dev_tests / sizeof dev_tests[0]);
