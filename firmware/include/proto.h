@@ -69,6 +69,12 @@ uint32_t proto_rx_bytes(proto_rx_t *rx, const uint8_t *data, uint32_t n, proto_f
  * written to out, or 0 when f->len exceeds PROTO_MAX_PAYLOAD or cap < the encoded size
  * (PROTO_MAX_WIRE always suffices). */
 uint32_t proto_encode(const proto_frame_t *f, uint8_t *out, uint32_t cap);
+/* proto_encode's bytes for a frame whose raw bytes are already in the output: the header (version,
+ * msg, seq) at out[2] and its len payload bytes after it; the delimiters, the code bytes and the
+ * CRC are written around and among them (out must hold the frame's wire length, proto_wire_len).
+ * Returns that length, or 0 when len exceeds PROTO_MAX_PAYLOAD. A frame packed straight into a
+ * transmit buffer is encoded without being copied (the soft CPU's telemetry, dev.c). */
+uint32_t proto_encode_in_place(uint8_t *out, uint32_t len);
 /* The bytes proto_encode writes for f, or 0 when f->len exceeds PROTO_MAX_PAYLOAD. */
 uint32_t proto_wire_len(const proto_frame_t *f);
 

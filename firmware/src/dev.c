@@ -117,15 +117,36 @@ static int can_push(dev_port_t *p, const proto_can_frame_t *f, uint32_t n, uint3
     return 1;
 }
 
+/* n bytes written at the ring's tail `at` (through its end into the room past it) made part of
+ * the ring: the part past the end moved to its start, which is free (tx_len + n <= DEV_TX_BYTES,
+ * checked by the caller). */
+static void tx_commit(dev_port_t *p, uint32_t at, uint32_t n)
+{
+    if (at + n > DEV_TX_BYTES) {
+        for (uint32_t i = 0; i < at + n - DEV_TX_BYTES; ++i) {
+            p->tx[i] = p->tx[DEV_TX_BYTES + i];
+        }
+    }
+    p->tx_len += n;
+}
+
+/* A frame to a CAN port, apart from send_frame: its frame array on the stack would otherwise be
+ * set up for every serial frame too (on the soft CPU the telemetry frames are most of the tick). */
+__attribute__((noinline)) static int send_can(dev_t *d, dev_port_t *p, const proto_frame_t *f,
+                                              int telemetry)
+{
+    proto_can_frame_t cf[PROTO_CAN_MAX_FRAMES];
+    uint32_t n = proto_can_encode(d->settings[0].dev.can_node, f, cf, PROTO_CAN_MAX_FRAMES);
+    return n != 0U && can_push(p, cf, n, telemetry ? RESERVE_CAN : 0U);
+}
+
 /* Queue a frame on a port; telemetry leaves the reserve free. 1 when queued. */
 static int send_frame(dev_t *d, uint32_t port, const proto_frame_t *f, int telemetry)
 {
     dev_port_t *p = &d->ports[port];
     int ok;
     if (p->kind == DEV_PORT_CAN) {
-        proto_can_frame_t cf[PROTO_CAN_MAX_FRAMES];
-        uint32_t n = proto_can_encode(d->settings[0].dev.can_node, f, cf, PROTO_CAN_MAX_FRAMES);
-        ok = n != 0U && can_push(p, cf, n, telemetry ? RESERVE_CAN : 0U);
+        ok = send_can(d, p, f, telemetry);
     } else {
         /* Encoded in place in the ring (a copy less on every frame: on the soft CPU the
          * telemetry frames are most of the tick); a frame that reaches the ring's end is encoded
@@ -137,13 +158,9 @@ static int send_frame(dev_t *d, uint32_t port, const proto_frame_t *f, int telem
             ok = 0;
         } else {
             ok = proto_encode(f, &p->tx[at], n) == n;
-            if (ok && at + n > DEV_TX_BYTES) {
-                /* the ring's start is free: tx_len + n <= DEV_TX_BYTES */
-                for (uint32_t i = 0; i < at + n - DEV_TX_BYTES; ++i) {
-                    p->tx[i] = p->tx[DEV_TX_BYTES + i];
-                }
+            if (ok) {
+                tx_commit(p, at, n);
             }
-            p->tx_len += ok ? n : 0U;
         }
     }
     if (ok) {
@@ -743,10 +760,38 @@ static void send_telemetry(dev_t *d, uint32_t c, uint32_t time_us, int32_t t_out
     int32_t mu_phi_q14 = t->est_mu_phi_q28 >> 14;
     m.mu_phi = (uint16_t)((mu_phi_q14 < 0) ? 0 : (mu_phi_q14 > 0xFFFF) ? 0xFFFF : mu_phi_q14);
     m.est_faults = (uint8_t)t->est_faults;
-    proto_frame_t f;
-    frame_init(&f, PROTO_MSG_TELEMETRY, 0U);
-    f.len = (uint8_t)proto_telemetry_pack(&m, f.payload);
-    if (!send_frame(d, d->owner, &f, 1)) {
+    dev_port_t *p = &d->ports[d->owner];
+    int ok;
+    if (p->kind == DEV_PORT_CAN) {
+        proto_frame_t f;
+        frame_init(&f, PROTO_MSG_TELEMETRY, 0U);
+        f.len = (uint8_t)proto_telemetry_pack(&m, f.payload);
+        ok = send_frame(d, d->owner, &f, 1);
+    } else {
+        /* send_frame's bytes, the frame packed straight into the ring and encoded there (on the
+         * soft CPU the telemetry frames are most of the tick: a copy of each byte less). */
+        _Static_assert(PROTO_TELEMETRY_MIN_LEN == PROTO_TELEMETRY_MAX_LEN, "a fixed length");
+        const uint32_t n = PROTO_HEADER_LEN + PROTO_TELEMETRY_MAX_LEN + PROTO_CRC_LEN + 3U;
+        ok = DEV_TX_BYTES - p->tx_len >= n + RESERVE_BYTES;
+        if (ok) {
+            const uint32_t at = tx_tail(p);
+            uint8_t *const out = &p->tx[at];
+            out[2] = (uint8_t)PROTO_VERSION;
+            out[3] = (uint8_t)PROTO_MSG_TELEMETRY;
+            out[4] = 0U; /* seq: a frame the device sends unasked */
+            const uint32_t len = proto_telemetry_pack(&m, &out[2U + PROTO_HEADER_LEN]);
+            ok = proto_encode_in_place(out, len) == n;
+            if (ok) {
+                tx_commit(p, at, n);
+            }
+        }
+        if (ok) {
+            ++p->tx_frames;
+        } else {
+            ++p->tx_overflow;
+        }
+    }
+    if (!ok) {
         ++d->overflow;
         d->faults |= PROTO_FAULT_TX_OVERFLOW;
     }
@@ -759,6 +804,10 @@ static void send_telemetry(dev_t *d, uint32_t c, uint32_t time_us, int32_t t_out
  * 190 clocks a cable at every tick. */
 static int telemetry_due(dev_t *d, uint32_t c, uint32_t sample, uint32_t div)
 {
+    if (div == 1U) { /* every sample; a divisor set later differs from tel_div and is divided */
+        d->tel_div[c] = 1U;
+        return 1;
+    }
     if (sample == 0U || sample != d->tel_sample[c] + 1U || div != d->tel_div[c]) {
         const uint32_t r = (div == 1U) ? 0U : sample % div;
         d->tel_div[c] = div;

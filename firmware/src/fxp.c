@@ -167,23 +167,25 @@ static uint32_t mul_shr_round_u32(uint32_t x, uint32_t y, unsigned s)
     return (uint32_t)(((uint64_t)x * y + (UINT64_C(1) << (s - 1U))) >> s);
 }
 
+/* One step of the series: 1 - a^2 * p / den, 1/den given in Q1.30. */
+static inline uint32_t sin_step(uint32_t a2, uint32_t p, uint32_t inv_den_q30)
+{
+    const uint32_t a2p = mul_shr_round_u32(a2, p, 29U); /* Q.30, < 2.5 * 2^30 */
+    return Q1_30_ONE - mul_shr_round_u32(a2p, inv_den_q30, 30U);
+}
+
 static q1_30_t sin_quarter_q1_30(int32_t a)
 {
-    static const uint32_t inv_den_q30[6] = {
-        6882960, /* 2^30/156 */
-        9761289, /* 2^30/110 */
-        14913081, /* 2^30/72 */
-        25565282, /* 2^30/42 */
-        53687091, /* 2^30/20 */
-        178956971, /* 2^30/6 */
-    };
     const uint32_t ua = (uint32_t)a;                    /* 0 <= a <= pi/2 * 2^30 */
     const uint32_t a2 = mul_shr_round_u32(ua, ua, 31U); /* Q2.29 */
-    uint32_t p = Q1_30_ONE;
-    for (unsigned i = 0; i < 6U; ++i) {
-        uint32_t a2p = mul_shr_round_u32(a2, p, 29U); /* Q.30, < 2.5 * 2^30 */
-        p = Q1_30_ONE - mul_shr_round_u32(a2p, inv_den_q30[i], 30U);
-    }
+    /* The innermost step's p is 1: a^2 * 2^30 rounded >> 29 is 2 a^2 exactly. The steps written
+     * out, each 1/den a constant (no table load, no loop). */
+    uint32_t p = Q1_30_ONE - mul_shr_round_u32(2U * a2, 6882960U, 30U); /* 2^30/156 */
+    p = sin_step(a2, p, 9761289U);                                     /* 2^30/110 */
+    p = sin_step(a2, p, 14913081U);                                    /* 2^30/72 */
+    p = sin_step(a2, p, 25565282U);                                    /* 2^30/42 */
+    p = sin_step(a2, p, 53687091U);                                    /* 2^30/20 */
+    p = sin_step(a2, p, 178956971U);                                   /* 2^30/6 */
     return (q1_30_t)mul_shr_round_u32(ua, p, 30U);
 }
 

@@ -300,6 +300,57 @@ static inline uint32_t cobs_crc_short(cobs_writer_t *w, const uint8_t *p, uint32
     return crc;
 }
 
+/* cobs_crc_short for bytes already where the writer stands (w->o == p): only each zero's link,
+ * no byte stored again. */
+static inline uint32_t cobs_crc_link(cobs_writer_t *w, uint32_t n, uint32_t crc)
+{
+    uint8_t *p = w->o;
+    uint8_t *code = w->code;
+    uint8_t *const end = p + n;
+    for (; end - p >= 4; p += 4) {
+        for (uint32_t k = 0; k < 4U; ++k) { /* unrolled by the compiler */
+            const uint8_t b = p[k];
+            crc = crc32c_step(crc, b);
+            if (b == 0U) {
+                *code = (uint8_t)(&p[k] - code);
+                code = &p[k];
+            }
+        }
+    }
+    for (; p < end; ++p) {
+        const uint8_t b = *p;
+        crc = crc32c_step(crc, b);
+        if (b == 0U) {
+            *code = (uint8_t)(p - code);
+            code = p;
+        }
+    }
+    w->o = p;
+    w->code = code;
+    return crc;
+}
+
+uint32_t proto_encode_in_place(uint8_t *out, uint32_t len)
+{
+    if (len > PROTO_MAX_PAYLOAD) {
+        return 0U;
+    }
+    /* The same bytes as proto_encode: a short frame's COBS is its raw bytes one place on, each
+     * zero replaced by the distance to the next (the code bytes), so the raw bytes at out[2] are
+     * left where they are and only the codes are written. */
+    uint32_t crc = crc32c_begin(CRC32C_INIT);
+    out[0] = 0U;
+    cobs_writer_t w = {&out[1], &out[1], &out[2]};
+    crc = cobs_crc_link(&w, PROTO_HEADER_LEN + len, crc);
+    crc = crc32c_end(crc) ^ 0xFFFFFFFFUL;
+    for (uint32_t i = 0; i < PROTO_CRC_LEN; ++i) {
+        cobs_put_short(&w, (uint8_t)(crc >> (8U * i)));
+    }
+    uint32_t m = cobs_end(&w);
+    out[1U + m] = 0U;
+    return m + 2U;
+}
+
 uint32_t proto_encode(const proto_frame_t *f, uint8_t *out, uint32_t cap)
 {
     const uint32_t need = proto_wire_len(f);

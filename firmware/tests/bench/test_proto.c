@@ -140,6 +140,53 @@ static int feed(proto_rx_t *rx, const uint8_t *b, uint32_t n, proto_frame_t *las
 
 /* Every shared vector: the payload packs and unpacks to the typed values, the frame encodes to
  * the wire bytes and decodes back, and the CAN frames match. */
+/* proto_encode and proto_encode_in_place against the definition: 0x00, COBS (proto_cobs_encode,
+ * byte by byte) of the header, the payload and their CRC-32C (the table's), 0x00; every payload
+ * length, payloads from all zeros to none, the in-place one from raw bytes at out[2]. */
+static void test_encoders_are_the_definition(void)
+{
+    uint32_t x = 12345U, bad = 0U, runs = 0U;
+    for (uint32_t len = 0; len <= PROTO_MAX_PAYLOAD; ++len) {
+        for (uint32_t density = 0; density <= 4U; ++density) {
+            for (uint32_t rep = 0; rep < 8U; ++rep) {
+                proto_frame_t f = {PROTO_VERSION, (uint8_t)(rep * 37U), (uint8_t)(rep & 1U),
+                                   (uint8_t)len, {0}};
+                for (uint32_t i = 0; i < len; ++i) {
+                    x = x * 1664525U + 1013904223U;
+                    /* a zero with probability density / 4 */
+                    f.payload[i] = ((x >> 24) % 4U < density) ? 0U : (uint8_t)(1U + (x >> 8) % 255U);
+                }
+                uint8_t raw[PROTO_MAX_RAW];
+                raw[0] = f.version;
+                raw[1] = f.msg;
+                raw[2] = f.seq;
+                memcpy(&raw[3], f.payload, len);
+                const uint32_t crc = crc32c(raw, 3U + len);
+                for (uint32_t i = 0; i < 4U; ++i) {
+                    raw[3U + len + i] = (uint8_t)(crc >> (8U * i));
+                }
+                uint8_t want[PROTO_MAX_WIRE + 8];
+                want[0] = 0U;
+                const uint32_t m = proto_cobs_encode(raw, 7U + len, &want[1]);
+                want[1U + m] = 0U;
+                const uint32_t n = m + 2U;
+                uint8_t got[PROTO_MAX_WIRE + 8];
+                memset(got, 0xAA, sizeof got);
+                bad += proto_encode(&f, got, sizeof got) != n || memcmp(got, want, n) != 0 ||
+                       got[n] != 0xAAU;
+                memset(got, 0xAA, sizeof got);
+                memcpy(&got[2], raw, 3U + len);
+                bad += proto_encode_in_place(got, len) != n || memcmp(got, want, n) != 0 ||
+                       got[n] != 0xAAU;
+                ++runs;
+            }
+        }
+    }
+    CHECK(bad == 0U, "%u of %u frames differ", bad, 2U * runs);
+    uint8_t big[PROTO_MAX_WIRE + 8];
+    CHECK(proto_encode_in_place(big, PROTO_MAX_PAYLOAD + 1U) == 0U, "over-long refused");
+}
+
 static void test_shared_vectors(void)
 {
     uint32_t typed_index[32] = {0};
@@ -356,6 +403,7 @@ const unit_test_t proto_tests[] = {
     {"crc32c_residue", test_crc32c_residue},
     {"cobs_examples", test_cobs_examples},
     {"cobs_round_trip_and_errors", test_cobs_round_trip_and_errors},
+    {"encoders_are_the_definition", test_encoders_are_the_definition},
     {"shared_vectors", test_shared_vectors},
     {"decoder_robustness", test_decoder_robustness},
     {"can_rx_errors", test_can_rx_errors},
