@@ -139,6 +139,8 @@ typedef struct {
     q3_28_t x_meas;                   /* the last measurement, Q3.28 */
     uq8_24_t band_hi;                 /* e^(5x/4), UQ8.24 (the STUCK band) */
     fric_est_gate_t g;                /* window, samples per branch, faults, bounds run */
+    q3_28_t x0_cfg_q28;               /* the x0 of the last fric_est_configure, */
+    uq8_24_t band_x0;                 /* and its band (fric_est_restart keeps it) */
 } fric_est_t;
 
 /* Defaults: off; tau 128 samples; rate 0.002 per tick (2.0 per second at 1 kHz); bounds
@@ -154,6 +156,9 @@ void fric_est_configure(fric_est_t *e, const fric_est_config_t *cfg, q3_28_t x0_
 
 /* Forget everything (history, sums, faults) and start again from x0. */
 void fric_est_reset(fric_est_t *e, q3_28_t x0_q28);
+/* fric_est_reset of a configured estimator: the band of the configuration's x0 reused when x0 is
+ * that (the soft CPU has no FPU: an exponential is some 900 clocks), else computed. */
+void fric_est_restart(fric_est_t *e, q3_28_t x0_q28);
 
 /*
  * One tick: T_in (Q7.8, as the T_IN register), the far-end raw code and its conversion to Q7.8
@@ -436,6 +441,7 @@ typedef struct {
     int32_t rev_ext_q8;      /* rev_index 1: T_in's extreme since the reversal began, Q7.8 N */
     q3_28_t rev_ln_ext_q28;  /* rev_index 1: its ln, Q3.28 */
     int32_t rev_travel;      /* rev_index 1: T_in's log travel from it, 2^-8 of ln, [0, 2^11) */
+    q3_28_t band_x_q28;      /* STUCK: the clamped x0 band_q24 was computed for */
 } fric_corr_t;
 
 /* Defaults: off; ki_shift 6, hold_ticks 30, limit 0.5 and the slide gate off, chosen on the
@@ -449,6 +455,9 @@ int32_t fric_corr_config_check(const fric_corr_config_t *cfg);
 void fric_corr_configure(fric_corr_t *c, const fric_corr_config_t *cfg, q3_28_t x0_q28);
 /* Forget everything (integrators, tare, faults): the start of a run. */
 void fric_corr_reset(fric_corr_t *c);
+/* fric_corr_configure(c, &c->cfg, x0) of a configured correction: its STUCK band reused when the
+ * clamped x0 is the one it was computed for, else computed. */
+void fric_corr_restart(fric_corr_t *c, q3_28_t x0_q28);
 /*
  * One tick: the reference the compensator applied (Q7.8), T_in (Q7.8), the far-end word (Q7.8,
  * 32-bit) and raw code with its limits and the ADC flags (as fric_est_step), the compensator's

@@ -71,13 +71,24 @@ int32_t fric_est_config_check(const fric_est_config_t *cfg, q3_28_t x0_q28, q3_2
     return FE_OK;
 }
 
-void fric_est_reset(fric_est_t *e, q3_28_t x0_q28)
+/* fric_est_reset with the band of x0 given. */
+static void est_reset_band(fric_est_t *e, q3_28_t x0_q28, uq8_24_t band)
 {
     /* The configuration kept; the accumulators zero; every measurement at the start value. */
     e->p[0] = e->p[1] = e->q[0] = e->q[1] = 0;
     e->x_b[0] = e->x_b[1] = e->x = e->x_meas = x0_q28;
-    e->band_hi = band_of(x0_q28);
+    e->band_hi = band;
     fric_est_gate_reset(&e->g);
+}
+
+void fric_est_reset(fric_est_t *e, q3_28_t x0_q28)
+{
+    est_reset_band(e, x0_q28, band_of(x0_q28));
+}
+
+void fric_est_restart(fric_est_t *e, q3_28_t x0_q28)
+{
+    est_reset_band(e, x0_q28, (x0_q28 == e->x0_cfg_q28) ? e->band_x0 : band_of(x0_q28));
 }
 
 void fric_est_configure(fric_est_t *e, const fric_est_config_t *cfg, q3_28_t x0_q28)
@@ -87,7 +98,9 @@ void fric_est_configure(fric_est_t *e, const fric_est_config_t *cfg, q3_28_t x0_
     if (e->tau_shift < 0) {
         e->tau_shift = 8; /* unreachable after fric_est_config_check */
     }
-    fric_est_reset(e, x0_q28);
+    e->x0_cfg_q28 = x0_q28;
+    e->band_x0 = band_of(x0_q28);
+    est_reset_band(e, x0_q28, e->band_x0);
 }
 
 uint32_t fric_est_input_faults(int32_t t_in_q8, int32_t t_out_q8, int32_t code, int32_t code_min,
@@ -432,12 +445,29 @@ void fric_corr_reset(fric_corr_t *c)
     c->rev_travel = 0;
 }
 
-void fric_corr_configure(fric_corr_t *c, const fric_corr_config_t *cfg, q3_28_t x0_q28)
+/* x0 clamped to the STUCK band's domain. */
+static q3_28_t corr_band_x(q3_28_t x0_q28)
 {
     const q3_28_t x_max = (q3_28_t)(11L * (Q3_28_ONE / 4)); /* 2x <= 5.5: fxp_exp's domain */
-    q3_28_t x = (x0_q28 < 0) ? 0 : (x0_q28 > x_max) ? x_max : x0_q28;
+    return (x0_q28 < 0) ? 0 : (x0_q28 > x_max) ? x_max : x0_q28;
+}
+
+void fric_corr_configure(fric_corr_t *c, const fric_corr_config_t *cfg, q3_28_t x0_q28)
+{
+    const q3_28_t x = corr_band_x(x0_q28);
     c->cfg = *cfg;
     c->band_q24 = fxp_exp_uq8_24((q3_28_t)(2 * x));
+    c->band_x_q28 = x;
+    fric_corr_reset(c);
+}
+
+void fric_corr_restart(fric_corr_t *c, q3_28_t x0_q28)
+{
+    const q3_28_t x = corr_band_x(x0_q28);
+    if (x != c->band_x_q28) {
+        c->band_q24 = fxp_exp_uq8_24((q3_28_t)(2 * x));
+        c->band_x_q28 = x;
+    }
     fric_corr_reset(c);
 }
 

@@ -214,7 +214,12 @@ void fw_start(fw_t *fw)
     if (fw->est_applied_q28 != comp_config_exponent_q28(&fw->cfg.comp)) {
         (void)comp_configure(&fw->comp, &fw->cfg.comp); /* the last run's estimate out */
     }
-    est_restart(fw);
+    /* The estimate from the configured mu*phi again, as est_restart, the configuration's bands
+     * kept (fw_configure_checked configured both with fw->cfg: the only place that sets it). */
+    const q3_28_t x0 = comp_config_exponent_q28(&fw->cfg.comp);
+    fric_est_restart(&fw->est, x0);
+    fw->est_applied_q28 = x0;
+    fric_corr_restart(&fw->corr, x0);
     /* Phase to phase0: the generator was configured with fw->cfg's wave and rate by
      * fw_configure_checked, the only place that sets them. */
     wave_restart(&fw->wave);
