@@ -140,6 +140,17 @@ __attribute__((noinline)) static int send_can(dev_t *d, dev_port_t *p, const pro
     return n != 0U && can_push(p, cf, n, telemetry ? RESERVE_CAN : 0U);
 }
 
+/* A frame queued (ok) or refused for want of room, counted on its port; returns ok. */
+static inline int tx_counted(dev_port_t *p, int ok)
+{
+    if (ok) {
+        ++p->tx_frames;
+    } else {
+        ++p->tx_overflow;
+    }
+    return ok;
+}
+
 /* Queue a frame on a port; telemetry leaves the reserve free. 1 when queued. */
 static int send_frame(dev_t *d, uint32_t port, const proto_frame_t *f, int telemetry)
 {
@@ -163,12 +174,7 @@ static int send_frame(dev_t *d, uint32_t port, const proto_frame_t *f, int telem
             }
         }
     }
-    if (ok) {
-        ++p->tx_frames;
-    } else {
-        ++p->tx_overflow;
-    }
-    return ok;
+    return tx_counted(p, ok);
 }
 
 uint32_t dev_tx_bytes(dev_t *d, uint32_t port, uint8_t *out, uint32_t max)
@@ -785,11 +791,7 @@ static void send_telemetry(dev_t *d, uint32_t c, uint32_t time_us, int32_t t_out
                 tx_commit(p, at, n);
             }
         }
-        if (ok) {
-            ++p->tx_frames;
-        } else {
-            ++p->tx_overflow;
-        }
+        tx_counted(p, ok);
     }
     if (!ok) {
         ++d->overflow;
