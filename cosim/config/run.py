@@ -95,6 +95,7 @@ def field_ranges(sample_rate_hz: float) -> dict[str, tuple[float, float]]:
         "compensator.dead_zone_spread": (0.0, 1.0),
         "compensator.breakaway": (0.0, 0.25),
         "compensator.slack_tension_n": (0.0, 64.0),
+        "compensator.mu_per_inlet_rate": (0.0, 1.0 / 16.0),
         "compensator.est_enable": (0, 1),
         "compensator.est_tau_ticks": (16, 32768),  # and a power of two (the firmware's check)
         "compensator.est_rate_per_s": (0.0, 1000.0),

@@ -91,7 +91,7 @@ def run_reference(
     rec = Record.allocate(n).arrays
     plant = open_plant(cfg, loop_routing, (inp.x_m[0], inp.y_m[0], inp.z_m[0]))
     # The compensator's double twin (firmware comp_f64), configured like the firmware.
-    comp = make_compensator_f64(compensator, cfg.compensator, phi_rad)
+    comp = make_compensator_f64(compensator, cfg.compensator, phi_rad, cfg.firmware_rate_hz)
     loop = loop if loop is not None else make_float_loop(cfg)
     bar = Progress(n, "float reference", cfg.sample_rate_hz, enabled=progress)
 

@@ -48,6 +48,8 @@ FULL_SCALE_N = 128.0
 MU_SLOPE_RANGE_N = 48.0
 # comp.h COMP_DZ_PLAYS: the strands of the compensator's dead-zone inverse.
 COMP_DZ_PLAYS = 8
+# comp.h COMP_VISC_X_MAX_Q28: the viscous term's largest growth of the friction exponent.
+VISC_X_MAX = 1.0
 
 
 class FirmwareConfigError(ValueError):
@@ -86,6 +88,7 @@ class CompConfig(ctypes.Structure):
         ("dead_zone_spread_q28", ctypes.c_int32),
         ("breakaway_q28", ctypes.c_int32),
         ("slack_tension_n_q8", ctypes.c_int32),
+        ("mu_per_inlet_rate_q28", ctypes.c_int32),
     ]
 
 
@@ -107,6 +110,7 @@ class CompF64Config(ctypes.Structure):
         ("dead_zone_spread", ctypes.c_double),
         ("breakaway", ctypes.c_double),
         ("slack_tension_n", ctypes.c_double),
+        ("mu_per_inlet_rate", ctypes.c_double),
     ]
 
 
@@ -259,6 +263,8 @@ def load_library(path: Path | str | None = None) -> ctypes.CDLL:
         "comp_f64_reset": (None, [vp]),
         "comp_step_f64": (dbl, [vp, dbl]),
         "comp_run_f64": (None, [vp, vp, vp, u32]),
+        "comp_set_tick_rate_hz": (i32, [vp, u32]),
+        "comp_f64_set_tick_rate_hz": (i32, [vp, dbl]),
         "fxp_exp_uq8_24": (u32, [i32]),
         "fw_config_default": (None, [vp]),
         "fw_host_init": (None, [vp]),
@@ -421,6 +427,10 @@ class CompensatorParams:
     # Slack (comp.h: pretension lost below this input tension, T_c = sqrt(T_c1 * S) there),
     # [0, 64] N; 0 is off (audit: slack_tension).
     slack_tension_n: float = _c_default("slack_tension_n")
+    # Viscous friction (comp.h: the friction exponent grows by m_r * r_hat * phi on the branch,
+    # r_hat the predicted inlet tension's rate), [0, 1/16] s/N; 0 is off (audit:
+    # mu_viscous_tension_rate, or mu_viscous through the cable's stretch per inlet tension).
+    mu_per_inlet_rate: float = _c_default("mu_per_inlet_rate")
     # Online friction estimate from the far-end load cell (firmware/include/fric_est.h; a part
     # of fw_config_t, not of comp_config_t), off by default: EstimatorParams's fields with est_.
     est_enable: int = 0
@@ -471,6 +481,7 @@ class CompensatorParams:
             dead_zone_spread_q28=_fixed("comp.dead_zone_spread", self.dead_zone_spread, 28),
             breakaway_q28=_fixed("comp.breakaway", self.breakaway, 28),
             slack_tension_n_q8=_fixed("comp.slack_tension_n", self.slack_tension_n, 8),
+            mu_per_inlet_rate_q28=_fixed("comp.mu_per_inlet_rate", self.mu_per_inlet_rate, 28),
         )
 
     def quantized(self) -> CompensatorParams:
@@ -491,6 +502,7 @@ class CompensatorParams:
             dead_zone_spread=c.dead_zone_spread_q28 / 2**28,
             breakaway=c.breakaway_q28 / 2**28,
             slack_tension_n=c.slack_tension_n_q8 / 256.0,
+            mu_per_inlet_rate=c.mu_per_inlet_rate_q28 / 2**28,
         )
 
     def to_c_f64(self) -> CompF64Config:
@@ -506,6 +518,7 @@ class CompensatorParams:
             "dead_zone_spread",
             "breakaway",
             "slack_tension_n",
+            "mu_per_inlet_rate",
         ):
             value = self.phi_c_rad if name == "phi_rad" else getattr(self, name)
             values[name] = _real(f"comp.{name}", value)
@@ -545,7 +558,9 @@ class CompensatorParams:
 
     def error_bound_n(self, tc_min_n=None):
         """Documented bound of |T_c fixed - T_c twin| in N (comp.h): 1 LSB, plus the linear
-        interpolation of the gain table when the friction slope is not zero; with a breakaway,
+        interpolation of the gain table when the friction slope is not zero; with the viscous
+        term, that bound times e^COMP_VISC_X_MAX (the largest factor it applies to the gain) plus
+        1 LSB (the roundings of r_hat and of e^x, measured well below it); with a breakaway,
         that bound times e^(2 mu phi + 9b/8) (the hold's factor on the extreme Y of the T_c put
         out, the largest factor it applies to a T_c) plus 1 LSB (its two roundings); with a
         slack S, that bound times the root's slope sqrt(S / T_c1) / 2 where it exceeds 1, plus
@@ -554,6 +569,8 @@ class CompensatorParams:
         bound per T_c1)."""
         d2 = self._gain_stats()[3]
         bound = ERR_BOUND_LSB * Q7_8_LSB_N + FULL_SCALE_N * TABLE_STEP_N**2 / 8.0 * d2
+        if self.mu_per_inlet_rate > 0:
+            bound = bound * math.exp(VISC_X_MAX) + Q7_8_LSB_N
         if self.breakaway > 0:
             x = (2.0 * self.mu + 1.125 * self.breakaway) * self.phi_c_rad
             bound = bound * math.exp(x) + Q7_8_LSB_N
@@ -571,6 +588,33 @@ class CompensatorParams:
         return np.abs(dref_n) * (gu_max + tmax_n * (spread / self.band_n + d1)) + 2 * Q7_8_LSB_N
 
 
+def mu_per_inlet_rate_of_cable_speed(
+    mu_viscous_s_per_m: float,
+    mu: float,
+    phi_rad: float,
+    sheath_length_m: float = 1.0,
+    cable_ea_n: float = 8000.0,
+    loadcell_stiffness_n_per_m: float = 2e5,
+) -> tuple[float, float]:
+    """The compensator's m_r (s/N) that stands for the FMU's cable-speed form `mu_viscous`
+    (fmu/README.md "Viscous friction": mu + mu_viscous |v_c|, v_c the inlet's speed), on the
+    loading and on the unloading branch: on a sliding branch the inlet moves by the cable's
+    stretch inside the sheath, T_in L_s / EA times (1 - e^(-a))/a loading and (e^a - 1)/a
+    unloading (a = mu phi, the tension exponential along a sheath whose bend is spread evenly
+    over its length, as the FMU's segments are), plus the load cell's give T_out / k_lc, so v_c
+    = m |r_in| / mu_viscous with m the value returned for that branch. The defaults are the
+    FMU's (sheath_length, cable_EA, loadcell_stiffness). The compensator takes one m_r for both
+    branches (comp.h): their mean is the plain choice."""
+    a = mu * phi_rad
+    up = -math.expm1(-a) / a if a > 0 else 1.0
+    dn = math.expm1(a) / a if a > 0 else 1.0
+    per_n = sheath_length_m / cable_ea_n
+    return (
+        mu_viscous_s_per_m * (per_n * up + math.exp(-a) / loadcell_stiffness_n_per_m),
+        mu_viscous_s_per_m * (per_n * dn + math.exp(a) / loadcell_stiffness_n_per_m),
+    )
+
+
 def _params(params: CompensatorParams | None, overrides: dict) -> CompensatorParams:
     p = CompensatorParams() if params is None else params
     if overrides:
@@ -579,12 +623,21 @@ def _params(params: CompensatorParams | None, overrides: dict) -> CompensatorPar
 
 
 class Compensator:
-    """The fixed-point compensator (comp_step_q7_8): Q7.8 references in, Q7.8 T_c out."""
+    """The fixed-point compensator (comp_step_q7_8): Q7.8 references in, Q7.8 T_c out, one step
+    per tick of `tick_rate_hz` (whole Hz, [1, 65535]: the viscous term's rate; comp.h)."""
 
-    def __init__(self, params: CompensatorParams | None = None, **overrides):
+    def __init__(
+        self,
+        params: CompensatorParams | None = None,
+        *,
+        tick_rate_hz: float = 1000.0,
+        **overrides,
+    ):
         self._lib = load_library()
         self._buf = ctypes.create_string_buffer(self._lib.fw_host_sizeof(0))
         self._lib.comp_init(self._buf)
+        hz = _whole("tick_rate_hz", tick_rate_hz, 0, 2**32 - 1, "Hz")
+        _check(self._lib.comp_set_tick_rate_hz(self._buf, hz))
         self.params = CompensatorParams(mode="paper")
         self.configure(_params(params, overrides))
 
@@ -628,12 +681,21 @@ class Compensator:
 
 
 class CompensatorF64:
-    """The double twin (comp_step_f64): the same law without quantization."""
+    """The double twin (comp_step_f64): the same law without quantization, one step per tick of
+    `tick_rate_hz` ([1, 65535] Hz)."""
 
-    def __init__(self, params: CompensatorParams | None = None, **overrides):
+    def __init__(
+        self,
+        params: CompensatorParams | None = None,
+        *,
+        tick_rate_hz: float = 1000.0,
+        **overrides,
+    ):
         self._lib = load_library()
         self._buf = ctypes.create_string_buffer(self._lib.fw_host_sizeof(2))
         self._lib.comp_f64_init(self._buf)
+        hz = _real("tick_rate_hz", tick_rate_hz)
+        _check(self._lib.comp_f64_set_tick_rate_hz(self._buf, hz))
         self.params = CompensatorParams(mode="paper")
         self.configure(_params(params, overrides))
 
@@ -666,15 +728,22 @@ def _params_from(mode: str, params: CompensatorParams, phi_rad: float) -> Compen
     return replace(params, mode=mode, phi_rad=float(phi_rad))
 
 
-def make_compensator(mode: str, params: CompensatorParams, phi_rad: float) -> Compensator:
+def make_compensator(
+    mode: str, params: CompensatorParams, phi_rad: float, tick_rate_hz: float = 1000.0
+) -> Compensator:
     """The fixed-point compensator configured from a scenario's compensator parameters."""
-    return Compensator(_params_from(mode, params, phi_rad))
+    return Compensator(_params_from(mode, params, phi_rad), tick_rate_hz=tick_rate_hz)
 
 
-def make_compensator_f64(mode: str, params: CompensatorParams, phi_rad: float) -> CompensatorF64:
+def make_compensator_f64(
+    mode: str, params: CompensatorParams, phi_rad: float, tick_rate_hz: float = 1000.0
+) -> CompensatorF64:
     """The double twin configured exactly as the fixed-point compensator would be (its
-    parameters quantized the same way), for the co-simulation's float reference."""
-    return CompensatorF64(_params_from(mode, params, phi_rad).quantized())
+    parameters quantized the same way, at the firmware's tick rate), for the co-simulation's
+    float reference."""
+    return CompensatorF64(
+        _params_from(mode, params, phi_rad).quantized(), tick_rate_hz=tick_rate_hz
+    )
 
 
 @dataclass

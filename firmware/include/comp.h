@@ -130,14 +130,54 @@
  *    (cosim.parts.firmware.CompensatorParams.error_bound_n). Assumed: the FMU's linear loss, one
  *    S for the whole cable. With S = 0 the step does not run this part: the law is the one above
  *    bit for bit.
+ *  - mu_per_inlet_rate = m_r (s/N): friction that rises with the inlet tension's rate (the plant
+ *    FMU's `mu_viscous_tension_rate`, and its `mu_viscous` through the cable's stretch rate,
+ *    fmu/README.md "Viscous friction"; the viscous term of Armstrong-Helouvry et al. 1994). On a
+ *    branch the friction exponent grows from mu*phi to (mu + m_r*|r_in|)*phi, so the gain the step
+ *    applies, after the blend, is multiplied by
+ *      e^x,  x = (2w - 1) * min(m_r * r_hat * phi, COMP_VISC_X_MAX),
+ *    with w the blend weight (1 loading, 0 unloading, the same weight as the gain's blend) and
+ *    r_hat the predicted inlet tension's rate: the blended gain G (without this factor) times the
+ *    rate of the reference the gain is applied to, |T_eff(k) - T_eff(k-1)| * f_tick, saturated at
+ *    the full scale 4096 N/s (COMP_VISC_RATE_FS_Q16) and low-pass filtered with the FMU's 10 ms
+ *    time constant (COMP_VISC_TAU_MS: r_hat += (min(G |dT_eff| f_tick, 4096 N/s) - r_hat) *
+ *    (1 - e^(-1 / (tau f_tick))), the FMU's filter of its rates at a communication step of one
+ *    tick; 1/(tau f_tick) held at 4 below 25 Hz). The first step after a reset or a
+ *    configuration has no rate (r_hat starts from 0). The reference's rate, not
+ *    T_c's: near a reversal T_ref is flat and the cable sticks (v_c ~ 0 in the FMU), while T_c
+ *    moves fast there through the blend; the term must not add friction there. The factor sits
+ *    after the blend and before the dead-zone inverse's F, the breakaway term, the floor, the
+ *    saturation and the slack's root (the root stays last). f_tick is the compensator's tick
+ *    rate (comp_set_tick_rate_hz; 1 kHz after comp_init, the firmware's tick_rate_hz from
+ *    fw_configure). Formats: m_r Q3.28 s/N in [0, COMP_VISC_MAX_Q28] (1/16 s/N: the audit's
+ *    range of both forms, mu_viscous up to 50 s/m being about 0.007 s/N on the nominal cable);
+ *    |dT_eff| * f_tick in Q.8 N/s, capped at 2^26 (262144 N/s, above the full scale at any gain
+ *    >= e^-4); G times it in Q.32, rounded to r_hat's UQ12.16 N/s and saturated at the full scale
+ *    4096 N/s (2^28); the filter's weight in UQ0.24; m_r*phi in Q3.28 (<= 0.79); m_r*phi*r_hat
+ *    < 2^56 in int64, rounded to Q3.28 and clamped at COMP_VISC_X_MAX = 1 (the exponent grows by
+ *    at most 1: the gain stays below UQ8.24's ceiling, e^(4 + 1) = 148 < 256, and a step of T_ref,
+ *    whose one-tick rate saturates r_hat, raises the friction by a bounded factor); (2w - 1) * x
+ *    in Q3.28 and e^x by fxp_exp_uq8_24 (its error: fxp.h); G e^x in UQ8.24 (< 2^31.3), then
+ *    T_eff * G e^x < 2^49 in int64. The fixed point and its twin differ by the rounding of r_hat
+ *    (about 5 LSB of UQ12.16 in the filter's steady state) and of e^x; against the twin the bound
+ *    becomes bound * e^(COMP_VISC_X_MAX) + 1 LSB (cosim.parts.firmware.CompensatorParams.
+ *    error_bound_n). Assumed: one m_r for both branches (the FMU's tension-rate form has one; in
+ *    its cable-speed form the inlet's travel per inlet tension differs by branch, m_r ~
+ *    mu_viscous * L_s / EA times (1 - e^(-mu phi))/(mu phi) loading and (e^(mu phi) - 1)/(mu phi)
+ *    unloading, plus the load cell's give: cosim.parts.firmware.mu_per_inlet_rate_of_cable_speed,
+ *    whose mean the open-loop test takes); r_hat from the gain without the factor itself (second
+ *    order in x); no rate where T_ref is flat (the FMU's tension-rate form takes T_in's rate,
+ *    fast through the blend at a reversal, which the term does not see: what that form's
+ *    open-loop error keeps lies at the reversals; tests/firmware/test_fw_viscous.py). With
+ *    m_r = 0 the step does not run this part: the law is the one above bit for bit.
  * Full law of a step, with T_eff = T_ref - offset_n (mode NONE: T_c = T_ref):
  *   G_up, G_dn as above (exp(+-mu*phi) without a slope),
  *   w = s / B in [0, 1] (PAPER: w = 1 loading, 0 unloading; SMOOTH: s moves by |dT_ref| per step
  *   towards B when loading and towards 0 when unloading; PREVIEW: s moves by one per
  *   step, and w = x^2 (3 - 2x) with x = s / D),
  *   T_c = max(tc_min, sat_Q7.8( T_eff * (G_dn + w*(G_up - G_dn)) * F )), F = 1 without a spread
- *   (the breakaway term, when m_s > 0, on the product before the saturation; the slack's root,
- *   when S > 0, on the result),
+ *   (the viscous factor e^x, when m_r > 0, on the blended gain; the breakaway term, when
+ *   m_s > 0, on the product before the saturation; the slack's root, when S > 0, on the result),
  * with T_eff = T_ref(t + L) - offset_n in PREVIEW mode (w from the input T_ref(t + P)).
  *
  * Smoothness bound (SMOOTH mode): between two consecutive steps whose references differ by d,
@@ -187,6 +227,14 @@
 #define COMP_DZ_SPREAD_MAX_Q28 ((q3_28_t)Q3_28_ONE) /* dead_zone_spread in [0, 1] */
 #define COMP_BRK_MAX_Q28 ((q3_28_t)(Q3_28_ONE / 4)) /* breakaway in [0, 0.25], (2 mu + m_s)*phi <= 4 */
 #define COMP_SLACK_MAX_Q8 ((q7_8w_t)(64 * Q7_8_ONE)) /* slack_tension in [0, 64] N */
+#define COMP_VISC_MAX_Q28 ((q3_28_t)(Q3_28_ONE / 16)) /* mu_per_inlet_rate in [0, 1/16] s/N */
+/* The viscous term's rate filter: the FMU's time constant of its rate estimates
+ * (BOWDEN_SPEED_TAU_S, fmu/README.md "Viscous friction"), so that the predicted rate lags the
+ * reference as the plant's rate lags its inlet tension. */
+#define COMP_VISC_TAU_MS 10
+#define COMP_VISC_RATE_FS_Q16 ((int64_t)1 << 28)      /* r_hat's full scale, 4096 N/s in UQ12.16 */
+#define COMP_VISC_X_MAX_Q28 ((q3_28_t)Q3_28_ONE)       /* the exponent's growth, at most 1 */
+#define COMP_TICK_RATE_MAX_HZ 65535U                   /* comp_set_tick_rate_hz: [1, 65535] Hz */
 
 /* The dead-zone inverse's strands: M plays at the standard normal's quantiles
  * q_j = Phi^-1((j + 1/2) / M), Q3.28, rounded. 8: the FMU's 32 strands turn the output in 32
@@ -231,6 +279,8 @@
                                * mu*phi*e^(spread*q_M) above 4 */
 #define COMP_ERR_BREAKAWAY 15 /* breakaway outside [0, 0.25], or (2 mu + breakaway)*phi above 4 */
 #define COMP_ERR_SLACK 16     /* slack_tension outside [0, 64] N */
+#define COMP_ERR_VISCOUS 17   /* mu_per_inlet_rate outside [0, 1/16] s/N */
+#define COMP_ERR_TICK_RATE 18 /* comp_set_tick_rate_hz: a rate outside [1, 65535] Hz */
 
 /* Configuration, built from comp_config_default() then changed field by field. */
 typedef struct {
@@ -250,6 +300,8 @@ typedef struct {
                                       [0, 0.25] */
     q7_8w_t slack_tension_n_q8;    /* input tension below which the cable has lost part of its
                                       pretension, Q7.8 N, [0, 64] */
+    q3_28_t mu_per_inlet_rate_q28; /* friction's rise per inlet tension rate, Q3.28 s/N,
+                                      [0, 1/16] */
 } comp_config_t;
 
 /* The compensator: configuration in force, gain tables and the state of the last step. */
@@ -293,6 +345,13 @@ typedef struct {
     uq8_24_t brk_half;             /* e^(-b/2), UQ8.24 */
     uq8_24_t brk_half_up;          /* e^(+b/2), UQ8.24 */
     int32_t slk_on;                /* 1 when the slack's root is in force (slack_tension > 0) */
+    int32_t vis_on;                /* 1 when the viscous term is in force (mu_per_inlet_rate > 0) */
+    int32_t vis_fresh;             /* 1 until the next step sets vis_prev_q8 (no rate yet) */
+    int32_t vis_prev_q8;           /* T_eff of the last step, Q7.8 in 32 bits */
+    int32_t vis_r_q16;             /* r_hat, the filtered predicted inlet rate, UQ12.16 N/s */
+    uint32_t tick_rate_hz;         /* f_tick, [1, 65535] Hz (comp_set_tick_rate_hz) */
+    uint32_t vis_alpha_q24;        /* the filter's weight 1 - e^(-1/(tau f_tick)), UQ0.24 */
+    q3_28_t vis_k_q28;             /* m_r * phi, Q3.28 s/N (<= 0.79) */
 } comp_t;
 
 /* Defaults: PAPER mode, mu = 0.075 (paper Fig. 11), phi = 2*pi (loop routing), no slope, no offset,
@@ -322,6 +381,13 @@ void comp_init(comp_t *c);
  * COMP_ERR_* code and leave the compensator (configuration and state) untouched.
  */
 int32_t comp_configure(comp_t *c, const comp_config_t *cfg);
+
+/*
+ * The compensator's tick rate f_tick in Hz, [1, 65535] (the viscous term's rate and its filter,
+ * comp.h): COMP_ERR_TICK_RATE outside, the rate in force kept. comp_init sets 1000 Hz (the
+ * firmware's default tick_rate_hz); fw_configure sets the firmware's. Keeps the state.
+ */
+int32_t comp_set_tick_rate_hz(comp_t *c, uint32_t hz);
 
 /* Forget the history: the next step starts in the loading direction on its branch. */
 void comp_reset(comp_t *c);

@@ -31,6 +31,7 @@ typedef struct {
     double dead_zone_spread;   /* log std of the friction thresholds, [0, 1] */
     double breakaway;          /* static friction's excess over mu after a reversal, [0, 0.25] */
     double slack_tension_n;    /* input tension below which pretension is lost, [0, 64] N */
+    double mu_per_inlet_rate;  /* friction's rise per inlet tension rate, [0, 1/16] s/N */
 } comp_f64_config_t;
 
 typedef struct {
@@ -53,6 +54,10 @@ typedef struct {
     int32_t brk_dir;            /* the branch the breakaway's extreme belongs to (0: none yet) */
     double brk_y;               /* Y: the extreme of T_c on that branch, N */
     double brk_last;            /* the last T_c put out, N */
+    int32_t vis_fresh;          /* 1 until the next step sets vis_prev (no rate yet) */
+    double vis_prev;            /* T_eff of the last step, N */
+    double vis_r;               /* r_hat: the filtered predicted inlet rate, N/s */
+    double tick_rate_hz;        /* f_tick, [1, 65535] Hz (comp_f64_set_tick_rate_hz) */
 } comp_f64_t;
 
 /* Same defaults as comp_config_default. */
@@ -65,6 +70,9 @@ void comp_f64_reset(comp_f64_t *c);
 /* The far-end output correction (comp_set_correction_q8's twin): T_eff = T_ref - offset + corr,
  * corr clamped to [-16, 16] N; not in mode NONE. */
 void comp_f64_set_correction(comp_f64_t *c, double corr_n);
+/* comp_set_tick_rate_hz's twin: f_tick in Hz, [1, 65535] (COMP_ERR_TICK_RATE outside); 1000 Hz
+ * after comp_f64_init. */
+int32_t comp_f64_set_tick_rate_hz(comp_f64_t *c, double hz);
 /* One step: T_ref in N (any finite value) -> T_c in N, saturated to [-128, 127.99609375]. */
 double comp_step_f64(comp_f64_t *c, double t_ref_n);
 

@@ -7,8 +7,8 @@
 #define COMP_KIND_SHARP 0 /* PAPER, SMOOTH, PREVIEW without a dead-zone spread */
 #define COMP_KIND_NONE 1  /* mode NONE */
 #define COMP_KIND_DZ 2    /* PAPER, SMOOTH, PREVIEW with the dead-zone inverse */
-#define COMP_KIND_BRK 3   /* PAPER, SMOOTH, PREVIEW with the breakaway term or the slack's root
-                           * (and any spread) */
+#define COMP_KIND_BRK 3   /* PAPER, SMOOTH, PREVIEW with the breakaway term, the slack's root
+                           * or the viscous term (and any spread) */
 
 void comp_config_default(comp_config_t *cfg)
 {
@@ -29,6 +29,7 @@ void comp_config_default(comp_config_t *cfg)
     cfg->dead_zone_spread_q28 = 0;
     cfg->breakaway_q28 = 0;
     cfg->slack_tension_n_q8 = 0;
+    cfg->mu_per_inlet_rate_q28 = 0;
 }
 
 /* mu * phi in Q3.28, in 64 bits for the range check. Scaling and overflow: Q3.28 * Q7.24 =
@@ -227,6 +228,9 @@ static int32_t check_fields(const comp_config_t *cfg)
     if (cfg->slack_tension_n_q8 < 0 || cfg->slack_tension_n_q8 > COMP_SLACK_MAX_Q8) {
         return COMP_ERR_SLACK;
     }
+    if (cfg->mu_per_inlet_rate_q28 < 0 || cfg->mu_per_inlet_rate_q28 > COMP_VISC_MAX_Q28) {
+        return COMP_ERR_VISCOUS;
+    }
     if (cfg->offset_n_q8 < -COMP_OFFSET_MAX_Q8 || cfg->offset_n_q8 > COMP_OFFSET_MAX_Q8) {
         return COMP_ERR_OFFSET;
     }
@@ -295,6 +299,8 @@ void comp_reset(comp_t *c)
     c->brk_dir = 0; /* no reversal yet: the first branch carries no breakaway */
     c->brk_y_q8 = 0;
     c->brk_last_q8 = 0;
+    c->vis_fresh = 1;
+    c->vis_r_q16 = 0;
     blend_to_branch(c);
 }
 
@@ -335,10 +341,17 @@ int32_t comp_configure(comp_t *c, const comp_config_t *cfg)
     c->dz_on = (cfg->dead_zone_spread_q28 != 0 && exponent_q28(cfg) != 0);
     c->brk_on = (cfg->breakaway_q28 != 0);
     c->slk_on = (cfg->slack_tension_n_q8 != 0);
-    c->kind = (cfg->mode == COMP_MODE_NONE)          ? COMP_KIND_NONE
-              : (c->brk_on != 0 || c->slk_on != 0) ? COMP_KIND_BRK
-              : (c->dz_on != 0)            ? COMP_KIND_DZ
-                                           : COMP_KIND_SHARP;
+    c->vis_on = (cfg->mu_per_inlet_rate_q28 != 0);
+    c->kind = (cfg->mode == COMP_MODE_NONE)                          ? COMP_KIND_NONE
+              : (c->brk_on != 0 || c->slk_on != 0 || c->vis_on != 0) ? COMP_KIND_BRK
+              : (c->dz_on != 0)                                      ? COMP_KIND_DZ
+                                                                     : COMP_KIND_SHARP;
+    /* m_r * phi: Q3.28 * Q7.24 < 2^52 in int64 (m_r <= 1/16, phi <= 4 pi), rounded to Q3.28
+     * (<= 0.79). The rate starts again from rest. */
+    c->vis_k_q28 = (q3_28_t)(((int64_t)cfg->mu_per_inlet_rate_q28 * cfg->phi_rad_q24 +
+                              (INT64_C(1) << 23)) >> 24);
+    c->vis_fresh = 1;
+    c->vis_r_q16 = 0;
     c->dz_fresh = 1;
     c->dz_c_q28 = 0;
     if (c->dz_on != 0) {
@@ -380,6 +393,7 @@ void comp_init(comp_t *c)
     c->tables_of_cfg = 0;
     c->inv_band = 0U;
     c->cfg.preview_ticks = cfg.preview_ticks;
+    (void)comp_set_tick_rate_hz(c, 1000U); /* the firmware's default tick_rate_hz */
     (void)comp_configure(c, &cfg); /* the defaults are valid (unit-tested) */
     comp_reset(c);
 }
@@ -495,6 +509,47 @@ static inline void brk_track(comp_t *c, int32_t tc)
     }
 }
 
+/* The viscous term (comp.h) on the blended gain g (UQ8.24, in [e^-4, e^4]) for the reference
+ * T_eff the gain applies to and the blend position s: r_hat from G |dT_eff| f_tick, then
+ * G e^((2w - 1) min(m_r phi r_hat, 1)). Scaling and overflow: |dT_eff| < 2^18 LSB times f_tick
+ * (< 2^16) < 2^34, capped at VISC_REF_RATE_CAP_Q8; G times it < 2^58, rounded to UQ12.16 N/s and
+ * saturated at COMP_VISC_RATE_FS_Q16 (2^28); (in - r_hat) times the weight (< 2^24) < 2^52;
+ * m_r phi (< 2^28) times r_hat (<= 2^28) < 2^56; x (<= 2^28) times 2w - 1 (|.| <= 2^30) < 2^58;
+ * G e^x < 2^30 * 2^25.5 before the shift, < 2^31.3 after it (uq8_24_t holds 2^32). */
+#define VISC_REF_RATE_CAP_Q8 (UINT64_C(1) << 26) /* 262144 N/s: G >= e^-4 saturates r_hat above */
+
+static uq8_24_t vis_gain(comp_t *c, int32_t t_eff, uq8_24_t g, int32_t s)
+{
+    uint64_t d = 0U;
+    if (c->vis_fresh == 0) {
+        int64_t diff = (int64_t)t_eff - c->vis_prev_q8;
+        d = (uint64_t)((diff < 0) ? -diff : diff);
+    }
+    c->vis_fresh = 0;
+    c->vis_prev_q8 = t_eff;
+    uint64_t rate = d * c->tick_rate_hz; /* Q.8 N/s */
+    if (rate > VISC_REF_RATE_CAP_Q8) {
+        rate = VISC_REF_RATE_CAP_Q8;
+    }
+    int64_t in = (int64_t)(((uint64_t)g * rate + (UINT64_C(1) << 15)) >> 16); /* UQ12.16 N/s */
+    if (in > COMP_VISC_RATE_FS_Q16) {
+        in = COMP_VISC_RATE_FS_Q16;
+    }
+    int64_t r = c->vis_r_q16;
+    /* A step of the filter moves r_hat towards in by less than in - r_hat: r_hat stays in
+     * [0, 2^28]. */
+    r += ((in - r) * (int64_t)c->vis_alpha_q24 + (INT64_C(1) << 23)) >> 24;
+    c->vis_r_q16 = (int32_t)r;
+    int64_t x = ((int64_t)c->vis_k_q28 * r + (INT64_C(1) << 15)) >> 16;
+    if (x > COMP_VISC_X_MAX_Q28) {
+        x = COMP_VISC_X_MAX_Q28;
+    }
+    int64_t sign = 2 * (int64_t)blend_weight(c, s) - (int64_t)Q1_30_ONE;
+    x = (x * sign + (INT64_C(1) << 29)) >> 30;
+    uint64_t e = fxp_exp_uq8_24((q3_28_t)x);
+    return (uq8_24_t)(((uint64_t)g * e + (UINT64_C(1) << 23)) >> 24);
+}
+
 /* The slack's root (comp.h): the Q7.8 word nearest sqrt(x) for x = T_c1 * S, a Q14.16 product
  * (T_c1 < S <= 2^14 LSB: x < 2^28). The bits of the root one at a time from 2^13 (r < 2^14), then
  * rounded to the nearest: r + 1 when x - r^2 > r, as (r + 1/2)^2 = r^2 + r + 1/4 and x is an
@@ -518,7 +573,8 @@ static uint32_t slack_root_q8(uint32_t x)
 static inline __attribute__((always_inline)) q7_8_t step_modes(comp_t *c, int32_t ref,
                                                                 int32_t diff, const int32_t dz,
                                                                 const int32_t brk,
-                                                                const int32_t slk)
+                                                                const int32_t slk,
+                                                                const int32_t vis)
 {
     const comp_config_t *cfg = &c->cfg;
     /* PREVIEW: the input is T_ref(t + P); the gain applies to T_ref(t + L), P - L inputs ago. */
@@ -589,6 +645,9 @@ static inline __attribute__((always_inline)) q7_8_t step_modes(comp_t *c, int32_
         }
         g = gd + (uq8_24_t)(((uint64_t)(gu - gd) * w) >> 30);
     }
+    if (vis != 0) {
+        g = vis_gain(c, t_eff, g, s);
+    }
 
     /* T_c = T_eff * G: Q7.8 (32-bit) * UQ8.24 = Q15.32 in int64 (< 2^47); round to Q7.8. */
     int64_t tc = (dz != 0) ? dz_step(c, t_eff, g)
@@ -611,12 +670,13 @@ static inline __attribute__((always_inline)) q7_8_t step_modes(comp_t *c, int32_
     return (q7_8_t)tc;
 }
 
-/* The step with the breakaway term or the slack's root (each, and the spread, tested at run
- * time): one copy for the target's code size, out of line so that its registers do not burden
- * the sharp law's path (inlined, the extra flags cost the sharp law 7 instructions a step). */
+/* The step with the breakaway term, the slack's root or the viscous term (each, and the spread,
+ * tested at run time): one copy for the target's code size, out of line so that its registers do
+ * not burden the sharp law's path (inlined, the extra flags cost the sharp law 7 instructions a
+ * step). */
 static __attribute__((noinline)) q7_8_t step_ext(comp_t *c, int32_t ref, int32_t diff)
 {
-    return step_modes(c, ref, diff, c->dz_on, c->brk_on, c->slk_on);
+    return step_modes(c, ref, diff, c->dz_on, c->brk_on, c->slk_on, c->vis_on);
 }
 
 q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
@@ -662,14 +722,35 @@ q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
             return (ref < cfg->tc_min_n_q8) ? (q7_8_t)cfg->tc_min_n_q8 : t_ref;
         }
         if (c->kind == COMP_KIND_BRK) {
-            /* One copy for the breakaway and the slack's root with or without a spread (each
-             * tested at run time): the target's code size, at a few tests per step on this
-             * rarer path. */
+            /* One copy for the breakaway, the slack's root and the viscous term with or without
+             * a spread (each tested at run time): the target's code size, at a few tests per
+             * step on this rarer path. */
             return step_ext(c, ref, diff);
         }
-        return step_modes(c, ref, diff, 1, 0, 0);
+        return step_modes(c, ref, diff, 1, 0, 0, 0);
     }
-    return step_modes(c, ref, diff, 0, 0, 0);
+    return step_modes(c, ref, diff, 0, 0, 0, 0);
+}
+
+int32_t comp_set_tick_rate_hz(comp_t *c, uint32_t hz)
+{
+    if (c == 0) {
+        return COMP_ERR_NULL;
+    }
+    if (hz < 1U || hz > COMP_TICK_RATE_MAX_HZ) {
+        return COMP_ERR_TICK_RATE;
+    }
+    /* 1/(tau f_tick) in Q.24 by one 32-bit division (100 * 2^24 < 2^31), rounded; held at 4
+     * below 25 Hz (a tick longer than four time constants: the weight 1 - e^-4 = 0.98), so that
+     * the exponential stays in fxp_exp_uq8_24's domain. */
+    const uint32_t per_s = 1000U / COMP_VISC_TAU_MS; /* 1/tau in Hz */
+    uint32_t q24 = ((per_s << 24) + hz / 2U) / hz;
+    if (q24 > (4U << 24)) {
+        q24 = 4U << 24;
+    }
+    c->tick_rate_hz = hz;
+    c->vis_alpha_q24 = (UINT32_C(1) << 24) - fxp_exp_uq8_24(-(q3_28_t)(q24 << 4));
+    return COMP_OK;
 }
 
 int32_t comp_set_exponent_q28(comp_t *c, q3_28_t x_q28)

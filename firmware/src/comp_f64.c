@@ -28,6 +28,7 @@ void comp_f64_config_default(comp_f64_config_t *cfg)
     cfg->dead_zone_spread = 0.0;
     cfg->breakaway = 0.0;
     cfg->slack_tension_n = 0.0;
+    cfg->mu_per_inlet_rate = 0.0;
 }
 
 /* s at the loading branch: B, or D ticks in PREVIEW (comp.h). */
@@ -151,6 +152,9 @@ int32_t comp_f64_config_check(const comp_f64_config_t *cfg)
     if (out_of(cfg->slack_tension_n, 0.0, 64.0)) {
         return COMP_ERR_SLACK;
     }
+    if (out_of(cfg->mu_per_inlet_rate, 0.0, 1.0 / 16.0)) {
+        return COMP_ERR_VISCOUS;
+    }
     if (cfg->mu_slope_per_n != 0.0) {
         /* Both gains are monotonic in |T|: check the end of the table (and its denominators). */
         double x = cfg->mu * cfg->phi_rad;
@@ -193,7 +197,21 @@ void comp_f64_reset(comp_f64_t *c)
     c->brk_dir = 0;
     c->brk_y = 0.0;
     c->brk_last = 0.0;
+    c->vis_fresh = 1;
+    c->vis_r = 0.0;
     c->blend = blend_top(&c->cfg);
+}
+
+int32_t comp_f64_set_tick_rate_hz(comp_f64_t *c, double hz)
+{
+    if (c == 0) {
+        return COMP_ERR_NULL;
+    }
+    if (out_of(hz, 1.0, (double)COMP_TICK_RATE_MAX_HZ)) {
+        return COMP_ERR_TICK_RATE;
+    }
+    c->tick_rate_hz = hz;
+    return COMP_OK;
 }
 
 void comp_f64_set_correction(comp_f64_t *c, double corr_n)
@@ -216,6 +234,8 @@ int32_t comp_f64_configure(comp_f64_t *c, const comp_f64_config_t *cfg)
     c->cfg = *cfg;
     c->blend = (c->dir > 0) ? blend_top(cfg) : 0.0;
     dz_setup(c);
+    c->vis_fresh = 1; /* the viscous term's rate starts again from rest (comp.c) */
+    c->vis_r = 0.0;
     return COMP_OK;
 }
 
@@ -229,6 +249,7 @@ void comp_f64_init(comp_f64_t *c)
     c->dir = 1;
     c->started = 0;
     c->cfg.preview_ticks = cfg.preview_ticks;
+    c->tick_rate_hz = 1000.0; /* the firmware's default tick_rate_hz */
     (void)comp_f64_configure(c, &cfg);
     comp_f64_reset(c);
 }
@@ -312,6 +333,20 @@ double comp_step_f64(comp_f64_t *c, double t_ref_n)
         f = exp(fmin(4.0, fmax(-4.0, l)));
     }
     double g = gd + (gu - gd) * w;
+    if (cfg->mu_per_inlet_rate > 0.0) {
+        /* The viscous term (comp.h): r_hat from G |dT_eff| f_tick, saturated and filtered with
+         * the FMU's 10 ms; the exponent grows by at most COMP_VISC_X_MAX on the branch. */
+        double d = (c->vis_fresh != 0) ? 0.0 : fabs(t_eff - c->vis_prev);
+        c->vis_fresh = 0;
+        c->vis_prev = t_eff;
+        double rate_fs = (double)COMP_VISC_RATE_FS_Q16 / 65536.0;
+        double in = fmin(g * d * c->tick_rate_hz, rate_fs);
+        double ticks = fmin(1000.0 / ((double)COMP_VISC_TAU_MS * c->tick_rate_hz), 4.0);
+        c->vis_r += (in - c->vis_r) * -expm1(-ticks); /* a tick in time constants, held at 4 */
+        double x_max = (double)COMP_VISC_X_MAX_Q28 / 268435456.0;
+        double x = fmin(cfg->mu_per_inlet_rate * cfg->phi_rad * c->vis_r, x_max);
+        g *= exp((2.0 * w - 1.0) * x);
+    }
     double tc = t_eff * g * f;
     if (cfg->breakaway > 0.0) {
         /* The breakaway term (comp.h): Y the extreme of T_c since the detector turned. */

@@ -152,7 +152,9 @@ int32_t fw_configure(fw_t *fw, const fw_config_t *cfg)
 
 void fw_configure_checked(fw_t *fw, const fw_config_t *cfg)
 {
-    /* The configuration passed fw_config_check, so neither of these can fail half-way. */
+    /* The configuration passed fw_config_check (the tick rate in [1, 65535] Hz among it), so
+     * none of these can fail half-way. */
+    (void)comp_set_tick_rate_hz(&fw->comp, cfg->tick_rate_hz); /* the viscous term's f_tick */
     (void)comp_configure(&fw->comp, &cfg->comp);
     (void)wave_configure(&fw->wave, &cfg->wave, cfg->tick_rate_hz);
     fw->cfg = *cfg;
@@ -398,6 +400,10 @@ const char *fw_strerror(int32_t code)
         return "comp.breakaway: outside [0, 0.25], or (2 * mu + 9/8 * breakaway) * phi exceeds 4";
     case COMP_ERR_SLACK:
         return "comp.slack_tension_n: outside [0, 64] N";
+    case COMP_ERR_VISCOUS:
+        return "comp.mu_per_inlet_rate: outside [0, 1/16] s/N";
+    case COMP_ERR_TICK_RATE:
+        return "tick_rate_hz: the compensator's tick outside [1, 65535] Hz";
     case WAVE_ERR_KIND:
         return "wave.kind: must be 0 (constant), 1 (sine), 2 (triangle), 3 (ramp) or 4 (step)";
     case WAVE_ERR_RATE:

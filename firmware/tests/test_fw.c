@@ -323,7 +323,7 @@ static void test_fw_bad_config(void)
         const char *what;
         fw_config_t cfg;
         int32_t code;
-    } bad[28];
+    } bad[30];
     int nb = 0;
 #define BAD(field, value, err)                                                                  \
     do {                                                                                        \
@@ -345,6 +345,8 @@ static void test_fw_bad_config(void)
     BAD(comp.breakaway_q28, -1, COMP_ERR_BREAKAWAY);
     BAD(comp.slack_tension_n_q8, COMP_SLACK_MAX_Q8 + 1, COMP_ERR_SLACK);
     BAD(comp.slack_tension_n_q8, -1, COMP_ERR_SLACK);
+    BAD(comp.mu_per_inlet_rate_q28, COMP_VISC_MAX_Q28 + 1, COMP_ERR_VISCOUS);
+    BAD(comp.mu_per_inlet_rate_q28, -1, COMP_ERR_VISCOUS);
     BAD(wave.kind, 9, WAVE_ERR_KIND);
     BAD(loop.kff, 32768, FW_ERR_KFF);
     BAD(loop.kp, -32769, FW_ERR_KP);
@@ -375,7 +377,7 @@ static void test_fw_bad_config(void)
     CHECK(fw_configure(0, &good) == FW_ERR_NULL && fw_configure(&fw, 0) == FW_ERR_NULL, "null");
     for (int32_t code = 1; code <= 56; ++code) {
         const char *m = fw_strerror(code);
-        int known = (code <= 16) || (code >= 20 && code <= 25) || (code >= 40);
+        int known = (code <= 18) || (code >= 20 && code <= 25) || (code >= 40);
         CHECK(known == (strcmp(m, "unknown status code") != 0), "code %ld: %s", (long)code, m);
     }
 }

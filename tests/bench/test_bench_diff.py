@@ -321,6 +321,7 @@ def test_sim_words_are_the_words_the_cosimulation_gives_the_firmware():
             "dead_zone_spread": 0.35,
             "breakaway": 0.02,
             "slack_tension_n": 3.4,
+            "mu_per_inlet_rate": 0.0027,
         },
     }
     mapped = {k for k in diff.SIM_TO_DEVICE if "." in k} | {"sample_rate_hz", "firmware_rate_hz"}

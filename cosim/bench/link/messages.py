@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PROTOCOL_VERSION = 3
-TABLE_HASH = 0x5C1CB81A
+TABLE_HASH = 0xA63D18ED
 MAX_PAYLOAD = 48
 CAN_NODE_BITS = 6
 CAN_MESSAGE_BITS = 5
@@ -1545,6 +1545,23 @@ PARAMS: tuple[Param, ...] = (
         16384,
         False,
     ),
+    Param(
+        60,
+        "comp.mu_per_inlet_rate",
+        "fw.comp.mu_per_inlet_rate_q28",
+        False,
+        28,
+        "s/N",
+        None,
+        False,
+        -2147483648,
+        2147483647,
+        0xAB9C29A1,
+        "friction's rise per inlet tension rate, Q3.28 s/N, [0, 1/16]",
+        0,
+        16777216,
+        False,
+    ),
 )
 PARAM_BY_NAME: dict[str, Param] = {p.name: p for p in PARAMS}
 
@@ -1596,4 +1613,5 @@ SIM_TO_DEVICE: dict[str, str] = {
     "compensator.dead_zone_spread": "comp.dead_zone_spread",
     "compensator.breakaway": "comp.breakaway",
     "compensator.slack_tension_n": "comp.slack_tension_n",
+    "compensator.mu_per_inlet_rate": "comp.mu_per_inlet_rate",
 }
