@@ -265,6 +265,8 @@ def load_library(path: Path | str | None = None) -> ctypes.CDLL:
         "comp_run_f64": (None, [vp, vp, vp, u32]),
         "comp_set_tick_rate_hz": (i32, [vp, u32]),
         "comp_f64_set_tick_rate_hz": (i32, [vp, dbl]),
+        "comp_hold_slack": (None, [vp, i32]),
+        "comp_f64_hold_slack": (None, [vp, i32]),
         "fxp_exp_uq8_24": (u32, [i32]),
         "fw_config_default": (None, [vp]),
         "fw_host_init": (None, [vp]),
@@ -649,6 +651,11 @@ class Compensator:
     def reset(self) -> None:
         self._lib.comp_reset(self._buf)
 
+    def hold_slack(self, held: bool) -> None:
+        """The slack's root held off (True) or in force (False) from the next step
+        (comp_hold_slack: the firmware holds it while the far-end cell is tared)."""
+        self._lib.comp_hold_slack(self._buf, 1 if held else 0)
+
     def step_word(self, t_ref_word: int) -> int:
         """One step on bus words: T_ref (Q7.8, int16) -> T_c (Q7.8, int16)."""
         if not Q7_8_MIN <= int(t_ref_word) <= Q7_8_MAX:
@@ -706,6 +713,10 @@ class CompensatorF64:
 
     def reset(self) -> None:
         self._lib.comp_f64_reset(self._buf)
+
+    def hold_slack(self, held: bool) -> None:
+        """comp_hold_slack's twin."""
+        self._lib.comp_f64_hold_slack(self._buf, 1 if held else 0)
 
     def step(self, t_ref_n: float) -> float:
         """One step: T_ref in N -> T_c in N (saturated to the Q7.8 range like the bus)."""

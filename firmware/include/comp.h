@@ -345,6 +345,8 @@ typedef struct {
     uq8_24_t brk_half;             /* e^(-b/2), UQ8.24 */
     uq8_24_t brk_half_up;          /* e^(+b/2), UQ8.24 */
     int32_t slk_on;                /* 1 when the slack's root is in force (slack_tension > 0) */
+    int32_t slk_held;              /* 1 while the slack's root is held off (comp_hold_slack; 0
+                                      after comp_reset) */
     int32_t vis_on;                /* 1 when the viscous term is in force (mu_per_inlet_rate > 0) */
     int32_t vis_fresh;             /* 1 until the next step sets vis_prev_q8 (no rate yet) */
     int32_t vis_prev_q8;           /* T_eff of the last step, Q7.8 in 32 bits */
@@ -416,6 +418,13 @@ int32_t comp_set_exponent_q28(comp_t *c, q3_28_t x_q28);
  * T_ref - offset + corr, corr clamped to [-16, 16] N (Q7.8). Not in mode NONE (T_c = T_ref).
  */
 void comp_set_correction_q8(comp_t *c, int32_t corr_q8);
+/*
+ * The slack's root held off (held != 0) or in force again (0) from the next step: while the
+ * far-end cell's zero is taken (fw.c) the cable must be slack, and the root lifts a small T_c
+ * to sqrt(T_c S), e.g. 0.54 N for 0.08 N with S = 3.6 N, above the tare's T_in ceiling
+ * (fric_est.h, tare_max). 0 (in force) after comp_reset.
+ */
+void comp_hold_slack(comp_t *c, int32_t held);
 /* The reference the last step applied its gain to (T_ref(t + L) in PREVIEW, else T_ref), Q7.8:
  * what the output should read now. */
 int32_t comp_applied_ref_q8(const comp_t *c);

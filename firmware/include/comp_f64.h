@@ -44,6 +44,7 @@ typedef struct {
     double line[COMP_PREVIEW_MAX_TICKS + 1]; /* PREVIEW: the last P + 1 inputs */
     int32_t line_pos;
     double corr_n; /* the far-end output correction added to T_eff, N (0 after a reset) */
+    int32_t slk_held; /* 1 while the slack's root is held off (0 after a reset) */
     int32_t dz_on;    /* the dead-zone inverse in force (comp.h) */
     int32_t dz_fresh; /* 1 until the plays are set at the next step */
     double dz_r[COMP_DZ_PLAYS]; /* thresholds r'_i of the inverse PI model (i >= 1) */
@@ -70,6 +71,9 @@ void comp_f64_reset(comp_f64_t *c);
 /* The far-end output correction (comp_set_correction_q8's twin): T_eff = T_ref - offset + corr,
  * corr clamped to [-16, 16] N; not in mode NONE. */
 void comp_f64_set_correction(comp_f64_t *c, double corr_n);
+/* comp_hold_slack's twin: the slack's root held off (held != 0) or in force (0) from the next
+ * step; in force after a reset. */
+void comp_f64_hold_slack(comp_f64_t *c, int32_t held);
 /* comp_set_tick_rate_hz's twin: f_tick in Hz, [1, 65535] (COMP_ERR_TICK_RATE outside); 1000 Hz
  * after comp_f64_init. */
 int32_t comp_f64_set_tick_rate_hz(comp_f64_t *c, double hz);

@@ -294,6 +294,7 @@ void comp_reset(comp_t *c)
     c->started = 0;
     c->line_pos = 0;
     c->corr_q8 = 0;
+    c->slk_held = 0;
     c->applied_q8 = 0;
     c->dz_fresh = 1;
     c->brk_dir = 0; /* no reversal yet: the first branch carries no breakaway */
@@ -676,7 +677,8 @@ static inline __attribute__((always_inline)) q7_8_t step_modes(comp_t *c, int32_
  * step). */
 static __attribute__((noinline)) q7_8_t step_ext(comp_t *c, int32_t ref, int32_t diff)
 {
-    return step_modes(c, ref, diff, c->dz_on, c->brk_on, c->slk_on, c->vis_on);
+    return step_modes(c, ref, diff, c->dz_on, c->brk_on, c->slk_on != 0 && c->slk_held == 0,
+                      c->vis_on);
 }
 
 q7_8_t comp_step_q7_8(comp_t *c, q7_8_t t_ref)
@@ -778,6 +780,11 @@ void comp_set_correction_q8(comp_t *c, int32_t corr_q8)
 {
     const int32_t m = 16 * Q7_8_ONE;
     c->corr_q8 = (corr_q8 > m) ? m : (corr_q8 < -m) ? -m : corr_q8;
+}
+
+void comp_hold_slack(comp_t *c, int32_t held)
+{
+    c->slk_held = (held != 0);
 }
 
 int32_t comp_applied_ref_q8(const comp_t *c)

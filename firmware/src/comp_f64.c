@@ -193,6 +193,7 @@ void comp_f64_reset(comp_f64_t *c)
     c->started = 0;
     c->line_pos = 0;
     c->corr_n = 0.0;
+    c->slk_held = 0;
     c->dz_fresh = 1;
     c->brk_dir = 0;
     c->brk_y = 0.0;
@@ -217,6 +218,11 @@ int32_t comp_f64_set_tick_rate_hz(comp_f64_t *c, double hz)
 void comp_f64_set_correction(comp_f64_t *c, double corr_n)
 {
     c->corr_n = fmin(16.0, fmax(-16.0, corr_n));
+}
+
+void comp_f64_hold_slack(comp_f64_t *c, int32_t held)
+{
+    c->slk_held = (held != 0);
 }
 
 int32_t comp_f64_configure(comp_f64_t *c, const comp_f64_config_t *cfg)
@@ -375,7 +381,7 @@ double comp_step_f64(comp_f64_t *c, double t_ref_n)
             c->brk_y = tc;
         }
     }
-    if (tc > 0.0 && tc < cfg->slack_tension_n) {
+    if (c->slk_held == 0 && tc > 0.0 && tc < cfg->slack_tension_n) {
         tc = sqrt(tc * cfg->slack_tension_n); /* the slack's root (comp.h), in [T_c1, S] */
     }
     return tc;

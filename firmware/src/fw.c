@@ -318,13 +318,17 @@ q7_8_t fw_tick(fw_t *fw, q7_8_t host_t_ref)
             int32_t corr = fric_corr_step(&fw->corr, comp_applied_ref_q8(&fw->comp), t->t_in,
                                           t_out, code, l->adc_min, l->adc_max, flags,
                                           comp_blend_q1_30(&fw->comp), lim);
-            if (fw->corr.tared == 0 && fw->corr.faults == 0U) {
+            const int32_t taring = (fw->corr.tared == 0 && fw->corr.faults == 0U);
+            if (taring) {
                 /* Until the far-end zero is taken the compensator aims without its tension
                  * offset: the tare needs a slack cable (T_in <= tare_max_n), and an offset of
                  * -0.52 N from calibrate lifted T_in to 0.97 N there, so that TARE latched and
                  * the correction stayed off for the whole run. |offset_n| <= 64 N. */
                 corr = fw->cfg.comp.offset_n_q8;
             }
+            /* ... and without the slack's root, which lifted fig14's first few mN to 0.5 N and
+             * more (sqrt(T_c S)) with the slack of 3.6 N calibrate proposed: TARE again. */
+            comp_hold_slack(&fw->comp, taring);
             comp_set_correction_q8(&fw->comp, corr);
             t->corr_n_q8 = corr;
             t->corr_faults = fw->corr.faults;

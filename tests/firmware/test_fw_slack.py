@@ -148,3 +148,30 @@ def test_the_term_mends_the_fmus_slack_open_loop():
     rms_today, peak_today = preview_open_loop_pct(plant, slack_tension_n=0.0)
     assert rms <= BUDGET[0] and peak <= BUDGET[1], (rms, peak, rms_today, peak_today)
     assert rms < 0.7 * rms_today and peak < 0.8 * peak_today, (rms, rms_today, peak, peak_today)
+
+
+@pytest.mark.parametrize("name", ["paper", "preview-spread-breakaway"])
+def test_a_held_root_gives_the_law_without_the_slack_and_both_twins_hold_it(name):
+    """comp_hold_slack (the firmware holds the root while the far-end cell is tared): held, every
+    step is the law without the slack bit for bit, in both twins; released, the root is back from
+    the next step, the same words as a compensator never held (the root keeps no state)."""
+    params = CONFIGS[name]
+    without = fw.CompensatorParams(**{**params.__dict__, "slack_tension_n": 0.0})
+    # from rest up through the slack, then reversals between 2 and 14 N
+    refs = np.concatenate([np.linspace(0.0, 8.0, 800), reference()])
+    words = fw.tension_words(refs).astype(np.int16)
+    half = len(words) // 2
+    held, plain, never = fw.Compensator(params), fw.Compensator(without), fw.Compensator(params)
+    held.hold_slack(True)
+    first = held.run_words(words[:half])
+    assert np.array_equal(first, plain.run_words(words[:half]))
+    held.hold_slack(False)
+    assert not np.array_equal(first, never.run_words(words[:half]))  # the root acts there
+    assert np.array_equal(held.run_words(words[half:]), never.run_words(words[half:]))
+    twin, twin_plain = fw.CompensatorF64(params.quantized()), fw.CompensatorF64(without.quantized())
+    twin.hold_slack(True)
+    assert np.array_equal(twin.run(words[:half] * LSB), twin_plain.run(words[:half] * LSB))
+    # a reset puts the root back in force
+    held.reset()
+    never.reset()
+    assert np.array_equal(held.run_words(words), never.run_words(words))
