@@ -90,6 +90,9 @@ def fingerprint() -> str:
         h.update(path.read_bytes())
     params = (CLKS_PER_SAMPLE, PAIR_CLKS_PER_SAMPLE)
     h.update(repr((VERILATOR_ARGS, CXXFLAGS, MAKEFLAGS, params, version)).encode())
+    # the library is linked with an rpath to this checkout's firmware library: a build folder
+    # copied or moved to another checkout must be built again, or it runs the other's firmware
+    h.update(str(FW_LIB.resolve()).encode())
     return h.hexdigest()
 
 
