@@ -10,7 +10,7 @@ a grid's plant axes are crossed, a random spec draws one plant per point):
    controller (the stepped emulator, at the home position) with that plant: the tare of the
    far-end load cell, the identification, the audit, and the compensator values it proposes
    (comp.mu, comp.offset_n, comp.mu_slope_per_n, comp.dead_zone_spread, comp.breakaway,
-   comp.slack_tension_n),
+   comp.slack_tension_n, comp.mu_per_inlet_rate),
    clipped to the compensator's limits where they lie beyond (without calibrate's prediction
    runs, which only print what it expects);
 2. the spec's runs of that plant (cosim.studies.sweep.run: fig14 6 s, board interface, the
@@ -36,7 +36,7 @@ compensator aims the cable's tension at T_ref, not the cell's reading. The JSON
     python -m cosim.studies.calibrated_robustness [--spec SPEC.yaml] [--workers 2] [--out DIR]
         [--limit N] [--no-tare] [--reuse] [--calibrations DIR] [--leave KEY ...]
         [--params FILE] [--set KEY=VALUE ...] [--score-from-s S] [--breakaway-share K]
-        [--slack-sources S,...]
+        [--slack-sources S,...] [--viscous-sources S,...] [--breakaway-sources S,...]
 
 Without --spec: cosim/studies/sweep/examples/robustness_estimator.yaml (the robustness grid:
 plant mu, cable_EA and current_bandwidth at -20 % / nominal / +20 %, 27 plants, five positions).
@@ -64,7 +64,10 @@ COMP_KEYS = (
     "compensator.dead_zone_spread",
     "compensator.breakaway",
     "compensator.slack_tension_n",
+    "compensator.mu_per_inlet_rate",
 )
+# The audit's records a term seen by the audit can be proposed from (calibrate.seen_by_audit).
+SOURCES = ("finding", "joint", "candidate", "any_round")
 
 
 # What --params and --set may lay over the runs: the spec owns the plant, the board and the
@@ -142,6 +145,8 @@ def calibrate_plant(
     reuse: bool = False,
     breakaway_share: float | None = None,
     slack_sources: tuple[str, ...] | None = None,
+    viscous_sources: tuple[str, ...] | None = None,
+    breakaway_sources: tuple[str, ...] | None = None,
 ) -> dict:
     """The compensator values `calibrate` proposes for an emulated plant (FMU parameters), as
     the sweep's config keys (compensator.mu, ...), the decision and reason of each, and the
@@ -150,7 +155,9 @@ def calibrate_plant(
     `breakaway_share` asks for another share than calibrate's, the breakaway is proposed from
     its findings as calibrate does (cosim.bench.rig.calibrate.breakaway_of_report); the same for
     the slack (slack_of_report, from the report and its audit's record), from `slack_sources`
-    rather than calibrate's SLACK_SOURCES when given."""
+    rather than calibrate's SLACK_SOURCES when given, the rate term (viscous_of_report) from
+    `viscous_sources` rather than VISCOUS_SOURCES, and the breakaway from `breakaway_sources`
+    rather than BREAKAWAY_SOURCES."""
     from cosim.bench.link.api import Bench  # noqa: PLC0415
     from cosim.bench.rig import calibrate as cal  # noqa: PLC0415
 
@@ -165,36 +172,32 @@ def calibrate_plant(
                 bench.client, bench.info(), opts, say=lambda _: None
             ).report
     names = {c["name"] for c in report["changes"]}
-    if "comp.breakaway" not in names or breakaway_share is not None:
+    before: dict = {}
+
+    def folder_before() -> dict:  # the device's values, read once and only when needed
+        if not before:
+            before.update(_device_before(Path(folder)))
+        return before
+
+    # the audit's rounds; a calibration kept without its audit's record gives its findings and
+    # joint fit alone
+    record = Path(folder) / "audit" / "audit.json"
+    audit = json.loads(record.read_text()) if record.is_file() else {}
+    if (
+        "comp.breakaway" not in names
+        or breakaway_share is not None
+        or breakaway_sources is not None
+    ):
         share = cal.BREAKAWAY_SHARE if breakaway_share is None else breakaway_share
-        b = cal.breakaway_of_report(report, _device_before(Path(folder)), share)
-        report["changes"] = [c for c in report["changes"] if c["name"] != b.name]
-        report["changes"].append(
-            {
-                "name": b.name,
-                "status": b.status,
-                "proposed": b.proposed,
-                "current": b.current,
-                "reason": b.reason,
-            }
-        )
+        sources = cal.BREAKAWAY_SOURCES if breakaway_sources is None else breakaway_sources
+        b = cal.breakaway_of_report(report, folder_before(), share, audit, sources)
+        _replace_change(report, b)
     if "comp.slack_tension_n" not in names or slack_sources is not None:
-        # the audit's rounds; a calibration kept without its audit's record gives its findings
-        # and joint fit alone
-        record = Path(folder) / "audit" / "audit.json"
-        audit = json.loads(record.read_text()) if record.is_file() else {}
         sources = cal.SLACK_SOURCES if slack_sources is None else slack_sources
-        sl = cal.slack_of_report(report, audit, _device_before(Path(folder)), sources)
-        report["changes"] = [c for c in report["changes"] if c["name"] != sl.name]
-        report["changes"].append(
-            {
-                "name": sl.name,
-                "status": sl.status,
-                "proposed": sl.proposed,
-                "current": sl.current,
-                "reason": sl.reason,
-            }
-        )
+        _replace_change(report, cal.slack_of_report(report, audit, folder_before(), sources))
+    if "comp.mu_per_inlet_rate" not in names or viscous_sources is not None:
+        sources = cal.VISCOUS_SOURCES if viscous_sources is None else viscous_sources
+        _replace_change(report, cal.viscous_of_report(report, audit, folder_before(), sources))
     out = {}
     for c in report["changes"]:
         key = "compensator." + c["name"].split(".", 1)[1]
@@ -207,6 +210,20 @@ def calibrate_plant(
     out["tare_n"] = report["tare"]["offset_n"]
     out["wall_s"] = time.perf_counter() - t0
     return out
+
+
+def _replace_change(report: dict, c) -> None:
+    """A proposal decided again (a calibrate.Change) in place of the report's own."""
+    report["changes"] = [x for x in report["changes"] if x["name"] != c.name]
+    report["changes"].append(
+        {
+            "name": c.name,
+            "status": c.status,
+            "proposed": c.proposed,
+            "current": c.current,
+            "reason": c.reason,
+        }
+    )
 
 
 def _device_before(folder: Path) -> dict:
@@ -275,6 +292,20 @@ def _stats(values) -> tuple[float, float]:
     return float(np.median(a)), float(a.max())
 
 
+def _sources(option: str, text: str | None) -> tuple[str, ...] | None:
+    """An option's comma-separated sources of the audit's records (SOURCES; 'none' for none),
+    None when the option is not given; ValueError naming the first bad one."""
+    if text is None:
+        return None
+    sources = tuple(s for s in text.split(",") if s and s != "none")
+    bad = [s for s in sources if s not in SOURCES]
+    if bad:
+        raise ValueError(
+            f"{option}: expected {', '.join(SOURCES)} or none, comma-separated; got {bad[0]!r}"
+        )
+    return sources
+
+
 PROG = "calibrated_robustness"
 
 
@@ -340,6 +371,20 @@ def main(argv: list[str] | None = None) -> int:
         "(calibrate.SLACK_SOURCES: what each source is worth)",
     )
     ap.add_argument(
+        "--viscous-sources",
+        metavar="S,...",
+        help="propose comp.mu_per_inlet_rate from these of the audit's records, the first "
+        "that holds a viscous friction (as --slack-sources; 'none' for no rate term) rather than "
+        "calibrate's (calibrate.VISCOUS_SOURCES)",
+    )
+    ap.add_argument(
+        "--breakaway-sources",
+        metavar="S,...",
+        help="propose comp.breakaway from these of the audit's records, the first that holds a "
+        "static friction (as --slack-sources; 'none' for no breakaway) rather than calibrate's "
+        "(calibrate.BREAKAWAY_SOURCES)",
+    )
+    ap.add_argument(
         "--params",
         metavar="FILE",
         help="a params file (compensator and controller only) laid over every run, after "
@@ -361,17 +406,13 @@ def main(argv: list[str] | None = None) -> int:
     except (SpecError, ValueError) as exc:
         print(f"calibrated_robustness: {exc}", file=sys.stderr)
         return 2
-    slack_sources = None
-    if args.slack_sources is not None:
-        slack_sources = tuple(s for s in args.slack_sources.split(",") if s and s != "none")
-        bad = [s for s in slack_sources if s not in ("finding", "joint", "candidate", "any_round")]
-        if bad:
-            print(
-                f"calibrated_robustness: --slack-sources: expected finding, joint, candidate, "
-                f"any_round or none, comma-separated; got {bad[0]!r}",
-                file=sys.stderr,
-            )
-            return 2
+    try:
+        slack_sources = _sources("--slack-sources", args.slack_sources)
+        viscous_sources = _sources("--viscous-sources", args.viscous_sources)
+        breakaway_sources = _sources("--breakaway-sources", args.breakaway_sources)
+    except ValueError as exc:
+        print(f"calibrated_robustness: {exc}", file=sys.stderr)
+        return 2
     start = args.score_from_s
     if start is not None and not 0.0 <= start < (spec.duration_s or np.inf):
         print(
@@ -403,6 +444,8 @@ def main(argv: list[str] | None = None) -> int:
                 args.reuse,
                 args.breakaway_share,
                 slack_sources,
+                viscous_sources,
+                breakaway_sources,
             )
             for i, k in enumerate(keys)
         ]
@@ -416,7 +459,8 @@ def main(argv: list[str] | None = None) -> int:
                 f"{comp['compensator.mu']:.5f}, offset {comp['compensator.offset_n']:.3g} N, "
                 f"slope {comp['compensator.mu_slope_per_n']:.3g} /N, breakaway "
                 f"{comp['compensator.breakaway']:.3g}, slack "
-                f"{comp['compensator.slack_tension_n']:.3g} N, dead-zone spread "
+                f"{comp['compensator.slack_tension_n']:.3g} N, rate term "
+                f"{comp['compensator.mu_per_inlet_rate']:.3g} s/N, dead-zone spread "
                 f"{comp['compensator.dead_zone_spread']:.3g} ({comp['decisions']})"
             )
             for name, why in comp["reasons"].items():

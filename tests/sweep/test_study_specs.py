@@ -264,6 +264,7 @@ def test_a_run_the_firmware_refuses_is_one_line(tmp_path, capsys):
             {"name": "comp.dead_zone_spread", "proposed": 0.0} | change,
             {"name": "comp.breakaway", "proposed": 0.0} | change,
             {"name": "comp.slack_tension_n", "proposed": 0.0} | change,
+            {"name": "comp.mu_per_inlet_rate", "proposed": 0.0} | change,
         ],
         "tare": {"offset_n": 0.0},
     }

@@ -20,7 +20,9 @@ The steps (cosim/bench/README.md, "Calibration", says why each piece is there):
    the dead zone's spread, a parameter of
    the audit's nominal model, without that rule: UNGATED; the breakaway, comp.breakaway, from the
    audit's static friction finding, which passed that rule as a finding; the slack,
-   comp.slack_tension_n, from the slack the audit saw: SLACK_SOURCES), and only when the
+   comp.slack_tension_n, from the slack the audit saw: SLACK_SOURCES; the friction with the
+   cable's speed, comp.mu_per_inlet_rate, from the viscous friction it saw: VISCOUS_SOURCES),
+   and only when the
    compensator takes it
    (the firmware's configuration check through cosim.parts.firmware). A value the compensator does
    not take is clipped to the nearest one it takes on the way from the device's value (status
@@ -124,6 +126,9 @@ UNGATED_MIN_STEP = {"comp.dead_zone_spread": 0.05}
 # breakaway term").
 BREAKAWAY_AUDIT_PARAM = "mu_static_excess"
 BREAKAWAY_SHARE = 1.0
+# ... from the first of BREAKAWAY_SOURCES that holds a static friction (the slack's sources
+# below: "finding" is the finding alone).
+BREAKAWAY_SOURCES = ("finding",)
 # mu with what the audit saw but did not name (`joint_mu`): when the audit's rule refuses the
 # extended model's mu against the device's, mu is fitted again with the findings and every cause
 # of the audit's last round that removed at least JOINT_MIN_PCT % of the selection blocks'
@@ -145,6 +150,21 @@ JOINT_MIN_PCT = 35.0
 # candidate caught slack the later rounds' findings had made look smaller, on two of 24 plants).
 SLACK_AUDIT_PARAM = "slack_tension"
 SLACK_SOURCES = ("finding", "joint", "any_round")
+# The friction that grows with the cable's speed (comp.mu_per_inlet_rate, comp.h: mu + m_r times
+# the inlet tension's predicted rate) is proposed from the viscous friction the audit saw, by the
+# first of VISCOUS_SOURCES that holds one (the sources as the slack's), in either of its forms:
+# the inlet tension's rate (`mu_viscous_tension_rate`, s/N: m_r itself) or the cable's speed at
+# the inlet (`mu_viscous`, s/m), which on a sliding branch is the inlet tension's rate times the
+# cable's compliance inside the sheath and the load cell's give
+# (cosim.parts.firmware.mu_per_inlet_rate_of_cable_speed, at the audit's mu, phi and sheath
+# length and the FMU's cable_EA, which the audit's twin takes: only the product is observed),
+# the mean of the loading and the unloading branch's (the compensator has one m_r). Not with the
+# far-end correction in service (corr.enable 1): its reversal table learns the same periodic
+# error, and the two together tracked worse than the correction alone. The sources and that rule
+# were chosen on the tuning set of random plants (docs/results.md, "Friction with the cable's
+# speed").
+VISCOUS_AUDIT_PARAMS = ("mu_viscous_tension_rate", "mu_viscous")
+VISCOUS_SOURCES = ("finding", "joint")
 # What a run changes on the device (record_run) and calibrate puts back.
 RUN_PARAMS = ("source", "wave.kind", "wave.mean_n", "wave.amplitude_n", "wave.freq_hz")
 # What the prediction's emulated controller takes from the device: what shapes tracking
@@ -377,9 +397,6 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
             )
         changes.append(c)
     findings = {f.effect.fmu_param: float(f.value) for f in result.findings}
-    changes.append(
-        breakaway_change(findings.get(BREAKAWAY_AUDIT_PARAM), phi_a, device, phi_device_rad)
-    )
     rounds = [
         [
             {
@@ -395,7 +412,19 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
         for rnd in result.rounds
     ]
     joint_params = next((c.stats.get("joint_params") for c in changes if c.name == "comp.mu"), None)
+    brk = seen_by_audit(
+        (BREAKAWAY_AUDIT_PARAM,), "static friction", findings, joint_params, rounds,
+        BREAKAWAY_SOURCES,
+    )  # fmt: skip
+    changes.append(breakaway_change(brk[1], phi_a, device, phi_device_rad, source=brk[2]))
     changes.append(slack_change(*slack_seen(findings, joint_params, rounds), device))
+    seen = seen_by_audit(
+        VISCOUS_AUDIT_PARAMS, "viscous friction", findings, joint_params, rounds, VISCOUS_SOURCES
+    )
+    mu_a = float(ext.params.get("mu", device.get("comp.mu", 0.0)))
+    changes.append(
+        viscous_change(seen, mu_a, phi_a, data.inputs.sheath_length_m, device, phi_device_rad)
+    )
     _check_limits(changes, device, phi_device_rad)
     return changes
 
@@ -445,9 +474,10 @@ def breakaway_change(
     device: dict[str, float],
     phi_device_rad: float,
     share: float = BREAKAWAY_SHARE,
+    source: str = "its static friction finding",
 ) -> Change:
-    """comp.breakaway from the audit's static friction finding (`audit_value`, None without
-    one), before the compensator's limits (_check_limits)."""
+    """comp.breakaway from the static friction the audit saw (`audit_value` from `source`, None
+    without one), before the compensator's limits (_check_limits)."""
     name = "comp.breakaway"
     cur = float(device.get(name, 0.0))
     if audit_value is None:
@@ -467,19 +497,32 @@ def breakaway_change(
         c.reason = "the audit's value is the device's (to its resolution)"
         return c
     c.proposed, c.status = target, "change"
-    c.reason = f"is its static friction finding ({BREAKAWAY_AUDIT_PARAM} {_fmt(audit_value)})" + (
+    c.reason = f"is {source} ({BREAKAWAY_AUDIT_PARAM} {_fmt(audit_value)})" + (
         f" times the share {share:g}" if share != 1.0 else ""
     )
     return c
 
 
-def breakaway_of_report(report: dict, device: dict, share: float = BREAKAWAY_SHARE) -> Change:
-    """calibrate's comp.breakaway for a calibration report written before it proposed one (its
-    findings, bending angles and the other applied proposals), judged on the compensator's
-    limits with those proposals: what `propose` gives for the same audit."""
+def breakaway_of_report(
+    report: dict,
+    device: dict,
+    share: float = BREAKAWAY_SHARE,
+    audit: dict | None = None,
+    sources: tuple[str, ...] = BREAKAWAY_SOURCES,
+) -> Change:
+    """calibrate's comp.breakaway for a calibration report (its findings, bending angles and the
+    other applied proposals) and its audit's record (`audit`, for the sources beyond the
+    findings), judged on the compensator's limits with those proposals: what `propose` gives
+    for the same audit."""
     a = report["audit"]
-    value = next((f["value"] for f in a["findings"] if f["param"] == BREAKAWAY_AUDIT_PARAM), None)
-    c = breakaway_change(value, a["phi_rad"], device, report["device_phi_rad"], share)
+    findings = {f["param"]: f["value"] for f in a["findings"]}
+    mu = next((c for c in report["changes"] if c["name"] == "comp.mu"), {})
+    joint_params = (mu.get("stats") or {}).get("joint_params")
+    rounds = [r["candidates"] for r in (audit or {}).get("rounds") or []]
+    _, value, source = seen_by_audit(
+        (BREAKAWAY_AUDIT_PARAM,), "static friction", findings, joint_params, rounds, sources
+    )
+    c = breakaway_change(value, a["phi_rad"], device, report["device_phi_rad"], share, source)
     return _judged_with_the_rest(c, report, device)
 
 
@@ -494,18 +537,55 @@ def _judged_with_the_rest(c: Change, report: dict, device: dict[str, float]) -> 
     return c
 
 
-def _slack_candidate(candidates: list[dict]) -> dict | None:
-    """The slack candidate among a round's (as the audit's record keeps them: cause, params,
-    selection_explains_pct, at_bound) that removed at least JOINT_MIN_PCT % of the selection
-    blocks' residual, not at a bound of its form, or None."""
+def _seen_candidate(candidates: list[dict], aparams: tuple[str, ...]) -> dict | None:
+    """The candidate among a round's (as the audit's record keeps them: cause, params,
+    selection_explains_pct, at_bound) that holds one of `aparams` and removed at least
+    JOINT_MIN_PCT % of the selection blocks' residual, not at a bound of its form, or None."""
     for c in candidates:
         if (
-            SLACK_AUDIT_PARAM in c["params"]
+            any(a in c["params"] for a in aparams)
             and c["at_bound"] is None
             and c["selection_explains_pct"] >= JOINT_MIN_PCT
         ):
             return c
     return None
+
+
+def seen_by_audit(
+    aparams: tuple[str, ...],
+    what: str,
+    findings: dict[str, float],
+    joint_params: dict | None,
+    rounds: list[list[dict]],
+    sources: tuple[str, ...],
+) -> tuple[str | None, float | None, str]:
+    """An effect the audit saw, in any of its FMU parameters `aparams` (the first named wins
+    within a source), by the first of `sources` that holds one: "finding" (the findings' values
+    by FMU parameter, which passed the audit's rule), "joint" (the joint fit of mu's parameters,
+    None when it did not run), "candidate" / "any_round" (_seen_candidate of the last round / of
+    every round, the one that removed the most). (the parameter, its value, where it was seen);
+    (None, None, "") when none does. `what` names the effect in the text."""
+    for source in sources:
+        if source == "finding":
+            got = next((a for a in aparams if a in findings), None)
+            if got is not None:
+                return got, float(findings[got]), f"its {what} finding"
+        if source == "joint" and joint_params:
+            got = next((a for a in aparams if a in joint_params), None)
+            if got is not None:
+                return got, float(joint_params[got]), f"the {what} the joint fit of mu found"
+        if any(a in findings for a in aparams) or source not in ("candidate", "any_round"):
+            continue
+        chosen = rounds[-1:] if source == "candidate" else rounds
+        seen = [c for c in (_seen_candidate(r, aparams) for r in chosen) if c is not None]
+        if seen:
+            c = max(seen, key=lambda c: c["selection_explains_pct"])
+            got = next(a for a in aparams if a in c["params"])
+            where = "last round's" if source == "candidate" else "rounds'"
+            pct = c["selection_explains_pct"]
+            text = f"its {where} {what} candidate ({pct:.0f} % of the selection residual)"
+            return got, float(c["params"][got]), text
+    return None, None, ""
 
 
 def slack_seen(
@@ -514,27 +594,12 @@ def slack_seen(
     rounds: list[list[dict]],
     sources: tuple[str, ...] = SLACK_SOURCES,
 ) -> tuple[float | None, str]:
-    """The slack tension (N) the audit saw and where it was seen, by the first of `sources` that
-    holds one (SLACK_SOURCES): the findings' values by FMU parameter, the joint fit's parameters
-    (None when it did not run), each round's candidates (_slack_candidate; "candidate": the last
-    round's, "any_round": the round's where it removed the most). (None, "") when none does."""
-    for source in sources:
-        if source == "finding" and SLACK_AUDIT_PARAM in findings:
-            return float(findings[SLACK_AUDIT_PARAM]), "its slack finding"
-        if source == "joint" and joint_params and SLACK_AUDIT_PARAM in joint_params:
-            return float(joint_params[SLACK_AUDIT_PARAM]), "the slack the joint fit of mu found"
-        if SLACK_AUDIT_PARAM in findings or source not in ("candidate", "any_round"):
-            continue
-        seen = [_slack_candidate(r) for r in (rounds[-1:] if source == "candidate" else rounds)]
-        seen = [c for c in seen if c is not None]
-        if seen:
-            c = max(seen, key=lambda c: c["selection_explains_pct"])
-            where = "last round's" if source == "candidate" else "rounds'"
-            return float(c["params"][SLACK_AUDIT_PARAM]), (
-                f"its {where} slack candidate ({c['selection_explains_pct']:.0f} % of the "
-                "selection residual)"
-            )
-    return None, ""
+    """The slack tension (N) the audit saw and where it was seen (seen_by_audit with
+    SLACK_SOURCES); (None, "") when it saw none."""
+    _, value, source = seen_by_audit(
+        (SLACK_AUDIT_PARAM,), "slack", findings, joint_params, rounds, sources
+    )
+    return value, source
 
 
 def slack_change(audit_value: float | None, source: str, device: dict[str, float]) -> Change:
@@ -564,6 +629,82 @@ def slack_of_report(
     joint_params = (mu.get("stats") or {}).get("joint_params")
     rounds = [r["candidates"] for r in audit.get("rounds") or []]
     c = slack_change(*slack_seen(findings, joint_params, rounds, sources), device)
+    return _judged_with_the_rest(c, report, device)
+
+
+def inlet_rate_friction(
+    aparam: str, value: float, mu: float, phi_rad: float, sheath_length_m: float
+) -> float:
+    """The audit's viscous friction (`aparam` of VISCOUS_AUDIT_PARAMS, its `value`) as mu's growth
+    per unit of the inlet tension's rate (s/N) at the audit's mu and phi: the tension-rate form
+    as it is, the cable-speed form through the cable's compliance (VISCOUS_AUDIT_PARAMS)."""
+    from cosim.parts.firmware import mu_per_inlet_rate_of_cable_speed  # noqa: PLC0415
+
+    if aparam == "mu_viscous_tension_rate":
+        return value
+    up, dn = mu_per_inlet_rate_of_cable_speed(value, mu, phi_rad, sheath_length_m)
+    return 0.5 * (up + dn)
+
+
+def viscous_change(
+    seen: tuple[str | None, float | None, str],
+    mu: float,
+    phi_audit_rad: float,
+    sheath_length_m: float,
+    device: dict[str, float],
+    phi_device_rad: float,
+) -> Change:
+    """comp.mu_per_inlet_rate from the viscous friction the audit saw (`seen`: seen_by_audit's
+    parameter, value and source), scaled like mu by the ratio of the bending angles (only the
+    product with phi is observed), before the compensator's limits (_check_limits)."""
+    name = "comp.mu_per_inlet_rate"
+    cur = float(device.get(name, 0.0))
+    aparam, value, source = seen
+    if aparam is None:
+        unseen = "the audit saw no friction with the cable's speed"
+        return _term_off(name, VISCOUS_AUDIT_PARAMS[0], cur, unseen, "the rate term")
+    if device.get("corr.enable", 0.0) != 0.0:
+        served = "the far-end correction is in service (corr.enable 1) and learns that error"
+        return _term_off(name, aparam, cur, served, "the rate term")
+    scale = phi_audit_rad / phi_device_rad if phi_device_rad > 0 else math.nan
+    m_r = inlet_rate_friction(aparam, value, mu, phi_audit_rad, sheath_length_m)
+    if not math.isfinite(scale):
+        c = Change(name, aparam, cur, None, value, None, "refused", "")
+        c.reason = (
+            f"comp.phi_rad is {phi_device_rad:g}: the device's rate term cannot be set "
+            "(set comp.phi_rad first)"
+        )
+        return c
+    target = m_r * scale
+    c = Change(name, aparam, cur, None, value, None, "unchanged", "")
+    if _same_word(param(name), target, cur):
+        c.reason = "the audit's value is the device's (to its resolution)"
+        return c
+    c.proposed, c.status = target, "change"
+    unit = "s/N" if aparam == "mu_viscous_tension_rate" else "s/m"
+    c.reason = f"is {source} ({aparam} {_fmt(value)} {unit})"
+    return c
+
+
+def viscous_of_report(
+    report: dict, audit: dict, device: dict, sources: tuple[str, ...] = VISCOUS_SOURCES
+) -> Change:
+    """calibrate's comp.mu_per_inlet_rate for a calibration report and its audit's record, judged
+    on the compensator's limits with the report's other applied proposals: what `propose` gives
+    for the same audit (the sheath's length from the record, 1 m, the audit's default, without
+    one)."""
+    findings = {f["param"]: f["value"] for f in report["audit"]["findings"]}
+    mu = next((c for c in report["changes"] if c["name"] == "comp.mu"), {})
+    joint_params = (mu.get("stats") or {}).get("joint_params")
+    rounds = [r["candidates"] for r in audit.get("rounds") or []]
+    seen = seen_by_audit(
+        VISCOUS_AUDIT_PARAMS, "viscous friction", findings, joint_params, rounds, sources
+    )
+    a = report["audit"]
+    length = float((audit.get("data") or {}).get("sheath_length_m", 1.0))
+    # the audit's mu (a report from before it was kept: the device's, in the audit's terms)
+    mu_a = a.get("mu", device.get("comp.mu", 0.0) * report["device_phi_rad"] / a["phi_rad"])
+    c = viscous_change(seen, mu_a, a["phi_rad"], length, device, report["device_phi_rad"])
     return _judged_with_the_rest(c, report, device)
 
 
