@@ -1018,7 +1018,9 @@ def gen_md(spec: Spec) -> str:
     w(
         "Above that, `dev.telemetry_div` thins the telemetry (every channel's alike; the loops "
         f"still run every tick): with 4 channels at 1 kHz, {b['serial_div_4ch']} on the UART and "
-        f"{b['can_div_4ch']} on CAN. The serial "
+        f"{b['can_div_4ch']} on CAN. Channel k then sends the samples with sample % div == k % div "
+        "(the channels' frames spread over the ticks; channel 0's are those of a one-channel "
+        "device). The serial "
         "figures count the COBS overhead of a frame under 254 bytes and its delimiter; the CAN "
         "figures the worst-case bit stuffing and the interframe space."
     )

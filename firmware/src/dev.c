@@ -799,11 +799,15 @@ static void send_telemetry(dev_t *d, uint32_t c, uint32_t time_us, int32_t t_out
     }
 }
 
-/* Whether channel c's sample has a telemetry frame: sample % div == 0. The ticks left to the next
- * such sample are counted down; the division is done only where counting would go wrong: a count
- * that did not step by one from the channel's last (a new run), its wrap to 0 (2^32 need not be a
- * multiple of div) and a changed div. The soft CPU has no divider: its division routine cost some
- * 190 clocks a cable at every tick. */
+/* Whether channel c's sample has a telemetry frame: sample % div == c % div. Each channel keeps
+ * its rate (a frame every div samples) and the channels' frames are spread over the ticks: with
+ * four channels at div 2, channels 0 and 2 send on even samples and 1 and 3 on odd ones, so no
+ * tick encodes every channel's frame (on the soft CPU a frame is some 1 700 clocks: four in one
+ * tick took the tick past half its period). One channel, or div 1, sends what it always sent.
+ * The ticks left to the next such sample are counted down; the division is done only where
+ * counting would go wrong: a count that did not step by one from the channel's last (a new run),
+ * its wrap to 0 (2^32 need not be a multiple of div) and a changed div. The soft CPU has no
+ * divider: its division routine cost some 190 clocks a cable at every tick. */
 static int telemetry_due(dev_t *d, uint32_t c, uint32_t sample, uint32_t div)
 {
     if (div == 1U) { /* every sample; a divisor set later differs from tel_div and is divided */
@@ -811,9 +815,10 @@ static int telemetry_due(dev_t *d, uint32_t c, uint32_t sample, uint32_t div)
         return 1;
     }
     if (sample == 0U || sample != d->tel_sample[c] + 1U || div != d->tel_div[c]) {
-        const uint32_t r = (div == 1U) ? 0U : sample % div;
+        const uint32_t r = sample % div;
+        const uint32_t slot = (c < div) ? c : c % div; /* c < BOWDEN_CHANNELS_MAX: rarely divided */
         d->tel_div[c] = div;
-        d->tel_left[c] = (r == 0U) ? 0U : div - r;
+        d->tel_left[c] = (r <= slot) ? slot - r : slot + div - r;
     }
     d->tel_sample[c] = sample;
     if (d->tel_left[c] != 0U) {

@@ -257,8 +257,11 @@ def record_run(
             position_m,
             estimate=not isinstance(client.link, CanLink),
         )
-    result = RunResult(expected=len(channels) * ((ticks + div - 1) // div))
-    next_by_channel = dict.fromkeys(channels, 0)
+    # Channel c's frames are the samples with sample % div == c % div (the device spreads the
+    # channels' frames over the ticks: firmware/README.md, "Telemetry of several channels").
+    first = {c: c % div for c in channels}
+    result = RunResult(expected=sum(max(0, (ticks - first[c] + div - 1) // div) for c in channels))
+    next_by_channel = dict(first)
     last_report = 0.0
     t0 = time.monotonic()
 

@@ -311,10 +311,61 @@ static void test_channels_run_of_some_channels(void)
           "FAULTS without a channel: channel 0's");
 }
 
+/* With dev.telemetry_div above 1, channel c sends the samples with sample % div == c % div: each
+ * channel its frame every div samples, in channel order within a tick, the channels' frames
+ * spread over the ticks (no more than ceil(channels / div) in one). Divisors 2 and 3 (the latter
+ * set within the run) and 1 (every channel every tick). */
+static void test_channels_telemetry_spread_over_ticks(void)
+{
+    static const struct {
+        uint32_t div;
+        uint32_t div_then; /* from tick 11 on */
+    } cases[] = {{2U, 2U}, {3U, 3U}, {2U, 3U}, {1U, 1U}, {3U, 1U}};
+    for (uint32_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
+        dev_host_init_channels(&many, 3U);
+        for (uint32_t c = 0; c < 3U; ++c) {
+            (void)set_on(&many, c, PROTO_PID_SOURCE, FW_SOURCE_WAVE);
+        }
+        (void)set_on(&many, 0U, PROTO_PID_DEV_TELEMETRY_DIV, (int32_t)cases[k].div);
+        CHECK(start_mask(&many, 2000U, -1).msg == PROTO_MSG_ACK, "start");
+        const int32_t t_out[3] = {0, 0, 0};
+        uint32_t wrong = 0U, sent[3] = {0U, 0U, 0U}, due[3] = {0U, 0U, 0U};
+        for (uint32_t i = 0; i < 30U; ++i) {
+            if (i == 11U) { /* PARAM_SET refuses during a run; a changed setting is obeyed */
+                for (uint32_t c = 0; c < 3U; ++c) {
+                    many.dev.settings[c].dev.telemetry_div = cases[k].div_then;
+                }
+            }
+            const uint32_t div = many.dev.settings[0].dev.telemetry_div;
+            dev_tick_channels(&many.dev, i * 1000U, t_out);
+            proto_telemetry_t t[4];
+            const uint32_t n = take_telemetry(&many, t, 4U);
+            uint32_t want = 0U;
+            for (uint32_t c = 0; c < 3U; ++c) {
+                if (i % div == c % div) { /* sample i: fw_start zeroes the count */
+                    wrong += want >= n || t[want].channel != c || t[want].sample != i;
+                    ++want;
+                    ++due[c];
+                }
+            }
+            wrong += n != want || n > (3U + div - 1U) / div;
+            for (uint32_t j = 0; j < n && j < 4U; ++j) {
+                sent[t[j].channel % 3U] += 1U;
+            }
+        }
+        CHECK(wrong == 0U && sent[0] == due[0] && sent[1] == due[1] && sent[2] == due[2] &&
+                  due[2] > 0U,
+              "div %u then %u: frames %u %u %u, %u wrong", cases[k].div, cases[k].div_then,
+              sent[0], sent[1], sent[2], wrong);
+        (void)ask(&many, PROTO_MSG_STOP, 8U, NULL, 0U);
+    }
+}
+
 const unit_test_t channel_tests[] = {
     {"params_by_channel", test_channels_params_by_channel},
     {"flash_carries_every_channel", test_channels_flash_carries_every_channel},
     {"each_is_a_one_channel_device", test_channels_each_is_a_one_channel_device},
     {"run_of_some_channels", test_channels_run_of_some_channels},
+    {"telemetry_spread_over_ticks", test_channels_telemetry_spread_over_ticks},
 };
 const int channel_tests_count = (int)(sizeof channel_tests / sizeof channel_tests[0]);
