@@ -6,6 +6,10 @@ telemetry every tick, the ADS131M02 at pin level, HELLOs at pseudo-random points
 Writes {"tick": [span, ...], "received bytes": [span, ...]} to $SOC_PROFILE_JSON, a span being
 {"0x<pc>": clocks}; firmware/soc/tools/rv32_profile.py names the functions. A clock costs a
 Python callback here, so the run is kept short (TICKS).
+
+SOC_CHANNELS (as in tb_soc_tick.py) profiles a SoC of several cables, every cable running;
+SOC_PROFILE_STREAM=1 feeds cable 0 with full STREAM frames from the host instead of the HELLOs
+(the other cables follow the sine), the run whose period's work is the longest.
 """
 
 from __future__ import annotations
@@ -17,7 +21,15 @@ from collections import Counter
 import cocotb
 from cocotb.triggers import RisingEdge
 from soc_sim import MARK_RX, MARK_TICK, mark
-from tb_soc_tick import TICK_BUDGET, WAVE_RUN, booted, hello_during_run, set_params
+from tb_soc_tick import (
+    CHANNELS,
+    TICK_BUDGET,
+    WAVE_RUN,
+    booted,
+    hello_during_run,
+    set_params,
+    stream_during_run,
+)
 
 TICKS = 24
 PHASES = {MARK_TICK: "tick", MARK_RX: "received bytes"}
@@ -26,11 +38,20 @@ PHASES = {MARK_TICK: "tick", MARK_RX: "received bytes"}
 @cocotb.test()
 async def profile_ticks_and_requests(dut):
     bench = await booted(dut)
-    await set_params(bench, WAVE_RUN)
+    answered: list[int] = []
+    streamed = os.environ.get("SOC_PROFILE_STREAM") == "1"
+    if streamed:
+        await set_params(bench, (("source", "host"), ("comp.mode", "paper")), [0])
+        await set_params(bench, WAVE_RUN, range(1, CHANNELS))
+        await stream_during_run(bench, dut, 2, answered)  # 48 samples before the run
+    else:
+        await set_params(bench, WAVE_RUN)
     reply = await bench.request("START", duration_ticks=TICKS)
     assert reply is not None and reply.name == "ACK", reply
-    answered: list[int] = []
-    cocotb.start_soon(hello_during_run(bench, dut, TICKS // 3, answered))
+    if streamed:
+        cocotb.start_soon(stream_during_run(bench, dut, TICKS // 3, answered))
+    else:
+        cocotb.start_soon(hello_during_run(bench, dut, TICKS // 3, answered))
     pc = dut.soc.cpu.reg_pc
     spans: dict[int, list[Counter]] = {m: [] for m in PHASES}
     # A phase already on at the first clock (a tick that outlasts START's reply) opens a span.
