@@ -160,33 +160,50 @@ uq8_24_t fxp_div_uq8_24(uint64_t num, uint64_t den)
  * formed in 64 bits (a^2 * p < 2^61) and divided by multiplying with 1/den in Q1.30. Every operand
  * is >= 0 and below 2^32 (a <= pi/2 * 2^30, a^2 < 2^31, p <= 2^30, a^2*p >> 29 < 2.5 * 2^30,
  * 1/den < 2^28), so each product is an unsigned 32 x 32 -> 64 bit one, with the same values as
- * in signed 64-bit arithmetic (on the soft CPU the compiler had found most of that already: the
- * profile moved by 1 %). */
-static uint32_t mul_shr_round_u32(uint32_t x, uint32_t y, unsigned s)
+ * in signed 64-bit arithmetic.
+ *
+ * Each rounded product (x * y + 2^(s-1)) >> s is taken as the high word of x * y scaled by
+ * 2^(32-s) (the operands pre-scaled so that both stay below 2^32), plus the bit below it (bit 31
+ * of the low word): floor(P / 2^s) + bit s-1 of P is the rounded quotient. A high word and a
+ * sign test instead of a 64-bit shift: the same bits, and on the UP5K's soft CPU (two-stage
+ * shifter) the shifts by 29 to 31 and the carries were most of the sine's some 970 clocks. */
+static inline uint32_t mul_hi_round_u32(uint32_t x, uint32_t y)
 {
-    return (uint32_t)(((uint64_t)x * y + (UINT64_C(1) << (s - 1U))) >> s);
+    const uint64_t p = (uint64_t)x * y;
+    return (uint32_t)(p >> 32) + (((int32_t)(uint32_t)p < 0) ? 1U : 0U);
 }
 
-/* One step of the series: 1 - a^2 * p / den, 1/den given in Q1.30. */
-static inline uint32_t sin_step(uint32_t a2, uint32_t p, uint32_t inv_den_q30)
+/* 1/den in Q1.30 scaled by 4 (< 2^30 * 4 / 6 < 2^32): (x * inv + 2^29) >> 30 for any x < 2^32. */
+#define INV_Q30_X4(den) ((uint32_t)((((UINT64_C(1) << 30) + (den) / 2U) / (den)) << 2))
+_Static_assert(INV_Q30_X4(6U) == 178956971U * 4U && INV_Q30_X4(20U) == 53687091U * 4U &&
+                   INV_Q30_X4(42U) == 25565282U * 4U && INV_Q30_X4(72U) == 14913081U * 4U &&
+                   INV_Q30_X4(110U) == 9761289U * 4U && INV_Q30_X4(156U) == 6882960U * 4U,
+               "the series' reciprocals, 2^30/den rounded");
+
+/* One step of the series: 1 - a^2 * p / den. a2x2 = 2 a^2 (Q2.29 doubled, < 2^32), p <= 2^30;
+ * a^2 * p rounded >> 29 is (2 a^2) * (4 p) >> 32 rounded, and 4 p wraps to 0 only at p = 2^30,
+ * where a^2 * p >> 29 is 2 a^2 exactly. */
+static inline uint32_t sin_step(uint32_t a2x2, uint32_t p, uint32_t inv_den_x4)
 {
-    const uint32_t a2p = mul_shr_round_u32(a2, p, 29U); /* Q.30, < 2.5 * 2^30 */
-    return Q1_30_ONE - mul_shr_round_u32(a2p, inv_den_q30, 30U);
+    const uint32_t p4 = p << 2;
+    const uint32_t a2p = (p4 != 0U) ? mul_hi_round_u32(a2x2, p4) : a2x2; /* Q.30, < 2.5 * 2^30 */
+    return Q1_30_ONE - mul_hi_round_u32(a2p, inv_den_x4);
 }
 
-static q1_30_t sin_quarter_q1_30(int32_t a)
+static q1_30_t sin_quarter_q1_30(uint32_t ua)
 {
-    const uint32_t ua = (uint32_t)a;                    /* 0 <= a <= pi/2 * 2^30 */
-    const uint32_t a2 = mul_shr_round_u32(ua, ua, 31U); /* Q2.29 */
+    /* 0 <= a <= pi/2 * 2^30 < 2^31: 2a < 2^32. a^2 (Q2.29, rounded >> 31) = (2a * a) >> 32. */
+    const uint32_t ua2 = ua << 1;
+    const uint32_t a2x2 = mul_hi_round_u32(ua2, ua) << 1;
     /* The innermost step's p is 1: a^2 * 2^30 rounded >> 29 is 2 a^2 exactly. The steps written
      * out, each 1/den a constant (no table load, no loop). */
-    uint32_t p = Q1_30_ONE - mul_shr_round_u32(2U * a2, 6882960U, 30U); /* 2^30/156 */
-    p = sin_step(a2, p, 9761289U);                                     /* 2^30/110 */
-    p = sin_step(a2, p, 14913081U);                                    /* 2^30/72 */
-    p = sin_step(a2, p, 25565282U);                                    /* 2^30/42 */
-    p = sin_step(a2, p, 53687091U);                                    /* 2^30/20 */
-    p = sin_step(a2, p, 178956971U);                                   /* 2^30/6 */
-    return (q1_30_t)mul_shr_round_u32(ua, p, 30U);
+    uint32_t p = Q1_30_ONE - mul_hi_round_u32(a2x2, INV_Q30_X4(156U));
+    p = sin_step(a2x2, p, INV_Q30_X4(110U));
+    p = sin_step(a2x2, p, INV_Q30_X4(72U));
+    p = sin_step(a2x2, p, INV_Q30_X4(42U));
+    p = sin_step(a2x2, p, INV_Q30_X4(20U));
+    p = sin_step(a2x2, p, INV_Q30_X4(6U));
+    return (q1_30_t)mul_hi_round_u32(ua2, p << 1); /* (a * p + 2^29) >> 30, p <= 2^30 */
 }
 
 q1_30_t fxp_sin_q1_30(uint32_t phase)
@@ -196,7 +213,8 @@ q1_30_t fxp_sin_q1_30(uint32_t phase)
     if ((quadrant & 1U) != 0U) {
         frac = 0x40000000UL - frac; /* sin(pi - a) = sin(a); frac may reach exactly 2^30 */
     }
-    int32_t a = (int32_t)shr_round_i64((int64_t)frac * HALF_PI_Q30, 30U); /* a <= pi/2 */
+    /* a = frac * pi/2 rounded >> 30 = (2 frac) * (2 pi/2) >> 32 rounded: 2 frac <= 2^31. */
+    const uint32_t a = mul_hi_round_u32(frac << 1, (uint32_t)(2 * HALF_PI_Q30)); /* a <= pi/2 */
     q1_30_t s = sin_quarter_q1_30(a);
     return (quadrant >= 2U) ? -s : s;
 }

@@ -6,6 +6,7 @@
 
 #include "bowden_regs.h"
 #include "fw.h"
+#include "fxp.h"
 #include "hal.h"
 #include "unit.h"
 #include "wave.h"
@@ -31,6 +32,45 @@ static void test_wave_sine_matches_double(void)
     }
     CHECK(worst <= 1, "sine off by %d LSB", worst);
     CHECK(lo == 0 && hi == 15 * 256, "range %d .. %d LSB", lo, hi);
+}
+
+/* Every kind's output is mean + (amplitude * shape + 2^29) >> 30 in 64 bits, saturated to Q7.8:
+ * wave.c forms the product's rounded high part without a 64-bit shift; the words stay these. */
+static void test_wave_output_bit_for_bit(void)
+{
+    static const int32_t amps[] = {0, 1, 255, 256 * 6, 12345, 128 * 256 - 1, 128 * 256};
+    static const int32_t means[] = {-128 * 256, -1, 0, 8 * 256, 127 * 256 + 255};
+    static const uint32_t kinds[] = {WAVE_SINE, WAVE_TRIANGLE, WAVE_RAMP, WAVE_STEP};
+    uint32_t bad = 0U, n = 0U;
+    for (uint32_t k = 0; k < sizeof kinds / sizeof kinds[0]; ++k) {
+        for (uint32_t i = 0; i < sizeof amps / sizeof amps[0]; ++i) {
+            for (uint32_t j = 0; j < sizeof means / sizeof means[0]; ++j) {
+                wave_t w;
+                wave_config_t cfg;
+                wave_config_default(&cfg);
+                cfg.kind = kinds[k];
+                cfg.amplitude_n_q8 = amps[i];
+                cfg.mean_n_q8 = means[j];
+                cfg.freq_hz_q16 = 7919U << 8; /* some 31 Hz: phases all over the turn */
+                CHECK(wave_configure(&w, &cfg, 1000U) == WAVE_OK, "config");
+                for (int t = 0; t < 400; ++t) {
+                    const uint32_t phase = w.phase;
+                    const q1_30_t shape = (kinds[k] == WAVE_SINE)       ? fxp_sin_q1_30(phase)
+                                          : (kinds[k] == WAVE_TRIANGLE) ? fxp_triangle_q1_30(phase)
+                                                                        : 0;
+                    const int16_t v = wave_next_q7_8(&w);
+                    if (kinds[k] == WAVE_SINE || kinds[k] == WAVE_TRIANGLE) {
+                        int64_t want = (int64_t)means[j] +
+                                       (((int64_t)amps[i] * shape + (INT64_C(1) << 29)) >> 30);
+                        want = (want > Q7_8_MAX) ? Q7_8_MAX : (want < Q7_8_MIN) ? Q7_8_MIN : want;
+                        bad += v != (int16_t)want;
+                        ++n;
+                    }
+                }
+            }
+        }
+    }
+    CHECK(bad == 0U && n > 0U, "%u of %u samples differ from the 64-bit form", bad, n);
 }
 
 static void test_wave_triangle_constant_and_saturation(void)
@@ -418,6 +458,7 @@ static void test_wave_ramp_and_step(void)
 
 const unit_test_t fw_tests[] = {
     {"wave_sine_matches_double", test_wave_sine_matches_double},
+    {"wave_output_bit_for_bit", test_wave_output_bit_for_bit},
     {"wave_triangle_constant_and_saturation", test_wave_triangle_constant_and_saturation},
     {"wave_bad_config", test_wave_bad_config},
     {"wave_ramp_and_step", test_wave_ramp_and_step},

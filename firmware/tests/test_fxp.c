@@ -139,6 +139,49 @@ static void test_div_uq8_24(void)
     CHECK(fxp_div_uq8_24((UINT64_C(1) << 61) * 3, UINT64_C(1) << 61) == 3U << 24, "large operands");
 }
 
+/* The sine's series as first written, every rounded product a 64-bit shift: (x * y + 2^(s-1)) >>
+ * s. fxp.c forms the same products from high words (cheaper on the soft CPU); the outputs must
+ * stay these, bit for bit (the telemetry and the T_c words depend on them). */
+static uint32_t ref_mul_shr_round(uint32_t x, uint32_t y, unsigned s)
+{
+    return (uint32_t)(((uint64_t)x * y + (UINT64_C(1) << (s - 1U))) >> s);
+}
+
+static int32_t ref_sin_q1_30(uint32_t phase)
+{
+    static const uint32_t inv[5] = {9761289U, 14913081U, 25565282U, 53687091U, 178956971U};
+    const uint32_t quadrant = phase >> 30;
+    uint32_t frac = phase & 0x3FFFFFFFUL;
+    if ((quadrant & 1U) != 0U) {
+        frac = 0x40000000UL - frac;
+    }
+    const uint32_t a = ref_mul_shr_round(frac, 1686629713U, 30U);
+    const uint32_t a2 = ref_mul_shr_round(a, a, 31U);
+    uint32_t p = Q1_30_ONE - ref_mul_shr_round(2U * a2, 6882960U, 30U);
+    for (uint32_t k = 0; k < 5U; ++k) {
+        p = Q1_30_ONE - ref_mul_shr_round(ref_mul_shr_round(a2, p, 29U), inv[k], 30U);
+    }
+    const int32_t s = (int32_t)ref_mul_shr_round(a, p, 30U);
+    return (quadrant >= 2U) ? -s : s;
+}
+
+static void test_sin_bit_for_bit(void)
+{
+    uint32_t bad = 0U, n = 0U;
+    for (uint64_t ph = 0; ph <= UINT32_MAX; ph += 4093U) { /* a prime stride: every residue */
+        bad += fxp_sin_q1_30((uint32_t)ph) != ref_sin_q1_30((uint32_t)ph);
+        ++n;
+    }
+    for (uint32_t q = 0; q < 4U; ++q) { /* around each quarter turn, where p reaches 1 */
+        for (int32_t d = -5000; d <= 5000; ++d) {
+            const uint32_t ph = (q << 30) + (uint32_t)d;
+            bad += fxp_sin_q1_30(ph) != ref_sin_q1_30(ph);
+            ++n;
+        }
+    }
+    CHECK(bad == 0U, "%u of %u phases differ from the 64-bit-shift series", bad, n);
+}
+
 const unit_test_t fxp_tests[] = {
     {"expm1_x", test_expm1_x},
     {"div_uq8_24", test_div_uq8_24},
@@ -147,5 +190,6 @@ const unit_test_t fxp_tests[] = {
     {"exp_saturates_at_domain_ends", test_exp_saturates_at_domain_ends},
     {"exp_monotonic", test_exp_monotonic},
     {"sin_and_triangle", test_sin_and_triangle},
+    {"sin_bit_for_bit", test_sin_bit_for_bit},
 };
 const int fxp_tests_count = (int)(sizeof fxp_tests / sizeof fxp_tests[0]);
