@@ -448,9 +448,20 @@ static void on_start(dev_t *d, uint32_t port, const proto_frame_t *req)
     reply_ack(d, port, req, d->settings[0].fw.tick_rate_hz);
 }
 
-/* Samples into channel c's stream buffer (STREAM: channel 0, STREAM_CH: any). */
+/* One STREAM sample from its two payload bytes (little-endian int16, as proto_stream_unpack reads
+ * it). */
+static int16_t sample_le(const uint8_t *b)
+{
+    const uint32_t u = (uint32_t)b[0] | ((uint32_t)b[1] << 8);
+    return (int16_t)((int32_t)u - ((u >> 15) << 16));
+}
+
+/* `count` samples (little-endian int16 from a STREAM or STREAM_CH payload, checked by dispatch)
+ * into channel c's stream buffer: taken from the payload straight into the ring, not through the
+ * message's unpacked array first (on the soft CPU the unpacking and the copy were a third of a
+ * full STREAM frame's handling). */
 static void stream_put(dev_t *d, uint32_t port, const proto_frame_t *req, uint32_t c,
-                       const int16_t *samples, uint32_t count)
+                       const uint8_t *le, uint32_t count)
 {
     uint32_t free_slots = DEV_STREAM_LEN - d->stream_len[c];
     if (count > free_slots) {
@@ -461,28 +472,30 @@ static void stream_put(dev_t *d, uint32_t port, const proto_frame_t *req, uint32
     /* Into the ring in at most two contiguous pieces (the end of the array, then its start). */
     const uint32_t tail = (d->stream_head[c] + d->stream_len[c]) % DEV_STREAM_LEN;
     const uint32_t first = (count < DEV_STREAM_LEN - tail) ? count : DEV_STREAM_LEN - tail;
-    for (uint32_t i = 0; i < first; ++i) {
-        d->stream[c][tail + i] = samples[i];
+    int16_t *dst = &d->stream[c][tail];
+    for (uint32_t i = 0; i < first; ++i, le += 2) {
+        dst[i] = sample_le(le);
     }
-    for (uint32_t i = first; i < count; ++i) {
-        d->stream[c][i - first] = samples[i];
+    dst = d->stream[c];
+    for (uint32_t i = first; i < count; ++i, le += 2) {
+        dst[i - first] = sample_le(le);
     }
     d->stream_len[c] += count;
     reply_ack(d, port, req, DEV_STREAM_LEN - d->stream_len[c]);
 }
 
+/* STREAM (channel 0) and STREAM_CH (its channel first): the lengths are checked by dispatch, so
+ * the payload holds whole samples, as proto_stream_unpack and proto_stream_ch_unpack would take
+ * them. */
 static void on_stream(dev_t *d, uint32_t port, const proto_frame_t *req)
 {
     if (req->msg == PROTO_MSG_STREAM) {
-        proto_stream_t m;
-        (void)proto_stream_unpack(&m, req->payload, req->len);
-        stream_put(d, port, req, 0U, m.samples, m.samples_count);
+        stream_put(d, port, req, 0U, req->payload, req->len / 2U);
         return;
     }
-    proto_stream_ch_t m;
-    (void)proto_stream_ch_unpack(&m, req->payload, req->len);
-    if (channel_ok(d, port, req, m.channel)) {
-        stream_put(d, port, req, m.channel, m.samples, m.samples_count);
+    const uint32_t ch = req->payload[0];
+    if (channel_ok(d, port, req, ch)) {
+        stream_put(d, port, req, ch, &req->payload[1], (req->len - 1U) / 2U);
     }
 }
 

@@ -194,14 +194,47 @@ static void test_dev_run_telemetry_and_overflow(void)
     (void)request(0U, PROTO_MSG_STOP, 7U, NULL, 0U);
 }
 
+/* Samples streamed while a run takes them: each tick's T_ref is the next sample, in order, across
+ * the stream ring's end many times (chunks of 24 and of 23 against a ring of DEV_STREAM_LEN). */
+static void test_dev_stream_across_the_ring_end(void)
+{
+    dev_host_init(&host);
+    (void)request(0U, PROTO_MSG_START, 1U, CONTINUOUS, 4U);
+    (void)drain_telemetry(0U, NULL, NULL);
+    proto_telemetry_t t;
+    uint32_t gaps = 0, wrong = 0, time_us = 0;
+    int32_t v = -32768;
+    for (uint32_t chunk = 0; chunk < 120U; ++chunk) {
+        proto_stream_t s;
+        s.samples_count = (uint8_t)(23U + chunk % 2U);
+        for (uint32_t i = 0; i < s.samples_count; ++i) {
+            s.samples[i] = (int16_t)v;
+            v = (v + 2731 > 32767) ? v + 2731 - 65536 : v + 2731;
+        }
+        uint8_t p[PROTO_MAX_PAYLOAD];
+        const uint32_t n = proto_stream_pack(&s, p);
+        proto_frame_t g = request(0U, PROTO_MSG_STREAM, (uint8_t)chunk, p, n);
+        wrong += g.msg != PROTO_MSG_ACK;
+        for (uint32_t i = 0; i < s.samples_count; ++i) {
+            dev_tick(&host.dev, time_us += 1000U, 0);
+            wrong += drain_telemetry(0U, &t, &gaps) != 1U || t.t_ref != s.samples[i];
+        }
+    }
+    CHECK(wrong == 0U && gaps == 0U && (t.faults & PROTO_FAULT_STREAM_UNDERRUN) == 0U,
+          "%u wrong, %u gaps", wrong, gaps);
+    (void)request(0U, PROTO_MSG_STOP, 2U, NULL, 0U);
+}
+
 static void test_dev_stream_and_faults(void)
 {
     dev_host_init(&host);
     proto_stream_t s;
     s.samples_count = 24U;
     for (uint32_t i = 0; i < 24U; ++i) {
-        s.samples[i] = (int16_t)(256 * (int32_t)i);
+        s.samples[i] = (int16_t)(256 * (int32_t)i - 3000); /* of both signs, */
     }
+    s.samples[5] = INT16_MIN; /* and both ends */
+    s.samples[6] = INT16_MAX;
     uint8_t p[PROTO_MAX_PAYLOAD];
     uint32_t n = proto_stream_pack(&s, p);
     proto_frame_t g = request(0U, PROTO_MSG_STREAM, 1U, p, n);
@@ -431,6 +464,7 @@ const unit_test_t dev_tests[] = {
     {"persist_survives_power_cycle", test_dev_persist_survives_power_cycle},
     {"run_telemetry_and_overflow", test_dev_run_telemetry_and_overflow},
     {"stream_and_faults", test_dev_stream_and_faults},
+    {"stream_across_the_ring_end", test_dev_stream_across_the_ring_end},
     {"bad_frames_and_versions", test_dev_bad_frames_and_versions},
     {"can_port", test_dev_can_port},
     {"host_watchdog", test_dev_host_watchdog},
