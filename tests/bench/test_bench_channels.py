@@ -54,6 +54,22 @@ def test_each_channel_of_an_emulated_device_is_a_one_channel_device(tmp_path):
     assert many[0][1:] != many[1][1:]  # the channels did differ from each other
 
 
+def test_a_divided_telemetry_of_several_channels_is_recorded_whole(tmp_path):
+    """dev.telemetry_div 2 on three channels: the device sends channel k's samples with sample %
+    2 == k % 2 (its frames spread over the ticks), and the recorder expects exactly those: every
+    one recorded, no gap, the run complete (301 ticks: 151 samples of channels 0 and 2, 150 of
+    channel 1)."""
+    with Bench(emulate=True, channels=3) as bench:
+        c = bench.client
+        c.set("dev.telemetry_div", 2)
+        run = record_run(c, tmp_path / "div.csv", channels=(0, 1, 2), **{**RUN, "seconds": 0.301})
+    assert (run.samples, run.expected, run.drops, run.gaps) == (452, 452, 0, []), run.summary()
+    for k in range(3):
+        rows = _rows(channel_path(tmp_path / "div.csv", k, (0, 1, 2)))
+        samples = [int(r[rows[0].index("sample")]) for r in rows[1:]]
+        assert samples == list(range(k % 2, 301, 2)), (k, samples[:4])
+
+
 @pytest.mark.parametrize(
     ("argv", "text"),
     [
