@@ -52,7 +52,8 @@ WORK_MAX = int(TICK_BUDGET / MARGIN)
 # 32 kSPS at 24 MHz; 16 kSPS (OSR 256) from two cables on (bowden_soc.v's reader).
 ADC_PERIOD_CLKS = 750 if CHANNELS == 1 else 1500
 # A telemetry frame is 38 bytes on the wire, 2425 a second at 921600 baud: every tick for up to
-# two cables, every other tick for four.
+# two cables, every other tick for four (cables 0 and 2 on even samples, 1 and 3 on odd ones:
+# firmware/src/dev.c telemetry_due, two frames a tick).
 TELEMETRY_DIV = 1 if CHANNELS <= 2 else 2
 
 
