@@ -58,7 +58,8 @@ def test_a_divided_telemetry_of_several_channels_is_recorded_whole(tmp_path):
     """dev.telemetry_div 2 on three channels: the device sends channel k's samples with sample %
     2 == k % 2 (its frames spread over the ticks), and the recorder expects exactly those: every
     one recorded, no gap, the run complete (301 ticks: 151 samples of channels 0 and 2, 150 of
-    channel 1)."""
+    channel 1), each at its tick's time (t_s the sample over the 1 kHz tick rate, not over the
+    rows' 500 Hz, which stretched the record's time twice)."""
     with Bench(emulate=True, channels=3) as bench:
         c = bench.client
         c.set("dev.telemetry_div", 2)
@@ -68,6 +69,8 @@ def test_a_divided_telemetry_of_several_channels_is_recorded_whole(tmp_path):
         rows = _rows(channel_path(tmp_path / "div.csv", k, (0, 1, 2)))
         samples = [int(r[rows[0].index("sample")]) for r in rows[1:]]
         assert samples == list(range(k % 2, 301, 2)), (k, samples[:4])
+        t_s = [float(r[rows[0].index("t_s")]) for r in rows[1:]]
+        assert t_s == pytest.approx([n / 1000.0 for n in samples], abs=1e-9), (k, t_s[:4])
 
 
 @pytest.mark.parametrize(

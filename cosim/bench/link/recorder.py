@@ -59,10 +59,14 @@ class TraceRecorder:
         meta: dict,
         position_m: tuple[float, float, float],
         estimate: bool = False,
+        tick_rate_hz: float | None = None,
     ):
         self.path = Path(csv_path)
         meta = trace_mod.validate_meta(dict(meta), str(trace_mod.meta_path(self.path)))
         self.rate_hz = float(meta["sample_rate_hz"])
+        # A sample's number counts the device's ticks: its time is the number over the tick
+        # rate, which is the rows' rate (sample_rate_hz) times the telemetry divisor.
+        self.tick_rate_hz = self.rate_hz if tick_rate_hz is None else float(tick_rate_hz)
         self.position = tuple(float(v) for v in position_m)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         mpath = trace_mod.meta_path(self.path)
@@ -88,7 +92,7 @@ class TraceRecorder:
         self._last_time_us = tu
         x, y, z = self.position
         row = (
-            f"{t['sample'] / self.rate_hz:.9g},{t['t_ref'] * Q7_8_LSB_N:.9g},"
+            f"{t['sample'] / self.tick_rate_hz:.9g},{t['t_ref'] * Q7_8_LSB_N:.9g},"
             f"{t['t_c'] * Q7_8_LSB_N:.9g},{t['t_in'] * Q7_8_LSB_N:.9g},"
             f"{t['t_out'] * Q7_8_LSB_N:.9g},{x:.9g},{y:.9g},{z:.9g},"
             f"{t['current'] * Q3_12_LSB_A:.9g},0,{t['sample']},"
@@ -256,6 +260,7 @@ def record_run(
             meta,
             position_m,
             estimate=not isinstance(client.link, CanLink),
+            tick_rate_hz=tick_hz,
         )
     # Channel c's frames are the samples with sample % div == c % div (the device spreads the
     # channels' frames over the ticks: firmware/README.md, "Telemetry of several channels").
