@@ -321,7 +321,7 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
     ext = result.extended
     phi_a = audit_phi(data)
     # device value = audit value * scale, for mu and slope (only mu*phi is observable)
-    scale = phi_a / phi_device_rad if phi_device_rad > 0 else math.nan
+    scale = _phi_scale(phi_a, phi_device_rad)
     r_ext = ext.residual(data)
     changes = []
     for name, (aparam, by_phi) in AUDITED.items():
@@ -332,12 +332,8 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
         a_val = float(ext.params.get(aparam, off))
         cur = float(device[name])
         if not math.isfinite(k) and not (a_val == off and cur == off):
-            c = Change(name, aparam, cur, None, a_val, None, "refused", "")
-            c.reason = (
-                f"comp.phi_rad is {phi_device_rad:g}: the device's mu*phi cannot be set "
-                "through mu (set comp.phi_rad first)"
-            )
-            changes.append(c)
+            changes.append(_phi_refused(name, aparam, cur, a_val, phi_device_rad, "mu*phi",
+                                        " through mu"))  # fmt: skip
             continue
         dev_as_a = cur / k if math.isfinite(k) else cur
         target = a_val * k if math.isfinite(k) else a_val
@@ -468,6 +464,24 @@ def _term_off(name: str, audit_param: str, cur: float, unseen: str, term: str) -
     return c
 
 
+def _phi_scale(phi_audit_rad: float, phi_device_rad: float) -> float:
+    """The factor from the audit's value of a term proportional to phi to the device's (only its
+    product with phi is observed); NaN when the device's phi cannot carry it."""
+    return phi_audit_rad / phi_device_rad if phi_device_rad > 0 else math.nan
+
+
+def _phi_refused(name: str, aparam: str, cur: float, value: float, phi_device_rad: float,
+                 what: str, how: str = "") -> Change:  # fmt: skip
+    """The refusal of a term proportional to phi on a device whose comp.phi_rad cannot carry it
+    (`what` names the product that cannot be set, `how` through what)."""
+    c = Change(name, aparam, cur, None, value, None, "refused", "")
+    c.reason = (
+        f"comp.phi_rad is {phi_device_rad:g}: the device's {what} cannot be set{how} "
+        "(set comp.phi_rad first)"
+    )
+    return c
+
+
 def breakaway_change(
     audit_value: float | None,
     phi_audit_rad: float,
@@ -483,14 +497,10 @@ def breakaway_change(
     if audit_value is None:
         return _term_off(name, BREAKAWAY_AUDIT_PARAM, cur, "the audit names no static friction",
                          "the breakaway term")  # fmt: skip
-    scale = phi_audit_rad / phi_device_rad if phi_device_rad > 0 else math.nan
+    scale = _phi_scale(phi_audit_rad, phi_device_rad)
     if not math.isfinite(scale):
-        c = Change(name, BREAKAWAY_AUDIT_PARAM, cur, None, audit_value, None, "refused", "")
-        c.reason = (
-            f"comp.phi_rad is {phi_device_rad:g}: the device's m_s*phi cannot be set through "
-            "the breakaway (set comp.phi_rad first)"
-        )
-        return c
+        return _phi_refused(name, BREAKAWAY_AUDIT_PARAM, cur, audit_value, phi_device_rad,
+                            "m_s*phi", " through the breakaway")  # fmt: skip
     target = share * audit_value * scale
     c = Change(name, BREAKAWAY_AUDIT_PARAM, cur, None, audit_value, cur / scale, "unchanged", "")
     if _same_word(param(name), target, cur):
@@ -666,15 +676,10 @@ def viscous_change(
     if device.get("corr.enable", 0.0) != 0.0:
         served = "the far-end correction is in service (corr.enable 1) and learns that error"
         return _term_off(name, aparam, cur, served, "the rate term")
-    scale = phi_audit_rad / phi_device_rad if phi_device_rad > 0 else math.nan
+    scale = _phi_scale(phi_audit_rad, phi_device_rad)
     m_r = inlet_rate_friction(aparam, value, mu, phi_audit_rad, sheath_length_m)
     if not math.isfinite(scale):
-        c = Change(name, aparam, cur, None, value, None, "refused", "")
-        c.reason = (
-            f"comp.phi_rad is {phi_device_rad:g}: the device's rate term cannot be set "
-            "(set comp.phi_rad first)"
-        )
-        return c
+        return _phi_refused(name, aparam, cur, value, phi_device_rad, "rate term")
     target = m_r * scale
     c = Change(name, aparam, cur, None, value, None, "unchanged", "")
     if _same_word(param(name), target, cur):
