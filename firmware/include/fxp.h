@@ -70,4 +70,17 @@ q1_30_t fxp_sin_q1_30(uint32_t phase);
  */
 q1_30_t fxp_triangle_q1_30(uint32_t phase);
 
+/*
+ * (x * y + 2^31) >> 32 (arithmetic): the high word of the 64-bit product, floor(x * y / 2^32),
+ * plus the bit below it (bit 31 of the low word), the product rounded to the nearest. A high word
+ * and a sign test instead of a 64-bit shift: on the UP5K's soft CPU (two-stage shifter) the
+ * shifts and carries of a rounded >> 20 or >> 30 cost more than the product. A caller scales an
+ * operand by 2^(32 - s) beforehand (within 32 bits) to round a product >> s.
+ */
+static inline int32_t fxp_mul_hi_round_i32(int32_t x, int32_t y)
+{
+    const int64_t p = (int64_t)x * y;
+    return (int32_t)(p >> 32) + (((int32_t)(uint32_t)p < 0) ? 1 : 0);
+}
+
 #endif /* BOWDEN_FXP_H */

@@ -29,6 +29,7 @@
 #include "crc32c.h"
 #include "dev.h"
 #include "fw.h"
+#include "fxp.h"
 #include "hal.h"
 #include "soc.h"
 #include "spi_flash.h"
@@ -48,12 +49,10 @@ static int32_t t_out_q8(const hal_t *h, const fw_loop_config_t *l)
 {
     uint32_t word = hal_read(h, BOWDEN_REG_T_OUT) & BOWDEN_T_OUT_MASK;
     int32_t raw = (int32_t)(word << 8) >> 8; /* sign-extend the 24-bit code */
-    /* ((raw - offset) * gain + 2^19) >> 20 as the high word of (raw - offset) * (gain * 2^12),
-     * floor((raw - offset) * gain / 2^20), plus the bit below it (bit 31 of the low word): the
-     * same value without a 64-bit shift (|raw - offset| < 2^24 and |gain| <= 2^15, both 24-bit
-     * and 16-bit register fields, so gain * 2^12 fits 32 bits). */
-    const int64_t p = (int64_t)(raw - l->adc_offset) * (l->adc_gain * 4096);
-    int32_t q = (int32_t)(p >> 32) + (((int32_t)(uint32_t)p < 0) ? 1 : 0);
+    /* ((raw - offset) * gain + 2^19) >> 20 as the rounded high word of (raw - offset) *
+     * (gain * 2^12) (|raw - offset| < 2^24 and |gain| <= 2^15, both 24-bit and 16-bit register
+     * fields, so gain * 2^12 fits 32 bits). */
+    int32_t q = fxp_mul_hi_round_i32(raw - l->adc_offset, l->adc_gain * 4096);
     if (q > 32767) {
         q = 32767;
     } else if (q < -32768) {

@@ -167,6 +167,7 @@ uq8_24_t fxp_div_uq8_24(uint64_t num, uint64_t den)
  * of the low word): floor(P / 2^s) + bit s-1 of P is the rounded quotient. A high word and a
  * sign test instead of a 64-bit shift: the same bits, and on the UP5K's soft CPU (two-stage
  * shifter) the shifts by 29 to 31 and the carries were some 300 of the sine's 976 clocks. */
+/* The unsigned twin of fxp_mul_hi_round_i32 (fxp.h): operands up to 2^32. */
 static inline uint32_t mul_hi_round_u32(uint32_t x, uint32_t y)
 {
     const uint64_t p = (uint64_t)x * y;

@@ -81,11 +81,9 @@ q7_8_t wave_next_q7_8(wave_t *w)
         shape = (w->phase < 0x80000000UL) ? (q1_30_t)Q1_30_ONE : -(q1_30_t)Q1_30_ONE;
     }
     w->phase += w->inc; /* wraps modulo one turn by design */
-    /* mean + (amplitude * shape + 2^29) >> 30 (arithmetic), from the high word of (4 amplitude) *
-     * shape, floor(amplitude * shape / 2^30), and the bit below it (bit 31 of the low word): the
-     * same bits without a 64-bit shift (amplitude in [0, 2^15], checked: 4 amplitude < 2^31). */
-    const int64_t p = (int64_t)(4 * w->cfg.amplitude_n_q8) * shape;
-    const int32_t scaled = (int32_t)(p >> 32) + (((int32_t)(uint32_t)p < 0) ? 1 : 0);
+    /* mean + (amplitude * shape + 2^29) >> 30 (arithmetic), as the rounded high word of
+     * (4 amplitude) * shape (amplitude in [0, 2^15], checked: 4 amplitude < 2^31). */
+    const int32_t scaled = fxp_mul_hi_round_i32(4 * w->cfg.amplitude_n_q8, shape);
     int32_t v = w->cfg.mean_n_q8 + scaled;
     if (v > Q7_8_MAX) {
         v = Q7_8_MAX;
