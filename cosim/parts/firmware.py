@@ -595,8 +595,8 @@ def mu_per_inlet_rate_of_cable_speed(
     mu: float,
     phi_rad: float,
     sheath_length_m: float = 1.0,
-    cable_ea_n: float = 8000.0,
-    loadcell_stiffness_n_per_m: float = 2e5,
+    cable_ea_n: float | None = None,
+    loadcell_stiffness_n_per_m: float | None = None,
 ) -> tuple[float, float]:
     """The compensator's m_r (s/N) that stands for the FMU's cable-speed form `mu_viscous`
     (fmu/README.md "Viscous friction": mu + mu_viscous |v_c|, v_c the inlet's speed), on the
@@ -605,8 +605,15 @@ def mu_per_inlet_rate_of_cable_speed(
     unloading (a = mu phi, the tension exponential along a sheath whose bend is spread evenly
     over its length, as the FMU's segments are), plus the load cell's give T_out / k_lc, so v_c
     = m |r_in| / mu_viscous with m the value returned for that branch. The defaults are the
-    FMU's (sheath_length, cable_EA, loadcell_stiffness). The compensator takes one m_r for both
+    FMU's (sheath_length, cable_EA, loadcell_stiffness; the last two as the audit's twin holds
+    them, checked against the FMU by its tests). The compensator takes one m_r for both
     branches (comp.h): their mean is the plain choice."""
+    if cable_ea_n is None or loadcell_stiffness_n_per_m is None:
+        from cosim.audit.twin import CABLE_EA_N, LOADCELL_N_PER_M  # noqa: PLC0415 (numba)
+
+        cable_ea_n = CABLE_EA_N if cable_ea_n is None else cable_ea_n
+        if loadcell_stiffness_n_per_m is None:
+            loadcell_stiffness_n_per_m = LOADCELL_N_PER_M
     a = mu * phi_rad
     up = -math.expm1(-a) / a if a > 0 else 1.0
     dn = math.expm1(a) / a if a > 0 else 1.0

@@ -8,7 +8,7 @@ import math
 
 import pytest
 
-from cosim.audit.twin import CABLE_EA_N
+from cosim.audit.twin import CABLE_EA_N, LOADCELL_N_PER_M
 from cosim.bench.rig import calibrate as cal
 from cosim.studies.calibrated_robustness import _device_before
 
@@ -30,8 +30,8 @@ def test_the_cable_speed_form_is_the_rate_form_through_the_cables_compliance():
     # loading and (L / EA (e^a - 1)/a + e^a / k_lc) unloading (a = mu phi, the FMU's cable_EA
     # and load cell); the term takes their mean
     a = MU * PHI
-    load = 1.5 / CABLE_EA_N * (1 - math.exp(-a)) / a + math.exp(-a) / 2e5
-    unload = 1.5 / CABLE_EA_N * (math.exp(a) - 1) / a + math.exp(a) / 2e5
+    load = 1.5 / CABLE_EA_N * (1 - math.exp(-a)) / a + math.exp(-a) / LOADCELL_N_PER_M
+    unload = 1.5 / CABLE_EA_N * (math.exp(a) - 1) / a + math.exp(a) / LOADCELL_N_PER_M
     got = cal.inlet_rate_friction("mu_viscous", 2.0, MU, PHI, 1.5)
     assert got == pytest.approx(2.0 * (load + unload) / 2, rel=1e-12)
     # a longer sheath, a larger compliance
