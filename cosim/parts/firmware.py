@@ -590,6 +590,12 @@ class CompensatorParams:
         return np.abs(dref_n) * (gu_max + tmax_n * (spread / self.band_n + d1)) + 2 * Q7_8_LSB_N
 
 
+# The FMU's cable_EA and loadcell_stiffness defaults (fmu/gen_model.py; tests/fmu holds these
+# copies to it): this layer cannot import the audit's twin, which holds them too.
+FMU_CABLE_EA_N = 8000.0
+FMU_LOADCELL_N_PER_M = 2e5
+
+
 def mu_per_inlet_rate_of_cable_speed(
     mu_viscous_s_per_m: float,
     mu: float,
@@ -605,15 +611,11 @@ def mu_per_inlet_rate_of_cable_speed(
     unloading (a = mu phi, the tension exponential along a sheath whose bend is spread evenly
     over its length, as the FMU's segments are), plus the load cell's give T_out / k_lc, so v_c
     = m |r_in| / mu_viscous with m the value returned for that branch. The defaults are the
-    FMU's (sheath_length, cable_EA, loadcell_stiffness; the last two as the audit's twin holds
-    them, checked against the FMU by its tests). The compensator takes one m_r for both
+    FMU's (sheath_length, cable_EA, loadcell_stiffness). The compensator takes one m_r for both
     branches (comp.h): their mean is the plain choice."""
-    if cable_ea_n is None or loadcell_stiffness_n_per_m is None:
-        from cosim.audit.twin import CABLE_EA_N, LOADCELL_N_PER_M  # noqa: PLC0415 (numba)
-
-        cable_ea_n = CABLE_EA_N if cable_ea_n is None else cable_ea_n
-        if loadcell_stiffness_n_per_m is None:
-            loadcell_stiffness_n_per_m = LOADCELL_N_PER_M
+    cable_ea_n = FMU_CABLE_EA_N if cable_ea_n is None else cable_ea_n
+    if loadcell_stiffness_n_per_m is None:
+        loadcell_stiffness_n_per_m = FMU_LOADCELL_N_PER_M
     a = mu * phi_rad
     up = -math.expm1(-a) / a if a > 0 else 1.0
     dn = math.expm1(a) / a if a > 0 else 1.0

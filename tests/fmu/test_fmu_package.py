@@ -226,11 +226,12 @@ def test_reset_returns_to_the_start_values(fmu_path, tmp_path):
 
 
 def test_the_twins_copies_of_the_fmus_defaults_are_the_generators(gen_model):
-    """The audit's twin (and through it the compensator's cable-speed conversion,
-    cosim.parts.firmware.mu_per_inlet_rate_of_cable_speed) holds the FMU's cable stiffness and
+    """The audit's twin and the compensator's cable-speed conversion
+    (cosim.parts.firmware.mu_per_inlet_rate_of_cable_speed) hold the FMU's cable stiffness and
     load cell stiffness as constants: they are the model description's defaults."""
     from cosim.audit import twin  # noqa: PLC0415
+    from cosim.parts import firmware  # noqa: PLC0415
 
     start = {v.name: v.start for v in gen_model.VARIABLES}
-    assert twin.CABLE_EA_N == start["cable_EA"]
-    assert twin.LOADCELL_N_PER_M == start["loadcell_stiffness"]
+    assert twin.CABLE_EA_N == firmware.FMU_CABLE_EA_N == start["cable_EA"]
+    assert twin.LOADCELL_N_PER_M == firmware.FMU_LOADCELL_N_PER_M == start["loadcell_stiffness"]
