@@ -117,6 +117,7 @@ def field_ranges(sample_rate_hz: float) -> dict[str, tuple[float, float]]:
         "compensator.corr_rev_leak_shift": (2, 24),
         "compensator.corr_rev_limit_n": (0.0, 8.0),
         "compensator.corr_rev_index": (0, 1),
+        "compensator.corr_kp": (0.0, 4.0),
         # The board's chain (cosim.parts.interface): conversion timing, reader and PWM clocks,
         # ESCON.
         "board.adc_period_s": (1e-6, 0.1),

@@ -183,6 +183,7 @@ class CorrConfig(ctypes.Structure):
         ("rev_leak_shift", ctypes.c_int32),
         ("rev_limit_n_q8", ctypes.c_int32),
         ("rev_index", ctypes.c_int32),
+        ("kp_q16", ctypes.c_int32),
     ]
 
 
@@ -458,6 +459,7 @@ class CompensatorParams:
     corr_rev_leak_shift: int = 12
     corr_rev_limit_n: float = 2.0
     corr_rev_index: int = 0
+    corr_kp: float = 0.0
 
     @property
     def phi_c_rad(self) -> float:
@@ -861,6 +863,7 @@ class CorrectorParams:
     rev_leak_shift: int = 12  # [2, 24]
     rev_limit_n: float = 2.0  # [0, 8] N
     rev_index: int = 0  # 0 by ticks, 1 by the inlet tension's log travel (rev_bin_shift <= 7)
+    kp: float = 0.0  # proportional gain on the far-end error, [0, 4] (0 off)
 
     def to_c(self) -> CorrConfig:
         return CorrConfig(
@@ -887,6 +890,7 @@ class CorrectorParams:
             ),
             rev_limit_n_q8=_fixed("corr.rev_limit_n", self.rev_limit_n, 8),
             rev_index=_whole("corr.rev_index", self.rev_index, -(2**31), 2**31 - 1, "0 or 1"),
+            kp_q16=_fixed("corr.kp", self.kp, 16),
         )
 
 
@@ -910,6 +914,7 @@ def corrector_from(params) -> CorrectorParams:
         rev_leak_shift=int(getattr(params, "corr_rev_leak_shift", d.rev_leak_shift)),
         rev_limit_n=float(getattr(params, "corr_rev_limit_n", d.rev_limit_n)),
         rev_index=int(getattr(params, "corr_rev_index", d.rev_index)),
+        kp=float(getattr(params, "corr_kp", d.kp)),
     )
 
 

@@ -292,6 +292,25 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
  * (< 2^45). The double twin (fric_est_f64.h) holds g_b as numbers: every value is an integer
  * multiple of 2^-28 below 2^53 of them, so both are exact and agree bit for bit (unit test).
  *
+ * Proportional term (kp > 0, off by default): the far-end error acts at once as well,
+ *   p = clamp(kp e, +-FC_P_LIMIT),   c = g T_ref + o + r(n) + p,
+ * e as above with the tick's own reading (no anti-windup: p holds no state of its own). What
+ * the integrators and the reversal table learn over many ticks or reversals, a breakaway
+ * that lets go later than the last pass, friction that rises with the cable's speed, an error
+ * of the first reversal, p meets in the tick it shows: a dead zone holds T_out while T_ref
+ * moves, e grows, and p drives T_c across the dead zone faster. From the tare on, while no
+ * fault is latched and the far-end code is fresh (changed within FC_FRESH_TICKS ticks, the
+ * integrators' rule: a live cell's code moves with its noise, a failed one holds it, and p
+ * acting on a stuck reading for the ticks STUCK needs drove the output further off than the
+ * feedforward alone); otherwise p bleeds as the integrators do (2^FC_BLEED_SHIFT ticks), so
+ * that the fall back to the feedforward alone has no step. FC_P_LIMIT bounds it besides.
+ * Loop margin: from c to T_out,meas the gain is the one above, about G_plant / G_model (0.7 ..
+ * 1.4) times the tension loop's and the far-end cell's response, and 0 inside a dead zone, so
+ * the loop kp (G_plant / G_model) closes through the tension loop's and the cell's lag
+ * tau_d: firmware/README.md gives the measured margins ("The far-end proportional term").
+ * Formats: kp in Q15.16 (<= 2^18), e kp < 2^35 in int64, rounded half up to Q7.8 N; the twin
+ * computes the same product in double (exact below 2^53) and agrees bit for bit.
+ *
  * Reversal table (rev_enable 1): what a correction held through a reversal cannot reach (a dead
  * zone wider or more gradual than the model's, breakaway, slack, the drive's lag) is learnt as
  * the shape of the reversal and added as feedforward from the first tick after the next one.
@@ -369,6 +388,8 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
 #define FC_REV_LEAK_MIN 2             /* rev_leak_shift in [2, 24] */
 #define FC_REV_LEAK_MAX 24
 #define FC_REV_LIMIT_MAX_Q8 (8 * Q7_8_ONE) /* rev_limit in [0, 8] N */
+#define FC_KP_MAX_Q16 (4 << 16)       /* kp in [0, 4] */
+#define FC_P_LIMIT_Q8 (4 * Q7_8_ONE)  /* |kp e| <= 4 N */
 
 /* Limits the caller reports (fric_corr_step's lim): the command cannot go higher / lower. */
 #define FC_LIM_HI 0x1u
@@ -380,7 +401,7 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
 #define FC_FAULT_STUCK 0x4u
 #define FC_FAULT_TARE 0x8u
 
-/* Status codes of fric_corr_config_check (80-89). */
+/* Status codes of fric_corr_config_check (80-90). */
 #define FC_ERR_ENABLE 80   /* enable not 0 or 1 */
 #define FC_ERR_KI 81       /* ki_shift outside [4, 16] */
 #define FC_ERR_HOLD 82     /* hold_ticks outside [0, 4096] */
@@ -392,6 +413,7 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
 #define FC_ERR_REV 88      /* rev_enable or rev_index not 0 or 1, a rev_* shift or lead outside
                             * its range, or a lead with rev_index 1 */
 #define FC_ERR_REV_LIMIT 89 /* rev_limit outside [0, 8] N */
+#define FC_ERR_KP 90       /* kp outside [0, 4] */
 
 /* Configuration (a part of fw_config_t; parameters corr.*). */
 typedef struct {
@@ -410,6 +432,7 @@ typedef struct {
     int32_t rev_leak_shift;  /* leak 2^-rev_leak_shift per update of a node, [2, 24] */
     q7_8w_t rev_limit_n_q8;  /* |r_b[k]| bound, Q7.8 N, [0, 8] */
     int32_t rev_index;       /* [0, 1]: 0 the table by ticks (default), 1 by the inlet's travel */
+    int32_t kp_q16;          /* proportional gain on the far-end error, Q15.16, [0, 4] (0 off) */
 } fric_corr_config_t;
 
 typedef struct {
@@ -442,6 +465,7 @@ typedef struct {
     q3_28_t rev_ln_ext_q28;  /* rev_index 1: its ln, Q3.28 */
     int32_t rev_travel;      /* rev_index 1: T_in's log travel from it, 2^-8 of ln, [0, 2^11) */
     q3_28_t band_x_q28;      /* STUCK: the clamped x0 band_q24 was computed for */
+    int32_t p_q8;            /* the proportional term kp e of the last tick, Q7.8 N */
 } fric_corr_t;
 
 /* Defaults: off; ki_shift 6, hold_ticks 30, limit 0.5 and the slide gate off, chosen on the

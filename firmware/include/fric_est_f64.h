@@ -45,6 +45,7 @@ typedef struct {
     double o[2];       /* o_up, o_dn (offset_term), N */
     double rev[2][FC_REV_BINS]; /* reversal tables r_up, r_dn, N */
     double rev_out;    /* r(n) of the last tick, N */
+    double p;          /* the proportional term of the last tick, N (a multiple of 1/256 N) */
     double out;        /* the correction, N, rounded to 1/256 N */
 } fric_corr_f64_t;
 

@@ -360,6 +360,7 @@ void fric_corr_config_default(fric_corr_config_t *cfg)
     cfg->rev_leak_shift = 12;  /* 64 updates per reversal: 1/64 of a node per reversal */
     cfg->rev_limit_n_q8 = 2 * Q7_8_ONE;
     cfg->rev_index = 0;        /* by ticks: the travel index is an option (fric_est.h) */
+    cfg->kp_q16 = 0;           /* the proportional term off */
 }
 
 int32_t fric_corr_config_check(const fric_corr_config_t *cfg)
@@ -404,6 +405,9 @@ int32_t fric_corr_config_check(const fric_corr_config_t *cfg)
     if (cfg->rev_limit_n_q8 < 0 || cfg->rev_limit_n_q8 > FC_REV_LIMIT_MAX_Q8) {
         return FC_ERR_REV_LIMIT;
     }
+    if (cfg->kp_q16 < 0 || cfg->kp_q16 > FC_KP_MAX_Q16) {
+        return FC_ERR_KP;
+    }
     return FE_OK;
 }
 
@@ -424,6 +428,7 @@ void fric_corr_reset(fric_corr_t *c)
     c->started = 0;
     c->faults = 0U;
     c->out_q8 = 0;
+    c->p_q8 = 0;
     c->branch = -1;
     for (int32_t i = 0; i < FC_GATE_TICKS; ++i) {
         c->gate_ref[i] = 0;
@@ -720,6 +725,14 @@ int32_t fric_corr_step(fric_corr_t *c, int32_t t_ref_q8, int32_t t_in_q8, int32_
     /* Q7.8 * Q3.28 = Q.36 N (|.| < 2^45), + o in Q.36 (|.| < 2^41). */
     c->rev_out_q24 = (c->cfg.rev_enable != 0) ? rev_value(c, rb, rn) : 0;
     const int64_t cq = (int64_t)t_ref_q8 * g + (o + c->rev_out_q24) * (INT64_C(1) << 12);
-    c->out_q8 = (int32_t)((cq + (INT64_C(1) << 27)) >> 28);
+    /* The proportional term: kp e rounded half up to Q7.8 N (|e kp| < 2^35), clamped. */
+    if (c->faults != 0U || c->same_ticks >= (uint32_t)FC_FRESH_TICKS) {
+        c->p_q8 = bleed(c->p_q8, FC_BLEED_SHIFT);
+    } else if (c->tared != 0) {
+        const int64_t e = (int64_t)t_ref_q8 - ((int64_t)t_out_q8 - c->tare_q8);
+        const int64_t p = (e * c->cfg.kp_q16 + (INT64_C(1) << 15)) >> 16;
+        c->p_q8 = (int32_t)((p > FC_P_LIMIT_Q8) ? FC_P_LIMIT_Q8 : (p < -FC_P_LIMIT_Q8) ? -FC_P_LIMIT_Q8 : p);
+    }
+    c->out_q8 = (int32_t)((cq + (INT64_C(1) << 27)) >> 28) + c->p_q8;
     return c->out_q8;
 }

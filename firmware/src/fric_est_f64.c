@@ -68,6 +68,7 @@ void fric_corr_f64_reset(fric_corr_f64_t *c)
         }
     }
     c->rev_out = 0.0;
+    c->p = 0.0;
     c->out = 0.0;
 }
 
@@ -205,6 +206,14 @@ double fric_corr_f64_step(fric_corr_f64_t *c, int32_t t_ref_q8, int32_t t_in_q8,
     const double g = floor((c->g[1] + (c->g[0] - c->g[1]) * w16) * q28) / q28;
     const double o = floor((c->o[1] + (c->o[0] - c->o[1]) * w16) * q24) / q24;
     c->rev_out = (cfg->rev_enable != 0) ? rev_value_f64(c, rb, rn) : 0.0;
-    c->out = floor(((double)t_ref_q8 / 256.0 * g + o + c->rev_out) * 256.0 + 0.5) / 256.0;
+    /* The proportional term: kp e rounded half up to 1/256 N (e kp_q16 < 2^35: exact). */
+    if (b->faults != 0U || b->same_ticks >= (uint32_t)FC_FRESH_TICKS) {
+        c->p = bleed_f64(c->p, 256.0, FC_BLEED_SHIFT);
+    } else if (b->tared != 0) {
+        const double e_q8 = (double)t_ref_q8 - ((double)t_out_q8 - (double)b->tare_q8);
+        const double lim_p = (double)FC_P_LIMIT_Q8 / 256.0;
+        c->p = fmin(lim_p, fmax(-lim_p, floor((e_q8 * (double)cfg->kp_q16 + 32768.0) / 65536.0) / 256.0));
+    }
+    c->out = floor(((double)t_ref_q8 / 256.0 * g + o + c->rev_out) * 256.0 + 0.5) / 256.0 + c->p;
     return c->out;
 }

@@ -491,6 +491,8 @@ const char *fw_strerror(int32_t code)
                "1), rev_leak_shift in [2, 24]";
     case FC_ERR_REV_LIMIT:
         return "corr.rev_limit: outside [0, 8] N";
+    case FC_ERR_KP:
+        return "corr.kp: outside [0, 4]";
     default:
         return "unknown status code";
     }

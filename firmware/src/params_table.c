@@ -65,4 +65,5 @@ const proto_param_t params_table[PROTO_N_PARAMS] = {
     {0x586CA78CUL, (uint16_t)offsetof(settings_t, fw.corr.rev_index), PROTO_PARAM_I32, 0u}, /* 58: corr.rev_index */
     {0xBA4C4565UL, (uint16_t)offsetof(settings_t, fw.comp.slack_tension_n_q8), PROTO_PARAM_I32, 0u}, /* 59: comp.slack_tension_n */
     {0xAB9C29A1UL, (uint16_t)offsetof(settings_t, fw.comp.mu_per_inlet_rate_q28), PROTO_PARAM_I32, 0u}, /* 60: comp.mu_per_inlet_rate */
+    {0x8042A368UL, (uint16_t)offsetof(settings_t, fw.corr.kp_q16), PROTO_PARAM_I32, 0u}, /* 61: corr.kp */
 };

@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 PROTOCOL_VERSION = 3
-TABLE_HASH = 0xA63D18ED
+TABLE_HASH = 0x88B9229A
 MAX_PAYLOAD = 48
 CAN_NODE_BITS = 6
 CAN_MESSAGE_BITS = 5
@@ -1562,6 +1562,23 @@ PARAMS: tuple[Param, ...] = (
         16777216,
         False,
     ),
+    Param(
+        61,
+        "corr.kp",
+        "fw.corr.kp_q16",
+        False,
+        16,
+        "",
+        None,
+        False,
+        -2147483648,
+        2147483647,
+        0x8042A368,
+        "proportional gain on the far-end error, Q15.16, [0, 4] (0 off)",
+        0,
+        262144,
+        False,
+    ),
 )
 PARAM_BY_NAME: dict[str, Param] = {p.name: p for p in PARAMS}
 
@@ -1614,4 +1631,5 @@ SIM_TO_DEVICE: dict[str, str] = {
     "compensator.breakaway": "comp.breakaway",
     "compensator.slack_tension_n": "comp.slack_tension_n",
     "compensator.mu_per_inlet_rate": "comp.mu_per_inlet_rate",
+    "compensator.corr_kp": "corr.kp",
 }
