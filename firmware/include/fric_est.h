@@ -275,8 +275,9 @@ q3_28_t fric_est_ln_q28(uq8_24_t v);
  * T_0 and T_ref), whose loop gain is at most twice the gain's alone below T_0 = 16 N. o_b is
  * Q7.24 N (a step e 2^(16 - ki_shift)); the sum g T_ref + o is formed in Q.36 N before rounding.
  * Tare: the far-end cell's zero is the mean of its readings over the first tare_ticks ticks after
- * the start (a slack cable: the run starts at zero tension); T_in above tare_max on any of them is
- * the fault TARE (the offset would then carry tension). No correction before the tare ends.
+ * the start, taken at zero load: fw_tick writes T_c at its floor until the tare's last reading
+ * (fw.c); T_in above tare_max on any of them is the fault TARE (the offset would then carry
+ * tension). No correction before the tare ends.
  * Faults (latched until fric_corr_reset, which fw_start calls): FC_FAULT_ADC (the ADC front-end
  * flags), FC_FAULT_RANGE (code outside [code_min, code_max] or its tension outside Q7.8),
  * FC_FAULT_STUCK (the code unchanged for FC_STUCK_TICKS ticks while T_in, above FC_STUCK_T_MIN_Q8,

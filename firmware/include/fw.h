@@ -18,7 +18,9 @@
  * correction on (corr.enable), the same far-end word feeds fric_corr_step with the reference the
  * compensator applied at the last tick, its blend and the command limits reached (T_c at its
  * floor or Q7.8's top, U at +-I_LIMIT, a latched FAULT: both), and the correction goes to the
- * compensator (comp_set_correction_q8) before step 3.
+ * compensator (comp_set_correction_q8) before step 3; until the correction's tare has its last
+ * reading, step 4 writes T_c at its floor (comp.tc_min_n), so that the far-end zero is taken at
+ * zero load.
  * A latched fault is reported (telemetry fault word, fault_ticks) and never cleared by the tick:
  * clearing a safety latch is the operator's decision (fw_fault_clear). The tick keeps writing TC
  * while a fault is latched, so the watchdog does not add a second fault.

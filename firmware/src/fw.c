@@ -339,6 +339,15 @@ q7_8_t fw_tick(fw_t *fw, q7_8_t host_t_ref)
 
     q7_8_t t_ref = (fw->cfg.source == FW_SOURCE_WAVE) ? wave_next_q7_8(&fw->wave) : host_t_ref;
     q7_8_t t_c = comp_step_q7_8(&fw->comp, t_ref);
+    if (fw->cfg.corr.enable != 0 && fw->corr.tared == 0 && fw->corr.faults == 0U) {
+        /* The far-end zero is taken at zero load: T_c at its floor (0 unless configured) until
+         * the tare ends, the compensator stepping on so that its line and state stay the run's.
+         * Driven, the cable carried the start-up's own tension (in host mode the preview's
+         * line reads its first input, T_ref P ticks ahead, 0.07 N on fig14), which the tare took
+         * for the cell's offset: the correction then held every output that much above its
+         * reference (0.49 % RMS on a plant the compensator knows, 0.27 % without it). */
+        t_c = (q7_8_t)fw->cfg.comp.tc_min_n_q8;
+    }
     write_word(fw, BOWDEN_REG_TC, t_c); /* refreshes the watchdog */
     if (fw->cfg.loop.kv != 0 || fw->uff_written != 0) {
         /* The first tick after fw_start has no rate and feeds nothing; a feedforward switched

@@ -1049,7 +1049,9 @@ static void test_corr_config_check(void)
 
 /* fw_tick with the correction on reads T_OUT, reports the correction and its faults in the
  * telemetry and hands it to the compensator; an ADC fault is reported and bleeds it away; off
- * (the default) nothing moves. */
+ * (the default) nothing moves. While the far-end zero is taken (the first tare_ticks ticks) T_c
+ * is written at its floor, so that the cell reads the cable at zero load: the tare is 0 here,
+ * where the start-up's own T_c (fig14's first 64 ms through the compensator) moved the output. */
 static void test_corr_fw_tick(void)
 {
     for (int32_t on = 0; on <= 1; ++on) {
@@ -1068,6 +1070,7 @@ static void test_corr_fw_tick(void)
         double t_out = 0.0;
         const double x = 0.075 * 2.0 * PI_D * 1.3;
         int32_t seen = 0;
+        int32_t tc_tare = 0; /* the largest T_c written during the tare's ticks */
         for (int32_t k = 0; k < 6000; ++k) {
             double t_in = (double)fw.tel.t_c / 256.0; /* an ideal tension loop, one tick late */
             double lo = t_in * exp(-x);
@@ -1078,7 +1081,10 @@ static void test_corr_fw_tick(void)
             hal_shadow_set(&s, BOWDEN_REG_T_OUT, (uint32_t)code & BOWDEN_T_OUT_MASK);
             hal_shadow_set(&s, BOWDEN_REG_ADC_FLAGS,
                            (k >= 5000) ? BOWDEN_ADC_FLAGS_CRC_ERR_MASK : 0U);
-            (void)fw_tick(&fw, (q7_8_t)q8(fig14_n(k)));
+            const int32_t tc = fw_tick(&fw, (q7_8_t)q8(fig14_n(k + 60))); /* preview: P ahead */
+            if (k < cfg.corr.tare_ticks - 1) { /* the last reading's tick writes the run's T_c */
+                tc_tare = (tc > tc_tare) ? tc : tc_tare;
+            }
             hal_write_t w[HAL_LOG_CAPACITY];
             (void)hal_shadow_drain(&s, w, HAL_LOG_CAPACITY);
             if (k == 4999) {
@@ -1086,6 +1092,8 @@ static void test_corr_fw_tick(void)
             }
         }
         if (on != 0) {
+            CHECK(tc_tare == 0 && fw.corr.tare_q8 == 0, "fw: T_c %d during the tare, zero %d",
+                  tc_tare, fw.corr.tare_q8);
             CHECK(seen != 0, "fw: no correction before the fault");
             CHECK(fw.tel.corr_faults == FC_FAULT_ADC, "fw: faults 0x%x", fw.tel.corr_faults);
             CHECK(fw.tel.corr_n_q8 == 0 && fw.comp.corr_q8 == 0, "fw: not bled away: %d",
@@ -1093,6 +1101,7 @@ static void test_corr_fw_tick(void)
         } else {
             CHECK(seen == 0 && fw.tel.corr_faults == 0U && fw.comp.corr_q8 == 0,
                   "fw off: correction %d faults 0x%x", seen, fw.tel.corr_faults);
+            CHECK(tc_tare > 0, "fw off: T_c held at the floor at the start");
         }
         fw_start(&fw);
         CHECK(fw.corr.faults == 0U && fw.comp.corr_q8 == 0, "fw_start: not reset");

@@ -56,9 +56,9 @@ def _run(
 @pytest.mark.slow
 def test_correction_removes_a_friction_error_and_tares_an_offset():
     """Plant mu 0.09 (20 % above the calibration) with 0.4 N on the far-end cell: the true output
-    tension's RMS error is at most 0.3x the feedforward's alone (measured: 1.33 % against 5.53 %
-    of 15 N, 0.24x; the rest is the reversals'), and the offset does not move it (the tare: within
-    0.05 % of the run without it; measured 0.001 %)."""
+    tension's RMS error is at most 0.3x the feedforward's alone (measured: 1.24 % against 5.53 %
+    of 15 N, 0.22x; the rest is the reversals'), and the offset does not move it (the tare, taken
+    with T_c at its floor: within 0.05 % of the run without it; measured 0.004 %)."""
     plant = {"mu": 0.09}
     ff = _run(plant, corr=False)
     on = _run(plant, corr=True)
@@ -81,7 +81,7 @@ def test_a_calibrated_tension_offset_does_not_defeat_the_tare():
     the correction stayed off all run. The compensator now aims without its offset until the
     far-end zero is taken: no fault, and the correction removes most of what the offset costs a
     plant without one (true RMS at most 0.6x the feedforward's with that offset; measured
-    2.41 % against 6.30 %, 0.38x; before, TARE latched and it was the feedforward's 6.30 %)."""
+    2.35 % against 6.30 %, 0.37x; before, TARE latched and it was the feedforward's 6.30 %)."""
     plant = {"mu": 0.09}
     ff = _run(plant, corr=False, comp={"offset_n": -0.52})
     shifted = _run(plant, corr=True, comp={"offset_n": -0.52})
@@ -100,7 +100,7 @@ def test_a_calibrated_slack_does_not_defeat_the_tare():
     ceiling, TARE latched and the correction stayed off all run (the far-end mode tracked at
     4.45 % true RMS there, 1.26 % without the slack). The compensator now holds the root until
     the far-end zero is taken: no fault, the correction acts, and with the slack it tracks
-    better than without it (measured 1.43 % against 1.61 % true RMS; with the root in force
+    better than without it (measured 1.41 % against 1.61 % true RMS; with the root in force
     during the tare, TARE latched and it was the feedforward's 5.77 %)."""
     plant = {"mu": 0.09, "slack_tension": 3.9}
     slack = _run(plant, corr=True, rev=True, comp={"slack_tension_n": 3.65})
@@ -117,8 +117,8 @@ def test_a_calibrated_slack_does_not_defeat_the_tare():
 def test_reversal_table_lowers_the_error_the_held_correction_leaves():
     """A plant with a breakaway and a gradual dead zone besides a friction error (mu 0.09,
     mu_static_excess 0.03, dead_zone_spread 0.3): the reversal table lowers the true output's RMS
-    error of the last two periods to at most 0.4x the held correction's alone (measured 0.093 N
-    against 0.350 N, 0.27x)."""
+    error of the last two periods to at most 0.4x the held correction's alone (measured 0.083 N
+    against 0.354 N, 0.23x)."""
     plant = {"mu": 0.09, "mu_static_excess": 0.03, "dead_zone_spread": 0.3}
     held = _run(plant, corr=True)
     table = _run(plant, corr=True, rev=True)
@@ -151,22 +151,21 @@ def test_proportional_term_lowers_the_error_without_ringing():
     """The reversal table's plant above (a friction error, a breakaway and a gradual dead zone),
     the integrators and the table on: the proportional term at the gain chosen on the tuning set
     (corr.kp 0.75) lowers the true output's RMS and peak error of the last two periods (measured
-    0.0840 / 0.400 N against 0.0931 / 0.456 N: 0.90x and 0.88x; budgets 0.95x and 0.92x) and adds
-    no ringing (the output above 30 Hz within 1.1x: 0.0125 against 0.0128 N). On a plant whose
+    0.0701 / 0.467 N against 0.0829 / 0.524 N: 0.85x and 0.89x; budgets 0.9x and 0.93x) and adds
+    no ringing (the output above 30 Hz within 1.1x: 0.0124 against 0.0127 N). On a plant whose
     friction is 20 % below the calibration's, with a breakaway (mu 0.06, mu_static_excess 0.03),
-    the top of its range (4) rings (0.529 N above 30 Hz against 0.074 N without it: at least 3x),
-    where 2 still does not (0.073 N): the gain margin firmware/README.md states ("The far-end
-    proportional term") lies between."""
+    neither 2 nor the top of its range (4) rings (0.0734 and 0.0749 N above 30 Hz against 0.0731
+    N without it; within 1.1x)."""
     plant = {"mu": 0.09, "mu_static_excess": 0.03, "dead_zone_spread": 0.3}
     rms0, peak0, hf0 = _late(_run(plant, corr=True, rev=True))
     rms, peak, hf = _late(_run(plant, corr=True, rev=True, comp={"corr_kp": 0.75}))
-    assert rms <= 0.95 * rms0 and peak <= 0.92 * peak0, (rms, rms0, peak, peak0)
+    assert rms <= 0.9 * rms0 and peak <= 0.93 * peak0, (rms, rms0, peak, peak0)
     assert hf <= 1.1 * hf0, (hf, hf0)
     low = {"mu": 0.06, "mu_static_excess": 0.03}
     _, _, hf_low = _late(_run(low, corr=True, rev=True))
-    _, _, hf_two = _late(_run(low, corr=True, rev=True, comp={"corr_kp": 2.0}))
-    _, _, hf_top = _late(_run(low, corr=True, rev=True, comp={"corr_kp": 4.0}))
-    assert hf_two <= 1.1 * hf_low and hf_top >= 3.0 * hf_low, (hf_two, hf_top, hf_low)
+    for kp in (2.0, 4.0):
+        _, _, hf_kp = _late(_run(low, corr=True, rev=True, comp={"corr_kp": kp}))
+        assert hf_kp <= 1.1 * hf_low, (kp, hf_kp, hf_low)
 
 
 @pytest.mark.slow
