@@ -457,6 +457,16 @@ static fric_corr_config_t rev_config(void)
     return c;
 }
 
+/* A correction and its twin configured alike (x0 = 0.47) and tared at zero in one tick
+ * (cfg->tare_ticks 1). */
+static void tared_pair(fric_corr_t *c, fric_corr_f64_t *f, const fric_corr_config_t *cfg)
+{
+    fric_corr_configure(c, cfg, (q3_28_t)(0.47 * Q28));
+    fric_corr_f64_configure(f, cfg, (q3_28_t)(0.47 * Q28));
+    tare_at_zero(c);
+    (void)fric_corr_f64_step(f, 0, 0, 0, 0, CODE_MIN, CODE_MAX, 0U, 0, 0U);
+}
+
 /* The proportional term equals its twin bit for bit (p, c and every integrator) at every tick,
  * at the smallest, the chosen and the largest gain, with and without the reversal table, on
  * plants with a breakaway on both sides of the model, a fault from 6 s on. */
@@ -543,10 +553,7 @@ static void test_corr_p_bleeds_on_a_held_reading(void)
     cfg.kp_q16 = 3 << 14;
     fric_corr_t c;
     fric_corr_f64_t f;
-    fric_corr_configure(&c, &cfg, (q3_28_t)(0.47 * Q28));
-    fric_corr_f64_configure(&f, &cfg, (q3_28_t)(0.47 * Q28));
-    tare_at_zero(&c);
-    (void)fric_corr_f64_step(&f, 0, 0, 0, 0, CODE_MIN, CODE_MAX, 0U, 0, 0U);
+    tared_pair(&c, &f, &cfg);
     const int32_t one = (int32_t)Q1_30_ONE;
     const int32_t held = q8(8.0);
     int32_t p_prev = 0;
@@ -587,10 +594,7 @@ static void test_corr_p_full_scale(void)
     for (int32_t i = 0; i < 2; ++i) {
         fric_corr_t c;
         fric_corr_f64_t f;
-        fric_corr_configure(&c, &cfg, (q3_28_t)(0.47 * Q28));
-        fric_corr_f64_configure(&f, &cfg, (q3_28_t)(0.47 * Q28));
-        tare_at_zero(&c);
-        (void)fric_corr_f64_step(&f, 0, 0, 0, 0, CODE_MIN, CODE_MAX, 0U, 0, 0U);
+        tared_pair(&c, &f, &cfg);
         for (int32_t k = 0; k < 4; ++k) {
             int32_t v = fric_corr_step(&c, refs[i], 0, outs[i], 0, CODE_MIN, CODE_MAX, 0U, 0, 0U);
             double vf = fric_corr_f64_step(&f, refs[i], 0, outs[i], 0, CODE_MIN, CODE_MAX, 0U, 0,
