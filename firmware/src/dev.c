@@ -456,6 +456,31 @@ static int16_t sample_le(const uint8_t *b)
     return (int16_t)((int32_t)u - ((u >> 15) << 16));
 }
 
+/* `n` samples from little-endian payload bytes into dst. Where the target keeps an int16 as its
+ * little-endian bytes (the soft CPU, the Cortex-M4, the host), that is a copy of the bytes, taken a
+ * word (two samples) at a time when both ends are word-aligned: on the soft CPU that took the
+ * handling of a full STREAM frame's delimiter (its last bytes decoded, the samples queued, the ACK)
+ * from 3 414 clocks to 3 054 with four cables (tests/soc/tb_soc_tick.py's streamed run). */
+typedef uint32_t __attribute__((may_alias)) dev_word_t;
+
+static void samples_from_le(int16_t *dst, const uint8_t *le, uint32_t n)
+{
+    uint32_t i = 0;
+#if defined(__BYTE_ORDER__) && defined(__ORDER_LITTLE_ENDIAN__) && \
+    __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+    if ((((uintptr_t)dst | (uintptr_t)le) & 3U) == 0U) {
+        dev_word_t *const dw = (dev_word_t *)(void *)dst;
+        const dev_word_t *const sw = (const dev_word_t *)(const void *)le;
+        for (; i + 2U <= n; i += 2U) {
+            dw[i / 2U] = sw[i / 2U];
+        }
+    }
+#endif
+    for (; i < n; ++i) {
+        dst[i] = sample_le(&le[2U * i]);
+    }
+}
+
 /* `count` samples (little-endian int16 from a STREAM or STREAM_CH payload, checked by dispatch)
  * into channel c's stream buffer: taken from the payload straight into the ring, not through the
  * message's unpacked array first (on the soft CPU the unpacking and the copy were a third of a
@@ -472,14 +497,8 @@ static void stream_put(dev_t *d, uint32_t port, const proto_frame_t *req, uint32
     /* Into the ring in at most two contiguous pieces (the end of the array, then its start). */
     const uint32_t tail = (d->stream_head[c] + d->stream_len[c]) % DEV_STREAM_LEN;
     const uint32_t first = (count < DEV_STREAM_LEN - tail) ? count : DEV_STREAM_LEN - tail;
-    int16_t *dst = &d->stream[c][tail];
-    for (uint32_t i = 0; i < first; ++i, le += 2) {
-        dst[i] = sample_le(le);
-    }
-    dst = d->stream[c];
-    for (uint32_t i = first; i < count; ++i, le += 2) {
-        dst[i - first] = sample_le(le);
-    }
+    samples_from_le(&d->stream[c][tail], le, first);
+    samples_from_le(d->stream[c], &le[2U * first], count - first);
     d->stream_len[c] += count;
     reply_ack(d, port, req, DEV_STREAM_LEN - d->stream_len[c]);
 }
@@ -700,7 +719,8 @@ void dev_rx_bytes(dev_t *d, uint32_t port, const uint8_t *data, uint32_t n)
     if (port >= DEV_PORTS || d->ports[port].kind != DEV_PORT_SERIAL) {
         return;
     }
-    proto_frame_t f;
+    /* Word-aligned: a STREAM payload (at offset 4) is then copied a word at a time. */
+    _Alignas(4) proto_frame_t f;
     uint32_t i = 0;
     while (i < n) {
         int got;
