@@ -140,20 +140,19 @@ static void uart_poll(void)
             byte = (uint8_t)v;
         }
         if (byte == 0U) {
-            /* A delimiter with nothing before it (every frame on the wire starts with one) ends
-             * an empty frame, which the decoder skips: handed over alone it cost a handling's
-             * fixed cost for nothing (some 600 clocks with four cables, most periods that
-             * received a frame). */
-            if (n == 0U && g_rx_open == 0U) {
-                g_delim_held = 0U;
-                continue;
-            }
             if (rx_admitted() == 0U) {
                 g_delim_held = 1U;
                 break;
             }
             g_delim_held = 0U;
             g_frame_owed = 0U;
+        }
+        /* A delimiter with nothing before it (every frame on the wire starts with one) ends an
+         * empty frame, which the decoder skips: it is admitted as any delimiter (the first
+         * frame after a tick, as before), but not handed over alone, which cost a handling's
+         * fixed cost for nothing (some 600 clocks with four cables). */
+        if (byte == 0U && n == 0U && g_rx_open == 0U) {
+            continue;
         }
         buf[n++] = byte;
         if (byte == 0U || n == sizeof g_rx_buf) {
