@@ -52,6 +52,7 @@ typedef struct {
     uint32_t left;    /* data bytes still to come in the current block */
     uint32_t n;       /* decoded bytes in raw */
     uint32_t crc;     /* CRC-32C register over raw */
+    uint8_t raw_pad;  /* unused: puts a frame's payload (raw[3] on) at a word boundary */
     uint8_t raw[PROTO_MAX_RAW]; /* the frame decoded so far */
 } proto_rx_t;
 

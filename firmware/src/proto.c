@@ -94,6 +94,9 @@ void proto_rx_init(proto_rx_t *rx)
     rx->stats = (proto_rx_stats_t){0};
 }
 
+/* A word that may alias any object (the payload's copy a word at a time). */
+typedef uint32_t __attribute__((may_alias)) proto_word_t;
+
 /* At a delimiter: the frame decoded so far checked and copied out (1), or counted as an error. */
 static int rx_frame(proto_rx_t *rx, proto_frame_t *out)
 {
@@ -117,10 +120,17 @@ static int rx_frame(proto_rx_t *rx, proto_frame_t *out)
     out->seq = rx->raw[2];
     out->len = (uint8_t)len;
     /* Four bytes an iteration: on the soft CPU a byte-wise copy was a tenth of a long frame's
-     * handling (make soc-profile's method, on a run fed with full STREAM frames). */
+     * handling (make soc-profile's method, on a run fed with full STREAM frames). A word at a
+     * time where both ends are word-aligned (raw_pad puts the payload there; the caller's frame
+     * may be aligned too): on the soft CPU four loads and four stores less a word. */
     const uint8_t *src = &rx->raw[PROTO_HEADER_LEN];
     uint8_t *dst = out->payload;
     uint32_t i = 0;
+    if ((((uintptr_t)src | (uintptr_t)dst) & 3U) == 0U) {
+        for (; i + 4U <= len; i += 4U) {
+            *(proto_word_t *)(void *)&dst[i] = *(const proto_word_t *)(const void *)&src[i];
+        }
+    }
     for (; i + 4U <= len; i += 4U) {
         dst[i] = src[i];
         dst[i + 1U] = src[i + 1U];
