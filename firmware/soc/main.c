@@ -124,15 +124,17 @@ static void rx_hand_over(uint8_t *buf, uint32_t n)
 /* Received bytes gathered until a frame's delimiter or a full buffer: each handling has a fixed
  * cost (some 500 clocks of calls into the device and the decoder), so a frame's bytes are handed
  * over in one or two handlings, not in one for every byte or two the UART brings a pass.
- * A delimiter admitted with more than RX_DELIM_BYTES bytes gathered before it does not take them
- * along: they are decoded now and the frame is served in the first pass after the next tick. A
- * whole STREAM frame decoded and served in one handling took some 4 900 clocks with four cables,
- * more than a period's half leaves beside their tick (the frame's bytes and both its delimiters
- * waiting in the FIFO at the tick's end: the first delimiter admitted as the first frame after
- * the tick, the second by the clocks left); split, its decoding and its handling take some 2 400
- * and 3 000 in two periods. A short request (HELLO: 8 bytes) is still served at once, and so is
- * every request while no run goes on. */
+ * During a run, a delimiter admitted with more than RX_DELIM_BYTES bytes gathered before it, later
+ * than RX_WHOLE_CLKS after the tick's start, does not take them along: they are decoded now and
+ * the frame is served in the first pass after the next tick. A whole STREAM frame decoded and
+ * served in one handling took some 4 900 clocks with four cables, more than a period's half
+ * leaves beside their tick (the frame's bytes and both its delimiters waiting in the FIFO at the
+ * tick's end: the first delimiter admitted as the first frame after the tick, the second by the
+ * clocks left); split, its decoding and its handling take some 2 400 and 2 600 in two periods.
+ * After a short tick (one cable's, some 4 500 clocks) a whole frame still fits, and a short
+ * request (HELLO: 8 bytes) is always served at once. */
 #define RX_DELIM_BYTES 16U
+#define RX_WHOLE_CLKS 6000U
 static uint8_t g_rx_buf[64];
 static uint32_t g_rx_n;
 /* 1: bytes of the frame being received were handed over without its delimiter (a full buffer, or
@@ -157,7 +159,8 @@ static void uart_poll(void)
                 g_delim_held = 1U;
                 break;
             }
-            if (n > RX_DELIM_BYTES && g_dev.running != 0U) {
+            if (n > RX_DELIM_BYTES && g_dev.running != 0U &&
+                soc_io_read(SOC_TIMER_COUNT) - g_tick_clk >= RX_WHOLE_CLKS) {
                 g_delim_held = 1U;
                 g_delim_next = 1U;
                 break;
