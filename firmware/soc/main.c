@@ -21,7 +21,9 @@
  * before the delimiter are gathered as they come and handed to the decoder together (at the
  * delimiter, at 64 bytes, or while the delimiter waits: a handling's fixed cost is paid once a
  * frame, not once a byte); the frame's check, its dispatch and its reply wait for the admitted
- * delimiter. Frames' CRCs run in the SoC's CRC unit (crc32c.h, soc.h).
+ * delimiter. During a run, a long frame whose delimiter comes after a long tick has its bytes
+ * decoded at once and is served after the next tick, so that no period holds a tick and a whole
+ * long frame (RX_WHOLE_CLKS below). Frames' CRCs run in the SoC's CRC unit (crc32c.h, soc.h).
  */
 #include <stdint.h>
 
