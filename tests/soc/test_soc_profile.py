@@ -83,7 +83,7 @@ def test_soc_profile(tmp_path):
     profile = json.loads(out.read_text())
     funcs = Functions.of_elf(ELF)
     for phase, must in (
-        ("tick", {"dev_tick_channels", "fw_tick", "proto_encode"}),
+        ("tick", {"dev_tick_channels", "fw_tick", "proto_encode_in_place"}),
         ("received bytes", {"proto_rx_bytes"}),
     ):
         total = Counter()
