@@ -136,6 +136,7 @@ TASKS = [
     "bowden_core:cover",
     "bowden_core:cover_soc",
     "tension_loop_mc:prove",
+    "tension_loop_mc:prove_ram",
     "tension_loop:prove",
     "tension_loop:prove_soc",
     "spi_axil_bridge:prove_aw8",

@@ -107,6 +107,26 @@ def reset_bits(f: dict) -> int:
     return f["reset"] & ((1 << f["width"]) - 1)
 
 
+def cfg_fields(spec: dict) -> list[tuple[dict, dict, int]]:
+    """The fields a block RAM holds when bowden_regs has CFG_RAM 1: every register whose one
+    field is a read-write value (the loop's configuration words; CTRL's bits and pulses stay in
+    flip-flops), as (register, field, offset in the memory word), packed from bit 0 in address
+    order of the table."""
+    out = []
+    pos = 0
+    for reg in spec["registers"]:
+        fs = reg["fields"]
+        if len(fs) == 1 and fs[0]["access"] == "rw" and fs[0]["lsb"] == 0:
+            out.append((reg, fs[0], pos))
+            pos += fs[0]["width"]
+    return out
+
+
+def cfg_width(spec: dict) -> int:
+    """Bits of one bank's configuration word in the block RAM (cfg_fields)."""
+    return sum(f["width"] for _, f, _ in cfg_fields(spec))
+
+
 # --- Verilog ------------------------------------------------------------------------------------
 
 
@@ -132,7 +152,8 @@ def gen_verilog(spec: dict) -> str:
     w("")
     w("module bowden_regs #(")
     w(f"    parameter ADDR_W = {aw},  // byte address width of the register bus")
-    w("    parameter RD_STAGES = 3  // clocks from reg_rd_en to reg_rd_valid: 3 or 1")
+    w("    parameter RD_STAGES = 3,  // clocks from reg_rd_en to reg_rd_valid: 3 or 1")
+    w("    parameter CFG_RAM = 0  // 1: the configuration words are the caller's block RAM")
     w(") (")
     w("    input  wire              clk,")
     w("    input  wire              rst,")
@@ -165,9 +186,20 @@ def gen_verilog(spec: dict) -> str:
         if reg.get("wr_pulse"):
             n = reg["name"]
             ports.append(f"    output wire         {n.lower()}_wr,  // {n} written")
+    cw = cfg_width(spec)
+    rng = f"[{cw - 1}:0]"
+    ports.append(f"    output wire {rng} cfg_wr_en,    // CFG_RAM 1: the memory's bit enables")
+    ports.append(f"    output wire {rng} cfg_wr_data,  // CFG_RAM 1: its write data")
+    ports.append(f"    input  wire {rng} cfg_rd_data,  // CFG_RAM 1: this bank's word, read back")
     w("")
     w("    /*")
-    w("     * Fields (outputs: register contents; hw_ inputs: live values read back)")
+    w("     * Fields (outputs: register contents; hw_ inputs: live values read back).")
+    w("     * CFG_RAM 1: the configuration words (cfg_fields in the generator: the registers")
+    w("     * whose one field is read-write) live in the caller's block RAM, one word of cfg_*")
+    w("     * a bank, packed from bit 0 in address order; a write gives their bit enables and")
+    w("     * data, and a read takes the bank's word from cfg_rd_data in the clock its")
+    w("     * multiplexer reads the registers. Their field outputs then hold the reset values")
+    w("     * and are not used.")
     w("     */")
     ports[-1] = ports[-1].replace(",  //", "   //", 1)
     out.extend(ports)
@@ -218,6 +250,12 @@ def gen_verilog(spec: dict) -> str:
         if reg.get("wr_pulse"):
             w(f"reg  {reg['name'].lower()}_wr_reg, {reg['name'].lower()}_wr_next;")
     w("")
+    w("// The configuration words as read back: the flip-flops, or the block RAM (CFG_RAM 1).")
+    for reg, f, off in cfg_fields(spec):
+        name, wd = port(reg, f), f["width"]
+        sl = f"[{off + wd - 1}:{off}]"
+        w(f"wire [{wd - 1}:0] {name}_q = (CFG_RAM != 0) ? cfg_rd_data{sl} : {name}_reg;")
+    w("")
     w("// Read value of every register.")
     for reg in spec["registers"]:
         parts = []
@@ -228,7 +266,8 @@ def gen_verilog(spec: dict) -> str:
             if f["access"] == "const":
                 src = f"{wd}'h{reset_bits(f):X}"
             elif f["access"] == "rw":
-                src = f"{name}_reg"
+                in_ram = any(f is cf for _, cf, _ in cfg_fields(spec))
+                src = f"{name}_q" if in_ram else f"{name}_reg"
             elif f["access"] == "ro":
                 src = f"hw_{name}"
             else:
@@ -307,6 +346,19 @@ def gen_verilog(spec: dict) -> str:
             n = reg["name"].lower()
             w(f"assign {n}_wr = {n}_wr_reg;")
     w("assign reg_wr_err = reg_wr_en & ~WORD_MAPPED[wr_word];")
+    w("")
+    w("// CFG_RAM 1: a write of a configuration word, as the block RAM's bit enables and data.")
+    en = []
+    data = []
+    for reg, f, _ in reversed(cfg_fields(spec)):
+        wd = f["width"]
+        en.append(f"((wr_word == A_{reg['name']}) ? wr_mask[{wd - 1}:0] : {wd}'d0)")
+        data.append(f"reg_wr_data[{wd - 1}:0]")
+    w("assign cfg_wr_en = (CFG_RAM != 0 && reg_wr_en) ? {")
+    out.extend(f"    {e}," for e in en[:-1])
+    w(f"    {en[-1]}}} : {cw}'d0;")
+    w("assign cfg_wr_data = {" + ", ".join(data) + "};")
+    w("")
     out.extend(gen_read_path(spec))
     w("assign reg_rd_data = rd_data;")
     w("assign reg_rd_err = rd_err;")
@@ -314,14 +366,103 @@ def gen_verilog(spec: dict) -> str:
     w("")
     w("// Unused write-data bits: registers narrower than 32 bits ignore the rest.")
     w("wire unused_wr_bits = &{1'b0, reg_wr_data, wr_mask, reg_wr_addr[1:0], reg_rd_addr[1:0]};")
+    w("// CFG_RAM 0: the block RAM's read-back is not used.")
+    w("wire unused_cfg_rd = &{1'b0, cfg_rd_data};")
     w("// The read path's last stage serves the formal properties only.")
     w("wire unused_rd_last = rd_last;")
     w("")
     out.extend(gen_formal(spec))
     w("endmodule")
     w("")
+    out.extend(gen_cfg_ram(spec))
     w("`resetall")
     return "\n".join(out) + "\n"
+
+
+def gen_cfg_ram(spec: dict) -> list[str]:
+    """The block RAM of the banks' configuration words (bowden_regs with CFG_RAM 1): a word a
+    bank in cfg_fields' packing, starting with every register's reset value."""
+    cw = cfg_width(spec)
+    word = 0
+    for _, f, off in cfg_fields(spec):
+        word |= reset_bits(f) << off
+    out: list[str] = []
+    w = out.append
+    w("/*")
+    w(" * The banks' configuration words in a block RAM (bowden_regs with CFG_RAM 1): bank k's at")
+    w(" * address k, packed as bowden_regs' cfg_* ports; bit write enables (the byte strobes of a")
+    w(" * write), one registered read port. Each word holds the registers' reset values from the")
+    w(" * start (the memory's initial contents) and after a reset: the WORDS clocks from the one")
+    w(" * after rst write them (init_busy: the caller takes no write or read). The caller never")
+    w(" * reads and writes in the same clock: what such a read gives is left open")
+    w(" * (no_rw_check), so yosys maps the memory onto the block RAM as it is instead of")
+    w(" * building the old word's read around it (2 words alone: 591 flip-flops, 296 LUTs more).")
+    w(" */")
+    w("/* verilator lint_off DECLFILENAME */  // generated into bowden_regs.v with its packing")
+    w("module bowden_regs_cfg_ram #(")
+    w("    parameter WORDS = 2,  // banks")
+    w("    parameter AW = 1      // address bits, >= 1")
+    w(") (")
+    w("    input  wire          clk,")
+    w("    input  wire          rst,")
+    w("    output wire          init_busy, // writing the reset values: no write or read")
+    w(f"    input  wire [{cw - 1}:0] wr_en,    // bit enables")
+    w("    input  wire [AW-1:0] wr_addr,")
+    w(f"    input  wire [{cw - 1}:0] wr_data,")
+    w("    input  wire          rd_en,")
+    w("    input  wire [AW-1:0] rd_addr,")
+    w(f"    output wire [{cw - 1}:0] rd_data   // the word at rd_addr, the clock after rd_en")
+    w(");")
+    w("")
+    w(f"localparam [{cw - 1}:0] RESET_WORD = {cw}'h{word:X};")
+    w("")
+    w('(* ram_style = "block", no_rw_check *)')
+    w(f"reg [{cw - 1}:0] mem [0:WORDS-1];")
+    w(f"reg [{cw - 1}:0] rd_data_reg;")
+    w("integer i;")
+    w("initial begin")
+    w("    for (i = 0; i < WORDS; i = i + 1) mem[i] = RESET_WORD;")
+    w("end")
+    w("")
+    w("// After a reset, a word a clock: every word the reset values.")
+    w("reg          init_reg = 1'b0;")
+    w("reg [AW-1:0] init_addr_reg = {AW{1'b0}};")
+    w("localparam integer LAST_I = WORDS - 1;")
+    w("localparam [AW-1:0] LAST = LAST_I[AW-1:0];")
+    w("always @(posedge clk) begin")
+    w("    if (init_reg) begin")
+    w("        init_addr_reg <= init_addr_reg + 1'b1;")
+    w("        if (init_addr_reg == LAST) init_reg <= 1'b0;")
+    w("    end")
+    w("    if (rst) begin")
+    w("        init_reg <= 1'b1;")
+    w("        init_addr_reg <= {AW{1'b0}};")
+    w("    end")
+    w("end")
+    w("assign init_busy = init_reg || rst;")
+    w("")
+    w(f"wire [{cw - 1}:0] w_en = init_reg ? {{{cw}{{1'b1}}}} : wr_en;")
+    w("wire [AW-1:0] w_addr = init_reg ? init_addr_reg : wr_addr;")
+    w(f"wire [{cw - 1}:0] w_data = init_reg ? RESET_WORD : wr_data;")
+    w("")
+    w("// A write's enables are the same within a byte of a field: one slice a byte.")
+    w("always @(posedge clk) begin")
+    for _, f, off in cfg_fields(spec):
+        for lo in range(0, f["width"], 8):
+            hi = min(lo + 8, f["width"]) - 1
+            sl = f"[{off + hi}:{off + lo}]"
+            w(f"    if (w_en[{off + lo}]) mem[w_addr]{sl} <= w_data{sl};")
+    w("    if (rd_en) rd_data_reg <= mem[rd_addr];")
+    w("end")
+    w("// The enables of a byte's other bits repeat its first's.")
+    w("wire unused_wr_en = &{1'b0, w_en};")
+    w("")
+    w("assign rd_data = rd_data_reg;")
+    w("")
+    w("endmodule")
+    w("/* verilator lint_on DECLFILENAME */")
+    w("")
+    return out
 
 
 def gen_read_path(spec: dict) -> list[str]:

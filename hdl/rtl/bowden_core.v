@@ -140,6 +140,10 @@ wire [15:0] u, t_in, tc_eff;
 wire [31:0] integ, sample_count;
 wire [3:0]  faults;
 wire        out_en, out_valid, saturated, wdt_ramp;
+// bowden_regs' configuration word for a block RAM (its CFG_RAM 1; here 0: not used)
+wire [261:0] cfg_rd_none = 262'd0;
+wire [261:0] cfg_wr_en_none, cfg_wr_data_none;
+wire unused_cfg = &{1'b0, cfg_wr_en_none, cfg_wr_data_none};
 
 bowden_regs #(.ADDR_W(ADDR_W), .RD_STAGES(RD_STAGES)) regs (
     .clk(clk), .rst(rst),
@@ -158,7 +162,8 @@ bowden_regs #(.ADDR_W(ADDR_W), .RD_STAGES(RD_STAGES)) regs (
     .adc_min(adc_min), .adc_max(adc_max), .adc_stale(adc_stale), .oc_timeout(oc_timeout),
     .hw_sample_count(sample_count), .hw_t_in(t_in), .hw_u(u), .hw_integ(integ),
     .hw_tc_eff(tc_eff), .hw_t_out(adc_aux_data), .hw_adc_flags_drdy_lost(adc_drdy_lost),
-    .hw_adc_flags_crc_err(adc_crc_err), .tc_min(tc_min), .uff(uff)
+    .hw_adc_flags_crc_err(adc_crc_err), .tc_min(tc_min), .uff(uff),
+    .cfg_wr_en(cfg_wr_en_none), .cfg_wr_data(cfg_wr_data_none), .cfg_rd_data(cfg_rd_none)
 );
 
 // --- loop and drive ------------------------------------------------------------------------

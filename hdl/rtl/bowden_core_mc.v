@@ -22,6 +22,19 @@
  * starts one period of every channel; cmd_valid pulses when every channel's command is new.
  * The register bus holds writes while the loops read their configuration (cfg_busy), so every
  * channel of a period uses the configuration of the tick edge, as bowden_core does.
+ *
+ * CFG_RAM 1 (the UP5K SoC): the banks' configuration words (every register whose one field is
+ * read-write: TC to OC_TIMEOUT, TC_MIN, UFF; 262 bits a bank) are one block RAM word a channel
+ * instead of flip-flops, and the memory's output register is the datapath's loaded
+ * configuration (tension_loop_mc's CFG_RAM). A write of one of them writes its bits of the
+ * bank's word (the byte strobes as bit enables). A read reads the bank's word the clock it is
+ * taken and the bank's read multiplexer takes it a clock later (RD_STAGES 1: reg_rd_valid two
+ * clocks after the read, one more; RD_STAGES 3 takes it there anyway), and the bus takes no read while the loops read the
+ * memory (the tick clock and every slot, 1 + 15 N clocks) nor in a write's clock; the loops'
+ * reads fall in cfg_busy, when no write is taken: the memory is never read and written in one
+ * clock. The memory holds the registers' reset values from the start (its initial contents, in
+ * the bitstream) and after a reset (its N clocks after rst write them; the bus waits). Read-back
+ * and write semantics are the registers'.
  */
 module bowden_core_mc #(
     parameter N = 2,                              // cables (channels): 1, 2, 4 or 8
@@ -30,12 +43,14 @@ module bowden_core_mc #(
                                                   // [k*GROUP_W +: GROUP_W]; default: one group
     parameter CLK_HZ = 48000000,                  // system clock, Hz
     parameter SAMPLE_HZ = 10000,                  // loop rate, Hz
-    parameter CLKS_PER_SAMPLE = CLK_HZ / SAMPLE_HZ,  // clocks per sample tick (>= 1 + 15 N)
+    parameter CLKS_PER_SAMPLE = CLK_HZ / SAMPLE_HZ,  // clocks per sample tick (>= 1 + 15 N;
+                                                     // CFG_RAM 1: > 1 + 15 N)
     parameter PWM_HZ = 5000,                      // PWM set value frequency, Hz (ESCON <= 5 kHz)
     parameter PWM_IMAX_Q12 = 16384,               // current at 90 % duty, Q3.12 A (4 A)
     parameter [15:0] WDT_RAMP_STEP = 16'd41,      // watchdog and group ramp, Q3.12 A per sample
     parameter ADDR_W = 8,                         // byte address width of one channel's bank
     parameter RD_STAGES = 3,                      // register read-back clocks: 3 or 1
+    parameter CFG_RAM = 0,                        // 1: configuration words in a block RAM
     parameter CH_W = (N > 1) ? $clog2(N) : 1,     // bank select bits (derived: do not set)
     parameter BUS_W = ADDR_W + ((N > 1) ? CH_W : 0)  // bus address width (derived: do not set)
 ) (
@@ -96,6 +111,10 @@ generate
     if (CLKS_PER_SAMPLE < LATENCY) begin : g_check
         bowden_core_mc_CLKS_PER_SAMPLE_must_be_at_least_1_plus_15_N error_CLKS_PER_SAMPLE ();
     end
+    if (CFG_RAM != 0 && CLKS_PER_SAMPLE <= LATENCY) begin : g_check_rd
+        // the bus's reads wait out the loops' (1 + 15 N clocks): they need a clock of the sample
+        bowden_core_mc_CFG_RAM_needs_CLKS_PER_SAMPLE_above_1_plus_15_N error_CFG_RAM ();
+    end
     if (N != 1 && N != 2 && N != 4 && N != 8) begin : g_check_n
         bowden_core_mc_N_must_be_1_2_4_or_8 error_N ();  // every bank address is a channel
     end
@@ -122,6 +141,11 @@ wire [BUS_W-1:0] reg_wr_addr, reg_rd_addr;
 wire [31:0]      reg_wr_data;
 wire [3:0]       reg_wr_strb;
 wire             cfg_busy;
+wire             cfg_rd_busy;  // CFG_RAM 1: the loops read the configuration memory
+// CFG_RAM 1: the bus takes no read while the loops read the memory, nor in the clock of a write,
+// so the memory is never read and written in one clock (bowden_regs_cfg_ram's no_rw_check).
+wire             cfg_init;     // CFG_RAM 1: the memory takes the reset values after a reset
+wire             rd_hold = (CFG_RAM != 0) && (cfg_rd_busy || reg_wr_en || cfg_init);
 
 wire [N-1:0]     bank_wr_err, bank_rd_err, bank_rd_valid;
 wire [N*32-1:0]  bank_rd_data;
@@ -143,15 +167,30 @@ always @(posedge clk) begin
     if (rst) rd_bank_reg <= {CH_W{1'b0}};
 end
 
+// The banks' read: the bus's, or with CFG_RAM 1 and RD_STAGES 1 a clock later, when the memory
+// holds the bank's configuration word (RD_STAGES 3 takes the registers' values in its second
+// clock anyway).
+localparam RD_DELAY = (CFG_RAM != 0) && (RD_STAGES == 1);
+reg              rd_en_d_reg;
+reg  [ADDR_W-1:0] rd_addr_d_reg;
+always @(posedge clk) begin
+    rd_en_d_reg <= reg_rd_en;
+    rd_addr_d_reg <= reg_rd_addr[ADDR_W-1:0];
+    if (rst) rd_en_d_reg <= 1'b0;
+end
+wire              bank_rd_en_any = RD_DELAY ? rd_en_d_reg : reg_rd_en;
+wire [ADDR_W-1:0] bank_rd_addr = RD_DELAY ? rd_addr_d_reg : reg_rd_addr[ADDR_W-1:0];
+wire [CH_W-1:0]   bank_rd_sel = RD_DELAY ? rd_bank_reg : rd_bank;
+
 axil_regbus #(.ADDR_W(BUS_W)) axil (
-    .clk(clk), .rst(rst), .wr_hold(cfg_busy),
+    .clk(clk), .rst(rst), .wr_hold(cfg_busy || cfg_init),
     .s_axil_awaddr(s_axil_awaddr), .s_axil_awprot(s_axil_awprot),
     .s_axil_awvalid(s_axil_awvalid), .s_axil_awready(s_axil_awready),
     .s_axil_wdata(s_axil_wdata), .s_axil_wstrb(s_axil_wstrb),
     .s_axil_wvalid(s_axil_wvalid), .s_axil_wready(s_axil_wready),
     .s_axil_bresp(s_axil_bresp), .s_axil_bvalid(s_axil_bvalid), .s_axil_bready(s_axil_bready),
     .s_axil_araddr(s_axil_araddr), .s_axil_arprot(s_axil_arprot),
-    .s_axil_arvalid(s_axil_arvalid), .s_axil_arready(s_axil_arready),
+    .s_axil_arvalid(s_axil_arvalid && !rd_hold), .s_axil_arready(s_axil_arready),
     .s_axil_rdata(s_axil_rdata), .s_axil_rresp(s_axil_rresp),
     .s_axil_rvalid(s_axil_rvalid), .s_axil_rready(s_axil_rready),
     .reg_wr_en(reg_wr_en), .reg_wr_addr(reg_wr_addr), .reg_wr_data(reg_wr_data),
@@ -167,6 +206,13 @@ wire [N*16-1:0] tc, tc_min, kff, kp, ki_ts, wdt_timeout, adc_gain, adc_stale, oc
 wire [N*15-1:0] i_limit, slew;
 wire [N*24-1:0] adc_offset, adc_min, adc_max;
 
+// The configuration memory (CFG_RAM 1, bowden_regs_cfg_ram): channel k's word at address k.
+localparam CFG_W = 262;
+wire [N*CFG_W-1:0] cfg_wr_en, cfg_wr_data;
+wire [CFG_W-1:0]   cfg_q;    // the memory's output register
+wire               cfg_rd;   // the loops' read
+wire [CH_W-1:0]    cfg_rd_ch;
+
 wire [N*16-1:0] u, t_in, tc_eff;
 wire [N*32-1:0] integ;
 wire [31:0]     sample_count;
@@ -178,11 +224,11 @@ genvar k;
 generate
     for (k = 0; k < N; k = k + 1) begin : g_bank
         wire [3:0] f = faults[k*4 +: 4];
-        bowden_regs #(.ADDR_W(ADDR_W), .RD_STAGES(RD_STAGES)) regs (
+        bowden_regs #(.ADDR_W(ADDR_W), .RD_STAGES(RD_STAGES), .CFG_RAM(CFG_RAM)) regs (
             .clk(clk), .rst(rst),
             .reg_wr_en(reg_wr_en && wr_bank == k), .reg_wr_addr(reg_wr_addr[ADDR_W-1:0]),
             .reg_wr_data(reg_wr_data), .reg_wr_strb(reg_wr_strb), .reg_wr_err(bank_wr_err[k]),
-            .reg_rd_en(reg_rd_en && rd_bank == k), .reg_rd_addr(reg_rd_addr[ADDR_W-1:0]),
+            .reg_rd_en(bank_rd_en_any && bank_rd_sel == k), .reg_rd_addr(bank_rd_addr),
             .reg_rd_data(bank_rd_data[k*32 +: 32]), .reg_rd_err(bank_rd_err[k]),
             .reg_rd_valid(bank_rd_valid[k]),
             .ctrl_enable(ctrl_enable[k]), .ctrl_integ_reset(ctrl_integ_reset[k]),
@@ -201,10 +247,92 @@ generate
             .hw_integ(integ[k*32 +: 32]), .hw_tc_eff(tc_eff[k*16 +: 16]),
             .hw_t_out(adc_ch_data[(2*k+1)*24 +: 24]),
             .hw_adc_flags_drdy_lost(adc_drdy_lost), .hw_adc_flags_crc_err(adc_crc_err),
-            .tc_min(tc_min[k*16 +: 16]), .uff(uff[k*16 +: 16])
+            .tc_min(tc_min[k*16 +: 16]), .uff(uff[k*16 +: 16]),
+            .cfg_wr_en(cfg_wr_en[k*CFG_W +: CFG_W]), .cfg_wr_data(cfg_wr_data[k*CFG_W +: CFG_W]),
+            .cfg_rd_data(cfg_q)
         );
     end
 endgenerate
+
+// --- the configuration memory (CFG_RAM 1) ---------------------------------------------------
+
+// The loop's configuration ports: the banks' registers (CFG_RAM 0), or the memory's output in
+// channel 0's bits (CFG_RAM 1: tension_loop_mc reads no other).
+wire [N*16-1:0] l_tc, l_tc_min, l_kff, l_kp, l_ki_ts, l_wdt_timeout, l_adc_gain, l_adc_stale;
+wire [N*16-1:0] l_oc_timeout, l_uff;
+wire [N*15-1:0] l_i_limit, l_slew;
+wire [N*24-1:0] l_adc_offset, l_adc_min, l_adc_max;
+
+generate
+    if (CFG_RAM != 0) begin : g_cfg_ram
+        // Bit enables of the write: the written bank's (the others' are 0); the data is the
+        // bus's, the same in every bank.
+        reg [CFG_W-1:0] we;
+        integer b;
+        always @* begin
+            we = {CFG_W{1'b0}};
+            for (b = 0; b < N; b = b + 1) we = we | cfg_wr_en[b*CFG_W +: CFG_W];
+        end
+        wire [CFG_W-1:0] wd = cfg_wr_data[0 +: CFG_W];
+        wire unused_wd = &{1'b0, cfg_wr_data};
+        bowden_regs_cfg_ram #(.WORDS(N), .AW(CH_W)) cfg_mem (
+            .clk(clk), .rst(rst), .init_busy(cfg_init), .wr_en(we), .wr_addr(wr_bank), .wr_data(wd),
+            .rd_en(cfg_rd || reg_rd_en), .rd_addr(cfg_rd ? cfg_rd_ch : rd_bank), .rd_data(cfg_q)
+        );
+    end else begin : g_cfg_regs
+        assign cfg_q = {CFG_W{1'b0}};
+        assign cfg_init = 1'b0;
+        wire unused_cfg = &{1'b0, cfg_wr_en, cfg_wr_data, cfg_rd, cfg_rd_ch};
+    end
+endgenerate
+
+// The memory word's fields, packed as bowden_regs packs them (its *_q read-back wires).
+genvar c;
+generate
+    for (c = 0; c < N; c = c + 1) begin : g_l_cfg
+        if (CFG_RAM == 0) begin : g_regs
+            assign l_tc[c*16 +: 16] = tc[c*16 +: 16];
+            assign l_kff[c*16 +: 16] = kff[c*16 +: 16];
+            assign l_kp[c*16 +: 16] = kp[c*16 +: 16];
+            assign l_ki_ts[c*16 +: 16] = ki_ts[c*16 +: 16];
+            assign l_i_limit[c*15 +: 15] = i_limit[c*15 +: 15];
+            assign l_slew[c*15 +: 15] = slew[c*15 +: 15];
+            assign l_wdt_timeout[c*16 +: 16] = wdt_timeout[c*16 +: 16];
+            assign l_adc_offset[c*24 +: 24] = adc_offset[c*24 +: 24];
+            assign l_adc_gain[c*16 +: 16] = adc_gain[c*16 +: 16];
+            assign l_adc_min[c*24 +: 24] = adc_min[c*24 +: 24];
+            assign l_adc_max[c*24 +: 24] = adc_max[c*24 +: 24];
+            assign l_adc_stale[c*16 +: 16] = adc_stale[c*16 +: 16];
+            assign l_oc_timeout[c*16 +: 16] = oc_timeout[c*16 +: 16];
+            assign l_tc_min[c*16 +: 16] = tc_min[c*16 +: 16];
+            assign l_uff[c*16 +: 16] = uff[c*16 +: 16];
+        end else if (c == 0) begin : g_ram
+            assign l_tc[15:0] = cfg_q[15:0];
+            assign l_kff[15:0] = cfg_q[31:16];
+            assign l_kp[15:0] = cfg_q[47:32];
+            assign l_ki_ts[15:0] = cfg_q[63:48];
+            assign l_i_limit[14:0] = cfg_q[78:64];
+            assign l_slew[14:0] = cfg_q[93:79];
+            assign l_wdt_timeout[15:0] = cfg_q[109:94];
+            assign l_adc_offset[23:0] = cfg_q[133:110];
+            assign l_adc_gain[15:0] = cfg_q[149:134];
+            assign l_adc_min[23:0] = cfg_q[173:150];
+            assign l_adc_max[23:0] = cfg_q[197:174];
+            assign l_adc_stale[15:0] = cfg_q[213:198];
+            assign l_oc_timeout[15:0] = cfg_q[229:214];
+            assign l_tc_min[15:0] = cfg_q[245:230];
+            assign l_uff[15:0] = cfg_q[261:246];
+        end else begin : g_unread  // tension_loop_mc reads channel 0's bits only
+            assign {l_tc[c*16 +: 16], l_kff[c*16 +: 16], l_kp[c*16 +: 16], l_ki_ts[c*16 +: 16],
+                    l_i_limit[c*15 +: 15], l_slew[c*15 +: 15], l_wdt_timeout[c*16 +: 16],
+                    l_adc_offset[c*24 +: 24], l_adc_gain[c*16 +: 16], l_adc_min[c*24 +: 24],
+                    l_adc_max[c*24 +: 24], l_adc_stale[c*16 +: 16], l_oc_timeout[c*16 +: 16],
+                    l_tc_min[c*16 +: 16], l_uff[c*16 +: 16]} = {CFG_W{1'b0}};
+        end
+    end
+endgenerate
+wire unused_cfg_regs = &{1'b0, tc, kff, kp, ki_ts, i_limit, slew, wdt_timeout, adc_offset,
+                         adc_gain, adc_min, adc_max, adc_stale, oc_timeout, tc_min, uff};
 
 // --- the loops -------------------------------------------------------------------------------
 
@@ -215,16 +343,18 @@ generate
     end
 endgenerate
 
-tension_loop_mc #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP), .WDT_RAMP_STEP(WDT_RAMP_STEP)) loop (
+tension_loop_mc #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP), .WDT_RAMP_STEP(WDT_RAMP_STEP),
+                  .CFG_RAM(CFG_RAM)) loop (
     .clk(clk), .rst(rst),
     .tick(tick_reg),
     .adc_valid(adc_valid), .adc_data(t_in_codes),
     .enable(ctrl_enable), .slew_en(ctrl_slew_en), .integ_reset(ctrl_integ_reset),
     .fault_clear(ctrl_fault_clear), .tc_wr(tc_wr),
-    .tc(tc), .tc_min(tc_min), .kff(kff), .uff(uff), .kp(kp), .ki_ts(ki_ts), .i_limit(i_limit),
-    .slew(slew), .wdt_timeout(wdt_timeout), .adc_offset(adc_offset), .adc_gain(adc_gain),
-    .adc_min(adc_min), .adc_max(adc_max), .adc_stale(adc_stale), .oc_timeout(oc_timeout),
-    .cfg_busy(cfg_busy),
+    .tc(l_tc), .tc_min(l_tc_min), .kff(l_kff), .uff(l_uff), .kp(l_kp), .ki_ts(l_ki_ts),
+    .i_limit(l_i_limit), .slew(l_slew), .wdt_timeout(l_wdt_timeout),
+    .adc_offset(l_adc_offset), .adc_gain(l_adc_gain), .adc_min(l_adc_min),
+    .adc_max(l_adc_max), .adc_stale(l_adc_stale), .oc_timeout(l_oc_timeout),
+    .cfg_busy(cfg_busy), .cfg_rd(cfg_rd), .cfg_rd_ch(cfg_rd_ch), .cfg_rd_busy(cfg_rd_busy),
     .u(u), .out_en(out_en), .out_valid(out_valid),
     .saturated(saturated), .wdt_ramp(wdt_ramp), .grp_stop(grp_stop), .faults(faults),
     .t_in(t_in), .integ(integ), .tc_eff(tc_eff), .sample_count(sample_count)

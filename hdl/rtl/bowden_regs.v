@@ -18,7 +18,8 @@
 
 module bowden_regs #(
     parameter ADDR_W = 8,  // byte address width of the register bus
-    parameter RD_STAGES = 3  // clocks from reg_rd_en to reg_rd_valid: 3 or 1
+    parameter RD_STAGES = 3,  // clocks from reg_rd_en to reg_rd_valid: 3 or 1
+    parameter CFG_RAM = 0  // 1: the configuration words are the caller's block RAM
 ) (
     input  wire              clk,
     input  wire              rst,
@@ -38,7 +39,13 @@ module bowden_regs #(
     output wire              reg_rd_valid,
 
     /*
-     * Fields (outputs: register contents; hw_ inputs: live values read back)
+     * Fields (outputs: register contents; hw_ inputs: live values read back).
+     * CFG_RAM 1: the configuration words (cfg_fields in the generator: the registers
+     * whose one field is read-write) live in the caller's block RAM, one word of cfg_*
+     * a bank, packed from bit 0 in address order; a write gives their bit enables and
+     * data, and a read takes the bank's word from cfg_rd_data in the clock its
+     * multiplexer reads the registers. Their field outputs then hold the reset values
+     * and are not used.
      */
     output wire         ctrl_enable,  // CTRL
     output wire         ctrl_integ_reset,  // CTRL 1-pulse
@@ -75,7 +82,10 @@ module bowden_regs #(
     output wire [15:0]  uff,  // UFF Q3.12
     input  wire [23:0]  hw_t_out,  // T_OUT Q23.0
     input  wire         hw_adc_flags_drdy_lost,  // ADC_FLAGS
-    input  wire         hw_adc_flags_crc_err   // ADC_FLAGS
+    input  wire         hw_adc_flags_crc_err,  // ADC_FLAGS
+    output wire [261:0] cfg_wr_en,    // CFG_RAM 1: the memory's bit enables
+    output wire [261:0] cfg_wr_data,  // CFG_RAM 1: its write data
+    input  wire [261:0] cfg_rd_data   // CFG_RAM 1: this bank's word, read back
 );
 
 // Word addresses: the two low address bits select a byte and are ignored.
@@ -188,31 +198,48 @@ wire [15:0] tc_min_wval = (reg_wr_data[15:0] & wr_mask[15:0]) | (tc_min_reg & ~w
 reg  [15:0] uff_reg, uff_next;
 wire [15:0] uff_wval = (reg_wr_data[15:0] & wr_mask[15:0]) | (uff_reg & ~wr_mask[15:0]);
 
+// The configuration words as read back: the flip-flops, or the block RAM (CFG_RAM 1).
+wire [15:0] tc_q = (CFG_RAM != 0) ? cfg_rd_data[15:0] : tc_reg;
+wire [15:0] kff_q = (CFG_RAM != 0) ? cfg_rd_data[31:16] : kff_reg;
+wire [15:0] kp_q = (CFG_RAM != 0) ? cfg_rd_data[47:32] : kp_reg;
+wire [15:0] ki_ts_q = (CFG_RAM != 0) ? cfg_rd_data[63:48] : ki_ts_reg;
+wire [14:0] i_limit_q = (CFG_RAM != 0) ? cfg_rd_data[78:64] : i_limit_reg;
+wire [14:0] slew_q = (CFG_RAM != 0) ? cfg_rd_data[93:79] : slew_reg;
+wire [15:0] wdt_timeout_q = (CFG_RAM != 0) ? cfg_rd_data[109:94] : wdt_timeout_reg;
+wire [23:0] adc_offset_q = (CFG_RAM != 0) ? cfg_rd_data[133:110] : adc_offset_reg;
+wire [15:0] adc_gain_q = (CFG_RAM != 0) ? cfg_rd_data[149:134] : adc_gain_reg;
+wire [23:0] adc_min_q = (CFG_RAM != 0) ? cfg_rd_data[173:150] : adc_min_reg;
+wire [23:0] adc_max_q = (CFG_RAM != 0) ? cfg_rd_data[197:174] : adc_max_reg;
+wire [15:0] adc_stale_q = (CFG_RAM != 0) ? cfg_rd_data[213:198] : adc_stale_reg;
+wire [15:0] oc_timeout_q = (CFG_RAM != 0) ? cfg_rd_data[229:214] : oc_timeout_reg;
+wire [15:0] tc_min_q = (CFG_RAM != 0) ? cfg_rd_data[245:230] : tc_min_reg;
+wire [15:0] uff_q = (CFG_RAM != 0) ? cfg_rd_data[261:246] : uff_reg;
+
 // Read value of every register.
 wire [31:0] rword_id = {32'h424F0100};
 wire [31:0] rword_ctrl = {28'd0, ctrl_slew_en_reg, 1'd0, 1'd0, ctrl_enable_reg};
 wire [31:0] rword_status = {28'd0, hw_status_wdt_ramp, hw_status_fault_active, hw_status_saturated, hw_status_out_en};
 wire [31:0] rword_fault = {28'd0, hw_fault_overcurrent, hw_fault_watchdog, hw_fault_adc_range, hw_fault_adc_stale};
-wire [31:0] rword_tc = {{16{tc_reg[15]}}, tc_reg};
-wire [31:0] rword_kff = {{16{kff_reg[15]}}, kff_reg};
-wire [31:0] rword_kp = {{16{kp_reg[15]}}, kp_reg};
-wire [31:0] rword_ki_ts = {{16{ki_ts_reg[15]}}, ki_ts_reg};
-wire [31:0] rword_i_limit = {17'd0, i_limit_reg};
-wire [31:0] rword_slew = {17'd0, slew_reg};
-wire [31:0] rword_wdt_timeout = {16'd0, wdt_timeout_reg};
-wire [31:0] rword_adc_offset = {{8{adc_offset_reg[23]}}, adc_offset_reg};
-wire [31:0] rword_adc_gain = {{16{adc_gain_reg[15]}}, adc_gain_reg};
-wire [31:0] rword_adc_min = {{8{adc_min_reg[23]}}, adc_min_reg};
-wire [31:0] rword_adc_max = {{8{adc_max_reg[23]}}, adc_max_reg};
-wire [31:0] rword_adc_stale = {16'd0, adc_stale_reg};
-wire [31:0] rword_oc_timeout = {16'd0, oc_timeout_reg};
+wire [31:0] rword_tc = {{16{tc_q[15]}}, tc_q};
+wire [31:0] rword_kff = {{16{kff_q[15]}}, kff_q};
+wire [31:0] rword_kp = {{16{kp_q[15]}}, kp_q};
+wire [31:0] rword_ki_ts = {{16{ki_ts_q[15]}}, ki_ts_q};
+wire [31:0] rword_i_limit = {17'd0, i_limit_q};
+wire [31:0] rword_slew = {17'd0, slew_q};
+wire [31:0] rword_wdt_timeout = {16'd0, wdt_timeout_q};
+wire [31:0] rword_adc_offset = {{8{adc_offset_q[23]}}, adc_offset_q};
+wire [31:0] rword_adc_gain = {{16{adc_gain_q[15]}}, adc_gain_q};
+wire [31:0] rword_adc_min = {{8{adc_min_q[23]}}, adc_min_q};
+wire [31:0] rword_adc_max = {{8{adc_max_q[23]}}, adc_max_q};
+wire [31:0] rword_adc_stale = {16'd0, adc_stale_q};
+wire [31:0] rword_oc_timeout = {16'd0, oc_timeout_q};
 wire [31:0] rword_sample_count = {hw_sample_count};
 wire [31:0] rword_t_in = {{16{hw_t_in[15]}}, hw_t_in};
 wire [31:0] rword_u = {{16{hw_u[15]}}, hw_u};
 wire [31:0] rword_integ = {hw_integ};
 wire [31:0] rword_tc_eff = {{16{hw_tc_eff[15]}}, hw_tc_eff};
-wire [31:0] rword_tc_min = {{16{tc_min_reg[15]}}, tc_min_reg};
-wire [31:0] rword_uff = {{16{uff_reg[15]}}, uff_reg};
+wire [31:0] rword_tc_min = {{16{tc_min_q[15]}}, tc_min_q};
+wire [31:0] rword_uff = {{16{uff_q[15]}}, uff_q};
 wire [31:0] rword_t_out = {{8{hw_t_out[23]}}, hw_t_out};
 wire [31:0] rword_adc_flags = {30'd0, hw_adc_flags_crc_err, hw_adc_flags_drdy_lost};
 
@@ -362,6 +389,26 @@ assign oc_timeout = oc_timeout_reg;
 assign tc_min = tc_min_reg;
 assign uff = uff_reg;
 assign reg_wr_err = reg_wr_en & ~WORD_MAPPED[wr_word];
+
+// CFG_RAM 1: a write of a configuration word, as the block RAM's bit enables and data.
+assign cfg_wr_en = (CFG_RAM != 0 && reg_wr_en) ? {
+    ((wr_word == A_UFF) ? wr_mask[15:0] : 16'd0),
+    ((wr_word == A_TC_MIN) ? wr_mask[15:0] : 16'd0),
+    ((wr_word == A_OC_TIMEOUT) ? wr_mask[15:0] : 16'd0),
+    ((wr_word == A_ADC_STALE) ? wr_mask[15:0] : 16'd0),
+    ((wr_word == A_ADC_MAX) ? wr_mask[23:0] : 24'd0),
+    ((wr_word == A_ADC_MIN) ? wr_mask[23:0] : 24'd0),
+    ((wr_word == A_ADC_GAIN) ? wr_mask[15:0] : 16'd0),
+    ((wr_word == A_ADC_OFFSET) ? wr_mask[23:0] : 24'd0),
+    ((wr_word == A_WDT_TIMEOUT) ? wr_mask[15:0] : 16'd0),
+    ((wr_word == A_SLEW) ? wr_mask[14:0] : 15'd0),
+    ((wr_word == A_I_LIMIT) ? wr_mask[14:0] : 15'd0),
+    ((wr_word == A_KI_TS) ? wr_mask[15:0] : 16'd0),
+    ((wr_word == A_KP) ? wr_mask[15:0] : 16'd0),
+    ((wr_word == A_KFF) ? wr_mask[15:0] : 16'd0),
+    ((wr_word == A_TC) ? wr_mask[15:0] : 16'd0)} : 262'd0;
+assign cfg_wr_data = {reg_wr_data[15:0], reg_wr_data[15:0], reg_wr_data[15:0], reg_wr_data[15:0], reg_wr_data[23:0], reg_wr_data[23:0], reg_wr_data[15:0], reg_wr_data[23:0], reg_wr_data[15:0], reg_wr_data[14:0], reg_wr_data[14:0], reg_wr_data[15:0], reg_wr_data[15:0], reg_wr_data[15:0], reg_wr_data[15:0]};
+
 // Read path, RD_STAGES clocks; the data and the error flag hold until the next read.
 generate
     if (RD_STAGES != 1 && RD_STAGES != 3) begin : g_check
@@ -543,6 +590,8 @@ assign reg_rd_valid = rd_valid;
 
 // Unused write-data bits: registers narrower than 32 bits ignore the rest.
 wire unused_wr_bits = &{1'b0, reg_wr_data, wr_mask, reg_wr_addr[1:0], reg_rd_addr[1:0]};
+// CFG_RAM 0: the block RAM's read-back is not used.
+wire unused_cfg_rd = &{1'b0, cfg_rd_data};
 // The read path's last stage serves the formal properties only.
 wire unused_rd_last = rd_last;
 
@@ -783,5 +832,107 @@ end
 `endif
 
 endmodule
+
+/*
+ * The banks' configuration words in a block RAM (bowden_regs with CFG_RAM 1): bank k's at
+ * address k, packed as bowden_regs' cfg_* ports; bit write enables (the byte strobes of a
+ * write), one registered read port. Each word holds the registers' reset values from the
+ * start (the memory's initial contents) and after a reset: the WORDS clocks from the one
+ * after rst write them (init_busy: the caller takes no write or read). The caller never
+ * reads and writes in the same clock: what such a read gives is left open
+ * (no_rw_check), so yosys maps the memory onto the block RAM as it is instead of
+ * building the old word's read around it (2 words alone: 591 flip-flops, 296 LUTs more).
+ */
+/* verilator lint_off DECLFILENAME */  // generated into bowden_regs.v with its packing
+module bowden_regs_cfg_ram #(
+    parameter WORDS = 2,  // banks
+    parameter AW = 1      // address bits, >= 1
+) (
+    input  wire          clk,
+    input  wire          rst,
+    output wire          init_busy, // writing the reset values: no write or read
+    input  wire [261:0] wr_en,    // bit enables
+    input  wire [AW-1:0] wr_addr,
+    input  wire [261:0] wr_data,
+    input  wire          rd_en,
+    input  wire [AW-1:0] rd_addr,
+    output wire [261:0] rd_data   // the word at rd_addr, the clock after rd_en
+);
+
+localparam [261:0] RESET_WORD = 262'h4E200029FFFFFA00000420000000000FA004040000106033302D10000;
+
+(* ram_style = "block", no_rw_check *)
+reg [261:0] mem [0:WORDS-1];
+reg [261:0] rd_data_reg;
+integer i;
+initial begin
+    for (i = 0; i < WORDS; i = i + 1) mem[i] = RESET_WORD;
+end
+
+// After a reset, a word a clock: every word the reset values.
+reg          init_reg = 1'b0;
+reg [AW-1:0] init_addr_reg = {AW{1'b0}};
+localparam integer LAST_I = WORDS - 1;
+localparam [AW-1:0] LAST = LAST_I[AW-1:0];
+always @(posedge clk) begin
+    if (init_reg) begin
+        init_addr_reg <= init_addr_reg + 1'b1;
+        if (init_addr_reg == LAST) init_reg <= 1'b0;
+    end
+    if (rst) begin
+        init_reg <= 1'b1;
+        init_addr_reg <= {AW{1'b0}};
+    end
+end
+assign init_busy = init_reg || rst;
+
+wire [261:0] w_en = init_reg ? {262{1'b1}} : wr_en;
+wire [AW-1:0] w_addr = init_reg ? init_addr_reg : wr_addr;
+wire [261:0] w_data = init_reg ? RESET_WORD : wr_data;
+
+// A write's enables are the same within a byte of a field: one slice a byte.
+always @(posedge clk) begin
+    if (w_en[0]) mem[w_addr][7:0] <= w_data[7:0];
+    if (w_en[8]) mem[w_addr][15:8] <= w_data[15:8];
+    if (w_en[16]) mem[w_addr][23:16] <= w_data[23:16];
+    if (w_en[24]) mem[w_addr][31:24] <= w_data[31:24];
+    if (w_en[32]) mem[w_addr][39:32] <= w_data[39:32];
+    if (w_en[40]) mem[w_addr][47:40] <= w_data[47:40];
+    if (w_en[48]) mem[w_addr][55:48] <= w_data[55:48];
+    if (w_en[56]) mem[w_addr][63:56] <= w_data[63:56];
+    if (w_en[64]) mem[w_addr][71:64] <= w_data[71:64];
+    if (w_en[72]) mem[w_addr][78:72] <= w_data[78:72];
+    if (w_en[79]) mem[w_addr][86:79] <= w_data[86:79];
+    if (w_en[87]) mem[w_addr][93:87] <= w_data[93:87];
+    if (w_en[94]) mem[w_addr][101:94] <= w_data[101:94];
+    if (w_en[102]) mem[w_addr][109:102] <= w_data[109:102];
+    if (w_en[110]) mem[w_addr][117:110] <= w_data[117:110];
+    if (w_en[118]) mem[w_addr][125:118] <= w_data[125:118];
+    if (w_en[126]) mem[w_addr][133:126] <= w_data[133:126];
+    if (w_en[134]) mem[w_addr][141:134] <= w_data[141:134];
+    if (w_en[142]) mem[w_addr][149:142] <= w_data[149:142];
+    if (w_en[150]) mem[w_addr][157:150] <= w_data[157:150];
+    if (w_en[158]) mem[w_addr][165:158] <= w_data[165:158];
+    if (w_en[166]) mem[w_addr][173:166] <= w_data[173:166];
+    if (w_en[174]) mem[w_addr][181:174] <= w_data[181:174];
+    if (w_en[182]) mem[w_addr][189:182] <= w_data[189:182];
+    if (w_en[190]) mem[w_addr][197:190] <= w_data[197:190];
+    if (w_en[198]) mem[w_addr][205:198] <= w_data[205:198];
+    if (w_en[206]) mem[w_addr][213:206] <= w_data[213:206];
+    if (w_en[214]) mem[w_addr][221:214] <= w_data[221:214];
+    if (w_en[222]) mem[w_addr][229:222] <= w_data[229:222];
+    if (w_en[230]) mem[w_addr][237:230] <= w_data[237:230];
+    if (w_en[238]) mem[w_addr][245:238] <= w_data[245:238];
+    if (w_en[246]) mem[w_addr][253:246] <= w_data[253:246];
+    if (w_en[254]) mem[w_addr][261:254] <= w_data[261:254];
+    if (rd_en) rd_data_reg <= mem[rd_addr];
+end
+// The enables of a byte's other bits repeat its first's.
+wire unused_wr_en = &{1'b0, w_en};
+
+assign rd_data = rd_data_reg;
+
+endmodule
+/* verilator lint_on DECLFILENAME */
 
 `resetall

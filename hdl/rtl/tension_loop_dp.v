@@ -24,6 +24,11 @@
  * `state_res` is the state the sample leaves (valid in its last clock: the channel's new state),
  * and `ld` in that same clock loads the next channel in its place.
  *
+ * PRELOAD 2 (tension_loop_mc with CFG_RAM 1): as PRELOAD 1, but the configuration words (all
+ * but `enable` and `slew_en`, which it loads as PRELOAD 1 does) are already what a load gives:
+ * the output register of the caller's block RAM, read at `ld` and held through the sample, so
+ * this module keeps no copy of them.
+ *
  * The state word (state, state_res, ld_state), from bit 0: stale counter [16:0], watchdog
  * counter [33:17], over-current counter [50:34], FAULT [54:51], T_in [70:55] (Q7.8 N), u [86:71]
  * (Q3.12 A), drive enable [87], clipped high [88], clipped low [89], ramping [90], integrator
@@ -33,7 +38,8 @@ module tension_loop_dp #(
     parameter [15:0] WDT_RAMP_STEP = 16'd41, // watchdog ramp-down of u, Q3.12 A per sample
                                              // (41/4096 A: 4 A reach zero in 40 ms at 10 kHz)
     parameter SNAPSHOT = 1,                  // PRELOAD 0: 1 snapshot at start, 0 live ports
-    parameter PRELOAD = 0                    // 1: events, configuration, state loaded at ld
+    parameter PRELOAD = 0                    // 1: events, configuration, state loaded at ld;
+                                             // 2: the same, the configuration by the caller
 ) (
     input  wire         clk,
     input  wire         rst,
@@ -151,7 +157,8 @@ reg  [15:0] stale_to_s_reg, stale_to_s_next;
 reg  [15:0] oc_to_s_reg, oc_to_s_next;
 
 wire load = (PRELOAD != 0) ? ld : start;
-localparam SNAP = (PRELOAD != 0) || (SNAPSHOT != 0);
+localparam SNAP = (PRELOAD == 1) || (PRELOAD == 0 && SNAPSHOT != 0);
+localparam SNAP_CTRL = (PRELOAD != 0) || (SNAPSHOT != 0);  // ENABLE, SLEW_EN
 
 // What clock 0 reads: the loaded registers (PRELOAD 1) or the inputs as they are.
 wire [23:0] raw_c = (PRELOAD != 0) ? raw_l_reg : ev_raw;
@@ -159,16 +166,18 @@ wire        fresh_c = (PRELOAD != 0) ? fresh_l_reg : ev_fresh;
 wire        tcw_c = (PRELOAD != 0) ? tcw_l_reg : ev_tcw;
 wire        irst_c = (PRELOAD != 0) ? irst_l_reg : ev_irst;
 wire        fclr_c = (PRELOAD != 0) ? fclr_l_reg : ev_fclr;
+// PRELOAD 2: the configuration words' ports are the loaded configuration.
 wire        en_0 = (PRELOAD != 0) ? en_s_reg : enable;
-wire [14:0] slew_0 = (PRELOAD != 0) ? slew_s_reg : slew;              // UQ7.8 N
-wire [23:0] offset_0 = (PRELOAD != 0) ? offset_s_reg : adc_offset;    // Q23.0 code
+wire [14:0] slew_0 = (PRELOAD == 1) ? slew_s_reg : slew;              // UQ7.8 N
+wire [23:0] offset_0 = (PRELOAD == 1) ? offset_s_reg : adc_offset;    // Q23.0 code
 // The group stop, read in clock 3: always from its register.
 wire        grp_c = grp_l_reg;
 
 // What the later clocks read: the snapshot, or the live ports (SNAPSHOT 0, held by the caller;
-// the snapshot registers then have no load and synthesis removes them).
-wire        en_cfg = SNAP ? en_s_reg : enable;
-wire        slew_en_cfg = SNAP ? slew_en_s_reg : slew_en;
+// PRELOAD 2, loaded by the caller; the snapshot registers then have no reader and synthesis
+// removes them).
+wire        en_cfg = SNAP_CTRL ? en_s_reg : enable;
+wire        slew_en_cfg = SNAP_CTRL ? slew_en_s_reg : slew_en;
 wire [15:0] tc_cfg = SNAP ? tc_s_reg : tc;                    // Q7.8 N
 wire [15:0] tcmin_cfg = SNAP ? tcmin_s_reg : tc_min;          // Q7.8 N
 wire [15:0] kff_cfg = SNAP ? kff_s_reg : kff;                 // Q2.13 A/N
@@ -667,9 +676,9 @@ assign f_pipe = {
     {69'd0, r_reg, ugt_reg, ult_reg, u_dn_reg, u_up_reg},
     {109'd0, rhi_reg, rlo_reg, u_ramp_reg, ramp_nz_reg}};
 assign f_load = {raw_l_reg, fresh_l_reg, tcw_l_reg, irst_l_reg, fclr_l_reg, grp_l_reg,
-                 en_s_reg, slew_en_s_reg, tc_s_reg, tcmin_s_reg, kff_s_reg, uff_s_reg, kp_s_reg,
-                 ki_s_reg, lim_s_reg, slew_s_reg, wdt_to_s_reg, offset_s_reg, gain_s_reg,
-                 min_s_reg, max_s_reg, stale_to_s_reg, oc_to_s_reg, state & LD_MASK};
+                 en_cfg, slew_en_cfg, tc_cfg, tcmin_cfg, kff_cfg, uff_cfg, kp_cfg,
+                 ki_cfg, lim_cfg, slew_0, wdt_to_cfg, offset_0, gain_cfg,
+                 min_cfg, max_cfg, stale_to_cfg, oc_to_cfg, state & LD_MASK};
 `endif
 
 endmodule

@@ -26,6 +26,14 @@
  * last load) tells the register bus to hold writes, so every channel uses the configuration of
  * the tick edge, as a tension_loop does.
  *
+ * CFG_RAM 1 (bowden_core_mc on the UP5K): the configuration words (all but ENABLE and SLEW_EN)
+ * are the caller's block RAM, one word a channel. The loads read it: `cfg_rd` (= the load)
+ * with the channel `cfg_rd_ch`, and the memory's output register, which the caller gives in
+ * the configuration ports' channel-0 bits (the other channels' bits are not read), is the
+ * datapath's loaded configuration through the slot. `cfg_busy` then also covers the last load
+ * (N = 1: the tick), so no write meets a load, and `cfg_rd_busy` (the tick and every slot)
+ * tells the caller when the memory's output is in use and its own reads must wait.
+ *
  * Safety groups: channel k belongs to group GROUP[k*GROUP_W +: GROUP_W]. When, at a tick, any
  * other channel of k's group has a latched fault (FAULT != 0), channel k runs that period as a
  * tension_loop under a watchdog-only fault: u one WDT_RAMP_STEP towards zero, the drive off once
@@ -39,8 +47,11 @@ module tension_loop_mc #(
     parameter GROUP_W = 4,                   // bits of a channel's group id
     parameter [N*GROUP_W-1:0] GROUP = {N*GROUP_W{1'b0}},  // group id of channel k in bits
                                              // [k*GROUP_W +: GROUP_W]; default: one group
-    parameter [15:0] WDT_RAMP_STEP = 16'd41  // watchdog and group ramp-down of u, Q3.12 A per
+    parameter [15:0] WDT_RAMP_STEP = 16'd41, // watchdog and group ramp-down of u, Q3.12 A per
                                              // sample (41/4096 A: 4 A reach zero in 40 ms at 10 kHz)
+    parameter CFG_RAM = 0,                   // 1: the configuration words in the caller's block
+                                             // RAM, read at the loads (cfg_rd)
+    parameter CH_W = (N > 1) ? $clog2(N) : 1 // channel index bits (derived: do not set)
 ) (
     input  wire            clk,
     input  wire            rst,
@@ -80,6 +91,9 @@ module tension_loop_mc #(
     input  wire [N*16-1:0] adc_stale,    // samples, 0 = off
     input  wire [N*16-1:0] oc_timeout,   // samples, 0 = off
     output wire            cfg_busy,     // the configuration is in use: hold writes
+    output wire            cfg_rd,       // CFG_RAM 1: read channel cfg_rd_ch's configuration
+    output wire [CH_W-1:0] cfg_rd_ch,    //   words into the memory's output register
+    output wire            cfg_rd_busy,  // CFG_RAM 1: the memory's output is in use
 
     /*
      * Drive commands, channel k in bits [k*W +: W]
@@ -115,7 +129,6 @@ module tension_loop_mc #(
 );
 
 localparam LATENCY_CH = 15;             // clocks of one channel's slot (tension_loop's LATENCY)
-localparam CH_W = (N > 1) ? $clog2(N) : 1;
 localparam [31:0] N_LAST = N - 1;
 localparam [CH_W-1:0] CH_LAST = N_LAST[CH_W-1:0];  // the last channel's index
 localparam [31:0] N_LD_LAST = (N > 1) ? N - 2 : 0;
@@ -215,18 +228,23 @@ wire [11*128-1:0] f_dp_pipe;
 wire [431:0] f_dp_load;
 `endif
 
-tension_loop_dp #(.WDT_RAMP_STEP(WDT_RAMP_STEP), .SNAPSHOT(1), .PRELOAD(1)) dp (
+// The configuration words the datapath reads: the load's channel's (CFG_RAM 0), or the caller's
+// memory output, channel 0's bits of the ports (CFG_RAM 1).
+wire [CH_W-1:0] ch_cfg = (CFG_RAM != 0) ? {CH_W{1'b0}} : ch_ld;
+
+tension_loop_dp #(.WDT_RAMP_STEP(WDT_RAMP_STEP), .SNAPSHOT(1),
+                  .PRELOAD((CFG_RAM != 0) ? 2 : 1)) dp (
     .clk(clk), .rst(rst),
     .start(start_reg), .ld(ld), .seq(seq_reg),
     .ev_raw(raw_ev[ch_ld*24 +: 24]), .ev_fresh(fresh_ev[ch_ld]), .ev_tcw(tcw_ev[ch_ld]),
     .ev_irst(irst_ev[ch_ld]), .ev_fclr(fclr_ev[ch_ld]), .ev_grp(grp_ev[ch_ld]),
-    .enable(enable[ch_ld]), .slew_en(slew_en[ch_ld]), .tc(tc[ch_ld*16 +: 16]),
-    .tc_min(tc_min[ch_ld*16 +: 16]), .kff(kff[ch_ld*16 +: 16]), .uff(uff[ch_ld*16 +: 16]),
-    .kp(kp[ch_ld*16 +: 16]), .ki_ts(ki_ts[ch_ld*16 +: 16]), .i_limit(i_limit[ch_ld*15 +: 15]),
-    .slew(slew[ch_ld*15 +: 15]), .wdt_timeout(wdt_timeout[ch_ld*16 +: 16]),
-    .adc_offset(adc_offset[ch_ld*24 +: 24]), .adc_gain(adc_gain[ch_ld*16 +: 16]),
-    .adc_min(adc_min[ch_ld*24 +: 24]), .adc_max(adc_max[ch_ld*24 +: 24]),
-    .adc_stale(adc_stale[ch_ld*16 +: 16]), .oc_timeout(oc_timeout[ch_ld*16 +: 16]),
+    .enable(enable[ch_ld]), .slew_en(slew_en[ch_ld]), .tc(tc[ch_cfg*16 +: 16]),
+    .tc_min(tc_min[ch_cfg*16 +: 16]), .kff(kff[ch_cfg*16 +: 16]), .uff(uff[ch_cfg*16 +: 16]),
+    .kp(kp[ch_cfg*16 +: 16]), .ki_ts(ki_ts[ch_cfg*16 +: 16]), .i_limit(i_limit[ch_cfg*15 +: 15]),
+    .slew(slew[ch_cfg*15 +: 15]), .wdt_timeout(wdt_timeout[ch_cfg*16 +: 16]),
+    .adc_offset(adc_offset[ch_cfg*24 +: 24]), .adc_gain(adc_gain[ch_cfg*16 +: 16]),
+    .adc_min(adc_min[ch_cfg*24 +: 24]), .adc_max(adc_max[ch_cfg*24 +: 24]),
+    .adc_stale(adc_stale[ch_cfg*16 +: 16]), .oc_timeout(oc_timeout[ch_cfg*16 +: 16]),
     .ld_state(st_reg[ch_ld*ST_W +: ST_W]), .state(dp_state), .state_res(dp_res)
 `ifdef FORMAL
     ,
@@ -249,7 +267,8 @@ always @* begin
     ch_next = ch_reg;
     start_next = tick;
     busy_next = ((N > 1) && tick) ||
-                (busy_reg && !(seq_reg[LATENCY_CH-3] && ch_reg == CH_LD_LAST));
+                (busy_reg && !(seq_reg[(CFG_RAM != 0) ? LATENCY_CH-2 : LATENCY_CH-3] &&
+                               ch_reg == CH_LD_LAST));
     sample_cnt_next = tick ? sample_cnt_reg + 32'd1 : sample_cnt_reg;
     out_valid_next = 1'b0;
     if (seq_reg[LATENCY_CH-2]) begin
@@ -319,7 +338,10 @@ always @(posedge clk) begin
     end
 end
 
-assign cfg_busy = ((N > 1) && tick) || busy_reg;
+assign cfg_busy = ((N > 1 || CFG_RAM != 0) && tick) || busy_reg;
+assign cfg_rd = ld;
+assign cfg_rd_ch = ch_ld;
+assign cfg_rd_busy = tick || start_reg || (|seq_reg);
 
 assign u = u_ch;
 assign out_en = out_en_ch;
@@ -386,6 +408,22 @@ end
 // property mc_tick_spacing: a tick comes only when no period is running, at least LATENCY clocks after the last (assumed when tension_loop_mc is the top)
 always @* if (f_past_valid && !rst && tick) mc_tick_spacing: `TL_ENV(!f_run);
 
+// CFG_RAM 1: the configuration words' ports (channel 0's bits) are the caller's memory output
+// register, which changes only at an edge where it is read, and in the period only at the loads.
+wire [261:0] f_cfg_words = {tc[15:0], tc_min[15:0], kff[15:0], uff[15:0], kp[15:0], ki_ts[15:0],
+                            i_limit[14:0], slew[14:0], wdt_timeout[15:0], adc_offset[23:0],
+                            adc_gain[15:0], adc_min[23:0], adc_max[23:0], adc_stale[15:0],
+                            oc_timeout[15:0]};
+reg [261:0] f_cfg_words_d;
+reg         f_cfg_held_d = 1'b0;  // the last clock was in the period and no load
+always @(posedge clk) begin
+    f_cfg_words_d <= f_cfg_words;
+    f_cfg_held_d <= cfg_rd_busy && !cfg_rd;
+end
+// property mc_cfg_ram_held: with CFG_RAM 1 the configuration words change only at a load while a period runs (the caller's memory is read only then; assumed when tension_loop_mc is the top)
+always @* if (CFG_RAM != 0 && f_past_valid && !rst && f_cfg_held_d)
+    mc_cfg_ram_held: `TL_ENV(f_cfg_words == f_cfg_words_d);
+
 wire [LATENCY_CH-2:0] f_seq_exp = (f_run && f_lc != 4'd0) ?
                                   {{(LATENCY_CH-2){1'b0}}, 1'b1} << (f_lc - 4'd1) :
                                   {(LATENCY_CH-1){1'b0}};
@@ -395,7 +433,7 @@ always @* if (f_past_valid && !rst) begin
     mc_schedule_2: assert(seq_reg == f_seq_exp);
     mc_schedule_3: assert(ch_reg == (f_run ? f_ch : {CH_W{1'b0}}));
     mc_schedule_4: assert(busy_reg == (f_run && f_ch + 1 < N &&
-                                       !(f_ch + 2 == N && f_lc == F_LC_LAST)));
+                                       (CFG_RAM != 0 || !(f_ch + 2 == N && f_lc == F_LC_LAST))));
     mc_schedule_5: assert(f_ch <= CH_LAST && f_lc <= F_LC_LAST);
 end
 

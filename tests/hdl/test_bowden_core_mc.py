@@ -8,7 +8,9 @@ sample ticks, and every register write into the channel of its bank (byte addres
 cmd_valid compares every channel's command, enable and fault with the model.
 
 Built for N = 2 (one antagonistic pair, one group) and N = 4 (two pairs, groups 0 0 1 1), at
-the minimum of 1 + 15 N clocks per sample.
+the minimum of clocks per sample (1 + 15 N; one more with CFG_RAM), each with the configuration
+words in flip-flops and in the block RAM (CFG_RAM 1: N = 2 with the UP5K SoC's one-clock read
+path, N = 4 with the three-stage one).
 """
 
 from __future__ import annotations
@@ -30,10 +32,24 @@ from cosim.parts.rtl_model import TensionLoopMcModel, adc_code_from_tension
 BANK_ADDR_W = regmap.BANK_STRIDE.bit_length() - 1  # bowden_core_mc's ADDR_W (generated map)
 RESP_OKAY = 0
 GROUP_W = 4
-CONFIGS = {"n2": [0, 0], "n4": [0, 0, 1, 1]}
-GROUPS = CONFIGS[os.environ.get("BOWDEN_CORE_MC_CONFIG", "n2")]
+# name: (the channels' groups, CFG_RAM, RD_STAGES)
+CONFIGS = {
+    "n2": ([0, 0], 0, 3),
+    "n4": ([0, 0, 1, 1], 0, 3),
+    "n2_cfgram": ([0, 0], 1, 1),  # the UP5K SoC's
+    "n4_cfgram": ([0, 0, 1, 1], 1, 3),
+}
+GROUPS, CFG_RAM, _ = CONFIGS[os.environ.get("BOWDEN_CORE_MC_CONFIG", "n2")]
 N = len(GROUPS)
-CLKS_PER_SAMPLE = 1 + 15 * N
+
+
+def clks_per_sample(n: int, cfg_ram: int) -> int:
+    """The fewest clocks a sample: the loops' 1 + 15 N, and with CFG_RAM a clock for the bus's
+    reads (they wait while the loops read the memory)."""
+    return 1 + 15 * n + (1 if cfg_ram else 0)
+
+
+CLKS_PER_SAMPLE = clks_per_sample(N, CFG_RAM)
 
 
 def bank_addr(ch: int, name: str) -> int:
@@ -145,6 +161,14 @@ async def banks_are_apart(dut):
         assert await tb.read(k, "ID") == await tb.read(0, "ID")
     await tb.write(N - 1, "KP", -7)
     assert [await tb.read(k, "KP") for k in range(N)] == [1000 + k for k in range(N - 1)] + [-7]
+    # byte strobes: a byte of a 24-bit signed word and of a 15-bit one, the rest kept
+    await tb.write(0, "ADC_MIN", -0x123456)
+    await tb.axi.write(bank_addr(0, "ADC_MIN") + 1, b"\x7f")
+    assert await tb.read(0, "ADC_MIN") == signed((-0x123456 & 0xFF00FF) | 0x7F00, 24)
+    i_limit_reset = regmap.REGISTERS["I_LIMIT"].fields[0].reset
+    await tb.axi.write(bank_addr(N - 1, "I_LIMIT"), b"\x34")
+    assert await tb.read(N - 1, "I_LIMIT") == (i_limit_reset & 0x7F00) | 0x34
+    assert await tb.read(0, "I_LIMIT") == i_limit_reset
     rng = random.Random(1)
     cocotb.start_soon(tb.adc_stream(lambda k, i: 5.0, rng))
     await ClockCycles(dut.clk, 3 * CLKS_PER_SAMPLE)
@@ -184,8 +208,11 @@ async def loops_through_axi_against_model(dut):
             await tb.write(ch, "CTRL", regmap.CTRL_ENABLE | pulse)
         elif what < 0.8 and tb.model.channels[ch].faults:
             await tb.write(ch, "CTRL", regmap.CTRL_ENABLE | regmap.CTRL_FAULT_CLEAR)
-        else:
+        elif what < 0.9:
             await tb.read(ch, rng.choice(["U", "T_IN", "INTEG", "TC_EFF"]))
+        else:  # a configuration word reads back what the model holds
+            name = rng.choice(["TC", "KFF", "KP", "KI_TS", "I_LIMIT", "WDT_TIMEOUT", "ADC_MAX"])
+            assert await tb.read(ch, name) == tb.model.channels[ch].regs[name], f"{ch}:{name}"
         await ClockCycles(dut.clk, rng.randint(0, 2 * CLKS_PER_SAMPLE))
     assert tb.compared > 300, f"only {tb.compared} periods compared"
     # the group stop was exercised: some channel ran periods under a partner's fault
@@ -196,7 +223,7 @@ async def loops_through_axi_against_model(dut):
 @pytest.mark.parametrize("simulator", SIMULATORS[:1])
 def test_bowden_core_mc(simulator, config):
     """Build bowden_core_mc (N from the config) and run the coroutines above."""
-    groups = CONFIGS[config]
+    groups, cfg_ram, rd_stages = CONFIGS[config]
     n = len(groups)
     group = sum(g << (GROUP_W * k) for k, g in enumerate(groups))
     params = {
@@ -204,7 +231,9 @@ def test_bowden_core_mc(simulator, config):
         # a sized literal: a plain integer is 32 bits, wider than N*GROUP_W for N < 8
         "GROUP": f"{n * GROUP_W}'h{group:x}",
         "CLK_HZ": 48_000_000,
-        "CLKS_PER_SAMPLE": 1 + 15 * n,
+        "CLKS_PER_SAMPLE": clks_per_sample(n, cfg_ram),
+        "CFG_RAM": cfg_ram,
+        "RD_STAGES": rd_stages,
     }
     run_cocotb(
         "bowden_core_mc",
