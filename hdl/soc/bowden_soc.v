@@ -46,6 +46,8 @@ module bowden_soc #(
     parameter CPU_MUL = 1,            // RV32I + Zmmul: 1 soc_mul on the co-processor port (one DSP,
                                       // 6..9 clocks), 2 picorv32's own (4 DSPs, 3 clocks); 0: none
     parameter MEM_SPRAM = 0,          // 1: ROM and RAM in the UP5K's SPRAMs (16384 words each)
+    parameter CFG_RAM = 0,            // CHANNELS > 1: 1 the banks' configuration words in a
+                                      // block RAM (bowden_core_mc's CFG_RAM; the UP5K's top)
     parameter BOOT_FLASH = 0,         // 1: the CPU starts in the boot loader (BOOT_INIT), which copies
                                       // the image from the flash into the (writable) ROM
     parameter BOOT_INIT = "",         // $readmemh file of the boot loader (firmware/soc/boot.S)
@@ -368,7 +370,8 @@ wire unused_cmd = &{1'b0, cmd_current, cmd_valid};
 // state into the datapath the clock before its slot: 643 logic cells more on the UP5K (5647, over
 // its 5280), which only pays for itself from two channels on.
 // More cables: bowden_core_mc, a bank and a PWM a cable, the loops on one time-multiplexed
-// datapath, with the one-clock read-back.
+// datapath, with the one-clock read-back; on the UP5K (CFG_RAM 1) the banks' configuration
+// words in a block RAM whose output register is the datapath's loaded configuration.
 generate
     if (CHANNELS == 1) begin : g_core
         bowden_core #(
@@ -393,7 +396,7 @@ generate
         bowden_core_mc #(
             .N(CHANNELS), .GROUP_W(GROUP_W), .GROUP(pair_groups(CHANNELS)),
             .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .PWM_HZ(PWM_HZ), .ADDR_W(ADDR_W),
-            .RD_STAGES(1)
+            .RD_STAGES(1), .CFG_RAM(CFG_RAM)
         ) core (
             .clk(clk), .rst(rst),
             .s_axil_awaddr(axi_awaddr[BUS_W-1:0]), .s_axil_awprot(axi_awprot),

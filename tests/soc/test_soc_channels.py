@@ -1,12 +1,13 @@
 """bowden_soc with two cables (CHANNELS 2: bowden_core_mc, an ADS131M04), in Verilator.
 
 The one-cable SoC is what the other tests here run; this one runs the configuration of the
-UP5K's top and pins with two cables (the ECP5's four differ only in N and the ADS131M08): the
-two-cable image (build/firmware/soc/ch2, with the 32 KiB of RAM its cables need) boots, reads
-the SoC's count and answers HELLO with two channels; the reader configures the
-ADS131M04 at OSR 256 (the four-channel frame does not fit the 31.25 us of 32 kSPS at SCLK
-clk / 6) and hands each cable its own T_in and T_out of one conversion; each cable has its own
-PWM at the ESCON's period, 50 % while disabled. A build of its own (some minutes), so `long`.
+UP5K's top and pins with two cables (the banks' configuration words in a block RAM, CFG_RAM 1;
+the ECP5's four differ in N, the ADS131M08 and CFG_RAM 0): the two-cable image
+(build/firmware/soc/ch2, with the 32 KiB of RAM its cables need) boots, reads the SoC's count
+and answers HELLO with two channels; the reader configures the ADS131M04 at OSR 256 (the
+four-channel frame does not fit the 31.25 us of 32 kSPS at SCLK clk / 6) and hands each cable
+its own T_in and T_out of one conversion; each cable has its own PWM at the ESCON's period,
+50 % while disabled. A build of its own (some minutes), so `long`.
 
 Also here, `long` too: the tick's margin (tb_soc_tick.py) with every cable running and streaming
 its telemetry, two cables on the UP5K's configuration (booted from the flash into the SPRAMs)
@@ -117,7 +118,7 @@ MULTI_RAM_WORDS = 8192
 def test_soc_two_cables():
     assert image(2).exists(), "make firmware-soc first (make test builds it)"
     params = {"CHANNELS": 2, "ROM_INIT": f'"{image(2)}"', "RAM_WORDS": MULTI_RAM_WORDS,
-              "ADC_WAIT_CLKS": 256}  # fmt: skip
+              "ADC_WAIT_CLKS": 256, "CFG_RAM": 1}  # fmt: skip
     run_cocotb(
         "soc_tb", "test_soc_channels", soc_sources(), "verilator", params, tag="channels2",
         build_args=VERILATOR_ARGS,
@@ -150,7 +151,7 @@ def test_tick_margin_two_cables_up5k():
     params = {
         "CHANNELS": 2, "MEM_SPRAM": 1, "CPU_FAST": 0, "CPU_MUL": 1, "BOOT_FLASH": 1,
         "ROM_WORDS": 16384, "RAM_WORDS": 16384, "FLASH_INIT": f'"{flash}"',
-        "BOOT_INIT": f'"{FW_HEX.with_name("boot.hex")}"', "ADC_WAIT_CLKS": 256,
+        "BOOT_INIT": f'"{FW_HEX.with_name("boot.hex")}"', "ADC_WAIT_CLKS": 256, "CFG_RAM": 1,
     }  # fmt: skip
     run_cocotb(
         "soc_tb", "tb_soc_tick", [*soc_sources(), CELLS_SIM], "verilator", params,
