@@ -25,17 +25,21 @@ exact model nothing), the loop's fixed point and the reference's Q7.8 words. Its
 also carries the far-end cell's own offset, gain, lag and noise, since the oracle aims the cable's
 tension, not the reading.
 
-What kind of bound it is: the error of one controller, a greedy model-predictive one, not a
-proven minimum over all current trajectories; the true floor is at or below it where it tracks.
-On the nominal plant it tracks fig14 to about 0.01 % of 15 N: the drive and the board leave fig14
-essentially no floor (crossing the dead zone at a reversal takes the 4 A drive a few ms, during
-which a 0.5 Hz sine's peak moves by about a mN). On plants with a strong speed-dependent
-friction (mu_viscous of order 1 s/m and more) and a breakaway, the greedy choice rings (it pulls
-hard, the cable's speed raises the friction, the output collapses and overshoots): there its
-figure is no floor, and a row whose floor exceeds the mode's error says so (ratio below 1).
+What kind of bound it is: the error of the best current trajectory found, not a proven minimum
+over all trajectories; the true floor is at or below it. On the nominal plant the oracle tracks
+fig14 to about 0.01 % of 15 N: the drive and the board leave fig14 essentially no floor
+(crossing the dead zone at a reversal takes the 4 A drive a few ms, during which a 0.5 Hz sine's
+peak moves by about a mN). On plants with a strong speed-dependent friction (mu_viscous of order
+1 s/m and more) and a breakaway, the greedy choice rings (it pulls hard, the cable's speed raises
+the friction, the output collapses and overshoots), so a refinement follows it: iterative
+learning control on the exact model (REFINE_ITERATIONS) from the best of its seeds, the oracle's
+commands and, with --mode, each mode's own closed-loop current on that plant. The floor's RMS is
+the lowest true RMS among the oracle and the refinement's iterates, and its peak the lowest true
+peak (each reached by a trajectory within the drive's limits, perhaps not the same one). A row
+whose floor still exceeds the mode's error says so (ratio below 1): there no floor was found.
 
     python -m cosim.studies.tracking_floor --spec SPEC.yaml [--out DIR] [--workers 2]
-        [--mode NAME=RESULTS ...] [--limit N] [--horizons S,...]
+        [--mode NAME=RESULTS ...] [--limit N] [--only I,J,...] [--horizons S,...] [--refine N]
 
 --mode joins a mode's results: the --out folder of `bowden sweep` on the same spec (its points/
 files), or the JSON of cosim.studies.calibrated_robustness; rows are matched by the plant and
@@ -70,6 +74,28 @@ PREDICTION_STEP_S = 0.002
 # (see the module's docstring): 250 A/s made it worse, so the default is no bound.
 SLEW_A_PER_S = None
 
+# The refinement: iterative learning control (ILC) of the current set values on the exact,
+# noiseless model, from the best of its seeds (the oracle's commands and, with --mode, each mode's
+# own closed-loop current): every iteration replays the commands, and the set value at t moves by
+# REFINE_GAIN / g times the error at t + d, g the plant's static gain (N of T_out per A) and d its
+# delay (samples), both read from the response to short current pulses on the seed; the update is
+# smoothed by a centred moving average of REFINE_WINDOW_S (the learning filter, which keeps the
+# cable's mode out of the update) and put back on the ESCON's levels and PWM periods. P-type ILC
+# with a zero-phase filter: D. A. Bristow, M. Tharayil, A. G. Alleyne, "A survey of iterative
+# learning control", IEEE Control Systems Magazine 26(3) (2006) 96-114, "Design" (the P-type and
+# the Q-filter). The plant's stick-slip makes the iterations' error rise and fall, so the best
+# iterate is kept, not the last. Gain, window and iterations were chosen on the tuning set's
+# plants (docs/results.md, "The distance to the limit").
+REFINE_ITERATIONS = 40
+REFINE_GAIN = 0.1
+REFINE_WINDOW_S = 0.016
+# The pulses that measure g and d: PULSE_A for PULSE_S at these shares of the run; the response
+# is read over PULSE_READ_S.
+PULSE_A = 0.2
+PULSE_S = 0.001
+PULSE_AT = (1 / 12, 5 / 12, 9 / 12)
+PULSE_READ_S = 0.08
+
 
 def plant_key(values: dict) -> tuple:
     """The plant and position of a sweep point: what a floor depends on (the controller's
@@ -88,36 +114,155 @@ def _levels(escon_imax_a: float) -> np.ndarray:
     return (duty - 0.5) / 0.4 * escon_imax_a
 
 
-def floor_run(
-    run_spec: dict, horizon_s: float, trace: dict | None = None, slew_a_per_s: float | None = None
-) -> dict:
-    """The oracle's run of one point (run_spec as cosim.studies.sweep.spec.SweepSpec.run_spec
-    makes it, duration_s set): its error figures and its current set values."""
-    from cosim.config.run import SimConfig  # noqa: PLC0415
-    from cosim.config.scenarios import sample_inputs  # noqa: PLC0415
-    from cosim.engines.harness import open_plant  # noqa: PLC0415
-    from cosim.engines.native.engine import scenario_of  # noqa: PLC0415
-    from cosim.results import metrics  # noqa: PLC0415
+class FloorPlant:
+    """One point's plant for the floor: the scenario's inputs, the drive's levels, the exact model
+    (the point's plant without its sensor noise, which is not predictable) and the scoring."""
 
-    cfg = SimConfig.from_dict(run_spec["config"], source="point")
-    scen = scenario_of(run_spec)
-    inp = sample_inputs(scen, cfg, run_spec["duration_s"])
-    dt = 1.0 / cfg.sample_rate_hz
-    ratio = int(round(cfg.sample_rate_hz / cfg.board.pwm_hz))
-    levels = _levels(cfg.board.escon_imax_a)
-    n = len(inp.t_s)
+    def __init__(self, run_spec: dict):
+        from cosim.config.run import SimConfig  # noqa: PLC0415
+        from cosim.config.scenarios import sample_inputs  # noqa: PLC0415
+        from cosim.engines.native.engine import scenario_of  # noqa: PLC0415
+
+        self.run_spec = run_spec
+        self.cfg = SimConfig.from_dict(run_spec["config"], source="point")
+        self.scen = scenario_of(run_spec)
+        self.inp = sample_inputs(self.scen, self.cfg, run_spec["duration_s"])
+        self.dt = 1.0 / self.cfg.sample_rate_hz
+        self.ratio = int(round(self.cfg.sample_rate_hz / self.cfg.board.pwm_hz))
+        self.levels = _levels(self.cfg.board.escon_imax_a)
+        self.n = len(self.inp.t_s)
+        self.pos0 = (self.inp.x_m[0], self.inp.y_m[0], self.inp.z_m[0])
+        t_s = self.inp.t_s
+        self.settle_s = self.scen.settle_s if t_s[-1] > self.scen.settle_s else 0.0
+        self.scored = t_s >= self.settle_s
+        self.quiet = SimConfig.from_dict(run_spec["config"], source="point")
+        self.quiet.plant = {**self.quiet.plant, "noise_std": 0.0}
+
+    def open_model(self, noisy: bool = False):
+        from cosim.engines.harness import open_plant  # noqa: PLC0415
+
+        return open_plant(
+            self.cfg if noisy else self.quiet, self.run_spec["loop_routing"], self.pos0
+        )
+
+    def project(self, commands: np.ndarray) -> np.ndarray:
+        """Commands as the drive takes them: one set value a PWM period (the period's mean), on
+        the ESCON's nearest level within its range."""
+        c = np.asarray(commands, dtype=float)
+        whole = len(c) // self.ratio * self.ratio
+        per = [c[:whole].reshape(-1, self.ratio).mean(axis=1)]
+        if whole < len(c):
+            per.append(np.array([c[whole:].mean()]))
+        per = np.concatenate(per)
+        lv = self.levels
+        idx = np.clip(np.round((per - lv[0]) / (lv[1] - lv[0])), 0, len(lv) - 1).astype(int)
+        return np.repeat(lv[idx], self.ratio)[: len(c)]
+
+    def true_out(self, commands: np.ndarray) -> np.ndarray:
+        """The exact model's T_out for these commands, sample by sample (the record's sample j
+        holds the plant after step j)."""
+        inp = self.inp
+        model = self.open_model()
+        out = np.empty(self.n)
+        try:
+            u = model.u
+            for j in range(self.n):
+                u[model.CURRENT_CMD] = commands[j]
+                u[model.X], u[model.Y], u[model.Z] = inp.x_m[j], inp.y_m[j], inp.z_m[j]
+                out[j] = model.step(self.dt)[model.T_OUT]
+        finally:
+            model.close()
+        return out
+
+    def phi_rad(self) -> np.ndarray:
+        """The plant's wrap angle along the run's path (the exact model at rest: phi depends on
+        the end-effector's position only)."""
+        inp = self.inp
+        model = self.open_model()
+        phi = np.empty(self.n)
+        try:
+            u = model.u
+            u[model.CURRENT_CMD] = 0.0
+            for j in range(self.n):
+                u[model.X], u[model.Y], u[model.Z] = inp.x_m[j], inp.y_m[j], inp.z_m[j]
+                phi[j] = model.step(self.dt)[model.PHI]
+        finally:
+            model.close()
+        return phi
+
+    def true_rms_n(self, t_out: np.ndarray) -> float:
+        e = (self.inp.t_ref_n - t_out)[self.scored]
+        return float(np.sqrt(np.mean(e * e)))
+
+    def figures(self, commands: np.ndarray, trace: dict | None = None) -> dict:
+        """The commands replayed on the plant as the point configures it (its sensor noise too),
+        scored as the sweep scores a run (cosim.results.metrics.tracking_error after the
+        scenario's settle time, in % of max T_ref): on the far-end reading and the true T_out."""
+        from cosim.results import metrics  # noqa: PLC0415
+
+        inp = self.inp
+        plant = self.open_model(noisy=True)
+        t_out = np.empty(self.n)
+        t_out_true = np.empty(self.n)
+        try:
+            pu = plant.u
+            for j in range(self.n):
+                pu[plant.CURRENT_CMD] = commands[j]
+                pu[plant.X], pu[plant.Y], pu[plant.Z] = inp.x_m[j], inp.y_m[j], inp.z_m[j]
+                y = plant.step(self.dt)
+                t_out[j] = y[plant.T_OUT_MEAS]
+                t_out_true[j] = y[plant.T_OUT]
+        finally:
+            plant.close()
+        if trace is not None:  # the run's series, for a look at where the error comes from
+            trace.update(t_s=inp.t_s, t_ref_n=inp.t_ref_n, t_out_n=t_out, t_out_true_n=t_out_true)
+            trace.update(current_a=np.asarray(commands))
+        err = metrics.tracking_error(inp.t_s, inp.t_ref_n, t_out, self.settle_s)
+        true_err = metrics.tracking_error(inp.t_s, inp.t_ref_n, t_out_true, self.settle_s)
+        imax = self.cfg.board.escon_imax_a
+        return {
+            "rms_error_pct": err["rms_error_pct"],
+            "peak_error_pct": err["peak_error_pct"],
+            "rms_error_n": err["rms_error_n"],
+            "peak_error_n": err["peak_error_n"],
+            "true_rms_error_pct": true_err["rms_error_pct"],
+            "true_peak_error_pct": true_err["peak_error_pct"],
+            "current_saturated_share": float(np.mean(np.abs(commands) >= imax * (1 - 1e-9))),
+        }
+
+
+def breakaway_peak_bound_pct(fp: FloorPlant) -> float | None:
+    """A lower bound on the true peak error (% of max T_ref) that a breakaway leaves any
+    trajectory, under the sharp law: every strand breaks loose at once (dead_zone_spread 0).
+
+    Derivation (fmu/README.md, "Static friction"): held after a reversal, the output keeps the
+    level T_s it had; when the cable breaks loose it jumps to T_s e^(-b phi) (releasing; up by
+    e^(+b phi) pulling), b = mu_static_excess. At the reference's maximum R the output is at some
+    O, and it cannot fall before its first release jump, from a level T_s >= O; across the jump
+    the error changes by c T_s, c = 1 - e^(-b phi), so one side of it is at least c T_s / 2 off.
+    Hence peak >= max(R - O, c O / 2) >= R (c / 2) / (1 + c / 2) for every O. phi is the least
+    wrap angle of the run (the smallest jump). None without a breakaway. With a spread the
+    strands break loose one after another and the bound does not hold as such."""
+    b = float(fp.cfg.plant.get("mu_static_excess", 0.0))
+    if b <= 0.0:
+        return None
+    phi = float(np.min(fp.phi_rad()))
+    c = 1.0 - math.exp(-b * phi)
+    return 100.0 * (c / 2.0) / (1.0 + c / 2.0)
+
+
+def oracle_commands(
+    fp: FloorPlant, horizon_s: float, slew_a_per_s: float | None = None
+) -> np.ndarray:
+    """The greedy oracle's current set values: every PWM period the level that brings the exact
+    model's true T_out to T_ref at the horizon's end (module docstring)."""
+    inp, dt, levels, n, ratio = fp.inp, fp.dt, fp.levels, fp.n, fp.ratio
     h_samples = max(1, int(round(horizon_s / dt)))
     pred_samples = max(1, int(round(PREDICTION_STEP_S / dt)))
     slew = SLEW_A_PER_S if slew_a_per_s is None else slew_a_per_s
     step_a = levels[1] - levels[0]
     slew_levels = len(levels) if slew is None else max(1, int(slew * ratio * dt / step_a))
-    pos0 = (inp.x_m[0], inp.y_m[0], inp.z_m[0])
-    routing = run_spec["loop_routing"]
-
-    # The oracle's model: the point's plant without its sensor noise (noise is not predictable).
-    quiet = SimConfig.from_dict(run_spec["config"], source="point")
-    quiet.plant = {**quiet.plant, "noise_std": 0.0}
-    model = open_plant(quiet, routing, pos0)
+    model = fp.open_model()
     t_ref = inp.t_ref_n
     T_OUT, X, Y, Z, CMD = model.T_OUT, model.X, model.Y, model.Z, model.CURRENT_CMD
     u = model.u
@@ -134,7 +279,7 @@ def floor_run(
                 # The prediction steps the FMU in pieces of up to PREDICTION_STEP_S with the
                 # position at each piece's end (the path moves slowly): a prediction a little
                 # off the per-sample run costs the oracle a little, never the figure's honesty
-                # (what is scored is the per-sample replay below).
+                # (what is scored is the per-sample replay).
                 model.set_state(state)
                 t0 = model.time_s
                 u[CMD] = levels[level]
@@ -177,46 +322,118 @@ def floor_run(
             k += block
     finally:
         model.close()
+    return commands
 
-    # The commands replayed on the plant as the point configures it (its sensor noise too).
-    plant = open_plant(cfg, routing, pos0)
-    t_out = np.empty(n)
-    t_out_true = np.empty(n)
-    try:
-        pu = plant.u
-        for j in range(n):
-            pu[CMD] = commands[j]
-            pu[X], pu[Y], pu[Z] = inp.x_m[j], inp.y_m[j], inp.z_m[j]
-            y = plant.step(dt)
-            t_out[j] = y[plant.T_OUT_MEAS]
-            t_out_true[j] = y[plant.T_OUT]
-    finally:
-        plant.close()
-    if trace is not None:  # the run's series, for a look at where the error comes from
-        trace.update(t_s=inp.t_s, t_ref_n=t_ref, t_out_n=t_out, t_out_true_n=t_out_true)
-        trace.update(current_a=commands)
-    # The record's sample j holds the plant after step j, as the closed loop's does.
-    t_s = inp.t_s
-    settle = scen.settle_s if t_s[-1] > scen.settle_s else 0.0
-    err = metrics.tracking_error(t_s, t_ref, t_out, settle)
-    true_err = metrics.tracking_error(t_s, t_ref, t_out_true, settle)
+
+def floor_run(
+    run_spec: dict, horizon_s: float, trace: dict | None = None, slew_a_per_s: float | None = None
+) -> dict:
+    """The oracle's run of one point (run_spec as cosim.studies.sweep.spec.SweepSpec.run_spec
+    makes it, duration_s set): its error figures and its current set values."""
+    fp = FloorPlant(run_spec)
+    commands = oracle_commands(fp, horizon_s, slew_a_per_s)
+    return {"horizon_s": horizon_s, **fp.figures(commands, trace)}
+
+
+def plant_response(fp: FloorPlant, commands: np.ndarray, t_out: np.ndarray) -> tuple[float, int]:
+    """The static gain g (N of true T_out per A of set value) and delay d (samples) of the plant
+    along these commands: the mean response to PULSE_A held for PULSE_S at PULSE_AT of the run,
+    g its sum per A-sample, d the sample of its largest magnitude."""
+    width = max(fp.ratio, int(round(PULSE_S / fp.dt)))
+    read = int(round(PULSE_READ_S / fp.dt))
+    responses = []
+    for share in PULSE_AT:
+        k = int(share * fp.n) // fp.ratio * fp.ratio
+        if k + width + read > fp.n:
+            continue
+        pulsed = commands.copy()
+        pulsed[k : k + width] = np.clip(
+            pulsed[k : k + width] + PULSE_A, fp.levels[0], fp.levels[-1]
+        )
+        area = float(np.sum(pulsed[k : k + width] - commands[k : k + width]))
+        if area <= 0:
+            continue
+        responses.append((fp.true_out(pulsed) - t_out)[k : k + read] / area)
+    if not responses:
+        raise ValueError("the run is too short for the refinement's pulses")
+    h = np.mean(responses, axis=0)
+    return float(np.sum(h)), int(np.argmax(np.abs(h)))
+
+
+def refine(
+    fp: FloorPlant,
+    seed: np.ndarray,
+    iterations: int = REFINE_ITERATIONS,
+    gain: float = REFINE_GAIN,
+    window_s: float = REFINE_WINDOW_S,
+) -> dict:
+    """P-type ILC of the commands on the exact model from `seed` (see REFINE_ITERATIONS): the
+    iterate of the lowest true RMS and the one of the lowest true peak, each with its figures on
+    the exact model (N), and the iterations' true RMS (N)."""
+    from scipy.ndimage import uniform_filter1d  # noqa: PLC0415
+
+    cmd = fp.project(seed)
+    out = fp.true_out(cmd)
+    g, d = plant_response(fp, cmd, out)
+    if not g > 0:
+        raise ValueError(f"the plant's static gain along the seed is {g:.3g} N/A, not positive")
+    window = max(1, int(round(window_s / fp.dt)))
+    imax = fp.levels[-1]
+    ref = fp.inp.t_ref_n
+
+    def peak_n(t_out: np.ndarray) -> float:
+        return float(np.max(np.abs((ref - t_out)[fp.scored])))
+
+    best_rms = (fp.true_rms_n(out), cmd)
+    best_peak = (peak_n(out), cmd)
+    history = [best_rms[0]]
+    cont = cmd.astype(float)
+    for _ in range(iterations):
+        e = ref - out
+        e[~fp.scored] = 0.0
+        ahead = np.concatenate([e[d:], np.zeros(d)])
+        cont = np.clip(
+            uniform_filter1d(cont + (gain / g) * ahead, window, mode="nearest"), -imax, imax
+        )
+        cmd = fp.project(cont)
+        out = fp.true_out(cmd)
+        rms, peak = fp.true_rms_n(out), peak_n(out)
+        history.append(rms)
+        if rms < best_rms[0]:
+            best_rms = (rms, cmd)
+        if peak < best_peak[0]:
+            best_peak = (peak, cmd)
     return {
-        "horizon_s": horizon_s,
-        "rms_error_pct": err["rms_error_pct"],
-        "peak_error_pct": err["peak_error_pct"],
-        "rms_error_n": err["rms_error_n"],
-        "peak_error_n": err["peak_error_n"],
-        "true_rms_error_pct": true_err["rms_error_pct"],
-        "true_peak_error_pct": true_err["peak_error_pct"],
-        "current_saturated_share": float(
-            np.mean(np.abs(commands) >= cfg.board.escon_imax_a * (1 - 1e-9))
-        ),
+        "rms_commands": best_rms[1],
+        "peak_commands": best_peak[1],
+        "gain_n_per_a": g,
+        "delay_samples": d,
+        "history_rms_n": history,
     }
 
 
-def floor_point(spec_path: str, values: dict, horizons=HORIZONS_S) -> dict:
-    """The floor of one sweep point: floor_run at each horizon, the lowest RMS kept (the others
-    listed by horizon)."""
+def seed_commands(spec_path: str, values: dict) -> np.ndarray:
+    """A mode's own closed-loop current on one of its points (the native engine's record, as the
+    sweep runs the point): a seed for the refinement."""
+    from cosim.studies.sweep.run import run_record  # noqa: PLC0415
+    from cosim.studies.sweep.spec import Point, load_spec  # noqa: PLC0415
+
+    _, fixed, _ = run_record(load_spec(spec_path), Point(values))
+    return np.asarray(fixed["current_A"], dtype=float)
+
+
+def floor_point(
+    spec_path: str,
+    values: dict,
+    horizons=HORIZONS_S,
+    seeds: dict | None = None,
+    iterations: int = REFINE_ITERATIONS,
+) -> dict:
+    """The floor of one sweep point: the oracle at each horizon (the lowest RMS kept, the others
+    listed by horizon), then, with iterations > 0, the refinement from the best seed (the
+    oracle's commands, or a mode's own run: seeds maps a mode's name to its values of this
+    plant). The floor's RMS is the lowest true RMS of the trajectories tried, and its peak the
+    lowest true peak; each figure is reached by a trajectory within the drive's limits."""
     from cosim.config.scenarios import get_scenario  # noqa: PLC0415
     from cosim.studies.sweep.spec import Point, load_spec  # noqa: PLC0415
 
@@ -224,25 +441,74 @@ def floor_point(spec_path: str, values: dict, horizons=HORIZONS_S) -> dict:
     run_spec = spec.run_spec(Point(values))
     if run_spec["duration_s"] is None:
         run_spec["duration_s"] = get_scenario(spec.scenario).duration_s
-    runs = [floor_run(run_spec, h) for h in horizons]
-    best = min(runs, key=lambda r: r["rms_error_pct"])
-    return {**best, "by_horizon": {f"{r['horizon_s']:g}": r["rms_error_pct"] for r in runs}}
+    fp = FloorPlant(run_spec)
+    runs = []
+    for h in horizons:
+        commands = oracle_commands(fp, h)
+        runs.append(({"horizon_s": h, **fp.figures(commands)}, commands))
+    oracle, oracle_cmd = min(runs, key=lambda r: r[0]["rms_error_pct"])
+    by_horizon = {f"{r['horizon_s']:g}": r["rms_error_pct"] for r, _ in runs}
+    bound = breakaway_peak_bound_pct(fp)
+    result = {**oracle, "by_horizon": by_horizon, "from": "oracle", "oracle": dict(oracle)}
+    result["breakaway_peak_bound_pct"] = bound
+    if iterations <= 0:
+        return result
+    candidates = {"oracle": oracle_cmd}
+    for name, mode_values in (seeds or {}).items():
+        candidates[f"mode {name}"] = seed_commands(spec_path, mode_values)
+    start = {name: fp.true_rms_n(fp.true_out(fp.project(c))) for name, c in candidates.items()}
+    seed_name = min(start, key=start.get)
+    ref = refine(fp, candidates[seed_name], iterations)
+    tried = [(oracle, "oracle")]
+    tried.append((fp.figures(ref["rms_commands"]), f"refined from {seed_name}"))
+    tried.append((fp.figures(ref["peak_commands"]), f"refined from {seed_name}"))
+    best_rms = min(tried, key=lambda r: r[0]["true_rms_error_pct"])
+    best_peak = min(tried, key=lambda r: r[0]["true_peak_error_pct"])
+    result = {**best_rms[0], "horizon_s": oracle["horizon_s"], "by_horizon": by_horizon}
+    for key in ("peak_error_pct", "peak_error_n", "true_peak_error_pct"):
+        result[key] = best_peak[0][key]
+    result.update(
+        {
+            "from": best_rms[1],
+            "peak_from": best_peak[1],
+            "oracle": dict(oracle),
+            "seeds_true_rms_n": start,
+            "refine": {k: ref[k] for k in ("gain_n_per_a", "delay_samples", "history_rms_n")},
+            "breakaway_peak_bound_pct": bound,
+        }
+    )
+    return result
 
 
-def load_mode(path: Path) -> dict:
-    """A mode's rows by plant_key: a `bowden sweep` --out folder (points/*.json) or the JSON of
-    cosim.studies.calibrated_robustness."""
-    rows = {}
+def _mode_points(path: Path) -> list[tuple[dict, dict]]:
+    """A mode's (values, row) pairs: a `bowden sweep` --out folder (points/*.json, its points
+    that ran) or the JSON of cosim.studies.calibrated_robustness."""
     if path.is_dir():
+        pairs = []
         for f in sorted((path / "points").glob("*.json")):
             data = json.loads(f.read_text())
             if data["row"].get("status", "ok") == "ok":
-                rows.setdefault(plant_key(data["values"]), []).append(data["row"])
-    else:
-        data = json.loads(path.read_text())
-        for values, row in zip(data["points"], data["rows"], strict=True):
-            rows.setdefault(plant_key(values), []).append(row)
+                pairs.append((data["values"], data["row"]))
+        return pairs
+    data = json.loads(path.read_text())
+    return list(zip(data["points"], data["rows"], strict=True))
+
+
+def load_mode(path: Path) -> dict:
+    """A mode's rows by plant_key."""
+    rows: dict = {}
+    for values, row in _mode_points(path):
+        rows.setdefault(plant_key(values), []).append(row)
     return rows
+
+
+def load_mode_values(path: Path) -> dict:
+    """A mode's run values by plant_key (its first point of each plant): what the refinement
+    re-runs for its seed."""
+    values: dict = {}
+    for v, _ in _mode_points(path):
+        values.setdefault(plant_key(v), v)
+    return values
 
 
 def summary(points: list[dict], floors: list[dict], modes: dict[str, dict]) -> list[str]:
@@ -309,6 +575,20 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--limit", type=int, help="only the first N plants (a quick look)")
     ap.add_argument(
+        "--only",
+        metavar="I,J,...",
+        help="only these plants, by their place in the spec's list of plants (0 the first); "
+        "after --limit",
+    )
+    ap.add_argument(
+        "--refine",
+        type=int,
+        default=REFINE_ITERATIONS,
+        metavar="N",
+        help=f"iterations of the refinement on the exact model (default {REFINE_ITERATIONS}; "
+        "0: the oracle alone)",
+    )
+    ap.add_argument(
         "--horizons",
         help=f"comma-separated horizons in s (default {','.join(map(str, HORIZONS_S))})",
     )
@@ -318,7 +598,13 @@ def main(argv: list[str] | None = None) -> int:
     except SpecError as exc:
         print(f"tracking_floor: {exc}", file=sys.stderr)
         return 2
-    modes = {}
+    if not 0 <= args.refine <= 1000:
+        print(f"tracking_floor: --refine {args.refine}: iterations in [0, 1000]", file=sys.stderr)
+        return 2
+    if args.limit is not None and args.limit < 1:
+        print(f"tracking_floor: --limit {args.limit}: at least 1", file=sys.stderr)
+        return 2
+    modes, mode_values = {}, {}
     for item in args.mode:
         name, sep, path = item.partition("=")
         if not sep or not Path(path).exists():
@@ -329,6 +615,7 @@ def main(argv: list[str] | None = None) -> int:
             )
             return 2
         modes[name] = load_mode(Path(path))
+        mode_values[name] = load_mode_values(Path(path))
     horizons = HORIZONS_S
     if args.horizons:
         try:
@@ -345,12 +632,38 @@ def main(argv: list[str] | None = None) -> int:
     for p in spec.points():
         unique.setdefault(plant_key(p.values), p.values)
     points = list(unique.values())[: args.limit]
+    if args.only:
+        try:
+            picks = [int(i) for i in args.only.split(",")]
+        except ValueError:
+            print(f"tracking_floor: --only {args.only}: not whole numbers", file=sys.stderr)
+            return 2
+        bad = [i for i in picks if not 0 <= i < len(points)]
+        if bad:
+            print(
+                f"tracking_floor: --only: {bad[0]} is not a plant of this spec (0 .. "
+                f"{len(points) - 1})",
+                file=sys.stderr,
+            )
+            return 2
+        points = [points[i] for i in picks]
+    seeds = [
+        {name: vals[plant_key(p)] for name, vals in mode_values.items() if plant_key(p) in vals}
+        for p in points
+    ]
     folder = Path(args.out or tempfile.mkdtemp(prefix="bowden-tracking-floor-"))
     folder.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     with process_pool(args.workers) as pool:
         floors = list(
-            pool.map(floor_point, [str(args.spec)] * len(points), points, [horizons] * len(points))
+            pool.map(
+                floor_point,
+                [str(args.spec)] * len(points),
+                points,
+                [horizons] * len(points),
+                seeds,
+                [args.refine] * len(points),
+            )
         )
     for v, f in zip(points, floors, strict=True):
         plant = ", ".join(f"{k[6:]} {v[k]:.4g}" for k in sorted(v) if k.startswith("plant."))
@@ -359,7 +672,14 @@ def main(argv: list[str] | None = None) -> int:
             f"{f['rms_error_pct']:.2f} %, peak {f['peak_error_pct']:.2f} % (horizon "
             f"{f['horizon_s'] * 1e3:g} ms; true T_out {f['true_rms_error_pct']:.2f} / "
             f"{f['true_peak_error_pct']:.2f} %; current at the limit "
-            f"{100 * f['current_saturated_share']:.1f} % of the time)"
+            f"{100 * f['current_saturated_share']:.1f} % of the time; {f['from']}"
+            + (f", peak {f['peak_from']}" if f.get("peak_from") else "")
+            + (
+                f"; breakaway bound on the peak, sharp law: {f['breakaway_peak_bound_pct']:.2f} %"
+                if f.get("breakaway_peak_bound_pct") is not None
+                else ""
+            )
+            + ")"
         )
     for line in summary(points, floors, modes):
         print(line)

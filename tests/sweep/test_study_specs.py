@@ -94,6 +94,82 @@ def test_the_oracles_set_values_are_the_escons_duty_levels():
     assert np.allclose(np.diff(levels), 0.01)
 
 
+def _floor_plant(duration_s: float) -> "tf.FloorPlant":
+    spec = parse_spec({"scenario": "fig14", "duration_s": duration_s, "axes": {}})
+    (point,) = spec.points()
+    return tf.FloorPlant(spec.run_spec(point))
+
+
+def test_the_refinement_learns_a_current_trajectory_from_nothing():
+    """The floor's refinement (P-type ILC on the exact model) from a seed of no current at all,
+    on the nominal plant, at a learning gain of 0.5: within six iterations the true RMS falls
+    below a fifth of the seed's (it starts at T_ref's own RMS, 12.1 N; 1.56 N at the sixth), every iterate is a trajectory the drive can take (one ESCON
+    level a PWM period, within +-I_max), and the plant's gain and delay it reads are the
+    cable's (a positive static gain; the response peaks after the drive's and the cable's lag,
+    not at once)."""
+    fp = _floor_plant(1.6)
+    r = tf.refine(fp, np.zeros(fp.n), iterations=6, gain=0.5)
+    hist = r["history_rms_n"]
+    assert len(hist) == 7 and min(hist) < 0.2 * hist[0], hist
+    assert r["gain_n_per_a"] > 0 and 0 < r["delay_samples"] < 400, r
+    for key in ("rms_commands", "peak_commands"):
+        cmd = r[key]
+        assert cmd.shape == (fp.n,)
+        assert np.all(np.abs(cmd) <= fp.levels[-1])
+        assert np.all(np.isin(cmd, fp.levels))
+        held = cmd[: fp.n // fp.ratio * fp.ratio].reshape(-1, fp.ratio)
+        assert np.all(held == held[:, :1])  # one set value a PWM period
+    # the kept iterate is the best one seen, and its replay on the exact model agrees
+    assert fp.true_rms_n(fp.true_out(r["rms_commands"])) == pytest.approx(min(hist), rel=1e-9)
+
+
+def test_the_breakaway_bound_rests_on_the_plants_own_jump():
+    """The floor's lower bound on the peak for a sharp breakaway (tracking_floor.
+    breakaway_peak_bound_pct) takes the jump at a release to be c T_s, c = 1 - e^(-b phi): the
+    exact model, pulled to 8.5 N and let go slowly, drops by that in one sample (within 1 %), and
+    the bound is R (c / 2) / (1 + c / 2) of the reference's maximum, 8.13 % for b = 0.031 at
+    phi = 2 pi. Without a breakaway there is no bound."""
+    spec = parse_spec(
+        {
+            "scenario": "fig14",
+            "duration_s": 1.6,
+            "config": {"plant": {"mu_static_excess": 0.031, "dead_zone_spread": 0.0}},
+            "axes": {},
+        }
+    )
+    (point,) = spec.points()
+    fp = tf.FloorPlant(spec.run_spec(point))
+    t = np.arange(fp.n) * fp.dt
+    out = fp.true_out(fp.project(np.interp(t, [0, 0.6, 0.8, 1.6], [0, 1.2, 1.2, 0.2])))
+    drop = np.diff(out)
+    k = int(np.argmin(drop))
+    phi = float(np.min(fp.phi_rad()))
+    c = 1 - np.exp(-0.031 * phi)
+    assert out[k] > 8.0 and -drop[k] == pytest.approx(c * out[k], rel=0.01), (out[k], drop[k])
+    bound = tf.breakaway_peak_bound_pct(fp)
+    assert bound == pytest.approx(100 * (c / 2) / (1 + c / 2), rel=1e-12)
+    assert bound == pytest.approx(8.13, abs=0.01)
+    assert tf.breakaway_peak_bound_pct(_floor_plant(0.2)) is None
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["--only", "3,x"], "--only 3,x: not whole numbers"),
+        (["--only", "99"], "--only: 99 is not a plant of this spec (0 .. 3)"),
+        (["--refine", "-1"], "--refine -1: iterations in [0, 1000]"),
+        (["--limit", "0"], "--limit 0: at least 1"),
+    ],
+)
+def test_a_bad_floor_option_is_one_line_and_runs_nothing(tmp_path, capsys, args, says):
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(json.dumps(RANDOM))
+    assert tf.main(["--spec", str(spec), "--out", str(tmp_path / "out"), *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"tracking_floor: {says}", err
+    assert not (tmp_path / "out").exists()
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("study", ["tracking_floor", "calibrated_robustness"])
 def test_ctrl_c_in_a_study_is_one_line_and_leaves_no_worker(tmp_path, study):

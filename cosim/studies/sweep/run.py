@@ -127,10 +127,11 @@ def _row_base(point: Point) -> dict:
     return row
 
 
-def _run(spec: SweepSpec, point: Point) -> dict:
+def run_record(spec: SweepSpec, point: Point) -> tuple[dict, dict, dict]:
+    """One point's closed-loop run as the sweep runs it: its run_spec, its record (the native
+    engine's series: t_s, T_ref_N, T_out_true_N, current_A, ...) and its cost."""
     from cosim.config.run import SimConfig  # noqa: PLC0415
-    from cosim.config.scenarios import get_scenario
-    from cosim.engines import experiment as sim  # noqa: PLC0415
+    from cosim.config.scenarios import get_scenario  # noqa: PLC0415
     from cosim.engines.native import engine  # noqa: PLC0415
     from cosim.engines.reference import resolve_phi  # noqa: PLC0415
 
@@ -145,6 +146,16 @@ def _run(spec: SweepSpec, point: Point) -> dict:
     run_spec["bus"] = "native"
     run_spec["engine"] = "native"
     fixed, cost = engine.run_closed_loop(run_spec, progress=False)
+    return run_spec, fixed, cost
+
+
+def _run(spec: SweepSpec, point: Point) -> dict:
+    from cosim.config.run import SimConfig  # noqa: PLC0415
+    from cosim.engines import experiment as sim  # noqa: PLC0415
+    from cosim.engines.native import engine  # noqa: PLC0415
+
+    run_spec, fixed, cost = run_record(spec, point)
+    cfg = SimConfig.from_dict(run_spec["config"], source="point")
     scen = engine.scenario_of(run_spec)
     result = sim.evaluate(scen, cfg, run_spec, fixed, None, cost["total_s"], cost)
     out = {k: result[k] for k in FIGURES}
