@@ -103,10 +103,10 @@ def _floor_plant(duration_s: float) -> "tf.FloorPlant":
 def test_the_refinement_learns_a_current_trajectory_from_nothing():
     """The floor's refinement (P-type ILC on the exact model) from a seed of no current at all,
     on the nominal plant, at a learning gain of 0.5: within six iterations the true RMS falls
-    below a fifth of the seed's (it starts at T_ref's own RMS, 12.1 N; 1.56 N at the sixth), every iterate is a trajectory the drive can take (one ESCON
-    level a PWM period, within +-I_max), and the plant's gain and delay it reads are the
-    cable's (a positive static gain; the response peaks after the drive's and the cable's lag,
-    not at once)."""
+    below a fifth of the seed's (it starts at T_ref's own RMS, 12.1 N; 1.56 N at the sixth),
+    every iterate is a trajectory the drive can take (one ESCON level a PWM period, within
+    +-I_max), and the plant's gain and delay it reads are the cable's (a positive static gain;
+    the response peaks after the drive's and the cable's lag, not at once)."""
     fp = _floor_plant(1.6)
     r = tf.refine(fp, np.zeros(fp.n), iterations=6, gain=0.5)
     hist = r["history_rms_n"]
@@ -133,7 +133,9 @@ def test_the_breakaway_bound_rests_on_the_plants_own_jump():
         {
             "scenario": "fig14",
             "duration_s": 1.6,
-            "config": {"plant": {"mu_static_excess": 0.031, "dead_zone_spread": 0.0}},
+            "config": {
+                "plant": {"mu_static_excess": 0.031, "dead_zone_spread": 0.0, "mu_viscous": 0.0}
+            },
             "axes": {},
         }
     )
@@ -149,6 +151,7 @@ def test_the_breakaway_bound_rests_on_the_plants_own_jump():
     bound = tf.breakaway_peak_bound_pct(fp)
     assert bound == pytest.approx(100 * (c / 2) / (1 + c / 2), rel=1e-12)
     assert bound == pytest.approx(8.13, abs=0.01)
+    assert tf.breakaway_bound_holds(fp)
     assert tf.breakaway_peak_bound_pct(_floor_plant(0.2)) is None
 
 
