@@ -158,37 +158,34 @@ class FloorPlant:
         idx = np.clip(np.round((per - lv[0]) / (lv[1] - lv[0])), 0, len(lv) - 1).astype(int)
         return np.repeat(lv[idx], self.ratio)[: len(c)]
 
-    def true_out(self, commands: np.ndarray) -> np.ndarray:
-        """The exact model's T_out for these commands, sample by sample (the record's sample j
-        holds the plant after step j)."""
+    def replay(self, commands, outputs=("T_OUT",), noisy: bool = False) -> np.ndarray:
+        """The plant's outputs (names of cosim.parts.plant.Plant's indices) for these commands,
+        sample by sample along the run's path, one column an output (the record's sample j holds
+        the plant after step j); the exact model, or with noisy the plant as the point
+        configures it."""
         inp = self.inp
-        model = self.open_model()
-        out = np.empty(self.n)
+        model = self.open_model(noisy)
+        cols = [getattr(model, name) for name in outputs]
+        out = np.empty((self.n, len(cols)))
         try:
             u = model.u
             for j in range(self.n):
                 u[model.CURRENT_CMD] = commands[j]
                 u[model.X], u[model.Y], u[model.Z] = inp.x_m[j], inp.y_m[j], inp.z_m[j]
-                out[j] = model.step(self.dt)[model.T_OUT]
+                y = model.step(self.dt)
+                out[j] = [y[c] for c in cols]
         finally:
             model.close()
         return out
 
+    def true_out(self, commands: np.ndarray) -> np.ndarray:
+        """The exact model's T_out for these commands."""
+        return self.replay(commands)[:, 0]
+
     def phi_rad(self) -> np.ndarray:
         """The plant's wrap angle along the run's path (the exact model at rest: phi depends on
         the end-effector's position only)."""
-        inp = self.inp
-        model = self.open_model()
-        phi = np.empty(self.n)
-        try:
-            u = model.u
-            u[model.CURRENT_CMD] = 0.0
-            for j in range(self.n):
-                u[model.X], u[model.Y], u[model.Z] = inp.x_m[j], inp.y_m[j], inp.z_m[j]
-                phi[j] = model.step(self.dt)[model.PHI]
-        finally:
-            model.close()
-        return phi
+        return self.replay(np.zeros(self.n), ("PHI",))[:, 0]
 
     def true_rms_n(self, t_out: np.ndarray) -> float:
         e = (self.inp.t_ref_n - t_out)[self.scored]
@@ -201,19 +198,7 @@ class FloorPlant:
         from cosim.results import metrics  # noqa: PLC0415
 
         inp = self.inp
-        plant = self.open_model(noisy=True)
-        t_out = np.empty(self.n)
-        t_out_true = np.empty(self.n)
-        try:
-            pu = plant.u
-            for j in range(self.n):
-                pu[plant.CURRENT_CMD] = commands[j]
-                pu[plant.X], pu[plant.Y], pu[plant.Z] = inp.x_m[j], inp.y_m[j], inp.z_m[j]
-                y = plant.step(self.dt)
-                t_out[j] = y[plant.T_OUT_MEAS]
-                t_out_true[j] = y[plant.T_OUT]
-        finally:
-            plant.close()
+        t_out, t_out_true = self.replay(commands, ("T_OUT_MEAS", "T_OUT"), noisy=True).T
         if trace is not None:  # the run's series, for a look at where the error comes from
             trace.update(t_s=inp.t_s, t_ref_n=inp.t_ref_n, t_out_n=t_out, t_out_true_n=t_out_true)
             trace.update(current_a=np.asarray(commands))
