@@ -187,11 +187,14 @@ class FloorPlant:
         the end-effector's position only)."""
         return self.replay(np.zeros(self.n), ("PHI",))[:, 0]
 
-    def true_rms_n(self, t_out: np.ndarray) -> float:
-        e = (self.inp.t_ref_n - t_out)[self.scored]
-        return float(np.sqrt(np.mean(e * e)))
+    def true_error_n(self, t_out: np.ndarray) -> tuple[float, float]:
+        """The RMS and peak of T_ref - T_out (N), scored as figures() scores."""
+        from cosim.results import metrics  # noqa: PLC0415
 
-    def figures(self, commands: np.ndarray, trace: dict | None = None) -> dict:
+        err = metrics.tracking_error(self.inp.t_s, self.inp.t_ref_n, t_out, self.settle_s)
+        return err["rms_error_n"], err["peak_error_n"]
+
+    def figures(self, commands: np.ndarray) -> dict:
         """The commands replayed on the plant as the point configures it (its sensor noise too),
         scored as the sweep scores a run (cosim.results.metrics.tracking_error after the
         scenario's settle time, in % of max T_ref): on the far-end reading and the true T_out."""
@@ -199,9 +202,6 @@ class FloorPlant:
 
         inp = self.inp
         t_out, t_out_true = self.replay(commands, ("T_OUT_MEAS", "T_OUT"), noisy=True).T
-        if trace is not None:  # the run's series, for a look at where the error comes from
-            trace.update(t_s=inp.t_s, t_ref_n=inp.t_ref_n, t_out_n=t_out, t_out_true_n=t_out_true)
-            trace.update(current_a=np.asarray(commands))
         err = metrics.tracking_error(inp.t_s, inp.t_ref_n, t_out, self.settle_s)
         true_err = metrics.tracking_error(inp.t_s, inp.t_ref_n, t_out_true, self.settle_s)
         imax = self.cfg.board.escon_imax_a
@@ -247,17 +247,16 @@ def breakaway_bound_holds(fp: FloorPlant) -> bool:
     return all(float(p.get(name, 0.0)) == 0.0 for name in names)
 
 
-def oracle_commands(
-    fp: FloorPlant, horizon_s: float, slew_a_per_s: float | None = None
-) -> np.ndarray:
+def oracle_commands(fp: FloorPlant, horizon_s: float) -> np.ndarray:
     """The greedy oracle's current set values: every PWM period the level that brings the exact
     model's true T_out to T_ref at the horizon's end (module docstring)."""
     inp, dt, levels, n, ratio = fp.inp, fp.dt, fp.levels, fp.n, fp.ratio
     h_samples = max(1, int(round(horizon_s / dt)))
     pred_samples = max(1, int(round(PREDICTION_STEP_S / dt)))
-    slew = SLEW_A_PER_S if slew_a_per_s is None else slew_a_per_s
     step_a = levels[1] - levels[0]
-    slew_levels = len(levels) if slew is None else max(1, int(slew * ratio * dt / step_a))
+    slew_levels = (
+        len(levels) if SLEW_A_PER_S is None else max(1, int(SLEW_A_PER_S * ratio * dt / step_a))
+    )
     model = fp.open_model()
     t_ref = inp.t_ref_n
     T_OUT, X, Y, Z, CMD = model.T_OUT, model.X, model.Y, model.Z, model.CURRENT_CMD
@@ -321,16 +320,6 @@ def oracle_commands(
     return commands
 
 
-def floor_run(
-    run_spec: dict, horizon_s: float, trace: dict | None = None, slew_a_per_s: float | None = None
-) -> dict:
-    """The oracle's run of one point (run_spec as cosim.studies.sweep.spec.SweepSpec.run_spec
-    makes it, duration_s set): its error figures and its current set values."""
-    fp = FloorPlant(run_spec)
-    commands = oracle_commands(fp, horizon_s, slew_a_per_s)
-    return {"horizon_s": horizon_s, **fp.figures(commands, trace)}
-
-
 def plant_response(fp: FloorPlant, commands: np.ndarray, t_out: np.ndarray) -> tuple[float, int]:
     """The static gain g (N of true T_out per A of set value) and delay d (samples) of the plant
     along these commands: the mean response to PULSE_A held for PULSE_S at PULSE_AT of the run,
@@ -377,12 +366,9 @@ def refine(
     imax = fp.levels[-1]
     ref = fp.inp.t_ref_n
 
-    def peak_n(t_out: np.ndarray) -> float:
-        return float(np.max(np.abs((ref - t_out)[fp.scored])))
-
-    best_rms = (fp.true_rms_n(out), cmd)
-    best_peak = (peak_n(out), cmd)
-    history = [best_rms[0]]
+    rms, peak = fp.true_error_n(out)
+    best_rms, best_peak = (rms, cmd), (peak, cmd)
+    history = [rms]
     cont = cmd.astype(float)
     for _ in range(iterations):
         e = ref - out
@@ -393,7 +379,7 @@ def refine(
         )
         cmd = fp.project(cont)
         out = fp.true_out(cmd)
-        rms, peak = fp.true_rms_n(out), peak_n(out)
+        rms, peak = fp.true_error_n(out)
         history.append(rms)
         if rms < best_rms[0]:
             best_rms = (rms, cmd)
@@ -444,40 +430,34 @@ def floor_point(
         runs.append(({"horizon_s": h, **fp.figures(commands)}, commands))
     oracle, oracle_cmd = min(runs, key=lambda r: r[0]["rms_error_pct"])
     by_horizon = {f"{r['horizon_s']:g}": r["rms_error_pct"] for r, _ in runs}
-    bound = breakaway_peak_bound_pct(fp)
-    result = {**oracle, "by_horizon": by_horizon, "from": "oracle", "oracle": dict(oracle)}
-    result["breakaway_peak_bound_pct"] = bound
-    result["breakaway_bound_holds"] = breakaway_bound_holds(fp)
+    common = {
+        "horizon_s": oracle["horizon_s"],
+        "by_horizon": by_horizon,
+        "oracle": dict(oracle),
+        "breakaway_peak_bound_pct": breakaway_peak_bound_pct(fp),
+        "breakaway_bound_holds": breakaway_bound_holds(fp),
+    }
     if iterations <= 0:
-        return result
-    candidates = {"oracle": oracle_cmd}
+        return {**oracle, **common, "from": "oracle"}
+    # Each candidate's figures on the plant (its sensor noise is on the readings only, so the
+    # true T_out is the exact model's): the seed is the one of the lowest true RMS.
+    tried = [(oracle, "oracle", oracle_cmd)]
     for name, mode_values in (seeds or {}).items():
-        candidates[f"mode {name}"] = seed_commands(spec_path, mode_values)
-    start = {name: fp.true_rms_n(fp.true_out(fp.project(c))) for name, c in candidates.items()}
-    seed_name = min(start, key=start.get)
-    ref = refine(fp, candidates[seed_name], iterations)
-    tried = [(oracle, "oracle")]
-    for name, c in candidates.items():
-        if name != "oracle":  # each mode's own trajectory, replayed on the plant
-            tried.append((fp.figures(fp.project(c)), name))
-    tried.append((fp.figures(ref["rms_commands"]), f"refined from {seed_name}"))
-    tried.append((fp.figures(ref["peak_commands"]), f"refined from {seed_name}"))
+        cmd = fp.project(seed_commands(spec_path, mode_values))
+        tried.append((fp.figures(cmd), f"mode {name}", cmd))
+    _, seed_name, seed = min(tried, key=lambda r: r[0]["true_rms_error_pct"])
+    ref = refine(fp, seed, iterations)
+    for key in ("rms_commands", "peak_commands"):
+        tried.append((fp.figures(ref[key]), f"refined from {seed_name}", None))
     best_rms = min(tried, key=lambda r: r[0]["true_rms_error_pct"])
     best_peak = min(tried, key=lambda r: r[0]["true_peak_error_pct"])
-    result = {**best_rms[0], "horizon_s": oracle["horizon_s"], "by_horizon": by_horizon}
+    result = {**best_rms[0], **common, "from": best_rms[1], "peak_from": best_peak[1]}
     for key in ("peak_error_pct", "peak_error_n", "true_peak_error_pct"):
         result[key] = best_peak[0][key]
-    result.update(
-        {
-            "from": best_rms[1],
-            "peak_from": best_peak[1],
-            "oracle": dict(oracle),
-            "seeds_true_rms_n": start,
-            "refine": {k: ref[k] for k in ("gain_n_per_a", "delay_samples", "history_rms_n")},
-            "breakaway_peak_bound_pct": bound,
-            "breakaway_bound_holds": breakaway_bound_holds(fp),
-        }
-    )
+    result["seeds_true_rms_pct"] = {
+        n: f["true_rms_error_pct"] for f, n, c in tried if c is not None
+    }
+    result["refine"] = {k: ref[k] for k in ("gain_n_per_a", "delay_samples", "history_rms_n")}
     return result
 
 

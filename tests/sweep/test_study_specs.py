@@ -120,7 +120,25 @@ def test_the_refinement_learns_a_current_trajectory_from_nothing():
         held = cmd[: fp.n // fp.ratio * fp.ratio].reshape(-1, fp.ratio)
         assert np.all(held == held[:, :1])  # one set value a PWM period
     # the kept iterate is the best one seen, and its replay on the exact model agrees
-    assert fp.true_rms_n(fp.true_out(r["rms_commands"])) == pytest.approx(min(hist), rel=1e-9)
+    assert fp.true_error_n(fp.true_out(r["rms_commands"]))[0] == pytest.approx(min(hist), rel=1e-9)
+
+
+def test_a_floor_is_the_best_of_the_oracle_a_modes_run_and_the_refinement(tmp_path):
+    """floor_point with a mode's point as a seed (here the default controller on the nominal
+    plant, 1.6 s of fig14): both the oracle's and the mode's trajectory are candidates, the
+    refinement runs from the better of them, and the floor's RMS and peak are the lowest of
+    everything tried (so never above the oracle's nor the mode's own)."""
+    spec_path = tmp_path / "spec.yaml"
+    spec_path.write_text(json.dumps({"scenario": "fig14", "duration_s": 1.6, "axes": {}}))
+    (point,) = parse_spec(json.loads(spec_path.read_text())).points()
+    r = tf.floor_point(str(spec_path), point.values, seeds={"m": point.values}, iterations=2)
+    seeds = r["seeds_true_rms_pct"]
+    assert set(seeds) == {"oracle", "mode m"}
+    assert r["true_rms_error_pct"] <= min(seeds.values())
+    assert r["true_peak_error_pct"] <= r["oracle"]["true_peak_error_pct"]
+    assert r["from"] in ("oracle", "mode m") or r["from"].startswith("refined from ")
+    assert len(r["refine"]["history_rms_n"]) == 3
+    assert r["breakaway_peak_bound_pct"] is None and r["breakaway_bound_holds"]
 
 
 def test_the_breakaway_bound_rests_on_the_plants_own_jump():
