@@ -17,6 +17,11 @@ a grid's plant axes are crossed, a random spec draws one plant per point):
    native engine; the point's own position and compensator) with the compensator set to them
    and compensator.est_enable 0.
 
+With `--truth KEY` (repeatable, or `all`) a run takes the plant's own value of that compensator
+key in place of calibrate's proposal (true_compensator: the FMU's parameters mapped to the
+compensator's), which says what calibrate's finding of it costs; with all of them, what the
+compensator's law alone can do on the plant.
+
 With `--params FILE` (a `bowden sim --params` file holding `compensator` and `controller`
 only) and `--set KEY=VALUE` (a compensator.* or controller.* field of that file, repeatable,
 after the file), those settings are laid over the runs' configuration last, over calibrate's
@@ -34,7 +39,7 @@ compensator aims the cable's tension at T_ref, not the cell's reading. The JSON
 (`--mode sensorless=FILE`).
 
     python -m cosim.studies.calibrated_robustness [--spec SPEC.yaml] [--workers 2] [--out DIR]
-        [--limit N] [--no-tare] [--reuse] [--calibrations DIR] [--leave KEY ...]
+        [--limit N] [--no-tare] [--reuse] [--calibrations DIR] [--leave KEY ...] [--truth KEY ...]
         [--params FILE] [--set KEY=VALUE ...] [--score-from-s S] [--breakaway-share K]
         [--slack-sources S,...] [--viscous-sources S,...] [--breakaway-sources S,...]
 
@@ -123,11 +128,101 @@ def overlay_of(sets: list[str], params: str | None = None) -> dict:
     return {f"{g}.{k}": v for g, fields in nested.items() for k, v in fields.items()}
 
 
-def run_values(values: dict, comp: dict, leave=(), overlay: dict | None = None) -> dict:
+def run_values(
+    values: dict, comp: dict, leave=(), overlay: dict | None = None, truth: dict | None = None
+) -> dict:
     """A run's sweep values: the spec point's, the estimate off, calibrate's proposals `comp`
-    (but the keys in `leave`), then the overlay (overlay_of), which wins over both."""
+    (but the keys in `leave`), the plant's own values `truth` (true_compensator) in place of
+    those proposals, then the overlay (overlay_of), which wins over all."""
     fixed = {n: comp[n] for n in COMP_KEYS if n not in leave}
-    return {**values, "compensator.est_enable": 0, **fixed, **(overlay or {})}
+    return {**values, "compensator.est_enable": 0, **fixed, **(truth or {}), **(overlay or {})}
+
+
+def true_compensator(
+    plant: dict, phi_plant_rad: float, phi_comp_rad: float, keys=COMP_KEYS
+) -> dict:
+    """The compensator values that stand for the plant's own (FMU parameters `plant`, the FMU's
+    defaults where absent), as sweep keys, for `keys` of COMP_KEYS: what calibrate would propose
+    if it found the plant exactly. phi_plant_rad is the bending angle the plant's friction sees
+    at the run's position (its `phi` output, with the bending-angle errors), phi_comp_rad the
+    compensator's (cosim.engines.reference.resolve_phi: the same unless the run sets
+    compensator.phi_rad); the terms proportional to phi are scaled by their ratio, since only
+    their product with phi acts (fmu/README.md, "Effects"; comp.h).
+
+    - mu, mu_slope_per_n, breakaway: the plant's mu, mu_tension_slope, mu_static_excess, times
+      phi_plant / phi_comp; the slope then clipped to the compensator's range (|s| <= 1/128 and
+      mu + s * 48 N >= 0: comp.h, COMP_MU_SLOPE_RANGE_N);
+    - offset_n: 0 (the tare takes the far-end cell's offset; the plant has no tension offset);
+    - dead_zone_spread: the plant's (a log spread: a ratio of widths, the same at any phi);
+    - slack_tension_n: the plant's slack_tension (a tension at the inlet);
+    - mu_per_inlet_rate: the plant's mu_viscous_tension_rate plus its mu_viscous through the
+      cable's compliance in the sheath, the mean of the two branches'
+      (cosim.parts.firmware.mu_per_inlet_rate_of_cable_speed at the plant's mu, phi, sheath
+      length, cable_EA and load-cell stiffness), times phi_plant / phi_comp, clipped to
+      [0, 1/16] s/N.
+
+    The laws the compensator does not share with the FMU stay: one breakaway and one rate term
+    for every strand and both branches, the FMU's 32 strands against the compensator's 8 plays."""
+    from cosim.parts.firmware import (  # noqa: PLC0415
+        MU_SLOPE_RANGE_N,
+        mu_per_inlet_rate_of_cable_speed,
+    )
+    from cosim.parts.plant import fmu_variables  # noqa: PLC0415
+
+    fmu = fmu_variables()
+
+    def get(name: str) -> float:
+        return float(plant.get(name, fmu[name].start))
+
+    k = phi_plant_rad / phi_comp_rad
+    mu = get("mu") * k
+    slope = get("mu_tension_slope") * k
+    slope = min(max(slope, -mu / MU_SLOPE_RANGE_N, -1 / 128), 1 / 128)
+    up, dn = mu_per_inlet_rate_of_cable_speed(
+        get("mu_viscous"),
+        get("mu"),
+        phi_plant_rad,
+        get("sheath_length"),
+        get("cable_EA"),
+        get("loadcell_stiffness"),
+    )
+    rate = (get("mu_viscous_tension_rate") + (up + dn) / 2) * k
+    every = {
+        "compensator.mu": mu,
+        "compensator.offset_n": 0.0,
+        "compensator.mu_slope_per_n": slope,
+        "compensator.dead_zone_spread": get("dead_zone_spread"),
+        "compensator.breakaway": get("mu_static_excess") * k,
+        "compensator.slack_tension_n": get("slack_tension"),
+        "compensator.mu_per_inlet_rate": min(max(rate, 0.0), 1 / 16),
+    }
+    return {n: every[n] for n in keys}
+
+
+def phi_of_point(spec_path: str, values: dict) -> tuple[float, float]:
+    """The bending angles of a spec point's run: the plant's friction's (its FMU's `phi` output
+    at the point's position, else the scenario's start) and the compensator's (resolve_phi: the
+    plant's at the scenario's start, where the sweep calibrates it once), in rad."""
+    from cosim.config.run import SimConfig  # noqa: PLC0415
+    from cosim.config.scenarios import get_scenario  # noqa: PLC0415
+    from cosim.engines.harness import open_plant  # noqa: PLC0415
+    from cosim.engines.reference import resolve_phi  # noqa: PLC0415
+    from cosim.studies.sweep.spec import Point, load_spec  # noqa: PLC0415
+
+    spec = load_spec(spec_path)
+    run_spec = spec.run_spec(Point(values))
+    cfg = SimConfig.from_dict(run_spec["config"], source="point")
+    scen = get_scenario(spec.scenario)
+    position = run_spec.get("position_m")
+    if position is None:
+        x, y, z = scen.trajectory(np.zeros(1))
+        position = (x[0], y[0], z[0])
+    plant = open_plant(cfg, run_spec["loop_routing"], tuple(position))
+    try:
+        phi_plant = float(plant.y[plant.PHI])
+    finally:
+        plant.close()
+    return phi_plant, resolve_phi(scen, cfg, run_spec["loop_routing"])
 
 
 def plant_of(spec, values: dict) -> dict:
@@ -337,6 +432,16 @@ def main(argv: list[str] | None = None) -> int:
         "(what one of its proposals is worth; repeatable)",
     )
     ap.add_argument(
+        "--truth",
+        action="append",
+        default=[],
+        choices=(*COMP_KEYS, "all"),
+        metavar="KEY",
+        help="run with the plant's own value of this compensator key in place of calibrate's "
+        "proposal (true_compensator: what calibrate's finding of it costs; 'all' for every key, "
+        "what the compensator's law alone can do; repeatable)",
+    )
+    ap.add_argument(
         "--reuse",
         action="store_true",
         help="take each plant's calibration from --out (or --calibrations) where a run before "
@@ -433,6 +538,7 @@ def main(argv: list[str] | None = None) -> int:
         plants.setdefault(key, plant)
         members.setdefault(key, []).append(p.values)
     keys = list(plants)[: args.limit]
+    truth_keys = COMP_KEYS if "all" in args.truth else tuple(dict.fromkeys(args.truth))
     t0 = time.perf_counter()
     with process_pool(args.workers) as pool:
         jobs = [
@@ -466,7 +572,12 @@ def main(argv: list[str] | None = None) -> int:
             for name, why in comp["reasons"].items():
                 print(f"    {name}: {why}")
             for values in members[k]:
-                v = run_values(values, comp, args.leave, overlay)
+                truth = None
+                if truth_keys:
+                    # the overlay may set compensator.phi_rad: the compensator's angle is the run's
+                    phi_plant, phi_comp = phi_of_point(args.spec, {**values, **overlay})
+                    truth = true_compensator(plants[k], phi_plant, phi_comp, truth_keys)
+                v = run_values(values, comp, args.leave, overlay, truth)
                 tag = json.dumps(v, sort_keys=True)
                 if tag not in seen:  # a grid's est_enable axis collapses to one run
                     seen.add(tag)
@@ -479,6 +590,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"calibrated_robustness: the firmware refused a run: {exc}", file=sys.stderr)
             return 2
     table = {"runs": len(rows), "plants": len(keys), "spec": str(args.spec), "overlay": overlay}
+    table["truth"] = list(truth_keys)
+    if truth_keys:
+        print("the plant's own values in place of calibrate's: " + ", ".join(truth_keys))
     table["score_from_s"] = start
     if overlay:
         print("laid over every run: " + ", ".join(f"{k} {v}" for k, v in overlay.items()))

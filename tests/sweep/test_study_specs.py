@@ -373,3 +373,68 @@ def test_a_run_the_firmware_refuses_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "the firmware refused a run: est.enable" in err, err
     assert "comp.mu_slope_per_n = 0" in err
+
+
+def test_the_plants_own_values_map_to_the_compensators():
+    """--truth: the FMU's parameters as the compensator's. The terms that act through their
+    product with phi are scaled by the plant's phi over the compensator's; the spread and the
+    slack are not; the cell's offset is the tare's, so the tension offset is 0; the cable-speed
+    friction becomes the rate term through the cable's stretch in the sheath (mean of the two
+    branches, at the plant's own cable_EA, the FMU's default where the plant has none); a slope
+    the compensator refuses is clipped to its range."""
+    plant = {
+        "mu": 0.08,
+        "mu_tension_slope": 4e-4,
+        "dead_zone_spread": 0.3,
+        "mu_static_excess": 0.02,
+        "slack_tension": 2.5,
+        "mu_viscous": 2.0,
+        "sensor_offset": 0.4,
+    }
+    phi = 2 * np.pi
+    t = cr.true_compensator(plant, 1.1 * phi, phi)
+    assert t["compensator.mu"] == pytest.approx(0.088, rel=1e-12)
+    assert t["compensator.mu_slope_per_n"] == pytest.approx(4.4e-4, rel=1e-12)
+    assert t["compensator.breakaway"] == pytest.approx(0.022, rel=1e-12)
+    assert t["compensator.dead_zone_spread"] == 0.3 and t["compensator.slack_tension_n"] == 2.5
+    assert t["compensator.offset_n"] == 0.0
+    # the inlet moves by the stretch in the sheath, L/EA (1 -+ e^-+a)/(+-a), plus the cell's
+    # give e^-+a / k_lc, per N of the inlet tension (a = mu phi, here at the plant's phi)
+    a = 0.08 * 1.1 * phi
+    up = 2.0 * (1 / 8000 * -np.expm1(-a) / a + np.exp(-a) / 2e5)
+    dn = 2.0 * (1 / 8000 * np.expm1(a) / a + np.exp(a) / 2e5)
+    assert t["compensator.mu_per_inlet_rate"] == pytest.approx(1.1 * (up + dn) / 2, rel=1e-9)
+    stiff = cr.true_compensator({**plant, "cable_EA": 16000.0}, phi, phi)
+    assert stiff["compensator.mu_per_inlet_rate"] < 0.6 * t["compensator.mu_per_inlet_rate"]
+    # an absent parameter is the FMU's default: mu 0.075, nothing else
+    nominal = cr.true_compensator({}, phi, phi)
+    assert nominal["compensator.mu"] == pytest.approx(0.075)
+    assert all(nominal[k] == 0.0 for k in cr.COMP_KEYS if k != "compensator.mu")
+    # mu + s * 48 N >= 0 (comp.h, COMP_MU_SLOPE_RANGE_N): the plant's -1.2e-3 at mu 0.0525
+    steep = cr.true_compensator({"mu": 0.0525, "mu_tension_slope": -1.2e-3}, phi, phi)
+    assert steep["compensator.mu_slope_per_n"] == pytest.approx(-0.0525 / 48)
+    only = cr.true_compensator(plant, phi, phi, ("compensator.slack_tension_n",))
+    assert only == {"compensator.slack_tension_n": 2.5}
+
+
+def test_the_plants_own_values_lie_between_the_proposals_and_the_overlay():
+    point = {"plant.mu": 0.09, "compensator.mu": 0.075}
+    comp = {k: 0.5 for k in cr.COMP_KEYS}
+    truth = {"compensator.mu": 0.09, "compensator.breakaway": 0.02}
+    v = cr.run_values(point, comp, truth=truth, overlay={"compensator.breakaway": 0.0})
+    assert v["compensator.mu"] == 0.09 and v["compensator.breakaway"] == 0.0
+    assert v["compensator.slack_tension_n"] == 0.5 and v["compensator.est_enable"] == 0
+
+
+def test_a_points_bending_angles_are_the_plants_at_its_position_and_the_compensators_at_home():
+    """The sweep configures the compensator with the plant's phi at the scenario's start (home,
+    [0, 0.5, 0] for fig14) and runs the plant at the point's position: with a bending error along
+    y the two differ by the error's slope times the distance along y."""
+    from cosim.parts.geometry import bending_angle  # noqa: PLC0415
+
+    spec = str(REPO_ROOT / "cosim" / "studies" / "sweep" / "examples" / "random_plants_tuning.yaml")
+    values = {"compensator": "preview", "position_m": [0.0, 0.25, 0.0]}
+    values["plant.phi_offset_per_y"] = 0.4
+    phi_plant, phi_comp = cr.phi_of_point(spec, values)
+    assert phi_plant == pytest.approx(bending_angle(0.0, 0.25, 0.0, 1.0, True) + 0.1, abs=1e-9)
+    assert phi_comp == pytest.approx(bending_angle(0.0, 0.5, 0.0, 1.0, True) + 0.2, abs=1e-9)
