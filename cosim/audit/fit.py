@@ -28,6 +28,18 @@ SPREAD = "dead_zone_spread"
 SPREAD_BOUNDS = (0.0, 1.5)
 SPREAD_SCALE = 0.1
 SPREAD_START = 0.05
+# ... and, when a fit is given no spread to start from (the nominal model's), from each of
+# SPREAD_RESTARTS as well: the spread's effect is of second order near 0 (the strands' quantiles
+# are symmetric, so mean_j e^(spread q_j) grows as spread^2 / 2), and mu can take part of a wide
+# turn, so a fit started near 0 can settle there with a wide spread in the record (a tuning plant
+# of random_plants_tuning.yaml with spread 0.49 and a tension slope: spread 0 and mu 0.067,
+# 0.67 N RMS on the fit blocks; started from 0.5, spread 0.53 and 0.45 N; docs/results.md,
+# "Where the sensorless mode's worst plants lose"). A restart replaces the fit from
+# SPREAD_START only when it lowers the fit blocks' residual mean square by at least
+# SPREAD_RESTART_GAIN (the audit's rule's least share for a finding, 2 %: below it the two are the
+# same fit, and the one from SPREAD_START stays, to the digit).
+SPREAD_RESTARTS = (0.5,)
+SPREAD_RESTART_GAIN = 0.02
 # Fits use at most this many residuals of the fit blocks (evenly strided): enough for the
 # parameters, and it keeps the Jacobian small.
 MAX_FIT_RESIDUALS = 20_000
@@ -91,9 +103,31 @@ def fit_model(
     start: dict[str, float] | None = None,
     free: tuple[Effect, ...] | None = None,
 ) -> Model:
-    """Fit mu (unless the sidecar gives it) and the parameters of the `free` effects (default:
-    all of `effects`) together on the fit blocks, the others held at `start`; the delay on its
-    grid of whole samples (scanned, then its neighbours with the rest refitted)."""
+    """Fit mu (unless the sidecar gives it), the dead zone's spread and the parameters of the
+    `free` effects (default: all of `effects`) together on the fit blocks, the others held at
+    `start`; the delay on its grid of whole samples (scanned, then its neighbours with the rest
+    refitted). Without a spread in `start`, from SPREAD_START and from each of SPREAD_RESTARTS,
+    the best kept (SPREAD_RESTART_GAIN)."""
+    if SPREAD not in (start or {}):
+        # the nominal model's spread from SPREAD_START, then from each restart (SPREAD_RESTARTS)
+        best = _fit_model(data, effects, {**(start or {}), SPREAD: SPREAD_START}, free)
+        nfev, runs = best.nfev, best.friction_runs
+        for s in SPREAD_RESTARTS:
+            m = _fit_model(data, effects, {**(start or {}), SPREAD: s}, free)
+            nfev, runs = nfev + m.nfev, runs + m.friction_runs
+            if m.ms(data, FIT) < (1.0 - SPREAD_RESTART_GAIN) * best.ms(data, FIT):
+                best = m
+        best.nfev, best.friction_runs = nfev, runs
+        return best
+    return _fit_model(data, effects, start, free)
+
+
+def _fit_model(
+    data: AuditData,
+    effects: tuple[Effect, ...],
+    start: dict[str, float] | None,
+    free: tuple[Effect, ...] | None,
+) -> Model:
     free = tuple(effects) if free is None else tuple(free)
     start = dict(start or {})
     # forms whose start a scan finds (effects.Effect.scan), unless the start gives them

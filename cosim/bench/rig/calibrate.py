@@ -16,7 +16,8 @@ The steps (cosim/bench/README.md, "Calibration", says why each piece is there):
    is put into the audit's extended model in place of the fitted one; the change is proposed only
    when the fitted value beats the device's by the audit's own decision rule (cosim.audit.decision:
    on the selection blocks, the same thresholds as a finding; a mu the rule refuses is fitted
-   again with the effects the audit saw but did not name and judged in that model: joint_mu;
+   again with the effects the audit saw but did not name and judged in that model: joint_mu,
+   and proposed with the friction slope that fit took: JOINT_WITH_MU;
    the dead zone's spread, a parameter of
    the audit's nominal model, without that rule: UNGATED; the breakaway, comp.breakaway, from the
    audit's static friction finding, which passed that rule as a finding; the slack,
@@ -138,6 +139,14 @@ BREAKAWAY_SOURCES = ("finding",)
 # against that mu in that model by the same rule. The share (10, 20 or 35 %) was chosen on the
 # tuning set of random plants (docs/results.md, "mu fitted with what the audit did not name").
 JOINT_MIN_PCT = 35.0
+# The terms of mu's own law that the joint fit can fit with mu (the friction's slope with the
+# tension: the mu it fits is then the friction at zero tension, mu + s T the friction at T). When
+# calibrate proposes the joint fit's mu it proposes these as that fit found them too, in place
+# of the extended model's value: without its slope the joint mu is the friction at zero tension
+# applied at every tension (a tuning plant with a slope of -0.00101 /N: the joint fit's mu
+# 0.0824 with -0.00099 /N, the mu of its mean tension about 0.077; docs/results.md, "Where the
+# sensorless mode's worst plants lose").
+JOINT_WITH_MU = ("mu_tension_slope",)
 # The slack (comp.slack_tension_n, comp.h: the pretension lost below an input tension) is proposed
 # from the slack the audit saw, by the first of SLACK_SOURCES that holds one: "finding" (its slack
 # finding, which passed the audit's rule), "joint" (the slack the joint fit of mu refitted with
@@ -324,6 +333,7 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
     scale = _phi_scale(phi_a, phi_device_rad)
     r_ext = ext.residual(data)
     changes = []
+    joint_law: dict[str, float] = {}  # the joint fit's parameters, when its mu is proposed
     for name, (aparam, by_phi) in AUDITED.items():
         p = param(name)
         k = scale if by_phi else 1.0
@@ -331,6 +341,9 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
         off = BY_PARAM[aparam].off if aparam in BY_PARAM else 0.0
         a_val = float(ext.params.get(aparam, off))
         cur = float(device[name])
+        if aparam in JOINT_WITH_MU and aparam in joint_law and math.isfinite(k):
+            changes.append(_with_joint_mu(name, aparam, cur, joint_law[aparam], k))
+            continue
         if not math.isfinite(k) and not (a_val == off and cur == off):
             changes.append(_phi_refused(name, aparam, cur, a_val, phi_device_rad, "mu*phi",
                                         " through mu"))  # fmt: skip
@@ -382,6 +395,7 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
             f"(block t {st.t:.1f}, {100 * st.improved_share:.0f} % of the blocks better)"
         )
         if joint is not None:
+            joint_law = dict(joint[3])
             c.reason = (
                 f"fitted with {', '.join(joint[2])}, which the audit saw but did not name: "
                 + c.reason
@@ -423,6 +437,22 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
     )
     _check_limits(changes, device, phi_device_rad)
     return changes
+
+
+def _with_joint_mu(name: str, aparam: str, cur: float, value: float, k: float) -> Change:
+    """A compensator term of mu's law (JOINT_WITH_MU) proposed as the joint fit of mu fitted it,
+    since the mu proposed is that fit's (scaled by the bending angles like mu: factor `k`)."""
+    target = value * k
+    c = Change(name, aparam, cur, None, value, cur / k, "unchanged", "")
+    if _same_word(param(name), target, cur):
+        c.reason = "the joint fit of mu's value is the device's (to its resolution)"
+        return c
+    c.proposed, c.status = target, "change"
+    c.reason = (
+        f"fitted with the mu proposed (the joint fit of mu, which the audit saw but did not "
+        f"name: {aparam} {_fmt(value)}): that mu is the mu of the law with it"
+    )
+    return c
 
 
 def _stats_record(st) -> dict:
