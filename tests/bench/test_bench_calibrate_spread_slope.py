@@ -96,3 +96,26 @@ def test_the_joint_fits_mu_is_proposed_with_the_slope_it_was_fitted_with(record)
     # a slope the joint fit did not take (below JOINT_MIN_PCT) stays the extended model's, 0
     weak = cal.propose(_stand_in(data, cal.JOINT_MIN_PCT / 2), device, device["comp.phi_rad"])
     assert next(c for c in weak if c.name == "comp.mu_slope_per_n").proposed is None
+
+
+@pytest.mark.slow
+def test_a_passing_mu_is_fitted_again_with_a_slope_the_audit_saw(record):
+    """A device whose mu is far from the plant's (0.05): the extended model's mu passes the rule
+    against it, but it is the friction at the record's mean tension (0.069 here); with a slope
+    the audit saw without naming it (JOINT_WHEN_SEEN), the joint fit's mu and slope are
+    proposed."""
+    data, device = record
+    far = {**device, "comp.mu": 0.05}
+    changes = {c.name: c for c in cal.propose(_stand_in(data, 45.0), far, far["comp.phi_rad"])}
+    mu, slope = changes["comp.mu"], changes["comp.mu_slope_per_n"]
+    assert mu.status == "change" and mu.stats["joint_with"] == ["mu_tension_slope"], mu.reason
+    assert mu.proposed == pytest.approx(PLANT["mu"], abs=0.003)
+    assert slope.proposed == pytest.approx(PLANT["mu_tension_slope"], abs=2e-4)
+    # without the slope seen, the extended model's mu, and no slope
+    weak = {
+        c.name: c
+        for c in cal.propose(_stand_in(data, cal.JOINT_MIN_PCT / 2), far, far["comp.phi_rad"])
+    }
+    assert "joint_with" not in weak["comp.mu"].stats
+    assert weak["comp.mu"].proposed == pytest.approx(0.069, abs=0.003)
+    assert weak["comp.mu_slope_per_n"].proposed is None

@@ -17,7 +17,8 @@ The steps (cosim/bench/README.md, "Calibration", says why each piece is there):
    when the fitted value beats the device's by the audit's own decision rule (cosim.audit.decision:
    on the selection blocks, the same thresholds as a finding; a mu the rule refuses is fitted
    again with the effects the audit saw but did not name and judged in that model: joint_mu,
-   and proposed with the friction slope that fit took: JOINT_WITH_MU;
+   and proposed with the friction slope that fit took (JOINT_WITH_MU; also for a mu the rule
+   passes when the audit saw such a slope: JOINT_WHEN_SEEN);
    the dead zone's spread, a parameter of
    the audit's nominal model, without that rule: UNGATED; the breakaway, comp.breakaway, from the
    audit's static friction finding, which passed that rule as a finding; the slack,
@@ -147,6 +148,13 @@ JOINT_MIN_PCT = 35.0
 # 0.0824 with -0.00099 /N, the mu of its mean tension about 0.077; docs/results.md, "Where the
 # sensorless mode's worst plants lose").
 JOINT_WITH_MU = ("mu_tension_slope",)
+# ... and a mu the rule passes is fitted jointly too when the audit's last round saw such a term
+# without naming it (joint_mu's choice of causes), and proposed from that fit when it passes the
+# same rule there: a mu fitted without the slope the record holds is the friction at the record's
+# mean tension, off at both ends of the range. Chosen on the tuning set of random plants (the
+# median + worst true RMS 7.44 -> 7.38: two plants better, two worse; docs/results.md, "Where the
+# sensorless mode's worst plants lose").
+JOINT_WHEN_SEEN = True
 # The slack (comp.slack_tension_n, comp.h: the pretension lost below an input tension) is proposed
 # from the slack the audit saw, by the first of SLACK_SOURCES that holds one: "finding" (its slack
 # finding, which passed the audit's rule), "joint" (the slack the joint fit of mu refitted with
@@ -369,6 +377,12 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
         joint = None
         if name == "comp.mu" and not result.rule.passes(st, data):
             joint = _joint_mu_decision(result, dev_as_a)
+        elif name == "comp.mu" and JOINT_WHEN_SEEN and _saw_unnamed(result, JOINT_WITH_MU):
+            # a passing mu fitted without a slope the record holds: the joint fit's, when it
+            # passes too
+            joint = _joint_mu_decision(result, dev_as_a)
+            if joint is not None and not result.rule.passes(joint[1], data):
+                joint = None
         if joint is not None:
             a_val, st, with_, fitted = joint
             c.audit_value, target = a_val, a_val * k
@@ -437,6 +451,21 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
     )
     _check_limits(changes, device, phi_device_rad)
     return changes
+
+
+def _saw_unnamed(result, params) -> bool:
+    """Whether the audit's last round holds a cause of `params` (FMU parameters) that the joint
+    fit of mu would take: not a finding, not at a bound, removing at least JOINT_MIN_PCT % of the
+    selection blocks' residual (joint_mu's choice)."""
+    named = {f.effect.cause for f in result.findings}
+    last = result.rounds[-1] if result.rounds else None
+    return any(
+        c.effect.fmu_param in params
+        and c.effect.cause not in named
+        and c.at_bound is None
+        and c.explained_pct >= JOINT_MIN_PCT
+        for c in (last.candidates if last is not None else ())
+    )
 
 
 def _with_joint_mu(name: str, aparam: str, cur: float, value: float, k: float) -> Change:
