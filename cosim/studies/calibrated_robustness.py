@@ -14,8 +14,9 @@ a grid's plant axes are crossed, a random spec draws one plant per point):
    clipped to the compensator's limits where they lie beyond (without calibrate's prediction
    runs, which only print what it expects);
 2. the spec's runs of that plant (cosim.studies.sweep.run: fig14 6 s, board interface, the
-   native engine; the point's own position and compensator) with the compensator set to them
-   and compensator.est_enable 0.
+   native engine; the point's own position and compensator) with the compensator set to them,
+   compensator.phi_rad the device's that calibrate scaled them to (run_values), and
+   compensator.est_enable 0.
 
 With `--truth KEY` (repeatable, or `all`) a run takes the plant's own value of that compensator
 key in place of calibrate's proposal (true_compensator: the FMU's parameters mapped to the
@@ -131,11 +132,27 @@ def overlay_of(sets: list[str], params: str | None = None) -> dict:
 def run_values(
     values: dict, comp: dict, leave=(), overlay: dict | None = None, truth: dict | None = None
 ) -> dict:
-    """A run's sweep values: the spec point's, the estimate off, calibrate's proposals `comp`
-    (but the keys in `leave`), the plant's own values `truth` (true_compensator) in place of
-    those proposals, then the overlay (overlay_of), which wins over all."""
+    """A run's sweep values: the spec point's, the estimate off, the bending angle calibrate
+    scaled its proposals to (`comp["device_phi_rad"]`, the device's comp.phi_rad, when known),
+    calibrate's proposals `comp` (but the keys in `leave`), the plant's own values `truth`
+    (true_compensator) in place of those proposals, then the overlay (overlay_of), which wins
+    over all.
+
+    The angle: only mu*phi is observed, so calibrate proposes mu (and the slope, the breakaway,
+    the rate term) for the device's phi; the sweep's own default (resolve_phi: the plant's phi at
+    home, with its bending-angle errors) would count the home position's bending error twice,
+    once in calibrate's mu*phi and once in the angle."""
     fixed = {n: comp[n] for n in COMP_KEYS if n not in leave}
-    return {**values, "compensator.est_enable": 0, **fixed, **(truth or {}), **(overlay or {})}
+    phi = comp.get("device_phi_rad")
+    angle = {} if phi is None else {"compensator.phi_rad": phi}
+    return {
+        **values,
+        "compensator.est_enable": 0,
+        **angle,
+        **fixed,
+        **(truth or {}),
+        **(overlay or {}),
+    }
 
 
 def true_compensator(
@@ -303,6 +320,7 @@ def calibrate_plant(
         c["name"]: c["reason"] for c in report["changes"] if c["status"] in ("clipped", "refused")
     }
     out["tare_n"] = report["tare"]["offset_n"]
+    out["device_phi_rad"] = report.get("device_phi_rad")  # what the proposals are scaled to
     out["wall_s"] = time.perf_counter() - t0
     return out
 
@@ -574,8 +592,9 @@ def main(argv: list[str] | None = None) -> int:
             for values in members[k]:
                 truth = None
                 if truth_keys:
-                    # the overlay may set compensator.phi_rad: the compensator's angle is the run's
-                    phi_plant, phi_comp = phi_of_point(args.spec, {**values, **overlay})
+                    # the compensator's angle is the run's (calibrate's device's, or the overlay's)
+                    run = run_values(values, comp, args.leave, overlay)
+                    phi_plant, phi_comp = phi_of_point(args.spec, run)
                     truth = true_compensator(plants[k], phi_plant, phi_comp, truth_keys)
                 v = run_values(values, comp, args.leave, overlay, truth)
                 tag = json.dumps(v, sort_keys=True)

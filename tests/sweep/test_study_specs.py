@@ -298,6 +298,7 @@ def test_a_calibration_made_before_the_breakaway_gets_it_from_its_findings(tmp_p
     out = cr.calibrate_plant({}, with_it, reuse=True)
     assert out["compensator.breakaway"] == pytest.approx(0.03 * 0.9, rel=1e-9)
     assert out["decisions"]["comp.breakaway"] == "change" and out["compensator.mu"] == 0.09
+    assert out["device_phi_rad"] == phi  # the angle its proposals are scaled to
     assert (
         cr.calibrate_plant({}, with_it, reuse=True, breakaway_share=0.0)["compensator.breakaway"]
         == 0.0
@@ -438,3 +439,16 @@ def test_a_points_bending_angles_are_the_plants_at_its_position_and_the_compensa
     phi_plant, phi_comp = cr.phi_of_point(spec, values)
     assert phi_plant == pytest.approx(bending_angle(0.0, 0.25, 0.0, 1.0, True) + 0.1, abs=1e-9)
     assert phi_comp == pytest.approx(bending_angle(0.0, 0.5, 0.0, 1.0, True) + 0.2, abs=1e-9)
+
+
+def test_a_run_takes_the_angle_calibrates_proposals_are_scaled_to():
+    """calibrate proposes mu for the device's comp.phi_rad (only mu*phi is observed): the run
+    takes that angle, not the sweep's default (the plant's phi at home with its bending error,
+    which calibrate's mu*phi already holds); the overlay still wins, and a calibration that does
+    not say its angle leaves the sweep's."""
+    comp = {k: 0.0 for k in cr.COMP_KEYS} | {"compensator.mu": 0.08, "device_phi_rad": 6.25}
+    assert cr.run_values({}, comp)["compensator.phi_rad"] == 6.25
+    laid = cr.run_values({}, comp, overlay={"compensator.phi_rad": 6.0})
+    assert laid["compensator.phi_rad"] == 6.0
+    assert "compensator.phi_rad" not in cr.run_values({}, comp | {"device_phi_rad": None})
+    assert "device_phi_rad" not in cr.run_values({}, comp)
