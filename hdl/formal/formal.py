@@ -327,8 +327,8 @@ MUTANTS = [
         "watchdog_no_ramp_limit",
         "tl_stop_zero_or_ramp",
         "tension_loop_dp.v",
-        "wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : 16'd0;",
-        "wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : u_reg;",
+        "wire [15:0] u_ramp = (ugt_reg || ult_reg) ? u_step : 16'd0;",
+        "wire [15:0] u_ramp = (ugt_reg || ult_reg) ? u_step : u_reg;",
         "tension_loop:bmc",
     ),
     Mutant(

@@ -103,7 +103,9 @@ module tension_loop_dp #(
     output wire [3:0]   f_mode,       // {run, clipped high, clipped low, group stop}
     output wire [11*128-1:0] f_pipe,  // the pipeline by the clock that writes it (0 1 2 3 4 6
                                       // 9 10 11 12 13), group 0 in the top bits (T_in,
-                                      // written in clock 5, with clock 6's)
+                                      // written in clock 5, with clock 6's; clock 12's
+                                      // u - step and u + step, once registers, as wires
+                                      // of u, which holds through the sample)
     output wire [431:0] f_load        // what ld loads: events, configuration, state (T_in, the
                                       // drive enable and the ramp flag are not loaded: 0)
 `endif
@@ -230,8 +232,6 @@ reg  [15:0] u_ramp_reg, u_ramp_next;
 reg         ramp_nz_reg, ramp_nz_next;
 reg         ugt_reg, ugt_next;
 reg         ult_reg, ult_next;
-reg  [15:0] u_dn_reg, u_dn_next;
-reg  [15:0] u_up_reg, u_up_next;
 
 // Multiplier operands.
 reg  [15:0] m1_a, m1_b, m2_a, m2_b;
@@ -311,10 +311,31 @@ wire [25:0] r_above = {lim12[24], lim12} - {r_reg[24], r_reg};
 wire [25:0] r_below = {r_reg[24], r_reg} - {nlim12[24], nlim12};
 wire [15:0] u_sat = rhi_reg ? {1'b0, lim_cfg} : rlo_reg ? nlim_reg : r_reg[15:0];
 
-// Watchdog ramp of the previous command towards zero: comparisons and both steps in clock 12,
-// the choice in clock 13 (u_ramp is nonzero exactly when |u| > step).
+// Watchdog ramp of the previous command towards zero: the comparisons in clock 12, the step in
+// clock 13 on one adder, u - step or u + step as the comparison chose (u_ramp is nonzero exactly
+// when |u| > step). The comparisons with the constant are logic on u's bits, not carry chains.
 wire signed [15:0] step = $signed(WDT_RAMP_STEP);
-wire [15:0] u_ramp = ugt_reg ? u_dn_reg : ult_reg ? u_up_reg : 16'd0;
+// x > k for 16-bit two's complement x and constant k: unsigned with the sign bits flipped.
+function gt_s16;
+    input [15:0] x;
+    input [15:0] k;
+    reg [15:0] xu, ku;
+    reg gt, eq;
+    integer i;
+    begin
+        xu = x ^ 16'h8000;
+        ku = k ^ 16'h8000;
+        gt = 1'b0;
+        eq = 1'b1;
+        for (i = 15; i >= 0; i = i - 1) begin
+            gt = gt | (eq & xu[i] & ~ku[i]);
+            eq = eq & (xu[i] == ku[i]);
+        end
+        gt_s16 = gt;
+    end
+endfunction
+wire [15:0] u_step = u_reg + (ugt_reg ? -step : step);
+wire [15:0] u_ramp = (ugt_reg || ult_reg) ? u_step : 16'd0;
 
 // Bits dropped on purpose: the fraction below the rounding point, and the sign bit of values
 // proven in range (slew result between two Q7.8 values, clamped integrator within +-2^31).
@@ -415,8 +436,6 @@ always @* begin
     ramp_nz_next = ramp_nz_reg;
     ugt_next = ugt_reg;
     ult_next = ult_reg;
-    u_dn_next = u_dn_reg;
-    u_up_next = u_up_reg;
 
     m1_a = 16'd0;
     m1_b = 16'd0;
@@ -517,13 +536,11 @@ always @* begin
         inew_next = windup ? ihold_reg : i_clamped[31:0];
     end
 
-    // Clock 12: rounded output before saturation; the ramp's comparisons and steps.
+    // Clock 12: rounded output before saturation; the ramp's comparisons.
     if (seq_reg[11]) begin
         r_next = v_sum[33:9];
-        ugt_next = $signed(u_reg) > step;
-        ult_next = $signed(u_reg) < -step;
-        u_dn_next = u_reg - step;
-        u_up_next = u_reg + step;
+        ugt_next = gt_s16(u_reg, step);    // u > step
+        ult_next = gt_s16(-step, u_reg);   // u < -step
     end
 
     // Clock 13: saturation comparisons.
@@ -624,8 +641,6 @@ always @(posedge clk) begin
     ramp_nz_reg <= ramp_nz_next;
     ugt_reg <= ugt_next;
     ult_reg <= ult_next;
-    u_dn_reg <= u_dn_next;
-    u_up_reg <= u_up_next;
 
     if (rst) begin
         seq_reg <= {(LATENCY-1){1'b0}};
@@ -673,7 +688,7 @@ assign f_pipe = {
     {59'd0, fp_reg, isum_reg, pi_pos_reg, pi_neg_reg},
     {126'd0, ihi_reg, ilo_reg},
     {96'd0, inew_reg},
-    {69'd0, r_reg, ugt_reg, ult_reg, u_dn_reg, u_up_reg},
+    {69'd0, r_reg, ugt_reg, ult_reg, u_reg - step, u_reg + step},
     {109'd0, rhi_reg, rlo_reg, u_ramp_reg, ramp_nz_reg}};
 assign f_load = {raw_l_reg, fresh_l_reg, tcw_l_reg, irst_l_reg, fclr_l_reg, grp_l_reg,
                  en_cfg, slew_en_cfg, tc_cfg, tcmin_cfg, kff_cfg, uff_cfg, kp_cfg,
