@@ -222,9 +222,9 @@ MUTANTS = [
     Mutant(
         "slot_keeps_last_raw",
         "mc_isolation",
-        "tension_loop_dp.v",
-        "        raw_s_next = raw_c;",
-        "        raw_s_next = raw_s_reg;",
+        "tension_loop_mc.v",
+        ".ev_raw(raw_ev[ch_ld*24 +: 24])",
+        ".ev_raw(raw_ev[ch_reg*24 +: 24])",
         "tension_loop_mc_iso:bmc_pair",
     ),
     Mutant(

@@ -255,8 +255,11 @@ wire [16:0] wdt_now = (!en_0 || tcw_c) ? 17'd0 : fclr_c ? 17'd1 : wdt_inc;
 
 // Clock 1: range check of the sample. Clock 2: fault detection on the snapshot (thresholds
 // of 0 switch a check off).
-wire [24:0] below_min = {raw_s_reg[23], raw_s_reg} - {min_cfg[23], min_cfg};
-wire [24:0] above_max = {max_cfg[23], max_cfg} - {raw_s_reg[23], raw_s_reg};
+// The sample's code: taken at start (PRELOAD 0), or the loaded one, which holds through the
+// sample (PRELOAD 1, 2: the copy would be 24 flip-flops of the same bits; synthesis removes it).
+wire [23:0] raw_s = (PRELOAD != 0) ? raw_l_reg : raw_s_reg;
+wire [24:0] below_min = {raw_s[23], raw_s} - {min_cfg[23], min_cfg};
+wire [24:0] above_max = {max_cfg[23], max_cfg} - {raw_s[23], raw_s};
 wire [3:0] detect = {(oc_to_cfg != 16'd0) && (oc_cnt_reg >= {1'b0, oc_to_cfg}),
                      (wdt_to_cfg != 16'd0) && (wdt_cnt_reg >= {1'b0, wdt_to_cfg}),
                      lo_bad_reg || hi_bad_reg,
@@ -289,13 +292,17 @@ wire [15:0] e_now = e_ovf ? {e_full[16], {15{~e_full[16]}}} : e_full[15:0];
 // the previous output was saturated in the direction KI_TS*e pushes (conditional integration).
 wire signed [32:0] lim28 = $signed({2'b00, lim_cfg, 16'd0});
 wire signed [32:0] nlim28 = $signed({nlim_reg[15], nlim_reg, 16'd0});
-wire [33:0] i_above = {lim28[32], lim28} - {isum_reg[32], isum_reg};
+// x > +I_LIMIT in Q3.28, whose low 16 bits are 0: x[32:16] > I_LIMIT, or equal with nonzero
+// low bits, i.e. I_LIMIT - x[32:16] - (x[15:0] != 0) < 0, on a chain of 19 bits instead of 34
+// (the nonzero low bits as the borrow into the chain's lowest bit).
+wire [18:0] i_above = {3'b000, lim_cfg, 1'b0} - {isum_reg[32], isum_reg[32:16], |isum_reg[15:0]};
 wire [33:0] i_below = {isum_reg[32], isum_reg} - {nlim28[32], nlim28};
 wire [32:0] i_clamped = ihi_reg ? lim28 : ilo_reg ? nlim28 : isum_reg;
 wire windup = (sat_hi_reg && pi_pos_reg) || (sat_lo_reg && pi_neg_reg);
 // A held integrator is clamped too: I_LIMIT may have been lowered since I was stored (found by
 // the formal proof of hdl/formal/tension_loop.sby), so I' = clamp(I + (windup ? 0 : KI_TS*e)).
-wire [33:0] ip_above = {lim28[32], lim28} - {{2{iprev_reg[31]}}, iprev_reg};
+wire [18:0] ip_above = {3'b000, lim_cfg, 1'b0} -
+                      {{2{iprev_reg[31]}}, iprev_reg[31:16], |iprev_reg[15:0]};
 wire [33:0] ip_below = {{2{iprev_reg[31]}}, iprev_reg} - {nlim28[32], nlim28};
 
 // Clock 12: rounded sum, Q3.12 in 25 bits: |fp| < 2^32 + 2^25, |I >> 7| < 2^24, so 34 bits hold
@@ -303,12 +310,15 @@ wire [33:0] ip_below = {{2{iprev_reg[31]}}, iprev_reg} - {nlim28[32], nlim28};
 wire signed [33:0] v_sum = $signed(fp_reg) + $signed({{9{inew_reg[31]}}, inew_reg[31:7]});
 
 // Clocks 13-14: output saturation at +-I_LIMIT.
-wire signed [24:0] lim12 = $signed({10'd0, lim_cfg});
-wire signed [24:0] nlim12 = $signed({{9{nlim_reg[15]}}, nlim_reg});
 // Comparisons as subtractions, whose sign bit comes out of one carry chain (yosys otherwise
-// builds some of them from LUT trees on the iCE40): r > lim <=> lim - r < 0.
-wire [25:0] r_above = {lim12[24], lim12} - {r_reg[24], r_reg};
-wire [25:0] r_below = {r_reg[24], r_reg} - {nlim12[24], nlim12};
+// builds some of them from LUT trees on the iCE40): r > lim <=> lim - r < 0. Only the bits that
+// can decide take the chain: r > I_LIMIT (15 bits) when r >= 0 and r >= 2^15 or r[14:0] >
+// I_LIMIT; r < -I_LIMIT (>= -32767) when r < 0 and r < -2^15 or, r in [-2^15, 0), its 16 bits
+// as a signed word < -I_LIMIT.
+wire [15:0] r_above = {1'b0, lim_cfg} - {1'b0, r_reg[14:0]};
+wire [16:0] r_below = {r_reg[15], r_reg[15:0]} - {nlim_reg[15], nlim_reg};
+wire r_gt_lim = !r_reg[24] && ((|r_reg[23:15]) || r_above[15]);
+wire r_lt_nlim = r_reg[24] && (!(&r_reg[23:15]) || r_below[16]);
 wire [15:0] u_sat = rhi_reg ? {1'b0, lim_cfg} : rlo_reg ? nlim_reg : r_reg[15:0];
 
 // Watchdog ramp of the previous command towards zero: the comparisons in clock 12, the step in
@@ -340,8 +350,8 @@ wire [15:0] u_ramp = (ugt_reg || ult_reg) ? u_step : 16'd0;
 // Bits dropped on purpose: the fraction below the rounding point, and the sign bit of values
 // proven in range (slew result between two Q7.8 values, clamped integrator within +-2^31).
 wire unused_bits = &{1'b0, tce_slew[16], below_min[23:0], above_max[23:0], cal_sum_reg[19:0], i_clamped[32], v_sum[8:0],
-                     r_above[24:0], r_below[24:0], i_above[32:0], i_below[32:0],
-                     ip_above[32:0], ip_below[32:0],
+                     r_above[14:0], r_below[15:0], i_above[17:0], i_below[32:0],
+                     ip_above[17:0], ip_below[32:0],
                      tc_above[16:0], tc_below[16:0], tce_flr[15:0]};
 
 wire [138:0] state_next = {tc_eff_next, integ_next, ramp_st_next, sat_lo_next, sat_hi_next,
@@ -470,7 +480,7 @@ always @* begin
     // comparisons; low 9 bits of the difference (non-negative) times the gain.
     if (seq_reg[1]) begin
         det_next = en_cfg ? detect : 4'd0;
-        iphi_next = ip_above[33];  // I > +I_LIMIT
+        iphi_next = ip_above[18];  // I > +I_LIMIT
         iplo_next = ip_below[33];  // I < -I_LIMIT
         tce_s_next = slew_en_cfg ? tce_slew[15:0] : tc_cfg;
         m1_a = {7'd0, diff_reg[8:0]};
@@ -527,7 +537,7 @@ always @* begin
 
     // Clock 10: integrator clamp comparisons.
     if (seq_reg[9]) begin
-        ihi_next = i_above[33];
+        ihi_next = i_above[18];
         ilo_next = i_below[33];
     end
 
@@ -545,8 +555,8 @@ always @* begin
 
     // Clock 13: saturation comparisons.
     if (seq_reg[12]) begin
-        rhi_next = r_above[25];
-        rlo_next = r_below[25];
+        rhi_next = r_gt_lim;
+        rlo_next = r_lt_nlim;
         u_ramp_next = u_ramp;
         ramp_nz_next = ugt_reg || ult_reg;
     end
@@ -679,7 +689,7 @@ assign f_pi_sign = {pi_pos_reg, pi_neg_reg};
 assign f_prod = {m1_p, m2_p};
 assign f_mode = {run_reg, rhi_reg, rlo_reg, grp_c};
 assign f_pipe = {
-    {9'd0, raw_s_reg, fbase_s_reg, diff_reg, hi_s_reg, lo_s_reg, iprev_reg},
+    {9'd0, raw_s, fbase_s_reg, diff_reg, hi_s_reg, lo_s_reg, iprev_reg},
     {108'd0, lo_bad_reg, hi_bad_reg, cmp_hi_reg, cmp_lo_reg, nlim_reg},
     {106'd0, det_reg, iphi_reg, iplo_reg, tce_s_reg},
     {37'd0, run_reg, ramp_reg, cal_acc_reg, ihold_reg, tcf_reg},
