@@ -287,7 +287,7 @@ MUTANTS = [
         "held_integ_unclamped",
         "tl_anti_windup",
         "tension_loop_dp.v",
-        "inew_next = windup ? ihold_reg : i_clamped[31:0];",
+        "inew_next = windup ? ihold : i_clamped[31:0];",
         "inew_next = windup ? iprev_reg : i_clamped[31:0];",
         "tension_loop:bmc",
     ),

@@ -103,9 +103,10 @@ module tension_loop_dp #(
     output wire [3:0]   f_mode,       // {run, clipped high, clipped low, group stop}
     output wire [11*128-1:0] f_pipe,  // the pipeline by the clock that writes it (0 1 2 3 4 6
                                       // 9 10 11 12 13), group 0 in the top bits (T_in,
-                                      // written in clock 5, with clock 6's; clock 12's
-                                      // u - step and u + step, once registers, as wires
-                                      // of u, which holds through the sample)
+                                      // written in clock 5, with clock 6's; clock 3's
+                                      // held integrator and clock 12's u - step and
+                                      // u + step, once registers, as wires of registers
+                                      // that hold to the sample's end)
     output wire [431:0] f_load        // what ld loads: events, configuration, state (T_in, the
                                       // drive enable and the ramp flag are not loaded: 0)
 `endif
@@ -206,7 +207,6 @@ reg  [15:0] nlim_reg, nlim_next;  // -I_LIMIT, computed once per sample off the 
 reg  [31:0] iprev_reg, iprev_next;
 reg         iphi_reg, iphi_next;  // I entering the sample > +I_LIMIT (I_LIMIT lowered)
 reg         iplo_reg, iplo_next;  // I entering the sample < -I_LIMIT
-reg  [31:0] ihold_reg, ihold_next;  // clamp(I, +-I_LIMIT): the integrator when it holds
 reg  [3:0]  det_reg, det_next;
 reg         cmp_hi_reg, cmp_hi_next;
 reg         cmp_lo_reg, cmp_lo_next;
@@ -301,6 +301,9 @@ wire [32:0] i_clamped = ihi_reg ? lim28 : ilo_reg ? nlim28 : isum_reg;
 wire windup = (sat_hi_reg && pi_pos_reg) || (sat_lo_reg && pi_neg_reg);
 // A held integrator is clamped too: I_LIMIT may have been lowered since I was stored (found by
 // the formal proof of hdl/formal/tension_loop.sby), so I' = clamp(I + (windup ? 0 : KI_TS*e)).
+// clamp(I, +-I_LIMIT), the integrator when it holds: from clock 3 on (clock 2's comparisons),
+// chosen in clock 11 with the sum's clamp (no register of its own).
+wire [31:0] ihold = iphi_reg ? lim28[31:0] : iplo_reg ? nlim28[31:0] : iprev_reg;
 wire [18:0] ip_above = {3'b000, lim_cfg, 1'b0} -
                       {{2{iprev_reg[31]}}, iprev_reg[31:16], |iprev_reg[15:0]};
 wire [33:0] ip_below = {{2{iprev_reg[31]}}, iprev_reg} - {nlim28[32], nlim28};
@@ -420,7 +423,6 @@ always @* begin
     iprev_next = iprev_reg;
     iphi_next = iphi_reg;
     iplo_next = iplo_reg;
-    ihold_next = ihold_reg;
     det_next = det_reg;
     cmp_hi_next = cmp_hi_reg;
     cmp_lo_next = cmp_lo_reg;
@@ -488,15 +490,13 @@ always @* begin
     end
 
     // Clock 3: faults latch and the mode (a group stop runs the sample as a watchdog-only fault
-    // does); the floor on T_c'; high partial product arrives (+ 2^19: round at >> 20); the held
-    // integrator, clamped.
+    // does); the floor on T_c'; high partial product arrives (+ 2^19: round at >> 20).
     if (seq_reg[2]) begin
         fault_next = faults_now;
         run_next = en_cfg && (faults_now == 4'd0) && !grp_c;
         ramp_next = en_cfg && ((faults_now == F_WDT) || (faults_now == 4'd0 && grp_c));
         tcf_next = tce_flr[16] ? tcmin_cfg : tce_s_reg;  // T_s < TC_MIN: the floor
         cal_acc_next = {m1_p, 9'd0} + 41'd524288;
-        ihold_next = iphi_reg ? lim28[31:0] : iplo_reg ? nlim28[31:0] : iprev_reg;
     end
 
     // Clock 4: calibration sum, (hi*g << 9) + lo*g + 2^19, 41 bits exact (|diff*g| < 2^40);
@@ -543,7 +543,7 @@ always @* begin
 
     // Clock 11: new integrator.
     if (seq_reg[10]) begin
-        inew_next = windup ? ihold_reg : i_clamped[31:0];
+        inew_next = windup ? ihold : i_clamped[31:0];
     end
 
     // Clock 12: rounded output before saturation; the ramp's comparisons.
@@ -625,7 +625,6 @@ always @(posedge clk) begin
     iprev_reg <= iprev_next;
     iphi_reg <= iphi_next;
     iplo_reg <= iplo_next;
-    ihold_reg <= ihold_next;
     det_reg <= det_next;
     cmp_hi_reg <= cmp_hi_next;
     cmp_lo_reg <= cmp_lo_next;
@@ -692,7 +691,7 @@ assign f_pipe = {
     {9'd0, raw_s, fbase_s_reg, diff_reg, hi_s_reg, lo_s_reg, iprev_reg},
     {108'd0, lo_bad_reg, hi_bad_reg, cmp_hi_reg, cmp_lo_reg, nlim_reg},
     {106'd0, det_reg, iphi_reg, iplo_reg, tce_s_reg},
-    {37'd0, run_reg, ramp_reg, cal_acc_reg, ihold_reg, tcf_reg},
+    {37'd0, run_reg, ramp_reg, cal_acc_reg, ihold, tcf_reg},
     {87'd0, cal_sum_reg},
     {62'd0, t_in_reg, e_reg, ff_reg},
     {59'd0, fp_reg, isum_reg, pi_pos_reg, pi_neg_reg},
