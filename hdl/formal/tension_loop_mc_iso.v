@@ -14,7 +14,8 @@ module tension_loop_mc_iso #(
     parameter N = 2,                        // channels
     parameter GROUP_W = 4,                  // bits of a group id
     parameter [N*GROUP_W-1:0] GROUP = {N*GROUP_W{1'b0}},  // the groups, as tension_loop_mc
-    parameter J = 0                         // the observed channel
+    parameter J = 0,                        // the observed channel
+    parameter LIVE_STATE = 0                // as tension_loop_mc (the UP5K's datapath: 1)
 ) (
     input  wire clk
 );
@@ -53,7 +54,7 @@ wire [13*128+431:0] a_pipe, b_pipe;
 wire a_busy, b_busy, a_valid, b_valid;
 wire [31:0] a_count, b_count;
 
-tension_loop_mc #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP)) a (
+tension_loop_mc #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP), .LIVE_STATE(LIVE_STATE)) a (
     .clk(clk), .rst(rst), .tick(tick),
     .adc_valid(a_adc_valid), .adc_data(a_adc_data),
     .enable(a_enable), .slew_en(a_slew_en), .integ_reset(a_integ_reset),
@@ -69,7 +70,7 @@ tension_loop_mc #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP)) a (
     .f_pipe_state(a_pipe)
 );
 
-tension_loop_mc #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP)) b (
+tension_loop_mc #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP), .LIVE_STATE(LIVE_STATE)) b (
     .clk(clk), .rst(rst), .tick(tick),
     .adc_valid(`TLMC_ISO_B(adc_valid, M1)), .adc_data(`TLMC_ISO_B(adc_data, M24)),
     .enable(`TLMC_ISO_B(enable, M1)), .slew_en(`TLMC_ISO_B(slew_en, M1)),

@@ -343,8 +343,11 @@ generate
     end
 endgenerate
 
+// CFG_RAM 1 (the UP5K): the datapath also keeps no copy of a channel's state word and events
+// (LIVE_STATE); a channel's T_in and FAULT then change inside its slot, when the bus takes no
+// read (cfg_rd_busy).
 tension_loop_mc #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP), .WDT_RAMP_STEP(WDT_RAMP_STEP),
-                  .CFG_RAM(CFG_RAM)) loop (
+                  .CFG_RAM(CFG_RAM), .LIVE_STATE(CFG_RAM)) loop (
     .clk(clk), .rst(rst),
     .tick(tick_reg),
     .adc_valid(adc_valid), .adc_data(t_in_codes),

@@ -29,6 +29,12 @@
  * the output register of the caller's block RAM, read at `ld` and held through the sample, so
  * this module keeps no copy of them.
  *
+ * LIVE 1 (with PRELOAD 1 or 2; tension_loop_mc with CFG_RAM 1): the events and the state are not
+ * loaded: `ev_*` and `ld_state` are the slot's channel's, read through the caller's multiplexer
+ * in every clock of the sample, and `state_res` is the state at the next edge, which the caller
+ * writes into that channel's word in every clock of the sample (this module keeps no copy:
+ * 139 + 29 flip-flops fewer). The configuration is loaded as PRELOAD 1 or 2 loads it.
+ *
  * The state word (state, state_res, ld_state), from bit 0: stale counter [16:0], watchdog
  * counter [33:17], over-current counter [50:34], FAULT [54:51], T_in [70:55] (Q7.8 N), u [86:71]
  * (Q3.12 A), drive enable [87], clipped high [88], clipped low [89], ramping [90], integrator
@@ -38,8 +44,10 @@ module tension_loop_dp #(
     parameter [15:0] WDT_RAMP_STEP = 16'd41, // watchdog ramp-down of u, Q3.12 A per sample
                                              // (41/4096 A: 4 A reach zero in 40 ms at 10 kHz)
     parameter SNAPSHOT = 1,                  // PRELOAD 0: 1 snapshot at start, 0 live ports
-    parameter PRELOAD = 0                    // 1: events, configuration, state loaded at ld;
+    parameter PRELOAD = 0,                   // 1: events, configuration, state loaded at ld;
                                              // 2: the same, the configuration by the caller
+    parameter LIVE = 0                       // PRELOAD 1, 2: 1 the events and the state read
+                                             // from the caller in every clock, not loaded
 ) (
     input  wire         clk,
     input  wire         rst,
@@ -108,7 +116,8 @@ module tension_loop_dp #(
                                       // u + step, once registers, as wires of registers
                                       // that hold to the sample's end)
     output wire [431:0] f_load        // what ld loads: events, configuration, state (T_in, the
-                                      // drive enable and the ramp flag are not loaded: 0)
+                                      // drive enable and the ramp flag are not loaded: 0);
+                                      // with LIVE the caller's events and state
 `endif
 );
 
@@ -120,19 +129,35 @@ localparam [3:0] F_WDT = 4'b0100;  // fault bits: {overcurrent, watchdog, adc_ra
 // carry chain between registers, so that the iCE40 UP5K meets 48 MHz.
 reg  [LATENCY-2:0] seq_reg, seq_next;
 
-// The state between samples.
-reg  [16:0] stale_cnt_reg, stale_cnt_next;
-reg  [16:0] wdt_cnt_reg, wdt_cnt_next;
-reg  [16:0] oc_cnt_reg, oc_cnt_next;
-reg  [3:0]  fault_reg, fault_next;
-reg  [15:0] t_in_reg, t_in_next;
-reg  [15:0] u_reg, u_next;
-reg         out_en_reg, out_en_next;
-reg         sat_hi_reg, sat_hi_next;
-reg         sat_lo_reg, sat_lo_next;
-reg         ramp_st_reg, ramp_st_next;
-reg  [31:0] integ_reg, integ_next;
-reg  [15:0] tc_eff_reg, tc_eff_next;
+// The state between samples: this module's register (st_q_reg), or with LIVE the caller's word.
+reg  [138:0] st_q_reg;
+wire [16:0] stale_cnt_reg;
+wire [16:0] wdt_cnt_reg;
+wire [16:0] oc_cnt_reg;
+wire [3:0]  fault_reg;
+wire [15:0] t_in_reg;
+wire [15:0] u_reg;
+wire        out_en_reg;
+wire        sat_hi_reg;
+wire        sat_lo_reg;
+wire        ramp_st_reg;
+wire [31:0] integ_reg;
+wire [15:0] tc_eff_reg;
+reg  [16:0] stale_cnt_next;
+reg  [16:0] wdt_cnt_next;
+reg  [16:0] oc_cnt_next;
+reg  [3:0]  fault_next;
+reg  [15:0] t_in_next;
+reg  [15:0] u_next;
+reg         out_en_next;
+reg         sat_hi_next;
+reg         sat_lo_next;
+reg         ramp_st_next;
+reg  [31:0] integ_next;
+reg  [15:0] tc_eff_next;
+localparam LIVE_ST = (PRELOAD != 0) && (LIVE != 0);
+assign {tc_eff_reg, integ_reg, ramp_st_reg, sat_lo_reg, sat_hi_reg, out_en_reg, u_reg, t_in_reg,
+        fault_reg, oc_cnt_reg, wdt_cnt_reg, stale_cnt_reg} = LIVE_ST ? ld_state : st_q_reg;
 
 // The events, and the snapshot of the configuration: loaded at ld (PRELOAD 1) or at start.
 reg  [23:0] raw_l_reg, raw_l_next;
@@ -163,18 +188,20 @@ wire load = (PRELOAD != 0) ? ld : start;
 localparam SNAP = (PRELOAD == 1) || (PRELOAD == 0 && SNAPSHOT != 0);
 localparam SNAP_CTRL = (PRELOAD != 0) || (SNAPSHOT != 0);  // ENABLE, SLEW_EN
 
-// What clock 0 reads: the loaded registers (PRELOAD 1) or the inputs as they are.
-wire [23:0] raw_c = (PRELOAD != 0) ? raw_l_reg : ev_raw;
-wire        fresh_c = (PRELOAD != 0) ? fresh_l_reg : ev_fresh;
-wire        tcw_c = (PRELOAD != 0) ? tcw_l_reg : ev_tcw;
-wire        irst_c = (PRELOAD != 0) ? irst_l_reg : ev_irst;
-wire        fclr_c = (PRELOAD != 0) ? fclr_l_reg : ev_fclr;
+// What clock 0 reads: the loaded registers (PRELOAD 1) or the inputs as they are (PRELOAD 0,
+// LIVE).
+localparam EV_LD = (PRELOAD != 0) && (LIVE == 0);
+wire [23:0] raw_c = EV_LD ? raw_l_reg : ev_raw;
+wire        fresh_c = EV_LD ? fresh_l_reg : ev_fresh;
+wire        tcw_c = EV_LD ? tcw_l_reg : ev_tcw;
+wire        irst_c = EV_LD ? irst_l_reg : ev_irst;
+wire        fclr_c = EV_LD ? fclr_l_reg : ev_fclr;
 // PRELOAD 2: the configuration words' ports are the loaded configuration.
 wire        en_0 = (PRELOAD != 0) ? en_s_reg : enable;
 wire [14:0] slew_0 = (PRELOAD == 1) ? slew_s_reg : slew;              // UQ7.8 N
 wire [23:0] offset_0 = (PRELOAD == 1) ? offset_s_reg : adc_offset;    // Q23.0 code
-// The group stop, read in clock 3: always from its register.
-wire        grp_c = grp_l_reg;
+// The group stop, read in clock 3: from its register, or with LIVE the caller's.
+wire        grp_c = LIVE_ST ? ev_grp : grp_l_reg;
 
 // What the later clocks read: the snapshot, or the live ports (SNAPSHOT 0, held by the caller;
 // PRELOAD 2, loaded by the caller; the snapshot registers then have no reader and synthesis
@@ -255,9 +282,10 @@ wire [16:0] wdt_now = (!en_0 || tcw_c) ? 17'd0 : fclr_c ? 17'd1 : wdt_inc;
 
 // Clock 1: range check of the sample. Clock 2: fault detection on the snapshot (thresholds
 // of 0 switch a check off).
-// The sample's code: taken at start (PRELOAD 0), or the loaded one, which holds through the
-// sample (PRELOAD 1, 2: the copy would be 24 flip-flops of the same bits; synthesis removes it).
-wire [23:0] raw_s = (PRELOAD != 0) ? raw_l_reg : raw_s_reg;
+// The sample's code: taken at start (PRELOAD 0), or the loaded one (or with LIVE the caller's),
+// which holds through the sample (PRELOAD 1, 2: the copy would be 24 flip-flops of the same bits;
+// synthesis removes it).
+wire [23:0] raw_s = (PRELOAD != 0) ? raw_c : raw_s_reg;
 wire [24:0] below_min = {raw_s[23], raw_s} - {min_cfg[23], min_cfg};
 wire [24:0] above_max = {max_cfg[23], max_cfg} - {raw_s[23], raw_s};
 wire [3:0] detect = {(oc_to_cfg != 16'd0) && (oc_cnt_reg >= {1'b0, oc_to_cfg}),
@@ -361,8 +389,10 @@ wire [138:0] state_next = {tc_eff_next, integ_next, ramp_st_next, sat_lo_next, s
                           out_en_next, u_next, t_in_next, fault_next, oc_cnt_next, wdt_cnt_next,
                           stale_cnt_next};
 // The state the sample leaves, for its last clock: the fields that clock writes, and the
-// registers of the ones written earlier (so no earlier clock's logic reaches the caller's).
-assign state_res = {tc_eff_next, integ_next, ramp_st_next, sat_lo_next, sat_hi_next,
+// registers of the ones written earlier (so no earlier clock's logic reaches the caller's). With
+// LIVE the state at the next edge, for every clock of the sample.
+assign state_res = LIVE_ST ? state_next :
+                   {tc_eff_next, integ_next, ramp_st_next, sat_lo_next, sat_hi_next,
                     out_en_next, u_next, t_in_reg, fault_reg, oc_cnt_next, wdt_cnt_reg,
                     stale_cnt_reg};
 // The state at the next edge: the sample's, or the next channel's at a load (PRELOAD 1). T_in,
@@ -589,8 +619,7 @@ end
 
 always @(posedge clk) begin
     seq_reg <= seq_next;
-    {tc_eff_reg, integ_reg, ramp_st_reg, sat_lo_reg, sat_hi_reg, out_en_reg, u_reg, t_in_reg,
-     fault_reg, oc_cnt_reg, wdt_cnt_reg, stale_cnt_reg} <= state_d;
+    st_q_reg <= state_d;
     raw_l_reg <= raw_l_next;
     fresh_l_reg <= fresh_l_next;
     tcw_l_reg <= tcw_l_next;
@@ -658,20 +687,10 @@ always @(posedge clk) begin
         ramp_reg <= 1'b0;
     end
     // The state is the loop's (PRELOAD 0), or loaded before any sample reads it (PRELOAD 1: the
-    // caller's registers are reset, these need not be, which keeps their logic shallow).
+    // caller's registers are reset, these need not be, which keeps their logic shallow; LIVE:
+    // the register has no reader and synthesis removes it).
     if (rst && PRELOAD == 0) begin
-        stale_cnt_reg <= 17'd0;
-        wdt_cnt_reg <= 17'd0;
-        oc_cnt_reg <= 17'd0;
-        fault_reg <= 4'd0;
-        t_in_reg <= 16'd0;
-        u_reg <= 16'd0;
-        out_en_reg <= 1'b0;
-        sat_hi_reg <= 1'b0;
-        sat_lo_reg <= 1'b0;
-        ramp_st_reg <= 1'b0;
-        integ_reg <= 32'd0;
-        tc_eff_reg <= 16'd0;
+        st_q_reg <= 139'd0;
     end
 end
 
@@ -699,7 +718,10 @@ assign f_pipe = {
     {96'd0, inew_reg},
     {69'd0, r_reg, ugt_reg, ult_reg, u_reg - step, u_reg + step},
     {109'd0, rhi_reg, rlo_reg, u_ramp_reg, ramp_nz_reg}};
-assign f_load = {raw_l_reg, fresh_l_reg, tcw_l_reg, irst_l_reg, fclr_l_reg, grp_l_reg,
+// With LIVE, what the sample reads from the caller in the place of the loaded events.
+wire [28:0] f_ev = LIVE_ST ? {ev_raw, ev_fresh, ev_tcw, ev_irst, ev_fclr, ev_grp} :
+                             {raw_l_reg, fresh_l_reg, tcw_l_reg, irst_l_reg, fclr_l_reg, grp_l_reg};
+assign f_load = {f_ev,
                  en_cfg, slew_en_cfg, tc_cfg, tcmin_cfg, kff_cfg, uff_cfg, kp_cfg,
                  ki_cfg, lim_cfg, slew_0, wdt_to_cfg, offset_0, gain_cfg,
                  min_cfg, max_cfg, stale_to_cfg, oc_to_cfg, state & LD_MASK};

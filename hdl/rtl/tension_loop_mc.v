@@ -34,6 +34,12 @@
  * (N = 1: the tick), so no write meets a load, and `cfg_rd_busy` (the tick and every slot)
  * tells the caller when the memory's output is in use and its own reads must wait.
  *
+ * LIVE_STATE 1 (bowden_core_mc with CFG_RAM 1): the datapath keeps no copy of a channel's state
+ * word and events (its LIVE): it reads the slot's channel's through this module's multiplexer in
+ * every clock of the slot and writes the word back in every clock of it, so a channel's T_in,
+ * FAULT and counters change in the slot's clocks 1, 4 and 6 rather than at its end (its u, drive
+ * enable, integrator, T_c' and status at the end, as before).
+ *
  * Safety groups: channel k belongs to group GROUP[k*GROUP_W +: GROUP_W]. When, at a tick, any
  * other channel of k's group has a latched fault (FAULT != 0), channel k runs that period as a
  * tension_loop under a watchdog-only fault: u one WDT_RAMP_STEP towards zero, the drive off once
@@ -51,6 +57,8 @@ module tension_loop_mc #(
                                              // sample (41/4096 A: 4 A reach zero in 40 ms at 10 kHz)
     parameter CFG_RAM = 0,                   // 1: the configuration words in the caller's block
                                              // RAM, read at the loads (cfg_rd)
+    parameter LIVE_STATE = 0,                // 1: the state words and events read and written
+                                             // by the datapath in the slot, not loaded
     parameter CH_W = (N > 1) ? $clog2(N) : 1 // channel index bits (derived: do not set)
 ) (
     input  wire            clk,
@@ -207,13 +215,17 @@ endgenerate
 // but those loads reads a channel's registers, so the N-way multiplexers end in flip-flops.
 wire            ld = tick || (seq_reg[LATENCY_CH-2] && ch_reg != CH_LAST);
 wire [CH_W-1:0] ch_ld = tick ? {CH_W{1'b0}} : ch_reg + 1'b1;
-wire [N*24-1:0] raw_ev = tick ? raw_t_next : raw_t_reg;
-wire [N-1:0]    fresh_ev = tick ? fresh_t_next : fresh_t_reg;
-wire [N-1:0]    tcw_ev = tick ? tcw_t_next : tcw_t_reg;
-wire [N-1:0]    irst_ev = tick ? irst_t_next : irst_t_reg;
-wire [N-1:0]    fclr_ev = tick ? fclr_t_next : fclr_t_reg;
-wire [N-1:0]    grp_ev = tick ? grp_t_next : grp_t_reg;
+wire            ev_now = tick && (LIVE_STATE == 0);  // channel 0's load takes the tick's
+wire [N*24-1:0] raw_ev = ev_now ? raw_t_next : raw_t_reg;
+wire [N-1:0]    fresh_ev = ev_now ? fresh_t_next : fresh_t_reg;
+wire [N-1:0]    tcw_ev = ev_now ? tcw_t_next : tcw_t_reg;
+wire [N-1:0]    irst_ev = ev_now ? irst_t_next : irst_t_reg;
+wire [N-1:0]    fclr_ev = ev_now ? fclr_t_next : fclr_t_reg;
+wire [N-1:0]    grp_ev = ev_now ? grp_t_next : grp_t_reg;
 wire [ST_W-1:0] dp_state;  // the slot's channel's state (read by the proofs)
+// The channel whose events and state word the datapath reads: the load's, or with LIVE_STATE the
+// slot's (the events taken at the tick, held through the period).
+wire [CH_W-1:0] ch_ev = (LIVE_STATE != 0) ? ch_reg : ch_ld;
 wire [ST_W-1:0] dp_res;    // its state after the slot (in the slot's last clock)
 
 `ifdef FORMAL
@@ -233,11 +245,11 @@ wire [431:0] f_dp_load;
 wire [CH_W-1:0] ch_cfg = (CFG_RAM != 0) ? {CH_W{1'b0}} : ch_ld;
 
 tension_loop_dp #(.WDT_RAMP_STEP(WDT_RAMP_STEP), .SNAPSHOT(1),
-                  .PRELOAD((CFG_RAM != 0) ? 2 : 1)) dp (
+                  .PRELOAD((CFG_RAM != 0) ? 2 : 1), .LIVE(LIVE_STATE)) dp (
     .clk(clk), .rst(rst),
     .start(start_reg), .ld(ld), .seq(seq_reg),
-    .ev_raw(raw_ev[ch_ld*24 +: 24]), .ev_fresh(fresh_ev[ch_ld]), .ev_tcw(tcw_ev[ch_ld]),
-    .ev_irst(irst_ev[ch_ld]), .ev_fclr(fclr_ev[ch_ld]), .ev_grp(grp_ev[ch_ld]),
+    .ev_raw(raw_ev[ch_ev*24 +: 24]), .ev_fresh(fresh_ev[ch_ev]), .ev_tcw(tcw_ev[ch_ev]),
+    .ev_irst(irst_ev[ch_ev]), .ev_fclr(fclr_ev[ch_ev]), .ev_grp(grp_ev[ch_ev]),
     .enable(enable[ch_ld]), .slew_en(slew_en[ch_ld]), .tc(tc[ch_cfg*16 +: 16]),
     .tc_min(tc_min[ch_cfg*16 +: 16]), .kff(kff[ch_cfg*16 +: 16]), .uff(uff[ch_cfg*16 +: 16]),
     .kp(kp[ch_cfg*16 +: 16]), .ki_ts(ki_ts[ch_cfg*16 +: 16]), .i_limit(i_limit[ch_cfg*15 +: 15]),
@@ -245,7 +257,7 @@ tension_loop_dp #(.WDT_RAMP_STEP(WDT_RAMP_STEP), .SNAPSHOT(1),
     .adc_offset(adc_offset[ch_cfg*24 +: 24]), .adc_gain(adc_gain[ch_cfg*16 +: 16]),
     .adc_min(adc_min[ch_cfg*24 +: 24]), .adc_max(adc_max[ch_cfg*24 +: 24]),
     .adc_stale(adc_stale[ch_cfg*16 +: 16]), .oc_timeout(oc_timeout[ch_cfg*16 +: 16]),
-    .ld_state(st_reg[ch_ld*ST_W +: ST_W]), .state(dp_state), .state_res(dp_res)
+    .ld_state(st_reg[ch_ev*ST_W +: ST_W]), .state(dp_state), .state_res(dp_res)
 `ifdef FORMAL
     ,
     .f_cfg(f_dp_cfg), .f_iprev(f_dp_iprev), .f_fbase(f_dp_fbase), .f_nlim(f_dp_nlim),
@@ -296,9 +308,9 @@ always @* begin
     fclr_t_next = tick ? (fclr_pend_reg | fault_clear) : fclr_t_reg;
     grp_t_next = tick ? grp_now : grp_t_reg;
 
-    // The slot's last clock: its channel's new state.
+    // The slot's last clock: its channel's new state (LIVE_STATE: every clock of the slot).
     st_next = st_reg;
-    if (seq_reg[LATENCY_CH-2]) begin
+    if (seq_reg[LATENCY_CH-2] || (LIVE_STATE != 0 && (start_reg || (|seq_reg)))) begin
         st_next[ch_reg*ST_W +: ST_W] = dp_res;
     end
 end

@@ -8,7 +8,8 @@ partner's fault it follows the group model, and its plain twin takes over its st
 the only way one channel reaches another).
 
 Built for N = 2 (one antagonistic pair, one group) and N = 4 (two pairs, groups 0 0 1 1), each
-in its own build folder.
+in its own build folder, and N = 2 with the datapath reading and writing the state words in the
+slot (LIVE_STATE 1, the UP5K's).
 """
 
 from __future__ import annotations
@@ -52,7 +53,9 @@ PORTS = {
 }
 GROUP_W = 4  # tension_loop_mc's GROUP_W
 # The builds: channels and their safety groups.
-CONFIGS = {"n2": [0, 0], "n4": [0, 0, 1, 1]}
+CONFIGS = {"n2": [0, 0], "n4": [0, 0, 1, 1], "n2_live": [0, 0]}
+# The builds with LIVE_STATE 1.
+LIVE = {"n2_live"}
 # The build's groups, passed to the simulator's cocotb process by test_tension_loop_mc.
 GROUPS = CONFIGS[os.environ.get("TENSION_LOOP_MC_CONFIG", "n2")]
 
@@ -382,7 +385,11 @@ def test_tension_loop_mc(simulator, config):
         rtl("tension_loop_mc", "tension_loop_dp", "mul_s16"),
         simulator,
         # GROUP as a sized literal: a plain integer is 32 bits, wider than N*GROUP_W for N < 8.
-        parameters={"N": len(groups), "GROUP": f"{len(groups) * GROUP_W}'h{group:x}"},
+        parameters={
+            "N": len(groups),
+            "GROUP": f"{len(groups) * GROUP_W}'h{group:x}",
+            "LIVE_STATE": int(config in LIVE),
+        },
         tag=config,
         extra_env={"TENSION_LOOP_MC_CONFIG": config},
         optimize=False,
