@@ -320,10 +320,7 @@ wire [15:0] e_now = e_ovf ? {e_full[16], {15{~e_full[16]}}} : e_full[15:0];
 // the previous output was saturated in the direction KI_TS*e pushes (conditional integration).
 wire signed [32:0] lim28 = $signed({2'b00, lim_cfg, 16'd0});
 wire signed [32:0] nlim28 = $signed({nlim_reg[15], nlim_reg, 16'd0});
-// x > +I_LIMIT in Q3.28, whose low 16 bits are 0: x[32:16] > I_LIMIT, or equal with nonzero
-// low bits, i.e. I_LIMIT - x[32:16] - (x[15:0] != 0) < 0, on a chain of 19 bits instead of 34
-// (the nonzero low bits as the borrow into the chain's lowest bit).
-wire [18:0] i_above = {3'b000, lim_cfg, 1'b0} - {isum_reg[32], isum_reg[32:16], |isum_reg[15:0]};
+wire [33:0] i_above = {lim28[32], lim28} - {isum_reg[32], isum_reg};
 wire [33:0] i_below = {isum_reg[32], isum_reg} - {nlim28[32], nlim28};
 wire [32:0] i_clamped = ihi_reg ? lim28 : ilo_reg ? nlim28 : isum_reg;
 wire windup = (sat_hi_reg && pi_pos_reg) || (sat_lo_reg && pi_neg_reg);
@@ -332,8 +329,7 @@ wire windup = (sat_hi_reg && pi_pos_reg) || (sat_lo_reg && pi_neg_reg);
 // clamp(I, +-I_LIMIT), the integrator when it holds: from clock 3 on (clock 2's comparisons),
 // chosen in clock 11 with the sum's clamp (no register of its own).
 wire [31:0] ihold = iphi_reg ? lim28[31:0] : iplo_reg ? nlim28[31:0] : iprev_reg;
-wire [18:0] ip_above = {3'b000, lim_cfg, 1'b0} -
-                      {{2{iprev_reg[31]}}, iprev_reg[31:16], |iprev_reg[15:0]};
+wire [33:0] ip_above = {lim28[32], lim28} - {{2{iprev_reg[31]}}, iprev_reg};
 wire [33:0] ip_below = {{2{iprev_reg[31]}}, iprev_reg} - {nlim28[32], nlim28};
 
 // Clock 12: rounded sum, Q3.12 in 25 bits: |fp| < 2^32 + 2^25, |I >> 7| < 2^24, so 34 bits hold
@@ -381,8 +377,8 @@ wire [15:0] u_ramp = (ugt_reg || ult_reg) ? u_step : 16'd0;
 // Bits dropped on purpose: the fraction below the rounding point, and the sign bit of values
 // proven in range (slew result between two Q7.8 values, clamped integrator within +-2^31).
 wire unused_bits = &{1'b0, tce_slew[16], below_min[23:0], above_max[23:0], cal_sum_reg[19:0], i_clamped[32], v_sum[8:0],
-                     r_above[14:0], r_below[15:0], i_above[17:0], i_below[32:0],
-                     ip_above[17:0], ip_below[32:0],
+                     r_above[14:0], r_below[15:0], i_above[32:0], i_below[32:0],
+                     ip_above[32:0], ip_below[32:0],
                      tc_above[16:0], tc_below[16:0], tce_flr[15:0]};
 
 wire [138:0] state_next = {tc_eff_next, integ_next, ramp_st_next, sat_lo_next, sat_hi_next,
@@ -512,7 +508,7 @@ always @* begin
     // comparisons; low 9 bits of the difference (non-negative) times the gain.
     if (seq_reg[1]) begin
         det_next = en_cfg ? detect : 4'd0;
-        iphi_next = ip_above[18];  // I > +I_LIMIT
+        iphi_next = ip_above[33];  // I > +I_LIMIT
         iplo_next = ip_below[33];  // I < -I_LIMIT
         tce_s_next = slew_en_cfg ? tce_slew[15:0] : tc_cfg;
         m1_a = {7'd0, diff_reg[8:0]};
@@ -567,7 +563,7 @@ always @* begin
 
     // Clock 10: integrator clamp comparisons.
     if (seq_reg[9]) begin
-        ihi_next = i_above[18];
+        ihi_next = i_above[33];
         ilo_next = i_below[33];
     end
 
