@@ -338,14 +338,21 @@ wire signed [33:0] v_sum = $signed(fp_reg) + $signed({{9{inew_reg[31]}}, inew_re
 
 // Clocks 13-14: output saturation at +-I_LIMIT.
 // Comparisons as subtractions, whose sign bit comes out of one carry chain (yosys otherwise
-// builds some of them from LUT trees on the iCE40): r > lim <=> lim - r < 0. Only the bits that
-// can decide take the chain: r > I_LIMIT (15 bits) when r >= 0 and r >= 2^15 or r[14:0] >
-// I_LIMIT; r < -I_LIMIT (>= -32767) when r < 0 and r < -2^15 or, r in [-2^15, 0), its 16 bits
-// as a signed word < -I_LIMIT.
+// builds some of them from LUT trees on the iCE40): r > lim <=> lim - r < 0. With PRELOAD 1 and
+// 2 (tension_loop_mc, the SoCs at 24 MHz and below) only the bits that can decide take the
+// chain: r > I_LIMIT (15 bits) when r >= 0 and r >= 2^15 or r[14:0] > I_LIMIT; r < -I_LIMIT
+// (>= -32767) when r < 0 and r < -2^15 or, r in [-2^15, 0), its 16 bits as a signed word
+// < -I_LIMIT. With PRELOAD 0 (tension_loop, the external-MCU tops at 48 MHz) the 26-bit chains:
+// the narrow form's test of r[23:15] after its chain was that top's critical path on the UP5K.
+localparam NARROW_R = (PRELOAD != 0);
+wire signed [24:0] lim12 = $signed({10'd0, lim_cfg});
+wire signed [24:0] nlim12 = $signed({{9{nlim_reg[15]}}, nlim_reg});
+wire [25:0] r_above_w = {lim12[24], lim12} - {r_reg[24], r_reg};
+wire [25:0] r_below_w = {r_reg[24], r_reg} - {nlim12[24], nlim12};
 wire [15:0] r_above = {1'b0, lim_cfg} - {1'b0, r_reg[14:0]};
 wire [16:0] r_below = {r_reg[15], r_reg[15:0]} - {nlim_reg[15], nlim_reg};
-wire r_gt_lim = !r_reg[24] && ((|r_reg[23:15]) || r_above[15]);
-wire r_lt_nlim = r_reg[24] && (!(&r_reg[23:15]) || r_below[16]);
+wire r_gt_lim = NARROW_R ? (!r_reg[24] && ((|r_reg[23:15]) || r_above[15])) : r_above_w[25];
+wire r_lt_nlim = NARROW_R ? (r_reg[24] && (!(&r_reg[23:15]) || r_below[16])) : r_below_w[25];
 wire [15:0] u_sat = rhi_reg ? {1'b0, lim_cfg} : rlo_reg ? nlim_reg : r_reg[15:0];
 
 // Watchdog ramp of the previous command towards zero: the comparisons in clock 12, the step in
@@ -377,7 +384,7 @@ wire [15:0] u_ramp = (ugt_reg || ult_reg) ? u_step : 16'd0;
 // Bits dropped on purpose: the fraction below the rounding point, and the sign bit of values
 // proven in range (slew result between two Q7.8 values, clamped integrator within +-2^31).
 wire unused_bits = &{1'b0, tce_slew[16], below_min[23:0], above_max[23:0], cal_sum_reg[19:0], i_clamped[32], v_sum[8:0],
-                     r_above[14:0], r_below[15:0], i_above[32:0], i_below[32:0],
+                     r_above[14:0], r_below[15:0], r_above_w[24:0], r_below_w[24:0], i_above[32:0], i_below[32:0],
                      ip_above[32:0], ip_below[32:0],
                      tc_above[16:0], tc_below[16:0], tce_flr[15:0]};
 
