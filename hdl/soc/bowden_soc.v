@@ -125,7 +125,10 @@ wire [31:0] pcpi_rd;
 // measured"). EBREAK / ECALL still stop the CPU (cpu_trap). LATCHED_MEM_RDATA: every source of
 // mem_rdata holds its word after the transfer (block RAMs, SPRAMs, the registered I/O word, the
 // register map's read register), and without compressed instructions picorv32 reads mem_rdata
-// only in the transfer's clock, so its own copy's multiplexer is not needed.
+// only in the transfer's clock, so its own copy's multiplexer is not needed. No reset value of
+// the stack pointer (STACKADDR at its default): start.S and boot.S set or never use sp, and the
+// reset's write of x2 cost 10 logic cells of the UP5K's two cables (hdl/README.md, "Room for two
+// cables on the UP5K").
 picorv32 #(
     .ENABLE_COUNTERS(0), .ENABLE_COUNTERS64(0), .ENABLE_REGS_16_31(1),
     .ENABLE_REGS_DUALPORT(1), .LATCHED_MEM_RDATA(1), .TWO_STAGE_SHIFT(1),
@@ -134,7 +137,7 @@ picorv32 #(
     .ENABLE_MUL(0), .ENABLE_FAST_MUL(CPU_MUL == 2), .ENABLE_DIV(0), .ENABLE_PCPI(CPU_MUL == 1),
     .ENABLE_IRQ(0), .ENABLE_IRQ_QREGS(0), .ENABLE_IRQ_TIMER(0), .ENABLE_TRACE(0),
     .REGS_INIT_ZERO(0), .PROGADDR_RESET((BOOT_FLASH != 0) ? 32'h4000_0000 : 32'h0000_0000),
-    .STACKADDR(32'h1000_0000 + 4 * RAM_WORDS)
+    .STACKADDR(32'hffff_ffff)  // none: the firmware's start.S sets sp first
 ) cpu (
     .clk(clk), .resetn(!rst), .trap(cpu_trap),
     .mem_valid(mem_valid), .mem_instr(mem_instr), .mem_ready(mem_ready),

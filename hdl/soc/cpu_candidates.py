@@ -47,6 +47,14 @@ LEAN = {
     "ENABLE_REGS_DUALPORT": 1,
 }  # fmt: skip
 
+# bowden_soc's picorv32 on the UP5K (hdl/soc/bowden_soc.v with CPU_FAST 0, CPU_MUL 1, BOOT_FLASH
+# 1), the base of the rows that vary one of its parameters.
+SOC = {
+    **LEAN, "ENABLE_REGS_16_31": 1, "LATCHED_MEM_RDATA": 1, "TWO_CYCLE_COMPARE": 0,
+    "TWO_CYCLE_ALU": 0, "ENABLE_MUL": 0, "ENABLE_FAST_MUL": 0, "ENABLE_PCPI": 1, "ENABLE_IRQ": 0,
+    "ENABLE_TRACE": 0, "PROGADDR_RESET": "32'h40000000", "STACKADDR": "32'hffffffff",
+}  # fmt: skip
+
 
 @dataclass(frozen=True)
 class Candidate:
@@ -54,10 +62,10 @@ class Candidate:
     what: str
     top: str
     files: tuple[Path, ...]
-    params: tuple[tuple[str, int], ...] = ()
+    params: tuple[tuple[str, int | str], ...] = ()
 
 
-def pico(name: str, what: str, **params: int) -> Candidate:
+def pico(name: str, what: str, **params: int | str) -> Candidate:
     return Candidate(name, what, "picorv32", (PICORV32,), tuple({**PICO_BASE, **params}.items()))
 
 
@@ -135,6 +143,29 @@ CANDIDATES = {
             **LEAN,
             ENABLE_IRQ=0,
             ENABLE_REGS_16_31=0,
+        ),
+        pico(
+            "picorv32-soc", "picorv32 with bowden_soc's UP5K parameters (two-stage shifter)", **SOC
+        ),
+        pico(
+            "picorv32-soc-stack",
+            "the same with the stack pointer's reset value (STACKADDR)",
+            **{**SOC, "STACKADDR": "32'h10010000"},
+        ),
+        pico(
+            "picorv32-soc-1bit",
+            "the same with the one-bit shifter (TWO_STAGE_SHIFT 0)",
+            **{**SOC, "TWO_STAGE_SHIFT": 0},
+        ),
+        pico(
+            "picorv32-soc-alu2",
+            "the same with the ALU's result registered (TWO_CYCLE_ALU)",
+            **{**SOC, "TWO_CYCLE_ALU": 1},
+        ),
+        pico(
+            "picorv32-soc-cmp2",
+            "the same with the comparison registered (TWO_CYCLE_COMPARE)",
+            **{**SOC, "TWO_CYCLE_COMPARE": 1},
         ),
         Candidate(
             "soc_mul",
