@@ -219,6 +219,9 @@ wire [31:0]     sample_count;
 wire [N*4-1:0]  faults;
 wire [N-1:0]    out_en, saturated, wdt_ramp, grp_stop;
 wire            out_valid;
+`ifdef FORMAL
+wire [56:0]     f_loop_ctl;  // the loop's schedule (its proofs' f_ctl_state)
+`endif
 
 genvar k;
 generate
@@ -361,6 +364,10 @@ tension_loop_mc #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP), .WDT_RAMP_STEP(WDT_RA
     .u(u), .out_en(out_en), .out_valid(out_valid),
     .saturated(saturated), .wdt_ramp(wdt_ramp), .grp_stop(grp_stop), .faults(faults),
     .t_in(t_in), .integ(integ), .tc_eff(tc_eff), .sample_count(sample_count)
+`ifdef FORMAL
+    ,
+    .f_chan_state(), .f_chan_tick(), .f_ctl_state(f_loop_ctl), .f_pipe_state()
+`endif
 );
 
 wire unused_grp_stop = &{1'b0, grp_stop};
@@ -383,6 +390,133 @@ assign cmd_current = u;
 assign cmd_enable = out_en;
 assign cmd_valid = out_valid;
 assign sample_tick = tick_reg;
+
+`ifdef FORMAL
+// --- formal properties (hdl/formal/bowden_core_mc.sby; hdl/README.md says what is proven) --
+//
+// The sub-modules carry their own properties (axil_*, regs_* in each bank, the loop's mc_*, the
+// PWMs' pwm_*); here tension_loop_mc's environment (ticks at least LATENCY clocks apart,
+// mc_tick_spacing) is asserted, not assumed, so the composition is proven. The core adds what
+// keeps the channels apart around the loop: a write reaches the bank its address selects and no
+// other, a read is answered by the bank its address selects, and each channel's drive outputs
+// are its own loop's. The bank of an address is decoded here (bits ADDR_W and up), not taken
+// from the core's own select.
+
+reg f_past_valid = 1'b0;
+always @(posedge clk) f_past_valid <= 1'b1;
+always @* if (!f_past_valid) assume(rst);
+
+function [CH_W-1:0] f_bank_of;
+    input [BUS_W-1:0] addr;
+    begin
+        f_bank_of = (N > 1) ? addr[BUS_W-1 -: CH_W] : {CH_W{1'b0}};
+    end
+endfunction
+
+// A tick every CLKS_PER_SAMPLE clocks, the first CLKS_PER_SAMPLE clocks after reset.
+reg f_ticked = 1'b0;  // a tick since reset (set with the first)
+always @(posedge clk) begin
+    if (tick_cnt_reg == TICK_LAST) f_ticked <= 1'b1;
+    if (rst) f_ticked <= 1'b0;
+end
+always @* if (f_past_valid && !rst) begin
+    // property core_mc_tick_period: a tick every CLKS_PER_SAMPLE clocks, the first CLKS_PER_SAMPLE clocks after reset
+    core_mc_tick_period: assert(tick_cnt_reg <= TICK_LAST);
+    core_mc_tick_period_2: assert(tick_reg == (tick_cnt_reg == {CNT_W{1'b0}} && f_ticked));
+end
+
+// The loop's schedule against the tick counter: its period runs from the clock after the tick,
+// channel c's slot at clocks 1 + 15 c to 15 + 15 c of the sample (f_ctl_state: {ch, start,
+// seq, ...}).
+localparam integer F_SLOT = 15;
+wire [31:0] f_pos = {{(32-CNT_W){1'b0}}, tick_cnt_reg} - 32'd1;  // clock in the period
+wire        f_in_period = f_ticked && tick_cnt_reg != {CNT_W{1'b0}} && f_pos < F_SLOT * N;
+wire [31:0] f_ch_exp = f_pos / F_SLOT;
+wire [31:0] f_lc_exp = f_pos % F_SLOT;
+wire [13:0] f_seq_exp = (f_in_period && f_lc_exp != 32'd0) ? 14'd1 << (f_lc_exp - 32'd1) : 14'd0;
+always @* if (f_past_valid && !rst) begin
+    // property core_mc_tick_phase: the loop's schedule (slot, its clock) follows the tick counter (induction helper)
+    core_mc_tick_phase: assert(f_loop_ctl[48] == (f_in_period && f_lc_exp == 32'd0) &&
+                               f_loop_ctl[47:34] == f_seq_exp &&
+                               f_loop_ctl[56:49] == (f_in_period ? f_ch_exp[7:0] : 8'd0));
+end
+
+// The banks' configuration (the read-write fields) and the bank a write selects, a clock later.
+localparam F_CFG_W = 2 + 262;
+wire [N*F_CFG_W-1:0] f_cfg;
+reg  [N*F_CFG_W-1:0] f_cfg_d;
+reg  [N-1:0]         f_wr_hit_d;   // the last clock's write selected bank k
+reg                  f_wr_kp_d;    // ... and was a write of all of KP's word
+reg  [CH_W-1:0]      f_wr_bank_d;
+reg  [15:0]          f_wr_data_d;
+genvar fk;
+generate
+    for (fk = 0; fk < N; fk = fk + 1) begin : g_f_cfg
+        assign f_cfg[fk*F_CFG_W +: F_CFG_W] = {
+            ctrl_enable[fk], ctrl_slew_en[fk], tc[fk*16 +: 16], tc_min[fk*16 +: 16],
+            kff[fk*16 +: 16], uff[fk*16 +: 16], kp[fk*16 +: 16], ki_ts[fk*16 +: 16],
+            i_limit[fk*15 +: 15], slew[fk*15 +: 15], wdt_timeout[fk*16 +: 16],
+            adc_offset[fk*24 +: 24], adc_gain[fk*16 +: 16], adc_min[fk*24 +: 24],
+            adc_max[fk*24 +: 24], adc_stale[fk*16 +: 16], oc_timeout[fk*16 +: 16]};
+        always @(posedge clk) f_wr_hit_d[fk] <= reg_wr_en && f_bank_of(reg_wr_addr) == fk;
+    end
+endgenerate
+always @(posedge clk) begin
+    f_cfg_d <= f_cfg;
+    f_wr_kp_d <= reg_wr_en && reg_wr_addr[ADDR_W-1:0] == 8'h18 && reg_wr_strb[1:0] == 2'b11;
+    f_wr_bank_d <= f_bank_of(reg_wr_addr);
+    f_wr_data_d <= reg_wr_data[15:0];
+end
+
+// Per bank: kept (no write selected it), the KP write landed, no memory bit enables.
+reg         f_rst_d = 1'b1;
+reg [N-1:0] f_kept, f_kp_ok, f_no_ram_we;
+integer     fb;
+always @(posedge clk) f_rst_d <= rst;
+always @* begin
+    for (fb = 0; fb < N; fb = fb + 1) begin
+        f_kept[fb] = f_wr_hit_d[fb] ||
+                     ((CFG_RAM != 0 || f_cfg[fb*F_CFG_W +: F_CFG_W] == f_cfg_d[fb*F_CFG_W +: F_CFG_W]) &&
+                      !ctrl_integ_reset[fb] && !ctrl_fault_clear[fb] && !tc_wr[fb]);
+        f_kp_ok[fb] = CFG_RAM != 0 || !f_wr_kp_d || f_wr_bank_d != fb ||
+                      kp[fb*16 +: 16] == f_wr_data_d;
+        f_no_ram_we[fb] = (reg_wr_en && f_bank_of(reg_wr_addr) == fb) ||
+                          cfg_wr_en[fb*CFG_W +: CFG_W] == {CFG_W{1'b0}};
+    end
+end
+always @* if (f_past_valid && !rst && !f_rst_d) begin
+    // property core_mc_bank_write: a bus write reaches the bank its address selects and no other: another bank's registers keep their values and give no write pulses (with CFG_RAM 1 no memory bit enables), and a write of KP lands in the addressed bank
+    core_mc_bank_write: assert(&f_kept);
+    core_mc_bank_write_2: assert(&f_kp_ok);
+end
+always @* if (f_past_valid && !rst) core_mc_bank_write_3: assert(&f_no_ram_we);
+
+// The bank of the read in flight, decoded from its address.
+reg [CH_W-1:0] f_rd_bank = {CH_W{1'b0}};
+always @(posedge clk) if (reg_rd_en) f_rd_bank <= f_bank_of(reg_rd_addr);
+wire [N-1:0] f_rd_onehot = {{(N-1){1'b0}}, 1'b1} << f_rd_bank;
+// property core_mc_read_bank: a read is answered by the bank its address selects: only that bank answers and the read-back multiplexer selects it
+always @* if (f_past_valid && !rst && (|bank_rd_valid))
+    core_mc_read_bank: assert(bank_rd_valid == f_rd_onehot && rd_bank_reg == f_rd_bank);
+
+reg [N-1:0] f_drive_ok;
+always @* for (fb = 0; fb < N; fb = fb + 1)
+    f_drive_ok[fb] = cmd_enable[fb] || cmd_current[fb*16 +: 16] == 16'd0;
+// property core_mc_drive_zero_when_disabled: each channel's drive command is 0 A whenever its enable is low, and every drive is off with no fault the clock after reset
+always @* if (f_past_valid && !rst) core_mc_drive_zero_when_disabled: assert(&f_drive_ok);
+always @(posedge clk) if (f_past_valid && $past(rst))
+    core_mc_drive_zero_when_disabled_2: assert(cmd_enable == {N{1'b0}} && fault == {N{1'b0}});
+
+localparam integer F_LAST_BANK_INT = N - 1;
+localparam [CH_W-1:0] F_LAST_BANK = F_LAST_BANK_INT[CH_W-1:0];
+always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
+    cover(sample_tick);                                   // the first tick: the loop's period
+    cover(f_wr_kp_d && f_wr_bank_d == F_LAST_BANK);      // KP written in the last bank
+    cover((|bank_rd_valid) && f_rd_bank == F_LAST_BANK);  // a read answered by the last bank
+end
+
+wire f_unused = &{1'b0, f_loop_ctl};
+`endif
 
 endmodule
 
