@@ -491,6 +491,21 @@ always @* if (f_past_valid && !rst && !f_rst_d) begin
 end
 always @* if (f_past_valid && !rst) core_mc_bank_write_3: assert(&f_no_ram_we);
 
+// Channel k's loop inputs: bank k's configuration (CFG_RAM 0; with CFG_RAM 1 the memory's word
+// read for the channel's slot) and cable k's T_in, ADC channel 2k.
+reg [N-1:0] f_in_ok;
+always @* for (fb = 0; fb < N; fb = fb + 1)
+    f_in_ok[fb] = t_in_codes[fb*24 +: 24] == adc_ch_data[2*fb*24 +: 24] &&
+                  (CFG_RAM != 0 || f_cfg[fb*F_CFG_W +: F_CFG_W] == {
+                      ctrl_enable[fb], ctrl_slew_en[fb], l_tc[fb*16 +: 16], l_tc_min[fb*16 +: 16],
+                      l_kff[fb*16 +: 16], l_uff[fb*16 +: 16], l_kp[fb*16 +: 16],
+                      l_ki_ts[fb*16 +: 16], l_i_limit[fb*15 +: 15], l_slew[fb*15 +: 15],
+                      l_wdt_timeout[fb*16 +: 16], l_adc_offset[fb*24 +: 24],
+                      l_adc_gain[fb*16 +: 16], l_adc_min[fb*24 +: 24], l_adc_max[fb*24 +: 24],
+                      l_adc_stale[fb*16 +: 16], l_oc_timeout[fb*16 +: 16]});
+// property core_mc_loop_inputs: channel k's loop reads bank k's configuration (CFG_RAM 0) and cable k's T_in (ADC channel 2k)
+always @* if (f_past_valid && !rst) core_mc_loop_inputs: assert(&f_in_ok);
+
 // The bank of the read in flight, decoded from its address.
 reg [CH_W-1:0] f_rd_bank = {CH_W{1'b0}};
 always @(posedge clk) if (reg_rd_en) f_rd_bank <= f_bank_of(reg_rd_addr);
