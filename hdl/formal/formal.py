@@ -121,6 +121,8 @@ def property_table(props: list[Property]) -> str:
 
 # Every task `make formal` runs, in order (the slowest first, so two jobs finish together).
 TASKS = [
+    "bowden_core_mc:prove_apart",
+    "bowden_core_mc:prove",
     "tension_loop_mc:cover",
     "tension_loop_mc_iso:cover",
     "tension_loop_mc_iso:pair_j0",
@@ -137,6 +139,7 @@ TASKS = [
     "tension_loop:cover",
     "bowden_core:cover",
     "bowden_core:cover_soc",
+    "bowden_core_mc:cover",
     "tension_loop_mc:prove",
     "tension_loop_mc:prove_ram",
     "tension_loop:prove",
