@@ -522,6 +522,32 @@ always @* if (f_past_valid && !rst) core_mc_drive_zero_when_disabled: assert(&f_
 always @(posedge clk) if (f_past_valid && $past(rst))
     core_mc_drive_zero_when_disabled_2: assert(cmd_enable == {N{1'b0}} && fault == {N{1'b0}});
 
+// Each channel's PWM (pwm_escon takes u and the enable 5 clocks before the clock its new duty
+// shows, pwm_half_when_disabled): a new duty other than 50 % only from the channel's own drive
+// on with a command not 0.
+localparam [31:0] F_PWM_HALF = (CLK_HZ / PWM_HZ) / 2;
+wire [N*32-1:0]   f_duty;
+reg  [N*32-1:0]   f_duty_d;
+reg  [5*N-1:0]    f_en_hist;   // cmd_enable of the last 5 clocks, the oldest in the top bits
+reg  [5*N*16-1:0] f_u_hist;
+generate
+    for (fk = 0; fk < N; fk = fk + 1) begin : g_f_duty
+        assign f_duty[fk*32 +: 32] = g_pwm[fk].duty;
+    end
+endgenerate
+always @(posedge clk) begin
+    f_duty_d <= f_duty;
+    f_en_hist <= {f_en_hist[4*N-1:0], cmd_enable};
+    f_u_hist <= {f_u_hist[4*N*16-1:0], cmd_current};
+end
+reg [N-1:0] f_pwm_ok;
+always @* for (fb = 0; fb < N; fb = fb + 1)
+    f_pwm_ok[fb] = f_duty[fb*32 +: 32] == f_duty_d[fb*32 +: 32] ||
+                   f_duty[fb*32 +: 32] == F_PWM_HALF ||
+                   (f_en_hist[4*N + fb] && f_u_hist[(4*N + fb)*16 +: 16] != 16'd0);
+// property core_mc_pwm_own_channel: channel k's PWM takes a duty other than 50 % only from channel k's drive on with a command not 0
+always @* if (f_past_valid && !rst && !f_rst_d) core_mc_pwm_own_channel: assert(&f_pwm_ok);
+
 localparam integer F_LAST_BANK_INT = N - 1;
 localparam [CH_W-1:0] F_LAST_BANK = F_LAST_BANK_INT[CH_W-1:0];
 always @(posedge clk) if (f_past_valid && !rst && !$past(rst)) begin
