@@ -463,6 +463,7 @@ generate
 endgenerate
 always @(posedge clk) begin
     f_cfg_d <= f_cfg;
+    // KP: word 6 of the map (bowden_regs.json), byte address 0x18 in each bank
     f_wr_kp_d <= reg_wr_en && reg_wr_addr[ADDR_W-1:0] == 8'h18 && reg_wr_strb[1:0] == 2'b11;
     f_wr_bank_d <= f_bank_of(reg_wr_addr);
     f_wr_data_d <= reg_wr_data[15:0];
@@ -491,8 +492,8 @@ always @* if (f_past_valid && !rst && !f_rst_d) begin
 end
 always @* if (f_past_valid && !rst) core_mc_bank_write_3: assert(&f_no_ram_we);
 
-// Channel k's loop inputs: bank k's configuration (CFG_RAM 0; with CFG_RAM 1 the memory's word
-// read for the channel's slot) and cable k's T_in, ADC channel 2k.
+// Channel k's loop inputs: bank k's configuration (CFG_RAM 0; with CFG_RAM 1 the configuration is
+// the memory's word, and only T_in is checked) and cable k's T_in, ADC channel 2k.
 reg [N-1:0] f_in_ok;
 always @* for (fb = 0; fb < N; fb = fb + 1)
     f_in_ok[fb] = t_in_codes[fb*24 +: 24] == adc_ch_data[2*fb*24 +: 24] &&
