@@ -93,7 +93,7 @@ bowden_soc #(
     .fault(fault), .cpu_trap(cpu_trap), .boot_done(boot_done), .sample_tick(sample_tick)
 );
 
-// Red also while the image is copied from the flash (some 30 ms), and for good when the flash
+// Red also while the image is copied from the flash (some 60 ms), and for good when the flash
 // holds no image (firmware/soc/boot.S).
 assign led_fault = !(fault || cpu_trap || !boot_done);
 assign led_run = !(|enable);
