@@ -31,6 +31,7 @@ import cocotb
 from cocotb.triggers import Edge
 from hdl_sim import Ads131m0x
 from soc_sim import (
+    BOOT_MAX_CLKS,
     CLK_HZ,
     MARK_IDLE,
     MARK_RX,
@@ -186,9 +187,7 @@ async def booted(dut) -> Bench:
     cocotb.start_soon(adc_source(adc, dut, 1 << 18))
     bench = Bench(dut)
     await reset(dut)
-    # The UP5K's boot loader copies the image from the flash at some 60 clocks a byte (3 million
-    # for the 50 KB image) before the firmware starts: a bound for either configuration.
-    await wait_mark(dut, MARK_IDLE, 6_000_000)
+    await wait_mark(dut, MARK_IDLE, BOOT_MAX_CLKS)  # the UP5K's copy from the flash included
     if TELEMETRY_DIV != 1:
         await set_param(bench, "dev.telemetry_div", TELEMETRY_DIV)
     return bench
