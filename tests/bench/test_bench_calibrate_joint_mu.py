@@ -13,15 +13,12 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
+from identification_record import identification_record  # tests/bench
 
-from cosim.audit import core
 from cosim.audit.decision import RULE, BlockStats, Candidate, Round
 from cosim.audit.effects import BY_PARAM
 from cosim.audit.fit import fit_model
-from cosim.bench.api import Bench
-from cosim.bench.link.protocol import param, value_from_word, word_from_value
 from cosim.bench.rig import calibrate as cal
-from cosim.results import trace as trace_mod
 
 # Slack below 3.4 N and 2.5 s/m of cable-speed friction: tuning plant 9's sizes of both
 # (random_plants_tuning.yaml), where calibrate kept the nominal mu.
@@ -33,30 +30,7 @@ MU_TOLERANCE = 0.002
 def _audit_stand_in(plant: dict, folder: Path):
     """The nominal model fitted to the plant's identification run, with one round of unnamed
     candidates (the module docstring)."""
-    seq, _ = cal.identification_sequence(1000.0)
-    path = folder / "identification.csv"
-    with Bench(emulate=True, plant=plant) as bench:
-        client = bench.client
-        opts = cal.Options(out_dir=folder, audit_plots=False, predict=False)
-        cal._record(
-            client,
-            path,
-            lambda: client.request("STOP"),
-            opts,
-            None,
-            seconds=len(seq) / 1000.0,
-            waveform="stream",
-            mean_n=0.0,
-            amplitude_n=0.0,
-            freq_hz=0.0,
-            stream_words=[word_from_value(param("wave.mean_n"), v) for v in seq],
-        )
-        device = {
-            n: value_from_word(param(n), w)
-            for n, w in client.params().items()
-            if n.startswith("comp.")
-        }
-    data = core.prepare(trace_mod.read_trace(path, mode="measured"), str(path))
+    data, device = identification_record(plant, folder)
     nominal = fit_model(data, ())
 
     def unnamed(fmu_param: str, pct: float) -> Candidate:

@@ -16,15 +16,13 @@ tests/bench/test_bench_calibrate_joint_mu.py): the full audit of the record take
 from types import SimpleNamespace
 
 import pytest
+from identification_record import identification_record  # tests/bench
 
 from cosim.audit import core
 from cosim.audit.decision import RULE, BlockStats, Candidate, Round
 from cosim.audit.effects import BY_PARAM
 from cosim.audit.fit import SPREAD, SPREAD_START, fit_model
-from cosim.bench.api import Bench
-from cosim.bench.link.protocol import param, value_from_word, word_from_value
 from cosim.bench.rig import calibrate as cal
-from cosim.results import trace as trace_mod
 
 PLANT = {"mu": 0.0855, "dead_zone_spread": 0.49, "mu_tension_slope": -0.001, "cable_EA": 5500.0}
 
@@ -32,31 +30,7 @@ PLANT = {"mu": 0.0855, "dead_zone_spread": 0.49, "mu_tension_slope": -0.001, "ca
 @pytest.fixture(scope="module")
 def record(tmp_path_factory):
     """The identification run on PLANT (prepared for the audit) and the device's comp.* values."""
-    folder = tmp_path_factory.mktemp("spread_slope")
-    seq, _ = cal.identification_sequence(1000.0)
-    path = folder / "identification.csv"
-    with Bench(emulate=True, plant=PLANT) as bench:
-        client = bench.client
-        opts = cal.Options(out_dir=folder, audit_plots=False, predict=False)
-        cal._record(
-            client,
-            path,
-            lambda: client.request("STOP"),
-            opts,
-            None,
-            seconds=len(seq) / 1000.0,
-            waveform="stream",
-            mean_n=0.0,
-            amplitude_n=0.0,
-            freq_hz=0.0,
-            stream_words=[word_from_value(param("wave.mean_n"), v) for v in seq],
-        )
-        device = {
-            n: value_from_word(param(n), w)
-            for n, w in client.params().items()
-            if n.startswith("comp.")
-        }
-    return core.prepare(trace_mod.read_trace(path, mode="measured"), str(path)), device
+    return identification_record(PLANT, tmp_path_factory.mktemp("spread_slope"))
 
 
 @pytest.mark.slow  # the emulated identification run and the fits: 5-15 s
