@@ -313,18 +313,25 @@ def joint_mu(result, min_pct: float | None = None):
     effects), or None when there are none."""
     from cosim.audit.fit import fit_model  # noqa: PLC0415
 
-    min_pct = JOINT_MIN_PCT if min_pct is None else min_pct
+    extra = unnamed_causes(result, min_pct)
+    if not extra:
+        return None
     found = [f.effect for f in result.findings]
-    named = {e.cause for e in found}
+    return fit_model(result.data, (*found, *extra), result.extended.params), extra
+
+
+def unnamed_causes(result, min_pct: float | None = None) -> list:
+    """The effects of the audit's last round that removed at least `min_pct` % of the selection
+    blocks' residual without becoming findings, nor ending at a bound of their form (default
+    JOINT_MIN_PCT): what joint_mu fits with mu."""
+    min_pct = JOINT_MIN_PCT if min_pct is None else min_pct
+    named = {f.effect.cause for f in result.findings}
     last = result.rounds[-1] if result.rounds else None
-    extra = [
+    return [
         c.effect
         for c in (last.candidates if last is not None else ())
         if c.effect.cause not in named and c.at_bound is None and c.explained_pct >= min_pct
     ]
-    if not extra:
-        return None
-    return fit_model(result.data, (*found, *extra), result.extended.params), extra
 
 
 def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Change]:
@@ -455,17 +462,8 @@ def propose(result, device: dict[str, float], phi_device_rad: float) -> list[Cha
 
 def _saw_unnamed(result, params) -> bool:
     """Whether the audit's last round holds a cause of `params` (FMU parameters) that the joint
-    fit of mu would take: not a finding, not at a bound, removing at least JOINT_MIN_PCT % of the
-    selection blocks' residual (joint_mu's choice)."""
-    named = {f.effect.cause for f in result.findings}
-    last = result.rounds[-1] if result.rounds else None
-    return any(
-        c.effect.fmu_param in params
-        and c.effect.cause not in named
-        and c.at_bound is None
-        and c.explained_pct >= JOINT_MIN_PCT
-        for c in (last.candidates if last is not None else ())
-    )
+    fit of mu would take (unnamed_causes)."""
+    return any(e.fmu_param in params for e in unnamed_causes(result))
 
 
 def _with_joint_mu(name: str, aparam: str, cur: float, value: float, k: float) -> Change:
