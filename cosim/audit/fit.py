@@ -30,11 +30,13 @@ SPREAD_SCALE = 0.1
 SPREAD_START = 0.05
 # ... and, when a fit is given no spread to start from (the nominal model's), from each of
 # SPREAD_RESTARTS as well: the spread's effect is of second order near 0 (the strands' quantiles
-# are symmetric, so mean_j e^(spread q_j) grows as spread^2 / 2), and mu can take part of a wide
-# turn, so a fit started near 0 can settle there with a wide spread in the record (a tuning plant
-# of random_plants_tuning.yaml with spread 0.49 and a tension slope: spread 0 and mu 0.067,
-# 0.67 N RMS on the fit blocks; started from 0.5, spread 0.53 and 0.45 N; docs/results.md,
-# "Where the sensorless mode's worst plants lose"). A restart replaces the fit from
+# are symmetric, so mean_j e^(spread q_j) grows as spread^2 / 2: a fit started at 0 stays
+# there), and mu can take part of a wide turn, so a fit started near 0 can settle there with a
+# wide spread in the record (a tuning plant of random_plants_tuning.yaml with spread 0.49 and a
+# tension slope: spread 0 and mu 0.067, 0.67 N RMS on the fit blocks; started from 0.5, spread
+# 0.53 and 0.45 N; docs/results.md, "Where the sensorless mode's worst plants lose"; measured on
+# the FMU before its strands followed the slope, which found that plant's spread from 0.05
+# afterwards). A restart replaces the fit from
 # SPREAD_START only when it lowers the fit blocks' residual mean square by at least
 # SPREAD_RESTART_GAIN (the audit's rule's least share for a finding, 2 %: below it the two are the
 # same fit, and the one from SPREAD_START stays, to the digit).

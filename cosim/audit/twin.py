@@ -155,6 +155,23 @@ def _exp_small(x):
 
 
 @njit(cache=True)
+def _strand_bounds_sloped(tin, e, mu_sc, sl, phi):
+    """A strand's kinetic or breakaway bounds (lo, hi) with a tension slope: strand_bounds_sloped
+    of bowden_physics.c (the capstan with the strand's coefficient (mu + slope T) sc over the
+    whole bend; e = exp(mu sc phi)), the same operations in the same order."""
+    qf = (e - 1.0) / mu_sc if mu_sc > 0.0 else phi
+    den_lo = e + sl * qf * tin
+    den_hi = 1.0 - sl * qf * tin
+    lo = tin / (den_lo if den_lo > 1.0 else 1.0)
+    if den_hi <= 0.0:
+        hi = 1.7976931348623157e308
+    else:
+        g = e / den_hi
+        hi = tin * (g if g > 1.0 else 1.0)
+    return lo, hi
+
+
+@njit(cache=True)
 def _friction(
     t_in,
     dphi_geom,
@@ -344,7 +361,57 @@ def _friction(
                             strand_es[j] = strand_e[j]
                         strand_ies[j] = 1.0 / strand_es[j]
             total = 0.0
-            if static == 0.0:
+            phi_s = phi if phi > 0.0 else 0.0
+            if slope != 0.0:
+                # every width follows the tension as the segments' do (strands_update of
+                # bowden_physics.c): the bounds from the whole bend's sloped capstan
+                for j in range(n_str + 1):
+                    klo, khi = _strand_bounds_sloped(
+                        tin, strand_e[j], mu_c * strand_sc[j], slope * strand_sc[j], phi_s
+                    )
+                    if static != 0.0 and j < n_str:
+                        slo, shi = _strand_bounds_sloped(
+                            tin,
+                            strand_es[j],
+                            (mu_c + static) * strand_sc[j],
+                            slope * strand_sc[j],
+                            phi_s,
+                        )
+                    else:
+                        slo = klo
+                        shi = khi
+                    lo = klo if direction[j] > 0.0 else slo
+                    hi = khi if direction[j] < 0.0 else shi
+                    held = strands[j]
+                    share = 1.0  # of the jump in this sample's output (smooth)
+                    if held < lo:
+                        if (
+                            smooth
+                            and static != 0.0
+                            and direction[j] <= 0.0
+                            and k > 0
+                            and lo - brk_lo[j] > 0.0
+                        ):
+                            share = min(1.0, (lo - held) / (lo - brk_lo[j]))
+                        strands[j] = klo
+                        direction[j] = 1.0
+                    elif held > hi:
+                        if (
+                            smooth
+                            and static != 0.0
+                            and direction[j] >= 0.0
+                            and k > 0
+                            and brk_hi[j] - hi > 0.0
+                        ):
+                            share = min(1.0, (held - hi) / (brk_hi[j] - hi))
+                        strands[j] = khi
+                        direction[j] = -1.0
+                    if smooth:
+                        brk_lo[j] = slo
+                        brk_hi[j] = shi
+                    if j < n_str:
+                        total += held + share * (strands[j] - held)
+            elif static == 0.0:
                 # no breakaway part: every strand slides at its kinetic bounds (the loop below
                 # with es = e, without its bookkeeping)
                 # (the way each slid is read only by the breakaway part: not kept here)

@@ -1,6 +1,7 @@
 /* The plant's physics; equations and assumptions in fmu/README.md (section numbers below). */
 #include "bowden_physics.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -241,16 +242,44 @@ static int strands_active(const BowdenModel *m)
     return m->p.dead_zone_spread > 0.0 || m->p.mu_static_excess > 0.0;
 }
 
+/* A strand's bounds with a tension slope (README, "Gradual dead zone"): the capstan of Eq. 1 with
+ * the strand's coefficient (mu + slope T) sc integrated along the whole bend phi,
+ *   pulled:   lo = T_in / (E + sl qf T_in),   released: hi = T_in E / (1 - sl qf T_in),
+ * with E = exp(mu sc phi) (`e`), sl = slope sc and qf = (E - 1) / (mu sc) (phi at mu = 0): the
+ * bounds the sheath's segments reach on each branch, so the reference strand turns with the
+ * outlet node. A coefficient that the slope would take below zero is held at frictionless
+ * (lo <= T_in, hi >= T_in), as the segments hold theirs; a released bound that grows without
+ * limit (a positive slope where 1 - sl qf T_in <= 0) holds any strand. */
+static void strand_bounds_sloped(double t_in_n, double e, double mu_sc, double sl, double phi,
+                                 double *lo, double *hi)
+{
+    const double qf = mu_sc > 0.0 ? (e - 1.0) / mu_sc : phi;
+    const double den_lo = e + sl * qf * t_in_n;
+    const double den_hi = 1.0 - sl * qf * t_in_n;
+    *lo = t_in_n / (den_lo > 1.0 ? den_lo : 1.0);
+    if (den_hi <= 0.0) {
+        *hi = DBL_MAX;
+    } else {
+        const double g = e / den_hi;
+        *hi = t_in_n * (g > 1.0 ? g : 1.0);
+    }
+}
+
 /* Static friction (README, "Static friction"): a strand that last slid one way and must now
  * slide the other way is held by the breakaway width ws_j = (mu + mu_static_excess) phi
  * exp(spread q_j) instead of w_j; once it breaks loose it slides to the kinetic bound (a jump:
  * stick-slip), and keeps the kinetic width while it goes on sliding the same way. The reference
- * strand has no breakaway part, so the output carries the strands' stick-slip. */
+ * strand has no breakaway part, so the output carries the strands' stick-slip. With a tension
+ * slope every width follows the tension as the segments' do (strand_bounds_sloped): with the
+ * strands at the slope-free widths, the outlet node (sloped) and the reference strand turned at
+ * different inlet tensions, and a breakaway lifted the output above its level at a reversal
+ * while the inlet tension fell. */
 static void strands_update(BowdenModel *m, const Friction *f, double t_in_n)
 {
     const double phi = f->dphi * BOWDEN_N_SEG;
     const double w = f->mu * phi;
     const double ws = (f->mu + m->p.mu_static_excess) * phi;
+    const double slope = f->slope;
     int j;
     if (!strands_active(m)) {
         return;
@@ -258,18 +287,35 @@ static void strands_update(BowdenModel *m, const Friction *f, double t_in_n)
     for (j = 0; j <= BOWDEN_N_STRAND; j++) {
         double q = j < BOWDEN_N_STRAND ? STRAND_Q[j] : 0.0;
         double s = exp(m->p.dead_zone_spread * q);
+        const int brk = j < BOWDEN_N_STRAND && m->p.mu_static_excess > 0.0;
         double e = exp(w * s);
-        double es = (j < BOWDEN_N_STRAND && m->p.mu_static_excess > 0.0) ? exp(ws * s) : e;
-        /* products with the inverse factors, as the audit's twin computes them (without a
-           breakaway part es is e: one division) */
-        double ie = 1.0 / e, ies = es == e ? ie : 1.0 / es;
-        double lo = t_in_n * (m->strand_dir[j] > 0.0 ? ie : ies);
-        double hi = t_in_n * (m->strand_dir[j] < 0.0 ? e : es);
+        double es = brk ? exp(ws * s) : e;
+        double klo, khi, slo, shi, lo, hi;
+        if (slope != 0.0) {
+            strand_bounds_sloped(t_in_n, e, f->mu * s, slope * s, phi, &klo, &khi);
+            if (brk) {
+                strand_bounds_sloped(t_in_n, es, (f->mu + m->p.mu_static_excess) * s,
+                                     slope * s, phi, &slo, &shi);
+            } else {
+                slo = klo;
+                shi = khi;
+            }
+        } else {
+            /* products with the inverse factors, as the audit's twin computes them (without a
+               breakaway part es is e: one division) */
+            double ie = 1.0 / e, ies = es == e ? ie : 1.0 / es;
+            klo = t_in_n * ie;
+            khi = t_in_n * e;
+            slo = t_in_n * ies;
+            shi = t_in_n * es;
+        }
+        lo = m->strand_dir[j] > 0.0 ? klo : slo;
+        hi = m->strand_dir[j] < 0.0 ? khi : shi;
         if (m->strand_n[j] < lo) {
-            m->strand_n[j] = t_in_n * ie;
+            m->strand_n[j] = klo;
             m->strand_dir[j] = 1.0;
         } else if (m->strand_n[j] > hi) {
-            m->strand_n[j] = t_in_n * e;
+            m->strand_n[j] = khi;
             m->strand_dir[j] = -1.0;
         }
     }

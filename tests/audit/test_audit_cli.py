@@ -288,6 +288,10 @@ def test_an_output_that_cannot_be_written_is_one_clear_line_before_the_audit(tmp
             "mu_static_excess": 0.02,
             **{f"mu_drift_table_{i}": -0.001 * i for i in range(16)},
         },
+        # a tension slope with the strands: their widths follow the tension as the segments'
+        {"mu_tension_slope": 1.1e-3, "mu_static_excess": 0.035},
+        {"mu_tension_slope": -1.1e-3, "dead_zone_spread": 0.4, "mu_static_excess": 0.02},
+        {"mu_tension_slope": 2e-3, "dead_zone_spread": 0.3, "mu_viscous": 1.5},
         # the bending error's free form: a quadratic surface with a linear part
         {"phi_offset_per_x": 1.0, "phi_offset_per_xz": 6.0, "phi_offset_per_yy": -3.0},
         {"phi_offset_per_xx": 20.0, "phi_offset_per_zz": 4.0, "phi_offset_per_yz": -5.0},

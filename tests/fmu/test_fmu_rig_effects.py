@@ -48,6 +48,34 @@ def test_static_friction_holds_longer_after_a_reversal_then_jumps_to_the_kinetic
     assert held - stick[k_st] > 0.05 * held
 
 
+@pytest.mark.parametrize(
+    "effects",
+    [
+        {"mu_static_excess": 0.037, "mu_tension_slope": 1.1e-3},
+        {"mu_static_excess": 0.037, "mu_tension_slope": -1.1e-3},
+        {"mu_static_excess": 0.03, "dead_zone_spread": 0.3, "mu_tension_slope": 1.2e-3},
+    ],
+)
+def test_a_breakaway_with_a_tension_slope_never_moves_the_output_against_the_input(effects):
+    """A released cable cannot raise the tension at a fixed far end, nor a pulled one lower it
+    (friction only takes tension away from the motion). The strands turn the output through the
+    dead zone as a ratio to the reference strand, so their widths must follow the tension as the
+    sheath's segments do: at the slope-free widths the output rose 23 % above its level at the
+    reversal while the input fell. Up to 24 N, down to 3 N and up again, 1 kHz."""
+    up = np.linspace(5.0, 24.0, 1001)
+    down = np.linspace(24.0, 3.0, 1001)[1:]
+    again = np.linspace(3.0, 24.0, 1001)[1:]
+    t_in = np.concatenate([up, down, again])
+    out = _run(effects, t_in)
+    top, bottom = out[1000], out[2000]
+    # 0.1 %: the strands take the whole bend's sloped capstan where the segments step it (the
+    # discretisation's difference, about 0.05 % here)
+    assert out[1000:2001].max() <= top * 1.001, out[1000:2001].max() / top
+    assert out[2000:].min() >= bottom * 0.999, out[2000:].min() / bottom
+    # and the output does go through the breakaway's jump on both branches
+    assert out[2000] < 0.6 * top and out[-1] > 1.5 * bottom
+
+
 def test_slack_scales_the_output_below_its_input_tension():
     t_in = np.linspace(1.0, 12.0, 1101)
     plain = _run({}, t_in)
