@@ -130,6 +130,20 @@
  *    (cosim.parts.firmware.CompensatorParams.error_bound_n). Assumed: the FMU's linear loss, one
  *    S for the whole cable. With S = 0 the step does not run this part: the law is the one above
  *    bit for bit.
+ *    The turn at a slack bottom: after an unloading branch whose T_c went below S, the friction
+ *    holds its output X at the reversal (the dead zone), and below S the cable passes
+ *    X T_in / S of it, so the output follows T_in itself, without a dead zone, until T_in
+ *    reaches S; the law's change of branch would lift T_in past S at once and the output to X
+ *    while T_ref is still at the bottom. So the step keeps the least T_c below S on the
+ *    unloading branch and its T_eff; from the detector's turn to loading, T_c is at most
+ *    T_eff k, k = T_c,min / T_eff,min (= S / X when the output tracked at the bottom), while
+ *    T_eff k < S; the first step where it is not ends the turn and the law takes over (T_c
+ *    steps up to the loading branch). A new unloading branch, a reset and comp_hold_slack
+ *    start it afresh. In fixed point k is UQ16.16, one 32-bit division at the turn (T_c,min <
+ *    2^14 LSB; a ratio of 255 or more, a T_eff near 0, starts no turn), and the cap T_eff k is
+ *    rounded to Q7.8. Against the twin the cap carries the relative difference of T_c,min
+ *    (that step's bound) times T_c, plus 2^-16 of T_eff and 1/2 LSB, and the two may end a
+ *    turn a step apart (tests/firmware/test_fw_slack.py).
  *  - mu_per_inlet_rate = m_r (s/N): friction that rises with the inlet tension's rate (the plant
  *    FMU's `mu_viscous_tension_rate`, and its `mu_viscous` through the cable's stretch rate,
  *    fmu/README.md "Viscous friction"; the viscous term of Armstrong-Helouvry et al. 1994). On a
@@ -347,6 +361,11 @@ typedef struct {
     int32_t slk_on;                /* 1 when the slack's root is in force (slack_tension > 0) */
     int32_t slk_held;              /* 1 while the slack's root is held off (comp_hold_slack; 0
                                       after comp_reset) */
+    int32_t slk_dir;               /* the detector's direction the slack's turn last saw */
+    int32_t slk_min_q8;            /* the least T_c below S on the unloading branch, Q7.8 (0:
+                                      none) */
+    int32_t slk_eff_q8;            /* T_eff at that T_c, Q7.8 */
+    uint32_t slk_k_q16;            /* T_c / T_eff there, UQ16.16: the turn's ratio (0: none) */
     int32_t vis_on;                /* 1 when the viscous term is in force (mu_per_inlet_rate > 0) */
     int32_t vis_fresh;             /* 1 until the next step sets vis_prev_q8 (no rate yet) */
     int32_t vis_prev_q8;           /* T_eff of the last step, Q7.8 in 32 bits */

@@ -45,6 +45,10 @@ typedef struct {
     int32_t line_pos;
     double corr_n; /* the far-end output correction added to T_eff, N (0 after a reset) */
     int32_t slk_held; /* 1 while the slack's root is held off (0 after a reset) */
+    int32_t slk_dir;  /* the detector's direction the slack's turn last saw */
+    double slk_min;   /* the least T_c below S on the unloading branch, N (0: none) */
+    double slk_eff;   /* T_eff at that T_c, N */
+    double slk_k;     /* the turn's ratio T_c / T_eff there (0: none) */
     int32_t dz_on;    /* the dead-zone inverse in force (comp.h) */
     int32_t dz_fresh; /* 1 until the plays are set at the next step */
     double dz_r[COMP_DZ_PLAYS]; /* thresholds r'_i of the inverse PI model (i >= 1) */

@@ -295,6 +295,9 @@ void comp_reset(comp_t *c)
     c->line_pos = 0;
     c->corr_q8 = 0;
     c->slk_held = 0;
+    c->slk_dir = 1;
+    c->slk_min_q8 = 0;
+    c->slk_k_q16 = 0;
     c->applied_q8 = 0;
     c->dz_fresh = 1;
     c->brk_dir = 0; /* no reversal yet: the first branch carries no breakaway */
@@ -567,6 +570,44 @@ static uint32_t slack_root_q8(uint32_t x)
     return (x - r * r > r) ? r + 1U : r;
 }
 
+/* The slack's turn at a reversal (comp.h), after the root: on an unloading branch the least T_c
+ * below S and its T_eff are kept; from the turn to loading, T_c is at most T_eff times their
+ * ratio k while that is below S (the held friction output X = S / k passes T_in / S of itself
+ * to the output), and the turn ends there. k in UQ16.16 by one 32-bit division at the turn:
+ * T_c < S <= 64 N is below 2^14 LSB, so T_c << 16 < 2^30; a ratio below 255 or no turn;
+ * T_eff * k < 2^15 * 2^24 in int64, rounded to Q7.8. */
+static int64_t slack_turn(comp_t *c, int32_t t_eff, int64_t tc)
+{
+    const int32_t s_q8 = c->cfg.slack_tension_n_q8;
+    if (c->dir < 0) {
+        if (c->slk_dir > 0) { /* a new unloading branch */
+            c->slk_min_q8 = 0;
+            c->slk_k_q16 = 0;
+        }
+        c->slk_dir = -1;
+        if (tc > 0 && tc < s_q8 && t_eff > 0 && (c->slk_min_q8 == 0 || tc <= c->slk_min_q8)) {
+            c->slk_min_q8 = (int32_t)tc;
+            c->slk_eff_q8 = t_eff;
+        }
+        return tc;
+    }
+    if (c->slk_dir < 0) { /* the turn to loading: the ratio, once */
+        c->slk_dir = 1;
+        c->slk_k_q16 = 0;
+        if (c->slk_min_q8 > 0 && c->slk_min_q8 < 255 * c->slk_eff_q8) {
+            c->slk_k_q16 = ((uint32_t)c->slk_min_q8 << 16) / (uint32_t)c->slk_eff_q8;
+        }
+    }
+    if (c->slk_k_q16 != 0U) {
+        int64_t cap = ((int64_t)t_eff * (int64_t)c->slk_k_q16 + (INT64_C(1) << 15)) >> 16;
+        if (t_eff > 0 && cap < s_q8) {
+            return (tc > cap) ? cap : tc;
+        }
+        c->slk_k_q16 = 0U; /* past X: the friction takes over */
+    }
+    return tc;
+}
+
 /* The step after the detector (PAPER, SMOOTH, PREVIEW), specialised by the compiler for dz = 0
  * (the sharp law, its instructions as before the dead-zone inverse) and dz = 1; always inlined
  * (a GCC attribute, as every toolchain of the firmware is GCC), since a call costs the sharp law
@@ -667,6 +708,9 @@ static inline __attribute__((always_inline)) q7_8_t step_modes(comp_t *c, int32_
     if (slk != 0 && tc > 0 && tc < cfg->slack_tension_n_q8) {
         /* After the floor and the saturation: the root lies in [T_c1, S], within both. */
         tc = (int64_t)slack_root_q8((uint32_t)tc * (uint32_t)cfg->slack_tension_n_q8);
+    }
+    if (slk != 0) {
+        tc = slack_turn(c, t_eff, tc);
     }
     return (q7_8_t)tc;
 }
@@ -784,6 +828,12 @@ void comp_set_correction_q8(comp_t *c, int32_t corr_q8)
 
 void comp_hold_slack(comp_t *c, int32_t held)
 {
+    if (c->slk_held != (held != 0)) { /* a change (fw.c calls it every tick): the turn starts
+                                         again at the next unloading branch */
+        c->slk_dir = 1;
+        c->slk_min_q8 = 0;
+        c->slk_k_q16 = 0;
+    }
     c->slk_held = (held != 0);
 }
 

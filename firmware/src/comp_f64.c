@@ -194,6 +194,9 @@ void comp_f64_reset(comp_f64_t *c)
     c->line_pos = 0;
     c->corr_n = 0.0;
     c->slk_held = 0;
+    c->slk_dir = 1;
+    c->slk_min = 0.0;
+    c->slk_k = 0.0;
     c->dz_fresh = 1;
     c->brk_dir = 0;
     c->brk_y = 0.0;
@@ -222,6 +225,12 @@ void comp_f64_set_correction(comp_f64_t *c, double corr_n)
 
 void comp_f64_hold_slack(comp_f64_t *c, int32_t held)
 {
+    if (c->slk_held != (held != 0)) { /* a change: the turn starts again at the next unloading
+                                         branch (comp.c) */
+        c->slk_dir = 1;
+        c->slk_min = 0.0;
+        c->slk_k = 0.0;
+    }
     c->slk_held = (held != 0);
 }
 
@@ -383,6 +392,36 @@ double comp_step_f64(comp_f64_t *c, double t_ref_n)
     }
     if (c->slk_held == 0 && tc > 0.0 && tc < cfg->slack_tension_n) {
         tc = sqrt(tc * cfg->slack_tension_n); /* the slack's root (comp.h), in [T_c1, S] */
+    }
+    if (c->slk_held == 0 && cfg->slack_tension_n > 0.0) {
+        /* The slack's turn (comp.h, comp.c slack_turn). */
+        const double s_n = cfg->slack_tension_n;
+        if (c->dir < 0) {
+            if (c->slk_dir > 0) {
+                c->slk_min = 0.0;
+                c->slk_k = 0.0;
+            }
+            c->slk_dir = -1;
+            if (tc > 0.0 && tc < s_n && t_eff > 0.0 && (c->slk_min == 0.0 || tc <= c->slk_min)) {
+                c->slk_min = tc;
+                c->slk_eff = t_eff;
+            }
+        } else {
+            if (c->slk_dir < 0) {
+                c->slk_dir = 1;
+                c->slk_k = (c->slk_min > 0.0 && c->slk_min < 255.0 * c->slk_eff)
+                               ? c->slk_min / c->slk_eff
+                               : 0.0;
+            }
+            if (c->slk_k != 0.0) {
+                double cap = t_eff * c->slk_k;
+                if (t_eff > 0.0 && cap < s_n) {
+                    tc = fmin(tc, cap);
+                } else {
+                    c->slk_k = 0.0;
+                }
+            }
+        }
     }
     return tc;
 }

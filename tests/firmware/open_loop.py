@@ -85,3 +85,30 @@ def refusal_codes(params) -> tuple[int, int]:
     with pytest.raises(fw.FirmwareConfigError) as twin:
         fw.CompensatorF64(params)
     return fixed.value.code, twin.value.code
+
+
+def slack_turn_bound(
+    q, words: np.ndarray, fixed: np.ndarray, twin: np.ndarray, tc1: np.ndarray, bound: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """The fixed point's bound against the twin where the slack's turn caps T_c (comp.h). `q`
+    the quantized parameters, `fixed` and `twin` the two T_c, `tc1` the twin's T_c without the
+    slack (the root's argument), `bound` the documented bound at each step.
+
+    The cap is T_eff times the ratio at the unloading branch's least T_c below S, whose fixed and
+    twin values differ by that step's bound: where the cap is in force the bound grows by T_c
+    times the largest relative bound of a rooted step, plus the ratio's 2^-16 of T_eff and
+    1/2 LSB. The turn ends where its cap reaches S and T_c steps up to the law's, and the twins
+    may end it a step apart: one still capped just below S, the other at or above it. Returns
+    the bound, the mask of such edge steps (left out of the comparison) and the number of turns
+    (the edge steps may be at most as many)."""
+    s_n = q.slack_tension_n
+    rooted = (tc1 > 0) & (tc1 < s_n)
+    root = np.where(rooted, np.sqrt(np.maximum(tc1, 0.0) * s_n), tc1)
+    turned = twin < root - 1e-9
+    rel = float(np.max(bound[rooted & ~turned] / root[rooted & ~turned]))
+    t_eff = np.abs(words * LSB - q.offset_n)
+    bound = np.where(turned, bound + rel * twin + t_eff * 2.0**-16 + LSB / 2, bound)
+    low, high = np.minimum(fixed, twin), np.maximum(fixed, twin)
+    edge = (low > s_n * (1.0 - rel) - 2 * LSB) & (low < s_n) & (high >= s_n)
+    turns = int(np.sum(np.diff(turned.astype(int)) == 1)) + int(turned[0])
+    return bound, edge, turned, turns

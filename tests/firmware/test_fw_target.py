@@ -62,8 +62,9 @@ def test_fw_target_size_report_printed_and_written(target_build):
     # compiled apart from the sharp law's so that the usual step keeps its instruction budget;
     # 17.9 KiB with the breakaway term's step beside them (one copy, with or without a spread);
     # 18.9 KiB with the slack's root in that copy, out of line (the sharp law's callgrind count);
-    # 19.7 KiB (20142 bytes, from 19466) with the viscous term in that copy and the tick rate.
-    assert 1000 < text_bytes < 20480, total
+    # 19.7 KiB (20142 bytes, from 19466) with the viscous term in that copy and the tick rate;
+    # 20.0 KiB (20490 bytes) with the slack's turn.
+    assert 1000 < text_bytes < 21 * 1024, total
 
 
 def test_fw_float_probe_is_caught(tmp_path, target_build):

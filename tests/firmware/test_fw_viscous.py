@@ -16,6 +16,7 @@ from open_loop import (
     preview_open_loop_pct,
     reference,
     refusal_codes,
+    slack_turn_bound,
     twin_cases,
 )
 
@@ -91,8 +92,18 @@ def test_viscous_fixed_matches_double_twin(name):
         without = fw.CompensatorF64(plain.quantized()).run(words * LSB)
         assert np.sum(np.abs(twin - without) > 8 * LSB) > 100, f"{name}, {label}: no effect"
         tc1 = np.maximum(without, LSB)  # the slack's bound is taken at T_c without the root
-        bound = params.error_bound_n(tc1 if params.slack_tension_n > 0 else None)
-        worst = float(np.max(np.abs(fixed - twin) - bound))
+        bound = np.broadcast_to(
+            params.error_bound_n(tc1 if params.slack_tension_n > 0 else None), fixed.shape
+        )
+        edge = np.zeros(len(words), dtype=bool)
+        if params.slack_tension_n > 0:  # the slack's turn (comp.h)
+            no_slack = fw.CompensatorParams(**{**params.__dict__, "slack_tension_n": 0.0})
+            plain_tc = fw.CompensatorF64(no_slack.quantized()).run(words * LSB)
+            bound, edge, _, turns = slack_turn_bound(
+                params.quantized(), words, fixed, twin, plain_tc, bound
+            )
+            assert np.sum(edge) <= turns, (name, label, int(np.sum(edge)), turns)
+        worst = float(np.max(np.abs(fixed - twin)[~edge] - bound[~edge]))
         assert worst <= 0.0, f"{name}, {label}: {worst:.5f} N beyond the bound"
 
 
