@@ -51,6 +51,8 @@ module bowden_core_mc #(
     parameter ADDR_W = 8,                         // byte address width of one channel's bank
     parameter RD_STAGES = 3,                      // register read-back clocks: 3 or 1
     parameter CFG_RAM = 0,                        // 1: configuration words in a block RAM
+    parameter SEQ = 0,                            // CFG_RAM 1: 1 the loops on the sequenced
+                                                  // datapath (tension_loop_seq), not the pipeline
     parameter CH_W = (N > 1) ? $clog2(N) : 1,     // bank select bits (derived: do not set)
     parameter BUS_W = ADDR_W + ((N > 1) ? CH_W : 0)  // bus address width (derived: do not set)
 ) (
@@ -266,8 +268,94 @@ wire [N*16-1:0] l_oc_timeout, l_uff;
 wire [N*15-1:0] l_i_limit, l_slew;
 wire [N*24-1:0] l_adc_offset, l_adc_min, l_adc_max;
 
+// SEQ 1: a word of 32 bits a field (bank k's field f at 16 k + f; tension_loop_seq reads a
+// field at a time), 2 block RAMs for up to 8 banks. The banks' read-back takes the read field's
+// word in every field's place of their configuration word (a read addresses one field).
+wire [3:0]  cfg_rd_field;
+wire [31:0] cfg_word;
+function [4:0] cfg_index;  // {is a configuration word, its field}: TC 0 .. OC_TIMEOUT 12, TC_MIN 13, UFF 14
+    input [5:0] a;  // the word's address (bits 7:2: a byte write's low bits are its lane)
+    begin
+        case ({a, 2'b00})
+            8'h10: cfg_index = 5'h10; 8'h14: cfg_index = 5'h11; 8'h18: cfg_index = 5'h12;
+            8'h1c: cfg_index = 5'h13; 8'h20: cfg_index = 5'h14; 8'h24: cfg_index = 5'h15;
+            8'h28: cfg_index = 5'h16; 8'h2c: cfg_index = 5'h17; 8'h30: cfg_index = 5'h18;
+            8'h34: cfg_index = 5'h19; 8'h38: cfg_index = 5'h1a; 8'h3c: cfg_index = 5'h1b;
+            8'h40: cfg_index = 5'h1c; 8'h58: cfg_index = 5'h1d; 8'h88: cfg_index = 5'h1e;
+            default: cfg_index = 5'h00;
+        endcase
+    end
+endfunction
+// Reset values and widths by field (the register map's).
+function [23:0] cfg_reset;
+    input [3:0] f;
+    begin
+        case (f)
+            4'd1: cfg_reset = 24'd721;      4'd2: cfg_reset = 24'd819;
+            4'd3: cfg_reset = 24'd262;      4'd4: cfg_reset = 24'd16384;
+            4'd5: cfg_reset = 24'd128;      4'd6: cfg_reset = 24'd1000;
+            4'd8: cfg_reset = 24'd2048;     4'd9: cfg_reset = 24'h800001;
+            4'd10: cfg_reset = 24'h7FFFFE; 4'd11: cfg_reset = 24'd10;
+            4'd12: cfg_reset = 24'd5000;
+            default: cfg_reset = 24'd0;
+        endcase
+    end
+endfunction
+function [23:0] cfg_mask;
+    input [3:0] f;
+    begin
+        case (f)
+            4'd4, 4'd5: cfg_mask = 24'h007FFF;
+            4'd7, 4'd9, 4'd10: cfg_mask = 24'hFFFFFF;
+            default: cfg_mask = 24'h00FFFF;
+        endcase
+    end
+endfunction
+
 generate
-    if (CFG_RAM != 0) begin : g_cfg_ram
+    if (CFG_RAM != 0 && SEQ != 0) begin : g_cfg_seq
+        localparam FA_W = CH_W + 4;
+        (* ram_style = "block", no_rw_check *)
+        reg [23:0] mem [0:(1 << FA_W) - 1];  // no field is wider than 24 bits
+        reg [23:0] q_reg;
+        reg            init_reg;
+        reg [FA_W-1:0] init_addr_reg;
+        integer ii;
+        initial begin
+            for (ii = 0; ii < (1 << FA_W); ii = ii + 1) mem[ii] = cfg_reset(ii[3:0]);
+        end
+        always @(posedge clk) begin
+            if (init_reg) begin
+                init_addr_reg <= init_addr_reg + 1'b1;
+                if (&init_addr_reg) init_reg <= 1'b0;
+            end
+            if (rst) begin
+                init_reg <= 1'b1;
+                init_addr_reg <= {FA_W{1'b0}};
+            end
+        end
+        assign cfg_init = init_reg || rst;
+        wire [4:0]      wi = cfg_index(reg_wr_addr[7:2]);
+        wire [4:0]      ri = cfg_index(reg_rd_addr[7:2]);
+        wire [23:0]     wm = cfg_mask(wi[3:0]) & {{8{reg_wr_strb[2]}}, {8{reg_wr_strb[1]}},
+                                                  {8{reg_wr_strb[0]}}};
+        wire            w_en = init_reg || (reg_wr_en && wi[4]);
+        wire [FA_W-1:0] w_addr = init_reg ? init_addr_reg : {wr_bank, wi[3:0]};
+        wire [23:0]     w_mask = init_reg ? 24'hFFFFFF : wm;
+        wire [23:0]     w_data = init_reg ? cfg_reset(init_addr_reg[3:0]) : reg_wr_data[23:0];
+        wire [FA_W-1:0] r_addr = cfg_rd ? {cfg_rd_ch, cfg_rd_field} : {rd_bank, ri[3:0]};
+        integer bi;
+        always @(posedge clk) begin
+            for (bi = 0; bi < 24; bi = bi + 1)
+                if (w_en && w_mask[bi]) mem[w_addr][bi] <= w_data[bi];
+            if (cfg_rd || reg_rd_en) q_reg <= mem[r_addr];
+        end
+        assign cfg_word = {8'd0, q_reg};
+        assign cfg_q = {q_reg[15:0], q_reg[15:0], q_reg[15:0], q_reg[15:0], q_reg[23:0],
+                        q_reg[23:0], q_reg[15:0], q_reg[23:0], q_reg[15:0], q_reg[14:0],
+                        q_reg[14:0], q_reg[15:0], q_reg[15:0], q_reg[15:0], q_reg[15:0]};
+        wire unused_seq_cfg = &{1'b0, cfg_wr_en, cfg_wr_data, ri[4], reg_wr_strb[3]};
+    end else if (CFG_RAM != 0) begin : g_cfg_ram
         // Bit enables of the write: the written bank's (the others' are 0); the data is the
         // bus's, the same in every bank.
         reg [CFG_W-1:0] we;
@@ -278,14 +366,17 @@ generate
         end
         wire [CFG_W-1:0] wd = cfg_wr_data[0 +: CFG_W];
         wire unused_wd = &{1'b0, cfg_wr_data};
+        assign cfg_word = 32'd0;
+        wire unused_seq_rd = &{1'b0, cfg_rd_field};
         bowden_regs_cfg_ram #(.WORDS(N), .AW(CH_W)) cfg_mem (
             .clk(clk), .rst(rst), .init_busy(cfg_init), .wr_en(we), .wr_addr(wr_bank), .wr_data(wd),
             .rd_en(cfg_rd || reg_rd_en), .rd_addr(cfg_rd ? cfg_rd_ch : rd_bank), .rd_data(cfg_q)
         );
     end else begin : g_cfg_regs
         assign cfg_q = {CFG_W{1'b0}};
+        assign cfg_word = 32'd0;
         assign cfg_init = 1'b0;
-        wire unused_cfg = &{1'b0, cfg_wr_en, cfg_wr_data, cfg_rd, cfg_rd_ch};
+        wire unused_cfg = &{1'b0, cfg_wr_en, cfg_wr_data, cfg_rd, cfg_rd_ch, cfg_rd_field};
     end
 endgenerate
 
@@ -349,8 +440,34 @@ endgenerate
 // CFG_RAM 1 (the UP5K): the datapath also keeps no copy of a channel's state word and events
 // (LIVE_STATE); a channel's T_in and FAULT then change inside its slot, when the bus takes no
 // read (cfg_rd_busy).
-tension_loop_mc #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP), .WDT_RAMP_STEP(WDT_RAMP_STEP),
-                  .CFG_RAM(CFG_RAM), .LIVE_STATE(CFG_RAM)) loop (
+generate
+    if (SEQ != 0) begin : g_seq
+        tension_loop_seq #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP),
+                           .WDT_RAMP_STEP(WDT_RAMP_STEP)) loop (
+    .clk(clk), .rst(rst),
+    .tick(tick_reg),
+    .adc_valid(adc_valid), .adc_data(t_in_codes),
+    .enable(ctrl_enable), .slew_en(ctrl_slew_en), .integ_reset(ctrl_integ_reset),
+    .fault_clear(ctrl_fault_clear), .tc_wr(tc_wr),
+    .tc(l_tc), .tc_min(l_tc_min), .kff(l_kff), .uff(l_uff), .kp(l_kp), .ki_ts(l_ki_ts),
+    .i_limit(l_i_limit), .slew(l_slew), .wdt_timeout(l_wdt_timeout),
+    .adc_offset(l_adc_offset), .adc_gain(l_adc_gain), .adc_min(l_adc_min),
+    .adc_max(l_adc_max), .adc_stale(l_adc_stale), .oc_timeout(l_oc_timeout),
+    .cfg_busy(cfg_busy), .cfg_rd(cfg_rd), .cfg_rd_ch(cfg_rd_ch), .cfg_rd_busy(cfg_rd_busy),
+    .cfg_rd_field(cfg_rd_field), .cfg_word(cfg_word),
+    .u(u), .out_en(out_en), .out_valid(out_valid),
+    .saturated(saturated), .wdt_ramp(wdt_ramp), .grp_stop(grp_stop), .faults(faults),
+    .t_in(t_in), .integ(integ), .tc_eff(tc_eff), .sample_count(sample_count)
+);
+
+`ifdef FORMAL
+        assign f_loop_ctl = 57'd0;
+`endif
+    end else begin : g_pipe
+        assign cfg_rd_field = 4'd0;
+        wire unused_word = &{1'b0, cfg_word};
+        tension_loop_mc #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP), .WDT_RAMP_STEP(WDT_RAMP_STEP),
+                          .CFG_RAM(CFG_RAM), .LIVE_STATE(CFG_RAM)) loop (
     .clk(clk), .rst(rst),
     .tick(tick_reg),
     .adc_valid(adc_valid), .adc_data(t_in_codes),
@@ -369,6 +486,9 @@ tension_loop_mc #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP), .WDT_RAMP_STEP(WDT_RA
     .f_chan_state(), .f_chan_tick(), .f_ctl_state(f_loop_ctl), .f_pipe_state()
 `endif
 );
+
+    end
+endgenerate
 
 wire unused_grp_stop = &{1'b0, grp_stop};
 

@@ -48,6 +48,8 @@ module bowden_soc #(
     parameter MEM_SPRAM = 0,          // 1: ROM and RAM in the UP5K's SPRAMs (16384 words each)
     parameter CFG_RAM = 0,            // CHANNELS > 1: 1 the banks' configuration words in a
                                       // block RAM (bowden_core_mc's CFG_RAM; the UP5K's top)
+    parameter SEQ = 0,                // CFG_RAM 1: 1 the loops on the sequenced datapath
+                                      // (bowden_core_mc's SEQ)
     parameter BOOT_FLASH = 0,         // 1: the CPU starts in the boot loader (BOOT_INIT), which copies
                                       // the image from the flash into the (writable) ROM
     parameter BOOT_INIT = "",         // $readmemh file of the boot loader (firmware/soc/boot.S)
@@ -399,7 +401,7 @@ generate
         bowden_core_mc #(
             .N(CHANNELS), .GROUP_W(GROUP_W), .GROUP(pair_groups(CHANNELS)),
             .CLK_HZ(CLK_HZ), .SAMPLE_HZ(SAMPLE_HZ), .PWM_HZ(PWM_HZ), .ADDR_W(ADDR_W),
-            .RD_STAGES(1), .CFG_RAM(CFG_RAM)
+            .RD_STAGES(1), .CFG_RAM(CFG_RAM), .SEQ(SEQ)
         ) core (
             .clk(clk), .rst(rst),
             .s_axil_awaddr(axi_awaddr[BUS_W-1:0]), .s_axil_awprot(axi_awprot),

@@ -28,28 +28,32 @@ from hdl_sim import SIMULATORS, replay_write, rtl, run_cocotb, signed
 
 from cosim.parts import regmap
 from cosim.parts.rtl_model import TensionLoopMcModel, adc_code_from_tension
+from hdl.seq import program as seq_program
 
 BANK_ADDR_W = regmap.BANK_STRIDE.bit_length() - 1  # bowden_core_mc's ADDR_W (generated map)
 RESP_OKAY = 0
 GROUP_W = 4
-# name: (the channels' groups, CFG_RAM, RD_STAGES)
+# name: (the channels' groups, CFG_RAM, RD_STAGES, SEQ)
 CONFIGS = {
-    "n2": ([0, 0], 0, 3),
-    "n4": ([0, 0, 1, 1], 0, 3),
-    "n2_cfgram": ([0, 0], 1, 1),  # the UP5K SoC's
-    "n4_cfgram": ([0, 0, 1, 1], 1, 3),
+    "n2": ([0, 0], 0, 3, 0),
+    "n4": ([0, 0, 1, 1], 0, 3, 0),
+    "n2_cfgram": ([0, 0], 1, 1, 0),  # the UP5K SoC's
+    "n4_cfgram": ([0, 0, 1, 1], 1, 3, 0),
+    "n2_seq": ([0, 0], 1, 1, 1),  # the sequenced datapath (tension_loop_seq)
 }
-GROUPS, CFG_RAM, _ = CONFIGS[os.environ.get("BOWDEN_CORE_MC_CONFIG", "n2")]
+GROUPS, CFG_RAM, _, SEQ = CONFIGS[os.environ.get("BOWDEN_CORE_MC_CONFIG", "n2")]
 N = len(GROUPS)
 
 
-def clks_per_sample(n: int, cfg_ram: int) -> int:
+def clks_per_sample(n: int, cfg_ram: int, seq: int = 0) -> int:
     """The fewest clocks a sample: the loops' 1 + 15 N, and with CFG_RAM a clock for the bus's
-    reads (they wait while the loops read the memory)."""
+    reads (they wait while the loops read the memory); with SEQ the program's clocks and one."""
+    if seq:
+        return seq_program.assemble().latency(n) + 1
     return 1 + 15 * n + (1 if cfg_ram else 0)
 
 
-CLKS_PER_SAMPLE = clks_per_sample(N, CFG_RAM)
+CLKS_PER_SAMPLE = clks_per_sample(N, CFG_RAM, SEQ)
 
 
 def bank_addr(ch: int, name: str) -> int:
@@ -223,7 +227,7 @@ async def loops_through_axi_against_model(dut):
 @pytest.mark.parametrize("simulator", SIMULATORS[:1])
 def test_bowden_core_mc(simulator, config):
     """Build bowden_core_mc (N from the config) and run the coroutines above."""
-    groups, cfg_ram, rd_stages = CONFIGS[config]
+    groups, cfg_ram, rd_stages, seq = CONFIGS[config]
     n = len(groups)
     group = sum(g << (GROUP_W * k) for k, g in enumerate(groups))
     params = {
@@ -231,9 +235,10 @@ def test_bowden_core_mc(simulator, config):
         # a sized literal: a plain integer is 32 bits, wider than N*GROUP_W for N < 8
         "GROUP": f"{n * GROUP_W}'h{group:x}",
         "CLK_HZ": 48_000_000,
-        "CLKS_PER_SAMPLE": clks_per_sample(n, cfg_ram),
+        "CLKS_PER_SAMPLE": clks_per_sample(n, cfg_ram, seq),
         "CFG_RAM": cfg_ram,
         "RD_STAGES": rd_stages,
+        "SEQ": seq,
     }
     run_cocotb(
         "bowden_core_mc",
@@ -244,6 +249,8 @@ def test_bowden_core_mc(simulator, config):
             "bowden_regs",
             "tension_loop_mc",
             "tension_loop_dp",
+            "tension_loop_seq",
+            "tension_loop_seq_rom",
             "pwm_escon",
             "mul_s16",
         ),
