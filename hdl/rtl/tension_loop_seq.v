@@ -87,7 +87,7 @@ endgenerate
 
 // Ops (0: no operation).
 localparam [3:0] OP_LD = 4'd1, OP_ADD = 4'd2, OP_ADC = 4'd3, OP_SUB = 4'd4,
-                 OP_SBC = 4'd5, OP_AND = 4'd6, OP_ST = 4'd8, OP_MUL = 4'd9,
+                 OP_SBC = 4'd5, OP_AND = 4'd6, OP_HOLD = 4'd7, OP_ST = 4'd8, OP_MUL = 4'd9,
                  OP_SHR = 4'd10, OP_SETF = 4'd11, OP_OUT = 4'd12, OP_END = 4'd13;
 // B sources.
 localparam [2:0] B_RAM = 3'd0, B_IMM = 3'd1, B_PLO = 3'd2, B_PHI = 3'd3, B_CFG = 3'd4,
@@ -147,6 +147,7 @@ end
 // address of the instruction fetched this clock (ROM output next clock).
 localparam PC_W = 9;
 reg             run_reg, phase_reg, busy_reg, out_valid_reg;
+reg             hold_reg;              // HOLD: the bus's reads wait
 reg  [CH_W-1:0] ch_reg;
 localparam integer N_LAST = N - 1;
 localparam [CH_W-1:0] CH_LAST = N_LAST[CH_W-1:0];
@@ -180,6 +181,7 @@ always @(posedge clk) begin
     sample_cnt_reg <= tick ? sample_cnt_reg + 32'd1 : sample_cnt_reg;
     out_valid_reg <= 1'b0;
     iv_reg <= run_reg && !is_end;
+    if (ex && op == OP_HOLD) hold_reg <= imm[0];
     if (tick) begin
         run_reg <= 1'b1;
         phase_reg <= 1'b0;
@@ -211,6 +213,7 @@ always @(posedge clk) begin
         ch_reg <= {CH_W{1'b0}};
         pc_reg <= {PC_W{1'b0}};
         iv_reg <= 1'b0;
+        hold_reg <= 1'b0;
         sample_cnt_reg <= 32'd0;
         out_valid_reg <= 1'b0;
     end
@@ -377,11 +380,12 @@ generate
 endgenerate
 
 assign cfg_busy = tick || busy_reg;
-// Phase 0 reads the configuration memory in every clock (the bus's reads wait).
+// Phase 0 reads the configuration memory in every clock (the bus's reads wait); HOLD makes them
+// wait while a channel's outputs are written, so a read sees them all old or all new.
 assign cfg_rd = run_reg && !phase_reg;
 assign cfg_rd_ch = ch_reg;
 assign cfg_rd_field = pre[3:0];
-assign cfg_rd_busy = tick || (run_reg && !phase_reg);
+assign cfg_rd_busy = tick || (run_reg && !phase_reg) || hold_reg;
 
 assign u = u_o;
 assign out_en = out_en_o;

@@ -31,21 +31,7 @@ ROM_FILE = Path(__file__).resolve().parents[1] / "rtl" / "tension_loop_seq_rom.v
 ROM_WORDS = 512
 
 # Ops.
-NOP, LD, ADD, ADC, SUB, SBC, AND, ST, MUL, SHR, SETF, OUT, END = (
-    0,
-    1,
-    2,
-    3,
-    4,
-    5,
-    6,
-    8,
-    9,
-    10,
-    11,
-    12,
-    13,
-)
+NOP, LD, ADD, ADC, SUB, SBC, AND, HOLD, ST, MUL, SHR, SETF, OUT, END = range(14)
 # B sources.
 B_RAM, B_IMM, B_PLO, B_PHI, B_CFG, B_EV, B_SGN, B_STEP = range(8)
 # SETF conditions (imm[2:0]); imm[3] inverts.
@@ -179,6 +165,10 @@ class Asm:
         imm = cond | (0x8 if inv else 0)
         self.emit(Instr(SETF, 0, imm, flag, p))
 
+    def hold(self, on: bool) -> None:
+        """The bus's reads wait (on) or no longer (off)."""
+        self.emit(Instr(HOLD, 0, int(on)))
+
     def end(self) -> None:
         self.emit(Instr(END))
         self.emit(Instr(NOP))  # fetched after END, never executed
@@ -282,7 +272,8 @@ def _t() -> int:
     T_UR,
     T_FB,
     T_X,
-) = [_t() for _ in range(59)]
+    T_STAT,
+) = [_t() for _ in range(60)]
 
 COPY = [
     (F_TC, C_TC),
@@ -393,7 +384,6 @@ def phase1(a: Asm) -> None:
     a.sub(T_X)
     a.add(T_FB)
     a.st(S_FAULT)
-    a.out(O_FAULT)
     # Mode: run F7, ramp F5 (group stop F6).
     a.bitflag(F6, EV_GRP)
     a.ld(S_FAULT)
@@ -515,7 +505,6 @@ def phase1(a: Asm) -> None:
     a.ld(("imm", 0x7FFF), p=(F1, T))
     a.ld(("imm", 0x8000), p=(F3, T))
     a.st(T_TIN)
-    a.out(O_TIN)
     # e = sat16(T_c' - T_in).
     a.ld(T_TCE)
     a.sub(T_TIN)
@@ -712,36 +701,47 @@ def phase1(a: Asm) -> None:
     a.ld(S_U, p=(F3, T))
     a.add(("step",), p=(F3, T))
     a.st(T_UR)
-    # The sample's results: run F7, else ramp F5 (drive on while the ramp's u is not 0, F1).
+    # The sample's results: run F7, else ramp F5 (drive on while the ramp's u is not 0, F1),
+    # into the channel's state words, then into its outputs in one block under HOLD (the bus
+    # takes no read there, so a read sees a channel's outputs all before or all after it).
     a.ld(("imm", 0))
     a.ld(T_UR, p=(F5, T))
     a.ld(T_US, p=(F7, T))
     a.st(S_U)
-    a.out(O_U)
     a.setf(F1, C_ZERO, inv=True, p=(F3, T))
     a.setf(F1, C_ZERO, p=(F5, N_))
     a.ld(("imm", 0))
     a.ld(("imm", 5), p=(F1, T))
     a.ld(T_STR, p=(F7, T))
-    a.out(O_STATUS)
+    a.st(T_STAT)
     a.ld(("imm", 0))
     a.ld(T_SATW, p=(F7, T))
     a.st(S_SAT)
     a.ld(("imm", 0))
     a.ld(T_INL, p=(F7, T))
     a.st(S_IL)
-    a.out(O_IL)
     a.ld(("imm", 0))
     a.ld(T_INH, p=(F7, T))
     a.st(S_IH)
-    a.out(O_IH)
     a.ld(("imm", 0))
     a.ld(T_TCE, p=(F7, T))
     a.st(S_TCE)
-    a.out(O_TCE)
     a.ld(("imm", 0))
     a.ld(T_OCR, p=(F7, T))
     a.st(S_OC)
+    a.hold(True)
+    for word, fld in [
+        (T_TIN, O_TIN),
+        (S_FAULT, O_FAULT),
+        (S_U, O_U),
+        (T_STAT, O_STATUS),
+        (S_IL, O_IL),
+        (S_IH, O_IH),
+        (S_TCE, O_TCE),
+    ]:
+        a.ld(word)
+        a.out(fld)
+    a.hold(False)
     a.end()
 
 
@@ -761,6 +761,18 @@ class Program:
         return 1 + n * (self.len0 + self.len1)
 
 
+def _check_shared(run: list[Instr]) -> None:
+    """Every shared word a run reads it has written before, unpredicated: so no channel's run
+    reads what another channel's left there (the channels meet only in their own words)."""
+    written: set[int] = set()
+    for k, ins in enumerate(run):
+        r = ins.reads_ram()
+        if r is not None and r & SHARED and r not in written:
+            raise SystemExit(f"instruction {k} reads shared word {r:#x} before the run writes it")
+        if ins.op == ST and ins.imm & SHARED and ins.pred is None:
+            written.add(ins.imm & 0xBF)
+
+
 def assemble() -> Program:
     a0 = Asm()
     a0.emit(Instr(NOP))  # the entry: reads for the first instruction
@@ -770,6 +782,8 @@ def assemble() -> Program:
     phase1(a1)
     entry1 = len(a0.code)
     code = a0.code + a1.code
+    for run in (a0.code, a1.code):
+        _check_shared(run)
     # ROM word k: instruction k and, in bits 39:32, what instruction k + 1 reads.
     words = [
         code[k].word() | ((code[k + 1].pre() if k + 1 < len(code) else 0) << 32)
