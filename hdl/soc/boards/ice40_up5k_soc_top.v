@@ -11,7 +11,8 @@
  * initialises); the settings live at 0x100000.
  * UART on the FTDI's second channel (RX pin 6, TX pin 9), the ADS131M0x on PMOD1B (an ADS131M04
  * for the two cables of an antagonistic pair), the ESCONs on PMOD2 (cable 0 on its pins 1-2,
- * cable 1 on 3-4).
+ * cable 1 on 3-4). From two cables on, the banks' configuration in block RAM (CFG_RAM) and the
+ * loops on the sequenced datapath (SEQ: tension_loop_seq), which fit two cables in the UP5K.
  */
 module ice40_up5k_soc_top #(
     parameter DRIVES = 2,             // the cables ice40_up5k_soc.pcf has pins for (do not set)
@@ -81,7 +82,7 @@ endgenerate
 
 bowden_soc #(
     .CHANNELS(CHANNELS), .CLK_HZ(CLK_HZ), .ROM_WORDS(16384), .RAM_WORDS(16384), .MEM_SPRAM(1),
-    .CFG_RAM(1),
+    .CFG_RAM(1), .SEQ(1),
     .BOOT_FLASH(1), .BOOT_INIT(BOOT_INIT), .CPU_FAST(0), .CPU_MUL(1), .FLASH_HALF_CLKS(1), .ADC_SCLK_HALF_CLKS(3),
     .ADC_WAIT_CLKS(8192)
 ) soc (

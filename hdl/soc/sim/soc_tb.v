@@ -14,6 +14,7 @@ module soc_tb #(
     parameter CPU_MUL = 2,
     parameter MEM_SPRAM = 0,
     parameter CFG_RAM = 0,
+    parameter SEQ = 0,
     parameter BOOT_FLASH = 0,
     parameter BOOT_INIT = "",
     parameter ROM_WORDS = 16384,
@@ -52,7 +53,7 @@ assign drive_enable_all = enable_all;
 bowden_soc #(
     .CHANNELS(CHANNELS), .CLK_HZ(CLK_HZ), .ROM_INIT(ROM_INIT), .CPU_FAST(CPU_FAST), .CPU_MUL(CPU_MUL), .ADC_WAIT_CLKS(ADC_WAIT_CLKS),
     .MEM_SPRAM(MEM_SPRAM), .BOOT_FLASH(BOOT_FLASH), .ROM_WORDS(ROM_WORDS), .RAM_WORDS(RAM_WORDS),
-    .BOOT_INIT(BOOT_INIT), .CFG_RAM(CFG_RAM)
+    .BOOT_INIT(BOOT_INIT), .CFG_RAM(CFG_RAM), .SEQ(SEQ)
 ) soc (
     .clk(clk), .rst(rst), .uart_rx(uart_rx), .uart_tx(uart_tx),
     .flash_sck(flash_sck), .flash_cs_n(flash_cs_n), .flash_mosi(flash_mosi),
