@@ -107,6 +107,30 @@ class McCoreTb:
                         f"{(want.u, want.out_en)}"
                     )
                     assert bool(fault >> k & 1) == (want.faults != 0), f"channel {k}: fault"
+                # the loop's read-backs and status, as the banks take them
+                t_in, integ, tc_eff = int(d.t_in.value), int(d.integ.value), int(d.tc_eff.value)
+                sat, ramp, faults = (
+                    int(d.saturated.value),
+                    int(d.wdt_ramp.value),
+                    int(d.faults.value),
+                )
+                for k, want in enumerate(exp):
+                    got = (
+                        signed((t_in >> (16 * k)) & 0xFFFF, 16),
+                        signed((integ >> (32 * k)) & 0xFFFFFFFF, 32),
+                        signed((tc_eff >> (16 * k)) & 0xFFFF, 16),
+                        bool(sat >> k & 1),
+                        bool(ramp >> k & 1),
+                        (faults >> (4 * k)) & 0xF,
+                    )
+                    assert got == (
+                        want.t_in,
+                        want.integ,
+                        want.tc_eff,
+                        want.saturated,
+                        want.wdt_ramp,
+                        want.faults,
+                    ), f"sample {want.sample_count} channel {k}: RTL {got} != model"
                 self.compared += 1
             if d.adc_valid.value:
                 word = int(d.adc_ch_data.value)
