@@ -134,3 +134,42 @@ def test_program_at_the_extremes() -> None:
 def test_rom_is_the_program() -> None:
     """hdl/rtl/tension_loop_seq_rom.v is what `python -m hdl.seq.program` writes now."""
     assert seq.main(["--check"]) == 0
+
+
+def test_counters_stop_at_their_top() -> None:
+    """The stale, watchdog and over-current counts near 0xFFFF (which 400 random samples never
+    reach): each stops there and a threshold of 0xFFFF still trips, as in the model. Channel 0
+    (no ADC samples, no TC write) trips ADC_STALE and WATCHDOG; channel 1, in a group of its
+    own and clipped every sample, OVERCURRENT."""
+    model = TensionLoopMcModel([0, 1])
+    prog = seq.assemble()
+    eng = seq.Engine(n=2, step=model.channels[0].wdt_ramp_step)
+    for k, ch in enumerate(model.channels):
+        ch.write("ADC_STALE", 0xFFFF if k == 0 else 0)
+        ch.write("WDT_TIMEOUT", 0xFFFF if k == 0 else 0)
+        ch.write("OC_TIMEOUT", 0xFFFF)
+        ch.write("I_LIMIT", 16)  # clipped every sample: the over-current count runs
+        ch.write("TC", 20 * 256)
+        ch.write("CTRL", regmap.CTRL_ENABLE)
+        ch.tc_written = False  # the TC write before the counts: no watchdog refresh
+        ch.stale_cnt = ch.wdt_cnt = ch.oc_cnt = 0xFFFB
+        for word in (seq.S_STALE, seq.S_WDT, seq.S_OC):
+            eng.sp[(k << 6) | word] = 0xFFFB
+    seen = [0, 0]
+    for _ in range(8):
+        ev = [
+            dict(raw=c.raw, enable=c.enable, slew_en=c.slew_en, fresh=c.fresh, tcw=c.tc_written,
+                 irst=c.integ_reset_pending, fclr=c.fault_clear_pending, grp=False)
+            for c in model.channels
+        ]  # fmt: skip
+        cfg = [dict(c.regs) for c in model.channels]
+        outs = model.tick()
+        seq.simulate_period(eng, prog, cfg, ev)
+        for k, o in enumerate(outs):
+            ch = model.channels[k]
+            words = [eng.sp[(k << 6) | w] for w in (seq.S_STALE, seq.S_WDT, seq.S_OC)]
+            assert words == [ch.stale_cnt, ch.wdt_cnt, ch.oc_cnt], (k, o.sample_count, words)
+            assert eng.outs[k][seq.O_FAULT] == o.faults, (k, o.sample_count)
+            assert seq._s16(eng.outs[k][seq.O_U]) == o.u, (k, o.sample_count)
+            seen[k] |= o.faults
+    assert seen == [regmap.FAULT_ADC_STALE | regmap.FAULT_WATCHDOG, regmap.FAULT_OVERCURRENT]
