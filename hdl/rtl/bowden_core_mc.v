@@ -35,6 +35,15 @@
  * clock. The memory holds the registers' reset values from the start (its initial contents, in
  * the bitstream) and after a reset (its N clocks after rst write them; the bus waits). Read-back
  * and write semantics are the registers'.
+ *
+ * SEQ 1 (with CFG_RAM 1, N <= 3: the UP5K SoC from two cables on): the loops run on
+ * tension_loop_seq, a microcoded engine (one adder, one DSP, a scratchpad in block RAM), instead
+ * of tension_loop_mc's pipeline, with the same outputs at cmd_valid; the configuration memory
+ * then holds a 24-bit word a field (bank k's field f at 16 k + f), which the engine copies at the
+ * start of a period and the banks read a field at a time. CLKS_PER_SAMPLE must exceed the
+ * program's clocks (hdl/seq/program.py prints them: 983 for two cables); writes wait from the
+ * tick to the end of the copies, reads while the engine reads the memory and while a channel's
+ * outputs are written. Not formally proven (the FORMAL block below covers SEQ 0).
  */
 module bowden_core_mc #(
     parameter N = 2,                              // cables (channels): 1, 2, 4 or 8
