@@ -41,7 +41,7 @@
  * of tension_loop_mc's pipeline, with the same outputs at cmd_valid; the configuration memory
  * then holds a 24-bit word a field (bank k's field f at 16 k + f), which the engine copies at the
  * start of a period and the banks read a field at a time. CLKS_PER_SAMPLE must exceed the
- * program's clocks (hdl/seq/program.py prints them: 983 for two cables); writes wait from the
+ * program's clocks (hdl/seq/program.py prints them); writes wait from the
  * tick to the end of the copies, reads while the engine reads the memory and while a channel's
  * outputs are written. Not formally proven (the FORMAL block below covers SEQ 0).
  */

@@ -173,3 +173,10 @@ def test_counters_stop_at_their_top() -> None:
             assert seq._s16(eng.outs[k][seq.O_U]) == o.u, (k, o.sample_count)
             seen[k] |= o.faults
     assert seen == [regmap.FAULT_ADC_STALE | regmap.FAULT_WATCHDOG, regmap.FAULT_OVERCURRENT]
+
+
+def test_the_schedule_hdl_readme_quotes() -> None:
+    """hdl/README.md ("The sequenced datapath") quotes the program's size and clocks."""
+    prog = seq.assemble()
+    assert (len(prog.words), prog.entry1, prog.len0, prog.len1) == (491, 41, 41, 450)
+    assert prog.latency(2) == 983 and prog.latency(3) == 1474
