@@ -18,10 +18,9 @@ from types import SimpleNamespace
 import pytest
 from identification_record import identification_record  # tests/bench
 
-from cosim.audit import core
+from cosim.audit import core, fit
 from cosim.audit.decision import RULE, BlockStats, Candidate, Round
 from cosim.audit.effects import BY_PARAM
-from cosim.audit import fit
 from cosim.audit.fit import SPREAD, fit_model
 from cosim.bench.rig import calibrate as cal
 
@@ -102,6 +101,7 @@ def test_a_passing_mu_is_fitted_again_with_a_slope_the_audit_saw(record):
         for c in cal.propose(_stand_in(data, cal.JOINT_MIN_PCT / 2), far, far["comp.phi_rad"])
     }
     assert "joint_with" not in weak["comp.mu"].stats
+
     # between mu(T) at the output's top (15 N) and at the mean of the record's inlet tensions
     # (about 8 N), and well off the plant's mu at zero tension (measured: 0.0732)
     def mu_at(t_n: float) -> float:
