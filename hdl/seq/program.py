@@ -158,6 +158,15 @@ class Asm:
     def st(self, addr: int, p=None) -> None:
         self.emit(Instr(ST, B_RAM, addr, 0, p))
 
+    def product(self, x, y, lo: int, hi: int) -> None:
+        """lo, hi = the low and high words of x * y (the multiplier's 32-bit product)."""
+        self.ld(x)
+        self.mul(y)
+        self.ld(("plo",))
+        self.st(lo)
+        self.ld(("phi",))
+        self.st(hi)
+
     def out(self, fld: int, p=None) -> None:
         self.emit(Instr(OUT, 0, 0, fld, p))
 
@@ -460,12 +469,7 @@ def phase1(a: Asm) -> None:
     a.ld(T_DL)
     a.and_(("imm", 0x1FF))
     a.st(T_LO)
-    a.ld(T_HI)
-    a.mul(C_GAIN)
-    a.ld(("plo",))
-    a.st(T_P1L)
-    a.ld(("phi",))
-    a.st(T_P1H)
+    a.product(T_HI, C_GAIN, T_P1L, T_P1H)
     a.ld(T_LO)
     a.mul(C_GAIN)
     a.ld(("plo",))
@@ -517,24 +521,9 @@ def phase1(a: Asm) -> None:
     a.ld(("imm", 0x8000), p=(F3, T))
     a.st(T_E)
     # Products.
-    a.ld(T_TCE)
-    a.mul(C_KFF)
-    a.ld(("plo",))
-    a.st(T_FFL)
-    a.ld(("phi",))
-    a.st(T_FFH)
-    a.ld(T_E)
-    a.mul(C_KP)
-    a.ld(("plo",))
-    a.st(T_PPL)
-    a.ld(("phi",))
-    a.st(T_PPH)
-    a.ld(T_E)
-    a.mul(C_KI)
-    a.ld(("plo",))
-    a.st(T_PIL)
-    a.ld(("phi",))
-    a.st(T_PIH)
+    a.product(T_TCE, C_KFF, T_FFL, T_FFH)
+    a.product(T_E, C_KP, T_PPL, T_PPH)
+    a.product(T_E, C_KI, T_PIL, T_PIH)
     # Windup (F1): clipped high and KI_TS*e > 0, or low and < 0.
     a.ld(S_SAT)
     a.and_(("imm", 1))
