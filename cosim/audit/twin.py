@@ -362,56 +362,7 @@ def _friction(
                         strand_ies[j] = 1.0 / strand_es[j]
             total = 0.0
             phi_s = phi if phi > 0.0 else 0.0
-            if slope != 0.0:
-                # every width follows the tension as the segments' do (strands_update of
-                # bowden_physics.c): the bounds from the whole bend's sloped capstan
-                for j in range(n_str + 1):
-                    klo, khi = _strand_bounds_sloped(
-                        tin, strand_e[j], mu_c * strand_sc[j], slope * strand_sc[j], phi_s
-                    )
-                    if static != 0.0 and j < n_str:
-                        slo, shi = _strand_bounds_sloped(
-                            tin,
-                            strand_es[j],
-                            (mu_c + static) * strand_sc[j],
-                            slope * strand_sc[j],
-                            phi_s,
-                        )
-                    else:
-                        slo = klo
-                        shi = khi
-                    lo = klo if direction[j] > 0.0 else slo
-                    hi = khi if direction[j] < 0.0 else shi
-                    held = strands[j]
-                    share = 1.0  # of the jump in this sample's output (smooth)
-                    if held < lo:
-                        if (
-                            smooth
-                            and static != 0.0
-                            and direction[j] <= 0.0
-                            and k > 0
-                            and lo - brk_lo[j] > 0.0
-                        ):
-                            share = min(1.0, (lo - held) / (lo - brk_lo[j]))
-                        strands[j] = klo
-                        direction[j] = 1.0
-                    elif held > hi:
-                        if (
-                            smooth
-                            and static != 0.0
-                            and direction[j] >= 0.0
-                            and k > 0
-                            and brk_hi[j] - hi > 0.0
-                        ):
-                            share = min(1.0, (held - hi) / (brk_hi[j] - hi))
-                        strands[j] = khi
-                        direction[j] = -1.0
-                    if smooth:
-                        brk_lo[j] = slo
-                        brk_hi[j] = shi
-                    if j < n_str:
-                        total += held + share * (strands[j] - held)
-            elif static == 0.0:
+            if static == 0.0 and slope == 0.0:
                 # no breakaway part: every strand slides at its kinetic bounds (the loop below
                 # with es = e, without its bookkeeping)
                 # (the way each slid is read only by the breakaway part: not kept here)
@@ -422,25 +373,47 @@ def _friction(
                     total += strands[j]
             else:
                 for j in range(n_str + 1):
-                    e = strand_e[j]
-                    es = strand_es[j]
-                    lo = tin * (strand_ie[j] if direction[j] > 0.0 else strand_ies[j])
-                    hi = tin * (e if direction[j] < 0.0 else es)
+                    # each strand's kinetic bounds (klo, khi) and breakaway bounds (slo, shi);
+                    # with a slope every width follows the tension as the segments' do
+                    # (strands_update of bowden_physics.c): the whole bend's sloped capstan
+                    if slope != 0.0:
+                        klo, khi = _strand_bounds_sloped(
+                            tin, strand_e[j], mu_c * strand_sc[j], slope * strand_sc[j], phi_s
+                        )
+                        if static != 0.0 and j < n_str:
+                            slo, shi = _strand_bounds_sloped(
+                                tin,
+                                strand_es[j],
+                                (mu_c + static) * strand_sc[j],
+                                slope * strand_sc[j],
+                                phi_s,
+                            )
+                        else:
+                            slo = klo
+                            shi = khi
+                    else:
+                        klo = tin * strand_ie[j]
+                        khi = tin * strand_e[j]
+                        slo = tin * strand_ies[j]
+                        shi = tin * strand_es[j]
+                    lo = klo if direction[j] > 0.0 else slo
+                    hi = khi if direction[j] < 0.0 else shi
                     held = strands[j]
-                    share = 1.0  # of the jump in this sample's output (smooth)
+                    share = 1.0  # of the jump in this sample's output (smooth, breakaway only)
+                    jumps = smooth and static != 0.0 and k > 0
                     if held < lo:
-                        if smooth and direction[j] <= 0.0 and k > 0 and lo - brk_lo[j] > 0.0:
+                        if jumps and direction[j] <= 0.0 and lo - brk_lo[j] > 0.0:
                             share = min(1.0, (lo - held) / (lo - brk_lo[j]))
-                        strands[j] = tin * strand_ie[j]
+                        strands[j] = klo
                         direction[j] = 1.0
                     elif held > hi:
-                        if smooth and direction[j] >= 0.0 and k > 0 and brk_hi[j] - hi > 0.0:
+                        if jumps and direction[j] >= 0.0 and brk_hi[j] - hi > 0.0:
                             share = min(1.0, (held - hi) / (brk_hi[j] - hi))
-                        strands[j] = tin * e
+                        strands[j] = khi
                         direction[j] = -1.0
                     if smooth:
-                        brk_lo[j] = tin * strand_ies[j]
-                        brk_hi[j] = tin * es
+                        brk_lo[j] = slo
+                        brk_hi[j] = shi
                     if j < n_str:
                         total += held + share * (strands[j] - held)
             if strands[n_str] > 0.0:
