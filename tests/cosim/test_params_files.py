@@ -30,7 +30,7 @@ def test_the_far_end_mode_is_the_measured_configuration():
     assert (c.est_enable, c.corr_enable, c.corr_rev_enable) == (0, 1, 1)
     assert (c.corr_ki_shift, c.corr_hold_ticks, c.corr_limit) == (6, 30, 0.5)
     assert (c.corr_rev_ki_shift, c.corr_rev_bin_shift, c.corr_rev_lead_ticks) == (4, 6, 0)
-    assert (c.corr_rev_leak_shift, c.corr_rev_limit_n) == (12, 2.0)
+    assert (c.corr_rev_leak_shift, c.corr_rev_limit_n) == (12, 0.5)
     assert cfg.controller.kv_a_s_per_n == 0.001
     nominal = load_params(None).compensator
     assert (c.mu, c.offset_n, c.mu_slope_per_n, c.dead_zone_spread, c.breakaway) == (
