@@ -5,7 +5,8 @@
 
 Writes build/bitstream/<board>/: the bitstream (ice40-up5k: bowden.bin; ecp5-25f: bowden.bit,
 the firmware image inside it), summary.json (LUTs, flip-flops, DSPs, block and single-port RAMs,
-Fmax, the target clock, every seed's Fmax, the image size) and, for the UP5K, the netlist as
+Fmax, the target clock, the clock the top runs at and Fmax's margin above it, every seed's Fmax,
+the cables, the image size) and, for the UP5K, the netlist as
 Verilog (netlist.v) for the gate-level simulation and the flash image to program beside the
 bitstream. Exits non-zero when timing is not met or a tool fails. Placement tries the seeds of
 hdl/synth/synth.py in order and stops at the first that meets the target, as `make synth`
@@ -55,6 +56,7 @@ class Board(synth.Target):
 
     image_in_bitstream: bool = True
     channels: int = 1  # cables (the top's CHANNELS, set by synthesize())
+    clock_mhz: float = 0.0  # the clock the top runs at (its CLK_HZ); target_mhz may be above it
 
 
 # Where each board's firmware image lives: in the ECP5's bitstream (block RAM it initialises), or
@@ -68,6 +70,7 @@ def board_of(b: table.Board) -> Board:
         **synth.Target.fields(b, b.soc),
         image_in_bitstream=IMAGE_IN_BITSTREAM[b.name],
         channels=b.soc.channels,
+        clock_mhz=b.soc.runs_mhz,
     )
 
 
@@ -202,6 +205,8 @@ def build(board: Board) -> dict:
     summary = synth.summary_of(board, use, pnr, yosys_s, input_hash(board))
     summary.update(
         channels=board.channels,
+        clock_mhz=board.clock_mhz,
+        clock_margin=round(pnr["fmax_mhz"] / board.clock_mhz - 1, 4),
         cpu=CPU,
         logic_cells=logic_cells(out),
         sprams=use["cells"].get("SB_SPRAM256KA", 0),
@@ -294,7 +299,9 @@ def main(argv: list[str] | None = None) -> int:
             f"{name}: {summary['luts']} LUTs ({100 * summary['lut_fraction']:.1f} %), "
             f"{summary['ffs']} FFs, {summary['dsps']} DSPs, {summary['brams']} BRAMs, "
             f"{summary['sprams']} SPRAMs, Fmax {summary['fmax_mhz']} MHz "
-            f"(target {summary['target_mhz']}, seed {summary['seed']})"
+            f"(target {summary['target_mhz']}, runs at {summary['clock_mhz']}, "
+            f"seed {summary['seed']}), {summary['channels']} cable"
+            f"{'s' if summary['channels'] > 1 else ''}"
             f"{'' if fresh else ' [up to date]'}"
         )
         if args.bench and prev.exists():
