@@ -6,8 +6,8 @@
  * (ice40_up5k_soc_top, with its cells from yosys's ice40 cells_sim.v and the PLL stand-in
  * sb_pll40_pad_standin.v) and the board's SPI flash (spi_flash_model, holding the image). clk
  * is the PLL's output clock (the stand-in passes the pin through). The UART, the ADC pins and
- * the drive of cable 0 are the testbench's (the netlist's second cable is left alone, as the
- * firmware drives bank 0). Not part of the RTL.
+ * the drives of both cables (the board's pins; cable k's in bit k) are the testbench's. Not part
+ * of the RTL.
  */
 module soc_gate_tb #(
     parameter FLASH_INIT = ""
@@ -20,24 +20,21 @@ module soc_gate_tb #(
     output wire adc_din,
     input  wire adc_dout,
     input  wire adc_drdy_n,
-    output wire drive_pwm,
-    output wire drive_enable,
+    output wire [1:0] drive_pwm,     // ice40_up5k_soc_top's DRIVES: the pins of both cables
+    output wire [1:0] drive_enable,
     output wire led_fault,
     output wire led_run,
     output wire flash_cs_n
 );
 
 wire flash_sck, flash_mosi, flash_miso;
-wire [1:0] pwm_all, enable_all;  // the board's two cables (ice40_up5k_soc_top's CHANNELS)
-assign drive_pwm = pwm_all[0];
-assign drive_enable = enable_all[0];
 
 ice40_up5k_soc_top board (
     .clk_12mhz(clk), .uart_rx(uart_rx), .uart_tx(uart_tx),
     .flash_sck(flash_sck), .flash_cs_n(flash_cs_n), .flash_mosi(flash_mosi),
     .flash_miso(flash_miso),
     .adc_sclk(adc_sclk), .adc_cs_n(adc_cs_n), .adc_din(adc_din), .adc_dout(adc_dout),
-    .adc_drdy_n(adc_drdy_n), .drive_pwm(pwm_all), .drive_enable(enable_all),
+    .adc_drdy_n(adc_drdy_n), .drive_pwm(drive_pwm), .drive_enable(drive_enable),
     .led_fault(led_fault), .led_run(led_run)
 );
 
