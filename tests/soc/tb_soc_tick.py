@@ -1,6 +1,6 @@
 """Cycles of the firmware's tick on bowden_soc, measured in the simulation, against the tick's
-budget (SOC clock / tick rate: 24000 clocks at 24 MHz and 1 kHz), with the ADS131M02 at pin level
-feeding the loop.
+budget (SOC clock / tick rate: 24000 clocks at 24 MHz and 1 kHz, 25000 at the ECP5's 25 MHz),
+with the ADS131M02 at pin level feeding the loop.
 
 A run is started over the UART (a sine reference from the firmware's generator, the paper's
 compensator, telemetry every tick); the firmware writes its phase to SOC_SYS_MARK, so the clocks
@@ -18,7 +18,8 @@ A SoC of several cables (SOC_CHANNELS in the environment: the SoC's CHANNELS and
 many, test_soc_channels.py) runs every cable: each gets the run's parameters, START runs them
 all with a telemetry frame each every tick, the ADS131M0x carries two channels a cable at OSR 256;
 in the streamed runs cable 0 takes the STREAM frames and the others follow the sine. The margin
-asserted is SOC_TICK_MARGIN (2 unless the caller says otherwise, with the figure it measured).
+asserted is SOC_TICK_MARGIN (2 unless the caller says otherwise, with the figure it measured);
+the clock is SOC_CLK_HZ's (soc_sim.py: 24 MHz unless set), which the SoC's CLK_HZ must match.
 """
 
 from __future__ import annotations
@@ -50,8 +51,9 @@ CHANNELS = int(os.environ.get("SOC_CHANNELS", "1"))
 # The clocks a period's work may take: the budget over the margin asserted.
 MARGIN = float(os.environ.get("SOC_TICK_MARGIN", "2"))
 WORK_MAX = int(TICK_BUDGET / MARGIN)
-# 32 kSPS at 24 MHz; 16 kSPS (OSR 256) from two cables on (bowden_soc.v's reader).
-ADC_PERIOD_CLKS = 750 if CHANNELS == 1 else 1500
+# 32 kSPS; 16 kSPS (OSR 256) from two cables on (bowden_soc.v's reader): 750 and 1500 clocks at
+# 24 MHz.
+ADC_PERIOD_CLKS = CLK_HZ // 32_000 if CHANNELS == 1 else CLK_HZ // 16_000
 # A telemetry frame is 38 bytes on the wire, 2425 a second at 921600 baud: every tick for up to
 # two cables, every other tick for four (cables 0 and 2 on even samples, 1 and 3 on odd ones:
 # firmware/src/dev.c telemetry_due, two frames a tick).
