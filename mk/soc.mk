@@ -160,12 +160,13 @@ lint-soc: $(VENV_STAMP)
 
 # --- bitstreams ----------------------------------------------------------------------------------
 #
-#   make bitstream  build/bitstream/ice40-up5k/bowden.bin (+ bowden_fw_flash.bin, the image the
-#                   UP5K boots from its flash) and build/bitstream/ecp5-25f/bowden.bit (the image
-#                   in it), summary.json each (LUTs, logic cells, FFs, DSPs, RAMs, Fmax); fails
-#                   when a board does not fit or misses timing; cached by input hash. Part of
-#                   make perf: both boards take 4 to 16 minutes from nothing (most of it
-#                   the UP5K's router), beyond make test's budget
+#   make bitstream  build/bitstream/ice40-up5k/bowden.bin, two cables (+ bowden_fw_flash.bin, the
+#                   image the UP5K boots from its flash) and build/bitstream/ecp5-25f/bowden.bit,
+#                   four cables (the image in it), summary.json each (LUTs, logic cells, FFs, DSPs,
+#                   RAMs, Fmax, the clock it runs at and Fmax's margin above it); fails when a
+#                   board does not fit or misses its target (the UP5K's 26.4 MHz: 10 % above its
+#                   24 MHz); cached by input hash. Part of make perf: both boards take 4 to 18
+#                   minutes from nothing (most of it the routers), beyond make test's budget
 
 PERF_TARGETS += bitstream
 .PHONY: bitstream
@@ -194,7 +195,7 @@ soc-cpus: $(VENV_STAMP)
 #                   arriving), by function of the image, median and worst span
 #                   (firmware/soc/tools/rv32_profile.py)
 #   make soc-gate   the gate-level runs of the UP5K's synthesized netlist (tests/soc/
-#                   test_soc_gate.py: boot from the flash and HELLO, 100 ms of the loop); the
+#                   test_soc_gate.py: boot from the flash and HELLO, 100 ms of both cables); the
 #                   netlist's C++ build (some 5 min cold) is beyond make test's budget
 
 PERF_TARGETS += perf-soc-tick perf-soc soc-profile soc-gate
