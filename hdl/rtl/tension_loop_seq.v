@@ -142,6 +142,70 @@ always @(posedge clk) begin
     end
 end
 
+// --- the group stop's guard (independent of the program) -------------------------------------
+// A stopped sample ramps u by WDT_RAMP_STEP towards zero or zeroes it, so RAMP_N =
+// ceil(32767 / WDT_RAMP_STEP) samples stopped in a row bring any u to 0 (tension_loop_mc's
+// mc_group_zero, the model's). A tick at which a channel of a group holds a fault that the tick
+// does not clear starts a sample in which every channel of the group is stopped (that channel by
+// its fault, the others by the group stop). The guard counts such ticks in a row, one count a
+// group; from the tick after RAMP_N of them (AGE_MAX = RAMP_N + 1 ticks) it holds every channel
+// of the group at u = 0 with the drive off, whatever the program writes, until a tick finds no
+// such fault. A correct program has u = 0 and the drive off by then, so the guard changes none
+// of its outputs; a wrong one cannot keep a faulted group's drives on (seq_group_zero,
+// hdl/formal/tension_loop_seq.sby).
+localparam [31:0] STEP32 = {16'd0, WDT_RAMP_STEP};
+localparam integer RAMP_N = (32767 + STEP32 - 1) / STEP32;
+localparam integer AGE_MAX_INT = RAMP_N + 1;
+localparam AGE_W = $clog2(AGE_MAX_INT + 1);
+localparam [AGE_W-1:0] AGE_MAX = AGE_MAX_INT[AGE_W-1:0];
+
+// The lowest channel of channel k's group: the one that keeps the group's count.
+function integer group_first;
+    input integer ch;
+    integer j;
+    begin
+        group_first = ch;
+        for (j = N - 1; j >= 0; j = j - 1)
+            if (GROUP[j*GROUP_W +: GROUP_W] == GROUP[ch*GROUP_W +: GROUP_W]) group_first = j;
+    end
+endfunction
+
+wire [N-1:0] fclr_now = fclr_pend_reg | fault_clear;
+wire [N-1:0] held_fault;  // a fault the tick does not clear
+wire [N-1:0] count_top;   // a group's count (kept by its lowest channel) at AGE_MAX
+wire [N-1:0] guard_zero;  // the group's drives held off
+reg  [N*AGE_W-1:0] age_reg;
+genvar ak, aj;
+generate
+    for (ak = 0; ak < N; ak = ak + 1) begin : g_guard
+        assign held_fault[ak] = (|fault_o[ak*4 +: 4]) && !fclr_now[ak];
+        assign guard_zero[ak] = count_top[group_first(ak)];
+        if (group_first(ak) == ak) begin : g_count
+            wire [N-1:0] member_held;  // ... on a channel of the group
+            for (aj = 0; aj < N; aj = aj + 1) begin : g_member
+                if (GROUP[aj*GROUP_W +: GROUP_W] == GROUP[ak*GROUP_W +: GROUP_W]) begin : g_same
+                    assign member_held[aj] = held_fault[aj];
+                end else begin : g_other
+                    assign member_held[aj] = 1'b0;
+                end
+            end
+            wire grp_held = |member_held;
+            wire [AGE_W-1:0] age = age_reg[ak*AGE_W +: AGE_W];
+            // The count rises from 0 and stops at AGE_MAX, so the first value with AGE_MAX's
+            // bits set is AGE_MAX: those bits alone tell it (one LUT for 801, 4 bits of 10).
+            assign count_top[ak] = &(age | ~AGE_MAX);
+            always @(posedge clk) begin
+                if (rst || (tick && !grp_held)) age_reg[ak*AGE_W +: AGE_W] <= {AGE_W{1'b0}};
+                else if (tick && !count_top[ak]) age_reg[ak*AGE_W +: AGE_W] <= age + 1'b1;
+            end
+        end else begin : g_share
+            assign count_top[ak] = 1'b0;
+            always @(posedge clk) age_reg[ak*AGE_W +: AGE_W] <= {AGE_W{1'b0}};  // no count here
+            wire unused_age = &{1'b0, age_reg[ak*AGE_W +: AGE_W]};
+        end
+    end
+endgenerate
+
 // --- sequencer ------------------------------------------------------------------------------
 // run_reg: the program runs; phase_reg: 0 copy, 1 sample; ch_reg: the channel; pc_reg: the
 // address of the instruction fetched this clock (ROM output next clock).
@@ -220,9 +284,12 @@ always @(posedge clk) begin
 end
 
 `ifndef SYNTHESIS
+`ifndef FORMAL
 // A tick while the program runs would restart it with the last channels' samples undone: the
 // caller's CLKS_PER_SAMPLE must exceed the program's clocks (hdl/seq/program.py prints them).
+// (The proofs leave the ticks free: what they state holds for any tick.)
 always @(posedge clk) if (!rst && tick && run_reg) $error("tension_loop_seq: tick while running");
+`endif
 `endif
 
 // --- scratchpad -----------------------------------------------------------------------------
@@ -360,21 +427,26 @@ genvar ok;
 generate
     for (ok = 0; ok < N; ok = ok + 1) begin : g_out
         wire sel = out_we && ch_reg == ok;
-        wire e_u = rst || (sel && aux == 4'd0);
         wire e_t = rst || (sel && aux == 4'd1);
         wire e_c = rst || (sel && aux == 4'd2);
         wire e_il = rst || (sel && aux == 4'd3);
         wire e_ih = rst || (sel && aux == 4'd4);
         wire e_f = rst || (sel && aux == 4'd5);
-        wire e_s = rst || (sel && aux == 4'd6);
+        // The guard's zero is a reset of u and of the status bits (the drive's enable).
+        wire z_u = rst || guard_zero[ok];
         always @(posedge clk) begin
-            if (e_u) u_o[ok*16 +: 16] <= rst ? 16'd0 : acc_reg;
+            if (z_u) begin
+                u_o[ok*16 +: 16] <= 16'd0;
+                {ramp_o[ok], sat_o[ok], out_en_o[ok]} <= 3'd0;
+            end else if (sel) begin
+                if (aux == 4'd0) u_o[ok*16 +: 16] <= acc_reg;
+                if (aux == 4'd6) {ramp_o[ok], sat_o[ok], out_en_o[ok]} <= acc_reg[2:0];
+            end
             if (e_t) t_in_o[ok*16 +: 16] <= rst ? 16'd0 : acc_reg;
             if (e_c) tc_eff_o[ok*16 +: 16] <= rst ? 16'd0 : acc_reg;
             if (e_il) integ_o[ok*32 +: 16] <= rst ? 16'd0 : acc_reg;
             if (e_ih) integ_o[ok*32 + 16 +: 16] <= rst ? 16'd0 : acc_reg;
             if (e_f) fault_o[ok*4 +: 4] <= rst ? 4'd0 : acc_reg[3:0];
-            if (e_s) {ramp_o[ok], sat_o[ok], out_en_o[ok]} <= rst ? 3'd0 : acc_reg[2:0];
         end
     end
 endgenerate
@@ -398,6 +470,155 @@ assign t_in = t_in_o;
 assign integ = integ_o;
 assign tc_eff = tc_eff_o;
 assign sample_count = sample_cnt_reg;
+
+`ifdef FORMAL
+// --- formal properties (hdl/formal/tension_loop_seq.sby; hdl/README.md says what is proven) --
+//
+// For any program: the proofs replace the ROM by a free word every clock (formal/
+// tension_loop_seq_rom_free.v) and the multiplier by a free product, and leave every input free
+// (ticks at any clock, the configuration word any value). What the properties state is therefore
+// the hardware's alone: the group stop's capture, the guard, and the addressing of the
+// scratchpad and of the outputs. That the program computes tension_loop_mc's sample is the
+// bit-exact simulations' (tests/hdl/test_seq_program.py, test_bowden_core_mc.py n2_seq).
+localparam integer F_AGE_MAX = RAMP_N + 1;  // the guard's ticks in a row
+localparam F_AGE_W = $clog2(F_AGE_MAX + 1);
+localparam [F_AGE_W-1:0] F_AGE_TOP = F_AGE_MAX;
+
+reg f_past_valid = 1'b0;
+always @(posedge clk) f_past_valid <= 1'b1;
+always @* if (!f_past_valid) assume(rst);
+
+// The group stop each channel should see: another channel of its group has a latched fault.
+reg [N-1:0] f_partner_fault;
+reg [N-1:0] f_pf;  // at the last tick
+integer fi, fj;
+always @* begin
+    for (fi = 0; fi < N; fi = fi + 1) begin
+        f_partner_fault[fi] = 1'b0;
+        for (fj = 0; fj < N; fj = fj + 1)
+            if (fj != fi && GROUP[fj*GROUP_W +: GROUP_W] == GROUP[fi*GROUP_W +: GROUP_W] &&
+                faults[fj*4 +: 4] != 4'd0)
+                f_partner_fault[fi] = 1'b1;
+    end
+end
+always @(posedge clk) begin
+    if (rst) f_pf <= {N{1'b0}};
+    else if (tick) f_pf <= f_partner_fault;
+end
+// property seq_group_stop_set: a channel's group stop for a period is set exactly when, at its tick, another channel of its group had a latched fault (for any program)
+always @* if (f_past_valid && !rst) seq_group_stop_set: assert(grp_stop == f_pf);
+
+// Per channel: a fault clear since the last tick, and whether its group holds a fault the
+// tick does not clear (a channel of the group with FAULT not 0 and no clear), as the ports show
+// them.
+reg [N-1:0] f_fclr_pend = {N{1'b0}};
+always @(posedge clk) f_fclr_pend <= (rst || tick) ? {N{1'b0}} : (f_fclr_pend | fault_clear);
+reg [N-1:0] f_grp_held;
+integer fh, fg;
+always @* begin
+    for (fh = 0; fh < N; fh = fh + 1) begin
+        f_grp_held[fh] = 1'b0;
+        for (fg = 0; fg < N; fg = fg + 1)
+            if (GROUP[fg*GROUP_W +: GROUP_W] == GROUP[fh*GROUP_W +: GROUP_W] &&
+                faults[fg*4 +: 4] != 4'd0 && !f_fclr_pend[fg] && !fault_clear[fg])
+                f_grp_held[fh] = 1'b1;
+    end
+end
+// Per channel: the ticks in a row at which its group held such a fault (saturating at
+// F_AGE_MAX), and that count a clock ago.
+reg [N*F_AGE_W-1:0] f_age = {(N*F_AGE_W){1'b0}};
+reg [N*F_AGE_W-1:0] f_age_d = {(N*F_AGE_W){1'b0}};
+integer fa;
+always @(posedge clk) begin
+    f_age_d <= f_age;
+    for (fa = 0; fa < N; fa = fa + 1)
+        if (rst) f_age[fa*F_AGE_W +: F_AGE_W] <= {F_AGE_W{1'b0}};
+        else if (tick)
+            f_age[fa*F_AGE_W +: F_AGE_W] <= !f_grp_held[fa] ? {F_AGE_W{1'b0}} :
+                (f_age[fa*F_AGE_W +: F_AGE_W] == F_AGE_TOP) ? F_AGE_TOP :
+                f_age[fa*F_AGE_W +: F_AGE_W] + 1'b1;
+end
+reg [N-1:0] f_zero_ok;
+reg [N-1:0] f_age_ok;
+integer fb;
+always @* begin
+    for (fb = 0; fb < N; fb = fb + 1) begin
+        f_zero_ok[fb] = f_age_d[fb*F_AGE_W +: F_AGE_W] != F_AGE_TOP ||
+                        (u[fb*16 +: 16] == 16'd0 && !out_en[fb]);
+        f_age_ok[fb] = f_age[fb*F_AGE_W +: F_AGE_W] <= F_AGE_TOP &&
+                       guard_zero[fb] == (f_age[fb*F_AGE_W +: F_AGE_W] == F_AGE_TOP) &&
+                       f_age[fb*F_AGE_W +: F_AGE_W] ==
+                       f_age[group_first(fb)*F_AGE_W +: F_AGE_W] &&
+                       (group_first(fb) != fb ||
+                        age_reg[fb*AGE_W +: AGE_W] == f_age[fb*F_AGE_W +: F_AGE_W]);
+    end
+end
+always @* if (f_past_valid) begin
+    // property seq_group_zero: for any program, from the clock after the (ceil(32767 / WDT_RAMP_STEP) + 1)-th tick in a row at which a channel of a group holds a fault the tick does not clear, every channel of the group has u = 0 and its drive off, until a tick at which none does
+    seq_group_zero: assert(&f_zero_ok);
+    // property seq_guard_exact: the guard holds a group's drives off exactly from the (ceil(32767 / WDT_RAMP_STEP) + 1)-th tick in a row at which the group held a fault not cleared, never sooner (by then a correct program's stopped samples have brought u to 0: the guard changes none of its outputs); its count is the shadow's
+    if (!rst) seq_guard_exact: assert(&f_age_ok);
+    if (!rst) seq_guard_exact_2: assert(fclr_pend_reg == f_fclr_pend);
+end
+
+// The run's channel, from the period's start and the ENDs executed (the engine's ch_reg is what
+// selects the scratchpad block, the events, the configuration and the outputs).
+reg [CH_W-1:0] f_ch = {CH_W{1'b0}};
+always @(posedge clk) begin
+    if (rst || tick) f_ch <= {CH_W{1'b0}};
+    else if (is_end) f_ch <= (f_ch == CH_LAST) ? {CH_W{1'b0}} : f_ch + 1'b1;
+end
+wire [1:0] f_ch2 = {{(2-CH_W){1'b0}}, f_ch};
+always @* if (f_past_valid && !rst) begin
+    // property seq_addressing: for any program, a scratchpad word written or read in channel k's run is one of channel k's 64 or a shared one (no channel's block is the shared one), and the run reads channel k's events and configuration
+    seq_addressing: assert(ch_reg == f_ch && f_ch <= CH_LAST);
+    if (sp_we) seq_addressing_2: assert(wr_a[7:6] == 2'b11 || wr_a[7:6] == f_ch2);
+    seq_addressing_3: assert(rd_a[7:6] == 2'b11 || rd_a[7:6] == f_ch2);
+    seq_addressing_4: assert(cfg_rd_ch == f_ch &&
+                             ev_raw == raw_t_reg[f_ch*24 +: 24] &&
+                             ev_bits[6:0] == {grp_t_reg[f_ch], fclr_t_reg[f_ch], irst_t_reg[f_ch],
+                                              tcw_t_reg[f_ch], fresh_t_reg[f_ch], slew_en[f_ch],
+                                              enable[f_ch]});
+end
+
+// A channel's outputs a clock ago, and whether they could change since: reset, an OUT in that
+// channel's run, or (u and the status bits only) the guard's zero.
+localparam F_REST_W = 16 + 16 + 32 + 4;  // T_in, T_c', the integrator, FAULT
+reg [N*19-1:0]       f_ue, f_ue_d;       // u, the drive's enable, saturated, ramping
+reg [N*F_REST_W-1:0] f_rest, f_rest_d;
+reg [N-1:0]          f_out_wr_d, f_guard_d;
+reg [N-1:0]          f_own_ok;
+integer fo;
+always @* begin
+    for (fo = 0; fo < N; fo = fo + 1) begin
+        f_ue[fo*19 +: 19] = {u[fo*16 +: 16], out_en[fo], saturated[fo], wdt_ramp[fo]};
+        f_rest[fo*F_REST_W +: F_REST_W] = {t_in[fo*16 +: 16], tc_eff[fo*16 +: 16],
+                                           integ[fo*32 +: 32], faults[fo*4 +: 4]};
+        f_own_ok[fo] = f_out_wr_d[fo] ||
+                       (f_rest[fo*F_REST_W +: F_REST_W] == f_rest_d[fo*F_REST_W +: F_REST_W] &&
+                        ((f_guard_d[fo] && f_ue[fo*19 +: 19] == 19'd0) ||
+                         f_ue[fo*19 +: 19] == f_ue_d[fo*19 +: 19]));
+    end
+end
+integer fw;
+always @(posedge clk) begin
+    f_ue_d <= f_ue;
+    f_rest_d <= f_rest;
+    for (fw = 0; fw < N; fw = fw + 1) begin
+        f_out_wr_d[fw] <= rst || (ex && op == OP_OUT && f_ch == fw);
+        f_guard_d[fw] <= f_age[fw*F_AGE_W +: F_AGE_W] == F_AGE_TOP;
+    end
+end
+// property seq_output_own: for any program, a channel's outputs change only at reset or by an OUT in that channel's run, and otherwise only u and the status bits (drive enable, saturated, ramping) to 0, by the guard
+always @* if (f_past_valid) seq_output_own: assert(&f_own_ok);
+
+// Covers: the guard holds a channel at 0 while the program writes it another u (a wrong
+// program's command kept off the drive), and lets it go at a tick that captures no group stop.
+always @* if (f_past_valid && !rst) begin
+    cover(guard_zero[0] && out_we && ch_reg == 0 && aux == 4'd0 && acc_reg != 16'd0);
+    cover(f_guard_d[N-1] && !guard_zero[N-1]);
+end
+`endif
 
 endmodule
 

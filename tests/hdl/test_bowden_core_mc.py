@@ -40,8 +40,16 @@ CONFIGS = {
     "n2_cfgram": ([0, 0], 1, 1, 0),  # the UP5K SoC's
     "n4_cfgram": ([0, 0, 1, 1], 1, 3, 0),
     "n2_seq": ([0, 0], 1, 1, 1),  # the sequenced datapath (tension_loop_seq)
+    "n2_seq_ramp16": ([0, 0], 1, 1, 1),  # the same, a ramp of 16 samples (WDT_RAMP_STEP below)
 }
-GROUPS, CFG_RAM, _, SEQ = CONFIGS[os.environ.get("BOWDEN_CORE_MC_CONFIG", "n2")]
+# WDT_RAMP_STEP of a config, where not the default: a ramp from any u in 16 samples, so
+# tension_loop_seq's guard (u held at 0 from the 17th tick in a row with a fault in the group)
+# acts within the run (at about 200 of its 625 ticks), and the outputs are held to the model's
+# there too. A guard acting at the 9th tick fails it; one a tick early passes (it shows only
+# with |u| near 32767 at the stop), which tension_loop_seq.sby's seq_guard_exact catches.
+RAMP_STEP = {"n2_seq_ramp16": 2048}
+CONFIG = os.environ.get("BOWDEN_CORE_MC_CONFIG", "n2")
+GROUPS, CFG_RAM, _, SEQ = CONFIGS[CONFIG]
 N = len(GROUPS)
 
 
@@ -65,10 +73,13 @@ class McCoreTb:
 
     def __init__(self, dut):
         self.dut = dut
-        self.model = TensionLoopMcModel(GROUPS)
+        self.model = TensionLoopMcModel(
+            GROUPS, wdt_ramp_step=RAMP_STEP.get(CONFIG, regmap.WDT_RAMP_STEP)
+        )
         self.expected: deque = deque()
         self.compared = 0
         self.stopped = 0  # channel-samples run under a partner's fault
+        self.guarded = 0  # ticks at which tension_loop_seq's guard held a group's drives off
         self.axi: AxiLiteMaster | None = None
 
     async def start(self) -> None:
@@ -139,6 +150,8 @@ class McCoreTb:
             if d.sample_tick.value:
                 self.expected.append(self.model.tick())
                 self.stopped += sum(self.model.group_stop)
+                if SEQ:
+                    self.guarded += int(d.g_seq.loop.guard_zero.value) != 0
             if d.s_axil_awvalid.value and d.s_axil_wvalid.value and d.s_axil_awready.value:
                 addr = int(d.s_axil_awaddr.value)
                 replay_write(
@@ -245,9 +258,14 @@ async def loops_through_axi_against_model(dut):
     assert tb.compared > 300, f"only {tb.compared} periods compared"
     # the group stop was exercised: some channel ran periods under a partner's fault
     assert tb.stopped > 0, "no group stop in the run"
+    if CONFIG in RAMP_STEP:  # and the sequenced datapath's guard, with the outputs compared
+        assert tb.guarded > 10, f"the guard held the drives off at only {tb.guarded} ticks"
 
 
-@pytest.mark.parametrize("config", list(CONFIGS))
+# n2_seq_ramp16 is long (41 s of CPU, the guard's case only); the others run in `make test`.
+@pytest.mark.parametrize(
+    "config", [pytest.param(c, marks=pytest.mark.long) if c in RAMP_STEP else c for c in CONFIGS]
+)
 @pytest.mark.parametrize("simulator", SIMULATORS[:1])
 def test_bowden_core_mc(simulator, config):
     """Build bowden_core_mc (N from the config) and run the coroutines above."""
@@ -264,6 +282,8 @@ def test_bowden_core_mc(simulator, config):
         "RD_STAGES": rd_stages,
         "SEQ": seq,
     }
+    if config in RAMP_STEP:
+        params["WDT_RAMP_STEP"] = f"16'd{RAMP_STEP[config]}"
     run_cocotb(
         "bowden_core_mc",
         "test_bowden_core_mc",
