@@ -417,8 +417,10 @@ always @(posedge clk) begin
 end
 
 // --- outputs: the channel's registers, written by OUT aux ------------------------------------
-// Each field's enable includes the reset, and the reset is taken only with it, so the flip-flops
-// take ACC as it is (an enable flip-flop with its synchronous reset, no LUT a bit).
+// Each field is reset (u and the status bits also by the guard's zero) before it is written, so
+// the flip-flops take ACC as it is: an enable flip-flop with its synchronous reset, no LUT a bit
+// (written as `rst ? 0 : ACC` under an enable that includes the reset, yosys had 16 LUTs make
+// that word, shared by the fields: 470 LUT4s for the engine and its guard, against 486).
 reg  [N*16-1:0] u_o, t_in_o, tc_eff_o;
 reg  [N*32-1:0] integ_o;
 reg  [N-1:0]    out_en_o, sat_o, ramp_o;
@@ -427,11 +429,6 @@ genvar ok;
 generate
     for (ok = 0; ok < N; ok = ok + 1) begin : g_out
         wire sel = out_we && ch_reg == ok;
-        wire e_t = rst || (sel && aux == 4'd1);
-        wire e_c = rst || (sel && aux == 4'd2);
-        wire e_il = rst || (sel && aux == 4'd3);
-        wire e_ih = rst || (sel && aux == 4'd4);
-        wire e_f = rst || (sel && aux == 4'd5);
         // The guard's zero is a reset of u and of the status bits (the drive's enable).
         wire z_u = rst || guard_zero[ok];
         always @(posedge clk) begin
@@ -442,11 +439,18 @@ generate
                 if (aux == 4'd0) u_o[ok*16 +: 16] <= acc_reg;
                 if (aux == 4'd6) {ramp_o[ok], sat_o[ok], out_en_o[ok]} <= acc_reg[2:0];
             end
-            if (e_t) t_in_o[ok*16 +: 16] <= rst ? 16'd0 : acc_reg;
-            if (e_c) tc_eff_o[ok*16 +: 16] <= rst ? 16'd0 : acc_reg;
-            if (e_il) integ_o[ok*32 +: 16] <= rst ? 16'd0 : acc_reg;
-            if (e_ih) integ_o[ok*32 + 16 +: 16] <= rst ? 16'd0 : acc_reg;
-            if (e_f) fault_o[ok*4 +: 4] <= rst ? 4'd0 : acc_reg[3:0];
+            if (rst) begin
+                t_in_o[ok*16 +: 16] <= 16'd0;
+                tc_eff_o[ok*16 +: 16] <= 16'd0;
+                integ_o[ok*32 +: 32] <= 32'd0;
+                fault_o[ok*4 +: 4] <= 4'd0;
+            end else if (sel) begin
+                if (aux == 4'd1) t_in_o[ok*16 +: 16] <= acc_reg;
+                if (aux == 4'd2) tc_eff_o[ok*16 +: 16] <= acc_reg;
+                if (aux == 4'd3) integ_o[ok*32 +: 16] <= acc_reg;
+                if (aux == 4'd4) integ_o[ok*32 + 16 +: 16] <= acc_reg;
+                if (aux == 4'd5) fault_o[ok*4 +: 4] <= acc_reg[3:0];
+            end
         end
     end
 endgenerate
