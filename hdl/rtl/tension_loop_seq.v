@@ -492,42 +492,33 @@ reg f_past_valid = 1'b0;
 always @(posedge clk) f_past_valid <= 1'b1;
 always @* if (!f_past_valid) assume(rst);
 
-// The group stop each channel should see: another channel of its group has a latched fault.
-reg [N-1:0] f_partner_fault;
-reg [N-1:0] f_pf;  // at the last tick
+// Per channel, from the FAULT words the ports show: the group stop it should see (another
+// channel of its group has a fault; f_pf: at the last tick), and whether its group holds a fault
+// the tick does not clear (a channel of the group, itself too, with FAULT not 0 and no clear
+// since the last tick, f_fclr_pend, nor now).
+reg [N-1:0] f_partner_fault, f_grp_held;
+reg [N-1:0] f_pf = {N{1'b0}};
+reg [N-1:0] f_fclr_pend = {N{1'b0}};
 integer fi, fj;
 always @* begin
     for (fi = 0; fi < N; fi = fi + 1) begin
         f_partner_fault[fi] = 1'b0;
+        f_grp_held[fi] = 1'b0;
         for (fj = 0; fj < N; fj = fj + 1)
-            if (fj != fi && GROUP[fj*GROUP_W +: GROUP_W] == GROUP[fi*GROUP_W +: GROUP_W] &&
-                faults[fj*4 +: 4] != 4'd0)
-                f_partner_fault[fi] = 1'b1;
+            if (GROUP[fj*GROUP_W +: GROUP_W] == GROUP[fi*GROUP_W +: GROUP_W] &&
+                faults[fj*4 +: 4] != 4'd0) begin
+                if (fj != fi) f_partner_fault[fi] = 1'b1;
+                if (!f_fclr_pend[fj] && !fault_clear[fj]) f_grp_held[fi] = 1'b1;
+            end
     end
 end
 always @(posedge clk) begin
-    if (rst) f_pf <= {N{1'b0}};
-    else if (tick) f_pf <= f_partner_fault;
+    f_fclr_pend <= (rst || tick) ? {N{1'b0}} : (f_fclr_pend | fault_clear);
+    f_pf <= rst ? {N{1'b0}} : tick ? f_partner_fault : f_pf;
 end
 // property seq_group_stop_set: a channel's group stop for a period is set exactly when, at its tick, another channel of its group had a latched fault (for any program)
 always @* if (f_past_valid && !rst) seq_group_stop_set: assert(grp_stop == f_pf);
 
-// Per channel: a fault clear since the last tick, and whether its group holds a fault the
-// tick does not clear (a channel of the group with FAULT not 0 and no clear), as the ports show
-// them.
-reg [N-1:0] f_fclr_pend = {N{1'b0}};
-always @(posedge clk) f_fclr_pend <= (rst || tick) ? {N{1'b0}} : (f_fclr_pend | fault_clear);
-reg [N-1:0] f_grp_held;
-integer fh, fg;
-always @* begin
-    for (fh = 0; fh < N; fh = fh + 1) begin
-        f_grp_held[fh] = 1'b0;
-        for (fg = 0; fg < N; fg = fg + 1)
-            if (GROUP[fg*GROUP_W +: GROUP_W] == GROUP[fh*GROUP_W +: GROUP_W] &&
-                faults[fg*4 +: 4] != 4'd0 && !f_fclr_pend[fg] && !fault_clear[fg])
-                f_grp_held[fh] = 1'b1;
-    end
-end
 // Per channel: the ticks in a row at which its group held such a fault (saturating at
 // F_AGE_MAX), and that count a clock ago.
 reg [N*F_AGE_W-1:0] f_age = {(N*F_AGE_W){1'b0}};
