@@ -206,10 +206,11 @@ MUTANTS = [
     Mutant(
         "group_membership_ignored",
         "mc_group_stop_set",
-        "tension_loop_mc.v",
-        "            if (gj != gk && GROUP[gj*GROUP_W +: GROUP_W] == "
+        "group_or.v",
+        "            if ((SELF != 0 || gj != gk) &&\n"
+        "                GROUP[gj*GROUP_W +: GROUP_W] == "
         "GROUP[gk*GROUP_W +: GROUP_W]) begin : g_same",
-        "            if (gj != gk) begin : g_same",
+        "            if (SELF != 0 || gj != gk) begin : g_same",
         "tension_loop_mc:bmc_apart",
     ),
     Mutant(
@@ -263,10 +264,11 @@ MUTANTS = [
     Mutant(
         "seq_group_membership_ignored",
         "seq_group_stop_set",
-        "tension_loop_seq.v",
-        "            if (gj != gk && GROUP[gj*GROUP_W +: GROUP_W] == "
+        "group_or.v",
+        "            if ((SELF != 0 || gj != gk) &&\n"
+        "                GROUP[gj*GROUP_W +: GROUP_W] == "
         "GROUP[gk*GROUP_W +: GROUP_W]) begin : g_same",
-        "            if (gj != gk) begin : g_same",
+        "            if (SELF != 0 || gj != gk) begin : g_same",
         "tension_loop_seq:bmc_apart",
     ),
     Mutant(

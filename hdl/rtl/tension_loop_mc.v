@@ -194,20 +194,9 @@ endgenerate
 // Group stop at the tick: another channel of the group has a latched fault. The membership is
 // fixed by GROUP, so it is wiring.
 wire [N-1:0] grp_now;
-genvar gk, gj;
-generate
-    for (gk = 0; gk < N; gk = gk + 1) begin : g_grp
-        wire [N-1:0] partner_fault;
-        for (gj = 0; gj < N; gj = gj + 1) begin : g_partner
-            if (gj != gk && GROUP[gj*GROUP_W +: GROUP_W] == GROUP[gk*GROUP_W +: GROUP_W]) begin : g_same
-                assign partner_fault[gj] = |fault_ch[gj*4 +: 4];
-            end else begin : g_other
-                assign partner_fault[gj] = 1'b0;
-            end
-        end
-        assign grp_now[gk] = |partner_fault;
-    end
-endgenerate
+group_or #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP), .W(4), .SELF(0)) grp (
+    .x(fault_ch), .y(grp_now)
+);
 
 // The datapath takes a channel's events, configuration and state into its own registers the
 // clock before the channel's slot (PRELOAD): channel 0 at the tick, with the events of the tick

@@ -100,20 +100,9 @@ reg  [N-1:0]    fresh_t_reg, tcw_t_reg, irst_t_reg, fclr_t_reg, grp_t_reg;
 reg  [N*4-1:0]  fault_o;
 
 wire [N-1:0] grp_now;
-genvar gk, gj;
-generate
-    for (gk = 0; gk < N; gk = gk + 1) begin : g_grp
-        wire [N-1:0] partner_fault;
-        for (gj = 0; gj < N; gj = gj + 1) begin : g_partner
-            if (gj != gk && GROUP[gj*GROUP_W +: GROUP_W] == GROUP[gk*GROUP_W +: GROUP_W]) begin : g_same
-                assign partner_fault[gj] = |fault_o[gj*4 +: 4];
-            end else begin : g_other
-                assign partner_fault[gj] = 1'b0;
-            end
-        end
-        assign grp_now[gk] = |partner_fault;
-    end
-endgenerate
+group_or #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP), .W(4), .SELF(0)) grp (
+    .x(fault_o), .y(grp_now)
+);
 
 integer k;
 always @(posedge clk) begin
@@ -172,39 +161,34 @@ endfunction
 
 wire [N-1:0] fclr_now = fclr_pend_reg | fault_clear;
 wire [N-1:0] held_fault;  // a fault the tick does not clear
+wire [N-1:0] grp_held;    // ... on a channel of the group (read at each group's lowest channel)
 wire [N-1:0] count_top;   // a group's count (kept by its lowest channel) at AGE_MAX
 wire [N-1:0] guard_zero;  // the group's drives held off
 reg  [N*AGE_W-1:0] age_reg;
-genvar ak, aj;
+genvar ak;
 generate
     for (ak = 0; ak < N; ak = ak + 1) begin : g_guard
         assign held_fault[ak] = (|fault_o[ak*4 +: 4]) && !fclr_now[ak];
         assign guard_zero[ak] = count_top[group_first(ak)];
         if (group_first(ak) == ak) begin : g_count
-            wire [N-1:0] member_held;  // ... on a channel of the group
-            for (aj = 0; aj < N; aj = aj + 1) begin : g_member
-                if (GROUP[aj*GROUP_W +: GROUP_W] == GROUP[ak*GROUP_W +: GROUP_W]) begin : g_same
-                    assign member_held[aj] = held_fault[aj];
-                end else begin : g_other
-                    assign member_held[aj] = 1'b0;
-                end
-            end
-            wire grp_held = |member_held;
             wire [AGE_W-1:0] age = age_reg[ak*AGE_W +: AGE_W];
             // The count rises from 0 and stops at AGE_MAX, so the first value with AGE_MAX's
             // bits set is AGE_MAX: those bits alone tell it (one LUT for 801, 4 bits of 10).
             assign count_top[ak] = &(age | ~AGE_MAX);
             always @(posedge clk) begin
-                if (rst || (tick && !grp_held)) age_reg[ak*AGE_W +: AGE_W] <= {AGE_W{1'b0}};
+                if (rst || (tick && !grp_held[ak])) age_reg[ak*AGE_W +: AGE_W] <= {AGE_W{1'b0}};
                 else if (tick && !count_top[ak]) age_reg[ak*AGE_W +: AGE_W] <= age + 1'b1;
             end
         end else begin : g_share
             assign count_top[ak] = 1'b0;
             always @(posedge clk) age_reg[ak*AGE_W +: AGE_W] <= {AGE_W{1'b0}};  // no count here
-            wire unused_age = &{1'b0, age_reg[ak*AGE_W +: AGE_W]};
+            wire unused_age = &{1'b0, age_reg[ak*AGE_W +: AGE_W], grp_held[ak]};
         end
     end
 endgenerate
+group_or #(.N(N), .GROUP_W(GROUP_W), .GROUP(GROUP), .W(1), .SELF(1)) grp_guard (
+    .x(held_fault), .y(grp_held)
+);
 
 // --- sequencer ------------------------------------------------------------------------------
 // run_reg: the program runs; phase_reg: 0 copy, 1 sample; ch_reg: the channel; pc_reg: the

@@ -333,7 +333,7 @@ def test_cocotb_pair_on_the_core_equals_the_model_and_native_engines(tmp_path):
     bank's TC_EFF and FAULT back, gives the model engine's and the native engine's record sample
     for sample, every array of both cables, the joint, and each channel's FAULT, enable and group
     stop, bit for bit, before and after the fault; every write landed before its tick."""
-    from hdl_sim import rtl, run_cocotb  # noqa: PLC0415 (tests/hdl, on the test path)
+    from hdl_sim import CORE_MC_RTL, rtl, run_cocotb  # noqa: PLC0415 (tests/hdl, on the test path)
 
     from cosim.engines.cocotb.tb_pair import CLKS_PER_SAMPLE  # noqa: PLC0415
     from cosim.engines.harness import ENGINES_DIR  # noqa: PLC0415
@@ -341,11 +341,10 @@ def test_cocotb_pair_on_the_core_equals_the_model_and_native_engines(tmp_path):
     spec = {**COCOTB_PAIR, "compensator": "preview", "est_enable": 0}
     spec["out"] = str(tmp_path / "pair.npz")
     (tmp_path / "spec.json").write_text(json.dumps(spec))
-    core = ("bowden_core_mc", "axil_regbus", "bowden_regs", "tension_loop_mc", "tension_loop_dp")
     run_cocotb(
         "cosim_pair_top",
         "cosim.engines.cocotb.tb_pair",
-        [*rtl(*core, "mul_s16", "pwm_escon"), ENGINES_DIR / "cosim_pair_top.v"],
+        [*rtl(*CORE_MC_RTL), ENGINES_DIR / "cosim_pair_top.v"],
         "verilator",
         parameters={"CLKS_PER_SAMPLE": CLKS_PER_SAMPLE},
         tag="pair",

@@ -79,6 +79,20 @@ def rtl(*names: str) -> list[Path]:
     return [RTL_DIR / f"{name}.v" for name in names]
 
 
+#: The RTL modules of bowden_core_mc with its pipelined loops (SEQ 0); its sequenced datapath
+#: (SEQ 1) adds tension_loop_seq and tension_loop_seq_rom. One list for every build of the core.
+CORE_MC_RTL = (
+    "bowden_core_mc",
+    "axil_regbus",
+    "bowden_regs",
+    "tension_loop_mc",
+    "tension_loop_dp",
+    "group_or",
+    "pwm_escon",
+    "mul_s16",
+)
+
+
 def run_cocotb(
     toplevel: str,
     test_module: str,

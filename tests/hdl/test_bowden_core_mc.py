@@ -24,7 +24,7 @@ import pytest
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
 from cocotbext.axi import AxiLiteBus, AxiLiteMaster
-from hdl_sim import SIMULATORS, replay_write, rtl, run_cocotb, signed
+from hdl_sim import CORE_MC_RTL, SIMULATORS, replay_write, rtl, run_cocotb, signed
 
 from cosim.parts import regmap
 from cosim.parts.rtl_model import TensionLoopMcModel, adc_code_from_tension
@@ -287,17 +287,7 @@ def test_bowden_core_mc(simulator, config):
     run_cocotb(
         "bowden_core_mc",
         "test_bowden_core_mc",
-        rtl(
-            "bowden_core_mc",
-            "axil_regbus",
-            "bowden_regs",
-            "tension_loop_mc",
-            "tension_loop_dp",
-            "tension_loop_seq",
-            "tension_loop_seq_rom",
-            "pwm_escon",
-            "mul_s16",
-        ),
+        rtl(*CORE_MC_RTL, "tension_loop_seq", "tension_loop_seq_rom"),
         simulator,
         params,
         tag=config,

@@ -382,7 +382,7 @@ def test_tension_loop_mc(simulator, config):
     run_cocotb(
         "tension_loop_mc",
         "test_tension_loop_mc",
-        rtl("tension_loop_mc", "tension_loop_dp", "mul_s16"),
+        rtl("tension_loop_mc", "tension_loop_dp", "group_or", "mul_s16"),
         simulator,
         # GROUP as a sized literal: a plain integer is 32 bits, wider than N*GROUP_W for N < 8.
         parameters={
