@@ -14,7 +14,7 @@ from cosim.bench.emulate.host_device import Device
 from cosim.bench.link import messages as msgs
 from cosim.bench.link import protocol as proto
 from cosim.bench.link.api import Bench
-from cosim.bench.link.recorder import channel_path, record_run
+from cosim.bench.link.recorder import channel_path, progress_line, record_run
 from cosim.project.paths import REPO_ROOT
 
 # Each channel's own settings: different gains and compensators, so that a write to the wrong
@@ -60,11 +60,19 @@ def test_a_divided_telemetry_of_several_channels_is_recorded_whole(tmp_path):
     one recorded, no gap, the run complete (301 ticks: 151 samples of channels 0 and 2, 150 of
     channel 1), each at its tick's time (t_s the sample over the 1 kHz tick rate, not over the
     rows' 500 Hz, which stretched the record's time twice)."""
+    lines = []
     with Bench(emulate=True, channels=3) as bench:
         c = bench.client
         c.set("dev.telemetry_div", 2)
-        run = record_run(c, tmp_path / "div.csv", channels=(0, 1, 2), **{**RUN, "seconds": 0.301})
+        run = record_run(
+            c, tmp_path / "div.csv", channels=(0, 1, 2), progress=lines.append,
+            **{**RUN, "seconds": 0.301},
+        )  # fmt: skip
     assert (run.samples, run.expected, run.drops, run.gaps) == (452, 452, 0, []), run.summary()
+    # The progress line counts the run's time (the ticks every channel reached), not the samples
+    # of the three channels together, which read 0.9 s of this 0.3 s run.
+    assert lines and all(float(line.split("/")[0]) <= 0.302 for line in lines if line), lines
+    assert progress_line(run, 301, 1000.0, 0.301, 1.0).startswith("   0.3/0.301 s     301 Hz")
     for k in range(3):
         rows = _rows(channel_path(tmp_path / "div.csv", k, (0, 1, 2)))
         samples = [int(r[rows[0].index("sample")]) for r in rows[1:]]

@@ -336,12 +336,7 @@ def record_run(
             if progress is not None and now - last_report >= 0.25:
                 last_report = now
                 el = now - t0
-                progress(
-                    f"{result.samples / rate_hz:6.1f}/{seconds:g} s  "
-                    f"{result.samples / max(el, 1e-9):6.0f} Hz  drops {result.drops}  "
-                    f"overflow {result.overflow}  faults "
-                    f"{','.join(fault_names(result.faults)) or '-'}"
-                )
+                progress(progress_line(result, min(next_by_channel.values()), tick_hz, seconds, el))
     finally:
         client.on_telemetry = None
         for rec in recs.values():
@@ -351,6 +346,19 @@ def record_run(
     if math.isfinite(result.wall_s) and progress is not None:
         progress("")
     return result
+
+
+def progress_line(
+    result: RunResult, done_ticks: int, tick_hz: float, seconds: float, elapsed_s: float
+) -> str:
+    """The live line of a run: the run's own time, from the ticks every channel has reached (not
+    the samples of all channels together, which counted a run of two channels twice as long),
+    the ticks a second of wall time, and the drops, overflow and faults so far."""
+    return (
+        f"{done_ticks / tick_hz:6.1f}/{seconds:g} s  "
+        f"{done_ticks / max(elapsed_s, 1e-9):6.0f} Hz  drops {result.drops}  "
+        f"overflow {result.overflow}  faults {','.join(fault_names(result.faults)) or '-'}"
+    )
 
 
 def stderr_progress(line: str) -> None:
