@@ -29,7 +29,10 @@ The steps (modules: data, fit, decision, residual):
    noise); among such candidates the one removing most is taken, and the round repeats with it
    in the model. A finding whose runner-up explained the same residual (it stops being
    significant once the finding is in) and that did not beat it significantly is marked
-   ambiguous, naming the alternative.
+   ambiguous, naming the alternative. When the residual it leaves is still above twice the
+   combined noise, the joint search (cosim.audit.joint) fits every cause that showed in some round
+   together with the findings and takes causes out while the rule does not need them; its model
+   replaces the forward selection's when the rule takes it against that model.
 5. **Report.** The baseline and the extended model are run through the FMU itself (drive mode 1,
    the measured input tension and positions, one internal step per sample: twin.fmu_step_for);
    their residuals on the report blocks are the gain (of the output less its lines). What is
@@ -45,7 +48,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import blas, drift_table, free_forms, lines, plausible, twin
+from . import blas, drift_table, free_forms, joint, lines, plausible, twin
 from .data import (  # noqa: F401 (the audit's names, one import away)
     BLOCK_TARGET_COUNT,
     COVER_MIN,
@@ -200,6 +203,7 @@ def _run(data: AuditData, rule: DecisionRule, progress: Progress | None) -> Audi
         found.append(chosen.effect)
         current = chosen.model
         steps.append(current)
+    every_round = list(rounds)  # before the backward check drops any (the joint search's)
     dropped: list[str] = []
     withouts = {found[0].cause: steps[0]} if len(found) == 1 else {}
     if len(found) > 1:
@@ -208,6 +212,16 @@ def _run(data: AuditData, rule: DecisionRule, progress: Progress | None) -> Audi
         current = steps[-1]
         rounds = [r for r in rounds if r.chosen is None or r.chosen.effect in found]
     findings = _findings(data, rounds, steps, withouts, rule)
+    # several effects at once: every cause together, then taken out (cosim.audit.joint)
+    searched = None
+    if every_round and joint.wanted(data, current):
+        tick("the joint search: every cause together, then taken out while the rule allows")
+        searched = joint.search(data, every_round, current, baseline, rule, FORM_SCREEN_PCT)
+        if searched is not None and searched.taken:
+            found = list(searched.effects)
+            current = searched.model
+            steps = [baseline, current]
+            findings = joint.findings(data, searched, baseline, rule)
     # a drift finding whose fixed forms leave the residual above the noise: its free form, the
     # drift table (cosim.audit.drift_table), in its place when it fits the selection blocks better
     tried = []
@@ -255,6 +269,8 @@ def _run(data: AuditData, rule: DecisionRule, progress: Progress | None) -> Audi
     result.warnings = plausibility_warnings(data, result)
     if dropped:
         result.extras["dropped_by_backward_check"] = dropped
+    if searched is not None:
+        result.extras["joint_search"] = searched.to_dict()
     if stand_ins:
         result.extras["dropped_after_free_form"] = stand_ins
     result.wall_s = time.perf_counter() - t_start

@@ -639,6 +639,17 @@ def markdown(result: AuditResult, data: dict, plot_names: list[str]) -> str:
         lines.append(f"- round {rnd['round']}: {cells}; chosen: {rnd['chosen'] or 'none'}")
     for cause, why in data["not_tried"].items():
         lines.append(f"- not tried: {cause}: {why}")
+    js = data.get("joint_search")
+    if js:
+        lines.append(
+            "- joint search (every cause of round 1 together, then taken out while the rule "
+            f"allows: cosim.audit.joint): from {', '.join(js['started'])}; out with the rest "
+            f"held: {', '.join(js['dropped_with_the_rest_held']) or 'none'}; out with the rest "
+            f"refitted: {', '.join(js['dropped_with_the_rest_refitted']) or 'none'}; kept: "
+            f"{', '.join(js['kept']) or 'none'}; "
+            + ("taken" if js["taken"] else "not taken")
+            + f": {js['why']}"
+        )
     lines += [
         "",
         "## Extended model",
