@@ -497,9 +497,9 @@ def test_restore_of_a_params_file_writes_what_it_sets_and_keeps_the_rest(url, tm
     far = PACKAGE_DIR / "config" / "params" / "far_end_after_calibrate.json"
     rc, out, err = _run(capsys, "--port", url, "restore", str(far))
     assert rc == 0, err
-    assert "a params file: the 14 parameters it sets" in out and "restored 14 parameters" in out
+    assert "a params file: the 15 parameters it sets" in out and "restored 15 parameters" in out
     rc, out, _ = _run(capsys, "--port", url, "diff", str(far))
-    assert rc == 0 and out.strip().endswith("no differences in 14 parameters"), out
+    assert rc == 0 and out.strip().endswith("no differences in 15 parameters"), out
     rc, out, _ = _run(capsys, "--port", url, "get", "loop.kp", "loop.kv", "corr.rev_enable")
     rows = _rows("\n" + out)
     assert rows["loop.kp"][1] == "0.0699463" and rows["corr.rev_enable"][1] == "1", out

@@ -4,6 +4,8 @@ docs/results.md measured for their mode."""
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from cosim.config.run import load_params
@@ -23,8 +25,9 @@ def test_a_params_file_loads_as_bowden_sim_reads_it(path):
 def test_the_far_end_mode_is_the_measured_configuration():
     """docs/results.md, "The far-end mode after calibrate": the correction and the reversal table
     at the rates chosen on the tuning set, the online estimate off, kv 1e-3 A s/N; the plant's
-    own values (mu, offset, slope, spread, breakaway) come from `bowden bench calibrate`, not
-    from here."""
+    own values (mu, offset, slope, spread) come from `bowden bench calibrate`, not from here. The
+    breakaway term and the rate term are off over calibrate's proposals: the correction and the
+    reversal table take their place ("The far-end mode with the audit's joint search")."""
     cfg = load_params(PARAMS / "far_end_after_calibrate.json")
     c = cfg.compensator
     assert (c.est_enable, c.corr_enable, c.corr_rev_enable) == (0, 1, 1)
@@ -33,13 +36,16 @@ def test_the_far_end_mode_is_the_measured_configuration():
     assert (c.corr_rev_leak_shift, c.corr_rev_limit_n) == (12, 0.5)
     assert cfg.controller.kv_a_s_per_n == 0.001
     nominal = load_params(None).compensator
-    assert (c.mu, c.offset_n, c.mu_slope_per_n, c.dead_zone_spread, c.breakaway) == (
+    assert (c.mu, c.offset_n, c.mu_slope_per_n, c.dead_zone_spread) == (
         nominal.mu,
         nominal.offset_n,
         nominal.mu_slope_per_n,
         nominal.dead_zone_spread,
-        nominal.breakaway,
     )
+    # set by the file (so laid over calibrate's proposals), not left at the nominal 0
+    written = json.loads((PARAMS / "far_end_after_calibrate.json").read_text())["compensator"]
+    assert (written["breakaway"], written["mu_per_inlet_rate"]) == (0.0, 0.0)
+    assert (c.breakaway, c.mu_per_inlet_rate) == (0.0, 0.0)
 
 
 def test_the_sensorless_mode_is_the_measured_configuration():
