@@ -114,6 +114,7 @@ def search(
     effects = [*forward.effects, *(c.effect for c in cands)]
     if len(effects) < 2 or not cands:
         return None
+    started = tuple(e.cause for e in effects)
     # from the forward selection's model, each other cause at the value of its best round
     start = dict(forward.params)
     for c in cands:
@@ -133,7 +134,8 @@ def search(
             held_out.append(e)
     if held_out:
         effects = [e for e in effects if e not in held_out]
-        start = {k: v for k, v in full.params.items() if not _of(k, held_out)}
+        gone = {p for e in held_out for p in e.fmu_params}
+        start = {k: v for k, v in full.params.items() if k not in gone}
         full = fit_model(data, tuple(effects), start) if effects else baseline
 
     # 2. one at a time, the rest refitted, the one whose removal costs least first
@@ -171,7 +173,7 @@ def search(
             + ("the rule takes it" if taken else "the rule does not take it")
         )
     return JointSearch(
-        started=tuple(e.cause for e in (*forward.effects, *(c.effect for c in cands))),
+        started=started,
         kept=kept,
         dropped_held=tuple(e.cause for e in held_out),
         dropped_refitted=tuple(e.cause for e in refitted_out),
@@ -210,7 +212,3 @@ def findings(data: AuditData, js: JointSearch, baseline: Model, rule: DecisionRu
             )
         )
     return sorted(out, key=lambda f: -f.explains_pct)
-
-
-def _of(name: str, effects: list[Effect]) -> bool:
-    return any(name in e.fmu_params for e in effects)
