@@ -642,9 +642,10 @@ def markdown(result: AuditResult, data: dict, plot_names: list[str]) -> str:
     js = data.get("joint_search")
     if js:
         lines.append(
-            "- joint search (every cause of round 1 together, then taken out while the rule "
-            f"allows: cosim.audit.joint): from {', '.join(js['started'])}; out with the rest "
-            f"held: {', '.join(js['dropped_with_the_rest_held']) or 'none'}; out with the rest "
+            "- joint search (every cause that removed a share in some round, together, then "
+            f"taken out while the rule allows: cosim.audit.joint): from "
+            f"{', '.join(js['started'])}; out with the rest held: "
+            f"{', '.join(js['dropped_with_the_rest_held']) or 'none'}; out with the rest "
             f"refitted: {', '.join(js['dropped_with_the_rest_refitted']) or 'none'}; kept: "
             f"{', '.join(js['kept']) or 'none'}; "
             + ("taken" if js["taken"] else "not taken")

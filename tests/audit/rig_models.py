@@ -172,6 +172,7 @@ def rig_record(
     ring: tuple[float, float, float] | None = None,
     viscous_rate_s_n: float = 0.0,
     viscous_speed_s_m: float = 0.0,
+    friction_slope_per_n: float = 0.0,
     drift: tuple[str, float, float] | None = None,
     lag2_s: float = 0.0,
     bend: tuple | None = None,
@@ -199,6 +200,11 @@ def rig_record(
       elastic stretch, RIG_LENGTH_M / RIG_EA_N times the rate of the braid's mean tension along
       the cable (braid_mean_tension; central differences, no filter; of the braid without the
       viscous part: one pass, the part's effect on the stretch is second order);
+    - `friction_slope_per_n`: friction that changes with the tension the cable carries (a liner
+      pressed harder, a lubricant squeezed out): every strand's mu rises by friction_slope_per_n
+      times the braid's mean tension along the cable (braid_mean_tension, of the braid without
+      it: one pass), the same rise in every segment, where the FMU's slope follows each
+      segment's own tension;
     - `drift` = (form, size, time): every strand's mu changes over the record, "linear" by size
       per second from the start (time unused), "warm-up" by size * (1 - exp(-t / time)) (the
       lubricant settling from the start), "step" by size from the instant time on (a new
@@ -267,6 +273,9 @@ def rig_record(
         else:
             change = np.where(t >= when, size, 0.0)
         extra_mu = change if extra_mu is None else extra_mu + change
+    if friction_slope_per_n != 0.0:
+        along = braid_mean_tension(t_in, phi, mus, static_ratio=static_ratio)
+        extra_mu = (0.0 if extra_mu is None else extra_mu) + friction_slope_per_n * along
     if viscous_speed_s_m != 0.0:
         along = braid_mean_tension(t_in, phi, mus, static_ratio=static_ratio)
         speed = RIG_LENGTH_M / RIG_EA_N * np.gradient(along) * RATE_HZ

@@ -9,8 +9,10 @@ below (TUNING: seed 81), which changed two choices: the search takes the causes 
 not only the first (there the slack removed 95 % in round 1, the lag 0 %), and the rule itself
 decides whether its model replaces the forward selection's (a separation t of 1.8 had refused
 it). The other rig cases (REPORT: the rig's own code, tests/audit/rig_models.py, not the FMU's)
-were written after that and run once; they are reported as they came out: one met, one not
-(MISSED, a strict xfail). The decision rule is the one of test_audit_rule.py (not tuned here).
+were written after that and run once; they are reported as they came out: one met, three not
+(MISSED, strict xfails). Seeds 82 and 83 came with the joint search; seeds 84 and 85, with the
+rig's friction that changes with the tension, later, after tuning plants whose slope and slack
+the audit had missed. The decision rule is the one of test_audit_rule.py (not tuned here).
 """
 
 from __future__ import annotations
@@ -52,6 +54,21 @@ TUNING = {
     ),
 }
 REPORT = {
+    "slack 3 N and friction rising with the tension, ramps": (
+        dict(
+            seed=84,
+            mu=0.08,
+            spread=0.25,
+            noise_n=0.02,
+            drive="ramp",
+            slack_n=3.0,
+            friction_slope_per_n=1.0e-3,
+        ),
+        {
+            "slack": ("slack_tension", 3.0, 0.1),
+            "tension_dependent_friction": ("mu_tension_slope", 1.0e-3, 0.3),
+        },
+    ),
     "cable-speed friction, slack 3 N and an offset of 0.3 N, ramps": (
         dict(
             seed=82,
@@ -85,14 +102,45 @@ REPORT = {
             "slack": ("slack_tension", 5.0, 0.1),
         },
     ),
+    "friction falling with the tension, slack 2 N and a lag of 6 ms, ramps": (
+        dict(
+            seed=85,
+            mu=0.09,
+            spread=0.2,
+            noise_n=0.025,
+            drive="ramp",
+            friction_slope_per_n=-8.0e-4,
+            slack_n=2.0,
+            lag_s=0.006,
+        ),
+        {
+            "tension_dependent_friction": ("mu_tension_slope", -8.0e-4, 0.3),
+            "slack": ("slack_tension", 2.0, 0.1),
+            "lag": ("sensor_tau", 0.006, 0.25),
+        },
+    ),
 }
 
 
-# Reported, not met (run once, with the rule and the search above): sensor_gain and slack are
-# named, the gain standing in for the offset and the cable-speed friction; the joint search took
-# out static friction, the cable-speed friction, the offset and the creep one at a time, the rest
-# refitted, each not needed beside the others by the rule.
-MISSED = ("cable-speed friction, slack 3 N and an offset of 0.3 N, ramps",)
+# Reported, not met (each run once, with the rule and the search above), and why:
+MISSED = {
+    # sensor_gain and slack are named, the gain standing in for the offset and the cable-speed
+    # friction; the joint search took out static friction, the cable-speed friction, the offset
+    # and the creep one at a time, the rest refitted, each not needed beside the others by the rule
+    "cable-speed friction, slack 3 N and an offset of 0.3 N, ramps": (
+        "sensor_gain named for the offset and the speed term"
+    ),
+    # the right two causes at the rig's values (slack 3.009 N, slope 1.07e-3 /N, by the forward
+    # selection alone), but 2.11x the floor on the report blocks (the rig's slope follows the
+    # cable's mean tension, the FMU's each segment's own; which of the rig's differences leaves
+    # the rest is not known)
+    "slack 3 N and friction rising with the tension, ramps": "2.11x the floor, not 2x",
+    # the right three causes, slope -8.46e-4 /N and slack 2.02 N, 1.13x the floor, but the lag in
+    # its second-order form (two poles of 3.7 ms) for the rig's first-order 6 ms
+    "friction falling with the tension, slack 2 N and a lag of 6 ms, ramps": (
+        "the lag's second-order form taken for a first-order lag"
+    ),
+}
 CASES = {**TUNING, **REPORT}
 
 
@@ -107,9 +155,7 @@ CASES = {**TUNING, **REPORT}
                 c,
                 marks=[
                     pytest.mark.long,
-                    pytest.mark.xfail(
-                        strict=True, reason="sensor_gain named for the offset and the speed term"
-                    ),
+                    pytest.mark.xfail(strict=True, reason=MISSED[c]),
                 ],
             )
             for c in MISSED
