@@ -273,11 +273,11 @@ def rig_record(
         else:
             change = np.where(t >= when, size, 0.0)
         extra_mu = change if extra_mu is None else extra_mu + change
-    if friction_slope_per_n != 0.0:
+    if friction_slope_per_n != 0.0 or viscous_speed_s_m != 0.0:
         along = braid_mean_tension(t_in, phi, mus, static_ratio=static_ratio)
+    if friction_slope_per_n != 0.0:
         extra_mu = (0.0 if extra_mu is None else extra_mu) + friction_slope_per_n * along
     if viscous_speed_s_m != 0.0:
-        along = braid_mean_tension(t_in, phi, mus, static_ratio=static_ratio)
         speed = RIG_LENGTH_M / RIG_EA_N * np.gradient(along) * RATE_HZ
         extra_mu = (0.0 if extra_mu is None else extra_mu) + viscous_speed_s_m * np.abs(speed)
     out = braid_output(t_in, phi, mus, extra_mu=extra_mu, static_ratio=static_ratio)
