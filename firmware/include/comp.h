@@ -101,7 +101,17 @@
  *    the T_c put out since the detector turned (the largest on an unloading branch),
  *      unloading: T_c = clamp(Y e^-(2 w_1 + 9b/8), T_c0 e^(-b/2), T_c0)
  *      loading:   T_c = clamp(Y e^+(2 w_1 + 9b/8), T_c0, T_c0 e^(+b/2))
- *    (w_1 = mu*phi, or the dead-zone inverse's first play): T_in first runs ahead by half the
+ *    (w_1 = mu*phi, or the dead-zone inverse's first play). With a slope the zone's width at the
+ *    turn is the first play's ln(G_up(X) / G_dn(X)) at the turn's output tension X (|T_eff| on
+ *    the step the detector turns), and 2 w_1 above is the wider of the two: a positive slope
+ *    widens the zone at the top, and a hold above the cable's breakaway level keeps the cable
+ *    stuck until T_ref has moved by the whole jump, where a hold below it costs at most its
+ *    margin, so a slope that narrows the zone keeps the slope-free hold (room for a bending
+ *    angle the position adds; chosen on the tuning plants, docs/results.md "The breakaway's hold
+ *    with a tension slope"). The factor is set at the turn, capped at e^4 on a loading branch.
+ *    Assumed: the static width follows the slope as the kinetic one does (the FMU integrates
+ *    mu + m_s + s*T; the level differs by under 1 % at mu 0.053, m_s 0.037, s 0.001 /N, 15 N).
+ *    T_in first runs ahead by half the
  *    jump, so that the cable breaks loose when T_ref has moved by b/2 (an error of at most
  *    T (1 - e^(-b/2)) before and after, where the plain inverse leaves T (1 - e^-b) before it),
  *    then holds b/8 past the breakaway level Y e^-+(2 w_1 + b) that the stuck output Y e^-+w_1
@@ -358,6 +368,14 @@ typedef struct {
     uq8_24_t brk_full_up;          /* e^+(2 w_1 + 9b/8), UQ8.24 (the exponent <= 4, checked) */
     uq8_24_t brk_half;             /* e^(-b/2), UQ8.24 */
     uq8_24_t brk_half_up;          /* e^(+b/2), UQ8.24 */
+    uq8_24_t brk_f_dn;             /* the hold's factor on Y of the branch entered last: brk_full,
+                                      or with a slope its value at that turn's tension (UQ8.24) */
+    uq8_24_t brk_f_up;             /* the same on a loading branch, <= e^4 (UQ8.24) */
+    int32_t brk_k_q24;             /* with a slope: s*q (comp.h), Q7.24 per N */
+    uq8_24_t brk_e;                /* e^(mu*phi), UQ8.24 */
+    uq8_24_t brk_dn_k;             /* e^-(w_1 + 9b/8), UQ8.24 */
+    uq8_24_t brk_up_k;             /* e^(w_1 - mu*phi), UQ8.24 */
+    uq8_24_t brk_b98_up;           /* e^(9b/8), UQ8.24 */
     int32_t slk_on;                /* 1 when the slack's root is in force (slack_tension > 0) */
     int32_t slk_held;              /* 1 while the slack's root is held off (comp_hold_slack; 0
                                       after comp_reset) */

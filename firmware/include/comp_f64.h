@@ -59,6 +59,9 @@ typedef struct {
     int32_t brk_dir;            /* the branch the breakaway's extreme belongs to (0: none yet) */
     double brk_y;               /* Y: the extreme of T_c on that branch, N */
     double brk_last;            /* the last T_c put out, N */
+    double brk_full_dn;         /* the hold's factor on Y, unloading (comp.h; with a slope the
+                                   turn's, else the configuration's) */
+    double brk_full_up;         /* the same, loading */
     int32_t vis_fresh;          /* 1 until the next step sets vis_prev (no rate yet) */
     double vis_prev;            /* T_eff of the last step, N */
     double vis_r;               /* r_hat: the filtered predicted inlet rate, N/s */

@@ -372,6 +372,21 @@ int32_t comp_configure(comp_t *c, const comp_config_t *cfg)
         c->brk_full_up = fxp_exp_uq8_24(hold);
         c->brk_half = fxp_exp_uq8_24(-(b / 2));
         c->brk_half_up = fxp_exp_uq8_24(b / 2);
+        if (cfg->mu_slope_per_n_q28 == 0) {
+            c->brk_f_dn = c->brk_full;
+            c->brk_f_up = c->brk_full_up;
+        }
+        /* With a slope, the hold's factor at a turn's tension (brk_turn): the constants. s*q as
+         * the tables' (Q.52, |.| < 2^53) rounded to Q7.24 per N (|s q| < 2^7: |.| < 2^31). */
+        q3_28_t x0 = (q3_28_t)exponent_q28(cfg);
+        int64_t q24 =
+            ((int64_t)cfg->phi_rad_q24 * fxp_expm1_x_uq6_26(x0) + (INT64_C(1) << 25)) >> 26;
+        int64_t k52 = (int64_t)cfg->mu_slope_per_n_q28 * q24;
+        c->brk_k_q24 = (int32_t)((k52 + (INT64_C(1) << 27)) >> 28);
+        c->brk_e = fxp_exp_uq8_24(x0);
+        c->brk_dn_k = fxp_exp_uq8_24(-(x1 + b + b / 8));
+        c->brk_up_k = fxp_exp_uq8_24(x1 - x0);
+        c->brk_b98_up = fxp_exp_uq8_24(b + b / 8);
     }
     int32_t top = (cfg->mode == COMP_MODE_PREVIEW) ? cfg->ramp_ticks : cfg->band_n_q8;
     if (c->inv_band == 0U || top != c->blend_top) { /* 0: not yet set (comp_init) */
@@ -472,7 +487,38 @@ static inline uint64_t blend_weight(const comp_t *c, int32_t s)
  * (|.| < 2^20) times the weight (<= 2^30) < 2^50, rounded. */
 #define BRK_TC_CAP_Q8 (INT64_C(1) << 17) /* 512 N: above Q7.8's full scale, below overflow */
 
-static int64_t brk_apply(comp_t *c, int64_t tc0, int32_t s)
+/* The hold's factors at a turn where the friction has a slope (comp.h): the dead zone's width
+ * at the turn's tension a (Q7.8, <= 127.996 N), G_up/G_dn of the first play, from the tables
+ * and the slope's c = s*q*min(a, 48 N) (the tables' law), where it is wider than 2 w_1:
+ *   unloading: min(G_dn/G_up e^-9b/8, brk_full),
+ *              G_dn/G_up e^-9b/8 = D(a) (1 - c) e^-(w_1 + 9b/8)
+ *   loading:   max(G_up/G_dn e^+9b/8, brk_full_up), at most e^4,
+ *              G_up/G_dn e^+9b/8 = U(a) e^(w_1 - W) (E + c) e^(9b/8)
+ * with D, U the tables' gains (G_dn e^(W - w_1), G_up e^(w_1 - W)) and E = e^W, W = mu*phi.
+ * Scaling and overflow: c in Q7.24 (|s q| < 2^7 per N times a < 2^14 LSB: < 2^45 before the
+ * shift); 1 - c in (0, E] and E + c in [1, E + 1] (the checks: 1 - c > 0 and mu + 48 s >= 0 give
+ * c >= 1 - E), so both < 2^30 in UQ8.24; D, U < 2^30 (the gains within [e^-4, e^4]); D (1 - c)
+ * < 2^60 -> < 2^36, times e^-(..) <= 1 (< 2^25) < 2^61, rounded, then at most brk_full (<= 1);
+ * U e^(w_1 - W) < 2^30; (E + c) e^(9b/8) <= e^(W + 9b/8) + e^(9b/8) <= 2 e^4 (the
+ * check (2 mu + 9/8 m_s) phi <= 4) < 2^31; their product < 2^61, rounded, clamped to e^4. */
+static void brk_turn(comp_t *c, uint32_t a)
+{
+    const uint64_t r = UINT64_C(1) << 23;
+    const uint32_t cap = (uint32_t)COMP_MU_SLOPE_RANGE_N << 8;
+    int64_t c24 = ((int64_t)c->brk_k_q24 * (int64_t)((a < cap) ? a : cap) + 128) >> 8;
+    uint64_t one_m_c = (uint64_t)((INT64_C(1) << 24) - c24);
+    uint64_t e_p_c = (uint64_t)((int64_t)c->brk_e + c24);
+    uint64_t dn = ((uint64_t)tab_interp(c->g_dn, a) * one_m_c + r) >> 24;
+    dn = (dn * c->brk_dn_k + r) >> 24;
+    c->brk_f_dn = (uq8_24_t)((dn < c->brk_full) ? dn : c->brk_full);
+    uint64_t ua = ((uint64_t)tab_interp(c->g_up, a) * c->brk_up_k + r) >> 24;
+    uint64_t eb = (e_p_c * c->brk_b98_up + r) >> 24;
+    uint64_t up = (ua * eb + r) >> 24;
+    up = (up > c->brk_full_up) ? up : c->brk_full_up;
+    c->brk_f_up = (uq8_24_t)((up < COMP_GAIN_MAX) ? up : COMP_GAIN_MAX);
+}
+
+static int64_t brk_apply(comp_t *c, int64_t tc0, int32_t s, uint32_t a)
 {
     const int32_t dir = c->dir;
     if (dir != c->brk_dir) {
@@ -480,6 +526,9 @@ static int64_t brk_apply(comp_t *c, int64_t tc0, int32_t s)
          * keeps the first loading from rest free of any excess. */
         c->brk_y_q8 = (c->brk_dir == 0) ? 0 : c->brk_last_q8;
         c->brk_dir = dir;
+        if (c->cfg.mu_slope_per_n_q28 != 0) {
+            brk_turn(c, a);
+        }
     }
     if (tc0 <= 0) {
         return tc0; /* a cable cannot push: nothing sticks below zero */
@@ -492,12 +541,12 @@ static int64_t brk_apply(comp_t *c, int64_t tc0, int32_t s)
     uint64_t w = blend_weight(c, s);
     if (dir < 0) {
         int64_t lo = (t * (int64_t)c->brk_half + r) >> 24;
-        int64_t yb = (y * (int64_t)c->brk_full + r) >> 24;
+        int64_t yb = (y * (int64_t)c->brk_f_dn + r) >> 24;
         tb = (yb < lo) ? lo : (yb > t) ? t : yb;
         weight = (int64_t)Q1_30_ONE - (int64_t)w;
     } else {
         int64_t hi = (t * (int64_t)c->brk_half_up + r) >> 24;
-        int64_t yb = (y * (int64_t)c->brk_full_up + r) >> 24;
+        int64_t yb = (y * (int64_t)c->brk_f_up + r) >> 24;
         tb = (yb < t) ? t : (yb > hi) ? hi : yb;
         weight = (int64_t)w;
     }
@@ -695,7 +744,7 @@ static inline __attribute__((always_inline)) q7_8_t step_modes(comp_t *c, int32_
     int64_t tc = (dz != 0) ? dz_step(c, t_eff, g)
                            : ((int64_t)t_eff * (int64_t)g + (INT64_C(1) << 23)) >> 24;
     if (brk != 0) {
-        tc = brk_apply(c, tc, s);
+        tc = brk_apply(c, tc, s, a);
     }
     if (tc > Q7_8_MAX) {
         tc = Q7_8_MAX;

@@ -201,6 +201,8 @@ void comp_f64_reset(comp_f64_t *c)
     c->brk_dir = 0;
     c->brk_y = 0.0;
     c->brk_last = 0.0;
+    c->brk_full_dn = 0.0;
+    c->brk_full_up = 0.0;
     c->vis_fresh = 1;
     c->vis_r = 0.0;
     c->blend = blend_top(&c->cfg);
@@ -365,20 +367,31 @@ double comp_step_f64(comp_f64_t *c, double t_ref_n)
     double tc = t_eff * g * f;
     if (cfg->breakaway > 0.0) {
         /* The breakaway term (comp.h): Y the extreme of T_c since the detector turned. */
+        double b = cfg->breakaway * cfg->phi_rad;
         if (c->dir != c->brk_dir) {
             c->brk_y = (c->brk_dir == 0) ? 0.0 : c->brk_last;
             c->brk_dir = c->dir;
+            if (cfg->mu_slope_per_n != 0.0) {
+                /* The dead zone's width at the turn's tension (the first play's gains), where it
+                 * is the wider of it and 2 w_1 (comp.h); the factor at most e^4. */
+                double full = fmax(log(gu / gd), 2.0 * c->dz_x1) + 1.125 * b;
+                c->brk_full_dn = exp(-full);
+                c->brk_full_up = exp(fmin(full, 4.0));
+            }
+        }
+        if (cfg->mu_slope_per_n == 0.0) {
+            double full = 2.0 * c->dz_x1 + 1.125 * b; /* the hold: b/8 past the threshold */
+            c->brk_full_dn = exp(-full);
+            c->brk_full_up = exp(full);
         }
         if (tc > 0.0) {
-            double b = cfg->breakaway * cfg->phi_rad;
-            double full = 2.0 * c->dz_x1 + 1.125 * b; /* the hold: b/8 past the threshold */
             double t = fmin(tc, 512.0);
             double tb;
             if (c->dir < 0) {
-                tb = fmin(t, fmax(t * exp(-0.5 * b), c->brk_y * exp(-full)));
+                tb = fmin(t, fmax(t * exp(-0.5 * b), c->brk_y * c->brk_full_dn));
                 tc = t + (tb - t) * (1.0 - w);
             } else {
-                tb = fmin(t * exp(0.5 * b), fmax(t, c->brk_y * exp(full)));
+                tb = fmin(t * exp(0.5 * b), fmax(t, c->brk_y * c->brk_full_up));
                 tc = t + (tb - t) * w;
             }
         }
