@@ -9,10 +9,12 @@ below (TUNING: seed 81), which changed two choices: the search takes the causes 
 not only the first (there the slack removed 95 % in round 1, the lag 0 %), and the rule itself
 decides whether its model replaces the forward selection's (a separation t of 1.8 had refused
 it). The other rig cases (REPORT: the rig's own code, tests/audit/rig_models.py, not the FMU's)
-were written after that and run once; they are reported as they came out: one met, three not
+were written after that and run once; they are reported as they came out: two met, four not
 (MISSED, strict xfails). Seeds 82 and 83 came with the joint search; seeds 84 and 85, with the
 rig's friction that changes with the tension, later, after tuning plants whose slope and slack
-the audit had missed. The decision rule is the one of test_audit_rule.py (not tuned here).
+the audit had missed; seeds 86 and 87 after tuning plants whose positive slope the audit named
+as a sensor's saturation beside cable-speed friction. The decision rule is the one of
+test_audit_rule.py (not tuned here).
 """
 
 from __future__ import annotations
@@ -119,7 +121,39 @@ REPORT = {
             "lag": ("sensor_tau", 0.006, 0.25),
         },
     ),
+    "friction rising with the tension and strong cable-speed friction, ramps": (
+        dict(
+            seed=86,
+            mu=0.09,
+            spread=0.3,
+            noise_n=0.025,
+            drive="ramp",
+            friction_slope_per_n=4.0e-4,
+            viscous_speed_s_m=4.0,
+        ),
+        {
+            "tension_dependent_friction": ("mu_tension_slope", 4.0e-4, 0.3),
+            "viscous_friction": None,
+        },
+    ),
+    "friction rising with the tension and cable-speed friction, ramps": (
+        dict(
+            seed=87,
+            mu=0.09,
+            spread=0.3,
+            noise_n=0.025,
+            drive="ramp",
+            friction_slope_per_n=6.0e-4,
+            viscous_speed_s_m=2.0,
+        ),
+        {
+            "tension_dependent_friction": ("mu_tension_slope", 6.0e-4, 0.3),
+            "viscous_friction": None,
+        },
+    ),
 }
+# Report cases kept to `make test-long` for the suite's time (met, each about 30 s of fits)
+LONG = {"friction rising with the tension and cable-speed friction, ramps"}
 
 
 # Reported, not met (each run once, with the rule and the search above), and why:
@@ -140,6 +174,16 @@ MISSED = {
     "friction falling with the tension, slack 2 N and a lag of 6 ms, ramps": (
         "the lag's second-order form taken for a first-order lag"
     ),
+    # a sensor's saturation (full scale 13.3 N, its knee at the 2 N bound after the last refit)
+    # named for the slope, 2.45x the floor: once the cable-speed friction is in the model, the
+    # slope's fit from 0 stays at 0 (round 2: 0 % removed), since with this much speed friction
+    # the twin's output moves by about 15 mN for any change of mu or the slope however small
+    # (1e-12 included: the cable speed feeds the friction that stretches the cable, a loop whose
+    # gain exceeds 1 in the dead zone), so the fit's differences see no slope; fitted from 3e-4
+    # the slope reaches 2.9e-4 with 45 % less on the fit blocks
+    "friction rising with the tension and strong cable-speed friction, ramps": (
+        "sensor_saturation named for the slope: the fit's differences lost in the speed loop"
+    ),
 }
 CASES = {**TUNING, **REPORT}
 
@@ -149,7 +193,8 @@ CASES = {**TUNING, **REPORT}
     [
         # the tuning case's joint search starts from ten causes: minutes of fits (make test-long)
         *(pytest.param(c, marks=pytest.mark.long) for c in TUNING),
-        *(c for c in REPORT if c not in MISSED),
+        *(c for c in REPORT if c not in MISSED and c not in LONG),
+        *(pytest.param(c, marks=pytest.mark.long) for c in LONG),
         *(
             pytest.param(
                 c,
