@@ -111,6 +111,15 @@ static q3_28_t first_exponent_q28(const comp_config_t *cfg)
     return dz_constants(cfg, 0);
 }
 
+/* s*q of the slope's law (comp.h), q = phi (E - 1)/(mu phi), in Q.52 per N (|.| < 2^53): phi
+ * (Q7.24) * (E-1)/x (UQ6.26) = Q.50 -> Q.24, times s in Q3.28. */
+static int64_t slope_k52(const comp_config_t *cfg)
+{
+    q3_28_t x = (q3_28_t)exponent_q28(cfg);
+    int64_t q24 = ((int64_t)cfg->phi_rad_q24 * fxp_expm1_x_uq6_26(x) + (INT64_C(1) << 25)) >> 26;
+    return (int64_t)cfg->mu_slope_per_n_q28 * q24;
+}
+
 static int32_t build_tables(const comp_config_t *cfg, uq8_24_t *up, uq8_24_t *dn)
 {
     q3_28_t x0 = (q3_28_t)exponent_q28(cfg); /* checked <= 4 */
@@ -126,9 +135,7 @@ static int32_t build_tables(const comp_config_t *cfg, uq8_24_t *up, uq8_24_t *dn
     }
     const q3_28_t x = x0;
     uq8_24_t e = fxp_exp_uq8_24(x);
-    /* phi (Q7.24) * (E-1)/x (UQ6.26) = Q.50 -> Q.24. */
-    int64_t q24 = ((int64_t)cfg->phi_rad_q24 * fxp_expm1_x_uq6_26(x) + (INT64_C(1) << 25)) >> 26;
-    int64_t k52 = (int64_t)cfg->mu_slope_per_n_q28 * q24;
+    int64_t k52 = slope_k52(cfg);
     int64_t e52 = (int64_t)e * (INT64_C(1) << 28);
     const int64_t one52 = INT64_C(1) << 52;
     for (int32_t i = 0; i < COMP_TAB_NODES; ++i) {
@@ -375,18 +382,16 @@ int32_t comp_configure(comp_t *c, const comp_config_t *cfg)
         if (cfg->mu_slope_per_n_q28 == 0) {
             c->brk_f_dn = c->brk_full;
             c->brk_f_up = c->brk_full_up;
+        } else {
+            /* The constants of the hold's factor at a turn's tension (brk_turn): s*q as the
+             * tables' rounded to Q7.24 per N (|s q| < 2^7: |.| < 2^31). */
+            q3_28_t x0 = (q3_28_t)exponent_q28(cfg);
+            c->brk_k_q24 = (int32_t)((slope_k52(cfg) + (INT64_C(1) << 27)) >> 28);
+            c->brk_e = fxp_exp_uq8_24(x0);
+            c->brk_dn_k = fxp_exp_uq8_24(-(x1 + b + b / 8));
+            c->brk_up_k = fxp_exp_uq8_24(x1 - x0);
+            c->brk_b98_up = fxp_exp_uq8_24(b + b / 8);
         }
-        /* With a slope, the hold's factor at a turn's tension (brk_turn): the constants. s*q as
-         * the tables' (Q.52, |.| < 2^53) rounded to Q7.24 per N (|s q| < 2^7: |.| < 2^31). */
-        q3_28_t x0 = (q3_28_t)exponent_q28(cfg);
-        int64_t q24 =
-            ((int64_t)cfg->phi_rad_q24 * fxp_expm1_x_uq6_26(x0) + (INT64_C(1) << 25)) >> 26;
-        int64_t k52 = (int64_t)cfg->mu_slope_per_n_q28 * q24;
-        c->brk_k_q24 = (int32_t)((k52 + (INT64_C(1) << 27)) >> 28);
-        c->brk_e = fxp_exp_uq8_24(x0);
-        c->brk_dn_k = fxp_exp_uq8_24(-(x1 + b + b / 8));
-        c->brk_up_k = fxp_exp_uq8_24(x1 - x0);
-        c->brk_b98_up = fxp_exp_uq8_24(b + b / 8);
     }
     int32_t top = (cfg->mode == COMP_MODE_PREVIEW) ? cfg->ramp_ticks : cfg->band_n_q8;
     if (c->inv_band == 0U || top != c->blend_top) { /* 0: not yet set (comp_init) */
