@@ -304,6 +304,7 @@ def _bench_session(args: argparse.Namespace, plant: dict) -> int:
         )
         if args.bench_command == "list":
             return bench_tools.cmd_list(args, chain)
+        args.emulated_chain = chain if args.emulate else None
         bench_tools.resolve_port(args)
         session = Bench(
             args.port,

@@ -71,6 +71,16 @@ def add_parsers(sub) -> None:
     c.add_argument("--persist", action="store_true", help="with --apply: save them in flash")
     c.add_argument("--force", action="store_true", help="write into a non-empty --out")
     c.add_argument("--quiet", action="store_true", help="no progress line")
+    c.add_argument(
+        "--map",
+        nargs="?",
+        const="default",
+        metavar="X,Y,Z;...",
+        help="after the audit, map the bending angle over the workspace: a short sequence at "
+        "home and at each of these positions (m; without a value 0.2 m from home along x, y and "
+        "z). On a device you move the end-effector to each when asked, with the output off; "
+        "the map (bend_map.json) is the host's, for comp.phi_rad at each position",
+    )
 
 
 def add_live_arguments(p, required_live: bool = False) -> None:
@@ -220,6 +230,27 @@ def _precheck_calibrate(args) -> int | None:
     except BenchUsageError as exc:
         print(f"bowden bench {exc}", file=sys.stderr)
         return 2
+    args.map_positions = ()
+    if args.map is not None:
+        from cosim.bench.rig import bend_map  # noqa: PLC0415
+        from cosim.parts.geometry import in_workspace  # noqa: PLC0415
+
+        try:
+            positions = (
+                bend_map.DEFAULT_POSITIONS_M
+                if args.map == "default"
+                else bend_map.parse_positions(args.map)
+            )
+            for p in positions:
+                if not bool(in_workspace(*p, 1.0)):
+                    raise bend_map.BendMapError(
+                        f"--map: position {bend_map.show_position(p)} m is outside the "
+                        "workspace of a 1 m sheath (sqrt(x^2 + y^2 + z^2) <= 1 m and y >= 0)"
+                    )
+        except bend_map.BendMapError as exc:
+            print(f"bowden bench calibrate: {exc}", file=sys.stderr)
+            return 2
+        args.map_positions = positions
     return None
 
 
@@ -286,6 +317,7 @@ def cmd_calibrate(client, args, info) -> int:
         apply=args.apply,
         persist=args.persist,
         restore_hint=restore_command(args),
+        map_positions=tuple(getattr(args, "map_positions", ())),
     )
     outcome = calibrate.run_calibration(
         client,
@@ -295,8 +327,43 @@ def cmd_calibrate(client, args, info) -> int:
         hold=args.signals.hold,
         say=lambda line: print(line, flush=True),
         progress=None if args.quiet else stderr_progress,
+        bench_at=_bench_at(client, args, after_run),
     )
     return outcome.exit_code
+
+
+def _bench_at(client, args, after_run):
+    """calibrate's bench_at for its map of the bending angle: with --emulate a stepped
+    emulated bench with the session's plant started at each position; on a device, the user
+    moves the end-effector there while the output is off (every run ended with it disabled,
+    confirmed) and presses Enter (Ctrl-C stops the calibration and puts everything back)."""
+    import contextlib  # noqa: PLC0415
+
+    from cosim.bench.rig import bend_map  # noqa: PLC0415
+
+    if args.emulate:
+        chain = getattr(args, "emulated_chain", None)
+        return bend_map.emulated_at(
+            None if chain is None else chain.plant, True if chain is None else chain.loop_routing
+        )
+
+    @contextlib.contextmanager
+    def at(p):
+        print(
+            f"move the end-effector to {bend_map.show_position(p)} m (the output is disabled), "
+            "then press Enter; Ctrl-C stops the calibration",
+            flush=True,
+        )
+        try:
+            input()
+        except EOFError:
+            raise BenchError(
+                "calibrate --map: no answer on the standard input (it asks you to move the "
+                "end-effector to each position)"
+            ) from None
+        yield client, after_run
+
+    return at
 
 
 def resolve_port(args) -> None:

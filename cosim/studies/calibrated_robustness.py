@@ -18,6 +18,11 @@ a grid's plant axes are crossed, a random spec draws one plant per point):
    compensator.phi_rad the device's that calibrate scaled them to (run_values), and
    compensator.est_enable 0.
 
+With `--map` (or `--map "X,Y,Z;..."`) calibrate also maps the bending angle over those
+positions (cosim.bench.rig.bend_map, the defaults without a value), and each run's compensator
+takes the map's angle at the run's position, as the host that places the end-effector would set
+it (docs/results.md, "The bending angle's map").
+
 With `--truth KEY` (repeatable, or `all`) a run takes the plant's own value of that compensator
 key in place of calibrate's proposal (true_compensator: the FMU's parameters mapped to the
 compensator's), which says what calibrate's finding of it costs; with all of them, what the
@@ -41,8 +46,9 @@ compensator aims the cable's tension at T_ref, not the cell's reading. The JSON
 
     python -m cosim.studies.calibrated_robustness [--spec SPEC.yaml] [--workers 2] [--out DIR]
         [--limit N] [--no-tare] [--reuse] [--calibrations DIR] [--leave KEY ...] [--truth KEY ...]
-        [--params FILE] [--set KEY=VALUE ...] [--score-from-s S] [--breakaway-share K]
-        [--slack-sources S,...] [--viscous-sources S,...] [--breakaway-sources S,...]
+        [--params FILE] [--set KEY=VALUE ...] [--map [X,Y,Z;...]] [--score-from-s S]
+        [--breakaway-share K] [--slack-sources S,...] [--viscous-sources S,...]
+        [--breakaway-sources S,...]
 
 Without --spec: cosim/studies/sweep/examples/robustness_estimator.yaml (the robustness grid:
 plant mu, cable_EA and current_bandwidth at -20 % / nominal / +20 %, 27 plants, five positions).
@@ -141,9 +147,16 @@ def run_values(
     The angle: only mu*phi is observed, so calibrate proposes mu (and the slope, the breakaway,
     the rate term) for the device's phi; the sweep's own default (resolve_phi: the plant's phi at
     home, with its bending-angle errors) would count the home position's bending error twice,
-    once in calibrate's mu*phi and once in the angle."""
+    once in calibrate's mu*phi and once in the angle. With calibrate's map of the bending angle
+    (`comp["bend_map"]`, cosim.bench.rig.bend_map) the angle is the map's at the run's position,
+    as the host that places the end-effector would set it."""
     fixed = {n: comp[n] for n in COMP_KEYS if n not in leave}
     phi = comp.get("device_phi_rad")
+    if phi is not None and comp.get("bend_map") and values.get("position_m") is not None:
+        from cosim.bench.rig.bend_map import BendMap  # noqa: PLC0415
+
+        # the host sets the angle at the run's position from calibrate's map
+        phi = BendMap.from_dict(comp["bend_map"]).phi_at(phi, values["position_m"])
     angle = {} if phi is None else {"compensator.phi_rad": phi}
     return {
         **values,
@@ -259,6 +272,7 @@ def calibrate_plant(
     slack_sources: tuple[str, ...] | None = None,
     viscous_sources: tuple[str, ...] | None = None,
     breakaway_sources: tuple[str, ...] | None = None,
+    map_positions: tuple = (),
 ) -> dict:
     """The compensator values `calibrate` proposes for an emulated plant (FMU parameters), as
     the sweep's config keys (compensator.mu, ...), the decision and reason of each, and the
@@ -269,7 +283,8 @@ def calibrate_plant(
     the slack (slack_of_report, from the report and its audit's record), from `slack_sources`
     rather than calibrate's SLACK_SOURCES when given, the rate term (viscous_of_report) from
     `viscous_sources` rather than VISCOUS_SOURCES, and the breakaway from `breakaway_sources`
-    rather than BREAKAWAY_SOURCES."""
+    rather than BREAKAWAY_SOURCES. With `map_positions`, calibrate's map of the bending angle
+    over them (cosim.bench.rig.bend_map; its bend_map.json reused with `reuse`) as `bend_map`."""
     from cosim.bench.link.api import Bench  # noqa: PLC0415
     from cosim.bench.rig import calibrate as cal  # noqa: PLC0415
 
@@ -321,8 +336,40 @@ def calibrate_plant(
     }
     out["tare_n"] = report["tare"]["offset_n"]
     out["device_phi_rad"] = report.get("device_phi_rad")  # what the proposals are scaled to
+    if map_positions:
+        out["bend_map"] = _bend_map(plant, Path(folder), report, audit, map_positions, reuse)
     out["wall_s"] = time.perf_counter() - t0
     return out
+
+
+def _bend_map(plant: dict, folder: Path, report: dict, audit: dict, positions, reuse: bool):
+    """calibrate's map of the bending angle (cosim.bench.rig.bend_map) for an emulated plant
+    whose calibration is in `folder`, as a dict."""
+    from cosim.bench.rig import bend_map  # noqa: PLC0415
+    from cosim.bench.rig import calibrate as cal  # noqa: PLC0415
+    from cosim.parts.geometry import bending_angle  # noqa: PLC0415
+
+    path = folder / bend_map.FILE
+    if reuse and path.is_file():
+        m = bend_map.read(path)
+        if [tuple(p.position_m) for p in m.points] == [tuple(map(float, p)) for p in positions]:
+            return m.to_dict()
+    opts = cal.Options(out_dir=folder, audit_plots=False, predict=False)
+    phi_home = float(bending_angle(*opts.position_m, opts.sheath_length_m, opts.loop_routing))
+    try:
+        m = bend_map.make(
+            bend_map.emulated_at(plant, opts.loop_routing),
+            positions,
+            dict(audit["extended"]["params"]),
+            phi_home,
+            float(report["tare"]["offset_n"]),
+            opts,
+            say=lambda _: None,
+        )
+    except bend_map.BendMapError as exc:
+        print(f"  {folder.name}: {exc}: the runs keep calibrate's angle", file=sys.stderr)
+        return None
+    return m.to_dict()
 
 
 def _replace_change(report: dict, c) -> None:
@@ -460,6 +507,15 @@ def main(argv: list[str] | None = None) -> int:
         "what the compensator's law alone can do; repeatable)",
     )
     ap.add_argument(
+        "--map",
+        nargs="?",
+        const="default",
+        metavar="X,Y,Z;...",
+        help="calibrate maps the bending angle at these positions (m; without a value its "
+        "defaults, cosim.bench.rig.bend_map.DEFAULT_POSITIONS_M) and each run's compensator "
+        "takes the map's angle at the run's position (as `bowden bench calibrate --map`)",
+    )
+    ap.add_argument(
         "--reuse",
         action="store_true",
         help="take each plant's calibration from --out (or --calibrations) where a run before "
@@ -536,6 +592,19 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:
         print(f"calibrated_robustness: {exc}", file=sys.stderr)
         return 2
+    map_positions: tuple = ()
+    if args.map is not None:
+        from cosim.bench.rig import bend_map  # noqa: PLC0415
+
+        try:
+            map_positions = (
+                bend_map.DEFAULT_POSITIONS_M
+                if args.map == "default"
+                else bend_map.parse_positions(args.map)
+            )
+        except bend_map.BendMapError as exc:
+            print(f"calibrated_robustness: {exc}", file=sys.stderr)
+            return 2
     start = args.score_from_s
     if start is not None and not 0.0 <= start < (spec.duration_s or np.inf):
         print(
@@ -570,6 +639,7 @@ def main(argv: list[str] | None = None) -> int:
                 slack_sources,
                 viscous_sources,
                 breakaway_sources,
+                map_positions,
             )
             for i, k in enumerate(keys)
         ]

@@ -320,6 +320,7 @@ def test_a_calibration_made_before_the_breakaway_gets_it_from_its_findings(tmp_p
         (["--params", "{dir}/plant.json"], "'plant' is not this study's to set"),
         (["--params", "{dir}/missing.json"], "missing.json does not exist"),
         (["--score-from-s", "-1"], "--score-from-s must be in [0, the runs' 6.0 s); got -1.0"),
+        (["--map", "0,0.5"], "--map: '0,0.5' is not a position x,y,z in m"),
     ],
 )
 def test_a_bad_overlay_or_score_start_is_one_line_and_runs_nothing(tmp_path, capsys, args, says):

@@ -30,6 +30,10 @@ The steps (cosim/bench/README.md, "Calibration", says why each piece is there):
    not take is clipped to the nearest one it takes on the way from the device's value (status
    "clipped", the limit named), and a set that does not hold together keeps the most of it that
    does: one value never blocks the others. Loop gains are never among them.
+3b. **The bending angle's map** (with Options.map_positions: bend_map, `--map`): the
+   identification's first pieces at home and at further positions, the ratio of the bending
+   angle at each to home's, and the plane through them (bend_map.json, the host's: nothing of it
+   is written to the device).
 4. **Prediction** (`predict`). The emulated controller (the device's firmware, the FPGA loop's
    model) with the audited plant and the device's compensator and loop settings runs the
    verification waveform with the device's values and with the proposed ones.
@@ -993,6 +997,10 @@ class Options:
     # cable must be at rest and unloaded when calibrate starts. False: the audit's offset stands
     # for the sensor's and the tension's together (as before the tare).
     tare: bool = True
+    # Further positions (m) at which to map the bending angle after the audit (bend_map: the
+    # map's sequence at home and at each, the end-effector moved there by `bench_at`); none: no
+    # map.
+    map_positions: tuple = ()
 
 
 @dataclass
@@ -1012,11 +1020,15 @@ def run_calibration(
     hold: Callable | None = None,
     say: Callable[[str], None] = print,
     progress: Callable[[str], None] | None = None,
+    bench_at: Callable | None = None,
 ) -> Outcome:
     """The calibration (module docstring) on a connected client. `after_run` is called after
     every run however it ends (stop the device and confirm it; raise BenchError when that
     cannot be confirmed; default: STOP); `hold()` a context manager under which putting the
     configuration back is not cut short by a signal (cosim.bench.rig.run.Signals.hold).
+    `bench_at(p)`: with opts.map_positions, a context manager that has the end-effector at p
+    and gives (client, after_run) (bend_map.make): the user's rig moved there, or an emulated
+    bench started there.
 
     However it ends, what the runs changed (source, wave.*) is written back, and so are the
     compensator values unless they were applied and verified. A link or device failure is one
@@ -1044,7 +1056,14 @@ def run_calibration(
     failure: BaseException | None = None
     try:
         outcome = _calibrate(
-            client, opts, before_words, state, after_run=after_run, say=say, progress=progress
+            client,
+            opts,
+            before_words,
+            state,
+            after_run=after_run,
+            say=say,
+            progress=progress,
+            bench_at=bench_at,
         )
         state.kept = bool(outcome.report.get("applied_kept"))
         return outcome
@@ -1210,7 +1229,9 @@ def _check_far_end(columns: dict, path: Path) -> None:
         )
 
 
-def _calibrate(client, opts: Options, before_words, state, *, after_run, say, progress):
+def _calibrate(
+    client, opts: Options, before_words, state, *, after_run, say, progress, bench_at=None
+):
     from cosim.audit import core  # noqa: PLC0415
     from cosim.audit import params as audit_params  # noqa: PLC0415
     from cosim.audit import report as audit_report  # noqa: PLC0415
@@ -1297,6 +1318,11 @@ def _calibrate(client, opts: Options, before_words, state, *, after_run, say, pr
         else:
             say(f"  {c.name}: {_fmt(c.current)} kept: {c.status}: {c.reason}")
 
+    bend = None
+    if opts.map_positions:
+        state.step = "the bending angle's map"
+        bend = _bend_map(bench_at, opts, result, tare, phi_dev, say, progress)
+
     state.step = "the prediction"
     pred, series = {}, {}
     if opts.predict:
@@ -1333,6 +1359,7 @@ def _calibrate(client, opts: Options, before_words, state, *, after_run, say, pr
         },
         "tare": tare,
         "device_phi_rad": phi_dev,
+        "bend_map": None if bend is None else bend.to_dict(),
         "changes": [asdict(c) for c in changes],
         "verification": {**VERIFY, "seconds": VERIFY_SECONDS, "settle_s": SETTLE_S},
         "predicted": {k: _metrics(v) for k, v in pred.items()},
@@ -1357,6 +1384,39 @@ def _calibrate(client, opts: Options, before_words, state, *, after_run, say, pr
     _write_reports(out, report, series)
     say(f"wrote {out / 'calibration.json'}, {out / 'calibration.md'}, {out / 'calibration.png'}")
     return Outcome(report, exit_code)
+
+
+def _bend_map(bench_at, opts: Options, result, tare: dict, phi_dev: float, say, progress):
+    """The bending angle's map (bend_map.make) after the audit, or None when it cannot be made
+    (said; the calibration goes on: the map is the host's, nothing of it is written to the
+    device)."""
+    from . import bend_map  # noqa: PLC0415
+
+    if bench_at is None:
+        raise BenchUsageError("calibrate: a map of the bending angle needs bench_at")
+    n = len(opts.map_positions)
+    seconds = len(bend_map.map_sequence(1000.0)) / 1000.0
+    say(f"bending angle's map: {seconds:.1f} s at home and at each of {n} positions ...")
+    try:
+        m = bend_map.make(
+            bench_at,
+            opts.map_positions,
+            dict(result.extended.params),
+            audit_phi(result.data),
+            tare["offset_n"],
+            opts,
+            say=lambda line: say("  " + line),
+            progress=progress,
+        )
+    except bend_map.BendMapError as exc:
+        say(f"  no map of the bending angle: {exc}")
+        return None
+    g = ", ".join(f"{v:+.4f}" for v in m.gradient_per_m)
+    say(
+        f"  map: k(p) = 1 + ({g}) . (p - home) per m (largest miss {m.residual:.4f}); the host "
+        f"sets comp.phi_rad = {phi_dev:.4f} * k(p) at each position ({bend_map.FILE})"
+    )
+    return m
 
 
 def _metrics(m: dict) -> dict:
@@ -1459,6 +1519,7 @@ def markdown(report: dict) -> str:
         + ".",
     ]
     lines += [f"- note: {n}" for n in a["notes"]]
+    lines += _bend_map_markdown(report)
     lines += [
         "",
         "## Changes",
@@ -1546,3 +1607,37 @@ __all__ = [
     "propose",
     "run_calibration",
 ]
+
+
+def _bend_map_markdown(report: dict) -> list[str]:
+    """calibration.md's section on the bending angle's map (none without one)."""
+    m = report.get("bend_map")
+    if not m:
+        return []
+    phi = report["device_phi_rad"]
+    g = ", ".join(f"{v:+.4f}" for v in m["gradient_per_m"])
+    home = ", ".join(f"{v:g}" for v in m["home_m"])
+    lines = [
+        "",
+        "## Bending angle over the workspace (`bend_map.json`)",
+        "",
+        f"The map's sequence at home ({home}) m fits home's model with the bending angle times "
+        f"{m['home_ratio']:.4f}; at each position, the ratio to that:",
+        "",
+        "| position m | k = phi / phi(home) | RMS with home's model N | RMS with k N | file |",
+        "| --- | --- | --- | --- | --- |",
+    ]
+    for p in m["points"]:
+        pos = ", ".join(f"{v:g}" for v in p["position_m"])
+        lines.append(
+            f"| {pos} | {p['ratio']:.4f} | {p['rms_home_n']:.4f} | {p['rms_fit_n']:.4f} | "
+            f"`{p['file']}` |"
+        )
+    lines += [
+        "",
+        f"The plane k(p) = 1 + ({g}) . (p - home) per m misses the points by at most "
+        f"{m['residual']:.4f}. The host that places the end-effector sets comp.phi_rad = "
+        f"{phi:.4f} * k(p) at each position (`python -m cosim.bench.rig.bend_map "
+        f"bend_map.json --phi-home {phi:.4f} --at X,Y,Z`); nothing of it is written to the device.",
+    ]
+    return lines
