@@ -230,27 +230,13 @@ def _precheck_calibrate(args) -> int | None:
     except BenchUsageError as exc:
         print(f"bowden bench {exc}", file=sys.stderr)
         return 2
-    args.map_positions = ()
-    if args.map is not None:
-        from cosim.bench.rig import bend_map  # noqa: PLC0415
-        from cosim.parts.geometry import in_workspace  # noqa: PLC0415
+    from cosim.bench.rig import bend_map  # noqa: PLC0415
 
-        try:
-            positions = (
-                bend_map.DEFAULT_POSITIONS_M
-                if args.map == "default"
-                else bend_map.parse_positions(args.map)
-            )
-            for p in positions:
-                if not bool(in_workspace(*p, 1.0)):
-                    raise bend_map.BendMapError(
-                        f"--map: position {bend_map.show_position(p)} m is outside the "
-                        "workspace of a 1 m sheath (sqrt(x^2 + y^2 + z^2) <= 1 m and y >= 0)"
-                    )
-        except bend_map.BendMapError as exc:
-            print(f"bowden bench calibrate: {exc}", file=sys.stderr)
-            return 2
-        args.map_positions = positions
+    try:
+        args.map_positions = bend_map.positions_of(args.map)
+    except bend_map.BendMapError as exc:
+        print(f"bowden bench calibrate: {exc}", file=sys.stderr)
+        return 2
     return None
 
 

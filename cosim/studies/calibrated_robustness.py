@@ -592,19 +592,13 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as exc:
         print(f"calibrated_robustness: {exc}", file=sys.stderr)
         return 2
-    map_positions: tuple = ()
-    if args.map is not None:
-        from cosim.bench.rig import bend_map  # noqa: PLC0415
+    from cosim.bench.rig import bend_map  # noqa: PLC0415
 
-        try:
-            map_positions = (
-                bend_map.DEFAULT_POSITIONS_M
-                if args.map == "default"
-                else bend_map.parse_positions(args.map)
-            )
-        except bend_map.BendMapError as exc:
-            print(f"calibrated_robustness: {exc}", file=sys.stderr)
-            return 2
+    try:
+        map_positions = bend_map.positions_of(args.map)
+    except bend_map.BendMapError as exc:
+        print(f"calibrated_robustness: {exc}", file=sys.stderr)
+        return 2
     start = args.score_from_s
     if start is not None and not 0.0 <= start < (spec.duration_s or np.inf):
         print(

@@ -171,6 +171,25 @@ def parse_positions(text: str, option: str = "--map") -> tuple[tuple[float, floa
     return tuple(out)  # type: ignore[return-value]
 
 
+def positions_of(option: str | None, sheath_length_m: float = 1.0) -> tuple:
+    """The positions of a `--map` option: none without it, DEFAULT_POSITIONS_M for its bare
+    form ("default"), else parse_positions; each inside the workspace of the sheath
+    (BendMapError naming the first that is not)."""
+    from cosim.parts.geometry import in_workspace  # noqa: PLC0415
+
+    if option is None:
+        return ()
+    positions = DEFAULT_POSITIONS_M if option == "default" else parse_positions(option)
+    for p in positions:
+        if not bool(in_workspace(*p, sheath_length_m)):
+            raise BendMapError(
+                f"--map: position {show_position(p)} m is outside the workspace of a "
+                f"{sheath_length_m:g} m sheath (sqrt(x^2 + y^2 + z^2) <= {sheath_length_m:g} m "
+                "and y >= 0)"
+            )
+    return positions
+
+
 def map_sequence(tick_hz: float) -> np.ndarray:
     """The T_ref samples of the map's recording: the identification's first MAP_PIECES."""
     from .calibrate import identification_sequence  # noqa: PLC0415
@@ -228,25 +247,10 @@ def fit_plane(home_m, points: list[Point]) -> BendMap:
 def measure(client, path: Path, position_m, after_run, opts, progress, tick_hz: float) -> Path:
     """Record the map's sequence at `position_m` into `path` (calibrate's run path: the device
     stopped afterwards however it ends)."""
-    from cosim.bench.link.protocol import param, word_from_value  # noqa: PLC0415
+    from .calibrate import stream_record  # noqa: PLC0415
 
-    from .calibrate import _record  # noqa: PLC0415
-
-    seq = map_sequence(tick_hz)
     here = dataclasses.replace(opts, position_m=tuple(float(v) for v in position_m))
-    _record(
-        client,
-        path,
-        after_run,
-        here,
-        progress,
-        seconds=len(seq) / tick_hz,
-        waveform="stream",
-        mean_n=0.0,
-        amplitude_n=0.0,
-        freq_hz=0.0,
-        stream_words=[word_from_value(param("wave.mean_n"), v) for v in seq],
-    )
+    stream_record(client, path, map_sequence(tick_hz), after_run, here, progress, tick_hz)
     return path
 
 

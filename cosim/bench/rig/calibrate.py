@@ -1186,23 +1186,30 @@ def _record(client, path: Path, after_run, opts: Options, progress, **kw):
     return result, _read_columns(path)
 
 
-def _tare(client, path: Path, after_run, opts: Options, progress, tick_hz: float) -> dict:
-    """The far-end load cell's reading at zero load (TARE_S of T_ref 0, the cable at rest): the
-    median of T_out over the second half, and its spread (the 5-95 % range)."""
-    ticks = max(2, int(round(TARE_S * tick_hz)))
+def stream_record(client, path: Path, seq, after_run, opts: Options, progress, tick_hz: float):
+    """T_ref samples `seq` (N, one per tick) streamed to the device and recorded into `path`
+    (_record: the device stopped afterwards however it ends); the recording's columns."""
     _, cols = _record(
         client,
         path,
         after_run,
         opts,
         progress,
-        seconds=ticks / tick_hz,
+        seconds=len(seq) / tick_hz,
         waveform="stream",
         mean_n=0.0,
         amplitude_n=0.0,
         freq_hz=0.0,
-        stream_words=[0] * ticks,
+        stream_words=[word_from_value(param("wave.mean_n"), v) for v in seq],
     )
+    return cols
+
+
+def _tare(client, path: Path, after_run, opts: Options, progress, tick_hz: float) -> dict:
+    """The far-end load cell's reading at zero load (TARE_S of T_ref 0, the cable at rest): the
+    median of T_out over the second half, and its spread (the 5-95 % range)."""
+    ticks = max(2, int(round(TARE_S * tick_hz)))
+    cols = stream_record(client, path, np.zeros(ticks), after_run, opts, progress, tick_hz)
     t = cols["t_s"]
     t_out = cols["T_out_N"][t >= 0.5 * t[-1]]
     if t_out.size == 0:
@@ -1251,19 +1258,7 @@ def _calibrate(
     ident = out / "identification.csv"
     state.step = "the identification run"
     say(f"identification: {len(seq) / tick_hz:.1f} s streamed ({len(pieces)} pieces) -> {ident}")
-    _, cols = _record(
-        client,
-        ident,
-        after_run,
-        opts,
-        progress,
-        seconds=len(seq) / tick_hz,
-        waveform="stream",
-        mean_n=0.0,
-        amplitude_n=0.0,
-        freq_hz=0.0,
-        stream_words=[word_from_value(param("wave.mean_n"), v) for v in seq],
-    )
+    cols = stream_record(client, ident, seq, after_run, opts, progress, tick_hz)
     _check_far_end(cols, ident)
 
     state.step = "the audit"
