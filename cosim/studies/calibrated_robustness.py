@@ -357,7 +357,7 @@ def _bend_map(plant: dict, folder: Path, report: dict, audit: dict, positions, r
     opts = cal.Options(out_dir=folder, audit_plots=False, predict=False)
     phi_home = float(bending_angle(*opts.position_m, opts.sheath_length_m, opts.loop_routing))
     try:
-        m = bend_map.make(
+        m = cal.make_bend_map(
             bend_map.emulated_at(plant, opts.loop_routing),
             positions,
             dict(audit["extended"]["params"]),

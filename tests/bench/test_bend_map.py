@@ -120,7 +120,7 @@ def test_the_fitted_ratios_are_the_plants_own_bending_angles(model_mu, tmp_path)
     opts = cal.Options(out_dir=tmp_path, audit_plots=False, predict=False)
     phi_home = float(bending_angle(*HOME, 1.0, True))
     lines = []
-    m = bm.make(
+    m = cal.make_bend_map(
         bm.emulated_at(PLANT),
         bm.DEFAULT_POSITIONS_M,
         {"mu": model_mu},
@@ -208,7 +208,7 @@ def test_on_a_device_the_user_is_asked_to_move_and_the_output_is_off_after_each_
         at, stops, fake_input = _device_at(bench.client, ["", ""])
         monkeypatch.setattr("builtins.input", fake_input)
         opts = cal.Options(out_dir=tmp_path, audit_plots=False, predict=False)
-        m = bm.make(at, [(0.0, 0.5, 0.2)], {"mu": 0.09}, 2 * np.pi, 0.0, opts, say=print)
+        m = cal.make_bend_map(at, [(0.0, 0.5, 0.2)], {"mu": 0.09}, 2 * np.pi, 0.0, opts, say=print)
         running = bench.client.hello().running
         _, faults = bench.client.request("FAULTS_GET")
     text = capsys.readouterr().out
@@ -229,7 +229,9 @@ def test_no_answer_or_ctrl_c_at_the_prompt_ends_the_map_before_any_run(answer, t
             expected = BenchError if isinstance(answer, EOFError) else KeyboardInterrupt
             opts = cal.Options(out_dir=tmp_path, audit_plots=False, predict=False)
             with pytest.raises(expected):
-                bm.make(at, [(0.0, 0.5, 0.2)], {"mu": 0.075}, 2 * np.pi, 0.0, opts, say=print)
+                cal.make_bend_map(
+                    at, [(0.0, 0.5, 0.2)], {"mu": 0.075}, 2 * np.pi, 0.0, opts, say=print
+                )
     assert stops == [] and not list(tmp_path.glob("map_*.csv"))
 
 

@@ -190,14 +190,6 @@ def positions_of(option: str | None, sheath_length_m: float = 1.0) -> tuple:
     return positions
 
 
-def map_sequence(tick_hz: float) -> np.ndarray:
-    """The T_ref samples of the map's recording: the identification's first MAP_PIECES."""
-    from .calibrate import identification_sequence  # noqa: PLC0415
-
-    seq, pieces = identification_sequence(tick_hz)
-    return seq[: int(round(pieces[MAP_PIECES - 1].end_s * tick_hz))]
-
-
 def fit_ratio(data, params: dict, phi_home_rad: float) -> tuple[float, float, float]:
     """(k, RMS at k = 1, RMS at k) of a recording `data` (cosim.audit.data.AuditData, made at
     some position) against home's model `params` (FMU names, the audit's extended model): the
@@ -244,16 +236,6 @@ def fit_plane(home_m, points: list[Point]) -> BendMap:
     return BendMap(tuple(float(v) for v in h), tuple(float(v) for v in g), list(points))  # type: ignore[arg-type]
 
 
-def measure(client, path: Path, position_m, after_run, opts, progress, tick_hz: float) -> Path:
-    """Record the map's sequence at `position_m` into `path` (calibrate's run path: the device
-    stopped afterwards however it ends)."""
-    from .calibrate import stream_record  # noqa: PLC0415
-
-    here = dataclasses.replace(opts, position_m=tuple(float(v) for v in position_m))
-    stream_record(client, path, map_sequence(tick_hz), after_run, here, progress, tick_hz)
-    return path
-
-
 def point_of(path: Path, position_m, params: dict, phi_home_rad: float, tare_n: float) -> Point:
     """The map's point of a recording at `position_m` (the far-end cell's tare `tare_n` taken
     off T_out, as calibrate does)."""
@@ -269,58 +251,6 @@ def point_of(path: Path, position_m, params: dict, phi_home_rad: float, tare_n: 
     k, rms_home, rms_fit = fit_ratio(data, params, phi_home_rad)
     pos = tuple(float(v) for v in position_m)
     return Point(pos, k, rms_home, rms_fit, Path(path).name)  # type: ignore[arg-type]
-
-
-def make(
-    bench_at,
-    positions,
-    params: dict,
-    phi_home_rad: float,
-    tare_n: float,
-    opts,
-    say=print,
-    progress=None,
-) -> BendMap:
-    """The map (module docstring) at `positions` around home (opts.position_m), written to
-    opts.out_dir / FILE with its recordings beside it (map_0.csv at home, map_1.csv, ...).
-    `bench_at(p)` is a context manager that has the end-effector at p and gives (client,
-    after_run): an emulated bench started there, or the user's rig moved there with the output
-    off. params: home's audited model (FMU names), phi_home_rad the angle the audit saw it at,
-    tare_n the far-end cell's tare. A position whose fit ends at a bound is left out (said);
-    BendMapError when home's own fit does or no position is left."""
-    home = tuple(float(v) for v in opts.position_m)
-    points = []
-    for i, p in enumerate((home, *positions)):
-        with bench_at(p) as (client, after_run):
-            tick_hz = float(client.get("tick_rate_hz"))
-            path = measure(
-                client, opts.out_dir / f"map_{i}.csv", p, after_run, opts, progress, tick_hz
-            )
-        try:
-            pt = point_of(path, p, params, phi_home_rad, tare_n)
-        except BendMapError as exc:
-            if i == 0:
-                raise BendMapError(f"no map: home's own recording: {exc}") from None
-            say(f"bending angle at {show_position(p)} m: left out ({exc})")
-            continue
-        if i == 0:
-            # home's own ratio: what home's model misses of the same sequence at home
-            at_home = pt
-            say(
-                f"bending angle at home {show_position(p)} m: {pt.ratio:.4f} x the audit's (RMS "
-                f"{pt.rms_home_n:.4f} N, fitted {pt.rms_fit_n:.4f} N) -> {path.name}"
-            )
-            continue
-        pt.ratio /= at_home.ratio
-        say(
-            f"bending angle at {show_position(p)} m: {pt.ratio:.4f} x home's (RMS against home's "
-            f"model {pt.rms_home_n:.4f} N, with the ratio {pt.rms_fit_n:.4f} N) -> {path.name}"
-        )
-        points.append(pt)
-    m = fit_plane(home, points)
-    m.home_ratio = at_home.ratio
-    m.write(opts.out_dir / FILE)
-    return m
 
 
 def show_position(p) -> str:

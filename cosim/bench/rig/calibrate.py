@@ -56,7 +56,7 @@ import os
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -73,6 +73,8 @@ from cosim.bench.link.protocol import (
 )
 from cosim.bench.link.recorder import record_run
 from cosim.project.interrupt import Interrupted
+
+from . import bend_map
 
 # --- the identification sequence ---------------------------------------------------------------
 
@@ -1027,7 +1029,7 @@ def run_calibration(
     cannot be confirmed; default: STOP); `hold()` a context manager under which putting the
     configuration back is not cut short by a signal (cosim.bench.rig.run.Signals.hold).
     `bench_at(p)`: with opts.map_positions, a context manager that has the end-effector at p
-    and gives (client, after_run) (bend_map.make): the user's rig moved there, or an emulated
+    and gives (client, after_run) (make_bend_map): the user's rig moved there, or an emulated
     bench started there.
 
     However it ends, what the runs changed (source, wave.*) is written back, and so are the
@@ -1381,19 +1383,89 @@ def _calibrate(
     return Outcome(report, exit_code)
 
 
+def map_sequence(tick_hz: float) -> np.ndarray:
+    """The T_ref samples of the bending angle's map at each position: the identification's first
+    bend_map.MAP_PIECES."""
+    seq, pieces = identification_sequence(tick_hz)
+    return seq[: int(round(pieces[bend_map.MAP_PIECES - 1].end_s * tick_hz))]
+
+
+def _map_record(client, path: Path, position_m, after_run, opts, progress, tick_hz: float) -> Path:
+    """Record the map's sequence at `position_m` into `path` (calibrate's run path: the device
+    stopped afterwards however it ends)."""
+    here = replace(opts, position_m=tuple(float(v) for v in position_m))
+    stream_record(client, path, map_sequence(tick_hz), after_run, here, progress, tick_hz)
+    return path
+
+
+def make_bend_map(
+    bench_at,
+    positions,
+    params: dict,
+    phi_home_rad: float,
+    tare_n: float,
+    opts,
+    say=print,
+    progress=None,
+) -> bend_map.BendMap:
+    """The bending angle's map (cosim.bench.rig.bend_map) at `positions` around home
+    (opts.position_m), written to opts.out_dir / bend_map.FILE with its recordings beside it
+    (map_0.csv at home, map_1.csv, ...).
+    `bench_at(p)` is a context manager that has the end-effector at p and gives (client,
+    after_run): an emulated bench started there, or the user's rig moved there with the output
+    off. params: home's audited model (FMU names), phi_home_rad the angle the audit saw it at,
+    tare_n the far-end cell's tare. A position whose fit ends at a bound is left out (said);
+    BendMapError when home's own fit does or no position is left."""
+    home = tuple(float(v) for v in opts.position_m)
+    points = []
+    for i, p in enumerate((home, *positions)):
+        with bench_at(p) as (client, after_run):
+            tick_hz = float(client.get("tick_rate_hz"))
+            path = _map_record(
+                client, opts.out_dir / f"map_{i}.csv", p, after_run, opts, progress, tick_hz
+            )
+        try:
+            pt = bend_map.point_of(path, p, params, phi_home_rad, tare_n)
+        except bend_map.BendMapError as exc:
+            if i == 0:
+                raise bend_map.BendMapError(f"no map: home's own recording: {exc}") from None
+            say(f"bending angle at {bend_map.show_position(p)} m: left out ({exc})")
+            continue
+        if i == 0:
+            # home's own ratio: what home's model misses of the same sequence at home
+            at_home = pt
+            say(
+                f"bending angle at home {bend_map.show_position(p)} m: {pt.ratio:.4f} x the "
+                f"audit's (RMS {pt.rms_home_n:.4f} N, fitted {pt.rms_fit_n:.4f} N) -> {path.name}"
+            )
+            continue
+        pt.ratio /= at_home.ratio
+        say(
+            f"bending angle at {bend_map.show_position(p)} m: {pt.ratio:.4f} x home's (RMS "
+            f"against home's model {pt.rms_home_n:.4f} N, with the ratio {pt.rms_fit_n:.4f} N) "
+            f"-> {path.name}"
+        )
+        points.append(pt)
+    m = bend_map.fit_plane(home, points)
+    m.home_ratio = at_home.ratio
+    m.write(opts.out_dir / bend_map.FILE)
+    return m
+
+
 def _bend_map(bench_at, opts: Options, result, tare: dict, phi_dev: float, say, progress):
-    """The bending angle's map (bend_map.make) after the audit, or None when it cannot be made
+    """The bending angle's map (make_bend_map) after the audit, or None when it cannot be made
     (said; the calibration goes on: the map is the host's, nothing of it is written to the
     device)."""
-    from . import bend_map  # noqa: PLC0415
-
     if bench_at is None:
         raise BenchUsageError("calibrate: a map of the bending angle needs bench_at")
     n = len(opts.map_positions)
-    seconds = len(bend_map.map_sequence(1000.0)) / 1000.0
-    say(f"bending angle's map: {seconds:.1f} s at home and at each of {n} positions ...")
+    seconds = len(map_sequence(1000.0)) / 1000.0
+    say(
+        f"bending angle's map: {seconds:.1f} s at home and at each of {n} "
+        f"position{'' if n == 1 else 's'} ..."
+    )
     try:
-        m = bend_map.make(
+        m = make_bend_map(
             bench_at,
             opts.map_positions,
             dict(result.extended.params),
