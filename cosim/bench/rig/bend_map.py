@@ -7,7 +7,8 @@ exponent mu*phi changes with the position. Calibrate's identification at one pos
 sees mu*phi there only; a compensator without a far-end sensor that runs elsewhere carries that
 position's error in full, since nothing measures it while running.
 
-The map step records the first pieces of the identification (MAP_PIECES: the start and the
+The map step (calibrate.make_bend_map, which records; this module fits and reads) records the
+first pieces of the identification (MAP_PIECES: the start and the
 full range at the slow and the medium rate, long enough for the audit's blocks) at home and at a
 few further positions, and fits to each recording the one number that scales the bending angle
 of home's audited model (so every term the friction multiplies by phi: mu, its tension slope,
