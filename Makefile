@@ -68,11 +68,12 @@ PERF_TARGETS :=
 
 include $(sort $(wildcard mk/*.mk))
 
-.PHONY: help setup doctor compile-cache lint lint-py test test-quick test-long demo perf build clean distclean
+.PHONY: help setup doctor compile-cache lint lint-py test test-matrix test-quick test-long demo perf build clean distclean
 
 help:
 	@echo "make demo     run the main job (closed-loop co-simulation of the paper's experiment)"
-	@echo "make test     lint, build and run the test suite (all but the tests marked long)"
+	@echo "make test     lint, build and run the test suite (all but the tests marked matrix or long)"
+	@echo "make test-matrix  the same paths at further configurations and sizes (marker matrix; CI)"
 	@echo "make test-quick  the edit loop: Python lint, unit suites, one short closed loop"
 	@echo "make test-long   whole procedures in real time over real links (marker long)"
 	@echo "make lint     Verilator -Wall on the RTL, C with -Werror, ruff on Python"
@@ -114,9 +115,18 @@ lint-py: $(VENV_STAMP)
 
 build: $(VENV_STAMP) compile-cache $(BUILD_TARGETS)
 
+# The gate before a merge: each module, path and safety proof once, at a configuration a board
+# ships (pytest markers: neither `matrix` nor `long`).
 test: lint build
-	rc=0; $(PYTEST_ENV) $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=15 -m "not long" \
-	  $(PYTEST_ARGS) || rc=$$?; $(STOP_SCCACHE); exit $$rc
+	rc=0; $(PYTEST_ENV) $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=15 \
+	  -m "not long and not matrix" $(PYTEST_ARGS) || rc=$$?; $(STOP_SCCACHE); exit $$rc
+
+# The matrix around `make test`'s cases (marker `matrix`): the same paths at the other
+# configurations and sizes, the second lane, the multi-cable covers, the second board's
+# synthesis. CI runs it after `make test`.
+test-matrix: build
+	rc=0; $(PYTEST_ENV) $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=15 \
+	  -m "matrix and not long" $(PYTEST_ARGS) || rc=$$?; $(STOP_SCCACHE); exit $$rc
 
 # Whole procedures at the wall clock's pace over real links (pytest marker `long`, e.g. a whole
 # `bowden bench calibrate` over a pty and over CAN, about a minute each): their steps are in

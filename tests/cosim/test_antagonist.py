@@ -326,7 +326,10 @@ def test_saturating_keeps_the_rest_of_the_scenario():
 COCOTB_PAIR = {"duration_s": 0.15, "fault": {"cable": 0, "kind": "open", "t_s": 0.1}}
 
 
+# `make test-matrix`'s: make test holds the pair's model engine to the native one (above) and the
+# core's RTL to its bit-exact model at N = 2 and 4 (tests/hdl/test_bowden_core_mc.py).
 @pytest.mark.slow
+@pytest.mark.matrix
 def test_cocotb_pair_on_the_core_equals_the_model_and_native_engines(tmp_path):
     """The pair's world around the Verilog bowden_core_mc (N = 2, one group, Verilator under
     cocotb), each firmware writing its own bank over the core's bus and the bench reading each

@@ -162,9 +162,15 @@ def test_crc_matches_datasheet_check_value():
     assert crc16_ccitt(frame + word_bits(crc16_ccitt(frame) << 8)) == 0
 
 
+# The 4-channel part is `make test-matrix`'s: make test reads the 2 and the 8, its two ends.
 @pytest.mark.parametrize(
     ("simulator", "nch"),
-    [(sim, 2) for sim in SIMULATORS] + [(SIMULATORS[0], n) for n in CHANNELS if n != 2],
+    [(sim, 2) for sim in SIMULATORS]
+    + [
+        pytest.param(SIMULATORS[0], n, marks=pytest.mark.matrix) if n == 4 else (SIMULATORS[0], n)
+        for n in CHANNELS
+        if n != 2
+    ],
 )
 def test_ads131m02_reader(simulator, nch):
     """Build ads131m02_reader with short waits (the ADS131M02, and with NCH the 4- and 8-channel

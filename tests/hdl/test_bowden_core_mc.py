@@ -262,10 +262,19 @@ async def loops_through_axi_against_model(dut):
         assert tb.guarded > 10, f"the guard held the drives off at only {tb.guarded} ticks"
 
 
-# n2_seq_ramp16 is long (41 s of CPU, the guard's case only); the others run in `make test`.
-@pytest.mark.parametrize(
-    "config", [pytest.param(c, marks=pytest.mark.long) if c in RAMP_STEP else c for c in CONFIGS]
-)
+# n2_seq_ramp16 is long (41 s of CPU, the guard's case only). make test runs the configurations
+# closest to what the boards ship: n2_seq (the UP5K's two cables) and n4 (four cables in two
+# groups, the flip-flop banks of the ECP5's); the other three are `make test-matrix`'s.
+MATRIX = {"n2", "n2_cfgram", "n4_cfgram"}
+
+
+def _mark(config: str):
+    if config in RAMP_STEP:
+        return pytest.param(config, marks=pytest.mark.long)
+    return pytest.param(config, marks=pytest.mark.matrix) if config in MATRIX else config
+
+
+@pytest.mark.parametrize("config", [_mark(c) for c in CONFIGS])
 @pytest.mark.parametrize("simulator", SIMULATORS[:1])
 def test_bowden_core_mc(simulator, config):
     """Build bowden_core_mc (N from the config) and run the coroutines above."""
