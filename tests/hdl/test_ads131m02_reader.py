@@ -8,7 +8,16 @@ import cocotb
 import pytest
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
-from hdl_sim import SIMULATORS, Ads131m0x, crc16_ccitt, rtl, run_cocotb, signed, word_bits
+from hdl_sim import (
+    SIMULATORS,
+    Ads131m0x,
+    crc16_ccitt,
+    rtl,
+    run_cocotb,
+    signed,
+    simulator_param,
+    word_bits,
+)
 
 from cosim.parts.interface import reader_latency_clks
 
@@ -165,7 +174,7 @@ def test_crc_matches_datasheet_check_value():
 # The 4-channel part is `make test-matrix`'s: make test reads the 2 and the 8, its two ends.
 @pytest.mark.parametrize(
     ("simulator", "nch"),
-    [(sim, 2) for sim in SIMULATORS]
+    [simulator_param(sim, 2) for sim in SIMULATORS]
     + [
         pytest.param(SIMULATORS[0], n, marks=pytest.mark.matrix) if n == 4 else (SIMULATORS[0], n)
         for n in CHANNELS

@@ -15,7 +15,7 @@ import pytest
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, Combine, FallingEdge, RisingEdge
 from cocotbext.axi import AxiLiteBus, AxiLiteMaster
-from hdl_sim import SIMULATORS, rtl, run_cocotb
+from hdl_sim import SIMULATOR_PARAMS, rtl, run_cocotb
 
 BAD_ADDR = 0xF0  # the model answers this address with an error
 
@@ -153,7 +153,7 @@ async def held_write(dut):
     assert await axi.read_dword(0x40) == values[0x40]
 
 
-@pytest.mark.parametrize("simulator", SIMULATORS)
+@pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
 def test_axil_regbus(simulator):
     """Build axil_regbus and run the coroutine above."""
     run_cocotb("axil_regbus", "test_axil_regbus", rtl("axil_regbus"), simulator)

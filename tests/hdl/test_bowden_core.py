@@ -23,7 +23,14 @@ import pytest
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge, RisingEdge
 from cocotbext.axi import AxiLiteBus, AxiLiteMaster
-from hdl_sim import ADDR_TO_NAME, SIMULATORS, replay_write, rtl, run_cocotb, signed
+from hdl_sim import (
+    ADDR_TO_NAME,
+    SIMULATOR_PARAMS,
+    replay_write,
+    rtl,
+    run_cocotb,
+    signed,
+)
 
 from cosim.parts import regmap
 from cosim.parts.regmap import FAULT_WATCHDOG
@@ -270,7 +277,7 @@ async def readback_and_watchdog_over_axi(dut):
 
 
 @pytest.mark.parametrize("config", list(CONFIGS))
-@pytest.mark.parametrize("simulator", SIMULATORS)
+@pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
 def test_bowden_core(simulator, config):
     """Build bowden_core at 15 clocks per sample in `config` and run the coroutines above."""
     sources = rtl(

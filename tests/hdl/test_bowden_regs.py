@@ -13,7 +13,7 @@ import cocotb
 import pytest
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge
-from hdl_sim import SIMULATORS, rtl, run_cocotb
+from hdl_sim import SIMULATOR_PARAMS, rtl, run_cocotb
 
 from cosim.parts import regmap
 
@@ -106,7 +106,7 @@ async def pulses_readback_and_errors(dut):
 
 
 @pytest.mark.parametrize("stages", [3, 1], ids=["rd3", "rd1"])
-@pytest.mark.parametrize("simulator", SIMULATORS)
+@pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
 def test_bowden_regs(simulator, stages):
     """Build bowden_regs with RD_STAGES `stages` and run the coroutine above."""
     run_cocotb(

@@ -42,6 +42,7 @@ from hdl_sim import (
     rtl,
     run_cocotb,
     signed,
+    simulator_param,
 )
 
 from cosim.parts import interface, regmap
@@ -345,17 +346,8 @@ async def reset_in_mid_frame_enables_nothing(dut):
     assert writes == 0
 
 
-# The first boards' ADS1220 on Verilator is `make test-matrix`'s: make test runs it on Icarus
-# here and on Verilator in the closed loop (tests/cosim/test_cosim_closed_loop.py).
 @pytest.mark.parametrize(
-    ("simulator", "adc"),
-    [
-        pytest.param(sim, adc, marks=pytest.mark.matrix)
-        if (sim, adc) == ("verilator", "ads1220")
-        else (sim, adc)
-        for adc in FRONTENDS
-        for sim in SIMULATORS
-    ],
+    ("simulator", "adc"), [simulator_param(sim, adc) for adc in FRONTENDS for sim in SIMULATORS]
 )
 def test_bowden_system(simulator, adc):
     """Build bowden_system with short clocks per sample and ADC waits, with each front-end; run

@@ -4,18 +4,13 @@ FST from Icarus, holding the toplevel's signals; without it nothing is dumped.""
 from __future__ import annotations
 
 import pytest
-from hdl_sim import SIMULATORS, rtl, run_cocotb, waves_file
+from hdl_sim import MAKE_TEST_SIMULATOR, SIMULATOR_PARAMS, rtl, run_cocotb, waves_file
 
 from cosim.project.paths import BUILD_DIR
 
 
-# make test dumps one simulator's waveform, the last (Icarus where installed: a traced Verilator
-# model is a build of its own, about 30 s cold); the others' are `make test-matrix`'s.
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "simulator",
-    [*(pytest.param(s, marks=pytest.mark.matrix) for s in SIMULATORS[:-1]), SIMULATORS[-1]],
-)
+@pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
 def test_waves_dumps_a_waveform_of_the_toplevel(simulator, monkeypatch):
     build_dir = BUILD_DIR / "sim" / "mul_s16-waves" / simulator
     dump = waves_file(build_dir, "mul_s16", simulator)
@@ -30,6 +25,6 @@ def test_waves_dumps_a_waveform_of_the_toplevel(simulator, monkeypatch):
 
 def test_without_waves_nothing_is_dumped(monkeypatch):
     monkeypatch.delenv("WAVES", raising=False)
-    simulator = SIMULATORS[0]
+    simulator = MAKE_TEST_SIMULATOR
     run_cocotb("mul_s16", "test_mul_s16", rtl("mul_s16"), simulator)
     assert not waves_file(BUILD_DIR / "sim" / "mul_s16" / simulator, "mul_s16", simulator).exists()

@@ -14,7 +14,7 @@ import pytest
 import sim_cache
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge
-from hdl_sim import SIMULATORS, rtl, run_cocotb
+from hdl_sim import SIMULATOR_PARAMS, rtl, run_cocotb
 
 CORNERS = [-32768, -32767, -1, 0, 1, 32767]
 
@@ -41,7 +41,7 @@ async def products_are_exact(dut):
             sent.append((a, b))
 
 
-@pytest.mark.parametrize("simulator", SIMULATORS)
+@pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
 def test_mul_s16(simulator):
     """Build mul_s16 and run the coroutine above."""
     run_cocotb("mul_s16", "test_mul_s16", rtl("mul_s16"), simulator)

@@ -6,7 +6,7 @@ import cocotb
 import pytest
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge
-from hdl_sim import SIMULATORS, rtl, run_cocotb
+from hdl_sim import SIMULATOR_PARAMS, rtl, run_cocotb
 
 PERIOD_CLKS = 200
 IMAX_Q12 = 16384  # 4 A
@@ -73,7 +73,7 @@ async def duty_follows_current(dut):
     assert duty_model(-IMAX_Q12, True) == PERIOD_CLKS // 10
 
 
-@pytest.mark.parametrize("simulator", SIMULATORS)
+@pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
 def test_pwm_escon(simulator):
     """Build pwm_escon with a short period and run the coroutine above."""
     params = {"PERIOD_CLKS": PERIOD_CLKS, "IMAX_Q12": IMAX_Q12}

@@ -12,7 +12,7 @@ from cocotbext.axi import AxiLiteBus, AxiLiteRam
 from hdl_sim import (
     READ_OKAY,
     RESP_DECERR,
-    SIMULATORS,
+    SIMULATOR_PARAMS,
     STATUS_DONE,
     STATUS_TAG,
     STATUS_WRITE,
@@ -116,7 +116,7 @@ async def reset_in_mid_frame_drops_the_frame(dut):
     assert await spi.read(9) == 0x600DF00D
 
 
-@pytest.mark.parametrize("simulator", SIMULATORS)
+@pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
 def test_spi_axil_bridge(simulator):
     """Build spi_axil_bridge and run the coroutines above."""
     run_cocotb("spi_axil_bridge", "test_spi_axil_bridge", rtl("spi_axil_bridge"), simulator)

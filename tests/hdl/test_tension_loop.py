@@ -12,7 +12,7 @@ import cocotb
 import pytest
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge
-from hdl_sim import SIMULATORS, rtl, run_cocotb
+from hdl_sim import SIMULATOR_PARAMS, rtl, run_cocotb
 
 from cosim.parts import regmap
 from cosim.parts.regmap import FAULT_ADC_RANGE, FAULT_ADC_STALE, FAULT_OVERCURRENT, FAULT_WATCHDOG
@@ -481,7 +481,7 @@ async def each_fault_forces_zero(dut):
     assert tb.last.faults == 0 and not tb.last.out_en
 
 
-@pytest.mark.parametrize("simulator", SIMULATORS)
+@pytest.mark.parametrize("simulator", SIMULATOR_PARAMS)
 def test_tension_loop(simulator):
     """Build tension_loop and run every coroutine above against the model."""
     run_cocotb(

@@ -22,7 +22,7 @@ import cocotb
 import pytest
 from cocotb.clock import Clock
 from cocotb.triggers import ClockCycles, FallingEdge
-from hdl_sim import SIMULATORS, rtl, run_cocotb, signed
+from hdl_sim import SIMULATORS, rtl, run_cocotb, signed, simulator_param
 
 from cosim.parts import regmap
 from cosim.parts.regmap import FAULT_ADC_RANGE, FAULT_WATCHDOG
@@ -373,17 +373,9 @@ async def fault_stops_its_group_only(dut):
     assert tb.last[2].u < u2 and tb.last[0].out_en and tb.last[1].out_en
 
 
-# N = 4 on Verilator is `make test-matrix`'s: make test runs it on Icarus here and on Verilator
-# inside the core (tests/hdl/test_bowden_core_mc.py, n4).
 @pytest.mark.parametrize(
     ("simulator", "config"),
-    [
-        pytest.param(sim, c, marks=pytest.mark.matrix)
-        if (sim, c) == ("verilator", "n4")
-        else (sim, c)
-        for c in sorted(CONFIGS)
-        for sim in SIMULATORS
-    ],
+    [simulator_param(sim, c) for c in sorted(CONFIGS) for sim in SIMULATORS],
 )
 def test_tension_loop_mc(simulator, config):
     """Build tension_loop_mc for N channels with its groups and run every coroutine above."""
