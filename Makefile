@@ -115,26 +115,27 @@ lint-py: $(VENV_STAMP)
 
 build: $(VENV_STAMP) compile-cache $(BUILD_TARGETS)
 
+# One suite on the test workers: $(1) the slowest tests listed, $(2) the marker expression; the
+# compile cache is stopped whatever pytest's status, which is the recipe's.
+suite = rc=0; $(PYTEST_ENV) $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=$(1) \
+  -m "$(2)" $(PYTEST_ARGS) || rc=$$?; $(STOP_SCCACHE); exit $$rc
+
 # The gate before a merge: each module, path and safety proof once, at a configuration a board
 # ships (pytest markers: neither `matrix` nor `long`).
 test: lint build
-	rc=0; $(PYTEST_ENV) $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=15 \
-	  -m "not long and not matrix" $(PYTEST_ARGS) || rc=$$?; $(STOP_SCCACHE); exit $$rc
+	$(call suite,15,not long and not matrix)
 
 # The matrix around `make test`'s cases (marker `matrix`): the same paths at the other
 # configurations and sizes, the second lane, the multi-cable covers, the second board's
 # synthesis. CI runs it after `make test`.
 test-matrix: build
-	rc=0; $(PYTEST_ENV) $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=15 \
-	  -m "matrix and not long" $(PYTEST_ARGS) || rc=$$?; $(STOP_SCCACHE); exit $$rc
+	$(call suite,15,matrix and not long)
 
 # Whole procedures at the wall clock's pace over real links (pytest marker `long`, e.g. a whole
 # `bowden bench calibrate` over a pty and over CAN, about a minute each): their steps are in
 # `make test` on the stepped emulator; these show the same over the links a user has.
 test-long: build
-	rc=0; $(PYTEST_ENV) $(PY) -m pytest -n $(PYTEST_WORKERS) --dist loadfile --durations=5 -m long \
-	  $(PYTEST_ARGS) \
-	  || rc=$$?; $(STOP_SCCACHE); exit $$rc
+	$(call suite,5,long)
 
 # The edit loop: Python lint, the unit suites and one short closed loop on the native engine
 # (no Verilator model, no synthesis, no formal); tests marked slow are left to `make test`.

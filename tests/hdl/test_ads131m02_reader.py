@@ -171,7 +171,8 @@ def test_crc_matches_datasheet_check_value():
     assert crc16_ccitt(frame + word_bits(crc16_ccitt(frame) << 8)) == 0
 
 
-# The 4-channel part is `make test-matrix`'s: make test reads the 2 and the 8, its two ends.
+# The 4-channel part is `make test-matrix`'s: make test reads the 2 (on MAKE_TEST_SIMULATOR)
+# and the 8, its two ends.
 @pytest.mark.parametrize(
     ("simulator", "nch"),
     [simulator_param(sim, 2) for sim in SIMULATORS]
