@@ -156,7 +156,7 @@ DEMO_BUILD_LOG := $(BUILD)/logs/demo-build.log
 
 demo: $(VENV_STAMP)
 	@mkdir -p $(dir $(DEMO_BUILD_LOG))
-	@echo "demo: building the RTL models, firmware, plant FMU and native engine (log: $(DEMO_BUILD_LOG))"
+	@echo "demo: building the RTL models, firmware, SoC emulator, plant FMU and native engine (log: $(DEMO_BUILD_LOG))"
 	@start=$$(date +%s); \
 	if ! $(MAKE) --no-print-directory build >$(DEMO_BUILD_LOG) 2>&1; then \
 	  echo "demo: the build failed; its last lines (all of it in $(DEMO_BUILD_LOG)):" >&2; \
