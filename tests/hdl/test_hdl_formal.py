@@ -18,10 +18,11 @@ from hdl.formal import formal
 # `make test-matrix` (after `make test` in CI): the proofs of further configurations whose
 # properties `make test` proves at one. The multi-cable assemblies' covers (their properties are
 # proven in make test: bowden_core_mc:prove, tension_loop_mc:prove and prove_ram, the lane's
-# pair_j0 and live_j0); the cables in two groups (the groups' separation is proven on one lane and
-# on the sequenced datapath, tension_loop_seq:prove_apart); the second lane (the same properties
-# as the first's, mirrored); N = 4; and the SoC configuration's covers (its proofs, prove_soc,
-# stay in make test, and the same covers are reached there on the default configuration).
+# pair_j0 and live_j0); the cables in two groups (make test proves the groups' separation on the
+# sequenced datapath, tension_loop_seq:prove_apart and prove_n3); the second lane (the same
+# properties as the first's, mirrored); N = 4; and the SoC configuration's covers (its proofs,
+# prove_soc, stay in make test, and the same covers are reached there on the default
+# configuration).
 MATRIX = {
     "bowden_core:cover_soc",
     "tension_loop:cover_soc",
