@@ -43,11 +43,12 @@ def main(args: argparse.Namespace) -> int:
 
     from cosim.project.paths import require_project  # noqa: PLC0415
     from cosim.studies.sweep.spec import SpecError, load_spec  # noqa: PLC0415
+    from cosim.studies.workers import MAX_WORKERS  # noqa: PLC0415
 
     try:
         spec = load_spec(args.spec)
-        if args.workers is not None and not 1 <= args.workers <= 256:
-            raise SpecError(f"--workers must be in [1, 256]; got {args.workers}")
+        if args.workers is not None and not 1 <= args.workers <= MAX_WORKERS:
+            raise SpecError(f"--workers must be in [1, {MAX_WORKERS}]; got {args.workers}")
         if args.workers is not None and args.scheduler is not None:
             raise SpecError(
                 "--workers sizes the local cluster; with --scheduler the cluster's own workers "

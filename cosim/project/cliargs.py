@@ -41,6 +41,14 @@ def finite_float(text: str) -> float:
     return value
 
 
+def count_refused(option: str, value: int | None, lo: int, hi: int | None = None) -> str | None:
+    """Why a whole-number option's value is refused, as its one line's text (`--limit 0: at
+    least 1`), or None when it is unset or within [lo, hi]."""
+    if value is None or (value >= lo and (hi is None or value <= hi)):
+        return None
+    return f"{option} {value}: " + (f"at least {lo}" if hi is None else f"{lo} to {hi}")
+
+
 def output_dir(text: str) -> Path:
     """A folder to write into: any non-empty path (created when missing)."""
     if not text.strip():

@@ -65,8 +65,9 @@ from pathlib import Path
 
 import numpy as np
 
+from cosim.project.cliargs import count_refused, shown, unwritable
 from cosim.project.paths import PACKAGE_DIR
-from cosim.studies.workers import process_pool, run_interruptible
+from cosim.studies.workers import MAX_WORKERS, process_pool, run_interruptible
 
 SPEC = PACKAGE_DIR / "studies" / "sweep" / "examples" / "robustness_estimator.yaml"
 COMP_KEYS = (
@@ -93,7 +94,6 @@ def overlay_of(sets: list[str], params: str | None = None) -> dict:
     ValueError, one line naming the file or the item and what was expected, when one is not a
     field of those two groups or lies outside its range (cosim.config.run's checks)."""
     from cosim.config.run import SimConfig  # noqa: PLC0415
-    from cosim.project.cliargs import shown  # noqa: PLC0415
     from cosim.project.datafile import DataFileError, read_json  # noqa: PLC0415
 
     nested: dict[str, dict] = {}
@@ -599,6 +599,22 @@ def main(argv: list[str] | None = None) -> int:
     except bend_map.BendMapError as exc:
         print(f"calibrated_robustness: {exc}", file=sys.stderr)
         return 2
+    given = [Path(f) for f in (args.out, args.calibrations) if f]
+    refused = (
+        count_refused("--workers", args.workers, 1, MAX_WORKERS)
+        or count_refused("--limit", args.limit, 1)
+        or next(filter(None, (unwritable(f, folder=True) for f in given)), None)
+    )
+    if refused is None and args.reuse:
+        # A resume or another configuration on calibrations made before: a folder that is not
+        # there is a wrong path, not an hour of calibrations to start from nothing.
+        if not given:
+            refused = "--reuse takes the calibrations from --out or --calibrations: give one"
+        elif not given[-1].is_dir():
+            refused = f"--reuse: {shown(given[-1])} does not exist (no calibrations to take)"
+    if refused is not None:
+        print(f"calibrated_robustness: {refused}", file=sys.stderr)
+        return 2
     start = args.score_from_s
     if start is not None and not 0.0 <= start < (spec.duration_s or np.inf):
         print(
@@ -608,8 +624,8 @@ def main(argv: list[str] | None = None) -> int:
         )
         return 2
     folder = Path(args.out or tempfile.mkdtemp(prefix="bowden-calibrated-robustness-"))
-    folder.mkdir(parents=True, exist_ok=True)
     cal_folder = Path(args.calibrations) if args.calibrations else folder
+    folder.mkdir(parents=True, exist_ok=True)
     # One calibration per plant; the plant's points are the spec's points that carry it.
     plants: dict[str, dict] = {}
     members: dict[str, list[dict]] = {}

@@ -60,7 +60,8 @@ from pathlib import Path
 import numpy as np
 
 from cosim.parts.interface import ESCON_DUTY_MAX, ESCON_DUTY_MIN, ESCON_DUTY_RESOLUTION
-from cosim.studies.workers import process_pool, run_interruptible
+from cosim.project.cliargs import count_refused, unwritable
+from cosim.studies.workers import MAX_WORKERS, process_pool, run_interruptible
 
 # Horizons of the oracle's prediction (s): the set value is held over the horizon, and T_out at
 # its end is brought to T_ref there. 1 ms excites the cable's mode (about 28 Hz, fmu/README.md A5)
@@ -582,8 +583,13 @@ def main(argv: list[str] | None = None) -> int:
     if not 0 <= args.refine <= 1000:
         print(f"tracking_floor: --refine {args.refine}: iterations in [0, 1000]", file=sys.stderr)
         return 2
-    if args.limit is not None and args.limit < 1:
-        print(f"tracking_floor: --limit {args.limit}: at least 1", file=sys.stderr)
+    refused = (
+        count_refused("--limit", args.limit, 1)
+        or count_refused("--workers", args.workers, 1, MAX_WORKERS)
+        or (unwritable(Path(args.out), folder=True) if args.out else None)
+    )
+    if refused is not None:
+        print(f"tracking_floor: {refused}", file=sys.stderr)
         return 2
     modes, mode_values = {}, {}
     for item in args.mode:

@@ -19,6 +19,10 @@ from concurrent.futures import InvalidStateError, ProcessPoolExecutor
 
 from cosim import _signals
 
+# The most worker processes a study or a sweep's local cluster starts (a bound against a typo:
+# more than the machines this project runs on have cores).
+MAX_WORKERS = 256
+
 
 def _leave_sigint_to_the_parent() -> None:
     _signals.ignore(signal.SIGINT)

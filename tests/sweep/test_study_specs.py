@@ -180,6 +180,7 @@ def test_the_breakaway_bound_rests_on_the_plants_own_jump():
         (["--only", "99"], "--only: 99 is not a plant of this spec (0 .. 3)"),
         (["--refine", "-1"], "--refine -1: iterations in [0, 1000]"),
         (["--limit", "0"], "--limit 0: at least 1"),
+        (["--workers", "0"], "--workers 0: 1 to 256"),
     ],
 )
 def test_a_bad_floor_option_is_one_line_and_runs_nothing(tmp_path, capsys, args, says):
@@ -321,6 +322,11 @@ def test_a_calibration_made_before_the_breakaway_gets_it_from_its_findings(tmp_p
         (["--params", "{dir}/missing.json"], "missing.json does not exist"),
         (["--score-from-s", "-1"], "--score-from-s must be in [0, the runs' 6.0 s); got -1.0"),
         (["--map", "0,0.5"], "--map: '0,0.5' is not a position x,y,z in m"),
+        (["--limit", "-3"], "--limit -3: at least 1"),
+        (["--workers", "0"], "--workers 0: 1 to 256"),
+        (["--workers", "257"], "--workers 257: 1 to 256"),
+        (["--calibrations", "{dir}/plant.json"], "plant.json is a file, not a folder"),
+        (["--reuse", "--calibrations", "{dir}/gone"], "--reuse: {dir}/gone does not exist"),
     ],
 )
 def test_a_bad_overlay_or_score_start_is_one_line_and_runs_nothing(tmp_path, capsys, args, says):
@@ -329,8 +335,23 @@ def test_a_bad_overlay_or_score_start_is_one_line_and_runs_nothing(tmp_path, cap
     argv = [a.format(dir=tmp_path) for a in args] + ["--out", str(out)]
     assert cr.main(argv) == 2
     err = capsys.readouterr().err
+    says = says.format(dir=tmp_path)
     assert err.count("\n") == 1 and err.startswith("calibrated_robustness: ") and says in err, err
-    assert not out.exists()
+    assert not out.exists() and not (tmp_path / "gone").exists()
+
+
+def test_a_study_refuses_an_out_that_is_a_file_before_it_runs(tmp_path, capsys):
+    """--out naming a file: one line before the first calibration, not a traceback after an
+    hour's runs (the table is written last)."""
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(json.dumps(RANDOM))
+    afile = tmp_path / "table.json"
+    afile.write_text("{}")
+    assert cr.main(["--spec", str(spec), "--out", str(afile)]) == 2
+    assert capsys.readouterr().err == f"calibrated_robustness: {afile} is a file, not a folder\n"
+    assert tf.main(["--spec", str(spec), "--out", str(afile / "floors")]) == 2
+    assert capsys.readouterr().err == f"tracking_floor: {afile} is a file, not a folder\n"
+    assert afile.read_text() == "{}"
 
 
 @pytest.mark.slow  # a worker process starts the firmware: 2-10 s on the shared machine
