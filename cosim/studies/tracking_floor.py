@@ -61,6 +61,7 @@ import numpy as np
 
 from cosim.parts.interface import ESCON_DUTY_MAX, ESCON_DUTY_MIN, ESCON_DUTY_RESOLUTION
 from cosim.project.cliargs import count_refused, unwritable
+from cosim.project.datafile import DataFileError, read_json
 from cosim.studies.workers import MAX_WORKERS, process_pool, run_interruptible
 
 # Horizons of the oracle's prediction (s): the set value is held over the horizon, and T_out at
@@ -464,16 +465,41 @@ def floor_point(
 
 def _mode_points(path: Path) -> list[tuple[dict, dict]]:
     """A mode's (values, row) pairs: a `bowden sweep` --out folder (points/*.json, its points
-    that ran) or the JSON of cosim.studies.calibrated_robustness."""
+    that ran) or the JSON of cosim.studies.calibrated_robustness. DataFileError, one line naming
+    the file, when it is neither."""
+
+    def pair(values, row, name: str) -> tuple[dict, dict]:
+        if not (
+            isinstance(values, dict)
+            and isinstance(row, dict)
+            and all(
+                isinstance(row.get(k), (int, float)) for k in ("rms_error_pct", "peak_error_pct")
+            )
+        ):
+            raise DataFileError(f"{name}: a point without its values or its scored row")
+        return values, row
+
     if path.is_dir():
+        files = sorted((path / "points").glob("*.json"))
+        if not files:
+            raise DataFileError(f"{path}: no sweep's points in it (points/*.json)")
         pairs = []
-        for f in sorted((path / "points").glob("*.json")):
-            data = json.loads(f.read_text())
-            if data["row"].get("status", "ok") == "ok":
-                pairs.append((data["values"], data["row"]))
+        for f in files:
+            data = read_json(f, "a sweep's point")
+            if not isinstance(data, dict):
+                raise DataFileError(f"{f}: not a sweep's point")
+            if isinstance(data.get("row"), dict) and data["row"].get("status", "ok") == "ok":
+                pairs.append(pair(data.get("values"), data["row"], str(f)))
         return pairs
-    data = json.loads(path.read_text())
-    return list(zip(data["points"], data["rows"], strict=True))
+    data = read_json(path, "a study's results")
+    points = data.get("points") if isinstance(data, dict) else None
+    rows = data.get("rows") if isinstance(data, dict) else None
+    if not (isinstance(points, list) and isinstance(rows, list) and len(points) == len(rows)):
+        raise DataFileError(
+            f"{path}: not the results of cosim.studies.calibrated_robustness (its points and "
+            "rows, one row per point)"
+        )
+    return [pair(v, r, str(path)) for v, r in zip(points, rows, strict=True)]
 
 
 def load_mode(path: Path) -> dict:
@@ -594,15 +620,22 @@ def main(argv: list[str] | None = None) -> int:
     modes, mode_values = {}, {}
     for item in args.mode:
         name, sep, path = item.partition("=")
-        if not sep or not Path(path).exists():
+        if not sep or not name or not Path(path).exists():
             print(
                 f"tracking_floor: --mode {item}: expected NAME=RESULTS with an existing "
                 "sweep folder or JSON file",
                 file=sys.stderr,
             )
             return 2
-        modes[name] = load_mode(Path(path))
-        mode_values[name] = load_mode_values(Path(path))
+        if name in modes:
+            print(f"tracking_floor: --mode {item}: a second mode named {name}", file=sys.stderr)
+            return 2
+        try:
+            modes[name] = load_mode(Path(path))
+            mode_values[name] = load_mode_values(Path(path))
+        except DataFileError as exc:
+            print(f"tracking_floor: --mode {name}: {exc}", file=sys.stderr)
+            return 2
     horizons = HORIZONS_S
     if args.horizons:
         try:

@@ -181,14 +181,32 @@ def test_the_breakaway_bound_rests_on_the_plants_own_jump():
         (["--refine", "-1"], "--refine -1: iterations in [0, 1000]"),
         (["--limit", "0"], "--limit 0: at least 1"),
         (["--workers", "0"], "--workers 0: 1 to 256"),
+        (["--mode", "far={dir}/other.json"], "--mode far: {dir}/other.json: not the results of "
+         "cosim.studies.calibrated_robustness (its points and rows, one row per point)"),
+        (["--mode", "far={dir}/rowless.json"], "--mode far: {dir}/rowless.json: a point without "
+         "its values or its scored row"),
+        (["--mode", "far={dir}/text.json"], "--mode far: {dir}/text.json is not JSON (Expecting "
+         "value: line 1 column 1 (char 0))"),
+        (["--mode", "far={dir}"], "--mode far: {dir}: no sweep's points in it (points/*.json)"),
+        (["--mode", "={dir}/other.json"], "--mode ={dir}/other.json: expected NAME=RESULTS with "
+         "an existing sweep folder or JSON file"),
+        (["--mode", "far={dir}/ok.json", "--mode", "far={dir}/ok.json"],
+         "--mode far={dir}/ok.json: a second mode named far"),
     ],
-)
+)  # fmt: skip
 def test_a_bad_floor_option_is_one_line_and_runs_nothing(tmp_path, capsys, args, says):
     spec = tmp_path / "spec.yaml"
     spec.write_text(json.dumps(RANDOM))
+    (tmp_path / "other.json").write_text('{"table": []}')
+    (tmp_path / "rowless.json").write_text('{"points": [{"plant.mu": 0.08}], "rows": [{}]}')
+    (tmp_path / "text.json").write_text("rms 1.2 %")
+    (tmp_path / "ok.json").write_text(
+        '{"points": [{"plant.mu": 0.08}], "rows": [{"rms_error_pct": 1, "peak_error_pct": 2}]}'
+    )
+    args = [a.format(dir=tmp_path) for a in args]
     assert tf.main(["--spec", str(spec), "--out", str(tmp_path / "out"), *args]) == 2
     err = capsys.readouterr().err.strip()
-    assert err == f"tracking_floor: {says}", err
+    assert err == f"tracking_floor: {says.format(dir=tmp_path)}", err
     assert not (tmp_path / "out").exists()
 
 
