@@ -18,7 +18,7 @@ from cosim.bench.link.client import BenchError
 from cosim.bench.link.protocol import param
 from cosim.bench.link.recorder import run_ticks
 from cosim.bench.live import view as live
-from cosim.bench.rig import diff
+from cosim.bench.rig import CALIBRATED_PARAMS, diff
 from cosim.bench.rig.run import cmd_run, stop_and_confirm
 
 
@@ -57,11 +57,11 @@ def add_parsers(sub) -> None:
     c = sub.add_parser(
         "calibrate",
         help="identify the plant, audit it and propose (--apply: write and verify) the "
-        "compensator's mu, offset, tension slope and dead-zone spread",
+        "compensator's friction values",
         description="Run an identification sequence (the tension range, both directions, "
         "several rates) recorded with T_out, audit it (`bowden audit`), and print the changes "
-        "to comp.mu, comp.offset_n and comp.mu_slope_per_n the audit finds significant (and "
-        "comp.dead_zone_spread, the spread its model fits) with "
+        f"to {', '.join(CALIBRATED_PARAMS)} that the audit's findings support (cosim/bench/"
+        'README.md, "Calibration", says which rule decides each) with '
         "the tracking error they predict. --apply saves the configuration to DIR/before.json, "
         "writes the changes as one set and measures a different (verification) waveform on "
         "the device's T_out before and after. Loop gains are never changed.",

@@ -65,20 +65,13 @@ from pathlib import Path
 
 import numpy as np
 
+from cosim.bench.rig import CALIBRATED_PARAMS
 from cosim.project.cliargs import count_refused, shown, unwritable
 from cosim.project.paths import PACKAGE_DIR
 from cosim.studies.workers import MAX_WORKERS, process_pool, run_interruptible
 
 SPEC = PACKAGE_DIR / "studies" / "sweep" / "examples" / "robustness_estimator.yaml"
-COMP_KEYS = (
-    "compensator.mu",
-    "compensator.offset_n",
-    "compensator.mu_slope_per_n",
-    "compensator.dead_zone_spread",
-    "compensator.breakaway",
-    "compensator.slack_tension_n",
-    "compensator.mu_per_inlet_rate",
-)
+COMP_KEYS = tuple(f"compensator.{n.removeprefix('comp.')}" for n in CALIBRATED_PARAMS)
 # The audit's records a term seen by the audit can be proposed from (calibrate.seen_by_audit).
 SOURCES = ("finding", "joint", "candidate", "any_round")
 

@@ -18,6 +18,7 @@ from identification_record import identification_record  # tests/bench
 from cosim.audit.decision import RULE, BlockStats, Candidate, Round
 from cosim.audit.effects import BY_PARAM
 from cosim.audit.fit import fit_model
+from cosim.bench.rig import CALIBRATED_PARAMS
 from cosim.bench.rig import calibrate as cal
 
 # Slack below 3.4 N and 2.5 s/m of cable-speed friction: tuning plant 9's sizes of both
@@ -64,6 +65,9 @@ SLACK_TOLERANCE_N = 0.25
 
 def test_a_mu_the_nominal_fit_hides_behind_slack_is_proposed_from_the_joint_fit(tmp_path):
     result, device = _audit_stand_in({"mu": 0.068, **EFFECTS}, tmp_path)
+    # one decision per parameter calibrate proposes, in the order the help and the study name
+    changes = cal.propose(result, device, device["comp.phi_rad"])
+    assert tuple(c.name for c in changes) == CALIBRATED_PARAMS
     assert device["comp.mu"] == pytest.approx(0.075)
     # the nominal model's mu absorbs the slack and the viscous friction: near the device's
     assert result.extended.params["mu"] == pytest.approx(0.073, abs=0.001)
