@@ -121,12 +121,13 @@ def test_terminal_view_under_tmux_shows_the_run(emulator, tmp_path):
         screen = ""
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:  # until the view has drawn a couple of seconds
-            # The last screen the view drew: once the run has ended (a loaded machine may draw
+            # The last whole frame the view drew: the lines that say how the run ended scroll
+            # its header off the pane, and once the run has ended (a loaded machine may draw
             # slowly) the session is gone and a capture is empty.
             shot = _tmux("capture-pane", "-p", "-t", session).stdout
-            if shot.strip():
+            if "bowden bench live:" in shot:
                 screen = shot
-            elif _tmux("has-session", "-t", session).returncode != 0:
+            elif not shot.strip() and _tmux("has-session", "-t", session).returncode != 0:
                 break
             # The newest time on the screen (a line of an earlier frame may linger above it).
             shown_s = [float(v) for v in re.findall(r"t +(\d+\.\d+) s", screen)]
@@ -137,7 +138,8 @@ def test_terminal_view_under_tmux_shows_the_run(emulator, tmp_path):
             time.sleep(0.2)  # the run goes on to its end
     finally:
         _tmux("kill-session", "-t", session)
-    assert "bowden bench live: sine" in screen and "(last 5 s)" in screen, screen
+    said = (tmp_path / "stderr.txt").read_text()  # how the run ended, when it did not draw
+    assert "bowden bench live: sine" in screen and "(last 5 s)" in screen, (said, screen)
     for label in ("T_ref", "T_c", "T_in", "T_out", "current", "t (s)", "fps", "faults now"):
         assert label in screen, (label, screen)
     assert re.search(r"^\s*1[0-9](\.\d+)?\s*[│┤]", screen, re.M), screen  # a y-axis tick in N

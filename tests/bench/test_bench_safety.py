@@ -111,6 +111,25 @@ def test_a_link_drop_stops_the_device_and_disables_the_output(emulator, tmp_path
     assert _host_timeouts(url) == before + 1
 
 
+def test_a_run_the_host_watchdog_stopped_says_so(tmp_path, capsys, monkeypatch):
+    """A host too loaded to keep its link alive (its keep-alive never sent): the device stops
+    the run after HOST_WATCHDOG.TIMEOUT_MS, and the tool says that this was the cause, not only
+    that the device stopped early, and keeps what was recorded."""
+    monkeypatch.setattr(BenchClient, "keep_alive", lambda self, *a, **k: False)
+    out = tmp_path / "run.csv"
+    rc = bench_cli(["bench", "--emulate", "run", "sine", "--seconds", "3", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 1, err
+    assert "device stopped early: True" in err, err
+    assert (
+        "the device's host watchdog stopped the run: it received nothing from this host for "
+        f"{msgs.HOST_WATCHDOG['TIMEOUT_MS']} ms" in err
+    ), err
+    rows = out.read_text().splitlines()
+    timeout_ticks = msgs.HOST_WATCHDOG["TIMEOUT_MS"]  # the emulator's tick is 1 ms
+    assert timeout_ticks - 50 <= len(rows) - 1 <= timeout_ticks + 50, len(rows)
+
+
 def _host_timeouts(url: str) -> int:
     probe = BenchClient(SerialLink(url))
     try:

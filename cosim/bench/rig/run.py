@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 from cosim import _signals
+from cosim.bench.link import messages as msgs
 from cosim.bench.link.client import BenchClient, BenchError, BenchUsageError
 from cosim.bench.link.protocol import ProtocolError
 from cosim.bench.link.recorder import (
@@ -165,6 +166,7 @@ def cmd_run(client: BenchClient, args, info) -> int:
     # The channels --channel names (one CSV each when several: NAME.chK.csv).
     channels = tuple(getattr(args, "channel_list", None) or (client.channel,))
     outs = [channel_path(out, c, channels) for c in channels]
+    watchdog_stops = _host_timeouts(client)  # to say, if the run ends early, whether it was that
     result = None
     try:
         result = record_with_view(
@@ -215,8 +217,38 @@ def cmd_run(client: BenchClient, args, info) -> int:
             "gap",
             file=sys.stderr,
         )
+        if result.stopped_early:
+            print(f"bowden bench: {_early_stop_cause(client, watchdog_stops)}", file=sys.stderr)
         return 1
     return 0
+
+
+def _host_timeouts(client: BenchClient) -> int | None:
+    """The device's count of runs its host watchdog stopped (STATS.host_timeouts), or None
+    when it does not answer."""
+    try:
+        return int(client.stats()["host_timeouts"])
+    except (BenchError, ProtocolError, OSError, KeyError):
+        return None
+
+
+def _early_stop_cause(client: BenchClient, watchdog_stops: int | None) -> str:
+    """Why the device stopped sending before the run's end, as far as it says: its host watchdog
+    (the count went up during the run), or not that."""
+    after = _host_timeouts(client) if watchdog_stops is not None else None
+    if after is None:
+        return (
+            "the device stopped sending telemetry before the run's end (its counters did not "
+            "answer)"
+        )
+    if after > watchdog_stops:
+        timeout_ms = msgs.HOST_WATCHDOG["TIMEOUT_MS"]
+        return (
+            f"the device's host watchdog stopped the run: it received nothing from this host for "
+            f"{timeout_ms} ms (a host too loaded to keep its link alive, or one suspended); the "
+            "output was disabled"
+        )
+    return "the device stopped sending telemetry before the run's end (not its host watchdog)"
 
 
 def _run_target(text: str) -> Path:
